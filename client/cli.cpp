@@ -1,0 +1,95 @@
+#include "client/cli.h"
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+namespace squall::cli {
+namespace {
+
+int info(client::Client& client, const std::vector<std::string>&) {
+  auto r = client.info();
+  std::cout << "squalld " << r.version() << (r.ready() ? " (ready)" : " (building kernels)") << ", up "
+            << r.uptime_seconds() << " s\n";
+  for (const auto& d : r.devices())
+    std::cout << (d.selected() ? "* " : "  ") << d.platform() << " / " << d.name() << " (" << d.type() << ", "
+              << d.opencl_c_version() << ", " << d.compute_units() << " CUs, " << (d.global_memory_bytes() >> 20)
+              << " MiB)\n";
+  std::cout << "fft: " << r.fft_backend() << " (" << r.fft_selection() << ")\n";
+  for (const auto& k : r.kernels()) {
+    std::cout << "program " << k.program() << " built in " << k.build_seconds() << " s:";
+    for (const auto& name : k.kernels()) std::cout << " " << name;
+    std::cout << "\n";
+  }
+  const auto& l = r.limits();
+  std::cout << "limits: max_grid_cells=" << l.max_grid_cells() << " max_streams=" << l.max_streams()
+            << " max_sessions=" << l.max_sessions() << " max_message_bytes=" << l.max_message_bytes() << "\n";
+  return kOk;
+}
+
+int health(client::Client& client, const std::vector<std::string>& args) {
+  auto status = client.health(args.empty() ? "" : args[0]);
+  std::cout << grpc::health::v1::HealthCheckResponse::ServingStatus_Name(status) << "\n";
+  return status == grpc::health::v1::HealthCheckResponse::SERVING ? kOk : kNotServing;
+}
+
+void print_usage() {
+  std::cerr << "usage: squall [--address HOST:PORT] [--timeout SECONDS] [--request-id ID] VERB [ARGS]\n"
+               "  --address     squalld's address (default 127.0.0.1:50051)\n"
+               "  --timeout     deadline of each call in seconds (default 30)\n"
+               "  --request-id  sent as x-request-id, shown in squalld's log\n"
+               "verbs:\n";
+  for (const auto& [name, verb] : verbs()) std::cerr << "  " << verb.usage << "\n";
+  std::cerr << "exit codes: 0 ok, 1 not serving, 2 usage, 3 unreachable, 4 refused by the server, 5 local error\n";
+}
+
+}  // namespace
+
+std::map<std::string, Verb>& verbs() {
+  static std::map<std::string, Verb> table = {
+      {"info", {"info              print the daemon's version, devices, kernels, FFT backend and limits", info}},
+      {"health", {"health [SERVICE]  print SERVING or NOT_SERVING (exit 1 when not serving)", health}},
+  };
+  return table;
+}
+
+int main(int argc, char** argv) {
+  client::ClientOptions options;
+  int i = 1;
+  for (; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg.rfind("--", 0) != 0) break;
+    if (arg == "--help") return print_usage(), kOk;
+    if (i + 1 >= argc) return std::cerr << "squall: " << arg << " needs a value\n", kUsage;
+    std::string value = argv[++i];
+    if (arg == "--address") {
+      options.address = value;
+    } else if (arg == "--timeout") {
+      char* end = nullptr;
+      options.timeout_seconds = std::strtod(value.c_str(), &end);
+      if (*end || !(options.timeout_seconds > 0) || !std::isfinite(options.timeout_seconds))
+        return std::cerr << "squall: --timeout " << value << ": must be a number of seconds > 0\n", kUsage;
+    } else if (arg == "--request-id") {
+      options.request_id = value;
+    } else {
+      return std::cerr << "squall: unknown flag " << arg << "\n", print_usage(), kUsage;
+    }
+  }
+  if (i >= argc) return print_usage(), kUsage;
+  auto it = verbs().find(argv[i]);
+  if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
+  std::vector<std::string> args(argv + i + 1, argv + argc);
+  client::Client client(options);
+  try {
+    return it->second.run(client, args);
+  } catch (const client::RpcError& e) {
+    std::cerr << "squall: " << e.what() << " (address " << options.address << ")\n";
+    bool unreachable = e.code() == grpc::StatusCode::UNAVAILABLE || e.code() == grpc::StatusCode::DEADLINE_EXCEEDED;
+    return unreachable ? kUnreachable : kRefused;
+  } catch (const std::exception& e) {
+    std::cerr << "squall: " << e.what() << "\n";
+    return kLocalError;
+  }
+}
+
+}  // namespace squall::cli

@@ -1,0 +1,71 @@
+#include "client/client.h"
+
+#include <chrono>
+#include <thread>
+
+namespace squall::client {
+
+const char* status_code_name(grpc::StatusCode code) {
+  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  int i = static_cast<int>(code);
+  return i >= 0 && i <= 16 ? kNames[i] : "UNKNOWN";
+}
+
+RpcError::RpcError(const std::string& method, const grpc::Status& status)
+    : std::runtime_error(method + ": " + status_code_name(status.error_code()) + ": " + status.error_message()),
+      code_(status.error_code()) {}
+
+Client::Client(const ClientOptions& options) : options_(options) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
+  args.SetMaxSendMessageSize(-1);
+  channel_ = grpc::CreateCustomChannel(options.address, grpc::InsecureChannelCredentials(), args);
+}
+
+std::unique_ptr<grpc::ClientContext> Client::context() const {
+  auto ctx = std::make_unique<grpc::ClientContext>();
+  ctx->set_deadline(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(static_cast<long long>(options_.timeout_seconds * 1000)));
+  if (!options_.request_id.empty()) ctx->AddMetadata("x-request-id", options_.request_id);
+  return ctx;
+}
+
+squall::v1::GetInfoResponse Client::info() {
+  auto stub = squall::v1::Server::NewStub(channel_);
+  squall::v1::GetInfoRequest request;
+  request.set_request_id(options_.request_id);
+  squall::v1::GetInfoResponse response;
+  auto ctx = context();
+  grpc::Status status = stub->GetInfo(ctx.get(), request, &response);
+  if (!status.ok()) throw RpcError("GetInfo", status);
+  return response;
+}
+
+grpc::health::v1::HealthCheckResponse::ServingStatus Client::health(const std::string& service) {
+  auto stub = grpc::health::v1::Health::NewStub(channel_);
+  grpc::health::v1::HealthCheckRequest request;
+  request.set_service(service);
+  grpc::health::v1::HealthCheckResponse response;
+  auto ctx = context();
+  grpc::Status status = stub->Check(ctx.get(), request, &response);
+  if (!status.ok()) throw RpcError("Health.Check", status);
+  return response.status();
+}
+
+bool Client::wait_until_serving(double seconds) {
+  auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<long long>(seconds * 1000));
+  while (std::chrono::steady_clock::now() < end) {
+    try {
+      if (health() == grpc::health::v1::HealthCheckResponse::SERVING) return true;
+    } catch (const RpcError&) {
+      // not listening yet
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+
+}  // namespace squall::client

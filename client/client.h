@@ -1,0 +1,52 @@
+// squall's C++ client library: a channel to squalld with a per-call deadline and request id, and one
+// method per RPC. Failures throw squall::client::RpcError carrying the gRPC status.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "squall/v1/server.grpc.pb.h"
+
+namespace squall::client {
+
+struct ClientOptions {
+  std::string address = "127.0.0.1:50051";  // host:port of squalld
+  double timeout_seconds = 30;              // deadline of each call
+  std::string request_id;                   // sent as x-request-id; empty: none
+};
+
+class RpcError : public std::runtime_error {
+ public:
+  RpcError(const std::string& method, const grpc::Status& status);
+  grpc::StatusCode code() const { return code_; }
+
+ private:
+  grpc::StatusCode code_;
+};
+
+const char* status_code_name(grpc::StatusCode code);
+
+class Client {
+ public:
+  explicit Client(const ClientOptions& options);
+
+  squall::v1::GetInfoResponse info();
+  // The health status of `service` ("" = the whole server): SERVING, NOT_SERVING, ...
+  grpc::health::v1::HealthCheckResponse::ServingStatus health(const std::string& service = "");
+  // Polls health until SERVING; false when `seconds` pass first (or the server is unreachable).
+  bool wait_until_serving(double seconds);
+
+  const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
+  // A context with this client's deadline and request id: for services' own stubs.
+  std::unique_ptr<grpc::ClientContext> context() const;
+
+ private:
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+};
+
+}  // namespace squall::client

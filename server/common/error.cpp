@@ -1,0 +1,17 @@
+#include "common/error.h"
+
+namespace squall {
+
+const char* code_name(Code code) {
+  switch (code) {
+    case Code::InvalidArgument: return "INVALID_ARGUMENT";
+    case Code::NotFound: return "NOT_FOUND";
+    case Code::ResourceExhausted: return "RESOURCE_EXHAUSTED";
+    case Code::FailedPrecondition: return "FAILED_PRECONDITION";
+    case Code::Unavailable: return "UNAVAILABLE";
+    case Code::Internal: return "INTERNAL";
+  }
+  return "UNKNOWN";
+}
+
+}  // namespace squall

@@ -1,0 +1,65 @@
+// The limits squalld enforces, all in one place. Each is a daemon flag of the same name; each check
+// throws squall::Error with a message that names the request field and the flag, e.g.
+//   "height.nx * height.ny = 67108864 cells exceeds --max-grid-cells = 16777216".
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+namespace squall {
+
+struct Limits {
+  uint64_t max_grid_cells = 4096ull * 4096ull;  // --max-grid-cells: cells of one field
+  uint32_t max_streams = 16;                    // --max-streams: concurrent streaming calls
+  uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
+  uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
+};
+
+class LimitGate;
+
+// A held slot (stream or session). Releases itself when destroyed; movable, not copyable.
+class Slot {
+ public:
+  Slot() = default;
+  Slot(Slot&& other) noexcept : counter_(other.counter_) { other.counter_ = nullptr; }
+  Slot& operator=(Slot&& other) noexcept;
+  Slot(const Slot&) = delete;
+  Slot& operator=(const Slot&) = delete;
+  ~Slot() { release(); }
+  void release();
+
+ private:
+  friend class LimitGate;
+  explicit Slot(std::atomic<uint32_t>* counter) : counter_(counter) {}
+  std::atomic<uint32_t>* counter_ = nullptr;
+};
+
+class LimitGate {
+ public:
+  explicit LimitGate(const Limits& limits) : limits_(limits) {}
+  const Limits& limits() const { return limits_; }
+
+  // A grid size taken from a request. Each extent must be >= 1 (INVALID_ARGUMENT naming
+  // field.nx / .ny / .nz) and the product at most max_grid_cells (RESOURCE_EXHAUSTED).
+  // nz = 0 means a 2D grid. Sizes are signed so a negative request value is caught, not wrapped.
+  void check_grid(const std::string& field, int64_t nx, int64_t ny, int64_t nz = 0) const;
+
+  // Bytes a reply would carry; RESOURCE_EXHAUSTED beyond max_message_bytes.
+  void check_message_bytes(const std::string& what, uint64_t bytes) const;
+
+  Slot acquire_stream();   // RESOURCE_EXHAUSTED when max_streams are open
+  Slot acquire_session();  // RESOURCE_EXHAUSTED when max_sessions are live
+
+  uint32_t open_streams() const { return streams_.load(); }
+  uint32_t live_sessions() const { return sessions_.load(); }
+
+ private:
+  static Slot acquire(std::atomic<uint32_t>& counter, uint32_t limit, const char* what, const char* flag);
+
+  Limits limits_;
+  std::atomic<uint32_t> streams_{0};
+  std::atomic<uint32_t> sessions_{0};
+};
+
+}  // namespace squall

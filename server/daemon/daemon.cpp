@@ -1,0 +1,119 @@
+#include "daemon/daemon.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <signal.h>
+
+#include <fstream>
+
+#include "common/log.h"
+#include "daemon/engines.h"
+#include "daemon/request_log.h"
+#include "daemon/server_service.h"
+
+namespace squall::rpc {
+namespace {
+
+sigset_t shutdown_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  return set;
+}
+
+// Compiles every kernel program and chooses the FFT backend: the work that precedes SERVING.
+void start_engines(Engines& engines, const DaemonOptions& options) {
+  engines.runtime.build_programs();
+  std::string backend = options.fft;
+  engines.fft_selection = "flag --fft " + options.fft;
+  if (backend == "auto") backend = fft::fastest_backend(engines.runtime, 512, 512, &engines.fft_selection);
+  engines.fft = std::make_unique<fft::Fft>(fft::make_backend(engines.runtime, backend));
+  log(LogLevel::Info, "FFT backend ", backend, " (", engines.fft_selection, ")");
+}
+
+void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
+  int max_bytes = static_cast<int>(std::min<uint64_t>(options.limits.max_message_bytes, INT32_MAX));
+  builder.SetMaxReceiveMessageSize(max_bytes);
+  builder.SetMaxSendMessageSize(max_bytes);
+  int keepalive_ms = static_cast<int>(options.keepalive_seconds * 1000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, keepalive_ms);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 20000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  // Clients may ping as often as every 10 s without being sent GOAWAY.
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 10000);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  // A second squalld on a port in use must fail, not silently share the port with the first.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<RequestLogFactory>());
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
+}
+
+void write_port_file(const std::string& path, int port) {
+  if (path.empty()) return;
+  std::string tmp = path + ".tmp";
+  std::ofstream(tmp) << port << "\n";
+  std::rename(tmp.c_str(), path.c_str());  // readers never see a half-written file
+}
+
+}  // namespace
+
+int run_daemon(const DaemonOptions& options) {
+  set_log_level(options.log_level);
+  // Block the shutdown signals in every thread (gRPC's included, created later); main waits for them.
+  sigset_t signals = shutdown_signals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ", configure_kernel_cache(options.cache_dir));
+  std::unique_ptr<Engines> engines;
+  try {
+    engines = std::make_unique<Engines>(options.runtime, options.limits);
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, e.what());
+    return kExitUsage;
+  }
+
+  ServerService server_service(*engines);
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&server_service);
+  configure(builder, options);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) {
+    log(LogLevel::Error, "cannot listen on ", options.listen);
+    return kExitListen;
+  }
+  auto* health = server->GetHealthCheckService();
+  health->SetServingStatus(false);
+  write_port_file(options.port_file, port);
+  log(LogLevel::Info, "listening on ", options.listen, " (port ", port, "); NOT_SERVING until kernels are built");
+
+  try {
+    start_engines(*engines, options);
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, e.what());
+    server->Shutdown();
+    return kExitKernelBuild;
+  }
+  engines->ready = true;
+  health->SetServingStatus(true);
+  log(LogLevel::Info, "SERVING");
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
+  health->SetServingStatus(false);
+  auto deadline = std::chrono::system_clock::now() +
+                  std::chrono::milliseconds(static_cast<long long>(options.grace_seconds * 1000));
+  server->Shutdown(deadline);
+  server->Wait();
+  log(LogLevel::Info, "stopped");
+  return kExitOk;
+}
+
+}  // namespace squall::rpc

@@ -1,0 +1,109 @@
+#include "daemon/options.h"
+
+#include <cmath>
+#include <functional>
+#include <map>
+#include <stdexcept>
+
+namespace squall::rpc {
+namespace {
+
+using Setter = std::function<void(const std::string&)>;
+
+uint64_t positive_integer(const std::string& text) {
+  size_t used = 0;
+  long long v = std::stoll(text, &used);
+  if (used != text.size() || v < 1) throw std::invalid_argument("must be an integer >= 1");
+  return static_cast<uint64_t>(v);
+}
+
+double positive_seconds(const std::string& text) {
+  size_t used = 0;
+  double v = std::stod(text, &used);
+  if (used != text.size() || !std::isfinite(v) || v <= 0) throw std::invalid_argument("must be a number > 0");
+  return v;
+}
+
+std::map<std::string, Setter> setters(DaemonOptions* o) {
+  return {
+      {"listen", [o](const std::string& v) { o->listen = v; }},
+      {"port-file", [o](const std::string& v) { o->port_file = v; }},
+      {"device", [o](const std::string& v) { o->runtime.device = v; }},
+      {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
+      {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
+      {"fft", [o](const std::string& v) {
+         if (v != "auto" && v != "vkfft" && v != "clfft") throw std::invalid_argument("must be auto, vkfft or clfft");
+         o->fft = v;
+       }},
+      {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
+      {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
+      {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
+      {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
+      {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
+      {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
+      {"log-level", [o](const std::string& v) {
+         if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
+       }},
+  };
+}
+
+}  // namespace
+
+bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error) {
+  auto table = setters(options);
+  *help = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      *help = true;
+      return true;
+    }
+    if (arg.rfind("--", 0) != 0) {
+      *error = "unexpected argument " + arg;
+      return false;
+    }
+    std::string name = arg.substr(2), value;
+    if (auto eq = name.find('='); eq != std::string::npos) {
+      value = name.substr(eq + 1);
+      name = name.substr(0, eq);
+    } else if (i + 1 < argc) {
+      value = argv[++i];
+    } else {
+      *error = "--" + name + " needs a value";
+      return false;
+    }
+    auto it = table.find(name);
+    if (it == table.end()) {
+      *error = "unknown flag --" + name + " (see --help)";
+      return false;
+    }
+    try {
+      it->second(value);
+    } catch (const std::exception& e) {
+      *error = "--" + name + " " + value + ": " + (dynamic_cast<const std::invalid_argument*>(&e) ? e.what() : "out of range");
+      return false;
+    }
+  }
+  return true;
+}
+
+std::string usage() {
+  DaemonOptions d;
+  return "usage: squalld [flags]\n"
+         "  --listen HOST:PORT        address to serve on (default " + d.listen + "; port 0 picks a free port)\n"
+         "  --port-file PATH          write the bound port to PATH once listening\n"
+         "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
+         "                            the first GPU, else the PoCL CPU device)\n"
+         "  --fft NAME                auto | vkfft | clfft (default auto: the faster, timed at start-up)\n"
+         "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
+         "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else ~/.cache/squall/pocl)\n"
+         "  --max-grid-cells N        cells of one field (default " + std::to_string(d.limits.max_grid_cells) + ")\n"
+         "  --max-streams N           concurrent streaming calls (default " + std::to_string(d.limits.max_streams) + ")\n"
+         "  --max-sessions N          live stateful sessions (default " + std::to_string(d.limits.max_sessions) + ")\n"
+         "  --max-message-bytes N     largest gRPC message either way (default " + std::to_string(d.limits.max_message_bytes) + ")\n"
+         "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default 10)\n"
+         "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
+         "  --log-level LEVEL         debug | info | warn | error (default info)\n";
+}
+
+}  // namespace squall::rpc

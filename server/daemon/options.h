@@ -1,0 +1,29 @@
+// squalld's command-line flags. Every flag is --name=value or --name value; --help prints usage().
+#pragma once
+
+#include <string>
+
+#include "common/limits.h"
+#include "common/log.h"
+#include "runtime/runtime.h"
+
+namespace squall::rpc {
+
+struct DaemonOptions {
+  std::string listen = "127.0.0.1:50051";  // --listen host:port (port 0 picks a free one)
+  std::string port_file;                   // --port-file: write the bound port here once listening
+  RuntimeOptions runtime;                  // --device, --kernel-dir
+  std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
+  std::string fft = "auto";                // --fft vkfft | clfft | auto (the faster, measured at start-up)
+  Limits limits;                           // --max-grid-cells, --max-streams, --max-sessions, --max-message-bytes
+  double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
+  double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
+  LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
+};
+
+// Returns false with a message in *error (naming the flag) on an unknown flag or a bad value.
+// Sets *help when --help is given.
+bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error);
+std::string usage();
+
+}  // namespace squall::rpc

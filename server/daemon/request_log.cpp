@@ -1,0 +1,83 @@
+#include "daemon/request_log.h"
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
+
+#include <chrono>
+#include <string>
+
+#include "common/log.h"
+
+namespace squall::rpc {
+namespace {
+
+using grpc::experimental::InterceptionHookPoints;
+
+const char* status_name(grpc::StatusCode code) {
+  static const char* kNames[] = {"OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+                                 "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+                                 "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  int i = static_cast<int>(code);
+  return i >= 0 && i <= 16 ? kNames[i] : "?";
+}
+
+class RequestLog : public grpc::experimental::Interceptor {
+ public:
+  explicit RequestLog(grpc::experimental::ServerRpcInfo* info)
+      : method_(info->method()), start_(std::chrono::steady_clock::now()) {}
+
+  ~RequestLog() override {
+    if (!logged_) write("CANCELLED", "");  // the call ended without a status: client went away
+  }
+
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
+      auto* metadata = methods->GetRecvInitialMetadata();
+      auto it = metadata->find("x-request-id");
+      if (it != metadata->end()) id_.assign(it->second.data(), std::min<size_t>(it->second.size(), 128));
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
+        is_squall_method())
+      id_ = request_id_field(methods->GetRecvMessage());
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
+      grpc::Status status = methods->GetSendStatus();
+      write(status_name(status.error_code()), status.ok() ? "" : status.error_message());
+    }
+    methods->Proceed();
+  }
+
+ private:
+  // Only squall's own services are known to carry protobuf messages (gRPC's built-in health service
+  // receives raw bytes), so only theirs are read.
+  bool is_squall_method() const { return method_.rfind("/squall.", 0) == 0; }
+
+  // Every squall request is a protobuf message; the field is found by name, so any service gets it.
+  static std::string request_id_field(void* message) {
+    if (!message) return "";
+    auto* m = static_cast<google::protobuf::Message*>(message);
+    const auto* field = m->GetDescriptor()->FindFieldByName("request_id");
+    if (!field || field->type() != google::protobuf::FieldDescriptor::TYPE_STRING || field->is_repeated()) return "";
+    return m->GetReflection()->GetString(*m, field).substr(0, 128);
+  }
+
+  void write(const char* status, const std::string& message) {
+    logged_ = true;
+    double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+    log(LogLevel::Info, "request id=", id_.empty() ? "-" : id_, " method=", method_, " status=", status,
+        " duration_ms=", ms, message.empty() ? "" : " error=\"" + message + "\"");
+  }
+
+  std::string method_;
+  std::string id_;
+  std::chrono::steady_clock::time_point start_;
+  bool logged_ = false;
+};
+
+}  // namespace
+
+grpc::experimental::Interceptor* RequestLogFactory::CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) {
+  return new RequestLog(info);
+}
+
+}  // namespace squall::rpc

@@ -1,0 +1,34 @@
+// Mapping engine errors to gRPC statuses, in one place for every service.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <exception>
+
+#include "common/error.h"
+#include "runtime/opencl.h"
+
+namespace squall::rpc {
+
+grpc::Status to_status(const Error& error);
+
+// Runs one handler body and turns what it throws into the status the gRPC docs prescribe:
+// squall::Error keeps its code, an OpenCL failure is INTERNAL, anything else INTERNAL too.
+// The daemon never lets an exception escape a handler.
+template <typename Body>
+grpc::Status guarded(Body&& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    return to_status(e);
+  } catch (const cl::Error& e) {
+    return grpc::Status(grpc::StatusCode::INTERNAL,
+                        std::string("OpenCL call ") + e.what() + " failed with " + std::to_string(e.err()));
+  } catch (const std::bad_alloc&) {
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, "host memory exhausted");
+  } catch (const std::exception& e) {
+    return grpc::Status(grpc::StatusCode::INTERNAL, e.what());
+  }
+}
+
+}  // namespace squall::rpc

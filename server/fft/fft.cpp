@@ -1,0 +1,97 @@
+#include "fft/fft.h"
+
+#include <algorithm>
+#include <chrono>
+#include <sstream>
+#include <vector>
+
+#include "common/error.h"
+#include "runtime/runtime.h"
+
+namespace squall::fft {
+
+size_t PlanKey::real_bytes() const {
+  return nx * ny * batch * (precision == Precision::F32 ? sizeof(float) : sizeof(double));
+}
+
+size_t PlanKey::complex_bytes() const {
+  size_t row = transform == Transform::C2C ? nx : nx / 2 + 1;
+  return row * ny * batch * 2 * (precision == Precision::F32 ? sizeof(float) : sizeof(double));
+}
+
+size_t PlanKey::input_bytes() const { return transform == Transform::R2C ? real_bytes() : complex_bytes(); }
+size_t PlanKey::output_bytes() const { return transform == Transform::C2R ? real_bytes() : complex_bytes(); }
+
+std::string describe(const PlanKey& key) {
+  static const char* kTransforms[] = {"C2C", "R2C", "C2R"};
+  std::ostringstream os;
+  os << key.nx << "x" << key.ny << " " << kTransforms[int(key.transform)] << " "
+     << (key.precision == Precision::F32 ? "f32" : "f64") << " x" << key.batch;
+  return os.str();
+}
+
+void Plan::check_direction(Direction direction) const {
+  if (key_.transform == Transform::R2C && direction != Direction::Forward)
+    fail(Code::Internal, "an R2C plan runs forward only (" + describe(key_) + ")");
+  if (key_.transform == Transform::C2R && direction != Direction::Inverse)
+    fail(Code::Internal, "a C2R plan runs inverse only (" + describe(key_) + ")");
+}
+
+std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name) {
+  if (name == "vkfft") return make_vkfft(runtime);
+  if (name == "clfft") return make_clfft(runtime);
+  fail(Code::InvalidArgument, "--fft " + name + " is not a backend; use vkfft, clfft or auto");
+}
+
+Plan& Fft::plan(const PlanKey& key) {
+  if (key.nx < 1 || key.ny < 1 || key.batch < 1)
+    fail(Code::InvalidArgument, "fft: empty transform " + describe(key));
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = plans_.find(key);
+  if (it == plans_.end()) it = plans_.emplace(key, backend_->bake(key)).first;
+  return *it->second;
+}
+
+size_t Fft::cached_plans() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return plans_.size();
+}
+
+namespace {
+
+double median_seconds(Runtime& runtime, Plan& plan, const cl::Buffer& data, int runs) {
+  std::vector<double> times;
+  plan.enqueue(runtime.queue(), Direction::Forward, data, data);  // warm-up
+  runtime.queue().finish();
+  for (int r = 0; r < runs; ++r) {
+    auto start = std::chrono::steady_clock::now();
+    plan.enqueue(runtime.queue(), Direction::Forward, data, data);
+    runtime.queue().finish();
+    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::nth_element(times.begin(), times.begin() + runs / 2, times.end());
+  return times[runs / 2];
+}
+
+}  // namespace
+
+std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why) {
+  PlanKey key{nx, ny, 1, Transform::C2C, Precision::F32};
+  auto lease = runtime.buffers().acquire(key.complex_bytes());
+  float zero = 0;
+  runtime.queue().enqueueFillBuffer(lease.buffer(), zero, 0, key.complex_bytes());
+  std::string best;
+  double best_time = 0;
+  std::ostringstream os;
+  for (const char* name : {"vkfft", "clfft"}) {
+    auto backend = make_backend(runtime, name);
+    auto plan = backend->bake(key);
+    double t = median_seconds(runtime, *plan, lease.buffer(), 7);
+    os << name << " " << t * 1e3 << " ms, ";
+    if (best.empty() || t < best_time) best = name, best_time = t;
+  }
+  if (why) *why = "measured at start-up, one " + describe(key) + ": " + os.str() + "picked " + best;
+  return best;
+}
+
+}  // namespace squall::fft

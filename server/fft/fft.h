@@ -1,0 +1,101 @@
+// The FFT layer: batched 2D transforms on device buffers, behind one small interface with two backends
+// (VkFFT's OpenCL backend and clFFT).
+//
+// Conventions, the same for every backend (and FFTW's):
+// - Row-major, x fastest: element (i, j) of batch b sits at i + nx * (j + ny * b).
+// - Complex values are interleaved (re, im) pairs of the plan's precision (float2 or double2).
+// - Forward uses exp(-i 2 pi k x / n), inverse exp(+i 2 pi k x / n); neither is scaled, so
+//   inverse(forward(a)) = nx * ny * a.
+// - R2C (forward only) maps nx * ny reals to (nx / 2 + 1) * ny complex values; C2R (inverse only) maps
+//   them back and may overwrite its input, as FFTW's c2r does.
+// - A plan is baked once per key and cached; executing it allocates nothing.
+#pragma once
+
+#include <compare>
+#include <cstddef>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "runtime/opencl.h"
+
+namespace squall {
+class Runtime;
+}
+
+namespace squall::fft {
+
+enum class Transform { C2C, R2C, C2R };
+enum class Precision { F32, F64 };
+enum class Direction { Forward, Inverse };
+
+struct PlanKey {
+  size_t nx = 0, ny = 0;
+  size_t batch = 1;
+  Transform transform = Transform::C2C;
+  Precision precision = Precision::F32;
+  auto operator<=>(const PlanKey&) const = default;
+
+  size_t real_bytes() const;     // one real array of the whole batch
+  size_t complex_bytes() const;  // the complex array: nx (C2C) or nx/2+1 (R2C, C2R) per row
+  size_t input_bytes() const;    // what a forward transform reads
+  size_t output_bytes() const;   // what a forward transform writes
+};
+
+std::string describe(const PlanKey& key);  // "512x512 C2C f32 x1"
+
+class Plan {
+ public:
+  explicit Plan(const PlanKey& key) : key_(key) {}
+  virtual ~Plan() = default;
+  const PlanKey& key() const { return key_; }
+
+  // Enqueues one transform. C2C: in == out transforms in place, otherwise in is left unchanged.
+  // R2C: Forward, in real, out complex. C2R: Inverse, in complex, out real. The caller serializes
+  // calls that share a queue (Runtime::exclusive()).
+  virtual void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
+                       const cl::Buffer& out) = 0;
+
+ protected:
+  void check_direction(Direction direction) const;  // R2C must be Forward, C2R Inverse
+
+ private:
+  PlanKey key_;
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::string name() const = 0;
+  // Bakes a plan; throws Error(InvalidArgument) naming the size when the backend cannot do it.
+  virtual std::unique_ptr<Plan> bake(const PlanKey& key) = 0;
+};
+
+std::unique_ptr<Backend> make_vkfft(Runtime& runtime);
+std::unique_ptr<Backend> make_clfft(Runtime& runtime);
+// "vkfft" or "clfft"; throws Error(InvalidArgument) for any other name.
+std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name);
+
+// A backend with its plan cache: the object engines hold. Destroy it before main returns (not from a
+// static destructor): clFFT frees its plans through statics of its own that exit handlers destroy first.
+class Fft {
+ public:
+  explicit Fft(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {}
+  const std::string name() const { return backend_->name(); }
+
+  // The cached plan for key, baked on first use. Thread-safe; the plan lives as long as this object.
+  Plan& plan(const PlanKey& key);
+  size_t cached_plans() const;
+
+ private:
+  std::unique_ptr<Backend> backend_;
+  mutable std::mutex mutex_;
+  std::map<PlanKey, std::unique_ptr<Plan>> plans_;
+};
+
+// Times one complex nx x ny transform of each backend on the runtime's device (median of a few runs)
+// and returns the name of the faster, with a line explaining the choice in *why.
+std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why);
+
+}  // namespace squall::fft

@@ -1,0 +1,63 @@
+#include "runtime/buffer_pool.h"
+
+namespace squall {
+
+BufferLease::BufferLease(BufferLease&& other) noexcept
+    : pool_(other.pool_), buffer_(std::move(other.buffer_)), bytes_(other.bytes_) {
+  other.pool_ = nullptr;
+}
+
+BufferLease& BufferLease::operator=(BufferLease&& other) noexcept {
+  if (this != &other) {
+    give_back();
+    pool_ = other.pool_;
+    buffer_ = std::move(other.buffer_);
+    bytes_ = other.bytes_;
+    other.pool_ = nullptr;
+  }
+  return *this;
+}
+
+BufferLease::~BufferLease() { give_back(); }
+
+void BufferLease::give_back() {
+  if (pool_) pool_->put_back(std::move(buffer_), bytes_);
+  pool_ = nullptr;
+}
+
+BufferPool::BufferPool(const cl::Context& context, size_t max_idle_bytes)
+    : context_(context), max_idle_bytes_(max_idle_bytes) {}
+
+BufferLease BufferPool::acquire(size_t bytes) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = idle_.find(bytes);
+    if (it != idle_.end()) {
+      cl::Buffer buffer = std::move(it->second);
+      idle_.erase(it);
+      idle_bytes_ -= bytes;
+      return BufferLease(this, std::move(buffer), bytes);
+    }
+    ++allocations_;
+  }
+  return BufferLease(this, cl::Buffer(context_, CL_MEM_READ_WRITE, bytes), bytes);
+}
+
+void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (idle_bytes_ + bytes > max_idle_bytes_) return;  // dropped: released by cl::Buffer
+  idle_.emplace(bytes, std::move(buffer));
+  idle_bytes_ += bytes;
+}
+
+size_t BufferPool::idle_bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return idle_bytes_;
+}
+
+size_t BufferPool::allocations() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return allocations_;
+}
+
+}  // namespace squall

@@ -1,0 +1,76 @@
+// squall::Runtime: one OpenCL device, its context and in-order queue, and every program of kernels/
+// compiled once. It lives as long as the daemon (or the test binary); requests only enqueue work.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "runtime/buffer_pool.h"
+#include "runtime/device.h"
+#include "runtime/kernel_sources.h"
+#include "runtime/opencl.h"
+
+namespace squall {
+
+struct RuntimeOptions {
+  std::string device = "auto";  // --device: auto | cpu | gpu | substring of platform or device name
+  std::string kernel_dir;       // --kernel-dir: read kernels from here instead of the embedded copy
+  size_t max_idle_buffer_bytes = 512ull << 20;
+};
+
+struct ProgramBuild {
+  std::string program;               // e.g. "runtime/selftest.cl"
+  std::vector<std::string> kernels;  // kernel function names
+  double seconds = 0;                // clBuildProgram wall time
+};
+
+// Sets POCL_CACHE_DIR (unless the environment already does) to `dir`, or when that is empty to
+// $XDG_CACHE_HOME/squall/pocl or $HOME/.cache/squall/pocl, and creates it. PoCL reads the variable
+// when the ICD loads, so call this before any other OpenCL call. Returns the directory in force.
+std::string configure_kernel_cache(const std::string& dir = "");
+
+class Runtime {
+ public:
+  // Selects the device and creates the context and queue; throws Error(InvalidArgument) when no
+  // device matches. Programs are not built yet: call build_programs().
+  explicit Runtime(const RuntimeOptions& options);
+
+  // Compiles every program. A failure throws Error(Internal) whose message holds the device's build log.
+  void build_programs();
+  bool built() const { return built_; }
+  const std::vector<ProgramBuild>& builds() const { return builds_; }
+
+  const DeviceInfo& device_info() const { return found_.info; }
+  const cl::Device& device() const { return found_.device; }
+  const cl::Platform& platform() const { return found_.platform; }
+  const cl::Context& context() const { return context_; }
+  const cl::CommandQueue& queue() const { return queue_; }
+  BufferPool& buffers() { return *buffers_; }
+
+  // A new kernel object of a built program. cl::Kernel arguments are per object, so each caller
+  // (a request, a session) owns its own.
+  cl::Kernel kernel(const std::string& program, const std::string& name) const;
+
+  // Device work of one request runs under this lock: the queue is in order and one kernel already
+  // fills every compute unit, so requests take turns rather than interleave their kernel arguments.
+  std::unique_lock<std::mutex> exclusive() { return std::unique_lock<std::mutex>(device_mutex_); }
+
+ private:
+  FoundDevice found_;
+  cl::Context context_;
+  cl::CommandQueue queue_;
+  KernelSources sources_;
+  std::map<std::string, cl::Program> programs_;
+  std::vector<ProgramBuild> builds_;
+  std::unique_ptr<BufferPool> buffers_;
+  std::mutex device_mutex_;
+  bool built_ = false;
+};
+
+// Rounds n up to a multiple of m (global work sizes).
+inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
+
+}  // namespace squall

@@ -1,0 +1,192 @@
+// squalld for real: started on a free localhost port, asked through the client library and the CLI,
+// stopped with SIGTERM; and started wrongly, to see it refuse with the documented exit codes.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <grpcpp/generic/generic_stub.h>
+
+#include "client/client.h"
+#include "support/process.h"
+
+namespace squall {
+namespace {
+
+const std::string kSqualld = std::string(SQUALL_BINARY_DIR) + "/squalld";
+const std::string kSquall = std::string(SQUALL_BINARY_DIR) + "/squall";
+
+// A squalld on 127.0.0.1:<free port>, SERVING when the constructor returns.
+class Daemon {
+ public:
+  explicit Daemon(std::vector<std::string> extra = {}) : dir_(test::temp_dir("squalld")) {
+    std::vector<std::string> argv = {kSqualld, "--listen", "127.0.0.1:0", "--port-file", dir_ + "/port"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    process_ = std::make_unique<test::Process>(argv, dir_ + "/log.txt");
+    for (int i = 0; i < 3000 && !std::filesystem::exists(dir_ + "/port"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    std::ifstream(dir_ + "/port") >> port_;
+    if (port_ == 0) throw std::runtime_error("squalld did not listen:\n" + process_->log());
+    client::Client probe({address(), 5});
+    if (!probe.wait_until_serving(600)) throw std::runtime_error("squalld never SERVING:\n" + process_->log());
+  }
+  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  test::Process& process() { return *process_; }
+
+ private:
+  std::string dir_;
+  int port_ = 0;
+  std::unique_ptr<test::Process> process_;
+};
+
+// One daemon for the tests that only talk to it (start-up builds kernels: do it once).
+Daemon& shared_daemon() {
+  static Daemon* d = new Daemon({"--fft", "vkfft", "--max-sessions", "7", "--max-grid-cells", "123456"});
+  return *d;
+}
+
+TEST(Daemon, GetInfoThroughTheClientLibrary) {
+  client::Client c({shared_daemon().address(), 10, "info-test-1"});
+  auto info = c.info();
+  EXPECT_TRUE(info.ready());
+  EXPECT_EQ(info.version(), SQUALL_VERSION);
+  EXPECT_EQ(info.fft_backend(), "vkfft");
+  EXPECT_EQ(info.limits().max_sessions(), 7u);
+  EXPECT_EQ(info.limits().max_grid_cells(), 123456u);
+  EXPECT_EQ(info.limits().max_message_bytes(), 64u << 20);
+  int selected = 0;
+  for (const auto& d : info.devices()) selected += d.selected();
+  EXPECT_EQ(selected, 1);
+  bool selftest = false;
+  for (const auto& k : info.kernels()) selftest |= k.program() == "runtime/selftest.cl" && k.kernels_size() == 2;
+  EXPECT_TRUE(selftest);
+  EXPECT_GT(info.uptime_seconds(), 0);
+}
+
+TEST(Daemon, HealthIsServing) {
+  client::Client c({shared_daemon().address(), 10});
+  EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+}
+
+TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
+  client::Client c({shared_daemon().address(), 10, "log-test-42"});
+  c.info();
+  std::string log;
+  for (int i = 0; i < 50 && log.find("log-test-42") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    log = shared_daemon().process().log();
+  }
+  EXPECT_NE(log.find("request id=log-test-42 method=/squall.v1.Server/GetInfo status=OK duration_ms="),
+            std::string::npos)
+      << log;
+}
+
+// Asks the reflection service for its list of services over a raw bidi stream, with the request
+// encoded by hand (ServerReflectionRequest{list_services: ""} is field 7, empty: bytes 0x3a 0x00).
+std::string reflection_list_services(const std::string& address) {
+  client::Client c({address, 10});
+  grpc::GenericStub stub(c.channel());
+  grpc::CompletionQueue cq;
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  auto call = stub.PrepareCall(&ctx, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  void* tag;
+  bool ok = false;
+  auto step = [&](int id) { return cq.Next(&tag, &ok) && tag == reinterpret_cast<void*>(id) && ok; };
+  call->StartCall(reinterpret_cast<void*>(1));
+  if (!step(1)) return "start failed";
+  const char request[] = {0x3a, 0x00};
+  grpc::Slice slice(request, sizeof request);
+  call->Write(grpc::ByteBuffer(&slice, 1), reinterpret_cast<void*>(2));
+  if (!step(2)) return "write failed";
+  grpc::ByteBuffer reply;
+  call->Read(&reply, reinterpret_cast<void*>(3));
+  if (!step(3)) return "read failed";
+  std::vector<grpc::Slice> slices;
+  reply.Dump(&slices);
+  std::string bytes;
+  for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+  call->WritesDone(reinterpret_cast<void*>(4));
+  step(4);
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(5));
+  step(5);
+  return bytes;
+}
+
+TEST(Daemon, ReflectionListsTheServices) {
+  std::string listed = reflection_list_services(shared_daemon().address());
+  EXPECT_NE(listed.find("squall.v1.Server"), std::string::npos) << listed;
+  EXPECT_NE(listed.find("grpc.health.v1.Health"), std::string::npos) << listed;
+}
+
+TEST(Cli, InfoAndHealthExitZero) {
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &out), 0) << out;
+  EXPECT_NE(out.find("runtime/selftest.cl"), std::string::npos) << out;
+  EXPECT_NE(out.find("max_sessions=7"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health"}, &out), 0) << out;
+  EXPECT_EQ(out, "SERVING\n");
+}
+
+TEST(Cli, ExitCodesSayWhatWentWrong) {
+  std::string out;
+  // Nothing listens on port 1.
+  EXPECT_EQ(test::run({kSquall, "--address", "127.0.0.1:1", "--timeout", "2", "info"}, &out), 3) << out;
+  EXPECT_NE(out.find("UNAVAILABLE"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "frobnicate"}, &out), 2) << out;
+  EXPECT_NE(out.find("unknown verb frobnicate"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--timeout", "-1", "info"}, &out), 2) << out;
+  // The server answers NOT_FOUND for a service it does not know: refused, not unreachable.
+  EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health", "no.such.Service"}, &out), 4) << out;
+}
+
+TEST(Daemon, SigtermDrainsAndExitsZero) {
+  Daemon d({"--fft", "auto", "--grace-period", "5"});
+  client::Client c({d.address(), 10});
+  auto info = c.info();
+  EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft");
+  EXPECT_NE(info.fft_selection().find("measured at start-up"), std::string::npos) << info.fft_selection();
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+  std::string log = d.process().log();
+  EXPECT_NE(log.find("draining"), std::string::npos) << log;
+  EXPECT_NE(log.find("stopped"), std::string::npos) << log;
+  EXPECT_THROW(c.info(), client::RpcError);
+}
+
+TEST(Daemon, SigintAlsoStopsCleanly) {
+  Daemon d({"--fft", "clfft"});
+  d.process().signal(SIGINT);
+  EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+}
+
+TEST(Daemon, BrokenKernelPrintsBuildLogAndExitsNonZero) {
+  std::string dir = test::temp_dir("broken-kernels");
+  std::filesystem::create_directories(dir + "/runtime");
+  std::ofstream(dir + "/runtime/selftest.cl") << "__kernel void k(__global float* o) { o[0] = not_declared; }\n";
+  std::string out;
+  EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--kernel-dir", dir}, &out, 120), 1) << out;
+  EXPECT_NE(out.find("runtime/selftest.cl failed to build"), std::string::npos) << out;
+  EXPECT_NE(out.find("not_declared"), std::string::npos) << out;
+}
+
+TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
+  std::string out;
+  EXPECT_EQ(test::run({kSqualld, "--max-streams", "0"}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-streams 0: must be an integer >= 1"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
+  EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--device", "no-such-device"}, &out), 2) << out;
+  EXPECT_NE(out.find("--device no-such-device matches no OpenCL device"), std::string::npos) << out;
+}
+
+TEST(Daemon, BusyPortExitsThree) {
+  std::string out;
+  std::string busy = shared_daemon().address();
+  EXPECT_EQ(test::run({kSqualld, "--listen", busy, "--fft", "vkfft"}, &out, 120), 3) << out;
+}
+
+}  // namespace
+}  // namespace squall

@@ -1,0 +1,70 @@
+// The limit gate: each check names the request field and the daemon flag.
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+#include "common/limits.h"
+
+namespace squall {
+namespace {
+
+std::string message_of(const std::function<void()>& f, Code expected) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), expected) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "no error";
+  return "";
+}
+
+TEST(Limits, GridWithinLimitPasses) {
+  LimitGate gate(Limits{.max_grid_cells = 1024 * 1024});
+  EXPECT_NO_THROW(gate.check_grid("tile", 1024, 1024));
+  EXPECT_NO_THROW(gate.check_grid("volume", 64, 64, 256));
+}
+
+TEST(Limits, NonPositiveExtentIsInvalidArgumentNamingTheField) {
+  LimitGate gate(Limits{});
+  EXPECT_EQ(message_of([&] { gate.check_grid("layers[2]", -5, 64); }, Code::InvalidArgument),
+            "layers[2].nx = -5 must be >= 1");
+  EXPECT_EQ(message_of([&] { gate.check_grid("map", 64, 0); }, Code::InvalidArgument), "map.ny = 0 must be >= 1");
+  EXPECT_EQ(message_of([&] { gate.check_grid("vol", 4, 4, -1); }, Code::InvalidArgument), "vol.nz = -1 must be >= 1");
+}
+
+TEST(Limits, OversizeGridIsResourceExhaustedNamingTheFlag) {
+  LimitGate gate(Limits{.max_grid_cells = 1000});
+  EXPECT_EQ(message_of([&] { gate.check_grid("tile", 100, 11); }, Code::ResourceExhausted),
+            "tile.nx * tile.ny = 1100 cells exceeds --max-grid-cells = 1000");
+  // Extents whose product overflows 64 bits are still caught.
+  message_of([&] { gate.check_grid("tile", int64_t(1) << 40, int64_t(1) << 40, int64_t(1) << 40); },
+             Code::ResourceExhausted);
+}
+
+TEST(Limits, StreamsAndSessionsAreCountedAndReleased) {
+  LimitGate gate(Limits{.max_streams = 2, .max_sessions = 1});
+  {
+    Slot a = gate.acquire_stream();
+    Slot b = gate.acquire_stream();
+    EXPECT_EQ(gate.open_streams(), 2u);
+    EXPECT_EQ(message_of([&] { gate.acquire_stream(); }, Code::ResourceExhausted),
+              "streams: 2 already open, the limit is --max-streams = 2");
+    Slot moved = std::move(a);  // moving keeps one slot, not two
+    EXPECT_EQ(gate.open_streams(), 2u);
+  }
+  EXPECT_EQ(gate.open_streams(), 0u);
+  Slot s = gate.acquire_session();
+  message_of([&] { gate.acquire_session(); }, Code::ResourceExhausted);
+  s.release();
+  EXPECT_NO_THROW(gate.acquire_session());
+}
+
+TEST(Limits, MessageBytes) {
+  LimitGate gate(Limits{.max_message_bytes = 100});
+  EXPECT_NO_THROW(gate.check_message_bytes("frame", 100));
+  EXPECT_EQ(message_of([&] { gate.check_message_bytes("frame", 101); }, Code::ResourceExhausted),
+            "frame needs 101 bytes, more than --max-message-bytes = 100");
+}
+
+}  // namespace
+}  // namespace squall

@@ -1,0 +1,167 @@
+// The OpenCL runtime on the test device (PoCL in CI): discovery, selection, program builds, kernels,
+// buffer reuse, include splicing and the kernel cache.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "common/error.h"
+#include "runtime/runtime.h"
+#include "support/process.h"
+#include "support/test_runtime.h"
+
+namespace squall {
+namespace {
+
+void write(const std::string& path, const std::string& text) {
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  std::ofstream(path) << text;
+}
+
+TEST(Device, FindsAtLeastOneDevice) {
+  auto devices = find_devices();
+  ASSERT_FALSE(devices.empty());
+  for (const auto& d : devices) {
+    EXPECT_FALSE(d.info.name.empty());
+    EXPECT_GT(d.info.compute_units, 0u);
+    EXPECT_GT(d.info.global_memory_bytes, 0u);
+  }
+}
+
+TEST(Device, SelectsByTypeAndSubstring) {
+  auto any = select_device("auto");
+  EXPECT_TRUE(any.info.type == "gpu" || any.info.type == "cpu");
+  // Every device can be found again by a substring of its own name, in other letter case.
+  for (const auto& d : find_devices()) {
+    std::string spec = d.info.name.substr(0, 6);
+    for (auto& c : spec) c = static_cast<char>(std::toupper(c));
+    EXPECT_EQ(select_device(spec).info.name.substr(0, 6), d.info.name.substr(0, 6));
+  }
+}
+
+TEST(Device, UnknownSpecNamesTheFlagAndListsDevices) {
+  try {
+    select_device("no-such-device-xyz");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), Code::InvalidArgument);
+    EXPECT_NE(std::string(e.what()).find("--device no-such-device-xyz"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(find_devices()[0].info.name), std::string::npos) << e.what();
+  }
+}
+
+TEST(Runtime, BuildsEveryEmbeddedProgramOnce) {
+  Runtime& rt = test::runtime();
+  ASSERT_TRUE(rt.built());
+  KernelSources embedded;
+  ASSERT_EQ(rt.builds().size(), embedded.programs().size());
+  bool found = false;
+  for (const auto& b : rt.builds()) {
+    EXPECT_GE(b.seconds, 0.0);
+    if (b.program == "runtime/selftest.cl") {
+      found = true;
+      EXPECT_NE(std::find(b.kernels.begin(), b.kernels.end(), "axpy"), b.kernels.end());
+      EXPECT_NE(std::find(b.kernels.begin(), b.kernels.end(), "fill"), b.kernels.end());
+    }
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST(Runtime, AxpyKernelComputesExactly) {
+  Runtime& rt = test::runtime();
+  const uint32_t n = 1000;  // not a multiple of the work-group size: the bounds check matters
+  std::vector<float> x(n), y(n);
+  for (uint32_t i = 0; i < n; ++i) x[i] = float(i), y[i] = 0.5f * float(i) + 1;
+  cl::Buffer bx = test::upload(x), by = test::upload(y);
+  auto lock = rt.exclusive();
+  cl::Kernel k = rt.kernel("runtime/selftest.cl", "axpy");
+  k.setArg(0, 2.0f);
+  k.setArg(1, bx);
+  k.setArg(2, by);
+  k.setArg(3, n);
+  rt.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(n, 64)), cl::NDRange(64));
+  auto out = test::read<float>(by, n);
+  for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], 2.0f * float(i) + 0.5f * float(i) + 1) << i;
+}
+
+TEST(Runtime, UnknownKernelIsAnError) {
+  EXPECT_THROW(test::runtime().kernel("runtime/none.cl", "axpy"), Error);
+  EXPECT_THROW(test::runtime().kernel("runtime/selftest.cl", "no_such_kernel"), cl::Error);
+}
+
+TEST(BufferPool, ReusesBuffersOfTheSameSize) {
+  BufferPool pool(test::runtime().context(), 1 << 20);
+  cl_mem first;
+  {
+    auto a = pool.acquire(4096);
+    first = a.buffer()();
+  }
+  EXPECT_EQ(pool.idle_bytes(), 4096u);
+  {
+    auto b = pool.acquire(4096);  // the same buffer comes back
+    EXPECT_EQ(b.buffer()(), first);
+    auto c = pool.acquire(4096);  // a second lease at once needs a second buffer
+    EXPECT_NE(c.buffer()(), first);
+    auto d = pool.acquire(8192);  // another shape is another buffer
+  }
+  EXPECT_EQ(pool.allocations(), 3u);
+  auto big = pool.acquire(2 << 20);  // larger than the idle cap: not kept when handed back
+  big = BufferLease();
+  EXPECT_EQ(pool.idle_bytes(), 4096u * 2 + 8192u);
+}
+
+TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
+  std::string dir = test::temp_dir("kernels");
+  write(dir + "/common/a.clh", "#define A 1\n");
+  write(dir + "/common/b.clh", "#include \"common/a.clh\"\n#define B 2\n");
+  write(dir + "/x/prog.cl", "// squall-build-options: -cl-fast-relaxed-math\n#include \"common/a.clh\"\n"
+                            "#include \"common/b.clh\"\n__kernel void k(__global int* o) { o[0] = A + B; }\n");
+  KernelSources sources(dir);
+  ASSERT_EQ(sources.programs(), std::vector<std::string>{"x/prog.cl"});
+  std::string text = sources.expanded("x/prog.cl");
+  EXPECT_EQ(text.find("#define A 1"), text.rfind("#define A 1"));  // spliced once
+  EXPECT_NE(text.find("#define B 2"), std::string::npos);
+  EXPECT_EQ(sources.build_options("x/prog.cl"), " -cl-fast-relaxed-math");
+}
+
+TEST(KernelSources, MissingIncludeNamesBothFiles) {
+  std::string dir = test::temp_dir("kernels-missing");
+  write(dir + "/p.cl", "#include \"nowhere.clh\"\n");
+  try {
+    KernelSources(dir).expanded("p.cl");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("nowhere.clh not found (included from p.cl)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Runtime, FailedBuildReportsTheDeviceBuildLog) {
+  std::string dir = test::temp_dir("kernels-broken");
+  write(dir + "/bad/broken.cl", "__kernel void k(__global float* o) { o[0] = undefined_symbol; }\n");
+  RuntimeOptions options;
+  options.kernel_dir = dir;
+  Runtime rt(options);
+  try {
+    rt.build_programs();
+    FAIL() << "expected a build failure";
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    EXPECT_EQ(e.code(), Code::Internal);
+    EXPECT_NE(msg.find("bad/broken.cl failed to build"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("undefined_symbol"), std::string::npos) << msg;  // the compiler's own words
+  }
+}
+
+TEST(Runtime, KernelCacheDirectoryIsStableAndPopulated) {
+  test::runtime();  // built: PoCL has written its cache
+  const char* dir = std::getenv("POCL_CACHE_DIR");
+  ASSERT_NE(dir, nullptr);
+  EXPECT_EQ(configure_kernel_cache(), dir);  // an explicit environment wins
+  EXPECT_TRUE(std::filesystem::is_directory(dir));
+  if (test::runtime().device_info().platform.find("Portable") != std::string::npos)
+    EXPECT_FALSE(std::filesystem::is_empty(dir)) << "PoCL wrote nothing to " << dir;
+}
+
+}  // namespace
+}  // namespace squall

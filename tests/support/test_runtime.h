@@ -1,0 +1,26 @@
+// The runtime shared by all tests of one binary: the device is chosen and every program compiled once.
+#pragma once
+
+#include "fft/fft.h"
+#include "runtime/runtime.h"
+
+namespace squall::test {
+
+Runtime& runtime();              // --device from $SQUALL_TEST_DEVICE, default "auto"
+fft::Fft& fft(const std::string& backend);  // "vkfft" or "clfft", one plan cache each
+
+// Reads back n values of T from a device buffer.
+template <typename T>
+std::vector<T> read(const cl::Buffer& buffer, size_t n) {
+  std::vector<T> out(n);
+  runtime().queue().enqueueReadBuffer(buffer, CL_TRUE, 0, n * sizeof(T), out.data());
+  return out;
+}
+
+template <typename T>
+cl::Buffer upload(const std::vector<T>& values) {
+  return cl::Buffer(runtime().context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, values.size() * sizeof(T),
+                    const_cast<T*>(values.data()));
+}
+
+}  // namespace squall::test
