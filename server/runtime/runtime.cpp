@@ -31,6 +31,7 @@ Runtime::Runtime(const RuntimeOptions& options)
       context_(found_.device),
       queue_(context_, found_.device),
       sources_(options.kernel_dir),
+      program_prefixes_(options.program_prefixes),
       buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes)) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info));
 }
@@ -38,6 +39,7 @@ Runtime::Runtime(const RuntimeOptions& options)
 void Runtime::build_programs() {
   auto start_all = std::chrono::steady_clock::now();
   for (const auto& path : sources_.programs()) {
+    if (!selected(path)) continue;
     cl::Program program(context_, sources_.expanded(path));
     auto start = std::chrono::steady_clock::now();
     std::string options = sources_.build_options(path);
@@ -61,6 +63,13 @@ void Runtime::build_programs() {
   built_ = true;
   log(LogLevel::Info, "built ", builds_.size(), " programs in ",
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_all).count(), " s");
+}
+
+bool Runtime::selected(const std::string& program) const {
+  if (program_prefixes_.empty()) return true;
+  for (const auto& prefix : program_prefixes_)
+    if (program.rfind(prefix, 0) == 0) return true;
+  return false;
 }
 
 cl::Kernel Runtime::kernel(const std::string& program, const std::string& name) const {

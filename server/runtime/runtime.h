@@ -19,6 +19,10 @@ struct RuntimeOptions {
   std::string device = "auto";  // --device: auto | cpu | gpu | substring of platform or device name
   std::string kernel_dir;       // --kernel-dir: read kernels from here instead of the embedded copy
   size_t max_idle_buffer_bytes = 512ull << 20;
+  // Build only the programs whose path starts with one of these (e.g. "ocean/"); empty: all of them.
+  // The daemon builds all; a test binary builds what it tests, so one capability's kernel under
+  // development cannot stop another's tests.
+  std::vector<std::string> program_prefixes;
 };
 
 struct ProgramBuild {
@@ -59,10 +63,13 @@ class Runtime {
   std::unique_lock<std::mutex> exclusive() { return std::unique_lock<std::mutex>(device_mutex_); }
 
  private:
+  bool selected(const std::string& program) const;
+
   FoundDevice found_;
   cl::Context context_;
   cl::CommandQueue queue_;
   KernelSources sources_;
+  std::vector<std::string> program_prefixes_;
   std::map<std::string, cl::Program> programs_;
   std::vector<ProgramBuild> builds_;
   std::unique_ptr<BufferPool> buffers_;

@@ -29,7 +29,7 @@ class Daemon {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::ifstream(dir_ + "/port") >> port_;
     if (port_ == 0) throw std::runtime_error("squalld did not listen:\n" + process_->log());
-    client::Client probe({address(), 5});
+    client::Client probe({address(), 5, ""});
     if (!probe.wait_until_serving(600)) throw std::runtime_error("squalld never SERVING:\n" + process_->log());
   }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
@@ -66,7 +66,7 @@ TEST(Daemon, GetInfoThroughTheClientLibrary) {
 }
 
 TEST(Daemon, HealthIsServing) {
-  client::Client c({shared_daemon().address(), 10});
+  client::Client c({shared_daemon().address(), 10, ""});
   EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
 }
 
@@ -86,7 +86,7 @@ TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
 // Asks the reflection service for its list of services over a raw bidi stream, with the request
 // encoded by hand (ServerReflectionRequest{list_services: ""} is field 7, empty: bytes 0x3a 0x00).
 std::string reflection_list_services(const std::string& address) {
-  client::Client c({address, 10});
+  client::Client c({address, 10, ""});
   grpc::GenericStub stub(c.channel());
   grpc::CompletionQueue cq;
   grpc::ClientContext ctx;
@@ -145,7 +145,7 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
 
 TEST(Daemon, SigtermDrainsAndExitsZero) {
   Daemon d({"--fft", "auto", "--grace-period", "5"});
-  client::Client c({d.address(), 10});
+  client::Client c({d.address(), 10, ""});
   auto info = c.info();
   EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft");
   EXPECT_NE(info.fft_selection().find("measured at start-up"), std::string::npos) << info.fft_selection();

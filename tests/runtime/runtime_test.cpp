@@ -159,8 +159,9 @@ TEST(Runtime, KernelCacheDirectoryIsStableAndPopulated) {
   ASSERT_NE(dir, nullptr);
   EXPECT_EQ(configure_kernel_cache(), dir);  // an explicit environment wins
   EXPECT_TRUE(std::filesystem::is_directory(dir));
-  if (test::runtime().device_info().platform.find("Portable") != std::string::npos)
+  if (test::runtime().device_info().platform.find("Portable") != std::string::npos) {
     EXPECT_FALSE(std::filesystem::is_empty(dir)) << "PoCL wrote nothing to " << dir;
+  }
 }
 
 }  // namespace

@@ -6,11 +6,24 @@
 
 namespace squall::test {
 
+std::vector<std::string> programs_under_test() {
+  std::vector<std::string> prefixes;
+  std::string list = SQUALL_TEST_PROGRAMS;  // from squall_test(... PROGRAMS ...), ','-separated
+  for (size_t start = 0; start < list.size();) {
+    size_t end = list.find(',', start);
+    if (end == std::string::npos) end = list.size();
+    if (end > start) prefixes.push_back(list.substr(start, end - start));
+    start = end + 1;
+  }
+  return prefixes;
+}
+
 Runtime& runtime() {
   static Runtime* instance = [] {
     configure_kernel_cache();
     RuntimeOptions options;
     if (const char* d = std::getenv("SQUALL_TEST_DEVICE")) options.device = d;
+    options.program_prefixes = programs_under_test();
     auto* r = new Runtime(options);  // never destroyed: lives until the test binary exits
     r->build_programs();
     return r;

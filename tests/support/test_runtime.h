@@ -6,7 +6,11 @@
 
 namespace squall::test {
 
-Runtime& runtime();              // --device from $SQUALL_TEST_DEVICE, default "auto"
+// --device from $SQUALL_TEST_DEVICE (default "auto"); builds the programs_under_test().
+Runtime& runtime();
+// The kernel programs this test binary builds: the PROGRAMS prefixes given to squall_test() in
+// tests/CMakeLists.txt (all programs when none are given).
+std::vector<std::string> programs_under_test();
 fft::Fft& fft(const std::string& backend);  // "vkfft" or "clfft", one plan cache each
 
 // Reads back n values of T from a device buffer.
