@@ -11,6 +11,7 @@ namespace squall {
 namespace fs = std::filesystem;
 
 KernelSources::KernelSources(const std::string& dir) {
+  for (const auto& f : embedded_system_kernel_headers()) files_[f.path] = f.text;
   if (dir.empty()) {
     for (const auto& f : embedded_kernel_files()) files_[f.path] = f.text;
     return;

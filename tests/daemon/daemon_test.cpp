@@ -41,10 +41,11 @@ class Daemon {
   std::unique_ptr<test::Process> process_;
 };
 
-// One daemon for the tests that only talk to it (start-up builds kernels: do it once).
+// One daemon for the tests that only talk to it (start-up builds kernels: do it once). A static
+// object, so that its destructor stops the process when the test binary exits.
 Daemon& shared_daemon() {
-  static Daemon* d = new Daemon({"--fft", "vkfft", "--max-sessions", "7", "--max-grid-cells", "123456"});
-  return *d;
+  static Daemon d({"--fft", "vkfft", "--max-sessions", "7", "--max-grid-cells", "123456"});
+  return d;
 }
 
 TEST(Daemon, GetInfoThroughTheClientLibrary) {

@@ -1,0 +1,119 @@
+#include "ewave/ewave_config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/limits.h"
+
+namespace squall::ewave {
+namespace {
+
+std::string number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+void require(bool ok, const std::string& field, double value, const std::string& rule) {
+  if (!ok) fail(Code::InvalidArgument, field + " = " + number(value) + " must be " + rule);
+}
+
+void finite_positive(const std::string& field, double v) { require(std::isfinite(v) && v > 0, field, v, "finite and > 0"); }
+void finite_nonnegative(const std::string& field, double v) {
+  require(std::isfinite(v) && v >= 0, field, v, "finite and >= 0");
+}
+void finite(const std::string& field, double v) { require(std::isfinite(v), field, v, "finite"); }
+
+// A per-cell map: empty, or exactly `cells` finite values (within [lo, hi]).
+void check_map(const std::string& field, const std::vector<float>& map, size_t cells, float lo = -INFINITY,
+               float hi = INFINITY) {
+  if (map.empty()) return;
+  if (map.size() != cells)
+    fail(Code::InvalidArgument, field + " has " + std::to_string(map.size()) + " values, want nx * ny = " +
+                                    std::to_string(cells));
+  for (size_t c = 0; c < map.size(); ++c)
+    if (!(std::isfinite(map[c]) && map[c] >= lo && map[c] <= hi))
+      fail(Code::InvalidArgument, field + "[" + std::to_string(c) + "] = " + number(map[c]) + " must be finite" +
+                                      (std::isfinite(lo) ? " and in [" + number(lo) + ", " + number(hi) + "]" : ""));
+}
+
+void check_shape(const std::string& field, const Shape& s) {
+  if (s.kind == ShapeKind::Polygon) {
+    if (s.vertices.size() < 3)
+      fail(Code::InvalidArgument, field + ".vertices has " + std::to_string(s.vertices.size()) + ", want >= 3");
+    for (size_t v = 0; v < s.vertices.size(); ++v) {
+      finite(field + ".vertices[" + std::to_string(v) + "].x", s.vertices[v][0]);
+      finite(field + ".vertices[" + std::to_string(v) + "].y", s.vertices[v][1]);
+    }
+    return;
+  }
+  finite(field + ".x", s.x);
+  finite(field + ".y", s.y);
+  finite_positive(field + ".a", s.a);
+  if (s.kind != ShapeKind::Circle) finite_positive(field + ".b", s.b);
+  finite(field + ".heading", s.heading);
+}
+
+}  // namespace
+
+double EWaveConfig::effective_trim_width() const {
+  return trim_width > 0 ? trim_width : 0.08 * std::min(length_x(), length_y());
+}
+
+void validate(const EWaveConfig& c, const LimitGate* gate) {
+  if (gate) gate->check_grid("config.grid", c.nx, c.ny);
+  if (c.nx < 1 || c.ny < 1)
+    fail(Code::InvalidArgument, "config.grid = " + std::to_string(c.nx) + " x " + std::to_string(c.ny) +
+                                    " must be at least 1 x 1");
+  finite_positive("config.dx", c.dx);
+  finite_positive("config.dy", c.dy);
+  int kind = int(c.dispersion);
+  if (kind < 0 || kind > 3) require(false, "config.dispersion", kind, "0 (deep), 1 (shallow), 2 (capillary) or 3 (combined)");
+  finite_positive("config.gravity", c.gravity);
+  if (c.dispersion == DispersionKind::Shallow || c.dispersion == DispersionKind::Combined)
+    finite_positive("config.depth", c.depth);
+  else
+    finite_nonnegative("config.depth", c.depth);
+  finite_nonnegative("config.capillary_length", c.capillary_length);
+  finite_nonnegative("config.trim_width", c.trim_width);
+  double half = 0.5 * std::min(c.length_x(), c.length_y());
+  require(c.effective_trim_width() <= half, "config.trim_width", c.effective_trim_width(),
+          "<= half the shorter side (" + number(half) + " m)");
+  require(std::isfinite(c.trim_alpha) && c.trim_alpha > 0 && c.trim_alpha <= 10, "config.trim_alpha", c.trim_alpha,
+          "in (0, 10]");
+  finite_nonnegative("config.friction_time", c.friction_time);
+  finite("config.source_scale", c.source_scale);
+  finite("config.displacement_scale", c.displacement_scale);
+  check_map("config.initial_height", c.initial_height, c.cells());
+  check_map("config.initial_phi", c.initial_phi, c.cells());
+}
+
+void validate(const StepInputs& in, const EWaveConfig& c) {
+  finite_positive("inputs.dt", in.dt);
+  size_t cells = c.cells();
+  check_map("inputs.obstruction", in.obstruction, cells, 0.0f, 1.0f);
+  check_map("inputs.ambient_height", in.ambient_height, cells);
+  check_map("inputs.source_height", in.source_height, cells);
+  check_map("inputs.source_phi", in.source_phi, cells);
+  finite("inputs.drift_x", in.drift_x);
+  finite("inputs.drift_y", in.drift_y);
+  check_map("inputs.drift_field_x", in.drift_field_x, cells);
+  check_map("inputs.drift_field_y", in.drift_field_y, cells);
+  if (in.drift_field_x.empty() != in.drift_field_y.empty())
+    fail(Code::InvalidArgument, "inputs.drift_field_x and inputs.drift_field_y must be given together");
+  if (in.shapes.size() > kMaxShapes)
+    fail(Code::InvalidArgument, "inputs.shapes has " + std::to_string(in.shapes.size()) + " shapes, at most " +
+                                    std::to_string(kMaxShapes));
+  size_t vertices = 0;
+  for (size_t s = 0; s < in.shapes.size(); ++s) {
+    check_shape("inputs.shapes[" + std::to_string(s) + "]", in.shapes[s]);
+    vertices += in.shapes[s].vertices.size();
+  }
+  if (vertices > kMaxShapeVertices)
+    fail(Code::InvalidArgument, "inputs.shapes has " + std::to_string(vertices) + " polygon vertices, at most " +
+                                    std::to_string(kMaxShapeVertices));
+}
+
+}  // namespace squall::ewave

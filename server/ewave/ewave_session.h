@@ -1,0 +1,65 @@
+// One eWave simulation: h and phi on the device, stepped in the order of seed main §3.7 with cached FFT
+// plans and propagator tables. Not thread-safe by itself: EWaveEngine serializes calls per session.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ewave/ewave_config.h"
+#include "fft/fft.h"
+#include "runtime/runtime.h"
+
+namespace squall::ewave {
+
+class EWaveSession {
+ public:
+  // Validates the config (Error InvalidArgument naming the field) and uploads the initial fields.
+  EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config);
+
+  const EWaveConfig& config() const { return config_; }
+  uint64_t step_index() const { return step_; }
+  double time() const { return time_; }
+
+  // One step of inputs.dt (validated first; the session is unchanged when they are rejected).
+  Frame step(const StepInputs& inputs);
+
+  // The whole session (config without initial fields, step, time, h, phi) as bytes; restore() of those
+  // bytes into a session of the same grid continues bit-identically.
+  std::string state() const;
+  void restore(const std::string& bytes);
+  // A config from state bytes (for a new session); throws InvalidArgument when the bytes are not a state.
+  static EWaveConfig config_from_state(const std::string& bytes);
+
+ private:
+  struct Coefficients {
+    BufferLease buffer;
+    uint64_t last_use = 0;
+  };
+  void upload_trim();  // the trim profiles of config_ (eq 82)
+  const cl::Buffer& coefficients(double dt);
+  const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
+  bool build_obstruction(const StepInputs& inputs);
+  void prepare(const StepInputs& inputs, bool has_obstruction);
+  void finish(const StepInputs& inputs, int fields, bool has_obstruction);
+  Frame read_frame(const OutputSelection& outputs) const;
+  void set_real(cl::Kernel& kernel, int index, double value) const;  // cl_float or cl_double, as the state
+  std::vector<char> to_state_type(const std::vector<double>& values) const;  // host bytes in the state's type
+  fft::Precision precision() const { return config_.double_precision ? fft::Precision::F64 : fft::Precision::F32; }
+
+  Runtime& runtime_;
+  fft::Fft& fft_;
+  EWaveConfig config_;
+  size_t cells_, half_;  // nx ny real cells; (nx/2+1) ny spectrum modes
+  size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
+  uint64_t step_ = 0;
+  double time_ = 0;
+  cl::Kernel prepare_, propagate_, finish_, rasterize_;
+  BufferLease state_, spectrum_, work_, out_, trim_x_, trim_y_, placeholder_;
+  BufferLease obstruction_, ambient_, source_h_, source_phi_, drift_x_, drift_y_, shapes_, vertices_;
+  std::map<double, Coefficients> coefficients_;  // by dt, a few most recent
+  uint64_t uses_ = 0;
+};
+
+}  // namespace squall::ewave

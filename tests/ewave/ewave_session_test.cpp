@@ -1,0 +1,172 @@
+// eWave sessions: save/restore, the engine's ids, limits and TTL, and input validation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/error.h"
+#include "common/limits.h"
+#include "ewave/ewave_engine.h"
+#include "ewave_support.h"
+#include "support/test_runtime.h"
+
+namespace squall::ewave::test {
+namespace {
+
+EWaveConfig busy_config() {
+  EWaveConfig c = plain_config(48, 40);
+  c.trim = true;
+  c.trim_width = 0.04;
+  c.source_scale = 0.3;
+  c.friction_time = 2.0;
+  c.initial_height = field(c, [](double x, double y) { return 0.003 * std::exp(-((x - 0.2) * (x - 0.2) + (y - 0.2) * (y - 0.2)) / 2e-4); });
+  return c;
+}
+
+StepInputs busy_step(int n) {
+  StepInputs in = plain_step(0.01);
+  Shape hull;
+  hull.kind = ShapeKind::Ellipse;
+  hull.x = 0.1 + 0.004 * n, hull.y = 0.2, hull.a = 0.03, hull.b = 0.012, hull.heading = 0.2;
+  in.shapes.push_back(hull);
+  in.drift_x = 0.013;
+  in.outputs.displacement = in.outputs.normals = true;
+  return in;
+}
+
+void expect_bit_identical(const Frame& a, const Frame& b) {
+  EXPECT_EQ(a.step, b.step);
+  EXPECT_EQ(a.time, b.time);
+  EXPECT_EQ(a.height, b.height);
+  EXPECT_EQ(a.phi, b.phi);
+  EXPECT_EQ(a.displacement_x, b.displacement_x);
+  EXPECT_EQ(a.normals, b.normals);
+}
+
+TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
+  EWaveSession a = make_session(busy_config());
+  for (int n = 0; n < 5; ++n) a.step(busy_step(n));
+  std::string saved = a.state();
+  EWaveSession b = make_session(EWaveSession::config_from_state(saved));
+  b.restore(saved);
+  for (int n = 5; n < 10; ++n) expect_bit_identical(a.step(busy_step(n)), b.step(busy_step(n)));
+  // And into the original session: rewinding it reproduces the same steps.
+  a.restore(saved);
+  EWaveSession c = make_session(busy_config());
+  c.restore(saved);
+  expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
+}
+
+template <typename F>
+void expect_error(Code code, const std::string& field, F&& f) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one naming " << field;
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
+TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {
+  EWaveSession s = make_session(plain_config(32, 16));
+  StepInputs in = plain_step(0.01);
+  in.obstruction.assign(32 * 15, 1.0f);
+  expect_error(Code::InvalidArgument, "inputs.obstruction", [&] { s.step(in); });
+  in = plain_step(0.01);
+  in.ambient_height.assign(32 * 16, 0.0f);
+  in.ambient_height[17] = NAN;
+  expect_error(Code::InvalidArgument, "inputs.ambient_height[17]", [&] { s.step(in); });
+  in = plain_step(0.0);
+  expect_error(Code::InvalidArgument, "inputs.dt", [&] { s.step(in); });
+  in = plain_step(-1);
+  expect_error(Code::InvalidArgument, "inputs.dt", [&] { s.step(in); });
+  in = plain_step(NAN);
+  expect_error(Code::InvalidArgument, "inputs.dt", [&] { s.step(in); });
+  in = plain_step(0.01);
+  in.obstruction.assign(32 * 16, 1.5f);
+  expect_error(Code::InvalidArgument, "inputs.obstruction[0]", [&] { s.step(in); });
+  in = plain_step(0.01);
+  in.shapes.push_back(Shape{ShapeKind::Circle, 0.1, 0.1, -1, 0, 0, {}});
+  expect_error(Code::InvalidArgument, "inputs.shapes[0].a", [&] { s.step(in); });
+  EXPECT_EQ(s.step_index(), 0u) << "a rejected step changes nothing";
+  EWaveConfig c = plain_config(32, 16);
+  c.dx = NAN;
+  expect_error(Code::InvalidArgument, "config.dx", [&] { make_session(c); });
+  c = plain_config(32, 16);
+  c.dispersion = DispersionKind::Shallow;
+  expect_error(Code::InvalidArgument, "config.depth", [&] { make_session(c); });
+  c = plain_config(32, 16);
+  c.initial_height.assign(7, 0.0f);
+  expect_error(Code::InvalidArgument, "config.initial_height", [&] { make_session(c); });
+  c = plain_config(32, 16);
+  c.trim = true;
+  c.trim_width = 1.0;
+  expect_error(Code::InvalidArgument, "config.trim_width", [&] { make_session(c); });
+  expect_error(Code::InvalidArgument, "state", [&] { s.restore("not a state"); });
+}
+
+class EngineTest : public testing::Test {
+ protected:
+  EngineTest() : gate_(limits()) {}
+  static Limits limits() {
+    Limits l;
+    l.max_sessions = 2;
+    l.max_grid_cells = 64 * 64;
+    return l;
+  }
+  EWaveEngine engine(std::chrono::milliseconds ttl = std::chrono::minutes(1)) {
+    EWaveEngineOptions o;
+    o.session_ttl = ttl;
+    o.clock = [this] { return now_; };
+    return EWaveEngine(squall::test::runtime(), squall::test::fft("vkfft"), gate_, o);
+  }
+  LimitGate gate_;
+  std::chrono::steady_clock::time_point now_{};
+};
+
+TEST_F(EngineTest, ClosedIdIsNotFoundAndIdsAreRandom128Bit) {
+  EWaveEngine e = engine();
+  std::string a = e.create(plain_config(32, 32)), b = e.create(plain_config(32, 32));
+  EXPECT_EQ(a.size(), 32u);
+  EXPECT_NE(a, b);
+  EXPECT_EQ(gate_.live_sessions(), 2u);
+  e.step(a, plain_step(0.01));
+  e.close(a);
+  EXPECT_EQ(gate_.live_sessions(), 1u);
+  expect_error(Code::NotFound, "session_id", [&] { e.step(a, plain_step(0.01)); });
+  expect_error(Code::NotFound, "session_id", [&] { e.state(a); });
+  expect_error(Code::NotFound, "session_id", [&] { e.close(a); });
+  expect_error(Code::NotFound, "session_id", [&] { e.step(std::string(32, '0'), plain_step(0.01)); });
+  e.step(b, plain_step(0.01));  // the other session is untouched
+}
+
+TEST_F(EngineTest, SessionLimitAndGridLimitAreResourceExhausted) {
+  EWaveEngine e = engine();
+  e.create(plain_config(32, 32));
+  e.create(plain_config(32, 32));
+  expect_error(Code::ResourceExhausted, "max-sessions", [&] { e.create(plain_config(32, 32)); });
+  expect_error(Code::ResourceExhausted, "config.grid", [&] { e.create(plain_config(128, 64)); });
+}
+
+TEST_F(EngineTest, IdleSessionsAreEvictedAfterTheTtl) {
+  EWaveEngine e = engine(std::chrono::seconds(10));
+  std::string a = e.create(plain_config(32, 32));
+  now_ += std::chrono::seconds(6);
+  std::string b = e.create(plain_config(32, 32));
+  now_ += std::chrono::seconds(6);  // a idle 12 s, b 6 s
+  EXPECT_EQ(e.evict_idle(), 1u);
+  expect_error(Code::NotFound, "session_id", [&] { e.step(a, plain_step(0.01)); });
+  e.step(b, plain_step(0.01));
+  EXPECT_EQ(gate_.live_sessions(), 1u);
+}
+
+TEST_F(EngineTest, StateMovesASessionToAnotherEngine) {
+  EWaveEngine e1 = engine(), e2 = engine();
+  std::string a = e1.create(busy_config());
+  for (int n = 0; n < 3; ++n) e1.step(a, busy_step(n));
+  std::string b = e2.create_from_state(e1.state(a));
+  for (int n = 3; n < 6; ++n) expect_bit_identical(e1.step(a, busy_step(n)), e2.step(b, busy_step(n)));
+}
+
+}  // namespace
+}  // namespace squall::ewave::test

@@ -1,0 +1,34 @@
+// Helpers shared by the eWave tests: sessions on the test runtime, and independent double-precision
+// references (FFTW, dispersion formulas written out from Gilligan Table 1).
+#pragma once
+
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "ewave/ewave_config.h"
+#include "ewave/ewave_session.h"
+
+namespace squall::ewave::test {
+
+// A 1 cm, deep-water, untrimmed config of nx x ny.
+EWaveConfig plain_config(int64_t nx, int64_t ny, double spacing = 0.01);
+EWaveSession make_session(const EWaveConfig& config);
+
+// omega(k) in double, written from Table 1 independently of kernels/common/dispersion.h.
+double reference_omega(double k, const EWaveConfig& config);
+
+// E = sum_k (g |h~|^2 + (omega^2/g) |phi~|^2) over the full spectrum (FFTW, double), gilligan.md §3.5.
+double spectral_energy(const std::vector<float>& h, const std::vector<float>& phi, const EWaveConfig& config);
+
+// Frame with height and phi.
+StepInputs plain_step(double dt);
+
+// A field f(x, y) at the cell centres ((i + 0.5) dx, (j + 0.5) dy).
+std::vector<float> field(const EWaveConfig& config, const std::function<double(double, double)>& f);
+
+double rms(const std::vector<float>& a);
+double rms_difference(const std::vector<float>& a, const std::vector<float>& b);
+double max_abs(const std::vector<float>& a);
+
+}  // namespace squall::ewave::test
