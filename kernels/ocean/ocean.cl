@@ -1,0 +1,222 @@
+// squall-build-options: -cl-single-precision-constant
+// The spectral ocean (Gilligan seed section 2, 5.3.3; App A 4.3-4.6). Grid and sign conventions:
+// server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolve -> inverse FFTs
+// -> ocean_accumulate onto the output grid; then ocean_finalize derives the requested outputs.
+#include "common/dispersion.h"
+#include "ocean/params.h"
+#include "ocean/spectra.h"
+
+// Spectral channels, packed in pairs (re, im) of complex arrays for C2C inverse FFTs:
+//   pair 0: h, Dx        pair 1: Dy, eps_x      pair 2: eps_y, dDx/dx     pair 3: dDy/dy, dDx/dy
+// with D = sum i k/|k| h~ e^{ik.x} (crest-sharpening sign for lambda > 0) and eps = grad h (eq 37).
+#define CHANNELS 8
+
+// ---- counter-based Gaussian amplitudes, keyed by (seed, layer, n, m) ----
+inline ulong mix64(ulong z) {  // splitmix64 finalizer
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9UL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBUL;
+  return z ^ (z >> 31);
+}
+
+// Two independent N(0,1) numbers: Box-Muller of two uniforms ((b >> 41) + 1/2) 2^-23 in (0, 1) (23-bit
+// integers plus a half: exact in float, so host and device draw identical uniforms).
+inline float2 gaussian_pair(ulong seed, int layer, int n, int m) {
+  ulong a = mix64(seed ^ mix64(0x9E3779B97F4A7C15UL * (ulong)(layer + 1)));
+  ulong b = mix64(a ^ (((ulong)(uint)n << 32) | (ulong)(uint)m));
+  ulong c = mix64(b + 0x9E3779B97F4A7C15UL);
+  float u1 = ((float)(uint)(b >> 41) + 0.5f) * 0x1.0p-23f;
+  float u2 = ((float)(uint)(c >> 41) + 0.5f) * 0x1.0p-23f;
+  float r = sqrt(-2.0f * log(u1));
+  float phi = 2.0f * (float)SQ_PI * u2;
+  return (float2)(r * cos(phi), r * sin(phi));
+}
+
+inline SqSpectrum spectrum_of(__global const OceanLayer* L) {
+  SqSpectrum p;
+  p.spectrum = L->spectrum;
+  p.spreading = L->spreading;
+  p.partials = L->partials;
+  p.pad = 0;
+  p.g = L->g;
+  p.wind_speed = L->wind_speed;
+  p.alpha = L->alpha;
+  p.omega_p = L->omega_p;
+  p.gamma = L->gamma;
+  p.sigma_a = L->sigma_a;
+  p.sigma_b = L->sigma_b;
+  p.depth = L->depth;
+  p.theta0 = L->theta0;
+  p.omega_mean = L->omega_mean;
+  p.phillips_amplitude = L->phillips_amplitude;
+  p.phillips_length = L->phillips_length;
+  p.phillips_cutoff = L->phillips_cutoff;
+  p.phillips_exponent = L->phillips_exponent;
+  for (int i = 0; i < SQ_MAX_PARTIALS; ++i) {
+    p.partial_omega_p[i] = L->partial_omega_p[i];
+    p.partial_scale[i] = L->partial_scale[i];
+    p.partial_a[i] = L->partial_a[i];
+    p.partial_b[i] = L->partial_b[i];
+    p.partial_c[i] = L->partial_c[i];
+    p.partial_n[i] = L->partial_n[i];
+    p.partial_m[i] = L->partial_m[i];
+  }
+  return p;
+}
+
+// Signed mode number of array index i on an n-point axis: -n/2 < mode < n/2, and -n/2 at i = n/2 (Nyquist).
+inline int mode_number(int i, int n) { return i < n / 2 ? i : i - n; }
+
+// B(k) of eq 56 (the count of layers whose band holds k; spec section 7).
+inline float band_count(float kx, float ky, __global const float4* bands, int nbands) {
+  float count = 0.0f;
+  float ax = fabs(kx), ay = fabs(ky);
+  for (int a = 0; a < nbands; ++a) {
+    float4 b = bands[a];
+    int inside = ax < b.z && ay < b.w && !(ax < b.x && ay < b.y);
+    count += inside ? 1.0f : 0.0f;
+  }
+  return count;
+}
+
+// h0(k) of eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k).
+// Output per mode: (Re h0, Im h0, omega, 0).
+__kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* bands, const int nbands,
+                       __global float4* h0) {
+  int i = get_global_id(0), j = get_global_id(1);
+  int nx = layer->nx, ny = layer->ny;
+  if (i >= nx || j >= ny) return;
+  int n = mode_number(i, nx), m = mode_number(j, ny);
+  float kx = n * layer->dkx, ky = m * layer->dky;
+  float k = sqrt(kx * kx + ky * ky);
+  Dispersion d = layer->dispersion;
+  float w = dispersion_omega(k, d);
+  float P = sq_spatial_spectrum(spectrum_of(layer), kx, ky, w, dispersion_group_velocity(k, d));  // eq 3
+  int nyquist = (2 * i == nx) || (2 * j == ny);  // the Nyquist row and column stay 0
+  int outside = k < layer->k_min || (layer->k_max > 0.0f && k > layer->k_max);
+  if (nyquist || outside || !(P > 0.0f)) P = 0.0f;
+  if (nbands > 0 && P > 0.0f) {
+    float B = band_count(kx, ky, bands, nbands);
+    P = B > 0.0f ? P / B : 0.0f;
+  }
+  ulong seed = ((ulong)layer->seed_hi << 32) | (ulong)layer->seed_lo;
+  float2 xi = gaussian_pair(seed, layer->layer_index, n, m);
+  float amplitude = sqrt(0.5f * P * layer->dkx * layer->dky);
+  h0[i + nx * j] = (float4)(xi.x * amplitude, xi.y * amplitude, w, 0.0f);
+}
+
+inline float2 cmul(float2 a, float2 b) { return (float2)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
+inline float2 times_i(float2 a) { return (float2)(-a.y, a.x); }
+// a + i b for two Hermitian spectra a, b: the inverse FFT then gives the two real fields in (re, im).
+inline float2 pack(float2 a, float2 b) { return (float2)(a.x - b.y, a.y + b.x); }
+
+// Eq 1 / 43 at absolute time t: h~(k,t) = [h0(k) e^{-iwt} + conj(h0(-k)) e^{iwt}] e^{-i k.U_D t}, and
+// its derived channels, packed into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats).
+__kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny, const float dkx, const float dky,
+                           const float t_hi, const float t_lo, const float2 drift, const int pairs,
+                           __global float2* out) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  int n = mode_number(i, nx), m = mode_number(j, ny);
+  int mi = (nx - i) % nx, mj = (ny - j) % ny;
+  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
+  float phase = fma(a.z, t_hi, a.z * t_lo);
+  float c = cos(phase), s = sin(phase);
+  float2 plus = cmul(a.xy, (float2)(c, -s));            // h0(k) e^{-iwt}
+  float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));  // conj(h0(-k)) e^{+iwt}
+  float kx = n * dkx, ky = m * dky;
+  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
+  float2 h = cmul(plus + minus, (float2)(cos(drift_phase), sin(drift_phase)));
+  float k = sqrt(kx * kx + ky * ky);
+  float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
+  size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
+  float2 dx = times_i(h) * (kx * inv_k), dy = times_i(h) * (ky * inv_k);
+  out[at] = pack(h, dx);
+  if (pairs > 1) out[cells + at] = pack(dy, times_i(h) * kx);
+  if (pairs > 2) out[2 * cells + at] = pack(times_i(h) * ky, h * (-kx * kx * inv_k));
+  if (pairs > 3) out[3 * cells + at] = pack(h * (-ky * ky * inv_k), h * (-kx * ky * inv_k));
+}
+
+// Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:
+// output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y), periodic; bilinear between
+// layer points (exact where they coincide). accum: CHANNELS planes of onx * ony floats.
+__kernel void ocean_accumulate(__global const float2* fields, const int nx, const int ny, const int pairs,
+                               const float2 scale, const int onx, const int ony, const int first,
+                               __global float* accum) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= onx || j >= ony) return;
+  float u = i * scale.x, v = j * scale.y;
+  u -= nx * floor(u / nx);
+  v -= ny * floor(v / ny);
+  int i0 = min((int)u, nx - 1), j0 = min((int)v, ny - 1);
+  float fu = u - i0, fv = v - j0;
+  int i1 = (i0 + 1) % nx, j1 = (j0 + 1) % ny;
+  size_t cells = (size_t)nx * ny, ocells = (size_t)onx * ony, at = i + (size_t)onx * j;
+  for (int p = 0; p < pairs; ++p) {
+    __global const float2* f = fields + p * cells;
+    float2 value = (1.0f - fv) * ((1.0f - fu) * f[i0 + nx * j0] + fu * f[i1 + nx * j0]) +
+                   fv * ((1.0f - fu) * f[i0 + nx * j1] + fu * f[i1 + nx * j1]);
+    __global float* re = accum + (2 * p) * ocells + at;
+    __global float* im = accum + (2 * p + 1) * ocells + at;
+    *re = first ? value.x : *re + value.x;
+    *im = first ? value.y : *im + value.y;
+  }
+}
+
+// Output planes of ocean_finalize (each onx * ony floats).
+#define OUT_HEIGHT 0
+#define OUT_DISP_X 1
+#define OUT_DISP_Y 2
+#define OUT_SLOPE_X 3
+#define OUT_SLOPE_Y 4
+#define OUT_NORMAL_X 5
+#define OUT_NORMAL_Y 6
+#define OUT_NORMAL_Z 7
+#define OUT_J 8
+#define OUT_J_MINUS 9
+#define OUT_J_PLUS 10
+#define OUT_WHITECAP 11
+
+// From the summed channels: displacement lambda D, slopes, normals (eq 94), J and its eigenvalues (App A
+// eqs 45-47), whitecaps (section 5.3.3: 1 where J- < threshold, else W * decay; decay = exp(-dt/T), or 0
+// for a frame without history). flags: bit 0 height, 1 displacement, 2 slopes, 3 normals, 4 Jacobian,
+// 5 whitecaps.
+__kernel void ocean_finalize(__global const float* accum, const int cells, const int channels, const float lambda,
+                             const int flags,
+                             const float threshold, const float decay, __global float* whitecap,
+                             __global float* out) {
+  int at = get_global_id(0);
+  if (at >= cells) return;
+  float c[CHANNELS];
+  for (int q = 0; q < CHANNELS; ++q) c[q] = q < channels ? accum[q * cells + at] : 0.0f;
+  float h = c[0], Dx = c[1], Dy = c[2], ex = c[3], ey = c[4], Dxx = c[5], Dyy = c[6], Dxy = c[7];
+  if (flags & 1) out[OUT_HEIGHT * cells + at] = h;
+  if (flags & 2) {
+    out[OUT_DISP_X * cells + at] = lambda * Dx;
+    out[OUT_DISP_Y * cells + at] = lambda * Dy;
+  }
+  if (flags & 4) {
+    out[OUT_SLOPE_X * cells + at] = ex;
+    out[OUT_SLOPE_Y * cells + at] = ey;
+  }
+  float Jxx = 1.0f + lambda * Dxx, Jyy = 1.0f + lambda * Dyy, Jxy = lambda * Dxy;
+  if (flags & 8) {  // eq 94: n ~ (1 + l dDx/dx, l dDy/dx, eps_x) x (l dDx/dy, 1 + l dDy/dy, eps_y)
+    float3 tx = (float3)(Jxx, Jxy, ex), ty = (float3)(Jxy, Jyy, ey);
+    float3 nrm = normalize(cross(tx, ty));
+    out[OUT_NORMAL_X * cells + at] = nrm.x;
+    out[OUT_NORMAL_Y * cells + at] = nrm.y;
+    out[OUT_NORMAL_Z * cells + at] = nrm.z;
+  }
+  float mean = 0.5f * (Jxx + Jyy), diff = 0.5f * (Jxx - Jyy);
+  float radius = sqrt(diff * diff + Jxy * Jxy);
+  float Jminus = mean - radius, Jplus = mean + radius;  // eq 47
+  if (flags & 16) {
+    out[OUT_J * cells + at] = Jxx * Jyy - Jxy * Jxy;  // eq 45
+    out[OUT_J_MINUS * cells + at] = Jminus;
+    out[OUT_J_PLUS * cells + at] = Jplus;
+  }
+  if (flags & 32) {
+    float w = Jminus < threshold ? 1.0f : whitecap[at] * decay;
+    whitecap[at] = w;
+    out[OUT_WHITECAP * cells + at] = w;
+  }
+}

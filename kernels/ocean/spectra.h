@@ -1,0 +1,266 @@
+/* Pure formulas of the ocean spectra (Gilligan seed section 2.3, App A eq 40): frequency spectra S(omega),
+ * directional spreads D(theta; omega, k) and the spatial spectrum P(k) of eq 3. Shared by the OpenCL kernels
+ * (sq_real = float; the program is built with -cl-single-precision-constant) and by host C++ in double
+ * precision (the engine's set-up and the FFTW reference). The tests check every formula against closed
+ * forms (peak positions, m0, normalization of each D, TMA limits). SI units. Seed misprints fixed as listed
+ * in gilligan.md section 7; each fix is marked "fixed". */
+#ifndef SQUALL_OCEAN_SPECTRA_H
+#define SQUALL_OCEAN_SPECTRA_H
+
+#ifdef __OPENCL_VERSION__
+typedef float sq_real;
+#else
+#include <math.h>
+typedef double sq_real;
+#endif
+
+#define SQ_PI 3.14159265358979323846
+
+/* Model numbers: the values of squall::ocean::SpectrumModel / SpreadingModel. */
+#define SQ_SPECTRUM_PHILLIPS 0
+#define SQ_SPECTRUM_PIERSON_MOSKOWITZ 1
+#define SQ_SPECTRUM_JONSWAP 2
+#define SQ_SPECTRUM_MODIFIED_JONSWAP 3
+#define SQ_SPECTRUM_TMA 4
+#define SQ_SPECTRUM_MULTIPEAK 5
+
+#define SQ_SPREAD_ISOTROPIC 0
+#define SQ_SPREAD_PIERSON_COS2 1
+#define SQ_SPREAD_KRYLOV 2
+#define SQ_SPREAD_MITSUYASU 3
+#define SQ_SPREAD_JONSWAP 4
+#define SQ_SPREAD_VON_MISES 5
+#define SQ_SPREAD_HYPERBOLIC 6
+
+#define SQ_MAX_PARTIALS 4
+
+/* Everything a spectrum needs, derived once per layer (sq_frequency_setup on the host). */
+typedef struct {
+  int spectrum, spreading, partials, pad;
+  sq_real g, wind_speed, alpha, omega_p, gamma, sigma_a, sigma_b, depth;
+  sq_real theta0, omega_mean;
+  sq_real phillips_amplitude, phillips_length, phillips_cutoff, phillips_exponent;
+  sq_real partial_omega_p[SQ_MAX_PARTIALS], partial_scale[SQ_MAX_PARTIALS];
+  sq_real partial_a[SQ_MAX_PARTIALS], partial_b[SQ_MAX_PARTIALS], partial_c[SQ_MAX_PARTIALS];
+  sq_real partial_n[SQ_MAX_PARTIALS], partial_m[SQ_MAX_PARTIALS];
+} SqSpectrum;
+
+/* ---- parameters of the wind spectra ---- */
+static inline sq_real sq_pm_omega_p(sq_real g, sq_real U) { return 0.879 * g / U; } /* eq 4 table */
+static inline sq_real sq_jonswap_alpha(sq_real g, sq_real U, sq_real X) { return 0.076 * pow(g * X / (U * U), (sq_real)-0.22); } /* eq 7 */
+static inline sq_real sq_jonswap_omega_p(sq_real g, sq_real U, sq_real X) {                      /* eq 8 */
+  return 7.0 * SQ_PI * (g / U) * pow(g * X / (U * U), (sq_real)-0.33);
+}
+
+/* ---- frequency spectra ---- */
+/* eq 4, exponent fixed to (w_p / w)^4 */
+static inline sq_real sq_pierson_moskowitz(sq_real w, sq_real alpha, sq_real g, sq_real wp) {
+  if (w <= 0) return 0;
+  sq_real r = wp / w;
+  return alpha * g * g * pow(w, (sq_real)-5) * exp(-1.25 * r * r * r * r);
+}
+
+/* eqs 6, 10 (fixed: sigma_b for w > w_p), 14: the peak enhancement gamma^delta */
+static inline sq_real sq_peak_enhancement(sq_real w, sq_real wp, sq_real gamma, sq_real sa, sq_real sb) {
+  sq_real sigma = w <= wp ? sa : sb;
+  sq_real d = (w - wp) / (sigma * wp);
+  return pow(gamma, exp(-0.5 * d * d));
+}
+
+/* eq 5 */
+static inline sq_real sq_jonswap(sq_real w, sq_real alpha, sq_real g, sq_real wp, sq_real gamma, sq_real sa, sq_real sb) {
+  return sq_pierson_moskowitz(w, alpha, g, wp) * sq_peak_enhancement(w, wp, gamma, sa, sb);
+}
+
+/* eq 19 */
+static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) { return wp * U / (2.0 * SQ_PI * g); }
+/* eq 17; nu clamped to the printed ranges [0.83, 5] */
+static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
+  if (nu < 1.0) return 1.7;
+  return 6.489 + 6.0 * log(fmin(nu, (sq_real)5.0));
+}
+/* eq 13 (exponent fixed to (w_p / w)^4), beta of eq 15 */
+static inline sq_real sq_modified_jonswap(sq_real w, sq_real g, sq_real U, sq_real wp, sq_real sa, sq_real sb) {
+  if (w <= 0) return 0;
+  sq_real nu = sq_modified_jonswap_nu(g, U, wp);
+  sq_real beta = 0.006 * pow(nu, (sq_real)0.55);
+  sq_real r = wp / w;
+  return beta * g * g / wp * pow(w, (sq_real)-4) * exp(-r * r * r * r) *
+         sq_peak_enhancement(w, wp, sq_modified_jonswap_gamma(nu), sa, sb);
+}
+
+/* eq 23: f tanh(ws2 f) = 1 by Newton from f = max(1, 1/sqrt(ws2)) (f = 1 / tanh(kh)) */
+static inline sq_real sq_tma_f(sq_real ws2) {
+  sq_real f = fmax((sq_real)1.0, 1.0 / sqrt(ws2));
+  for (int i = 0; i < 40; ++i) {
+    sq_real th = tanh(ws2 * f), ch = cosh(ws2 * f);
+    sq_real step = (f * th - 1.0) / (th + ws2 * f / (ch * ch));
+    f = fmax((sq_real)1.0, f - step);
+    if (fabs(step) < 1e-7 * f) break;
+  }
+  return f;
+}
+/* eqs 21-22: r(w*) = f^-2 [1 + 2 w*^2 f / sinh(2 w*^2 f)]^-1; r -> 1 in deep water, w*^2 / 2 as h -> 0 */
+static inline sq_real sq_tma_r(sq_real w, sq_real depth, sq_real g) {
+  sq_real ws2 = w * w * depth / g;
+  if (ws2 <= 0) return 0;
+  sq_real f = sq_tma_f(ws2);
+  sq_real x = 2.0 * ws2 * f; /* = 2 k h */
+  sq_real x_over_sinh = x < 1e-4 ? (sq_real)1.0 : (x > 80.0 ? (sq_real)0.0 : x / sinh(x));
+  return 1.0 / (f * f * (1.0 + x_over_sinh));
+}
+
+/* eqs 25-26: the dimensionless shape S_c + S_h of one partial at r = w / w_p */
+static inline sq_real sq_multipeak_shape(sq_real r, sq_real A, sq_real B, sq_real C, sq_real n, sq_real m) {
+  if (r <= 0) return 0;
+  sq_real q = r - 1.0;
+  return A * exp(-B * q * q) + C * pow(r, -n) * exp(-7.987 * pow(r, -m));
+}
+
+/* S(w) of the layer's model (not Phillips, which has no S), m^2 s */
+static inline sq_real sq_frequency_spectrum(SqSpectrum p, sq_real w) {
+  switch (p.spectrum) {
+    case SQ_SPECTRUM_PIERSON_MOSKOWITZ: return sq_pierson_moskowitz(w, p.alpha, p.g, p.omega_p);
+    case SQ_SPECTRUM_JONSWAP: return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b);
+    case SQ_SPECTRUM_MODIFIED_JONSWAP: return sq_modified_jonswap(w, p.g, p.wind_speed, p.omega_p, p.sigma_a, p.sigma_b);
+    case SQ_SPECTRUM_TMA:                                                                  /* eq 20 */
+      return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b) * sq_tma_r(w, p.depth, p.g);
+    case SQ_SPECTRUM_MULTIPEAK: {                                                          /* eq 24 */
+      sq_real s = 0;
+      for (int i = 0; i < p.partials && i < SQ_MAX_PARTIALS; ++i)
+        s += p.partial_scale[i] * sq_multipeak_shape(w / p.partial_omega_p[i], p.partial_a[i], p.partial_b[i],
+                                                     p.partial_c[i], p.partial_n[i], p.partial_m[i]);
+      return s;
+    }
+    default: return 0;
+  }
+}
+
+/* ---- directional spreads, each integrating to 1 over theta in [-pi, pi) ---- */
+/* theta - theta0 wrapped into [-pi, pi) */
+static inline sq_real sq_angle_difference(sq_real theta, sq_real theta0) {
+  sq_real d = theta - theta0;
+  return d - 2.0 * SQ_PI * floor((d + SQ_PI) / (2.0 * SQ_PI));
+}
+
+/* exp(-x) I0(x), Abramowitz & Stegun 9.8.1-9.8.2 (relative error < 2e-7) */
+static inline sq_real sq_bessel_i0_scaled(sq_real x) {
+  x = fabs(x);
+  if (x < 3.75) {
+    sq_real t = x / 3.75, t2 = t * t;
+    sq_real i0 = 1.0 + t2 * (3.5156229 + t2 * (3.0899424 + t2 * (1.2067492 + t2 * (0.2659732 + t2 * (0.0360768 + t2 * 0.0045813)))));
+    return i0 * exp(-x);
+  }
+  sq_real u = 3.75 / x;
+  sq_real poly = 0.39894228 + u * (0.01328592 + u * (0.00225319 + u * (-0.00157565 + u * (0.00916281 +
+                 u * (-0.02057706 + u * (0.02635537 + u * (-0.01647633 + u * 0.00392377)))))));
+  return poly / sqrt(x);
+}
+
+/* eq 34-37: Mitsuyasu's spreading parameter s(w) */
+static inline sq_real sq_mitsuyasu_s(sq_real w, sq_real wp, sq_real U, sq_real g) {
+  sq_real wt = w * U / g, wtp = wp * U / g;
+  sq_real sp = 11.5 * pow(wtp, (sq_real)-2.5);
+  sq_real r = wt / wtp;
+  return w <= wp ? sp * pow(r, (sq_real)5.0) : sp * pow(r, (sq_real)-2.5);
+}
+
+/* eqs 33 / 38: (2^{2s-1} / pi) Gamma^2(s+1) / Gamma(2s+1) cos^{2s}(d/2), via lgamma */
+static inline sq_real sq_cos2s(sq_real d, sq_real s) {
+  sq_real lnorm = (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQ_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
+  sq_real c = cos(0.5 * d);
+  return exp(lnorm) * pow(fmax(c, (sq_real)0.0), 2.0 * s);
+}
+
+/* eq 39-41 with the central values: s = s_p (w / w_p)^mu */
+static inline sq_real sq_jonswap_spread_s(sq_real w, sq_real k, sq_real wp, sq_real U) {
+  if (w < wp) return 6.97 * pow(w / wp, (sq_real)4.06);
+  sq_real C = w / k;
+  sq_real mu = -2.33 - 1.45 * (U / C - 1.17);
+  return 9.77 * pow(w / wp, mu);
+}
+
+/* eq 46 */
+static inline sq_real sq_hyperbolic_beta(sq_real r) {
+  if (r > 0.56 && r < 0.95) return 2.61 * pow(r, (sq_real)1.3);
+  if (r >= 0.95 && r < 1.6) return 2.28 * pow(r, (sq_real)-1.3);
+  return 1.24;
+}
+
+/* D(theta; w, k), rad^-1. d = theta - theta0 in [-pi, pi). */
+static inline sq_real sq_spreading(SqSpectrum p, sq_real d, sq_real w, sq_real k) {
+  switch (p.spreading) {
+    case SQ_SPREAD_ISOTROPIC: return 1.0 / (2.0 * SQ_PI);
+    case SQ_SPREAD_PIERSON_COS2: {                  /* eq 27 fixed: (2/pi) cos^2 on the half plane */
+      sq_real c = cos(d);
+      return fabs(d) < 0.5 * SQ_PI ? (2.0 / SQ_PI) * c * c : 0;
+    }
+    case SQ_SPREAD_KRYLOV: {                        /* eqs 29-31 fixed normalization */
+      if (fabs(d) >= 0.5 * SQ_PI) return 0;
+      sq_real s = w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
+      sq_real norm = exp(lgamma(0.5 * s + 1.0) - lgamma(0.5 * (s + 1.0))) / sqrt((sq_real)SQ_PI);
+      return norm * pow(fmax(cos(d), (sq_real)0.0), s);
+    }
+    case SQ_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 33 */
+    case SQ_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed));  /* eq 38 */
+    case SQ_SPREAD_VON_MISES: {                     /* eqs 43-44, with exp(-c) I0(c) against overflow */
+      sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
+      sq_real width = 2.0 * acos(pow((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));
+      sq_real c = log((sq_real)2.0) / (1.0 - cos(width));
+      return exp(c * (cos(d) - 1.0)) / (2.0 * SQ_PI * sq_bessel_i0_scaled(c));
+    }
+    case SQ_SPREAD_HYPERBOLIC: {                    /* eq 45 fixed (Donelan), normalized by tanh(beta pi) */
+      sq_real beta = sq_hyperbolic_beta(w / p.omega_p);
+      sq_real ch = cosh(beta * d);
+      return 0.5 * beta / (ch * ch * tanh(beta * (sq_real)SQ_PI));
+    }
+    default: return 0;
+  }
+}
+
+/* App A eqs 40-41: Phillips P(k), with |k^.w^|^p (p = 2 in the seed) */
+static inline sq_real sq_phillips(SqSpectrum p, sq_real kx, sq_real ky) {
+  sq_real k2 = kx * kx + ky * ky;
+  if (k2 <= 0) return 0;
+  sq_real k = sqrt(k2);
+  sq_real kL = k * p.phillips_length;
+  sq_real cosine = fabs(kx * cos(p.theta0) + ky * sin(p.theta0)) / k;
+  return p.phillips_amplitude * exp(-1.0 / (kL * kL)) / (k2 * k2) * pow(cosine, p.phillips_exponent) *
+         exp(-k2 * p.phillips_cutoff * p.phillips_cutoff);
+}
+
+/* Eq 3: P(k) = S(w) D(theta; w, k) v_g / (2k), m^4, given w(k) and v_g(k) of the layer's dispersion. */
+static inline sq_real sq_spatial_spectrum(SqSpectrum p, sq_real kx, sq_real ky, sq_real w, sq_real vg) {
+  if (p.spectrum == SQ_SPECTRUM_PHILLIPS) return sq_phillips(p, kx, ky);
+  sq_real k = sqrt(kx * kx + ky * ky);
+  if (k <= 0 || w <= 0) return 0;
+  sq_real d = sq_angle_difference(atan2(ky, kx), p.theta0);
+  return sq_frequency_spectrum(p, w) * sq_spreading(p, d, w, k) * vg / (2.0 * k);
+}
+
+#ifndef __OPENCL_VERSION__
+/* ---- host only: quadratures for the derived parameters ---- */
+/* integral over r in (0, inf) of the multipeak shape (log-spaced trapezoid) */
+static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m) {
+  const int steps = 40000;
+  double u0 = log(0.02), u1 = log(2000.0), du = (u1 - u0) / steps, sum = 0;
+  for (int i = 0; i <= steps; ++i) {
+    double r = exp(u0 + i * du);
+    sum += (i == 0 || i == steps ? 0.5 : 1.0) * sq_multipeak_shape(r, A, B, C, n, m) * r;
+  }
+  return sum * du;
+}
+
+/* m_j = integral of w^j S(w) dw over w_p [1/50, 1000] (log-spaced trapezoid) */
+static inline double sq_spectral_moment(SqSpectrum p, int j) {
+  const int steps = 40000;
+  double u0 = log(p.omega_p / 50.0), u1 = log(p.omega_p * 1000.0), du = (u1 - u0) / steps, sum = 0;
+  for (int i = 0; i <= steps; ++i) {
+    double w = exp(u0 + i * du);
+    sum += (i == 0 || i == steps ? 0.5 : 1.0) * pow(w, j) * sq_frequency_spectrum(p, w) * w;
+  }
+  return sum * du;
+}
+#endif
+
+#endif

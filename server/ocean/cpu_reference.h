@@ -1,0 +1,38 @@
+// The independent CPU reference of the ocean engine: the same tile computed in double precision with FFTW
+// (no OpenCL), for the tests and the benchmark. It shares the parameter structs (ocean_params.h) and the
+// pure spectrum formulas (kernels/ocean/spectra.h, checked against closed forms by the tests) with the
+// engine, and nothing else: its random generator, dispersion, mode layout, time evolution, derivatives,
+// resampling and output stages are its own. Library: squall_ocean_reference (links FFTW).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "ocean/ocean_params.h"
+
+namespace squall::ocean {
+
+class CpuReference {
+ public:
+  // threads: FFTW threads (1 = single-threaded).
+  explicit CpuReference(int threads = 1);
+  ~CpuReference();
+
+  // The same fields and conventions as OceanEngine::tile (no validation: pass a validated spec).
+  // The h0 spectra are cached per layer like the engine's, so a stream of frames costs eq 43 + FFTs.
+  TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr);
+
+  // The complex amplitude h~(k, t) of layer `layer` at mode (n, m) (-nx/2 < n < nx/2), B(k) included:
+  // what the inverse DFT of that layer sums. For the tests' per-mode checks.
+  void mode(const TileSpec& spec, size_t layer, int64_t n, int64_t m, double t, double* re, double* im);
+
+  // P(k) of a layer at wave vector (kx, ky), m^4 (eq 3, or Phillips), in double precision.
+  static double spectrum(const LayerSpec& layer, double kx, double ky);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace squall::ocean

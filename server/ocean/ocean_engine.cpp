@@ -1,0 +1,317 @@
+#include "ocean/ocean_engine.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <list>
+#include <map>
+
+#include "common/error.h"
+#include "ocean/spectrum_setup.h"
+
+namespace squall::ocean {
+namespace {
+
+constexpr const char* kProgram = "ocean/ocean.cl";
+constexpr int kOutputPlanes = 12;  // OUT_* of ocean.cl
+
+template <typename T>
+void append(std::string& key, const T& value) {
+  key.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// Everything h0 of layer `index` depends on: the layer's spectrum, grid and seed, and the B(k) bands.
+std::string h0_key(const TileSpec& spec, size_t index) {
+  const LayerSpec& L = spec.layers[index];
+  std::string key;
+  for (double v : {L.lx, L.ly, L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude,
+                   L.phillips_cutoff, L.phillips_exponent, L.wind_direction, L.depth, L.capillary_length,
+                   L.gravity, L.k_min, L.k_max})
+    append(key, v);
+  for (int64_t v : {L.nx, L.ny, int64_t(L.spectrum), int64_t(L.spreading), int64_t(L.dispersion), int64_t(index)})
+    append(key, v);
+  append(key, L.seed);
+  for (const PartialSpectrum& q : L.partials)
+    for (double v : {q.peak_frequency, q.significant_wave_height, q.a, q.b, q.c, q.n, q.m}) append(key, v);
+  for (const auto& band : layer_bands(spec)) append(key, band);
+  return key;
+}
+
+std::string describe_outputs(unsigned outputs) { return std::to_string(outputs); }
+
+}  // namespace
+
+struct OceanEngine::Impl {
+  Runtime& runtime;
+  fft::Fft& fft;
+  size_t max_cached_bytes;
+  cl::Kernel h0_kernel, evolve, accumulate, finalize;
+
+  struct Entry {
+    std::string key;
+    cl::Buffer h0;  // float4 per mode: (Re h0, Im h0, omega, 0)
+    size_t bytes;
+  };
+  std::list<Entry> cache;  // most recently used first
+  size_t cached_bytes = 0;
+  size_t built = 0;
+  std::map<std::string, double> slope_variances;  // eq 96 per spec (bounded)
+  mutable std::mutex cache_mutex;  // guards the counters read by cached_spectra() / spectra_built()
+
+  Impl(Runtime& r, fft::Fft& f, size_t max_bytes)
+      : runtime(r), fft(f), max_cached_bytes(max_bytes),
+        h0_kernel(r.kernel(kProgram, "ocean_h0")), evolve(r.kernel(kProgram, "ocean_evolve")),
+        accumulate(r.kernel(kProgram, "ocean_accumulate")), finalize(r.kernel(kProgram, "ocean_finalize")) {}
+
+  // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
+  const cl::Buffer& spectrum(const TileSpec& spec, size_t index) {
+    std::string key = h0_key(spec, index);
+    std::lock_guard<std::mutex> guard(cache_mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it)
+      if (it->key == key) {
+        cache.splice(cache.begin(), cache, it);
+        return cache.front().h0;
+      }
+    const LayerSpec& L = spec.layers[index];
+    size_t cells = size_t(L.nx) * size_t(L.ny), bytes = cells * 4 * sizeof(float);
+    while (!cache.empty() && cached_bytes + bytes > max_cached_bytes) {
+      cached_bytes -= cache.back().bytes;
+      cache.pop_back();
+    }
+    OceanLayer params = device_layer(L, int(index));
+    auto bands = layer_bands(spec);
+    const cl::Context& context = runtime.context();
+    cl::Buffer layer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(params), &params);
+    std::array<float, 4> none{};
+    cl::Buffer band_buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                           std::max<size_t>(1, bands.size()) * sizeof(none),
+                           bands.empty() ? none.data() : bands.front().data());
+    cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
+    h0_kernel.setArg(0, layer);
+    h0_kernel.setArg(1, band_buffer);
+    h0_kernel.setArg(2, int(bands.size()));
+    h0_kernel.setArg(3, h0);
+    runtime.queue().enqueueNDRangeKernel(h0_kernel, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    runtime.queue().finish();  // the parameter buffers go out of scope
+    cache.push_front(Entry{key, h0, bytes});
+    cached_bytes += bytes;
+    ++built;
+    return cache.front().h0;
+  }
+
+  double slope_variance(const TileSpec& spec) {
+    std::string key;
+    for (size_t a = 0; a < spec.layers.size(); ++a) key += h0_key(spec, a);
+    for (double v : {spec.pixel_scale, spec.slope_k_max, spec.lx, spec.ly, double(spec.nx), double(spec.ny)}) append(key, v);
+    {
+      std::lock_guard<std::mutex> guard(cache_mutex);
+      auto it = slope_variances.find(key);
+      if (it != slope_variances.end()) return it->second;
+    }
+    double value = unresolved_slope_variance(spec);
+    std::lock_guard<std::mutex> guard(cache_mutex);
+    if (slope_variances.size() >= 256) slope_variances.clear();
+    slope_variances[key] = value;
+    return value;
+  }
+
+  // The layer's real channels at t on its own grid: `pairs` complex arrays (ocean.cl).
+  BufferLease layer_fields(const TileSpec& spec, size_t index, double t, int pairs) {
+    const LayerSpec& L = spec.layers[index];
+    const cl::Buffer& h0 = spectrum(spec, index);
+    fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
+    BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
+    float t_hi = float(t), t_lo = float(t - double(t_hi));
+    evolve.setArg(0, h0);
+    evolve.setArg(1, int(L.nx));
+    evolve.setArg(2, int(L.ny));
+    evolve.setArg(3, float(2 * SQ_PI / L.lx));
+    evolve.setArg(4, float(2 * SQ_PI / L.ly));
+    evolve.setArg(5, t_hi);
+    evolve.setArg(6, t_lo);
+    evolve.setArg(7, cl_float2{{float(L.drift_x), float(L.drift_y)}});
+    evolve.setArg(8, pairs);
+    evolve.setArg(9, fields.buffer());
+    runtime.queue().enqueueNDRangeKernel(evolve, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
+    return fields;
+  }
+};
+
+OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, size_t max_cached_bytes)
+    : impl_(std::make_unique<Impl>(runtime, fft, max_cached_bytes)) {}
+OceanEngine::~OceanEngine() = default;
+
+void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { validate_tile(spec, gate); }
+void OceanEngine::validate(const TileSpec& spec) const {
+  LimitGate gate{Limits{}};
+  validate_tile(spec, gate);
+}
+
+size_t OceanEngine::cached_spectra() const {
+  std::lock_guard<std::mutex> guard(impl_->cache_mutex);
+  return impl_->cache.size();
+}
+size_t OceanEngine::spectra_built() const {
+  std::lock_guard<std::mutex> guard(impl_->cache_mutex);
+  return impl_->built;
+}
+
+TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps) {
+  validate(spec);
+  if (outputs == 0 || (outputs & ~kAllOutputs))
+    fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
+  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
+  OutputGrid grid = output_grid(spec);
+  const size_t cells = size_t(grid.nx) * size_t(grid.ny);
+  const int pairs = channel_pairs(outputs);
+
+  TileFields result;
+  result.nx = grid.nx;
+  result.ny = grid.ny;
+  result.dx = grid.lx / grid.nx;
+  result.dy = grid.ly / grid.ny;
+  result.t = t;
+
+  float decay = 0;
+  std::vector<float> previous;
+  if (outputs & Whitecaps) {
+    if (whitecaps && whitecaps->matches(grid.nx, grid.ny)) {
+      double dt = t - whitecaps->last_t();
+      if (dt < 0)
+        fail(Code::InvalidArgument, "t = " + std::to_string(t) + " precedes the previous frame (t = " +
+                                        std::to_string(whitecaps->last_t()) + ") of this whitecap stream");
+      decay = float(std::exp(-dt / spec.whitecap_decay));
+      previous = whitecaps->map();
+    } else {
+      previous.assign(cells, 0.0f);
+    }
+  }
+
+  auto lock = impl_->runtime.exclusive();
+  Runtime& runtime = impl_->runtime;
+  const cl::CommandQueue& queue = runtime.queue();
+  BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
+  for (size_t a = 0; a < spec.layers.size(); ++a) {
+    const LayerSpec& L = spec.layers[a];
+    BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
+    cl::Kernel& k = impl_->accumulate;
+    k.setArg(0, fields.buffer());
+    k.setArg(1, int(L.nx));
+    k.setArg(2, int(L.ny));
+    k.setArg(3, pairs);
+    k.setArg(4, cl_float2{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}});
+    k.setArg(5, int(grid.nx));
+    k.setArg(6, int(grid.ny));
+    k.setArg(7, a == 0 ? 1 : 0);
+    k.setArg(8, accum.buffer());
+    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(grid.nx, grid.ny));
+  }
+
+  BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
+  BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
+  if (outputs & Whitecaps) queue.enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
+  cl::Kernel& f = impl_->finalize;
+  f.setArg(0, accum.buffer());
+  f.setArg(1, int(cells));
+  f.setArg(2, 2 * pairs);
+  f.setArg(3, float(spec.choppiness));
+  f.setArg(4, int(outputs));
+  f.setArg(5, float(spec.whitecap_threshold));
+  f.setArg(6, decay);
+  f.setArg(7, whitecap.buffer());
+  f.setArg(8, out.buffer());
+  queue.enqueueNDRangeKernel(f, cl::NullRange, cl::NDRange(cells));
+
+  auto read = [&](int plane, std::vector<float>& into) {
+    into.resize(cells);
+    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
+  };
+  if (outputs & Height) read(0, result.height);
+  if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);
+  if (outputs & Slopes) read(3, result.slope_x), read(4, result.slope_y);
+  if (outputs & Normals) read(5, result.normal_x), read(6, result.normal_y), read(7, result.normal_z);
+  if (outputs & Jacobian) read(8, result.jacobian), read(9, result.jacobian_minus), read(10, result.jacobian_plus);
+  if (outputs & Whitecaps) read(11, result.whitecaps);
+  queue.finish();
+  lock.unlock();
+
+  if ((outputs & Whitecaps) && whitecaps) {
+    whitecaps->mutable_map() = result.whitecaps;
+    whitecaps->set(grid.nx, grid.ny, t);
+  }
+  result.unresolved_slope_variance = impl_->slope_variance(spec);
+  return result;
+}
+
+namespace {
+// Bilinear periodic sample of the 8 real channels of one layer (host copy of its complex pairs).
+void sample_channels(const std::vector<float>& fields, const LayerSpec& L, double x, double y, double out[8]) {
+  const size_t nx = size_t(L.nx), ny = size_t(L.ny), cells = nx * ny;
+  double u = x / (L.lx / L.nx), v = y / (L.ly / L.ny);
+  u -= L.nx * std::floor(u / L.nx);
+  v -= L.ny * std::floor(v / L.ny);
+  size_t i0 = std::min(size_t(u), nx - 1), j0 = std::min(size_t(v), ny - 1);
+  double fu = u - i0, fv = v - j0;
+  size_t i1 = (i0 + 1) % nx, j1 = (j0 + 1) % ny;
+  for (int c = 0; c < 8; ++c) {
+    auto at = [&](size_t i, size_t j) { return double(fields[2 * ((c / 2) * cells + i + nx * j) + (c % 2)]); };
+    out[c] = (1 - fv) * ((1 - fu) * at(i0, j0) + fu * at(i1, j0)) + fv * ((1 - fu) * at(i0, j1) + fu * at(i1, j1));
+  }
+}
+}  // namespace
+
+std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
+                                               bool invert_displacement) {
+  validate(spec);
+  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
+  for (size_t i = 0; i < points.size(); ++i)
+    if (!std::isfinite(points[i].x) || !std::isfinite(points[i].y))
+      fail(Code::InvalidArgument, "points[" + std::to_string(i) + "] must be finite");
+  std::vector<std::vector<float>> layers(spec.layers.size());
+  {
+    auto lock = impl_->runtime.exclusive();
+    for (size_t a = 0; a < spec.layers.size(); ++a) {
+      const LayerSpec& L = spec.layers[a];
+      BufferLease fields = impl_->layer_fields(spec, a, t, 4);
+      layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
+      impl_->runtime.queue().enqueueReadBuffer(fields.buffer(), CL_TRUE, 0, layers[a].size() * sizeof(float),
+                                               layers[a].data());
+    }
+  }
+  const double lambda = spec.choppiness;
+  auto channels_at = [&](double x, double y, double c[8]) {
+    std::fill(c, c + 8, 0.0);
+    for (size_t a = 0; a < spec.layers.size(); ++a) {
+      double one[8];
+      sample_channels(layers[a], spec.layers[a], x, y, one);
+      for (int q = 0; q < 8; ++q) c[q] += one[q];
+    }
+  };
+  std::vector<SurfaceSample> samples(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    double x0 = points[i].x, y0 = points[i].y, c[8];
+    channels_at(x0, y0, c);
+    if (invert_displacement)  // x0 + lambda D(x0) = x by fixed-point iteration
+      for (int it = 0; it < 16; ++it) {
+        x0 = points[i].x - lambda * c[1];
+        y0 = points[i].y - lambda * c[2];
+        channels_at(x0, y0, c);
+      }
+    SurfaceSample& s = samples[i];
+    s.height = c[0];
+    s.displacement_x = lambda * c[1];
+    s.displacement_y = lambda * c[2];
+    double Jxx = 1 + lambda * c[5], Jyy = 1 + lambda * c[6], Jxy = lambda * c[7];
+    double tx[3] = {Jxx, Jxy, c[3]}, ty[3] = {Jxy, Jyy, c[4]};  // eq 94
+    double n[3] = {tx[1] * ty[2] - tx[2] * ty[1], tx[2] * ty[0] - tx[0] * ty[2], tx[0] * ty[1] - tx[1] * ty[0]};
+    double norm = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    s.normal_x = n[0] / norm;
+    s.normal_y = n[1] / norm;
+    s.normal_z = n[2] / norm;
+  }
+  return samples;
+}
+
+}  // namespace squall::ocean

@@ -1,0 +1,58 @@
+// squall::ocean::OceanEngine: spectral ocean tiles in OpenCL (Gilligan seed section 2, 5.3.3, App A 4.3-4.6).
+// Parameters, output flags and conventions: ocean_params.h.
+//
+// Per frame the engine only does the time evolution (eq 1/43) and batched inverse FFTs: the amplitude
+// spectrum h0(k) of each layer depends on the layer spec alone and is cached on the device (bounded cache,
+// keyed by the layer spec, its index and the B(k) geometry), so a stream of frames at increasing t
+// reuses it. Thread-safe: device work runs under Runtime::exclusive().
+#pragma once
+
+#include <cstddef>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "common/limits.h"
+#include "fft/fft.h"
+#include "ocean/ocean_params.h"
+#include "runtime/runtime.h"
+
+namespace squall::ocean {
+
+class OceanEngine {
+ public:
+  // The runtime must have built the "ocean/" programs. max_cached_bytes bounds the h0 cache.
+  OceanEngine(Runtime& runtime, fft::Fft& fft, size_t max_cached_bytes = 256ull << 20);
+  ~OceanEngine();
+
+  // Throws squall::Error(InvalidArgument) naming the field ("layers[0].wind_speed = nan must be finite
+  // and > 0", "layers[1].spectrum = 9 is not a known model", "choppiness", "nx", ...), or
+  // ResourceExhausted from the gate's grid limit (layers[i] and the output grid). tile() and sample()
+  // call it with a default gate; the service calls it with the daemon's.
+  void validate(const TileSpec& spec, const LimitGate& gate) const;
+  void validate(const TileSpec& spec) const;  // with default Limits
+
+  // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be
+  // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the
+  // map of one stream across frames (see WhitecapState).
+  TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr);
+
+  // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
+  // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
+  // that of the source point x0 whose displaced position x0 + lambda D(x0) lands on the query point
+  // (fixed-point iteration; exact where the map does not fold, J > 0).
+  std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
+                                    bool invert_displacement);
+
+  size_t cached_spectra() const;  // h0 entries on the device now
+  size_t spectra_built() const;   // h0 computations so far (cache misses)
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace squall::ocean
+// API-READY

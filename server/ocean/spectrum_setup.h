@@ -1,0 +1,43 @@
+// Host-side set-up of the ocean engine: request validation, the derived spectrum parameters of a layer
+// (w_p, alpha, mean frequency, multipeak scales), the device parameter block, the B(k) bands and the
+// unresolved slope variance of eq 96.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "common/limits.h"
+#include "ocean/ocean_params.h"
+
+#include "ocean/params.h"
+#include "ocean/spectra.h"
+
+namespace squall::ocean {
+
+// Throws Error(InvalidArgument) naming the field, or ResourceExhausted from the gate.
+void validate_tile(const TileSpec& spec, const LimitGate& gate);
+
+// The formula parameters of a layer (spectra.h) in double precision.
+SqSpectrum derive_spectrum(const LayerSpec& layer);
+
+// The device block of layer `index` (params.h).
+OceanLayer device_layer(const LayerSpec& layer, int index);
+
+// (kx_min, ky_min, kx_max, ky_max) of each layer's band (eq 56 and TileSpec::b_correction).
+std::vector<std::array<float, 4>> layer_bands(const TileSpec& spec);
+
+// Eq 96 with the sign fixed (TileFields::unresolved_slope_variance).
+double unresolved_slope_variance(const TileSpec& spec);
+
+// The output grid (TileSpec nx/ny/lx/ly, or the first layer's).
+struct OutputGrid {
+  int64_t nx, ny;
+  double lx, ly;
+};
+OutputGrid output_grid(const TileSpec& spec);
+
+// Channel pairs (ocean.cl) the outputs need: 1 (height, displacement x), 2, 3 or 4.
+int channel_pairs(unsigned outputs);
+
+}  // namespace squall::ocean

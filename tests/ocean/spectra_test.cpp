@@ -1,0 +1,171 @@
+// The pure formulas (kernels/ocean/spectra.h, kernels/common/dispersion.h) against closed forms.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/dispersion.h"
+#include "ocean/cpu_reference.h"
+#include "ocean/spectra.h"
+
+namespace {
+
+constexpr double kG = 9.81;
+
+double argmax(double (*s)(double), double lo, double hi) {
+  double best = lo, value = -1;
+  for (int i = 0; i <= 200000; ++i) {
+    double w = lo + (hi - lo) * i / 200000.0;
+    if (s(w) > value) value = s(w), best = w;
+  }
+  return best;
+}
+
+TEST(Spectra, PiersonMoskowitzPeaksAtOmegaPAndHasClosedFormM0) {
+  static double wp = sq_pm_omega_p(kG, 10.0);
+  EXPECT_NEAR(wp, 0.879 * kG / 10, 1e-12);
+  double peak = argmax([](double w) { return sq_pierson_moskowitz(w, 0.0081, kG, wp); }, 0.2, 3.0);
+  EXPECT_NEAR(peak / wp, 1.0, 1e-4);
+  // m0 = alpha g^2 / (5 w_p^4); Hs = 4 sqrt(m0) = 2.122 m at U = 10 m/s, g = 9.81 (0.2084 U^2 / g = 2.124)
+  double m0 = 0, dw = 1e-4;
+  for (double w = 0.5 * dw; w < 60; w += dw) m0 += sq_pierson_moskowitz(w, 0.0081, kG, wp) * dw;
+  double closed = 0.0081 * kG * kG / (5 * std::pow(wp, 4));
+  EXPECT_NEAR(m0 / closed, 1.0, 1e-5);
+  EXPECT_NEAR(4 * std::sqrt(closed), 0.2084 * 100 / kG, 0.005);
+}
+
+TEST(Spectra, JonswapPeaksAtOmegaPAndIsContinuous) {
+  static double wp = sq_jonswap_omega_p(kG, 12.0, 50e3);
+  static double alpha = sq_jonswap_alpha(kG, 12.0, 50e3);
+  // eq 8 is the standard 22 (g^2 / (U X))^(1/3) up to 7 pi / 22 and the exponent 0.33 instead of 1/3
+  double x = kG * 50e3 / (12.0 * 12.0);
+  EXPECT_NEAR(wp / (22 * std::cbrt(kG * kG / (12.0 * 50e3))), 7 * SQ_PI / 22 * std::pow(x, 1.0 / 3 - 0.33), 1e-12);
+  double peak = argmax([](double w) { return sq_jonswap(w, alpha, kG, wp, 3.3, 0.07, 0.09); }, 0.2, 3.0);
+  EXPECT_NEAR(peak / wp, 1.0, 1e-3);
+  double below = sq_jonswap(wp * (1 - 1e-9), alpha, kG, wp, 3.3, 0.07, 0.09);
+  double above = sq_jonswap(wp * (1 + 1e-9), alpha, kG, wp, 3.3, 0.07, 0.09);
+  EXPECT_NEAR(below / above, 1.0, 1e-6);
+  // at the peak the enhancement is exactly gamma over PM of the same alpha
+  EXPECT_NEAR(sq_jonswap(wp, alpha, kG, wp, 3.3, 0.07, 0.09) / sq_pierson_moskowitz(wp, alpha, kG, wp), 3.3, 1e-12);
+  static double wpm = wp;
+  double mpeak = argmax([](double w) { return sq_modified_jonswap(w, kG, 12.0, wpm, 0.07, 0.09); }, 0.2, 3.0);
+  EXPECT_NEAR(mpeak / wp, 1.0, 1e-3);
+}
+
+TEST(Spectra, TmaDepthFactorLimits) {
+  // deep water: r -> 1; shallow: r -> w*^2 / 2 (Kitaigorodskii)
+  EXPECT_NEAR(sq_tma_r(1.0, 1e4, kG), 1.0, 1e-9);
+  double ws2 = 0.5 * 0.5 * 0.01 / kG;
+  EXPECT_NEAR(sq_tma_r(0.5, 0.01, kG) / (0.5 * ws2), 1.0, 1e-3);
+  // f solves eq 23 and equals 1 / tanh(k h) with k from the shallow dispersion relation
+  double f = sq_tma_f(0.3);
+  EXPECT_NEAR(f * std::tanh(0.3 * f), 1.0, 1e-10);
+  double kh = 0.3 * f;  // w*^2 f = k h
+  EXPECT_NEAR(sq_tma_r(std::sqrt(0.3 * kG / 5.0), 5.0, kG),
+              std::pow(std::tanh(kh), 2) / (1 + 2 * kh / std::sinh(2 * kh)), 1e-9);
+}
+
+TEST(Spectra, MultipeakShapeIntegral) {
+  // integral of the shape against a fine midpoint rule
+  double sum = 0, dr = 1e-5;
+  for (double r = 0.5 * dr; r < 100; r += dr) sum += sq_multipeak_shape(r, 1.835, 22.2222, 4.211, 5, 8) * dr;
+  EXPECT_NEAR(sq_multipeak_shape_integral(1.835, 22.2222, 4.211, 5, 8) / sum, 1.0, 1e-4);
+  // the Gaussian part alone: A sqrt(pi / B)
+  EXPECT_NEAR(sq_multipeak_shape_integral(1.835, 22.2222, 0, 5, 8), 1.835 * std::sqrt(SQ_PI / 22.2222), 1e-6);
+}
+
+SqSpectrum spread(int model) {
+  SqSpectrum p{};
+  p.spreading = model;
+  p.g = kG;
+  p.wind_speed = 10;
+  p.omega_p = sq_pm_omega_p(kG, 10);
+  p.omega_mean = 1.2 * p.omega_p;
+  p.theta0 = 0.7;
+  return p;
+}
+
+TEST(Spectra, EveryDirectionalModelIntegratesToOneAndPeaksDownwind) {
+  for (int model = SQ_SPREAD_ISOTROPIC; model <= SQ_SPREAD_HYPERBOLIC; ++model) {
+    SqSpectrum p = spread(model);
+    for (double r : {0.3, 0.5, 0.8, 1.0, 1.2, 2.0, 5.0}) {
+      double w = r * p.omega_p, k = w * w / kG;
+      const int n = 20000;
+      double sum = 0, best = -1, best_theta = 0;
+      for (int i = 0; i < n; ++i) {
+        double theta = -SQ_PI + 2 * SQ_PI * (i + 0.5) / n;
+        double d = sq_spreading(p, sq_angle_difference(theta, p.theta0), w, k);
+        sum += d * 2 * SQ_PI / n;
+        if (d > best) best = d, best_theta = theta;
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-4) << "model " << model << " w/w_p " << r;
+      if (model != SQ_SPREAD_ISOTROPIC) {
+        EXPECT_NEAR(best_theta, p.theta0, 2 * SQ_PI / n) << "model " << model << " w/w_p " << r;
+      }
+    }
+  }
+  // the seed's misprinted Pierson (2/pi) cos(theta) would integrate to 4/pi, not 1: the fixed form is cos^2
+  EXPECT_NEAR(sq_spreading(spread(SQ_SPREAD_PIERSON_COS2), 0.0, 1.0, 0.1), 2 / SQ_PI, 1e-12);
+}
+
+TEST(Spectra, VonMisesBesselAndPhillipsClosedForms) {
+  EXPECT_NEAR(sq_bessel_i0_scaled(1.0), 1.2660658777520082 * std::exp(-1.0), 3e-7);
+  EXPECT_NEAR(sq_bessel_i0_scaled(10.0), 2815.716628466254 * std::exp(-10.0), 3e-7 * 2815.7 * std::exp(-10.0));
+  SqSpectrum p{};
+  p.spectrum = SQ_SPECTRUM_PHILLIPS;
+  p.phillips_amplitude = 2e-3;
+  p.phillips_length = 31.0 * 31.0 / kG;
+  p.phillips_cutoff = 1.0;
+  p.phillips_exponent = 2;
+  p.theta0 = 0;
+  double kx = 0.03, ky = 0.04, k = 0.05, kL = k * p.phillips_length;
+  double expected = 2e-3 * std::exp(-1 / (kL * kL)) / std::pow(k, 4) * std::pow(kx / k, 2) * std::exp(-k * k);
+  EXPECT_NEAR(sq_phillips(p, kx, ky) / expected, 1.0, 1e-12);
+  EXPECT_EQ(sq_phillips(p, 0, 0), 0.0);
+}
+
+TEST(Spectra, SpatialSpectrumIntegratesToHalfM0) {
+  // eq 3: the integral of P over the plane is m0 / 2 (the other half comes from P(-k) in eq 43)
+  squall::ocean::LayerSpec L;
+  L.spectrum = squall::ocean::SpectrumModel::Jonswap;
+  L.spreading = squall::ocean::SpreadingModel::Mitsuyasu;
+  L.dispersion = squall::ocean::DispersionKind::Combined;
+  L.depth = 30;
+  double sum = 0;
+  const int nk = 3000, nt = 256;
+  double u0 = std::log(1e-3), du = (std::log(50.0) - u0) / nk;
+  for (int a = 0; a < nk; ++a) {
+    double k = std::exp(u0 + (a + 0.5) * du);
+    for (int b = 0; b < nt; ++b) {
+      double th = 2 * SQ_PI * (b + 0.5) / nt;
+      sum += squall::ocean::CpuReference::spectrum(L, k * std::cos(th), k * std::sin(th)) * k * k * du * 2 * SQ_PI / nt;
+    }
+  }
+  double wp = sq_jonswap_omega_p(kG, L.wind_speed, L.fetch), alpha = sq_jonswap_alpha(kG, L.wind_speed, L.fetch);
+  double m0 = 0, dw = 1e-4;
+  for (double w = 0.5 * dw; w < 60; w += dw) m0 += sq_jonswap(w, alpha, kG, wp, 3.3, 0.07, 0.09) * dw;
+  EXPECT_NEAR(sum / (0.5 * m0), 1.0, 2e-3);
+}
+
+TEST(Dispersion, GroupVelocityMatchesFiniteDifferenceAndLimits) {
+  for (int kind = SQUALL_DISPERSION_DEEP; kind <= SQUALL_DISPERSION_COMBINED; ++kind)
+    for (float depth : {1.0f, 10.0f, 1e4f})
+      for (double k = 1e-3; k <= 1e3; k *= 3.7) {
+        Dispersion d{kind, 9.81f, depth, 2.7e-3f};
+        double h = 1e-2 * k;
+        double fd = (dispersion_omega(float(k + h), d) - dispersion_omega(float(k - h), d)) / (2 * h);
+        EXPECT_NEAR(dispersion_group_velocity(float(k), d) / fd, 1.0, 2e-3) << kind << " " << depth << " " << k;
+      }
+  Dispersion deep{SQUALL_DISPERSION_DEEP, 9.81f, 1, 0};
+  EXPECT_NEAR(dispersion_omega(1.0f, deep), std::sqrt(9.81), 1e-6);
+  EXPECT_NEAR(dispersion_group_velocity(1.0f, deep), 0.5 * std::sqrt(9.81), 1e-6);
+  Dispersion shallow{SQUALL_DISPERSION_SHALLOW, 9.81f, 1e4f, 0};
+  EXPECT_NEAR(dispersion_omega(0.5f, shallow) / dispersion_omega(0.5f, deep), 1.0, 1e-6);
+  Dispersion shallow1{SQUALL_DISPERSION_SHALLOW, 9.81f, 2.0f, 0};
+  EXPECT_NEAR(dispersion_group_velocity(0.0f, shallow1), std::sqrt(9.81 * 2.0), 1e-5);
+  EXPECT_NEAR(dispersion_group_velocity(1e-4f, shallow1), std::sqrt(9.81 * 2.0), 1e-3);
+  EXPECT_EQ(dispersion_omega(0.0f, deep), 0.0f);
+  Dispersion capillary{SQUALL_DISPERSION_CAPILLARY, 9.81f, 1, 0};  // l = 0 turns capillarity off
+  EXPECT_EQ(dispersion_omega(3.0f, capillary), dispersion_omega(3.0f, deep));
+}
+
+}  // namespace

@@ -1,0 +1,367 @@
+// Ocean tiles on the device: statistics against P(k), time evolution, drift, periodicity, determinism,
+// choppy-wave invariants, whitecaps, sampling, and agreement with the FFTW double-precision reference.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+
+#include "ocean/cpu_reference.h"
+#include "ocean_test_util.h"
+
+namespace squall::ocean {
+namespace {
+
+using test::engine;
+
+// E|h~(k)|^2 = (P(k) + P(-k)) dkx dky for every mode of the layer grid (Nyquist row and column 0).
+std::vector<double> expected_power(const LayerSpec& L) {
+  std::vector<double> e(size_t(L.nx * L.ny), 0.0);
+  double dkx = 2 * M_PI / L.lx, dky = 2 * M_PI / L.ly;
+  for (int64_t j = 0; j < L.ny; ++j)
+    for (int64_t i = 0; i < L.nx; ++i) {
+      int64_t n = test::signed_mode(i, L.nx), m = test::signed_mode(j, L.ny);
+      if (2 * i == L.nx || 2 * j == L.ny) continue;
+      e[i + L.nx * j] = (CpuReference::spectrum(L, n * dkx, m * dky) + CpuReference::spectrum(L, -n * dkx, -m * dky)) * dkx * dky;
+    }
+  return e;
+}
+
+TEST(OceanTile, VarianceMatchesSpectrumSumAndHs) {
+  TileSpec spec = test::single(SpectrumModel::PiersonMoskowitz, SpreadingModel::Mitsuyasu, 64, 400);
+  std::vector<double> e = expected_power(spec.layers[0]);
+  double expected = 0, e2 = 0;
+  for (double v : e) expected += v, e2 += v * v;
+  const int seeds = 32;
+  double mean = 0;
+  for (int s = 0; s < seeds; ++s) {
+    spec.layers[0].seed = 1000 + s;
+    double r = test::rms(engine().tile(spec, 3.0, Height).height);
+    mean += r * r / seeds;
+  }
+  double sigma = std::sqrt(2 * e2 / seeds);  // |h~|^2 exponential per mode, h~(-k) = conj h~(k)
+  EXPECT_NEAR(mean, expected, 4 * sigma) << "sigma " << sigma;
+  // the band 2 pi / 400 .. pi / 6.25 holds 96.5% of m0 = alpha g^2 / (5 w_p^4) (the tail above 2.2 rad/s)
+  double wp = 0.879 * 9.81 / 10, m0 = 0.0081 * 9.81 * 9.81 / (5 * std::pow(wp, 4));
+  EXPECT_NEAR(expected / m0, 0.97, 0.02);
+  EXPECT_NEAR(4 * std::sqrt(mean), 4 * std::sqrt(m0), 0.05 * 4 * std::sqrt(m0));  // Hs
+}
+
+TEST(OceanTile, RadialPowerSpectrumMatchesP) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::VonMises, 64, 300);
+  spec.layers[0].wind_direction = 0.4;
+  const LayerSpec& L = spec.layers[0];
+  std::vector<double> e = expected_power(L);
+  const int seeds = 24, bins = 6;
+  double k_nyq = M_PI * L.nx / L.lx;
+  std::vector<double> measured(bins, 0), expected(bins, 0), variance(bins, 0);
+  for (int s = 0; s < seeds; ++s) {
+    spec.layers[0].seed = 77 + s;
+    auto H = test::spectrum_of(engine().tile(spec, 10.0, Height).height, L.nx, L.ny);
+    for (int64_t j = 0; j < L.ny; ++j)
+      for (int64_t i = 0; i < L.nx; ++i) {
+        double kx = test::signed_mode(i, L.nx) * 2 * M_PI / L.lx, ky = test::signed_mode(j, L.ny) * 2 * M_PI / L.ly;
+        int b = int(std::hypot(kx, ky) / k_nyq * bins);
+        if (b >= bins) continue;
+        size_t at = size_t(i + L.nx * j);
+        measured[b] += std::norm(H[at]);
+        expected[b] += e[at];               // summed over the seeds, like measured
+        variance[b] += 2 * e[at] * e[at];
+      }
+  }
+  for (int b = 0; b < bins; ++b) {
+    if (expected[b] < 1e-6 * expected[1]) continue;
+    double sigma = std::sqrt(variance[b]);
+    EXPECT_NEAR(measured[b], expected[b], 5 * sigma) << "bin " << b << " ratio " << measured[b] / expected[b];
+  }
+}
+
+TEST(OceanTile, EachModeAdvancesByOmegaT) {
+  // Pierson cos^2 spreading: P(-k) = 0 for downwind k, so h~(k, t) = h0(k) e^{-i w t} exactly.
+  TileSpec spec = test::single(SpectrumModel::PiersonMoskowitz, SpreadingModel::PiersonCos2, 64, 200);
+  spec.layers[0].dispersion = DispersionKind::Combined;
+  spec.layers[0].depth = 8;
+  const LayerSpec& L = spec.layers[0];
+  double t0 = 2.0, t1 = 5.5;
+  auto a = test::spectrum_of(engine().tile(spec, t0, Height).height, L.nx, L.ny);
+  auto b = test::spectrum_of(engine().tile(spec, t1, Height).height, L.nx, L.ny);
+  double peak = 0;
+  for (auto& c : a) peak = std::max(peak, std::abs(c));
+  double worst = 0;
+  int checked = 0;
+  for (int64_t j = 0; j < L.ny; ++j)
+    for (int64_t i = 0; i < L.nx; ++i) {
+      int64_t n = test::signed_mode(i, L.nx), m = test::signed_mode(j, L.ny);
+      size_t at = size_t(i + L.nx * j);
+      if (n <= 0 || std::abs(m) >= n || std::abs(a[at]) < 1e-3 * peak) continue;  // downwind cone
+      double k = std::hypot(n * 2 * M_PI / L.lx, m * 2 * M_PI / L.ly);
+      double w = std::sqrt(9.81 * k * std::tanh(k * 8) * (1 + std::pow(k * 2.7e-3, 2)));
+      std::complex<double> ratio = b[at] / a[at] * std::polar(1.0, w * (t1 - t0));
+      worst = std::max(worst, std::abs(std::arg(ratio)));
+      ++checked;
+    }
+  EXPECT_GT(checked, 50);
+  EXPECT_LT(worst, 2e-3);
+}
+
+TEST(OceanTile, DriftCurrentTranslatesTheField) {
+  TileSpec still = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  TileSpec moving = still;
+  double t = 4.0, dx = 128.0 / 64;
+  moving.layers[0].drift_x = 3 * dx / t;   // 3 cells in x
+  moving.layers[0].drift_y = -5 * dx / t;  // -5 cells in y
+  auto a = engine().tile(still, t, Height).height, b = engine().tile(moving, t, Height).height;
+  double worst = 0;
+  for (int j = 0; j < 64; ++j)
+    for (int i = 0; i < 64; ++i) worst = std::max(worst, double(std::abs(b[i + 64 * j] - a[(i - 3 + 64) % 64 + 64 * ((j + 5) % 64)])));
+  EXPECT_LT(worst, 1e-4 * test::rms(a));
+}
+
+TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
+  auto h = engine().tile(spec, 1.0, Height).height;
+  // the jump from the last column to the first is an ordinary neighbour difference
+  double interior = 0, edge = 0;
+  for (int j = 0; j < 64; ++j) {
+    for (int i = 0; i + 1 < 64; ++i) interior = std::max(interior, double(std::abs(h[i + 1 + 64 * j] - h[i + 64 * j])));
+    edge = std::max(edge, double(std::abs(h[64 * j] - h[63 + 64 * j])));
+  }
+  EXPECT_LE(edge, interior);
+  auto s = engine().sample(spec, 1.0, {{13.3, 71.9}, {13.3 + 100, 71.9 - 300}}, false);
+  EXPECT_NEAR(s[0].height, s[1].height, 1e-6 * test::rms(h));
+}
+
+TEST(OceanTile, BitIdenticalRepeatAndLargeWavesKeptAcrossResolutions) {
+  TileSpec spec = test::single(SpectrumModel::Tma, SpreadingModel::Jonswap, 64, 200);
+  spec.layers[0].dispersion = DispersionKind::Shallow;
+  spec.layers[0].depth = 15;
+  auto a = engine().tile(spec, 7.0, kAllOutputs), b = engine().tile(spec, 7.0, kAllOutputs);
+  ASSERT_EQ(a.height.size(), b.height.size());
+  EXPECT_EQ(0, std::memcmp(a.height.data(), b.height.data(), a.height.size() * 4));
+  EXPECT_EQ(0, std::memcmp(a.normal_z.data(), b.normal_z.data(), a.normal_z.size() * 4));
+  EXPECT_EQ(0, std::memcmp(a.jacobian_minus.data(), b.jacobian_minus.data(), a.jacobian_minus.size() * 4));
+  // Doubling the resolution over the same patch keeps every mode the coarse grid has.
+  TileSpec fine = spec;
+  fine.layers[0].nx = fine.layers[0].ny = 128;
+  auto coarse_k = test::spectrum_of(a.height, 64, 64);
+  auto fine_k = test::spectrum_of(engine().tile(fine, 7.0, Height).height, 128, 128);
+  double peak = 0, worst = 0;
+  for (auto& c : coarse_k) peak = std::max(peak, std::abs(c));
+  for (int m = -31; m <= 31; ++m)
+    for (int n = -31; n <= 31; ++n)
+      worst = std::max(worst, std::abs(coarse_k[(n + 64) % 64 + 64 * ((m + 64) % 64)] -
+                                       fine_k[(n + 128) % 128 + 128 * ((m + 128) % 128)]));
+  EXPECT_LT(worst, 1e-5 * peak);
+}
+
+TEST(OceanTile, ChoppyJacobianInvariantsAndCrests) {
+  TileSpec spec = test::single(SpectrumModel::PiersonMoskowitz, SpreadingModel::PiersonCos2, 128, 200);
+  spec.choppiness = 1.5;
+  auto f = engine().tile(spec, 3.0, Height | Jacobian | Normals | Slopes | Displacement);
+  double mean = 0, worst_product = 0, worst_order = 0, hj = 0, hh = 0, jj = 0;
+  size_t n = f.jacobian.size();
+  for (size_t i = 0; i < n; ++i) mean += f.jacobian[i] / double(n);
+  for (size_t i = 0; i < n; ++i) {
+    worst_product = std::max(worst_product, double(std::abs(f.jacobian_minus[i] * f.jacobian_plus[i] - f.jacobian[i])));
+    worst_order = std::max(worst_order, double(f.jacobian_minus[i] - f.jacobian_plus[i]));
+    hj += f.height[i] * (f.jacobian[i] - mean), hh += f.height[i] * f.height[i], jj += std::pow(f.jacobian[i] - mean, 2);
+  }
+  EXPECT_NEAR(mean, 1.0, 1e-5);
+  EXPECT_LT(worst_product, 1e-5);
+  EXPECT_LE(worst_order, 0.0);
+  // lambda > 0 sharpens crests: J is smallest where h is largest (strong negative correlation)
+  EXPECT_LT(hj / std::sqrt(hh * jj), -0.5);
+  // the normals are unit vectors orthogonal to both tangents of the displaced surface (eq 94)
+  double worst_unit = 0, worst_orth = 0;
+  for (size_t i = 0; i < n; ++i) {
+    double nx = f.normal_x[i], ny = f.normal_y[i], nz = f.normal_z[i];
+    worst_unit = std::max(worst_unit, std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1));
+  }
+  EXPECT_LT(worst_unit, 1e-6);
+  // with lambda = 0, eq 94 reduces to eq 90: n = (-eps_x, -eps_y, 1) / sqrt(1 + |eps|^2), and J = J- = J+ = 1
+  spec.choppiness = 0;
+  auto g = engine().tile(spec, 3.0, Slopes | Normals | Jacobian);
+  for (size_t i = 0; i < n; ++i) {
+    double norm = std::sqrt(1 + g.slope_x[i] * g.slope_x[i] + g.slope_y[i] * g.slope_y[i]);
+    worst_orth = std::max(worst_orth, std::abs(g.normal_x[i] + g.slope_x[i] / norm));
+    worst_orth = std::max(worst_orth, std::abs(g.normal_z[i] - 1 / norm));
+    worst_orth = std::max(worst_orth, double(std::abs(g.jacobian_minus[i] - 1)) + std::abs(g.jacobian_plus[i] - 1));
+  }
+  EXPECT_LT(worst_orth, 1e-6);
+}
+
+TEST(OceanTile, WhitecapsFollowThresholdAndDecay) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
+  spec.layers[0].wind_speed = 20;
+  spec.choppiness = 2.0;
+  spec.whitecap_threshold = 0.5;
+  spec.whitecap_decay = 3.0;
+  WhitecapState state;
+  std::vector<float> previous;
+  int ones = 0, decayed = 0;
+  for (int frame = 0; frame < 4; ++frame) {
+    double t = 1.0 + 0.5 * frame;
+    auto f = engine().tile(spec, t, Jacobian | Whitecaps, &state);
+    for (size_t i = 0; i < f.whitecaps.size(); ++i) {
+      bool breaking = f.jacobian_minus[i] < spec.whitecap_threshold;
+      float expected = breaking ? 1.0f : (frame == 0 ? 0.0f : previous[i] * float(std::exp(-0.5 / 3.0)));
+      ASSERT_NEAR(f.whitecaps[i], expected, 1e-6) << "frame " << frame << " cell " << i;
+      if (frame > 0) ones += breaking, decayed += !breaking && previous[i] > 0;
+    }
+    previous = f.whitecaps;
+    EXPECT_EQ(state.map(), f.whitecaps);
+  }
+  EXPECT_GT(ones, 0);
+  EXPECT_GT(decayed, 0);
+}
+
+TEST(OceanTile, SampleMatchesTileAndInvertsDisplacement) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  spec.choppiness = 0.8;
+  auto f = engine().tile(spec, 2.0, Height | Displacement | Normals);
+  std::vector<Vec2> points = {{0, 0}, {2.0 * 5, 2.0 * 7}, {2.0 * 63, 2.0 * 31}};
+  std::vector<size_t> at = {0, 5 + 64 * 7, 63 + 64 * 31};
+  auto s = engine().sample(spec, 2.0, points, false);
+  for (size_t p = 0; p < points.size(); ++p) {
+    EXPECT_NEAR(s[p].height, f.height[at[p]], 1e-6);
+    EXPECT_NEAR(s[p].displacement_x, f.displacement_x[at[p]], 1e-6);
+    EXPECT_NEAR(s[p].normal_z, f.normal_z[at[p]], 1e-6);
+  }
+  // inverted: the source point x0 of query x satisfies x0 + lambda D(x0) = x
+  Vec2 query{37.7, 81.2};
+  auto inv = engine().sample(spec, 2.0, {query}, true)[0];
+  Vec2 source{query.x - inv.displacement_x, query.y - inv.displacement_y};
+  auto direct = engine().sample(spec, 2.0, {source}, false)[0];
+  EXPECT_NEAR(source.x + direct.displacement_x, query.x, 1e-6);
+  EXPECT_NEAR(source.y + direct.displacement_y, query.y, 1e-6);
+  EXPECT_NEAR(direct.height, inv.height, 1e-6);
+}
+
+TEST(OceanTile, SpectrumCachedAcrossFrames) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 64, 90, 4242);
+  engine().tile(spec, 0.0, Height);
+  size_t built = engine().spectra_built();
+  for (int frame = 1; frame < 5; ++frame) engine().tile(spec, frame * 0.1, Height | Normals);
+  EXPECT_EQ(engine().spectra_built(), built);
+  spec.layers[0].seed = 4243;
+  engine().tile(spec, 0.0, Height);
+  EXPECT_EQ(engine().spectra_built(), built + 1);
+}
+
+// Relative rms of every output against the FFTW double reference.
+void expect_matches_reference(const TileSpec& spec, double t) {
+  CpuReference reference;
+  auto e = engine().tile(spec, t, kAllOutputs), r = reference.tile(spec, t, kAllOutputs);
+  std::map<std::string, std::pair<const std::vector<float>*, const std::vector<float>*>> fields = {
+      {"height", {&e.height, &r.height}},          {"displacement_x", {&e.displacement_x, &r.displacement_x}},
+      {"displacement_y", {&e.displacement_y, &r.displacement_y}}, {"slope_x", {&e.slope_x, &r.slope_x}},
+      {"slope_y", {&e.slope_y, &r.slope_y}},       {"normal_x", {&e.normal_x, &r.normal_x}},
+      {"normal_y", {&e.normal_y, &r.normal_y}},    {"normal_z", {&e.normal_z, &r.normal_z}},
+      {"jacobian", {&e.jacobian, &r.jacobian}},    {"jacobian_minus", {&e.jacobian_minus, &r.jacobian_minus}},
+      {"jacobian_plus", {&e.jacobian_plus, &r.jacobian_plus}}};
+  for (auto& [name, pair] : fields) {
+    ASSERT_EQ(pair.first->size(), pair.second->size()) << name;
+    EXPECT_LT(test::relative_rms_error(*pair.first, *pair.second), 1e-4) << name;
+  }
+  size_t differ = 0;
+  for (size_t i = 0; i < e.whitecaps.size(); ++i) differ += e.whitecaps[i] != r.whitecaps[i];
+  EXPECT_LE(differ, e.whitecaps.size() / 1000) << "whitecap cells that differ";
+  EXPECT_NEAR(e.unresolved_slope_variance / r.unresolved_slope_variance, 1.0, 2e-3);
+}
+
+TEST(OceanReference, SingleLayerAgreesWithFftwDouble) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 128, 250);
+  spec.layers[0].dispersion = DispersionKind::Combined;
+  spec.layers[0].depth = 40;
+  spec.layers[0].drift_x = 0.7;
+  spec.layers[0].wind_direction = 2.3;
+  spec.choppiness = 1.1;
+  expect_matches_reference(spec, 12.3);
+}
+
+TEST(OceanReference, PhillipsAndPierson) {
+  TileSpec spec = test::single(SpectrumModel::Phillips, SpreadingModel::Isotropic, 64, 500);
+  spec.layers[0].wind_speed = 20;
+  spec.layers[0].phillips_cutoff = 1.0;
+  expect_matches_reference(spec, 4.0);
+  spec = test::single(SpectrumModel::PiersonMoskowitz, SpreadingModel::PiersonCos2, 64, 300);
+  spec.layers[0].dispersion = DispersionKind::Capillary;
+  expect_matches_reference(spec, 0.5);
+}
+
+TEST(OceanReference, LayersWithBCorrectionOnAnotherGridAgree) {
+  TileSpec spec = test::single(SpectrumModel::Multipeak, SpreadingModel::VonMises, 64, 200);
+  spec.layers[0].partials = {PartialSpectrum{0.5, 1.5}, PartialSpectrum{1.1, 0.8}};
+  LayerSpec second = spec.layers[0];
+  second.spectrum = SpectrumModel::Tma;
+  second.spreading = SpreadingModel::Hyperbolic;
+  second.dispersion = DispersionKind::Shallow;
+  second.depth = 12;
+  second.lx = second.ly = 47;
+  second.nx = second.ny = 32;
+  second.seed = 9;
+  spec.layers.push_back(second);
+  spec.b_correction = true;
+  spec.nx = spec.ny = 96;
+  spec.lx = spec.ly = 200;
+  expect_matches_reference(spec, 6.0);
+}
+
+TEST(OceanSlopeVariance, UnresolvedSlopeVarianceFallsWithPixelScale) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200);
+  double previous = 0;
+  for (double R : {0.25, 1.0, 4.0}) {
+    spec.pixel_scale = R;
+    double s = engine().tile(spec, 0, Height).unresolved_slope_variance;
+    EXPECT_GT(s, previous) << "R " << R;
+    previous = s;
+  }
+  // R -> infinity with the eq-96 band equal to the tile's modes (a disc): the mean slope variance of
+  // the realized fields over seeds
+  spec.layers[0].k_max = 0.9 * M_PI * 64 / 200;
+  spec.slope_k_max = spec.layers[0].k_max;
+  spec.pixel_scale = 1e5;
+  double sigma_u = engine().tile(spec, 0, Height).unresolved_slope_variance, measured = 0;
+  const int seeds = 16;
+  for (int s = 0; s < seeds; ++s) {
+    spec.layers[0].seed = 500 + s;
+    auto f = engine().tile(spec, 0, Slopes);
+    measured += (test::rms(f.slope_x) * test::rms(f.slope_x) + test::rms(f.slope_y) * test::rms(f.slope_y)) / seeds;
+  }
+  EXPECT_NEAR(measured / sigma_u, 1.0, 0.06);
+}
+
+}  // namespace
+}  // namespace squall::ocean
+
+namespace squall::ocean {
+namespace {
+
+TEST(OceanTile, HermitianSpectrumGivesRealOutput) {
+  // The full complex inverse DFT of h~(k, t) (eqs 43 and 1, drift included) has an imaginary part at
+  // double round-off; the engine evaluates the same modes (it matches this reference to ~1e-6).
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 64, 180);
+  spec.layers[0].drift_x = 0.4;
+  spec.layers[0].drift_y = -1.1;
+  CpuReference reference;
+  std::vector<std::complex<double>> h(64 * 64);
+  for (int j = 0; j < 64; ++j)
+    for (int i = 0; i < 64; ++i) {
+      double re, im;
+      reference.mode(spec, 0, test::signed_mode(i, 64), test::signed_mode(j, 64), 9.5, &re, &im);
+      h[i + 64 * j] = {re, im};
+    }
+  fftw_plan plan = fftw_plan_dft_2d(64, 64, reinterpret_cast<fftw_complex*>(h.data()),
+                                    reinterpret_cast<fftw_complex*>(h.data()), FFTW_BACKWARD, FFTW_ESTIMATE);
+  fftw_execute(plan);
+  fftw_destroy_plan(plan);
+  double worst_im = 0, sum_re = 0;
+  for (auto& c : h) worst_im = std::max(worst_im, std::abs(c.imag())), sum_re += c.real() * c.real();
+  double rms_re = std::sqrt(sum_re / h.size());
+  EXPECT_GT(rms_re, 0.1);
+  EXPECT_LT(worst_im, 1e-12 * rms_re);
+}
+
+}  // namespace
+}  // namespace squall::ocean

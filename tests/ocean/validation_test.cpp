@@ -1,0 +1,87 @@
+// Bad input: InvalidArgument (or ResourceExhausted for the grid limit) naming the field.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "common/error.h"
+#include "ocean_test_util.h"
+
+namespace squall::ocean {
+namespace {
+
+void expect_rejected(const std::function<void(TileSpec&)>& change, const std::string& field,
+                     Code code = Code::InvalidArgument) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 32, 100);
+  change(spec);
+  try {
+    test::engine().validate(spec);
+    ADD_FAILURE() << "accepted; expected an error naming " << field;
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
+TEST(OceanValidation, BadFieldsAreNamed) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  expect_rejected([&](TileSpec& s) { s.layers[0].wind_speed = nan; }, "layers[0].wind_speed");
+  expect_rejected([&](TileSpec& s) { s.layers[0].wind_speed = -3; }, "layers[0].wind_speed");
+  expect_rejected([&](TileSpec& s) { s.layers[0].fetch = -1; }, "layers[0].fetch");
+  expect_rejected([&](TileSpec& s) { s.layers[0].nx = 0; }, "layers[0].nx");
+  expect_rejected([&](TileSpec& s) { s.layers[0].ny = -4; }, "layers[0].ny");
+  expect_rejected([&](TileSpec& s) { s.layers[0].nx = 33; }, "layers[0].nx");
+  expect_rejected([&](TileSpec& s) { s.layers[0].nx = s.layers[0].ny = 1 << 16; }, "layers[0].nx",
+                  Code::ResourceExhausted);
+  expect_rejected([&](TileSpec& s) { s.layers[0].spectrum = SpectrumModel(9); }, "layers[0].spectrum");
+  expect_rejected([&](TileSpec& s) { s.layers[0].spreading = SpreadingModel(-1); }, "layers[0].spreading");
+  expect_rejected([&](TileSpec& s) { s.layers[0].dispersion = DispersionKind(4); }, "layers[0].dispersion");
+  expect_rejected([&](TileSpec& s) { s.layers[0].lx = 0; }, "layers[0].lx");
+  expect_rejected([&](TileSpec& s) { s.layers[0].depth = nan; }, "layers[0].depth");
+  expect_rejected([&](TileSpec& s) { s.layers[0].gamma = 0.5; }, "layers[0].gamma");
+  expect_rejected([&](TileSpec& s) { s.layers[0].drift_x = INFINITY; }, "layers[0].drift_x");
+  expect_rejected([&](TileSpec& s) { s.layers.push_back(s.layers[0]); s.layers[1].gravity = 0; }, "layers[1].gravity");
+  expect_rejected([&](TileSpec& s) { s.layers[0].spectrum = SpectrumModel::Multipeak; }, "layers[0].partials");
+  expect_rejected([&](TileSpec& s) {
+    s.layers[0].spectrum = SpectrumModel::Multipeak;
+    s.layers[0].partials.push_back(PartialSpectrum{});
+    s.layers[0].partials[0].peak_frequency = -1;
+  }, "layers[0].partials[0].peak_frequency");
+  expect_rejected([&](TileSpec& s) { s.layers.clear(); }, "layers");
+  expect_rejected([&](TileSpec& s) { s.choppiness = nan; }, "choppiness");
+  expect_rejected([&](TileSpec& s) { s.whitecap_decay = 0; }, "whitecap_decay");
+  expect_rejected([&](TileSpec& s) { s.nx = 64; s.ny = 0; s.lx = s.ly = 10; }, "output.ny");
+  expect_rejected([&](TileSpec& s) { s.nx = s.ny = 64; s.lx = -1; s.ly = 10; }, "output.lx");
+  // a small gate: the limit in force is the daemon's
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 100);
+  Limits limits;
+  limits.max_grid_cells = 1024;
+  LimitGate gate(limits);
+  EXPECT_THROW(test::engine().validate(spec, gate), Error);
+}
+
+TEST(OceanValidation, TileRejectsBadOutputsTimeAndBackwardsStream) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 32, 100);
+  EXPECT_THROW(test::engine().tile(spec, 0, 0), Error);
+  EXPECT_THROW(test::engine().tile(spec, 0, 1u << 9), Error);
+  EXPECT_THROW(test::engine().tile(spec, std::nan(""), Height), Error);
+  WhitecapState state;
+  test::engine().tile(spec, 5, Whitecaps, &state);
+  try {
+    test::engine().tile(spec, 4, Whitecaps, &state);
+    ADD_FAILURE() << "a whitecap stream going back in time was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), Code::InvalidArgument);
+    EXPECT_NE(std::string(e.what()).find("t = "), std::string::npos);
+  }
+  TileSpec bad = spec;
+  bad.layers[0].wind_speed = -1;
+  EXPECT_THROW(test::engine().sample(bad, 0, {{1, 2}}, false), Error);
+  EXPECT_THROW(test::engine().sample(spec, 0, {{std::nan(""), 2}}, false), Error);
+  // the engine keeps serving after bad input
+  EXPECT_EQ(test::engine().tile(spec, 1, Height).height.size(), 32u * 32u);
+}
+
+}  // namespace
+}  // namespace squall::ocean
