@@ -1,0 +1,90 @@
+#include "client/image_io.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+namespace squall::client {
+
+void write_exr(const std::string& path, const Image& image) {
+  if (image.nx < 1 || image.ny < 1) throw std::runtime_error(path + ": image has no pixels");
+  const size_t n = static_cast<size_t>(image.nx) * image.ny;
+  Imf::Header header(image.nx, image.ny);
+  header.compression() = Imf::ZIP_COMPRESSION;
+  for (const auto& [name, value] : image.attributes) header.insert(name, Imf::StringAttribute(value));
+  Imf::FrameBuffer frame;
+  for (const auto& channel : image.channels) {
+    if (channel.values.size() != n)
+      throw std::runtime_error(path + ": channel " + channel.name + " has " + std::to_string(channel.values.size()) +
+                               " values, expected " + std::to_string(n));
+    header.channels().insert(channel.name, Imf::Channel(Imf::FLOAT));
+    char* base = reinterpret_cast<char*>(const_cast<float*>(channel.values.data()));
+    frame.insert(channel.name, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * image.nx));
+  }
+  try {
+    Imf::OutputFile file(path.c_str(), header);
+    file.setFrameBuffer(frame);
+    file.writePixels(image.ny);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot write " + path + ": " + e.what());
+  }
+}
+
+namespace {
+
+struct PngWriter {
+  FILE* file = nullptr;
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngWriter() {
+    if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
+    if (file) std::fclose(file);
+  }
+};
+
+std::vector<png_byte> to_grey(const std::vector<float>& values) {
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (float v : values)
+    if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+  std::vector<png_byte> grey(values.size(), 0);
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i])) continue;
+    double unit = hi > lo ? (values[i] - lo) / (double(hi) - lo) : 0.5;
+    grey[i] = static_cast<png_byte>(std::lround(255 * unit));
+  }
+  return grey;
+}
+
+}  // namespace
+
+void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values) {
+  if (nx < 1 || ny < 1 || values.size() != static_cast<size_t>(nx) * ny)
+    throw std::runtime_error(path + ": preview needs nx * ny values");
+  std::vector<png_byte> grey = to_grey(values);
+  PngWriter w;
+  w.file = std::fopen(path.c_str(), "wb");
+  if (!w.file) throw std::runtime_error("cannot open " + path + " for writing");
+  w.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  if (w.png) w.info = png_create_info_struct(w.png);
+  if (!w.png || !w.info) throw std::runtime_error("libpng could not start writing " + path);
+  if (setjmp(png_jmpbuf(w.png))) throw std::runtime_error("libpng failed writing " + path);
+  png_init_io(w.png, w.file);
+  png_set_IHDR(w.png, w.info, nx, ny, 8, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(w.png, w.info);
+  for (int j = 0; j < ny; ++j) png_write_row(w.png, grey.data() + static_cast<size_t>(j) * nx);
+  png_write_end(w.png, nullptr);
+  if (std::fflush(w.file) != 0) throw std::runtime_error("cannot write " + path);
+}
+
+}  // namespace squall::client

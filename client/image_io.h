@@ -1,0 +1,38 @@
+// Writing grids to image files for people and tools: OpenEXR (lossless, every channel as 32-bit FLOAT,
+// every request parameter as a string attribute of the header) and an 8-bit grey PNG preview.
+// gRPC-free: the CLI fills an Image from the reply's fields.
+//
+// Orientation: scanline j of the file is grid row j (world y = origin.y + j * spacing.y), column i is
+// grid column i (world x = origin.x + i * spacing.x). No flip, so pixel (i, j) is the Field's value at
+// index i + nx * j.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace squall::client {
+
+struct Channel {
+  std::string name;           // EXR channel name, e.g. "height"
+  std::vector<float> values;  // nx * ny values, x fastest
+};
+
+struct Image {
+  int nx = 0;
+  int ny = 0;
+  std::vector<Channel> channels;
+  // Header attributes, written as OpenEXR string attributes (name -> value). Names must not clash with
+  // OpenEXR's own (channels, compression, dataWindow, ...); prefix them, e.g. "squall.tile.lambda".
+  std::vector<std::pair<std::string, std::string>> attributes;
+};
+
+// Writes a scanline EXR with ZIP compression. Throws std::runtime_error naming the path on failure or
+// when a channel does not hold nx * ny values.
+void write_exr(const std::string& path, const Image& image);
+
+// Writes values (nx * ny, x fastest) as 8-bit grey, linearly mapped from [min, max] of the finite
+// values to [0, 255] (a constant field is mid-grey, non-finite values black). Throws on failure.
+void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values);
+
+}  // namespace squall::client

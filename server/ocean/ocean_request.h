@@ -1,0 +1,37 @@
+// squall.v1 Ocean messages <-> the engine's structs (ocean_params.h). Every request field is validated
+// here, with its proto field path in the message ("tile.layers[1].wind_speed = nan: must be finite and
+// in (0, 100]"), before the engine sees the spec. Part of squall_rpc.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/limits.h"
+#include "ocean/ocean_params.h"
+#include "squall/v1/ocean.pb.h"
+
+namespace squall::ocean::rpc {
+
+// The engine spec of a request's tile (field path prefix `path`, e.g. "tile"). Throws squall::Error:
+// InvalidArgument naming the field, ResourceExhausted for grids beyond --max-grid-cells.
+TileSpec tile_spec(const squall::v1::TileSpec& tile, const LimitGate& gate, const std::string& path = "tile");
+
+// The outputs asked for, validated (at least one, each known, none twice).
+std::vector<squall::v1::TileOutput> outputs(const google::protobuf::RepeatedField<int>& outputs,
+                                            const std::string& path = "outputs");
+unsigned output_flags(const std::vector<squall::v1::TileOutput>& outputs);  // engine Output bits
+
+// DTYPE_UNSPECIFIED -> DTYPE_FLOAT32; FLOAT32 and FLOAT16 pass; anything else InvalidArgument.
+squall::v1::DType dtype(squall::v1::DType dtype, const std::string& path = "dtype");
+
+double finite_value(double v, const std::string& path);  // InvalidArgument unless finite
+
+// Output grid of a validated spec (the first layer's when the spec leaves it 0).
+void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);
+size_t bytes_per_value(squall::v1::DType dtype);
+
+// The Field of one output of a computed tile, as GetTile returns it (name, unit, grid, dtype, bytes).
+void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v1::DType dtype,
+                squall::v1::Field* field);
+
+}  // namespace squall::ocean::rpc

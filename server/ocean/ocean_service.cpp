@@ -1,0 +1,161 @@
+#include "ocean/ocean_service.h"
+
+#include <cmath>
+#include <future>
+#include <sstream>
+
+#include "daemon/status.h"
+#include "ocean/ocean_engine.h"
+#include "ocean/ocean_request.h"
+#include "ocean/tile_chunks.h"
+
+namespace squall::rpc {
+namespace {
+
+namespace v1 = squall::v1;
+using namespace squall::ocean::rpc;
+
+constexpr int kMaxSamplePoints = 1000000;
+constexpr uint64_t kSampleBytesPerPoint = 8 * 9;  // eight packed doubles
+
+// A validated tile request: the engine spec, the outputs in request order, and the reply's dtype.
+struct TileJob {
+  ocean::TileSpec spec;
+  std::vector<v1::TileOutput> outputs;
+  unsigned flags = 0;
+  v1::DType dtype = v1::DTYPE_FLOAT32;
+  int64_t nx = 0, ny = 0;
+
+  uint64_t row_bytes() const { return uint64_t(nx) * bytes_per_value(dtype); }
+  uint64_t frame_bytes() const { return outputs.size() * (row_bytes() * ny + 128) + 256; }
+};
+
+// The request's tile, validated field by field here and then by the engine (whose messages name its own
+// fields, which sit under "tile.").
+ocean::TileSpec validated_spec(const v1::TileSpec& tile, const Engines& engines) {
+  ocean::TileSpec spec = tile_spec(tile, engines.gate);
+  try {
+    engines.ocean->validate(spec, engines.gate);
+  } catch (const Error& e) {
+    if (e.code() != Code::InvalidArgument) throw;
+    fail(e.code(), std::string("tile.") + e.what());
+  }
+  return spec;
+}
+
+TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField<int>& outputs, v1::DType d,
+                 const Engines& engines) {
+  TileJob job;
+  job.spec = validated_spec(tile, engines);
+  job.outputs = squall::ocean::rpc::outputs(outputs);
+  job.flags = output_flags(job.outputs);
+  job.dtype = dtype(d);
+  output_grid(job.spec, &job.nx, &job.ny);
+  return job;
+}
+
+void frame_reply(const TileJob& job, const ocean::TileFields& fields, double t, v1::GetTileResponse* reply) {
+  reply->mutable_time()->set_seconds(t);
+  reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
+  for (auto o : job.outputs) fill_field(fields, o, job.dtype, reply->add_fields());
+}
+
+ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
+  std::vector<uint64_t> row_bytes(job.outputs.size(), job.row_bytes());
+  std::vector<uint32_t> ny(job.outputs.size(), uint32_t(job.ny));
+  return plan_chunks(row_bytes, ny, chunk_payload_budget(max_message_bytes));
+}
+
+grpc::Status cancelled(grpc::ServerContext* context) {
+  return grpc::Status(grpc::StatusCode::CANCELLED, "StreamTiles cancelled (client gone, deadline or shutdown)");
+}
+
+}  // namespace
+
+grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
+                                   v1::GetTileResponse* response) {
+  return guarded([&] {
+    engines_.require_ready();
+    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), engines_);
+    double t = finite_value(request->time().seconds(), "time.seconds");
+    engines_.gate.check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
+    ocean::TileFields fields = engines_.ocean->tile(job.spec, t, job.flags);
+    frame_reply(job, fields, t, response);
+    return grpc::Status::OK;
+  });
+}
+
+grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::StreamTilesRequest* request,
+                                       grpc::ServerWriter<v1::TileChunk>* writer) {
+  return guarded([&] {
+    engines_.require_ready();
+    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), engines_);
+    const double t0 = finite_value(request->t0().seconds(), "t0.seconds");
+    const double dt = request->dt();
+    if (!(std::isfinite(dt) && dt > 0)) {
+      std::ostringstream message;
+      message << "dt = " << dt << ": must be finite and > 0 (seconds between frames)";
+      fail(Code::InvalidArgument, message.str());
+    }
+    const ChunkPlan plan = frame_plan(job, engines_.gate.limits().max_message_bytes);
+    Slot slot = engines_.gate.acquire_stream();
+    ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
+    auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
+    auto compute = [&](uint64_t frame) { return engines_.ocean->tile(job.spec, time_of(frame), job.flags, &whitecaps); };
+    const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
+    // Pipelined: the engine computes frame i + 1 while frame i is encoded and written. An early return
+    // waits for the pending frame (std::future's destructor) before the locals it uses go away.
+    std::future<ocean::TileFields> next = std::async(std::launch::async, compute, 0);
+    v1::TileChunk chunk;
+    for (uint64_t frame = 0; more(frame); ++frame) {
+      ocean::TileFields fields = next.get();
+      if (context->IsCancelled()) return cancelled(context);
+      if (more(frame + 1)) next = std::async(std::launch::async, compute, frame + 1);
+      v1::GetTileResponse reply;
+      frame_reply(job, fields, time_of(frame), &reply);
+      for (uint32_t c = 0; c < plan.size(); ++c) {
+        fill_chunk(reply, plan, c, uint32_t(frame), &chunk);
+        if (!writer->Write(chunk)) return cancelled(context);
+      }
+    }
+    return grpc::Status::OK;
+  });
+}
+
+grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1::SampleSurfaceRequest* request,
+                                         v1::SampleSurfaceResponse* response) {
+  return guarded([&] {
+    engines_.require_ready();
+    ocean::TileSpec spec = validated_spec(request->tile(), engines_);
+    const double t = finite_value(request->time().seconds(), "time.seconds");
+    const int n = request->points_size();
+    if (n < 1 || n > kMaxSamplePoints)
+      fail(Code::InvalidArgument, "points has " + std::to_string(n) + " entries: must be 1 to " +
+                                      std::to_string(kMaxSamplePoints));
+    engines_.gate.check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
+    std::vector<ocean::Vec2> points(n);
+    for (int i = 0; i < n; ++i) {
+      const std::string at = "points[" + std::to_string(i) + "]";
+      points[i].x = finite_value(request->points(i).x(), at + ".x");
+      points[i].y = finite_value(request->points(i).y(), at + ".y");
+    }
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "SampleSurface cancelled");
+    const bool invert = request->invert_displacement();
+    std::vector<ocean::SurfaceSample> samples = engines_.ocean->sample(spec, t, points, invert);
+    for (int i = 0; i < n; ++i) {
+      const auto& s = samples[i];
+      response->add_height(s.height);
+      response->add_displacement_x(s.displacement_x);
+      response->add_displacement_y(s.displacement_y);
+      response->add_normal_x(s.normal_x);
+      response->add_normal_y(s.normal_y);
+      response->add_normal_z(s.normal_z);
+      response->add_source_x(invert ? points[i].x - s.displacement_x : points[i].x);
+      response->add_source_y(invert ? points[i].y - s.displacement_y : points[i].y);
+    }
+    return grpc::Status::OK;
+  });
+}
+
+}  // namespace squall::rpc

@@ -1,0 +1,27 @@
+// squall.v1.Ocean: GetTile, StreamTiles and SampleSurface over the OceanEngine of Engines.
+#pragma once
+
+#include "daemon/engines.h"
+#include "squall/v1/ocean.grpc.pb.h"
+
+namespace squall::rpc {
+
+class OceanService final : public squall::v1::Ocean::Service {
+ public:
+  explicit OceanService(Engines& engines) : engines_(engines) {}
+
+  grpc::Status GetTile(grpc::ServerContext* context, const squall::v1::GetTileRequest* request,
+                       squall::v1::GetTileResponse* response) override;
+  // Holds a --max-streams slot while it runs; checks for cancellation (client gone, deadline, shutdown)
+  // before each frame; carries the whitecap map from frame to frame; computes frame i + 1 while frame i
+  // is being sent.
+  grpc::Status StreamTiles(grpc::ServerContext* context, const squall::v1::StreamTilesRequest* request,
+                           grpc::ServerWriter<squall::v1::TileChunk>* writer) override;
+  grpc::Status SampleSurface(grpc::ServerContext* context, const squall::v1::SampleSurfaceRequest* request,
+                             squall::v1::SampleSurfaceResponse* response) override;
+
+ private:
+  Engines& engines_;
+};
+
+}  // namespace squall::rpc

@@ -1,0 +1,256 @@
+// The host side of the Ocean service that needs no device: float16 conversion (exhaustive, against
+// OpenEXR's Imath), the OpenEXR and PNG writers (read back with OpenEXR's and libpng's own readers),
+// StreamTiles chunk planning and the client's frame reassembly.
+#include <Imath/half.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <thread>
+
+#include "client/image_io.h"
+#include "client/ocean_frames.h"
+#include "common/error.h"
+#include "ocean/float16.h"
+#include "ocean/tile_chunks.h"
+#include "support/process.h"
+
+namespace squall {
+namespace {
+
+bool is_nan_bits(uint32_t f) { return (f & 0x7fffffffu) > 0x7f800000u; }
+
+// Every one of the 2^32 floats converts exactly as Imath's imath_float_to_half (round to nearest even);
+// NaNs stay NaN with their sign. Two threads, half the range each.
+TEST(Float16, EveryFloatRoundsAsImath) {
+  std::atomic<uint64_t> mismatches{0}, nan_failures{0};
+  std::atomic<uint32_t> first_bad{0};
+  auto check_range = [&](uint64_t begin, uint64_t end) {
+    uint64_t bad = 0, bad_nan = 0;
+    for (uint64_t u = begin; u < end; ++u) {
+      uint32_t bits = uint32_t(u);
+      float f;
+      std::memcpy(&f, &bits, 4);
+      uint16_t mine = f16::from_float(f);
+      if (is_nan_bits(bits)) {
+        bool nan = (mine & 0x7c00u) == 0x7c00u && (mine & 0x3ffu) != 0 && (mine & 0x8000u) == ((bits >> 16) & 0x8000u);
+        bad_nan += !nan;
+      } else if (mine != imath_float_to_half(f)) {
+        if (bad++ == 0) first_bad = bits;
+      }
+    }
+    mismatches += bad;
+    nan_failures += bad_nan;
+  };
+  std::thread other(check_range, 0, 1ull << 31);
+  check_range(1ull << 31, 1ull << 32);
+  other.join();
+  EXPECT_EQ(mismatches.load(), 0u) << "first mismatch at float bits " << std::hex << first_bad.load();
+  EXPECT_EQ(nan_failures.load(), 0u);
+}
+
+TEST(Float16, RoundingCasesByHand) {
+  EXPECT_EQ(f16::from_float(1.0f), 0x3c00);
+  EXPECT_EQ(f16::from_float(65504.0f), 0x7bff);             // largest half
+  EXPECT_EQ(f16::from_float(65519.996f), 0x7bff);           // just below the halfway point to 65536
+  EXPECT_EQ(f16::from_float(65520.0f), 0x7c00);             // the tie goes to even: inf
+  EXPECT_EQ(f16::from_float(1.0f + 1.0f / 2048), 0x3c00);   // tie between 1 and 1+2^-10: even (1)
+  EXPECT_EQ(f16::from_float(1.0f + 3.0f / 2048), 0x3c02);   // tie between 1+2^-10 and 1+2^-9: even (up)
+  EXPECT_EQ(f16::from_float(std::ldexp(1.0f, -24)), 0x0001);  // smallest subnormal
+  EXPECT_EQ(f16::from_float(std::ldexp(1.0f, -25)), 0x0000);  // half of it: tie to even zero
+  EXPECT_EQ(f16::from_float(std::ldexp(1.5f, -25)), 0x0001);
+  EXPECT_EQ(f16::from_float(-0.0f), 0x8000);
+  EXPECT_EQ(f16::from_float(-INFINITY), 0xfc00);
+}
+
+// Every half converts back to the float Imath gives (exact), and from_float(to_float(h)) == h.
+TEST(Float16, EveryHalfConvertsBackExactly) {
+  int bad = 0, bad_round_trip = 0;
+  for (uint32_t h = 0; h < 65536; ++h) {
+    float mine = f16::to_float(uint16_t(h));
+    float ref = imath_half_to_float(uint16_t(h));
+    uint32_t a, b;
+    std::memcpy(&a, &mine, 4);
+    std::memcpy(&b, &ref, 4);
+    bool nan = (h & 0x7c00u) == 0x7c00u && (h & 0x3ffu);
+    bad += nan ? !std::isnan(mine) : a != b;
+    if (!nan) bad_round_trip += f16::from_float(mine) != h;
+  }
+  EXPECT_EQ(bad, 0);
+  EXPECT_EQ(bad_round_trip, 0);
+}
+
+// An EXR written by write_exr, read back with OpenEXR's own InputFile: identical pixels and attributes.
+TEST(ImageIo, ExrReadsBackWithOpenExr) {
+  client::Image image;
+  image.nx = 37;
+  image.ny = 23;  // not square, not a power of two: catches a swapped stride
+  std::mt19937 rng(3);
+  std::normal_distribution<float> normal;
+  for (const char* name : {"height", "displacement_x", "normal_z"}) {
+    client::Channel c{name, std::vector<float>(size_t(image.nx) * image.ny)};
+    for (auto& v : c.values) v = normal(rng);
+    image.channels.push_back(std::move(c));
+  }
+  image.channels[0].values[5] = -0.0f;
+  image.channels[0].values[6] = std::ldexp(1.0f, -140);  // a float subnormal survives too
+  image.attributes = {{"squall.request.tile.choppiness", "1.5"}, {"squall.request.tile.layers[0].spectrum", "SPECTRUM_MODEL_JONSWAP"}};
+  std::string path = test::temp_dir("exr") + "/tile.exr";
+  client::write_exr(path, image);
+
+  Imf::InputFile file(path.c_str());
+  const Imf::Header& header = file.header();
+  Imath::Box2i window = header.dataWindow();
+  ASSERT_EQ(window.max.x - window.min.x + 1, image.nx);
+  ASSERT_EQ(window.max.y - window.min.y + 1, image.ny);
+  for (const auto& [name, value] : image.attributes) {
+    const auto* attribute = header.findTypedAttribute<Imf::StringAttribute>(name);
+    ASSERT_NE(attribute, nullptr) << name;
+    EXPECT_EQ(attribute->value(), value);
+  }
+  Imf::FrameBuffer frame;
+  std::vector<std::vector<float>> read(image.channels.size(), std::vector<float>(size_t(image.nx) * image.ny));
+  for (size_t c = 0; c < image.channels.size(); ++c) {
+    const Imf::Channel* channel = header.channels().findChannel(image.channels[c].name);
+    ASSERT_NE(channel, nullptr) << image.channels[c].name;
+    EXPECT_EQ(channel->type, Imf::FLOAT);
+    frame.insert(image.channels[c].name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(read[c].data()),
+                                                    sizeof(float), sizeof(float) * image.nx));
+  }
+  file.setFrameBuffer(frame);
+  file.readPixels(window.min.y, window.max.y);
+  for (size_t c = 0; c < image.channels.size(); ++c)
+    EXPECT_EQ(std::memcmp(read[c].data(), image.channels[c].values.data(), read[c].size() * 4), 0)
+        << image.channels[c].name;
+}
+
+TEST(ImageIo, ExrRejectsAChannelOfTheWrongSize) {
+  client::Image image{4, 4, {{"height", std::vector<float>(15)}}, {}};
+  EXPECT_THROW(client::write_exr(test::temp_dir("exr-bad") + "/x.exr", image), std::runtime_error);
+}
+
+// The PNG preview maps [min, max] to [0, 255]: read back with libpng, the minimum is 0, the maximum 255
+// and a value a third of the way up is 85.
+TEST(ImageIo, PngPreviewSpansTheRange) {
+  const int nx = 5, ny = 3;
+  std::vector<float> v(nx * ny, -1.0f);
+  v[0] = -4;   // min
+  v[14] = 5;   // max
+  v[7] = -1;   // (-1 - -4) / 9 = 1/3 -> 85
+  std::string path = test::temp_dir("png") + "/p.png";
+  client::write_png_preview(path, nx, ny, v);
+  png_image png;
+  std::memset(&png, 0, sizeof png);
+  png.version = PNG_IMAGE_VERSION;
+  ASSERT_TRUE(png_image_begin_read_from_file(&png, path.c_str()));
+  png.format = PNG_FORMAT_GRAY;
+  std::vector<png_byte> grey(PNG_IMAGE_SIZE(png));
+  ASSERT_TRUE(png_image_finish_read(&png, nullptr, grey.data(), 0, nullptr));
+  ASSERT_EQ(int(png.width), nx);
+  ASSERT_EQ(int(png.height), ny);
+  EXPECT_EQ(grey[0], 0);
+  EXPECT_EQ(grey[14], 255);
+  EXPECT_EQ(grey[7], 85);
+}
+
+// A frame of 3 fields of 10 rows of 1000 bytes with 2600 bytes per chunk: 2 rows (+ headers) per chunk,
+// every row of every field exactly once, in order.
+TEST(TileChunks, PlanCoversEveryRowOnceWithinTheBudget) {
+  std::vector<uint64_t> row_bytes = {1000, 1000, 1000};
+  std::vector<uint32_t> ny = {10, 10, 10};
+  auto plan = ocean::rpc::plan_chunks(row_bytes, ny, 2600);
+  std::vector<std::vector<int>> seen(3, std::vector<int>(10, 0));
+  for (const auto& chunk : plan) {
+    uint64_t bytes = 0;
+    for (const auto& p : chunk) {
+      bytes += p.rows * row_bytes[p.field] + 128;
+      for (uint32_t r = p.row; r < p.row + p.rows; ++r) seen[p.field][r]++;
+    }
+    EXPECT_LE(bytes, 2600u);
+  }
+  for (const auto& f : seen)
+    for (int count : f) EXPECT_EQ(count, 1);
+  EXPECT_EQ(plan.size(), 15u);
+  // Everything fits in one chunk when the budget allows.
+  EXPECT_EQ(ocean::rpc::plan_chunks(row_bytes, ny, 1u << 20).size(), 1u);
+  // A row larger than a message cannot be sent.
+  EXPECT_THROW(ocean::rpc::plan_chunks({5000}, {2}, 2600), Error);
+}
+
+// A frame of 1 or 2 float32 fields "f0", "f1" holding 1000 f + i at index i.
+squall::v1::GetTileResponse frame_of(int fields, uint32_t nx, uint32_t ny, double t) {
+  squall::v1::GetTileResponse frame;
+  frame.mutable_time()->set_seconds(t);
+  frame.mutable_stats()->set_unresolved_slope_variance(0.25);
+  for (int f = 0; f < fields; ++f) {
+    auto* field = frame.add_fields();
+    field->set_name(f == 0 ? "f0" : "f1");
+    field->set_unit("m");
+    field->set_nx(nx);
+    field->set_ny(ny);
+    field->mutable_spacing()->set_x(0.5);
+    field->mutable_spacing()->set_y(0.25);
+    field->mutable_origin();  // (0, 0, 0), present, as the service sends it
+    field->set_dtype(squall::v1::DTYPE_FLOAT32);
+    std::vector<float> v(nx * ny);
+    for (size_t i = 0; i < v.size(); ++i) v[i] = float(f * 1000 + i);
+    field->set_data(std::string(reinterpret_cast<const char*>(v.data()), v.size() * 4));
+  }
+  return frame;
+}
+
+// Chunks made by fill_chunk and reassembled by the client's FrameAssembler give back the frame, byte
+// for byte, both when fields are split into bands of rows and when whole fields travel (moved, not
+// copied); each piece carries the world origin of its first row.
+TEST(TileChunks, ChunksReassembleToTheFrame) {
+  const auto frame = frame_of(2, 16, 9, 1.5);
+  for (uint64_t budget : {uint64_t(4 * 64 + 128), uint64_t(1) << 20}) {
+    auto plan = ocean::rpc::plan_chunks({64, 64}, {9, 9}, budget);
+    EXPECT_EQ(plan.size(), budget < 1000 ? 5u : 1u);  // rows 4 / 4 / 1 + 1 (shared) / 4 / 4
+    auto sent = frame;  // fill_chunk moves whole fields out of the frame
+    client::ocean::FrameAssembler assembler;
+    std::optional<squall::v1::GetTileResponse> out;
+    for (uint32_t c = 0; c < plan.size(); ++c) {
+      squall::v1::TileChunk chunk;
+      ocean::rpc::fill_chunk(sent, plan, c, 7, &chunk);
+      for (const auto& p : chunk.pieces()) EXPECT_DOUBLE_EQ(p.field().origin().y(), p.row_offset() * 0.25);
+      EXPECT_FALSE(out.has_value());
+      if (c == 0 && plan.size() > 1) {
+        squall::v1::TileChunk wrong = chunk;
+        wrong.set_chunk_index(1);
+        client::ocean::FrameAssembler fresh;
+        EXPECT_THROW(fresh.add(wrong), std::runtime_error);  // a stream that starts mid-frame
+      }
+      out = assembler.add(chunk);
+    }
+    ASSERT_TRUE(out.has_value());
+    EXPECT_TRUE(out->SerializeAsString() == frame.SerializeAsString()) << out->ShortDebugString().substr(0, 400);
+    EXPECT_EQ(client::ocean::values(out->fields(1))[3], 1003.0f);
+  }
+}
+
+TEST(ClientValues, Float16FieldsDecode) {
+  squall::v1::Field field;
+  field.set_nx(2);
+  field.set_ny(1);
+  field.set_dtype(squall::v1::DTYPE_FLOAT16);
+  const float in[2] = {1.5f, -2.0f};
+  std::string bytes;
+  f16::append_half_bytes(in, 2, &bytes);
+  field.set_data(bytes);
+  auto v = client::ocean::values(field);
+  EXPECT_EQ(v[0], 1.5f);
+  EXPECT_EQ(v[1], -2.0f);
+  field.set_nx(3);
+  EXPECT_THROW(client::ocean::values(field), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace squall
