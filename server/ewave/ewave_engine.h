@@ -16,7 +16,7 @@
 namespace squall::ewave {
 
 struct EWaveEngineOptions {
-  std::chrono::milliseconds session_ttl{std::chrono::minutes(10)};  // --ewave-session-ttl
+  std::chrono::milliseconds session_ttl{std::chrono::minutes(10)};  // squalld --session-ttl
   // The clock the TTL is measured with (tests replace it).
   std::function<std::chrono::steady_clock::time_point()> clock = [] { return std::chrono::steady_clock::now(); };
 };

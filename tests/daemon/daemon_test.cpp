@@ -10,36 +10,14 @@
 #include <grpcpp/generic/generic_stub.h>
 
 #include "client/client.h"
-#include "support/process.h"
+#include "support/daemon.h"
 
 namespace squall {
 namespace {
 
-const std::string kSqualld = std::string(SQUALL_BINARY_DIR) + "/squalld";
-const std::string kSquall = std::string(SQUALL_BINARY_DIR) + "/squall";
-
-// A squalld on 127.0.0.1:<free port>, SERVING when the constructor returns.
-class Daemon {
- public:
-  explicit Daemon(std::vector<std::string> extra = {}) : dir_(test::temp_dir("squalld")) {
-    std::vector<std::string> argv = {kSqualld, "--listen", "127.0.0.1:0", "--port-file", dir_ + "/port"};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    process_ = std::make_unique<test::Process>(argv, dir_ + "/log.txt");
-    for (int i = 0; i < 3000 && !std::filesystem::exists(dir_ + "/port"); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    std::ifstream(dir_ + "/port") >> port_;
-    if (port_ == 0) throw std::runtime_error("squalld did not listen:\n" + process_->log());
-    client::Client probe({address(), 5, ""});
-    if (!probe.wait_until_serving(600)) throw std::runtime_error("squalld never SERVING:\n" + process_->log());
-  }
-  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
-  test::Process& process() { return *process_; }
-
- private:
-  std::string dir_;
-  int port_ = 0;
-  std::unique_ptr<test::Process> process_;
-};
+using test::Daemon;
+const std::string kSqualld = test::squalld_path();
+const std::string kSquall = test::squall_path();
 
 // One daemon for the tests that only talk to it (start-up builds kernels: do it once). A static
 // object, so that its destructor stops the process when the test binary exits.

@@ -19,7 +19,7 @@
 #include "ocean/float16.h"
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
-#include "support/process.h"
+#include "support/daemon.h"
 #include "support/test_runtime.h"
 
 namespace squall {
@@ -27,39 +27,15 @@ namespace {
 
 namespace v1 = squall::v1;
 
-const std::string kSqualld = std::string(SQUALL_BINARY_DIR) + "/squalld";
-const std::string kSquall = std::string(SQUALL_BINARY_DIR) + "/squall";
-
-// A squalld on 127.0.0.1:<free port>, SERVING when the constructor returns (as in daemon_test.cpp).
-class Daemon {
- public:
-  explicit Daemon(std::vector<std::string> extra) : dir_(test::temp_dir("squalld-ocean")) {
-    std::vector<std::string> argv = {kSqualld, "--listen", "127.0.0.1:0", "--port-file", dir_ + "/port"};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    process_ = std::make_unique<test::Process>(argv, dir_ + "/log.txt");
-    for (int i = 0; i < 3000 && !std::filesystem::exists(dir_ + "/port"); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    std::ifstream(dir_ + "/port") >> port_;
-    if (port_ == 0) throw std::runtime_error("squalld did not listen:\n" + process_->log());
-    client::Client probe({address(), 5, ""});
-    for (int second = 0; !probe.wait_until_serving(1); ++second)  // stop waiting when squalld exits
-      if (second > 600 || !process_->running()) throw std::runtime_error("squalld never SERVING:\n" + process_->log());
-  }
-  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
-  bool running() { return process_->running(); }
-
- private:
-  std::string dir_;
-  int port_ = 0;
-  std::unique_ptr<test::Process> process_;
-};
+using test::Daemon;
+const std::string kSquall = test::squall_path();
 
 constexpr uint64_t kMaxCells = 300000;  // --max-grid-cells of the shared daemon: 512^2 fits, 1024^2 does not
 
 // One daemon for most tests: VkFFT like the in-process engine, one stream slot.
 Daemon& daemon() {
-  static Daemon* d = new Daemon({"--fft", "vkfft", "--max-streams", "1", "--max-grid-cells", std::to_string(kMaxCells)});
-  return *d;
+  static Daemon d({"--fft", "vkfft", "--max-streams", "1", "--max-grid-cells", std::to_string(kMaxCells)});
+  return d;
 }
 
 // The in-process engine on this test's runtime (same device, same kernels, same FFT backend).

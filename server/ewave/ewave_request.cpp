@@ -1,0 +1,284 @@
+#include "ewave/ewave_request.h"
+
+#include <cmath>
+#include <cstring>
+#include <set>
+#include <sstream>
+
+#include "common/error.h"
+#include "ocean/float16.h"
+
+namespace squall::ewave::rpc {
+namespace {
+
+namespace v1 = squall::v1;
+
+std::string text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+double finite(double v, const std::string& path) {
+  if (!std::isfinite(v)) fail(Code::InvalidArgument, path + " = " + text(v) + " must be finite");
+  return v;
+}
+
+double positive(double v, const std::string& path) {
+  if (!(std::isfinite(v) && v > 0)) fail(Code::InvalidArgument, path + " = " + text(v) + " must be finite and > 0");
+  return v;
+}
+
+size_t bytes_per_value(v1::DType dtype) { return dtype == v1::DTYPE_FLOAT16 ? 2 : 4; }
+
+DispersionKind dispersion(v1::DispersionModel model) {
+  switch (model) {
+    case v1::DISPERSION_MODEL_UNSPECIFIED:
+    case v1::DISPERSION_MODEL_DEEP: return DispersionKind::Deep;
+    case v1::DISPERSION_MODEL_SHALLOW: return DispersionKind::Shallow;
+    case v1::DISPERSION_MODEL_CAPILLARY: return DispersionKind::Capillary;
+    case v1::DISPERSION_MODEL_COMBINED: return DispersionKind::Combined;
+    default:
+      fail(Code::InvalidArgument, "config.dispersion = " + std::to_string(int(model)) +
+                                      " must be a DispersionModel (DEEP, SHALLOW, CAPILLARY or COMBINED)");
+  }
+}
+
+v1::DispersionModel dispersion(DispersionKind kind) {
+  switch (kind) {
+    case DispersionKind::Deep: return v1::DISPERSION_MODEL_DEEP;
+    case DispersionKind::Shallow: return v1::DISPERSION_MODEL_SHALLOW;
+    case DispersionKind::Capillary: return v1::DISPERSION_MODEL_CAPILLARY;
+    case DispersionKind::Combined: return v1::DISPERSION_MODEL_COMBINED;
+  }
+  return v1::DISPERSION_MODEL_UNSPECIFIED;
+}
+
+// A shape of a step (grid frame, metres), its fields checked under `path` ("inputs.shapes[2]").
+Shape shape(const v1::EWaveShape& proto, const std::string& path) {
+  Shape s;
+  switch (proto.shape_case()) {
+    case v1::EWaveShape::kCircle: {
+      const auto& c = proto.circle();
+      s.kind = ShapeKind::Circle;
+      s.x = finite(c.center_x(), path + ".circle.center_x");
+      s.y = finite(c.center_y(), path + ".circle.center_y");
+      s.a = s.b = positive(c.radius(), path + ".circle.radius");
+      break;
+    }
+    case v1::EWaveShape::kEllipse: {
+      const auto& e = proto.ellipse();
+      s.kind = ShapeKind::Ellipse;
+      s.x = finite(e.center_x(), path + ".ellipse.center_x");
+      s.y = finite(e.center_y(), path + ".ellipse.center_y");
+      s.a = positive(e.semi_axis_a(), path + ".ellipse.semi_axis_a");
+      s.b = positive(e.semi_axis_b(), path + ".ellipse.semi_axis_b");
+      s.heading = finite(e.heading(), path + ".ellipse.heading");
+      break;
+    }
+    case v1::EWaveShape::kBox: {
+      const auto& b = proto.box();
+      s.kind = ShapeKind::Box;
+      s.x = finite(b.center_x(), path + ".box.center_x");
+      s.y = finite(b.center_y(), path + ".box.center_y");
+      s.a = positive(b.half_length(), path + ".box.half_length");
+      s.b = positive(b.half_width(), path + ".box.half_width");
+      s.heading = finite(b.heading(), path + ".box.heading");
+      break;
+    }
+    case v1::EWaveShape::kPolygon: {
+      const auto& p = proto.polygon();
+      s.kind = ShapeKind::Polygon;
+      if (p.vertices_size() < 3)
+        fail(Code::InvalidArgument, path + ".polygon.vertices has " + std::to_string(p.vertices_size()) +
+                                        " vertices, want >= 3");
+      for (int v = 0; v < p.vertices_size(); ++v) {
+        const std::string at = path + ".polygon.vertices[" + std::to_string(v) + "]";
+        s.vertices.push_back({finite(p.vertices(v).x(), at + ".x"), finite(p.vertices(v).y(), at + ".y")});
+      }
+      break;
+    }
+    default:
+      fail(Code::InvalidArgument, path + " has no shape: set one of circle, ellipse, box, polygon");
+  }
+  return s;
+}
+
+std::vector<float> map(bool present, const v1::Field& field, const EWaveConfig& c, const std::string& path) {
+  return present ? grid_values(field, c.nx, c.ny, path) : std::vector<float>{};
+}
+
+struct OutputInfo {
+  const char* name;
+  const char* unit;
+};
+
+OutputInfo info(v1::EWaveOutput o) {
+  switch (o) {
+    case v1::EWAVE_OUTPUT_HEIGHT: return {"height", "m"};
+    case v1::EWAVE_OUTPUT_DISPLACEMENT_X: return {"displacement_x", "m"};
+    case v1::EWAVE_OUTPUT_DISPLACEMENT_Y: return {"displacement_y", "m"};
+    case v1::EWAVE_OUTPUT_NORMAL_X: return {"normal_x", "1"};
+    case v1::EWAVE_OUTPUT_NORMAL_Y: return {"normal_y", "1"};
+    case v1::EWAVE_OUTPUT_NORMAL_Z: return {"normal_z", "1"};
+    case v1::EWAVE_OUTPUT_PHI: return {"phi", "m^2/s"};
+    default: return {"", ""};
+  }
+}
+
+// The values of one output, from the engine frame (normals come interleaved x, y, z).
+std::vector<float> output_values(const Frame& f, v1::EWaveOutput o) {
+  auto normal = [&](size_t component) {
+    std::vector<float> v(f.normals.size() / 3);
+    for (size_t c = 0; c < v.size(); ++c) v[c] = f.normals[3 * c + component];
+    return v;
+  };
+  switch (o) {
+    case v1::EWAVE_OUTPUT_HEIGHT: return f.height;
+    case v1::EWAVE_OUTPUT_DISPLACEMENT_X: return f.displacement_x;
+    case v1::EWAVE_OUTPUT_DISPLACEMENT_Y: return f.displacement_y;
+    case v1::EWAVE_OUTPUT_NORMAL_X: return normal(0);
+    case v1::EWAVE_OUTPUT_NORMAL_Y: return normal(1);
+    case v1::EWAVE_OUTPUT_NORMAL_Z: return normal(2);
+    case v1::EWAVE_OUTPUT_PHI: return f.phi;
+    default: return {};
+  }
+}
+
+}  // namespace
+
+std::vector<float> grid_values(const v1::Field& field, int64_t nx, int64_t ny, const std::string& path) {
+  if (int64_t(field.nx()) != nx)
+    fail(Code::InvalidArgument, path + ".nx = " + std::to_string(field.nx()) + ", want the session's nx = " + std::to_string(nx));
+  if (int64_t(field.ny()) != ny)
+    fail(Code::InvalidArgument, path + ".ny = " + std::to_string(field.ny()) + ", want the session's ny = " + std::to_string(ny));
+  if (field.nz() > 1) fail(Code::InvalidArgument, path + ".nz = " + std::to_string(field.nz()) + ", want 0 or 1 (a 2D field)");
+  const v1::DType type = dtype(field.dtype(), path + ".dtype");
+  const size_t n = size_t(nx) * size_t(ny), size = bytes_per_value(type);
+  if (field.data().size() != n * size)
+    fail(Code::InvalidArgument, path + ".data has " + std::to_string(field.data().size()) + " bytes, want nx * ny * " +
+                                    std::to_string(size) + " = " + std::to_string(n * size));
+  std::vector<float> values(n);
+  const char* bytes = field.data().data();
+  if (type == v1::DTYPE_FLOAT32) {
+    std::memcpy(values.data(), bytes, n * 4);  // little-endian hosts only (x86-64, aarch64)
+  } else {
+    for (size_t i = 0; i < n; ++i)
+      values[i] = f16::to_float(uint16_t(uint8_t(bytes[2 * i])) | uint16_t(uint8_t(bytes[2 * i + 1])) << 8);
+  }
+  return values;
+}
+
+v1::DType dtype(v1::DType d, const std::string& path) {
+  if (d == v1::DTYPE_UNSPECIFIED || d == v1::DTYPE_FLOAT32) return v1::DTYPE_FLOAT32;
+  if (d == v1::DTYPE_FLOAT16) return v1::DTYPE_FLOAT16;
+  fail(Code::InvalidArgument, path + " = " + std::to_string(int(d)) + " must be DTYPE_FLOAT32 or DTYPE_FLOAT16");
+}
+
+EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
+  gate.check_grid("config", p.nx(), p.ny());
+  EWaveConfig c;
+  c.nx = p.nx(), c.ny = p.ny();
+  c.dx = p.dx(), c.dy = p.dy();
+  c.dispersion = dispersion(p.dispersion());
+  if (p.has_gravity()) c.gravity = p.gravity();
+  c.depth = p.depth();
+  c.capillary_length = p.capillary_length();
+  c.trim = p.has_trim() ? p.trim() : true;
+  c.trim_width = p.trim_width();
+  if (p.has_trim_alpha()) c.trim_alpha = p.trim_alpha();
+  c.friction_time = p.friction_time();
+  c.source_scale = p.source_scale();
+  c.mask_phi = p.mask_phi();
+  c.double_precision = p.double_precision();
+  if (p.has_displacement_scale()) c.displacement_scale = p.displacement_scale();
+  c.initial_height = map(p.has_initial_height(), p.initial_height(), c, "config.initial_height");
+  c.initial_phi = map(p.has_initial_phi(), p.initial_phi(), c, "config.initial_phi");
+  validate(c, &gate);  // ranges, finite values; messages name "config.<field>"
+  return c;
+}
+
+void fill_config(const EWaveConfig& c, v1::EWaveConfig* p) {
+  p->set_nx(uint32_t(c.nx)), p->set_ny(uint32_t(c.ny));
+  p->set_dx(c.dx), p->set_dy(c.dy);
+  p->set_dispersion(dispersion(c.dispersion));
+  p->set_gravity(c.gravity);
+  p->set_depth(c.depth);
+  p->set_capillary_length(c.capillary_length);
+  p->set_trim(c.trim);
+  p->set_trim_width(c.effective_trim_width());
+  p->set_trim_alpha(c.trim_alpha);
+  p->set_friction_time(c.friction_time);
+  p->set_source_scale(c.source_scale);
+  p->set_mask_phi(c.mask_phi);
+  p->set_double_precision(c.double_precision);
+  p->set_displacement_scale(c.displacement_scale);
+}
+
+std::vector<v1::EWaveOutput> outputs(const v1::EWaveInputs& p) {
+  std::vector<v1::EWaveOutput> list;
+  std::set<int> seen;
+  for (int i = 0; i < p.outputs_size(); ++i) {
+    auto o = v1::EWaveOutput(p.outputs(i));
+    const std::string at = "inputs.outputs[" + std::to_string(i) + "]";
+    if (!*info(o).name) fail(Code::InvalidArgument, at + " = " + std::to_string(int(o)) + " is not an EWaveOutput");
+    if (!seen.insert(o).second) fail(Code::InvalidArgument, at + " = " + v1::EWaveOutput_Name(o) + " is listed twice");
+    list.push_back(o);
+  }
+  if (list.empty()) list.push_back(v1::EWAVE_OUTPUT_HEIGHT);
+  return list;
+}
+
+StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
+  StepInputs in;
+  in.dt = p.dt();
+  in.obstruction = map(p.has_obstruction(), p.obstruction(), c, "inputs.obstruction");
+  if (size_t(p.shapes_size()) > kMaxShapes)
+    fail(Code::InvalidArgument, "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " +
+                                    std::to_string(kMaxShapes));
+  for (int s = 0; s < p.shapes_size(); ++s) in.shapes.push_back(shape(p.shapes(s), "inputs.shapes[" + std::to_string(s) + "]"));
+  in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
+  in.source_height = map(p.has_source_height(), p.source_height(), c, "inputs.source_height");
+  in.source_phi = map(p.has_source_phi(), p.source_phi(), c, "inputs.source_phi");
+  in.drift_x = p.drift_x(), in.drift_y = p.drift_y();
+  in.drift_field_x = map(p.has_drift_field_x(), p.drift_field_x(), c, "inputs.drift_field_x");
+  in.drift_field_y = map(p.has_drift_field_y(), p.drift_field_y(), c, "inputs.drift_field_y");
+  OutputSelection& o = in.outputs;
+  o = {false, false, false, false};
+  for (auto out : outputs(p)) {
+    o.height |= out == v1::EWAVE_OUTPUT_HEIGHT;
+    o.displacement |= out == v1::EWAVE_OUTPUT_DISPLACEMENT_X || out == v1::EWAVE_OUTPUT_DISPLACEMENT_Y;
+    o.normals |= out == v1::EWAVE_OUTPUT_NORMAL_X || out == v1::EWAVE_OUTPUT_NORMAL_Y || out == v1::EWAVE_OUTPUT_NORMAL_Z;
+    o.phi |= out == v1::EWAVE_OUTPUT_PHI;
+  }
+  validate(in, c);  // dt, value ranges, finite values; messages name "inputs.<field>"
+  return in;
+}
+
+uint64_t frame_bytes(const EWaveConfig& c, size_t outputs, v1::DType d) {
+  return outputs * (c.cells() * bytes_per_value(d) + 128) + 256;
+}
+
+void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWaveOutput>& outputs, v1::DType d,
+                v1::EWaveFrame* reply) {
+  reply->set_step(f.step);
+  reply->mutable_time()->set_seconds(f.time);
+  for (auto o : outputs) {
+    v1::Field* field = reply->add_fields();
+    field->set_name(info(o).name);
+    field->set_unit(info(o).unit);
+    field->set_nx(uint32_t(c.nx)), field->set_ny(uint32_t(c.ny));
+    field->mutable_spacing()->set_x(c.dx), field->mutable_spacing()->set_y(c.dy);
+    field->mutable_origin()->set_x(0.5 * c.dx), field->mutable_origin()->set_y(0.5 * c.dy);
+    field->set_dtype(d);
+    std::vector<float> values = output_values(f, o);
+    std::string* data = field->mutable_data();
+    if (d == v1::DTYPE_FLOAT16) {
+      f16::append_half_bytes(values.data(), values.size(), data);
+    } else {
+      data->assign(reinterpret_cast<const char*>(values.data()), values.size() * 4);
+    }
+  }
+}
+
+}  // namespace squall::ewave::rpc

@@ -1,0 +1,464 @@
+// squall.v1.EWave for real: squalld started on free localhost ports, driven through the generated stub and
+// the `squall ewave wake` CLI. The daemon's frames are compared with the engine run in this process on
+// the same device and FFT backend, so the proto <-> engine translation is checked value by value.
+#include <gtest/gtest.h>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "client/client.h"
+#include "ewave/ewave_session.h"
+#include "ewave_support.h"
+#include "ocean/float16.h"
+#include "squall/v1/ewave.grpc.pb.h"
+#include "support/daemon.h"
+#include "support/test_runtime.h"
+
+namespace squall {
+namespace {
+
+namespace v1 = squall::v1;
+const std::string kSquall = test::squall_path();
+
+// A squalld with its EWave stub.
+class Daemon : public test::Daemon {
+ public:
+  explicit Daemon(const std::vector<std::string>& flags)
+      : test::Daemon(flags), stub_(v1::EWave::NewStub(client::Client({address(), 5, ""}).channel())) {}
+  v1::EWave::Stub& stub() { return *stub_; }
+
+ private:
+  std::unique_ptr<v1::EWave::Stub> stub_;
+};
+
+// Both pinned to VkFFT so that a state moves between them bit-identically.
+Daemon& first() {
+  static Daemon d({"--fft", "vkfft", "--max-sessions", "3", "--max-streams", "2"});
+  return d;
+}
+Daemon& second() {
+  static Daemon d({"--fft", "vkfft", "--session-ttl", "1"});
+  return d;
+}
+
+std::unique_ptr<grpc::ClientContext> context(double seconds = 60) {
+  auto c = std::make_unique<grpc::ClientContext>();
+  c->set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(int64_t(seconds * 1000)));
+  return c;
+}
+
+v1::Field field(uint32_t nx, uint32_t ny, const std::vector<float>& values) {
+  v1::Field f;
+  f.set_nx(nx), f.set_ny(ny), f.set_dtype(v1::DTYPE_FLOAT32);
+  f.set_data(reinterpret_cast<const char*>(values.data()), values.size() * 4);
+  return f;
+}
+
+std::vector<float> values(const v1::Field& f) {
+  std::vector<float> v(size_t(f.nx()) * f.ny());
+  if (f.dtype() == v1::DTYPE_FLOAT16) {
+    for (size_t i = 0; i < v.size(); ++i)
+      v[i] = f16::to_float(uint16_t(uint8_t(f.data()[2 * i])) | uint16_t(uint8_t(f.data()[2 * i + 1])) << 8);
+  } else {
+    EXPECT_EQ(f.data().size(), v.size() * 4);
+    std::memcpy(v.data(), f.data().data(), std::min(f.data().size(), v.size() * 4));
+  }
+  return v;
+}
+
+// A 64 x 48 deep-water session at 1 cm with a Gaussian hump (engine and proto forms of one config).
+ewave::EWaveConfig engine_config() {
+  ewave::EWaveConfig c = ewave::test::plain_config(64, 48);
+  c.trim = true;
+  c.source_scale = 0.5;
+  c.initial_height = ewave::test::field(c, [](double x, double y) {
+    return 0.01 * std::exp(-(std::pow(x - 0.3, 2) + std::pow(y - 0.24, 2)) / (2 * 0.03 * 0.03));
+  });
+  return c;
+}
+
+v1::EWaveConfig proto_config(const ewave::EWaveConfig& c) {
+  v1::EWaveConfig p;
+  p.set_nx(uint32_t(c.nx)), p.set_ny(uint32_t(c.ny)), p.set_dx(c.dx), p.set_dy(c.dy);
+  p.set_trim(c.trim);
+  p.set_source_scale(c.source_scale);
+  if (!c.initial_height.empty()) *p.mutable_initial_height() = field(uint32_t(c.nx), uint32_t(c.ny), c.initial_height);
+  return p;
+}
+
+// A session on a daemon, closed (best effort) when it goes out of scope.
+class Session {
+ public:
+  Session(Daemon& d, const v1::EWaveConfig& config) : daemon_(d) {
+    v1::EWaveCreateSessionRequest request;
+    *request.mutable_config() = config;
+    v1::EWaveSessionResponse reply;
+    status_ = d.stub().CreateSession(context().get(), request, &reply);
+    id_ = reply.session_id();
+  }
+  Session(Daemon& d, const std::string& id) : daemon_(d), id_(id) {}
+  ~Session() { close(); }
+  grpc::Status close() {
+    v1::EWaveSessionRequest request;
+    request.set_session_id(id_);
+    v1::EWaveCloseResponse reply;
+    return daemon_.stub().CloseSession(context().get(), request, &reply);
+  }
+  grpc::Status step(const v1::EWaveInputs& inputs, v1::EWaveFrame* frame) {
+    v1::EWaveStepRequest request;
+    request.set_session_id(id_);
+    *request.mutable_inputs() = inputs;
+    return daemon_.stub().Step(context().get(), request, frame);
+  }
+  const std::string& id() const { return id_; }
+  const grpc::Status& status() const { return status_; }
+
+ private:
+  Daemon& daemon_;
+  std::string id_;
+  grpc::Status status_;
+};
+
+v1::EWaveInputs plain_inputs(double dt) {
+  v1::EWaveInputs in;
+  in.set_dt(dt);
+  in.add_outputs(v1::EWAVE_OUTPUT_HEIGHT);
+  in.add_outputs(v1::EWAVE_OUTPUT_PHI);
+  return in;
+}
+
+TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
+  ewave::EWaveConfig c = engine_config();
+  Session s(first(), proto_config(c));
+  ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+  EXPECT_EQ(s.id().size(), 32u);
+  EXPECT_EQ(s.id().find_first_not_of("0123456789abcdef"), std::string::npos) << s.id();
+
+  // The same steps in this process: an ellipse moving along x (shape translation), a uniform drift.
+  ewave::EWaveSession local(test::runtime(), test::fft("vkfft"), c);
+  v1::EWaveFrame frame;
+  ewave::Frame expected;
+  for (int n = 0; n < 3; ++n) {
+    v1::EWaveInputs in = plain_inputs(0.01);
+    in.add_outputs(v1::EWAVE_OUTPUT_NORMAL_Z);
+    in.set_drift_x(0.25);
+    auto* e = in.add_shapes()->mutable_ellipse();
+    e->set_center_x(0.2 + 0.01 * n), e->set_center_y(0.2), e->set_semi_axis_a(0.06), e->set_semi_axis_b(0.02);
+    e->set_heading(0.3);
+    ASSERT_TRUE(s.step(in, &frame).ok());
+    ewave::StepInputs li = ewave::test::plain_step(0.01);
+    li.outputs.normals = true;
+    li.drift_x = 0.25;
+    li.shapes = {ewave::Shape{ewave::ShapeKind::Ellipse, 0.2 + 0.01 * n, 0.2, 0.06, 0.02, 0.3, {}}};
+    expected = local.step(li);
+  }
+  EXPECT_EQ(frame.session_id(), s.id());
+  EXPECT_EQ(frame.step(), 3u);
+  EXPECT_NEAR(frame.time().seconds(), 0.03, 1e-15);
+  ASSERT_EQ(frame.fields_size(), 3);
+  EXPECT_EQ(frame.fields(0).name(), "height");
+  EXPECT_EQ(frame.fields(1).name(), "phi");
+  EXPECT_EQ(frame.fields(1).unit(), "m^2/s");
+  EXPECT_EQ(frame.fields(2).name(), "normal_z");
+  EXPECT_DOUBLE_EQ(frame.fields(0).origin().x(), 0.005);
+  EXPECT_DOUBLE_EQ(frame.fields(0).spacing().y(), 0.01);
+  std::vector<float> normal_z(expected.normals.size() / 3);
+  for (size_t i = 0; i < normal_z.size(); ++i) normal_z[i] = expected.normals[3 * i + 2];
+  // Same device, same kernels, same FFT backend: the daemon's numbers are the engine's, bit for bit.
+  EXPECT_EQ(values(frame.fields(0)), expected.height);
+  EXPECT_EQ(values(frame.fields(1)), expected.phi);
+  EXPECT_EQ(values(frame.fields(2)), normal_z);
+  EXPECT_GT(ewave::test::max_abs(expected.height), 1e-4) << "the hump and the source must show";
+  EXPECT_TRUE(s.close().ok());
+}
+
+TEST(EWaveService, Float16FramesRoundToHalfPrecision) {
+  Session s(first(), proto_config(engine_config()));
+  v1::EWaveInputs in = plain_inputs(0.02);
+  v1::EWaveFrame f32, f16;
+  ASSERT_TRUE(s.step(in, &f32).ok());
+  Session t(first(), proto_config(engine_config()));
+  in.set_dtype(v1::DTYPE_FLOAT16);
+  ASSERT_TRUE(t.step(in, &f16).ok());
+  ASSERT_EQ(f16.fields(0).data().size(), 64u * 48u * 2u);
+  std::vector<float> a = values(f32.fields(0)), b = values(f16.fields(0));
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_EQ(b[i], f16::to_float(f16::from_float(a[i]))) << i;
+}
+
+TEST(EWaveService, RunStreamReturnsFramesInOrderWithStepAndTime) {
+  Session s(first(), proto_config(engine_config()));
+  auto ctx = context();
+  auto call = first().stub().Run(ctx.get());
+  const double dts[] = {0.01, 0.02, 0.005, 0.01, 0.03};
+  for (double dt : dts) {
+    v1::EWaveStepRequest r;
+    r.set_session_id(s.id());
+    *r.mutable_inputs() = plain_inputs(dt);
+    ASSERT_TRUE(call->Write(r));
+  }
+  call->WritesDone();
+  v1::EWaveFrame f;
+  double t = 0;
+  uint64_t n = 0;
+  while (call->Read(&f)) {
+    t += dts[n++];
+    EXPECT_EQ(f.step(), n);
+    EXPECT_DOUBLE_EQ(f.time().seconds(), t);
+    EXPECT_EQ(f.session_id(), s.id());
+  }
+  EXPECT_EQ(n, 5u);
+  EXPECT_TRUE(call->Finish().ok());
+}
+
+TEST(EWaveService, RunEndsWithTheStatusOfABadMessage) {
+  Session s(first(), proto_config(engine_config()));
+  auto ctx = context();
+  auto call = first().stub().Run(ctx.get());
+  v1::EWaveStepRequest r;
+  r.set_session_id(s.id());
+  *r.mutable_inputs() = plain_inputs(0.01);
+  ASSERT_TRUE(call->Write(r));
+  r.mutable_inputs()->set_dt(0);
+  call->Write(r);
+  call->WritesDone();
+  v1::EWaveFrame f;
+  int frames = 0;
+  while (call->Read(&f)) ++frames;
+  grpc::Status status = call->Finish();
+  EXPECT_EQ(frames, 1);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("Run message 1: inputs.dt = 0"), std::string::npos) << status.error_message();
+}
+
+TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
+  Session a(first(), proto_config(engine_config()));
+  v1::EWaveFrame f;
+  for (int n = 0; n < 3; ++n) ASSERT_TRUE(a.step(plain_inputs(0.01), &f).ok());
+  v1::EWaveSessionRequest get;
+  get.set_session_id(a.id());
+  v1::EWaveStateResponse state;
+  ASSERT_TRUE(first().stub().GetState(context().get(), get, &state).ok());
+  EXPECT_GT(state.state().size(), 2u * 64 * 48 * 4);
+
+  v1::EWaveRestoreRequest restore;
+  restore.set_state(state.state());
+  v1::EWaveSessionResponse restored;
+  grpc::Status status = second().stub().Restore(context().get(), restore, &restored);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(restored.session_id(), a.id());
+  EXPECT_EQ(restored.config().nx(), 64u);
+  EXPECT_DOUBLE_EQ(restored.config().source_scale(), 0.5);
+  Session b(second(), restored.session_id());
+
+  v1::EWaveFrame fa, fb;
+  for (int n = 0; n < 4; ++n) {
+    ASSERT_TRUE(a.step(plain_inputs(0.015), &fa).ok());
+    ASSERT_TRUE(b.step(plain_inputs(0.015), &fb).ok());
+  }
+  EXPECT_EQ(fa.step(), 7u);
+  EXPECT_EQ(fb.step(), 7u);
+  EXPECT_EQ(fa.time().seconds(), fb.time().seconds());
+  EXPECT_EQ(fa.fields(0).data(), fb.fields(0).data()) << "height differs after restore";
+  EXPECT_EQ(fa.fields(1).data(), fb.fields(1).data()) << "phi differs after restore";
+  EXPECT_GT(ewave::test::max_abs(values(fa.fields(0))), 1e-4);
+}
+
+TEST(EWaveService, ClosedUnknownAndEmptyIdsAreRefused) {
+  auto s = std::make_unique<Session>(first(), proto_config(engine_config()));
+  const std::string id = s->id();
+  v1::EWaveFrame f;
+  ASSERT_TRUE(s->step(plain_inputs(0.01), &f).ok());
+  ASSERT_TRUE(s->close().ok());
+  grpc::Status status = s->step(plain_inputs(0.01), &f);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(status.error_message().find("session_id"), std::string::npos) << status.error_message();
+  v1::EWaveSessionRequest get;
+  get.set_session_id(id);
+  v1::EWaveStateResponse state;
+  EXPECT_EQ(first().stub().GetState(context().get(), get, &state).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(s->close().error_code(), grpc::StatusCode::NOT_FOUND);
+  // A well-formed id nobody was given, and the other daemon's view of a live id.
+  Session other(first(), proto_config(engine_config()));
+  Session random(first(), std::string("0123456789abcdef0123456789abcdef"));
+  EXPECT_EQ(random.step(plain_inputs(0.01), &f).error_code(), grpc::StatusCode::NOT_FOUND);
+  Session elsewhere(second(), other.id());
+  EXPECT_EQ(elsewhere.step(plain_inputs(0.01), &f).error_code(), grpc::StatusCode::NOT_FOUND);
+  Session empty(first(), std::string());
+  status = empty.step(plain_inputs(0.01), &f);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("session_id is empty"), std::string::npos) << status.error_message();
+}
+
+void expect_invalid(Session& s, const v1::EWaveInputs& in, const std::string& names) {
+  v1::EWaveFrame f;
+  grpc::Status status = s.step(in, &f);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << names;
+  EXPECT_NE(status.error_message().find(names), std::string::npos) << status.error_message();
+}
+
+TEST(EWaveService, BadInputsAreInvalidArgumentNamingTheFieldAndTheDaemonServesOn) {
+  Session s(first(), proto_config(engine_config()));
+  std::vector<float> ones(64 * 48, 1.0f);
+  v1::EWaveInputs in = plain_inputs(0.01);
+  *in.mutable_obstruction() = field(48, 64, ones);  // transposed
+  expect_invalid(s, in, "inputs.obstruction.nx = 48, want the session's nx = 64");
+  *in.mutable_obstruction() = field(64, 48, std::vector<float>(10, 1.0f));
+  expect_invalid(s, in, "inputs.obstruction.data has 40 bytes");
+  in.clear_obstruction();
+  std::vector<float> source(64 * 48, 0.0f);
+  source[77] = NAN;
+  *in.mutable_source_height() = field(64, 48, source);
+  expect_invalid(s, in, "inputs.source_height[77] = nan");
+  in.clear_source_height();
+  ones[5] = 1.5f;
+  *in.mutable_obstruction() = field(64, 48, ones);
+  expect_invalid(s, in, "inputs.obstruction[5] = 1.5");
+  in.clear_obstruction();
+  for (double dt : {0.0, -0.01, double(NAN)}) {
+    in.set_dt(dt);
+    expect_invalid(s, in, "inputs.dt");
+  }
+  in.set_dt(0.01);
+  in.add_shapes()->mutable_circle()->set_radius(-1);
+  expect_invalid(s, in, "inputs.shapes[0].circle.radius = -1");
+  in.clear_shapes();
+  in.add_outputs(v1::EWAVE_OUTPUT_HEIGHT);
+  expect_invalid(s, in, "inputs.outputs[2] = EWAVE_OUTPUT_HEIGHT is listed twice");
+
+  v1::EWaveConfig bad = proto_config(engine_config());
+  bad.set_dx(NAN);
+  Session refused(first(), bad);
+  EXPECT_EQ(refused.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused.status().error_message().find("config.dx = nan"), std::string::npos);
+  bad = proto_config(engine_config());
+  bad.set_ny(47);  // the initial height is 64 x 48
+  Session misfit(first(), bad);
+  EXPECT_NE(misfit.status().error_message().find("config.initial_height.ny = 48, want the session's ny = 47"),
+            std::string::npos)
+      << misfit.status().error_message();
+
+  // The rejected steps left the session where it was; the daemon still serves it.
+  v1::EWaveFrame f;
+  ASSERT_TRUE(s.step(plain_inputs(0.01), &f).ok());
+  EXPECT_EQ(f.step(), 1u);
+}
+
+TEST(EWaveService, SessionsBeyondMaxSessionsAreResourceExhausted) {
+  std::vector<std::unique_ptr<Session>> live;
+  for (int n = 0; n < 3; ++n) {
+    live.push_back(std::make_unique<Session>(first(), proto_config(engine_config())));
+    ASSERT_TRUE(live.back()->status().ok()) << live.back()->status().error_message();
+  }
+  Session fourth(first(), proto_config(engine_config()));
+  EXPECT_EQ(fourth.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(fourth.status().error_message().find("--max-sessions"), std::string::npos) << fourth.status().error_message();
+  ASSERT_TRUE(live.back()->close().ok());
+  Session again(first(), proto_config(engine_config()));
+  EXPECT_TRUE(again.status().ok()) << again.status().error_message();
+}
+
+TEST(EWaveService, IdleSessionsAreEvictedAfterTheTtl) {
+  Session s(second(), proto_config(engine_config()));  // --session-ttl 1
+  v1::EWaveFrame f;
+  ASSERT_TRUE(s.step(plain_inputs(0.01), &f).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  ASSERT_TRUE(s.step(plain_inputs(0.01), &f).ok()) << "a used session stays";
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  grpc::Status status = s.step(plain_inputs(0.01), &f);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND) << status.error_message();
+}
+
+// Opens a Run stream and completes one step on it.
+struct OpenRun {
+  std::unique_ptr<grpc::ClientContext> ctx = context();
+  std::unique_ptr<grpc::ClientReaderWriter<v1::EWaveStepRequest, v1::EWaveFrame>> call;
+  bool stepped = false;
+  OpenRun(Daemon& d, const std::string& id) {
+    call = d.stub().Run(ctx.get());
+    v1::EWaveStepRequest r;
+    r.set_session_id(id);
+    *r.mutable_inputs() = plain_inputs(0.01);
+    v1::EWaveFrame f;
+    stepped = call->Write(r) && call->Read(&f);
+  }
+};
+
+TEST(EWaveService, ACancelledRunReleasesItsStreamSlot) {
+  Session s(first(), proto_config(engine_config()));  // --max-streams 2
+  OpenRun a(first(), s.id()), b(first(), s.id());
+  ASSERT_TRUE(a.stepped && b.stepped);
+  {
+    OpenRun c(first(), s.id());
+    EXPECT_FALSE(c.stepped);
+    grpc::Status status = c.call->Finish();
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    EXPECT_NE(status.error_message().find("--max-streams"), std::string::npos) << status.error_message();
+  }
+  a.ctx->TryCancel();  // the client goes away mid-stream
+  EXPECT_EQ(a.call->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  bool reopened = false;
+  for (int tries = 0; tries < 50 && !reopened; ++tries) {  // the server notices the cancel asynchronously
+    OpenRun d(first(), s.id());
+    reopened = d.stepped;
+    if (reopened) {
+      d.call->WritesDone();
+      EXPECT_TRUE(d.call->Finish().ok());
+    } else {
+      d.call->Finish();
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
+  EXPECT_TRUE(reopened) << "the cancelled stream's slot was not released";
+  b.call->WritesDone();
+  EXPECT_TRUE(b.call->Finish().ok());
+}
+
+TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
+  std::string dir = test::temp_dir("ewave-wake");
+  std::string out;
+  int rc = test::run({kSquall, "--address", first().address(), "ewave", "wake", "--speed", "0.2", "--hull", "ellipse",
+                      "--length", "0.12", "--beam", "0.04", "--steps", "12", "--every", "6", "--grid", "96x64",
+                      "--spacing", "0.01", "--outputs", "height,normal_x,normal_y,normal_z", "-o", dir},
+                     &out, 120);
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("wrote 2 frames of 12 steps"), std::string::npos) << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_00006.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/frame_00005.exr"));
+  Imf::InputFile file((dir + "/frame_00012.exr").c_str());
+  Imath::Box2i window = file.header().dataWindow();
+  ASSERT_EQ(window.max.x - window.min.x + 1, 96);
+  ASSERT_EQ(window.max.y - window.min.y + 1, 64);
+  std::vector<std::vector<float>> channels(4, std::vector<float>(96 * 64));
+  Imf::FrameBuffer frame;
+  const char* names[] = {"height", "normal_x", "normal_y", "normal_z"};
+  for (int c = 0; c < 4; ++c) {
+    ASSERT_NE(file.header().channels().findChannel(names[c]), nullptr) << names[c];
+    frame.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(channels[c].data()), 4, 4 * 96));
+  }
+  file.setFrameBuffer(frame);
+  file.readPixels(window.min.y, window.max.y);
+  // The hull (a source S0 (1 - O), S0 = 1 m/s) has raised waves; the normals, split into three channels, are
+  // unit vectors cell by cell (steep at the hull's edge: the source pumps 5 cm per step there).
+  EXPECT_GT(ewave::test::max_abs(channels[0]), 1e-4);
+  for (size_t i = 0; i < channels[1].size(); ++i) {
+    double x = channels[1][i], y = channels[2][i], z = channels[3][i];
+    ASSERT_NEAR(x * x + y * y + z * z, 1.0, 1e-5) << i;
+  }
+  // The session was closed at the end: all three --max-sessions slots are free again.
+  std::vector<std::unique_ptr<Session>> live;
+  for (int n = 0; n < 3; ++n) {
+    live.push_back(std::make_unique<Session>(first(), proto_config(engine_config())));
+    EXPECT_TRUE(live.back()->status().ok()) << live.back()->status().error_message();
+  }
+}
+
+}  // namespace
+}  // namespace squall
