@@ -136,6 +136,26 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
   EXPECT_THROW(c.info(), client::RpcError);
 }
 
+TEST(Daemon, DrainingTurnsNotServingForWatchersAndEndsTheirStreams) {
+  Daemon d({"--fft", "vkfft", "--grace-period", "2"});
+  auto stub = grpc::health::v1::Health::NewStub(client::Client({d.address(), 60, ""}).channel());
+  grpc::ClientContext ctx;
+  auto watch = stub->Watch(&ctx, grpc::health::v1::HealthCheckRequest());
+  grpc::health::v1::HealthCheckResponse update;
+  ASSERT_TRUE(watch->Read(&update));
+  EXPECT_EQ(update.status(), grpc::health::v1::HealthCheckResponse::SERVING);
+  auto start = std::chrono::steady_clock::now();
+  d.process().signal(SIGTERM);
+  ASSERT_TRUE(watch->Read(&update));
+  EXPECT_EQ(update.status(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+  while (watch->Read(&update)) {  // the server ends the stream by the end of the grace period
+  }
+  watch->Finish();
+  EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 2 + 5) << "shutdown took longer than --grace-period allows";
+}
+
 TEST(Daemon, SigintAlsoStopsCleanly) {
   Daemon d({"--fft", "clfft"});
   d.process().signal(SIGINT);
