@@ -4,6 +4,10 @@
 #include <cstdio>
 #include <iostream>
 
+#include "client/ewave_cli.h"
+#include "client/cloud_cli.h"
+#include "client/ocean_cli.h"
+
 namespace squall::cli {
 namespace {
 
@@ -49,6 +53,9 @@ std::map<std::string, Verb>& verbs() {
   static std::map<std::string, Verb> table = {
       {"info", {"info              print the daemon's version, devices, kernels, FFT backend and limits", info}},
       {"health", {"health [SERVICE]  print SERVING or NOT_SERVING (exit 1 when not serving)", health}},
+      {"ocean", {ocean::kVerbUsage, ocean::run}},
+      {"ewave", {ewave::kVerbUsage, ewave::run}},
+      {"cloud", {cloud::kVerbUsage, cloud::run}},
   };
   return table;
 }

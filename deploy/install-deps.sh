@@ -11,6 +11,7 @@ packages=(
   libclfft-dev libvkfft-dev libfftw3-dev
   # Sparse volumes and images
   libopenvdb-dev libnanovdb-dev libopenvdb-tools libopenexr-dev libpng-dev
+  libboost-dev  # OpenVDB's headers include Boost (numeric conversion)
   # RPC
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   # Tests and benchmarks

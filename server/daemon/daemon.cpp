@@ -5,12 +5,16 @@
 #include <grpcpp/health_check_service_interface.h>
 #include <signal.h>
 
+#include <cmath>
 #include <fstream>
 
+#include "clouds/clouds_service.h"
 #include "common/log.h"
 #include "daemon/engines.h"
 #include "daemon/request_log.h"
 #include "daemon/server_service.h"
+#include "ewave/ewave_service.h"
+#include "ocean/ocean_service.h"
 
 namespace squall::rpc {
 namespace {
@@ -31,6 +35,13 @@ void start_engines(Engines& engines, const DaemonOptions& options) {
   if (backend == "auto") backend = fft::fastest_backend(engines.runtime, 512, 512, &engines.fft_selection);
   engines.fft = std::make_unique<fft::Fft>(fft::make_backend(engines.runtime, backend));
   log(LogLevel::Info, "FFT backend ", backend, " (", engines.fft_selection, ")");
+  engines.ocean = std::make_unique<ocean::OceanEngine>(engines.runtime, *engines.fft);
+  ewave::EWaveEngineOptions ewave_options;
+  ewave_options.session_ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
+  engines.ewave = std::make_unique<ewave::EWaveEngine>(engines.runtime, *engines.fft, engines.gate, ewave_options);
+  clouds::CloudEngineOptions cloud_options;
+  cloud_options.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
+  engines.clouds = std::make_unique<clouds::CloudEngine>(engines.runtime, cloud_options);
 }
 
 void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
@@ -76,12 +87,18 @@ int run_daemon(const DaemonOptions& options) {
   }
 
   ServerService server_service(*engines);
+  OceanService ocean_service(*engines);
+  EWaveService ewave_service(*engines);
+  CloudsService clouds_service(*engines);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
   builder.RegisterService(&server_service);
+  builder.RegisterService(&ocean_service);
+  builder.RegisterService(&ewave_service);
+  builder.RegisterService(&clouds_service);
   configure(builder, options);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {

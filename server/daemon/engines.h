@@ -9,7 +9,10 @@
 
 #include "common/error.h"
 #include "common/limits.h"
+#include "clouds/cloud_engine.h"
 #include "fft/fft.h"
+#include "ewave/ewave_engine.h"
+#include "ocean/ocean_engine.h"
 #include "runtime/runtime.h"
 
 namespace squall::rpc {
@@ -22,6 +25,9 @@ struct Engines {
   LimitGate gate;
   std::unique_ptr<fft::Fft> fft;  // set during start-up, before ready
   std::string fft_selection;      // "flag", or the start-up measurement that chose the backend
+  std::unique_ptr<ocean::OceanEngine> ocean;  // set during start-up, after fft
+  std::unique_ptr<ewave::EWaveEngine> ewave;  // set during start-up, after fft
+  std::unique_ptr<clouds::CloudEngine> clouds;  // set during start-up
   std::atomic<bool> ready{false};
   const std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
 

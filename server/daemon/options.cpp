@@ -41,6 +41,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
+      {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
       {"log-level", [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
        }},
@@ -103,6 +104,7 @@ std::string usage() {
          "  --max-message-bytes N     largest gRPC message either way (default " + std::to_string(d.limits.max_message_bytes) + ")\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default 10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
+         "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n";
 }
 

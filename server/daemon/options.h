@@ -18,6 +18,7 @@ struct DaemonOptions {
   Limits limits;                           // --max-grid-cells, --max-streams, --max-sessions, --max-message-bytes
   double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
+  double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
 };
 

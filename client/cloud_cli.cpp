@@ -1,0 +1,320 @@
+#include "client/cloud_cli.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "client/cli.h"
+#include "client/image_io.h"
+#include "squall/v1/clouds.grpc.pb.h"
+
+namespace squall::cli::cloud {
+
+const char* const kVerbUsage =
+    "cloud build|render ...  sparse cloud volumes (.vdb) and ray-marched images (EXR + PNG); "
+    "`squall cloud help` lists the flags";
+
+namespace {
+
+namespace v1 = squall::v1;
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+const char* const kHelp = R"(usage:
+  squall cloud build  [MODEL FLAGS] [--keep] -o CLOUD.vdb
+  squall cloud render (--volume ID | [MODEL FLAGS]) [RENDER FLAGS] -o IMAGE.exr [--preview FILE.png|none]
+model flags (SI units; z is up):
+  --voxel-size M            m (default 1)
+  --skin M                  skin thickness of the density ramp, m (default 2 voxel sizes)
+  --sphere X,Y,Z,R          a base sphere (repeatable)
+  --ellipsoid X,Y,Z,RX,RY,RZ  a base ellipsoid (repeatable)
+  --mesh FILE.obj           a closed triangle mesh (repeatable)
+  --pyro LAYERS,AMP,FREQ[,GAMMA]  pyroclastic displacement: layers, amplitude m, noise frequency 1/m
+  --particle X,Y,Z,R        a noise-stamped particle (repeatable)
+  --advect SPEED,TIME[,SUBSTEPS[,sl|mm]]  noise-velocity advection, m/s and s
+  --temperature T0,LAPSE    temperature field: K at z = 0, K/m
+  --max-voxels N            active-voxel budget
+render flags:
+  --eye X,Y,Z  --look-at X,Y,Z  --up X,Y,Z   camera, m (default eye 0,-100,0 at the origin, up +z)
+  --fov DEG                 vertical field of view (default 40)
+  --size WxH                pixels (default 256x256)
+  --step M                  ray-march step, m (default: 1)
+  --wavelengths L1,L2,...   m (default 550e-9)
+  --extinction K            1/m per unit density, for every wavelength (default 0.1)
+  --albedo A                for every wavelength (default 0.9)
+  --sun DX,DY,DZ,E          directional light toward DX,DY,DZ with irradiance E for every wavelength (repeatable)
+  --phase uniform|hg:G|dhg:G1,G2,W|ff:N,MU   (default hg:0.8)
+  --shadow none|direct|dsm  (default dsm)
+  --trilinear               trilinear density (default nearest voxel)
+)";
+
+std::vector<double> numbers(const std::string& flag, const std::string& text, size_t min, size_t max) {
+  std::vector<double> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end || !std::isfinite(v)) throw UsageError(flag + " " + text + ": not a list of finite numbers");
+    out.push_back(v);
+  }
+  if (out.size() < min || out.size() > max)
+    throw UsageError(flag + " " + text + ": needs " + std::to_string(min) + ".." + std::to_string(max) + " numbers");
+  return out;
+}
+
+void vec(const std::vector<double>& v, size_t at, v1::Vec3* out) {
+  out->set_x(v[at]);
+  out->set_y(v[at + 1]);
+  out->set_z(v[at + 2]);
+}
+
+struct Request {
+  v1::CloudModel model;
+  v1::RenderSettings settings;
+  std::string volume_id, output, preview;
+  bool keep = false, has_shape = false;
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError("cannot read " + path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool model_flag(const std::string& flag, const std::string& value, Request& r) {
+  auto& m = r.model;
+  if (flag == "--voxel-size") m.set_voxel_size(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--skin") m.set_skin(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--sphere") {
+    auto v = numbers(flag, value, 4, 4);
+    auto* s = m.add_spheres();
+    vec(v, 0, s->mutable_center());
+    s->set_radius(v[3]);
+  } else if (flag == "--ellipsoid") {
+    auto v = numbers(flag, value, 6, 6);
+    auto* e = m.add_ellipsoids();
+    vec(v, 0, e->mutable_center());
+    vec(v, 3, e->mutable_radii());
+  } else if (flag == "--mesh") m.add_meshes()->set_obj(read_text(value));
+  else if (flag == "--pyro") {
+    auto v = numbers(flag, value, 3, 4);
+    auto* p = m.mutable_pyroclastic();
+    p->set_layers(uint32_t(v[0]));
+    p->set_amplitude(v[1]);
+    p->mutable_noise()->set_frequency(v[2]);
+    if (v.size() == 4) p->set_gamma(v[3]);
+  } else if (flag == "--particle") {
+    auto v = numbers(flag, value, 4, 4);
+    auto* p = m.add_particles();
+    vec(v, 0, p->mutable_center());
+    p->set_radius(v[3]);
+  } else if (flag == "--advect") {
+    std::string scheme;
+    std::string nums = value;
+    if (auto c = value.rfind(','); c != std::string::npos && (value.substr(c + 1) == "sl" || value.substr(c + 1) == "mm")) {
+      scheme = value.substr(c + 1);
+      nums = value.substr(0, c);
+    }
+    auto v = numbers(flag, nums, 2, 3);
+    auto* a = m.mutable_advection();
+    a->set_speed(v[0]);
+    a->set_time(v[1]);
+    if (v.size() == 3) a->set_substeps(uint32_t(v[2]));
+    a->set_scheme(scheme == "sl" ? v1::ADVECTION_SCHEME_SEMI_LAGRANGIAN : v1::ADVECTION_SCHEME_MODIFIED_MACCORMACK);
+  } else if (flag == "--temperature") {
+    auto v = numbers(flag, value, 2, 2);
+    auto* t = m.mutable_temperature();
+    t->set_enabled(true);
+    t->set_surface(v[0]);
+    t->set_lapse_rate(v[1]);
+  } else if (flag == "--max-voxels") m.set_max_active_voxels(uint64_t(numbers(flag, value, 1, 1)[0]));
+  else return false;
+  if (flag == "--sphere" || flag == "--ellipsoid" || flag == "--mesh" || flag == "--particle") r.has_shape = true;
+  return true;
+}
+
+bool render_flag(const std::string& flag, const std::string& value, Request& r) {
+  auto& s = r.settings;
+  auto* c = s.mutable_camera();
+  if (flag == "--eye") vec(numbers(flag, value, 3, 3), 0, c->mutable_eye());
+  else if (flag == "--look-at") vec(numbers(flag, value, 3, 3), 0, c->mutable_look_at());
+  else if (flag == "--up") vec(numbers(flag, value, 3, 3), 0, c->mutable_up());
+  else if (flag == "--fov") c->set_vertical_fov_deg(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--size") {
+    int w = 0, h = 0;
+    if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1) throw UsageError("--size " + value + ": WxH");
+    c->set_width(uint32_t(w));
+    c->set_height(uint32_t(h));
+  } else if (flag == "--step") s.set_step(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--wavelengths") {
+    s.clear_wavelengths();
+    for (double l : numbers(flag, value, 1, 8)) s.add_wavelengths(l);
+  } else if (flag == "--extinction") s.add_extinction(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--albedo") s.add_albedo(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--sun") {
+    auto v = numbers(flag, value, 4, 4);
+    auto* l = s.add_lights();
+    l->set_kind(v1::LIGHT_KIND_DIRECTIONAL);
+    vec(v, 0, l->mutable_direction());
+    l->add_intensity(v[3]);  // expanded to every wavelength below
+  } else if (flag == "--phase") {
+    auto* p = s.mutable_phase();
+    auto colon = value.find(':');
+    std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
+    if (kind == "uniform") p->set_kind(v1::PHASE_KIND_UNIFORM);
+    else if (kind == "hg") {
+      p->set_kind(v1::PHASE_KIND_HENYEY_GREENSTEIN);
+      p->set_g1(numbers(flag, args, 1, 1)[0]);
+    } else if (kind == "dhg") {
+      auto v = numbers(flag, args, 3, 3);
+      p->set_kind(v1::PHASE_KIND_DOUBLE_HENYEY_GREENSTEIN);
+      p->set_g1(v[0]);
+      p->set_g2(v[1]);
+      p->set_weight(v[2]);
+    } else if (kind == "ff") {
+      auto v = numbers(flag, args, 2, 2);
+      p->set_kind(v1::PHASE_KIND_FOURNIER_FORAND);
+      p->set_ff_n(v[0]);
+      p->set_ff_mu(v[1]);
+    } else throw UsageError("--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU");
+  } else if (flag == "--shadow") {
+    if (value == "none") s.set_shadow(v1::SHADOW_MODE_NONE);
+    else if (value == "direct") s.set_shadow(v1::SHADOW_MODE_DIRECT);
+    else if (value == "dsm") s.set_shadow(v1::SHADOW_MODE_DEEP_SHADOW_MAP);
+    else throw UsageError("--shadow " + value + ": none, direct or dsm");
+  } else return false;
+  return true;
+}
+
+Request parse(const std::vector<std::string>& args) {
+  Request r;
+  r.model.set_voxel_size(1);
+  auto* c = r.settings.mutable_camera();
+  c->mutable_eye()->set_y(-100);
+  c->mutable_up()->set_z(1);
+  c->set_width(256);
+  c->set_height(256);
+  r.settings.set_step(1);
+  r.settings.add_wavelengths(550e-9);
+  for (size_t i = 1; i < args.size(); ++i) {
+    const std::string& flag = args[i];
+    if (flag == "--keep") { r.keep = true; continue; }
+    if (flag == "--trilinear") { r.settings.set_trilinear(true); continue; }
+    if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");
+    const std::string& value = args[++i];
+    if (flag == "-o") r.output = value;
+    else if (flag == "--preview") r.preview = value;
+    else if (flag == "--volume") r.volume_id = value;
+    else if (!model_flag(flag, value, r) && !render_flag(flag, value, r)) throw UsageError("unknown flag " + flag);
+  }
+  // One extinction, albedo and light intensity for every wavelength.
+  auto& s = r.settings;
+  int nw = s.wavelengths_size();
+  double k = s.extinction_size() ? s.extinction(0) : 0.1, a = s.albedo_size() ? s.albedo(0) : 0.9;
+  s.clear_extinction();
+  s.clear_albedo();
+  for (int w = 0; w < nw; ++w) {
+    s.add_extinction(k);
+    s.add_albedo(a);
+  }
+  for (auto& l : *s.mutable_lights()) {
+    double e = l.intensity(0);
+    l.clear_intensity();
+    for (int w = 0; w < nw; ++w) l.add_intensity(e);
+  }
+  if (r.output.empty()) throw UsageError("-o FILE is required");
+  return r;
+}
+
+void check(const grpc::Status& status, const char* method) {
+  if (!status.ok()) throw client::RpcError(method, status);
+}
+
+void print_summary(const v1::VolumeSummary& s) {
+  std::cout << (s.volume_id().empty() ? "" : "volume_id " + s.volume_id() + "\n") << "active voxels " << s.active_voxels()
+            << ", " << s.bytes() << " bytes sparse vs " << s.dense_bytes() << " dense (ratio " << s.fill_ratio() << "), "
+            << s.device_bytes() << " bytes on the device\n";
+}
+
+int build(client::Client& client, const Request& r) {
+  auto stub = v1::Clouds::NewStub(client.channel());
+  auto context = client.context();
+  v1::BuildVolumeRequest request;
+  *request.mutable_model() = r.model;
+  request.set_keep(r.keep);
+  request.set_return_vdb(true);
+  v1::BuildVolumeResponse response;
+  check(stub->BuildVolume(context.get(), request, &response), "Clouds.BuildVolume");
+  std::ofstream out(r.output, std::ios::binary);
+  out << response.vdb();
+  if (!out) {
+    std::cerr << "squall cloud: cannot write " << r.output << "\n";
+    return kLocalError;
+  }
+  print_summary(response.summary());
+  return kOk;
+}
+
+int render(client::Client& client, const Request& r) {
+  auto stub = v1::Clouds::NewStub(client.channel());
+  auto context = client.context();
+  v1::RenderRequest request;
+  if (!r.volume_id.empty()) request.set_volume_id(r.volume_id);
+  else *request.mutable_model() = r.model;
+  *request.mutable_settings() = r.settings;
+  v1::RenderResponse response;
+  check(stub->Render(context.get(), request, &response), "Clouds.Render");
+  const auto& img = response.image();
+  client::Image image;
+  image.nx = int(img.width());
+  image.ny = int(img.height());
+  size_t plane = size_t(img.width()) * img.height();
+  for (int c = 0; c < img.channels_size(); ++c) {
+    client::Channel channel{img.channels(c), std::vector<float>(plane)};
+    std::memcpy(channel.values.data(), img.data().data() + c * plane * sizeof(float), plane * sizeof(float));
+    image.channels.push_back(std::move(channel));
+  }
+  try {
+    client::write_exr(r.output, image);
+    std::string preview = r.preview.empty() ? r.output.substr(0, r.output.rfind('.')) + ".png" : r.preview;
+    if (preview != "none") client::write_png_preview(preview, image.nx, image.ny, image.channels[0].values);
+  } catch (const std::exception& e) {
+    std::cerr << "squall cloud: " << e.what() << "\n";
+    return kLocalError;
+  }
+  print_summary(response.summary());
+  return kOk;
+}
+
+}  // namespace
+
+int run(client::Client& client, const std::vector<std::string>& args) {
+  if (args.empty() || args[0] == "help" || args[0] == "--help") {
+    std::cerr << kHelp;
+    return args.empty() ? kUsage : kOk;
+  }
+  try {
+    Request r = parse(args);
+    if (args[0] == "build") {
+      if (!r.has_shape) throw UsageError("build needs at least one --sphere, --ellipsoid, --mesh or --particle");
+      return build(client, r);
+    }
+    if (args[0] == "render") {
+      if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
+      return render(client, r);
+    }
+    throw UsageError("unknown cloud verb " + args[0] + " (build or render)");
+  } catch (const UsageError& e) {
+    std::cerr << "squall cloud: " << e.what() << "\n";
+    return kUsage;
+  }
+}
+
+}  // namespace squall::cli::cloud

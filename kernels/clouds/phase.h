@@ -1,0 +1,49 @@
+// Phase functions (App D appendix A, main §7.2.1), normalized to 1 over the sphere. mu = cos(Theta) of
+// the scattering angle between the view direction and the direction to the light; s2 = sin^2(Theta/2)
+// = (1 - mu)/2, passed separately because it is accurate near forward scattering where 1 - mu is not.
+#ifndef SQUALL_CLOUDS_PHASE_H
+#define SQUALL_CLOUDS_PHASE_H
+
+#define SQ_INV_4PI 0.0795774715459477f
+
+static inline float phase_hg(float mu, float g) {  // eq A.8
+  float d = 1.0f + g * g - 2.0f * g * mu;
+  return SQ_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
+}
+
+// Fournier-Forand, eqs A.9-A.12, with the Junge slope mu_j in 3.5..5 (the seed's Fig A.2 caption misprints
+// it as 0.35..0.5, see gilligan.md §7) and refractive index n.
+static inline float phase_fournier_forand(float mu, float s2, float n, float mu_j) {
+  float nu = (3.0f - mu_j) / 2.0f;
+  float k = 4.0f / (3.0f * (n - 1.0f) * (n - 1.0f));
+  s2 = fmax(s2, 1e-12f);
+  float delta = k * s2;
+  float delta180 = k;
+  float dnu = pow(delta, nu);
+  float d180nu = pow(delta180, nu);
+  float one_minus = 1.0f - delta;
+  float first = (nu * one_minus - (1.0f - dnu) + (delta * (1.0f - dnu) - nu * one_minus) / s2) /
+                (4.0f * M_PI_F * one_minus * one_minus * dnu);
+  float second = (1.0f - d180nu) / (16.0f * M_PI_F * (delta180 - 1.0f) * d180nu) * (3.0f * mu * mu - 1.0f);
+  return first + second;
+}
+
+static inline float phase_function(__private const sq_cloud_render* p, float mu, float s2) {
+  if (p->phase == SQ_PHASE_HG) return phase_hg(mu, p->g1);
+  if (p->phase == SQ_PHASE_DOUBLE_HG) return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
+  if (p->phase == SQ_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
+  return SQ_INV_4PI;
+}
+
+// Planck's spectral radiance B_lambda(T), W m^-2 sr^-1 m^-1 (lambda in m, T in K), evaluated as
+// exp(ln(2hc^2/lambda^5) - x) / (1 - exp(-x)), x = hc/(lambda k T), which stays in float range where
+// exp(x) alone would overflow (short wavelengths, cold clouds).
+static inline float blackbody(float lambda, float T) {
+  const float log_two_hc2 = -36.666532f;  // ln(2 h c^2 / (W m^2 sr^-1))
+  const float hc_k = 1.43877688e-2f;      // h c / k, m K
+  if (T <= 0.0f) return 0.0f;
+  float x = hc_k / (lambda * T);
+  return exp(log_two_hc2 - 5.0f * log(lambda) - x) / -expm1(-x);
+}
+
+#endif

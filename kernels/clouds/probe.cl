@@ -1,0 +1,30 @@
+// squall-build-options: -cl-std=CL2.0
+// Device-side checks of the NanoVDB path: exact voxel lookups through PNanoVDB.h.
+#include "clouds/pnanovdb_cl.h"
+
+// out[i] = value of voxel ijk[3i..3i+2] of the float grid in `grid`, read with a PNanoVDB read accessor.
+__kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk, uint n, __global float* out) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  pnanovdb_buf_t buf = pnanovdb_make_buf(grid);
+  pnanovdb_readaccessor_t acc = sq_vdb_accessor(buf);
+  out[i] = sq_vdb_value(buf, &acc, (int3)(ijk[3 * i], ijk[3 * i + 1], ijk[3 * i + 2]));
+}
+
+#include "clouds/render_params.h"
+#include "clouds/phase.h"
+
+// out[i] = the phase function of p at scattering angle theta[i] (radians).
+__kernel void phase_eval(sq_cloud_render p, __global const float* theta, uint n, __global float* out) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  float s = sin(0.5f * theta[i]);
+  out[i] = phase_function(&p, cos(theta[i]), s * s);
+}
+
+// out[i] = B_lambda(T) at wavelength lambda[i] (m) and temperature T[i] (K).
+__kernel void blackbody_eval(__global const float* lambda, __global const float* T, uint n, __global float* out) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  out[i] = blackbody(lambda[i], T[i]);
+}

@@ -1,0 +1,55 @@
+#include "clouds/evolution.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+
+namespace squall::clouds {
+namespace {
+
+void check_finite(const std::string& field, double v) {
+  if (!std::isfinite(v)) fail(Code::InvalidArgument, field + " = " + std::to_string(v) + " must be finite");
+}
+void check_vec(const std::string& field, const Vec3d& v) {
+  static const char* axis[] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) check_finite(field + axis[i], v[i]);
+}
+void move(Vec3d& p, const Vec3d& v, double t) {
+  for (int a = 0; a < 3; ++a) p[a] += v[a] * t;
+}
+void move_pattern(NoiseParams& n, const Vec3d& v, double t) {
+  for (int a = 0; a < 3; ++a) n.offset[a] -= v[a] * t;  // N_t(x) = N_0(x - v t)
+}
+
+}  // namespace
+
+void validate(const Evolution& e, const std::string& f) {
+  check_vec(f + ".drift", e.drift);
+  check_vec(f + ".noise_drift", e.noise_drift);
+  check_finite(f + ".amplitude_rate", e.amplitude_rate);
+  check_finite(f + ".advection_rate", e.advection_rate);
+  if (e.advection_rate < 0)
+    fail(Code::InvalidArgument, f + ".advection_rate = " + std::to_string(e.advection_rate) + " must be >= 0");
+  check_vec(f + ".velocity_drift", e.velocity_drift);
+}
+
+CloudModel model_at(const CloudModel& base, const Evolution& e, double t) {
+  CloudModel m = base;
+  for (auto& s : m.spheres) move(s.center, e.drift, t);
+  for (auto& s : m.ellipsoids) move(s.center, e.drift, t);
+  for (auto& mesh : m.meshes)
+    for (auto& v : mesh.vertices) move(v, e.drift, t);
+  for (auto& p : m.particles) {
+    move(p.center, e.drift, t);
+    move_pattern(p.noise, e.noise_drift, t);
+  }
+  move_pattern(m.pyroclastic.noise, e.noise_drift, t);
+  m.pyroclastic.amplitude = std::max(0.0, m.pyroclastic.amplitude + e.amplitude_rate * t);
+  move_pattern(m.temperature.noise, e.noise_drift, t);
+  m.advection.time += e.advection_rate * t;
+  move_pattern(m.advection.noise, e.velocity_drift, t);
+  return m;
+}
+
+}  // namespace squall::clouds

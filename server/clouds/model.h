@@ -1,0 +1,93 @@
+// A cloud model: what to build (seed main §6.2, the "Bishop" workflow). Plain data, SI units; validated
+// by validate() before anything is built. Level sets follow the seed's convention: l > 0 inside.
+// Altitude is +z (the temperature lapse and the renderer's "up" use it).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "clouds/noise.h"
+
+namespace squall::clouds {
+
+struct Sphere {
+  Vec3d center{0, 0, 0};  // m, finite
+  double radius = 1;      // m, > 0
+};
+
+struct Ellipsoid {
+  Vec3d center{0, 0, 0};  // m, finite
+  Vec3d radii{1, 1, 1};   // semi-axes along x, y, z, m, each > 0
+};
+
+struct TriangleMesh {
+  std::vector<Vec3d> vertices;      // m, finite, >= 4
+  std::vector<uint32_t> triangles;  // 3 vertex indices per triangle, counter-clockwise seen from outside
+};
+
+// Cumulo pyroclastic displacement (eqs 105-112): layer n adds amplitude * |N_n(X)|^gamma to l, with
+// N_n(x) = r^n N_0(x f_jump^n), N_0 = the normalized fractal noise, X = x - l grad l (CPT/PPT).
+struct Pyroclastic {
+  int layers = 0;           // 0 = off, <= 8
+  double amplitude = 1;     // m, >= 0: the largest displacement of one layer
+  double gamma = 1;         // valley sharpness, (0, 16]
+  NoiseParams noise;
+};
+
+// A particle (eqs 113-114): a sphere stamped with its own noise, v = max(0, N(x) rho_base(x)^fade),
+// N = amplitude (bias + FS_norm(x)).
+struct Particle {
+  Vec3d center{0, 0, 0};  // m
+  double radius = 1;      // m, > 0
+  double amplitude = 1;   // density scale, >= 0
+  double bias = 0.5;      // added to the normalized noise, [-1, 1]
+  double fade = 1;        // >= 0
+  NoiseParams noise;
+};
+
+enum class AdvectionScheme { SemiLagrangian, ModifiedMacCormack };
+
+// Advection of the density by a fractal noise velocity u = speed (FS(x), FS(x+d1), FS(x+d2)) (App D eq 3.9),
+// over `time` in `substeps` equal steps of the characteristic map (eqs 115-117, App E eq 13).
+struct Advection {
+  double speed = 0;      // m/s, >= 0 (0 = off)
+  double time = 0;       // s, >= 0
+  int substeps = 1;      // 1..256
+  AdvectionScheme scheme = AdvectionScheme::ModifiedMacCormack;
+  NoiseParams noise;
+};
+
+// Temperature (§6.3): T = surface - lapse_rate (z - base_altitude) + fluctuation FS_norm(x), on the
+// density's active voxels.
+struct Temperature {
+  bool enabled = false;
+  double surface = 288.15;        // K at base_altitude, (0, 10000]
+  double base_altitude = 0;       // m
+  double lapse_rate = 0.0065;     // K/m, [-0.1, 0.1] (standard atmosphere 6.5 K/km)
+  double fluctuation = 0;         // K, >= 0
+  NoiseParams noise;
+};
+
+struct CloudModel {
+  double voxel_size = 1;            // m, > 0
+  double skin = 1;                  // skin thickness Delta x_skin of eq 103, m, > 0
+  std::vector<Sphere> spheres;      // the base shapes, unioned (max of l)
+  std::vector<Ellipsoid> ellipsoids;
+  std::vector<TriangleMesh> meshes;
+  Pyroclastic pyroclastic;          // applied to the union of base shapes
+  std::vector<Particle> particles;  // stamped, combined by max density
+  Advection advection;
+  Temperature temperature;
+  uint64_t max_active_voxels = 64ull << 20;  // budget; the build fails rather than exceed it
+};
+
+// Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
+// non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
+// voxel count exceeds max_active_voxels.
+void validate(const CloudModel& model, const std::string& prefix = "model");
+
+// Largest displacement the pyroclastic layers can add, m (sum over layers of amplitude (r^n)^gamma).
+double pyroclastic_bound(const Pyroclastic& p);
+
+}  // namespace squall::clouds

@@ -1,0 +1,21 @@
+// OpenVDB -> NanoVDB, and the NanoVDB buffer uploaded to the device as is (the same bytes on host and
+// device, as the seed's App C asks); kernels read it through PNanoVDB.h (kernels/clouds/pnanovdb_cl.h).
+#pragma once
+
+#include <nanovdb/util/GridHandle.h>
+#include <nanovdb/util/HostBuffer.h>
+#include <openvdb/openvdb.h>
+
+#include "runtime/runtime.h"
+
+namespace squall::clouds {
+
+using NanoHandle = nanovdb::GridHandle<nanovdb::HostBuffer>;
+
+// nanovdb::openToNanoVDB of a float grid (same transform, values, active states and background).
+NanoHandle to_nanovdb(const openvdb::FloatGrid& grid);
+
+// A device copy of the handle's bytes (read-only, padded to whole 32-bit words).
+cl::Buffer upload_nanovdb(Runtime& runtime, const NanoHandle& handle);
+
+}  // namespace squall::clouds

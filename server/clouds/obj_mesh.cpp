@@ -1,0 +1,48 @@
+#include "clouds/obj_mesh.h"
+
+#include <sstream>
+
+#include "common/error.h"
+
+namespace squall::clouds {
+
+TriangleMesh parse_obj(const std::string& text, const std::string& field) {
+  TriangleMesh mesh;
+  std::istringstream lines(text);
+  std::string line;
+  int number = 0;
+  auto bad = [&](const std::string& why) {
+    fail(Code::InvalidArgument, field + " line " + std::to_string(number) + ": " + why);
+  };
+  while (std::getline(lines, line)) {
+    ++number;
+    std::istringstream in(line);
+    std::string tag;
+    in >> tag;
+    if (tag == "v") {
+      Vec3d v;
+      if (!(in >> v[0] >> v[1] >> v[2])) bad("a vertex needs three numbers");
+      mesh.vertices.push_back(v);
+    } else if (tag == "f") {
+      std::vector<uint32_t> face;
+      std::string token;
+      while (in >> token) {
+        long index = 0;
+        try {
+          index = std::stol(token.substr(0, token.find('/')));
+        } catch (const std::exception&) {
+          bad("face index \"" + token + "\" is not a number");
+        }
+        long n = long(mesh.vertices.size());
+        long resolved = index > 0 ? index - 1 : n + index;
+        if (index == 0 || resolved < 0 || resolved >= n) bad("face index " + token + " is out of range");
+        face.push_back(uint32_t(resolved));
+      }
+      if (face.size() < 3) bad("a face needs at least three vertices");
+      for (size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.insert(mesh.triangles.end(), {face[0], face[k], face[k + 1]});
+    }
+  }
+  return mesh;
+}
+
+}  // namespace squall::clouds

@@ -1,0 +1,231 @@
+#include "clouds/renderer.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "clouds/nanovdb_volume.h"
+#include "clouds/render_params.h"
+#include "common/error.h"
+
+namespace squall::clouds {
+namespace {
+
+static_assert(sizeof(sq_cloud_light) == 4 * (7 + SQ_CLOUD_MAX_WAVELENGTHS), "sq_cloud_light must have no padding");
+static_assert(sizeof(sq_cloud_render) % 4 == 0 && alignof(sq_cloud_render) == 4, "sq_cloud_render: 4-byte members only");
+
+std::string str(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+void check(bool ok, const std::string& field, double v, const std::string& rule) {
+  if (!ok || !std::isfinite(v)) fail(Code::InvalidArgument, field + " = " + str(v) + " must be " + rule);
+}
+void check_vec(const std::string& field, const Vec3d& v) {
+  static const char* axis[] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) check(true, field + axis[i], v[i], "finite");
+}
+Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(const Vec3d& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+Vec3d unit(const Vec3d& a) {
+  double n = norm(a);
+  return {a[0] / n, a[1] / n, a[2] / n};
+}
+void put(float* dst, const Vec3d& v) {
+  for (int i = 0; i < 3; ++i) dst[i] = float(v[i]);
+}
+
+sq_cloud_render device_params(const RenderSettings& s) {
+  sq_cloud_render p{};
+  const Camera& c = s.camera;
+  Vec3d forward = unit(sub(c.look_at, c.eye));
+  Vec3d right = unit(cross(forward, c.up));
+  Vec3d up = cross(right, forward);
+  put(p.eye, c.eye);
+  put(p.forward, forward);
+  put(p.right, right);
+  put(p.up, up);
+  p.tan_half_fov_y = float(std::tan(c.vertical_fov_deg * M_PI / 360));
+  p.width = c.width;
+  p.height = c.height;
+  p.step = float(s.step);
+  p.substeps = s.substeps;
+  p.interpolation = s.trilinear ? 1 : 0;
+  p.seed = int(s.seed);
+  p.min_transmittance = float(s.min_transmittance);
+  p.phase = int(s.phase.kind);
+  p.g1 = float(s.phase.g1);
+  p.g2 = float(s.phase.g2);
+  p.weight = float(s.phase.weight);
+  p.ff_n = float(s.phase.ff_n);
+  p.ff_mu = float(s.phase.ff_mu);
+  p.n_wavelengths = int(s.wavelengths.size());
+  for (size_t w = 0; w < s.wavelengths.size(); ++w) {
+    p.wavelength[w] = float(s.wavelengths[w]);
+    p.extinction[w] = float(s.extinction[w]);
+    p.albedo[w] = float(s.albedo[w]);
+  }
+  p.n_lights = int(s.lights.size());
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    const Light& l = s.lights[i];
+    p.lights[i].kind = int(l.kind);
+    put(p.lights[i].position, l.position);
+    put(p.lights[i].direction, unit(l.direction));
+    for (size_t w = 0; w < l.intensity.size(); ++w) p.lights[i].intensity[w] = float(l.intensity[w]);
+  }
+  p.shadow = int(s.shadow);
+  for (int a = 0; a < 3; ++a) p.dsm_n[a] = s.shadow_map_size[a];
+  return p;
+}
+
+// 1 for the deep-shadow-map nodes within one map cell of an occupied box, 0 elsewhere (never read).
+std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const sq_cloud_render& p) {
+  const int n[3] = {p.dsm_n[0], p.dsm_n[1], p.dsm_n[2]};
+  std::vector<cl_uchar> mask(size_t(n[0]) * n[1] * n[2], 0);
+  double cell[3];
+  for (int a = 0; a < 3; ++a) cell[a] = (p.dsm_max[a] - p.dsm_min[a]) / (n[a] - 1);
+  for (const auto& b : volume.occupied) {
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(0, int(std::floor((b[a] - p.dsm_min[a]) / cell[a])) - 1);
+      hi[a] = std::min(n[a] - 1, int(std::ceil((b[a + 3] - p.dsm_min[a]) / cell[a])) + 1);
+    }
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i) mask[(size_t(k) * n[1] + j) * n[0] + i] = 1;
+  }
+  return mask;
+}
+
+}  // namespace
+
+void validate(const RenderSettings& s, const std::string& f) {
+  const Camera& c = s.camera;
+  check_vec(f + ".camera.eye", c.eye);
+  check_vec(f + ".camera.look_at", c.look_at);
+  check_vec(f + ".camera.up", c.up);
+  Vec3d view = sub(c.look_at, c.eye);
+  if (!(norm(view) > 0)) fail(Code::InvalidArgument, f + ".camera.look_at equals " + f + ".camera.eye");
+  if (!(norm(cross(unit(view), c.up)) > 1e-6))
+    fail(Code::InvalidArgument, f + ".camera.up is zero or parallel to the view direction");
+  check(c.vertical_fov_deg > 0 && c.vertical_fov_deg < 170, f + ".camera.vertical_fov_deg", c.vertical_fov_deg, "in (0, 170)");
+  check(c.width >= 1 && c.width <= 8192, f + ".camera.width", c.width, "in [1, 8192]");
+  check(c.height >= 1 && c.height <= 8192, f + ".camera.height", c.height, "in [1, 8192]");
+  check(s.step > 0, f + ".step", s.step, "finite and > 0 m");
+  check(s.substeps >= 1 && s.substeps <= SQ_CLOUD_MAX_SUBSTEPS, f + ".substeps", s.substeps, "in [1, 8]");
+  check(s.min_transmittance >= 0 && s.min_transmittance < 1, f + ".min_transmittance", s.min_transmittance, "in [0, 1)");
+  const Phase& ph = s.phase;
+  check(ph.g1 > -1 && ph.g1 < 1, f + ".phase.g1", ph.g1, "in (-1, 1)");
+  check(ph.g2 > -1 && ph.g2 < 1, f + ".phase.g2", ph.g2, "in (-1, 1)");
+  check(ph.weight >= 0 && ph.weight <= 1, f + ".phase.weight", ph.weight, "in [0, 1]");
+  check(ph.ff_n > 1 && ph.ff_n <= 2, f + ".phase.ff_n", ph.ff_n, "in (1, 2]");
+  check(ph.ff_mu >= 3.5 && ph.ff_mu <= 5, f + ".phase.ff_mu", ph.ff_mu, "in [3.5, 5] (the Junge slope)");
+  size_t nw = s.wavelengths.size();
+  if (nw < 1 || nw > SQ_CLOUD_MAX_WAVELENGTHS)
+    fail(Code::InvalidArgument, f + ".wavelengths has " + std::to_string(nw) + " entries; 1..8 are allowed");
+  if (s.extinction.size() != nw || s.albedo.size() != nw)
+    fail(Code::InvalidArgument, f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
+  for (size_t w = 0; w < nw; ++w) {
+    std::string i = "[" + std::to_string(w) + "]";
+    check(s.wavelengths[w] > 0 && s.wavelengths[w] <= 1e-3, f + ".wavelengths" + i, s.wavelengths[w], "in (0, 1e-3] m");
+    check(s.extinction[w] >= 0, f + ".extinction" + i, s.extinction[w], "finite and >= 0 (1/m)");
+    check(s.albedo[w] >= 0 && s.albedo[w] <= 1, f + ".albedo" + i, s.albedo[w], "in [0, 1]");
+  }
+  if (s.lights.size() > SQ_CLOUD_MAX_LIGHTS)
+    fail(Code::InvalidArgument, f + ".lights has " + std::to_string(s.lights.size()) + " entries; at most 4");
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    std::string l = f + ".lights[" + std::to_string(i) + "]";
+    check_vec(l + ".position", s.lights[i].position);
+    check_vec(l + ".direction", s.lights[i].direction);
+    if (s.lights[i].kind == LightKind::Directional && !(norm(s.lights[i].direction) > 0))
+      fail(Code::InvalidArgument, l + ".direction must not be zero");
+    if (s.lights[i].intensity.size() != nw)
+      fail(Code::InvalidArgument, l + ".intensity needs one entry per wavelength (" + std::to_string(nw) + ")");
+    for (size_t w = 0; w < nw; ++w)
+      check(s.lights[i].intensity[w] >= 0, l + ".intensity[" + std::to_string(w) + "]", s.lights[i].intensity[w],
+            "finite and >= 0");
+  }
+  for (int a = 0; a < 3; ++a)
+    check(s.shadow_map_size[a] >= 2 && s.shadow_map_size[a] <= 512, f + ".shadow_map_size[" + std::to_string(a) + "]",
+          s.shadow_map_size[a], "in [2, 512]");
+}
+
+DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
+  DeviceVolume d;
+  NanoHandle density = to_nanovdb(*volume.density);
+  d.density = upload_nanovdb(runtime, density);
+  d.device_bytes = density.size();
+  if (volume.temperature) {
+    NanoHandle temperature = to_nanovdb(*volume.temperature);
+    d.temperature = upload_nanovdb(runtime, temperature);
+    d.has_temperature = true;
+    d.device_bytes += temperature.size();
+  } else {
+    d.temperature = d.density;
+  }
+  const auto& b = volume.stats.bounds;
+  double dx = volume.density->voxelSize()[0];
+  auto box = [&](const openvdb::CoordBBox& c) {  // grown by a voxel: trilinear density spills that far
+    d.occupied.push_back({(c.min().x() - 1.5) * dx, (c.min().y() - 1.5) * dx, (c.min().z() - 1.5) * dx,
+                          (c.max().x() + 1.5) * dx, (c.max().y() + 1.5) * dx, (c.max().z() + 1.5) * dx});
+  };
+  for (auto leaf = volume.density->tree().cbeginLeaf(); leaf; ++leaf) box(leaf->getNodeBoundingBox());
+  for (auto it = volume.density->tree().cbeginValueOn(); it; ++it)
+    if (!it.isVoxelValue()) box(it.getBoundingBox());
+  for (int a = 0; a < 3; ++a) {
+    d.world_min[a] = (b.min()[a] - 0.5) * dx;
+    d.world_max[a] = (b.max()[a] + 0.5) * dx;
+  }
+  return d;
+}
+
+Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field) {
+  validate(settings, field);
+  sq_cloud_render p = device_params(settings);
+  p.has_temperature = volume.has_temperature ? 1 : 0;
+  put(p.dsm_min, volume.world_min);
+  put(p.dsm_max, volume.world_max);
+  const int nw = p.n_wavelengths;
+  Image image;
+  image.width = p.width;
+  image.height = p.height;
+  for (int w = 0; w < nw; ++w) image.channels.push_back("radiance_" + std::to_string(w));
+  for (int w = 0; w < nw; ++w) image.channels.push_back("transmittance_" + std::to_string(w));
+  image.channels.push_back("depth");
+  const size_t pixels = size_t(p.width) * p.height;
+  image.data.resize(pixels * image.channels.size());
+
+  auto lock = runtime_.exclusive();
+  const auto& queue = runtime_.queue();
+  size_t dsm_floats = 1;
+  if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0)
+    dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
+  auto dsm = runtime_.buffers().acquire(dsm_floats * sizeof(float));
+  BufferLease mask;
+  if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
+    std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
+    mask = runtime_.buffers().acquire(needed.size());
+    queue.enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
+    cl::Kernel k = runtime_.kernel("clouds/render.cl", "cloud_shadow_map");
+    k.setArg(0, volume.density);
+    k.setArg(1, sizeof(p), &p);
+    k.setArg(2, mask.buffer());
+    k.setArg(3, dsm.buffer());
+    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(dsm_floats, 64)), cl::NDRange(64));
+  }
+  auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
+  cl::Kernel k = runtime_.kernel("clouds/render.cl", "cloud_render");
+  k.setArg(0, volume.density);
+  k.setArg(1, volume.temperature);
+  k.setArg(2, dsm.buffer());
+  k.setArg(3, sizeof(p), &p);
+  k.setArg(4, out.buffer());
+  queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(p.width, 8), round_up(p.height, 8)), cl::NDRange(8, 8));
+  queue.enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
+  return image;
+}
+
+}  // namespace squall::clouds

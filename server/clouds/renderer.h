@@ -1,0 +1,89 @@
+// The cloud ray marcher on the device (kernels/clouds/render.cl): settings, validation, the deep shadow
+// map pass and the render pass over NanoVDB grids uploaded as is.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "clouds/volume.h"
+#include "runtime/runtime.h"
+
+namespace squall::clouds {
+
+enum class PhaseKind { Uniform = 0, HenyeyGreenstein = 1, DoubleHenyeyGreenstein = 2, FournierForand = 3 };
+enum class LightKind { Point = 0, Directional = 1 };
+enum class ShadowMode { None = 0, Direct = 1, DeepShadowMap = 2 };
+
+struct Camera {
+  Vec3d eye{0, -30, 0};        // m
+  Vec3d look_at{0, 0, 0};      // m, != eye
+  Vec3d up{0, 0, 1};           // not parallel to the view direction
+  double vertical_fov_deg = 40;  // (0, 170)
+  int width = 64, height = 64;   // pixels, 1..8192
+};
+
+struct Light {
+  LightKind kind = LightKind::Directional;
+  Vec3d position{0, 0, 100};     // point light, m
+  Vec3d direction{0, 0, 1};      // directional: toward the light (normalized here)
+  std::vector<double> intensity; // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; >= 0
+};
+
+struct Phase {
+  PhaseKind kind = PhaseKind::HenyeyGreenstein;
+  double g1 = 0.8, g2 = -0.3, weight = 0.9;  // g in (-1, 1), weight in [0, 1]
+  double ff_n = 1.05, ff_mu = 4.0;           // FF: n in (1, 2], Junge slope mu in [3.5, 5]
+};
+
+struct RenderSettings {
+  Camera camera;
+  double step = 0.5;               // Delta s, m, > 0
+  int substeps = 1;                // N_s, 1..8
+  bool trilinear = false;          // density interpolation (false: nearest voxel)
+  uint32_t seed = 1;
+  double min_transmittance = 1e-4; // early termination, [0, 1)
+  Phase phase;
+  std::vector<double> wavelengths{550e-9};  // m, (0, 1e-3]; 1..8 channels
+  std::vector<double> extinction{1.0};      // kappa per unit density, 1/m, >= 0; one per wavelength
+  std::vector<double> albedo{0.9};          // [0, 1]; one per wavelength
+  std::vector<Light> lights;                // 0..4
+  ShadowMode shadow = ShadowMode::DeepShadowMap;
+  std::array<int, 3> shadow_map_size{64, 64, 64};  // DSM nodes per axis, 2..512
+};
+
+// Float image, channel-major planes: radiance per wavelength (W m^-2 sr^-1 m^-1), transmittance per
+// wavelength, depth (m; -1 where the first wavelength's transmittance stays >= 0.5).
+struct Image {
+  int width = 0, height = 0;
+  std::vector<std::string> channels;
+  std::vector<float> data;
+  float at(int channel, int x, int y) const { return data[(size_t(channel) * height + y) * width + x]; }
+};
+
+// A volume on the device: the NanoVDB buffers of its grids, byte for byte.
+struct DeviceVolume {
+  cl::Buffer density, temperature;
+  bool has_temperature = false;
+  Vec3d world_min{0, 0, 0}, world_max{0, 0, 0};  // the active voxels' cells, m
+  // World boxes (min x, y, z, max x, y, z; m) of the density's active leaves and tiles grown by a voxel:
+  // where the deep shadow map is needed (its nodes farther than one map cell from all are skipped).
+  std::vector<std::array<double, 6>> occupied;
+  uint64_t device_bytes = 0;
+};
+
+DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
+
+// Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
+void validate(const RenderSettings& settings, const std::string& prefix = "render");
+
+class CloudRenderer {
+ public:
+  explicit CloudRenderer(Runtime& runtime) : runtime_(runtime) {}
+  Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render");
+
+ private:
+  Runtime& runtime_;
+};
+
+}  // namespace squall::clouds

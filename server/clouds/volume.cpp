@@ -1,0 +1,162 @@
+// build_cloud and the whole-grid operations: advection (eqs 115-117), temperature (§6.3), max-density
+// combination (§6.2.5), statistics and .vdb output.
+#include "clouds/volume.h"
+
+#include <openvdb/io/Stream.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/Morphology.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tree/LeafManager.h>
+
+#include <cmath>
+#include <mutex>
+#include <sstream>
+
+#include "clouds/advection.h"
+#include "common/error.h"
+
+namespace squall::clouds {
+
+using openvdb::FloatGrid;
+
+void initialize_openvdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+namespace {
+
+// Keeps only voxels and tiles with a positive value active, drops empty leaves, merges uniform ones.
+void tidy_density(FloatGrid& grid) {
+  for (auto it = grid.tree().beginValueAll(); it; ++it) it.setActiveState(*it > 0);
+  openvdb::tools::pruneInactive(grid.tree());
+  openvdb::tools::prune(grid.tree());
+}
+
+void check_budget(const FloatGrid& density, const CloudModel& model, const std::string& field, const char* stage) {
+  uint64_t active = density.tree().activeVoxelCount();
+  if (active > model.max_active_voxels)
+    fail(Code::ResourceExhausted, field + ": " + std::to_string(active) + " active voxels after " + stage +
+                                      " exceed " + field + ".max_active_voxels = " +
+                                      std::to_string(model.max_active_voxels));
+}
+
+}  // namespace
+
+FloatGrid::Ptr advect_density(const FloatGrid& density, const Advection& advection) {
+  return advect_density(density, noise_velocity(advection), std::sqrt(3.0) * advection.speed, advection.time,
+                        advection.substeps, advection.scheme);
+}
+
+FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, double max_speed, double time,
+                              int substeps, AdvectionScheme scheme) {
+  const double dx = density.transform().voxelSize()[0];
+  const double reach = 2 * max_speed * time;  // MM moves a point by at most twice the SL step
+  FloatGrid::Ptr out = density.deepCopy();
+  out->tree().voxelizeActiveTiles();
+  int dilation = int(std::ceil(reach / dx)) + 1;
+  openvdb::tools::dilateActiveValues(out->tree(), dilation, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                     openvdb::tools::EXPAND_TILES);
+  openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+  leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+    auto in = density.getConstAccessor();
+    openvdb::tools::GridSampler<FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(in, density.transform());
+    for (auto it = leaf.beginValueOn(); it; ++it) {
+      openvdb::Vec3d x = density.transform().indexToWorld(it.getCoord());
+      Vec3d X = characteristic_map(u, {x[0], x[1], x[2]}, time, substeps, scheme);
+      it.setValue(sampler.wsSample(openvdb::Vec3d(X[0], X[1], X[2])));  // eq 116: rho(X(x))
+    }
+  });
+  tidy_density(*out);
+  return out;
+}
+
+FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t) {
+  FloatGrid::Ptr out = FloatGrid::create(0.0f);
+  out->setTransform(density.transform().copy());
+  out->tree().topologyUnion(density.tree());
+  out->tree().voxelizeActiveTiles();
+  out->setName("temperature");
+  openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+  leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+    for (auto it = leaf.beginValueOn(); it; ++it) {
+      openvdb::Vec3d x = out->transform().indexToWorld(it.getCoord());
+      double T = t.surface - t.lapse_rate * (x[2] - t.base_altitude);  // hydrostatic lapse (§6.3)
+      if (t.fluctuation > 0) T += t.fluctuation * fractal_noise(t.noise, {x[0], x[1], x[2]});
+      it.setValue(float(T));
+    }
+  });
+  return out;
+}
+
+CloudVolume combine_max(const CloudVolume& a, const CloudVolume& b) {
+  CloudVolume out;
+  out.density = a.density->deepCopy();
+  if (a.temperature) out.temperature = a.temperature->deepCopy();
+  auto rho = out.density->getAccessor();
+  auto rho_a = a.density->getConstAccessor();
+  std::unique_ptr<FloatGrid::Accessor> temp;
+  if (out.temperature) temp = std::make_unique<FloatGrid::Accessor>(out.temperature->getAccessor());
+  auto temp_b = b.temperature ? std::make_unique<FloatGrid::ConstAccessor>(b.temperature->getConstAccessor()) : nullptr;
+  FloatGrid::Ptr b_voxels = b.density->deepCopy();
+  b_voxels->tree().voxelizeActiveTiles();
+  for (auto it = b_voxels->cbeginValueOn(); it; ++it) {
+    const openvdb::Coord ijk = it.getCoord();
+    if (*it <= rho_a.getValue(ijk)) continue;
+    rho.setValue(ijk, *it);
+    if (temp && temp_b) temp->setValue(ijk, temp_b->getValue(ijk));
+  }
+  openvdb::tools::prune(out.density->tree());
+  out.stats = volume_stats(*out.density);
+  return out;
+}
+
+VolumeStats volume_stats(const FloatGrid& density) {
+  VolumeStats s;
+  s.active_voxels = density.tree().activeVoxelCount();
+  s.leaf_nodes = density.tree().leafCount();
+  s.bytes = density.tree().memUsage();
+  s.bounds = density.evalActiveVoxelBoundingBox();
+  s.dense_voxels = s.active_voxels ? s.bounds.volume() : 0;
+  s.dense_bytes = 4 * s.dense_voxels;
+  return s;
+}
+
+std::string write_vdb(const CloudVolume& volume) {
+  initialize_openvdb();
+  openvdb::GridCPtrVec grids{volume.density};
+  if (volume.temperature) grids.push_back(volume.temperature);
+  std::ostringstream bytes(std::ios::binary);
+  openvdb::io::Stream(bytes).write(grids);
+  return bytes.str();
+}
+
+CloudVolume build_cloud(const CloudModel& model, const std::string& field) {
+  initialize_openvdb();
+  validate(model, field);
+  const double dx = model.voxel_size;
+  FloatGrid::Ptr density;
+  if (auto ls = base_level_set(model, pyroclastic_bound(model.pyroclastic) + 3 * dx, model.skin + 3 * dx)) {
+    if (model.pyroclastic.layers > 0) ls = pyroclastic_displace(*ls, model.pyroclastic);
+    density = density_from_level_set(*ls, model.skin);
+  } else {
+    density = FloatGrid::create(0.0f);
+    density->setTransform(openvdb::math::Transform::createLinearTransform(dx));
+    density->setName("density");
+    density->setGridClass(openvdb::GRID_FOG_VOLUME);
+  }
+  check_budget(*density, model, field, "the base shapes");
+  stamp_particles(*density, model.particles, model.skin);
+  check_budget(*density, model, field, "stamping");
+  if (model.advection.speed > 0 && model.advection.time > 0) {
+    density = advect_density(*density, model.advection);
+    check_budget(*density, model, field, "advection");
+  }
+  CloudVolume volume;
+  volume.density = density;
+  if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature);
+  volume.stats = volume_stats(*density);
+  return volume;
+}
+
+}  // namespace squall::clouds

@@ -1,0 +1,219 @@
+// squall.v1.Clouds through a real squalld: build (kept, with .vdb bytes), render by id and by model,
+// evolution stream, release, and the documented errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "client/client.h"
+#include <openvdb/io/Stream.h>
+
+#include "clouds/volume.h"
+#include "squall/v1/clouds.grpc.pb.h"
+#include "support/daemon.h"
+
+namespace squall {
+namespace {
+
+namespace v1 = squall::v1;
+const std::string kSquall = test::squall_path();
+
+test::Daemon& daemon() {
+  static test::Daemon d({"--max-streams", "2"});
+  return d;
+}
+
+struct Call {
+  std::unique_ptr<client::Client> client;
+  std::unique_ptr<v1::Clouds::Stub> stub;
+  std::unique_ptr<grpc::ClientContext> context;
+};
+
+Call call() {
+  Call c;
+  c.client = std::make_unique<client::Client>(client::ClientOptions{daemon().address(), 120, ""});
+  c.stub = v1::Clouds::NewStub(c.client->channel());
+  c.context = c.client->context();
+  return c;
+}
+
+v1::CloudModel sphere_model() {
+  v1::CloudModel m;
+  m.set_voxel_size(0.5);
+  m.set_skin(1.0);
+  auto* s = m.add_spheres();
+  s->set_radius(5);
+  auto* p = m.mutable_pyroclastic();
+  p->set_layers(1);
+  p->set_amplitude(1);
+  p->mutable_noise()->set_frequency(0.3);
+  m.mutable_temperature()->set_enabled(true);
+  return m;
+}
+
+v1::RenderSettings small_render() {
+  v1::RenderSettings s;
+  auto* c = s.mutable_camera();
+  c->mutable_eye()->set_y(-30);
+  c->mutable_up()->set_z(1);
+  c->set_width(24);
+  c->set_height(16);
+  s.set_step(0.25);
+  s.add_wavelengths(550e-9);
+  s.add_wavelengths(10e-6);
+  s.add_extinction(0.5);
+  s.add_extinction(0.5);
+  auto* l = s.add_lights();
+  l->mutable_direction()->set_z(1);
+  l->add_intensity(1000);
+  l->add_intensity(0);
+  return s;
+}
+
+TEST(CloudsService, BuildKeepRenderRelease) {
+  auto c = call();
+  v1::BuildVolumeRequest build;
+  *build.mutable_model() = sphere_model();
+  build.set_keep(true);
+  build.set_return_vdb(true);
+  v1::BuildVolumeResponse built;
+  ASSERT_TRUE(c.stub->BuildVolume(c.context.get(), build, &built).ok());
+  const auto& s = built.summary();
+  EXPECT_FALSE(s.volume_id().empty());
+  EXPECT_TRUE(s.has_temperature());
+  EXPECT_DOUBLE_EQ(s.voxel_size(), 0.5);
+  EXPECT_GT(s.active_voxels(), 4000u);  // (4/3) pi 10^3 voxels at least
+  EXPECT_GT(s.device_bytes(), 0u);
+  // The .vdb bytes read back with OpenVDB hold the same density grid.
+  clouds::initialize_openvdb();
+  std::istringstream in(built.vdb(), std::ios::binary);
+  openvdb::io::Stream stream(in);
+  auto grids = stream.getGrids();
+  ASSERT_EQ(grids->size(), 2u);
+  EXPECT_EQ((*grids)[0]->getName(), "density");
+  EXPECT_EQ((*grids)[1]->getName(), "temperature");
+  EXPECT_EQ((*grids)[0]->activeVoxelCount(), s.active_voxels());
+
+  auto r = call();
+  v1::RenderRequest render;
+  render.set_volume_id(s.volume_id());
+  *render.mutable_settings() = small_render();
+  v1::RenderResponse image;
+  auto status = r.stub->Render(r.context.get(), render, &image);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(image.image().channels_size(), 5);  // 2 radiance, 2 transmittance, depth
+  EXPECT_EQ(image.image().data().size(), 24u * 16 * 5 * 4);
+  std::vector<float> px(24 * 16 * 5);
+  std::memcpy(px.data(), image.image().data().data(), image.image().data().size());
+  // Transmittance at the image centre: the column through a radius-5 sphere with a 1 m skin is at least
+  // 2R - skin = 9 m of unit density, at most 2 (R + 1 m of displacement) = 12 m: kappa 0.5 gives tau in [4.5, 6].
+  float centre_t = px[(2 * 16 + 8) * 24 + 12];  // transmittance_0
+  EXPECT_LT(centre_t, std::exp(-4.5) * 1.02);
+  EXPECT_GT(centre_t, std::exp(-6.0));
+  EXPECT_EQ(px[(2 * 16 + 0) * 24 + 0], 1.0f);  // a corner ray misses the cloud
+  // 10 um: no light (intensity 0), emission only: L = (1 - albedo) B(T) (1 - T_10um) for the isothermal-ish
+  // centre row (T = 288.15 K - 6.5 K/km * z, |z| < 0.3 m there), default albedo 0.9.
+  const double h = 6.62607015e-34, cl = 299792458, kb = 1.380649e-23, lambda = 10e-6, T = 288.15;
+  double B = 2 * h * cl * cl / std::pow(lambda, 5) / std::expm1(h * cl / (lambda * kb * T));
+  float ir = px[(1 * 16 + 8) * 24 + 12];
+  float ir_t = px[(3 * 16 + 8) * 24 + 12];  // transmittance_1
+  EXPECT_NEAR(ir / ((1 - 0.9) * B * (1 - ir_t)), 1.0, 2e-3);
+
+  auto rel = call();
+  v1::ReleaseVolumeRequest release;
+  release.set_volume_id(s.volume_id());
+  v1::ReleaseVolumeResponse released;
+  ASSERT_TRUE(rel.stub->ReleaseVolume(rel.context.get(), release, &released).ok());
+  auto again = call();
+  status = again.stub->Render(again.context.get(), render, &image);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(status.error_message().find("volume_id"), std::string::npos) << status.error_message();
+}
+
+TEST(CloudsService, EvolutionStreamsOneFramePerTime) {
+  auto c = call();
+  v1::StreamEvolutionRequest request;
+  *request.mutable_model() = sphere_model();
+  request.mutable_evolution()->mutable_drift()->set_x(2);
+  for (double t : {0.0, 1.0, 2.0}) request.add_times(t);
+  *request.mutable_settings() = small_render();
+  auto reader = c.stub->StreamEvolution(c.context.get(), request);
+  v1::EvolutionFrame frame;
+  std::vector<double> x_min;
+  while (reader->Read(&frame)) {
+    x_min.push_back(frame.summary().bounds_min().x());
+    EXPECT_EQ(frame.image().width(), 24u);
+  }
+  auto status = reader->Finish();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(x_min.size(), 3u);
+  EXPECT_NEAR(x_min[1] - x_min[0], 2.0, 1e-9);  // the cloud drifts 2 m/s
+  EXPECT_NEAR(x_min[2] - x_min[0], 4.0, 1e-9);
+}
+
+TEST(CloudsService, BadRequestsGetClearErrors) {
+  struct Case {
+    std::function<void(v1::RenderRequest&)> edit;
+    grpc::StatusCode code;
+    std::string needle;
+  };
+  std::vector<Case> cases = {
+      {[](v1::RenderRequest& r) { r.set_volume_id("cloud-404"); }, grpc::StatusCode::NOT_FOUND, "volume_id = \"cloud-404\""},
+      {[](v1::RenderRequest& r) { r.mutable_model()->mutable_spheres(0)->set_radius(NAN); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "model.spheres[0].radius = nan"},
+      {[](v1::RenderRequest& r) {
+         auto* m = r.mutable_model()->add_meshes();
+         m->set_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\nf 1 3 2\nf 1 4 3\n");
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "model.meshes[0] is degenerate"},
+      {[](v1::RenderRequest& r) { r.mutable_model()->set_max_active_voxels(100); }, grpc::StatusCode::RESOURCE_EXHAUSTED,
+       "model.max_active_voxels = 100"},
+      {[](v1::RenderRequest& r) { r.mutable_settings()->set_step(-1); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "settings.step = -1"},
+  };
+  for (const auto& k : cases) {
+    v1::RenderRequest request;
+    *request.mutable_model() = sphere_model();
+    *request.mutable_settings() = small_render();
+    k.edit(request);
+    auto c = call();
+    v1::RenderResponse response;
+    auto status = c.stub->Render(c.context.get(), request, &response);
+    EXPECT_EQ(status.error_code(), k.code) << status.error_message();
+    EXPECT_NE(status.error_message().find(k.needle), std::string::npos) << status.error_message();
+  }
+}
+
+// `squall cloud build -o x.vdb` writes a file that OpenVDB's vdb_print lists; `squall cloud render` an EXR
+// (and PNG preview); bad flags exit 2, a refused request 4.
+TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
+  std::string dir = test::temp_dir("clouds-cli");
+  std::string out;
+  std::vector<std::string> base = {kSquall, "--address", daemon().address(), "cloud"};
+  auto args = [&](std::vector<std::string> rest) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), rest.begin(), rest.end());
+    return a;
+  };
+  ASSERT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--pyro", "1,1,0.3",
+                            "--temperature", "280,0.0065", "-o", dir + "/c.vdb"}), &out), 0) << out;
+  EXPECT_NE(out.find("active voxels"), std::string::npos) << out;
+  std::string listing;
+  ASSERT_EQ(test::run({"/usr/bin/vdb_print", dir + "/c.vdb"}, &listing), 0) << listing;  // execv: full path
+  EXPECT_NE(listing.find("density"), std::string::npos) << listing;
+  EXPECT_NE(listing.find("temperature"), std::string::npos) << listing;
+  ASSERT_EQ(test::run(args({"render", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--eye", "0,-30,0", "--size", "32x24",
+                            "--step", "0.25", "--sun", "0,0,1,1000", "--extinction", "0.5", "-o", dir + "/c.exr"}), &out), 0)
+      << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/c.exr"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/c.png"));
+  EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0", "-o", dir + "/x.exr"}), &out), 2) << out;
+  EXPECT_EQ(test::run(args({"render", "--volume", "cloud-404", "-o", dir + "/x.exr"}), &out), 4) << out;
+  EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace squall

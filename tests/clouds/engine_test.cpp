@@ -1,0 +1,95 @@
+// The clouds engine's volume store (ids, idle TTL, memory cap) and the OBJ reader.
+#include <gtest/gtest.h>
+
+#include <thread>
+
+#include "clouds/cloud_engine.h"
+#include "clouds/obj_mesh.h"
+#include "common/error.h"
+#include "support/test_runtime.h"
+
+namespace squall::clouds {
+namespace {
+
+CloudModel small_sphere() {
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.skin = 1;
+  m.spheres.push_back({{0, 0, 0}, 3});
+  return m;
+}
+
+template <typename F>
+std::string error_of(F f, Code code) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "no error";
+  return "";
+}
+
+TEST(Engine, StoresFindsAndReleasesVolumes) {
+  CloudEngine engine(test::runtime(), {});
+  auto v = engine.build(small_sphere());
+  EXPECT_GT(v->bytes, v->device.device_bytes);
+  std::string id = engine.keep(v);
+  EXPECT_EQ(engine.find(id)->volume.stats.active_voxels, v->volume.stats.active_voxels);
+  EXPECT_EQ(engine.stored_count(), 1u);
+  EXPECT_EQ(engine.stored_bytes(), v->bytes);
+  EXPECT_TRUE(engine.release(id));
+  EXPECT_EQ(engine.stored_bytes(), 0u);
+  std::string msg = error_of([&] { engine.find(id, "volume_id"); }, Code::NotFound);
+  EXPECT_NE(msg.find("volume_id = \"" + id + "\""), std::string::npos) << msg;
+}
+
+TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
+  CloudEngineOptions options;
+  options.ttl = std::chrono::milliseconds(50);
+  CloudEngine engine(test::runtime(), options);
+  std::string id = engine.keep(engine.build(small_sphere()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  error_of([&] { engine.find(id); }, Code::NotFound);
+  EXPECT_EQ(engine.stored_count(), 0u);
+
+  options.ttl = std::chrono::minutes(1);
+  auto v = engine.build(small_sphere());
+  options.max_stored_bytes = v->bytes + v->bytes / 2;  // room for one
+  CloudEngine capped(test::runtime(), options);
+  capped.keep(v);
+  std::string msg = error_of([&] { capped.keep(capped.build(small_sphere())); }, Code::ResourceExhausted);
+  EXPECT_NE(msg.find("cap"), std::string::npos) << msg;
+}
+
+TEST(Engine, ModelBudgetIsCappedByTheEngine) {
+  CloudEngineOptions options;
+  options.max_active_voxels = 500;
+  CloudEngine engine(test::runtime(), options);
+  CloudModel m = small_sphere();
+  m.max_active_voxels = ~0ull;
+  std::string msg = error_of([&] { engine.build(m); }, Code::ResourceExhausted);
+  EXPECT_NE(msg.find("max_active_voxels = 500"), std::string::npos) << msg;
+}
+
+TEST(Obj, QuadCubeBuildsTheSameCloudAsItsTriangles) {
+  const char* obj =
+      "# unit cube, quads\nv -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+      "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1/1 5/2 8/3 4/4\n";
+  TriangleMesh mesh = parse_obj(obj, "model.meshes[0].obj");
+  EXPECT_EQ(mesh.vertices.size(), 8u);
+  EXPECT_EQ(mesh.triangles.size(), 36u);
+  CloudModel m;
+  m.voxel_size = 0.1;
+  m.skin = 0.2;
+  m.meshes.push_back(mesh);
+  CloudVolume v = build_cloud(m);
+  EXPECT_GE(v.stats.active_voxels, 19u * 19 * 19);
+  EXPECT_LE(v.stats.active_voxels, 21u * 21 * 21);
+  std::string msg = error_of([] { parse_obj("v 0 0 0\nf 1 2 3\n", "model.meshes[1].obj"); }, Code::InvalidArgument);
+  EXPECT_NE(msg.find("model.meshes[1].obj line 2"), std::string::npos) << msg;
+}
+
+}  // namespace
+}  // namespace squall::clouds

@@ -1,0 +1,80 @@
+// Bad input: each gets squall::Error with the right code and a message naming the field.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "clouds/renderer.h"
+#include "clouds/volume.h"
+#include "common/error.h"
+
+namespace squall::clouds {
+namespace {
+
+void expect_error(const std::function<void()>& f, Code code, const std::string& needle) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one naming " << needle;
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+CloudModel sphere_model() {
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.skin = 1;
+  m.spheres.push_back({{0, 0, 0}, 4});
+  return m;
+}
+
+TEST(Errors, NanRadiusNamesTheField) {
+  CloudModel m = sphere_model();
+  m.spheres[0].radius = std::nan("");
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.spheres[0].radius = nan");
+}
+
+TEST(Errors, NanNoiseAndCentreNameTheirFields) {
+  CloudModel m = sphere_model();
+  m.pyroclastic.noise.frequency = std::numeric_limits<double>::infinity();
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.pyroclastic.noise.frequency = inf");
+  m = sphere_model();
+  m.spheres[0].center[2] = std::nan("");
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.spheres[0].center.z = nan");
+}
+
+TEST(Errors, DegenerateMeshIsRejected) {
+  CloudModel m = sphere_model();
+  TriangleMesh flat;  // four triangles, all in the plane z = 0: no volume
+  flat.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  flat.triangles = {0, 1, 2, 0, 2, 3, 0, 2, 1, 0, 3, 2};
+  m.meshes.push_back(flat);
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.meshes[0] is degenerate");
+  m.meshes[0].triangles[4] = 9;
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.meshes[0].triangles[4] = 9 is out of range");
+}
+
+TEST(Errors, VoxelBudgetIsEnforced) {
+  CloudModel m = sphere_model();
+  m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
+  expect_error([&] { build_cloud(m); }, Code::ResourceExhausted, "model.max_active_voxels = 1000");
+}
+
+TEST(Errors, RenderSettingsNameTheirFields) {
+  RenderSettings s;
+  s.step = std::nan("");
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.step = nan");
+  s = RenderSettings{};
+  s.phase.ff_mu = 0.4;  // the seed's misprinted range
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.phase.ff_mu = 0.4");
+  s = RenderSettings{};
+  s.lights.push_back(Light{});
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.lights[0].intensity");
+  s = RenderSettings{};
+  s.camera.look_at = s.camera.eye;
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.camera.look_at");
+}
+
+}  // namespace
+}  // namespace squall::clouds

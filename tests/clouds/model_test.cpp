@@ -1,0 +1,186 @@
+// Cloud modeling on the host (OpenVDB): shapes, pyroclastic displacement, advection maps, sparsity,
+// .vdb output and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "clouds/advection.h"
+#include "clouds/volume.h"
+#include "common/error.h"
+
+namespace squall::clouds {
+namespace {
+
+Particle particle(const Vec3d& center, double radius) {
+  Particle p;
+  p.center = center;
+  p.radius = radius;
+  return p;
+}
+
+double radius_of(const openvdb::FloatGrid& g, const openvdb::Coord& ijk, const Vec3d& c) {
+  openvdb::Vec3d x = g.transform().indexToWorld(ijk);
+  return (x - openvdb::Vec3d(c[0], c[1], c[2])).length();
+}
+
+TEST(Model, PyroclasticSphereStaysInsideTheRadialBandItsAmplitudeAllows) {
+  CloudModel m;
+  m.voxel_size = 0.25;
+  m.skin = 0.5;
+  const Vec3d c{1, 2, 3};
+  const double R = 8;
+  m.spheres.push_back({c, R});
+  m.pyroclastic.layers = 2;
+  m.pyroclastic.amplitude = 2;
+  m.pyroclastic.gamma = 1;
+  m.pyroclastic.noise.frequency = 0.3;
+  m.pyroclastic.noise.roughness = 0.5;
+  const double bound = pyroclastic_bound(m.pyroclastic);  // 2 + 2 * 0.5 = 3 m
+  EXPECT_DOUBLE_EQ(bound, 3.0);
+  CloudVolume v = build_cloud(m);
+  const auto& g = *v.density;
+  double r_max = 0;
+  for (auto it = g.cbeginValueOn(); it; ++it) {
+    if (!it.isVoxelValue()) continue;
+    r_max = std::max(r_max, radius_of(g, it.getCoord(), c));
+  }
+  // l1 = l + displacement > 0 needs l > -bound, i.e. |x - c| < R + bound (up to the SDF's voxel error).
+  EXPECT_LT(r_max, R + bound + m.voxel_size);
+  EXPECT_GT(r_max, R + 0.4 * bound);  // the displacement did move the surface out
+  // Inside R - skin the density is 1 (displacement only adds), including interior tiles.
+  auto acc = g.getConstAccessor();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int inside = 0;
+  for (int i = 0; i < 20000; ++i) {
+    openvdb::Vec3d x(u(rng) * R, u(rng) * R, u(rng) * R);
+    if (x.length() > R - m.skin - m.voxel_size) continue;
+    ++inside;
+    openvdb::Coord ijk = g.transform().worldToIndexNodeCentered(x + openvdb::Vec3d(c[0], c[1], c[2]));
+    ASSERT_EQ(acc.getValue(ijk), 1.0f) << x;
+  }
+  EXPECT_GT(inside, 5000);
+}
+
+TEST(Model, MeshLevelSetIsPositiveInside) {
+  CloudModel m;
+  m.voxel_size = 0.1;
+  m.skin = 0.2;
+  TriangleMesh cube;
+  cube.vertices = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}};
+  cube.triangles = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 2, 3, 7, 2, 7, 6, 1, 2, 6, 1, 6, 5, 0, 4, 7, 0, 7, 3};
+  m.meshes.push_back(cube);
+  auto ls = base_level_set(m, 0.5, 0.5);
+  ASSERT_TRUE(ls);
+  auto acc = ls->getConstAccessor();
+  EXPECT_GE(acc.getValue(openvdb::Coord(0, 0, 0)), 0.5f);            // beyond the band: >= +interior
+  EXPECT_NEAR(acc.getValue(openvdb::Coord(8, 0, 0)), 0.2f, 0.01f);   // 0.2 m inside the face x = 1
+  EXPECT_NEAR(acc.getValue(openvdb::Coord(12, 0, 0)), -0.2f, 0.01f); // 0.2 m outside
+  CloudVolume v = build_cloud(m);
+  // The density of the cube: 1 deeper than the skin, the ramp over the skin, active: the voxel centres
+  // inside the 2 m cube (19^3), plus at most the layer on its faces (21^3).
+  auto d = v.density->getConstAccessor();
+  EXPECT_EQ(d.getValue(openvdb::Coord(0, 0, 0)), 1.0f);
+  EXPECT_NEAR(d.getValue(openvdb::Coord(9, 0, 0)), 0.5f, 0.05f);
+  EXPECT_GE(v.stats.active_voxels, 19u * 19 * 19);
+  EXPECT_LE(v.stats.active_voxels, 21u * 21 * 21);
+}
+
+TEST(Model, TemperatureFollowsTheLapseRate) {
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.skin = 1;
+  m.spheres.push_back({{0, 0, 1000}, 5});
+  m.temperature.enabled = true;
+  m.temperature.surface = 288.15;
+  m.temperature.lapse_rate = 0.0065;
+  CloudVolume v = build_cloud(m);
+  ASSERT_TRUE(v.temperature);
+  EXPECT_EQ(v.temperature->activeVoxelCount(), v.density->activeVoxelCount());
+  auto t = v.temperature->getConstAccessor();
+  openvdb::Coord top(0, 0, 2000 + 8), bottom(0, 0, 2000 - 8);
+  EXPECT_NEAR(t.getValue(top), 288.15 - 0.0065 * 1004, 1e-3);
+  EXPECT_NEAR(t.getValue(bottom), 288.15 - 0.0065 * 996, 1e-3);
+}
+
+TEST(Model, CloudsCombineByMaximumDensity) {
+  CloudModel a, b;
+  for (auto* m : {&a, &b}) {
+    m->voxel_size = 0.5;
+    m->skin = 2;
+  }
+  a.spheres.push_back({{0, 0, 0}, 4});
+  b.spheres.push_back({{3, 0, 0}, 4});
+  CloudVolume va = build_cloud(a), vb = build_cloud(b);
+  CloudVolume both = combine_max(va, vb);
+  auto ga = va.density->getConstAccessor(), gb = vb.density->getConstAccessor(), g = both.density->getConstAccessor();
+  for (int i = -20; i <= 26; ++i)
+    for (int j = -12; j <= 12; j += 3) {
+      openvdb::Coord ijk(i, j, 1);
+      ASSERT_EQ(g.getValue(ijk), std::max(ga.getValue(ijk), gb.getValue(ijk))) << ijk;
+    }
+}
+
+TEST(Model, ThousandCubedBoundsStaySparse) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 2;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(30, 970);
+  m.particles.push_back(particle({20, 20, 20}, 20));
+  m.particles.push_back(particle({980, 980, 980}, 20));
+  for (int i = 0; i < 18; ++i) m.particles.push_back(particle({u(rng), u(rng), u(rng)}, 20));
+  for (auto& p : m.particles) p.noise.frequency = 0.05;
+  CloudVolume v = build_cloud(m);
+  const auto& s = v.stats;
+  EXPECT_GE(s.bounds.dim().x(), 990);
+  EXPECT_GE(s.bounds.dim().z(), 990);
+  EXPECT_GT(s.dense_bytes, 3.8e9);  // 4 bytes x ~1000^3
+  EXPECT_GT(s.active_voxels, 100000u);
+  std::printf("1000^3 cloud: %llu active voxels, %llu bytes sparse vs %llu dense: ratio %.2e\n",
+              (unsigned long long)s.active_voxels, (unsigned long long)s.bytes, (unsigned long long)s.dense_bytes,
+              s.fill_ratio());
+  EXPECT_LT(s.fill_ratio(), 2e-3);
+}
+
+TEST(Model, VdbFileOpensInVdbPrintWithGridNamesAndVoxelCounts) {
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.skin = 1;
+  m.spheres.push_back({{0, 0, 0}, 6});
+  m.temperature.enabled = true;
+  CloudVolume v = build_cloud(m);
+  auto path = std::filesystem::temp_directory_path() / ("squall_clouds_" + std::to_string(::getpid()) + ".vdb");
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << write_vdb(v);
+  }
+  std::string cmd = "vdb_print " + path.string() + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string text;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, pipe)) text.append(buf, n);
+  int rc = pclose(pipe);
+  std::filesystem::remove(path);
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_NE(text.find("density"), std::string::npos) << text;
+  EXPECT_NE(text.find("temperature"), std::string::npos) << text;
+  // vdb_print shows each grid's active voxel count in thousands, e.g. "7.12KVox", on the grid's line.
+  for (const auto& grid : {v.density, v.temperature}) {
+    uint64_t n = grid->activeVoxelCount();
+    char count[32];
+    std::snprintf(count, sizeof count, "%.2fKVox", n / 1000.0);
+    size_t line = text.find(grid->getName() + " ");
+    ASSERT_NE(line, std::string::npos) << text;
+    std::string row = text.substr(line, text.find('\n', line) - line);
+    EXPECT_NE(row.find(count), std::string::npos) << "expected " << count << " in: " << row;
+  }
+}
+
+}  // namespace
+}  // namespace squall::clouds
