@@ -136,6 +136,32 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
   if (pairs > 3) out[3 * cells + at] = pack(h * (-ky * ky * inv_k), h * (-kx * ky * inv_k));
 }
 
+// The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
+// the eWave engine's ambient and initial fields (server/ewave). With h~ = [h0(k) e^{-iwt} + conj(h0(-k))
+// e^{iwt}] e^{-i k.U_D t} as in ocean_evolve, phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}]
+// e^{-i k.U_D t} (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e. eWave's exact
+// propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (seed eqs 64-65).
+__kernel void ocean_evolve_potential(__global const float4* h0, const int nx, const int ny, const float dkx,
+                                     const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                     const float g, __global float2* out) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  int n = mode_number(i, nx), m = mode_number(j, ny);
+  int mi = (nx - i) % nx, mj = (ny - j) % ny;
+  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
+  float phase = fma(a.z, t_hi, a.z * t_lo);
+  float c = cos(phase), s = sin(phase);
+  float2 plus = cmul(a.xy, (float2)(c, -s));
+  float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));
+  float kx = n * dkx, ky = m * dky;
+  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
+  float2 shift = (float2)(cos(drift_phase), sin(drift_phase));
+  float2 h = cmul(plus + minus, shift);
+  float g_over_w = a.z > 0.0f ? g / a.z : 0.0f;
+  float2 phi = -g_over_w * times_i(cmul(plus - minus, shift));
+  out[i + (size_t)nx * j] = pack(h, phi);
+}
+
 // Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:
 // output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y), periodic; bilinear between
 // layer points (exact where they coincide). accum: CHANNELS planes of onx * ony floats.

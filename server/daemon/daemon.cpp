@@ -38,6 +38,7 @@ void start_engines(Engines& engines, const DaemonOptions& options) {
   engines.ocean = std::make_unique<ocean::OceanEngine>(engines.runtime, *engines.fft);
   ewave::EWaveEngineOptions ewave_options;
   ewave_options.session_ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
+  ewave_options.ocean = engines.ocean.get();  // ambient_ocean / initial_ocean of eWave sessions
   engines.ewave = std::make_unique<ewave::EWaveEngine>(engines.runtime, *engines.fft, engines.gate, ewave_options);
   clouds::CloudEngineOptions cloud_options;
   cloud_options.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));

@@ -6,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/limits.h"
+#include "ocean/spectrum_setup.h"
 
 namespace squall::ewave {
 namespace {
@@ -88,6 +89,36 @@ void validate(const EWaveConfig& c, const LimitGate* gate) {
   finite("config.displacement_scale", c.displacement_scale);
   check_map("config.initial_height", c.initial_height, c.cells());
   check_map("config.initial_phi", c.initial_phi, c.cells());
+  finite("config.start_time", c.start_time);
+  if (c.initial_ocean) {
+    if (!c.initial_height.empty() || !c.initial_phi.empty())
+      fail(Code::InvalidArgument, "config.initial_ocean excludes config.initial_height and config.initial_phi");
+    validate_ocean("config.initial_ocean", *c.initial_ocean, c, gate);
+  }
+  if (c.ambient_ocean) validate_ocean("config.ambient_ocean", *c.ambient_ocean, c, gate);
+}
+
+ocean::TileSpec ocean_on_grid(const ocean::TileSpec& spec, const EWaveConfig& c) {
+  ocean::TileSpec on = spec;
+  on.nx = c.nx, on.ny = c.ny, on.lx = c.length_x(), on.ly = c.length_y();
+  return on;
+}
+
+void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const EWaveConfig& c, const LimitGate* gate) {
+  auto differs = [](double a, double b) { return a != 0 && std::abs(a - b) > 1e-9 * std::abs(b); };
+  if (differs(double(spec.nx), double(c.nx)) || differs(double(spec.ny), double(c.ny)))
+    fail(Code::InvalidArgument, field + ".output = " + std::to_string(spec.nx) + " x " + std::to_string(spec.ny) +
+                                    " must be unset or the session grid " + std::to_string(c.nx) + " x " + std::to_string(c.ny));
+  if (differs(spec.lx, c.length_x()) || differs(spec.ly, c.length_y()))
+    fail(Code::InvalidArgument, field + ".output extent = " + number(spec.lx) + " x " + number(spec.ly) +
+                                    " m must be unset or the session's nx dx x ny dy = " + number(c.length_x()) + " x " +
+                                    number(c.length_y()) + " m");
+  LimitGate fallback{Limits{}};
+  try {
+    ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback);
+  } catch (const Error& e) {
+    throw Error(e.code(), field + "." + e.what());
+  }
 }
 
 void validate(const StepInputs& in, const EWaveConfig& c) {
@@ -95,6 +126,11 @@ void validate(const StepInputs& in, const EWaveConfig& c) {
   size_t cells = c.cells();
   check_map("inputs.obstruction", in.obstruction, cells, 0.0f, 1.0f);
   check_map("inputs.ambient_height", in.ambient_height, cells);
+  if (in.ambient_ocean) {
+    if (!in.ambient_height.empty())
+      fail(Code::InvalidArgument, "inputs.ambient_ocean and inputs.ambient_height are exclusive: give one");
+    validate_ocean("inputs.ambient_ocean", *in.ambient_ocean, c);
+  }
   check_map("inputs.source_height", in.source_height, cells);
   check_map("inputs.source_phi", in.source_phi, cells);
   finite("inputs.drift_x", in.drift_x);

@@ -4,8 +4,11 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "ocean/ocean_params.h"
 
 namespace squall {
 class LimitGate;
@@ -33,6 +36,18 @@ struct EWaveConfig {
   double displacement_scale = 1; // lambda: D = lambda FFT^-1(-i k/k h~) (eq 47) and in the normals (eq 94)
   std::vector<float> initial_height;  // m, nx*ny values or empty (zero)
   std::vector<float> initial_phi;     // m^2/s, nx*ny values or empty (zero)
+  double start_time = 0;              // s, finite: the session's simulation time before its first step
+  // Ocean specs (ocean_params.h), evaluated by the ocean engine on the session grid: output grid nx x ny
+  // covering nx dx x ny dy, ocean sample (i, j) (at x = i dx, y = j dy of the ocean's frame) -> cell (i, j),
+  // i.e. the ocean's origin sits at the centre of cell (0, 0). The spec's own output grid must be 0 or
+  // equal to that. Messages name "config.ambient_ocean.layers[0].wind_speed" etc.
+  // initial_ocean: h and phi at start_time from the ocean surface, phi~ = -i (g/w)[h0 e^{-iwt} - conj(h0(-k))
+  // e^{iwt}] (the linear potential that eWave's propagator continues exactly when the layer's dispersion
+  // and gravity are the session's and its drift is 0). Exclusive with initial_height / initial_phi.
+  std::optional<ocean::TileSpec> initial_ocean;
+  // ambient_ocean: h_A of eq 77 for every step that brings no ambient of its own, evaluated at the session
+  // time at the start of the step (when eq 77 is applied). Not part of GetState's bytes.
+  std::optional<ocean::TileSpec> ambient_ocean;
 
   size_t cells() const { return size_t(nx) * size_t(ny); }
   double length_x() const { return double(nx) * dx; }
@@ -43,6 +58,12 @@ struct EWaveConfig {
 // Throws Error(InvalidArgument) naming the field, e.g. "config.dx = nan must be finite and > 0".
 // With a gate, the grid is also checked against --max-grid-cells (RESOURCE_EXHAUSTED).
 void validate(const EWaveConfig& config, const LimitGate* gate = nullptr);
+
+// An ocean spec with its output grid set to the session grid of `config` (see EWaveConfig::ambient_ocean).
+ocean::TileSpec ocean_on_grid(const ocean::TileSpec& spec, const EWaveConfig& config);
+// Validates an ocean spec for the session grid; messages are prefixed with `field` + ".".
+void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const EWaveConfig& config,
+                    const LimitGate* gate = nullptr);
 
 enum class ShapeKind { Circle, Ellipse, Box, Polygon };
 
@@ -67,6 +88,9 @@ struct StepInputs {
   std::vector<float> obstruction;       // O in [0, 1], nx*ny or empty (1 everywhere)
   std::vector<Shape> shapes;            // rasterized into O (multiplied) with fractional edge coverage
   std::vector<float> ambient_height;    // h_A (m), nx*ny or empty
+  // h_A from an ocean spec (see EWaveConfig::ambient_ocean), at the session time at the start of this
+  // step; exclusive with ambient_height. A step with neither uses the config's ambient_ocean, if any.
+  std::optional<ocean::TileSpec> ambient_ocean;
   std::vector<float> source_height;     // S_h (m/s), nx*ny or empty
   std::vector<float> source_phi;        // S_phi (m^2/s^2), nx*ny or empty
   double drift_x = 0, drift_y = 0;      // uniform drift current U_D (m/s), used when no drift field is given

@@ -41,7 +41,7 @@ std::string EWaveEngine::create(const EWaveConfig& config) {
   validate(config, &gate_);
   evict_idle();
   Slot slot = gate_.acquire_session();
-  return add(std::make_unique<EWaveSession>(runtime_, fft_, config), std::move(slot));
+  return add(std::make_unique<EWaveSession>(runtime_, fft_, config, options_.ocean), std::move(slot));
 }
 
 std::string EWaveEngine::create_from_state(const std::string& bytes) {
@@ -49,7 +49,7 @@ std::string EWaveEngine::create_from_state(const std::string& bytes) {
   validate(config, &gate_);
   evict_idle();
   Slot slot = gate_.acquire_session();
-  auto session = std::make_unique<EWaveSession>(runtime_, fft_, config);
+  auto session = std::make_unique<EWaveSession>(runtime_, fft_, config, options_.ocean);
   session->restore(bytes);
   return add(std::move(session), std::move(slot));
 }

@@ -19,6 +19,9 @@ struct EWaveEngineOptions {
   std::chrono::milliseconds session_ttl{std::chrono::minutes(10)};  // squalld --session-ttl
   // The clock the TTL is measured with (tests replace it).
   std::function<std::chrono::steady_clock::time_point()> clock = [] { return std::chrono::steady_clock::now(); };
+  // Evaluates the ocean specs of configs and steps (ambient_ocean, initial_ocean); null: such specs give
+  // FAILED_PRECONDITION. Must share the runtime and outlive the engine.
+  ocean::OceanEngine* ocean = nullptr;
 };
 
 class EWaveEngine {

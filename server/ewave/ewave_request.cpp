@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "ocean/float16.h"
+#include "ocean/ocean_request.h"
 
 namespace squall::ewave::rpc {
 namespace {
@@ -194,6 +195,11 @@ EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
   if (p.has_displacement_scale()) c.displacement_scale = p.displacement_scale();
   c.initial_height = map(p.has_initial_height(), p.initial_height(), c, "config.initial_height");
   c.initial_phi = map(p.has_initial_phi(), p.initial_phi(), c, "config.initial_phi");
+  if (p.has_start_time()) c.start_time = finite(p.start_time().seconds(), "config.start_time.seconds");
+  if (p.has_initial_ocean())
+    c.initial_ocean = ocean::rpc::tile_spec(p.initial_ocean(), gate, "config.initial_ocean");
+  if (p.has_ambient_ocean())
+    c.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), gate, "config.ambient_ocean");
   validate(c, &gate);  // ranges, finite values; messages name "config.<field>"
   return c;
 }
@@ -213,6 +219,7 @@ void fill_config(const EWaveConfig& c, v1::EWaveConfig* p) {
   p->set_mask_phi(c.mask_phi);
   p->set_double_precision(c.double_precision);
   p->set_displacement_scale(c.displacement_scale);
+  p->mutable_start_time()->set_seconds(c.start_time);
 }
 
 std::vector<v1::EWaveOutput> outputs(const v1::EWaveInputs& p) {
@@ -238,6 +245,10 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
                                     std::to_string(kMaxShapes));
   for (int s = 0; s < p.shapes_size(); ++s) in.shapes.push_back(shape(p.shapes(s), "inputs.shapes[" + std::to_string(s) + "]"));
   in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
+  if (p.has_ambient_ocean()) {
+    LimitGate defaults{Limits{}};
+    in.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), defaults, "inputs.ambient_ocean");
+  }
   in.source_height = map(p.has_source_height(), p.source_height(), c, "inputs.source_height");
   in.source_phi = map(p.has_source_phi(), p.source_phi(), c, "inputs.source_phi");
   in.drift_x = p.drift_x(), in.drift_y = p.drift_y();

@@ -35,9 +35,12 @@ bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normal
 
 }  // namespace
 
-EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config)
-    : runtime_(runtime), fft_(fft), config_(config) {
+EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean)
+    : runtime_(runtime), fft_(fft), ocean_(ocean), config_(config) {
   validate(config_);
+  if (config_.initial_ocean) ocean_engine("config.initial_ocean");
+  if (config_.ambient_ocean) ocean_engine("config.ambient_ocean");
+  time_ = config_.start_time;
   if (config_.double_precision && !runtime_.device_info().double_precision)
     fail(Code::InvalidArgument, "config.double_precision = true but device " + runtime_.device_info().name + " has no fp64");
   cells_ = config_.cells();
@@ -63,9 +66,43 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   config_.initial_phi.clear();
   std::vector<char> bytes = to_state_type(fields);
   runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, bytes.size(), bytes.data());
+  if (config_.initial_ocean) initial_from_ocean();
   // Bake the plans of every step now, not during the first step.
   fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::R2C, precision()});
   fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::C2R, precision()});
+}
+
+ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
+  if (!ocean_) fail(Code::FailedPrecondition, field + " needs the ocean engine, which this eWave engine was not given");
+  return *ocean_;
+}
+
+void EWaveSession::initial_from_ocean() {
+  ocean::TileSpec spec = ocean_on_grid(*config_.initial_ocean, config_);
+  ocean::OceanEngine& ocean = ocean_engine("config.initial_ocean");
+  if (!config_.double_precision) {  // state_ is h then phi in float: the ocean writes it directly
+    ocean.surface_on_device(spec, time_, state_.buffer());
+    runtime_.queue().finish();
+    return;
+  }
+  // Double state: one host round trip at creation, converting the float ocean fields.
+  BufferLease surface = runtime_.buffers().acquire(kStateFields * cells_ * sizeof(float));
+  ocean.surface_on_device(spec, time_, surface.buffer());
+  std::vector<float> values(kStateFields * cells_);
+  runtime_.queue().enqueueReadBuffer(surface.buffer(), CL_TRUE, 0, values.size() * sizeof(float), values.data());
+  std::vector<char> bytes = to_state_type(std::vector<double>(values.begin(), values.end()));
+  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, bytes.size(), bytes.data());
+}
+
+const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction) {
+  if (!in.ambient_height.empty()) return &upload(ambient_, in.ambient_height);
+  const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
+  if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
+  ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");
+  size_t bytes = kStateFields * cells_ * sizeof(float);  // h_A, then the unused phi_A plane
+  if (ambient_.bytes() != bytes) ambient_ = runtime_.buffers().acquire(bytes);
+  ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer());
+  return &ambient_.buffer();
 }
 
 std::vector<char> EWaveSession::to_state_type(const std::vector<double>& values) const {
@@ -171,8 +208,9 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
   prepare_.setArg(a++, cl_uint(config_.ny));
   prepare_.setArg(a++, has_obstruction ? obstruction_.buffer() : none);
   prepare_.setArg(a++, cl_int(has_obstruction));
-  prepare_.setArg(a++, optional(ambient_, in.ambient_height));
-  prepare_.setArg(a++, cl_int(!in.ambient_height.empty()));
+  const cl::Buffer* ambient_height = ambient(in, has_obstruction);
+  prepare_.setArg(a++, ambient_height ? *ambient_height : none);
+  prepare_.setArg(a++, cl_int(ambient_height != nullptr));
   prepare_.setArg(a++, trim_x_.buffer());
   prepare_.setArg(a++, trim_y_.buffer());
   prepare_.setArg(a++, cl_int(config_.trim));
@@ -335,7 +373,9 @@ void EWaveSession::restore(const std::string& bytes) {
     }
     if (!std::isfinite(v)) fail(Code::InvalidArgument, "state field value " + std::to_string(c) + " is not finite");
   }
-  config_ = config_from_state(bytes);
+  EWaveConfig restored = config_from_state(bytes);
+  restored.ambient_ocean = config_.ambient_ocean;  // not in the state bytes: the session keeps its own
+  config_ = std::move(restored);
   coefficients_.clear();  // the dispersion may differ
   auto lock = runtime_.exclusive();
   upload_trim();

@@ -9,6 +9,7 @@
 
 #include "ewave/ewave_config.h"
 #include "fft/fft.h"
+#include "ocean/ocean_engine.h"
 #include "runtime/runtime.h"
 
 namespace squall::ewave {
@@ -16,7 +17,9 @@ namespace squall::ewave {
 class EWaveSession {
  public:
   // Validates the config (Error InvalidArgument naming the field) and uploads the initial fields.
-  EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config);
+  // `ocean` evaluates the config's and the steps' ocean specs (initial_ocean, ambient_ocean); without it
+  // such specs give Error(FailedPrecondition). It must outlive the session and share the runtime.
+  EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean = nullptr);
 
   const EWaveConfig& config() const { return config_; }
   uint64_t step_index() const { return step_; }
@@ -38,6 +41,12 @@ class EWaveSession {
     uint64_t last_use = 0;
   };
   void upload_trim();  // the trim profiles of config_ (eq 82)
+  void initial_from_ocean();  // h, phi of config_.initial_ocean at time_ into state_ (under the lock)
+  // h_A of a step: its field, else its or the config's ocean spec at time_ (the ocean engine writes it into
+  // ambient_ on the device, no host round trip); null when the step has no ambient (or no obstruction, where
+  // h_A (1 - O) = 0 and the ocean is not evaluated).
+  const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction);
+  ocean::OceanEngine& ocean_engine(const std::string& field) const;
   const cl::Buffer& coefficients(double dt);
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
   bool build_obstruction(const StepInputs& inputs);
@@ -50,6 +59,7 @@ class EWaveSession {
 
   Runtime& runtime_;
   fft::Fft& fft_;
+  ocean::OceanEngine* ocean_;
   EWaveConfig config_;
   size_t cells_, half_;  // nx ny real cells; (nx/2+1) ny spectrum modes
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)

@@ -46,7 +46,7 @@ struct OceanEngine::Impl {
   Runtime& runtime;
   fft::Fft& fft;
   size_t max_cached_bytes;
-  cl::Kernel h0_kernel, evolve, accumulate, finalize;
+  cl::Kernel h0_kernel, evolve, accumulate, finalize, evolve_potential;
 
   struct Entry {
     std::string key;
@@ -62,7 +62,8 @@ struct OceanEngine::Impl {
   Impl(Runtime& r, fft::Fft& f, size_t max_bytes)
       : runtime(r), fft(f), max_cached_bytes(max_bytes),
         h0_kernel(r.kernel(kProgram, "ocean_h0")), evolve(r.kernel(kProgram, "ocean_evolve")),
-        accumulate(r.kernel(kProgram, "ocean_accumulate")), finalize(r.kernel(kProgram, "ocean_finalize")) {}
+        accumulate(r.kernel(kProgram, "ocean_accumulate")), finalize(r.kernel(kProgram, "ocean_finalize")),
+        evolve_potential(r.kernel(kProgram, "ocean_evolve_potential")) {}
 
   // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
   const cl::Buffer& spectrum(const TileSpec& spec, size_t index) {
@@ -116,6 +117,45 @@ struct OceanEngine::Impl {
     return value;
   }
 
+  // The layer's (h, phi) pair at t on its own grid (ocean_evolve_potential, then the inverse FFT).
+  BufferLease layer_potential(const TileSpec& spec, size_t index, double t) {
+    const LayerSpec& L = spec.layers[index];
+    const cl::Buffer& h0 = spectrum(spec, index);
+    fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
+    BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
+    float t_hi = float(t), t_lo = float(t - double(t_hi));
+    cl::Kernel& k = evolve_potential;
+    k.setArg(0, h0);
+    k.setArg(1, int(L.nx));
+    k.setArg(2, int(L.ny));
+    k.setArg(3, float(2 * SQ_PI / L.lx));
+    k.setArg(4, float(2 * SQ_PI / L.ly));
+    k.setArg(5, t_hi);
+    k.setArg(6, t_lo);
+    k.setArg(7, cl_float2{{float(L.drift_x), float(L.drift_y)}});
+    k.setArg(8, float(L.gravity));
+    k.setArg(9, fields.buffer());
+    runtime.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
+    return fields;
+  }
+
+  // Adds one layer's `pairs` complex arrays onto the output grid's 2 * pairs planes of `accum`.
+  void accumulate_layer(const cl::Buffer& fields, const LayerSpec& L, int pairs, const OutputGrid& grid, bool first,
+                        const cl::Buffer& accum) {
+    cl::Kernel& k = accumulate;
+    k.setArg(0, fields);
+    k.setArg(1, int(L.nx));
+    k.setArg(2, int(L.ny));
+    k.setArg(3, pairs);
+    k.setArg(4, cl_float2{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}});
+    k.setArg(5, int(grid.nx));
+    k.setArg(6, int(grid.ny));
+    k.setArg(7, first ? 1 : 0);
+    k.setArg(8, accum);
+    runtime.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(grid.nx, grid.ny));
+  }
+
   // The layer's real channels at t on its own grid: `pairs` complex arrays (ocean.cl).
   BufferLease layer_fields(const TileSpec& spec, size_t index, double t, int pairs) {
     const LayerSpec& L = spec.layers[index];
@@ -147,6 +187,15 @@ void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { 
 void OceanEngine::validate(const TileSpec& spec) const {
   LimitGate gate{Limits{}};
   validate_tile(spec, gate);
+}
+
+void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out) {
+  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
+  OutputGrid grid = output_grid(spec);
+  for (size_t a = 0; a < spec.layers.size(); ++a) {
+    BufferLease fields = impl_->layer_potential(spec, a, t);
+    impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out);
+  }
 }
 
 size_t OceanEngine::cached_spectra() const {

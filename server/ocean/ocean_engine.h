@@ -46,6 +46,13 @@ class OceanEngine {
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                     bool invert_displacement);
 
+  // For the eWave engine (server/ewave): the height h (m) and the linear-theory velocity potential at
+  // z = 0, phi (m^2/s), at time t on the spec's output grid, left on the device in `out` (2 planes of
+  // nx * ny floats: h, then phi). phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}] e^{-ik.U_D t},
+  // per layer with its own g and w (ocean.cl ocean_evolve_potential). The spec must be valid; the CALLER
+  // HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the runtime's queue).
+  void surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out);
+
   size_t cached_spectra() const;  // h0 entries on the device now
   size_t spectra_built() const;   // h0 computations so far (cache misses)
 

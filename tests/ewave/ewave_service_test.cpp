@@ -19,6 +19,7 @@
 #include "ewave_support.h"
 #include "ocean/float16.h"
 #include "squall/v1/ewave.grpc.pb.h"
+#include "squall/v1/ocean.grpc.pb.h"
 #include "support/daemon.h"
 #include "support/test_runtime.h"
 
@@ -178,6 +179,55 @@ TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
   EXPECT_EQ(values(frame.fields(2)), normal_z);
   EXPECT_GT(ewave::test::max_abs(expected.height), 1e-4) << "the hump and the source must show";
   EXPECT_TRUE(s.close().ok());
+}
+
+// A session created from an ocean spec over gRPC (config.initial_ocean at config.start_time = t0) continues
+// the ocean: its first frame (t0 + dt) equals GetTile's height of the same spec at t0 + dt on the session
+// grid. Float round-off only (the engine test ewave_ocean_test budgets it at a few 1e-6): asserted < 1e-4.
+TEST(EWaveService, SessionFromAnOceanSpecContinuesGetTile) {
+  const uint32_t n = 64;
+  const double spacing = 1.0, t0 = 7.5, dt = 0.1;
+  v1::TileSpec tile;
+  v1::LayerSpec* layer = tile.add_layers();
+  layer->set_extent_x(n * spacing), layer->set_extent_y(n * spacing), layer->set_nx(n), layer->set_ny(n);
+  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
+  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU);
+  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  layer->set_wind_speed(5), layer->set_wind_direction(0.4), layer->set_seed(11);
+  v1::EWaveConfig config;
+  config.set_nx(n), config.set_ny(n), config.set_dx(spacing), config.set_dy(spacing);
+  config.set_trim(false);
+  config.mutable_start_time()->set_seconds(t0);
+  *config.mutable_initial_ocean() = tile;
+  Session s(first(), config);
+  ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+  v1::EWaveInputs in;
+  in.set_dt(dt);
+  v1::EWaveFrame frame;
+  grpc::Status status = s.step(in, &frame);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NEAR(frame.time().seconds(), t0 + dt, 1e-12);
+
+  auto ocean = v1::Ocean::NewStub(client::Client({first().address(), 5, ""}).channel());
+  v1::GetTileRequest request;
+  *request.mutable_tile() = tile;
+  request.mutable_time()->set_seconds(t0 + dt);
+  request.add_outputs(v1::TILE_OUTPUT_HEIGHT);
+  v1::GetTileResponse reply;
+  status = ocean->GetTile(context().get(), request, &reply);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  std::vector<float> got = values(frame.fields(0)), want = values(reply.fields(0));
+  ASSERT_EQ(got.size(), want.size());
+  double error = ewave::test::rms_difference(got, want) / ewave::test::rms(want);
+  std::printf("[ewave service] first frame vs GetTile(t0 + dt): relative rms difference %.3g\n", error);
+  EXPECT_LT(error, 1e-4);
+
+  // A bad layer in the ocean spec is INVALID_ARGUMENT naming the field.
+  config.mutable_initial_ocean()->mutable_layers(0)->set_wind_speed(NAN);
+  Session bad(first(), config);
+  EXPECT_EQ(bad.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(bad.status().error_message().find("config.initial_ocean.layers[0].wind_speed"), std::string::npos)
+      << bad.status().error_message();
 }
 
 TEST(EWaveService, Float16FramesRoundToHalfPrecision) {

@@ -1,0 +1,219 @@
+// eWave with the ocean engine: a session started from an ocean tile continues it (issue 4: "A session
+// started from an ocean tile at t0 reproduces the ocean tile at t0 + T"), and an ambient sea given as an
+// ocean spec is subtracted inside obstructions (eq 77 read as h <- h - h_A (1 - O), gilligan.md §3.3).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <string>
+
+#include "common/error.h"
+#include "ewave_support.h"
+#include "ocean/ocean_engine.h"
+#include "support/test_runtime.h"
+
+namespace squall::ewave::test {
+namespace {
+
+fft::Fft& test_fft() {
+  const char* backend = std::getenv("SQUALL_EWAVE_TEST_FFT");
+  return squall::test::fft(backend ? backend : "vkfft");
+}
+
+ocean::OceanEngine& ocean_engine() {
+  static ocean::OceanEngine engine(squall::test::runtime(), test_fft());
+  return engine;
+}
+
+EWaveSession ocean_session(const EWaveConfig& c) { return EWaveSession(squall::test::runtime(), test_fft(), c, &ocean_engine()); }
+
+// A 64 m x 64 m session at 1 m (Pierson-Moskowitz, 5 m/s: peak wavelength ~20 m, all modes resolved).
+EWaveConfig sea_config(DispersionKind dispersion) {
+  EWaveConfig c = plain_config(64, 64, 1.0);
+  c.dispersion = dispersion;
+  c.depth = dispersion == DispersionKind::Shallow ? 3.0 : 0.0;  // k_p h ~ 0.9: clearly not deep
+  return c;
+}
+
+// One layer on the session grid with the session's dispersion, no drift.
+ocean::TileSpec sea_spec(const EWaveConfig& c) {
+  ocean::LayerSpec L;
+  L.lx = c.length_x(), L.ly = c.length_y(), L.nx = c.nx, L.ny = c.ny;
+  L.spectrum = ocean::SpectrumModel::PiersonMoskowitz;
+  L.wind_speed = 5;
+  L.wind_direction = 0.4;
+  L.dispersion = ocean::DispersionKind(int(c.dispersion));
+  L.depth = c.dispersion == DispersionKind::Shallow ? c.depth : 100;
+  L.gravity = c.gravity;
+  L.seed = 7;
+  ocean::TileSpec spec;
+  spec.layers = {L};
+  return spec;
+}
+
+std::vector<float> ocean_height(const ocean::TileSpec& spec, const EWaveConfig& c, double t) {
+  return ocean_engine().tile(ocean_on_grid(spec, c), t, ocean::Height).height;
+}
+
+// Runs `steps` free steps of dt and returns the relative rms difference of h from the ocean at the end.
+double relative_error_after(EWaveSession& s, const ocean::TileSpec& spec, const EWaveConfig& c, int steps, double dt) {
+  Frame f;
+  for (int n = 0; n < steps; ++n) f = s.step(plain_step(dt));
+  std::vector<float> want = ocean_height(spec, c, f.time);
+  return rms_difference(f.height, want) / rms(want);
+}
+
+class OceanStart : public ::testing::TestWithParam<DispersionKind> {};
+
+// h and phi = -i (g/w)[h0 e^{-iwt} - conj(h0(-k)) e^{iwt}] at t0 = 12.3 s, then 50 free steps of 0.1 s (T = 5 s,
+// ~1.4 peak periods; the ocean's phase w t reaches ~90 rad at the highest modes). The error budget is float round-off:
+// the ocean's phase w t in float (ulp ~8e-6 rad at 90 rad), float omega (~1e-7 relative) and 100 float FFTs
+// (~1e-6 each); together a few 1e-6, so 1e-4 holds a 10x margin and still fails for any wrong sign or factor
+// of phi, which errs by O(1). Control: the same h with phi = 0 splits into two opposite waves (O(1) error).
+TEST_P(OceanStart, ReproducesTheOceanTileAtT0PlusT) {
+  EWaveConfig c = sea_config(GetParam());
+  const ocean::TileSpec spec = sea_spec(c);
+  const double t0 = 12.3, dt = 0.1;
+  const int steps = 50;
+  c.start_time = t0;
+  c.initial_ocean = spec;
+  EWaveSession s = ocean_session(c);
+  EXPECT_EQ(s.time(), t0);
+  double error = relative_error_after(s, spec, c, steps, dt);
+  EXPECT_NEAR(s.time(), t0 + steps * dt, 1e-9);
+  std::printf("[ocean start] dispersion %d: relative rms difference after %d steps = %.3g\n", int(GetParam()), steps, error);
+  EXPECT_LT(error, 1e-4);
+
+  EWaveConfig control = sea_config(GetParam());
+  control.start_time = t0;
+  control.initial_height = ocean_height(spec, control, t0);  // phi = 0
+  EWaveSession zero_phi = ocean_session(control);
+  double control_error = relative_error_after(zero_phi, spec, control, steps, dt);
+  std::printf("[ocean start] dispersion %d: control with phi = 0: %.3g\n", int(GetParam()), control_error);
+  EXPECT_GT(control_error, 0.3);
+}
+
+INSTANTIATE_TEST_SUITE_P(DeepAndShallow, OceanStart, ::testing::Values(DispersionKind::Deep, DispersionKind::Shallow));
+
+// Double-precision state: the float ocean fields are converted at creation (a host round trip, once).
+TEST(OceanStartDouble, StartsFromTheOceanTile) {
+  if (!squall::test::runtime().device_info().double_precision) GTEST_SKIP() << "no fp64";
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  const ocean::TileSpec spec = sea_spec(c);
+  c.start_time = 3.0;
+  c.initial_ocean = spec;
+  c.double_precision = true;
+  EWaveSession s = ocean_session(c);
+  double error = relative_error_after(s, spec, c, 10, 0.1);
+  EXPECT_LT(error, 1e-4);
+}
+
+// Eq 77 with h_A from an ocean spec, evaluated at the session time at the start of the step. From rest
+// (h = phi = 0 stays 0 over 3 steps of 0.05 s), one step of dt = 1e-6 s with O = 0 in a disc of radius 10 m
+// (soft edge to 14 m): h1 = -h_A(0.15 s) (1 - O) before propagation; the propagator keeps h1 and gives
+// phi = -(g/w) sin(w dt) h1 = -g dt h1 (1 + O(1e-11)); the step-6 mask then gives h = O h1.
+// Where O = 0 the height is 0 after the step and the composite before the mask, h_A + h1 = h_A - phi/(g dt),
+// is about 0 (float FFT round-off ~1e-6 of max|h_A|; asserted < 1e-4). Controls: without the ambient the
+// composite is h_A, with eq 77 read as an overwrite it is 2 h_A; h_A taken at the end of the step (0.150001 s)
+// differs from h_A(0.15 s) by ~1e-6 relative only, so the time check compares with h_A at 0.10 s, 0.05 s away.
+TEST(OceanAmbient, CompositeIsZeroInsideTheObstruction) {
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  const ocean::TileSpec spec = sea_spec(c);
+  c.ambient_ocean = spec;
+  EWaveSession s = ocean_session(c);
+  for (int n = 0; n < 3; ++n) s.step(plain_step(0.05));  // no obstruction: the ambient has no effect
+  StepInputs in = plain_step(1e-6);
+  in.obstruction = field(c, [](double x, double y) { return std::clamp((std::hypot(x - 32, y - 32) - 10) / 4, 0.0, 1.0); });
+  Frame f = s.step(in);
+  const std::vector<float> h_A = ocean_height(spec, c, 0.15), h_A_early = ocean_height(spec, c, 0.10);
+  const double scale = max_abs(h_A), g_dt = c.gravity * in.dt;
+  double composite = 0, masked = 0, edge = 0, against_early = 0, against_now = 0;
+  size_t inside = 0;
+  for (size_t i = 0; i < c.cells(); ++i) {
+    double o = in.obstruction[i], h1 = -f.phi[i] / g_dt;
+    if (o == 0) {
+      ++inside;
+      composite = std::max(composite, std::abs(h_A[i] + h1));
+      masked = std::max(masked, double(std::abs(f.height[i])));
+    }
+    edge = std::max(edge, std::abs(f.height[i] + h_A[i] * (1 - o) * o));
+    against_now = std::max(against_now, std::abs(h1 + h_A[i] * (1 - o)));
+    against_early = std::max(against_early, std::abs(h1 + h_A_early[i] * (1 - o)));
+  }
+  std::printf("[ocean ambient] max|h_A| = %.3g m, %zu cells with O = 0: max composite %.3g, soft edge %.3g, "
+              "h1 vs h_A(0.15 s) %.3g, vs h_A(0.10 s) %.3g\n",
+              scale, inside, composite / scale, edge / scale, against_now / scale, against_early / scale);
+  EXPECT_GT(inside, 250u);  // ~pi 10^2 = 314 cells
+  EXPECT_GT(scale, 0.01);
+  EXPECT_EQ(masked, 0.0);                // eq 74 at step 6
+  EXPECT_LT(composite / scale, 1e-4);    // eq 77: h_A + h = 0 where O = 0
+  EXPECT_LT(edge / scale, 1e-4);         // h = -h_A (1 - O) O on the soft edge
+  EXPECT_LT(against_now / scale, 1e-4);  // h_A at the session time at the start of the step
+  EXPECT_GT(against_early / scale, 0.01);
+}
+
+// A step's own ocean spec overrides the config's, and a step's field overrides both.
+TEST(OceanAmbient, StepSpecOverridesTheConfig) {
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  ocean::TileSpec config_spec = sea_spec(c), step_spec = sea_spec(c);
+  step_spec.layers[0].seed = 99;
+  c.ambient_ocean = config_spec;
+  EWaveSession s = ocean_session(c);
+  StepInputs in = plain_step(1e-6);
+  in.obstruction.assign(c.cells(), 0.0f);  // O = 0 everywhere: phi = g dt h_A
+  in.ambient_ocean = step_spec;
+  Frame f = s.step(in);
+  std::vector<float> want = ocean_height(step_spec, c, 0.0), phi_over = f.phi;
+  for (float& v : phi_over) v = float(v / (c.gravity * in.dt));
+  EXPECT_LT(rms_difference(phi_over, want) / rms(want), 1e-4);
+}
+
+void expect_error(Code code, const std::string& needle, const std::function<void()>& run) {
+  try {
+    run();
+    ADD_FAILURE() << "no error; expected one naming " << needle;
+  } catch (const Error& e) {
+    EXPECT_EQ(int(e.code()), int(code)) << e.what();
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+TEST(OceanAmbient, BadSpecsNameTheField) {
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  ocean::TileSpec bad = sea_spec(c);
+  bad.layers[0].wind_speed = NAN;
+  EWaveConfig with_bad = c;
+  with_bad.ambient_ocean = bad;
+  expect_error(Code::InvalidArgument, "config.ambient_ocean.layers[0].wind_speed", [&] { validate(with_bad); });
+  with_bad = c;
+  with_bad.initial_ocean = bad;
+  expect_error(Code::InvalidArgument, "config.initial_ocean.layers[0].wind_speed", [&] { ocean_session(with_bad); });
+  ocean::TileSpec wrong_grid = sea_spec(c);
+  wrong_grid.nx = 32, wrong_grid.ny = 64;
+  with_bad = c;
+  with_bad.ambient_ocean = wrong_grid;
+  expect_error(Code::InvalidArgument, "config.ambient_ocean.output", [&] { validate(with_bad); });
+  with_bad = c;
+  with_bad.initial_ocean = sea_spec(c);
+  with_bad.initial_height.assign(c.cells(), 0.0f);
+  expect_error(Code::InvalidArgument, "config.initial_ocean excludes", [&] { validate(with_bad); });
+
+  EWaveSession s = ocean_session(c);
+  StepInputs in = plain_step(0.1);
+  in.ambient_ocean = bad;
+  expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].wind_speed", [&] { s.step(in); });
+  in.ambient_ocean = sea_spec(c);
+  in.ambient_height.assign(c.cells(), 0.0f);
+  expect_error(Code::InvalidArgument, "inputs.ambient_ocean and inputs.ambient_height", [&] { s.step(in); });
+  EXPECT_EQ(s.step_index(), 0u);
+
+  with_bad = c;
+  with_bad.ambient_ocean = sea_spec(c);
+  expect_error(Code::FailedPrecondition, "config.ambient_ocean needs the ocean engine", [&] { make_session(with_bad); });
+}
+
+}  // namespace
+}  // namespace squall::ewave::test
