@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,11 @@ enum ExitCode {
   kUnreachable = 3,  // no answer: UNAVAILABLE or DEADLINE_EXCEEDED
   kRefused = 4,      // the server answered with another error (INVALID_ARGUMENT, NOT_FOUND, ...)
   kLocalError = 5,   // the request succeeded but a local step failed (writing a file, ...)
+};
+
+// A verb's bad command line: the dispatcher prints it and exits kUsage.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 struct Verb {

@@ -20,10 +20,6 @@ namespace {
 
 namespace v1 = squall::v1;
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 const char* const kHelp = R"(usage:
   squall cloud build  [MODEL FLAGS] [--keep] -o CLOUD.vdb
   squall cloud render (--volume ID | [MODEL FLAGS]) [RENDER FLAGS] -o IMAGE.exr [--preview FILE.png|none]

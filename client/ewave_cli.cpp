@@ -23,10 +23,6 @@ namespace {
 
 namespace v1 = squall::v1;
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 const char* const kHelp = R"(usage:
   squall ewave wake [FLAGS] -o DIR
 A hull (an obstruction that is also a height source S0 (1 - O), seed eq 75) moves along +x through the

@@ -21,10 +21,6 @@ namespace {
 
 namespace v1 = squall::v1;
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 const char* const kHelp = R"(usage:
   squall ocean tile   [LAYER FLAGS] [TILE FLAGS] [--time S] -o TILE.exr [--preview FILE.png|none]
   squall ocean stream [LAYER FLAGS] [TILE FLAGS] [--t0 S] --dt S --frames N -o DIR
