@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "client/cli.h"
+#include "client/cli_flags.h"
 #include "client/image_io.h"
 #include "squall/v1/clouds.grpc.pb.h"
 
@@ -292,11 +293,7 @@ int render(client::Client& client, const Request& r) {
 }  // namespace
 
 int run(client::Client& client, const std::vector<std::string>& args) {
-  if (args.empty() || args[0] == "help" || args[0] == "--help") {
-    std::cerr << kHelp;
-    return args.empty() ? kUsage : kOk;
-  }
-  try {
+  return run_verb("cloud", kHelp, args, [&] {
     Request r = parse(args);
     if (args[0] == "build") {
       if (!r.has_shape) throw UsageError("build needs at least one --sphere, --ellipsoid, --mesh or --particle");
@@ -307,10 +304,7 @@ int run(client::Client& client, const std::vector<std::string>& args) {
       return render(client, r);
     }
     throw UsageError("unknown cloud verb " + args[0] + " (build or render)");
-  } catch (const UsageError& e) {
-    std::cerr << "squall cloud: " << e.what() << "\n";
-    return kUsage;
-  }
+  });
 }
 
 }  // namespace squall::cli::cloud

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "client/cli.h"
+#include "client/cli_flags.h"
 #include "client/image_io.h"
 #include "client/ocean_frames.h"
 #include "squall/v1/ewave.grpc.pb.h"
@@ -47,29 +48,6 @@ DIR/frame_NNNNN.png (the height, 8-bit grey).
 The Run stream's deadline is --timeout times the number of steps.
 )";
 
-double number(const std::string& flag, const std::string& text, const char* unit) {
-  char* end = nullptr;
-  double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v)) throw UsageError(flag + " " + text + ": must be a finite number (" + unit + ")");
-  return v;
-}
-
-uint64_t count(const std::string& flag, const std::string& text) {
-  char* end = nullptr;
-  unsigned long long v = std::strtoull(text.c_str(), &end, 10);
-  if (text.empty() || *end || text[0] == '-' || v < 1) throw UsageError(flag + " " + text + ": must be an integer >= 1");
-  return v;
-}
-
-template <typename Enum>
-Enum named(const std::string& flag, const std::string& text, const std::map<std::string, Enum>& names) {
-  auto it = names.find(text);
-  if (it != names.end()) return it->second;
-  std::string known;
-  for (const auto& [name, value] : names) known += (known.empty() ? "" : " | ") + name;
-  throw UsageError(flag + " " + text + ": must be one of " + known);
-}
-
 const std::map<std::string, v1::EWaveOutput> kOutputs = {
     {"height", v1::EWAVE_OUTPUT_HEIGHT},         {"displacement_x", v1::EWAVE_OUTPUT_DISPLACEMENT_X},
     {"displacement_y", v1::EWAVE_OUTPUT_DISPLACEMENT_Y}, {"normal_x", v1::EWAVE_OUTPUT_NORMAL_X},
@@ -90,8 +68,8 @@ struct Wake {
 void grid_flag(const std::string& value, v1::EWaveConfig& c) {
   size_t x = value.find_first_of("x,");
   if (x == std::string::npos) throw UsageError("--grid " + value + ": must be NXxNY");
-  c.set_nx(uint32_t(count("--grid", value.substr(0, x))));
-  c.set_ny(uint32_t(count("--grid", value.substr(x + 1))));
+  c.set_nx(uint32_t(integer("--grid", value.substr(0, x), 1)));
+  c.set_ny(uint32_t(integer("--grid", value.substr(x + 1), 1)));
 }
 
 void apply(const std::string& flag, const std::string& value, Wake& w) {
@@ -100,7 +78,7 @@ void apply(const std::string& flag, const std::string& value, Wake& w) {
   else if (flag == "--hull") w.hull = named(flag, value, std::map<std::string, std::string>{{"ellipse", "ellipse"}, {"box", "box"}, {"circle", "circle"}});
   else if (flag == "--length") w.length = number(flag, value, "m");
   else if (flag == "--beam") w.beam = number(flag, value, "m");
-  else if (flag == "--steps") w.steps = count(flag, value);
+  else if (flag == "--steps") w.steps = integer(flag, value, 1);
   else if (flag == "--grid") grid_flag(value, c);
   else if (flag == "--spacing") c.set_dx(number(flag, value, "m")), c.set_dy(c.dx());
   else if (flag == "--dt") w.dt = number(flag, value, "s");
@@ -112,7 +90,7 @@ void apply(const std::string& flag, const std::string& value, Wake& w) {
   else if (flag == "--depth") c.set_depth(number(flag, value, "m"));
   else if (flag == "--capillary-length") c.set_capillary_length(number(flag, value, "m"));
   else if (flag == "--trim-alpha") c.set_trim_alpha(number(flag, value, "1"));
-  else if (flag == "--every") w.every = count(flag, value);
+  else if (flag == "--every") w.every = integer(flag, value, 1);
   else if (flag == "--dtype")
     w.dtype = named(flag, value, std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
   else if (flag == "--outputs") {
@@ -247,16 +225,10 @@ int wake(client::Client& client, const Wake& w) {
 }  // namespace
 
 int run(client::Client& client, const std::vector<std::string>& args) {
-  if (args.empty() || args[0] == "help" || args[0] == "--help") return std::cout << kHelp, args.empty() ? kUsage : kOk;
-  if (args[0] != "wake") return std::cerr << "squall ewave: unknown command " << args[0] << "\n" << kHelp, kUsage;
-  Wake w;
-  try {
-    w = parse(args);
-  } catch (const UsageError& e) {
-    std::cerr << "squall ewave: " << e.what() << "\n";
-    return kUsage;
-  }
-  return wake(client, w);
+  return run_verb("ewave", kHelp, args, [&] {
+    if (args[0] != "wake") throw UsageError("unknown ewave command " + args[0] + " (wake)");
+    return wake(client, parse(args));
+  });
 }
 
 }  // namespace squall::cli::ewave

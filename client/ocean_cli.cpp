@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "client/cli.h"
+#include "client/cli_flags.h"
 #include "client/ocean_frames.h"
 
 namespace squall::cli::ocean {
@@ -60,21 +61,6 @@ tile flags:
   --dtype float32|float16   transfer type (default float32); files are always 32-bit float
 )";
 
-double number(const std::string& flag, const std::string& text, const char* unit) {
-  char* end = nullptr;
-  double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v))
-    throw UsageError(flag + " " + text + ": must be a finite number (" + unit + ")");
-  return v;
-}
-
-uint64_t integer(const std::string& flag, const std::string& text) {
-  char* end = nullptr;
-  unsigned long long v = std::strtoull(text.c_str(), &end, 10);
-  if (text.empty() || *end || text[0] == '-') throw UsageError(flag + " " + text + ": must be an integer >= 0");
-  return v;
-}
-
 // "A" or "A,B" (also "AxB"): two numbers, the second defaulting to the first.
 std::pair<std::string, std::string> pair_of(const std::string& text) {
   size_t at = text.find_first_of(",x");
@@ -86,15 +72,6 @@ bool on_off(const std::string& flag, const std::string& text) {
   if (text == "on" || text == "true" || text == "1") return true;
   if (text == "off" || text == "false" || text == "0") return false;
   throw UsageError(flag + " " + text + ": must be on or off");
-}
-
-template <typename Enum>
-Enum named(const std::string& flag, const std::string& text, const std::map<std::string, Enum>& names) {
-  auto it = names.find(text);
-  if (it != names.end()) return it->second;
-  std::string known;
-  for (const auto& [name, value] : names) known += (known.empty() ? "" : " | ") + name;
-  throw UsageError(flag + " " + text + ": must be one of " + known);
 }
 
 const std::map<std::string, v1::SpectrumModel> kSpectra = {
@@ -399,20 +376,13 @@ int sample(client::Client& client, const Request& r) {
 }  // namespace
 
 int run(client::Client& client, const std::vector<std::string>& args) {
-  if (args.empty() || args[0] == "help" || args[0] == "--help") {
-    std::cerr << kHelp;
-    return args.empty() ? kUsage : kOk;
-  }
-  try {
+  return run_verb("ocean", kHelp, args, [&] {
     Request r = parse(args);
     if (args[0] == "tile") return tile(client, r);
     if (args[0] == "stream") return stream(client, r);
     if (args[0] == "sample") return sample(client, r);
     throw UsageError("unknown ocean verb " + args[0] + " (tile, stream or sample)");
-  } catch (const UsageError& e) {
-    std::cerr << "squall ocean: " << e.what() << "\n";
-    return kUsage;
-  }
+  });
 }
 
 }  // namespace squall::cli::ocean

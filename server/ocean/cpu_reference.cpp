@@ -46,7 +46,8 @@ double group_velocity(const LayerSpec& L, double k) {
   return 0.5 * omega(L, k) / k * bracket;
 }
 
-// ---- the formula parameters of a layer ----
+// ---- the formula parameters of a layer: derived here again, with quadratures of its own, so that a
+// mistake in the engine's spectrum_setup.cpp (alpha, omega_p, normalizations) shows up as a mismatch ----
 SqSpectrum compute_formula_parameters(const LayerSpec& L);
 
 // Memoized per thread on the layer's spectrum fields (the mean-frequency quadrature is not cheap).
