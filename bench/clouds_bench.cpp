@@ -1,4 +1,4 @@
-// Cloud benchmark (issue 5): build time of a reference cumulus at N^3 effective resolution (OpenVDB on the
+// Cloud benchmark: build time of a reference cumulus at N^3 effective resolution (OpenVDB on the
 // host), render time and rays per second of squall's OpenCL ray marcher on the device, beside OpenVDB's own
 // CPU volume renderer (tools::VolumeRender, what vdb_render uses) on the same grid, image and step.
 // Usage: clouds_bench [N ...]   (default: 256 512). Image 256x256, step = 1 voxel, one directional light.

@@ -1,8 +1,10 @@
-// eWave steps per second at 256^2, 512^2, 1024^2 and 1400x600 (the seed's example grid), in one run:
+// eWave steps per second at 256^2, 512^2, 1024^2 and 1400x600 (the grid of the demonstration in sec. 5 of
+// J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime Environments" (2017)),
+// in one run:
 //   (a) in process: EWaveSession::step on this machine's device, height read back each step;
 //   (b) through squall.v1.EWave/Run against a squalld (--address), pipelined, height returned each step;
 //   (c) an FFTW reference of the spectral core of the same step on the host (fftw3f, 2 threads): R2C of
-//       h and phi, the per-mode propagator (eq 64-65), C2R of h and phi.
+//       h and phi, the per-mode propagator (Gilligan eq 64-65), C2R of h and phi.
 // Prints steps/s and the ratios (a)/(c) and (b)/(a).
 //
 //   build/bench/ewave_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft] [--address HOST:PORT] [--seconds S]
@@ -192,6 +194,8 @@ int main(int argc, char** argv) {
   }
   std::printf("\nratios: process/fftw > 1 means the device step is faster than the FFTW core on this host;\n"
               "stream/process < 1 is the cost of gRPC (serialization, loopback transfer of the height field)\n");
+  if (runtime.profiling())  // SQUALL_PROFILE_KERNELS=1: device time per kernel (launches wait: rates drop)
+    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s", format_kernel_timings(runtime.kernel_timings()).c_str());
   fftwf_cleanup_threads();
   return 0;
 }

@@ -13,7 +13,8 @@
 #include <string>
 
 #include "client/ocean_frames.h"
-#include "daemon/engines.h"
+#include "rpc/capability.h"
+#include "rpc/serving.h"
 #include "ocean/cpu_reference.h"
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
@@ -94,18 +95,21 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--threads")) threads = std::stoi(argv[i + 1]);
   }
   configure_kernel_cache();
-  rpc::Engines engines(options, Limits{});
-  engines.runtime.build_programs();
-  engines.fft = std::make_unique<fft::Fft>(fft::make_backend(engines.runtime, backend));
-  engines.ocean = std::make_unique<ocean::OceanEngine>(engines.runtime, *engines.fft);
-  engines.ready = true;
+  Runtime runtime(options);
+  runtime.build_programs();
+  fft::Fft fft(fft::make_backend(runtime, backend));
+  rpc::ServingState serving{Limits{}};
+  rpc::EngineContext engines(runtime, fft, serving.gate(), SessionPolicy{});
+  rpc::OceanService service(serving);
+  service.start(engines);  // the service and the in-process loop share this one engine
+  ocean::OceanEngine& engine = engines.shared<ocean::OceanEngine>();
+  serving.set_phase(rpc::ServingState::Phase::Serving);
 
-  rpc::OceanService service(engines);
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
   builder.RegisterService(&service);
-  builder.SetMaxSendMessageSize(int(engines.gate.limits().max_message_bytes));
+  builder.SetMaxSendMessageSize(int(serving.gate().limits().max_message_bytes));
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);
@@ -113,15 +117,15 @@ int main(int argc, char** argv) {
       grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials(), args));
   ocean::CpuReference reference(threads);
 
-  std::printf("device: %s, FFT %s; FFTW reference on %d threads\n", describe(engines.runtime.device_info()).c_str(),
+  std::printf("device: %s, FFT %s; FFTW reference on %d threads\n", describe(runtime.device_info()).c_str(),
               backend.c_str(), threads);
   std::printf("one JONSWAP layer, outputs height + displacement + normals + Jacobian (9 float32 fields)\n\n");
   std::printf("%-10s %14s %14s %14s %12s %12s\n", "size", "in-process/s", "grpc stream/s", "fftw ref/s",
               "stream/in", "engine/fftw");
   for (int n : {256, 512, 1024}) {
     v1::TileSpec proto = tile(n);
-    ocean::TileSpec spec = ocean::rpc::tile_spec(proto, engines.gate);
-    double in_process = rate([&](int i) { engines.ocean->tile(spec, i / 30.0, kOutputs); }, budget);
+    ocean::TileSpec spec = ocean::rpc::tile_spec(proto, serving.gate());
+    double in_process = rate([&](int i) { engine.tile(spec, i / 30.0, kOutputs); }, budget);
     int frames = std::max(3, int(in_process * budget));
     stream_rate(*stub, proto, 1);  // warm-up: connection, buffers
     double streamed = stream_rate(*stub, proto, frames);
@@ -131,6 +135,8 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   std::printf("\ngoals: stream/in >= 0.9, engine/fftw >= 0.3\n");
+  if (runtime.profiling())  // SQUALL_PROFILE_KERNELS=1: device time per kernel (launches wait: rates drop)
+    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s", format_kernel_timings(runtime.kernel_timings()).c_str());
   server->Shutdown();
   return 0;
 }

@@ -9,6 +9,7 @@
 #include "client/cli.h"
 #include "client/cli_flags.h"
 #include "client/image_io.h"
+#include "server/common/field_codec.h"
 #include "squall/v1/clouds.grpc.pb.h"
 
 namespace squall::cli::cloud {
@@ -273,11 +274,10 @@ int render(client::Client& client, const Request& r) {
   image.nx = int(img.width());
   image.ny = int(img.height());
   size_t plane = size_t(img.width()) * img.height();
-  for (int c = 0; c < img.channels_size(); ++c) {
-    client::Channel channel{img.channels(c), std::vector<float>(plane)};
-    std::memcpy(channel.values.data(), img.data().data() + c * plane * sizeof(float), plane * sizeof(float));
-    image.channels.push_back(std::move(channel));
-  }
+  const std::vector<float> values = squall::field::decode_bytes(
+      img.data(), plane * img.channels_size(), v1::DTYPE_FLOAT32, "image.data", "width * height * channels");
+  for (int c = 0; c < img.channels_size(); ++c)
+    image.channels.push_back({img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
   try {
     client::write_exr(r.output, image);
     std::string preview = r.preview.empty() ? r.output.substr(0, r.output.rfind('.')) + ".png" : r.preview;

@@ -11,7 +11,7 @@
 #include "client/cli.h"
 #include "client/cli_flags.h"
 #include "client/image_io.h"
-#include "client/ocean_frames.h"
+#include "server/common/field_codec.h"
 #include "squall/v1/ewave.grpc.pb.h"
 
 namespace squall::cli::ewave {
@@ -26,10 +26,10 @@ namespace v1 = squall::v1;
 
 const char* const kHelp = R"(usage:
   squall ewave wake [FLAGS] -o DIR
-A hull (an obstruction that is also a height source S0 (1 - O), seed eq 75) moves along +x through the
-middle of the grid at constant speed, one Run-stream step per frame; each written frame is
-DIR/frame_NNNNN.exr (the requested fields as FLOAT channels, the parameters as attributes) and
-DIR/frame_NNNNN.png (the height, 8-bit grey).
+A hull (an obstruction that is also a height source S0 (1 - O); Tessendorf 2017, Gilligan, eq 75)
+moves along +x through the middle of the grid at constant speed, one Run-stream step per frame; each
+written frame is DIR/frame_NNNNN.exr (the requested fields as FLOAT channels, the parameters as
+attributes) and DIR/frame_NNNNN.png (the height, 8-bit grey).
   --speed V             hull speed, m/s (default 0.2)
   --hull NAME           ellipse | box | circle (default ellipse)
   --length L            hull length along the track, m (default 0.24; circle: the diameter)
@@ -138,7 +138,7 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
   client::Image image;
   for (const auto& f : frame.fields()) {
     image.nx = int(f.nx()), image.ny = int(f.ny());
-    image.channels.push_back({f.name(), client::ocean::values(f)});
+    image.channels.push_back({f.name(), squall::field::decode(f, "frame.fields." + f.name())});
     image.attributes.emplace_back("squall.field." + f.name(), f.unit() + "; spacing " + std::to_string(f.spacing().x()) +
                                                                   " " + std::to_string(f.spacing().y()) + " m");
   }

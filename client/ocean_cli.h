@@ -1,5 +1,6 @@
 // `squall ocean tile|stream|sample ...`: the Ocean service from the command line. Registered in the
-// verbs table of client/cli.cpp as the verb "ocean".
+// verbs table of client/cli.cpp as the verb "ocean". Flags -> request: ocean_cli_request.h; the verbs:
+// ocean_cli_verbs.h; the files and CSV they write: ocean_cli_output.h.
 #pragma once
 
 #include <string>

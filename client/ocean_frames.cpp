@@ -3,25 +3,16 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/reflection.h>
 
-#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
-#include "server/ocean/float16.h"
+#include "server/common/field_codec.h"
 
 namespace squall::client::ocean {
 namespace {
 
 using google::protobuf::FieldDescriptor;
 using google::protobuf::Message;
-
-size_t bytes_per_value(const squall::v1::Field& field) {
-  switch (field.dtype()) {
-    case squall::v1::DTYPE_FLOAT32: return 4;
-    case squall::v1::DTYPE_FLOAT16: return 2;
-    default: throw std::runtime_error("field " + field.name() + " has unsupported dtype " + std::to_string(field.dtype()));
-  }
-}
 
 squall::v1::Field* find_or_add(squall::v1::GetTileResponse& frame, const squall::v1::FieldPiece& piece) {
   for (auto& f : *frame.mutable_fields())
@@ -38,7 +29,7 @@ squall::v1::Field* find_or_add(squall::v1::GetTileResponse& frame, const squall:
 
 void append_piece(squall::v1::GetTileResponse& frame, squall::v1::FieldPiece& piece) {
   squall::v1::Field* f = find_or_add(frame, piece);
-  const size_t row_bytes = size_t(f->nx()) * bytes_per_value(*f);
+  const size_t row_bytes = size_t(f->nx()) * squall::field::bytes_per_value(f->dtype(), f->name() + ".dtype");
   const size_t rows_so_far = f->data().size() / row_bytes;
   if (piece.row_offset() != rows_so_far || piece.field().nx() != f->nx() ||
       piece.field().data().size() != piece.field().ny() * row_bytes || rows_so_far + piece.field().ny() > f->ny())
@@ -111,26 +102,14 @@ std::optional<squall::v1::GetTileResponse> FrameAssembler::add(squall::v1::TileC
   if (++next_chunk_ < chunk.chunk_count()) return std::nullopt;
   next_chunk_ = 0;
   for (const auto& f : frame_.fields())
-    if (f.data().size() != size_t(f.nx()) * f.ny() * bytes_per_value(f))
+    if (f.data().size() != squall::field::value_count(f) * squall::field::bytes_per_value(f.dtype(), f.name() + ".dtype"))
       throw std::runtime_error("stream: frame " + std::to_string(frame_index_) + " ended with field " + f.name() +
                                " incomplete");
   return std::move(frame_);
 }
 
 std::vector<float> values(const squall::v1::Field& field) {
-  const size_t n = size_t(field.nx()) * field.ny() * std::max<uint32_t>(field.nz(), 1);
-  const size_t size = bytes_per_value(field);
-  if (field.data().size() != n * size)
-    throw std::runtime_error("field " + field.name() + " holds " + std::to_string(field.data().size()) +
-                             " bytes, expected " + std::to_string(n * size));
-  std::vector<float> out(n);
-  const auto* bytes = reinterpret_cast<const unsigned char*>(field.data().data());
-  if (size == 4) {
-    std::memcpy(out.data(), bytes, n * 4);  // little-endian host
-  } else {
-    for (size_t i = 0; i < n; ++i) out[i] = f16::to_float(uint16_t(bytes[2 * i] | (bytes[2 * i + 1] << 8)));
-  }
-  return out;
+  return squall::field::decode(field, field.name().empty() ? std::string("field") : field.name());
 }
 
 Image tile_image(const squall::v1::GetTileResponse& tile, const google::protobuf::Message& request) {

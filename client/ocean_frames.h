@@ -27,7 +27,8 @@ class FrameAssembler {
   bool started_ = false;
 };
 
-// The values of a float32 or float16 field as floats (throws on a size or dtype mismatch).
+// The values of a float32 or float16 field as floats (common/field_codec.h: throws squall::Error naming
+// the field on a dtype or size mismatch).
 std::vector<float> values(const squall::v1::Field& field);
 
 // An EXR image of a tile: one channel per field, attributes from `request` (every field of the message,

@@ -1,18 +1,21 @@
-// Phase functions (App D appendix A, main §7.2.1), normalized to 1 over the sphere. mu = cos(Theta) of
-// the scattering angle between the view direction and the direction to the light; s2 = sin^2(Theta/2)
-// = (1 - mu)/2, passed separately because it is accurate near forward scattering where 1 - mu is not.
+// Phase functions (appendix A of J. Tessendorf and M. Kowalski, "Resolution Independent Volumes" (SIGGRAPH
+// course notes 2010/2011), reproduced as App. D of J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017); Gilligan sec. 7.2.1), normalized to 1 over the
+// sphere. mu = cos(Theta) of the scattering angle between the view direction and the direction to the
+// light; s2 = sin^2(Theta/2) = (1 - mu)/2, passed separately because it is accurate near forward
+// scattering where 1 - mu is not.
 #ifndef SQUALL_CLOUDS_PHASE_H
 #define SQUALL_CLOUDS_PHASE_H
 
-#define SQ_INV_4PI 0.0795774715459477f
+#define SQUALL_INV_4PI 0.0795774715459477f
 
 static inline float phase_hg(float mu, float g) {  // eq A.8
   float d = 1.0f + g * g - 2.0f * g * mu;
-  return SQ_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
+  return SQUALL_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
 }
 
-// Fournier-Forand, eqs A.9-A.12, with the Junge slope mu_j in 3.5..5 (the seed's Fig A.2 caption misprints
-// it as 0.35..0.5, see gilligan.md §7) and refractive index n.
+// Fournier-Forand, eqs A.9-A.12, with the Junge slope mu_j in 3.5..5 and refractive index n (the caption of
+// Fig A.2 prints mu = 0.35..0.5, a factor of 10 off: with those values it does not integrate to 1).
 static inline float phase_fournier_forand(float mu, float s2, float n, float mu_j) {
   float nu = (3.0f - mu_j) / 2.0f;
   float k = 4.0f / (3.0f * (n - 1.0f) * (n - 1.0f));
@@ -28,11 +31,11 @@ static inline float phase_fournier_forand(float mu, float s2, float n, float mu_
   return first + second;
 }
 
-static inline float phase_function(__private const sq_cloud_render* p, float mu, float s2) {
-  if (p->phase == SQ_PHASE_HG) return phase_hg(mu, p->g1);
-  if (p->phase == SQ_PHASE_DOUBLE_HG) return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
-  if (p->phase == SQ_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
-  return SQ_INV_4PI;
+static inline float phase_function(__private const CloudRenderParams* p, float mu, float s2) {
+  if (p->phase == SQUALL_PHASE_HG) return phase_hg(mu, p->g1);
+  if (p->phase == SQUALL_PHASE_DOUBLE_HG) return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
+  if (p->phase == SQUALL_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
+  return SQUALL_INV_4PI;
 }
 
 // Planck's spectral radiance B_lambda(T), W m^-2 sr^-1 m^-1 (lambda in m, T in K), evaluated as

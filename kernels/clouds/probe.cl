@@ -3,7 +3,7 @@
 #include "clouds/pnanovdb_cl.h"
 
 // out[i] = value of voxel ijk[3i..3i+2] of the float grid in `grid`, read with a PNanoVDB read accessor.
-__kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk, uint n, __global float* out) {
+__kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk, const int n, __global float* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
   pnanovdb_buf_t buf = pnanovdb_make_buf(grid);
@@ -15,7 +15,7 @@ __kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk,
 #include "clouds/phase.h"
 
 // out[i] = the phase function of p at scattering angle theta[i] (radians).
-__kernel void phase_eval(sq_cloud_render p, __global const float* theta, uint n, __global float* out) {
+__kernel void phase_eval(CloudRenderParams p, __global const float* theta, const int n, __global float* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
   float s = sin(0.5f * theta[i]);
@@ -23,7 +23,7 @@ __kernel void phase_eval(sq_cloud_render p, __global const float* theta, uint n,
 }
 
 // out[i] = B_lambda(T) at wavelength lambda[i] (m) and temperature T[i] (K).
-__kernel void blackbody_eval(__global const float* lambda, __global const float* T, uint n, __global float* out) {
+__kernel void blackbody_eval(__global const float* lambda, __global const float* T, const int n, __global float* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
   out[i] = blackbody(lambda[i], T[i]);

@@ -1,15 +1,19 @@
 // squall-build-options: -cl-std=CL2.0
-// Cloud ray marcher (seed App D appendix A; gilligan.md §5.9) over NanoVDB grids read through PNanoVDB.h.
+// Cloud ray marcher (appendix A, "The Ray March Algorithm", of J. Tessendorf and M. Kowalski, "Resolution
+// Independent Volumes" (SIGGRAPH course notes 2010/2011), reproduced as App. D of J. Tessendorf, "Gilligan: A
+// Prototype Framework for Simulating and Rendering Maritime Environments" (2017)) over NanoVDB grids read
+// through PNanoVDB.h.
 // Single scattering plus emission:  per sub-step of length h at density rho,
 //   dT = exp(-kappa rho h);  L += C^T T (1 - dT) / kappa;  T *= dT           (eqs A.22-A.26; A.24 is "+=")
 //   C^T = C^E + C^S C^I,  C^S = albedo kappa,  C^I = sum_i E_i T_i^L P(n . n_i^L)   (A.3, A.4, A.7)
-//   C^E = (1 - albedo) kappa B_lambda(T(x))   (Kirchhoff; main §7.2.2)
+//   C^E = (1 - albedo) kappa B_lambda(T(x))   (Kirchhoff; Gilligan sec. 7.2.2)
 // Steps: each step [s, s + h] (h = step, clipped to node boundaries and the ray's end) is cut at N_s - 1
-// sorted uniform offsets r_1 < ... < r_{N_s-1}, with r_0 = 0 and r_{N_s} = 1 (the seed's misprint fixed:
-// x advances by (r_j - r_{j-1}) h and the last sub-interval is kept); each sub-interval is sampled at a
-// uniformly jittered point. The optical depth estimate is unbiased for any step; it is exact, whatever the
-// step, where the density is constant over each step (steps end at leaf and tile boundaries and at the
-// grid's bounding box, so e.g. nearest-voxel density that is constant over each leaf it fills).
+// sorted uniform offsets r_1 < ... < r_{N_s-1}, with r_0 = 0 and r_{N_s} = 1 (the printed sub-step update
+// advances x by r_j h and stops at r_{N_s-1}; here x advances by (r_j - r_{j-1}) h and the last sub-interval
+// is kept); each sub-interval is sampled at a uniformly jittered point. The optical depth estimate is
+// unbiased for any step; it is exact, whatever the step, where the density is constant over each step
+// (steps end at leaf and tile boundaries and at the grid's bounding box, so e.g. nearest-voxel density that
+// is constant over each leaf it fills).
 // Empty-space skipping: the ray walks the NanoVDB tree node by node (the hierarchical DDA of NanoVDB's
 // HDDA: the node dimension from pnanovdb_readaccessor_get_dim, the node's exit from pnanovdb_hdda_ray_clip)
 // and marches only through leaves and active tiles.
@@ -23,29 +27,29 @@ typedef struct {
   pnanovdb_buf_t buf;
   pnanovdb_grid_handle_t grid;
   pnanovdb_readaccessor_t acc;
-} sq_volume;
+} VdbVolume;
 
-static inline sq_volume sq_volume_open(__global const uint* data) {
-  sq_volume v;
+static inline VdbVolume sq_volume_open(__global const uint* data) {
+  VdbVolume v;
   v.buf = pnanovdb_make_buf(data);
   v.grid.address.byte_offset = 0;
   v.acc = sq_vdb_accessor(v.buf);
   return v;
 }
 
-static inline float3 sq_world_to_index(sq_volume* v, float3 x) {
+static inline float3 sq_world_to_index(VdbVolume* v, float3 x) {
   pnanovdb_vec3_t p = {x.x, x.y, x.z};
   pnanovdb_vec3_t i = pnanovdb_grid_world_to_indexf(v->buf, v->grid, &p);
   return (float3)(i.x, i.y, i.z);
 }
-static inline float3 sq_world_to_index_dir(sq_volume* v, float3 d) {
+static inline float3 sq_world_to_index_dir(VdbVolume* v, float3 d) {
   pnanovdb_vec3_t p = {d.x, d.y, d.z};
   pnanovdb_vec3_t i = pnanovdb_grid_world_to_index_dirf(v->buf, v->grid, &p);
   return (float3)(i.x, i.y, i.z);
 }
 
 // Density at index-space position p.
-static inline float sq_sample(sq_volume* v, float3 p, int trilinear) {
+static inline float sq_sample(VdbVolume* v, float3 p, int trilinear) {
   if (!trilinear) return sq_vdb_value(v->buf, &v->acc, convert_int3_rtn(p + 0.5f));
   float3 f = floor(p);
   int3 i = convert_int3(f);
@@ -71,7 +75,7 @@ static inline bool sq_clip(float3 lo, float3 hi, float3 o, float3 d, float* t0, 
 }
 
 // The ray's span inside the grid's root bounding box; false when it misses.
-static inline bool sq_clip_root(sq_volume* v, float3 o, float3 d, float* t0, float* t1) {
+static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, float* t1) {
   pnanovdb_coord_t lo = pnanovdb_root_get_bbox_min(v->buf, v->acc.root);
   pnanovdb_coord_t hi = pnanovdb_root_get_bbox_max(v->buf, v->acc.root);
   if (lo.x > hi.x) return false;  // empty grid
@@ -80,7 +84,7 @@ static inline bool sq_clip_root(sq_volume* v, float3 o, float3 d, float* t0, flo
 
 // The node containing the cell at ray parameter t (a leaf, or a tile of the given dimension): its exit
 // parameter, and whether it can hold density (a leaf or an active tile).
-static inline bool sq_node(sq_volume* v, float3 o, float3 d, float t, float nudge, float* exit) {
+static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float t, float nudge, float* exit) {
   float3 c = o + (t + nudge) * d;
   pnanovdb_coord_t ijk = {(int)floor(c.x), (int)floor(c.y), (int)floor(c.z)};
   int dim = (int)pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk);
@@ -122,7 +126,7 @@ static inline void sq_substep_offsets(int n, uint* rng, float* r) {
 }
 
 // Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax].
-static float sq_column_density(sq_volume* v, float3 x, float3 dir, float tmax, __private const sq_cloud_render* p,
+static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, __private const CloudRenderParams* p,
                                uint* rng) {
   float3 o = sq_world_to_index(v, x) + 0.5f;
   float3 d = sq_world_to_index_dir(v, dir);
@@ -146,7 +150,7 @@ static float sq_column_density(sq_volume* v, float3 x, float3 dir, float tmax, _
 }
 
 // Trilinear interpolation of the deep shadow map of light `light` at world point x.
-static float sq_dsm_column(__global const float* dsm, int light, float3 x, __private const sq_cloud_render* p) {
+static float sq_dsm_column(__global const float* dsm, int light, float3 x, __private const CloudRenderParams* p) {
   int3 n = (int3)(p->dsm_n[0], p->dsm_n[1], p->dsm_n[2]);
   float3 lo = (float3)(p->dsm_min[0], p->dsm_min[1], p->dsm_min[2]);
   float3 hi = (float3)(p->dsm_max[0], p->dsm_max[1], p->dsm_max[2]);
@@ -154,16 +158,16 @@ static float sq_dsm_column(__global const float* dsm, int light, float3 x, __pri
   int3 i = min(convert_int3(floor(g)), n - 2);
   float3 w = g - convert_float3(i);
   __global const float* base = dsm + (size_t)light * n.x * n.y * n.z;
-#define SQ_DSM(a, b, c) base[((size_t)(i.z + (c)) * n.y + (i.y + (b))) * n.x + (i.x + (a))]
-  float c00 = mix(SQ_DSM(0, 0, 0), SQ_DSM(1, 0, 0), w.x), c10 = mix(SQ_DSM(0, 1, 0), SQ_DSM(1, 1, 0), w.x);
-  float c01 = mix(SQ_DSM(0, 0, 1), SQ_DSM(1, 0, 1), w.x), c11 = mix(SQ_DSM(0, 1, 1), SQ_DSM(1, 1, 1), w.x);
-#undef SQ_DSM
+#define SQUALL_DSM(a, b, c) base[((size_t)(i.z + (c)) * n.y + (i.y + (b))) * n.x + (i.x + (a))]
+  float c00 = mix(SQUALL_DSM(0, 0, 0), SQUALL_DSM(1, 0, 0), w.x), c10 = mix(SQUALL_DSM(0, 1, 0), SQUALL_DSM(1, 1, 0), w.x);
+  float c01 = mix(SQUALL_DSM(0, 0, 1), SQUALL_DSM(1, 0, 1), w.x), c11 = mix(SQUALL_DSM(0, 1, 1), SQUALL_DSM(1, 1, 1), w.x);
+#undef SQUALL_DSM
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
 
 // Direction to the light, distance to it and the irradiance scale (1/d^2 for a point light).
-static inline float3 sq_to_light(__private const sq_cloud_light* l, float3 x, float* dist, float* scale) {
-  if (l->kind == SQ_LIGHT_DIRECTIONAL) {
+static inline float3 sq_to_light(__private const CloudLight* l, float3 x, float* dist, float* scale) {
+  if (l->kind == SQUALL_LIGHT_DIRECTIONAL) {
     *dist = 1e30f;
     *scale = 1.0f;
     return normalize((float3)(l->direction[0], l->direction[1], l->direction[2]));
@@ -177,7 +181,7 @@ static inline float3 sq_to_light(__private const sq_cloud_light* l, float3 x, fl
 
 // Deep shadow map: column density toward each light at the nodes of a box grid (log T^L = -kappa column).
 // Sparse: nodes with needed[node] == 0 (farther than one map cell from any density) are skipped.
-__kernel void cloud_shadow_map(__global const uint* density, sq_cloud_render p, __global const uchar* needed,
+__kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,
                                __global float* dsm) {
   int3 n = (int3)(p.dsm_n[0], p.dsm_n[1], p.dsm_n[2]);
   size_t id = get_global_id(0);
@@ -193,7 +197,7 @@ __kernel void cloud_shadow_map(__global const uint* density, sq_cloud_render p, 
   float3 lo = (float3)(p.dsm_min[0], p.dsm_min[1], p.dsm_min[2]);
   float3 hi = (float3)(p.dsm_max[0], p.dsm_max[1], p.dsm_max[2]);
   float3 x = lo + (hi - lo) * convert_float3(i) / convert_float3(n - 1);
-  sq_volume v = sq_volume_open(density);
+  VdbVolume v = sq_volume_open(density);
   uint rng = sq_hash((uint)id ^ sq_hash((uint)p.seed + 17u));
   float dist, scale;
   float3 dir = sq_to_light(&p.lights[light], x, &dist, &scale);
@@ -204,7 +208,7 @@ __kernel void cloud_shadow_map(__global const uint* density, sq_cloud_render p, 
 // (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance in m at
 // which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
 __kernel void cloud_render(__global const uint* density, __global const uint* temperature, __global const float* dsm,
-                           sq_cloud_render p, __global float* out) {
+                           CloudRenderParams p, __global float* out) {
   int px = get_global_id(0), py = get_global_id(1);
   if (px >= p.width || py >= p.height) return;
   size_t pixel = (size_t)py * p.width + px;
@@ -216,22 +220,22 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
   float3 eye = (float3)(p.eye[0], p.eye[1], p.eye[2]);
   float3 dir = normalize((float3)(p.forward[0], p.forward[1], p.forward[2]) + sx * (float3)(p.right[0], p.right[1], p.right[2]) +
                          sy * (float3)(p.up[0], p.up[1], p.up[2]));
-  float L[SQ_CLOUD_MAX_WAVELENGTHS], T[SQ_CLOUD_MAX_WAVELENGTHS];
+  float L[SQUALL_CLOUD_MAX_WAVELENGTHS], T[SQUALL_CLOUD_MAX_WAVELENGTHS];
   for (int w = 0; w < nw; ++w) {
     L[w] = 0.0f;
     T[w] = 1.0f;
   }
   float depth = -1.0f;
   uint rng = sq_hash((uint)pixel ^ sq_hash((uint)p.seed));
-  sq_volume v = sq_volume_open(density);
-  sq_volume tv = sq_volume_open(p.has_temperature ? temperature : density);
+  VdbVolume v = sq_volume_open(density);
+  VdbVolume tv = sq_volume_open(p.has_temperature ? temperature : density);
   float3 o = sq_world_to_index(&v, eye) + 0.5f;
   float3 d = sq_world_to_index_dir(&v, dir);
   float t0 = 0.0f, t1 = 1e30f;
   bool hit = sq_clip_root(&v, o, d, &t0, &t1);
   float nudge = 1e-4f / length(d);
-  float r[SQ_CLOUD_MAX_SUBSTEPS + 1];
-  int ns = clamp(p.substeps, 1, SQ_CLOUD_MAX_SUBSTEPS);
+  float r[SQUALL_CLOUD_MAX_SUBSTEPS + 1];
+  int ns = clamp(p.substeps, 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   bool done = !hit;
   for (float t = t0; !done && t < t1;) {
     float exit;
@@ -249,14 +253,14 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         float3 x = eye + at * dir;
         float temp = p.has_temperature ? sq_sample(&tv, c - 0.5f, p.interpolation) : 0.0f;
         // Lights: irradiance scale, phase and column density toward each.
-        float irr[SQ_CLOUD_MAX_LIGHTS], phase[SQ_CLOUD_MAX_LIGHTS], column[SQ_CLOUD_MAX_LIGHTS];
+        float irr[SQUALL_CLOUD_MAX_LIGHTS], phase[SQUALL_CLOUD_MAX_LIGHTS], column[SQUALL_CLOUD_MAX_LIGHTS];
         for (int i = 0; i < p.n_lights; ++i) {
           float dist;
           float3 nl = sq_to_light(&p.lights[i], x, &dist, &irr[i]);
           float3 diff = dir - nl;
           phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff));
-          column[i] = p.shadow == SQ_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)
-                      : p.shadow == SQ_SHADOW_DIRECT ? sq_column_density(&v, x, nl, dist, &p, &rng)
+          column[i] = p.shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)
+                      : p.shadow == SQUALL_SHADOW_DIRECT ? sq_column_density(&v, x, nl, dist, &p, &rng)
                                                      : 0.0f;
         }
         for (int w = 0; w < nw; ++w) {

@@ -1,4 +1,5 @@
-/* Dispersion relations of linear surface waves and their group velocities (Gilligan Table 1).
+/* Dispersion relations of linear surface waves and their group velocities (Table 1 of J. Tessendorf,
+ * "Gilligan: A Prototype Framework for Simulating and Rendering Maritime Environments" (2017)).
  * Shared by OpenCL C (kernels include "common/dispersion.h") and host C++ (include it with kernels/ on the
  * include path; the shim below maps the OpenCL built-ins to <math.h>). SI units: k in rad/m, omega in
  * rad/s, gravity in m/s^2, depth and capillary length in m, group velocity in m/s.
@@ -27,6 +28,15 @@ typedef struct {
   float depth;
   float capillary_length;
 } Dispersion; /* 16 bytes */
+
+#ifdef __cplusplus
+#include "common/host_layout.h"
+SQUALL_ASSERT_SIZE(Dispersion, 16);
+SQUALL_ASSERT_OFFSET(Dispersion, kind, 0);
+SQUALL_ASSERT_OFFSET(Dispersion, gravity, 4);
+SQUALL_ASSERT_OFFSET(Dispersion, depth, 8);
+SQUALL_ASSERT_OFFSET(Dispersion, capillary_length, 12);
+#endif
 
 /* tanh(kh) for the kinds with a bottom, 1 for the others. */
 static inline float dispersion_depth_factor(float k, Dispersion d) {

@@ -1,4 +1,5 @@
-// eWave obstruction map from shapes (seed main §3.3): O = 0 inside a shape, 1 outside, and the covered
+// eWave obstruction map from shapes (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and
+// Rendering Maritime Environments" (2017), sec. 3.3, eq 74): O = 0 inside a shape, 1 outside, and the covered
 // fraction of each edge cell in between, estimated from SUBSAMPLES x SUBSAMPLES points per cell.
 #include "ewave/shapes.h"
 
@@ -29,7 +30,7 @@ static bool inside_shape(EWaveShape s, float px, float py, __global const float*
 
 // O[i, j] *= 1 - (fraction of the cell covered by the union of the shapes).
 __kernel void ewave_rasterize(__global float* obstruction, __global const EWaveShape* shapes, const int shape_count,
-                              __global const float* vertices, const uint nx, const uint ny, const float dx,
+                              __global const float* vertices, const int nx, const int ny, const float dx,
                               const float dy) {
   uint i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;

@@ -32,4 +32,24 @@ typedef struct {
   float reserved2[2];
 } EWaveShape;
 
+#ifdef __cplusplus
+#include "common/host_layout.h"
+SQUALL_ASSERT_SIZE(EWaveShape, 64);
+SQUALL_ASSERT_OFFSET(EWaveShape, kind, 0);
+SQUALL_ASSERT_OFFSET(EWaveShape, first_vertex, 4);
+SQUALL_ASSERT_OFFSET(EWaveShape, vertex_count, 8);
+SQUALL_ASSERT_OFFSET(EWaveShape, reserved, 12);
+SQUALL_ASSERT_OFFSET(EWaveShape, cx, 16);
+SQUALL_ASSERT_OFFSET(EWaveShape, cy, 20);
+SQUALL_ASSERT_OFFSET(EWaveShape, a, 24);
+SQUALL_ASSERT_OFFSET(EWaveShape, b, 28);
+SQUALL_ASSERT_OFFSET(EWaveShape, cos_h, 32);
+SQUALL_ASSERT_OFFSET(EWaveShape, sin_h, 36);
+SQUALL_ASSERT_OFFSET(EWaveShape, xmin, 40);
+SQUALL_ASSERT_OFFSET(EWaveShape, ymin, 44);
+SQUALL_ASSERT_OFFSET(EWaveShape, xmax, 48);
+SQUALL_ASSERT_OFFSET(EWaveShape, ymax, 52);
+SQUALL_ASSERT_OFFSET(EWaveShape, reserved2, 56);
+#endif
+
 #endif

@@ -1,6 +1,8 @@
 // squall-build-options: -cl-single-precision-constant
-// The spectral ocean (Gilligan seed section 2, 5.3.3; App A 4.3-4.6). Grid and sign conventions:
-// server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolve -> inverse FFTs
+// The spectral ocean (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime
+// Environments" (2017), sec. 2 and 5.3.3, and its App. A, J. Tessendorf, "Simulating Ocean Water", sec.
+// 4.3-4.6; bare equation numbers below are Gilligan's, "App A eq" ones the course notes'). Grid and sign
+// conventions: server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolve -> inverse FFTs
 // -> ocean_accumulate onto the output grid; then ocean_finalize derives the requested outputs.
 #include "common/dispersion.h"
 #include "ocean/params.h"
@@ -8,7 +10,7 @@
 
 // Spectral channels, packed in pairs (re, im) of complex arrays for C2C inverse FFTs:
 //   pair 0: h, Dx        pair 1: Dy, eps_x      pair 2: eps_y, dDx/dx     pair 3: dDy/dy, dDx/dy
-// with D = sum i k/|k| h~ e^{ik.x} (crest-sharpening sign for lambda > 0) and eps = grad h (eq 37).
+// with D = sum i k/|k| h~ e^{ik.x} (crest-sharpening sign for lambda > 0) and eps = grad h (App A eq 37).
 #define CHANNELS 8
 
 // ---- counter-based Gaussian amplitudes, keyed by (seed, layer, n, m) ----
@@ -27,12 +29,12 @@ inline float2 gaussian_pair(ulong seed, int layer, int n, int m) {
   float u1 = ((float)(uint)(b >> 41) + 0.5f) * 0x1.0p-23f;
   float u2 = ((float)(uint)(c >> 41) + 0.5f) * 0x1.0p-23f;
   float r = sqrt(-2.0f * log(u1));
-  float phi = 2.0f * (float)SQ_PI * u2;
+  float phi = 2.0f * (float)SQUALL_PI * u2;
   return (float2)(r * cos(phi), r * sin(phi));
 }
 
-inline SqSpectrum spectrum_of(__global const OceanLayer* L) {
-  SqSpectrum p;
+inline SpectrumParams spectrum_of(__global const OceanLayer* L) {
+  SpectrumParams p;
   p.spectrum = L->spectrum;
   p.spreading = L->spreading;
   p.partials = L->partials;
@@ -51,7 +53,7 @@ inline SqSpectrum spectrum_of(__global const OceanLayer* L) {
   p.phillips_length = L->phillips_length;
   p.phillips_cutoff = L->phillips_cutoff;
   p.phillips_exponent = L->phillips_exponent;
-  for (int i = 0; i < SQ_MAX_PARTIALS; ++i) {
+  for (int i = 0; i < SQUALL_MAX_PARTIALS; ++i) {
     p.partial_omega_p[i] = L->partial_omega_p[i];
     p.partial_scale[i] = L->partial_scale[i];
     p.partial_a[i] = L->partial_a[i];
@@ -66,7 +68,8 @@ inline SqSpectrum spectrum_of(__global const OceanLayer* L) {
 // Signed mode number of array index i on an n-point axis: -n/2 < mode < n/2, and -n/2 at i = n/2 (Nyquist).
 inline int mode_number(int i, int n) { return i < n / 2 ? i : i - n; }
 
-// B(k) of eq 56 (the count of layers whose band holds k; spec section 7).
+// B(k) of eq 56 (the count of layers whose band holds k: sec. 2.6 calls it the square of that number, but
+// with Pi = 0 or 1 eq 56 is the count).
 inline float band_count(float kx, float ky, __global const float4* bands, int nbands) {
   float count = 0.0f;
   float ax = fabs(kx), ay = fabs(ky);
@@ -78,7 +81,7 @@ inline float band_count(float kx, float ky, __global const float4* bands, int nb
   return count;
 }
 
-// h0(k) of eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k).
+// h0(k) of App A eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k).
 // Output per mode: (Re h0, Im h0, omega, 0).
 __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* bands, const int nbands,
                        __global float4* h0) {
@@ -140,7 +143,7 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
 // the eWave engine's ambient and initial fields (server/ewave). With h~ = [h0(k) e^{-iwt} + conj(h0(-k))
 // e^{iwt}] e^{-i k.U_D t} as in ocean_evolve, phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}]
 // e^{-i k.U_D t} (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e. eWave's exact
-// propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (seed eqs 64-65).
+// propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
 __kernel void ocean_evolve_potential(__global const float4* h0, const int nx, const int ny, const float dkx,
                                      const float dky, const float t_hi, const float t_lo, const float2 drift,
                                      const float g, __global float2* out) {
@@ -234,9 +237,9 @@ __kernel void ocean_finalize(__global const float* accum, const int cells, const
   }
   float mean = 0.5f * (Jxx + Jyy), diff = 0.5f * (Jxx - Jyy);
   float radius = sqrt(diff * diff + Jxy * Jxy);
-  float Jminus = mean - radius, Jplus = mean + radius;  // eq 47
+  float Jminus = mean - radius, Jplus = mean + radius;  // App A eq 47
   if (flags & 16) {
-    out[OUT_J * cells + at] = Jxx * Jyy - Jxy * Jxy;  // eq 45
+    out[OUT_J * cells + at] = Jxx * Jyy - Jxy * Jxy;  // App A eq 45
     out[OUT_J_MINUS * cells + at] = Jminus;
     out[OUT_J_PLUS * cells + at] = Jplus;
   }

@@ -1,9 +1,12 @@
-/* Pure formulas of the ocean spectra (Gilligan seed section 2.3, App A eq 40): frequency spectra S(omega),
- * directional spreads D(theta; omega, k) and the spatial spectrum P(k) of eq 3. Shared by the OpenCL kernels
+/* Pure formulas of the ocean spectra (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and
+ * Rendering Maritime Environments" (2017), sec. 2.3, whose equation numbers are used below, and eq 40 of its
+ * App. A, J. Tessendorf, "Simulating Ocean Water"): frequency spectra S(omega), directional spreads
+ * D(theta; omega, k) and the spatial spectrum P(k) of eq 3. Shared by the OpenCL kernels
  * (sq_real = float; the program is built with -cl-single-precision-constant) and by host C++ in double
  * precision (the engine's set-up and the FFTW reference). The tests check every formula against closed
- * forms (peak positions, m0, normalization of each D, TMA limits). SI units. Seed misprints fixed as listed
- * in gilligan.md section 7; each fix is marked "fixed". */
+ * forms (peak positions, m0, normalization of each D, TMA limits). SI units. Misprints in the printed
+ * equations (the exponents of eqs 4, 5 and 13, the sigma_0 ranges of eqs 10 and 18, the normalizations of
+ * eqs 27, 29 and 45) are corrected; each fix is marked "fixed". */
 #ifndef SQUALL_OCEAN_SPECTRA_H
 #define SQUALL_OCEAN_SPECTRA_H
 
@@ -14,25 +17,25 @@ typedef float sq_real;
 typedef double sq_real;
 #endif
 
-#define SQ_PI 3.14159265358979323846
+#define SQUALL_PI 3.14159265358979323846
 
 /* Model numbers: the values of squall::ocean::SpectrumModel / SpreadingModel. */
-#define SQ_SPECTRUM_PHILLIPS 0
-#define SQ_SPECTRUM_PIERSON_MOSKOWITZ 1
-#define SQ_SPECTRUM_JONSWAP 2
-#define SQ_SPECTRUM_MODIFIED_JONSWAP 3
-#define SQ_SPECTRUM_TMA 4
-#define SQ_SPECTRUM_MULTIPEAK 5
+#define SQUALL_SPECTRUM_PHILLIPS 0
+#define SQUALL_SPECTRUM_PIERSON_MOSKOWITZ 1
+#define SQUALL_SPECTRUM_JONSWAP 2
+#define SQUALL_SPECTRUM_MODIFIED_JONSWAP 3
+#define SQUALL_SPECTRUM_TMA 4
+#define SQUALL_SPECTRUM_MULTIPEAK 5
 
-#define SQ_SPREAD_ISOTROPIC 0
-#define SQ_SPREAD_PIERSON_COS2 1
-#define SQ_SPREAD_KRYLOV 2
-#define SQ_SPREAD_MITSUYASU 3
-#define SQ_SPREAD_JONSWAP 4
-#define SQ_SPREAD_VON_MISES 5
-#define SQ_SPREAD_HYPERBOLIC 6
+#define SQUALL_SPREAD_ISOTROPIC 0
+#define SQUALL_SPREAD_PIERSON_COS2 1
+#define SQUALL_SPREAD_KRYLOV 2
+#define SQUALL_SPREAD_MITSUYASU 3
+#define SQUALL_SPREAD_JONSWAP 4
+#define SQUALL_SPREAD_VON_MISES 5
+#define SQUALL_SPREAD_HYPERBOLIC 6
 
-#define SQ_MAX_PARTIALS 4
+#define SQUALL_MAX_PARTIALS 4
 
 /* Everything a spectrum needs, derived once per layer (sq_frequency_setup on the host). */
 typedef struct {
@@ -40,16 +43,16 @@ typedef struct {
   sq_real g, wind_speed, alpha, omega_p, gamma, sigma_a, sigma_b, depth;
   sq_real theta0, omega_mean;
   sq_real phillips_amplitude, phillips_length, phillips_cutoff, phillips_exponent;
-  sq_real partial_omega_p[SQ_MAX_PARTIALS], partial_scale[SQ_MAX_PARTIALS];
-  sq_real partial_a[SQ_MAX_PARTIALS], partial_b[SQ_MAX_PARTIALS], partial_c[SQ_MAX_PARTIALS];
-  sq_real partial_n[SQ_MAX_PARTIALS], partial_m[SQ_MAX_PARTIALS];
-} SqSpectrum;
+  sq_real partial_omega_p[SQUALL_MAX_PARTIALS], partial_scale[SQUALL_MAX_PARTIALS];
+  sq_real partial_a[SQUALL_MAX_PARTIALS], partial_b[SQUALL_MAX_PARTIALS], partial_c[SQUALL_MAX_PARTIALS];
+  sq_real partial_n[SQUALL_MAX_PARTIALS], partial_m[SQUALL_MAX_PARTIALS];
+} SpectrumParams;
 
 /* ---- parameters of the wind spectra ---- */
 static inline sq_real sq_pm_omega_p(sq_real g, sq_real U) { return 0.879 * g / U; } /* eq 4 table */
 static inline sq_real sq_jonswap_alpha(sq_real g, sq_real U, sq_real X) { return 0.076 * pow(g * X / (U * U), (sq_real)-0.22); } /* eq 7 */
 static inline sq_real sq_jonswap_omega_p(sq_real g, sq_real U, sq_real X) {                      /* eq 8 */
-  return 7.0 * SQ_PI * (g / U) * pow(g * X / (U * U), (sq_real)-0.33);
+  return 7.0 * SQUALL_PI * (g / U) * pow(g * X / (U * U), (sq_real)-0.33);
 }
 
 /* ---- frequency spectra ---- */
@@ -73,7 +76,7 @@ static inline sq_real sq_jonswap(sq_real w, sq_real alpha, sq_real g, sq_real wp
 }
 
 /* eq 19 */
-static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) { return wp * U / (2.0 * SQ_PI * g); }
+static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) { return wp * U / (2.0 * SQUALL_PI * g); }
 /* eq 17; nu clamped to the printed ranges [0.83, 5] */
 static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
   if (nu < 1.0) return 1.7;
@@ -118,16 +121,16 @@ static inline sq_real sq_multipeak_shape(sq_real r, sq_real A, sq_real B, sq_rea
 }
 
 /* S(w) of the layer's model (not Phillips, which has no S), m^2 s */
-static inline sq_real sq_frequency_spectrum(SqSpectrum p, sq_real w) {
+static inline sq_real sq_frequency_spectrum(SpectrumParams p, sq_real w) {
   switch (p.spectrum) {
-    case SQ_SPECTRUM_PIERSON_MOSKOWITZ: return sq_pierson_moskowitz(w, p.alpha, p.g, p.omega_p);
-    case SQ_SPECTRUM_JONSWAP: return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b);
-    case SQ_SPECTRUM_MODIFIED_JONSWAP: return sq_modified_jonswap(w, p.g, p.wind_speed, p.omega_p, p.sigma_a, p.sigma_b);
-    case SQ_SPECTRUM_TMA:                                                                  /* eq 20 */
+    case SQUALL_SPECTRUM_PIERSON_MOSKOWITZ: return sq_pierson_moskowitz(w, p.alpha, p.g, p.omega_p);
+    case SQUALL_SPECTRUM_JONSWAP: return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b);
+    case SQUALL_SPECTRUM_MODIFIED_JONSWAP: return sq_modified_jonswap(w, p.g, p.wind_speed, p.omega_p, p.sigma_a, p.sigma_b);
+    case SQUALL_SPECTRUM_TMA:                                                                  /* eq 20 */
       return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b) * sq_tma_r(w, p.depth, p.g);
-    case SQ_SPECTRUM_MULTIPEAK: {                                                          /* eq 24 */
+    case SQUALL_SPECTRUM_MULTIPEAK: {                                                          /* eq 24 */
       sq_real s = 0;
-      for (int i = 0; i < p.partials && i < SQ_MAX_PARTIALS; ++i)
+      for (int i = 0; i < p.partials && i < SQUALL_MAX_PARTIALS; ++i)
         s += p.partial_scale[i] * sq_multipeak_shape(w / p.partial_omega_p[i], p.partial_a[i], p.partial_b[i],
                                                      p.partial_c[i], p.partial_n[i], p.partial_m[i]);
       return s;
@@ -140,7 +143,7 @@ static inline sq_real sq_frequency_spectrum(SqSpectrum p, sq_real w) {
 /* theta - theta0 wrapped into [-pi, pi) */
 static inline sq_real sq_angle_difference(sq_real theta, sq_real theta0) {
   sq_real d = theta - theta0;
-  return d - 2.0 * SQ_PI * floor((d + SQ_PI) / (2.0 * SQ_PI));
+  return d - 2.0 * SQUALL_PI * floor((d + SQUALL_PI) / (2.0 * SQUALL_PI));
 }
 
 /* exp(-x) I0(x), Abramowitz & Stegun 9.8.1-9.8.2 (relative error < 2e-7) */
@@ -167,7 +170,7 @@ static inline sq_real sq_mitsuyasu_s(sq_real w, sq_real wp, sq_real U, sq_real g
 
 /* eqs 33 / 38: (2^{2s-1} / pi) Gamma^2(s+1) / Gamma(2s+1) cos^{2s}(d/2), via lgamma */
 static inline sq_real sq_cos2s(sq_real d, sq_real s) {
-  sq_real lnorm = (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQ_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
+  sq_real lnorm = (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQUALL_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
   sq_real c = cos(0.5 * d);
   return exp(lnorm) * pow(fmax(c, (sq_real)0.0), 2.0 * s);
 }
@@ -188,38 +191,38 @@ static inline sq_real sq_hyperbolic_beta(sq_real r) {
 }
 
 /* D(theta; w, k), rad^-1. d = theta - theta0 in [-pi, pi). */
-static inline sq_real sq_spreading(SqSpectrum p, sq_real d, sq_real w, sq_real k) {
+static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real k) {
   switch (p.spreading) {
-    case SQ_SPREAD_ISOTROPIC: return 1.0 / (2.0 * SQ_PI);
-    case SQ_SPREAD_PIERSON_COS2: {                  /* eq 27 fixed: (2/pi) cos^2 on the half plane */
+    case SQUALL_SPREAD_ISOTROPIC: return 1.0 / (2.0 * SQUALL_PI);
+    case SQUALL_SPREAD_PIERSON_COS2: {                  /* eq 27 fixed: (2/pi) cos^2 on the half plane */
       sq_real c = cos(d);
-      return fabs(d) < 0.5 * SQ_PI ? (2.0 / SQ_PI) * c * c : 0;
+      return fabs(d) < 0.5 * SQUALL_PI ? (2.0 / SQUALL_PI) * c * c : 0;
     }
-    case SQ_SPREAD_KRYLOV: {                        /* eqs 29-31 fixed normalization */
-      if (fabs(d) >= 0.5 * SQ_PI) return 0;
+    case SQUALL_SPREAD_KRYLOV: {                        /* eqs 29-31 fixed normalization */
+      if (fabs(d) >= 0.5 * SQUALL_PI) return 0;
       sq_real s = w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
-      sq_real norm = exp(lgamma(0.5 * s + 1.0) - lgamma(0.5 * (s + 1.0))) / sqrt((sq_real)SQ_PI);
+      sq_real norm = exp(lgamma(0.5 * s + 1.0) - lgamma(0.5 * (s + 1.0))) / sqrt((sq_real)SQUALL_PI);
       return norm * pow(fmax(cos(d), (sq_real)0.0), s);
     }
-    case SQ_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 33 */
-    case SQ_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed));  /* eq 38 */
-    case SQ_SPREAD_VON_MISES: {                     /* eqs 43-44, with exp(-c) I0(c) against overflow */
+    case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 33 */
+    case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed));  /* eq 38 */
+    case SQUALL_SPREAD_VON_MISES: {                     /* eqs 43-44, with exp(-c) I0(c) against overflow */
       sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
       sq_real width = 2.0 * acos(pow((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));
       sq_real c = log((sq_real)2.0) / (1.0 - cos(width));
-      return exp(c * (cos(d) - 1.0)) / (2.0 * SQ_PI * sq_bessel_i0_scaled(c));
+      return exp(c * (cos(d) - 1.0)) / (2.0 * SQUALL_PI * sq_bessel_i0_scaled(c));
     }
-    case SQ_SPREAD_HYPERBOLIC: {                    /* eq 45 fixed (Donelan), normalized by tanh(beta pi) */
+    case SQUALL_SPREAD_HYPERBOLIC: {                    /* eq 45 fixed (Donelan), normalized by tanh(beta pi) */
       sq_real beta = sq_hyperbolic_beta(w / p.omega_p);
       sq_real ch = cosh(beta * d);
-      return 0.5 * beta / (ch * ch * tanh(beta * (sq_real)SQ_PI));
+      return 0.5 * beta / (ch * ch * tanh(beta * (sq_real)SQUALL_PI));
     }
     default: return 0;
   }
 }
 
-/* App A eqs 40-41: Phillips P(k), with |k^.w^|^p (p = 2 in the seed) */
-static inline sq_real sq_phillips(SqSpectrum p, sq_real kx, sq_real ky) {
+/* App A eqs 40-41: Phillips P(k), with |k^.w^|^p (p = 2 in App A eq 40) */
+static inline sq_real sq_phillips(SpectrumParams p, sq_real kx, sq_real ky) {
   sq_real k2 = kx * kx + ky * ky;
   if (k2 <= 0) return 0;
   sq_real k = sqrt(k2);
@@ -230,8 +233,8 @@ static inline sq_real sq_phillips(SqSpectrum p, sq_real kx, sq_real ky) {
 }
 
 /* Eq 3: P(k) = S(w) D(theta; w, k) v_g / (2k), m^4, given w(k) and v_g(k) of the layer's dispersion. */
-static inline sq_real sq_spatial_spectrum(SqSpectrum p, sq_real kx, sq_real ky, sq_real w, sq_real vg) {
-  if (p.spectrum == SQ_SPECTRUM_PHILLIPS) return sq_phillips(p, kx, ky);
+static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real ky, sq_real w, sq_real vg) {
+  if (p.spectrum == SQUALL_SPECTRUM_PHILLIPS) return sq_phillips(p, kx, ky);
   sq_real k = sqrt(kx * kx + ky * ky);
   if (k <= 0 || w <= 0) return 0;
   sq_real d = sq_angle_difference(atan2(ky, kx), p.theta0);
@@ -252,7 +255,7 @@ static inline double sq_multipeak_shape_integral(double A, double B, double C, d
 }
 
 /* m_j = integral of w^j S(w) dw over w_p [1/50, 1000] (log-spaced trapezoid) */
-static inline double sq_spectral_moment(SqSpectrum p, int j) {
+static inline double sq_spectral_moment(SpectrumParams p, int j) {
   const int steps = 40000;
   double u0 = log(p.omega_p / 50.0), u1 = log(p.omega_p * 1000.0), du = (u1 - u0) / steps, sum = 0;
   for (int i = 0; i <= steps; ++i) {

@@ -1,13 +1,13 @@
 // Small kernels that prove the runtime works end to end (tests, start-up check).
 
 // y <- a x + y, element-wise over n values.
-__kernel void axpy(const float a, __global const float* x, __global float* y, const uint n) {
+__kernel void axpy(const float a, __global const float* x, __global float* y, const int n) {
   uint i = get_global_id(0);
   if (i < n) y[i] = a * x[i] + y[i];
 }
 
 // out <- value, over n values.
-__kernel void fill(__global float* out, const float value, const uint n) {
+__kernel void fill(__global float* out, const float value, const int n) {
   uint i = get_global_id(0);
   if (i < n) out[i] = value;
 }

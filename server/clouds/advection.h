@@ -1,5 +1,8 @@
-// Characteristic maps for advection (seed main eqs 115-117, App E eqs 11-13). u is steady over the map;
-// the substep maps compose: X(x, n dt) = X(X(x, (n-1) dt), dt) (App E eq 16).
+// Characteristic maps for advection (eqs 115-117 of J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), and eqs 11-13 of its App. E, J. Tessendorf,
+// "Advection Solver Performance with Long Time Steps, and Strategies for Fast and Accurate Numerical
+// Implementation" (2015)). u is steady over the map; the substep maps compose:
+// X(x, n dt) = X(X(x, (n-1) dt), dt) (App E eq 16).
 #pragma once
 
 #include <functional>

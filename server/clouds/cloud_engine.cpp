@@ -1,86 +1,60 @@
 #include "clouds/cloud_engine.h"
 
-#include <cstdio>
-#include <random>
-
 #include "common/error.h"
 
 namespace squall::clouds {
 
-CloudEngine::CloudEngine(Runtime& runtime, const CloudEngineOptions& options)
-    : runtime_(runtime), options_(options), renderer_(runtime) {}
+CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options)
+    : runtime_(runtime),
+      options_(options),
+      renderer_(runtime),
+      stored_(gate, SessionPolicy{options.ttl, options.clock}, "stored volume", "volume_id", "cloud-") {}
 
-std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field) {
-  if (model.max_active_voxels > options_.max_active_voxels) model.max_active_voxels = options_.max_active_voxels;
+std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
   auto stored = std::make_shared<StoredVolume>();
-  stored->volume = build_cloud(model, field);
+  stored->volume = std::move(volume);
   stored->device = upload_volume(runtime_, stored->volume);
   stored->bytes = stored->volume.stats.bytes + stored->device.device_bytes;
   if (stored->volume.temperature) stored->bytes += stored->volume.temperature->tree().memUsage();
   return stored;
 }
 
+std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field) {
+  if (model.max_active_voxels > options_.max_active_voxels) model.max_active_voxels = options_.max_active_voxels;
+  return upload(build_cloud(model, field));
+}
+
 std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume) {
-  evict_expired();
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (stored_bytes_ + volume->bytes > options_.max_stored_bytes)
-    fail(Code::ResourceExhausted, "keeping this volume (" + std::to_string(volume->bytes) + " bytes) would exceed " +
-                                      "the clouds store's cap of " + std::to_string(options_.max_stored_bytes) +
-                                      " bytes (" + std::to_string(stored_bytes_) + " in use); release volumes first");
-  // Ids are not guessable: a random part besides the counter.
-  static thread_local std::mt19937_64 rng(std::random_device{}());
-  char id[40];
-  std::snprintf(id, sizeof id, "cloud-%llu-%016llx", (unsigned long long)next_id_++, (unsigned long long)rng());
-  volume->id = id;
-  stored_[id] = {volume, std::chrono::steady_clock::now()};
-  stored_bytes_ += volume->bytes;
-  return id;
+  volume->id = stored_.add(volume, volume->bytes);
+  return volume->id;
 }
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id, const std::string& field) {
-  evict_expired();
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = stored_.find(id);
-  if (it == stored_.end())
-    fail(Code::NotFound, field + " = \"" + id + "\" is not a stored volume (unknown, released or expired)");
-  it->second.last_used = std::chrono::steady_clock::now();
-  return it->second.volume;
+  return stored_.get(id, field);
 }
 
-bool CloudEngine::release(const std::string& id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = stored_.find(id);
-  if (it == stored_.end()) return false;
-  stored_bytes_ -= it->second.volume->bytes;
-  stored_.erase(it);
-  return true;
-}
+bool CloudEngine::release(const std::string& id) { return stored_.erase(id); }
 
 Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field) {
   return renderer_.render(volume.device, settings, field);
 }
 
-void CloudEngine::evict_expired() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto now = std::chrono::steady_clock::now();
-  for (auto it = stored_.begin(); it != stored_.end();) {
-    if (now - it->second.last_used > options_.ttl) {
-      stored_bytes_ -= it->second.volume->bytes;
-      it = stored_.erase(it);
-    } else {
-      ++it;
-    }
-  }
+std::string CloudEngine::checkpoint(const std::string& id) {
+  return stored_.checkpoint(id, kCheckpointVersion, [](const StoredVolume& v) { return write_vdb(v.volume); });
 }
 
-size_t CloudEngine::stored_count() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return stored_.size();
-}
-
-uint64_t CloudEngine::stored_bytes() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return stored_bytes_;
+std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
+  std::shared_ptr<StoredVolume> restored;
+  std::string id = stored_.restore(bytes, "checkpoint", [&](uint32_t version, const std::string& vdb, uint64_t* used) {
+    if (version != kCheckpointVersion)
+      fail(Code::InvalidArgument, "checkpoint has volume payload version " + std::to_string(version) +
+                                      ", this squalld reads " + std::to_string(kCheckpointVersion));
+    restored = upload(read_vdb(vdb, "checkpoint payload"));
+    *used = restored->bytes;
+    return restored;
+  });
+  restored->id = id;
+  return id;
 }
 
 }  // namespace squall::clouds

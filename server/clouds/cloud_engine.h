@@ -1,26 +1,27 @@
-// The clouds engine of squalld (no gRPC): builds volumes, keeps them on the server under an id (with an
-// idle TTL and a memory cap over host and device bytes) and renders them.
+// The clouds engine of squalld (no gRPC): builds volumes, keeps them on the server under an id in a
+// SessionStore (an idle TTL; a --max-sessions slot and host + device bytes against --max-session-bytes
+// each; checkpointable as .vdb bytes) and renders them.
 #pragma once
 
 #include <chrono>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 
 #include "clouds/renderer.h"
 #include "clouds/volume.h"
+#include "common/limits.h"
+#include "common/session_store.h"
 #include "runtime/runtime.h"
 
 namespace squall::clouds {
 
 struct CloudEngineOptions {
   std::chrono::milliseconds ttl{std::chrono::minutes(10)};  // a stored volume idle this long is dropped
-  uint64_t max_stored_bytes = 2ull << 30;                   // host + device bytes of all stored volumes
+  SteadyClock clock = [] { return std::chrono::steady_clock::now(); };  // the TTL's clock (tests replace it)
   uint64_t max_active_voxels = 256ull << 20;                // cap on any model's max_active_voxels
 };
 
-// A built volume, uploaded to the device.
+// A built volume, uploaded to the device. Immutable once built: renders share it without a lock.
 struct StoredVolume {
   std::string id;
   CloudVolume volume;
@@ -30,33 +31,35 @@ struct StoredVolume {
 
 class CloudEngine {
  public:
-  CloudEngine(Runtime& runtime, const CloudEngineOptions& options);
+  // Version of the checkpoint payload (the volume's .vdb bytes).
+  static constexpr uint32_t kCheckpointVersion = 1;
+
+  CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options);
 
   // Builds the model (validated; its max_active_voxels is capped by the engine's) and uploads it.
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model");
-  // Keeps a volume under a new id; RESOURCE_EXHAUSTED when the stored bytes would exceed the cap.
+  // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
   std::string keep(const std::shared_ptr<StoredVolume>& volume);
   // The volume stored under id (its TTL restarts); NOT_FOUND naming `field` otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id, const std::string& field = "volume_id");
   bool release(const std::string& id);
   Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings");
 
-  void evict_expired();
-  size_t stored_count();
-  uint64_t stored_bytes();
+  // A stored volume as versioned bytes, and back under its id.
+  std::string checkpoint(const std::string& id);
+  std::string restore_checkpoint(const std::string& bytes);
+
+  void evict_expired() { stored_.evict_idle(); }
+  size_t stored_count() const { return stored_.size(); }
+  uint64_t stored_bytes() const { return stored_.bytes(); }
 
  private:
-  struct Entry {
-    std::shared_ptr<StoredVolume> volume;
-    std::chrono::steady_clock::time_point last_used;
-  };
+  std::shared_ptr<StoredVolume> upload(CloudVolume volume);
+
   Runtime& runtime_;
   CloudEngineOptions options_;
   CloudRenderer renderer_;
-  std::mutex mutex_;
-  std::map<std::string, Entry> stored_;
-  uint64_t stored_bytes_ = 0;
-  uint64_t next_id_ = 1;
+  SessionStore<StoredVolume> stored_;
 };
 
 }  // namespace squall::clouds

@@ -2,6 +2,7 @@
 
 #include "clouds/obj_mesh.h"
 #include "common/error.h"
+#include "common/field_codec.h"
 
 namespace squall::clouds::rpc {
 namespace v1 = squall::v1;
@@ -172,7 +173,8 @@ void fill_image(const Image& image, v1::CloudImage* out) {
   out->set_width(uint32_t(image.width));
   out->set_height(uint32_t(image.height));
   for (const auto& c : image.channels) out->add_channels(c);
-  out->set_data(reinterpret_cast<const char*>(image.data.data()), image.data.size() * sizeof(float));
+  out->clear_data();
+  squall::field::append_bytes(image.data.data(), image.data.size(), v1::DTYPE_FLOAT32, out->mutable_data());
 }
 
 uint64_t image_bytes(const RenderSettings& s) {

@@ -1,9 +1,9 @@
 #include "clouds/clouds_service.h"
 
-#include <cmath>
-
 #include "clouds/clouds_request.h"
-#include "daemon/status.h"
+#include "common/validate.h"
+#include "rpc/metadata.h"
+#include "rpc/streaming.h"
 
 namespace squall::rpc {
 namespace {
@@ -12,27 +12,25 @@ namespace v1 = squall::v1;
 using namespace squall::clouds;
 namespace req = squall::clouds::rpc;
 
-grpc::Status cancelled(const char* call) { return grpc::Status(grpc::StatusCode::CANCELLED, std::string(call) + " cancelled"); }
-
 }  // namespace
 
-CloudEngine& CloudsService::engine() {
-  engines_.require_ready();
-  engines_.clouds->evict_expired();
-  return *engines_.clouds;
+void CloudsService::start(EngineContext& context) {
+  CloudEngineOptions options;
+  options.ttl = context.sessions.ttl;
+  options.clock = context.sessions.clock;
+  engine_ = std::make_unique<CloudEngine>(context.runtime, context.gate, options);
 }
 
-grpc::Status CloudsService::BuildVolume(grpc::ServerContext*, const v1::BuildVolumeRequest* request,
+grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
-  return guarded([&] {
-    CloudEngine& clouds = engine();
-    auto volume = clouds.build(req::model(request->model()), "model");
+  return serve(serving_, [&] {
+    auto volume = engine_->build(req::model(request->model()), "model");
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
-      engines_.gate.check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
+      serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
       response->set_vdb(std::move(vdb));
     }
-    if (request->keep()) clouds.keep(volume);
+    if (request->keep()) announce_session(*context, engine_->keep(volume));
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });
@@ -40,11 +38,11 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext*, const v1::BuildVol
 
 grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::RenderRequest* request,
                                    v1::RenderResponse* response) {
-  return guarded([&] {
-    CloudEngine& clouds = engine();
+  return serve(serving_, [&] {
+    CloudEngine& clouds = *engine_;
     RenderSettings settings = req::settings(request->settings());
-    validate(settings, "settings");
-    engines_.gate.check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)", req::image_bytes(settings));
+    clouds::validate(settings, "settings");
+    serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)", req::image_bytes(settings));
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
       volume = clouds.build(req::model(request->model()), "model");
@@ -53,7 +51,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
       volume = clouds.find(request->volume_id(), "volume_id");
     }
-    if (context->IsCancelled()) return cancelled("Render");
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "Render cancelled");
     req::fill_image(clouds.render(*volume, settings, "settings"), response->mutable_image());
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
@@ -62,42 +60,37 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
 
 grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const v1::StreamEvolutionRequest* request,
                                             grpc::ServerWriter<v1::EvolutionFrame>* writer) {
-  return guarded([&] {
-    CloudEngine& clouds = engine();
-    Slot slot = engines_.gate.acquire_stream();  // released on every way out of this call
+  return serve_stream(*context, serving_, "StreamEvolution", [&](StreamCall& call) {
     CloudModel base = req::model(request->model());
     Evolution evolution = req::evolution(request->evolution());
-    validate(evolution, "evolution");
+    clouds::validate(evolution, "evolution");
     RenderSettings settings = req::settings(request->settings());
-    validate(settings, "settings");
-    engines_.gate.check_message_bytes("EvolutionFrame.image", req::image_bytes(settings));
+    clouds::validate(settings, "settings");
+    serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
-      fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries; 1..1000 are allowed");
-    for (int i = 0; i < request->times_size(); ++i)
-      if (!std::isfinite(request->times(i)))
-        fail(Code::InvalidArgument, "times[" + std::to_string(i) + "] = " + std::to_string(request->times(i)) + " must be finite");
+      fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
+    for (int i = 0; i < request->times_size(); ++i) validate::finite(validate::at("times", i), request->times(i));
     for (double t : request->times()) {
-      if (context->IsCancelled()) return cancelled("StreamEvolution");
-      auto volume = clouds.build(model_at(base, evolution, t), "model");
+      if (!call.live()) return;
+      auto volume = engine_->build(model_at(base, evolution, t), "model");
       v1::EvolutionFrame frame;
       frame.set_time(t);
-      req::fill_image(clouds.render(*volume, settings, "settings"), frame.mutable_image());
+      req::fill_image(engine_->render(*volume, settings, "settings"), frame.mutable_image());
       req::fill_summary(*volume, frame.mutable_summary());
       if (request->include_vdb()) {
         std::string vdb = write_vdb(volume->volume);
-        engines_.gate.check_message_bytes("EvolutionFrame.vdb", vdb.size() + req::image_bytes(settings));
+        serving_.gate().check_message_bytes("EvolutionFrame.vdb", vdb.size() + req::image_bytes(settings));
         frame.set_vdb(std::move(vdb));
       }
-      if (!writer->Write(frame)) return cancelled("StreamEvolution");
+      if (!call.write(*writer, frame)) return;
     }
-    return grpc::Status::OK;
   });
 }
 
 grpc::Status CloudsService::ReleaseVolume(grpc::ServerContext*, const v1::ReleaseVolumeRequest* request,
                                           v1::ReleaseVolumeResponse*) {
-  return guarded([&] {
-    if (!engine().release(request->volume_id()))
+  return serve(serving_, [&] {
+    if (!engine_->release(request->volume_id()))
       fail(Code::NotFound, "volume_id = \"" + request->volume_id() + "\" is not a stored volume");
     return grpc::Status::OK;
   });

@@ -1,16 +1,23 @@
-// squall.v1.Clouds over the CloudEngine of Engines. Requests are translated in clouds_request.h and
-// validated by the engine (messages name the request field); stored volumes past their TTL are dropped
-// at the start of every call.
+// squall.v1.Clouds over a CloudEngine. Requests are translated in clouds_request.h and validated by the
+// engine (messages name the request field); stored volumes past their TTL are dropped lazily. Kept
+// volumes are announced as x-squall-session.
 #pragma once
 
-#include "daemon/engines.h"
+#include <memory>
+
+#include "clouds/cloud_engine.h"
+#include "rpc/capability.h"
+#include "rpc/serving.h"
 #include "squall/v1/clouds.grpc.pb.h"
 
 namespace squall::rpc {
 
-class CloudsService final : public squall::v1::Clouds::Service {
+class CloudsService final : public squall::v1::Clouds::Service, public Capability {
  public:
-  explicit CloudsService(Engines& engines) : engines_(engines) {}
+  explicit CloudsService(ServingState& serving) : serving_(serving) {}
+
+  grpc::Service& service() override { return *this; }
+  void start(EngineContext& context) override;
 
   grpc::Status BuildVolume(grpc::ServerContext* context, const squall::v1::BuildVolumeRequest* request,
                            squall::v1::BuildVolumeResponse* response) override;
@@ -24,9 +31,8 @@ class CloudsService final : public squall::v1::Clouds::Service {
                              squall::v1::ReleaseVolumeResponse* response) override;
 
  private:
-  clouds::CloudEngine& engine();
-
-  Engines& engines_;
+  ServingState& serving_;
+  std::unique_ptr<clouds::CloudEngine> engine_;
 };
 
 }  // namespace squall::rpc

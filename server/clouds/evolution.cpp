@@ -4,17 +4,11 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::clouds {
 namespace {
 
-void check_finite(const std::string& field, double v) {
-  if (!std::isfinite(v)) fail(Code::InvalidArgument, field + " = " + std::to_string(v) + " must be finite");
-}
-void check_vec(const std::string& field, const Vec3d& v) {
-  static const char* axis[] = {".x", ".y", ".z"};
-  for (int i = 0; i < 3; ++i) check_finite(field + axis[i], v[i]);
-}
 void move(Vec3d& p, const Vec3d& v, double t) {
   for (int a = 0; a < 3; ++a) p[a] += v[a] * t;
 }
@@ -25,13 +19,13 @@ void move_pattern(NoiseParams& n, const Vec3d& v, double t) {
 }  // namespace
 
 void validate(const Evolution& e, const std::string& f) {
-  check_vec(f + ".drift", e.drift);
-  check_vec(f + ".noise_drift", e.noise_drift);
-  check_finite(f + ".amplitude_rate", e.amplitude_rate);
-  check_finite(f + ".advection_rate", e.advection_rate);
+  validate::finite_xyz(f + ".drift", e.drift);
+  validate::finite_xyz(f + ".noise_drift", e.noise_drift);
+  validate::finite(f + ".amplitude_rate", e.amplitude_rate);
+  validate::finite(f + ".advection_rate", e.advection_rate);
   if (e.advection_rate < 0)
     fail(Code::InvalidArgument, f + ".advection_rate = " + std::to_string(e.advection_rate) + " must be >= 0");
-  check_vec(f + ".velocity_drift", e.velocity_drift);
+  validate::finite_xyz(f + ".velocity_drift", e.velocity_drift);
 }
 
 CloudModel model_at(const CloudModel& base, const Evolution& e, double t) {

@@ -1,4 +1,5 @@
-// Evolution of a cloud (seed main §6.4): the model's parameters change linearly with time, so a stream of
+// Evolution of a cloud (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering
+// Maritime Environments" (2017), sec. 6.4): the model's parameters change linearly with time, so a stream of
 // frames shows the cloud evolving. Items of §6.4: (1) the base shape moves, (2) the pyroclastic noise
 // and amplitude change, (3) the stamping noise changes, (4) the advection time grows, (5) the velocity
 // field evolves (its noise pattern moves).

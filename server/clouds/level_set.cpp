@@ -1,5 +1,7 @@
 // Base shapes to a level set (l > 0 inside), pyroclastic displacement (eqs 105-112), density (eq 103)
-// and particle stamping (eqs 113-114). One of the few translation units that include OpenVDB's tools.
+// and particle stamping (eqs 113-114), numbered as in J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), sec. 6.2. One of the few translation units that
+// include OpenVDB's tools.
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -89,7 +91,7 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
     add(mesh_sdf(*xform, to_points(m.vertices), triangles, half_width));
   }
   if (!sdf) return nullptr;
-  negate(*sdf);  // the seed's convention: l > 0 inside
+  negate(*sdf);  // Gilligan's convention (sec. 6.2.2): l > 0 inside
   sdf->setName("level_set");
   return sdf;
 }

@@ -1,40 +1,22 @@
 #include "clouds/model.h"
 
 #include <cmath>
-#include <sstream>
 
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::clouds {
 namespace {
 
-std::string str(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-void check_range(const std::string& field, double v, double lo, double hi, const std::string& rule) {
-  if (!std::isfinite(v) || v < lo || v > hi) fail(Code::InvalidArgument, field + " = " + str(v) + " must be " + rule);
-}
-void check_finite(const std::string& field, double v) {
-  if (!std::isfinite(v)) fail(Code::InvalidArgument, field + " = " + str(v) + " must be finite");
-}
-void check_positive(const std::string& field, double v) {
-  if (!std::isfinite(v) || v <= 0) fail(Code::InvalidArgument, field + " = " + str(v) + " must be finite and > 0");
-}
-void check_vec(const std::string& field, const Vec3d& v) {
-  static const char* axis[] = {".x", ".y", ".z"};
-  for (int i = 0; i < 3; ++i) check_finite(field + axis[i], v[i]);
-}
+using validate::finite;
+using validate::positive;
 
 void check_noise(const std::string& f, const NoiseParams& n) {
-  check_positive(f + ".frequency", n.frequency);
-  if (n.octaves < 1 || n.octaves > 16)
-    fail(Code::InvalidArgument, f + ".octaves = " + std::to_string(n.octaves) + " must be in [1, 16]");
-  check_range(f + ".roughness", n.roughness, 1e-6, 1, "in (0, 1]");
-  check_range(f + ".frequency_jump", n.frequency_jump, 1, 8, "in [1, 8]");
-  check_vec(f + ".offset", n.offset);
+  positive(f + ".frequency", n.frequency);
+  validate::in(f + ".octaves", int64_t(n.octaves), 1, 16);
+  positive(f + ".roughness", n.roughness, 1);
+  validate::in(f + ".frequency_jump", n.frequency_jump, validate::closed(1, 8));
+  validate::finite_xyz(f + ".offset", n.offset);
 }
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -48,7 +30,7 @@ double check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument, f + ".vertices has " + std::to_string(m.vertices.size()) +
                                     " vertices; a closed mesh needs at least 4");
-  for (size_t i = 0; i < m.vertices.size(); ++i) check_vec(f + ".vertices[" + std::to_string(i) + "]", m.vertices[i]);
+  for (size_t i = 0; i < m.vertices.size(); ++i) validate::finite_xyz(f + ".vertices[" + std::to_string(i) + "]", m.vertices[i]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
                                     " indices; it needs a multiple of 3 and at least 4 triangles");
@@ -65,8 +47,8 @@ double check_mesh(const std::string& f, const TriangleMesh& m) {
   }
   double scale = std::sqrt(area);
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
-    fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + str(area) + " m^2, volume " +
-                                    str(volume) + " m^3)");
+    fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) + " m^2, volume " +
+                                    validate::number(volume) + " m^3)");
   return std::abs(volume);
 }
 
@@ -80,18 +62,18 @@ double pyroclastic_bound(const Pyroclastic& p) {
 
 void validate(const CloudModel& m, const std::string& prefix) {
   const std::string& f = prefix;
-  check_positive(f + ".voxel_size", m.voxel_size);
-  check_positive(f + ".skin", m.skin);
+  positive(f + ".voxel_size", m.voxel_size);
+  positive(f + ".skin", m.skin);
   double band = m.skin + 3 * m.voxel_size;
   const auto& p = m.pyroclastic;
   if (p.layers < 0 || p.layers > 8)
     fail(Code::InvalidArgument, f + ".pyroclastic.layers = " + std::to_string(p.layers) + " must be in [0, 8]");
-  check_range(f + ".pyroclastic.amplitude", p.amplitude, 0, 1e6, "finite and >= 0");
-  check_range(f + ".pyroclastic.gamma", p.gamma, 1e-6, 16, "in (0, 16]");
+  validate::non_negative(f + ".pyroclastic.amplitude", p.amplitude, 1e6);
+  positive(f + ".pyroclastic.gamma", p.gamma, 16);
   check_noise(f + ".pyroclastic.noise", p.noise);
   const auto& a = m.advection;
-  check_range(f + ".advection.speed", a.speed, 0, 1e6, "finite and >= 0");
-  check_range(f + ".advection.time", a.time, 0, 1e6, "finite and >= 0");
+  validate::non_negative(f + ".advection.speed", a.speed, 1e6);
+  validate::non_negative(f + ".advection.time", a.time, 1e6);
   if (a.substeps < 1 || a.substeps > 256)
     fail(Code::InvalidArgument, f + ".advection.substeps = " + std::to_string(a.substeps) + " must be in [1, 256]");
   check_noise(f + ".advection.noise", a.noise);
@@ -100,17 +82,17 @@ void validate(const CloudModel& m, const std::string& prefix) {
   double volume = 0;
   for (size_t i = 0; i < m.spheres.size(); ++i) {
     std::string s = f + ".spheres[" + std::to_string(i) + "]";
-    check_vec(s + ".center", m.spheres[i].center);
-    check_positive(s + ".radius", m.spheres[i].radius);
+    validate::finite_xyz(s + ".center", m.spheres[i].center);
+    positive(s + ".radius", m.spheres[i].radius);
     volume += 4.18879 * std::pow(m.spheres[i].radius + grow, 3);
   }
   for (size_t i = 0; i < m.ellipsoids.size(); ++i) {
     std::string s = f + ".ellipsoids[" + std::to_string(i) + "]";
-    check_vec(s + ".center", m.ellipsoids[i].center);
+    validate::finite_xyz(s + ".center", m.ellipsoids[i].center);
     const auto& r = m.ellipsoids[i].radii;
-    check_positive(s + ".radii.x", r[0]);
-    check_positive(s + ".radii.y", r[1]);
-    check_positive(s + ".radii.z", r[2]);
+    positive(s + ".radii.x", r[0]);
+    positive(s + ".radii.y", r[1]);
+    positive(s + ".radii.z", r[2]);
     volume += 4.18879 * (r[0] + grow) * (r[1] + grow) * (r[2] + grow);
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
@@ -121,25 +103,25 @@ void validate(const CloudModel& m, const std::string& prefix) {
   for (size_t i = 0; i < m.particles.size(); ++i) {
     std::string s = f + ".particles[" + std::to_string(i) + "]";
     const auto& q = m.particles[i];
-    check_vec(s + ".center", q.center);
-    check_positive(s + ".radius", q.radius);
-    check_range(s + ".amplitude", q.amplitude, 0, 1e6, "finite and >= 0");
-    check_range(s + ".bias", q.bias, -1, 1, "in [-1, 1]");
-    check_range(s + ".fade", q.fade, 0, 100, "in [0, 100]");
+    validate::finite_xyz(s + ".center", q.center);
+    positive(s + ".radius", q.radius);
+    validate::non_negative(s + ".amplitude", q.amplitude, 1e6);
+    validate::in(s + ".bias", q.bias, validate::closed(-1, 1));
+    validate::in(s + ".fade", q.fade, validate::closed(0, 100));
     check_noise(s + ".noise", q.noise);
     volume += 4.18879 * std::pow(q.radius + grow, 3);
   }
   const auto& t = m.temperature;
-  check_range(f + ".temperature.surface", t.surface, 1e-3, 1e4, "in (0, 10000] K");
-  check_finite(f + ".temperature.base_altitude", t.base_altitude);
-  check_range(f + ".temperature.lapse_rate", t.lapse_rate, -0.1, 0.1, "in [-0.1, 0.1] K/m");
-  check_range(f + ".temperature.fluctuation", t.fluctuation, 0, 1e3, "in [0, 1000] K");
+  positive(f + ".temperature.surface", t.surface, 1e4);
+  finite(f + ".temperature.base_altitude", t.base_altitude);
+  validate::in(f + ".temperature.lapse_rate", t.lapse_rate, validate::closed(-0.1, 0.1));
+  validate::in(f + ".temperature.fluctuation", t.fluctuation, validate::closed(0, 1e3));
   check_noise(f + ".temperature.noise", t.noise);
   if (m.spheres.empty() && m.ellipsoids.empty() && m.meshes.empty() && m.particles.empty())
     fail(Code::InvalidArgument, f + " has no spheres, ellipsoids, meshes or particles");
   double voxels = volume / std::pow(m.voxel_size, 3);
   if (voxels > static_cast<double>(m.max_active_voxels))
-    fail(Code::ResourceExhausted, f + ": an estimated " + str(voxels) + " active voxels exceed " + f +
+    fail(Code::ResourceExhausted, f + ": an estimated " + validate::number(voxels) + " active voxels exceed " + f +
                                       ".max_active_voxels = " + std::to_string(m.max_active_voxels));
 }
 

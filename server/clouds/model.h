@@ -1,5 +1,6 @@
-// A cloud model: what to build (seed main §6.2, the "Bishop" workflow). Plain data, SI units; validated
-// by validate() before anything is built. Level sets follow the seed's convention: l > 0 inside.
+// A cloud model: what to build (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering
+// Maritime Environments" (2017), sec. 6.2, the "Bishop" workflow). Plain data, SI units; validated by
+// validate() before anything is built. Level sets follow Gilligan's convention (sec. 6.2.2): l > 0 inside.
 // Altitude is +z (the temperature lapse and the renderer's "up" use it).
 #pragma once
 

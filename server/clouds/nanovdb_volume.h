@@ -1,5 +1,8 @@
-// OpenVDB -> NanoVDB, and the NanoVDB buffer uploaded to the device as is (the same bytes on host and
-// device, as the seed's App C asks); kernels read it through PNanoVDB.h (kernels/clouds/pnanovdb_cl.h).
+// OpenVDB -> NanoVDB, and the NanoVDB buffer uploaded to the device as is: the same data structure on host
+// and device, transferred without conversion, as J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), sec. 6.1, asks (its App. C, S. Bryce and Z. Welch,
+// "Sparse Grid Volume Rendering on a GPU" (2012), details one such layout). Kernels read it through
+// PNanoVDB.h (kernels/clouds/pnanovdb_cl.h).
 #pragma once
 
 #include <nanovdb/util/GridHandle.h>

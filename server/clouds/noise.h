@@ -1,5 +1,7 @@
 // Noise for cloud modeling: Ken Perlin's improved noise (2002, his reference permutation table, so host
-// and device can agree) and its fractal sum (seed App D eq 3.6, main eqs 108/110):
+// and device can agree) and its fractal sum (eq 3.6 of J. Tessendorf and M. Kowalski, "Resolution Independent
+// Volumes" (SIGGRAPH course notes 2010/2011, App. D of J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017)); Gilligan eqs 108/110):
 //   FS(x) = sum_{i<octaves} r^i PN(x f_jump^i),  r = roughness, f_jump = frequency jump.
 #pragma once
 

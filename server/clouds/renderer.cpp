@@ -6,24 +6,14 @@
 #include "clouds/nanovdb_volume.h"
 #include "clouds/render_params.h"
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::clouds {
 namespace {
 
-static_assert(sizeof(sq_cloud_light) == 4 * (7 + SQ_CLOUD_MAX_WAVELENGTHS), "sq_cloud_light must have no padding");
-static_assert(sizeof(sq_cloud_render) % 4 == 0 && alignof(sq_cloud_render) == 4, "sq_cloud_render: 4-byte members only");
-
-std::string str(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
+// A condition the caller states with its rule: "<field> = <v> must be <rule>".
 void check(bool ok, const std::string& field, double v, const std::string& rule) {
-  if (!ok || !std::isfinite(v)) fail(Code::InvalidArgument, field + " = " + str(v) + " must be " + rule);
-}
-void check_vec(const std::string& field, const Vec3d& v) {
-  static const char* axis[] = {".x", ".y", ".z"};
-  for (int i = 0; i < 3; ++i) check(true, field + axis[i], v[i], "finite");
+  if (!ok || !std::isfinite(v)) validate::reject(field, v, rule);
 }
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3d cross(const Vec3d& a, const Vec3d& b) {
@@ -38,8 +28,8 @@ void put(float* dst, const Vec3d& v) {
   for (int i = 0; i < 3; ++i) dst[i] = float(v[i]);
 }
 
-sq_cloud_render device_params(const RenderSettings& s) {
-  sq_cloud_render p{};
+CloudRenderParams device_params(const RenderSettings& s) {
+  CloudRenderParams p{};
   const Camera& c = s.camera;
   Vec3d forward = unit(sub(c.look_at, c.eye));
   Vec3d right = unit(cross(forward, c.up));
@@ -82,7 +72,7 @@ sq_cloud_render device_params(const RenderSettings& s) {
 }
 
 // 1 for the deep-shadow-map nodes within one map cell of an occupied box, 0 elsewhere (never read).
-std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const sq_cloud_render& p) {
+std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const CloudRenderParams& p) {
   const int n[3] = {p.dsm_n[0], p.dsm_n[1], p.dsm_n[2]};
   std::vector<cl_uchar> mask(size_t(n[0]) * n[1] * n[2], 0);
   double cell[3];
@@ -104,9 +94,9 @@ std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const sq_cloud
 
 void validate(const RenderSettings& s, const std::string& f) {
   const Camera& c = s.camera;
-  check_vec(f + ".camera.eye", c.eye);
-  check_vec(f + ".camera.look_at", c.look_at);
-  check_vec(f + ".camera.up", c.up);
+  validate::finite_xyz(f + ".camera.eye", c.eye);
+  validate::finite_xyz(f + ".camera.look_at", c.look_at);
+  validate::finite_xyz(f + ".camera.up", c.up);
   Vec3d view = sub(c.look_at, c.eye);
   if (!(norm(view) > 0)) fail(Code::InvalidArgument, f + ".camera.look_at equals " + f + ".camera.eye");
   if (!(norm(cross(unit(view), c.up)) > 1e-6))
@@ -115,7 +105,7 @@ void validate(const RenderSettings& s, const std::string& f) {
   check(c.width >= 1 && c.width <= 8192, f + ".camera.width", c.width, "in [1, 8192]");
   check(c.height >= 1 && c.height <= 8192, f + ".camera.height", c.height, "in [1, 8192]");
   check(s.step > 0, f + ".step", s.step, "finite and > 0 m");
-  check(s.substeps >= 1 && s.substeps <= SQ_CLOUD_MAX_SUBSTEPS, f + ".substeps", s.substeps, "in [1, 8]");
+  check(s.substeps >= 1 && s.substeps <= SQUALL_CLOUD_MAX_SUBSTEPS, f + ".substeps", s.substeps, "in [1, 8]");
   check(s.min_transmittance >= 0 && s.min_transmittance < 1, f + ".min_transmittance", s.min_transmittance, "in [0, 1)");
   const Phase& ph = s.phase;
   check(ph.g1 > -1 && ph.g1 < 1, f + ".phase.g1", ph.g1, "in (-1, 1)");
@@ -124,7 +114,7 @@ void validate(const RenderSettings& s, const std::string& f) {
   check(ph.ff_n > 1 && ph.ff_n <= 2, f + ".phase.ff_n", ph.ff_n, "in (1, 2]");
   check(ph.ff_mu >= 3.5 && ph.ff_mu <= 5, f + ".phase.ff_mu", ph.ff_mu, "in [3.5, 5] (the Junge slope)");
   size_t nw = s.wavelengths.size();
-  if (nw < 1 || nw > SQ_CLOUD_MAX_WAVELENGTHS)
+  if (nw < 1 || nw > SQUALL_CLOUD_MAX_WAVELENGTHS)
     fail(Code::InvalidArgument, f + ".wavelengths has " + std::to_string(nw) + " entries; 1..8 are allowed");
   if (s.extinction.size() != nw || s.albedo.size() != nw)
     fail(Code::InvalidArgument, f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
@@ -134,12 +124,12 @@ void validate(const RenderSettings& s, const std::string& f) {
     check(s.extinction[w] >= 0, f + ".extinction" + i, s.extinction[w], "finite and >= 0 (1/m)");
     check(s.albedo[w] >= 0 && s.albedo[w] <= 1, f + ".albedo" + i, s.albedo[w], "in [0, 1]");
   }
-  if (s.lights.size() > SQ_CLOUD_MAX_LIGHTS)
+  if (s.lights.size() > SQUALL_CLOUD_MAX_LIGHTS)
     fail(Code::InvalidArgument, f + ".lights has " + std::to_string(s.lights.size()) + " entries; at most 4");
   for (size_t i = 0; i < s.lights.size(); ++i) {
     std::string l = f + ".lights[" + std::to_string(i) + "]";
-    check_vec(l + ".position", s.lights[i].position);
-    check_vec(l + ".direction", s.lights[i].direction);
+    validate::finite_xyz(l + ".position", s.lights[i].position);
+    validate::finite_xyz(l + ".direction", s.lights[i].direction);
     if (s.lights[i].kind == LightKind::Directional && !(norm(s.lights[i].direction) > 0))
       fail(Code::InvalidArgument, l + ".direction must not be zero");
     if (s.lights[i].intensity.size() != nw)
@@ -182,9 +172,14 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
   return d;
 }
 
+CloudRenderer::CloudRenderer(Runtime& runtime)
+    : runtime_(runtime),
+      shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
+      render_(runtime, "clouds/render.cl", "cloud_render") {}
+
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field) {
   validate(settings, field);
-  sq_cloud_render p = device_params(settings);
+  CloudRenderParams p = device_params(settings);
   p.has_temperature = volume.has_temperature ? 1 : 0;
   put(p.dsm_min, volume.world_min);
   put(p.dsm_max, volume.world_max);
@@ -209,21 +204,12 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
     std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
     mask = runtime_.buffers().acquire(needed.size());
     queue.enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
-    cl::Kernel k = runtime_.kernel("clouds/render.cl", "cloud_shadow_map");
-    k.setArg(0, volume.density);
-    k.setArg(1, sizeof(p), &p);
-    k.setArg(2, mask.buffer());
-    k.setArg(3, dsm.buffer());
-    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(dsm_floats, 64)), cl::NDRange(64));
+    shadow_map_.launch(cl::NDRange(round_up(dsm_floats, 64)), cl::NDRange(64), volume.density, p, mask.buffer(),
+                       dsm.buffer());
   }
   auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
-  cl::Kernel k = runtime_.kernel("clouds/render.cl", "cloud_render");
-  k.setArg(0, volume.density);
-  k.setArg(1, volume.temperature);
-  k.setArg(2, dsm.buffer());
-  k.setArg(3, sizeof(p), &p);
-  k.setArg(4, out.buffer());
-  queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(p.width, 8), round_up(p.height, 8)), cl::NDRange(8, 8));
+  render_.launch(cl::NDRange(round_up(p.width, 8), round_up(p.height, 8)), cl::NDRange(8, 8), volume.density,
+                 volume.temperature, dsm.buffer(), p, out.buffer());
   queue.enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
   return image;
 }

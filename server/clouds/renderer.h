@@ -6,8 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "clouds/render_params.h"
 #include "clouds/volume.h"
+#include "runtime/kernel.h"
 #include "runtime/runtime.h"
+
+SQUALL_KERNEL_STRUCT(CloudRenderParams)
 
 namespace squall::clouds {
 
@@ -79,11 +83,14 @@ void validate(const RenderSettings& settings, const std::string& prefix = "rende
 
 class CloudRenderer {
  public:
-  explicit CloudRenderer(Runtime& runtime) : runtime_(runtime) {}
+  // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/".
+  explicit CloudRenderer(Runtime& runtime);
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render");
 
  private:
   Runtime& runtime_;
+  Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer> render_;  // density, temperature, dsm, p, out
 };
 
 }  // namespace squall::clouds

@@ -1,5 +1,6 @@
-// build_cloud and the whole-grid operations: advection (eqs 115-117), temperature (§6.3), max-density
-// combination (§6.2.5), statistics and .vdb output.
+// build_cloud and the whole-grid operations: advection (eqs 115-117), temperature (sec. 6.3), max-density
+// combination (sec. 6.2.5), statistics and .vdb output; numbers from J. Tessendorf, "Gilligan: A Prototype
+// Framework for Simulating and Rendering Maritime Environments" (2017).
 #include "clouds/volume.h"
 
 #include <openvdb/io/Stream.h>
@@ -129,6 +130,26 @@ std::string write_vdb(const CloudVolume& volume) {
   std::ostringstream bytes(std::ios::binary);
   openvdb::io::Stream(bytes).write(grids);
   return bytes.str();
+}
+
+CloudVolume read_vdb(const std::string& bytes, const std::string& field) {
+  initialize_openvdb();
+  std::istringstream in(bytes, std::ios::binary);
+  openvdb::GridPtrVecPtr grids;
+  try {
+    grids = openvdb::io::Stream(in).getGrids();
+  } catch (const openvdb::Exception& e) {
+    fail(Code::InvalidArgument, field + " is not a .vdb stream: " + e.what());
+  }
+  CloudVolume volume;
+  for (const auto& grid : *grids) {
+    auto floats = openvdb::gridPtrCast<FloatGrid>(grid);
+    if (floats && floats->getName() == "density") volume.density = floats;
+    if (floats && floats->getName() == "temperature") volume.temperature = floats;
+  }
+  if (!volume.density) fail(Code::InvalidArgument, field + " holds no float grid named \"density\"");
+  volume.stats = volume_stats(*volume.density);
+  return volume;
 }
 
 CloudVolume build_cloud(const CloudModel& model, const std::string& field) {

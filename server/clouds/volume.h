@@ -1,5 +1,8 @@
 // A built cloud: sparse OpenVDB grids (density, optional temperature) and its summary. Building runs on
-// the host (OpenVDB, TBB); rendering converts the grids to NanoVDB (nanovdb_volume.h).
+// the host (OpenVDB, TBB); rendering converts the grids to NanoVDB (nanovdb_volume.h). Equation and
+// section numbers are those of J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and
+// Rendering Maritime Environments" (2017); App E is its App. E, J. Tessendorf, "Advection Solver Performance
+// with Long Time Steps, and Strategies for Fast and Accurate Numerical Implementation" (2015).
 #pragma once
 
 #include <openvdb/openvdb.h>
@@ -35,7 +38,7 @@ void initialize_openvdb();
 // active voxels exceed model.max_active_voxels).
 CloudVolume build_cloud(const CloudModel& model, const std::string& field = "model");
 
-// The base level set (l > 0 inside, the seed's convention) of the union of the model's spheres,
+// The base level set (l > 0 inside, the convention of sec. 6.2.2) of the union of the model's spheres,
 // ellipsoids and meshes, valid within at least `exterior` m outside and `interior` m inside the surface;
 // beyond its band it holds -w outside and +w inside (w = the band's half width, >= both). Null when the
 // model has no such shapes.
@@ -60,5 +63,8 @@ CloudVolume combine_max(const CloudVolume& a, const CloudVolume& b);
 VolumeStats volume_stats(const openvdb::FloatGrid& density);
 // The grids as a .vdb file's bytes (what OpenVDB's tools read).
 std::string write_vdb(const CloudVolume& volume);
+// The grids of write_vdb's bytes back, with their stats; INVALID_ARGUMENT naming `field` when the bytes
+// are no .vdb stream or hold no float grid named "density".
+CloudVolume read_vdb(const std::string& bytes, const std::string& field);
 
 }  // namespace squall::clouds

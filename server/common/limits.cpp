@@ -8,13 +8,14 @@ Slot& Slot::operator=(Slot&& other) noexcept {
   if (this != &other) {
     release();
     counter_ = other.counter_;
+    amount_ = other.amount_;
     other.counter_ = nullptr;
   }
   return *this;
 }
 
 void Slot::release() {
-  if (counter_) counter_->fetch_sub(1);
+  if (counter_) counter_->fetch_sub(amount_);
   counter_ = nullptr;
 }
 
@@ -42,21 +43,29 @@ void LimitGate::check_message_bytes(const std::string& what, uint64_t bytes) con
                                       std::to_string(limits_.max_message_bytes));
 }
 
-Slot LimitGate::acquire(std::atomic<uint32_t>& counter, uint32_t limit, const char* what, const char* flag) {
-  uint32_t held = counter.load();
+// Adds `amount` to `counter` unless that would pass `limit`; the message names what and the flag:
+// "streams: 16 already open, the limit is --max-streams = 16".
+Slot LimitGate::take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,
+                     const char* flag, const char* held_as) {
+  uint64_t held = counter.load();
   do {
-    if (held >= limit)
-      fail(Code::ResourceExhausted, std::string(what) + ": " + std::to_string(held) +
-                                        " already open, the limit is " + flag + " = " +
-                                        std::to_string(limit));
-  } while (!counter.compare_exchange_weak(held, held + 1));
-  return Slot(&counter);
+    if (held + amount > limit)
+      fail(Code::ResourceExhausted, what + ": " + std::to_string(held) + " " + held_as + ", the limit is " +
+                                        flag + " = " + std::to_string(limit));
+  } while (!counter.compare_exchange_weak(held, held + amount));
+  return Slot(&counter, amount);
 }
 
-Slot LimitGate::acquire_stream() { return acquire(streams_, limits_.max_streams, "streams", "--max-streams"); }
+Slot LimitGate::acquire_stream() { return take(streams_, 1, limits_.max_streams, "streams", "--max-streams", "already open"); }
 
 Slot LimitGate::acquire_session() {
-  return acquire(sessions_, limits_.max_sessions, "sessions", "--max-sessions");
+  return take(sessions_, 1, limits_.max_sessions, "sessions", "--max-sessions", "already live");
+}
+
+Slot LimitGate::acquire_session_bytes(const std::string& what, uint64_t bytes) {
+  return take(session_bytes_, bytes, limits_.max_session_bytes,
+              what + " (" + std::to_string(bytes) + " bytes) would pass the session memory cap", "--max-session-bytes",
+              "bytes already held");
 }
 
 }  // namespace squall

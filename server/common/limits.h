@@ -14,15 +14,17 @@ struct Limits {
   uint32_t max_streams = 16;                    // --max-streams: concurrent streaming calls
   uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
+  uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
 };
 
 class LimitGate;
 
-// A held slot (stream or session). Releases itself when destroyed; movable, not copyable.
+// A held amount of a limited resource (a stream, a session, session bytes). Gives it back when destroyed;
+// movable, not copyable.
 class Slot {
  public:
   Slot() = default;
-  Slot(Slot&& other) noexcept : counter_(other.counter_) { other.counter_ = nullptr; }
+  Slot(Slot&& other) noexcept : counter_(other.counter_), amount_(other.amount_) { other.counter_ = nullptr; }
   Slot& operator=(Slot&& other) noexcept;
   Slot(const Slot&) = delete;
   Slot& operator=(const Slot&) = delete;
@@ -31,8 +33,9 @@ class Slot {
 
  private:
   friend class LimitGate;
-  explicit Slot(std::atomic<uint32_t>* counter) : counter_(counter) {}
-  std::atomic<uint32_t>* counter_ = nullptr;
+  Slot(std::atomic<uint64_t>* counter, uint64_t amount) : counter_(counter), amount_(amount) {}
+  std::atomic<uint64_t>* counter_ = nullptr;
+  uint64_t amount_ = 0;
 };
 
 class LimitGate {
@@ -50,16 +53,21 @@ class LimitGate {
 
   Slot acquire_stream();   // RESOURCE_EXHAUSTED when max_streams are open
   Slot acquire_session();  // RESOURCE_EXHAUSTED when max_sessions are live
+  // `bytes` more held by sessions; RESOURCE_EXHAUSTED naming `what` past max_session_bytes.
+  Slot acquire_session_bytes(const std::string& what, uint64_t bytes);
 
-  uint32_t open_streams() const { return streams_.load(); }
-  uint32_t live_sessions() const { return sessions_.load(); }
+  uint32_t open_streams() const { return uint32_t(streams_.load()); }
+  uint32_t live_sessions() const { return uint32_t(sessions_.load()); }
+  uint64_t session_bytes() const { return session_bytes_.load(); }
 
  private:
-  static Slot acquire(std::atomic<uint32_t>& counter, uint32_t limit, const char* what, const char* flag);
+  static Slot take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,
+                   const char* flag, const char* held_as);
 
   Limits limits_;
-  std::atomic<uint32_t> streams_{0};
-  std::atomic<uint32_t> sessions_{0};
+  std::atomic<uint64_t> streams_{0};
+  std::atomic<uint64_t> sessions_{0};
+  std::atomic<uint64_t> session_bytes_{0};
 };
 
 }  // namespace squall

@@ -10,11 +10,11 @@
 
 #include "clouds/clouds_service.h"
 #include "common/log.h"
-#include "daemon/engines.h"
-#include "daemon/request_log.h"
+#include "daemon/daemon_state.h"
 #include "daemon/server_service.h"
 #include "ewave/ewave_service.h"
 #include "ocean/ocean_service.h"
+#include "rpc/request_log.h"
 
 namespace squall::rpc {
 namespace {
@@ -27,22 +27,29 @@ sigset_t shutdown_signals() {
   return set;
 }
 
-// Compiles every kernel program and chooses the FFT backend: the work that precedes SERVING.
-void start_engines(Engines& engines, const DaemonOptions& options) {
-  engines.runtime.build_programs();
+// Every capability squalld serves. Adding one is one line here.
+std::vector<std::unique_ptr<Capability>> capabilities(ServingState& serving) {
+  std::vector<std::unique_ptr<Capability>> all;
+  all.push_back(std::make_unique<OceanService>(serving));
+  all.push_back(std::make_unique<EWaveService>(serving));
+  all.push_back(std::make_unique<CloudsService>(serving));
+  return all;
+}
+
+// Compiles every kernel program, chooses the FFT backend and starts every capability: the work that
+// precedes SERVING.
+void start_engines(DaemonState& daemon, const DaemonOptions& options,
+                   const std::vector<std::unique_ptr<Capability>>& capabilities) {
+  daemon.runtime.build_programs();
   std::string backend = options.fft;
-  engines.fft_selection = "flag --fft " + options.fft;
-  if (backend == "auto") backend = fft::fastest_backend(engines.runtime, 512, 512, &engines.fft_selection);
-  engines.fft = std::make_unique<fft::Fft>(fft::make_backend(engines.runtime, backend));
-  log(LogLevel::Info, "FFT backend ", backend, " (", engines.fft_selection, ")");
-  engines.ocean = std::make_unique<ocean::OceanEngine>(engines.runtime, *engines.fft);
-  ewave::EWaveEngineOptions ewave_options;
-  ewave_options.session_ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
-  ewave_options.ocean = engines.ocean.get();  // ambient_ocean / initial_ocean of eWave sessions
-  engines.ewave = std::make_unique<ewave::EWaveEngine>(engines.runtime, *engines.fft, engines.gate, ewave_options);
-  clouds::CloudEngineOptions cloud_options;
-  cloud_options.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
-  engines.clouds = std::make_unique<clouds::CloudEngine>(engines.runtime, cloud_options);
+  daemon.fft_selection = "flag --fft " + options.fft;
+  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection);
+  daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend));
+  log(LogLevel::Info, "FFT backend ", backend, " (", daemon.fft_selection, ")");
+  SessionPolicy sessions;
+  sessions.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
+  daemon.engines = std::make_unique<EngineContext>(daemon.runtime, *daemon.fft, daemon.serving.gate(), sessions);
+  for (const auto& capability : capabilities) capability->start(*daemon.engines);
 }
 
 void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
@@ -79,27 +86,23 @@ int run_daemon(const DaemonOptions& options) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ", configure_kernel_cache(options.cache_dir));
-  std::unique_ptr<Engines> engines;
+  std::unique_ptr<DaemonState> daemon;
   try {
-    engines = std::make_unique<Engines>(options.runtime, options.limits);
+    daemon = std::make_unique<DaemonState>(options.runtime, options.limits);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
     return kExitUsage;
   }
 
-  ServerService server_service(*engines);
-  OceanService ocean_service(*engines);
-  EWaveService ewave_service(*engines);
-  CloudsService clouds_service(*engines);
+  ServerService server_service(*daemon);
+  const auto served = capabilities(daemon->serving);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
   builder.RegisterService(&server_service);
-  builder.RegisterService(&ocean_service);
-  builder.RegisterService(&ewave_service);
-  builder.RegisterService(&clouds_service);
+  for (const auto& capability : served) builder.RegisterService(&capability->service());
   configure(builder, options);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
@@ -112,13 +115,13 @@ int run_daemon(const DaemonOptions& options) {
   log(LogLevel::Info, "listening on ", options.listen, " (port ", port, "); NOT_SERVING until kernels are built");
 
   try {
-    start_engines(*engines, options);
+    start_engines(*daemon, options, served);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
     server->Shutdown();
     return kExitKernelBuild;
   }
-  engines->ready = true;
+  daemon->serving.set_phase(ServingState::Phase::Serving);
   health->SetServingStatus(true);
   log(LogLevel::Info, "SERVING");
 
@@ -126,10 +129,13 @@ int run_daemon(const DaemonOptions& options) {
   sigwait(&signals, &signal_number);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
   health->SetServingStatus(false);
+  daemon->serving.set_phase(ServingState::Phase::Draining);
   auto deadline = std::chrono::system_clock::now() +
                   std::chrono::milliseconds(static_cast<long long>(options.grace_seconds * 1000));
   server->Shutdown(deadline);
   server->Wait();
+  if (options.runtime.profile_kernels)
+    log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));
   log(LogLevel::Info, "stopped");
   return kExitOk;
 }

@@ -39,9 +39,14 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
+      {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
+      {"profile-kernels", [o](const std::string& v) {
+         if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
+         o->runtime.profile_kernels = v == "on";
+       }},
       {"log-level", [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
        }},
@@ -102,10 +107,13 @@ std::string usage() {
          "  --max-streams N           concurrent streaming calls (default " + std::to_string(d.limits.max_streams) + ")\n"
          "  --max-sessions N          live stateful sessions (default " + std::to_string(d.limits.max_sessions) + ")\n"
          "  --max-message-bytes N     largest gRPC message either way (default " + std::to_string(d.limits.max_message_bytes) + ")\n"
+         "  --max-session-bytes N     host + device bytes of all stateful sessions (default " + std::to_string(d.limits.max_session_bytes) + ")\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default 10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
-         "  --log-level LEVEL         debug | info | warn | error (default info)\n";
+         "  --log-level LEVEL         debug | info | warn | error (default info)\n"
+         "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"
+         "                            per-kernel table at shutdown (default off)\n";
 }
 
 }  // namespace squall::rpc

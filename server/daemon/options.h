@@ -15,7 +15,7 @@ struct DaemonOptions {
   RuntimeOptions runtime;                  // --device, --kernel-dir
   std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
   std::string fft = "auto";                // --fft vkfft | clfft | auto (the faster, measured at start-up)
-  Limits limits;                           // --max-grid-cells, --max-streams, --max-sessions, --max-message-bytes
+  Limits limits;                           // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
   double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted

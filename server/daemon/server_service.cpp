@@ -1,6 +1,6 @@
 #include "daemon/server_service.h"
 
-#include "daemon/status.h"
+#include "rpc/status.h"
 #include "runtime/device.h"
 
 namespace squall::rpc {
@@ -25,10 +25,10 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext*, const squall::v1::GetI
                                     squall::v1::GetInfoResponse* response) {
   return guarded([&] {
     response->set_version(SQUALL_VERSION);
-    const Runtime& runtime = engines_.runtime;
+    const Runtime& runtime = daemon_.runtime;
     for (const auto& found : find_devices())
       fill_device(found.info, found.device() == runtime.device()(), response->add_devices());
-    bool ready = engines_.ready;
+    bool ready = daemon_.serving.phase() != ServingState::Phase::Starting;
     if (ready) {  // builds and the FFT backend are written once, before ready turns true
       for (const auto& build : runtime.builds()) {
         auto* k = response->add_kernels();
@@ -36,18 +36,17 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext*, const squall::v1::GetI
         for (const auto& name : build.kernels) k->add_kernels(name);
         k->set_build_seconds(build.seconds);
       }
-      response->set_fft_backend(engines_.fft->name());
-      response->set_fft_selection(engines_.fft_selection);
+      response->set_fft_backend(daemon_.fft->name());
+      response->set_fft_selection(daemon_.fft_selection);
     }
-    const Limits& limits = engines_.gate.limits();
+    const Limits& limits = daemon_.serving.gate().limits();
     auto* l = response->mutable_limits();
     l->set_max_grid_cells(limits.max_grid_cells);
     l->set_max_streams(limits.max_streams);
     l->set_max_sessions(limits.max_sessions);
     l->set_max_message_bytes(limits.max_message_bytes);
     response->set_ready(ready);
-    response->set_uptime_seconds(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - engines_.started).count());
+    response->set_uptime_seconds(daemon_.serving.uptime_seconds());
     return grpc::Status::OK;
   });
 }

@@ -2,42 +2,25 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 #include "common/error.h"
 #include "common/limits.h"
+#include "common/validate.h"
 #include "ocean/spectrum_setup.h"
 
 namespace squall::ewave {
 namespace {
 
-std::string number(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
+using validate::finite;
+using validate::non_negative;
+using validate::positive;
 
-void require(bool ok, const std::string& field, double value, const std::string& rule) {
-  if (!ok) fail(Code::InvalidArgument, field + " = " + number(value) + " must be " + rule);
-}
-
-void finite_positive(const std::string& field, double v) { require(std::isfinite(v) && v > 0, field, v, "finite and > 0"); }
-void finite_nonnegative(const std::string& field, double v) {
-  require(std::isfinite(v) && v >= 0, field, v, "finite and >= 0");
-}
-void finite(const std::string& field, double v) { require(std::isfinite(v), field, v, "finite"); }
-
-// A per-cell map: empty, or exactly `cells` finite values (within [lo, hi]).
-void check_map(const std::string& field, const std::vector<float>& map, size_t cells, float lo = -INFINITY,
-               float hi = INFINITY) {
+// A per-cell map: empty, or exactly `cells` finite values (within `range`).
+void check_map(const std::string& field, const std::vector<float>& map, size_t cells,
+               const validate::Interval& range = validate::any()) {
   if (map.empty()) return;
-  if (map.size() != cells)
-    fail(Code::InvalidArgument, field + " has " + std::to_string(map.size()) + " values, want nx * ny = " +
-                                    std::to_string(cells));
-  for (size_t c = 0; c < map.size(); ++c)
-    if (!(std::isfinite(map[c]) && map[c] >= lo && map[c] <= hi))
-      fail(Code::InvalidArgument, field + "[" + std::to_string(c) + "] = " + number(map[c]) + " must be finite" +
-                                      (std::isfinite(lo) ? " and in [" + number(lo) + ", " + number(hi) + "]" : ""));
+  validate::count(field, map.size(), cells, "nx * ny");
+  validate::each(field, map.data(), map.size(), range);
 }
 
 void check_shape(const std::string& field, const Shape& s) {
@@ -45,15 +28,15 @@ void check_shape(const std::string& field, const Shape& s) {
     if (s.vertices.size() < 3)
       fail(Code::InvalidArgument, field + ".vertices has " + std::to_string(s.vertices.size()) + ", want >= 3");
     for (size_t v = 0; v < s.vertices.size(); ++v) {
-      finite(field + ".vertices[" + std::to_string(v) + "].x", s.vertices[v][0]);
-      finite(field + ".vertices[" + std::to_string(v) + "].y", s.vertices[v][1]);
+      finite(validate::at(field + ".vertices", v) + ".x", s.vertices[v][0]);
+      finite(validate::at(field + ".vertices", v) + ".y", s.vertices[v][1]);
     }
     return;
   }
   finite(field + ".x", s.x);
   finite(field + ".y", s.y);
-  finite_positive(field + ".a", s.a);
-  if (s.kind != ShapeKind::Circle) finite_positive(field + ".b", s.b);
+  positive(field + ".a", s.a);
+  if (s.kind != ShapeKind::Circle) positive(field + ".b", s.b);
   finite(field + ".heading", s.heading);
 }
 
@@ -68,23 +51,22 @@ void validate(const EWaveConfig& c, const LimitGate* gate) {
   if (c.nx < 1 || c.ny < 1)
     fail(Code::InvalidArgument, "config.grid = " + std::to_string(c.nx) + " x " + std::to_string(c.ny) +
                                     " must be at least 1 x 1");
-  finite_positive("config.dx", c.dx);
-  finite_positive("config.dy", c.dy);
-  int kind = int(c.dispersion);
-  if (kind < 0 || kind > 3) require(false, "config.dispersion", kind, "0 (deep), 1 (shallow), 2 (capillary) or 3 (combined)");
-  finite_positive("config.gravity", c.gravity);
+  positive("config.dx", c.dx);
+  positive("config.dy", c.dy);
+  validate::known("config.dispersion", int(c.dispersion), 4, "dispersion model (deep, shallow, capillary, combined)");
+  positive("config.gravity", c.gravity);
   if (c.dispersion == DispersionKind::Shallow || c.dispersion == DispersionKind::Combined)
-    finite_positive("config.depth", c.depth);
+    positive("config.depth", c.depth);
   else
-    finite_nonnegative("config.depth", c.depth);
-  finite_nonnegative("config.capillary_length", c.capillary_length);
-  finite_nonnegative("config.trim_width", c.trim_width);
+    non_negative("config.depth", c.depth);
+  non_negative("config.capillary_length", c.capillary_length);
+  non_negative("config.trim_width", c.trim_width);
   double half = 0.5 * std::min(c.length_x(), c.length_y());
-  require(c.effective_trim_width() <= half, "config.trim_width", c.effective_trim_width(),
-          "<= half the shorter side (" + number(half) + " m)");
-  require(std::isfinite(c.trim_alpha) && c.trim_alpha > 0 && c.trim_alpha <= 10, "config.trim_alpha", c.trim_alpha,
-          "in (0, 10]");
-  finite_nonnegative("config.friction_time", c.friction_time);
+  if (c.effective_trim_width() > half)
+    validate::reject("config.trim_width", c.effective_trim_width(),
+                     "<= half the shorter side (" + validate::number(half) + " m)");
+  positive("config.trim_alpha", c.trim_alpha, 10);
+  non_negative("config.friction_time", c.friction_time);
   finite("config.source_scale", c.source_scale);
   finite("config.displacement_scale", c.displacement_scale);
   check_map("config.initial_height", c.initial_height, c.cells());
@@ -110,21 +92,17 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
     fail(Code::InvalidArgument, field + ".output = " + std::to_string(spec.nx) + " x " + std::to_string(spec.ny) +
                                     " must be unset or the session grid " + std::to_string(c.nx) + " x " + std::to_string(c.ny));
   if (differs(spec.lx, c.length_x()) || differs(spec.ly, c.length_y()))
-    fail(Code::InvalidArgument, field + ".output extent = " + number(spec.lx) + " x " + number(spec.ly) +
-                                    " m must be unset or the session's nx dx x ny dy = " + number(c.length_x()) + " x " +
-                                    number(c.length_y()) + " m");
+    fail(Code::InvalidArgument, field + ".output extent = " + validate::number(spec.lx) + " x " +
+                                    validate::number(spec.ly) + " m must be unset or the session's nx dx x ny dy = " +
+                                    validate::number(c.length_x()) + " x " + validate::number(c.length_y()) + " m");
   LimitGate fallback{Limits{}};
-  try {
-    ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback);
-  } catch (const Error& e) {
-    throw Error(e.code(), field + "." + e.what());
-  }
+  ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
 void validate(const StepInputs& in, const EWaveConfig& c) {
-  finite_positive("inputs.dt", in.dt);
+  positive("inputs.dt", in.dt);
   size_t cells = c.cells();
-  check_map("inputs.obstruction", in.obstruction, cells, 0.0f, 1.0f);
+  check_map("inputs.obstruction", in.obstruction, cells, validate::closed(0, 1));
   check_map("inputs.ambient_height", in.ambient_height, cells);
   if (in.ambient_ocean) {
     if (!in.ambient_height.empty())
@@ -144,7 +122,7 @@ void validate(const StepInputs& in, const EWaveConfig& c) {
                                     std::to_string(kMaxShapes));
   size_t vertices = 0;
   for (size_t s = 0; s < in.shapes.size(); ++s) {
-    check_shape("inputs.shapes[" + std::to_string(s) + "]", in.shapes[s]);
+    check_shape(validate::at("inputs.shapes", s), in.shapes[s]);
     vertices += in.shapes[s].vertices.size();
   }
   if (vertices > kMaxShapeVertices)

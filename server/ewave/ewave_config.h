@@ -1,5 +1,7 @@
-// eWave session configuration and per-step inputs and outputs (seed main §3, Appendix B), with their
-// validation. Units SI; the grid frame puts cell (i, j) at ((i + 0.5) dx, (j + 0.5) dy), x fastest.
+// eWave session configuration and per-step inputs and outputs, with their validation (J. Tessendorf,
+// "Gilligan: A Prototype Framework for Simulating and Rendering Maritime Environments" (2017), sec. 3, and
+// its App. B, J. Tessendorf, "eWave: Using an Exponential Solver on the iWave Problem" (2014); equation
+// numbers are Gilligan's). Units SI; the grid frame puts cell (i, j) at ((i + 0.5) dx, (j + 0.5) dy), x fastest.
 #pragma once
 
 #include <array>
@@ -30,7 +32,7 @@ struct EWaveConfig {
   double trim_alpha = 0.05;      // exponent alpha of eq 82, in (0, 10]
   double friction_time = 0;      // s, tau of eq 72-73; 0 = no friction
   double source_scale = 0;       // m/s, S0 of eq 75 (obstruction as a height source)
-  bool mask_phi = false;         // also multiply phi by O (the seed masks h only)
+  bool mask_phi = false;         // also multiply phi by O (Gilligan eq 74 masks h only)
   bool double_precision = false; // h, phi and the FFTs in double (needs fp64): the float FFTs of the backends
                                  // lose ~1e-7 of the energy per step (see tests/ewave), double ~1e-15
   double displacement_scale = 1; // lambda: D = lambda FFT^-1(-i k/k h~) (eq 47) and in the normals (eq 94)

@@ -1,124 +1,84 @@
 #include "ewave/ewave_engine.h"
 
-#include <cstdio>
-#include <random>
-
 #include "common/error.h"
-#include "common/log.h"
+#include "ewave/step_kernels.h"
 
 namespace squall::ewave {
 
 EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options)
-    : runtime_(runtime), fft_(fft), gate_(gate), options_(std::move(options)) {}
-
-std::string EWaveEngine::new_id() {
-  static std::mutex mutex;
-  static std::random_device device;  // the kernel's CSPRNG (getrandom) on Linux
-  std::lock_guard<std::mutex> lock(mutex);
-  std::string id;
-  for (int word = 0; word < 4; ++word) {  // 4 x 32 = 128 bits
-    char hex[9];
-    std::snprintf(hex, sizeof(hex), "%08x", unsigned(device()));
-    id += hex;
-  }
-  return id;
+    : runtime_(runtime),
+      fft_(fft),
+      gate_(gate),
+      ocean_(options.ocean),
+      sessions_(gate, SessionPolicy{options.session_ttl, std::move(options.clock)}, "eWave session", "session_id") {
+  // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.
+  StepKernels<cl_float> single_precision(runtime);
+  make_rasterize_kernel(runtime);
+  if (runtime.device_info().double_precision) StepKernels<cl_double> double_precision(runtime);
 }
 
-std::string EWaveEngine::add(std::unique_ptr<EWaveSession> session, Slot slot) {
-  auto entry = std::make_shared<Entry>();
-  entry->session = std::move(session);
-  entry->slot = std::move(slot);
-  entry->last_use = options_.clock();
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string id;
-  do id = new_id();
-  while (sessions_.count(id));
-  sessions_.emplace(id, std::move(entry));
-  return id;
+uint64_t session_bytes(const EWaveConfig& config) {
+  const uint64_t cells = uint64_t(config.nx) * config.ny;
+  const uint64_t modes = uint64_t(config.nx / 2 + 1) * config.ny;
+  const uint64_t real = config.double_precision ? 8 : 4;
+  const uint64_t state = 2 * cells * real, spectrum = 2 * modes * 2 * real;
+  const uint64_t work = 2 * cells * real + 8 * cells * 4;  // work + output, 8 float maps (inputs, trims)
+  return state + spectrum + work;
 }
 
 std::string EWaveEngine::create(const EWaveConfig& config) {
   validate(config, &gate_);
-  evict_idle();
-  Slot slot = gate_.acquire_session();
-  return add(std::make_unique<EWaveSession>(runtime_, fft_, config, options_.ocean), std::move(slot));
+  auto reservation = sessions_.reserve(session_bytes(config));
+  return sessions_.add(std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_));
+}
+
+std::shared_ptr<EWaveSession> EWaveEngine::session_from_state(const std::string& bytes, const EWaveConfig& config) {
+  auto session = std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_);
+  session->restore(bytes);
+  return session;
 }
 
 std::string EWaveEngine::create_from_state(const std::string& bytes) {
   EWaveConfig config = EWaveSession::config_from_state(bytes);
   validate(config, &gate_);
-  evict_idle();
-  Slot slot = gate_.acquire_session();
-  auto session = std::make_unique<EWaveSession>(runtime_, fft_, config, options_.ocean);
-  session->restore(bytes);
-  return add(std::move(session), std::move(slot));
-}
-
-std::shared_ptr<EWaveEngine::Entry> EWaveEngine::find(const std::string& id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = sessions_.find(id);
-  if (it == sessions_.end()) fail(Code::NotFound, "session_id \"" + id + "\" is not a live eWave session");
-  it->second->last_use = options_.clock();
-  return it->second;
+  auto reservation = sessions_.reserve(session_bytes(config));
+  return sessions_.add(std::move(reservation), session_from_state(bytes, config));
 }
 
 Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs) {
-  auto entry = find(id);
-  std::lock_guard<std::mutex> lock(entry->mutex);
-  return entry->session->step(inputs);
+  return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs); });
 }
 
 std::string EWaveEngine::state(const std::string& id) {
-  auto entry = find(id);
-  std::lock_guard<std::mutex> lock(entry->mutex);
-  return entry->session->state();
+  return sessions_.with(id, [](EWaveSession& s) { return s.state(); });
 }
 
 void EWaveEngine::restore(const std::string& id, const std::string& bytes) {
-  auto entry = find(id);
-  std::lock_guard<std::mutex> lock(entry->mutex);
-  entry->session->restore(bytes);
+  sessions_.with(id, [&](EWaveSession& s) { s.restore(bytes); });
 }
 
 EWaveConfig EWaveEngine::config(const std::string& id) {
-  auto entry = find(id);
-  std::lock_guard<std::mutex> lock(entry->mutex);
-  return entry->session->config();
+  return sessions_.with(id, [](EWaveSession& s) { return s.config(); });
 }
 
-void EWaveEngine::close(const std::string& id) {
-  std::shared_ptr<Entry> entry;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = sessions_.find(id);
-    if (it == sessions_.end()) fail(Code::NotFound, "session_id \"" + id + "\" is not a live eWave session");
-    entry = std::move(it->second);
-    sessions_.erase(it);
-  }
-  std::lock_guard<std::mutex> wait(entry->mutex);  // a step in flight finishes first
+void EWaveEngine::close(const std::string& id) { sessions_.close(id); }
+
+std::string EWaveEngine::checkpoint(const std::string& id) {
+  return sessions_.checkpoint(id, kCheckpointVersion, [](const EWaveSession& s) { return s.state(); });
 }
 
-size_t EWaveEngine::evict_idle() {
-  std::vector<std::shared_ptr<Entry>> evicted;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto now = options_.clock();
-    for (auto it = sessions_.begin(); it != sessions_.end();) {
-      if (now - it->second->last_use > options_.session_ttl) {
-        evicted.push_back(std::move(it->second));
-        it = sessions_.erase(it);
-      } else {
-        ++it;
-      }
-    }
-  }
-  if (!evicted.empty()) log(LogLevel::Info, "ewave: evicted ", evicted.size(), " idle sessions");
-  return evicted.size();
+std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
+  return sessions_.restore(bytes, "checkpoint", [&](uint32_t version, const std::string& payload, uint64_t* used) {
+    if (version != kCheckpointVersion)
+      fail(Code::InvalidArgument, "checkpoint has eWave payload version " + std::to_string(version) + ", this squalld reads " +
+                                      std::to_string(kCheckpointVersion));
+    EWaveConfig config = EWaveSession::config_from_state(payload);
+    validate(config, &gate_);
+    *used = session_bytes(config);
+    return session_from_state(payload, config);
+  });
 }
 
-size_t EWaveEngine::size() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return sessions_.size();
-}
+size_t EWaveEngine::evict_idle() { return sessions_.evict_idle(); }
 
 }  // namespace squall::ewave

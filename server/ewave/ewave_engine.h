@@ -1,24 +1,21 @@
-// EWaveEngine: the live eWave sessions of a daemon. Each has an unguessable id (128 random bits, hex),
-// holds a --max-sessions slot from the LimitGate, and is evicted when idle longer than the TTL. An id
-// that is unknown, closed or evicted gives Error(NotFound).
+// EWaveEngine: the live eWave sessions of a daemon, kept in a SessionStore (unguessable ids, a
+// --max-sessions slot and their bytes against --max-session-bytes each, evicted when idle longer than the
+// TTL, checkpointable). An id that is unknown, closed or evicted gives Error(NotFound).
 #pragma once
 
 #include <chrono>
-#include <functional>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 
 #include "common/limits.h"
+#include "common/session_store.h"
 #include "ewave/ewave_session.h"
 
 namespace squall::ewave {
 
 struct EWaveEngineOptions {
   std::chrono::milliseconds session_ttl{std::chrono::minutes(10)};  // squalld --session-ttl
-  // The clock the TTL is measured with (tests replace it).
-  std::function<std::chrono::steady_clock::time_point()> clock = [] { return std::chrono::steady_clock::now(); };
+  SteadyClock clock = [] { return std::chrono::steady_clock::now(); };  // the TTL's clock (tests replace it)
   // Evaluates the ocean specs of configs and steps (ambient_ocean, initial_ocean); null: such specs give
   // FAILED_PRECONDITION. Must share the runtime and outlive the engine.
   ocean::OceanEngine* ocean = nullptr;
@@ -26,6 +23,9 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
+  // Version of the checkpoint payload (the session's state bytes).
+  static constexpr uint32_t kCheckpointVersion = 1;
+
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
   std::string create(const EWaveConfig& config);          // validated; RESOURCE_EXHAUSTED past --max-sessions
@@ -36,27 +36,25 @@ class EWaveEngine {
   void close(const std::string& id);
   EWaveConfig config(const std::string& id);
 
+  // The session as versioned bytes, and back under its id (for --state-dir and moving sessions).
+  std::string checkpoint(const std::string& id);
+  std::string restore_checkpoint(const std::string& bytes);
+
   size_t evict_idle();  // closes sessions idle past the TTL; returns how many
-  size_t size() const;
+  size_t size() const { return sessions_.size(); }
 
  private:
-  struct Entry {
-    std::mutex mutex;  // one call at a time per session
-    std::unique_ptr<EWaveSession> session;
-    Slot slot;
-    std::chrono::steady_clock::time_point last_use;
-  };
-  std::string add(std::unique_ptr<EWaveSession> session, Slot slot);
-  // The entry of id, its last use refreshed; NotFound otherwise. `field` names the id in the message.
-  std::shared_ptr<Entry> find(const std::string& id);
-  static std::string new_id();
+  std::shared_ptr<EWaveSession> session_from_state(const std::string& bytes, const EWaveConfig& config);
 
   Runtime& runtime_;
   fft::Fft& fft_;
   LimitGate& gate_;
-  EWaveEngineOptions options_;
-  mutable std::mutex mutex_;
-  std::map<std::string, std::shared_ptr<Entry>> sessions_;
+  ocean::OceanEngine* ocean_;
+  SessionStore<EWaveSession> sessions_;
 };
+
+// Host + device bytes a session of `config` holds: the state (h, phi), the spectrum, the work and output
+// buffers and the per-cell input maps, counted against --max-session-bytes.
+uint64_t session_bytes(const EWaveConfig& config);
 
 }  // namespace squall::ewave

@@ -1,36 +1,18 @@
 #include "ewave/ewave_request.h"
 
 #include <cmath>
-#include <cstring>
 #include <set>
 #include <sstream>
 
 #include "common/error.h"
-#include "ocean/float16.h"
+#include "common/validate.h"
+#include "common/field_codec.h"
 #include "ocean/ocean_request.h"
 
 namespace squall::ewave::rpc {
 namespace {
 
 namespace v1 = squall::v1;
-
-std::string text(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-double finite(double v, const std::string& path) {
-  if (!std::isfinite(v)) fail(Code::InvalidArgument, path + " = " + text(v) + " must be finite");
-  return v;
-}
-
-double positive(double v, const std::string& path) {
-  if (!(std::isfinite(v) && v > 0)) fail(Code::InvalidArgument, path + " = " + text(v) + " must be finite and > 0");
-  return v;
-}
-
-size_t bytes_per_value(v1::DType dtype) { return dtype == v1::DTYPE_FLOAT16 ? 2 : 4; }
 
 DispersionKind dispersion(v1::DispersionModel model) {
   switch (model) {
@@ -62,29 +44,29 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
     case v1::EWaveShape::kCircle: {
       const auto& c = proto.circle();
       s.kind = ShapeKind::Circle;
-      s.x = finite(c.center_x(), path + ".circle.center_x");
-      s.y = finite(c.center_y(), path + ".circle.center_y");
-      s.a = s.b = positive(c.radius(), path + ".circle.radius");
+      s.x = validate::finite(path + ".circle.center_x", c.center_x());
+      s.y = validate::finite(path + ".circle.center_y", c.center_y());
+      s.a = s.b = validate::positive(path + ".circle.radius", c.radius());
       break;
     }
     case v1::EWaveShape::kEllipse: {
       const auto& e = proto.ellipse();
       s.kind = ShapeKind::Ellipse;
-      s.x = finite(e.center_x(), path + ".ellipse.center_x");
-      s.y = finite(e.center_y(), path + ".ellipse.center_y");
-      s.a = positive(e.semi_axis_a(), path + ".ellipse.semi_axis_a");
-      s.b = positive(e.semi_axis_b(), path + ".ellipse.semi_axis_b");
-      s.heading = finite(e.heading(), path + ".ellipse.heading");
+      s.x = validate::finite(path + ".ellipse.center_x", e.center_x());
+      s.y = validate::finite(path + ".ellipse.center_y", e.center_y());
+      s.a = validate::positive(path + ".ellipse.semi_axis_a", e.semi_axis_a());
+      s.b = validate::positive(path + ".ellipse.semi_axis_b", e.semi_axis_b());
+      s.heading = validate::finite(path + ".ellipse.heading", e.heading());
       break;
     }
     case v1::EWaveShape::kBox: {
       const auto& b = proto.box();
       s.kind = ShapeKind::Box;
-      s.x = finite(b.center_x(), path + ".box.center_x");
-      s.y = finite(b.center_y(), path + ".box.center_y");
-      s.a = positive(b.half_length(), path + ".box.half_length");
-      s.b = positive(b.half_width(), path + ".box.half_width");
-      s.heading = finite(b.heading(), path + ".box.heading");
+      s.x = validate::finite(path + ".box.center_x", b.center_x());
+      s.y = validate::finite(path + ".box.center_y", b.center_y());
+      s.a = validate::positive(path + ".box.half_length", b.half_length());
+      s.b = validate::positive(path + ".box.half_width", b.half_width());
+      s.heading = validate::finite(path + ".box.heading", b.heading());
       break;
     }
     case v1::EWaveShape::kPolygon: {
@@ -95,7 +77,7 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
                                         " vertices, want >= 3");
       for (int v = 0; v < p.vertices_size(); ++v) {
         const std::string at = path + ".polygon.vertices[" + std::to_string(v) + "]";
-        s.vertices.push_back({finite(p.vertices(v).x(), at + ".x"), finite(p.vertices(v).y(), at + ".y")});
+        s.vertices.push_back({validate::finite(at + ".x", p.vertices(v).x()), validate::finite(at + ".y", p.vertices(v).y())});
       }
       break;
     }
@@ -154,26 +136,7 @@ std::vector<float> grid_values(const v1::Field& field, int64_t nx, int64_t ny, c
   if (int64_t(field.ny()) != ny)
     fail(Code::InvalidArgument, path + ".ny = " + std::to_string(field.ny()) + ", want the session's ny = " + std::to_string(ny));
   if (field.nz() > 1) fail(Code::InvalidArgument, path + ".nz = " + std::to_string(field.nz()) + ", want 0 or 1 (a 2D field)");
-  const v1::DType type = dtype(field.dtype(), path + ".dtype");
-  const size_t n = size_t(nx) * size_t(ny), size = bytes_per_value(type);
-  if (field.data().size() != n * size)
-    fail(Code::InvalidArgument, path + ".data has " + std::to_string(field.data().size()) + " bytes, want nx * ny * " +
-                                    std::to_string(size) + " = " + std::to_string(n * size));
-  std::vector<float> values(n);
-  const char* bytes = field.data().data();
-  if (type == v1::DTYPE_FLOAT32) {
-    std::memcpy(values.data(), bytes, n * 4);  // little-endian hosts only (x86-64, aarch64)
-  } else {
-    for (size_t i = 0; i < n; ++i)
-      values[i] = f16::to_float(uint16_t(uint8_t(bytes[2 * i])) | uint16_t(uint8_t(bytes[2 * i + 1])) << 8);
-  }
-  return values;
-}
-
-v1::DType dtype(v1::DType d, const std::string& path) {
-  if (d == v1::DTYPE_UNSPECIFIED || d == v1::DTYPE_FLOAT32) return v1::DTYPE_FLOAT32;
-  if (d == v1::DTYPE_FLOAT16) return v1::DTYPE_FLOAT16;
-  fail(Code::InvalidArgument, path + " = " + std::to_string(int(d)) + " must be DTYPE_FLOAT32 or DTYPE_FLOAT16");
+  return squall::field::decode(field, path);  // dtype and byte count, named "<path>.dtype", "<path>.data"
 }
 
 EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
@@ -195,7 +158,7 @@ EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
   if (p.has_displacement_scale()) c.displacement_scale = p.displacement_scale();
   c.initial_height = map(p.has_initial_height(), p.initial_height(), c, "config.initial_height");
   c.initial_phi = map(p.has_initial_phi(), p.initial_phi(), c, "config.initial_phi");
-  if (p.has_start_time()) c.start_time = finite(p.start_time().seconds(), "config.start_time.seconds");
+  if (p.has_start_time()) c.start_time = validate::finite("config.start_time.seconds", p.start_time().seconds());
   if (p.has_initial_ocean())
     c.initial_ocean = ocean::rpc::tile_spec(p.initial_ocean(), gate, "config.initial_ocean");
   if (p.has_ambient_ocean())
@@ -267,7 +230,7 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
 }
 
 uint64_t frame_bytes(const EWaveConfig& c, size_t outputs, v1::DType d) {
-  return outputs * (c.cells() * bytes_per_value(d) + 128) + 256;
+  return outputs * (c.cells() * squall::field::bytes_per_value(d) + 128) + 256;
 }
 
 void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWaveOutput>& outputs, v1::DType d,
@@ -276,19 +239,9 @@ void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWav
   reply->mutable_time()->set_seconds(f.time);
   for (auto o : outputs) {
     v1::Field* field = reply->add_fields();
-    field->set_name(info(o).name);
-    field->set_unit(info(o).unit);
-    field->set_nx(uint32_t(c.nx)), field->set_ny(uint32_t(c.ny));
+    squall::field::encode({info(o).name, info(o).unit, uint32_t(c.nx), uint32_t(c.ny), 0, d}, output_values(f, o), field);
     field->mutable_spacing()->set_x(c.dx), field->mutable_spacing()->set_y(c.dy);
     field->mutable_origin()->set_x(0.5 * c.dx), field->mutable_origin()->set_y(0.5 * c.dy);
-    field->set_dtype(d);
-    std::vector<float> values = output_values(f, o);
-    std::string* data = field->mutable_data();
-    if (d == v1::DTYPE_FLOAT16) {
-      f16::append_half_bytes(values.data(), values.size(), data);
-    } else {
-      data->assign(reinterpret_cast<const char*>(values.data()), values.size() * 4);
-    }
   }
 }
 

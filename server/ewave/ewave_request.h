@@ -19,9 +19,9 @@ void fill_config(const EWaveConfig& config, squall::v1::EWaveConfig* proto);
 // One step's inputs for a session of `config` ("inputs").
 StepInputs inputs(const squall::v1::EWaveInputs& proto, const EWaveConfig& config);
 
-// The validated output list of inputs (empty: height only) and the reply's element type.
+// The validated output list of inputs (empty: height only). The reply's element type is checked by
+// squall::field::dtype (common/field_codec.h).
 std::vector<squall::v1::EWaveOutput> outputs(const squall::v1::EWaveInputs& proto);
-squall::v1::DType dtype(squall::v1::DType dtype, const std::string& path);
 
 // Bytes of a frame with these outputs (a bound, for --max-message-bytes).
 uint64_t frame_bytes(const EWaveConfig& config, size_t outputs, squall::v1::DType dtype);

@@ -1,8 +1,10 @@
 #include "ewave/ewave_service.h"
 
-#include "daemon/status.h"
-#include "ewave/ewave_engine.h"
+#include "common/field_codec.h"
 #include "ewave/ewave_request.h"
+#include "ocean/ocean_engine.h"
+#include "rpc/metadata.h"
+#include "rpc/streaming.h"
 
 namespace squall::rpc {
 namespace {
@@ -22,37 +24,41 @@ void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveS
 
 }  // namespace
 
-ewave::EWaveEngine& EWaveService::engine() {
-  engines_.require_ready();
-  engines_.ewave->evict_idle();
-  return *engines_.ewave;
+void EWaveService::start(EngineContext& context) {
+  ewave::EWaveEngineOptions options;
+  options.session_ttl = context.sessions.ttl;
+  options.clock = context.sessions.clock;
+  // ambient_ocean / initial_ocean of eWave sessions, evaluated by the daemon's one ocean engine
+  options.ocean = &context.shared<ocean::OceanEngine>(
+      [&] { return std::make_unique<ocean::OceanEngine>(context.runtime, context.fft); });
+  engine_ = std::make_unique<ewave::EWaveEngine>(context.runtime, context.fft, context.gate, options);
 }
 
 void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* frame) {
-  auto& ewave = engine();
+  auto& ewave = *engine_;
   const std::string& id = session_id(request.session_id());
   const ewave::EWaveConfig config = ewave.config(id);  // NOT_FOUND for an unknown, closed or evicted id
   const auto outputs = squall::ewave::rpc::outputs(request.inputs());
-  const v1::DType type = dtype(request.inputs().dtype(), "inputs.dtype");
+  const v1::DType type = squall::field::dtype(request.inputs().dtype(), "inputs.dtype");
   // Refused before the step, so that a frame too large to send does not advance the session.
-  engines_.gate.check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)",
+  serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)",
                                     frame_bytes(config, outputs.size(), type));
   ewave::Frame result = ewave.step(id, inputs(request.inputs(), config));
   frame->set_session_id(id);
   fill_frame(result, config, outputs, type, frame);
 }
 
-grpc::Status EWaveService::CreateSession(grpc::ServerContext*, const v1::EWaveCreateSessionRequest* request,
+grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1::EWaveCreateSessionRequest* request,
                                          v1::EWaveSessionResponse* response) {
-  return guarded([&] {
-    auto& ewave = engine();
-    session_reply(ewave, ewave.create(config(request->config(), engines_.gate)), response);
+  return serve(serving_, [&] {
+    session_reply(*engine_, engine_->create(config(request->config(), serving_.gate())), response);
+    announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
 }
 
 grpc::Status EWaveService::Step(grpc::ServerContext*, const v1::EWaveStepRequest* request, v1::EWaveFrame* response) {
-  return guarded([&] {
+  return serve(serving_, [&] {
     step(*request, response);
     return grpc::Status::OK;
   });
@@ -60,50 +66,44 @@ grpc::Status EWaveService::Step(grpc::ServerContext*, const v1::EWaveStepRequest
 
 grpc::Status EWaveService::Run(grpc::ServerContext* context,
                                grpc::ServerReaderWriter<v1::EWaveFrame, v1::EWaveStepRequest>* stream) {
-  const grpc::Status cancelled(grpc::StatusCode::CANCELLED, "Run cancelled (client gone, deadline or shutdown)");
-  return guarded([&] {
-    engines_.require_ready();
-    Slot slot = engines_.gate.acquire_stream();  // released on every way out of this call
+  return serve_stream(*context, serving_, "Run", [&](StreamCall& call) {
     v1::EWaveStepRequest request;
     v1::EWaveFrame frame;
-    for (uint64_t n = 0; stream->Read(&request); ++n) {
-      if (context->IsCancelled()) return cancelled;
+    for (uint64_t n = 0; call.live() && stream->Read(&request); ++n) {
       frame.Clear();
       try {
         step(request, &frame);
       } catch (const Error& e) {
         fail(e.code(), "Run message " + std::to_string(n) + ": " + e.what());
       }
-      if (!stream->Write(frame)) return cancelled;
+      if (!call.write(*stream, frame)) return;
     }
-    return context->IsCancelled() ? cancelled : grpc::Status::OK;
   });
 }
 
 grpc::Status EWaveService::GetState(grpc::ServerContext*, const v1::EWaveSessionRequest* request,
                                     v1::EWaveStateResponse* response) {
-  return guarded([&] {
-    auto& ewave = engine();
-    std::string state = ewave.state(session_id(request->session_id()));
-    engines_.gate.check_message_bytes("GetState reply (the session's state)", state.size() + 64);
+  return serve(serving_, [&] {
+    std::string state = engine_->state(session_id(request->session_id()));
+    serving_.gate().check_message_bytes("GetState reply (the session's state)", state.size() + 64);
     *response->mutable_state() = std::move(state);
     return grpc::Status::OK;
   });
 }
 
-grpc::Status EWaveService::Restore(grpc::ServerContext*, const v1::EWaveRestoreRequest* request,
+grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
-  return guarded([&] {
-    auto& ewave = engine();
-    session_reply(ewave, ewave.create_from_state(request->state()), response);
+  return serve(serving_, [&] {
+    session_reply(*engine_, engine_->create_from_state(request->state()), response);
+    announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
 }
 
 grpc::Status EWaveService::CloseSession(grpc::ServerContext*, const v1::EWaveSessionRequest* request,
                                         v1::EWaveCloseResponse*) {
-  return guarded([&] {
-    engine().close(session_id(request->session_id()));
+  return serve(serving_, [&] {
+    engine_->close(session_id(request->session_id()));
     return grpc::Status::OK;
   });
 }

@@ -1,16 +1,23 @@
-// squall.v1.EWave: interactive wave sessions over the EWaveEngine of Engines. Requests are translated and
-// validated in ewave_request.h; sessions idle past --session-ttl are evicted at the start of every EWave
-// call, so an evicted id is NOT_FOUND from the first call after its TTL ran out.
+// squall.v1.EWave: interactive wave sessions over an EWaveEngine. Requests are translated and validated in
+// ewave_request.h; sessions idle past --session-ttl are evicted lazily, so an evicted id is NOT_FOUND from
+// the first call after its TTL ran out. Calls that create a session announce its id as x-squall-session.
 #pragma once
 
-#include "daemon/engines.h"
+#include <memory>
+
+#include "ewave/ewave_engine.h"
+#include "rpc/capability.h"
+#include "rpc/serving.h"
 #include "squall/v1/ewave.grpc.pb.h"
 
 namespace squall::rpc {
 
-class EWaveService final : public squall::v1::EWave::Service {
+class EWaveService final : public squall::v1::EWave::Service, public Capability {
  public:
-  explicit EWaveService(Engines& engines) : engines_(engines) {}
+  explicit EWaveService(ServingState& serving) : serving_(serving) {}
+
+  grpc::Service& service() override { return *this; }
+  void start(EngineContext& context) override;
 
   grpc::Status CreateSession(grpc::ServerContext* context, const squall::v1::EWaveCreateSessionRequest* request,
                              squall::v1::EWaveSessionResponse* response) override;
@@ -28,11 +35,13 @@ class EWaveService final : public squall::v1::EWave::Service {
   grpc::Status CloseSession(grpc::ServerContext* context, const squall::v1::EWaveSessionRequest* request,
                             squall::v1::EWaveCloseResponse* response) override;
 
+  ewave::EWaveEngine& engine() { return *engine_; }  // after start()
+
  private:
-  ewave::EWaveEngine& engine();  // ready and with idle sessions evicted
   void step(const squall::v1::EWaveStepRequest& request, squall::v1::EWaveFrame* frame);
 
-  Engines& engines_;
+  ServingState& serving_;
+  std::unique_ptr<ewave::EWaveEngine> engine_;
 };
 
 }  // namespace squall::rpc

@@ -1,13 +1,16 @@
-// One eWave simulation: h and phi on the device, stepped in the order of seed main §3.7 with cached FFT
+// One eWave simulation: h and phi on the device, stepped in the order of J. Tessendorf, "Gilligan: A
+// Prototype Framework for Simulating and Rendering Maritime Environments" (2017), sec. 3.7, with cached FFT
 // plans and propagator tables. Not thread-safe by itself: EWaveEngine serializes calls per session.
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <string>
 #include <vector>
 
+#include "ewave/coefficient_cache.h"
 #include "ewave/ewave_config.h"
+#include "ewave/ewave_state_format.h"
+#include "ewave/step_kernels.h"
 #include "fft/fft.h"
 #include "ocean/ocean_engine.h"
 #include "runtime/runtime.h"
@@ -36,10 +39,7 @@ class EWaveSession {
   static EWaveConfig config_from_state(const std::string& bytes);
 
  private:
-  struct Coefficients {
-    BufferLease buffer;
-    uint64_t last_use = 0;
-  };
+  void upload_initial_fields();  // config_'s initial h, phi (or initial_ocean) into state_ (under the lock)
   void upload_trim();  // the trim profiles of config_ (eq 82)
   void initial_from_ocean();  // h, phi of config_.initial_ocean at time_ into state_ (under the lock)
   // h_A of a step: its field, else its or the config's ocean spec at time_ (the ocean engine writes it into
@@ -47,14 +47,15 @@ class EWaveSession {
   // h_A (1 - O) = 0 and the ocean is not evaluated).
   const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction);
   ocean::OceanEngine& ocean_engine(const std::string& field) const;
-  const cl::Buffer& coefficients(double dt);
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
+  // The step pipeline (ewave_step.cpp), in the order of step().
   bool build_obstruction(const StepInputs& inputs);
+  void rasterize(const std::vector<Shape>& shapes);
   void prepare(const StepInputs& inputs, bool has_obstruction);
+  void propagate(double dt, int fields);
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
-  void set_real(cl::Kernel& kernel, int index, double value) const;  // cl_float or cl_double, as the state
-  std::vector<char> to_state_type(const std::vector<double>& values) const;  // host bytes in the state's type
+  void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours
   fft::Precision precision() const { return config_.double_precision ? fft::Precision::F64 : fft::Precision::F32; }
 
   Runtime& runtime_;
@@ -65,11 +66,11 @@ class EWaveSession {
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
   uint64_t step_ = 0;
   double time_ = 0;
-  cl::Kernel prepare_, propagate_, finish_, rasterize_;
+  AnyStepKernels kernels_;  // of the state's precision
+  RasterizeKernel rasterize_;
   BufferLease state_, spectrum_, work_, out_, trim_x_, trim_y_, placeholder_;
   BufferLease obstruction_, ambient_, source_h_, source_phi_, drift_x_, drift_y_, shapes_, vertices_;
-  std::map<double, Coefficients> coefficients_;  // by dt, a few most recent
-  uint64_t uses_ = 0;
+  CoefficientCache coefficients_;
 };
 
 }  // namespace squall::ewave

@@ -1,5 +1,7 @@
 // Host-side tables of an eWave session: the per-mode propagator coefficients (eq 64-65 in the
-// energy-conserving form), the 1D trim profiles (eq 82), and obstruction shapes in device layout.
+// energy-conserving form), the 1D trim profiles (eq 82), and obstruction shapes in device layout. Equation
+// numbers are those of J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering
+// Maritime Environments" (2017), sec. 3.
 #pragma once
 
 #include <vector>
@@ -19,7 +21,8 @@ double wavenumber(const EWaveConfig& config, size_t i, size_t j);
 // 4 floats per mode of the (nx/2+1) x ny half spectrum: (c, (omega/g) s, (g/omega) s, 0) / (nx ny),
 // c = cos(omega dt), s = sin(omega dt), omega = dispersion_omega(k). At k = 0: (1, 0, g dt, 0) / (nx ny).
 // The determinant c^2 + s^2 = 1 per mode, so E = sum g|h~|^2 + (omega^2/g)|phi~|^2 is conserved
-// (gilligan.md §3.2: the printed k/omega would lose energy unless omega^2 = g k).
+// (Gilligan sec. 3.2 keeps eq 64's k/omega with a general omega; that gives the determinant
+// c^2 + (g k/omega^2) s^2 and loses energy unless omega^2 = g k. (omega/g) s equals k/omega in deep water).
 std::vector<double> propagator_coefficients(const EWaveConfig& config, double dt);
 
 // The 1D trim of eq 82 at the n cell centres x = (i + 0.5) d of a side of length n d, taper width L:

@@ -1,6 +1,7 @@
-// clFFT, the library the Gilligan design names. Its kernels are generated and compiled when a plan is
-// baked (clfftBakePlan); in-place and out-of-place are distinct clFFT plans, so each squall plan keeps
-// both, baked on first use of each.
+// clFFT, an OpenCL FFT library (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and
+// Rendering Maritime Environments" (2017), sec. 4, plans its GPU FFTs with CUDA's library). Its kernels
+// are generated and compiled when a plan is baked (clfftBakePlan); in-place and out-of-place are distinct
+// clFFT plans, so each squall plan keeps both, baked on first use of each.
 #include <clFFT.h>
 
 #include <memory>

@@ -48,12 +48,12 @@ double group_velocity(const LayerSpec& L, double k) {
 
 // ---- the formula parameters of a layer: derived here again, with quadratures of its own, so that a
 // mistake in the engine's spectrum_setup.cpp (alpha, omega_p, normalizations) shows up as a mismatch ----
-SqSpectrum compute_formula_parameters(const LayerSpec& L);
+SpectrumParams compute_formula_parameters(const LayerSpec& L);
 
 // Memoized per thread on the layer's spectrum fields (the mean-frequency quadrature is not cheap).
-SqSpectrum formula_parameters(const LayerSpec& L) {
+SpectrumParams formula_parameters(const LayerSpec& L) {
   thread_local std::string last_key;
-  thread_local SqSpectrum last{};
+  thread_local SpectrumParams last{};
   std::string key;
   auto add = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
   double d[] = {L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude, L.phillips_cutoff,
@@ -65,8 +65,8 @@ SqSpectrum formula_parameters(const LayerSpec& L) {
   return last;
 }
 
-SqSpectrum compute_formula_parameters(const LayerSpec& L) {
-  SqSpectrum p{};
+SpectrumParams compute_formula_parameters(const LayerSpec& L) {
+  SpectrumParams p{};
   p.spectrum = int(L.spectrum);
   p.spreading = int(L.spreading);
   p.g = L.gravity;
@@ -152,7 +152,7 @@ struct LayerSpectrum {
 
 LayerSpectrum build_spectrum(const TileSpec& spec, size_t index) {
   const LayerSpec& L = spec.layers[index];
-  SqSpectrum p = formula_parameters(L);
+  SpectrumParams p = formula_parameters(L);
   LayerSpectrum s;
   s.h0.resize(size_t(L.nx * L.ny));
   s.w.resize(s.h0.size());
@@ -278,7 +278,7 @@ double slope_variance(const TileSpec& spec, double R) {
   if (!(k_hi > k_lo)) return 0;
   const int nk = 1500, nt = 256;
   for (const LayerSpec& L : spec.layers) {
-    SqSpectrum p = formula_parameters(L);
+    SpectrumParams p = formula_parameters(L);
     double u0 = std::log(k_lo), du = (std::log(k_hi) - u0) / nk, sum = 0;
     for (int a = 0; a < nk; ++a) {
       double k = std::exp(u0 + (a + 0.5) * du);

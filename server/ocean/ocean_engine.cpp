@@ -9,12 +9,25 @@
 
 #include "common/error.h"
 #include "ocean/spectrum_setup.h"
+#include "runtime/kernel.h"
 
 namespace squall::ocean {
 namespace {
 
 constexpr const char* kProgram = "ocean/ocean.cl";
 constexpr int kOutputPlanes = 12;  // OUT_* of ocean.cl
+
+// The kernels of ocean.cl, each argument list in the order of its signature.
+using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
+// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, pairs, out
+using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_int, cl::Buffer>;
+// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, g, out
+using PotentialKernel =
+    Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
+// fields, nx, ny, pairs, scale, onx, ony, first, accum
+using AccumulateKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl::Buffer>;
+// accum, cells, channels, lambda, flags, threshold, decay, whitecap, out
+using FinalizeKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
 
 template <typename T>
 void append(std::string& key, const T& value) {
@@ -46,7 +59,11 @@ struct OceanEngine::Impl {
   Runtime& runtime;
   fft::Fft& fft;
   size_t max_cached_bytes;
-  cl::Kernel h0_kernel, evolve, accumulate, finalize, evolve_potential;
+  H0Kernel h0_kernel;
+  EvolveKernel evolve;
+  AccumulateKernel accumulate;
+  FinalizeKernel finalize;
+  PotentialKernel evolve_potential;
 
   struct Entry {
     std::string key;
@@ -61,9 +78,9 @@ struct OceanEngine::Impl {
 
   Impl(Runtime& r, fft::Fft& f, size_t max_bytes)
       : runtime(r), fft(f), max_cached_bytes(max_bytes),
-        h0_kernel(r.kernel(kProgram, "ocean_h0")), evolve(r.kernel(kProgram, "ocean_evolve")),
-        accumulate(r.kernel(kProgram, "ocean_accumulate")), finalize(r.kernel(kProgram, "ocean_finalize")),
-        evolve_potential(r.kernel(kProgram, "ocean_evolve_potential")) {}
+        h0_kernel(r, kProgram, "ocean_h0"), evolve(r, kProgram, "ocean_evolve"),
+        accumulate(r, kProgram, "ocean_accumulate"), finalize(r, kProgram, "ocean_finalize"),
+        evolve_potential(r, kProgram, "ocean_evolve_potential") {}
 
   // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
   const cl::Buffer& spectrum(const TileSpec& spec, size_t index) {
@@ -89,11 +106,7 @@ struct OceanEngine::Impl {
                            std::max<size_t>(1, bands.size()) * sizeof(none),
                            bands.empty() ? none.data() : bands.front().data());
     cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
-    h0_kernel.setArg(0, layer);
-    h0_kernel.setArg(1, band_buffer);
-    h0_kernel.setArg(2, int(bands.size()));
-    h0_kernel.setArg(3, h0);
-    runtime.queue().enqueueNDRangeKernel(h0_kernel, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
     runtime.queue().finish();  // the parameter buffers go out of scope
     cache.push_front(Entry{key, h0, bytes});
     cached_bytes += bytes;
@@ -124,18 +137,9 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    cl::Kernel& k = evolve_potential;
-    k.setArg(0, h0);
-    k.setArg(1, int(L.nx));
-    k.setArg(2, int(L.ny));
-    k.setArg(3, float(2 * SQ_PI / L.lx));
-    k.setArg(4, float(2 * SQ_PI / L.ly));
-    k.setArg(5, t_hi);
-    k.setArg(6, t_lo);
-    k.setArg(7, cl_float2{{float(L.drift_x), float(L.drift_y)}});
-    k.setArg(8, float(L.gravity));
-    k.setArg(9, fields.buffer());
-    runtime.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    evolve_potential.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
+                            cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
+                            cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_float(L.gravity), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -143,17 +147,9 @@ struct OceanEngine::Impl {
   // Adds one layer's `pairs` complex arrays onto the output grid's 2 * pairs planes of `accum`.
   void accumulate_layer(const cl::Buffer& fields, const LayerSpec& L, int pairs, const OutputGrid& grid, bool first,
                         const cl::Buffer& accum) {
-    cl::Kernel& k = accumulate;
-    k.setArg(0, fields);
-    k.setArg(1, int(L.nx));
-    k.setArg(2, int(L.ny));
-    k.setArg(3, pairs);
-    k.setArg(4, cl_float2{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}});
-    k.setArg(5, int(grid.nx));
-    k.setArg(6, int(grid.ny));
-    k.setArg(7, first ? 1 : 0);
-    k.setArg(8, accum);
-    runtime.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(grid.nx, grid.ny));
+    cl_float2 scale{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}};
+    accumulate.launch(cl::NDRange(grid.nx, grid.ny), cl::NullRange, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs),
+                      scale, cl_int(grid.nx), cl_int(grid.ny), cl_int(first ? 1 : 0), accum);
   }
 
   // The layer's real channels at t on its own grid: `pairs` complex arrays (ocean.cl).
@@ -163,17 +159,9 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve.setArg(0, h0);
-    evolve.setArg(1, int(L.nx));
-    evolve.setArg(2, int(L.ny));
-    evolve.setArg(3, float(2 * SQ_PI / L.lx));
-    evolve.setArg(4, float(2 * SQ_PI / L.ly));
-    evolve.setArg(5, t_hi);
-    evolve.setArg(6, t_lo);
-    evolve.setArg(7, cl_float2{{float(L.drift_x), float(L.drift_y)}});
-    evolve.setArg(8, pairs);
-    evolve.setArg(9, fields.buffer());
-    runtime.queue().enqueueNDRangeKernel(evolve, cl::NullRange, cl::NDRange(L.nx, L.ny));
+    evolve.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
+                  cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
+                  cl_int(pairs), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -243,35 +231,16 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   const cl::CommandQueue& queue = runtime.queue();
   BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
-    const LayerSpec& L = spec.layers[a];
     BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
-    cl::Kernel& k = impl_->accumulate;
-    k.setArg(0, fields.buffer());
-    k.setArg(1, int(L.nx));
-    k.setArg(2, int(L.ny));
-    k.setArg(3, pairs);
-    k.setArg(4, cl_float2{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}});
-    k.setArg(5, int(grid.nx));
-    k.setArg(6, int(grid.ny));
-    k.setArg(7, a == 0 ? 1 : 0);
-    k.setArg(8, accum.buffer());
-    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(grid.nx, grid.ny));
+    impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
   }
 
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
   if (outputs & Whitecaps) queue.enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  cl::Kernel& f = impl_->finalize;
-  f.setArg(0, accum.buffer());
-  f.setArg(1, int(cells));
-  f.setArg(2, 2 * pairs);
-  f.setArg(3, float(spec.choppiness));
-  f.setArg(4, int(outputs));
-  f.setArg(5, float(spec.whitecap_threshold));
-  f.setArg(6, decay);
-  f.setArg(7, whitecap.buffer());
-  f.setArg(8, out.buffer());
-  queue.enqueueNDRangeKernel(f, cl::NullRange, cl::NDRange(cells));
+  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, accum.buffer(), cl_int(cells), cl_int(2 * pairs),
+                         cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
+                         whitecap.buffer(), out.buffer());
 
   auto read = [&](int plane, std::vector<float>& into) {
     into.resize(cells);

@@ -1,10 +1,11 @@
-// squall::ocean::OceanEngine: spectral ocean tiles in OpenCL (Gilligan seed section 2, 5.3.3, App A 4.3-4.6).
-// Parameters, output flags and conventions: ocean_params.h.
+// squall::ocean::OceanEngine: spectral ocean tiles in OpenCL (J. Tessendorf, "Gilligan: A Prototype Framework
+// for Simulating and Rendering Maritime Environments" (2017), sec. 2 and 5.3.3, and its App. A, J. Tessendorf,
+// "Simulating Ocean Water", sec. 4.3-4.6). Parameters, output flags and conventions: ocean_params.h.
 //
-// Per frame the engine only does the time evolution (eq 1/43) and batched inverse FFTs: the amplitude
-// spectrum h0(k) of each layer depends on the layer spec alone and is cached on the device (bounded cache,
-// keyed by the layer spec, its index and the B(k) geometry), so a stream of frames at increasing t
-// reuses it. Thread-safe: device work runs under Runtime::exclusive().
+// Per frame the engine only does the time evolution (Gilligan eq 1, App A eq 43) and batched inverse FFTs:
+// the amplitude spectrum h0(k) of each layer depends on the layer spec alone and is cached on the device
+// (bounded cache, keyed by the layer spec, its index and the B(k) geometry), so a stream of frames at
+// increasing t reuses it. Thread-safe: device work runs under Runtime::exclusive().
 #pragma once
 
 #include <cstddef>

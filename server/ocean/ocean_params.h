@@ -1,5 +1,8 @@
-// The parameters and results of the spectral ocean (Gilligan seed section 2, Appendix A 4.3-4.6). Plain C++
-// (no OpenCL): shared by the engine (ocean_engine.h), the FFTW reference (cpu_reference.h) and the RPC layer.
+// The parameters and results of the spectral ocean (J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), sec. 2, and its App. A, J. Tessendorf, "Simulating
+// Ocean Water" (SIGGRAPH course notes), sec. 4.3-4.6; bare equation numbers below are Gilligan's, "App A eq"
+// ones those of the course notes). Plain C++ (no OpenCL): shared by the engine (ocean_engine.h), the FFTW
+// reference (cpu_reference.h) and the RPC layer.
 //
 // Conventions, SI units throughout:
 // - z is up. A tile covers [0, lx) x [0, ly) and repeats periodically. Sample (i, j) of an nx x ny grid sits
@@ -9,9 +12,10 @@
 // - A wind direction theta0 is the direction the wind blows TOWARDS, and the waves of every spreading
 //   model travel towards it (downwind).
 // - h(x, t) = sum_k h~(k, t) exp(i k.x) with h~(k, t) = [h0(k) e^{-i w t} + conj(h0(-k)) e^{+i w t}]
-//   e^{-i k.U_D t} (eqs 1, 43; the sign of w t is chosen so that h0(k) travels along +k, and the drift
-//   factor translates the whole field by +U_D t). h0(k) = (xi_r + i xi_i) sqrt(P(k) dkx dky / 2) (eq 42
-//   with the discrete normalization of spec 2.7), so E[h^2] = sum_k (P(k) + P(-k)) dkx dky ~ m0.
+//   e^{-i k.U_D t} (eq 1, App A eq 43; the sign of w t is chosen so that h0(k) travels along +k, and the
+//   drift factor translates the whole field by +U_D t). h0(k) = (xi_r + i xi_i) sqrt(P(k) dkx dky / 2) (App A
+//   eq 42 with the amplitude scaled by sqrt(dkx dky) and an unnormalized inverse DFT, in place of eq 2's
+//   factor dkx dky on the output), so E[h^2] = sum_k (P(k) + P(-k)) dkx dky ~ m0.
 #pragma once
 
 #include <cstdint>
@@ -20,10 +24,10 @@
 
 namespace squall::ocean {
 
-// Frequency spectrum S(omega) of a layer (seed eqs 4-26), or Phillips' P(k) (App A eqs 40-41).
+// Frequency spectrum S(omega) of a layer (eqs 4-26), or Phillips' P(k) (App A eqs 40-41).
 enum class SpectrumModel : int {
   Phillips = 0,          // P(k) = A exp(-1/(kL)^2) / k^4 |k^.w^|^p exp(-k^2 l^2), L = U^2/g; no S, no D
-  PiersonMoskowitz = 1,  // eq 4 with exp[-5/4 (w_p/w)^4] (seed misprint fixed), alpha = 0.0081, w_p = 0.879 g/U
+  PiersonMoskowitz = 1,  // eq 4 with exp[-5/4 (w_p/w)^4] (printed (w/w_p)^4), alpha = 0.0081, w_p = 0.879 g/U
   Jonswap = 2,           // eqs 5-12 (alpha, w_p from fetch; sigma_a for w <= w_p, sigma_b for w > w_p)
   ModifiedJonswap = 3,   // eqs 13-19, gamma from nu (eq 17, natural log, nu clamped to [0.83, 5])
   Tma = 4,               // eqs 20-23: JONSWAP times the depth factor r(w*), f solved by Newton; uses depth
@@ -32,7 +36,8 @@ enum class SpectrumModel : int {
 constexpr int kSpectrumModelCount = 6;
 
 // Directional spreading D(theta; omega, k), each normalized so that its integral over theta in
-// [-pi, pi) is 1 (seed misprints of eqs 27, 29 and 45 fixed, see gilligan.md section 7).
+// [-pi, pi) is 1 (misprints fixed: as printed, eq 27 integrates to 4/pi, eq 29 to 24 at s = 1, and eq 45
+// peaks perpendicular to the wind).
 enum class SpreadingModel : int {
   Isotropic = 0,    // 1 / (2 pi)
   PiersonCos2 = 1,  // (2/pi) cos^2(theta - theta0) on |theta - theta0| < pi/2, else 0 (eq 27 fixed)
@@ -59,7 +64,7 @@ constexpr int kDispersionKindCount = 4;
 struct PartialSpectrum {
   double peak_frequency = 0.6;          // w_p, rad/s, > 0
   double significant_wave_height = 1;  // Hs of this partial, m, > 0
-  double a = 1.835, b = 22.2222, c = 4.211, n = 5, m = 8;  // dimensionless shape (seed values); a, b, c >= 0, n, m > 0
+  double a = 1.835, b = 22.2222, c = 4.211, n = 5, m = 8;  // dimensionless shape (eq 26's values); a, b, c >= 0, n, m > 0
 };
 constexpr int kMaxPartialSpectra = 4;
 
@@ -78,7 +83,7 @@ struct LayerSpec {
   double sigma_b = 0.09;         // JONSWAP width for w > w_p, > 0
   double phillips_amplitude = 1e-3;   // Phillips A, m^2 (P in m^4), >= 0
   double phillips_cutoff = 0;         // Phillips small-wave cutoff l, m, >= 0
-  double phillips_exponent = 2;       // Phillips directional exponent p of |k^.w^|^p, >= 0 (seed: 2, Fig 11: 6)
+  double phillips_exponent = 2;       // Phillips directional exponent p of |k^.w^|^p, >= 0 (App A eq 40: 2, Fig 11: 6)
   std::vector<PartialSpectrum> partials;  // Multipeak: 1 .. kMaxPartialSpectra entries
 
   // Directional spreading (ignored by Phillips, which has its own |k^.w^|^p).
@@ -111,9 +116,9 @@ constexpr unsigned kAllOutputs = Height | Displacement | Slopes | Normals | Jaco
 struct TileSpec {
   std::vector<LayerSpec> layers;  // >= 1
   // Eqs 56-57: scale each layer's amplitude at k by B(k)^-1/2, B(k) = the COUNT of layers whose band
-  // contains k (the seed's "square of the count" is a misprint, spec section 7). A layer's band is the
-  // set of wave vectors its grid represents: |kx| < (nx - 1) pi / lx, |ky| < (ny - 1) pi / ly, outside the
-  // cell |kx| < pi/lx and |ky| < pi/ly of the mean.
+  // contains k (sec. 2.6 calls it "the square of the number of realizations", but with Pi = 0 or 1 eq 56 is
+  // the count). A layer's band is the set of wave vectors its grid represents: |kx| < (nx - 1) pi / lx,
+  // |ky| < (ny - 1) pi / ly, outside the cell |kx| < pi/lx and |ky| < pi/ly of the mean.
   bool b_correction = false;
   // lambda, dimensionless, finite. Displacement convention: D(x) = sum_k i (k/|k|) h~(k) e^{ik.x}, which is
   // eq 47 with the OPPOSITE sign, so that lambda > 0 sharpens crests (J is smallest at the crests and

@@ -1,6 +1,6 @@
-// squall.v1 Ocean messages <-> the engine's structs (ocean_params.h). Every request field is validated
-// here, with its proto field path in the message ("tile.layers[1].wind_speed = nan: must be finite and
-// in (0, 100]"), before the engine sees the spec. Part of squall_rpc.
+// squall.v1 Ocean messages <-> the engine's structs (ocean_params.h). The translation maps enums and
+// optional fields; the ranges are the engine's (validate_tile), checked under the request's field path
+// ("tile.layers[1].wind_speed = nan must be finite and in (0, 100]"). Part of squall_rpc.
 #pragma once
 
 #include <string>
@@ -21,16 +21,11 @@ std::vector<squall::v1::TileOutput> outputs(const google::protobuf::RepeatedFiel
                                             const std::string& path = "outputs");
 unsigned output_flags(const std::vector<squall::v1::TileOutput>& outputs);  // engine Output bits
 
-// DTYPE_UNSPECIFIED -> DTYPE_FLOAT32; FLOAT32 and FLOAT16 pass; anything else InvalidArgument.
-squall::v1::DType dtype(squall::v1::DType dtype, const std::string& path = "dtype");
-
-double finite_value(double v, const std::string& path);  // InvalidArgument unless finite
-
 // Output grid of a validated spec (the first layer's when the spec leaves it 0).
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);
-size_t bytes_per_value(squall::v1::DType dtype);
 
-// The Field of one output of a computed tile, as GetTile returns it (name, unit, grid, dtype, bytes).
+// The Field of one output of a computed tile, as GetTile returns it (name, unit, grid, dtype, bytes;
+// encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype).
 void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v1::DType dtype,
                 squall::v1::Field* field);
 

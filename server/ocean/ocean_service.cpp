@@ -4,10 +4,11 @@
 #include <future>
 #include <sstream>
 
-#include "daemon/status.h"
-#include "ocean/ocean_engine.h"
+#include "common/field_codec.h"
+#include "common/validate.h"
 #include "ocean/ocean_request.h"
 #include "ocean/tile_chunks.h"
+#include "rpc/streaming.h"
 
 namespace squall::rpc {
 namespace {
@@ -26,30 +27,17 @@ struct TileJob {
   v1::DType dtype = v1::DTYPE_FLOAT32;
   int64_t nx = 0, ny = 0;
 
-  uint64_t row_bytes() const { return uint64_t(nx) * bytes_per_value(dtype); }
+  uint64_t row_bytes() const { return uint64_t(nx) * squall::field::bytes_per_value(dtype); }
   uint64_t frame_bytes() const { return outputs.size() * (row_bytes() * ny + 128) + 256; }
 };
 
-// The request's tile, validated field by field here and then by the engine (whose messages name its own
-// fields, which sit under "tile.").
-ocean::TileSpec validated_spec(const v1::TileSpec& tile, const Engines& engines) {
-  ocean::TileSpec spec = tile_spec(tile, engines.gate);
-  try {
-    engines.ocean->validate(spec, engines.gate);
-  } catch (const Error& e) {
-    if (e.code() != Code::InvalidArgument) throw;
-    fail(e.code(), std::string("tile.") + e.what());
-  }
-  return spec;
-}
-
 TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField<int>& outputs, v1::DType d,
-                 const Engines& engines) {
+                 const LimitGate& gate) {
   TileJob job;
-  job.spec = validated_spec(tile, engines);
+  job.spec = tile_spec(tile, gate);  // validated under "tile."
   job.outputs = squall::ocean::rpc::outputs(outputs);
   job.flags = output_flags(job.outputs);
-  job.dtype = dtype(d);
+  job.dtype = squall::field::dtype(d, "dtype");
   output_grid(job.spec, &job.nx, &job.ny);
   return job;
 }
@@ -66,21 +54,21 @@ ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
   return plan_chunks(row_bytes, ny, chunk_payload_budget(max_message_bytes));
 }
 
-grpc::Status cancelled(grpc::ServerContext* context) {
-  return grpc::Status(grpc::StatusCode::CANCELLED, "StreamTiles cancelled (client gone, deadline or shutdown)");
-}
-
 }  // namespace
+
+void OceanService::start(EngineContext& context) {
+  engine_ = &context.shared<ocean::OceanEngine>(
+      [&] { return std::make_unique<ocean::OceanEngine>(context.runtime, context.fft); });
+}
 
 grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
                                    v1::GetTileResponse* response) {
-  return guarded([&] {
-    engines_.require_ready();
-    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), engines_);
-    double t = finite_value(request->time().seconds(), "time.seconds");
-    engines_.gate.check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
+  return serve(serving_, [&] {
+    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
+    double t = validate::finite("time.seconds", request->time().seconds());
+    serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    ocean::TileFields fields = engines_.ocean->tile(job.spec, t, job.flags);
+    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags);
     frame_reply(job, fields, t, response);
     return grpc::Status::OK;
   });
@@ -88,21 +76,14 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
 
 grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::StreamTilesRequest* request,
                                        grpc::ServerWriter<v1::TileChunk>* writer) {
-  return guarded([&] {
-    engines_.require_ready();
-    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), engines_);
-    const double t0 = finite_value(request->t0().seconds(), "t0.seconds");
-    const double dt = request->dt();
-    if (!(std::isfinite(dt) && dt > 0)) {
-      std::ostringstream message;
-      message << "dt = " << dt << ": must be finite and > 0 (seconds between frames)";
-      fail(Code::InvalidArgument, message.str());
-    }
-    const ChunkPlan plan = frame_plan(job, engines_.gate.limits().max_message_bytes);
-    Slot slot = engines_.gate.acquire_stream();
+  return serve_stream(*context, serving_, "StreamTiles", [&](StreamCall& call) {
+    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
+    const double t0 = validate::finite("t0.seconds", request->t0().seconds());
+    const double dt = validate::positive("dt", request->dt());
+    const ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
-    auto compute = [&](uint64_t frame) { return engines_.ocean->tile(job.spec, time_of(frame), job.flags, &whitecaps); };
+    auto compute = [&](uint64_t frame) { return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps); };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
     // Pipelined: the engine computes frame i + 1 while frame i is encoded and written. An early return
     // waits for the pending frame (std::future's destructor) before the locals it uses go away.
@@ -110,39 +91,37 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     v1::TileChunk chunk;
     for (uint64_t frame = 0; more(frame); ++frame) {
       ocean::TileFields fields = next.get();
-      if (context->IsCancelled()) return cancelled(context);
+      if (!call.live()) return;
       if (more(frame + 1)) next = std::async(std::launch::async, compute, frame + 1);
       v1::GetTileResponse reply;
       frame_reply(job, fields, time_of(frame), &reply);
       for (uint32_t c = 0; c < plan.size(); ++c) {
         fill_chunk(reply, plan, c, uint32_t(frame), &chunk);
-        if (!writer->Write(chunk)) return cancelled(context);
+        if (!call.write(*writer, chunk)) return;
       }
     }
-    return grpc::Status::OK;
   });
 }
 
 grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1::SampleSurfaceRequest* request,
                                          v1::SampleSurfaceResponse* response) {
-  return guarded([&] {
-    engines_.require_ready();
-    ocean::TileSpec spec = validated_spec(request->tile(), engines_);
-    const double t = finite_value(request->time().seconds(), "time.seconds");
+  return serve(serving_, [&] {
+    ocean::TileSpec spec = tile_spec(request->tile(), serving_.gate());
+    const double t = validate::finite("time.seconds", request->time().seconds());
     const int n = request->points_size();
     if (n < 1 || n > kMaxSamplePoints)
       fail(Code::InvalidArgument, "points has " + std::to_string(n) + " entries: must be 1 to " +
                                       std::to_string(kMaxSamplePoints));
-    engines_.gate.check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
+    serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
     std::vector<ocean::Vec2> points(n);
     for (int i = 0; i < n; ++i) {
-      const std::string at = "points[" + std::to_string(i) + "]";
-      points[i].x = finite_value(request->points(i).x(), at + ".x");
-      points[i].y = finite_value(request->points(i).y(), at + ".y");
+      const std::string at = validate::at("points", i);
+      points[i].x = validate::finite(at + ".x", request->points(i).x());
+      points[i].y = validate::finite(at + ".y", request->points(i).y());
     }
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "SampleSurface cancelled");
     const bool invert = request->invert_displacement();
-    std::vector<ocean::SurfaceSample> samples = engines_.ocean->sample(spec, t, points, invert);
+    std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert);
     for (int i = 0; i < n; ++i) {
       const auto& s = samples[i];
       response->add_height(s.height);

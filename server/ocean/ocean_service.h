@@ -1,14 +1,19 @@
-// squall.v1.Ocean: GetTile, StreamTiles and SampleSurface over the OceanEngine of Engines.
+// squall.v1.Ocean: GetTile, StreamTiles and SampleSurface over an OceanEngine.
 #pragma once
 
-#include "daemon/engines.h"
+#include "ocean/ocean_engine.h"
+#include "rpc/capability.h"
+#include "rpc/serving.h"
 #include "squall/v1/ocean.grpc.pb.h"
 
 namespace squall::rpc {
 
-class OceanService final : public squall::v1::Ocean::Service {
+class OceanService final : public squall::v1::Ocean::Service, public Capability {
  public:
-  explicit OceanService(Engines& engines) : engines_(engines) {}
+  explicit OceanService(ServingState& serving) : serving_(serving) {}
+
+  grpc::Service& service() override { return *this; }
+  void start(EngineContext& context) override;
 
   grpc::Status GetTile(grpc::ServerContext* context, const squall::v1::GetTileRequest* request,
                        squall::v1::GetTileResponse* response) override;
@@ -21,7 +26,8 @@ class OceanService final : public squall::v1::Ocean::Service {
                              squall::v1::SampleSurfaceResponse* response) override;
 
  private:
-  Engines& engines_;
+  ServingState& serving_;
+  ocean::OceanEngine* engine_ = nullptr;  // shared with other capabilities through the EngineContext
 };
 
 }  // namespace squall::rpc

@@ -5,29 +5,16 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::ocean {
 namespace {
 
-std::string number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+using validate::finite;
+using validate::non_negative;
+using validate::positive;
 
-// Each check fails with "<field> = <value> must be <rule>".
-void require(bool ok, const std::string& field, double value, const char* rule) {
-  if (!ok) fail(Code::InvalidArgument, field + " = " + number(value) + " must be " + rule);
-}
-void finite(const std::string& field, double v) { require(std::isfinite(v), field, v, "finite"); }
-void positive(const std::string& field, double v) { require(std::isfinite(v) && v > 0, field, v, "finite and > 0"); }
-void non_negative(const std::string& field, double v) { require(std::isfinite(v) && v >= 0, field, v, "finite and >= 0"); }
-
-void known(const std::string& field, int value, int count) {
-  if (value < 0 || value >= count)
-    fail(Code::InvalidArgument, field + " = " + std::to_string(value) + " is not a known model (0.." +
-                                    std::to_string(count - 1) + ")");
-}
+std::string join(const std::string& path, const std::string& field) { return path.empty() ? field : path + "." + field; }
 
 bool spreading_needs_wind(SpreadingModel s) {
   return s == SpreadingModel::Mitsuyasu || s == SpreadingModel::Jonswap || s == SpreadingModel::VonMises;
@@ -39,65 +26,73 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
                                     " entries; the Multipeak spectrum needs 1.." + std::to_string(kMaxPartialSpectra));
   for (size_t i = 0; i < L.partials.size(); ++i) {
     const auto& p = L.partials[i];
-    std::string g = f + ".partials[" + std::to_string(i) + "]";
-    positive(g + ".peak_frequency", p.peak_frequency);
-    positive(g + ".significant_wave_height", p.significant_wave_height);
-    non_negative(g + ".a", p.a);
-    non_negative(g + ".b", p.b);
-    non_negative(g + ".c", p.c);
-    positive(g + ".n", p.n);
-    positive(g + ".m", p.m);
-    if (p.a + p.c <= 0) fail(Code::InvalidArgument, g + ".a + " + g + ".c must be > 0");
+    std::string g = validate::at(f + ".partials", i);
+    positive(g + ".peak_frequency", p.peak_frequency, 100);
+    positive(g + ".significant_wave_height", p.significant_wave_height, 100);
+    non_negative(g + ".a", p.a, 1e6);
+    non_negative(g + ".b", p.b, 1e6);
+    non_negative(g + ".c", p.c, 1e6);
+    positive(g + ".n", p.n, 100);
+    positive(g + ".m", p.m, 100);
+    if (p.a + p.c <= 0) fail(Code::InvalidArgument, g + ".a and " + g + ".c are both 0: the partial has no energy");
   }
 }
 
-void validate_layer(const std::string& f, const LayerSpec& L, const LimitGate& gate) {
-  positive(f + ".lx", L.lx);
-  positive(f + ".ly", L.ly);
-  gate.check_grid(f, L.nx, L.ny);
-  if (L.nx < 2 || L.nx % 2) fail(Code::InvalidArgument, f + ".nx = " + std::to_string(L.nx) + " must be even and >= 2");
-  if (L.ny < 2 || L.ny % 2) fail(Code::InvalidArgument, f + ".ny = " + std::to_string(L.ny) + " must be even and >= 2");
-  known(f + ".spectrum", int(L.spectrum), kSpectrumModelCount);
-  known(f + ".spreading", int(L.spreading), kSpreadingModelCount);
-  known(f + ".dispersion", int(L.dispersion), kDispersionKindCount);
-  bool multipeak = L.spectrum == SpectrumModel::Multipeak;
-  bool wind_needed = !multipeak || spreading_needs_wind(L.spreading);
-  if (wind_needed) positive(f + ".wind_speed", L.wind_speed);
-  else non_negative(f + ".wind_speed", L.wind_speed);
-  positive(f + ".fetch", L.fetch);
-  require(std::isfinite(L.gamma) && L.gamma >= 1, f + ".gamma", L.gamma, "finite and >= 1");
-  positive(f + ".sigma_a", L.sigma_a);
-  positive(f + ".sigma_b", L.sigma_b);
+// Spectrum parameters: the wind is needed unless a Multipeak spectrum with a wind-free spreading model.
+void validate_spectrum(const std::string& f, const LayerSpec& L) {
+  validate::known(f + ".spectrum", int(L.spectrum), kSpectrumModelCount, "spectrum model");
+  validate::known(f + ".spreading", int(L.spreading), kSpreadingModelCount, "spreading model");
+  const bool multipeak = L.spectrum == SpectrumModel::Multipeak;
+  const bool wind_needed = !multipeak || spreading_needs_wind(L.spreading);
+  validate::in(f + ".wind_speed", L.wind_speed, wind_needed ? validate::open_closed(0, 100) : validate::closed(0, 100));
+  positive(f + ".fetch", L.fetch, 1e8);
+  validate::in(f + ".gamma", L.gamma, kPeakEnhancementRange);
+  validate::in(f + ".sigma_a", L.sigma_a, kPeakWidthRange);
+  validate::in(f + ".sigma_b", L.sigma_b, kPeakWidthRange);
   non_negative(f + ".phillips_amplitude", L.phillips_amplitude);
   non_negative(f + ".phillips_cutoff", L.phillips_cutoff);
-  non_negative(f + ".phillips_exponent", L.phillips_exponent);
+  non_negative(f + ".phillips_exponent", L.phillips_exponent, 64);
   if (multipeak) validate_partials(f, L);
-  finite(f + ".wind_direction", L.wind_direction);
-  positive(f + ".depth", L.depth);
-  non_negative(f + ".capillary_length", L.capillary_length);
-  positive(f + ".gravity", L.gravity);
-  finite(f + ".drift_x", L.drift_x);
-  finite(f + ".drift_y", L.drift_y);
+  validate::in(f + ".wind_direction", L.wind_direction, validate::closed(-1e6, 1e6));
+}
+
+void validate_layer(const std::string& f, const LayerSpec& L, const LimitGate& gate) {
+  validate::in(f + ".lx", L.lx, kExtentRange);
+  validate::in(f + ".ly", L.ly, kExtentRange);
+  gate.check_grid(f, L.nx, L.ny);
+  if (L.nx < 2 || L.nx % 2) validate::reject(f + ".nx", std::to_string(L.nx), "even and >= 2");
+  if (L.ny < 2 || L.ny % 2) validate::reject(f + ".ny", std::to_string(L.ny), "even and >= 2");
+  validate_spectrum(f, L);
+  validate::known(f + ".dispersion", int(L.dispersion), kDispersionKindCount, "dispersion model");
+  positive(f + ".depth", L.depth, 1e5);
+  non_negative(f + ".capillary_length", L.capillary_length, 1);
+  positive(f + ".gravity", L.gravity, 100);
+  validate::in(f + ".drift_x", L.drift_x, validate::closed(-100, 100));
+  validate::in(f + ".drift_y", L.drift_y, validate::closed(-100, 100));
   non_negative(f + ".k_min", L.k_min);
   non_negative(f + ".k_max", L.k_max);
+  if (L.k_max > 0 && L.k_max <= L.k_min)
+    validate::reject(f + ".k_max", L.k_max, "0 (no limit) or > " + f + ".k_min = " + validate::number(L.k_min));
 }
 
 }  // namespace
 
-void validate_tile(const TileSpec& spec, const LimitGate& gate) {
-  if (spec.layers.empty()) fail(Code::InvalidArgument, "layers is empty; a tile needs at least one layer");
-  for (size_t i = 0; i < spec.layers.size(); ++i)
-    validate_layer("layers[" + std::to_string(i) + "]", spec.layers[i], gate);
-  finite("choppiness", spec.choppiness);
-  finite("whitecap_threshold", spec.whitecap_threshold);
-  positive("whitecap_decay", spec.whitecap_decay);
-  non_negative("pixel_scale", spec.pixel_scale);
-  positive("slope_k_max", spec.slope_k_max);
+void validate_tile(const TileSpec& spec, const LimitGate& gate, const std::string& path) {
+  const std::string layers = join(path, "layers");
+  if (spec.layers.empty() || spec.layers.size() > size_t(kMaxLayers))
+    fail(Code::InvalidArgument, layers + " has " + std::to_string(spec.layers.size()) + " entries: must be 1 to " +
+                                    std::to_string(kMaxLayers));
+  for (size_t i = 0; i < spec.layers.size(); ++i) validate_layer(validate::at(layers, i), spec.layers[i], gate);
+  validate::in(join(path, "choppiness"), spec.choppiness, validate::closed(-100, 100));
+  finite(join(path, "whitecap_threshold"), spec.whitecap_threshold);
+  positive(join(path, "whitecap_decay_time"), spec.whitecap_decay, 1e9);
+  non_negative(join(path, "pixel_scale"), spec.pixel_scale, 1e6);
+  positive(join(path, "slope_k_max"), spec.slope_k_max, 1e9);
   bool custom = spec.nx != 0 || spec.ny != 0 || spec.lx != 0 || spec.ly != 0;
   if (custom) {
-    gate.check_grid("output", spec.nx, spec.ny);
-    positive("output.lx", spec.lx);
-    positive("output.ly", spec.ly);
+    gate.check_grid(join(path, "output"), spec.nx, spec.ny);
+    validate::in(join(path, "output.lx"), spec.lx, kExtentRange);
+    validate::in(join(path, "output.ly"), spec.ly, kExtentRange);
   }
 }
 
@@ -115,8 +110,8 @@ int channel_pairs(unsigned outputs) {
   return 1;
 }
 
-SqSpectrum derive_spectrum(const LayerSpec& L) {
-  SqSpectrum p{};
+SpectrumParams derive_spectrum(const LayerSpec& L) {
+  SpectrumParams p{};
   p.spectrum = int(L.spectrum);
   p.spreading = int(L.spreading);
   p.g = L.gravity;
@@ -127,7 +122,8 @@ SqSpectrum derive_spectrum(const LayerSpec& L) {
   p.depth = L.depth;
   p.theta0 = L.wind_direction;
   p.phillips_amplitude = L.phillips_amplitude;
-  p.phillips_length = L.wind_speed * L.wind_speed / L.gravity;  // App A eq 41: L = V^2 / g
+  // L = V^2 / g under eq 40 of J. Tessendorf, "Simulating Ocean Water" (App. A of his "Gilligan" report, 2017)
+  p.phillips_length = L.wind_speed * L.wind_speed / L.gravity;
   p.phillips_cutoff = L.phillips_cutoff;
   p.phillips_exponent = L.phillips_exponent;
   switch (L.spectrum) {
@@ -142,7 +138,7 @@ SqSpectrum derive_spectrum(const LayerSpec& L) {
       p.omega_p = sq_jonswap_omega_p(L.gravity, L.wind_speed, L.fetch);
       break;
     case SpectrumModel::Multipeak: {
-      p.partials = int(std::min<size_t>(L.partials.size(), SQ_MAX_PARTIALS));
+      p.partials = int(std::min<size_t>(L.partials.size(), SQUALL_MAX_PARTIALS));
       double largest = -1;
       for (int i = 0; i < p.partials; ++i) {
         const PartialSpectrum& q = L.partials[i];
@@ -172,12 +168,12 @@ SqSpectrum derive_spectrum(const LayerSpec& L) {
 }
 
 OceanLayer device_layer(const LayerSpec& L, int index) {
-  SqSpectrum p = derive_spectrum(L);
+  SpectrumParams p = derive_spectrum(L);
   OceanLayer d{};
   d.nx = int(L.nx);
   d.ny = int(L.ny);
-  d.dkx = float(2 * SQ_PI / L.lx);
-  d.dky = float(2 * SQ_PI / L.ly);
+  d.dkx = float(2 * SQUALL_PI / L.lx);
+  d.dky = float(2 * SQUALL_PI / L.ly);
   d.spectrum = p.spectrum;
   d.spreading = p.spreading;
   d.partials = p.partials;
@@ -198,7 +194,7 @@ OceanLayer device_layer(const LayerSpec& L, int index) {
   d.phillips_exponent = float(p.phillips_exponent);
   d.k_min = float(L.k_min);
   d.k_max = float(L.k_max);
-  for (int i = 0; i < SQ_MAX_PARTIALS; ++i) {
+  for (int i = 0; i < SQUALL_MAX_PARTIALS; ++i) {
     d.partial_omega_p[i] = float(p.partial_omega_p[i]);
     d.partial_scale[i] = float(p.partial_scale[i]);
     d.partial_a[i] = float(p.partial_a[i]);
@@ -220,8 +216,8 @@ std::vector<std::array<float, 4>> layer_bands(const TileSpec& spec) {
   std::vector<std::array<float, 4>> bands;
   if (!spec.b_correction) return bands;
   for (const LayerSpec& L : spec.layers)
-    bands.push_back({float(SQ_PI / L.lx), float(SQ_PI / L.ly), float((L.nx - 1) * SQ_PI / L.lx),
-                     float((L.ny - 1) * SQ_PI / L.ly)});
+    bands.push_back({float(SQUALL_PI / L.lx), float(SQUALL_PI / L.ly), float((L.nx - 1) * SQUALL_PI / L.lx),
+                     float((L.ny - 1) * SQUALL_PI / L.ly)});
   return bands;
 }
 
@@ -229,12 +225,12 @@ namespace {
 // 2 * integral over k_lo < |k| < k_hi of k^3 (integral of P(k, theta) d theta) dk for one layer.
 double layer_slope_variance(const LayerSpec& L, double k_lo, double k_hi) {
   if (!(k_hi > k_lo)) return 0;
-  SqSpectrum p = derive_spectrum(L);
+  SpectrumParams p = derive_spectrum(L);
   Dispersion d{int(L.dispersion), float(L.gravity), float(L.depth), float(L.capillary_length)};
   const int steps = 4000;
   double u0 = std::log(k_lo), du = (std::log(k_hi) - u0) / steps, sum = 0;
   // Phillips: integral of |cos|^p over the circle = 2 sqrt(pi) Gamma((p+1)/2) / Gamma(p/2 + 1).
-  double phillips_angle = 2 * std::sqrt(SQ_PI) * std::exp(std::lgamma(0.5 * (L.phillips_exponent + 1)) -
+  double phillips_angle = 2 * std::sqrt(SQUALL_PI) * std::exp(std::lgamma(0.5 * (L.phillips_exponent + 1)) -
                                                            std::lgamma(0.5 * L.phillips_exponent + 1));
   for (int i = 0; i <= steps; ++i) {
     double k = std::exp(u0 + i * du);
@@ -256,7 +252,7 @@ double unresolved_slope_variance(const TileSpec& spec) {
   OutputGrid grid = output_grid(spec);
   double R = spec.pixel_scale > 0 ? spec.pixel_scale : std::max(grid.lx / grid.nx, grid.ly / grid.ny);
   double total = 0;
-  for (const LayerSpec& L : spec.layers) total += layer_slope_variance(L, SQ_PI / R, spec.slope_k_max);
+  for (const LayerSpec& L : spec.layers) total += layer_slope_variance(L, SQUALL_PI / R, spec.slope_k_max);
   return spec.b_correction ? total / double(spec.layers.size()) : total;
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/limits.h"
+#include "common/validate.h"
 #include "ocean/ocean_params.h"
 
 #include "ocean/params.h"
@@ -15,11 +16,19 @@
 
 namespace squall::ocean {
 
-// Throws Error(InvalidArgument) naming the field, or ResourceExhausted from the gate.
-void validate_tile(const TileSpec& spec, const LimitGate& gate);
+// The one validation of a tile: every range is checked here. Throws Error(InvalidArgument) naming the
+// field under `path` ("tile" -> "tile.layers[1].wind_speed"), or ResourceExhausted from the gate.
+inline constexpr int kMaxLayers = 8;
+// Ranges of the fields whose request names differ from the engine's (extent_x is lx, peak_enhancement is
+// gamma, sigma_below_peak / sigma_above_peak are sigma_a / sigma_b): the request translation checks them
+// under their request names with these same ranges.
+inline const validate::Interval kExtentRange = validate::open_closed(0, 1e6);         // m
+inline const validate::Interval kPeakEnhancementRange = validate::closed(1, 100);     // JONSWAP gamma
+inline const validate::Interval kPeakWidthRange = validate::open_closed(0, 10);       // JONSWAP sigma
+void validate_tile(const TileSpec& spec, const LimitGate& gate, const std::string& path = "");
 
 // The formula parameters of a layer (spectra.h) in double precision.
-SqSpectrum derive_spectrum(const LayerSpec& layer);
+SpectrumParams derive_spectrum(const LayerSpec& layer);
 
 // The device block of layer `index` (params.h).
 OceanLayer device_layer(const LayerSpec& layer, int index);

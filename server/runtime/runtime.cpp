@@ -1,6 +1,8 @@
 #include "runtime/runtime.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
@@ -26,14 +28,25 @@ std::string configure_kernel_cache(const std::string& dir) {
   return path;
 }
 
+namespace {
+
+bool profile_from_environment() {
+  const char* value = std::getenv("SQUALL_PROFILE_KERNELS");
+  return value && std::string(value) == "1";
+}
+
+}  // namespace
+
 Runtime::Runtime(const RuntimeOptions& options)
-    : found_(select_device(options.device)),
+    : profiling_(options.profile_kernels || profile_from_environment()),
+      found_(select_device(options.device)),
       context_(found_.device),
-      queue_(context_, found_.device),
+      queue_(context_, found_.device, profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0),
       sources_(options.kernel_dir),
       program_prefixes_(options.program_prefixes),
       buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes)) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info));
+  if (profiling_) log(LogLevel::Info, "kernel profiling on: each kernel launch waits for its device time");
 }
 
 void Runtime::build_programs() {
@@ -42,7 +55,8 @@ void Runtime::build_programs() {
     if (!selected(path)) continue;
     cl::Program program(context_, sources_.expanded(path));
     auto start = std::chrono::steady_clock::now();
-    std::string options = sources_.build_options(path);
+    // Argument info lets Kernel<...> check each argument's type against the host's declaration.
+    std::string options = sources_.build_options(path) + " -cl-kernel-arg-info";
     try {
       program.build({found_.device}, options.c_str());
     } catch (const cl::Error&) {
@@ -70,6 +84,42 @@ bool Runtime::selected(const std::string& program) const {
   for (const auto& prefix : program_prefixes_)
     if (program.rfind(prefix, 0) == 0) return true;
   return false;
+}
+
+void Runtime::record_kernel_time(const std::string& program, const std::string& kernel, uint64_t device_ns) {
+  std::lock_guard<std::mutex> guard(timings_mutex_);
+  KernelTiming& t = timings_[{program, kernel}];
+  t.program = program;
+  t.kernel = kernel;
+  ++t.launches;
+  t.device_ns += device_ns;
+}
+
+std::vector<KernelTiming> Runtime::kernel_timings() const {
+  std::lock_guard<std::mutex> guard(timings_mutex_);
+  std::vector<KernelTiming> out;
+  for (const auto& [key, timing] : timings_) out.push_back(timing);
+  return out;
+}
+
+std::string format_kernel_timings(const std::vector<KernelTiming>& timings) {
+  std::vector<KernelTiming> sorted = timings;
+  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.device_ns > b.device_ns; });
+  double total_ns = 0;
+  for (const auto& t : sorted) total_ns += double(t.device_ns);
+  std::ostringstream out;
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-22s %-26s %9s %12s %12s %7s\n", "program", "kernel", "launches", "total ms",
+                "mean us", "share");
+  out << line;
+  for (const auto& t : sorted) {
+    double ns = double(t.device_ns);
+    std::snprintf(line, sizeof(line), "%-22s %-26s %9llu %12.3f %12.3f %6.1f%%\n", t.program.c_str(), t.kernel.c_str(),
+                  (unsigned long long)t.launches, ns * 1e-6, ns * 1e-3 / double(t.launches),
+                  total_ns > 0 ? 100 * ns / total_ns : 0.0);
+    out << line;
+  }
+  return out.str();
 }
 
 cl::Kernel Runtime::kernel(const std::string& program, const std::string& name) const {

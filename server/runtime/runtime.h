@@ -2,6 +2,7 @@
 // compiled once. It lives as long as the daemon (or the test binary); requests only enqueue work.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -23,6 +24,17 @@ struct RuntimeOptions {
   // The daemon builds all; a test binary builds what it tests, so one capability's kernel under
   // development cannot stop another's tests.
   std::vector<std::string> program_prefixes;
+  // Queue with CL_QUEUE_PROFILING_ENABLE; every Kernel<...>::launch waits for its kernel and adds its
+  // device time to kernel_timings(). Off: launches do not wait. SQUALL_PROFILE_KERNELS=1 also turns it on.
+  bool profile_kernels = false;
+};
+
+// Device time of one kernel in profile mode, summed over its launches.
+struct KernelTiming {
+  std::string program;  // e.g. "ewave/step.cl"
+  std::string kernel;   // e.g. "ewave_prepare"
+  uint64_t launches = 0;
+  uint64_t device_ns = 0;  // sum of CL_PROFILING_COMMAND_END - CL_PROFILING_COMMAND_START
 };
 
 struct ProgramBuild {
@@ -62,8 +74,15 @@ class Runtime {
   // fills every compute unit, so requests take turns rather than interleave their kernel arguments.
   std::unique_lock<std::mutex> exclusive() { return std::unique_lock<std::mutex>(device_mutex_); }
 
+  // Profile mode (RuntimeOptions::profile_kernels): the per-kernel table, sorted by program and kernel.
+  bool profiling() const { return profiling_; }
+  void record_kernel_time(const std::string& program, const std::string& kernel, uint64_t device_ns);
+  std::vector<KernelTiming> kernel_timings() const;
+
  private:
   bool selected(const std::string& program) const;
+
+  bool profiling_;
 
   FoundDevice found_;
   cl::Context context_;
@@ -75,7 +94,13 @@ class Runtime {
   std::unique_ptr<BufferPool> buffers_;
   std::mutex device_mutex_;
   bool built_ = false;
+  mutable std::mutex timings_mutex_;
+  std::map<std::pair<std::string, std::string>, KernelTiming> timings_;
 };
+
+// The profile table as text, one kernel a line: program, kernel, launches, total ms, mean us, share of
+// the total device time; slowest first.
+std::string format_kernel_timings(const std::vector<KernelTiming>& timings);
 
 // Rounds n up to a multiple of m (global work sizes).
 inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }

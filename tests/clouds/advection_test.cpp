@@ -1,4 +1,7 @@
-// Characteristic-map advection (seed eqs 115-117, App E) on App E's rigid rotation test.
+// Characteristic-map advection (eqs 115-117 of J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), and its App. E, J. Tessendorf, "Advection Solver
+// Performance with Long Time Steps, and Strategies for Fast and Accurate Numerical Implementation" (2015))
+// on App E's rigid rotation test.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -53,7 +56,7 @@ TEST(Advection, RigidRotationErrorsMatchClosedFormsAndMacCormackBeatsSemiLagrang
     EXPECT_NEAR(mm, mm_exact, 1e-9 * mm_exact) << a;
     EXPECT_LT(mm, sl) << a;
   }
-  EXPECT_NEAR(relative_map_error(1.0, 1, AdvectionScheme::SemiLagrangian), 0.486, 1e-3);  // gilligan.md §6.5
+  EXPECT_NEAR(relative_map_error(1.0, 1, AdvectionScheme::SemiLagrangian), 0.486, 1e-3);  // sl_exact at a = 1
   EXPECT_NEAR(relative_map_error(1.0, 1, AdvectionScheme::ModifiedMacCormack), 0.164, 1e-3);
   // Orders: slope of log error vs log a is 2 for SL and 3 for MM.
   double s_sl = std::log(relative_map_error(1e-2, 1, AdvectionScheme::SemiLagrangian) /

@@ -1,11 +1,13 @@
 // The clouds engine's volume store (ids, idle TTL, memory cap) and the OBJ reader.
 #include <gtest/gtest.h>
 
-#include <thread>
+#include <functional>
+#include <memory>
 
 #include "clouds/cloud_engine.h"
 #include "clouds/obj_mesh.h"
 #include "common/error.h"
+#include "support/expect_error.h"
 #include "support/test_runtime.h"
 
 namespace squall::clouds {
@@ -19,20 +21,22 @@ CloudModel small_sphere() {
   return m;
 }
 
-template <typename F>
-std::string error_of(F f, Code code) {
-  try {
-    f();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), code) << e.what();
-    return e.what();
+// An engine with its own limits and a clock the test moves.
+struct TestStore {
+  explicit TestStore(Limits limits = {}, CloudEngineOptions options = {}) : gate(limits) {
+    options.clock = [this] { return now; };
+    engine = std::make_unique<CloudEngine>(test::runtime(), gate, options);
   }
-  ADD_FAILURE() << "no error";
-  return "";
-}
+  LimitGate gate;
+  std::chrono::steady_clock::time_point now{};
+  std::unique_ptr<CloudEngine> engine;
+};
+
+std::string error_of(const std::function<void()>& f, Code code) { return test::expect_error(code, "", f); }
 
 TEST(Engine, StoresFindsAndReleasesVolumes) {
-  CloudEngine engine(test::runtime(), {});
+  TestStore store;
+  CloudEngine& engine = *store.engine;
   auto v = engine.build(small_sphere());
   EXPECT_GT(v->bytes, v->device.device_bytes);
   std::string id = engine.keep(v);
@@ -48,25 +52,50 @@ TEST(Engine, StoresFindsAndReleasesVolumes) {
 TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
   CloudEngineOptions options;
   options.ttl = std::chrono::milliseconds(50);
-  CloudEngine engine(test::runtime(), options);
+  TestStore store({}, options);
+  CloudEngine& engine = *store.engine;
   std::string id = engine.keep(engine.build(small_sphere()));
-  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  store.now += std::chrono::milliseconds(40);
+  engine.find(id);  // used: its idle time restarts
+  store.now += std::chrono::milliseconds(40);
+  EXPECT_EQ(engine.stored_count(), 1u);
+  store.now += std::chrono::milliseconds(20);
   error_of([&] { engine.find(id); }, Code::NotFound);
   EXPECT_EQ(engine.stored_count(), 0u);
 
   options.ttl = std::chrono::minutes(1);
   auto v = engine.build(small_sphere());
-  options.max_stored_bytes = v->bytes + v->bytes / 2;  // room for one
-  CloudEngine capped(test::runtime(), options);
+  Limits limits;
+  limits.max_session_bytes = v->bytes + v->bytes / 2;  // room for one
+  TestStore capped_store(limits, options);
+  CloudEngine& capped = *capped_store.engine;
   capped.keep(v);
   std::string msg = error_of([&] { capped.keep(capped.build(small_sphere())); }, Code::ResourceExhausted);
   EXPECT_NE(msg.find("cap"), std::string::npos) << msg;
 }
 
+TEST(Engine, CheckpointRestoresTheVolumeUnderItsIdAsVdb) {
+  TestStore store;
+  CloudEngine& engine = *store.engine;
+  auto v = engine.build(small_sphere());
+  std::string id = engine.keep(v);
+  std::string saved = engine.checkpoint(id);
+  EXPECT_TRUE(engine.release(id));
+  EXPECT_EQ(engine.restore_checkpoint(saved), id);
+  auto restored = engine.find(id);
+  EXPECT_EQ(restored->id, id);
+  EXPECT_EQ(restored->volume.stats.active_voxels, v->volume.stats.active_voxels);
+  EXPECT_EQ(restored->volume.stats.bounds, v->volume.stats.bounds);
+  EXPECT_EQ(restored->device.device_bytes, v->device.device_bytes);
+  EXPECT_EQ(engine.stored_bytes(), restored->bytes);
+  error_of([&] { engine.restore_checkpoint(saved); }, Code::FailedPrecondition);
+}
+
 TEST(Engine, ModelBudgetIsCappedByTheEngine) {
   CloudEngineOptions options;
   options.max_active_voxels = 500;
-  CloudEngine engine(test::runtime(), options);
+  TestStore store({}, options);
+  CloudEngine& engine = *store.engine;
   CloudModel m = small_sphere();
   m.max_active_voxels = ~0ull;
   std::string msg = error_of([&] { engine.build(m); }, Code::ResourceExhausted);

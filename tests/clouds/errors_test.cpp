@@ -66,7 +66,9 @@ TEST(Errors, RenderSettingsNameTheirFields) {
   s.step = std::nan("");
   expect_error([&] { validate(s); }, Code::InvalidArgument, "render.step = nan");
   s = RenderSettings{};
-  s.phase.ff_mu = 0.4;  // the seed's misprinted range
+  // The caption of Fig A.2 of J. Tessendorf and M. Kowalski, "Resolution Independent Volumes" (SIGGRAPH
+  // course notes 2010/2011) misprints the Junge slope 3.5..5 as 0.35..0.5; a value from that range is refused.
+  s.phase.ff_mu = 0.4;
   expect_error([&] { validate(s); }, Code::InvalidArgument, "render.phase.ff_mu = 0.4");
   s = RenderSettings{};
   s.lights.push_back(Light{});

@@ -1,4 +1,5 @@
-// Evolution (seed main §6.4): a cloud whose shape and noise drift together translates exactly.
+// Evolution (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime
+// Environments" (2017), sec. 6.4): a cloud whose shape and noise drift together translates exactly.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -6,6 +6,7 @@
 
 #include "clouds/nanovdb_volume.h"
 #include "clouds/volume.h"
+#include "runtime/kernel.h"
 #include "runtime/kernel_sources.h"
 #include "support/test_runtime.h"
 
@@ -52,12 +53,9 @@ TEST(NanoVdb, DeviceLookupsEqualHostReadAccessorExactly) {
   cl::Buffer device_grid = upload_nanovdb(rt, handle);
   cl::Buffer coords = test::upload(ijk);
   cl::Buffer out(rt.context(), CL_MEM_WRITE_ONLY, expected.size() * sizeof(float));
-  cl::Kernel k = rt.kernel("clouds/probe.cl", "nanovdb_lookup");
-  k.setArg(0, device_grid);
-  k.setArg(1, coords);
-  k.setArg(2, cl_uint(expected.size()));
-  k.setArg(3, out);
-  rt.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(expected.size(), 64)), cl::NDRange(64));
+  Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer> lookup(rt, "clouds/probe.cl", "nanovdb_lookup");
+  lookup.launch(cl::NDRange(round_up(expected.size(), 64)), cl::NDRange(64), device_grid, coords,
+                cl_int(expected.size()), out);
   std::vector<float> got = test::read<float>(out, expected.size());
   for (size_t i = 0; i < expected.size(); ++i)
     ASSERT_EQ(got[i], expected[i]) << "voxel " << ijk[3 * i] << "," << ijk[3 * i + 1] << "," << ijk[3 * i + 2];

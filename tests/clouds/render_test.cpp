@@ -1,5 +1,7 @@
 // The OpenCL ray marcher on PoCL against closed forms: slab transmittance and radiance for any step,
-// thermal emission, phase-function normalization, Planck's law.
+// thermal emission, phase-function normalization, Planck's law. The ray march and phase functions are
+// those of appendix A of J. Tessendorf and M. Kowalski, "Resolution Independent Volumes" (SIGGRAPH course
+// notes 2010/2011).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -225,7 +227,7 @@ TEST(Render, ThickIsothermalSlabRadiatesThePlanckRadiance) {
 
 std::vector<float> device_phase(const RenderSettings& rs, const std::vector<float>& theta) {
   Runtime& rt = test::runtime();
-  sq_cloud_render p{};
+  CloudRenderParams p{};
   p.phase = int(rs.phase.kind);
   p.g1 = float(rs.phase.g1);
   p.g2 = float(rs.phase.g2);
@@ -234,12 +236,8 @@ std::vector<float> device_phase(const RenderSettings& rs, const std::vector<floa
   p.ff_mu = float(rs.phase.ff_mu);
   cl::Buffer in = test::upload(theta);
   cl::Buffer out(rt.context(), CL_MEM_WRITE_ONLY, theta.size() * sizeof(float));
-  cl::Kernel k = rt.kernel("clouds/probe.cl", "phase_eval");
-  k.setArg(0, sizeof(p), &p);
-  k.setArg(1, in);
-  k.setArg(2, cl_uint(theta.size()));
-  k.setArg(3, out);
-  rt.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(theta.size(), 64)), cl::NDRange(64));
+  Kernel<CloudRenderParams, cl::Buffer, cl_int, cl::Buffer> phase(rt, "clouds/probe.cl", "phase_eval");
+  phase.launch(cl::NDRange(round_up(theta.size(), 64)), cl::NDRange(64), p, in, cl_int(theta.size()), out);
   return test::read<float>(out, theta.size());
 }
 
@@ -280,7 +278,7 @@ TEST(Render, PhaseFunctionsIntegrateToOneAndHenyeyGreensteinMeanCosineIsG) {
   EXPECT_NEAR(mean, 0.7 * 0.8 + 0.3 * -0.4, 1e-3);
   s.phase.kind = PhaseKind::FournierForand;
   s.phase.ff_n = 1.05;
-  for (double mu : {4.0, 4.5, 5.0}) {  // the Junge slope; the seed's caption misprints 0.35..0.5
+  for (double mu : {4.0, 4.5, 5.0}) {  // the Junge slope; the caption of Fig A.2 prints 0.35..0.5
     s.phase.ff_mu = mu;
     double ff = integrate(s).first;
     std::printf("Fournier-Forand n 1.05 mu %.1f: integral %.5f\n", mu, ff);
@@ -298,12 +296,8 @@ TEST(Render, DeviceBlackbodyMatchesPlanckInDouble) {
     }
   cl::Buffer a = test::upload(lambda), b = test::upload(temp);
   cl::Buffer out(rt.context(), CL_MEM_WRITE_ONLY, lambda.size() * sizeof(float));
-  cl::Kernel k = rt.kernel("clouds/probe.cl", "blackbody_eval");
-  k.setArg(0, a);
-  k.setArg(1, b);
-  k.setArg(2, cl_uint(lambda.size()));
-  k.setArg(3, out);
-  rt.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(64), cl::NDRange(64));
+  Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer> blackbody(rt, "clouds/probe.cl", "blackbody_eval");
+  blackbody.launch(cl::NDRange(64), cl::NDRange(64), a, b, cl_int(lambda.size()), out);
   std::vector<float> B = test::read<float>(out, lambda.size());
   for (size_t i = 0; i < B.size(); ++i) {
     double ref = planck(lambda[i], temp[i]);

@@ -136,6 +136,22 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
   EXPECT_THROW(c.info(), client::RpcError);
 }
 
+TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
+  Daemon d({"--fft", "vkfft", "--profile-kernels", "on"});
+  std::string out;
+  ASSERT_EQ(test::run({kSquall, "--address", d.address(), "ocean", "sample", "--grid", "32", "--point", "1,2"}, &out), 0)
+      << out;
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+  std::string log = d.process().log();
+  const size_t table = log.find("device time per kernel");
+  ASSERT_NE(table, std::string::npos) << log;
+  EXPECT_NE(log.find("ocean_", table), std::string::npos) << "the ocean kernels the call ran are listed: " << log;
+  std::string refused;
+  EXPECT_EQ(test::run({test::squalld_path(), "--profile-kernels", "maybe"}, &refused), 2) << refused;
+  EXPECT_NE(refused.find("--profile-kernels maybe: must be on or off"), std::string::npos) << refused;
+}
+
 TEST(Daemon, DrainingTurnsNotServingForWatchersAndEndsTheirStreams) {
   Daemon d({"--fft", "vkfft", "--grace-period", "2"});
   auto stub = grpc::health::v1::Health::NewStub(client::Client({d.address(), 60, ""}).channel());

@@ -1,4 +1,5 @@
-// eWave obstructions, ambient waves, trim and the Kelvin wake.
+// eWave obstructions, ambient waves, trim and the Kelvin wake. Equation numbers: J. Tessendorf, "Gilligan:
+// A Prototype Framework for Simulating and Rendering Maritime Environments" (2017), sec. 3.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -71,9 +72,10 @@ TEST(EWaveObstruction, ShapesCoverTheirArea) {
   }
 }
 
-// Eq 77 read as h <- h - h_A (1 - O) (gilligan.md §7). With h = 0 and a step so short that propagation leaves
-// h1 unchanged to float precision, the step gives h = -h_A (1 - O) O (ambient subtracted, then the step-6 mask):
-// before that mask the composite h_A + h is 0 where O = 0 (the read of eq 77 as an overwrite would give 2 h_A there).
+// Eq 77 read as h <- h - h_A (1 - O) (sec. 3.4 adds -h_A (1 - O) to the eWave height). With h = 0 and a
+// step so short that propagation leaves h1 unchanged to float precision, the step gives h = -h_A (1 - O) O
+// (ambient subtracted, then the step-6 mask): before that mask the composite h_A + h is 0 where O = 0 (the
+// read of eq 77 as an overwrite would give 2 h_A there).
 TEST(EWaveAmbient, AmbientIsSubtractedInsideTheObstruction) {
   EWaveConfig c = plain_config(64, 64);
   EWaveSession s = make_session(c);
@@ -130,14 +132,15 @@ TEST(EWaveTrim, PowerLawTaperLetsFarLessEnergyWrapThanLinear) {
   EXPECT_GT(none.wrapped, 0.5) << "without a trim the packet wraps";
   // Measured: wrapped 1.3e-3 (alpha = 1) vs 5.7e-6 (0.05); reflected 1.8e-3 vs 2.0e-6.
   EXPECT_LT(power.wrapped, 0.01 * linear.wrapped);
-  EXPECT_LT(power.reflected, 0.01 * linear.reflected) << "the seed's claim: alpha = 0.05 also suppresses reflections";
+  EXPECT_LT(power.reflected, 0.01 * linear.reflected) << "Gilligan sec. 3.6 claims alpha = 0.05 also suppresses reflections";
 }
 
 // A hull moving at constant speed V over deep water leaves a Kelvin wake: the cusp lines, where the wave
-// amplitude peaks, make the half-angle asin(1/3) = 19.47 deg with the track (gilligan.md §3.5). The hull is an
-// ellipse 24 cells long (Froude number V / sqrt(g L) = 0.33, below the range where the apparent angle narrows),
-// a source S0 (1 - O) (eq 75); the transverse wavelength 2 pi V^2 / g is 16 cells. The angle is fitted to the
-// lateral position of the largest |h| in each cross-section behind the hull, on both sides of the track.
+// amplitude peaks, make Kelvin's half-angle asin(1/3) = 19.47 deg with the track (sec. 3.3: a translated
+// obstruction alone produces Kelvin wakes). The hull is an ellipse 24 cells long (Froude number
+// V / sqrt(g L) = 0.33, below the range where the apparent angle narrows), a source S0 (1 - O) (eq 75); the
+// transverse wavelength 2 pi V^2 / g is 16 cells. The angle is fitted to the lateral position of the
+// largest |h| in each cross-section behind the hull, on both sides of the track.
 TEST(EWaveKelvin, WakeHalfAngleIs19Point47Degrees) {
   EWaveConfig c = plain_config(512, 256);
   c.trim = true;

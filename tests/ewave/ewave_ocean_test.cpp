@@ -1,6 +1,9 @@
-// eWave with the ocean engine: a session started from an ocean tile continues it (issue 4: "A session
-// started from an ocean tile at t0 reproduces the ocean tile at t0 + T"), and an ambient sea given as an
-// ocean spec is subtracted inside obstructions (eq 77 read as h <- h - h_A (1 - O), gilligan.md §3.3).
+// eWave with the ocean engine: a session started from an ocean tile at t0 reproduces the ocean tile at
+// t0 + T (eWave "is mathematically identical to that of the spectral model solution", J. Tessendorf,
+// "Gilligan: A Prototype Framework for Simulating and Rendering Maritime Environments" (2017), sec. 3), and
+// an ambient sea given as an ocean spec is subtracted inside obstructions (eq 77 read as
+// h <- h - h_A (1 - O): as printed, h <- h_A (1 - O), it would overwrite h, while sec. 3.4 adds
+// -h_A (1 - O) to the eWave height).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +16,7 @@
 #include "common/error.h"
 #include "ewave_support.h"
 #include "ocean/ocean_engine.h"
+#include "support/expect_error.h"
 #include "support/test_runtime.h"
 
 namespace squall::ewave::test {
@@ -171,15 +175,7 @@ TEST(OceanAmbient, StepSpecOverridesTheConfig) {
   EXPECT_LT(rms_difference(phi_over, want) / rms(want), 1e-4);
 }
 
-void expect_error(Code code, const std::string& needle, const std::function<void()>& run) {
-  try {
-    run();
-    ADD_FAILURE() << "no error; expected one naming " << needle;
-  } catch (const Error& e) {
-    EXPECT_EQ(int(e.code()), int(code)) << e.what();
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
-}
+using squall::test::expect_error;
 
 TEST(OceanAmbient, BadSpecsNameTheField) {
   EWaveConfig c = sea_config(DispersionKind::Deep);

@@ -1,4 +1,7 @@
 // eWave propagation physics: energy, the group property, phase speed, Cauchy-Poisson, friction, drift.
+// Equation numbers: J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime
+// Environments" (2017), sec. 3 ("eq N"), and its App. B, J. Tessendorf, "eWave: Using an Exponential Solver
+// on the iWave Problem" (2014) ("App B").
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -52,8 +55,8 @@ double energy_drift_over_1000_steps(EWaveConfig c) {
   return (spectral_energy(f.height, f.phi, c) - e0) / e0;
 }
 
-// gilligan.md §3.5: E conserved to 1e-4 relative over 1000 steps with no obstruction, trim, sources or friction,
-// with the double-precision state (the propagator has determinant 1 for every dispersion).
+// E conserved to 1e-4 relative over 1000 steps with no obstruction, trim, sources or friction, with the
+// double-precision state (the propagator has determinant 1 for every dispersion).
 TEST_P(EnergyTest, ConservedOver1000Steps) {
   if (!squall::test::runtime().device_info().double_precision) GTEST_SKIP() << "device has no fp64";
   EWaveConfig c = plain_config(64, 64);
@@ -86,7 +89,7 @@ INSTANTIATE_TEST_SUITE_P(AllDispersions, EnergyTest,
                                          DispersionCase{"combined", DispersionKind::Combined, 0.02, 0.0027}),
                          [](const auto& info) { return std::string(info.param.name); });
 
-// gilligan.md §3.5: n steps of dt equal one step of n dt (exact exponential propagator).
+// n steps of dt equal one step of n dt (the exponential solution is exact for any time step, App B sec. 2).
 TEST(EWavePhysics, TenStepsOfDtEqualOneStepOfTenDt) {
   EWaveConfig c = plain_config(64, 48);
   c.dispersion = DispersionKind::Combined;
@@ -105,7 +108,7 @@ TEST(EWavePhysics, TenStepsOfDtEqualOneStepOfTenDt) {
   EXPECT_EQ(a.step, 10u);
 }
 
-// gilligan.md §3.5: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
+// Plane wave: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
 // the measured phase after t gives the phase speed omega/k0.
 TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
   for (auto kind : {DispersionKind::Deep, DispersionKind::Shallow, DispersionKind::Capillary, DispersionKind::Combined}) {
@@ -139,7 +142,8 @@ TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
 }
 
 // Cauchy-Poisson: h0 = A exp(-r^2/(2 s^2)), phi = 0, deep water. Centre height
-// h(0, t) = A s^2 int_0^inf k exp(-k^2 s^2/2) cos(sqrt(g k) t) dk (gilligan.md §3.5), by quadrature in q = sqrt(k).
+// h(0, t) = A s^2 int_0^inf k exp(-k^2 s^2/2) cos(sqrt(g k) t) dk (the Hankel-transform solution of the
+// linear deep-water equations, App B eqs 1-2), by quadrature in q = sqrt(k).
 double cauchy_poisson_centre(double A, double s, double g, double t) {
   const double q_max = std::sqrt(12 / s);  // k = 12/s: the Gaussian weight is e^-72 there
   const int n = 20000;                     // Simpson, even n
@@ -177,7 +181,7 @@ TEST(EWavePhysics, GaussianPulseCentreFollowsCauchyPoisson) {
   EXPECT_LT(std::sqrt(sum2 / count), 0.01 * A);
 }
 
-// gilligan.md §3.5: with S = 0, friction multiplies h and phi by exp(-dt/tau) per step on top of the propagator.
+// Eqs 72-73 with S = 0: friction multiplies h and phi by exp(-dt/tau) per step on top of the propagator.
 TEST(EWavePhysics, FrictionDecaysByExpMinusDtOverTauPerStep) {
   EWaveConfig c = plain_config(64, 64);
   random_initial_state(c, 5);
@@ -198,7 +202,7 @@ TEST(EWavePhysics, FrictionDecaysByExpMinusDtOverTauPerStep) {
   EXPECT_LT(rms_difference(a.phi, b.phi), 1e-5 * rms(a.phi));
 }
 
-// gilligan.md §3.5: with g = 0 (no dynamics) and a constant source, h -> tau S (eq 72).
+// With g = 0 (no dynamics) and a constant source, h -> tau S (eq 72).
 TEST(EWavePhysics, FrictionWithConstantSourceApproachesTauS) {
   EWaveConfig c = plain_config(32, 32);
   c.gravity = 1e-30;  // effectively no dynamics (gravity must be > 0)
@@ -211,7 +215,8 @@ TEST(EWavePhysics, FrictionWithConstantSourceApproachesTauS) {
   for (float v : f.height) ASSERT_NEAR(v, 0.02 * 0.5, 1e-6);
 }
 
-// gilligan.md §3.5: a uniform drift of a whole number of cells per step is an exact shift (eq 68-69).
+// A uniform drift of a whole number of cells per step is an exact shift (the semi-Lagrangian advection of
+// eq 68-69).
 TEST(EWavePhysics, WholeCellDriftIsAnExactShift) {
   EWaveConfig c = plain_config(64, 32, 1.0);
   random_initial_state(c, 3);

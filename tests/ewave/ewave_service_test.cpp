@@ -17,10 +17,14 @@
 #include "client/client.h"
 #include "ewave/ewave_session.h"
 #include "ewave_support.h"
-#include "ocean/float16.h"
+#include "common/field_codec.h"
+#include "common/float16.h"
 #include "squall/v1/ewave.grpc.pb.h"
 #include "squall/v1/ocean.grpc.pb.h"
+#include "ewave/ewave_service.h"
+#include "rpc/metadata.h"
 #include "support/daemon.h"
+#include "support/in_process.h"
 #include "support/test_runtime.h"
 
 namespace squall {
@@ -63,17 +67,7 @@ v1::Field field(uint32_t nx, uint32_t ny, const std::vector<float>& values) {
   return f;
 }
 
-std::vector<float> values(const v1::Field& f) {
-  std::vector<float> v(size_t(f.nx()) * f.ny());
-  if (f.dtype() == v1::DTYPE_FLOAT16) {
-    for (size_t i = 0; i < v.size(); ++i)
-      v[i] = f16::to_float(uint16_t(uint8_t(f.data()[2 * i])) | uint16_t(uint8_t(f.data()[2 * i + 1])) << 8);
-  } else {
-    EXPECT_EQ(f.data().size(), v.size() * 4);
-    std::memcpy(v.data(), f.data().data(), std::min(f.data().size(), v.size() * 4));
-  }
-  return v;
-}
+std::vector<float> values(const v1::Field& f) { return squall::field::decode(f, "fields." + f.name()); }
 
 // A 64 x 48 deep-water session at 1 cm with a Gaussian hump (engine and proto forms of one config).
 ewave::EWaveConfig engine_config() {
@@ -98,32 +92,32 @@ v1::EWaveConfig proto_config(const ewave::EWaveConfig& c) {
 // A session on a daemon, closed (best effort) when it goes out of scope.
 class Session {
  public:
-  Session(Daemon& d, const v1::EWaveConfig& config) : daemon_(d) {
+  Session(v1::EWave::Stub& stub, const v1::EWaveConfig& config) : stub_(stub) {
     v1::EWaveCreateSessionRequest request;
     *request.mutable_config() = config;
     v1::EWaveSessionResponse reply;
-    status_ = d.stub().CreateSession(context().get(), request, &reply);
+    status_ = stub.CreateSession(context().get(), request, &reply);
     id_ = reply.session_id();
   }
-  Session(Daemon& d, const std::string& id) : daemon_(d), id_(id) {}
+  Session(v1::EWave::Stub& stub, const std::string& id) : stub_(stub), id_(id) {}
   ~Session() { close(); }
   grpc::Status close() {
     v1::EWaveSessionRequest request;
     request.set_session_id(id_);
     v1::EWaveCloseResponse reply;
-    return daemon_.stub().CloseSession(context().get(), request, &reply);
+    return stub_.CloseSession(context().get(), request, &reply);
   }
   grpc::Status step(const v1::EWaveInputs& inputs, v1::EWaveFrame* frame) {
     v1::EWaveStepRequest request;
     request.set_session_id(id_);
     *request.mutable_inputs() = inputs;
-    return daemon_.stub().Step(context().get(), request, frame);
+    return stub_.Step(context().get(), request, frame);
   }
   const std::string& id() const { return id_; }
   const grpc::Status& status() const { return status_; }
 
  private:
-  Daemon& daemon_;
+  v1::EWave::Stub& stub_;
   std::string id_;
   grpc::Status status_;
 };
@@ -138,7 +132,7 @@ v1::EWaveInputs plain_inputs(double dt) {
 
 TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
   ewave::EWaveConfig c = engine_config();
-  Session s(first(), proto_config(c));
+  Session s(first().stub(), proto_config(c));
   ASSERT_TRUE(s.status().ok()) << s.status().error_message();
   EXPECT_EQ(s.id().size(), 32u);
   EXPECT_EQ(s.id().find_first_not_of("0123456789abcdef"), std::string::npos) << s.id();
@@ -199,7 +193,7 @@ TEST(EWaveService, SessionFromAnOceanSpecContinuesGetTile) {
   config.set_trim(false);
   config.mutable_start_time()->set_seconds(t0);
   *config.mutable_initial_ocean() = tile;
-  Session s(first(), config);
+  Session s(first().stub(), config);
   ASSERT_TRUE(s.status().ok()) << s.status().error_message();
   v1::EWaveInputs in;
   in.set_dt(dt);
@@ -224,18 +218,18 @@ TEST(EWaveService, SessionFromAnOceanSpecContinuesGetTile) {
 
   // A bad layer in the ocean spec is INVALID_ARGUMENT naming the field.
   config.mutable_initial_ocean()->mutable_layers(0)->set_wind_speed(NAN);
-  Session bad(first(), config);
+  Session bad(first().stub(), config);
   EXPECT_EQ(bad.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(bad.status().error_message().find("config.initial_ocean.layers[0].wind_speed"), std::string::npos)
       << bad.status().error_message();
 }
 
 TEST(EWaveService, Float16FramesRoundToHalfPrecision) {
-  Session s(first(), proto_config(engine_config()));
+  Session s(first().stub(), proto_config(engine_config()));
   v1::EWaveInputs in = plain_inputs(0.02);
   v1::EWaveFrame f32, f16;
   ASSERT_TRUE(s.step(in, &f32).ok());
-  Session t(first(), proto_config(engine_config()));
+  Session t(first().stub(), proto_config(engine_config()));
   in.set_dtype(v1::DTYPE_FLOAT16);
   ASSERT_TRUE(t.step(in, &f16).ok());
   ASSERT_EQ(f16.fields(0).data().size(), 64u * 48u * 2u);
@@ -244,7 +238,7 @@ TEST(EWaveService, Float16FramesRoundToHalfPrecision) {
 }
 
 TEST(EWaveService, RunStreamReturnsFramesInOrderWithStepAndTime) {
-  Session s(first(), proto_config(engine_config()));
+  Session s(first().stub(), proto_config(engine_config()));
   auto ctx = context();
   auto call = first().stub().Run(ctx.get());
   const double dts[] = {0.01, 0.02, 0.005, 0.01, 0.03};
@@ -269,7 +263,7 @@ TEST(EWaveService, RunStreamReturnsFramesInOrderWithStepAndTime) {
 }
 
 TEST(EWaveService, RunEndsWithTheStatusOfABadMessage) {
-  Session s(first(), proto_config(engine_config()));
+  Session s(first().stub(), proto_config(engine_config()));
   auto ctx = context();
   auto call = first().stub().Run(ctx.get());
   v1::EWaveStepRequest r;
@@ -289,7 +283,7 @@ TEST(EWaveService, RunEndsWithTheStatusOfABadMessage) {
 }
 
 TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
-  Session a(first(), proto_config(engine_config()));
+  Session a(first().stub(), proto_config(engine_config()));
   v1::EWaveFrame f;
   for (int n = 0; n < 3; ++n) ASSERT_TRUE(a.step(plain_inputs(0.01), &f).ok());
   v1::EWaveSessionRequest get;
@@ -306,7 +300,7 @@ TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
   EXPECT_NE(restored.session_id(), a.id());
   EXPECT_EQ(restored.config().nx(), 64u);
   EXPECT_DOUBLE_EQ(restored.config().source_scale(), 0.5);
-  Session b(second(), restored.session_id());
+  Session b(second().stub(), restored.session_id());
 
   v1::EWaveFrame fa, fb;
   for (int n = 0; n < 4; ++n) {
@@ -322,7 +316,7 @@ TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
 }
 
 TEST(EWaveService, ClosedUnknownAndEmptyIdsAreRefused) {
-  auto s = std::make_unique<Session>(first(), proto_config(engine_config()));
+  auto s = std::make_unique<Session>(first().stub(), proto_config(engine_config()));
   const std::string id = s->id();
   v1::EWaveFrame f;
   ASSERT_TRUE(s->step(plain_inputs(0.01), &f).ok());
@@ -336,12 +330,12 @@ TEST(EWaveService, ClosedUnknownAndEmptyIdsAreRefused) {
   EXPECT_EQ(first().stub().GetState(context().get(), get, &state).error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(s->close().error_code(), grpc::StatusCode::NOT_FOUND);
   // A well-formed id nobody was given, and the other daemon's view of a live id.
-  Session other(first(), proto_config(engine_config()));
-  Session random(first(), std::string("0123456789abcdef0123456789abcdef"));
+  Session other(first().stub(), proto_config(engine_config()));
+  Session random(first().stub(), std::string("0123456789abcdef0123456789abcdef"));
   EXPECT_EQ(random.step(plain_inputs(0.01), &f).error_code(), grpc::StatusCode::NOT_FOUND);
-  Session elsewhere(second(), other.id());
+  Session elsewhere(second().stub(), other.id());
   EXPECT_EQ(elsewhere.step(plain_inputs(0.01), &f).error_code(), grpc::StatusCode::NOT_FOUND);
-  Session empty(first(), std::string());
+  Session empty(first().stub(), std::string());
   status = empty.step(plain_inputs(0.01), &f);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(status.error_message().find("session_id is empty"), std::string::npos) << status.error_message();
@@ -355,7 +349,7 @@ void expect_invalid(Session& s, const v1::EWaveInputs& in, const std::string& na
 }
 
 TEST(EWaveService, BadInputsAreInvalidArgumentNamingTheFieldAndTheDaemonServesOn) {
-  Session s(first(), proto_config(engine_config()));
+  Session s(first().stub(), proto_config(engine_config()));
   std::vector<float> ones(64 * 48, 1.0f);
   v1::EWaveInputs in = plain_inputs(0.01);
   *in.mutable_obstruction() = field(48, 64, ones);  // transposed
@@ -385,12 +379,12 @@ TEST(EWaveService, BadInputsAreInvalidArgumentNamingTheFieldAndTheDaemonServesOn
 
   v1::EWaveConfig bad = proto_config(engine_config());
   bad.set_dx(NAN);
-  Session refused(first(), bad);
+  Session refused(first().stub(), bad);
   EXPECT_EQ(refused.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(refused.status().error_message().find("config.dx = nan"), std::string::npos);
   bad = proto_config(engine_config());
   bad.set_ny(47);  // the initial height is 64 x 48
-  Session misfit(first(), bad);
+  Session misfit(first().stub(), bad);
   EXPECT_NE(misfit.status().error_message().find("config.initial_height.ny = 48, want the session's ny = 47"),
             std::string::npos)
       << misfit.status().error_message();
@@ -404,26 +398,56 @@ TEST(EWaveService, BadInputsAreInvalidArgumentNamingTheFieldAndTheDaemonServesOn
 TEST(EWaveService, SessionsBeyondMaxSessionsAreResourceExhausted) {
   std::vector<std::unique_ptr<Session>> live;
   for (int n = 0; n < 3; ++n) {
-    live.push_back(std::make_unique<Session>(first(), proto_config(engine_config())));
+    live.push_back(std::make_unique<Session>(first().stub(), proto_config(engine_config())));
     ASSERT_TRUE(live.back()->status().ok()) << live.back()->status().error_message();
   }
-  Session fourth(first(), proto_config(engine_config()));
+  Session fourth(first().stub(), proto_config(engine_config()));
   EXPECT_EQ(fourth.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_NE(fourth.status().error_message().find("--max-sessions"), std::string::npos) << fourth.status().error_message();
   ASSERT_TRUE(live.back()->close().ok());
-  Session again(first(), proto_config(engine_config()));
+  Session again(first().stub(), proto_config(engine_config()));
   EXPECT_TRUE(again.status().ok()) << again.status().error_message();
 }
 
 TEST(EWaveService, IdleSessionsAreEvictedAfterTheTtl) {
-  Session s(second(), proto_config(engine_config()));  // --session-ttl 1
+  test::InProcess<rpc::EWaveService> server(Limits{}, std::chrono::seconds(1));
+  auto stub = v1::EWave::NewStub(server.channel());
+  Session s(*stub, proto_config(engine_config()));
+  ASSERT_TRUE(s.status().ok()) << s.status().error_message();
   v1::EWaveFrame f;
   ASSERT_TRUE(s.step(plain_inputs(0.01), &f).ok());
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  server.advance(std::chrono::milliseconds(600));
   ASSERT_TRUE(s.step(plain_inputs(0.01), &f).ok()) << "a used session stays";
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  server.advance(std::chrono::milliseconds(1001));
   grpc::Status status = s.step(plain_inputs(0.01), &f);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND) << status.error_message();
+}
+
+TEST(EWaveService, CreatedSessionsAreAnnouncedForSessionAffineProxies) {
+  test::InProcess<rpc::EWaveService> server;
+  auto stub = v1::EWave::NewStub(server.channel());
+  v1::EWaveCreateSessionRequest request;
+  *request.mutable_config() = proto_config(engine_config());
+  v1::EWaveSessionResponse reply;
+  auto c = context();
+  ASSERT_TRUE(stub->CreateSession(c.get(), request, &reply).ok());
+  auto announced = c->GetServerInitialMetadata().find(rpc::kSessionKey);
+  ASSERT_NE(announced, c->GetServerInitialMetadata().end());
+  EXPECT_EQ(std::string(announced->second.data(), announced->second.size()), reply.session_id());
+  Session(*stub, reply.session_id()).close();
+}
+
+TEST(EWaveService, DrainingRefusesNewCallsAsUnavailable) {
+  test::InProcess<rpc::EWaveService> server;
+  auto stub = v1::EWave::NewStub(server.channel());
+  Session s(*stub, proto_config(engine_config()));
+  ASSERT_TRUE(s.status().ok());
+  server.serving().set_phase(rpc::ServingState::Phase::Draining);
+  v1::EWaveFrame f;
+  grpc::Status status = s.step(plain_inputs(0.01), &f);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  EXPECT_NE(status.error_message().find("shutting down"), std::string::npos) << status.error_message();
+  server.serving().set_phase(rpc::ServingState::Phase::Serving);
 }
 
 // Opens a Run stream and completes one step on it.
@@ -442,7 +466,7 @@ struct OpenRun {
 };
 
 TEST(EWaveService, ACancelledRunReleasesItsStreamSlot) {
-  Session s(first(), proto_config(engine_config()));  // --max-streams 2
+  Session s(first().stub(), proto_config(engine_config()));  // --max-streams 2
   OpenRun a(first(), s.id()), b(first(), s.id());
   ASSERT_TRUE(a.stepped && b.stepped);
   {
@@ -505,7 +529,7 @@ TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
   // The session was closed at the end: all three --max-sessions slots are free again.
   std::vector<std::unique_ptr<Session>> live;
   for (int n = 0; n < 3; ++n) {
-    live.push_back(std::make_unique<Session>(first(), proto_config(engine_config())));
+    live.push_back(std::make_unique<Session>(first().stub(), proto_config(engine_config())));
     EXPECT_TRUE(live.back()->status().ok()) << live.back()->status().error_message();
   }
 }

@@ -7,6 +7,7 @@
 #include "common/limits.h"
 #include "ewave/ewave_engine.h"
 #include "ewave_support.h"
+#include "support/expect_error.h"
 #include "support/test_runtime.h"
 
 namespace squall::ewave::test {
@@ -56,16 +57,7 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
 }
 
-template <typename F>
-void expect_error(Code code, const std::string& field, F&& f) {
-  try {
-    f();
-    ADD_FAILURE() << "no error; expected one naming " << field;
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), code) << e.what();
-    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-  }
-}
+using squall::test::expect_error;
 
 TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {
   EWaveSession s = make_session(plain_config(32, 16));
@@ -158,6 +150,23 @@ TEST_F(EngineTest, IdleSessionsAreEvictedAfterTheTtl) {
   expect_error(Code::NotFound, "session_id", [&] { e.step(a, plain_step(0.01)); });
   e.step(b, plain_step(0.01));
   EXPECT_EQ(gate_.live_sessions(), 1u);
+}
+
+TEST_F(EngineTest, CheckpointRestoresTheSessionUnderItsIdBitIdentically) {
+  std::string id, saved;
+  Frame expected;
+  {
+    EWaveEngine first = engine();
+    id = first.create(plain_config(32, 32));
+    for (int n = 0; n < 5; ++n) first.step(id, busy_step(n));
+    saved = first.checkpoint(id);
+    expected = first.step(id, busy_step(5));
+  }
+  EWaveEngine second = engine();  // a restarted daemon
+  EXPECT_EQ(second.restore_checkpoint(saved), id);
+  expect_bit_identical(second.step(id, busy_step(5)), expected);
+  expect_error(Code::FailedPrecondition, "already a live eWave session", [&] { second.restore_checkpoint(saved); });
+  expect_error(Code::InvalidArgument, "checkpoint", [&] { second.restore_checkpoint(second.state(id)); });
 }
 
 TEST_F(EngineTest, StateMovesASessionToAnotherEngine) {

@@ -1,5 +1,6 @@
 // Helpers shared by the eWave tests: sessions on the test runtime, and independent double-precision
-// references (FFTW, dispersion formulas written out from Gilligan Table 1).
+// references (FFTW, dispersion formulas written out from Table 1 of J. Tessendorf, "Gilligan: A Prototype
+// Framework for Simulating and Rendering Maritime Environments" (2017)).
 #pragma once
 
 #include <cmath>
@@ -18,7 +19,8 @@ EWaveSession make_session(const EWaveConfig& config);
 // omega(k) in double, written from Table 1 independently of kernels/common/dispersion.h.
 double reference_omega(double k, const EWaveConfig& config);
 
-// E = sum_k (g |h~|^2 + (omega^2/g) |phi~|^2) over the full spectrum (FFTW, double), gilligan.md §3.5.
+// E = sum_k (g |h~|^2 + (omega^2/g) |phi~|^2) over the full spectrum (FFTW, double): the energy that the
+// propagator of Gilligan eqs 64-65, in its energy-conserving form (omega/g in place of k/omega), keeps.
 double spectral_energy(const std::vector<float>& h, const std::vector<float>& phi, const EWaveConfig& config);
 
 // Frame with height and phi.

@@ -1,6 +1,6 @@
 // The host side of the Ocean service that needs no device: float16 conversion (exhaustive, against
 // OpenEXR's Imath), the OpenEXR and PNG writers (read back with OpenEXR's and libpng's own readers),
-// StreamTiles chunk planning and the client's frame reassembly.
+// StreamTiles chunk planning, the client's frame reassembly and the Field codec (common/field_codec.h).
 #include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -12,13 +12,15 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <thread>
 
 #include "client/image_io.h"
 #include "client/ocean_frames.h"
 #include "common/error.h"
-#include "ocean/float16.h"
+#include "common/field_codec.h"
+#include "common/float16.h"
 #include "ocean/tile_chunks.h"
 #include "support/process.h"
 
@@ -250,6 +252,118 @@ TEST(ClientValues, Float16FieldsDecode) {
   EXPECT_EQ(v[1], -2.0f);
   field.set_nx(3);
   EXPECT_THROW(client::ocean::values(field), std::runtime_error);
+}
+
+// The message of the InvalidArgument error `f` throws ("" and a failure if it throws none or another).
+template <typename F>
+std::string invalid_argument(F f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), Code::InvalidArgument) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "no squall::Error thrown";
+  return "";
+}
+
+std::vector<uint32_t> bits_of(const std::vector<float>& v) {
+  std::vector<uint32_t> out(v.size());
+  std::memcpy(out.data(), v.data(), v.size() * 4);
+  return out;
+}
+
+// float32 fields carry their values bit for bit (-0, a float subnormal, inf included), with the header
+// as given; a 3D field counts nx * ny * nz values.
+TEST(FieldCodec, Float32RoundTripIsExact) {
+  const std::vector<float> in = {0.0f, -0.0f, 1.0f, -1.5f, 3.1415927f, 1e30f, std::ldexp(1.0f, -140), INFINITY,
+                                 -INFINITY, 6.02e23f, -7.25e-3f, 42.0f};
+  squall::v1::Field f;
+  field::encode({"height", "m", 4, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f);
+  EXPECT_EQ(f.name(), "height");
+  EXPECT_EQ(f.unit(), "m");
+  EXPECT_EQ(f.nx(), 4u);
+  EXPECT_EQ(f.ny(), 3u);
+  EXPECT_EQ(f.dtype(), squall::v1::DTYPE_FLOAT32);
+  EXPECT_EQ(f.data().size(), 12u * 4);
+  EXPECT_EQ(field::value_count(f), 12u);
+  EXPECT_EQ(bits_of(field::decode(f, "fields[0]")), bits_of(in));
+
+  squall::v1::Field cube;
+  field::encode({"density", "kg/m^3", 2, 3, 2, squall::v1::DTYPE_FLOAT32}, in, &cube);
+  EXPECT_EQ(cube.nz(), 2u);
+  EXPECT_EQ(bits_of(field::decode(cube, "volume")), bits_of(in));
+  // The encoder's caller must hand it the grid's count of values: that is a bug, not a bad request.
+  try {
+    field::encode({"height", "m", 5, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f);
+    ADD_FAILURE() << "12 values for a 5 x 3 grid were accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), Code::Internal);
+  }
+}
+
+// Values that binary16 represents exactly come back exactly (signed zeros, subnormals, the largest
+// half, infinities), at 2 bytes per value.
+TEST(FieldCodec, Float16RoundTripOfRepresentableValuesIsExact) {
+  const std::vector<float> in = {0.0f,     -0.0f,  1.0f,       -2.0f, 0.5f, 1.0f + 1.0f / 1024, 65504.0f, -65504.0f,
+                                 std::ldexp(1.0f, -24), std::ldexp(-3.0f, -24), std::ldexp(1.0f, -14), INFINITY,
+                                 -INFINITY, 1234.0f, std::ldexp(-1638.0f, -14) /* 0xae66 */, 3.0f};
+  squall::v1::Field f;
+  field::encode({"slope_x", "1", 8, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
+  EXPECT_EQ(f.dtype(), squall::v1::DTYPE_FLOAT16);
+  ASSERT_EQ(f.data().size(), in.size() * 2);
+  EXPECT_EQ(uint8_t(f.data()[4]), 0x00);  // 1.0 = 0x3c00, little-endian
+  EXPECT_EQ(uint8_t(f.data()[5]), 0x3c);
+  EXPECT_EQ(bits_of(field::decode(f, "fields[1]")), bits_of(in));
+  // The decoded values are what the client's values() gives.
+  f.set_name("slope_x");
+  EXPECT_EQ(bits_of(client::ocean::values(f)), bits_of(in));
+}
+
+// NaN stays NaN through float16, with its sign.
+TEST(FieldCodec, NanSurvivesFloat16) {
+  const float quiet = std::numeric_limits<float>::quiet_NaN();
+  uint32_t payload_bits = 0x7fa00000u;  // a NaN with payload bits in the top of the mantissa
+  float payload;
+  std::memcpy(&payload, &payload_bits, 4);
+  const std::vector<float> in = {quiet, -quiet, payload, 1.0f};
+  squall::v1::Field f;
+  field::encode({"height", "m", 2, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
+  const std::vector<float> out = field::decode(f, "fields[0]");
+  ASSERT_EQ(out.size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_TRUE(std::isnan(out[i])) << i;
+    EXPECT_EQ(std::signbit(out[i]), std::signbit(in[i])) << i;
+  }
+  EXPECT_EQ(out[3], 1.0f);
+}
+
+// A byte count that does not match nx * ny * bytes per value, or an unknown dtype, is InvalidArgument
+// naming the field's path, as the eWave input maps report it.
+TEST(FieldCodec, WrongByteCountOrDtypeIsRejectedNamingTheFieldPath) {
+  squall::v1::Field f;
+  f.set_nx(4), f.set_ny(3), f.set_dtype(squall::v1::DTYPE_FLOAT32);
+  f.set_data(std::string(40, '\0'));
+  EXPECT_EQ(invalid_argument([&] { field::decode(f, "inputs.obstruction"); }),
+            "inputs.obstruction.data has 40 bytes, want nx * ny * 4 = 48");
+  f.set_dtype(squall::v1::DTYPE_FLOAT16);
+  f.set_data(std::string(22, '\0'));
+  EXPECT_EQ(invalid_argument([&] { field::decode(f, "config.initial_height"); }),
+            "config.initial_height.data has 22 bytes, want nx * ny * 2 = 24");
+  f.set_nz(2);
+  EXPECT_EQ(invalid_argument([&] { field::decode(f, "volume"); }), "volume.data has 22 bytes, want nx * ny * nz * 2 = 48");
+  f.set_nz(0);
+  f.set_data(std::string(24, '\0'));
+  EXPECT_EQ(field::decode(f, "inputs.obstruction").size(), 12u);
+  f.set_dtype(squall::v1::DType(9));
+  EXPECT_EQ(invalid_argument([&] { field::decode(f, "inputs.obstruction"); }),
+            "inputs.obstruction.dtype = 9 must be DTYPE_FLOAT32 or DTYPE_FLOAT16");
+  EXPECT_EQ(invalid_argument([&] { field::bytes_per_value(squall::v1::DType(9), "inputs.dtype"); }),
+            "inputs.dtype = 9 must be DTYPE_FLOAT32 or DTYPE_FLOAT16");
+  // DTYPE_UNSPECIFIED means float32, as requests default to it.
+  EXPECT_EQ(field::dtype(squall::v1::DTYPE_UNSPECIFIED), squall::v1::DTYPE_FLOAT32);
+  EXPECT_EQ(field::bytes_per_value(squall::v1::DTYPE_UNSPECIFIED), 4u);
+  EXPECT_EQ(field::bytes_per_value(squall::v1::DTYPE_FLOAT16), 2u);
 }
 
 }  // namespace

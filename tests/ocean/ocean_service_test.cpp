@@ -16,7 +16,7 @@
 #include "client/client.h"
 #include "client/ocean_frames.h"
 #include "common/error.h"
-#include "ocean/float16.h"
+#include "common/float16.h"
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
 #include "support/daemon.h"

@@ -1,4 +1,6 @@
-// The pure formulas (kernels/ocean/spectra.h, kernels/common/dispersion.h) against closed forms.
+// The pure formulas (kernels/ocean/spectra.h, kernels/common/dispersion.h) against closed forms. Equation
+// numbers: J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime
+// Environments" (2017), sec. 2; "App A": its App. A, J. Tessendorf, "Simulating Ocean Water".
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -38,7 +40,7 @@ TEST(Spectra, JonswapPeaksAtOmegaPAndIsContinuous) {
   static double alpha = sq_jonswap_alpha(kG, 12.0, 50e3);
   // eq 8 is the standard 22 (g^2 / (U X))^(1/3) up to 7 pi / 22 and the exponent 0.33 instead of 1/3
   double x = kG * 50e3 / (12.0 * 12.0);
-  EXPECT_NEAR(wp / (22 * std::cbrt(kG * kG / (12.0 * 50e3))), 7 * SQ_PI / 22 * std::pow(x, 1.0 / 3 - 0.33), 1e-12);
+  EXPECT_NEAR(wp / (22 * std::cbrt(kG * kG / (12.0 * 50e3))), 7 * SQUALL_PI / 22 * std::pow(x, 1.0 / 3 - 0.33), 1e-12);
   double peak = argmax([](double w) { return sq_jonswap(w, alpha, kG, wp, 3.3, 0.07, 0.09); }, 0.2, 3.0);
   EXPECT_NEAR(peak / wp, 1.0, 1e-3);
   double below = sq_jonswap(wp * (1 - 1e-9), alpha, kG, wp, 3.3, 0.07, 0.09);
@@ -70,11 +72,11 @@ TEST(Spectra, MultipeakShapeIntegral) {
   for (double r = 0.5 * dr; r < 100; r += dr) sum += sq_multipeak_shape(r, 1.835, 22.2222, 4.211, 5, 8) * dr;
   EXPECT_NEAR(sq_multipeak_shape_integral(1.835, 22.2222, 4.211, 5, 8) / sum, 1.0, 1e-4);
   // the Gaussian part alone: A sqrt(pi / B)
-  EXPECT_NEAR(sq_multipeak_shape_integral(1.835, 22.2222, 0, 5, 8), 1.835 * std::sqrt(SQ_PI / 22.2222), 1e-6);
+  EXPECT_NEAR(sq_multipeak_shape_integral(1.835, 22.2222, 0, 5, 8), 1.835 * std::sqrt(SQUALL_PI / 22.2222), 1e-6);
 }
 
-SqSpectrum spread(int model) {
-  SqSpectrum p{};
+SpectrumParams spread(int model) {
+  SpectrumParams p{};
   p.spreading = model;
   p.g = kG;
   p.wind_speed = 10;
@@ -85,33 +87,33 @@ SqSpectrum spread(int model) {
 }
 
 TEST(Spectra, EveryDirectionalModelIntegratesToOneAndPeaksDownwind) {
-  for (int model = SQ_SPREAD_ISOTROPIC; model <= SQ_SPREAD_HYPERBOLIC; ++model) {
-    SqSpectrum p = spread(model);
+  for (int model = SQUALL_SPREAD_ISOTROPIC; model <= SQUALL_SPREAD_HYPERBOLIC; ++model) {
+    SpectrumParams p = spread(model);
     for (double r : {0.3, 0.5, 0.8, 1.0, 1.2, 2.0, 5.0}) {
       double w = r * p.omega_p, k = w * w / kG;
       const int n = 20000;
       double sum = 0, best = -1, best_theta = 0;
       for (int i = 0; i < n; ++i) {
-        double theta = -SQ_PI + 2 * SQ_PI * (i + 0.5) / n;
+        double theta = -SQUALL_PI + 2 * SQUALL_PI * (i + 0.5) / n;
         double d = sq_spreading(p, sq_angle_difference(theta, p.theta0), w, k);
-        sum += d * 2 * SQ_PI / n;
+        sum += d * 2 * SQUALL_PI / n;
         if (d > best) best = d, best_theta = theta;
       }
       EXPECT_NEAR(sum, 1.0, 1e-4) << "model " << model << " w/w_p " << r;
-      if (model != SQ_SPREAD_ISOTROPIC) {
-        EXPECT_NEAR(best_theta, p.theta0, 2 * SQ_PI / n) << "model " << model << " w/w_p " << r;
+      if (model != SQUALL_SPREAD_ISOTROPIC) {
+        EXPECT_NEAR(best_theta, p.theta0, 2 * SQUALL_PI / n) << "model " << model << " w/w_p " << r;
       }
     }
   }
-  // the seed's misprinted Pierson (2/pi) cos(theta) would integrate to 4/pi, not 1: the fixed form is cos^2
-  EXPECT_NEAR(sq_spreading(spread(SQ_SPREAD_PIERSON_COS2), 0.0, 1.0, 0.1), 2 / SQ_PI, 1e-12);
+  // eq 27 as printed, Pierson's (2/pi) cos(theta), would integrate to 4/pi, not 1: the fixed form is cos^2
+  EXPECT_NEAR(sq_spreading(spread(SQUALL_SPREAD_PIERSON_COS2), 0.0, 1.0, 0.1), 2 / SQUALL_PI, 1e-12);
 }
 
 TEST(Spectra, VonMisesBesselAndPhillipsClosedForms) {
   EXPECT_NEAR(sq_bessel_i0_scaled(1.0), 1.2660658777520082 * std::exp(-1.0), 3e-7);
   EXPECT_NEAR(sq_bessel_i0_scaled(10.0), 2815.716628466254 * std::exp(-10.0), 3e-7 * 2815.7 * std::exp(-10.0));
-  SqSpectrum p{};
-  p.spectrum = SQ_SPECTRUM_PHILLIPS;
+  SpectrumParams p{};
+  p.spectrum = SQUALL_SPECTRUM_PHILLIPS;
   p.phillips_amplitude = 2e-3;
   p.phillips_length = 31.0 * 31.0 / kG;
   p.phillips_cutoff = 1.0;
@@ -124,7 +126,7 @@ TEST(Spectra, VonMisesBesselAndPhillipsClosedForms) {
 }
 
 TEST(Spectra, SpatialSpectrumIntegratesToHalfM0) {
-  // eq 3: the integral of P over the plane is m0 / 2 (the other half comes from P(-k) in eq 43)
+  // eq 3: the integral of P over the plane is m0 / 2 (the other half comes from P(-k) in App A eq 43)
   squall::ocean::LayerSpec L;
   L.spectrum = squall::ocean::SpectrumModel::Jonswap;
   L.spreading = squall::ocean::SpreadingModel::Mitsuyasu;
@@ -136,8 +138,8 @@ TEST(Spectra, SpatialSpectrumIntegratesToHalfM0) {
   for (int a = 0; a < nk; ++a) {
     double k = std::exp(u0 + (a + 0.5) * du);
     for (int b = 0; b < nt; ++b) {
-      double th = 2 * SQ_PI * (b + 0.5) / nt;
-      sum += squall::ocean::CpuReference::spectrum(L, k * std::cos(th), k * std::sin(th)) * k * k * du * 2 * SQ_PI / nt;
+      double th = 2 * SQUALL_PI * (b + 0.5) / nt;
+      sum += squall::ocean::CpuReference::spectrum(L, k * std::cos(th), k * std::sin(th)) * k * k * du * 2 * SQUALL_PI / nt;
     }
   }
   double wp = sq_jonswap_omega_p(kG, L.wind_speed, L.fetch), alpha = sq_jonswap_alpha(kG, L.wind_speed, L.fetch);

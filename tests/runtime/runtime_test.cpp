@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "common/error.h"
+#include "runtime/kernel.h"
 #include "runtime/runtime.h"
 #include "support/process.h"
 #include "support/test_runtime.h"
@@ -75,14 +76,77 @@ TEST(Runtime, AxpyKernelComputesExactly) {
   for (uint32_t i = 0; i < n; ++i) x[i] = float(i), y[i] = 0.5f * float(i) + 1;
   cl::Buffer bx = test::upload(x), by = test::upload(y);
   auto lock = rt.exclusive();
-  cl::Kernel k = rt.kernel("runtime/selftest.cl", "axpy");
-  k.setArg(0, 2.0f);
-  k.setArg(1, bx);
-  k.setArg(2, by);
-  k.setArg(3, n);
-  rt.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(n, 64)), cl::NDRange(64));
+  Kernel<cl_float, cl::Buffer, cl::Buffer, cl_int> axpy(rt, "runtime/selftest.cl", "axpy");
+  axpy.launch(cl::NDRange(round_up(n, 64)), cl::NDRange(64), 2.0f, bx, by, cl_int(n));
   auto out = test::read<float>(by, n);
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], 2.0f * float(i) + 0.5f * float(i) + 1) << i;
+}
+
+// A launch with other argument types does not compile; these are the conditions its static_asserts test.
+static_assert(KernelArgsMatch<std::tuple<float, cl::Buffer, const cl::Buffer&, int>,
+                              std::tuple<cl_float, cl::Buffer, cl::Buffer, cl_int>>::value);
+static_assert(!KernelArgsMatch<std::tuple<float, cl::Buffer, cl::Buffer, unsigned>,
+                               std::tuple<cl_float, cl::Buffer, cl::Buffer, cl_int>>::value);  // uint for int
+static_assert(!KernelArgsMatch<std::tuple<double>, std::tuple<cl_float>>::value);
+static_assert(!KernelArgsMatch<std::tuple<float>, std::tuple<cl_float, cl_int>>::value);  // too few
+
+// The message of the Error(Internal) that creating Kernel<Args...>(axpy) throws, or "" when it does not.
+template <typename... Args>
+std::string axpy_declared_as() {
+  try {
+    Kernel<Args...> k(test::runtime(), "runtime/selftest.cl", "axpy");
+    return "";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), Code::Internal);
+    return e.what();
+  }
+}
+
+TEST(Kernel, WrongArgumentCountThrowsAtCreation) {
+  std::string msg = axpy_declared_as<cl_float, cl::Buffer, cl::Buffer>();
+  EXPECT_NE(msg.find("kernel axpy of runtime/selftest.cl takes 4 arguments; the host declares 3"), std::string::npos)
+      << msg;
+}
+
+TEST(Kernel, WrongArgumentTypeThrowsAtCreationNamingTheArgument) {
+  std::string msg = axpy_declared_as<cl_float, cl_float, cl::Buffer, cl_int>();  // a float for a buffer
+  EXPECT_NE(msg.find("kernel axpy of runtime/selftest.cl: argument 1 (x) is __global float*"), std::string::npos)
+      << msg;
+  msg = axpy_declared_as<cl_float, cl::Buffer, cl::Buffer, cl_uint>();  // uint for the int count
+  EXPECT_NE(msg.find("argument 3 (n) is int on the device; the host declares uint"), std::string::npos) << msg;
+  msg = axpy_declared_as<cl::Buffer, cl::Buffer, cl::Buffer, cl_int>();  // a buffer for the float
+  EXPECT_NE(msg.find("argument 0 (a) is float"), std::string::npos) << msg;
+  EXPECT_EQ((axpy_declared_as<cl_float, cl::Buffer, cl::Buffer, cl_int>()), "");  // the right declaration
+}
+
+TEST(Kernel, ProfileModeRecordsDeviceTimePerKernel) {
+  RuntimeOptions options;
+  options.program_prefixes = {"runtime/"};
+  options.profile_kernels = true;
+  Runtime rt(options);
+  rt.build_programs();
+  ASSERT_TRUE(rt.profiling());
+  const cl_int n = 1 << 20;
+  cl::Buffer out(rt.context(), CL_MEM_READ_WRITE, n * sizeof(float));
+  Kernel<cl::Buffer, cl_float, cl_int> fill(rt, "runtime/selftest.cl", "fill");
+  for (int i = 0; i < 2; ++i) fill.launch(cl::NDRange(n), cl::NullRange, out, 3.0f, n);
+  std::vector<KernelTiming> timings = rt.kernel_timings();
+  ASSERT_EQ(timings.size(), 1u);
+  EXPECT_EQ(timings[0].program, "runtime/selftest.cl");
+  EXPECT_EQ(timings[0].kernel, "fill");
+  EXPECT_EQ(timings[0].launches, 2u);
+  EXPECT_GT(timings[0].device_ns, 0u);
+}
+
+TEST(Kernel, WithoutProfileModeNothingIsRecorded) {
+  Runtime& rt = test::runtime();
+  if (rt.profiling()) GTEST_SKIP() << "SQUALL_PROFILE_KERNELS=1 is set";
+  cl::Buffer out(rt.context(), CL_MEM_READ_WRITE, 64 * sizeof(float));
+  auto lock = rt.exclusive();
+  Kernel<cl::Buffer, cl_float, cl_int> fill(rt, "runtime/selftest.cl", "fill");
+  fill.launch(cl::NDRange(64), cl::NullRange, out, 1.0f, cl_int(64));
+  rt.queue().finish();
+  EXPECT_TRUE(rt.kernel_timings().empty());
 }
 
 TEST(Runtime, UnknownKernelIsAnError) {

@@ -1,4 +1,4 @@
-#include "daemon/status.h"
+#include "rpc/status.h"
 
 namespace squall::rpc {
 

@@ -1,4 +1,4 @@
-#include "daemon/request_log.h"
+#include "rpc/request_log.h"
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/log.h"
+#include "rpc/metadata.h"
 
 namespace squall::rpc {
 namespace {
@@ -33,9 +34,7 @@ class RequestLog : public grpc::experimental::Interceptor {
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
-      auto* metadata = methods->GetRecvInitialMetadata();
-      auto it = metadata->find("x-request-id");
-      if (it != metadata->end()) id_.assign(it->second.data(), std::min<size_t>(it->second.size(), 128));
+      id_ = metadata_value(*methods->GetRecvInitialMetadata(), kRequestIdKey);
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
         is_squall_method())
@@ -58,7 +57,7 @@ class RequestLog : public grpc::experimental::Interceptor {
     auto* m = static_cast<google::protobuf::Message*>(message);
     const auto* field = m->GetDescriptor()->FindFieldByName("request_id");
     if (!field || field->type() != google::protobuf::FieldDescriptor::TYPE_STRING || field->is_repeated()) return "";
-    return m->GetReflection()->GetString(*m, field).substr(0, 128);
+    return m->GetReflection()->GetString(*m, field).substr(0, kMaxMetadataValue);
   }
 
   void write(const char* status, const std::string& message) {

@@ -1,7 +1,8 @@
 // IEEE 754 binary16 ("half") conversions on the host, for squall.v1.Field with DTYPE_FLOAT16.
 // float -> half rounds to nearest, ties to even; overflow goes to +-inf, values below half's smallest
 // subnormal round to +-0, NaN stays NaN (quiet, sign kept, top payload bits kept). half -> float is exact.
-// Header-only and gRPC-free: the service (squall_rpc) and the client (squall_client) both include it.
+// Header-only, with no dependencies: the field codec (common/field_codec.h), the services and the client
+// use it.
 #pragma once
 
 #include <cstdint>

@@ -1,0 +1,28 @@
+// The envelope of a checkpointed session: which kind of session, the version of its payload format, and
+// the id it lived under, ahead of the capability's own payload. Layout (little-endian):
+//   offset  size  field
+//   0       8     magic "SQSESS\0\1"
+//   8       4     kind length K, then K bytes of kind ("eWave session")
+//   12+K    4     payload format version (the capability's)
+//   16+K    4     id length I, then I bytes of id
+//   20+K+I  8     payload length P, then P bytes of payload
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace squall {
+
+struct CheckpointHeader {
+  std::string kind;
+  uint32_t version = 0;
+  std::string id;
+};
+
+std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload);
+
+// The payload of `data`; INVALID_ARGUMENT naming `field` when data is no checkpoint of `kind`.
+std::string decode_checkpoint(const std::string& data, const std::string& kind, const std::string& field,
+                              CheckpointHeader* header);
+
+}  // namespace squall

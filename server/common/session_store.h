@@ -1,0 +1,187 @@
+// SessionStore<T>: the live server-side objects of one capability (eWave sessions, stored cloud volumes,
+// ...) under unguessable ids. Each entry holds a --max-sessions slot and its bytes against
+// --max-session-bytes (both through the LimitGate), is evicted when idle longer than the TTL (measured
+// with an injected clock, so tests need no sleeps), and can be checkpointed to versioned bytes and
+// restored under the same id (session_checkpoint.h). An unknown, closed or evicted id is
+// Error(NotFound) naming the id's request field.
+//
+// Threading: the store's map has its own lock; each entry has a lock of its own, held while with() runs,
+// so calls on one session are serialized and calls on different sessions are not.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "common/error.h"
+#include "common/limits.h"
+#include "common/log.h"
+#include "common/session_checkpoint.h"
+
+namespace squall {
+
+using SteadyClock = std::function<std::chrono::steady_clock::time_point()>;
+
+// How a store names and ages its sessions.
+struct SessionPolicy {
+  std::chrono::milliseconds ttl{std::chrono::minutes(10)};  // squalld --session-ttl
+  SteadyClock clock = [] { return std::chrono::steady_clock::now(); };
+};
+
+// A fresh id: 128 bits from the kernel's CSPRNG, as 32 hex digits, after `prefix`.
+std::string new_session_id(const std::string& prefix = "");
+
+template <typename T>
+class SessionStore {
+ public:
+  // `kind` names the entries in messages ("eWave session"), `id_field` the request field of their ids
+  // ("session_id"), `prefix` starts every id ("cloud-"); the checkpoint kind is `kind`.
+  SessionStore(LimitGate& gate, SessionPolicy policy, std::string kind, std::string id_field, std::string prefix = "")
+      : gate_(gate), policy_(std::move(policy)), kind_(std::move(kind)), id_field_(std::move(id_field)),
+        prefix_(std::move(prefix)) {}
+
+  // A session slot and `bytes` of host and device memory, taken before the value is built;
+  // RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes. Idle entries are evicted first, so they
+  // never block a new one.
+  struct Reservation {
+    Slot session, memory;
+    uint64_t bytes = 0;
+  };
+  Reservation reserve(uint64_t bytes) {
+    evict_idle();
+    Reservation r;
+    r.session = gate_.acquire_session();
+    r.memory = gate_.acquire_session_bytes("keeping this " + kind_, bytes);
+    r.bytes = bytes;
+    return r;
+  }
+
+  // Stores `value` under a new id.
+  std::string add(Reservation reservation, std::shared_ptr<T> value) {
+    return insert(new_id(), std::move(reservation), std::move(value));
+  }
+  std::string add(std::shared_ptr<T> value, uint64_t bytes) { return add(reserve(bytes), std::move(value)); }
+
+  // Runs f(T&) under the entry's lock and returns what f returns; the entry's idle time restarts.
+  template <typename F>
+  auto with(const std::string& id, F&& f) {
+    std::shared_ptr<Entry> entry = find(id);
+    std::lock_guard<std::mutex> lock(entry->mutex);
+    return f(*entry->value);
+  }
+
+  // The value itself, for callers that only read it (its idle time restarts). `field` names the id in a
+  // NOT_FOUND message when it is not the store's id field.
+  std::shared_ptr<T> get(const std::string& id, const std::string& field = "") { return find(id, field)->value; }
+
+  // Removes the entry once a call in flight on it has finished; NOT_FOUND when absent.
+  void close(const std::string& id) {
+    std::shared_ptr<Entry> entry = take(id);
+    if (!entry) fail(Code::NotFound, not_found(id));
+    std::lock_guard<std::mutex> wait(entry->mutex);
+  }
+  bool erase(const std::string& id) { return take(id) != nullptr; }
+
+  // Removes entries idle longer than the TTL; returns how many.
+  size_t evict_idle() {
+    std::vector<std::shared_ptr<Entry>> evicted;  // destroyed outside the map's lock
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto now = policy_.clock();
+    for (auto it = entries_.begin(); it != entries_.end();) {
+      if (now - it->second->last_use > policy_.ttl) {
+        evicted.push_back(std::move(it->second));
+        it = entries_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    if (!evicted.empty()) log(LogLevel::Info, kind_, ": evicted ", evicted.size(), " idle past the TTL");
+    return evicted.size();
+  }
+
+  size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return entries_.size();
+  }
+  uint64_t bytes() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    uint64_t total = 0;
+    for (const auto& [id, entry] : entries_) total += entry->held.bytes;
+    return total;
+  }
+
+  // The entry as versioned bytes: `save(const T&)` writes the payload, tagged with its `version`.
+  std::string checkpoint(const std::string& id, uint32_t version, const std::function<std::string(const T&)>& save) {
+    return with(id, [&](T& value) { return encode_checkpoint({kind_, version, id}, save(value)); });
+  }
+
+  // Recreates a checkpointed entry under its original id. `load(version, payload, &bytes)` rebuilds the
+  // value; INVALID_ARGUMENT naming `field` for bytes that are no checkpoint of this kind, FAILED_PRECONDITION
+  // when the id is live.
+  std::string restore(const std::string& data, const std::string& field,
+                      const std::function<std::shared_ptr<T>(uint32_t, const std::string&, uint64_t*)>& load) {
+    CheckpointHeader header;
+    std::string payload = decode_checkpoint(data, kind_, field, &header);
+    uint64_t bytes = 0;
+    std::shared_ptr<T> value = load(header.version, payload, &bytes);
+    return insert(header.id, reserve(bytes), std::move(value));
+  }
+
+  const std::string& kind() const { return kind_; }
+  const std::string& id_field() const { return id_field_; }
+
+ private:
+  struct Entry {
+    std::mutex mutex;  // one call at a time per entry
+    std::shared_ptr<T> value;
+    Reservation held;
+    std::chrono::steady_clock::time_point last_use;
+  };
+
+  std::string new_id() const { return new_session_id(prefix_); }
+  std::string not_found(const std::string& id, const std::string& field = "") const {
+    return (field.empty() ? id_field_ : field) + " = \"" + id + "\" is not a live " + kind_ +
+           " (unknown, closed or expired)";
+  }
+
+  std::string insert(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
+    auto entry = std::make_shared<Entry>();
+    entry->value = std::move(value);
+    entry->held = std::move(reservation);
+    entry->last_use = policy_.clock();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!entries_.emplace(id, std::move(entry)).second)
+      fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+    return id;
+  }
+
+  std::shared_ptr<Entry> find(const std::string& id, const std::string& field = "") {
+    evict_idle();
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = entries_.find(id);
+    if (it == entries_.end()) fail(Code::NotFound, not_found(id, field));
+    it->second->last_use = policy_.clock();
+    return it->second;
+  }
+
+  std::shared_ptr<Entry> take(const std::string& id) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = entries_.find(id);
+    if (it == entries_.end()) return nullptr;
+    std::shared_ptr<Entry> entry = std::move(it->second);
+    entries_.erase(it);
+    return entry;
+  }
+
+  LimitGate& gate_;
+  const SessionPolicy policy_;
+  const std::string kind_, id_field_, prefix_;
+  mutable std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<Entry>> entries_;
+};
+
+}  // namespace squall

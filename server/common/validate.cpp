@@ -1,0 +1,68 @@
+#include "common/validate.h"
+
+#include <cstdio>
+
+#include "common/error.h"
+
+namespace squall::validate {
+
+std::string number(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", v);
+  return text;
+}
+
+void reject(const std::string& path, const std::string& value, const std::string& rule) {
+  fail(Code::InvalidArgument, path + " = " + value + " must be " + rule);
+}
+
+void reject(const std::string& path, double value, const std::string& rule) { reject(path, number(value), rule); }
+
+bool Interval::contains(double v) const {
+  if (!std::isfinite(v)) return false;
+  bool lo_ok = lo_open ? v > lo : v >= lo;
+  bool hi_ok = hi_open ? v < hi : v <= hi;
+  return lo_ok && hi_ok;
+}
+
+std::string Interval::rule() const {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (!has_lo && !has_hi) return "finite";
+  if (!has_hi) return std::string("finite and ") + (lo_open ? "> " : ">= ") + number(lo);
+  if (!has_lo) return std::string("finite and ") + (hi_open ? "< " : "<= ") + number(hi);
+  return std::string("finite and in ") + (lo_open ? "(" : "[") + number(lo) + ", " + number(hi) + (hi_open ? ")" : "]");
+}
+
+double in(const std::string& path, double v, const Interval& interval) {
+  if (!interval.contains(v)) reject(path, v, interval.rule());
+  return v;
+}
+
+int64_t in(const std::string& path, int64_t v, int64_t lo, int64_t hi) {
+  if (v < lo || v > hi)
+    reject(path, std::to_string(v), "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return v;
+}
+
+void count(const std::string& path, size_t have, size_t want, const std::string& what) {
+  if (have != want)
+    fail(Code::InvalidArgument,
+         path + " has " + std::to_string(have) + " values, want " + what + " = " + std::to_string(want));
+}
+
+void each(const std::string& path, const float* values, size_t n, const Interval& interval) {
+  for (size_t i = 0; i < n; ++i)
+    if (!interval.contains(values[i])) reject(at(path, i), values[i], interval.rule());
+}
+
+int known(const std::string& path, int value, int count, const std::string& type) {
+  if (value < 0 || value >= count)
+    reject(path, std::to_string(value), "a known " + type + " (0.." + std::to_string(count - 1) + ")");
+  return value;
+}
+
+std::string at(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+}  // namespace squall::validate

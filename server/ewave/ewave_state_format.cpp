@@ -1,0 +1,105 @@
+#include "ewave/ewave_state_format.h"
+
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+
+#include "common/error.h"
+
+namespace squall::ewave {
+namespace {
+
+constexpr char kMagic[8] = {'S', 'Q', 'E', 'W', 'A', 'V', 'E', '1'};
+
+// The one mapping between header members and config members, used both ways: copy(stored, value) is
+// called once per pair, with the header (or the config) const for writing (or reading).
+template <typename Header, typename Config, typename Copy>
+void each_member(Header& h, Config& c, Copy copy) {
+  copy(h.nx, c.nx);
+  copy(h.ny, c.ny);
+  copy(h.dx, c.dx);
+  copy(h.dy, c.dy);
+  copy(h.dispersion, c.dispersion);
+  copy(h.gravity, c.gravity);
+  copy(h.depth, c.depth);
+  copy(h.capillary_length, c.capillary_length);
+  copy(h.trim, c.trim);
+  copy(h.trim_width, c.trim_width);
+  copy(h.trim_alpha, c.trim_alpha);
+  copy(h.friction_time, c.friction_time);
+  copy(h.source_scale, c.source_scale);
+  copy(h.mask_phi, c.mask_phi);
+  copy(h.double_precision, c.double_precision);
+  copy(h.displacement_scale, c.displacement_scale);
+}
+
+}  // namespace
+
+size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision) {
+  return kStateFields * size_t(nx) * size_t(ny) * (double_precision ? sizeof(double) : sizeof(float));
+}
+
+std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
+  StateHeader h{};
+  std::memcpy(h.magic, kMagic, sizeof(kMagic));
+  each_member(h, config, [](auto& stored, const auto& value) { stored = static_cast<std::decay_t<decltype(stored)>>(value); });
+  h.step = step;
+  h.time = time;
+  std::string bytes(sizeof(h) + state_field_bytes(h.nx, h.ny, config.double_precision), '\0');
+  std::memcpy(bytes.data(), &h, sizeof(h));
+  return bytes;
+}
+
+char* state_fields(std::string& state) { return state.data() + sizeof(StateHeader); }
+const char* state_fields(const std::string& state) { return state.data() + sizeof(StateHeader); }
+
+StateHeader parse_state_header(const std::string& bytes) {
+  StateHeader h{};
+  if (bytes.size() < sizeof(h)) fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, too few for an eWave state");
+  std::memcpy(&h, bytes.data(), sizeof(h));
+  if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0) fail(Code::InvalidArgument, "state is not an eWave state (bad magic)");
+  if (h.nx < 1 || h.ny < 1 || h.nx > (int64_t(1) << 20) || h.ny > (int64_t(1) << 20))
+    fail(Code::InvalidArgument, "state.grid is invalid");
+  size_t want = sizeof(h) + state_field_bytes(h.nx, h.ny, h.double_precision != 0);
+  if (bytes.size() != want)
+    fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, want " + std::to_string(want));
+  return h;
+}
+
+EWaveConfig config_of(const StateHeader& header) {
+  EWaveConfig c;
+  each_member(header, c, [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
+  validate(c);
+  return c;
+}
+
+void check_fields_finite(const std::string& bytes, const StateHeader& h) {
+  const char* fields = state_fields(bytes);
+  const size_t count = kStateFields * size_t(h.nx) * size_t(h.ny);
+  for (size_t c = 0; c < count; ++c) {
+    double v;
+    if (h.double_precision) {
+      std::memcpy(&v, fields + c * sizeof(double), sizeof(double));
+    } else {
+      float f;
+      std::memcpy(&f, fields + c * sizeof(float), sizeof(float));
+      v = f;
+    }
+    if (!std::isfinite(v)) fail(Code::InvalidArgument, "state field value " + std::to_string(c) + " is not finite");
+  }
+}
+
+std::vector<char> to_state_type(const std::vector<double>& values, bool double_precision) {
+  std::vector<char> bytes(values.size() * (double_precision ? sizeof(double) : sizeof(float)));
+  if (double_precision) {
+    std::memcpy(bytes.data(), values.data(), bytes.size());
+    return bytes;
+  }
+  for (size_t i = 0; i < values.size(); ++i) {
+    float f = float(values[i]);
+    std::memcpy(bytes.data() + i * sizeof(float), &f, sizeof(float));
+  }
+  return bytes;
+}
+
+}  // namespace squall::ewave

@@ -1,0 +1,55 @@
+// The binary state of an eWave session (EWaveSession::state, restore, config_from_state), version 1 (the
+// magic's last character): a fixed StateHeader, then h and phi, nx ny values each, in the state's type
+// (float, or double with config.double_precision). The header holds the config without its initial fields,
+// start time and ocean specs, the step index and the time. Little-endian host layout; the header has
+// 8-byte members only, so no padding.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ewave/ewave_config.h"
+
+namespace squall::ewave {
+
+constexpr int kStateFields = 2;  // h, phi
+
+struct StateHeader {
+  char magic[8];  // "SQEWAVE1"
+  int64_t nx, ny;
+  double dx, dy;
+  int64_t dispersion;
+  double gravity, depth, capillary_length;
+  int64_t trim;
+  double trim_width, trim_alpha, friction_time, source_scale;
+  int64_t mask_phi;
+  int64_t double_precision;
+  double displacement_scale;
+  uint64_t step;
+  double time;
+};
+static_assert(sizeof(StateHeader) == 8 + 18 * 8, "StateHeader: 8-byte members, no padding");
+
+// Bytes of the h and phi fields of a grid in the state's type.
+size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision);
+
+// A state of `config` at (step, time): the header written, the fields zero (to be filled at
+// state_fields()).
+std::string new_state(const EWaveConfig& config, uint64_t step, double time);
+char* state_fields(std::string& state);
+const char* state_fields(const std::string& state);
+
+// The header of state bytes. Throws Error(InvalidArgument) when they are too few, the magic is not
+// ours, the grid is invalid, or their size does not match the grid.
+StateHeader parse_state_header(const std::string& bytes);
+// The config a header describes, validated (InvalidArgument naming the field).
+EWaveConfig config_of(const StateHeader& header);
+// Throws Error(InvalidArgument) naming the first field value of the state that is not finite.
+void check_fields_finite(const std::string& bytes, const StateHeader& header);
+
+// values converted to host bytes of the state's type (float or double).
+std::vector<char> to_state_type(const std::vector<double>& values, bool double_precision);
+
+}  // namespace squall::ewave

@@ -1,0 +1,167 @@
+// EWaveSession::step: one eWave step in the order of J. Tessendorf, "Gilligan: A Prototype Framework for
+// Simulating and Rendering Maritime Environments" (2017), sec. 3.7 (equation numbers are Gilligan's):
+// obstruction map, ewave_prepare, R2C, ewave_propagate, C2R, ewave_finish, read-back.
+#include <cmath>
+#include <numbers>
+#include <type_traits>
+#include <variant>
+
+#include "ewave/ewave_session.h"
+#include "ewave/propagator.h"
+
+namespace squall::ewave {
+namespace {
+
+bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normals; }
+
+cl::NDRange cells_range(const EWaveConfig& c) { return cl::NDRange(size_t(c.nx), size_t(c.ny)); }
+
+// The state's type of the step kernels `k` (a StepKernels<Real>).
+template <typename K>
+using RealOf = typename std::decay_t<K>::RealType;
+
+}  // namespace
+
+Frame EWaveSession::step(const StepInputs& in) {
+  validate(in, config_);
+  const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
+  const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
+  auto lock = runtime_.exclusive();
+  bool has_obstruction = build_obstruction(in);
+  prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
+  fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})
+      .enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
+  propagate(in.dt, fields);  // eq 64-65
+  fft_.plan({nx, ny, size_t(fields), fft::Transform::C2R, precision()})
+      .enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());  // eq 66-67
+  finish(in, fields, has_obstruction);  // eq 68-69, §3.7 steps 5-7
+  Frame frame = read_frame(in.outputs);  // blocking reads: the host vectors of the inputs are free after this
+  ++step_;
+  time_ += in.dt;
+  frame.step = step_;
+  frame.time = time_;
+  return frame;
+}
+
+// O = (the obstruction field, or 1) times the uncovered fraction of the shapes. False when neither is given.
+bool EWaveSession::build_obstruction(const StepInputs& in) {
+  if (in.obstruction.empty() && in.shapes.empty()) return false;
+  if (in.obstruction.empty()) {
+    if (obstruction_.bytes() != cells_ * sizeof(float)) obstruction_ = runtime_.buffers().acquire(cells_ * sizeof(float));
+    runtime_.queue().enqueueFillBuffer(obstruction_.buffer(), cl_float(1.0f), 0, cells_ * sizeof(float));
+  } else {
+    upload(obstruction_, in.obstruction);
+  }
+  if (!in.shapes.empty()) rasterize(in.shapes);
+  return true;
+}
+
+void EWaveSession::rasterize(const std::vector<Shape>& shapes) {
+  std::vector<float> vertices;
+  std::vector<EWaveShape> device = device_shapes(shapes, &vertices);
+  if (vertices.empty()) vertices.assign(2, 0.0f);
+  size_t shape_bytes = device.size() * sizeof(EWaveShape);
+  if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
+  runtime_.queue().enqueueWriteBuffer(shapes_.buffer(), CL_FALSE, 0, shape_bytes, device.data());
+  upload(vertices_, vertices);
+  rasterize_.launch(cells_range(config_), cl::NullRange, obstruction_.buffer(), shapes_.buffer(), cl_int(device.size()),
+                    vertices_.buffer(), cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy));
+  runtime_.queue().finish();  // the host vectors must outlive the non-blocking writes
+}
+
+void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
+  const cl::Buffer& none = placeholder_.buffer();
+  auto optional = [&](BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
+    return values.empty() ? none : upload(lease, values);
+  };
+  double decay = 1, gain = in.dt;  // eq 60-61
+  if (config_.friction_time > 0) {  // eq 72-73
+    decay = std::exp(-in.dt / config_.friction_time);
+    gain = -config_.friction_time * std::expm1(-in.dt / config_.friction_time);
+  }
+  const cl::Buffer& obstruction = has_obstruction ? obstruction_.buffer() : none;
+  const cl::Buffer* ambient_height = ambient(in, has_obstruction);
+  const cl::Buffer& source_h = optional(source_h_, in.source_height);
+  const cl::Buffer& source_phi = optional(source_phi_, in.source_phi);
+  std::visit(
+      [&](auto& k) {
+        using Real = RealOf<decltype(k)>;
+        k.prepare.launch(cells_range(config_), cl::NullRange, state_.buffer(), cl_int(config_.nx), cl_int(config_.ny),
+                         obstruction, cl_int(has_obstruction), ambient_height ? *ambient_height : none,
+                         cl_int(ambient_height != nullptr), trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim),
+                         source_h, cl_int(!in.source_height.empty()), source_phi, cl_int(!in.source_phi.empty()),
+                         Real(config_.source_scale), Real(decay), Real(gain));
+      },
+      kernels_);
+}
+
+void EWaveSession::propagate(double dt, int fields) {
+  const cl::Buffer& coefficients = coefficients_.get(runtime_, config_, dt);
+  const cl::NDRange modes(size_t(config_.nx) / 2 + 1, size_t(config_.ny));
+  std::visit(
+      [&](auto& k) {
+        using Real = RealOf<decltype(k)>;
+        k.propagate.launch(modes, cl::NullRange, spectrum_.buffer(), coefficients, cl_int(config_.nx),
+                           cl_int(config_.ny), Real(2 * std::numbers::pi / config_.length_x()),
+                           Real(2 * std::numbers::pi / config_.length_y()), cl_int(fields));
+      },
+      kernels_);
+}
+
+void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction) {
+  const cl::Buffer& none = placeholder_.buffer();
+  bool field_drift = !in.drift_field_x.empty();
+  bool uniform_drift = !field_drift && (in.drift_x != 0 || in.drift_y != 0);
+  const cl_int drift_mode = field_drift ? 2 : uniform_drift ? 1 : 0;
+  const cl::Buffer& drift_x = field_drift ? upload(drift_x_, in.drift_field_x) : none;
+  const cl::Buffer& drift_y = field_drift ? upload(drift_y_, in.drift_field_y) : none;
+  const cl::Buffer& obstruction = has_obstruction ? obstruction_.buffer() : none;
+  std::visit(
+      [&](auto& k) {
+        using Real = RealOf<decltype(k)>;
+        k.finish.launch(cells_range(config_), cl::NullRange, work_.buffer(), cl_int(fields), state_.buffer(),
+                        out_.buffer(), cl_int(config_.nx), cl_int(config_.ny), drift_mode,
+                        Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
+                        Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
+                        Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
+                        trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
+      },
+      kernels_);
+}
+
+const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction) {
+  if (!in.ambient_height.empty()) return &upload(ambient_, in.ambient_height);
+  const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
+  if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
+  ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");
+  size_t bytes = kStateFields * cells_ * sizeof(float);  // h_A, then the unused phi_A plane
+  if (ambient_.bytes() != bytes) ambient_ = runtime_.buffers().acquire(bytes);
+  ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer());
+  return &ambient_.buffer();
+}
+
+Frame EWaveSession::read_frame(const OutputSelection& o) const {
+  Frame f;
+  const cl::CommandQueue& q = runtime_.queue();
+  auto read = [&](const cl::Buffer& buffer, size_t offset, size_t count, std::vector<float>& into) {
+    into.resize(count);
+    q.enqueueReadBuffer(buffer, CL_FALSE, offset * sizeof(float), count * sizeof(float), into.data());
+  };
+  auto read_state = [&](size_t offset, std::vector<float>& into) {
+    if (!config_.double_precision) return read(state_.buffer(), offset, cells_, into);
+    std::vector<double> values(cells_);
+    q.enqueueReadBuffer(state_.buffer(), CL_TRUE, offset * sizeof(double), cells_ * sizeof(double), values.data());
+    into.assign(values.begin(), values.end());
+  };
+  if (o.height) read_state(0, f.height);
+  if (o.phi) read_state(cells_, f.phi);
+  if (o.displacement) {
+    read(out_.buffer(), 0, cells_, f.displacement_x);
+    read(out_.buffer(), cells_, cells_, f.displacement_y);
+  }
+  if (o.normals) read(out_.buffer(), 2 * cells_, 3 * cells_, f.normals);
+  q.finish();
+  return f;
+}
+
+}  // namespace squall::ewave

@@ -1,0 +1,103 @@
+// SessionStore: ids, the TTL on an injected clock, the session and byte limits of the LimitGate, and
+// checkpoints that restore under the same id. No device needed.
+#include "common/session_store.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "support/expect_error.h"
+
+namespace squall {
+namespace {
+
+using test::expect_error;
+using namespace std::chrono_literals;
+
+struct Counter {
+  int value = 0;
+};
+
+class SessionStoreTest : public ::testing::Test {
+ protected:
+  SessionStore<Counter> store(Limits limits = {}, std::chrono::milliseconds ttl = 100ms) {
+    gate_ = std::make_unique<LimitGate>(limits);
+    return SessionStore<Counter>(*gate_, SessionPolicy{ttl, [this] { return now_; }}, "counter", "counter_id", "c-");
+  }
+  std::chrono::steady_clock::time_point now_{};
+  std::unique_ptr<LimitGate> gate_;
+};
+
+TEST_F(SessionStoreTest, IdsAreUnguessableAndCallsReachTheirSession) {
+  auto s = store();
+  std::set<std::string> ids;
+  for (int i = 0; i < 20; ++i) ids.insert(s.add(std::make_shared<Counter>(), 0));
+  EXPECT_EQ(ids.size(), 20u);
+  for (const auto& id : ids) {
+    EXPECT_EQ(id.size(), 2u + 32u) << id;  // prefix + 128 bits in hex
+    EXPECT_EQ(id.rfind("c-", 0), 0u) << id;
+  }
+  const std::string id = *ids.begin();
+  s.with(id, [](Counter& c) { c.value += 3; });
+  EXPECT_EQ(s.with(id, [](Counter& c) { return c.value; }), 3);
+  expect_error(Code::NotFound, "counter_id = \"nope\"", [&] { s.get("nope"); });
+  expect_error(Code::NotFound, "volume_id = \"nope\"", [&] { s.get("nope", "volume_id"); });
+}
+
+TEST_F(SessionStoreTest, IdleSessionsAreEvictedAfterTheTtlOnTheInjectedClock) {
+  auto s = store({}, 100ms);
+  std::string kept = s.add(std::make_shared<Counter>(), 0);
+  std::string idle = s.add(std::make_shared<Counter>(), 0);
+  now_ += 60ms;
+  s.get(kept);  // its idle time restarts
+  now_ += 60ms;  // idle: 120 ms, kept: 60 ms
+  EXPECT_EQ(s.evict_idle(), 1u);
+  EXPECT_EQ(s.size(), 1u);
+  expect_error(Code::NotFound, "counter_id", [&] { s.get(idle); });
+  s.get(kept);
+  EXPECT_EQ(gate_->live_sessions(), 1u) << "an evicted session gives its slot back";
+}
+
+TEST_F(SessionStoreTest, CountAndBytesAreLimitedThroughTheGate) {
+  Limits limits;
+  limits.max_sessions = 2;
+  limits.max_session_bytes = 1000;
+  auto s = store(limits);
+  std::string a = s.add(std::make_shared<Counter>(), 600);
+  expect_error(Code::ResourceExhausted, "--max-session-bytes = 1000", [&] { s.add(std::make_shared<Counter>(), 500); });
+  EXPECT_EQ(gate_->session_bytes(), 600u) << "a refused session holds nothing";
+  EXPECT_EQ(gate_->live_sessions(), 1u);
+  s.add(std::make_shared<Counter>(), 400);
+  EXPECT_EQ(s.bytes(), 1000u);
+  expect_error(Code::ResourceExhausted, "--max-sessions", [&] { s.add(std::make_shared<Counter>(), 0); });
+  s.close(a);
+  EXPECT_EQ(gate_->session_bytes(), 400u);
+  s.add(std::make_shared<Counter>(), 600);
+  expect_error(Code::NotFound, "counter_id", [&] { s.close(a); });
+}
+
+TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
+  auto s = store();
+  std::string id = s.add(std::make_shared<Counter>(Counter{41}), 8);
+  auto save = [](const Counter& c) { return std::to_string(c.value); };
+  std::string saved = s.checkpoint(id, 7, save);
+  auto load = [](uint32_t version, const std::string& payload, uint64_t* bytes) {
+    EXPECT_EQ(version, 7u);
+    *bytes = 8;
+    return std::make_shared<Counter>(Counter{std::stoi(payload)});
+  };
+  expect_error(Code::FailedPrecondition, "already a live counter", [&] { s.restore(saved, "state", load); });
+  s.close(id);
+  EXPECT_EQ(s.restore(saved, "state", load), id);
+  EXPECT_EQ(s.with(id, [](Counter& c) { return c.value; }), 41);
+
+  expect_error(Code::InvalidArgument, "state is not a session checkpoint", [&] { s.restore("junk", "state", load); });
+  expect_error(Code::InvalidArgument, "truncated", [&] { s.restore(saved.substr(0, saved.size() - 1), "state", load); });
+  expect_error(Code::InvalidArgument, "follow the payload", [&] { s.restore(saved + "x", "state", load); });
+  gate_ = std::make_unique<LimitGate>(Limits{});
+  SessionStore<Counter> other(*gate_, {}, "volume", "volume_id");
+  expect_error(Code::InvalidArgument, "holds a counter, not a volume", [&] { other.restore(saved, "state", load); });
+}
+
+}  // namespace
+}  // namespace squall
