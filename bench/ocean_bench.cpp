@@ -19,6 +19,7 @@
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
 #include "ocean/ocean_service.h"
+#include "ocean/shared_engine.h"
 
 using namespace squall;
 namespace v1 = squall::v1;
@@ -102,7 +103,7 @@ int main(int argc, char** argv) {
   rpc::EngineContext engines(runtime, fft, serving.gate(), SessionPolicy{});
   rpc::OceanService service(serving);
   service.start(engines);  // the service and the in-process loop share this one engine
-  ocean::OceanEngine& engine = engines.shared<ocean::OceanEngine>();
+  ocean::OceanEngine& engine = ocean::shared_engine(engines);
   serving.set_phase(rpc::ServingState::Phase::Serving);
 
   grpc::ServerBuilder builder;

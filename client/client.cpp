@@ -14,6 +14,10 @@ const char* status_code_name(grpc::StatusCode code) {
   return i >= 0 && i <= 16 ? kNames[i] : "UNKNOWN";
 }
 
+void check(const grpc::Status& status, const std::string& method) {
+  if (!status.ok()) throw RpcError(method, status);
+}
+
 RpcError::RpcError(const std::string& method, const grpc::Status& status)
     : std::runtime_error(method + ": " + status_code_name(status.error_code()) + ": " + status.error_message()),
       code_(status.error_code()) {}
@@ -40,7 +44,7 @@ squall::v1::GetInfoResponse Client::info() {
   squall::v1::GetInfoResponse response;
   auto ctx = context();
   grpc::Status status = stub->GetInfo(ctx.get(), request, &response);
-  if (!status.ok()) throw RpcError("GetInfo", status);
+  check(status, "GetInfo");
   return response;
 }
 
@@ -51,7 +55,7 @@ grpc::health::v1::HealthCheckResponse::ServingStatus Client::health(const std::s
   grpc::health::v1::HealthCheckResponse response;
   auto ctx = context();
   grpc::Status status = stub->Check(ctx.get(), request, &response);
-  if (!status.ok()) throw RpcError("Health.Check", status);
+  check(status, "Health.Check");
   return response.status();
 }
 

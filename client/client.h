@@ -28,6 +28,9 @@ class RpcError : public std::runtime_error {
   grpc::StatusCode code_;
 };
 
+// Throws RpcError(method, status) unless the status is OK.
+void check(const grpc::Status& status, const std::string& method);
+
 const char* status_code_name(grpc::StatusCode code);
 
 class Client {

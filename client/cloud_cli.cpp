@@ -231,9 +231,7 @@ Request parse(const std::vector<std::string>& args) {
   return r;
 }
 
-void check(const grpc::Status& status, const char* method) {
-  if (!status.ok()) throw client::RpcError(method, status);
-}
+using client::check;
 
 void print_summary(const v1::VolumeSummary& s) {
   std::cout << (s.volume_id().empty() ? "" : "volume_id " + s.volume_id() + "\n") << "active voxels " << s.active_voxels()

@@ -191,7 +191,7 @@ int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWa
   writer.join();
   grpc::Status status = call->Finish();
   if (rc != kOk) return rc;
-  if (!status.ok()) throw client::RpcError("EWave.Run", status);
+  client::check(status, "EWave.Run");
   std::cout << "wrote " << (read + w.every - 1) / w.every << " frames of " << read << " steps to " << w.out << "\n";
   return kOk;
 }
@@ -203,7 +203,7 @@ int wake(client::Client& client, const Wake& w) {
   *create.mutable_config() = w.config;
   v1::EWaveSessionResponse session;
   grpc::Status status = stub->CreateSession(client.context().get(), create, &session);
-  if (!status.ok()) throw client::RpcError("EWave.CreateSession", status);
+  client::check(status, "EWave.CreateSession");
   int rc = kOk;
   try {
     rc = stream(client, w, session.session_id(), *stub);
@@ -218,7 +218,7 @@ int wake(client::Client& client, const Wake& w) {
   close.set_session_id(session.session_id());
   v1::EWaveCloseResponse closed;
   status = stub->CloseSession(client.context().get(), close, &closed);
-  if (!status.ok()) throw client::RpcError("EWave.CloseSession", status);
+  client::check(status, "EWave.CloseSession");
   return rc;
 }
 

@@ -13,9 +13,7 @@ namespace {
 
 namespace v1 = squall::v1;
 
-void check(const grpc::Status& status, const char* method) {
-  if (!status.ok()) throw client::RpcError(method, status);
-}
+using client::check;
 
 }  // namespace
 

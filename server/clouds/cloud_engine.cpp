@@ -8,7 +8,7 @@ CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOpt
     : runtime_(runtime),
       options_(options),
       renderer_(runtime),
-      stored_(gate, SessionPolicy{options.ttl, options.clock}, "stored volume", "volume_id", "cloud-") {}
+      stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {}
 
 std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
   auto stored = std::make_shared<StoredVolume>();
@@ -24,10 +24,13 @@ std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::st
   return upload(build_cloud(model, field));
 }
 
-std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume) {
-  volume->id = stored_.add(volume, volume->bytes);
-  return volume->id;
+std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {
+  auto reservation = stored_.reserve(volume->bytes);
+  volume->id = id;
+  return stored_.add(id, std::move(reservation), volume);
 }
+
+std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume) { return store(stored_.new_id(), volume); }
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id, const std::string& field) {
   return stored_.get(id, field);
@@ -44,17 +47,13 @@ std::string CloudEngine::checkpoint(const std::string& id) {
 }
 
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
-  std::shared_ptr<StoredVolume> restored;
-  std::string id = stored_.restore(bytes, "checkpoint", [&](uint32_t version, const std::string& vdb, uint64_t* used) {
-    if (version != kCheckpointVersion)
-      fail(Code::InvalidArgument, "checkpoint has volume payload version " + std::to_string(version) +
-                                      ", this squalld reads " + std::to_string(kCheckpointVersion));
-    restored = upload(read_vdb(vdb, "checkpoint payload"));
-    *used = restored->bytes;
-    return restored;
-  });
-  restored->id = id;
-  return id;
+  CheckpointHeader header;
+  std::string vdb = stored_.open_checkpoint(bytes, "checkpoint", &header);
+  if (header.version != kCheckpointVersion)
+    fail(Code::InvalidArgument, "checkpoint has volume payload version " + std::to_string(header.version) +
+                                    ", this squalld reads " + std::to_string(kCheckpointVersion));
+  // Like BuildVolume with keep, the volume is built first: its bytes are known once it is uploaded.
+  return store(header.id, upload(read_vdb(vdb, "checkpoint payload")));
 }
 
 }  // namespace squall::clouds

@@ -16,8 +16,7 @@
 namespace squall::clouds {
 
 struct CloudEngineOptions {
-  std::chrono::milliseconds ttl{std::chrono::minutes(10)};  // a stored volume idle this long is dropped
-  SteadyClock clock = [] { return std::chrono::steady_clock::now(); };  // the TTL's clock (tests replace it)
+  SessionPolicy sessions;  // a stored volume idle past sessions.ttl is dropped (clock: tests replace it)
   uint64_t max_active_voxels = 256ull << 20;                // cap on any model's max_active_voxels
 };
 
@@ -55,6 +54,8 @@ class CloudEngine {
 
  private:
   std::shared_ptr<StoredVolume> upload(CloudVolume volume);
+  // Stores a built volume under `id`, written into it before it is shared.
+  std::string store(const std::string& id, const std::shared_ptr<StoredVolume>& volume);
 
   Runtime& runtime_;
   CloudEngineOptions options_;

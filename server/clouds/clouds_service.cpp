@@ -16,8 +16,7 @@ namespace req = squall::clouds::rpc;
 
 void CloudsService::start(EngineContext& context) {
   CloudEngineOptions options;
-  options.ttl = context.sessions.ttl;
-  options.clock = context.sessions.clock;
+  options.sessions = context.sessions;
   engine_ = std::make_unique<CloudEngine>(context.runtime, context.gate, options);
 }
 
@@ -60,16 +59,23 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
 
 grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const v1::StreamEvolutionRequest* request,
                                             grpc::ServerWriter<v1::EvolutionFrame>* writer) {
-  return serve_stream(*context, serving_, "StreamEvolution", [&](StreamCall& call) {
-    CloudModel base = req::model(request->model());
-    Evolution evolution = req::evolution(request->evolution());
-    clouds::validate(evolution, "evolution");
-    RenderSettings settings = req::settings(request->settings());
-    clouds::validate(settings, "settings");
-    serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(settings));
+  struct Stream {
+    CloudModel base;
+    Evolution evolution;
+    RenderSettings settings;
+  };
+  auto prepare = [&] {
+    Stream s{req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings())};
+    clouds::validate(s.evolution, "evolution");
+    clouds::validate(s.settings, "settings");
+    serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
     for (int i = 0; i < request->times_size(); ++i) validate::finite(validate::at("times", i), request->times(i));
+    return s;
+  };
+  return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {
+    const auto& [base, evolution, settings] = s;
     for (double t : request->times()) {
       if (!call.live()) return;
       auto volume = engine_->build(model_at(base, evolution, t), "model");

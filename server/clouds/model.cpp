@@ -14,7 +14,7 @@ using validate::positive;
 void check_noise(const std::string& f, const NoiseParams& n) {
   positive(f + ".frequency", n.frequency);
   validate::in(f + ".octaves", int64_t(n.octaves), 1, 16);
-  positive(f + ".roughness", n.roughness, 1);
+  validate::in(f + ".roughness", n.roughness, validate::closed(1e-6, 1));
   validate::in(f + ".frequency_jump", n.frequency_jump, validate::closed(1, 8));
   validate::finite_xyz(f + ".offset", n.offset);
 }
@@ -69,7 +69,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
   if (p.layers < 0 || p.layers > 8)
     fail(Code::InvalidArgument, f + ".pyroclastic.layers = " + std::to_string(p.layers) + " must be in [0, 8]");
   validate::non_negative(f + ".pyroclastic.amplitude", p.amplitude, 1e6);
-  positive(f + ".pyroclastic.gamma", p.gamma, 16);
+  validate::in(f + ".pyroclastic.gamma", p.gamma, validate::closed(1e-6, 16));
   check_noise(f + ".pyroclastic.noise", p.noise);
   const auto& a = m.advection;
   validate::non_negative(f + ".advection.speed", a.speed, 1e6);
@@ -112,7 +112,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
     volume += 4.18879 * std::pow(q.radius + grow, 3);
   }
   const auto& t = m.temperature;
-  positive(f + ".temperature.surface", t.surface, 1e4);
+  validate::in(f + ".temperature.surface", t.surface, validate::closed(1e-3, 1e4));
   finite(f + ".temperature.base_altitude", t.base_altitude);
   validate::in(f + ".temperature.lapse_rate", t.lapse_rate, validate::closed(-0.1, 0.1));
   validate::in(f + ".temperature.fluctuation", t.fluctuation, validate::closed(0, 1e3));

@@ -1,7 +1,6 @@
 #include "clouds/renderer.h"
 
 #include <cmath>
-#include <sstream>
 
 #include "clouds/nanovdb_volume.h"
 #include "clouds/render_params.h"
@@ -11,10 +10,6 @@
 namespace squall::clouds {
 namespace {
 
-// A condition the caller states with its rule: "<field> = <v> must be <rule>".
-void check(bool ok, const std::string& field, double v, const std::string& rule) {
-  if (!ok || !std::isfinite(v)) validate::reject(field, v, rule);
-}
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3d cross(const Vec3d& a, const Vec3d& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
@@ -101,33 +96,34 @@ void validate(const RenderSettings& s, const std::string& f) {
   if (!(norm(view) > 0)) fail(Code::InvalidArgument, f + ".camera.look_at equals " + f + ".camera.eye");
   if (!(norm(cross(unit(view), c.up)) > 1e-6))
     fail(Code::InvalidArgument, f + ".camera.up is zero or parallel to the view direction");
-  check(c.vertical_fov_deg > 0 && c.vertical_fov_deg < 170, f + ".camera.vertical_fov_deg", c.vertical_fov_deg, "in (0, 170)");
-  check(c.width >= 1 && c.width <= 8192, f + ".camera.width", c.width, "in [1, 8192]");
-  check(c.height >= 1 && c.height <= 8192, f + ".camera.height", c.height, "in [1, 8192]");
-  check(s.step > 0, f + ".step", s.step, "finite and > 0 m");
-  check(s.substeps >= 1 && s.substeps <= SQUALL_CLOUD_MAX_SUBSTEPS, f + ".substeps", s.substeps, "in [1, 8]");
-  check(s.min_transmittance >= 0 && s.min_transmittance < 1, f + ".min_transmittance", s.min_transmittance, "in [0, 1)");
+  validate::in(f + ".camera.vertical_fov_deg", c.vertical_fov_deg, validate::open(0, 170));
+  validate::in(f + ".camera.width", int64_t(c.width), 1, 8192);
+  validate::in(f + ".camera.height", int64_t(c.height), 1, 8192);
+  validate::positive(f + ".step", s.step);
+  validate::in(f + ".substeps", int64_t(s.substeps), 1, SQUALL_CLOUD_MAX_SUBSTEPS);
+  validate::in(f + ".min_transmittance", s.min_transmittance, validate::closed_open(0, 1));
   const Phase& ph = s.phase;
-  check(ph.g1 > -1 && ph.g1 < 1, f + ".phase.g1", ph.g1, "in (-1, 1)");
-  check(ph.g2 > -1 && ph.g2 < 1, f + ".phase.g2", ph.g2, "in (-1, 1)");
-  check(ph.weight >= 0 && ph.weight <= 1, f + ".phase.weight", ph.weight, "in [0, 1]");
-  check(ph.ff_n > 1 && ph.ff_n <= 2, f + ".phase.ff_n", ph.ff_n, "in (1, 2]");
-  check(ph.ff_mu >= 3.5 && ph.ff_mu <= 5, f + ".phase.ff_mu", ph.ff_mu, "in [3.5, 5] (the Junge slope)");
+  validate::in(f + ".phase.g1", ph.g1, validate::open(-1, 1));
+  validate::in(f + ".phase.g2", ph.g2, validate::open(-1, 1));
+  validate::in(f + ".phase.weight", ph.weight, validate::closed(0, 1));
+  validate::in(f + ".phase.ff_n", ph.ff_n, validate::open_closed(1, 2));
+  validate::in(f + ".phase.ff_mu", ph.ff_mu, validate::closed(3.5, 5));  // the Junge slope
   size_t nw = s.wavelengths.size();
   if (nw < 1 || nw > SQUALL_CLOUD_MAX_WAVELENGTHS)
-    fail(Code::InvalidArgument, f + ".wavelengths has " + std::to_string(nw) + " entries; 1..8 are allowed");
+    fail(Code::InvalidArgument, f + ".wavelengths has " + std::to_string(nw) + " entries: must be 1 to " +
+                                    std::to_string(SQUALL_CLOUD_MAX_WAVELENGTHS));
   if (s.extinction.size() != nw || s.albedo.size() != nw)
     fail(Code::InvalidArgument, f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
   for (size_t w = 0; w < nw; ++w) {
-    std::string i = "[" + std::to_string(w) + "]";
-    check(s.wavelengths[w] > 0 && s.wavelengths[w] <= 1e-3, f + ".wavelengths" + i, s.wavelengths[w], "in (0, 1e-3] m");
-    check(s.extinction[w] >= 0, f + ".extinction" + i, s.extinction[w], "finite and >= 0 (1/m)");
-    check(s.albedo[w] >= 0 && s.albedo[w] <= 1, f + ".albedo" + i, s.albedo[w], "in [0, 1]");
+    validate::positive(validate::at(f + ".wavelengths", w), s.wavelengths[w], 1e-3);  // m
+    validate::non_negative(validate::at(f + ".extinction", w), s.extinction[w]);    // 1/m
+    validate::in(validate::at(f + ".albedo", w), s.albedo[w], validate::closed(0, 1));
   }
   if (s.lights.size() > SQUALL_CLOUD_MAX_LIGHTS)
-    fail(Code::InvalidArgument, f + ".lights has " + std::to_string(s.lights.size()) + " entries; at most 4");
+    fail(Code::InvalidArgument, f + ".lights has " + std::to_string(s.lights.size()) + " entries: at most " +
+                                    std::to_string(SQUALL_CLOUD_MAX_LIGHTS));
   for (size_t i = 0; i < s.lights.size(); ++i) {
-    std::string l = f + ".lights[" + std::to_string(i) + "]";
+    std::string l = validate::at(f + ".lights", i);
     validate::finite_xyz(l + ".position", s.lights[i].position);
     validate::finite_xyz(l + ".direction", s.lights[i].direction);
     if (s.lights[i].kind == LightKind::Directional && !(norm(s.lights[i].direction) > 0))
@@ -135,12 +131,10 @@ void validate(const RenderSettings& s, const std::string& f) {
     if (s.lights[i].intensity.size() != nw)
       fail(Code::InvalidArgument, l + ".intensity needs one entry per wavelength (" + std::to_string(nw) + ")");
     for (size_t w = 0; w < nw; ++w)
-      check(s.lights[i].intensity[w] >= 0, l + ".intensity[" + std::to_string(w) + "]", s.lights[i].intensity[w],
-            "finite and >= 0");
+      validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w]);
   }
-  for (int a = 0; a < 3; ++a)
-    check(s.shadow_map_size[a] >= 2 && s.shadow_map_size[a] <= 512, f + ".shadow_map_size[" + std::to_string(a) + "]",
-          s.shadow_map_size[a], "in [2, 512]");
+  for (size_t a = 0; a < 3; ++a)
+    validate::in(validate::at(f + ".shadow_map_size", a), int64_t(s.shadow_map_size[a]), 2, 512);
 }
 
 DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {

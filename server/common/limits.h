@@ -15,6 +15,7 @@ struct Limits {
   uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
+                                                // (squalld's default: half the device's global memory)
 };
 
 class LimitGate;

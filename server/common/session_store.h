@@ -2,8 +2,8 @@
 // ...) under unguessable ids. Each entry holds a --max-sessions slot and its bytes against
 // --max-session-bytes (both through the LimitGate), is evicted when idle longer than the TTL (measured
 // with an injected clock, so tests need no sleeps), and can be checkpointed to versioned bytes and
-// restored under the same id (session_checkpoint.h). An unknown, closed or evicted id is
-// Error(NotFound) naming the id's request field.
+// restored under the same id (session_checkpoint.h), in this daemon or another. An unknown, closed or
+// evicted id is Error(NotFound) naming the id's request field.
 //
 // Threading: the store's map has its own lock; each entry has a lock of its own, held while with() runs,
 // so calls on one session are serialized and calls on different sessions are not.
@@ -60,9 +60,22 @@ class SessionStore {
     return r;
   }
 
-  // Stores `value` under a new id.
+  // A fresh id for add(): the caller may write it into the value before the value is shared.
+  std::string new_id() const { return new_session_id(prefix_); }
+
+  // Stores `value` under `id` (new_id(), or a checkpoint's); FAILED_PRECONDITION when `id` is live.
+  std::string add(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
+    auto entry = std::make_shared<Entry>();
+    entry->value = std::move(value);
+    entry->held = std::move(reservation);
+    entry->last_use = policy_.clock();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!entries_.emplace(id, std::move(entry)).second)
+      fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+    return id;
+  }
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
-    return insert(new_id(), std::move(reservation), std::move(value));
+    return add(new_id(), std::move(reservation), std::move(value));
   }
   std::string add(std::shared_ptr<T> value, uint64_t bytes) { return add(reserve(bytes), std::move(value)); }
 
@@ -119,16 +132,15 @@ class SessionStore {
     return with(id, [&](T& value) { return encode_checkpoint({kind_, version, id}, save(value)); });
   }
 
-  // Recreates a checkpointed entry under its original id. `load(version, payload, &bytes)` rebuilds the
-  // value; INVALID_ARGUMENT naming `field` for bytes that are no checkpoint of this kind, FAILED_PRECONDITION
-  // when the id is live.
-  std::string restore(const std::string& data, const std::string& field,
-                      const std::function<std::shared_ptr<T>(uint32_t, const std::string&, uint64_t*)>& load) {
-    CheckpointHeader header;
-    std::string payload = decode_checkpoint(data, kind_, field, &header);
-    uint64_t bytes = 0;
-    std::shared_ptr<T> value = load(header.version, payload, &bytes);
-    return insert(header.id, reserve(bytes), std::move(value));
+  // The header and payload of a checkpoint of this store's kind, before anything is built from it;
+  // INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint, FAILED_PRECONDITION when its id
+  // is live. The caller then reserve()s, builds the value and add()s it under header.id.
+  std::string open_checkpoint(const std::string& data, const std::string& field, CheckpointHeader* header) {
+    std::string payload = decode_checkpoint(data, kind_, field, header);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.count(header->id))
+      fail(Code::FailedPrecondition, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);
+    return payload;
   }
 
   const std::string& kind() const { return kind_; }
@@ -142,21 +154,9 @@ class SessionStore {
     std::chrono::steady_clock::time_point last_use;
   };
 
-  std::string new_id() const { return new_session_id(prefix_); }
   std::string not_found(const std::string& id, const std::string& field = "") const {
     return (field.empty() ? id_field_ : field) + " = \"" + id + "\" is not a live " + kind_ +
            " (unknown, closed or expired)";
-  }
-
-  std::string insert(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
-    auto entry = std::make_shared<Entry>();
-    entry->value = std::move(value);
-    entry->held = std::move(reservation);
-    entry->last_use = policy_.clock();
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!entries_.emplace(id, std::move(entry)).second)
-      fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
-    return id;
   }
 
   std::shared_ptr<Entry> find(const std::string& id, const std::string& field = "") {
@@ -169,6 +169,7 @@ class SessionStore {
   }
 
   std::shared_ptr<Entry> take(const std::string& id) {
+    evict_idle();  // an expired id is NOT_FOUND here too
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(id);
     if (it == entries_.end()) return nullptr;

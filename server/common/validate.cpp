@@ -1,5 +1,6 @@
 #include "common/validate.h"
 
+#include <cmath>
 #include <cstdio>
 
 #include "common/error.h"

@@ -6,7 +6,6 @@
 // Limits (cells, bytes, streams, sessions) are not validation: they go through LimitGate.
 #pragma once
 
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -38,6 +37,8 @@ inline Interval above(double lo) { return {lo, std::numeric_limits<double>::infi
 inline Interval at_least(double lo) { return {lo, std::numeric_limits<double>::infinity(), false, false}; }
 inline Interval closed(double lo, double hi) { return {lo, hi, false, false}; }
 inline Interval open_closed(double lo, double hi) { return {lo, hi, true, false}; }
+inline Interval closed_open(double lo, double hi) { return {lo, hi, false, true}; }
+inline Interval open(double lo, double hi) { return {lo, hi, true, true}; }
 
 double in(const std::string& path, double v, const Interval& interval);
 inline double finite(const std::string& path, double v) { return in(path, v, any()); }

@@ -94,6 +94,10 @@ int run_daemon(const DaemonOptions& options) {
     return kExitUsage;
   }
 
+  const Limits& limits = daemon->serving.gate().limits();
+  log(LogLevel::Info, "limits: ", limits.max_sessions, " sessions holding at most ", limits.max_session_bytes,
+      " bytes (--max-sessions, --max-session-bytes), ", limits.max_streams, " streams, ", limits.max_grid_cells,
+      " cells per field");
   ServerService server_service(*daemon);
   const auto served = capabilities(daemon->serving);
   grpc::EnableDefaultHealthCheckService(true);

@@ -13,8 +13,15 @@
 
 namespace squall::rpc {
 
+// --max-session-bytes 0 (the default) is half the selected device's global memory.
+inline Limits with_session_budget(Limits limits, const Runtime& runtime) {
+  if (limits.max_session_bytes == 0) limits.max_session_bytes = runtime.device_info().global_memory_bytes / 2;
+  return limits;
+}
+
 struct DaemonState {
-  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits) : runtime(runtime_options), serving(limits) {}
+  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits)
+      : runtime(runtime_options), serving(with_session_budget(limits, runtime)) {}
 
   Runtime runtime;
   ServingState serving;

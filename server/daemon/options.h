@@ -9,13 +9,20 @@
 
 namespace squall::rpc {
 
+// squalld's default limits: Limits' own, but --max-session-bytes 0 (half the device's global memory).
+inline Limits daemon_limits() {
+  Limits limits;
+  limits.max_session_bytes = 0;
+  return limits;
+}
+
 struct DaemonOptions {
   std::string listen = "127.0.0.1:50051";  // --listen host:port (port 0 picks a free one)
   std::string port_file;                   // --port-file: write the bound port here once listening
   RuntimeOptions runtime;                  // --device, --kernel-dir
   std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
   std::string fft = "auto";                // --fft vkfft | clfft | auto (the faster, measured at start-up)
-  Limits limits;                           // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
+  Limits limits = daemon_limits();         // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
   double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted

@@ -10,7 +10,7 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
       fft_(fft),
       gate_(gate),
       ocean_(options.ocean),
-      sessions_(gate, SessionPolicy{options.session_ttl, std::move(options.clock)}, "eWave session", "session_id") {
+      sessions_(gate, std::move(options.sessions), "eWave session", "session_id") {
   // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.
   StepKernels<cl_float> single_precision(runtime);
   make_rasterize_kernel(runtime);
@@ -32,17 +32,19 @@ std::string EWaveEngine::create(const EWaveConfig& config) {
   return sessions_.add(std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_));
 }
 
-std::shared_ptr<EWaveSession> EWaveEngine::session_from_state(const std::string& bytes, const EWaveConfig& config) {
-  auto session = std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_);
-  session->restore(bytes);
-  return session;
-}
-
-std::string EWaveEngine::create_from_state(const std::string& bytes) {
+std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> EWaveEngine::from_state(
+    const std::string& bytes) {
   EWaveConfig config = EWaveSession::config_from_state(bytes);
   validate(config, &gate_);
   auto reservation = sessions_.reserve(session_bytes(config));
-  return sessions_.add(std::move(reservation), session_from_state(bytes, config));
+  auto session = std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_);
+  session->restore(bytes);
+  return {std::move(reservation), std::move(session)};
+}
+
+std::string EWaveEngine::create_from_state(const std::string& bytes) {
+  auto [reservation, session] = from_state(bytes);
+  return sessions_.add(std::move(reservation), std::move(session));
 }
 
 Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs) {
@@ -68,15 +70,13 @@ std::string EWaveEngine::checkpoint(const std::string& id) {
 }
 
 std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
-  return sessions_.restore(bytes, "checkpoint", [&](uint32_t version, const std::string& payload, uint64_t* used) {
-    if (version != kCheckpointVersion)
-      fail(Code::InvalidArgument, "checkpoint has eWave payload version " + std::to_string(version) + ", this squalld reads " +
-                                      std::to_string(kCheckpointVersion));
-    EWaveConfig config = EWaveSession::config_from_state(payload);
-    validate(config, &gate_);
-    *used = session_bytes(config);
-    return session_from_state(payload, config);
-  });
+  CheckpointHeader header;
+  std::string state = sessions_.open_checkpoint(bytes, "checkpoint", &header);
+  if (header.version != kCheckpointVersion)
+    fail(Code::InvalidArgument, "checkpoint has eWave payload version " + std::to_string(header.version) +
+                                    ", this squalld reads " + std::to_string(kCheckpointVersion));
+  auto [reservation, session] = from_state(state);
+  return sessions_.add(header.id, std::move(reservation), std::move(session));
 }
 
 size_t EWaveEngine::evict_idle() { return sessions_.evict_idle(); }

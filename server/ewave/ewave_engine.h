@@ -14,8 +14,7 @@
 namespace squall::ewave {
 
 struct EWaveEngineOptions {
-  std::chrono::milliseconds session_ttl{std::chrono::minutes(10)};  // squalld --session-ttl
-  SteadyClock clock = [] { return std::chrono::steady_clock::now(); };  // the TTL's clock (tests replace it)
+  SessionPolicy sessions;  // squalld --session-ttl, and the clock it is measured with (tests replace it)
   // Evaluates the ocean specs of configs and steps (ambient_ocean, initial_ocean); null: such specs give
   // FAILED_PRECONDITION. Must share the runtime and outlive the engine.
   ocean::OceanEngine* ocean = nullptr;
@@ -36,7 +35,8 @@ class EWaveEngine {
   void close(const std::string& id);
   EWaveConfig config(const std::string& id);
 
-  // The session as versioned bytes, and back under its id (for --state-dir and moving sessions).
+  // The session as versioned bytes, and back under its id: to persist sessions or move them between
+  // daemons.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 
@@ -44,7 +44,8 @@ class EWaveEngine {
   size_t size() const { return sessions_.size(); }
 
  private:
-  std::shared_ptr<EWaveSession> session_from_state(const std::string& bytes, const EWaveConfig& config);
+  // A validated session continuing `bytes`, its memory reserved before it is built.
+  std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> from_state(const std::string& bytes);
 
   Runtime& runtime_;
   fft::Fft& fft_;

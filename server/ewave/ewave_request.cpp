@@ -1,8 +1,6 @@
 #include "ewave/ewave_request.h"
 
-#include <cmath>
 #include <set>
-#include <sstream>
 
 #include "common/error.h"
 #include "common/validate.h"

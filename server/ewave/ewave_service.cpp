@@ -2,7 +2,7 @@
 
 #include "common/field_codec.h"
 #include "ewave/ewave_request.h"
-#include "ocean/ocean_engine.h"
+#include "ocean/shared_engine.h"
 #include "rpc/metadata.h"
 #include "rpc/streaming.h"
 
@@ -26,11 +26,9 @@ void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveS
 
 void EWaveService::start(EngineContext& context) {
   ewave::EWaveEngineOptions options;
-  options.session_ttl = context.sessions.ttl;
-  options.clock = context.sessions.clock;
+  options.sessions = context.sessions;
   // ambient_ocean / initial_ocean of eWave sessions, evaluated by the daemon's one ocean engine
-  options.ocean = &context.shared<ocean::OceanEngine>(
-      [&] { return std::make_unique<ocean::OceanEngine>(context.runtime, context.fft); });
+  options.ocean = &ocean::shared_engine(context);
   engine_ = std::make_unique<ewave::EWaveEngine>(context.runtime, context.fft, context.gate, options);
 }
 

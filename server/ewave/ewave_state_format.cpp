@@ -1,10 +1,10 @@
 #include "ewave/ewave_state_format.h"
 
-#include <cmath>
 #include <cstring>
 #include <type_traits>
 
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::ewave {
 namespace {
@@ -85,7 +85,7 @@ void check_fields_finite(const std::string& bytes, const StateHeader& h) {
       std::memcpy(&f, fields + c * sizeof(float), sizeof(float));
       v = f;
     }
-    if (!std::isfinite(v)) fail(Code::InvalidArgument, "state field value " + std::to_string(c) + " is not finite");
+    validate::finite(validate::at("state.fields", c), v);
   }
 }
 

@@ -8,6 +8,7 @@
 #include <map>
 
 #include "common/error.h"
+#include "common/validate.h"
 #include "ocean/spectrum_setup.h"
 #include "runtime/kernel.h"
 
@@ -58,6 +59,7 @@ std::string describe_outputs(unsigned outputs) { return std::to_string(outputs);
 struct OceanEngine::Impl {
   Runtime& runtime;
   fft::Fft& fft;
+  LimitGate gate;  // the grid limit of tile() and sample()
   size_t max_cached_bytes;
   H0Kernel h0_kernel;
   EvolveKernel evolve;
@@ -76,8 +78,8 @@ struct OceanEngine::Impl {
   std::map<std::string, double> slope_variances;  // eq 96 per spec (bounded)
   mutable std::mutex cache_mutex;  // guards the counters read by cached_spectra() / spectra_built()
 
-  Impl(Runtime& r, fft::Fft& f, size_t max_bytes)
-      : runtime(r), fft(f), max_cached_bytes(max_bytes),
+  Impl(Runtime& r, fft::Fft& f, const Limits& limits, size_t max_bytes)
+      : runtime(r), fft(f), gate(limits), max_cached_bytes(max_bytes),
         h0_kernel(r, kProgram, "ocean_h0"), evolve(r, kProgram, "ocean_evolve"),
         accumulate(r, kProgram, "ocean_accumulate"), finalize(r, kProgram, "ocean_finalize"),
         evolve_potential(r, kProgram, "ocean_evolve_potential") {}
@@ -167,18 +169,15 @@ struct OceanEngine::Impl {
   }
 };
 
-OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, size_t max_cached_bytes)
-    : impl_(std::make_unique<Impl>(runtime, fft, max_cached_bytes)) {}
+OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits, size_t max_cached_bytes)
+    : impl_(std::make_unique<Impl>(runtime, fft, limits, max_cached_bytes)) {}
 OceanEngine::~OceanEngine() = default;
 
 void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { validate_tile(spec, gate); }
-void OceanEngine::validate(const TileSpec& spec) const {
-  LimitGate gate{Limits{}};
-  validate_tile(spec, gate);
-}
+void OceanEngine::validate(const TileSpec& spec) const { validate_tile(spec, impl_->gate); }
 
 void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out) {
-  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
+  validate::finite("t", t);
   OutputGrid grid = output_grid(spec);
   for (size_t a = 0; a < spec.layers.size(); ++a) {
     BufferLease fields = impl_->layer_potential(spec, a, t);
@@ -199,7 +198,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
-  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
+  validate::finite("t", t);
   OutputGrid grid = output_grid(spec);
   const size_t cells = size_t(grid.nx) * size_t(grid.ny);
   const int pairs = channel_pairs(outputs);
@@ -283,10 +282,11 @@ void sample_channels(const std::vector<float>& fields, const LayerSpec& L, doubl
 std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                                bool invert_displacement) {
   validate(spec);
-  if (!std::isfinite(t)) fail(Code::InvalidArgument, "t must be finite");
-  for (size_t i = 0; i < points.size(); ++i)
-    if (!std::isfinite(points[i].x) || !std::isfinite(points[i].y))
-      fail(Code::InvalidArgument, "points[" + std::to_string(i) + "] must be finite");
+  validate::finite("t", t);
+  for (size_t i = 0; i < points.size(); ++i) {
+    validate::finite(validate::at("points", i) + ".x", points[i].x);
+    validate::finite(validate::at("points", i) + ".y", points[i].y);
+  }
   std::vector<std::vector<float>> layers(spec.layers.size());
   {
     auto lock = impl_->runtime.exclusive();

@@ -24,16 +24,17 @@ namespace squall::ocean {
 
 class OceanEngine {
  public:
-  // The runtime must have built the "ocean/" programs. max_cached_bytes bounds the h0 cache.
-  OceanEngine(Runtime& runtime, fft::Fft& fft, size_t max_cached_bytes = 256ull << 20);
+  // The runtime must have built the "ocean/" programs. max_cached_bytes bounds the h0 cache. `limits`
+  // (the daemon's) bound the grids tile() and sample() accept.
+  OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits = {}, size_t max_cached_bytes = 256ull << 20);
   ~OceanEngine();
 
   // Throws squall::Error(InvalidArgument) naming the field ("layers[0].wind_speed = nan must be finite
   // and > 0", "layers[1].spectrum = 9 is not a known model", "choppiness", "nx", ...), or
   // ResourceExhausted from the gate's grid limit (layers[i] and the output grid). tile() and sample()
-  // call it with a default gate; the service calls it with the daemon's.
+  // call it with the engine's limits; the service validates each request first, under its field path.
   void validate(const TileSpec& spec, const LimitGate& gate) const;
-  void validate(const TileSpec& spec) const;  // with default Limits
+  void validate(const TileSpec& spec) const;  // with the engine's limits
 
   // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be
   // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the

@@ -1,7 +1,5 @@
 #include "ocean/ocean_request.h"
 
-#include <cmath>
-#include <sstream>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -60,7 +58,7 @@ DispersionKind dispersion(const std::string& path, v1::DispersionModel m) {
   }
 }
 
-PartialSpectrum partial(const v1::PartialSpectrum& p, const std::string& path) {
+PartialSpectrum partial(const v1::PartialSpectrum& p) {
   PartialSpectrum out;
   out.peak_frequency = p.peak_frequency();
   out.significant_wave_height = p.significant_wave_height();
@@ -73,7 +71,6 @@ PartialSpectrum partial(const v1::PartialSpectrum& p, const std::string& path) {
 }
 
 void spectrum_parameters(const v1::LayerSpec& in, const std::string& path, LayerSpec& l) {
-  const bool multipeak = l.spectrum == SpectrumModel::Multipeak;
   l.wind_speed = in.wind_speed();
   const bool fetch_used = l.spectrum == SpectrumModel::Jonswap || l.spectrum == SpectrumModel::ModifiedJonswap ||
                           l.spectrum == SpectrumModel::Tma;
@@ -85,13 +82,10 @@ void spectrum_parameters(const v1::LayerSpec& in, const std::string& path, Layer
   if (in.has_phillips_amplitude()) l.phillips_amplitude = in.phillips_amplitude();
   if (in.has_phillips_cutoff()) l.phillips_cutoff = in.phillips_cutoff();
   if (in.has_phillips_exponent()) l.phillips_exponent = in.phillips_exponent();
-  if (multipeak && (in.partials_size() < 1 || in.partials_size() > kMaxPartialSpectra))
-    fail(Code::InvalidArgument, path + ".partials has " + std::to_string(in.partials_size()) +
-                                    " entries: the MULTIPEAK spectrum needs 1 to " + std::to_string(kMaxPartialSpectra));
-  if (!multipeak && in.partials_size() > 0)
+  // A request's partials are an error with another spectrum (the engine would ignore them).
+  if (l.spectrum != SpectrumModel::Multipeak && in.partials_size() > 0)
     fail(Code::InvalidArgument, path + ".partials is only for SPECTRUM_MODEL_MULTIPEAK");
-  for (int i = 0; i < in.partials_size(); ++i)
-    l.partials.push_back(partial(in.partials(i), path + ".partials[" + std::to_string(i) + "]"));
+  for (const auto& p : in.partials()) l.partials.push_back(partial(p));
 }
 
 void dispersion_parameters(const v1::LayerSpec& in, const std::string& path, LayerSpec& l) {
@@ -147,7 +141,8 @@ TileSpec tile_spec(const v1::TileSpec& tile, const LimitGate& gate, const std::s
   if (!t.layers.empty()) output_grid_spec(tile.output(), path + ".output", t);
   if (tile.has_whitecap_threshold()) t.whitecap_threshold = tile.whitecap_threshold();
   if (tile.has_whitecap_decay_time()) t.whitecap_decay = tile.whitecap_decay_time();
-  if (tile.has_pixel_scale()) t.pixel_scale = tile.pixel_scale();
+  // Present means a scale (> 0); the engine's 0 means "unset" (the output grid's spacing).
+  if (tile.has_pixel_scale()) t.pixel_scale = validate::positive(path + ".pixel_scale", tile.pixel_scale(), 1e6);
   if (tile.has_slope_k_max()) t.slope_k_max = tile.slope_k_max();
   validate_tile(t, gate, path);
   return t;

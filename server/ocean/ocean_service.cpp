@@ -1,12 +1,11 @@
 #include "ocean/ocean_service.h"
 
-#include <cmath>
 #include <future>
-#include <sstream>
 
 #include "common/field_codec.h"
 #include "common/validate.h"
 #include "ocean/ocean_request.h"
+#include "ocean/shared_engine.h"
 #include "ocean/tile_chunks.h"
 #include "rpc/streaming.h"
 
@@ -57,8 +56,7 @@ ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
 }  // namespace
 
 void OceanService::start(EngineContext& context) {
-  engine_ = &context.shared<ocean::OceanEngine>(
-      [&] { return std::make_unique<ocean::OceanEngine>(context.runtime, context.fft); });
+  engine_ = &ocean::shared_engine(context);
 }
 
 grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
@@ -76,11 +74,20 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
 
 grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::StreamTilesRequest* request,
                                        grpc::ServerWriter<v1::TileChunk>* writer) {
-  return serve_stream(*context, serving_, "StreamTiles", [&](StreamCall& call) {
+  struct Stream {
+    TileJob job;
+    double t0, dt;
+    ChunkPlan plan;
+  };
+  auto prepare = [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     const double t0 = validate::finite("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
-    const ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
+    ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
+    return Stream{std::move(job), t0, dt, std::move(plan)};
+  };
+  return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, const Stream& stream) {
+    const auto& [job, t0, dt, plan] = stream;
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) { return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps); };

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -22,7 +21,7 @@ bool spreading_needs_wind(SpreadingModel s) {
 
 void validate_partials(const std::string& f, const LayerSpec& L) {
   if (L.partials.empty() || L.partials.size() > size_t(kMaxPartialSpectra))
-    fail(Code::InvalidArgument, f + ".partials holds " + std::to_string(L.partials.size()) +
+    fail(Code::InvalidArgument, f + ".partials has " + std::to_string(L.partials.size()) +
                                     " entries; the Multipeak spectrum needs 1.." + std::to_string(kMaxPartialSpectra));
   for (size_t i = 0; i < L.partials.size(); ++i) {
     const auto& p = L.partials[i];
@@ -52,7 +51,7 @@ void validate_spectrum(const std::string& f, const LayerSpec& L) {
   non_negative(f + ".phillips_amplitude", L.phillips_amplitude);
   non_negative(f + ".phillips_cutoff", L.phillips_cutoff);
   non_negative(f + ".phillips_exponent", L.phillips_exponent, 64);
-  if (multipeak) validate_partials(f, L);
+  if (multipeak) validate_partials(f, L);  // other spectra ignore partials
   validate::in(f + ".wind_direction", L.wind_direction, validate::closed(-1e6, 1e6));
 }
 

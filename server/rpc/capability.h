@@ -10,7 +10,6 @@
 #include <memory>
 #include <typeindex>
 
-#include "common/error.h"
 #include "common/limits.h"
 #include "common/session_store.h"
 #include "fft/fft.h"
@@ -39,13 +38,6 @@ class EngineContext {
     return *std::static_pointer_cast<E>(slot);
   }
 
-  // The shared engine of type E a started capability made; Error(Internal) when none did.
-  template <typename E>
-  E& shared() {
-    auto it = shared_.find(std::type_index(typeid(E)));
-    if (it == shared_.end()) fail(Code::Internal, "no capability started a shared engine of this type");
-    return *std::static_pointer_cast<E>(it->second);
-  }
 
  private:
   std::map<std::type_index, std::shared_ptr<void>> shared_;

@@ -10,9 +10,8 @@ std::string metadata_value(const std::multimap<grpc::string_ref, grpc::string_re
   return std::string(it->second.data(), std::min(it->second.size(), kMaxMetadataValue));
 }
 
-std::string session_routing_key(const grpc::ServerContext& context, const std::string& request_id) {
-  std::string key = metadata_value(context.client_metadata(), kSessionKey);
-  return key.empty() ? request_id : key;
+std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata) {
+  return metadata_value(metadata, kSessionKey);
 }
 
 void announce_session(grpc::ServerContext& context, const std::string& session_id) {

@@ -34,7 +34,9 @@ class RequestLog : public grpc::experimental::Interceptor {
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
-      id_ = metadata_value(*methods->GetRecvInitialMetadata(), kRequestIdKey);
+      const auto& metadata = *methods->GetRecvInitialMetadata();
+      id_ = metadata_value(metadata, kRequestIdKey);
+      session_ = session_routing_key(metadata);
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
         is_squall_method())
@@ -64,11 +66,13 @@ class RequestLog : public grpc::experimental::Interceptor {
     logged_ = true;
     double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
     log(LogLevel::Info, "request id=", id_.empty() ? "-" : id_, " method=", method_, " status=", status,
-        " duration_ms=", ms, message.empty() ? "" : " error=\"" + message + "\"");
+        " duration_ms=", ms, session_.empty() ? "" : " session=" + session_,
+        message.empty() ? "" : " error=\"" + message + "\"");
   }
 
   std::string method_;
   std::string id_;
+  std::string session_;  // x-squall-session, when the client names one
   std::chrono::steady_clock::time_point start_;
   bool logged_ = false;
 };

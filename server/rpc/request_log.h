@@ -1,5 +1,5 @@
-// One log line per request: its id, method, status and duration, written by a server interceptor so no
-// handler has to remember. The id is the "x-request-id" metadata, else the request's `request_id`
+// One log line per request: its id, method, status and duration (and the session the client names in
+// x-squall-session), written by a server interceptor so no handler has to remember. The id is the "x-request-id" metadata, else the request's `request_id`
 // field, else "-".
 #pragma once
 

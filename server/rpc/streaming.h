@@ -40,17 +40,26 @@ class StreamCall {
   bool ended_ = false;
 };
 
-// Runs a streaming handler's body(StreamCall&) under guarded(), after the serving check and with a stream
-// slot; the status is the body's error, else the call's.
-template <typename Body>
-grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Body&& body) {
+// Runs a streaming handler under guarded(): the serving check, then prepare() (the request's validation,
+// so that a bad request is refused before it takes a stream slot), then run(call, prepared) holding a
+// --max-streams slot. The status is the first error thrown, else the call's.
+template <typename Prepare, typename Run>
+grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Prepare&& prepare,
+                          Run&& run) {
   return guarded([&] {
     serving.require_serving();
+    auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
     StreamCall call(context, method);
-    body(call);
+    run(call, prepared);
     return call.status();
   });
+}
+
+// The same for a stream whose messages are validated one by one as they arrive: run(call).
+template <typename Run>
+grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Run&& run) {
+  return serve_stream(context, serving, method, [] { return 0; }, [&](StreamCall& call, int) { run(call); });
 }
 
 // A unary handler's body() -> grpc::Status under guarded(), after the serving check.

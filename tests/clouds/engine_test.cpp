@@ -24,7 +24,7 @@ CloudModel small_sphere() {
 // An engine with its own limits and a clock the test moves.
 struct TestStore {
   explicit TestStore(Limits limits = {}, CloudEngineOptions options = {}) : gate(limits) {
-    options.clock = [this] { return now; };
+    options.sessions.clock = [this] { return now; };
     engine = std::make_unique<CloudEngine>(test::runtime(), gate, options);
   }
   LimitGate gate;
@@ -51,7 +51,7 @@ TEST(Engine, StoresFindsAndReleasesVolumes) {
 
 TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
   CloudEngineOptions options;
-  options.ttl = std::chrono::milliseconds(50);
+  options.sessions.ttl = std::chrono::milliseconds(50);
   TestStore store({}, options);
   CloudEngine& engine = *store.engine;
   std::string id = engine.keep(engine.build(small_sphere()));
@@ -63,7 +63,7 @@ TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
   error_of([&] { engine.find(id); }, Code::NotFound);
   EXPECT_EQ(engine.stored_count(), 0u);
 
-  options.ttl = std::chrono::minutes(1);
+  options.sessions.ttl = std::chrono::minutes(1);
   auto v = engine.build(small_sphere());
   Limits limits;
   limits.max_session_bytes = v->bytes + v->bytes / 2;  // room for one

@@ -8,17 +8,13 @@
 #include "clouds/volume.h"
 #include "common/error.h"
 
+#include "support/expect_error.h"
+
 namespace squall::clouds {
 namespace {
 
 void expect_error(const std::function<void()>& f, Code code, const std::string& needle) {
-  try {
-    f();
-    ADD_FAILURE() << "no error; expected one naming " << needle;
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), code) << e.what();
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
+  test::expect_error(code, needle, f);
 }
 
 CloudModel sphere_model() {

@@ -79,24 +79,36 @@ TEST_F(SessionStoreTest, CountAndBytesAreLimitedThroughTheGate) {
 TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   auto s = store();
   std::string id = s.add(std::make_shared<Counter>(Counter{41}), 8);
-  auto save = [](const Counter& c) { return std::to_string(c.value); };
-  std::string saved = s.checkpoint(id, 7, save);
-  auto load = [](uint32_t version, const std::string& payload, uint64_t* bytes) {
-    EXPECT_EQ(version, 7u);
-    *bytes = 8;
-    return std::make_shared<Counter>(Counter{std::stoi(payload)});
+  std::string saved = s.checkpoint(id, 7, [](const Counter& c) { return std::to_string(c.value); });
+  auto restore = [&](const std::string& data) {
+    CheckpointHeader header;
+    std::string payload = s.open_checkpoint(data, "state", &header);
+    EXPECT_EQ(header.version, 7u);
+    return s.add(header.id, s.reserve(8), std::make_shared<Counter>(Counter{std::stoi(payload)}));
   };
-  expect_error(Code::FailedPrecondition, "already a live counter", [&] { s.restore(saved, "state", load); });
+  expect_error(Code::FailedPrecondition, "counter_id = \"" + id + "\" is already a live counter",
+               [&] { restore(saved); });
   s.close(id);
-  EXPECT_EQ(s.restore(saved, "state", load), id);
+  EXPECT_EQ(restore(saved), id);
   EXPECT_EQ(s.with(id, [](Counter& c) { return c.value; }), 41);
+  EXPECT_EQ(gate_->session_bytes(), 8u);
 
-  expect_error(Code::InvalidArgument, "state is not a session checkpoint", [&] { s.restore("junk", "state", load); });
-  expect_error(Code::InvalidArgument, "truncated", [&] { s.restore(saved.substr(0, saved.size() - 1), "state", load); });
-  expect_error(Code::InvalidArgument, "follow the payload", [&] { s.restore(saved + "x", "state", load); });
-  gate_ = std::make_unique<LimitGate>(Limits{});
-  SessionStore<Counter> other(*gate_, {}, "volume", "volume_id");
-  expect_error(Code::InvalidArgument, "holds a counter, not a volume", [&] { other.restore(saved, "state", load); });
+  CheckpointHeader header;
+  expect_error(Code::InvalidArgument, "state is not a session checkpoint", [&] { s.open_checkpoint("junk", "state", &header); });
+  expect_error(Code::InvalidArgument, "truncated", [&] { s.open_checkpoint(saved.substr(0, saved.size() - 1), "state", &header); });
+  expect_error(Code::InvalidArgument, "follow the payload", [&] { s.open_checkpoint(saved + "x", "state", &header); });
+  LimitGate other_gate{Limits{}};
+  SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
+  expect_error(Code::InvalidArgument, "holds a counter, not a volume", [&] { other.open_checkpoint(saved, "state", &header); });
+}
+
+TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {
+  auto s = store({}, 100ms);
+  std::string id = s.add(std::make_shared<Counter>(), 0);
+  now_ += 101ms;
+  expect_error(Code::NotFound, "counter_id", [&] { s.close(id); });
+  EXPECT_FALSE(s.erase(id));
+  EXPECT_EQ(gate_->live_sessions(), 0u);
 }
 
 }  // namespace

@@ -62,6 +62,22 @@ TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
       << log;
 }
 
+TEST(Daemon, TheLogLineNamesTheSessionTheClientSends) {
+  auto stub = squall::v1::Server::NewStub(client::Client({shared_daemon().address(), 10, ""}).channel());
+  grpc::ClientContext context;
+  context.AddMetadata("x-request-id", "log-test-43");
+  context.AddMetadata("x-squall-session", "0123abcd");
+  squall::v1::GetInfoResponse reply;
+  ASSERT_TRUE(stub->GetInfo(&context, squall::v1::GetInfoRequest(), &reply).ok());
+  std::string log;
+  for (int i = 0; i < 50 && log.find("log-test-43") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    log = shared_daemon().process().log();
+  }
+  EXPECT_NE(log.find("request id=log-test-43 method=/squall.v1.Server/GetInfo status=OK"), std::string::npos) << log;
+  EXPECT_NE(log.find("session=0123abcd"), std::string::npos) << log;
+}
+
 // Asks the reflection service for its list of services over a raw bidi stream, with the request
 // encoded by hand (ServerReflectionRequest{list_services: ""} is field 7, empty: bytes 0x3a 0x00).
 std::string reflection_list_services(const std::string& address) {

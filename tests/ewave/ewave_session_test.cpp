@@ -108,8 +108,8 @@ class EngineTest : public testing::Test {
   }
   EWaveEngine engine(std::chrono::milliseconds ttl = std::chrono::minutes(1)) {
     EWaveEngineOptions o;
-    o.session_ttl = ttl;
-    o.clock = [this] { return now_; };
+    o.sessions.ttl = ttl;
+    o.sessions.clock = [this] { return now_; };
     return EWaveEngine(squall::test::runtime(), squall::test::fft("vkfft"), gate_, o);
   }
   LimitGate gate_;

@@ -1,9 +1,12 @@
+cmake_minimum_required(VERSION 3.25)
 # The layering rules, checked on the sources (cmake -P, run by ctest as layering_test):
 #  1. daemon/ is the composition root: no file outside server/daemon/ includes "daemon/...".
 #  2. A capability's folder (server/<capability>/) includes no other capability's service (a request
 #     translator may use another's when its proto imports that one's messages: eWave's ambient ocean).
-#  3. The engine library links no gRPC or protobuf (ENGINE_LINKS, computed at configure time), and none of
-#     its sources (ENGINE_SOURCES) includes a gRPC, protobuf or RPC-layer header.
+#  3. server/rpc/ includes no capability: capabilities plug into it, not the other way round.
+#  4. The engine library links no gRPC or protobuf (ENGINE_LINKS, computed at configure time), and none of
+#     its sources (ENGINE_SOURCES) includes, directly or through the headers it includes, a gRPC,
+#     protobuf or RPC-layer header.
 # Arguments: -DSOURCE_DIR=... -DENGINE_SOURCES=<file listing sources> -DENGINE_LINKS=<file listing links>
 set(violations "")
 
@@ -24,6 +27,9 @@ foreach(f ${all_files})
     list(APPEND violations "${f} includes daemon/ (the composition root)")
   endif()
   foreach(cap ${capabilities})
+    if(f MATCHES "^server/rpc/" AND includes MATCHES "#include \"${cap}/")
+      list(APPEND violations "${f} (the RPC layer) includes the ${cap} capability")
+    endif()
     if(f MATCHES "^server/${cap}/")
       foreach(other ${capabilities})
         if(NOT other STREQUAL cap AND includes MATCHES "#include \"${other}/[a-z_]*_service\\.h\"")
@@ -40,18 +46,35 @@ foreach(link ${links})
     list(APPEND violations "squall_engine links ${link}")
   endif()
 endforeach()
+# The quoted includes of the engine's sources, followed through the headers under server/ and kernels/.
 file(STRINGS ${ENGINE_SOURCES} sources)
-foreach(source ${sources})
-  file(STRINGS ${source} includes REGEX "^#include")
-  if(includes MATCHES "grpcpp/|\\.pb\\.h|\"rpc/|_service\\.h|_request\\.h")
-    list(APPEND violations "engine source ${source} includes a gRPC, protobuf or RPC-layer header")
+set(queue ${sources})
+set(seen "")
+while(queue)
+  list(POP_FRONT queue file)
+  if(file IN_LIST seen OR NOT EXISTS "${file}")
+    continue()
   endif()
-endforeach()
+  list(APPEND seen ${file})
+  file(STRINGS ${file} includes REGEX "^#include")
+  if(includes MATCHES "grpcpp/|\\.pb\\.h|\"rpc/|_service\\.h|_request\\.h|field_codec\\.h")
+    list(APPEND violations "engine file ${file} includes a gRPC, protobuf or RPC-layer header")
+  endif()
+  foreach(line ${includes})
+    if(line MATCHES "^#include \"([^\"]+)\"")
+      foreach(root ${SOURCE_DIR}/server ${SOURCE_DIR}/kernels)
+        if(EXISTS ${root}/${CMAKE_MATCH_1})
+          list(APPEND queue ${root}/${CMAKE_MATCH_1})
+        endif()
+      endforeach()
+    endif()
+  endforeach()
+endwhile()
 
 list(LENGTH all_files checked)
-list(LENGTH sources engine_count)
+list(LENGTH seen engine_count)
 if(violations)
   list(JOIN violations "\n  " text)
   message(FATAL_ERROR "layering violations:\n  ${text}")
 endif()
-message(STATUS "layering: ${checked} files and ${engine_count} engine sources follow the rules")
+message(STATUS "layering: ${checked} files and ${engine_count} engine files (sources and their headers) follow the rules")

@@ -22,6 +22,7 @@
 #include "common/field_codec.h"
 #include "common/float16.h"
 #include "ocean/tile_chunks.h"
+#include "support/expect_error.h"
 #include "support/process.h"
 
 namespace squall {
@@ -255,17 +256,7 @@ TEST(ClientValues, Float16FieldsDecode) {
 }
 
 // The message of the InvalidArgument error `f` throws ("" and a failure if it throws none or another).
-template <typename F>
-std::string invalid_argument(F f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), Code::InvalidArgument) << e.what();
-    return e.what();
-  }
-  ADD_FAILURE() << "no squall::Error thrown";
-  return "";
-}
+std::string invalid_argument(const std::function<void()>& f) { return test::expect_error(Code::InvalidArgument, "", f); }
 
 std::vector<uint32_t> bits_of(const std::vector<float>& v) {
   std::vector<uint32_t> out(v.size());
@@ -294,12 +285,7 @@ TEST(FieldCodec, Float32RoundTripIsExact) {
   EXPECT_EQ(cube.nz(), 2u);
   EXPECT_EQ(bits_of(field::decode(cube, "volume")), bits_of(in));
   // The encoder's caller must hand it the grid's count of values: that is a bug, not a bad request.
-  try {
-    field::encode({"height", "m", 5, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f);
-    ADD_FAILURE() << "12 values for a 5 x 3 grid were accepted";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), Code::Internal);
-  }
+  test::expect_error(Code::Internal, "", [&] { field::encode({"height", "m", 5, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f); });
 }
 
 // Values that binary16 represents exactly come back exactly (signed zeros, subnormals, the largest

@@ -4,19 +4,12 @@
 #include "common/error.h"
 #include "common/limits.h"
 
+#include "support/expect_error.h"
+
 namespace squall {
 namespace {
 
-std::string message_of(const std::function<void()>& f, Code expected) {
-  try {
-    f();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), expected) << e.what();
-    return e.what();
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
+std::string message_of(const std::function<void()>& f, Code expected) { return test::expect_error(expected, "", f); }
 
 TEST(Limits, GridWithinLimitPasses) {
   LimitGate gate(Limits{.max_grid_cells = 1024 * 1024});

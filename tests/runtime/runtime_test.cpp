@@ -9,6 +9,7 @@
 #include "common/error.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
+#include "support/expect_error.h"
 #include "support/process.h"
 #include "support/test_runtime.h"
 
@@ -42,14 +43,9 @@ TEST(Device, SelectsByTypeAndSubstring) {
 }
 
 TEST(Device, UnknownSpecNamesTheFlagAndListsDevices) {
-  try {
-    select_device("no-such-device-xyz");
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), Code::InvalidArgument);
-    EXPECT_NE(std::string(e.what()).find("--device no-such-device-xyz"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find(find_devices()[0].info.name), std::string::npos) << e.what();
-  }
+  std::string message = test::expect_error(Code::InvalidArgument, "--device no-such-device-xyz",
+                                           [] { select_device("no-such-device-xyz"); });
+  EXPECT_NE(message.find(find_devices()[0].info.name), std::string::npos) << message;
 }
 
 TEST(Runtime, BuildsEveryEmbeddedProgramOnce) {
@@ -192,12 +188,8 @@ TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
 TEST(KernelSources, MissingIncludeNamesBothFiles) {
   std::string dir = test::temp_dir("kernels-missing");
   write(dir + "/p.cl", "#include \"nowhere.clh\"\n");
-  try {
-    KernelSources(dir).expanded("p.cl");
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("nowhere.clh not found (included from p.cl)"), std::string::npos) << e.what();
-  }
+  test::expect_error(Code::Internal, "nowhere.clh not found (included from p.cl)",
+                     [&] { KernelSources(dir).expanded("p.cl"); });
 }
 
 TEST(Runtime, FailedBuildReportsTheDeviceBuildLog) {
@@ -206,15 +198,8 @@ TEST(Runtime, FailedBuildReportsTheDeviceBuildLog) {
   RuntimeOptions options;
   options.kernel_dir = dir;
   Runtime rt(options);
-  try {
-    rt.build_programs();
-    FAIL() << "expected a build failure";
-  } catch (const Error& e) {
-    std::string msg = e.what();
-    EXPECT_EQ(e.code(), Code::Internal);
-    EXPECT_NE(msg.find("bad/broken.cl failed to build"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("undefined_symbol"), std::string::npos) << msg;  // the compiler's own words
-  }
+  std::string msg = test::expect_error(Code::Internal, "bad/broken.cl failed to build", [&] { rt.build_programs(); });
+  EXPECT_NE(msg.find("undefined_symbol"), std::string::npos) << msg;  // the compiler's own words
 }
 
 TEST(Runtime, KernelCacheDirectoryIsStableAndPopulated) {

@@ -1,0 +1,17 @@
+// The daemon's one ocean engine (and its spectrum cache), made by the first capability that starts:
+// the ocean tiles, and eWave's ambient and initial oceans, share it.
+#pragma once
+
+#include <memory>
+
+#include "ocean/ocean_engine.h"
+#include "rpc/capability.h"
+
+namespace squall::ocean {
+
+inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
+  return context.shared<OceanEngine>(
+      [&] { return std::make_unique<OceanEngine>(context.runtime, context.fft, context.gate.limits()); });
+}
+
+}  // namespace squall::ocean
