@@ -19,7 +19,9 @@
 #include "common/float16.h"
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
+#include "ocean/ocean_service.h"
 #include "support/daemon.h"
+#include "support/in_process.h"
 #include "support/test_runtime.h"
 
 namespace squall {
@@ -255,6 +257,33 @@ TEST(OceanService, LargeFramesAreChunkedAndReassembleToGetTile) {
   grpc::Status status = c.stub->GetTile(c.context.get(), tile_request(5.0), &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_NE(status.error_message().find("StreamTiles"), std::string::npos) << status.error_message();
+}
+
+// A bad request is refused for what it is, INVALID_ARGUMENT, even when every stream slot is taken: it is
+// validated before it asks for a slot.
+TEST(OceanService, ABadStreamRequestIsInvalidEvenWhenTheStreamsAreFull) {
+  Limits limits;
+  limits.max_streams = 1;
+  test::InProcess<rpc::OceanService> server(limits);
+  auto stub = v1::Ocean::NewStub(server.channel());
+  grpc::ClientContext open;
+  auto held = stub->StreamTiles(&open, stream_request(0.0, 1.0, 0));  // endless
+  v1::TileChunk chunk;
+  ASSERT_TRUE(held->Read(&chunk));
+  v1::StreamTilesRequest bad = stream_request(0.0, -1.0, 2);
+  grpc::ClientContext refused;
+  auto refused_stream = stub->StreamTiles(&refused, bad);
+  while (refused_stream->Read(&chunk)) {}
+  grpc::Status status = refused_stream->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("dt = -1"), std::string::npos) << status.error_message();
+  grpc::ClientContext full;
+  auto full_stream = stub->StreamTiles(&full, stream_request(0.0, 1.0, 2));
+  while (full_stream->Read(&chunk)) {}
+  EXPECT_EQ(full_stream->Finish().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  open.TryCancel();
+  while (held->Read(&chunk)) {}
+  EXPECT_EQ(held->Finish().error_code(), grpc::StatusCode::CANCELLED);
 }
 
 v1::SampleSurfaceResponse sample(const std::vector<std::pair<double, double>>& points, bool invert,
