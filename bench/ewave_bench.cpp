@@ -44,8 +44,8 @@ ewave::StepInputs inputs(const ewave::EWaveConfig& c, int n) {
   ewave::StepInputs in;
   in.dt = 0.02;
   in.outputs = {true, false, false, false};
-  in.shapes = {ewave::Shape{ewave::ShapeKind::Ellipse, 0.1 * c.length_x() + 0.005 * n, 0.5 * c.length_y(), 0.12, 0.04,
-                            0, {}}};
+  in.shapes = {
+      ewave::Shape{ewave::ShapeKind::Ellipse, 0.1 * c.length_x() + 0.005 * n, 0.5 * c.length_y(), 0.12, 0.04, 0, {}}};
   return in;
 }
 
@@ -70,28 +70,30 @@ double fftw_reference(const ewave::EWaveConfig& c, double budget) {
   float* real = fftwf_alloc_real(2 * cells);
   fftwf_complex* spectrum = fftwf_alloc_complex(2 * modes);
   int dims[2] = {ny, nx};  // row-major, x fastest
-  fftwf_plan forward = fftwf_plan_many_dft_r2c(2, dims, 2, real, nullptr, 1, int(cells), spectrum, nullptr, 1,
-                                               int(modes), FFTW_MEASURE);
-  fftwf_plan inverse = fftwf_plan_many_dft_c2r(2, dims, 2, spectrum, nullptr, 1, int(modes), real, nullptr, 1,
-                                               int(cells), FFTW_MEASURE);
+  fftwf_plan forward =
+      fftwf_plan_many_dft_r2c(2, dims, 2, real, nullptr, 1, int(cells), spectrum, nullptr, 1, int(modes), FFTW_MEASURE);
+  fftwf_plan inverse =
+      fftwf_plan_many_dft_c2r(2, dims, 2, spectrum, nullptr, 1, int(modes), real, nullptr, 1, int(cells), FFTW_MEASURE);
   std::vector<double> table = ewave::propagator_coefficients(c, 0.02);
   std::vector<float> p(table.begin(), table.end());
   std::mt19937 rng(1);
   for (size_t i = 0; i < 2 * cells; ++i) real[i] = std::uniform_real_distribution<float>(-1e-3f, 1e-3f)(rng);
-  double steps = rate([&](int) {
-    fftwf_execute(forward);
-    fftwf_complex* h = spectrum;
-    fftwf_complex* phi = spectrum + modes;
-    for (size_t m = 0; m < modes; ++m) {
-      const float cs = p[4 * m], a = p[4 * m + 1], b = p[4 * m + 2];
-      for (int part = 0; part < 2; ++part) {
-        const float hv = h[m][part], pv = phi[m][part];
-        h[m][part] = cs * hv + a * pv;
-        phi[m][part] = cs * pv - b * hv;
-      }
-    }
-    fftwf_execute(inverse);
-  }, budget);
+  double steps = rate(
+      [&](int) {
+        fftwf_execute(forward);
+        fftwf_complex* h = spectrum;
+        fftwf_complex* phi = spectrum + modes;
+        for (size_t m = 0; m < modes; ++m) {
+          const float cs = p[4 * m], a = p[4 * m + 1], b = p[4 * m + 2];
+          for (int part = 0; part < 2; ++part) {
+            const float hv = h[m][part], pv = phi[m][part];
+            h[m][part] = cs * hv + a * pv;
+            phi[m][part] = cs * pv - b * hv;
+          }
+        }
+        fftwf_execute(inverse);
+      },
+      budget);
   fftwf_destroy_plan(forward);
   fftwf_destroy_plan(inverse);
   fftwf_free(real);
@@ -117,7 +119,8 @@ double run_stream(squall::v1::EWave::Stub& stub, const std::string& id, const ew
   auto call = stub.Run(&context);
   auto start = Clock::now();
   std::thread writer([&] {
-    for (int n = 0; n < steps && call->Write(proto_step(id, c, n)); ++n) {}
+    for (int n = 0; n < steps && call->Write(proto_step(id, c, n)); ++n) {
+    }
     call->WritesDone();
   });
   squall::v1::EWaveFrame frame;
@@ -192,10 +195,12 @@ int main(int argc, char** argv) {
     double f = fftw_reference(c, budget);
     std::printf("%4zux%-5zu %12.2f %12.2f %12.2f %14.2f %14.2f\n", nx, ny, a, b, f, a / f, b / a);
   }
-  std::printf("\nratios: process/fftw > 1 means the device step is faster than the FFTW core on this host;\n"
-              "stream/process < 1 is the cost of gRPC (serialization, loopback transfer of the height field)\n");
+  std::printf(
+      "\nratios: process/fftw > 1 means the device step is faster than the FFTW core on this host;\n"
+      "stream/process < 1 is the cost of gRPC (serialization, loopback transfer of the height field)\n");
   if (runtime.profiling())  // SQUALL_PROFILE_KERNELS=1: device time per kernel (launches wait: rates drop)
-    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s", format_kernel_timings(runtime.kernel_timings()).c_str());
+    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s",
+                format_kernel_timings(runtime.kernel_timings()).c_str());
   fftwf_cleanup_threads();
   return 0;
 }

@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
 
   std::printf("device: %s\nmedian of %d runs, one forward C2C transform, f32, in place\n\n",
               describe(runtime.device_info()).c_str(), runs);
-  std::printf("%-10s %12s %12s %12s %14s %14s\n", "size", "vkfft ms", "clfft ms", "fftw ms", "vkfft/fftw", "clfft/fftw");
+  std::printf("%-10s %12s %12s %12s %14s %14s\n", "size", "vkfft ms", "clfft ms", "fftw ms", "vkfft/fftw",
+              "clfft/fftw");
   for (size_t n : {256, 512, 1024}) {
     fft::PlanKey key{n, n, 1, fft::Transform::C2C, fft::Precision::F32};
     std::vector<float> host(2 * n * n);
@@ -39,10 +40,12 @@ int main(int argc, char** argv) {
     cl::Buffer data(runtime.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, host.size() * 4, host.data());
     auto device_time = [&](fft::Fft& f) {
       fft::Plan& plan = f.plan(key);
-      return bench::median_seconds([&] {
-        plan.enqueue(runtime.queue(), fft::Direction::Forward, data, data);
-        runtime.queue().finish();
-      }, runs);
+      return bench::median_seconds(
+          [&] {
+            plan.enqueue(runtime.queue(), fft::Direction::Forward, data, data);
+            runtime.queue().finish();
+          },
+          runs);
     };
     double t_vk = device_time(vkfft), t_cl = device_time(clfft);
     auto* buf = reinterpret_cast<fftwf_complex*>(host.data());

@@ -121,8 +121,8 @@ int main(int argc, char** argv) {
   std::printf("device: %s, FFT %s; FFTW reference on %d threads\n", describe(runtime.device_info()).c_str(),
               backend.c_str(), threads);
   std::printf("one JONSWAP layer, outputs height + displacement + normals + Jacobian (9 float32 fields)\n\n");
-  std::printf("%-10s %14s %14s %14s %12s %12s\n", "size", "in-process/s", "grpc stream/s", "fftw ref/s",
-              "stream/in", "engine/fftw");
+  std::printf("%-10s %14s %14s %14s %12s %12s\n", "size", "in-process/s", "grpc stream/s", "fftw ref/s", "stream/in",
+              "engine/fftw");
   for (int n : {256, 512, 1024}) {
     v1::TileSpec proto = tile(n);
     ocean::TileSpec spec = ocean::rpc::tile_spec(proto, serving.gate());
@@ -137,7 +137,8 @@ int main(int argc, char** argv) {
   }
   std::printf("\ngoals: stream/in >= 0.9, engine/fftw >= 0.3\n");
   if (runtime.profiling())  // SQUALL_PROFILE_KERNELS=1: device time per kernel (launches wait: rates drop)
-    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s", format_kernel_timings(runtime.kernel_timings()).c_str());
+    std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s",
+                format_kernel_timings(runtime.kernel_timings()).c_str());
   server->Shutdown();
   return 0;
 }

@@ -57,7 +57,8 @@ std::vector<double> numbers(const std::string& flag, const std::string& text, si
   while (std::getline(in, item, ',')) {
     char* end = nullptr;
     double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end || !std::isfinite(v)) throw UsageError(flag + " " + text + ": not a list of finite numbers");
+    if (item.empty() || *end || !std::isfinite(v))
+      throw UsageError(flag + " " + text + ": not a list of finite numbers");
     out.push_back(v);
   }
   if (out.size() < min || out.size() > max)
@@ -88,8 +89,10 @@ std::string read_text(const std::string& path) {
 
 bool model_flag(const std::string& flag, const std::string& value, Request& r) {
   auto& m = r.model;
-  if (flag == "--voxel-size") m.set_voxel_size(numbers(flag, value, 1, 1)[0]);
-  else if (flag == "--skin") m.set_skin(numbers(flag, value, 1, 1)[0]);
+  if (flag == "--voxel-size")
+    m.set_voxel_size(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--skin")
+    m.set_skin(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--sphere") {
     auto v = numbers(flag, value, 4, 4);
     auto* s = m.add_spheres();
@@ -100,7 +103,8 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
     auto* e = m.add_ellipsoids();
     vec(v, 0, e->mutable_center());
     vec(v, 3, e->mutable_radii());
-  } else if (flag == "--mesh") m.add_meshes()->set_obj(read_text(value));
+  } else if (flag == "--mesh")
+    m.add_meshes()->set_obj(read_text(value));
   else if (flag == "--pyro") {
     auto v = numbers(flag, value, 3, 4);
     auto* p = m.mutable_pyroclastic();
@@ -116,7 +120,8 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
   } else if (flag == "--advect") {
     std::string scheme;
     std::string nums = value;
-    if (auto c = value.rfind(','); c != std::string::npos && (value.substr(c + 1) == "sl" || value.substr(c + 1) == "mm")) {
+    if (auto c = value.rfind(',');
+        c != std::string::npos && (value.substr(c + 1) == "sl" || value.substr(c + 1) == "mm")) {
       scheme = value.substr(c + 1);
       nums = value.substr(0, c);
     }
@@ -132,8 +137,10 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
     t->set_enabled(true);
     t->set_surface(v[0]);
     t->set_lapse_rate(v[1]);
-  } else if (flag == "--max-voxels") m.set_max_active_voxels(uint64_t(numbers(flag, value, 1, 1)[0]));
-  else return false;
+  } else if (flag == "--max-voxels")
+    m.set_max_active_voxels(uint64_t(numbers(flag, value, 1, 1)[0]));
+  else
+    return false;
   if (flag == "--sphere" || flag == "--ellipsoid" || flag == "--mesh" || flag == "--particle") r.has_shape = true;
   return true;
 }
@@ -141,21 +148,29 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
 bool render_flag(const std::string& flag, const std::string& value, Request& r) {
   auto& s = r.settings;
   auto* c = s.mutable_camera();
-  if (flag == "--eye") vec(numbers(flag, value, 3, 3), 0, c->mutable_eye());
-  else if (flag == "--look-at") vec(numbers(flag, value, 3, 3), 0, c->mutable_look_at());
-  else if (flag == "--up") vec(numbers(flag, value, 3, 3), 0, c->mutable_up());
-  else if (flag == "--fov") c->set_vertical_fov_deg(numbers(flag, value, 1, 1)[0]);
+  if (flag == "--eye")
+    vec(numbers(flag, value, 3, 3), 0, c->mutable_eye());
+  else if (flag == "--look-at")
+    vec(numbers(flag, value, 3, 3), 0, c->mutable_look_at());
+  else if (flag == "--up")
+    vec(numbers(flag, value, 3, 3), 0, c->mutable_up());
+  else if (flag == "--fov")
+    c->set_vertical_fov_deg(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--size") {
     int w = 0, h = 0;
-    if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1) throw UsageError("--size " + value + ": WxH");
+    if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1)
+      throw UsageError("--size " + value + ": WxH");
     c->set_width(uint32_t(w));
     c->set_height(uint32_t(h));
-  } else if (flag == "--step") s.set_step(numbers(flag, value, 1, 1)[0]);
+  } else if (flag == "--step")
+    s.set_step(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--wavelengths") {
     s.clear_wavelengths();
     for (double l : numbers(flag, value, 1, 8)) s.add_wavelengths(l);
-  } else if (flag == "--extinction") s.add_extinction(numbers(flag, value, 1, 1)[0]);
-  else if (flag == "--albedo") s.add_albedo(numbers(flag, value, 1, 1)[0]);
+  } else if (flag == "--extinction")
+    s.add_extinction(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--albedo")
+    s.add_albedo(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--sun") {
     auto v = numbers(flag, value, 4, 4);
     auto* l = s.add_lights();
@@ -166,7 +181,8 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     auto* p = s.mutable_phase();
     auto colon = value.find(':');
     std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
-    if (kind == "uniform") p->set_kind(v1::PHASE_KIND_UNIFORM);
+    if (kind == "uniform")
+      p->set_kind(v1::PHASE_KIND_UNIFORM);
     else if (kind == "hg") {
       p->set_kind(v1::PHASE_KIND_HENYEY_GREENSTEIN);
       p->set_g1(numbers(flag, args, 1, 1)[0]);
@@ -181,13 +197,19 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
       p->set_kind(v1::PHASE_KIND_FOURNIER_FORAND);
       p->set_ff_n(v[0]);
       p->set_ff_mu(v[1]);
-    } else throw UsageError("--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU");
+    } else
+      throw UsageError("--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU");
   } else if (flag == "--shadow") {
-    if (value == "none") s.set_shadow(v1::SHADOW_MODE_NONE);
-    else if (value == "direct") s.set_shadow(v1::SHADOW_MODE_DIRECT);
-    else if (value == "dsm") s.set_shadow(v1::SHADOW_MODE_DEEP_SHADOW_MAP);
-    else throw UsageError("--shadow " + value + ": none, direct or dsm");
-  } else return false;
+    if (value == "none")
+      s.set_shadow(v1::SHADOW_MODE_NONE);
+    else if (value == "direct")
+      s.set_shadow(v1::SHADOW_MODE_DIRECT);
+    else if (value == "dsm")
+      s.set_shadow(v1::SHADOW_MODE_DEEP_SHADOW_MAP);
+    else
+      throw UsageError("--shadow " + value + ": none, direct or dsm");
+  } else
+    return false;
   return true;
 }
 
@@ -203,14 +225,24 @@ Request parse(const std::vector<std::string>& args) {
   r.settings.add_wavelengths(550e-9);
   for (size_t i = 1; i < args.size(); ++i) {
     const std::string& flag = args[i];
-    if (flag == "--keep") { r.keep = true; continue; }
-    if (flag == "--trilinear") { r.settings.set_trilinear(true); continue; }
+    if (flag == "--keep") {
+      r.keep = true;
+      continue;
+    }
+    if (flag == "--trilinear") {
+      r.settings.set_trilinear(true);
+      continue;
+    }
     if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");
     const std::string& value = args[++i];
-    if (flag == "-o") r.output = value;
-    else if (flag == "--preview") r.preview = value;
-    else if (flag == "--volume") r.volume_id = value;
-    else if (!model_flag(flag, value, r) && !render_flag(flag, value, r)) throw UsageError("unknown flag " + flag);
+    if (flag == "-o")
+      r.output = value;
+    else if (flag == "--preview")
+      r.preview = value;
+    else if (flag == "--volume")
+      r.volume_id = value;
+    else if (!model_flag(flag, value, r) && !render_flag(flag, value, r))
+      throw UsageError("unknown flag " + flag);
   }
   // One extinction, albedo and light intensity for every wavelength.
   auto& s = r.settings;
@@ -234,9 +266,9 @@ Request parse(const std::vector<std::string>& args) {
 using client::check;
 
 void print_summary(const v1::VolumeSummary& s) {
-  std::cout << (s.volume_id().empty() ? "" : "volume_id " + s.volume_id() + "\n") << "active voxels " << s.active_voxels()
-            << ", " << s.bytes() << " bytes sparse vs " << s.dense_bytes() << " dense (ratio " << s.fill_ratio() << "), "
-            << s.device_bytes() << " bytes on the device\n";
+  std::cout << (s.volume_id().empty() ? "" : "volume_id " + s.volume_id() + "\n") << "active voxels "
+            << s.active_voxels() << ", " << s.bytes() << " bytes sparse vs " << s.dense_bytes() << " dense (ratio "
+            << s.fill_ratio() << "), " << s.device_bytes() << " bytes on the device\n";
 }
 
 int build(client::Client& client, const Request& r) {
@@ -262,8 +294,10 @@ int render(client::Client& client, const Request& r) {
   auto stub = v1::Clouds::NewStub(client.channel());
   auto context = client.context();
   v1::RenderRequest request;
-  if (!r.volume_id.empty()) request.set_volume_id(r.volume_id);
-  else *request.mutable_model() = r.model;
+  if (!r.volume_id.empty())
+    request.set_volume_id(r.volume_id);
+  else
+    *request.mutable_model() = r.model;
   *request.mutable_settings() = r.settings;
   v1::RenderResponse response;
   check(stub->Render(context.get(), request, &response), "Clouds.Render");
@@ -275,7 +309,8 @@ int render(client::Client& client, const Request& r) {
   const std::vector<float> values = squall::field::decode_bytes(
       img.data(), plane * img.channels_size(), v1::DTYPE_FLOAT32, "image.data", "width * height * channels");
   for (int c = 0; c < img.channels_size(); ++c)
-    image.channels.push_back({img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
+    image.channels.push_back(
+        {img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
   try {
     client::write_exr(r.output, image);
     std::string preview = r.preview.empty() ? r.output.substr(0, r.output.rfind('.')) + ".png" : r.preview;

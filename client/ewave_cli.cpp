@@ -48,11 +48,13 @@ attributes) and DIR/frame_NNNNN.png (the height, 8-bit grey).
 The Run stream's deadline is --timeout times the number of steps.
 )";
 
-const std::map<std::string, v1::EWaveOutput> kOutputs = {
-    {"height", v1::EWAVE_OUTPUT_HEIGHT},         {"displacement_x", v1::EWAVE_OUTPUT_DISPLACEMENT_X},
-    {"displacement_y", v1::EWAVE_OUTPUT_DISPLACEMENT_Y}, {"normal_x", v1::EWAVE_OUTPUT_NORMAL_X},
-    {"normal_y", v1::EWAVE_OUTPUT_NORMAL_Y},     {"normal_z", v1::EWAVE_OUTPUT_NORMAL_Z},
-    {"phi", v1::EWAVE_OUTPUT_PHI}};
+const std::map<std::string, v1::EWaveOutput> kOutputs = {{"height", v1::EWAVE_OUTPUT_HEIGHT},
+                                                         {"displacement_x", v1::EWAVE_OUTPUT_DISPLACEMENT_X},
+                                                         {"displacement_y", v1::EWAVE_OUTPUT_DISPLACEMENT_Y},
+                                                         {"normal_x", v1::EWAVE_OUTPUT_NORMAL_X},
+                                                         {"normal_y", v1::EWAVE_OUTPUT_NORMAL_Y},
+                                                         {"normal_z", v1::EWAVE_OUTPUT_NORMAL_Z},
+                                                         {"phi", v1::EWAVE_OUTPUT_PHI}};
 
 struct Wake {
   v1::EWaveConfig config;
@@ -74,31 +76,50 @@ void grid_flag(const std::string& value, v1::EWaveConfig& c) {
 
 void apply(const std::string& flag, const std::string& value, Wake& w) {
   v1::EWaveConfig& c = w.config;
-  if (flag == "--speed") w.speed = number(flag, value, "m/s");
-  else if (flag == "--hull") w.hull = named(flag, value, std::map<std::string, std::string>{{"ellipse", "ellipse"}, {"box", "box"}, {"circle", "circle"}});
-  else if (flag == "--length") w.length = number(flag, value, "m");
-  else if (flag == "--beam") w.beam = number(flag, value, "m");
-  else if (flag == "--steps") w.steps = integer(flag, value, 1);
-  else if (flag == "--grid") grid_flag(value, c);
-  else if (flag == "--spacing") c.set_dx(number(flag, value, "m")), c.set_dy(c.dx());
-  else if (flag == "--dt") w.dt = number(flag, value, "s");
-  else if (flag == "--source-scale") c.set_source_scale(number(flag, value, "m/s"));
+  if (flag == "--speed")
+    w.speed = number(flag, value, "m/s");
+  else if (flag == "--hull")
+    w.hull = named(flag, value,
+                   std::map<std::string, std::string>{{"ellipse", "ellipse"}, {"box", "box"}, {"circle", "circle"}});
+  else if (flag == "--length")
+    w.length = number(flag, value, "m");
+  else if (flag == "--beam")
+    w.beam = number(flag, value, "m");
+  else if (flag == "--steps")
+    w.steps = integer(flag, value, 1);
+  else if (flag == "--grid")
+    grid_flag(value, c);
+  else if (flag == "--spacing")
+    c.set_dx(number(flag, value, "m")), c.set_dy(c.dx());
+  else if (flag == "--dt")
+    w.dt = number(flag, value, "s");
+  else if (flag == "--source-scale")
+    c.set_source_scale(number(flag, value, "m/s"));
   else if (flag == "--dispersion")
-    c.set_dispersion(named(flag, value, std::map<std::string, v1::DispersionModel>{
-        {"deep", v1::DISPERSION_MODEL_DEEP}, {"shallow", v1::DISPERSION_MODEL_SHALLOW},
-        {"capillary", v1::DISPERSION_MODEL_CAPILLARY}, {"combined", v1::DISPERSION_MODEL_COMBINED}}));
-  else if (flag == "--depth") c.set_depth(number(flag, value, "m"));
-  else if (flag == "--capillary-length") c.set_capillary_length(number(flag, value, "m"));
-  else if (flag == "--trim-alpha") c.set_trim_alpha(number(flag, value, "1"));
-  else if (flag == "--every") w.every = integer(flag, value, 1);
+    c.set_dispersion(named(flag, value,
+                           std::map<std::string, v1::DispersionModel>{{"deep", v1::DISPERSION_MODEL_DEEP},
+                                                                      {"shallow", v1::DISPERSION_MODEL_SHALLOW},
+                                                                      {"capillary", v1::DISPERSION_MODEL_CAPILLARY},
+                                                                      {"combined", v1::DISPERSION_MODEL_COMBINED}}));
+  else if (flag == "--depth")
+    c.set_depth(number(flag, value, "m"));
+  else if (flag == "--capillary-length")
+    c.set_capillary_length(number(flag, value, "m"));
+  else if (flag == "--trim-alpha")
+    c.set_trim_alpha(number(flag, value, "1"));
+  else if (flag == "--every")
+    w.every = integer(flag, value, 1);
   else if (flag == "--dtype")
-    w.dtype = named(flag, value, std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
+    w.dtype = named(flag, value,
+                    std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
   else if (flag == "--outputs") {
     w.outputs.clear();
     std::stringstream list(value);
     for (std::string name; std::getline(list, name, ',');) w.outputs.push_back(named(flag, name, kOutputs));
-  } else if (flag == "-o" || flag == "--output") w.out = value;
-  else throw UsageError("unknown flag " + flag);
+  } else if (flag == "-o" || flag == "--output")
+    w.out = value;
+  else
+    throw UsageError("unknown flag " + flag);
   w.flags.emplace_back(flag, value);
 }
 
@@ -139,8 +160,9 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
   for (const auto& f : frame.fields()) {
     image.nx = int(f.nx()), image.ny = int(f.ny());
     image.channels.push_back({f.name(), squall::field::decode(f, "frame.fields." + f.name())});
-    image.attributes.emplace_back("squall.field." + f.name(), f.unit() + "; spacing " + std::to_string(f.spacing().x()) +
-                                                                  " " + std::to_string(f.spacing().y()) + " m");
+    image.attributes.emplace_back(
+        "squall.field." + f.name(),
+        f.unit() + "; spacing " + std::to_string(f.spacing().x()) + " " + std::to_string(f.spacing().y()) + " m");
   }
   for (const auto& [flag, value] : w.flags) image.attributes.emplace_back("squall.ewave.wake" + flag, value);
   std::ostringstream t;

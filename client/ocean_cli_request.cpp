@@ -66,32 +66,30 @@ bool on_off(const std::string& flag, const std::string& text) {
 }
 
 const std::map<std::string, v1::SpectrumModel> kSpectra = {
-    {"phillips", v1::SPECTRUM_MODEL_PHILLIPS},   {"pierson-moskowitz", v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ},
-    {"jonswap", v1::SPECTRUM_MODEL_JONSWAP},     {"modified-jonswap", v1::SPECTRUM_MODEL_MODIFIED_JONSWAP},
-    {"tma", v1::SPECTRUM_MODEL_TMA},             {"multipeak", v1::SPECTRUM_MODEL_MULTIPEAK}};
+    {"phillips", v1::SPECTRUM_MODEL_PHILLIPS}, {"pierson-moskowitz", v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ},
+    {"jonswap", v1::SPECTRUM_MODEL_JONSWAP},   {"modified-jonswap", v1::SPECTRUM_MODEL_MODIFIED_JONSWAP},
+    {"tma", v1::SPECTRUM_MODEL_TMA},           {"multipeak", v1::SPECTRUM_MODEL_MULTIPEAK}};
 const std::map<std::string, v1::SpreadingModel> kSpreadings = {
-    {"none", v1::SPREADING_MODEL_UNSPECIFIED},      {"isotropic", v1::SPREADING_MODEL_ISOTROPIC},
+    {"none", v1::SPREADING_MODEL_UNSPECIFIED},          {"isotropic", v1::SPREADING_MODEL_ISOTROPIC},
     {"pierson-cos2", v1::SPREADING_MODEL_PIERSON_COS2}, {"krylov", v1::SPREADING_MODEL_KRYLOV},
-    {"mitsuyasu", v1::SPREADING_MODEL_MITSUYASU},   {"jonswap", v1::SPREADING_MODEL_JONSWAP},
-    {"von-mises", v1::SPREADING_MODEL_VON_MISES},   {"hyperbolic", v1::SPREADING_MODEL_HYPERBOLIC}};
-const std::map<std::string, v1::DispersionModel> kDispersions = {
-    {"deep", v1::DISPERSION_MODEL_DEEP},
-    {"shallow", v1::DISPERSION_MODEL_SHALLOW},
-    {"capillary", v1::DISPERSION_MODEL_CAPILLARY},
-    {"combined", v1::DISPERSION_MODEL_COMBINED}};
-const std::map<std::string, v1::TileOutput> kOutputs = {
-    {"height", v1::TILE_OUTPUT_HEIGHT},
-    {"displacement_x", v1::TILE_OUTPUT_DISPLACEMENT_X},
-    {"displacement_y", v1::TILE_OUTPUT_DISPLACEMENT_Y},
-    {"slope_x", v1::TILE_OUTPUT_SLOPE_X},
-    {"slope_y", v1::TILE_OUTPUT_SLOPE_Y},
-    {"normal_x", v1::TILE_OUTPUT_NORMAL_X},
-    {"normal_y", v1::TILE_OUTPUT_NORMAL_Y},
-    {"normal_z", v1::TILE_OUTPUT_NORMAL_Z},
-    {"jacobian", v1::TILE_OUTPUT_JACOBIAN},
-    {"jacobian_minus", v1::TILE_OUTPUT_JACOBIAN_MINUS},
-    {"jacobian_plus", v1::TILE_OUTPUT_JACOBIAN_PLUS},
-    {"whitecap", v1::TILE_OUTPUT_WHITECAP}};
+    {"mitsuyasu", v1::SPREADING_MODEL_MITSUYASU},       {"jonswap", v1::SPREADING_MODEL_JONSWAP},
+    {"von-mises", v1::SPREADING_MODEL_VON_MISES},       {"hyperbolic", v1::SPREADING_MODEL_HYPERBOLIC}};
+const std::map<std::string, v1::DispersionModel> kDispersions = {{"deep", v1::DISPERSION_MODEL_DEEP},
+                                                                 {"shallow", v1::DISPERSION_MODEL_SHALLOW},
+                                                                 {"capillary", v1::DISPERSION_MODEL_CAPILLARY},
+                                                                 {"combined", v1::DISPERSION_MODEL_COMBINED}};
+const std::map<std::string, v1::TileOutput> kOutputs = {{"height", v1::TILE_OUTPUT_HEIGHT},
+                                                        {"displacement_x", v1::TILE_OUTPUT_DISPLACEMENT_X},
+                                                        {"displacement_y", v1::TILE_OUTPUT_DISPLACEMENT_Y},
+                                                        {"slope_x", v1::TILE_OUTPUT_SLOPE_X},
+                                                        {"slope_y", v1::TILE_OUTPUT_SLOPE_Y},
+                                                        {"normal_x", v1::TILE_OUTPUT_NORMAL_X},
+                                                        {"normal_y", v1::TILE_OUTPUT_NORMAL_Y},
+                                                        {"normal_z", v1::TILE_OUTPUT_NORMAL_Z},
+                                                        {"jacobian", v1::TILE_OUTPUT_JACOBIAN},
+                                                        {"jacobian_minus", v1::TILE_OUTPUT_JACOBIAN_MINUS},
+                                                        {"jacobian_plus", v1::TILE_OUTPUT_JACOBIAN_PLUS},
+                                                        {"whitecap", v1::TILE_OUTPUT_WHITECAP}};
 
 v1::LayerSpec default_layer() {
   v1::LayerSpec l;
@@ -196,8 +194,8 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
     std::stringstream list(value);
     for (std::string name; std::getline(list, name, ',');) r.outputs.push_back(named(flag, name, kOutputs));
   } else if (flag == "--dtype") {
-    r.dtype = named(flag, value, std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32},
-                                                                   {"float16", v1::DTYPE_FLOAT16}});
+    r.dtype = named(flag, value,
+                    std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
   } else {
     return false;
   }

@@ -35,8 +35,10 @@ void append_piece(squall::v1::GetTileResponse& frame, squall::v1::FieldPiece& pi
       piece.field().data().size() != piece.field().ny() * row_bytes || rows_so_far + piece.field().ny() > f->ny())
     throw std::runtime_error("stream: piece of " + f->name() + " at row " + std::to_string(piece.row_offset()) +
                              " does not continue the " + std::to_string(rows_so_far) + " rows received");
-  if (f->data().empty()) f->mutable_data()->swap(*piece.mutable_field()->mutable_data());  // no copy
-  else f->mutable_data()->append(piece.field().data());
+  if (f->data().empty())
+    f->mutable_data()->swap(*piece.mutable_field()->mutable_data());  // no copy
+  else
+    f->mutable_data()->append(piece.field().data());
 }
 
 // "squall.<path>" = value for every field of `message`, recursively (unset optionals are left out).
@@ -102,7 +104,8 @@ std::optional<squall::v1::GetTileResponse> FrameAssembler::add(squall::v1::TileC
   if (++next_chunk_ < chunk.chunk_count()) return std::nullopt;
   next_chunk_ = 0;
   for (const auto& f : frame_.fields())
-    if (f.data().size() != squall::field::value_count(f) * squall::field::bytes_per_value(f.dtype(), f.name() + ".dtype"))
+    if (f.data().size() !=
+        squall::field::value_count(f) * squall::field::bytes_per_value(f.dtype(), f.name() + ".dtype"))
       throw std::runtime_error("stream: frame " + std::to_string(frame_index_) + " ended with field " + f.name() +
                                " incomplete");
   return std::move(frame_);
@@ -122,8 +125,8 @@ Image tile_image(const squall::v1::GetTileResponse& tile, const google::protobuf
     image.channels.push_back({f.name(), values(f)});
     std::ostringstream s;
     s.precision(17);
-    s << f.unit() << "; spacing " << f.spacing().x() << " " << f.spacing().y() << " m; origin " << f.origin().x()
-      << " " << f.origin().y() << " m; sent as " << squall::v1::DType_Name(f.dtype());
+    s << f.unit() << "; spacing " << f.spacing().x() << " " << f.spacing().y() << " m; origin " << f.origin().x() << " "
+      << f.origin().y() << " m; sent as " << squall::v1::DType_Name(f.dtype());
     image.attributes.emplace_back("squall.field." + f.name(), s.str());
   }
   std::ostringstream t;

@@ -33,7 +33,8 @@ static inline float phase_fournier_forand(float mu, float s2, float n, float mu_
 
 static inline float phase_function(__private const CloudRenderParams* p, float mu, float s2) {
   if (p->phase == SQUALL_PHASE_HG) return phase_hg(mu, p->g1);
-  if (p->phase == SQUALL_PHASE_DOUBLE_HG) return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
+  if (p->phase == SQUALL_PHASE_DOUBLE_HG)
+    return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
   if (p->phase == SQUALL_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
   return SQUALL_INV_4PI;
 }

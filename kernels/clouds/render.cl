@@ -159,8 +159,10 @@ static float sq_dsm_column(__global const float* dsm, int light, float3 x, __pri
   float3 w = g - convert_float3(i);
   __global const float* base = dsm + (size_t)light * n.x * n.y * n.z;
 #define SQUALL_DSM(a, b, c) base[((size_t)(i.z + (c)) * n.y + (i.y + (b))) * n.x + (i.x + (a))]
-  float c00 = mix(SQUALL_DSM(0, 0, 0), SQUALL_DSM(1, 0, 0), w.x), c10 = mix(SQUALL_DSM(0, 1, 0), SQUALL_DSM(1, 1, 0), w.x);
-  float c01 = mix(SQUALL_DSM(0, 0, 1), SQUALL_DSM(1, 0, 1), w.x), c11 = mix(SQUALL_DSM(0, 1, 1), SQUALL_DSM(1, 1, 1), w.x);
+  float c00 = mix(SQUALL_DSM(0, 0, 0), SQUALL_DSM(1, 0, 0), w.x),
+        c10 = mix(SQUALL_DSM(0, 1, 0), SQUALL_DSM(1, 1, 0), w.x);
+  float c01 = mix(SQUALL_DSM(0, 0, 1), SQUALL_DSM(1, 0, 1), w.x),
+        c11 = mix(SQUALL_DSM(0, 1, 1), SQUALL_DSM(1, 1, 1), w.x);
 #undef SQUALL_DSM
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
@@ -218,8 +220,8 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
   float sx = (2.0f * (px + 0.5f) / p.width - 1.0f) * p.tan_half_fov_y * aspect;
   float sy = (1.0f - 2.0f * (py + 0.5f) / p.height) * p.tan_half_fov_y;
   float3 eye = (float3)(p.eye[0], p.eye[1], p.eye[2]);
-  float3 dir = normalize((float3)(p.forward[0], p.forward[1], p.forward[2]) + sx * (float3)(p.right[0], p.right[1], p.right[2]) +
-                         sy * (float3)(p.up[0], p.up[1], p.up[2]));
+  float3 dir = normalize((float3)(p.forward[0], p.forward[1], p.forward[2]) +
+                         sx * (float3)(p.right[0], p.right[1], p.right[2]) + sy * (float3)(p.up[0], p.up[1], p.up[2]));
   float L[SQUALL_CLOUD_MAX_WAVELENGTHS], T[SQUALL_CLOUD_MAX_WAVELENGTHS];
   for (int w = 0; w < nw; ++w) {
     L[w] = 0.0f;
@@ -261,19 +263,19 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
           phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff));
           column[i] = p.shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)
                       : p.shadow == SQUALL_SHADOW_DIRECT ? sq_column_density(&v, x, nl, dist, &p, &rng)
-                                                     : 0.0f;
+                                                         : 0.0f;
         }
         for (int w = 0; w < nw; ++w) {
           float kappa = p.extinction[w];
-          float opacity = -expm1(-kappa * rho * len);                       // 1 - dT (A.26)
-          float weight = kappa > 0.0f ? opacity / kappa : rho * len;        // (1 - dT)/kappa
+          float opacity = -expm1(-kappa * rho * len);                 // 1 - dT (A.26)
+          float weight = kappa > 0.0f ? opacity / kappa : rho * len;  // (1 - dT)/kappa
           float ci = 0.0f;
           for (int i = 0; i < p.n_lights; ++i)
-            ci += p.lights[i].intensity[w] * irr[i] * exp(-kappa * column[i]) * phase[i];  // A.4, A.7
-          float ct = p.albedo[w] * kappa * ci;                                             // C^S C^I
+            ci += p.lights[i].intensity[w] * irr[i] * exp(-kappa * column[i]) * phase[i];                // A.4, A.7
+          float ct = p.albedo[w] * kappa * ci;                                                           // C^S C^I
           if (p.has_temperature) ct += (1.0f - p.albedo[w]) * kappa * blackbody(p.wavelength[w], temp);  // C^E
-          L[w] += ct * T[w] * weight;  // A.24 (L +=)
-          T[w] *= 1.0f - opacity;      // A.25
+          L[w] += ct * T[w] * weight;                                                                    // A.24 (L +=)
+          T[w] *= 1.0f - opacity;                                                                        // A.25
         }
         if (depth < 0.0f && T[0] < 0.5f) depth = at;
       }

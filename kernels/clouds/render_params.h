@@ -33,30 +33,30 @@ typedef struct CloudLight {
 } CloudLight;
 
 typedef struct CloudRenderParams {
-  float eye[3];              // camera position, m
-  float forward[3];          // unit view direction
-  float right[3];            // unit, image +x
-  float up[3];               // unit, image -y (row 0 is the top)
-  float tan_half_fov_y;      // tan(vertical field of view / 2)
-  int width, height;         // pixels
-  float step;                // ray-march step Delta s, m
-  int substeps;              // N_s random sub-steps per step, 1..SQUALL_CLOUD_MAX_SUBSTEPS
-  int interpolation;         // 0 nearest voxel, 1 trilinear
-  int seed;                  // jitter seed
-  float min_transmittance;   // early termination threshold (0 = march to the end)
-  int phase;                 // SQUALL_PHASE_*
-  float g1, g2, weight;      // HG asymmetries and the double-HG weight of g1
-  float ff_n, ff_mu;         // Fournier-Forand refractive index (> 1) and Junge slope mu
-  int n_wavelengths;         // 1..SQUALL_CLOUD_MAX_WAVELENGTHS
+  float eye[3];                                    // camera position, m
+  float forward[3];                                // unit view direction
+  float right[3];                                  // unit, image +x
+  float up[3];                                     // unit, image -y (row 0 is the top)
+  float tan_half_fov_y;                            // tan(vertical field of view / 2)
+  int width, height;                               // pixels
+  float step;                                      // ray-march step Delta s, m
+  int substeps;                                    // N_s random sub-steps per step, 1..SQUALL_CLOUD_MAX_SUBSTEPS
+  int interpolation;                               // 0 nearest voxel, 1 trilinear
+  int seed;                                        // jitter seed
+  float min_transmittance;                         // early termination threshold (0 = march to the end)
+  int phase;                                       // SQUALL_PHASE_*
+  float g1, g2, weight;                            // HG asymmetries and the double-HG weight of g1
+  float ff_n, ff_mu;                               // Fournier-Forand refractive index (> 1) and Junge slope mu
+  int n_wavelengths;                               // 1..SQUALL_CLOUD_MAX_WAVELENGTHS
   float wavelength[SQUALL_CLOUD_MAX_WAVELENGTHS];  // m (blackbody emission)
   float extinction[SQUALL_CLOUD_MAX_WAVELENGTHS];  // kappa, 1/m per unit density
   float albedo[SQUALL_CLOUD_MAX_WAVELENGTHS];      // single-scattering albedo, [0, 1]
-  int has_temperature;       // emission C^E = (1 - albedo) kappa B_lambda(T) from the temperature grid
-  int n_lights;              // 0..SQUALL_CLOUD_MAX_LIGHTS
+  int has_temperature;  // emission C^E = (1 - albedo) kappa B_lambda(T) from the temperature grid
+  int n_lights;         // 0..SQUALL_CLOUD_MAX_LIGHTS
   CloudLight lights[SQUALL_CLOUD_MAX_LIGHTS];
-  int shadow;                // SQUALL_SHADOW_*
-  int dsm_n[3];              // deep shadow map nodes per axis (>= 2 each)
-  float dsm_min[3];          // world box of the map, m
+  int shadow;        // SQUALL_SHADOW_*
+  int dsm_n[3];      // deep shadow map nodes per axis (>= 2 each)
+  float dsm_min[3];  // world box of the map, m
   float dsm_max[3];
 } CloudRenderParams;
 

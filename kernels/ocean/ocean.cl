@@ -124,7 +124,7 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
   float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
   float phase = fma(a.z, t_hi, a.z * t_lo);
   float c = cos(phase), s = sin(phase);
-  float2 plus = cmul(a.xy, (float2)(c, -s));            // h0(k) e^{-iwt}
+  float2 plus = cmul(a.xy, (float2)(c, -s));                 // h0(k) e^{-iwt}
   float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));  // conj(h0(-k)) e^{+iwt}
   float kx = n * dkx, ky = m * dky;
   float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
@@ -210,8 +210,7 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
 // for a frame without history). flags: bit 0 height, 1 displacement, 2 slopes, 3 normals, 4 Jacobian,
 // 5 whitecaps.
 __kernel void ocean_finalize(__global const float* accum, const int cells, const int channels, const float lambda,
-                             const int flags,
-                             const float threshold, const float decay, __global float* whitecap,
+                             const int flags, const float threshold, const float decay, __global float* whitecap,
                              __global float* out) {
   int at = get_global_id(0);
   if (at >= cells) return;

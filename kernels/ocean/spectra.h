@@ -50,8 +50,10 @@ typedef struct {
 
 /* ---- parameters of the wind spectra ---- */
 static inline sq_real sq_pm_omega_p(sq_real g, sq_real U) { return 0.879 * g / U; } /* eq 4 table */
-static inline sq_real sq_jonswap_alpha(sq_real g, sq_real U, sq_real X) { return 0.076 * pow(g * X / (U * U), (sq_real)-0.22); } /* eq 7 */
-static inline sq_real sq_jonswap_omega_p(sq_real g, sq_real U, sq_real X) {                      /* eq 8 */
+static inline sq_real sq_jonswap_alpha(sq_real g, sq_real U, sq_real X) {
+  return 0.076 * pow(g * X / (U * U), (sq_real)-0.22);
+} /* eq 7 */
+static inline sq_real sq_jonswap_omega_p(sq_real g, sq_real U, sq_real X) { /* eq 8 */
   return 7.0 * SQUALL_PI * (g / U) * pow(g * X / (U * U), (sq_real)-0.33);
 }
 
@@ -71,12 +73,15 @@ static inline sq_real sq_peak_enhancement(sq_real w, sq_real wp, sq_real gamma, 
 }
 
 /* eq 5 */
-static inline sq_real sq_jonswap(sq_real w, sq_real alpha, sq_real g, sq_real wp, sq_real gamma, sq_real sa, sq_real sb) {
+static inline sq_real sq_jonswap(sq_real w, sq_real alpha, sq_real g, sq_real wp, sq_real gamma, sq_real sa,
+                                 sq_real sb) {
   return sq_pierson_moskowitz(w, alpha, g, wp) * sq_peak_enhancement(w, wp, gamma, sa, sb);
 }
 
 /* eq 19 */
-static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) { return wp * U / (2.0 * SQUALL_PI * g); }
+static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) {
+  return wp * U / (2.0 * SQUALL_PI * g);
+}
 /* eq 17; nu clamped to the printed ranges [0.83, 5] */
 static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
   if (nu < 1.0) return 1.7;
@@ -125,10 +130,11 @@ static inline sq_real sq_frequency_spectrum(SpectrumParams p, sq_real w) {
   switch (p.spectrum) {
     case SQUALL_SPECTRUM_PIERSON_MOSKOWITZ: return sq_pierson_moskowitz(w, p.alpha, p.g, p.omega_p);
     case SQUALL_SPECTRUM_JONSWAP: return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b);
-    case SQUALL_SPECTRUM_MODIFIED_JONSWAP: return sq_modified_jonswap(w, p.g, p.wind_speed, p.omega_p, p.sigma_a, p.sigma_b);
-    case SQUALL_SPECTRUM_TMA:                                                                  /* eq 20 */
+    case SQUALL_SPECTRUM_MODIFIED_JONSWAP:
+      return sq_modified_jonswap(w, p.g, p.wind_speed, p.omega_p, p.sigma_a, p.sigma_b);
+    case SQUALL_SPECTRUM_TMA: /* eq 20 */
       return sq_jonswap(w, p.alpha, p.g, p.omega_p, p.gamma, p.sigma_a, p.sigma_b) * sq_tma_r(w, p.depth, p.g);
-    case SQUALL_SPECTRUM_MULTIPEAK: {                                                          /* eq 24 */
+    case SQUALL_SPECTRUM_MULTIPEAK: { /* eq 24 */
       sq_real s = 0;
       for (int i = 0; i < p.partials && i < SQUALL_MAX_PARTIALS; ++i)
         s += p.partial_scale[i] * sq_multipeak_shape(w / p.partial_omega_p[i], p.partial_a[i], p.partial_b[i],
@@ -151,12 +157,18 @@ static inline sq_real sq_bessel_i0_scaled(sq_real x) {
   x = fabs(x);
   if (x < 3.75) {
     sq_real t = x / 3.75, t2 = t * t;
-    sq_real i0 = 1.0 + t2 * (3.5156229 + t2 * (3.0899424 + t2 * (1.2067492 + t2 * (0.2659732 + t2 * (0.0360768 + t2 * 0.0045813)))));
+    sq_real i0 =
+        1.0 +
+        t2 * (3.5156229 + t2 * (3.0899424 + t2 * (1.2067492 + t2 * (0.2659732 + t2 * (0.0360768 + t2 * 0.0045813)))));
     return i0 * exp(-x);
   }
   sq_real u = 3.75 / x;
-  sq_real poly = 0.39894228 + u * (0.01328592 + u * (0.00225319 + u * (-0.00157565 + u * (0.00916281 +
-                 u * (-0.02057706 + u * (0.02635537 + u * (-0.01647633 + u * 0.00392377)))))));
+  sq_real poly =
+      0.39894228 +
+      u * (0.01328592 +
+           u * (0.00225319 +
+                u * (-0.00157565 +
+                     u * (0.00916281 + u * (-0.02057706 + u * (0.02635537 + u * (-0.01647633 + u * 0.00392377)))))));
   return poly / sqrt(x);
 }
 
@@ -170,7 +182,8 @@ static inline sq_real sq_mitsuyasu_s(sq_real w, sq_real wp, sq_real U, sq_real g
 
 /* eqs 33 / 38: (2^{2s-1} / pi) Gamma^2(s+1) / Gamma(2s+1) cos^{2s}(d/2), via lgamma */
 static inline sq_real sq_cos2s(sq_real d, sq_real s) {
-  sq_real lnorm = (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQUALL_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
+  sq_real lnorm =
+      (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQUALL_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
   sq_real c = cos(0.5 * d);
   return exp(lnorm) * pow(fmax(c, (sq_real)0.0), 2.0 * s);
 }
@@ -194,25 +207,25 @@ static inline sq_real sq_hyperbolic_beta(sq_real r) {
 static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real k) {
   switch (p.spreading) {
     case SQUALL_SPREAD_ISOTROPIC: return 1.0 / (2.0 * SQUALL_PI);
-    case SQUALL_SPREAD_PIERSON_COS2: {                  /* eq 27 fixed: (2/pi) cos^2 on the half plane */
+    case SQUALL_SPREAD_PIERSON_COS2: { /* eq 27 fixed: (2/pi) cos^2 on the half plane */
       sq_real c = cos(d);
       return fabs(d) < 0.5 * SQUALL_PI ? (2.0 / SQUALL_PI) * c * c : 0;
     }
-    case SQUALL_SPREAD_KRYLOV: {                        /* eqs 29-31 fixed normalization */
+    case SQUALL_SPREAD_KRYLOV: { /* eqs 29-31 fixed normalization */
       if (fabs(d) >= 0.5 * SQUALL_PI) return 0;
       sq_real s = w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
       sq_real norm = exp(lgamma(0.5 * s + 1.0) - lgamma(0.5 * (s + 1.0))) / sqrt((sq_real)SQUALL_PI);
       return norm * pow(fmax(cos(d), (sq_real)0.0), s);
     }
-    case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 33 */
-    case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed));  /* eq 38 */
-    case SQUALL_SPREAD_VON_MISES: {                     /* eqs 43-44, with exp(-c) I0(c) against overflow */
+    case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));  /* eq 33 */
+    case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed)); /* eq 38 */
+    case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
       sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
       sq_real width = 2.0 * acos(pow((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));
       sq_real c = log((sq_real)2.0) / (1.0 - cos(width));
       return exp(c * (cos(d) - 1.0)) / (2.0 * SQUALL_PI * sq_bessel_i0_scaled(c));
     }
-    case SQUALL_SPREAD_HYPERBOLIC: {                    /* eq 45 fixed (Donelan), normalized by tanh(beta pi) */
+    case SQUALL_SPREAD_HYPERBOLIC: { /* eq 45 fixed (Donelan), normalized by tanh(beta pi) */
       sq_real beta = sq_hyperbolic_beta(w / p.omega_p);
       sq_real ch = cosh(beta * d);
       return 0.5 * beta / (ch * ch * tanh(beta * (sq_real)SQUALL_PI));

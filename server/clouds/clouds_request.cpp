@@ -33,10 +33,11 @@ TriangleMesh mesh(const v1::MeshSpec& m, const std::string& field) {
     return parse_obj(m.obj(), field + ".obj");
   }
   if (m.vertices_size() % 3 != 0)
-    fail(Code::InvalidArgument, field + ".vertices has " + std::to_string(m.vertices_size()) +
-                                    " numbers; it needs x, y, z per vertex");
+    fail(Code::InvalidArgument,
+         field + ".vertices has " + std::to_string(m.vertices_size()) + " numbers; it needs x, y, z per vertex");
   TriangleMesh out;
-  for (int i = 0; i < m.vertices_size(); i += 3) out.vertices.push_back({m.vertices(i), m.vertices(i + 1), m.vertices(i + 2)});
+  for (int i = 0; i < m.vertices_size(); i += 3)
+    out.vertices.push_back({m.vertices(i), m.vertices(i + 1), m.vertices(i + 2)});
   out.triangles.assign(m.triangles().begin(), m.triangles().end());
   return out;
 }
@@ -49,7 +50,8 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   out.skin = m.has_skin() ? m.skin() : 2 * m.voxel_size();
   for (const auto& s : m.spheres()) out.spheres.push_back({vec(s.center()), s.radius()});
   for (const auto& e : m.ellipsoids()) out.ellipsoids.push_back({vec(e.center()), vec(e.radii())});
-  for (int i = 0; i < m.meshes_size(); ++i) out.meshes.push_back(mesh(m.meshes(i), f + ".meshes[" + std::to_string(i) + "]"));
+  for (int i = 0; i < m.meshes_size(); ++i)
+    out.meshes.push_back(mesh(m.meshes(i), f + ".meshes[" + std::to_string(i) + "]"));
   const auto& p = m.pyroclastic();
   out.pyroclastic.layers = int(std::min<uint32_t>(p.layers(), 1000));
   out.pyroclastic.amplitude = p.amplitude();
@@ -70,7 +72,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   out.advection.time = a.time();
   out.advection.substeps = a.has_substeps() ? int(std::min<uint32_t>(a.substeps(), 100000)) : 1;
   out.advection.scheme = a.scheme() == v1::ADVECTION_SCHEME_SEMI_LAGRANGIAN ? AdvectionScheme::SemiLagrangian
-                                                                           : AdvectionScheme::ModifiedMacCormack;
+                                                                            : AdvectionScheme::ModifiedMacCormack;
   out.advection.noise = noise(a.noise());
   const auto& t = m.temperature();
   out.temperature.enabled = t.enabled();
@@ -117,10 +119,14 @@ RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
   if (ph.has_ff_n()) out.phase.ff_n = ph.ff_n();
   if (ph.has_ff_mu()) out.phase.ff_mu = ph.ff_mu();
   if (s.wavelengths_size()) out.wavelengths.assign(s.wavelengths().begin(), s.wavelengths().end());
-  if (s.extinction_size()) out.extinction.assign(s.extinction().begin(), s.extinction().end());
-  else out.extinction.assign(out.wavelengths.size(), 0.1);
-  if (s.albedo_size()) out.albedo.assign(s.albedo().begin(), s.albedo().end());
-  else out.albedo.assign(out.wavelengths.size(), 0.9);
+  if (s.extinction_size())
+    out.extinction.assign(s.extinction().begin(), s.extinction().end());
+  else
+    out.extinction.assign(out.wavelengths.size(), 0.1);
+  if (s.albedo_size())
+    out.albedo.assign(s.albedo().begin(), s.albedo().end());
+  else
+    out.albedo.assign(out.wavelengths.size(), 0.9);
   for (const auto& l : s.lights()) {
     Light light;
     light.kind = l.kind() == v1::LIGHT_KIND_POINT ? LightKind::Point : LightKind::Directional;

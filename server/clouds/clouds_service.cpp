@@ -41,7 +41,8 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     CloudEngine& clouds = *engine_;
     RenderSettings settings = req::settings(request->settings());
     clouds::validate(settings, "settings");
-    serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)", req::image_bytes(settings));
+    serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
+                                        req::image_bytes(settings));
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
       volume = clouds.build(req::model(request->model()), "model");

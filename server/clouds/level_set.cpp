@@ -106,7 +106,7 @@ FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclasti
     const double scale = std::pow(pyro.noise.roughness, n);
     FloatGrid::Ptr next = current->deepCopy();
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(next->tree());
-    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+    leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
       auto in = current->getConstAccessor();
       for (auto it = leaf.beginValueOn(); it; ++it) {
         const openvdb::Coord ijk = it.getCoord();
@@ -145,16 +145,17 @@ void stamp_particles(FloatGrid& density, const std::vector<Particle>& particles,
   auto acc = density.getAccessor();
   for (const auto& p : particles) {
     openvdb::Vec3d c(p.center[0], p.center[1], p.center[2]);
-    openvdb::Vec3d lo = xform.worldToIndex(c - openvdb::Vec3d(p.radius)), hi = xform.worldToIndex(c + openvdb::Vec3d(p.radius));
+    openvdb::Vec3d lo = xform.worldToIndex(c - openvdb::Vec3d(p.radius)),
+                   hi = xform.worldToIndex(c + openvdb::Vec3d(p.radius));
     openvdb::CoordBBox box(openvdb::Coord::floor(lo), openvdb::Coord::ceil(hi));
     for (auto ijk = box.begin(); ijk; ++ijk) {
       openvdb::Vec3d x = world(xform, *ijk);
       double l = p.radius - (x - c).length();
       if (l <= 0) continue;
-      double rho_base = std::clamp(l / skin, 0.0, 1.0);                    // eq 103
+      double rho_base = std::clamp(l / skin, 0.0, 1.0);  // eq 103
       double N = p.amplitude * (p.bias + fractal_noise(p.noise, {x[0], x[1], x[2]}));
-      double v = std::max(0.0, N * std::pow(rho_base, p.fade));           // eq 113
-      if (v > acc.getValue(*ijk)) acc.setValue(*ijk, float(v));           // eq 114 (max blend)
+      double v = std::max(0.0, N * std::pow(rho_base, p.fade));  // eq 113
+      if (v > acc.getValue(*ijk)) acc.setValue(*ijk, float(v));  // eq 114 (max blend)
     }
   }
   openvdb::tools::prune(density.tree());

@@ -28,9 +28,10 @@ double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + 
 // Returns the enclosed volume (divergence theorem); throws on a degenerate mesh.
 double check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
-    fail(Code::InvalidArgument, f + ".vertices has " + std::to_string(m.vertices.size()) +
-                                    " vertices; a closed mesh needs at least 4");
-  for (size_t i = 0; i < m.vertices.size(); ++i) validate::finite_xyz(f + ".vertices[" + std::to_string(i) + "]", m.vertices[i]);
+    fail(Code::InvalidArgument,
+         f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
+  for (size_t i = 0; i < m.vertices.size(); ++i)
+    validate::finite_xyz(f + ".vertices[" + std::to_string(i) + "]", m.vertices[i]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
                                     " indices; it needs a multiple of 3 and at least 4 triangles");
@@ -40,15 +41,16 @@ double check_mesh(const std::string& f, const TriangleMesh& m) {
       if (m.triangles[k] >= m.vertices.size())
         fail(Code::InvalidArgument, f + ".triangles[" + std::to_string(k) + "] = " + std::to_string(m.triangles[k]) +
                                         " is out of range (" + std::to_string(m.vertices.size()) + " vertices)");
-    const Vec3d &a = m.vertices[m.triangles[t]], &b = m.vertices[m.triangles[t + 1]], &c = m.vertices[m.triangles[t + 2]];
+    const Vec3d &a = m.vertices[m.triangles[t]], &b = m.vertices[m.triangles[t + 1]],
+                &c = m.vertices[m.triangles[t + 2]];
     Vec3d n = cross(sub(b, a), sub(c, a));
     area += std::sqrt(dot(n, n)) / 2;
     volume += dot(a, cross(b, c)) / 6;
   }
   double scale = std::sqrt(area);
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
-    fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) + " m^2, volume " +
-                                    validate::number(volume) + " m^3)");
+    fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) +
+                                    " m^2, volume " + validate::number(volume) + " m^3)");
   return std::abs(volume);
 }
 

@@ -30,9 +30,9 @@ struct TriangleMesh {
 // Cumulo pyroclastic displacement (eqs 105-112): layer n adds amplitude * |N_n(X)|^gamma to l, with
 // N_n(x) = r^n N_0(x f_jump^n), N_0 = the normalized fractal noise, X = x - l grad l (CPT/PPT).
 struct Pyroclastic {
-  int layers = 0;           // 0 = off, <= 8
-  double amplitude = 1;     // m, >= 0: the largest displacement of one layer
-  double gamma = 1;         // valley sharpness, (0, 16]
+  int layers = 0;        // 0 = off, <= 8
+  double amplitude = 1;  // m, >= 0: the largest displacement of one layer
+  double gamma = 1;      // valley sharpness, (0, 16]
   NoiseParams noise;
 };
 
@@ -52,9 +52,9 @@ enum class AdvectionScheme { SemiLagrangian, ModifiedMacCormack };
 // Advection of the density by a fractal noise velocity u = speed (FS(x), FS(x+d1), FS(x+d2)) (App D eq 3.9),
 // over `time` in `substeps` equal steps of the characteristic map (eqs 115-117, App E eq 13).
 struct Advection {
-  double speed = 0;      // m/s, >= 0 (0 = off)
-  double time = 0;       // s, >= 0
-  int substeps = 1;      // 1..256
+  double speed = 0;  // m/s, >= 0 (0 = off)
+  double time = 0;   // s, >= 0
+  int substeps = 1;  // 1..256
   AdvectionScheme scheme = AdvectionScheme::ModifiedMacCormack;
   NoiseParams noise;
 };
@@ -63,17 +63,17 @@ struct Advection {
 // density's active voxels.
 struct Temperature {
   bool enabled = false;
-  double surface = 288.15;        // K at base_altitude, (0, 10000]
-  double base_altitude = 0;       // m
-  double lapse_rate = 0.0065;     // K/m, [-0.1, 0.1] (standard atmosphere 6.5 K/km)
-  double fluctuation = 0;         // K, >= 0
+  double surface = 288.15;     // K at base_altitude, (0, 10000]
+  double base_altitude = 0;    // m
+  double lapse_rate = 0.0065;  // K/m, [-0.1, 0.1] (standard atmosphere 6.5 K/km)
+  double fluctuation = 0;      // K, >= 0
   NoiseParams noise;
 };
 
 struct CloudModel {
-  double voxel_size = 1;            // m, > 0
-  double skin = 1;                  // skin thickness Delta x_skin of eq 103, m, > 0
-  std::vector<Sphere> spheres;      // the base shapes, unioned (max of l)
+  double voxel_size = 1;        // m, > 0
+  double skin = 1;              // skin thickness Delta x_skin of eq 103, m, > 0
+  std::vector<Sphere> spheres;  // the base shapes, unioned (max of l)
   std::vector<Ellipsoid> ellipsoids;
   std::vector<TriangleMesh> meshes;
   Pyroclastic pyroclastic;          // applied to the union of base shapes

@@ -39,7 +39,8 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
         face.push_back(uint32_t(resolved));
       }
       if (face.size() < 3) bad("a face needs at least three vertices");
-      for (size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.insert(mesh.triangles.end(), {face[0], face[k], face[k + 1]});
+      for (size_t k = 1; k + 1 < face.size(); ++k)
+        mesh.triangles.insert(mesh.triangles.end(), {face[0], face[k], face[k + 1]});
     }
   }
   return mesh;

@@ -113,10 +113,11 @@ void validate(const RenderSettings& s, const std::string& f) {
     fail(Code::InvalidArgument, f + ".wavelengths has " + std::to_string(nw) + " entries: must be 1 to " +
                                     std::to_string(SQUALL_CLOUD_MAX_WAVELENGTHS));
   if (s.extinction.size() != nw || s.albedo.size() != nw)
-    fail(Code::InvalidArgument, f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
+    fail(Code::InvalidArgument,
+         f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
   for (size_t w = 0; w < nw; ++w) {
     validate::positive(validate::at(f + ".wavelengths", w), s.wavelengths[w], 1e-3);  // m
-    validate::non_negative(validate::at(f + ".extinction", w), s.extinction[w]);    // 1/m
+    validate::non_negative(validate::at(f + ".extinction", w), s.extinction[w]);      // 1/m
     validate::in(validate::at(f + ".albedo", w), s.albedo[w], validate::closed(0, 1));
   }
   if (s.lights.size() > SQUALL_CLOUD_MAX_LIGHTS)
@@ -130,8 +131,7 @@ void validate(const RenderSettings& s, const std::string& f) {
       fail(Code::InvalidArgument, l + ".direction must not be zero");
     if (s.lights[i].intensity.size() != nw)
       fail(Code::InvalidArgument, l + ".intensity needs one entry per wavelength (" + std::to_string(nw) + ")");
-    for (size_t w = 0; w < nw; ++w)
-      validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w]);
+    for (size_t w = 0; w < nw; ++w) validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w]);
   }
   for (size_t a = 0; a < 3; ++a)
     validate::in(validate::at(f + ".shadow_map_size", a), int64_t(s.shadow_map_size[a]), 2, 512);

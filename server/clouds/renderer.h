@@ -20,18 +20,18 @@ enum class LightKind { Point = 0, Directional = 1 };
 enum class ShadowMode { None = 0, Direct = 1, DeepShadowMap = 2 };
 
 struct Camera {
-  Vec3d eye{0, -30, 0};        // m
-  Vec3d look_at{0, 0, 0};      // m, != eye
-  Vec3d up{0, 0, 1};           // not parallel to the view direction
+  Vec3d eye{0, -30, 0};          // m
+  Vec3d look_at{0, 0, 0};        // m, != eye
+  Vec3d up{0, 0, 1};             // not parallel to the view direction
   double vertical_fov_deg = 40;  // (0, 170)
   int width = 64, height = 64;   // pixels, 1..8192
 };
 
 struct Light {
   LightKind kind = LightKind::Directional;
-  Vec3d position{0, 0, 100};     // point light, m
-  Vec3d direction{0, 0, 1};      // directional: toward the light (normalized here)
-  std::vector<double> intensity; // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; >= 0
+  Vec3d position{0, 0, 100};      // point light, m
+  Vec3d direction{0, 0, 1};       // directional: toward the light (normalized here)
+  std::vector<double> intensity;  // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; >= 0
 };
 
 struct Phase {
@@ -42,11 +42,11 @@ struct Phase {
 
 struct RenderSettings {
   Camera camera;
-  double step = 0.5;               // Delta s, m, > 0
-  int substeps = 1;                // N_s, 1..8
-  bool trilinear = false;          // density interpolation (false: nearest voxel)
+  double step = 0.5;       // Delta s, m, > 0
+  int substeps = 1;        // N_s, 1..8
+  bool trilinear = false;  // density interpolation (false: nearest voxel)
   uint32_t seed = 1;
-  double min_transmittance = 1e-4; // early termination, [0, 1)
+  double min_transmittance = 1e-4;  // early termination, [0, 1)
   Phase phase;
   std::vector<double> wavelengths{550e-9};  // m, (0, 1e-3]; 1..8 channels
   std::vector<double> extinction{1.0};      // kappa per unit density, 1/m, >= 0; one per wavelength
@@ -90,7 +90,8 @@ class CloudRenderer {
  private:
   Runtime& runtime_;
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
-  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer> render_;  // density, temperature, dsm, p, out
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
+      render_;  // density, temperature, dsm, p, out
 };
 
 }  // namespace squall::clouds

@@ -37,9 +37,8 @@ void tidy_density(FloatGrid& grid) {
 void check_budget(const FloatGrid& density, const CloudModel& model, const std::string& field, const char* stage) {
   uint64_t active = density.tree().activeVoxelCount();
   if (active > model.max_active_voxels)
-    fail(Code::ResourceExhausted, field + ": " + std::to_string(active) + " active voxels after " + stage +
-                                      " exceed " + field + ".max_active_voxels = " +
-                                      std::to_string(model.max_active_voxels));
+    fail(Code::ResourceExhausted, field + ": " + std::to_string(active) + " active voxels after " + stage + " exceed " +
+                                      field + ".max_active_voxels = " + std::to_string(model.max_active_voxels));
 }
 
 }  // namespace
@@ -59,7 +58,7 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
   openvdb::tools::dilateActiveValues(out->tree(), dilation, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                      openvdb::tools::EXPAND_TILES);
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
-  leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+  leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
     auto in = density.getConstAccessor();
     openvdb::tools::GridSampler<FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(in, density.transform());
     for (auto it = leaf.beginValueOn(); it; ++it) {
@@ -79,7 +78,7 @@ FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t)
   out->tree().voxelizeActiveTiles();
   out->setName("temperature");
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
-  leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+  leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
     for (auto it = leaf.beginValueOn(); it; ++it) {
       openvdb::Vec3d x = out->transform().indexToWorld(it.getCoord());
       double T = t.surface - t.lapse_rate * (x[2] - t.base_altitude);  // hydrostatic lapse (§6.3)

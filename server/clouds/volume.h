@@ -16,12 +16,12 @@
 namespace squall::clouds {
 
 struct VolumeStats {
-  uint64_t active_voxels = 0;    // of the density grid, active tiles counted by their voxels
+  uint64_t active_voxels = 0;  // of the density grid, active tiles counted by their voxels
   uint64_t leaf_nodes = 0;
-  uint64_t bytes = 0;            // memory of the density tree (OpenVDB memUsage)
-  openvdb::CoordBBox bounds;     // index bounding box of the active voxels
-  uint64_t dense_voxels = 0;     // voxels of a dense grid over `bounds`
-  uint64_t dense_bytes = 0;      // 4 bytes per dense voxel (eq 102)
+  uint64_t bytes = 0;         // memory of the density tree (OpenVDB memUsage)
+  openvdb::CoordBBox bounds;  // index bounding box of the active voxels
+  uint64_t dense_voxels = 0;  // voxels of a dense grid over `bounds`
+  uint64_t dense_bytes = 0;   // 4 bytes per dense voxel (eq 102)
   double fill_ratio() const { return dense_bytes ? double(bytes) / double(dense_bytes) : 0; }
 };
 

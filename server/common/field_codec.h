@@ -35,7 +35,7 @@ struct Header {
   std::string name;  // e.g. "height"
   std::string unit;  // e.g. "m", "1"
   uint32_t nx = 0, ny = 0;
-  uint32_t nz = 0;   // 0 or 1: a 2D field
+  uint32_t nz = 0;  // 0 or 1: a 2D field
   squall::v1::DType dtype = squall::v1::DTYPE_FLOAT32;
 };
 
@@ -58,7 +58,7 @@ std::vector<float> decode(const squall::v1::Field& field, const std::string& pat
 void append_bytes(const float* values, size_t count, squall::v1::DType dtype, std::string* out);
 // the `count` values of `bytes` as `dtype`; a byte count other than count * bytes_per_value is
 // InvalidArgument "<path> has 40 bytes, want <what> * 4 = 12288".
-std::vector<float> decode_bytes(const std::string& bytes, size_t count, squall::v1::DType dtype, const std::string& path,
-                                const std::string& what);
+std::vector<float> decode_bytes(const std::string& bytes, size_t count, squall::v1::DType dtype,
+                                const std::string& path, const std::string& what);
 
 }  // namespace squall::field

@@ -22,12 +22,12 @@ inline uint16_t from_float(float value) {
     return sign | 0x7e00u | static_cast<uint16_t>((abs >> 13) & 0x3ffu);  // quiet NaN, payload kept
   }
   if (abs >= 0x477ff000u) return sign | 0x7c00u;  // >= 65520 rounds to inf
-  if (abs < 0x38800000u) {                         // below 2^-14: half subnormal or zero
-    if (abs < 0x33000000u) return sign;            // <= 2^-25 rounds to zero (a tie at 2^-25 goes to even 0)
-    const uint32_t exponent = abs >> 23;           // 102 ... 112
+  if (abs < 0x38800000u) {                        // below 2^-14: half subnormal or zero
+    if (abs < 0x33000000u) return sign;           // <= 2^-25 rounds to zero (a tie at 2^-25 goes to even 0)
+    const uint32_t exponent = abs >> 23;          // 102 ... 112
     const uint32_t mantissa = (abs & 0x7fffffu) | 0x800000u;
-    const uint32_t shift = 126 - exponent;         // 14 ... 24: value = mantissa * 2^(exponent - 150)
-    uint32_t half = mantissa >> shift;             // in units of 2^-24
+    const uint32_t shift = 126 - exponent;  // 14 ... 24: value = mantissa * 2^(exponent - 150)
+    uint32_t half = mantissa >> shift;      // in units of 2^-24
     const uint32_t rest = mantissa & ((1u << shift) - 1);
     const uint32_t tie = 1u << (shift - 1);
     if (rest > tie || (rest == tie && (half & 1u))) ++half;

@@ -20,7 +20,10 @@ void Slot::release() {
 }
 
 void LimitGate::check_grid(const std::string& field, int64_t nx, int64_t ny, int64_t nz) const {
-  const struct { const char* axis; int64_t n; } extents[] = {{"nx", nx}, {"ny", ny}, {"nz", nz}};
+  const struct {
+    const char* axis;
+    int64_t n;
+  } extents[] = {{"nx", nx}, {"ny", ny}, {"nz", nz}};
   for (const auto& e : extents) {
     bool is_optional_z = e.axis[1] == 'z' && e.n == 0;
     if (e.n < 1 && !is_optional_z)
@@ -31,16 +34,15 @@ void LimitGate::check_grid(const std::string& field, int64_t nx, int64_t ny, int
   if (cells_f > double(limits_.max_grid_cells)) {
     std::string product = field + ".nx * " + field + ".ny" + (nz > 0 ? " * " + field + ".nz" : "");
     fail(Code::ResourceExhausted, product + " = " + std::to_string(uint64_t(cells_f)) +
-                                      " cells exceeds --max-grid-cells = " +
-                                      std::to_string(limits_.max_grid_cells));
+                                      " cells exceeds --max-grid-cells = " + std::to_string(limits_.max_grid_cells));
   }
 }
 
 void LimitGate::check_message_bytes(const std::string& what, uint64_t bytes) const {
   if (bytes > limits_.max_message_bytes)
-    fail(Code::ResourceExhausted, what + " needs " + std::to_string(bytes) +
-                                      " bytes, more than --max-message-bytes = " +
-                                      std::to_string(limits_.max_message_bytes));
+    fail(Code::ResourceExhausted,
+         what + " needs " + std::to_string(bytes) +
+             " bytes, more than --max-message-bytes = " + std::to_string(limits_.max_message_bytes));
 }
 
 // Adds `amount` to `counter` unless that would pass `limit`; the message names what and the flag:
@@ -50,13 +52,15 @@ Slot LimitGate::take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t l
   uint64_t held = counter.load();
   do {
     if (held + amount > limit)
-      fail(Code::ResourceExhausted, what + ": " + std::to_string(held) + " " + held_as + ", the limit is " +
-                                        flag + " = " + std::to_string(limit));
+      fail(Code::ResourceExhausted, what + ": " + std::to_string(held) + " " + held_as + ", the limit is " + flag +
+                                        " = " + std::to_string(limit));
   } while (!counter.compare_exchange_weak(held, held + amount));
   return Slot(&counter, amount);
 }
 
-Slot LimitGate::acquire_stream() { return take(streams_, 1, limits_.max_streams, "streams", "--max-streams", "already open"); }
+Slot LimitGate::acquire_stream() {
+  return take(streams_, 1, limits_.max_streams, "streams", "--max-streams", "already open");
+}
 
 Slot LimitGate::acquire_session() {
   return take(sessions_, 1, limits_.max_sessions, "sessions", "--max-sessions", "already live");

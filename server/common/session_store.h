@@ -41,7 +41,10 @@ class SessionStore {
   // `kind` names the entries in messages ("eWave session"), `id_field` the request field of their ids
   // ("session_id"), `prefix` starts every id ("cloud-"); the checkpoint kind is `kind`.
   SessionStore(LimitGate& gate, SessionPolicy policy, std::string kind, std::string id_field, std::string prefix = "")
-      : gate_(gate), policy_(std::move(policy)), kind_(std::move(kind)), id_field_(std::move(id_field)),
+      : gate_(gate),
+        policy_(std::move(policy)),
+        kind_(std::move(kind)),
+        id_field_(std::move(id_field)),
         prefix_(std::move(prefix)) {}
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;

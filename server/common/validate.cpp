@@ -42,8 +42,7 @@ double in(const std::string& path, double v, const Interval& interval) {
 }
 
 int64_t in(const std::string& path, int64_t v, int64_t lo, int64_t hi) {
-  if (v < lo || v > hi)
-    reject(path, std::to_string(v), "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  if (v < lo || v > hi) reject(path, std::to_string(v), "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return v;
 }
 

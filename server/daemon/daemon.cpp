@@ -85,7 +85,8 @@ int run_daemon(const DaemonOptions& options) {
   sigset_t signals = shutdown_signals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ", configure_kernel_cache(options.cache_dir));
+  log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ",
+      configure_kernel_cache(options.cache_dir));
   std::unique_ptr<DaemonState> daemon;
   try {
     daemon = std::make_unique<DaemonState>(options.runtime, options.limits);

@@ -25,9 +25,9 @@ struct DaemonState {
 
   Runtime runtime;
   ServingState serving;
-  std::unique_ptr<fft::Fft> fft;            // set during start-up, before SERVING
-  std::string fft_selection;                // "flag --fft ...", or the start-up measurement that chose it
-  std::unique_ptr<EngineContext> engines;   // set during start-up, after fft
+  std::unique_ptr<fft::Fft> fft;           // set during start-up, before SERVING
+  std::string fft_selection;               // "flag --fft ...", or the start-up measurement that chose it
+  std::unique_ptr<EngineContext> engines;  // set during start-up, after fft
 };
 
 }  // namespace squall::rpc

@@ -31,7 +31,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"device", [o](const std::string& v) { o->runtime.device = v; }},
       {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
-      {"fft", [o](const std::string& v) {
+      {"fft",
+       [o](const std::string& v) {
          if (v != "auto" && v != "vkfft" && v != "clfft") throw std::invalid_argument("must be auto, vkfft or clfft");
          o->fft = v;
        }},
@@ -43,11 +44,13 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
-      {"profile-kernels", [o](const std::string& v) {
+      {"profile-kernels",
+       [o](const std::string& v) {
          if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
          o->runtime.profile_kernels = v == "on";
        }},
-      {"log-level", [o](const std::string& v) {
+      {"log-level",
+       [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
        }},
   };
@@ -86,7 +89,8 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
     try {
       it->second(value);
     } catch (const std::exception& e) {
-      *error = "--" + name + " " + value + ": " + (dynamic_cast<const std::invalid_argument*>(&e) ? e.what() : "out of range");
+      *error = "--" + name + " " + value + ": " +
+               (dynamic_cast<const std::invalid_argument*>(&e) ? e.what() : "out of range");
       return false;
     }
   }
@@ -96,20 +100,31 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
 std::string usage() {
   DaemonOptions d;
   return "usage: squalld [flags]\n"
-         "  --listen HOST:PORT        address to serve on (default " + d.listen + "; port 0 picks a free port)\n"
+         "  --listen HOST:PORT        address to serve on (default " +
+         d.listen +
+         "; port 0 picks a free port)\n"
          "  --port-file PATH          write the bound port to PATH once listening\n"
          "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
          "                            the first GPU, else the PoCL CPU device)\n"
          "  --fft NAME                auto | vkfft | clfft (default auto: the faster, timed at start-up)\n"
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
          "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else ~/.cache/squall/pocl)\n"
-         "  --max-grid-cells N        cells of one field (default " + std::to_string(d.limits.max_grid_cells) + ")\n"
-         "  --max-streams N           concurrent streaming calls (default " + std::to_string(d.limits.max_streams) + ")\n"
-         "  --max-sessions N          live stateful sessions (default " + std::to_string(d.limits.max_sessions) + ")\n"
-         "  --max-message-bytes N     largest gRPC message either way (default " + std::to_string(d.limits.max_message_bytes) + ")\n"
+         "  --max-grid-cells N        cells of one field (default " +
+         std::to_string(d.limits.max_grid_cells) +
+         ")\n"
+         "  --max-streams N           concurrent streaming calls (default " +
+         std::to_string(d.limits.max_streams) +
+         ")\n"
+         "  --max-sessions N          live stateful sessions (default " +
+         std::to_string(d.limits.max_sessions) +
+         ")\n"
+         "  --max-message-bytes N     largest gRPC message either way (default " +
+         std::to_string(d.limits.max_message_bytes) +
+         ")\n"
          "  --max-session-bytes N     host + device bytes of all stateful sessions (default: half the device's\n"
          "                            global memory)\n"
-         "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default 10)\n"
+         "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "
+         "10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"

@@ -49,8 +49,8 @@ double EWaveConfig::effective_trim_width() const {
 void validate(const EWaveConfig& c, const LimitGate* gate) {
   if (gate) gate->check_grid("config.grid", c.nx, c.ny);
   if (c.nx < 1 || c.ny < 1)
-    fail(Code::InvalidArgument, "config.grid = " + std::to_string(c.nx) + " x " + std::to_string(c.ny) +
-                                    " must be at least 1 x 1");
+    fail(Code::InvalidArgument,
+         "config.grid = " + std::to_string(c.nx) + " x " + std::to_string(c.ny) + " must be at least 1 x 1");
   positive("config.dx", c.dx);
   positive("config.dy", c.dy);
   validate::known("config.dispersion", int(c.dispersion), 4, "dispersion model (deep, shallow, capillary, combined)");
@@ -86,11 +86,13 @@ ocean::TileSpec ocean_on_grid(const ocean::TileSpec& spec, const EWaveConfig& c)
   return on;
 }
 
-void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const EWaveConfig& c, const LimitGate* gate) {
+void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const EWaveConfig& c,
+                    const LimitGate* gate) {
   auto differs = [](double a, double b) { return a != 0 && std::abs(a - b) > 1e-9 * std::abs(b); };
   if (differs(double(spec.nx), double(c.nx)) || differs(double(spec.ny), double(c.ny)))
     fail(Code::InvalidArgument, field + ".output = " + std::to_string(spec.nx) + " x " + std::to_string(spec.ny) +
-                                    " must be unset or the session grid " + std::to_string(c.nx) + " x " + std::to_string(c.ny));
+                                    " must be unset or the session grid " + std::to_string(c.nx) + " x " +
+                                    std::to_string(c.ny));
   if (differs(spec.lx, c.length_x()) || differs(spec.ly, c.length_y()))
     fail(Code::InvalidArgument, field + ".output extent = " + validate::number(spec.lx) + " x " +
                                     validate::number(spec.ly) + " m must be unset or the session's nx dx x ny dy = " +
@@ -118,8 +120,8 @@ void validate(const StepInputs& in, const EWaveConfig& c) {
   if (in.drift_field_x.empty() != in.drift_field_y.empty())
     fail(Code::InvalidArgument, "inputs.drift_field_x and inputs.drift_field_y must be given together");
   if (in.shapes.size() > kMaxShapes)
-    fail(Code::InvalidArgument, "inputs.shapes has " + std::to_string(in.shapes.size()) + " shapes, at most " +
-                                    std::to_string(kMaxShapes));
+    fail(Code::InvalidArgument,
+         "inputs.shapes has " + std::to_string(in.shapes.size()) + " shapes, at most " + std::to_string(kMaxShapes));
   size_t vertices = 0;
   for (size_t s = 0; s < in.shapes.size(); ++s) {
     check_shape(validate::at("inputs.shapes", s), in.shapes[s]);

@@ -21,21 +21,21 @@ namespace squall::ewave {
 enum class DispersionKind { Deep = 0, Shallow = 1, Capillary = 2, Combined = 3 };  // = SQUALL_DISPERSION_*
 
 struct EWaveConfig {
-  int64_t nx = 0, ny = 0;        // cells, >= 1 each (and within --max-grid-cells)
-  double dx = 0, dy = 0;         // m, > 0
+  int64_t nx = 0, ny = 0;  // cells, >= 1 each (and within --max-grid-cells)
+  double dx = 0, dy = 0;   // m, > 0
   DispersionKind dispersion = DispersionKind::Deep;
-  double gravity = 9.81;         // m/s^2, > 0
-  double depth = 0;              // m, > 0 for shallow and combined dispersion
-  double capillary_length = 0;   // m, >= 0 (capillary and combined)
-  bool trim = true;              // the power-law taper of eq 82 at the four edges
-  double trim_width = 0;         // m, L of eq 82; 0 = 8% of the shorter side; at most half the shorter side
-  double trim_alpha = 0.05;      // exponent alpha of eq 82, in (0, 10]
-  double friction_time = 0;      // s, tau of eq 72-73; 0 = no friction
-  double source_scale = 0;       // m/s, S0 of eq 75 (obstruction as a height source)
-  bool mask_phi = false;         // also multiply phi by O (Gilligan eq 74 masks h only)
-  bool double_precision = false; // h, phi and the FFTs in double (needs fp64): the float FFTs of the backends
-                                 // lose ~1e-7 of the energy per step (see tests/ewave), double ~1e-15
-  double displacement_scale = 1; // lambda: D = lambda FFT^-1(-i k/k h~) (eq 47) and in the normals (eq 94)
+  double gravity = 9.81;              // m/s^2, > 0
+  double depth = 0;                   // m, > 0 for shallow and combined dispersion
+  double capillary_length = 0;        // m, >= 0 (capillary and combined)
+  bool trim = true;                   // the power-law taper of eq 82 at the four edges
+  double trim_width = 0;              // m, L of eq 82; 0 = 8% of the shorter side; at most half the shorter side
+  double trim_alpha = 0.05;           // exponent alpha of eq 82, in (0, 10]
+  double friction_time = 0;           // s, tau of eq 72-73; 0 = no friction
+  double source_scale = 0;            // m/s, S0 of eq 75 (obstruction as a height source)
+  bool mask_phi = false;              // also multiply phi by O (Gilligan eq 74 masks h only)
+  bool double_precision = false;      // h, phi and the FFTs in double (needs fp64): the float FFTs of the backends
+                                      // lose ~1e-7 of the energy per step (see tests/ewave), double ~1e-15
+  double displacement_scale = 1;      // lambda: D = lambda FFT^-1(-i k/k h~) (eq 47) and in the normals (eq 94)
   std::vector<float> initial_height;  // m, nx*ny values or empty (zero)
   std::vector<float> initial_phi;     // m^2/s, nx*ny values or empty (zero)
   double start_time = 0;              // s, finite: the session's simulation time before its first step
@@ -72,31 +72,31 @@ enum class ShapeKind { Circle, Ellipse, Box, Polygon };
 // An obstruction shape placed for one step (grid frame, metres).
 struct Shape {
   ShapeKind kind = ShapeKind::Circle;
-  double x = 0, y = 0;        // centre (circle, ellipse, box)
-  double a = 0, b = 0;        // circle: a = radius; ellipse: semi-axes; box: half-lengths; > 0
-  double heading = 0;         // rad, direction of the a axis from +x
+  double x = 0, y = 0;                          // centre (circle, ellipse, box)
+  double a = 0, b = 0;                          // circle: a = radius; ellipse: semi-axes; box: half-lengths; > 0
+  double heading = 0;                           // rad, direction of the a axis from +x
   std::vector<std::array<double, 2>> vertices;  // polygon: >= 3 vertices, metres
 };
 
 struct OutputSelection {
-  bool height = true;        // h after the step (m)
-  bool displacement = false; // D_x, D_y (m), eq 47
-  bool normals = false;      // unit normals (eq 90/94), interleaved x, y, z
-  bool phi = false;          // velocity potential (m^2/s)
+  bool height = true;         // h after the step (m)
+  bool displacement = false;  // D_x, D_y (m), eq 47
+  bool normals = false;       // unit normals (eq 90/94), interleaved x, y, z
+  bool phi = false;           // velocity potential (m^2/s)
 };
 
 struct StepInputs {
-  double dt = 0;                        // s, finite and > 0
-  std::vector<float> obstruction;       // O in [0, 1], nx*ny or empty (1 everywhere)
-  std::vector<Shape> shapes;            // rasterized into O (multiplied) with fractional edge coverage
-  std::vector<float> ambient_height;    // h_A (m), nx*ny or empty
+  double dt = 0;                      // s, finite and > 0
+  std::vector<float> obstruction;     // O in [0, 1], nx*ny or empty (1 everywhere)
+  std::vector<Shape> shapes;          // rasterized into O (multiplied) with fractional edge coverage
+  std::vector<float> ambient_height;  // h_A (m), nx*ny or empty
   // h_A from an ocean spec (see EWaveConfig::ambient_ocean), at the session time at the start of this
   // step; exclusive with ambient_height. A step with neither uses the config's ambient_ocean, if any.
   std::optional<ocean::TileSpec> ambient_ocean;
-  std::vector<float> source_height;     // S_h (m/s), nx*ny or empty
-  std::vector<float> source_phi;        // S_phi (m^2/s^2), nx*ny or empty
-  double drift_x = 0, drift_y = 0;      // uniform drift current U_D (m/s), used when no drift field is given
-  std::vector<float> drift_field_x;     // U_D,x per cell (m/s), nx*ny or empty (both or neither)
+  std::vector<float> source_height;  // S_h (m/s), nx*ny or empty
+  std::vector<float> source_phi;     // S_phi (m^2/s^2), nx*ny or empty
+  double drift_x = 0, drift_y = 0;   // uniform drift current U_D (m/s), used when no drift field is given
+  std::vector<float> drift_field_x;  // U_D,x per cell (m/s), nx*ny or empty (both or neither)
   std::vector<float> drift_field_y;
   OutputSelection outputs;
 };
@@ -105,8 +105,8 @@ struct StepInputs {
 void validate(const StepInputs& inputs, const EWaveConfig& config);
 
 struct Frame {
-  uint64_t step = 0;   // steps done so far (1 after the first step)
-  double time = 0;     // s, simulation time after this step
+  uint64_t step = 0;  // steps done so far (1 after the first step)
+  double time = 0;    // s, simulation time after this step
   std::vector<float> height, displacement_x, displacement_y, normals, phi;  // as selected; empty otherwise
 };
 

@@ -27,7 +27,7 @@ class EWaveEngine {
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
-  std::string create(const EWaveConfig& config);          // validated; RESOURCE_EXHAUSTED past --max-sessions
+  std::string create(const EWaveConfig& config);            // validated; RESOURCE_EXHAUSTED past --max-sessions
   std::string create_from_state(const std::string& bytes);  // a new session continuing a saved state
   Frame step(const std::string& id, const StepInputs& inputs);
   std::string state(const std::string& id);
@@ -45,7 +45,8 @@ class EWaveEngine {
 
  private:
   // A validated session continuing `bytes`, its memory reserved before it is built.
-  std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> from_state(const std::string& bytes);
+  std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> from_state(
+      const std::string& bytes);
 
   Runtime& runtime_;
   fft::Fft& fft_;

@@ -71,16 +71,16 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
       const auto& p = proto.polygon();
       s.kind = ShapeKind::Polygon;
       if (p.vertices_size() < 3)
-        fail(Code::InvalidArgument, path + ".polygon.vertices has " + std::to_string(p.vertices_size()) +
-                                        " vertices, want >= 3");
+        fail(Code::InvalidArgument,
+             path + ".polygon.vertices has " + std::to_string(p.vertices_size()) + " vertices, want >= 3");
       for (int v = 0; v < p.vertices_size(); ++v) {
         const std::string at = path + ".polygon.vertices[" + std::to_string(v) + "]";
-        s.vertices.push_back({validate::finite(at + ".x", p.vertices(v).x()), validate::finite(at + ".y", p.vertices(v).y())});
+        s.vertices.push_back(
+            {validate::finite(at + ".x", p.vertices(v).x()), validate::finite(at + ".y", p.vertices(v).y())});
       }
       break;
     }
-    default:
-      fail(Code::InvalidArgument, path + " has no shape: set one of circle, ellipse, box, polygon");
+    default: fail(Code::InvalidArgument, path + " has no shape: set one of circle, ellipse, box, polygon");
   }
   return s;
 }
@@ -130,10 +130,13 @@ std::vector<float> output_values(const Frame& f, v1::EWaveOutput o) {
 
 std::vector<float> grid_values(const v1::Field& field, int64_t nx, int64_t ny, const std::string& path) {
   if (int64_t(field.nx()) != nx)
-    fail(Code::InvalidArgument, path + ".nx = " + std::to_string(field.nx()) + ", want the session's nx = " + std::to_string(nx));
+    fail(Code::InvalidArgument,
+         path + ".nx = " + std::to_string(field.nx()) + ", want the session's nx = " + std::to_string(nx));
   if (int64_t(field.ny()) != ny)
-    fail(Code::InvalidArgument, path + ".ny = " + std::to_string(field.ny()) + ", want the session's ny = " + std::to_string(ny));
-  if (field.nz() > 1) fail(Code::InvalidArgument, path + ".nz = " + std::to_string(field.nz()) + ", want 0 or 1 (a 2D field)");
+    fail(Code::InvalidArgument,
+         path + ".ny = " + std::to_string(field.ny()) + ", want the session's ny = " + std::to_string(ny));
+  if (field.nz() > 1)
+    fail(Code::InvalidArgument, path + ".nz = " + std::to_string(field.nz()) + ", want 0 or 1 (a 2D field)");
   return squall::field::decode(field, path);  // dtype and byte count, named "<path>.dtype", "<path>.data"
 }
 
@@ -157,10 +160,8 @@ EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
   c.initial_height = map(p.has_initial_height(), p.initial_height(), c, "config.initial_height");
   c.initial_phi = map(p.has_initial_phi(), p.initial_phi(), c, "config.initial_phi");
   if (p.has_start_time()) c.start_time = validate::finite("config.start_time.seconds", p.start_time().seconds());
-  if (p.has_initial_ocean())
-    c.initial_ocean = ocean::rpc::tile_spec(p.initial_ocean(), gate, "config.initial_ocean");
-  if (p.has_ambient_ocean())
-    c.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), gate, "config.ambient_ocean");
+  if (p.has_initial_ocean()) c.initial_ocean = ocean::rpc::tile_spec(p.initial_ocean(), gate, "config.initial_ocean");
+  if (p.has_ambient_ocean()) c.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), gate, "config.ambient_ocean");
   validate(c, &gate);  // ranges, finite values; messages name "config.<field>"
   return c;
 }
@@ -202,9 +203,10 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
   in.dt = p.dt();
   in.obstruction = map(p.has_obstruction(), p.obstruction(), c, "inputs.obstruction");
   if (size_t(p.shapes_size()) > kMaxShapes)
-    fail(Code::InvalidArgument, "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " +
-                                    std::to_string(kMaxShapes));
-  for (int s = 0; s < p.shapes_size(); ++s) in.shapes.push_back(shape(p.shapes(s), "inputs.shapes[" + std::to_string(s) + "]"));
+    fail(Code::InvalidArgument,
+         "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " + std::to_string(kMaxShapes));
+  for (int s = 0; s < p.shapes_size(); ++s)
+    in.shapes.push_back(shape(p.shapes(s), "inputs.shapes[" + std::to_string(s) + "]"));
   in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
   if (p.has_ambient_ocean()) {
     LimitGate defaults{Limits{}};
@@ -220,7 +222,8 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
   for (auto out : outputs(p)) {
     o.height |= out == v1::EWAVE_OUTPUT_HEIGHT;
     o.displacement |= out == v1::EWAVE_OUTPUT_DISPLACEMENT_X || out == v1::EWAVE_OUTPUT_DISPLACEMENT_Y;
-    o.normals |= out == v1::EWAVE_OUTPUT_NORMAL_X || out == v1::EWAVE_OUTPUT_NORMAL_Y || out == v1::EWAVE_OUTPUT_NORMAL_Z;
+    o.normals |=
+        out == v1::EWAVE_OUTPUT_NORMAL_X || out == v1::EWAVE_OUTPUT_NORMAL_Y || out == v1::EWAVE_OUTPUT_NORMAL_Z;
     o.phi |= out == v1::EWAVE_OUTPUT_PHI;
   }
   validate(in, c);  // dt, value ranges, finite values; messages name "inputs.<field>"
@@ -237,7 +240,8 @@ void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWav
   reply->mutable_time()->set_seconds(f.time);
   for (auto o : outputs) {
     v1::Field* field = reply->add_fields();
-    squall::field::encode({info(o).name, info(o).unit, uint32_t(c.nx), uint32_t(c.ny), 0, d}, output_values(f, o), field);
+    squall::field::encode({info(o).name, info(o).unit, uint32_t(c.nx), uint32_t(c.ny), 0, d}, output_values(f, o),
+                          field);
     field->mutable_spacing()->set_x(c.dx), field->mutable_spacing()->set_y(c.dy);
     field->mutable_origin()->set_x(0.5 * c.dx), field->mutable_origin()->set_y(0.5 * c.dy);
   }

@@ -14,7 +14,8 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   if (config_.ambient_ocean) ocean_engine("config.ambient_ocean");
   time_ = config_.start_time;
   if (config_.double_precision && !runtime_.device_info().double_precision)
-    fail(Code::InvalidArgument, "config.double_precision = true but device " + runtime_.device_info().name + " has no fp64");
+    fail(Code::InvalidArgument,
+         "config.double_precision = true but device " + runtime_.device_info().name + " has no fp64");
   cells_ = config_.cells();
   half_ = (size_t(config_.nx) / 2 + 1) * size_t(config_.ny);
   real_size_ = config_.double_precision ? sizeof(double) : sizeof(float);
@@ -86,7 +87,8 @@ void EWaveSession::upload_trim() {
 std::string EWaveSession::state() const {
   std::string bytes = new_state(config_, step_, time_);
   auto lock = runtime_.exclusive();
-  runtime_.queue().enqueueReadBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_, state_fields(bytes));
+  runtime_.queue().enqueueReadBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,
+                                     state_fields(bytes));
   return bytes;
 }
 
@@ -109,7 +111,8 @@ void EWaveSession::restore(const std::string& bytes) {
   coefficients_.clear();  // the dispersion may differ
   auto lock = runtime_.exclusive();
   upload_trim();
-  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_, state_fields(bytes));
+  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,
+                                      state_fields(bytes));
   step_ = h.step;
   time_ = h.time;
 }

@@ -42,7 +42,8 @@ size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision) {
 std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
   StateHeader h{};
   std::memcpy(h.magic, kMagic, sizeof(kMagic));
-  each_member(h, config, [](auto& stored, const auto& value) { stored = static_cast<std::decay_t<decltype(stored)>>(value); });
+  each_member(h, config,
+              [](auto& stored, const auto& value) { stored = static_cast<std::decay_t<decltype(stored)>>(value); });
   h.step = step;
   h.time = time;
   std::string bytes(sizeof(h) + state_field_bytes(h.nx, h.ny, config.double_precision), '\0');
@@ -55,9 +56,11 @@ const char* state_fields(const std::string& state) { return state.data() + sizeo
 
 StateHeader parse_state_header(const std::string& bytes) {
   StateHeader h{};
-  if (bytes.size() < sizeof(h)) fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, too few for an eWave state");
+  if (bytes.size() < sizeof(h))
+    fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, too few for an eWave state");
   std::memcpy(&h, bytes.data(), sizeof(h));
-  if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0) fail(Code::InvalidArgument, "state is not an eWave state (bad magic)");
+  if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0)
+    fail(Code::InvalidArgument, "state is not an eWave state (bad magic)");
   if (h.nx < 1 || h.ny < 1 || h.nx > (int64_t(1) << 20) || h.ny > (int64_t(1) << 20))
     fail(Code::InvalidArgument, "state.grid is invalid");
   size_t want = sizeof(h) + state_field_bytes(h.nx, h.ny, h.double_precision != 0);
@@ -68,7 +71,8 @@ StateHeader parse_state_header(const std::string& bytes) {
 
 EWaveConfig config_of(const StateHeader& header) {
   EWaveConfig c;
-  each_member(header, c, [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
+  each_member(header, c,
+              [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
   validate(c);
   return c;
 }

@@ -31,10 +31,10 @@ Frame EWaveSession::step(const StepInputs& in) {
   prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
   fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})
       .enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
-  propagate(in.dt, fields);  // eq 64-65
+  propagate(in.dt, fields);                                                                      // eq 64-65
   fft_.plan({nx, ny, size_t(fields), fft::Transform::C2R, precision()})
       .enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());  // eq 66-67
-  finish(in, fields, has_obstruction);  // eq 68-69, §3.7 steps 5-7
+  finish(in, fields, has_obstruction);   // eq 68-69, §3.7 steps 5-7
   Frame frame = read_frame(in.outputs);  // blocking reads: the host vectors of the inputs are free after this
   ++step_;
   time_ += in.dt;
@@ -47,7 +47,8 @@ Frame EWaveSession::step(const StepInputs& in) {
 bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
   if (in.obstruction.empty()) {
-    if (obstruction_.bytes() != cells_ * sizeof(float)) obstruction_ = runtime_.buffers().acquire(cells_ * sizeof(float));
+    if (obstruction_.bytes() != cells_ * sizeof(float))
+      obstruction_ = runtime_.buffers().acquire(cells_ * sizeof(float));
     runtime_.queue().enqueueFillBuffer(obstruction_.buffer(), cl_float(1.0f), 0, cells_ * sizeof(float));
   } else {
     upload(obstruction_, in.obstruction);
@@ -65,7 +66,8 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes) {
   runtime_.queue().enqueueWriteBuffer(shapes_.buffer(), CL_FALSE, 0, shape_bytes, device.data());
   upload(vertices_, vertices);
   rasterize_.launch(cells_range(config_), cl::NullRange, obstruction_.buffer(), shapes_.buffer(), cl_int(device.size()),
-                    vertices_.buffer(), cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy));
+                    vertices_.buffer(), cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx),
+                    cl_float(config_.dy));
   runtime_.queue().finish();  // the host vectors must outlive the non-blocking writes
 }
 
@@ -74,7 +76,7 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
   auto optional = [&](BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
     return values.empty() ? none : upload(lease, values);
   };
-  double decay = 1, gain = in.dt;  // eq 60-61
+  double decay = 1, gain = in.dt;   // eq 60-61
   if (config_.friction_time > 0) {  // eq 72-73
     decay = std::exp(-in.dt / config_.friction_time);
     gain = -config_.friction_time * std::expm1(-in.dt / config_.friction_time);

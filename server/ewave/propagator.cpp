@@ -32,9 +32,9 @@ std::vector<double> propagator_coefficients(const EWaveConfig& c, double dt) {
       double omega = dispersion_omega(float(wavenumber(c, i, j)), d);
       double s = std::sin(omega * dt);
       double* m = &out[4 * (i + hx * j)];
-      m[0] = std::cos(omega * dt) * scale;                          // eq 64-65: cos
-      m[1] = omega / g * s * scale;                                 // phi -> h
-      m[2] = (omega > 0 ? g * s / omega : g * dt) * scale;          // h -> phi, k = 0 limit g dt
+      m[0] = std::cos(omega * dt) * scale;                  // eq 64-65: cos
+      m[1] = omega / g * s * scale;                         // phi -> h
+      m[2] = (omega > 0 ? g * s / omega : g * dt) * scale;  // h -> phi, k = 0 limit g dt
       m[3] = 0;
     }
   return out;

@@ -20,15 +20,15 @@ struct StepKernels {
 
   // state, nx, ny, obstruction, has_obstruction, ambient, has_ambient, trim_x, trim_y, has_trim,
   // source_h, has_source_h, source_phi, has_source_phi, source_scale, decay, gain
-  Kernel<cl::Buffer, cl_int, cl_int, cl::Buffer, cl_int, cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int,
-         cl::Buffer, cl_int, cl::Buffer, cl_int, Real, Real, Real>
+  Kernel<cl::Buffer, cl_int, cl_int, cl::Buffer, cl_int, cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int, cl::Buffer,
+         cl_int, cl::Buffer, cl_int, Real, Real, Real>
       prepare;
   // spectrum, coefficients, nx, ny, kx_unit, ky_unit, fields
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, Real, Real, cl_int> propagate;
   // work, fields, state, out, nx, ny, drift_mode, shift_x, shift_y, drift_x, drift_y, dt_over_dx,
   // dt_over_dy, obstruction, has_obstruction, mask_phi, trim_x, trim_y, has_trim, displacement_scale
-  Kernel<cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int, cl_int, cl_int, Real, Real, cl::Buffer, cl::Buffer,
-         Real, Real, cl::Buffer, cl_int, cl_int, cl::Buffer, cl::Buffer, cl_int, Real>
+  Kernel<cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int, cl_int, cl_int, Real, Real, cl::Buffer, cl::Buffer, Real,
+         Real, cl::Buffer, cl_int, cl_int, cl::Buffer, cl::Buffer, cl_int, Real>
       finish;
 
   StepKernels() = default;

@@ -15,7 +15,8 @@ namespace squall::fft {
 namespace {
 
 void check(clfftStatus status, const std::string& what) {
-  if (status != CLFFT_SUCCESS) fail(Code::Internal, "clfft: " + what + " failed (status " + std::to_string(status) + ")");
+  if (status != CLFFT_SUCCESS)
+    fail(Code::Internal, "clfft: " + what + " failed (status " + std::to_string(status) + ")");
 }
 
 // clFFT factors each length into radices 2, 3, 5, 7, 11 and 13 only.

@@ -44,8 +44,7 @@ std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name)
 }
 
 Plan& Fft::plan(const PlanKey& key) {
-  if (key.nx < 1 || key.ny < 1 || key.batch < 1)
-    fail(Code::InvalidArgument, "fft: empty transform " + describe(key));
+  if (key.nx < 1 || key.ny < 1 || key.batch < 1) fail(Code::InvalidArgument, "fft: empty transform " + describe(key));
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = plans_.find(key);
   if (it == plans_.end()) it = plans_.emplace(key, backend_->bake(key)).first;

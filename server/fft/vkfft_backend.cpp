@@ -73,8 +73,8 @@ class VkfftPlan : public Plan {
     params.inputBuffer = &real;
     VkFFTResult result = VkFFTAppend(&app_, direction == Direction::Forward ? -1 : 1, &params);
     if (result != VKFFT_SUCCESS)
-      fail(Code::Internal, "vkfft " + describe(key()) + " failed to launch (VkFFTResult " +
-                               std::to_string(int(result)) + ")");
+      fail(Code::Internal,
+           "vkfft " + describe(key()) + " failed to launch (VkFFTResult " + std::to_string(int(result)) + ")");
   }
 
  private:

@@ -22,8 +22,12 @@ using cplx = std::complex<double>;
 constexpr double kPi = 3.14159265358979323846;
 
 // ---- dispersion, Table 1, in double ----
-bool finite_depth(const LayerSpec& L) { return L.dispersion == DispersionKind::Shallow || L.dispersion == DispersionKind::Combined; }
-bool capillary(const LayerSpec& L) { return L.dispersion == DispersionKind::Capillary || L.dispersion == DispersionKind::Combined; }
+bool finite_depth(const LayerSpec& L) {
+  return L.dispersion == DispersionKind::Shallow || L.dispersion == DispersionKind::Combined;
+}
+bool capillary(const LayerSpec& L) {
+  return L.dispersion == DispersionKind::Capillary || L.dispersion == DispersionKind::Combined;
+}
 
 double omega(const LayerSpec& L, double k) {
   if (k <= 0) return 0;
@@ -56,8 +60,9 @@ SpectrumParams formula_parameters(const LayerSpec& L) {
   thread_local SpectrumParams last{};
   std::string key;
   auto add = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
-  double d[] = {L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude, L.phillips_cutoff,
-                L.phillips_exponent, L.wind_direction, L.depth, L.gravity};
+  double d[] = {
+      L.wind_speed,        L.fetch,          L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude, L.phillips_cutoff,
+      L.phillips_exponent, L.wind_direction, L.depth, L.gravity};
   int i[] = {int(L.spectrum), int(L.spreading)};
   add(d, sizeof d), add(i, sizeof i);
   for (const auto& q : L.partials) add(&q, sizeof q);
@@ -178,10 +183,28 @@ std::string spectrum_key(const TileSpec& spec, size_t index) {
   const LayerSpec& L = spec.layers[index];
   std::string key;
   auto add = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
-  double d[] = {L.lx, L.ly, L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude,
-                L.phillips_cutoff, L.phillips_exponent, L.wind_direction, L.depth, L.capillary_length, L.gravity,
-                L.k_min, L.k_max};
-  int64_t i[] = {L.nx, L.ny, int64_t(L.spectrum), int64_t(L.spreading), int64_t(L.dispersion), int64_t(index),
+  double d[] = {L.lx,
+                L.ly,
+                L.wind_speed,
+                L.fetch,
+                L.gamma,
+                L.sigma_a,
+                L.sigma_b,
+                L.phillips_amplitude,
+                L.phillips_cutoff,
+                L.phillips_exponent,
+                L.wind_direction,
+                L.depth,
+                L.capillary_length,
+                L.gravity,
+                L.k_min,
+                L.k_max};
+  int64_t i[] = {L.nx,
+                 L.ny,
+                 int64_t(L.spectrum),
+                 int64_t(L.spreading),
+                 int64_t(L.dispersion),
+                 int64_t(index),
                  int64_t(spec.b_correction)};
   add(d, sizeof d), add(i, sizeof i), add(&L.seed, sizeof L.seed);
   for (const auto& q : L.partials) add(&q, sizeof q);
@@ -227,8 +250,8 @@ struct CpuReference::Impl {
     if (it != plans.end()) return it->second;
     int dims[2] = {int(ny), int(nx)};
     int dist = int(nx * ny);
-    fftw_plan p = fftw_plan_many_dft(2, dims, howmany, data, nullptr, 1, dist, data, nullptr, 1, dist,
-                                     FFTW_BACKWARD, FFTW_ESTIMATE);
+    fftw_plan p = fftw_plan_many_dft(2, dims, howmany, data, nullptr, 1, dist, data, nullptr, 1, dist, FFTW_BACKWARD,
+                                     FFTW_ESTIMATE);
     plans[key] = p;
     return p;
   }
@@ -317,8 +340,8 @@ TileFields CpuReference::tile(const TileSpec& spec, double t, unsigned outputs, 
         cplx h = evolved(L, spectrum, n, m, t), ih = cplx(0, 1) * h;
         double kx = n * 2 * kPi / L.lx, ky = m * 2 * kPi / L.ly, k = std::hypot(kx, ky);
         double inv_k = k > 0 ? 1 / k : 0;
-        cplx values[8] = {h, ih * kx * inv_k, ih * ky * inv_k, ih * kx, ih * ky,
-                          -h * kx * kx * inv_k, -h * ky * ky * inv_k, -h * kx * ky * inv_k};
+        cplx values[8] = {h,       ih * kx * inv_k,      ih * ky * inv_k,      ih * kx,
+                          ih * ky, -h * kx * kx * inv_k, -h * ky * ky * inv_k, -h * kx * ky * inv_k};
         for (int q = 0; q < channels; ++q) c[q * cells + size_t(i + L.nx * j)] = values[q];
       }
     fftw_execute_dft(impl_->plan(L.nx, L.ny, channels, data), data, data);
@@ -344,7 +367,9 @@ TileFields CpuReference::tile(const TileSpec& spec, double t, unsigned outputs, 
 
   TileFields out;
   out.nx = onx, out.ny = ony, out.dx = olx / onx, out.dy = oly / ony, out.t = t;
-  auto plane = [&](unsigned flag, std::vector<float>& v) { if (outputs & flag) v.resize(ocells); };
+  auto plane = [&](unsigned flag, std::vector<float>& v) {
+    if (outputs & flag) v.resize(ocells);
+  };
   plane(Height, out.height);
   plane(Displacement, out.displacement_x), plane(Displacement, out.displacement_y);
   plane(Slopes, out.slope_x), plane(Slopes, out.slope_y);
@@ -359,7 +384,8 @@ TileFields CpuReference::tile(const TileSpec& spec, double t, unsigned outputs, 
     double ch[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int q = 0; q < channels; ++q) ch[q] = sum[q * ocells + p];
     if (outputs & Height) out.height[p] = float(ch[0]);
-    if (outputs & Displacement) out.displacement_x[p] = float(lambda * ch[1]), out.displacement_y[p] = float(lambda * ch[2]);
+    if (outputs & Displacement)
+      out.displacement_x[p] = float(lambda * ch[1]), out.displacement_y[p] = float(lambda * ch[2]);
     if (outputs & Slopes) out.slope_x[p] = float(ch[3]), out.slope_y[p] = float(ch[4]);
     double Jxx = 1 + lambda * ch[5], Jyy = 1 + lambda * ch[6], Jxy = lambda * ch[7];
     if (outputs & Normals) {

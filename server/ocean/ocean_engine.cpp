@@ -21,7 +21,8 @@ constexpr int kOutputPlanes = 12;  // OUT_* of ocean.cl
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
 // h0, nx, ny, dkx, dky, t_hi, t_lo, drift, pairs, out
-using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_int, cl::Buffer>;
+using EvolveKernel =
+    Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_int, cl::Buffer>;
 // h0, nx, ny, dkx, dky, t_hi, t_lo, drift, g, out
 using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
@@ -39,9 +40,9 @@ void append(std::string& key, const T& value) {
 std::string h0_key(const TileSpec& spec, size_t index) {
   const LayerSpec& L = spec.layers[index];
   std::string key;
-  for (double v : {L.lx, L.ly, L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude,
-                   L.phillips_cutoff, L.phillips_exponent, L.wind_direction, L.depth, L.capillary_length,
-                   L.gravity, L.k_min, L.k_max})
+  for (double v :
+       {L.lx, L.ly, L.wind_speed, L.fetch, L.gamma, L.sigma_a, L.sigma_b, L.phillips_amplitude, L.phillips_cutoff,
+        L.phillips_exponent, L.wind_direction, L.depth, L.capillary_length, L.gravity, L.k_min, L.k_max})
     append(key, v);
   for (int64_t v : {L.nx, L.ny, int64_t(L.spectrum), int64_t(L.spreading), int64_t(L.dispersion), int64_t(index)})
     append(key, v);
@@ -76,12 +77,17 @@ struct OceanEngine::Impl {
   size_t cached_bytes = 0;
   size_t built = 0;
   std::map<std::string, double> slope_variances;  // eq 96 per spec (bounded)
-  mutable std::mutex cache_mutex;  // guards the counters read by cached_spectra() / spectra_built()
+  mutable std::mutex cache_mutex;                 // guards the counters read by cached_spectra() / spectra_built()
 
   Impl(Runtime& r, fft::Fft& f, const Limits& limits, size_t max_bytes)
-      : runtime(r), fft(f), gate(limits), max_cached_bytes(max_bytes),
-        h0_kernel(r, kProgram, "ocean_h0"), evolve(r, kProgram, "ocean_evolve"),
-        accumulate(r, kProgram, "ocean_accumulate"), finalize(r, kProgram, "ocean_finalize"),
+      : runtime(r),
+        fft(f),
+        gate(limits),
+        max_cached_bytes(max_bytes),
+        h0_kernel(r, kProgram, "ocean_h0"),
+        evolve(r, kProgram, "ocean_evolve"),
+        accumulate(r, kProgram, "ocean_accumulate"),
+        finalize(r, kProgram, "ocean_finalize"),
         evolve_potential(r, kProgram, "ocean_evolve_potential") {}
 
   // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
@@ -119,7 +125,8 @@ struct OceanEngine::Impl {
   double slope_variance(const TileSpec& spec) {
     std::string key;
     for (size_t a = 0; a < spec.layers.size(); ++a) key += h0_key(spec, a);
-    for (double v : {spec.pixel_scale, spec.slope_k_max, spec.lx, spec.ly, double(spec.nx), double(spec.ny)}) append(key, v);
+    for (double v : {spec.pixel_scale, spec.slope_k_max, spec.lx, spec.ly, double(spec.nx), double(spec.ny)})
+      append(key, v);
     {
       std::lock_guard<std::mutex> guard(cache_mutex);
       auto it = slope_variances.find(key);
@@ -161,9 +168,9 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
-                  cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
-                  cl_int(pairs), fields.buffer());
+    evolve.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
+                  cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
+                  cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_int(pairs), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -236,14 +243,16 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
 
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
-  if (outputs & Whitecaps) queue.enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
+  if (outputs & Whitecaps)
+    queue.enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
   impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, accum.buffer(), cl_int(cells), cl_int(2 * pairs),
                          cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                          whitecap.buffer(), out.buffer());
 
   auto read = [&](int plane, std::vector<float>& into) {
     into.resize(cells);
-    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
+    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float),
+                            into.data());
   };
   if (outputs & Height) read(0, result.height);
   if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);

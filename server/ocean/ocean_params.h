@@ -41,11 +41,11 @@ constexpr int kSpectrumModelCount = 6;
 enum class SpreadingModel : int {
   Isotropic = 0,    // 1 / (2 pi)
   PiersonCos2 = 1,  // (2/pi) cos^2(theta - theta0) on |theta - theta0| < pi/2, else 0 (eq 27 fixed)
-  Krylov = 2,       // Gamma(s/2+1) / (sqrt(pi) Gamma((s+1)/2)) cos^s on the half plane, s = 1.8 wbar / w (eqs 29-31 fixed)
-  Mitsuyasu = 3,    // eqs 33-37: cos^{2s}((theta - theta0)/2), s from w U / g; needs wind_speed > 0
-  Jonswap = 4,      // eqs 38-41 (central values of s_p and mu); needs wind_speed > 0
-  VonMises = 5,     // eqs 43-44 with s of eq 34; needs wind_speed > 0
-  Hyperbolic = 6,   // (beta/2) sech^2(beta (theta - theta0)) / tanh(beta pi) (eq 45 fixed, Donelan), beta of eq 46
+  Krylov = 2,  // Gamma(s/2+1) / (sqrt(pi) Gamma((s+1)/2)) cos^s on the half plane, s = 1.8 wbar / w (eqs 29-31 fixed)
+  Mitsuyasu = 3,   // eqs 33-37: cos^{2s}((theta - theta0)/2), s from w U / g; needs wind_speed > 0
+  Jonswap = 4,     // eqs 38-41 (central values of s_p and mu); needs wind_speed > 0
+  VonMises = 5,    // eqs 43-44 with s of eq 34; needs wind_speed > 0
+  Hyperbolic = 6,  // (beta/2) sech^2(beta (theta - theta0)) / tanh(beta pi) (eq 45 fixed, Donelan), beta of eq 46
 };
 constexpr int kSpreadingModelCount = 7;
 
@@ -62,43 +62,44 @@ constexpr int kDispersionKindCount = 4;
 //   S(w) = scale * { A exp[-B (w/w_p - 1)^2] + C (w/w_p)^-n exp[-7.987 (w/w_p)^-m] },
 // where scale is chosen so that the partial's m0 = integral S dw equals (Hs / 4)^2.
 struct PartialSpectrum {
-  double peak_frequency = 0.6;          // w_p, rad/s, > 0
+  double peak_frequency = 0.6;         // w_p, rad/s, > 0
   double significant_wave_height = 1;  // Hs of this partial, m, > 0
-  double a = 1.835, b = 22.2222, c = 4.211, n = 5, m = 8;  // dimensionless shape (eq 26's values); a, b, c >= 0, n, m > 0
+  double a = 1.835, b = 22.2222, c = 4.211, n = 5,
+         m = 8;  // dimensionless shape (eq 26's values); a, b, c >= 0, n, m > 0
 };
 constexpr int kMaxPartialSpectra = 4;
 
 // One layer: a periodic patch with its own extent, grid, spectrum and random seed.
 struct LayerSpec {
   // Patch and grid.
-  double lx = 256, ly = 256;  // m, finite, > 0
-  int64_t nx = 128, ny = 128; // cells, even, >= 2; nx * ny within the daemon's --max-grid-cells
+  double lx = 256, ly = 256;   // m, finite, > 0
+  int64_t nx = 128, ny = 128;  // cells, even, >= 2; nx * ny within the daemon's --max-grid-cells
 
   // Frequency spectrum.
   SpectrumModel spectrum = SpectrumModel::PiersonMoskowitz;
-  double wind_speed = 10;        // U, m/s at 10 m, finite, > 0 (every model but Multipeak; Multipeak: >= 0)
-  double fetch = 100e3;          // X, m, > 0 (Jonswap, ModifiedJonswap, Tma)
-  double gamma = 3.3;            // peak enhancement, >= 1 (Jonswap, Tma)
-  double sigma_a = 0.07;         // JONSWAP width for w <= w_p, > 0
-  double sigma_b = 0.09;         // JONSWAP width for w > w_p, > 0
-  double phillips_amplitude = 1e-3;   // Phillips A, m^2 (P in m^4), >= 0
-  double phillips_cutoff = 0;         // Phillips small-wave cutoff l, m, >= 0
-  double phillips_exponent = 2;       // Phillips directional exponent p of |k^.w^|^p, >= 0 (App A eq 40: 2, Fig 11: 6)
+  double wind_speed = 10;            // U, m/s at 10 m, finite, > 0 (every model but Multipeak; Multipeak: >= 0)
+  double fetch = 100e3;              // X, m, > 0 (Jonswap, ModifiedJonswap, Tma)
+  double gamma = 3.3;                // peak enhancement, >= 1 (Jonswap, Tma)
+  double sigma_a = 0.07;             // JONSWAP width for w <= w_p, > 0
+  double sigma_b = 0.09;             // JONSWAP width for w > w_p, > 0
+  double phillips_amplitude = 1e-3;  // Phillips A, m^2 (P in m^4), >= 0
+  double phillips_cutoff = 0;        // Phillips small-wave cutoff l, m, >= 0
+  double phillips_exponent = 2;      // Phillips directional exponent p of |k^.w^|^p, >= 0 (App A eq 40: 2, Fig 11: 6)
   std::vector<PartialSpectrum> partials;  // Multipeak: 1 .. kMaxPartialSpectra entries
 
   // Directional spreading (ignored by Phillips, which has its own |k^.w^|^p).
   SpreadingModel spreading = SpreadingModel::Mitsuyasu;
-  double wind_direction = 0;     // theta0, rad, finite; the waves travel towards theta0
+  double wind_direction = 0;  // theta0, rad, finite; the waves travel towards theta0
 
   // Dispersion.
   DispersionKind dispersion = DispersionKind::Deep;
-  double depth = 100;               // h, m, > 0 (Shallow, Combined dispersion and the Tma spectrum)
-  double capillary_length = 2.7e-3; // l, m, >= 0 (Capillary, Combined)
-  double gravity = 9.81;            // g, m/s^2, > 0
+  double depth = 100;                // h, m, > 0 (Shallow, Combined dispersion and the Tma spectrum)
+  double capillary_length = 2.7e-3;  // l, m, >= 0 (Capillary, Combined)
+  double gravity = 9.81;             // g, m/s^2, > 0
 
-  uint64_t seed = 1;                  // random amplitudes: keyed by (seed, n, m, layer index)
-  double drift_x = 0, drift_y = 0;    // U_D, m/s, finite: the field translates by +U_D t (eq 1)
-  double k_min = 0, k_max = 0;        // rad/m: modes with |k| < k_min or (k_max > 0 and |k| > k_max) are 0
+  uint64_t seed = 1;                // random amplitudes: keyed by (seed, n, m, layer index)
+  double drift_x = 0, drift_y = 0;  // U_D, m/s, finite: the field translates by +U_D t (eq 1)
+  double k_min = 0, k_max = 0;      // rad/m: modes with |k| < k_min or (k_max > 0 and |k| > k_max) are 0
 };
 
 // Bit flags of the fields a tile request asks for.
@@ -167,7 +168,11 @@ class WhitecapState {
 
   // Used by the engines: the map and time after a frame.
   std::vector<float>& mutable_map() { return map_; }
-  void set(int64_t nx, int64_t ny, double t) { nx_ = nx; ny_ = ny; last_t_ = t; }
+  void set(int64_t nx, int64_t ny, double t) {
+    nx_ = nx;
+    ny_ = ny;
+    last_t_ = t;
+  }
   bool matches(int64_t nx, int64_t ny) const { return !map_.empty() && nx == nx_ && ny == ny_; }
 
  private:
@@ -182,7 +187,7 @@ struct Vec2 {
 
 // The surface at one world point, summed over all layers.
 struct SurfaceSample {
-  double height = 0;                      // m
+  double height = 0;                              // m
   double displacement_x = 0, displacement_y = 0;  // m, lambda * D at the (source) point
   double normal_x = 0, normal_y = 0, normal_z = 1;
 };

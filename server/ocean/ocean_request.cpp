@@ -1,6 +1,5 @@
 #include "ocean/ocean_request.h"
 
-
 #include "common/error.h"
 #include "common/validate.h"
 #include "ocean/spectrum_setup.h"
@@ -19,8 +18,8 @@ double renamed(const std::string& path, double v, const Interval& range) { retur
 
 template <typename Enum>
 [[noreturn]] void unknown(const std::string& path, Enum value, const char* type) {
-  validate::reject(path, std::to_string(int(value)), std::string("a valid ") + type +
-                                                        " (UNSPECIFIED and unknown values are rejected)");
+  validate::reject(path, std::to_string(int(value)),
+                   std::string("a valid ") + type + " (UNSPECIFIED and unknown values are rejected)");
 }
 
 SpectrumModel spectrum(const std::string& path, v1::SpectrumModel m) {
@@ -76,9 +75,12 @@ void spectrum_parameters(const v1::LayerSpec& in, const std::string& path, Layer
                           l.spectrum == SpectrumModel::Tma;
   l.fetch = in.fetch();
   if (!fetch_used && in.fetch() == 0) l.fetch = LayerSpec{}.fetch;  // ignored; keep the engine's valid default
-  if (in.has_peak_enhancement()) l.gamma = renamed(path + ".peak_enhancement", in.peak_enhancement(), kPeakEnhancementRange);
-  if (in.has_sigma_below_peak()) l.sigma_a = renamed(path + ".sigma_below_peak", in.sigma_below_peak(), kPeakWidthRange);
-  if (in.has_sigma_above_peak()) l.sigma_b = renamed(path + ".sigma_above_peak", in.sigma_above_peak(), kPeakWidthRange);
+  if (in.has_peak_enhancement())
+    l.gamma = renamed(path + ".peak_enhancement", in.peak_enhancement(), kPeakEnhancementRange);
+  if (in.has_sigma_below_peak())
+    l.sigma_a = renamed(path + ".sigma_below_peak", in.sigma_below_peak(), kPeakWidthRange);
+  if (in.has_sigma_above_peak())
+    l.sigma_b = renamed(path + ".sigma_above_peak", in.sigma_above_peak(), kPeakWidthRange);
   if (in.has_phillips_amplitude()) l.phillips_amplitude = in.phillips_amplitude();
   if (in.has_phillips_cutoff()) l.phillips_cutoff = in.phillips_cutoff();
   if (in.has_phillips_exponent()) l.phillips_exponent = in.phillips_exponent();
@@ -135,7 +137,8 @@ void output_grid_spec(const v1::OutputGrid& in, const std::string& path, TileSpe
 
 TileSpec tile_spec(const v1::TileSpec& tile, const LimitGate& gate, const std::string& path) {
   TileSpec t;
-  for (int i = 0; i < tile.layers_size(); ++i) t.layers.push_back(layer(tile.layers(i), validate::at(path + ".layers", i)));
+  for (int i = 0; i < tile.layers_size(); ++i)
+    t.layers.push_back(layer(tile.layers(i), validate::at(path + ".layers", i)));
   t.b_correction = tile.b_correction();
   t.choppiness = tile.choppiness();
   if (!t.layers.empty()) output_grid_spec(tile.output(), path + ".output", t);
@@ -183,7 +186,6 @@ unsigned output_flags(const std::vector<v1::TileOutput>& outputs) {
   }
   return flags;
 }
-
 
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny) {
   bool own = spec.nx > 0 && spec.ny > 0;

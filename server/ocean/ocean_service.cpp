@@ -55,9 +55,7 @@ ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
 
 }  // namespace
 
-void OceanService::start(EngineContext& context) {
-  engine_ = &ocean::shared_engine(context);
-}
+void OceanService::start(EngineContext& context) { engine_ = &ocean::shared_engine(context); }
 
 grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
                                    v1::GetTileResponse* response) {
@@ -117,8 +115,8 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
     const double t = validate::finite("time.seconds", request->time().seconds());
     const int n = request->points_size();
     if (n < 1 || n > kMaxSamplePoints)
-      fail(Code::InvalidArgument, "points has " + std::to_string(n) + " entries: must be 1 to " +
-                                      std::to_string(kMaxSamplePoints));
+      fail(Code::InvalidArgument,
+           "points has " + std::to_string(n) + " entries: must be 1 to " + std::to_string(kMaxSamplePoints));
     serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
     std::vector<ocean::Vec2> points(n);
     for (int i = 0; i < n; ++i) {

@@ -13,7 +13,9 @@ using validate::finite;
 using validate::non_negative;
 using validate::positive;
 
-std::string join(const std::string& path, const std::string& field) { return path.empty() ? field : path + "." + field; }
+std::string join(const std::string& path, const std::string& field) {
+  return path.empty() ? field : path + "." + field;
+}
 
 bool spreading_needs_wind(SpreadingModel s) {
   return s == SpreadingModel::Mitsuyasu || s == SpreadingModel::Jonswap || s == SpreadingModel::VonMises;
@@ -157,9 +159,7 @@ SpectrumParams derive_spectrum(const LayerSpec& L) {
       }
       break;
     }
-    case SpectrumModel::Phillips:
-      p.omega_p = L.gravity / std::max(L.wind_speed, 1e-9);
-      break;
+    case SpectrumModel::Phillips: p.omega_p = L.gravity / std::max(L.wind_speed, 1e-9); break;
   }
   if (L.spectrum != SpectrumModel::Phillips && L.spreading == SpreadingModel::Krylov)  // eq 31's mean frequency
     p.omega_mean = sq_spectral_moment(p, 1) / sq_spectral_moment(p, 0);
@@ -229,8 +229,9 @@ double layer_slope_variance(const LayerSpec& L, double k_lo, double k_hi) {
   const int steps = 4000;
   double u0 = std::log(k_lo), du = (std::log(k_hi) - u0) / steps, sum = 0;
   // Phillips: integral of |cos|^p over the circle = 2 sqrt(pi) Gamma((p+1)/2) / Gamma(p/2 + 1).
-  double phillips_angle = 2 * std::sqrt(SQUALL_PI) * std::exp(std::lgamma(0.5 * (L.phillips_exponent + 1)) -
-                                                           std::lgamma(0.5 * L.phillips_exponent + 1));
+  double phillips_angle =
+      2 * std::sqrt(SQUALL_PI) *
+      std::exp(std::lgamma(0.5 * (L.phillips_exponent + 1)) - std::lgamma(0.5 * L.phillips_exponent + 1));
   for (int i = 0; i <= steps; ++i) {
     double k = std::exp(u0 + i * du);
     if (k < L.k_min || (L.k_max > 0 && k > L.k_max)) continue;

@@ -22,7 +22,8 @@ ChunkPlan plan_chunks(const std::vector<uint64_t>& row_bytes, const std::vector<
   for (size_t f = 0; f < row_bytes.size(); ++f) {
     if (row_bytes[f] + kPieceHeaderBytes > budget)
       fail(Code::ResourceExhausted, "one row of output field " + std::to_string(f) + " needs " +
-                                        std::to_string(row_bytes[f]) + " bytes, more than a message may carry under "
+                                        std::to_string(row_bytes[f]) +
+                                        " bytes, more than a message may carry under "
                                         "--max-message-bytes");
     for (uint32_t row = 0; row < ny[f];) {
       if (left < row_bytes[f] + kPieceHeaderBytes) {
@@ -61,8 +62,10 @@ void fill_chunk(squall::v1::GetTileResponse& frame, const ChunkPlan& plan, uint3
     *f->mutable_origin() = full.origin();
     f->mutable_origin()->set_y(full.origin().y() + ref.row * full.spacing().y());
     f->set_dtype(full.dtype());
-    if (ref.row == 0 && ref.rows == full.ny()) f->mutable_data()->swap(*full.mutable_data());  // whole field
-    else f->set_data(full.data().substr(ref.row * row_bytes, ref.rows * row_bytes));
+    if (ref.row == 0 && ref.rows == full.ny())
+      f->mutable_data()->swap(*full.mutable_data());  // whole field
+    else
+      f->set_data(full.data().substr(ref.row * row_bytes, ref.rows * row_bytes));
   }
 }
 

@@ -38,7 +38,6 @@ class EngineContext {
     return *std::static_pointer_cast<E>(slot);
   }
 
-
  private:
   std::map<std::type_index, std::shared_ptr<void>> shared_;
 };

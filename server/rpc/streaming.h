@@ -59,7 +59,8 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
 // The same for a stream whose messages are validated one by one as they arrive: run(call).
 template <typename Run>
 grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Run&& run) {
-  return serve_stream(context, serving, method, [] { return 0; }, [&](StreamCall& call, int) { run(call); });
+  return serve_stream(
+      context, serving, method, [] { return 0; }, [&](StreamCall& call, int) { run(call); });
 }
 
 // A unary handler's body() -> grpc::Status under guarded(), after the serving check.

@@ -27,7 +27,8 @@ class BufferLease {
 
  private:
   friend class BufferPool;
-  BufferLease(BufferPool* pool, cl::Buffer buffer, size_t bytes) : pool_(pool), buffer_(std::move(buffer)), bytes_(bytes) {}
+  BufferLease(BufferPool* pool, cl::Buffer buffer, size_t bytes)
+      : pool_(pool), buffer_(std::move(buffer)), bytes_(bytes) {}
   void give_back();
 
   BufferPool* pool_ = nullptr;

@@ -86,8 +86,8 @@ FoundDevice select_device(const std::string& spec) {
 std::string describe(const DeviceInfo& info) {
   std::ostringstream os;
   os << "platform \"" << info.platform << "\", device \"" << info.name << "\" (" << info.type << "), "
-     << info.opencl_c_version << ", " << info.compute_units << " compute units, "
-     << (info.global_memory_bytes >> 20) << " MiB global memory, fp64 " << (info.double_precision ? "yes" : "no");
+     << info.opencl_c_version << ", " << info.compute_units << " compute units, " << (info.global_memory_bytes >> 20)
+     << " MiB global memory, fp64 " << (info.double_precision ? "yes" : "no");
   return os.str();
 }
 

@@ -11,7 +11,7 @@ namespace squall {
 struct DeviceInfo {
   std::string platform;
   std::string name;
-  std::string type;  // "cpu", "gpu", "accelerator", "other"
+  std::string type;              // "cpu", "gpu", "accelerator", "other"
   std::string version;           // CL_DEVICE_VERSION
   std::string opencl_c_version;  // CL_DEVICE_OPENCL_C_VERSION
   unsigned compute_units = 0;

@@ -50,8 +50,8 @@ cl::Kernel create_kernel(Runtime& runtime, const std::string& program, const std
   try {
     return runtime.kernel(program, name);
   } catch (const cl::Error& e) {  // e.g. CL_INVALID_KERNEL_NAME: the kernel was renamed
-    fail(Code::Internal, "kernel " + name + " of " + program + " cannot be created (OpenCL error " +
-                             std::to_string(e.err()) + ")");
+    fail(Code::Internal,
+         "kernel " + name + " of " + program + " cannot be created (OpenCL error " + std::to_string(e.err()) + ")");
   }
 }
 

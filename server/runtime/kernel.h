@@ -38,10 +38,10 @@ struct KernelArgSpec {
 template <typename T>
 struct KernelArgTraits;
 
-#define SQUALL_KERNEL_SCALAR(HostType, ClName)                                          \
-  template <>                                                                           \
-  struct KernelArgTraits<HostType> {                                                    \
-    static constexpr KernelArgSpec spec{KernelArgSpec::Kind::Scalar, ClName};           \
+#define SQUALL_KERNEL_SCALAR(HostType, ClName)                                \
+  template <>                                                                 \
+  struct KernelArgTraits<HostType> {                                          \
+    static constexpr KernelArgSpec spec{KernelArgSpec::Kind::Scalar, ClName}; \
   };
 SQUALL_KERNEL_SCALAR(cl_char, "char")
 SQUALL_KERNEL_SCALAR(cl_uchar, "uchar")
@@ -92,9 +92,9 @@ cl::Kernel create_kernel(Runtime& runtime, const std::string& program, const std
 template <typename Given, typename Expected>
 struct KernelArgsMatch : std::false_type {};
 template <typename... Given, typename... Expected>
-  requires(sizeof...(Given) == sizeof...(Expected))
-struct KernelArgsMatch<std::tuple<Given...>, std::tuple<Expected...>>
-    : std::bool_constant<(std::is_same_v<std::decay_t<Given>, Expected> && ...)> {};
+requires(sizeof...(Given) == sizeof...(Expected)) struct KernelArgsMatch<std::tuple<Given...>, std::tuple<Expected...>>
+    : std::bool_constant<(std::is_same_v<std::decay_t<Given>, Expected> && ...)> {
+};
 
 template <typename... Args>
 class Kernel {
@@ -133,10 +133,10 @@ Kernel<Args...>::Kernel(Runtime& runtime, const std::string& program, const std:
 }  // namespace squall
 
 // Declares the by-value struct Type (host and device share the name) as a kernel argument type.
-#define SQUALL_KERNEL_STRUCT(Type)                                                 \
-  namespace squall {                                                               \
-  template <>                                                                      \
-  struct KernelArgTraits<Type> {                                                   \
-    static constexpr KernelArgSpec spec{KernelArgSpec::Kind::Struct, #Type};       \
-  };                                                                               \
+#define SQUALL_KERNEL_STRUCT(Type)                                           \
+  namespace squall {                                                         \
+  template <>                                                                \
+  struct KernelArgTraits<Type> {                                             \
+    static constexpr KernelArgSpec spec{KernelArgSpec::Kind::Struct, #Type}; \
+  };                                                                         \
   }

@@ -45,7 +45,8 @@ void KernelSources::splice(const std::string& path, const std::string& from, std
                            std::set<std::string>& included) const {
   auto it = files_.find(path);
   if (it == files_.end())
-    fail(Code::Internal, "kernel source " + path + " not found" + (from.empty() ? "" : " (included from " + from + ")"));
+    fail(Code::Internal,
+         "kernel source " + path + " not found" + (from.empty() ? "" : " (included from " + from + ")"));
   if (!included.insert(path).second) return;  // every file is spliced once, like #pragma once
   std::istringstream lines(it->second);
   std::string line;

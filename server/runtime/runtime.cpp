@@ -61,8 +61,8 @@ void Runtime::build_programs() {
       program.build({found_.device}, options.c_str());
     } catch (const cl::Error&) {
       std::string build_log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(found_.device);
-      fail(Code::Internal, "kernel program " + path + " failed to build on " + found_.info.name +
-                               " (options \"" + options + "\"); build log:\n" + build_log);
+      fail(Code::Internal, "kernel program " + path + " failed to build on " + found_.info.name + " (options \"" +
+                               options + "\"); build log:\n" + build_log);
     }
     ProgramBuild build;
     build.program = path;

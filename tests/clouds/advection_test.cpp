@@ -60,9 +60,11 @@ TEST(Advection, RigidRotationErrorsMatchClosedFormsAndMacCormackBeatsSemiLagrang
   EXPECT_NEAR(relative_map_error(1.0, 1, AdvectionScheme::ModifiedMacCormack), 0.164, 1e-3);
   // Orders: slope of log error vs log a is 2 for SL and 3 for MM.
   double s_sl = std::log(relative_map_error(1e-2, 1, AdvectionScheme::SemiLagrangian) /
-                         relative_map_error(1e-3, 1, AdvectionScheme::SemiLagrangian)) / std::log(10.0);
+                         relative_map_error(1e-3, 1, AdvectionScheme::SemiLagrangian)) /
+                std::log(10.0);
   double s_mm = std::log(relative_map_error(1e-2, 1, AdvectionScheme::ModifiedMacCormack) /
-                         relative_map_error(1e-3, 1, AdvectionScheme::ModifiedMacCormack)) / std::log(10.0);
+                         relative_map_error(1e-3, 1, AdvectionScheme::ModifiedMacCormack)) /
+                std::log(10.0);
   EXPECT_NEAR(s_sl, 2.0, 0.1);
   EXPECT_NEAR(s_mm, 3.0, 0.1);
   // Sub-steps: 8 SL steps of a/8 beat one SL step of a.

@@ -161,16 +161,17 @@ TEST(CloudsService, BadRequestsGetClearErrors) {
     std::string needle;
   };
   std::vector<Case> cases = {
-      {[](v1::RenderRequest& r) { r.set_volume_id("cloud-404"); }, grpc::StatusCode::NOT_FOUND, "volume_id = \"cloud-404\""},
-      {[](v1::RenderRequest& r) { r.mutable_model()->mutable_spheres(0)->set_radius(NAN); }, grpc::StatusCode::INVALID_ARGUMENT,
-       "model.spheres[0].radius = nan"},
+      {[](v1::RenderRequest& r) { r.set_volume_id("cloud-404"); }, grpc::StatusCode::NOT_FOUND,
+       "volume_id = \"cloud-404\""},
+      {[](v1::RenderRequest& r) { r.mutable_model()->mutable_spheres(0)->set_radius(NAN); },
+       grpc::StatusCode::INVALID_ARGUMENT, "model.spheres[0].radius = nan"},
       {[](v1::RenderRequest& r) {
          auto* m = r.mutable_model()->add_meshes();
          m->set_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\nf 1 3 2\nf 1 4 3\n");
        },
        grpc::StatusCode::INVALID_ARGUMENT, "model.meshes[0] is degenerate"},
-      {[](v1::RenderRequest& r) { r.mutable_model()->set_max_active_voxels(100); }, grpc::StatusCode::RESOURCE_EXHAUSTED,
-       "model.max_active_voxels = 100"},
+      {[](v1::RenderRequest& r) { r.mutable_model()->set_max_active_voxels(100); },
+       grpc::StatusCode::RESOURCE_EXHAUSTED, "model.max_active_voxels = 100"},
       {[](v1::RenderRequest& r) { r.mutable_settings()->set_step(-1); }, grpc::StatusCode::INVALID_ARGUMENT,
        "settings.step = -1"},
   };
@@ -198,15 +199,21 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
     a.insert(a.end(), rest.begin(), rest.end());
     return a;
   };
-  ASSERT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--pyro", "1,1,0.3",
-                            "--temperature", "280,0.0065", "-o", dir + "/c.vdb"}), &out), 0) << out;
+  ASSERT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--pyro", "1,1,0.3", "--temperature",
+                            "280,0.0065", "-o", dir + "/c.vdb"}),
+                      &out),
+            0)
+      << out;
   EXPECT_NE(out.find("active voxels"), std::string::npos) << out;
   std::string listing;
   ASSERT_EQ(test::run({"/usr/bin/vdb_print", dir + "/c.vdb"}, &listing), 0) << listing;  // execv: full path
   EXPECT_NE(listing.find("density"), std::string::npos) << listing;
   EXPECT_NE(listing.find("temperature"), std::string::npos) << listing;
-  ASSERT_EQ(test::run(args({"render", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--eye", "0,-30,0", "--size", "32x24",
-                            "--step", "0.25", "--sun", "0,0,1,1000", "--extinction", "0.5", "-o", dir + "/c.exr"}), &out), 0)
+  ASSERT_EQ(
+      test::run(args({"render", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--eye", "0,-30,0", "--size", "32x24",
+                      "--step", "0.25", "--sun", "0,0,1,1000", "--extinction", "0.5", "-o", dir + "/c.exr"}),
+                &out),
+      0)
       << out;
   EXPECT_TRUE(std::filesystem::exists(dir + "/c.exr"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/c.png"));

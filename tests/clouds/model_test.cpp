@@ -72,14 +72,15 @@ TEST(Model, MeshLevelSetIsPositiveInside) {
   m.skin = 0.2;
   TriangleMesh cube;
   cube.vertices = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}};
-  cube.triangles = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 2, 3, 7, 2, 7, 6, 1, 2, 6, 1, 6, 5, 0, 4, 7, 0, 7, 3};
+  cube.triangles = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                    2, 3, 7, 2, 7, 6, 1, 2, 6, 1, 6, 5, 0, 4, 7, 0, 7, 3};
   m.meshes.push_back(cube);
   auto ls = base_level_set(m, 0.5, 0.5);
   ASSERT_TRUE(ls);
   auto acc = ls->getConstAccessor();
-  EXPECT_GE(acc.getValue(openvdb::Coord(0, 0, 0)), 0.5f);            // beyond the band: >= +interior
-  EXPECT_NEAR(acc.getValue(openvdb::Coord(8, 0, 0)), 0.2f, 0.01f);   // 0.2 m inside the face x = 1
-  EXPECT_NEAR(acc.getValue(openvdb::Coord(12, 0, 0)), -0.2f, 0.01f); // 0.2 m outside
+  EXPECT_GE(acc.getValue(openvdb::Coord(0, 0, 0)), 0.5f);             // beyond the band: >= +interior
+  EXPECT_NEAR(acc.getValue(openvdb::Coord(8, 0, 0)), 0.2f, 0.01f);    // 0.2 m inside the face x = 1
+  EXPECT_NEAR(acc.getValue(openvdb::Coord(12, 0, 0)), -0.2f, 0.01f);  // 0.2 m outside
   CloudVolume v = build_cloud(m);
   // The density of the cube: 1 deeper than the skin, the ramp over the skin, active: the voxel centres
   // inside the 2 m cube (19^3), plus at most the layer on its faces (21^3).

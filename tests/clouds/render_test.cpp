@@ -182,7 +182,8 @@ TEST(Render, EmptySpaceBetweenSlabsIsSkippedExactly) {
   v.density = openvdb::FloatGrid::create(0.0f);
   v.density->setTransform(openvdb::math::Transform::createLinearTransform(dx));
   v.density->tree().fill(openvdb::CoordBBox(openvdb::Coord(-64, -64, 0), openvdb::Coord(63, 63, 15)), float(rho), true);
-  v.density->tree().fill(openvdb::CoordBBox(openvdb::Coord(-64, -64, 304), openvdb::Coord(63, 63, 319)), float(rho), true);
+  v.density->tree().fill(openvdb::CoordBBox(openvdb::Coord(-64, -64, 304), openvdb::Coord(63, 63, 319)), float(rho),
+                         true);
   v.density->tree().voxelizeActiveTiles();
   v.stats = volume_stats(*v.density);
   DeviceVolume dv = upload_volume(test::runtime(), v);

@@ -49,7 +49,7 @@ TEST_F(SessionStoreTest, IdleSessionsAreEvictedAfterTheTtlOnTheInjectedClock) {
   std::string kept = s.add(std::make_shared<Counter>(), 0);
   std::string idle = s.add(std::make_shared<Counter>(), 0);
   now_ += 60ms;
-  s.get(kept);  // its idle time restarts
+  s.get(kept);   // its idle time restarts
   now_ += 60ms;  // idle: 120 ms, kept: 60 ms
   EXPECT_EQ(s.evict_idle(), 1u);
   EXPECT_EQ(s.size(), 1u);
@@ -94,12 +94,15 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   EXPECT_EQ(gate_->session_bytes(), 8u);
 
   CheckpointHeader header;
-  expect_error(Code::InvalidArgument, "state is not a session checkpoint", [&] { s.open_checkpoint("junk", "state", &header); });
-  expect_error(Code::InvalidArgument, "truncated", [&] { s.open_checkpoint(saved.substr(0, saved.size() - 1), "state", &header); });
+  expect_error(Code::InvalidArgument, "state is not a session checkpoint",
+               [&] { s.open_checkpoint("junk", "state", &header); });
+  expect_error(Code::InvalidArgument, "truncated",
+               [&] { s.open_checkpoint(saved.substr(0, saved.size() - 1), "state", &header); });
   expect_error(Code::InvalidArgument, "follow the payload", [&] { s.open_checkpoint(saved + "x", "state", &header); });
   LimitGate other_gate{Limits{}};
   SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
-  expect_error(Code::InvalidArgument, "holds a counter, not a volume", [&] { other.open_checkpoint(saved, "state", &header); });
+  expect_error(Code::InvalidArgument, "holds a counter, not a volume",
+               [&] { other.open_checkpoint(saved, "state", &header); });
 }
 
 TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {

@@ -16,13 +16,17 @@ using test::expect_error;
 TEST(Validate, MessagesNameThePathTheValueAndTheRule) {
   EXPECT_EQ(validate::positive("a.b", 2.5), 2.5);
   expect_error(Code::InvalidArgument, "a.b = -3 must be finite and > 0", [] { validate::positive("a.b", -3); });
-  expect_error(Code::InvalidArgument, "w = nan must be finite and in (0, 100]", [] { validate::positive("w", NAN, 100); });
-  expect_error(Code::InvalidArgument, "w = 100.5 must be finite and in (0, 100]", [] { validate::positive("w", 100.5, 100); });
+  expect_error(Code::InvalidArgument, "w = nan must be finite and in (0, 100]",
+               [] { validate::positive("w", NAN, 100); });
+  expect_error(Code::InvalidArgument, "w = 100.5 must be finite and in (0, 100]",
+               [] { validate::positive("w", 100.5, 100); });
   expect_error(Code::InvalidArgument, "x = inf must be finite", [] { validate::finite("x", INFINITY); });
   expect_error(Code::InvalidArgument, "d = -0.001 must be finite and >= 0", [] { validate::non_negative("d", -1e-3); });
-  expect_error(Code::InvalidArgument, "g = 0.5 must be finite and in [1, 100]", [] { validate::in("g", 0.5, validate::closed(1, 100)); });
+  expect_error(Code::InvalidArgument, "g = 0.5 must be finite and in [1, 100]",
+               [] { validate::in("g", 0.5, validate::closed(1, 100)); });
   expect_error(Code::InvalidArgument, "n = 17 must be in [1, 16]", [] { validate::in("n", int64_t(17), 1, 16); });
-  expect_error(Code::InvalidArgument, "m = 9 must be a known model (0..5)", [] { validate::known("m", 9, 6, "model"); });
+  expect_error(Code::InvalidArgument, "m = 9 must be a known model (0..5)",
+               [] { validate::known("m", 9, 6, "model"); });
   EXPECT_EQ(validate::number(0.1), "0.1");
   EXPECT_EQ(validate::number(1e-12), "1e-12");
 }
@@ -34,8 +38,9 @@ TEST(Validate, MapsHaveTheirShapeAndEveryValueIsChecked) {
   expect_error(Code::InvalidArgument, "obstruction[3] = 2 must be finite and in [0, 1]",
                [&] { validate::each("obstruction", map, 4, validate::closed(0, 1)); });
   validate::each("obstruction", map, 3, validate::closed(0, 1));
-  expect_error(Code::InvalidArgument, "eye.z = nan must be finite",
-               [] { validate::finite_xyz("eye", std::array<double, 3>{1, 2, NAN}); });
+  expect_error(Code::InvalidArgument, "eye.z = nan must be finite", [] {
+    validate::finite_xyz("eye", std::array<double, 3>{1, 2, NAN});
+  });
 }
 
 }  // namespace

@@ -155,7 +155,8 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
 TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
   Daemon d({"--fft", "vkfft", "--profile-kernels", "on"});
   std::string out;
-  ASSERT_EQ(test::run({kSquall, "--address", d.address(), "ocean", "sample", "--grid", "32", "--point", "1,2"}, &out), 0)
+  ASSERT_EQ(test::run({kSquall, "--address", d.address(), "ocean", "sample", "--grid", "32", "--point", "1,2"}, &out),
+            0)
       << out;
   d.process().signal(SIGTERM);
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();

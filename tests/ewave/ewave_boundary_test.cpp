@@ -13,7 +13,8 @@ namespace {
 EWaveConfig wavy_config() {
   EWaveConfig c = plain_config(64, 64);
   const double k = 2 * M_PI * 4 / c.length_x();
-  c.initial_height = field(c, [&](double x, double y) { return 0.002 * std::cos(k * x) + 0.001 * std::sin(k * (x + y)); });
+  c.initial_height =
+      field(c, [&](double x, double y) { return 0.002 * std::cos(k * x) + 0.001 * std::sin(k * (x + y)); });
   return c;
 }
 
@@ -51,7 +52,10 @@ TEST(EWaveObstruction, ShapesCoverTheirArea) {
   struct Case {
     Shape shape;
     double area;
-  } cases[] = {{circle, M_PI * 0.1037 * 0.1037}, {box, 4 * 0.05 * 0.02}, {poly, 0.5 * 0.15 * 0.15}, {ellipse, M_PI * 0.06 * 0.03}};
+  } cases[] = {{circle, M_PI * 0.1037 * 0.1037},
+               {box, 4 * 0.05 * 0.02},
+               {poly, 0.5 * 0.15 * 0.15},
+               {ellipse, M_PI * 0.06 * 0.03}};
   // A session whose obstruction is only the shape: with a source S0 = 1 and h = 0, one step of tiny dt
   // adds dt S0 (1 - O) before propagation, so the mean height after the step is dt * covered area / domain.
   for (const auto& cs : cases) {
@@ -132,7 +136,8 @@ TEST(EWaveTrim, PowerLawTaperLetsFarLessEnergyWrapThanLinear) {
   EXPECT_GT(none.wrapped, 0.5) << "without a trim the packet wraps";
   // Measured: wrapped 1.3e-3 (alpha = 1) vs 5.7e-6 (0.05); reflected 1.8e-3 vs 2.0e-6.
   EXPECT_LT(power.wrapped, 0.01 * linear.wrapped);
-  EXPECT_LT(power.reflected, 0.01 * linear.reflected) << "Gilligan sec. 3.6 claims alpha = 0.05 also suppresses reflections";
+  EXPECT_LT(power.reflected, 0.01 * linear.reflected)
+      << "Gilligan sec. 3.6 claims alpha = 0.05 also suppresses reflections";
 }
 
 // A hull moving at constant speed V over deep water leaves a Kelvin wake: the cusp lines, where the wave

@@ -32,7 +32,9 @@ ocean::OceanEngine& ocean_engine() {
   return engine;
 }
 
-EWaveSession ocean_session(const EWaveConfig& c) { return EWaveSession(squall::test::runtime(), test_fft(), c, &ocean_engine()); }
+EWaveSession ocean_session(const EWaveConfig& c) {
+  return EWaveSession(squall::test::runtime(), test_fft(), c, &ocean_engine());
+}
 
 // A 64 m x 64 m session at 1 m (Pierson-Moskowitz, 5 m/s: peak wavelength ~20 m, all modes resolved).
 EWaveConfig sea_config(DispersionKind dispersion) {
@@ -88,7 +90,8 @@ TEST_P(OceanStart, ReproducesTheOceanTileAtT0PlusT) {
   EXPECT_EQ(s.time(), t0);
   double error = relative_error_after(s, spec, c, steps, dt);
   EXPECT_NEAR(s.time(), t0 + steps * dt, 1e-9);
-  std::printf("[ocean start] dispersion %d: relative rms difference after %d steps = %.3g\n", int(GetParam()), steps, error);
+  std::printf("[ocean start] dispersion %d: relative rms difference after %d steps = %.3g\n", int(GetParam()), steps,
+              error);
   EXPECT_LT(error, 1e-4);
 
   EWaveConfig control = sea_config(GetParam());
@@ -130,7 +133,8 @@ TEST(OceanAmbient, CompositeIsZeroInsideTheObstruction) {
   EWaveSession s = ocean_session(c);
   for (int n = 0; n < 3; ++n) s.step(plain_step(0.05));  // no obstruction: the ambient has no effect
   StepInputs in = plain_step(1e-6);
-  in.obstruction = field(c, [](double x, double y) { return std::clamp((std::hypot(x - 32, y - 32) - 10) / 4, 0.0, 1.0); });
+  in.obstruction =
+      field(c, [](double x, double y) { return std::clamp((std::hypot(x - 32, y - 32) - 10) / 4, 0.0, 1.0); });
   Frame f = s.step(in);
   const std::vector<float> h_A = ocean_height(spec, c, 0.15), h_A_early = ocean_height(spec, c, 0.10);
   const double scale = max_abs(h_A), g_dt = c.gravity * in.dt;
@@ -147,9 +151,10 @@ TEST(OceanAmbient, CompositeIsZeroInsideTheObstruction) {
     against_now = std::max(against_now, std::abs(h1 + h_A[i] * (1 - o)));
     against_early = std::max(against_early, std::abs(h1 + h_A_early[i] * (1 - o)));
   }
-  std::printf("[ocean ambient] max|h_A| = %.3g m, %zu cells with O = 0: max composite %.3g, soft edge %.3g, "
-              "h1 vs h_A(0.15 s) %.3g, vs h_A(0.10 s) %.3g\n",
-              scale, inside, composite / scale, edge / scale, against_now / scale, against_early / scale);
+  std::printf(
+      "[ocean ambient] max|h_A| = %.3g m, %zu cells with O = 0: max composite %.3g, soft edge %.3g, "
+      "h1 vs h_A(0.15 s) %.3g, vs h_A(0.10 s) %.3g\n",
+      scale, inside, composite / scale, edge / scale, against_now / scale, against_early / scale);
   EXPECT_GT(inside, 250u);  // ~pi 10^2 = 314 cells
   EXPECT_GT(scale, 0.01);
   EXPECT_EQ(masked, 0.0);                // eq 74 at step 6
@@ -208,7 +213,8 @@ TEST(OceanAmbient, BadSpecsNameTheField) {
 
   with_bad = c;
   with_bad.ambient_ocean = sea_spec(c);
-  expect_error(Code::FailedPrecondition, "config.ambient_ocean needs the ocean engine", [&] { make_session(with_bad); });
+  expect_error(Code::FailedPrecondition, "config.ambient_ocean needs the ocean engine",
+               [&] { make_session(with_bad); });
 }
 
 }  // namespace

@@ -20,11 +20,13 @@ void random_initial_state(EWaveConfig& c, unsigned seed) {
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<std::array<double, 5>> bumps;
   for (int b = 0; b < 6; ++b)
-    bumps.push_back({u(rng) * c.length_x(), u(rng) * c.length_y(), (1 + 3 * u(rng)) * c.dx, u(rng) - 0.5, u(rng) - 0.5});
+    bumps.push_back(
+        {u(rng) * c.length_x(), u(rng) * c.length_y(), (1 + 3 * u(rng)) * c.dx, u(rng) - 0.5, u(rng) - 0.5});
   auto sum = [&](int which) {
     return field(c, [&](double x, double y) {
       double v = 0;
-      for (auto& b : bumps) v += b[which] * std::exp(-((x - b[0]) * (x - b[0]) + (y - b[1]) * (y - b[1])) / (2 * b[2] * b[2]));
+      for (auto& b : bumps)
+        v += b[which] * std::exp(-((x - b[0]) * (x - b[0]) + (y - b[1]) * (y - b[1])) / (2 * b[2] * b[2]));
       return v;
     });
   };
@@ -111,7 +113,8 @@ TEST(EWavePhysics, TenStepsOfDtEqualOneStepOfTenDt) {
 // Plane wave: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
 // the measured phase after t gives the phase speed omega/k0.
 TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
-  for (auto kind : {DispersionKind::Deep, DispersionKind::Shallow, DispersionKind::Capillary, DispersionKind::Combined}) {
+  for (auto kind :
+       {DispersionKind::Deep, DispersionKind::Shallow, DispersionKind::Capillary, DispersionKind::Combined}) {
     EWaveConfig c = plain_config(96, 40);
     c.dispersion = kind;
     c.depth = 0.01;
@@ -159,9 +162,8 @@ double cauchy_poisson_centre(double A, double s, double g, double t) {
 TEST(EWavePhysics, GaussianPulseCentreFollowsCauchyPoisson) {
   EWaveConfig c = plain_config(128, 128);
   const double A = 0.01, s = 4 * c.dx, x0 = 64.5 * c.dx, y0 = 64.5 * c.dx;  // the centre of cell (64, 64)
-  c.initial_height = field(c, [&](double x, double y) {
-    return A * std::exp(-((x - x0) * (x - x0) + (y - y0) * (y - y0)) / (2 * s * s));
-  });
+  c.initial_height = field(
+      c, [&](double x, double y) { return A * std::exp(-((x - x0) * (x - x0) + (y - y0) * (y - y0)) / (2 * s * s)); });
   EWaveSession session = make_session(c);
   const double dt = 0.005;
   double worst = 0, sum2 = 0;

@@ -403,7 +403,8 @@ TEST(EWaveService, SessionsBeyondMaxSessionsAreResourceExhausted) {
   }
   Session fourth(first().stub(), proto_config(engine_config()));
   EXPECT_EQ(fourth.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_NE(fourth.status().error_message().find("--max-sessions"), std::string::npos) << fourth.status().error_message();
+  EXPECT_NE(fourth.status().error_message().find("--max-sessions"), std::string::npos)
+      << fourth.status().error_message();
   ASSERT_TRUE(live.back()->close().ok());
   Session again(first().stub(), proto_config(engine_config()));
   EXPECT_TRUE(again.status().ok()) << again.status().error_message();
@@ -498,9 +499,31 @@ TEST(EWaveService, ACancelledRunReleasesItsStreamSlot) {
 TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
   std::string dir = test::temp_dir("ewave-wake");
   std::string out;
-  int rc = test::run({kSquall, "--address", first().address(), "ewave", "wake", "--speed", "0.2", "--hull", "ellipse",
-                      "--length", "0.12", "--beam", "0.04", "--steps", "12", "--every", "6", "--grid", "96x64",
-                      "--spacing", "0.01", "--outputs", "height,normal_x,normal_y,normal_z", "-o", dir},
+  int rc = test::run({kSquall,
+                      "--address",
+                      first().address(),
+                      "ewave",
+                      "wake",
+                      "--speed",
+                      "0.2",
+                      "--hull",
+                      "ellipse",
+                      "--length",
+                      "0.12",
+                      "--beam",
+                      "0.04",
+                      "--steps",
+                      "12",
+                      "--every",
+                      "6",
+                      "--grid",
+                      "96x64",
+                      "--spacing",
+                      "0.01",
+                      "--outputs",
+                      "height,normal_x,normal_y,normal_z",
+                      "-o",
+                      dir},
                      &out, 120);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("wrote 2 frames of 12 steps"), std::string::npos) << out;

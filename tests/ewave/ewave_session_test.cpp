@@ -19,7 +19,8 @@ EWaveConfig busy_config() {
   c.trim_width = 0.04;
   c.source_scale = 0.3;
   c.friction_time = 2.0;
-  c.initial_height = field(c, [](double x, double y) { return 0.003 * std::exp(-((x - 0.2) * (x - 0.2) + (y - 0.2) * (y - 0.2)) / 2e-4); });
+  c.initial_height = field(
+      c, [](double x, double y) { return 0.003 * std::exp(-((x - 0.2) * (x - 0.2) + (y - 0.2) * (y - 0.2)) / 2e-4); });
   return c;
 }
 

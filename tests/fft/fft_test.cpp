@@ -52,8 +52,8 @@ std::vector<cd> reference_c2c(const std::vector<float>& interleaved, size_t nx, 
 std::vector<cd> reference_r2c(const std::vector<float>& real, size_t nx, size_t ny) {
   std::vector<double> in(real.begin(), real.end());
   std::vector<cd> out((nx / 2 + 1) * ny);
-  fftw_plan plan = fftw_plan_dft_r2c_2d(int(ny), int(nx), in.data(), reinterpret_cast<fftw_complex*>(out.data()),
-                                        FFTW_ESTIMATE);
+  fftw_plan plan =
+      fftw_plan_dft_r2c_2d(int(ny), int(nx), in.data(), reinterpret_cast<fftw_complex*>(out.data()), FFTW_ESTIMATE);
   fftw_execute(plan);
   fftw_destroy_plan(plan);
   return out;
@@ -167,8 +167,9 @@ TEST(FftPlans, AreBakedOncePerKey) {
 
 TEST(FftPlans, UnsupportedSizeIsAClearError) {
   // clFFT cannot factor 1031 (a prime)
-  test::expect_error(Code::InvalidArgument, "1031",
-                     [] { test::fft("clfft").plan(PlanKey{1031, 64, 1, Transform::C2C, Precision::F32}); });
+  test::expect_error(Code::InvalidArgument, "1031", [] {
+    test::fft("clfft").plan(PlanKey{1031, 64, 1, Transform::C2C, Precision::F32});
+  });
   EXPECT_THROW(test::fft("vkfft").plan(PlanKey{0, 64}), Error);
 }
 
@@ -181,7 +182,8 @@ TEST(FftPlans, DoublePrecisionMatchesFftwClosely) {
     cl::Buffer data = test::upload(in_d);
     {
       auto lock = test::runtime().exclusive();
-      test::fft(backend).plan(PlanKey{nx, ny, 1, Transform::C2C, Precision::F64})
+      test::fft(backend)
+          .plan(PlanKey{nx, ny, 1, Transform::C2C, Precision::F64})
           .enqueue(test::runtime().queue(), Direction::Forward, data, data);
     }
     auto got = test::read<double>(data, in_d.size());

@@ -76,7 +76,8 @@ Bins radial_power(bool correction, int seeds, int bins, double k_top) {
         if (b >= bins) continue;
         out.measured[b] += std::norm(H[i + L.nx * j]);
         if (s == 0)
-          out.single_layer[b] += (CpuReference::spectrum(L, n * dk, m * dk) + CpuReference::spectrum(L, -n * dk, -m * dk)) * dk * dk;
+          out.single_layer[b] +=
+              (CpuReference::spectrum(L, n * dk, m * dk) + CpuReference::spectrum(L, -n * dk, -m * dk)) * dk * dk;
       }
   }
   for (int b = 0; b < bins; ++b) out.measured[b] /= seeds, out.variance[b] /= seeds;
@@ -100,7 +101,8 @@ TEST(OceanLayers, BCorrectionRestoresTheSingleLayerSpectrum) {
   // coarse layers' lattices, 4 and 16 output cells per mode, leave up to 13% of mode-counting noise);
   // without the correction it is three times the physical power.
   double with_sum = 0, without_sum = 0, single = 0;
-  for (int b = 1; b < bins; ++b) with_sum += with.exact[b], without_sum += without.exact[b], single += with.single_layer[b];
+  for (int b = 1; b < bins; ++b)
+    with_sum += with.exact[b], without_sum += without.exact[b], single += with.single_layer[b];
   EXPECT_NEAR(with_sum / single, 1.0, 0.1);
   EXPECT_NEAR(without_sum / single, 3.0, 0.3);
   printf("band power / single layer: corrected %.4f, uncorrected %.4f\n", with_sum / single, without_sum / single);

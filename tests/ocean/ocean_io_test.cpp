@@ -61,11 +61,11 @@ TEST(Float16, EveryFloatRoundsAsImath) {
 
 TEST(Float16, RoundingCasesByHand) {
   EXPECT_EQ(f16::from_float(1.0f), 0x3c00);
-  EXPECT_EQ(f16::from_float(65504.0f), 0x7bff);             // largest half
-  EXPECT_EQ(f16::from_float(65519.996f), 0x7bff);           // just below the halfway point to 65536
-  EXPECT_EQ(f16::from_float(65520.0f), 0x7c00);             // the tie goes to even: inf
-  EXPECT_EQ(f16::from_float(1.0f + 1.0f / 2048), 0x3c00);   // tie between 1 and 1+2^-10: even (1)
-  EXPECT_EQ(f16::from_float(1.0f + 3.0f / 2048), 0x3c02);   // tie between 1+2^-10 and 1+2^-9: even (up)
+  EXPECT_EQ(f16::from_float(65504.0f), 0x7bff);               // largest half
+  EXPECT_EQ(f16::from_float(65519.996f), 0x7bff);             // just below the halfway point to 65536
+  EXPECT_EQ(f16::from_float(65520.0f), 0x7c00);               // the tie goes to even: inf
+  EXPECT_EQ(f16::from_float(1.0f + 1.0f / 2048), 0x3c00);     // tie between 1 and 1+2^-10: even (1)
+  EXPECT_EQ(f16::from_float(1.0f + 3.0f / 2048), 0x3c02);     // tie between 1+2^-10 and 1+2^-9: even (up)
   EXPECT_EQ(f16::from_float(std::ldexp(1.0f, -24)), 0x0001);  // smallest subnormal
   EXPECT_EQ(f16::from_float(std::ldexp(1.0f, -25)), 0x0000);  // half of it: tie to even zero
   EXPECT_EQ(f16::from_float(std::ldexp(1.5f, -25)), 0x0001);
@@ -104,7 +104,8 @@ TEST(ImageIo, ExrReadsBackWithOpenExr) {
   }
   image.channels[0].values[5] = -0.0f;
   image.channels[0].values[6] = std::ldexp(1.0f, -140);  // a float subnormal survives too
-  image.attributes = {{"squall.request.tile.choppiness", "1.5"}, {"squall.request.tile.layers[0].spectrum", "SPECTRUM_MODEL_JONSWAP"}};
+  image.attributes = {{"squall.request.tile.choppiness", "1.5"},
+                      {"squall.request.tile.layers[0].spectrum", "SPECTRUM_MODEL_JONSWAP"}};
   std::string path = test::temp_dir("exr") + "/tile.exr";
   client::write_exr(path, image);
 
@@ -124,8 +125,8 @@ TEST(ImageIo, ExrReadsBackWithOpenExr) {
     const Imf::Channel* channel = header.channels().findChannel(image.channels[c].name);
     ASSERT_NE(channel, nullptr) << image.channels[c].name;
     EXPECT_EQ(channel->type, Imf::FLOAT);
-    frame.insert(image.channels[c].name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(read[c].data()),
-                                                    sizeof(float), sizeof(float) * image.nx));
+    frame.insert(image.channels[c].name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(read[c].data()), sizeof(float),
+                                                    sizeof(float) * image.nx));
   }
   file.setFrameBuffer(frame);
   file.readPixels(window.min.y, window.max.y);
@@ -144,9 +145,9 @@ TEST(ImageIo, ExrRejectsAChannelOfTheWrongSize) {
 TEST(ImageIo, PngPreviewSpansTheRange) {
   const int nx = 5, ny = 3;
   std::vector<float> v(nx * ny, -1.0f);
-  v[0] = -4;   // min
-  v[14] = 5;   // max
-  v[7] = -1;   // (-1 - -4) / 9 = 1/3 -> 85
+  v[0] = -4;  // min
+  v[14] = 5;  // max
+  v[7] = -1;  // (-1 - -4) / 9 = 1/3 -> 85
   std::string path = test::temp_dir("png") + "/p.png";
   client::write_png_preview(path, nx, ny, v);
   png_image png;
@@ -217,7 +218,7 @@ TEST(TileChunks, ChunksReassembleToTheFrame) {
   for (uint64_t budget : {uint64_t(4 * 64 + 128), uint64_t(1) << 20}) {
     auto plan = ocean::rpc::plan_chunks({64, 64}, {9, 9}, budget);
     EXPECT_EQ(plan.size(), budget < 1000 ? 5u : 1u);  // rows 4 / 4 / 1 + 1 (shared) / 4 / 4
-    auto sent = frame;  // fill_chunk moves whole fields out of the frame
+    auto sent = frame;                                // fill_chunk moves whole fields out of the frame
     client::ocean::FrameAssembler assembler;
     std::optional<squall::v1::GetTileResponse> out;
     for (uint32_t c = 0; c < plan.size(); ++c) {
@@ -256,7 +257,9 @@ TEST(ClientValues, Float16FieldsDecode) {
 }
 
 // The message of the InvalidArgument error `f` throws ("" and a failure if it throws none or another).
-std::string invalid_argument(const std::function<void()>& f) { return test::expect_error(Code::InvalidArgument, "", f); }
+std::string invalid_argument(const std::function<void()>& f) {
+  return test::expect_error(Code::InvalidArgument, "", f);
+}
 
 std::vector<uint32_t> bits_of(const std::vector<float>& v) {
   std::vector<uint32_t> out(v.size());
@@ -267,8 +270,8 @@ std::vector<uint32_t> bits_of(const std::vector<float>& v) {
 // float32 fields carry their values bit for bit (-0, a float subnormal, inf included), with the header
 // as given; a 3D field counts nx * ny * nz values.
 TEST(FieldCodec, Float32RoundTripIsExact) {
-  const std::vector<float> in = {0.0f, -0.0f, 1.0f, -1.5f, 3.1415927f, 1e30f, std::ldexp(1.0f, -140), INFINITY,
-                                 -INFINITY, 6.02e23f, -7.25e-3f, 42.0f};
+  const std::vector<float> in = {0.0f,     -0.0f,     1.0f,     -1.5f,     3.1415927f, 1e30f, std::ldexp(1.0f, -140),
+                                 INFINITY, -INFINITY, 6.02e23f, -7.25e-3f, 42.0f};
   squall::v1::Field f;
   field::encode({"height", "m", 4, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f);
   EXPECT_EQ(f.name(), "height");
@@ -285,15 +288,30 @@ TEST(FieldCodec, Float32RoundTripIsExact) {
   EXPECT_EQ(cube.nz(), 2u);
   EXPECT_EQ(bits_of(field::decode(cube, "volume")), bits_of(in));
   // The encoder's caller must hand it the grid's count of values: that is a bug, not a bad request.
-  test::expect_error(Code::Internal, "", [&] { field::encode({"height", "m", 5, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f); });
+  test::expect_error(Code::Internal, "", [&] {
+    field::encode({"height", "m", 5, 3, 0, squall::v1::DTYPE_FLOAT32}, in, &f);
+  });
 }
 
 // Values that binary16 represents exactly come back exactly (signed zeros, subnormals, the largest
 // half, infinities), at 2 bytes per value.
 TEST(FieldCodec, Float16RoundTripOfRepresentableValuesIsExact) {
-  const std::vector<float> in = {0.0f,     -0.0f,  1.0f,       -2.0f, 0.5f, 1.0f + 1.0f / 1024, 65504.0f, -65504.0f,
-                                 std::ldexp(1.0f, -24), std::ldexp(-3.0f, -24), std::ldexp(1.0f, -14), INFINITY,
-                                 -INFINITY, 1234.0f, std::ldexp(-1638.0f, -14) /* 0xae66 */, 3.0f};
+  const std::vector<float> in = {0.0f,
+                                 -0.0f,
+                                 1.0f,
+                                 -2.0f,
+                                 0.5f,
+                                 1.0f + 1.0f / 1024,
+                                 65504.0f,
+                                 -65504.0f,
+                                 std::ldexp(1.0f, -24),
+                                 std::ldexp(-3.0f, -24),
+                                 std::ldexp(1.0f, -14),
+                                 INFINITY,
+                                 -INFINITY,
+                                 1234.0f,
+                                 std::ldexp(-1638.0f, -14) /* 0xae66 */,
+                                 3.0f};
   squall::v1::Field f;
   field::encode({"slope_x", "1", 8, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
   EXPECT_EQ(f.dtype(), squall::v1::DTYPE_FLOAT16);
@@ -337,7 +355,8 @@ TEST(FieldCodec, WrongByteCountOrDtypeIsRejectedNamingTheFieldPath) {
   EXPECT_EQ(invalid_argument([&] { field::decode(f, "config.initial_height"); }),
             "config.initial_height.data has 22 bytes, want nx * ny * 2 = 24");
   f.set_nz(2);
-  EXPECT_EQ(invalid_argument([&] { field::decode(f, "volume"); }), "volume.data has 22 bytes, want nx * ny * nz * 2 = 48");
+  EXPECT_EQ(invalid_argument([&] { field::decode(f, "volume"); }),
+            "volume.data has 22 bytes, want nx * ny * nz * 2 = 48");
   f.set_nz(0);
   f.set_data(std::string(24, '\0'));
   EXPECT_EQ(field::decode(f, "inputs.obstruction").size(), 12u);

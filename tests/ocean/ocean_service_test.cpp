@@ -93,10 +93,9 @@ v1::TileSpec tile_spec() {
 }
 
 const std::vector<v1::TileOutput> kAllOutputs = {
-    v1::TILE_OUTPUT_HEIGHT,     v1::TILE_OUTPUT_DISPLACEMENT_X, v1::TILE_OUTPUT_DISPLACEMENT_Y,
-    v1::TILE_OUTPUT_SLOPE_X,    v1::TILE_OUTPUT_SLOPE_Y,        v1::TILE_OUTPUT_NORMAL_X,
-    v1::TILE_OUTPUT_NORMAL_Y,   v1::TILE_OUTPUT_NORMAL_Z,       v1::TILE_OUTPUT_JACOBIAN,
-    v1::TILE_OUTPUT_JACOBIAN_MINUS, v1::TILE_OUTPUT_JACOBIAN_PLUS, v1::TILE_OUTPUT_WHITECAP};
+    v1::TILE_OUTPUT_HEIGHT,   v1::TILE_OUTPUT_DISPLACEMENT_X, v1::TILE_OUTPUT_DISPLACEMENT_Y, v1::TILE_OUTPUT_SLOPE_X,
+    v1::TILE_OUTPUT_SLOPE_Y,  v1::TILE_OUTPUT_NORMAL_X,       v1::TILE_OUTPUT_NORMAL_Y,       v1::TILE_OUTPUT_NORMAL_Z,
+    v1::TILE_OUTPUT_JACOBIAN, v1::TILE_OUTPUT_JACOBIAN_MINUS, v1::TILE_OUTPUT_JACOBIAN_PLUS,  v1::TILE_OUTPUT_WHITECAP};
 
 v1::GetTileRequest tile_request(double t, v1::DType dtype = v1::DTYPE_FLOAT32) {
   v1::GetTileRequest r;
@@ -122,9 +121,7 @@ v1::GetTileResponse expected_reply(const ocean::TileFields& fields, v1::DType dt
   return r;
 }
 
-ocean::TileSpec engine_spec(const v1::TileSpec& tile) {
-  return ocean::rpc::tile_spec(tile, LimitGate(Limits{}));
-}
+ocean::TileSpec engine_spec(const v1::TileSpec& tile) { return ocean::rpc::tile_spec(tile, LimitGate(Limits{})); }
 
 TEST(OceanService, GetTileReturnsEveryFieldAsTheInProcessEngineBitForBit) {
   v1::GetTileResponse got = get_tile(daemon().address(), tile_request(3.25));
@@ -132,8 +129,8 @@ TEST(OceanService, GetTileReturnsEveryFieldAsTheInProcessEngineBitForBit) {
   EXPECT_EQ(got.time().seconds(), 3.25);
   ocean::TileFields local = engine().tile(engine_spec(tile_spec()), 3.25, ocean::kAllOutputs);
   v1::GetTileResponse want = expected_reply(local, v1::DTYPE_FLOAT32);
-  const char* names[] = {"height", "displacement_x", "displacement_y", "slope_x", "slope_y", "normal_x",
-                         "normal_y", "normal_z", "jacobian", "jacobian_minus", "jacobian_plus", "whitecap"};
+  const char* names[] = {"height",   "displacement_x", "displacement_y", "slope_x",        "slope_y",       "normal_x",
+                         "normal_y", "normal_z",       "jacobian",       "jacobian_minus", "jacobian_plus", "whitecap"};
   for (int i = 0; i < got.fields_size(); ++i) {
     const v1::Field& f = got.fields(i);
     EXPECT_EQ(f.name(), names[i]);
@@ -217,9 +214,11 @@ TEST(OceanService, StreamDeliversFramesInOrderWithTheWhitecapStateCarried) {
   for (int i = 0; i < 4; ++i) {
     const double t = 2.0 + 0.5 * i;
     EXPECT_EQ(r.frames[i].time().seconds(), t);
-    v1::GetTileResponse want = expected_reply(engine().tile(spec, t, ocean::kAllOutputs, &whitecaps), v1::DTYPE_FLOAT32);
+    v1::GetTileResponse want =
+        expected_reply(engine().tile(spec, t, ocean::kAllOutputs, &whitecaps), v1::DTYPE_FLOAT32);
     for (int f = 0; f < want.fields_size(); ++f)
-      EXPECT_TRUE(r.frames[i].fields(f).data() == want.fields(f).data()) << "frame " << i << " " << want.fields(f).name();
+      EXPECT_TRUE(r.frames[i].fields(f).data() == want.fields(f).data())
+          << "frame " << i << " " << want.fields(f).name();
     // Whitecaps decay rather than vanish: a point marked in frame i - 1 and not re-marked keeps
     // exp(-dt / T) = exp(-0.5 / 4) of its value, so total foam never drops below that fraction.
     std::vector<float> w = client::ocean::values(r.frames[i].fields(11));
@@ -273,16 +272,19 @@ TEST(OceanService, ABadStreamRequestIsInvalidEvenWhenTheStreamsAreFull) {
   v1::StreamTilesRequest bad = stream_request(0.0, -1.0, 2);
   grpc::ClientContext refused;
   auto refused_stream = stub->StreamTiles(&refused, bad);
-  while (refused_stream->Read(&chunk)) {}
+  while (refused_stream->Read(&chunk)) {
+  }
   grpc::Status status = refused_stream->Finish();
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
   EXPECT_NE(status.error_message().find("dt = -1"), std::string::npos) << status.error_message();
   grpc::ClientContext full;
   auto full_stream = stub->StreamTiles(&full, stream_request(0.0, 1.0, 2));
-  while (full_stream->Read(&chunk)) {}
+  while (full_stream->Read(&chunk)) {
+  }
   EXPECT_EQ(full_stream->Finish().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   open.TryCancel();
-  while (held->Read(&chunk)) {}
+  while (held->Read(&chunk)) {
+  }
   EXPECT_EQ(held->Finish().error_code(), grpc::StatusCode::CANCELLED);
 }
 
@@ -356,19 +358,28 @@ TEST(OceanService, BadInputIsRejectedNamingTheFieldAndTheDaemonKeepsServing) {
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[1].wind_speed = -3"},
       {"negative fetch", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_fetch(-1); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[0].fetch = -1"},
-      {"zero grid", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_nx(0); },
-       grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[0].nx = 0"},
-      {"odd grid", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_ny(33); },
-       grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[0].ny"},
-      {"oversize grid", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_nx(1024), r.mutable_tile()->mutable_layers(0)->set_ny(1024); },
-       grpc::StatusCode::RESOURCE_EXHAUSTED, "tile.layers[0].nx * tile.layers[0].ny = 1048576 cells exceeds --max-grid-cells"},
-      {"oversize output", [](auto& r) { r.mutable_tile()->mutable_output()->set_nx(2048), r.mutable_tile()->mutable_output()->set_ny(2048); },
+      {"zero grid", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_nx(0); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "tile.layers[0].nx = 0"},
+      {"odd grid", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_ny(33); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "tile.layers[0].ny"},
+      {"oversize grid",
+       [](auto& r) {
+         r.mutable_tile()->mutable_layers(0)->set_nx(1024), r.mutable_tile()->mutable_layers(0)->set_ny(1024);
+       },
+       grpc::StatusCode::RESOURCE_EXHAUSTED,
+       "tile.layers[0].nx * tile.layers[0].ny = 1048576 cells exceeds --max-grid-cells"},
+      {"oversize output",
+       [](auto& r) {
+         r.mutable_tile()->mutable_output()->set_nx(2048), r.mutable_tile()->mutable_output()->set_ny(2048);
+       },
        grpc::StatusCode::RESOURCE_EXHAUSTED, "tile.output.nx * tile.output.ny"},
       {"unknown spectrum", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_spectrum(v1::SpectrumModel(99)); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[0].spectrum = 99"},
-      {"unspecified spreading", [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_spreading(v1::SPREADING_MODEL_UNSPECIFIED); },
+      {"unspecified spreading",
+       [](auto& r) { r.mutable_tile()->mutable_layers(0)->set_spreading(v1::SPREADING_MODEL_UNSPECIFIED); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[0].spreading = 0"},
-      {"unknown dispersion", [](auto& r) { r.mutable_tile()->mutable_layers(1)->set_dispersion(v1::DispersionModel(-4)); },
+      {"unknown dispersion",
+       [](auto& r) { r.mutable_tile()->mutable_layers(1)->set_dispersion(v1::DispersionModel(-4)); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[1].dispersion = -4"},
       {"no depth for combined dispersion", [](auto& r) { r.mutable_tile()->mutable_layers(1)->set_depth(0); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.layers[1].depth = 0"},
@@ -376,13 +387,13 @@ TEST(OceanService, BadInputIsRejectedNamingTheFieldAndTheDaemonKeepsServing) {
        grpc::StatusCode::INVALID_ARGUMENT, "tile.choppiness = inf"},
       {"zero decay time", [](auto& r) { r.mutable_tile()->set_whitecap_decay_time(0); },
        grpc::StatusCode::INVALID_ARGUMENT, "tile.whitecap_decay_time = 0"},
-      {"no layers", [](auto& r) { r.mutable_tile()->clear_layers(); },
-       grpc::StatusCode::INVALID_ARGUMENT, "tile.layers has 0 entries"},
-      {"NaN time", [&](auto& r) { r.mutable_time()->set_seconds(nan); },
-       grpc::StatusCode::INVALID_ARGUMENT, "time.seconds = nan"},
+      {"no layers", [](auto& r) { r.mutable_tile()->clear_layers(); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "tile.layers has 0 entries"},
+      {"NaN time", [&](auto& r) { r.mutable_time()->set_seconds(nan); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "time.seconds = nan"},
       {"no outputs", [](auto& r) { r.clear_outputs(); }, grpc::StatusCode::INVALID_ARGUMENT, "outputs is empty"},
-      {"unknown output", [](auto& r) { r.add_outputs(v1::TileOutput(77)); },
-       grpc::StatusCode::INVALID_ARGUMENT, "outputs[12] = 77"},
+      {"unknown output", [](auto& r) { r.add_outputs(v1::TileOutput(77)); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "outputs[12] = 77"},
       {"unknown dtype", [](auto& r) { r.set_dtype(v1::DType(9)); }, grpc::StatusCode::INVALID_ARGUMENT, "dtype = 9"},
   };
   for (const auto& bad : cases) {
@@ -458,9 +469,10 @@ std::vector<std::string> cli_args(const std::vector<std::string>& verb_args) {
 TEST(OceanCli, TileWritesAnExrThatOpenExrReadsBack) {
   std::string dir = test::temp_dir("ocean-cli");
   std::string out;
-  std::vector<std::string> flags = {"--extent", "300,200", "--grid", "64,32", "--spectrum", "pierson-moskowitz",
-                                    "--spreading", "pierson-cos2", "--wind-speed", "9", "--seed", "42",
-                                    "--choppiness", "0.5", "--time", "2.5", "--outputs", "height,jacobian_minus,normal_z"};
+  std::vector<std::string> flags = {
+      "--extent",     "300,200",      "--grid",       "64,32", "--spectrum", "pierson-moskowitz",
+      "--spreading",  "pierson-cos2", "--wind-speed", "9",     "--seed",     "42",
+      "--choppiness", "0.5",          "--time",       "2.5",   "--outputs",  "height,jacobian_minus,normal_z"};
   std::vector<std::string> args = {"tile"};
   args.insert(args.end(), flags.begin(), flags.end());
   args.insert(args.end(), {"-o", dir + "/tile.exr"});
@@ -493,7 +505,8 @@ TEST(OceanCli, TileWritesAnExrThatOpenExrReadsBack) {
   layer->set_fetch(100000), layer->set_depth(100), layer->set_capillary_length(0.0027);  // the CLI's defaults
   request.mutable_tile()->set_choppiness(0.5);
   request.mutable_time()->set_seconds(2.5);
-  for (auto o : {v1::TILE_OUTPUT_HEIGHT, v1::TILE_OUTPUT_JACOBIAN_MINUS, v1::TILE_OUTPUT_NORMAL_Z}) request.add_outputs(o);
+  for (auto o : {v1::TILE_OUTPUT_HEIGHT, v1::TILE_OUTPUT_JACOBIAN_MINUS, v1::TILE_OUTPUT_NORMAL_Z})
+    request.add_outputs(o);
   v1::GetTileResponse tile = get_tile(daemon().address(), request);
   Imf::FrameBuffer frame;
   std::vector<std::vector<float>> pixels(3, std::vector<float>(64 * 32));
@@ -511,8 +524,11 @@ TEST(OceanCli, TileWritesAnExrThatOpenExrReadsBack) {
 TEST(OceanCli, StreamWritesANumberedSequenceAndSamplePrintsCsv) {
   std::string dir = test::temp_dir("ocean-cli-stream");
   std::string out;
-  ASSERT_EQ(test::run(cli_args({"stream", "--grid", "32", "--dt", "0.25", "--frames", "3", "--outputs", "height,whitecap",
-                                "-o", dir}), &out), 0) << out;
+  ASSERT_EQ(test::run(cli_args({"stream", "--grid", "32", "--dt", "0.25", "--frames", "3", "--outputs",
+                                "height,whitecap", "-o", dir}),
+                      &out),
+            0)
+      << out;
   for (const char* name : {"frame_00000.exr", "frame_00001.exr", "frame_00002.exr"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/" + name)) << name << "\n" << out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/frame_00003.exr"));

@@ -139,7 +139,8 @@ TEST(Spectra, SpatialSpectrumIntegratesToHalfM0) {
     double k = std::exp(u0 + (a + 0.5) * du);
     for (int b = 0; b < nt; ++b) {
       double th = 2 * SQUALL_PI * (b + 0.5) / nt;
-      sum += squall::ocean::CpuReference::spectrum(L, k * std::cos(th), k * std::sin(th)) * k * k * du * 2 * SQUALL_PI / nt;
+      sum += squall::ocean::CpuReference::spectrum(L, k * std::cos(th), k * std::sin(th)) * k * k * du * 2 * SQUALL_PI /
+             nt;
     }
   }
   double wp = sq_jonswap_omega_p(kG, L.wind_speed, L.fetch), alpha = sq_jonswap_alpha(kG, L.wind_speed, L.fetch);

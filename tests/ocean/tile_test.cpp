@@ -23,7 +23,8 @@ std::vector<double> expected_power(const LayerSpec& L) {
     for (int64_t i = 0; i < L.nx; ++i) {
       int64_t n = test::signed_mode(i, L.nx), m = test::signed_mode(j, L.ny);
       if (2 * i == L.nx || 2 * j == L.ny) continue;
-      e[i + L.nx * j] = (CpuReference::spectrum(L, n * dkx, m * dky) + CpuReference::spectrum(L, -n * dkx, -m * dky)) * dkx * dky;
+      e[i + L.nx * j] =
+          (CpuReference::spectrum(L, n * dkx, m * dky) + CpuReference::spectrum(L, -n * dkx, -m * dky)) * dkx * dky;
     }
   return e;
 }
@@ -66,7 +67,7 @@ TEST(OceanTile, RadialPowerSpectrumMatchesP) {
         if (b >= bins) continue;
         size_t at = size_t(i + L.nx * j);
         measured[b] += std::norm(H[at]);
-        expected[b] += e[at];               // summed over the seeds, like measured
+        expected[b] += e[at];  // summed over the seeds, like measured
         variance[b] += 2 * e[at] * e[at];
       }
   }
@@ -114,7 +115,8 @@ TEST(OceanTile, DriftCurrentTranslatesTheField) {
   auto a = engine().tile(still, t, Height).height, b = engine().tile(moving, t, Height).height;
   double worst = 0;
   for (int j = 0; j < 64; ++j)
-    for (int i = 0; i < 64; ++i) worst = std::max(worst, double(std::abs(b[i + 64 * j] - a[(i - 3 + 64) % 64 + 64 * ((j + 5) % 64)])));
+    for (int i = 0; i < 64; ++i)
+      worst = std::max(worst, double(std::abs(b[i + 64 * j] - a[(i - 3 + 64) % 64 + 64 * ((j + 5) % 64)])));
   EXPECT_LT(worst, 1e-4 * test::rms(a));
 }
 
@@ -165,7 +167,8 @@ TEST(OceanTile, ChoppyJacobianInvariantsAndCrests) {
   for (size_t i = 0; i < n; ++i) {
     worst_product = std::max(worst_product, double(std::abs(f.jacobian_minus[i] * f.jacobian_plus[i] - f.jacobian[i])));
     worst_order = std::max(worst_order, double(f.jacobian_minus[i] - f.jacobian_plus[i]));
-    hj += f.height[i] * (f.jacobian[i] - mean), hh += f.height[i] * f.height[i], jj += std::pow(f.jacobian[i] - mean, 2);
+    hj += f.height[i] * (f.jacobian[i] - mean), hh += f.height[i] * f.height[i],
+        jj += std::pow(f.jacobian[i] - mean, 2);
   }
   EXPECT_NEAR(mean, 1.0, 1e-5);
   EXPECT_LT(worst_product, 1e-5);
@@ -254,11 +257,16 @@ void expect_matches_reference(const TileSpec& spec, double t) {
   CpuReference reference;
   auto e = engine().tile(spec, t, kAllOutputs), r = reference.tile(spec, t, kAllOutputs);
   std::map<std::string, std::pair<const std::vector<float>*, const std::vector<float>*>> fields = {
-      {"height", {&e.height, &r.height}},          {"displacement_x", {&e.displacement_x, &r.displacement_x}},
-      {"displacement_y", {&e.displacement_y, &r.displacement_y}}, {"slope_x", {&e.slope_x, &r.slope_x}},
-      {"slope_y", {&e.slope_y, &r.slope_y}},       {"normal_x", {&e.normal_x, &r.normal_x}},
-      {"normal_y", {&e.normal_y, &r.normal_y}},    {"normal_z", {&e.normal_z, &r.normal_z}},
-      {"jacobian", {&e.jacobian, &r.jacobian}},    {"jacobian_minus", {&e.jacobian_minus, &r.jacobian_minus}},
+      {"height", {&e.height, &r.height}},
+      {"displacement_x", {&e.displacement_x, &r.displacement_x}},
+      {"displacement_y", {&e.displacement_y, &r.displacement_y}},
+      {"slope_x", {&e.slope_x, &r.slope_x}},
+      {"slope_y", {&e.slope_y, &r.slope_y}},
+      {"normal_x", {&e.normal_x, &r.normal_x}},
+      {"normal_y", {&e.normal_y, &r.normal_y}},
+      {"normal_z", {&e.normal_z, &r.normal_z}},
+      {"jacobian", {&e.jacobian, &r.jacobian}},
+      {"jacobian_minus", {&e.jacobian_minus, &r.jacobian_minus}},
       {"jacobian_plus", {&e.jacobian_plus, &r.jacobian_plus}}};
   for (auto& [name, pair] : fields) {
     ASSERT_EQ(pair.first->size(), pair.second->size()) << name;

@@ -37,18 +37,37 @@ TEST(OceanValidation, BadFieldsAreNamed) {
   expect_rejected([&](TileSpec& s) { s.layers[0].depth = nan; }, "layers[0].depth");
   expect_rejected([&](TileSpec& s) { s.layers[0].gamma = 0.5; }, "layers[0].gamma");
   expect_rejected([&](TileSpec& s) { s.layers[0].drift_x = INFINITY; }, "layers[0].drift_x");
-  expect_rejected([&](TileSpec& s) { s.layers.push_back(s.layers[0]); s.layers[1].gravity = 0; }, "layers[1].gravity");
+  expect_rejected(
+      [&](TileSpec& s) {
+        s.layers.push_back(s.layers[0]);
+        s.layers[1].gravity = 0;
+      },
+      "layers[1].gravity");
   expect_rejected([&](TileSpec& s) { s.layers[0].spectrum = SpectrumModel::Multipeak; }, "layers[0].partials");
-  expect_rejected([&](TileSpec& s) {
-    s.layers[0].spectrum = SpectrumModel::Multipeak;
-    s.layers[0].partials.push_back(PartialSpectrum{});
-    s.layers[0].partials[0].peak_frequency = -1;
-  }, "layers[0].partials[0].peak_frequency");
+  expect_rejected(
+      [&](TileSpec& s) {
+        s.layers[0].spectrum = SpectrumModel::Multipeak;
+        s.layers[0].partials.push_back(PartialSpectrum{});
+        s.layers[0].partials[0].peak_frequency = -1;
+      },
+      "layers[0].partials[0].peak_frequency");
   expect_rejected([&](TileSpec& s) { s.layers.clear(); }, "layers");
   expect_rejected([&](TileSpec& s) { s.choppiness = nan; }, "choppiness");
   expect_rejected([&](TileSpec& s) { s.whitecap_decay = 0; }, "whitecap_decay");
-  expect_rejected([&](TileSpec& s) { s.nx = 64; s.ny = 0; s.lx = s.ly = 10; }, "output.ny");
-  expect_rejected([&](TileSpec& s) { s.nx = s.ny = 64; s.lx = -1; s.ly = 10; }, "output.lx");
+  expect_rejected(
+      [&](TileSpec& s) {
+        s.nx = 64;
+        s.ny = 0;
+        s.lx = s.ly = 10;
+      },
+      "output.ny");
+  expect_rejected(
+      [&](TileSpec& s) {
+        s.nx = s.ny = 64;
+        s.lx = -1;
+        s.ly = 10;
+      },
+      "output.lx");
   // a small gate: the limit in force is the daemon's
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 100);
   Limits limits;

@@ -175,8 +175,9 @@ TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
   std::string dir = test::temp_dir("kernels");
   write(dir + "/common/a.clh", "#define A 1\n");
   write(dir + "/common/b.clh", "#include \"common/a.clh\"\n#define B 2\n");
-  write(dir + "/x/prog.cl", "// squall-build-options: -cl-fast-relaxed-math\n#include \"common/a.clh\"\n"
-                            "#include \"common/b.clh\"\n__kernel void k(__global int* o) { o[0] = A + B; }\n");
+  write(dir + "/x/prog.cl",
+        "// squall-build-options: -cl-fast-relaxed-math\n#include \"common/a.clh\"\n"
+        "#include \"common/b.clh\"\n__kernel void k(__global int* o) { o[0] = A + B; }\n");
   KernelSources sources(dir);
   ASSERT_EQ(sources.programs(), std::vector<std::string>{"x/prog.cl"});
   std::string text = sources.expanded("x/prog.cl");
