@@ -2,6 +2,7 @@
 
 #include "clouds/obj_mesh.h"
 #include "common/error.h"
+#include "common/validate.h"
 #include "common/field_codec.h"
 
 namespace squall::clouds::rpc {
@@ -51,7 +52,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   for (const auto& s : m.spheres()) out.spheres.push_back({vec(s.center()), s.radius()});
   for (const auto& e : m.ellipsoids()) out.ellipsoids.push_back({vec(e.center()), vec(e.radii())});
   for (int i = 0; i < m.meshes_size(); ++i)
-    out.meshes.push_back(mesh(m.meshes(i), f + ".meshes[" + std::to_string(i) + "]"));
+    out.meshes.push_back(mesh(m.meshes(i), validate::at(f + ".meshes", i)));
   const auto& p = m.pyroclastic();
   out.pyroclastic.layers = int(std::min<uint32_t>(p.layers(), 1000));
   out.pyroclastic.amplitude = p.amplitude();

@@ -31,7 +31,7 @@ double check_mesh(const std::string& f, const TriangleMesh& m) {
     fail(Code::InvalidArgument,
          f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
   for (size_t i = 0; i < m.vertices.size(); ++i)
-    validate::finite_xyz(f + ".vertices[" + std::to_string(i) + "]", m.vertices[i]);
+    validate::finite_xyz(validate::at(f + ".vertices", i), m.vertices[i]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
                                     " indices; it needs a multiple of 3 and at least 4 triangles");
@@ -83,13 +83,13 @@ void validate(const CloudModel& m, const std::string& prefix) {
   // Estimated active voxels: shape volumes grown by the displacement band (interior tiles included).
   double volume = 0;
   for (size_t i = 0; i < m.spheres.size(); ++i) {
-    std::string s = f + ".spheres[" + std::to_string(i) + "]";
+    std::string s = validate::at(f + ".spheres", i);
     validate::finite_xyz(s + ".center", m.spheres[i].center);
     positive(s + ".radius", m.spheres[i].radius);
     volume += 4.18879 * std::pow(m.spheres[i].radius + grow, 3);
   }
   for (size_t i = 0; i < m.ellipsoids.size(); ++i) {
-    std::string s = f + ".ellipsoids[" + std::to_string(i) + "]";
+    std::string s = validate::at(f + ".ellipsoids", i);
     validate::finite_xyz(s + ".center", m.ellipsoids[i].center);
     const auto& r = m.ellipsoids[i].radii;
     positive(s + ".radii.x", r[0]);
@@ -98,12 +98,12 @@ void validate(const CloudModel& m, const std::string& prefix) {
     volume += 4.18879 * (r[0] + grow) * (r[1] + grow) * (r[2] + grow);
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
-    std::string s = f + ".meshes[" + std::to_string(i) + "]";
+    std::string s = validate::at(f + ".meshes", i);
     double v = check_mesh(s, m.meshes[i]);
     volume += v + 4.83598 * std::pow(v, 2.0 / 3) * grow;  // + sphere-equivalent area * grow
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {
-    std::string s = f + ".particles[" + std::to_string(i) + "]";
+    std::string s = validate::at(f + ".particles", i);
     const auto& q = m.particles[i];
     validate::finite_xyz(s + ".center", q.center);
     positive(s + ".radius", q.radius);

@@ -74,7 +74,7 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
         fail(Code::InvalidArgument,
              path + ".polygon.vertices has " + std::to_string(p.vertices_size()) + " vertices, want >= 3");
       for (int v = 0; v < p.vertices_size(); ++v) {
-        const std::string at = path + ".polygon.vertices[" + std::to_string(v) + "]";
+        const std::string at = validate::at(path + ".polygon.vertices", v);
         s.vertices.push_back(
             {validate::finite(at + ".x", p.vertices(v).x()), validate::finite(at + ".y", p.vertices(v).y())});
       }
@@ -189,7 +189,7 @@ std::vector<v1::EWaveOutput> outputs(const v1::EWaveInputs& p) {
   std::set<int> seen;
   for (int i = 0; i < p.outputs_size(); ++i) {
     auto o = v1::EWaveOutput(p.outputs(i));
-    const std::string at = "inputs.outputs[" + std::to_string(i) + "]";
+    const std::string at = validate::at("inputs.outputs", i);
     if (!*info(o).name) fail(Code::InvalidArgument, at + " = " + std::to_string(int(o)) + " is not an EWaveOutput");
     if (!seen.insert(o).second) fail(Code::InvalidArgument, at + " = " + v1::EWaveOutput_Name(o) + " is listed twice");
     list.push_back(o);
@@ -206,7 +206,7 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
     fail(Code::InvalidArgument,
          "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " + std::to_string(kMaxShapes));
   for (int s = 0; s < p.shapes_size(); ++s)
-    in.shapes.push_back(shape(p.shapes(s), "inputs.shapes[" + std::to_string(s) + "]"));
+    in.shapes.push_back(shape(p.shapes(s), validate::at("inputs.shapes", s)));
   in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
   if (p.has_ambient_ocean()) {
     LimitGate defaults{Limits{}};

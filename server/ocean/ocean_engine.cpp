@@ -201,58 +201,28 @@ size_t OceanEngine::spectra_built() const {
   return impl_->built;
 }
 
-TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps) {
-  validate(spec);
-  if (outputs == 0 || (outputs & ~kAllOutputs))
-    fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
-  validate::finite("t", t);
-  OutputGrid grid = output_grid(spec);
-  const size_t cells = size_t(grid.nx) * size_t(grid.ny);
-  const int pairs = channel_pairs(outputs);
+namespace {
 
-  TileFields result;
-  result.nx = grid.nx;
-  result.ny = grid.ny;
-  result.dx = grid.lx / grid.nx;
-  result.dy = grid.ly / grid.ny;
-  result.t = t;
+// The whitecap map the frame at t starts from (W of the stream's previous frame, Gilligan sec. 5.3.3; zero
+// without a matching stream) and its decay factor exp(-dt / T).
+std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const OutputGrid& grid,
+                                      const WhitecapState* whitecaps, float* decay) {
+  *decay = 0;
+  if (!whitecaps || !whitecaps->matches(grid.nx, grid.ny)) return std::vector<float>(size_t(grid.nx) * grid.ny, 0.0f);
+  double dt = t - whitecaps->last_t();
+  if (dt < 0)
+    fail(Code::InvalidArgument, "t = " + validate::number(t) + " precedes the previous frame (t = " +
+                                    validate::number(whitecaps->last_t()) + ") of this whitecap stream");
+  *decay = float(std::exp(-dt / spec.whitecap_decay));
+  return whitecaps->map();
+}
 
-  float decay = 0;
-  std::vector<float> previous;
-  if (outputs & Whitecaps) {
-    if (whitecaps && whitecaps->matches(grid.nx, grid.ny)) {
-      double dt = t - whitecaps->last_t();
-      if (dt < 0)
-        fail(Code::InvalidArgument, "t = " + std::to_string(t) + " precedes the previous frame (t = " +
-                                        std::to_string(whitecaps->last_t()) + ") of this whitecap stream");
-      decay = float(std::exp(-dt / spec.whitecap_decay));
-      previous = whitecaps->map();
-    } else {
-      previous.assign(cells, 0.0f);
-    }
-  }
-
-  auto lock = impl_->runtime.exclusive();
-  Runtime& runtime = impl_->runtime;
-  const cl::CommandQueue& queue = runtime.queue();
-  BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
-  for (size_t a = 0; a < spec.layers.size(); ++a) {
-    BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
-    impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
-  }
-
-  BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
-  BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
-  if (outputs & Whitecaps)
-    queue.enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, accum.buffer(), cl_int(cells), cl_int(2 * pairs),
-                         cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
-                         whitecap.buffer(), out.buffer());
-
+// Reads the planes of `outputs` from the finalize kernel's output (kOutputPlanes planes of `cells`).
+void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t cells, unsigned outputs,
+                  TileFields& result) {
   auto read = [&](int plane, std::vector<float>& into) {
     into.resize(cells);
-    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float),
-                            into.data());
+    queue.enqueueReadBuffer(out, CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
   };
   if (outputs & Height) read(0, result.height);
   if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);
@@ -261,6 +231,40 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   if (outputs & Jacobian) read(8, result.jacobian), read(9, result.jacobian_minus), read(10, result.jacobian_plus);
   if (outputs & Whitecaps) read(11, result.whitecaps);
   queue.finish();
+}
+
+}  // namespace
+
+TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps) {
+  validate(spec);
+  if (outputs == 0 || (outputs & ~kAllOutputs))
+    fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
+  validate::finite("t", t);
+  const OutputGrid grid = output_grid(spec);
+  const size_t cells = size_t(grid.nx) * size_t(grid.ny);
+  const int pairs = channel_pairs(outputs);
+  TileFields result;
+  result.nx = grid.nx, result.ny = grid.ny, result.t = t;
+  result.dx = grid.lx / grid.nx, result.dy = grid.ly / grid.ny;
+  float decay = 0;
+  std::vector<float> previous;
+  if (outputs & Whitecaps) previous = previous_whitecaps(spec, t, grid, whitecaps, &decay);
+
+  auto lock = impl_->runtime.exclusive();
+  Runtime& runtime = impl_->runtime;
+  BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
+  for (size_t a = 0; a < spec.layers.size(); ++a) {
+    BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
+    impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
+  }
+  BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
+  BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
+  if (outputs & Whitecaps)
+    runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
+  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, accum.buffer(), cl_int(cells), cl_int(2 * pairs),
+                         cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
+                         whitecap.buffer(), out.buffer());
+  read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {

@@ -155,7 +155,7 @@ std::vector<v1::TileOutput> outputs(const google::protobuf::RepeatedField<int>& 
   if (in.empty()) fail(Code::InvalidArgument, path + " is empty: ask for at least one TileOutput");
   std::vector<v1::TileOutput> out;
   for (int i = 0; i < in.size(); ++i) {
-    std::string item = path + "[" + std::to_string(i) + "]";
+    std::string item = validate::at(path, i);
     if (in[i] == v1::TILE_OUTPUT_UNSPECIFIED || !v1::TileOutput_IsValid(in[i])) unknown(item, in[i], "TileOutput");
     auto o = static_cast<v1::TileOutput>(in[i]);
     for (auto seen : out)
