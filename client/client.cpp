@@ -3,17 +3,9 @@
 #include <chrono>
 #include <thread>
 
-namespace squall::client {
+#include "server/common/status_names.h"
 
-const char* status_code_name(grpc::StatusCode code) {
-  static const char* kNames[] = {
-      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
-      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
-      "DATA_LOSS", "UNAUTHENTICATED"};
-  int i = static_cast<int>(code);
-  return i >= 0 && i <= 16 ? kNames[i] : "UNKNOWN";
-}
+namespace squall::client {
 
 void check(const grpc::Status& status, const std::string& method) {
   if (!status.ok()) throw RpcError(method, status);

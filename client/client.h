@@ -31,8 +31,6 @@ class RpcError : public std::runtime_error {
 // Throws RpcError(method, status) unless the status is OK.
 void check(const grpc::Status& status, const std::string& method);
 
-const char* status_code_name(grpc::StatusCode code);
-
 class Client {
  public:
   explicit Client(const ClientOptions& options);

@@ -48,10 +48,7 @@ std::string CloudEngine::checkpoint(const std::string& id) {
 
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
-  std::string vdb = stored_.open_checkpoint(bytes, "checkpoint", &header);
-  if (header.version != kCheckpointVersion)
-    fail(Code::InvalidArgument, "checkpoint has volume payload version " + std::to_string(header.version) +
-                                    ", this squalld reads " + std::to_string(kCheckpointVersion));
+  std::string vdb = stored_.open_checkpoint(bytes, "checkpoint", kCheckpointVersion, &header);
   // Like BuildVolume with keep, the volume is built first: its bytes are known once it is uploaded.
   return store(header.id, upload(read_vdb(vdb, "checkpoint payload")));
 }

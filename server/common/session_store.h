@@ -135,11 +135,15 @@ class SessionStore {
     return with(id, [&](T& value) { return encode_checkpoint({kind_, version, id}, save(value)); });
   }
 
-  // The header and payload of a checkpoint of this store's kind, before anything is built from it;
-  // INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint, FAILED_PRECONDITION when its id
-  // is live. The caller then reserve()s, builds the value and add()s it under header.id.
-  std::string open_checkpoint(const std::string& data, const std::string& field, CheckpointHeader* header) {
+  // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
+  // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint,
+  // FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it under header.id.
+  std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t version,
+                              CheckpointHeader* header) {
     std::string payload = decode_checkpoint(data, kind_, field, header);
+    if (header->version != version)
+      fail(Code::InvalidArgument, field + " holds " + kind_ + " payload version " + std::to_string(header->version) +
+                                      "; this squalld reads version " + std::to_string(version));
     std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.count(header->id))
       fail(Code::FailedPrecondition, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);

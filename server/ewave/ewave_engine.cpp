@@ -71,10 +71,7 @@ std::string EWaveEngine::checkpoint(const std::string& id) {
 
 std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
-  std::string state = sessions_.open_checkpoint(bytes, "checkpoint", &header);
-  if (header.version != kCheckpointVersion)
-    fail(Code::InvalidArgument, "checkpoint has eWave payload version " + std::to_string(header.version) +
-                                    ", this squalld reads " + std::to_string(kCheckpointVersion));
+  std::string state = sessions_.open_checkpoint(bytes, "checkpoint", kCheckpointVersion, &header);
   auto [reservation, session] = from_state(state);
   return sessions_.add(header.id, std::move(reservation), std::move(session));
 }

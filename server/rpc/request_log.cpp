@@ -7,22 +7,13 @@
 #include <string>
 
 #include "common/log.h"
+#include "common/status_names.h"
 #include "rpc/metadata.h"
 
 namespace squall::rpc {
 namespace {
 
 using grpc::experimental::InterceptionHookPoints;
-
-const char* status_name(grpc::StatusCode code) {
-  static const char* kNames[] = {
-      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
-      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
-      "DATA_LOSS", "UNAUTHENTICATED"};
-  int i = static_cast<int>(code);
-  return i >= 0 && i <= 16 ? kNames[i] : "?";
-}
 
 class RequestLog : public grpc::experimental::Interceptor {
  public:
@@ -44,7 +35,7 @@ class RequestLog : public grpc::experimental::Interceptor {
       id_ = request_id_field(methods->GetRecvMessage());
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
       grpc::Status status = methods->GetSendStatus();
-      write(status_name(status.error_code()), status.ok() ? "" : status.error_message());
+      write(status_code_name(status.error_code()), status.ok() ? "" : status.error_message());
     }
     methods->Proceed();
   }

@@ -82,7 +82,7 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   std::string saved = s.checkpoint(id, 7, [](const Counter& c) { return std::to_string(c.value); });
   auto restore = [&](const std::string& data) {
     CheckpointHeader header;
-    std::string payload = s.open_checkpoint(data, "state", &header);
+    std::string payload = s.open_checkpoint(data, "state", 7, &header);
     EXPECT_EQ(header.version, 7u);
     return s.add(header.id, s.reserve(8), std::make_shared<Counter>(Counter{std::stoi(payload)}));
   };
@@ -95,14 +95,17 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
 
   CheckpointHeader header;
   expect_error(Code::InvalidArgument, "state is not a session checkpoint",
-               [&] { s.open_checkpoint("junk", "state", &header); });
+               [&] { s.open_checkpoint("junk", "state", 7, &header); });
   expect_error(Code::InvalidArgument, "truncated",
-               [&] { s.open_checkpoint(saved.substr(0, saved.size() - 1), "state", &header); });
-  expect_error(Code::InvalidArgument, "follow the payload", [&] { s.open_checkpoint(saved + "x", "state", &header); });
+               [&] { s.open_checkpoint(saved.substr(0, saved.size() - 1), "state", 7, &header); });
+  expect_error(Code::InvalidArgument, "follow the payload",
+               [&] { s.open_checkpoint(saved + "x", "state", 7, &header); });
+  expect_error(Code::InvalidArgument, "state holds counter payload version 7; this squalld reads version 8",
+               [&] { s.open_checkpoint(saved, "state", 8, &header); });
   LimitGate other_gate{Limits{}};
   SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
   expect_error(Code::InvalidArgument, "holds a counter, not a volume",
-               [&] { other.open_checkpoint(saved, "state", &header); });
+               [&] { other.open_checkpoint(saved, "state", 7, &header); });
 }
 
 TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {
