@@ -32,9 +32,7 @@ std::string CloudEngine::store(const std::string& id, const std::shared_ptr<Stor
 
 std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume) { return store(stored_.new_id(), volume); }
 
-std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id, const std::string& field) {
-  return stored_.get(id, field);
-}
+std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return stored_.get(id); }
 
 bool CloudEngine::release(const std::string& id) { return stored_.erase(id); }
 

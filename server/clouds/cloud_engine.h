@@ -39,8 +39,8 @@ class CloudEngine {
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model");
   // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
   std::string keep(const std::shared_ptr<StoredVolume>& volume);
-  // The volume stored under id (its TTL restarts); NOT_FOUND naming `field` otherwise.
-  std::shared_ptr<StoredVolume> find(const std::string& id, const std::string& field = "volume_id");
+  // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
+  std::shared_ptr<StoredVolume> find(const std::string& id);
   bool release(const std::string& id);
   Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings");
 

@@ -49,7 +49,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     } else {
       if (request->volume_id().empty())
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
-      volume = clouds.find(request->volume_id(), "volume_id");
+      volume = clouds.find(request->volume_id());
     }
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "Render cancelled");
     req::fill_image(clouds.render(*volume, settings, "settings"), response->mutable_image());

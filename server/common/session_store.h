@@ -80,7 +80,6 @@ class SessionStore {
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
     return add(new_id(), std::move(reservation), std::move(value));
   }
-  std::string add(std::shared_ptr<T> value, uint64_t bytes) { return add(reserve(bytes), std::move(value)); }
 
   // Runs f(T&) under the entry's lock and returns what f returns; the entry's idle time restarts.
   template <typename F>
@@ -90,9 +89,8 @@ class SessionStore {
     return f(*entry->value);
   }
 
-  // The value itself, for callers that only read it (its idle time restarts). `field` names the id in a
-  // NOT_FOUND message when it is not the store's id field.
-  std::shared_ptr<T> get(const std::string& id, const std::string& field = "") { return find(id, field)->value; }
+  // The value itself, for callers that only read it (its idle time restarts).
+  std::shared_ptr<T> get(const std::string& id) { return find(id)->value; }
 
   // Removes the entry once a call in flight on it has finished; NOT_FOUND when absent.
   void close(const std::string& id) {
@@ -161,16 +159,15 @@ class SessionStore {
     std::chrono::steady_clock::time_point last_use;
   };
 
-  std::string not_found(const std::string& id, const std::string& field = "") const {
-    return (field.empty() ? id_field_ : field) + " = \"" + id + "\" is not a live " + kind_ +
-           " (unknown, closed or expired)";
+  std::string not_found(const std::string& id) const {
+    return id_field_ + " = \"" + id + "\" is not a live " + kind_ + " (unknown, closed or expired)";
   }
 
-  std::shared_ptr<Entry> find(const std::string& id, const std::string& field = "") {
+  std::shared_ptr<Entry> find(const std::string& id) {
     evict_idle();
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(id);
-    if (it == entries_.end()) fail(Code::NotFound, not_found(id, field));
+    if (it == entries_.end()) fail(Code::NotFound, not_found(id));
     it->second->last_use = policy_.clock();
     return it->second;
   }

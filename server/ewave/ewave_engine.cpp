@@ -26,20 +26,21 @@ uint64_t session_bytes(const EWaveConfig& config) {
   return state + spectrum + work;
 }
 
-std::string EWaveEngine::create(const EWaveConfig& config) {
+EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config) {
   validate(config, &gate_);
   auto reservation = sessions_.reserve(session_bytes(config));
-  return sessions_.add(std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_));
+  return {std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_)};
 }
 
-std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> EWaveEngine::from_state(
-    const std::string& bytes) {
-  EWaveConfig config = EWaveSession::config_from_state(bytes);
-  validate(config, &gate_);
-  auto reservation = sessions_.reserve(session_bytes(config));
-  auto session = std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_);
-  session->restore(bytes);
-  return {std::move(reservation), std::move(session)};
+std::string EWaveEngine::create(const EWaveConfig& config) {
+  auto [reservation, session] = new_session(config);
+  return sessions_.add(std::move(reservation), std::move(session));
+}
+
+EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes) {
+  NewSession made = new_session(EWaveSession::config_from_state(bytes));
+  made.second->restore(bytes);
+  return made;
 }
 
 std::string EWaveEngine::create_from_state(const std::string& bytes) {

@@ -44,9 +44,10 @@ class EWaveEngine {
   size_t size() const { return sessions_.size(); }
 
  private:
-  // A validated session continuing `bytes`, its memory reserved before it is built.
-  std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>> from_state(
-      const std::string& bytes);
+  // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`.
+  using NewSession = std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>>;
+  NewSession new_session(const EWaveConfig& config);
+  NewSession from_state(const std::string& bytes);
 
   Runtime& runtime_;
   fft::Fft& fft_;

@@ -35,8 +35,6 @@ class EWaveService final : public squall::v1::EWave::Service, public Capability 
   grpc::Status CloseSession(grpc::ServerContext* context, const squall::v1::EWaveSessionRequest* request,
                             squall::v1::EWaveCloseResponse* response) override;
 
-  ewave::EWaveEngine& engine() { return *engine_; }  // after start()
-
  private:
   void step(const squall::v1::EWaveStepRequest& request, squall::v1::EWaveFrame* frame);
 

@@ -45,7 +45,7 @@ TEST(Engine, StoresFindsAndReleasesVolumes) {
   EXPECT_EQ(engine.stored_bytes(), v->bytes);
   EXPECT_TRUE(engine.release(id));
   EXPECT_EQ(engine.stored_bytes(), 0u);
-  std::string msg = error_of([&] { engine.find(id, "volume_id"); }, Code::NotFound);
+  std::string msg = error_of([&] { engine.find(id); }, Code::NotFound);
   EXPECT_NE(msg.find("volume_id = \"" + id + "\""), std::string::npos) << msg;
 }
 

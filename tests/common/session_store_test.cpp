@@ -31,7 +31,7 @@ class SessionStoreTest : public ::testing::Test {
 TEST_F(SessionStoreTest, IdsAreUnguessableAndCallsReachTheirSession) {
   auto s = store();
   std::set<std::string> ids;
-  for (int i = 0; i < 20; ++i) ids.insert(s.add(std::make_shared<Counter>(), 0));
+  for (int i = 0; i < 20; ++i) ids.insert(s.add(s.reserve(0), std::make_shared<Counter>()));
   EXPECT_EQ(ids.size(), 20u);
   for (const auto& id : ids) {
     EXPECT_EQ(id.size(), 2u + 32u) << id;  // prefix + 128 bits in hex
@@ -41,13 +41,12 @@ TEST_F(SessionStoreTest, IdsAreUnguessableAndCallsReachTheirSession) {
   s.with(id, [](Counter& c) { c.value += 3; });
   EXPECT_EQ(s.with(id, [](Counter& c) { return c.value; }), 3);
   expect_error(Code::NotFound, "counter_id = \"nope\"", [&] { s.get("nope"); });
-  expect_error(Code::NotFound, "volume_id = \"nope\"", [&] { s.get("nope", "volume_id"); });
 }
 
 TEST_F(SessionStoreTest, IdleSessionsAreEvictedAfterTheTtlOnTheInjectedClock) {
   auto s = store({}, 100ms);
-  std::string kept = s.add(std::make_shared<Counter>(), 0);
-  std::string idle = s.add(std::make_shared<Counter>(), 0);
+  std::string kept = s.add(s.reserve(0), std::make_shared<Counter>());
+  std::string idle = s.add(s.reserve(0), std::make_shared<Counter>());
   now_ += 60ms;
   s.get(kept);   // its idle time restarts
   now_ += 60ms;  // idle: 120 ms, kept: 60 ms
@@ -63,22 +62,23 @@ TEST_F(SessionStoreTest, CountAndBytesAreLimitedThroughTheGate) {
   limits.max_sessions = 2;
   limits.max_session_bytes = 1000;
   auto s = store(limits);
-  std::string a = s.add(std::make_shared<Counter>(), 600);
-  expect_error(Code::ResourceExhausted, "--max-session-bytes = 1000", [&] { s.add(std::make_shared<Counter>(), 500); });
+  std::string a = s.add(s.reserve(600), std::make_shared<Counter>());
+  expect_error(Code::ResourceExhausted, "--max-session-bytes = 1000",
+               [&] { s.add(s.reserve(500), std::make_shared<Counter>()); });
   EXPECT_EQ(gate_->session_bytes(), 600u) << "a refused session holds nothing";
   EXPECT_EQ(gate_->live_sessions(), 1u);
-  s.add(std::make_shared<Counter>(), 400);
+  s.add(s.reserve(400), std::make_shared<Counter>());
   EXPECT_EQ(s.bytes(), 1000u);
-  expect_error(Code::ResourceExhausted, "--max-sessions", [&] { s.add(std::make_shared<Counter>(), 0); });
+  expect_error(Code::ResourceExhausted, "--max-sessions", [&] { s.add(s.reserve(0), std::make_shared<Counter>()); });
   s.close(a);
   EXPECT_EQ(gate_->session_bytes(), 400u);
-  s.add(std::make_shared<Counter>(), 600);
+  s.add(s.reserve(600), std::make_shared<Counter>());
   expect_error(Code::NotFound, "counter_id", [&] { s.close(a); });
 }
 
 TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   auto s = store();
-  std::string id = s.add(std::make_shared<Counter>(Counter{41}), 8);
+  std::string id = s.add(s.reserve(8), std::make_shared<Counter>(Counter{41}));
   std::string saved = s.checkpoint(id, 7, [](const Counter& c) { return std::to_string(c.value); });
   auto restore = [&](const std::string& data) {
     CheckpointHeader header;
@@ -110,7 +110,7 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
 
 TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {
   auto s = store({}, 100ms);
-  std::string id = s.add(std::make_shared<Counter>(), 0);
+  std::string id = s.add(s.reserve(0), std::make_shared<Counter>());
   now_ += 101ms;
   expect_error(Code::NotFound, "counter_id", [&] { s.close(id); });
   EXPECT_FALSE(s.erase(id));
