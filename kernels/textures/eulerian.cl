@@ -1,0 +1,140 @@
+/* Multi-layer Eulerian texture advection: F. Neyret, "Advected Textures", Symposium on Computer Animation
+ * 2003. Nodes over the output region carry, per slot (layer i, phase j), a texture coordinate u^i_j and
+ * its accumulated deformation d^i_j (float4: u.x, u.y, d, 0), advected semi-Lagrangianly (J. Stam,
+ * "Stable Fluids", SIGGRAPH 1999); the host regenerates slots (u = S x, d = 0) when their phase ends.
+ * With one layer of two phases this is the game engines' two-phase flow map; one slot never regenerated
+ * is naive advection. Node (i, j) sits at (x0 + i hx, y0 + j hy), hx = region width / (nx - 1). */
+#include "textures/texture.clh"
+#include "textures/velocity.clh"
+
+#define SQUALL_MAX_SLOTS 12
+#define SQUALL_DEFORMATION_WEIGHTED 0
+#define SQUALL_DEFORMATION_PAPER 1
+#define SQUALL_EULERIAN_OCTAVE 0
+#define SQUALL_EULERIAN_FINAL 1
+#define SQUALL_EULERIAN_OCTAVE_VP 2
+
+/* Bilinear sample of slot `slot` of the node state at node coordinates g (inside the grid). */
+static float4 node_state_at(__global const float4* state, int nx, int ny, int slot, float2 g) {
+  int i = min((int)g.x, nx - 2), j = min((int)g.y, ny - 2);
+  float s = g.x - (float)i, r = g.y - (float)j;
+  __global const float4* q = state + (size_t)slot * (size_t)nx * (size_t)ny;
+  float4 bottom = mix(q[i + nx * j], q[i + 1 + nx * j], s);
+  float4 top = mix(q[i + nx * (j + 1)], q[i + 1 + nx * (j + 1)], s);
+  return mix(bottom, top, r);
+}
+
+/* The norm of the strain rate e = (G + G^T) / 2, G = grad v, by central differences (ADV03 sec. 2.1):
+ * |e| = sqrt(e_xx^2 + e_yy^2 + 2 e_xy^2). */
+static float strain_rate_norm(const VelocityField* f, __global const float2* grid, float2 x, float t, float h) {
+  float2 dvdx = (velocity_at(f, grid, x + (float2)(h, 0.0f), t) - velocity_at(f, grid, x - (float2)(h, 0.0f), t));
+  float2 dvdy = (velocity_at(f, grid, x + (float2)(0.0f, h), t) - velocity_at(f, grid, x - (float2)(0.0f, h), t));
+  dvdx /= 2.0f * h;
+  dvdy /= 2.0f * h;
+  float exy = 0.5f * (dvdy.x + dvdx.y);
+  return sqrt(dvdx.x * dvdx.x + dvdy.y * dvdy.y + 2.0f * exy * exy);
+}
+
+/* One step [t, t + dt]: backtrace each node along the flow (RK2 midpoint), take every slot's state from
+ * there (fresh coordinates where the backtrace leaves the region), add |e| dt to the deformation, and
+ * regenerate the slots whose bit is set in reset_mask. */
+__kernel void eulerian_advect(__global const float4* state_in, __global float4* state_out, int nx, int ny,
+                              OutputGrid frame, int slots, VelocityField velocity, __global const float2* grid, float t,
+                              float dt, float scale, int reset_mask) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
+  float hy = frame.pixel_y * (float)frame.height / (float)(ny - 1);
+  float2 x = (float2)(frame.x0 + (float)i * hx, frame.y0 + (float)j * hy);
+  float2 mid = x - 0.5f * dt * velocity_at(&velocity, grid, x, t + dt);
+  float2 back = x - dt * velocity_at(&velocity, grid, mid, t + 0.5f * dt);
+  float2 g = (float2)((back.x - frame.x0) / hx, (back.y - frame.y0) / hy);
+  bool inside = g.x >= 0.0f && g.y >= 0.0f && g.x <= (float)(nx - 1) && g.y <= (float)(ny - 1);
+  float strain = strain_rate_norm(&velocity, grid, x, t + dt, 0.5f * min(hx, hy));
+  size_t node = (size_t)i + (size_t)nx * (size_t)j, plane = (size_t)nx * (size_t)ny;
+  for (int s = 0; s < slots; ++s) {
+    float4 q = inside ? node_state_at(state_in, nx, ny, s, g) : (float4)(scale * back, 0.0f, 0.0f);
+    q.z += strain * dt;
+    if ((reset_mask >> s) & 1) q = (float4)(scale * x, 0.0f, 0.0f);
+    state_out[(size_t)s * plane + node] = q;
+  }
+}
+
+/* The weights alpha'^i of the layers from their deformations d^i (ADV03 sec. 2.2): the two layers that
+ * bracket d*, l* = i + (d* - d^i) / (d^(i+1) - d^i); a running maximum keeps d^i monotone. */
+static float select_layers(const float* deformation, int layers, float d_star, float* layer_weight) {
+  float level = 0.0f, running = deformation[0];
+  for (int i = 0; i < layers; ++i) layer_weight[i] = 0.0f;
+  layer_weight[0] = 1.0f;
+  for (int i = 0; i + 1 < layers; ++i) {
+    float lo = running, hi = max(running, deformation[i + 1]);
+    running = hi;
+    if (d_star < lo) break;
+    layer_weight[i] = 0.0f;
+    if (d_star >= hi || hi - lo < 1e-12f) {
+      layer_weight[i + 1] = 1.0f;
+      level = (float)(i + 1);
+      continue;
+    }
+    float f = (d_star - lo) / (hi - lo);
+    layer_weight[i] = 1.0f - f;
+    layer_weight[i + 1] = f;
+    level = (float)i + f;
+    break;
+  }
+  return level;
+}
+
+/* One output pixel: every slot's coordinate and deformation interpolated from the nodes, the layers
+ * selected per pixel, the slots' samples blended with weights alpha'^i alpha^i_j. Planes as in
+ * lagrangian_reconstruct, with the selected layer l* in the last one. */
+__kernel void eulerian_render(__global float* out, OutputGrid frame, __global const float4* state, int nx, int ny,
+                              int layers, int phases, __global const float* alpha, int deformation_mode, float d_star,
+                              int blend, TextureSource texture, __global const float* image, VelocityField velocity,
+                              __global const uchar* mask) {
+  int px = get_global_id(0), py = get_global_id(1);
+  if (px >= frame.width || py >= frame.height) return;
+  float2 p = (float2)(frame.x0 + ((float)px + 0.5f) * frame.pixel_x, frame.y0 + ((float)py + 0.5f) * frame.pixel_y);
+  float2 g = (float2)(((float)px + 0.5f) * (float)(nx - 1) / (float)frame.width,
+                      ((float)py + 0.5f) * (float)(ny - 1) / (float)frame.height);
+  size_t plane = (size_t)frame.width * (size_t)frame.height, pixel = (size_t)px + (size_t)frame.width * (size_t)py;
+
+  float4 q[SQUALL_MAX_SLOTS];
+  float deformation[SQUALL_MAX_SLOTS / 2], layer_weight[SQUALL_MAX_SLOTS / 2];
+  for (int i = 0; i < layers; ++i) {
+    deformation[i] = 0.0f;
+    for (int j = 0; j < phases; ++j) {
+      int s = i * phases + j;
+      q[s] = node_state_at(state, nx, ny, s, g);
+      deformation[i] += deformation_mode == SQUALL_DEFORMATION_PAPER ? q[s].z : (float)phases * alpha[s] * q[s].z;
+    }
+  }
+  float level = select_layers(deformation, layers, d_star, layer_weight);
+
+  float r[SQUALL_TEXTURE_MAX_CHANNELS], sample[SQUALL_TEXTURE_MAX_CHANNELS];
+  for (int c = 0; c < texture.channels; ++c) r[c] = 0.0f;
+  float s0 = 0.0f, s2 = 0.0f, blended_final = 0.0f;
+  int n = 0;
+  for (int s = 0; s < layers * phases; ++s) {
+    float w = layer_weight[s / phases] * alpha[s];
+    if (w <= 0.0f) continue;
+    for (int c = 0; c < texture.channels; ++c) {
+      sample[c] = texture_channel(&texture, image, c, q[s].xy);
+      r[c] += w * (blend == SQUALL_EULERIAN_OCTAVE_VP ? sample[c] - texture.mean[c] : sample[c]);
+    }
+    if (blend == SQUALL_EULERIAN_FINAL && texture.final_function != SQUALL_FINAL_IDENTITY)
+      blended_final += w * final_value(&texture, sample);
+    s0 += w;
+    s2 += w * w;
+    ++n;
+  }
+  if (blend == SQUALL_EULERIAN_OCTAVE_VP)
+    for (int c = 0; c < texture.channels; ++c) r[c] = r[c] / sqrt(max(s2, 1e-12f)) + texture.mean[c];
+  write_texture_planes(&texture, r, out, plane, pixel);
+  if (blend == SQUALL_EULERIAN_FINAL && texture.final_function != SQUALL_FINAL_IDENTITY) out[pixel] = blended_final;
+  int aux = final_channels(&texture) + texture.channels;
+  out[(size_t)aux * plane + pixel] = s0;
+  out[(size_t)(aux + 1) * plane + pixel] = s2;
+  out[(size_t)(aux + 2) * plane + pixel] = velocity_fluid_at(&velocity, mask, p.x, p.y) ? (float)n : -1.0f;
+  out[(size_t)(aux + 3) * plane + pixel] = level;
+}

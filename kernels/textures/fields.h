@@ -1,0 +1,177 @@
+/* The inputs of texture advection, shared by host C++ and OpenCL C: the velocity field and the reference
+ * texture R = (a_0, a_1, ...) with its final function F (Q. Yu, F. Neyret, E. Bruneton, N. Holzschuch,
+ * "Lagrangian Texture Advection: Preserving both Spectrum and Velocity Field", IEEE TVCG 2011, sec. 3.2:
+ * T(x) = F(a_0(x), a_1(x), ...), channels blended linearly, F applied after blending).
+ *
+ * Conventions: the domain is [0, Lx] x [0, Ly] in domain units (du); velocities in du/s; times in s.
+ * Texture coordinates are in texture periods (1 = one repeat of the tileable reference texture).
+ *
+ * The functions below compile as C++ (host) and OpenCL C (device), so that the fluid test the host's
+ * particle maintenance uses is the one the kernels use. */
+#ifndef SQUALL_TEXTURES_FIELDS_H
+#define SQUALL_TEXTURES_FIELDS_H
+
+#ifdef __OPENCL_VERSION__
+#define SQUALL_GLOBAL __global
+#else
+#include <cmath>
+#define SQUALL_GLOBAL
+#endif
+
+/* VelocityField.kind: analytic fields (parameters p[] below, positions in du, rates in 1/s) or a grid. */
+#define SQUALL_VELOCITY_UNIFORM 0      /* v = (p0, p1) */
+#define SQUALL_VELOCITY_ROTATION 1     /* solid rotation at omega = p0 about (p1, p2): v = omega (-(y-cy), x-cx) */
+#define SQUALL_VELOCITY_SHEAR 2        /* v = (p0 (y - p1), 0) */
+#define SQUALL_VELOCITY_SINK 3         /* v = -p0 (x - c) / (|x - c| + p3), c = (p1, p2) */
+#define SQUALL_VELOCITY_VORTEX 4       /* Rankine vortex: circulation p0 (du^2/s), centre (p1, p2), core radius p3 */
+#define SQUALL_VELOCITY_TAYLOR_GREEN 5 /* v = p0 (sin kx cos ky, -cos kx sin ky), k = 2 pi / p1 */
+#define SQUALL_VELOCITY_CHANNEL 6      /* Poiseuille: u = p0 (1 - ((y - p1)/p2)^2) for |y - p1| < p2; walls outside */
+#define SQUALL_VELOCITY_CYLINDER 7     /* potential flow p0 along x past a cylinder of centre (p1, p2), radius p3 */
+#define SQUALL_VELOCITY_GRID 8         /* nodes on a grid, bilinear in space, linear in time between two frames */
+#define SQUALL_VELOCITY_KINDS 9
+
+/* VelocityField.extrapolation: a grid sampled outside its nodes. */
+#define SQUALL_EXTRAPOLATE_CLAMP 0 /* clamp to the edge nodes */
+#define SQUALL_EXTRAPOLATE_ZERO 1  /* zero velocity outside the grid */
+
+#define SQUALL_VELOCITY_PARAMS 8
+
+/* Layout (96 bytes, every member 4 bytes, no padding):
+ *   offset  0  int   kind            SQUALL_VELOCITY_*
+ *   offset  4  int   nx, ny          grid nodes (grid only)
+ *   offset 12  int   extrapolation   SQUALL_EXTRAPOLATE_* (grid only)
+ *   offset 16  float origin_x, origin_y   position of node (0, 0), du
+ *   offset 24  float hx, hy          node spacing, du
+ *   offset 32  float time_a, time_b  times of the two frames interpolated (time_b == time_a: one frame)
+ *   offset 40  int   frame_a, frame_b     offsets of those frames in the grid array, in nodes
+ *   offset 48  int   has_mask        1: the mask array marks fluid nodes (nearest node decides)
+ *   offset 52  int   reserved[3]
+ *   offset 64  float p[8]            analytic parameters
+ * The grid array holds frames of nx * ny (u, v) pairs, x fastest. */
+typedef struct VelocityField {
+  int kind;
+  int nx, ny;
+  int extrapolation;
+  float origin_x, origin_y;
+  float hx, hy;
+  float time_a, time_b;
+  int frame_a, frame_b;
+  int has_mask;
+  int reserved[3];
+  float p[SQUALL_VELOCITY_PARAMS];
+} VelocityField;
+
+/* TextureSource.kind */
+#define SQUALL_TEXTURE_IMAGE 0 /* channels of an image, bilinear with wrap */
+#define SQUALL_TEXTURE_NOISE 1 /* one channel per band of gradient noise b_j(2^j u) */
+
+/* TextureSource.final_function: T = F(R'), after K. Perlin, "An Image Synthesizer" (SIGGRAPH 1985). */
+#define SQUALL_FINAL_IDENTITY 0   /* T = R' (every channel) */
+#define SQUALL_FINAL_SUM_BANDS 1  /* T = scale sum_j 2^-j a_j */
+#define SQUALL_FINAL_TURBULENCE 2 /* T = scale sum_j 2^-j |2 a_j - 1| */
+#define SQUALL_FINAL_RIDGED 3     /* T = scale sum_j 2^-j (1 - |2 a_j - 1|) */
+#define SQUALL_FINAL_FUNCTIONS 4
+
+#define SQUALL_TEXTURE_MAX_CHANNELS 8
+
+/* Layout (80 bytes, every member 4 bytes, no padding):
+ *   offset  0  int   kind            SQUALL_TEXTURE_*
+ *   offset  4  int   channels        image channels, or noise bands; 1..SQUALL_TEXTURE_MAX_CHANNELS
+ *   offset  8  int   width, height   image pixels per period (image only)
+ *   offset 16  uint  seed            noise gradients
+ *   offset 20  float base_cells      noise lattice cells per period in band 0 (band j: base_cells 2^j)
+ *   offset 24  float spin            flow noise: gradient rotation rate of band 0, rad/s (band j: spin 2^(2j/3))
+ *   offset 28  float time            s, the time the flow noise is evaluated at
+ *   offset 32  float mean[8]         Rhat per channel (sec. 3.4, eq. 4)
+ *   offset 64  int   final_function  SQUALL_FINAL_*
+ *   offset 68  float final_scale     scale of F
+ *   offset 72  int   reserved[2]
+ * The image array holds `channels` planes of width x height floats, x fastest. */
+typedef struct TextureSource {
+  int kind;
+  int channels;
+  int width, height;
+  unsigned int seed;
+  float base_cells;
+  float spin;
+  float time;
+  float mean[SQUALL_TEXTURE_MAX_CHANNELS];
+  int final_function;
+  float final_scale;
+  int reserved[2];
+} TextureSource;
+
+/* The output pixels: width x height over a region whose lower-left corner is (x0, y0); pixel (px, py)
+ * samples the domain at (x0 + (px + 0.5) pixel_x, y0 + (py + 0.5) pixel_y). The Lagrangian
+ * reconstruction bins grids into square tiles of `tile` pixels, tiles_x per row.
+ * Layout (32 bytes): int width, height; float x0, y0, pixel_x, pixel_y; int tile, tiles_x. */
+typedef struct OutputGrid {
+  int width, height;
+  float x0, y0;
+  float pixel_x, pixel_y;
+  int tile, tiles_x;
+} OutputGrid;
+
+/* The auxiliary planes every method writes after the final and raw planes: the weight sum, the sum of
+ * squared weights, the number of blended samples (-1 on solid pixels) and the selected layer l*. */
+#define SQUALL_AUX_PLANES 4
+
+/* Fluid test at (x, y): 0 inside the cylinder or outside the channel's walls, and on grid nodes the mask
+ * marks solid (nearest node, clamped to the grid). */
+static inline int velocity_fluid_at(const VelocityField* f, SQUALL_GLOBAL const unsigned char* mask, float x, float y) {
+  if (f->kind == SQUALL_VELOCITY_CHANNEL) return fabs(y - f->p[1]) < f->p[2];
+  if (f->kind == SQUALL_VELOCITY_CYLINDER) {
+    float dx = x - f->p[1], dy = y - f->p[2];
+    return dx * dx + dy * dy > f->p[3] * f->p[3];
+  }
+  if (f->kind != SQUALL_VELOCITY_GRID || !f->has_mask) return 1;
+  int i = (int)floor((x - f->origin_x) / f->hx + 0.5f);
+  int j = (int)floor((y - f->origin_y) / f->hy + 0.5f);
+  i = i < 0 ? 0 : (i >= f->nx ? f->nx - 1 : i);
+  j = j < 0 ? 0 : (j >= f->ny ? f->ny - 1 : j);
+  return mask[i + f->nx * j] != 0;
+}
+
+#ifdef __cplusplus
+#include "common/host_layout.h"
+SQUALL_ASSERT_SIZE(VelocityField, 96);
+SQUALL_ASSERT_OFFSET(VelocityField, kind, 0);
+SQUALL_ASSERT_OFFSET(VelocityField, nx, 4);
+SQUALL_ASSERT_OFFSET(VelocityField, ny, 8);
+SQUALL_ASSERT_OFFSET(VelocityField, extrapolation, 12);
+SQUALL_ASSERT_OFFSET(VelocityField, origin_x, 16);
+SQUALL_ASSERT_OFFSET(VelocityField, origin_y, 20);
+SQUALL_ASSERT_OFFSET(VelocityField, hx, 24);
+SQUALL_ASSERT_OFFSET(VelocityField, hy, 28);
+SQUALL_ASSERT_OFFSET(VelocityField, time_a, 32);
+SQUALL_ASSERT_OFFSET(VelocityField, time_b, 36);
+SQUALL_ASSERT_OFFSET(VelocityField, frame_a, 40);
+SQUALL_ASSERT_OFFSET(VelocityField, frame_b, 44);
+SQUALL_ASSERT_OFFSET(VelocityField, has_mask, 48);
+SQUALL_ASSERT_OFFSET(VelocityField, reserved, 52);
+SQUALL_ASSERT_OFFSET(VelocityField, p, 64);
+SQUALL_ASSERT_SIZE(OutputGrid, 32);
+SQUALL_ASSERT_OFFSET(OutputGrid, width, 0);
+SQUALL_ASSERT_OFFSET(OutputGrid, height, 4);
+SQUALL_ASSERT_OFFSET(OutputGrid, x0, 8);
+SQUALL_ASSERT_OFFSET(OutputGrid, y0, 12);
+SQUALL_ASSERT_OFFSET(OutputGrid, pixel_x, 16);
+SQUALL_ASSERT_OFFSET(OutputGrid, pixel_y, 20);
+SQUALL_ASSERT_OFFSET(OutputGrid, tile, 24);
+SQUALL_ASSERT_OFFSET(OutputGrid, tiles_x, 28);
+SQUALL_ASSERT_SIZE(TextureSource, 80);
+SQUALL_ASSERT_OFFSET(TextureSource, kind, 0);
+SQUALL_ASSERT_OFFSET(TextureSource, channels, 4);
+SQUALL_ASSERT_OFFSET(TextureSource, width, 8);
+SQUALL_ASSERT_OFFSET(TextureSource, height, 12);
+SQUALL_ASSERT_OFFSET(TextureSource, seed, 16);
+SQUALL_ASSERT_OFFSET(TextureSource, base_cells, 20);
+SQUALL_ASSERT_OFFSET(TextureSource, spin, 24);
+SQUALL_ASSERT_OFFSET(TextureSource, time, 28);
+SQUALL_ASSERT_OFFSET(TextureSource, mean, 32);
+SQUALL_ASSERT_OFFSET(TextureSource, final_function, 64);
+SQUALL_ASSERT_OFFSET(TextureSource, final_scale, 68);
+SQUALL_ASSERT_OFFSET(TextureSource, reserved, 72);
+#endif
+
+#endif

@@ -1,0 +1,129 @@
+#include "textures/device_inputs.h"
+
+#include <algorithm>
+
+#include "textures/push_pull.h"
+
+namespace squall::textures {
+namespace {
+
+template <typename T>
+cl::Buffer upload(Runtime& runtime, const std::vector<T>& values) {
+  static const T none[16] = {};  // OpenCL buffers may not be empty: absent inputs get a few zero bytes
+  const void* data = values.empty() ? static_cast<const void*>(none) : values.data();
+  size_t bytes = values.empty() ? sizeof(none) : values.size() * sizeof(T);
+  return cl::Buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, const_cast<void*>(data));
+}
+
+// The frames as (u, v) pairs, x fastest, frame after frame; extrapolated by push-pull if asked.
+std::vector<cl_float2> grid_pairs(const VelocitySpec& v) {
+  std::vector<cl_float2> pairs;
+  if (v.kind != SQUALL_VELOCITY_GRID) return pairs;
+  const size_t nodes = size_t(v.nx) * v.ny;
+  for (const auto& frame : v.frames) {
+    std::vector<float> u = frame.u, w = frame.v;
+    if (v.extrapolation == Extrapolation::PushPull && !v.mask.empty()) push_pull(v.nx, v.ny, v.mask, u, w);
+    for (size_t n = 0; n < nodes; ++n) pairs.push_back(cl_float2{{u[n], w[n]}});
+  }
+  return pairs;
+}
+
+VelocityField field_of(const VelocitySpec& v) {
+  VelocityField f{};
+  f.kind = v.kind;
+  for (int k = 0; k < SQUALL_VELOCITY_PARAMS; ++k) f.p[k] = float(v.params[k]);
+  if (v.kind != SQUALL_VELOCITY_GRID) return f;
+  f.nx = v.nx;
+  f.ny = v.ny;
+  f.extrapolation = v.extrapolation == Extrapolation::Zero ? SQUALL_EXTRAPOLATE_ZERO : SQUALL_EXTRAPOLATE_CLAMP;
+  f.origin_x = float(v.origin_x);
+  f.origin_y = float(v.origin_y);
+  f.hx = float(v.hx);
+  f.hy = float(v.hy);
+  f.has_mask = v.mask.empty() ? 0 : 1;
+  return f;
+}
+
+TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
+  TextureSource s{};
+  s.kind = t.kind;
+  s.channels = t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands;
+  s.width = t.width;
+  s.height = t.height;
+  s.seed = t.seed;
+  s.base_cells = float(t.base_cells);
+  s.spin = float(t.spin);
+  for (int c = 0; c < s.channels && c < int(stats.mean.size()); ++c) s.mean[c] = float(stats.mean[c]);
+  s.final_function = t.final_function;
+  s.final_scale = float(t.final_scale);
+  return s;
+}
+
+}  // namespace
+
+DeviceInputs::DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats)
+    : field_(field_of(spec.velocity)),
+      texture_(source_of(spec.texture, stats)),
+      output_(spec.output),
+      mask_host_(spec.velocity.mask),
+      stats_(stats),
+      grid_(upload(runtime, grid_pairs(spec.velocity))),
+      mask_(upload(runtime, spec.velocity.mask)),
+      image_(upload(runtime, spec.texture.kind == SQUALL_TEXTURE_IMAGE ? spec.texture.pixels : std::vector<float>{})) {
+  for (const auto& frame : spec.velocity.frames) times_.push_back(frame.time);
+}
+
+VelocityField DeviceInputs::velocity(double t0) const {
+  VelocityField f = field_;
+  if (f.kind != SQUALL_VELOCITY_GRID) return f;
+  size_t a = 0;
+  while (a + 1 < times_.size() && times_[a + 1] <= t0) ++a;
+  size_t b = std::min(a + 1, times_.size() - 1);
+  f.time_a = float(times_[a]);
+  f.time_b = float(times_[b]);
+  f.frame_a = int(a * size_t(f.nx) * f.ny);
+  f.frame_b = int(b * size_t(f.nx) * f.ny);
+  return f;
+}
+
+TextureSource DeviceInputs::texture(double time) const {
+  TextureSource t = texture_;
+  t.time = float(time);
+  return t;
+}
+
+OutputGrid DeviceInputs::output(int tile) const {
+  OutputGrid g{};
+  g.width = output_.width;
+  g.height = output_.height;
+  g.x0 = float(output_.x0);
+  g.y0 = float(output_.y0);
+  g.pixel_x = float((output_.x1 - output_.x0) / output_.width);
+  g.pixel_y = float((output_.y1 - output_.y0) / output_.height);
+  g.tile = tile;
+  g.tiles_x = (output_.width + tile - 1) / tile;
+  return g;
+}
+
+bool DeviceInputs::fluid(double x, double y) const {
+  return velocity_fluid_at(&field_, mask_host_.data(), float(x), float(y)) != 0;
+}
+
+ReferenceStats image_stats(const TextureSpec& texture) {
+  ReferenceStats stats;
+  const size_t n = size_t(texture.width) * texture.height;
+  for (int c = 0; c < texture.channels; ++c) {
+    double sum = 0, sum2 = 0;
+    for (size_t k = 0; k < n; ++k) {
+      double value = texture.pixels[c * n + k];
+      sum += value;
+      sum2 += value * value;
+    }
+    double mean = sum / double(n);
+    stats.mean.push_back(mean);
+    stats.variance.push_back(std::max(0.0, sum2 / double(n) - mean * mean));
+  }
+  return stats;
+}
+
+}  // namespace squall::textures

@@ -1,0 +1,51 @@
+// The inputs every advection method reads on the device: the velocity field (analytic, or grid frames
+// with their fluid mask), the reference texture's image planes, and their kernel descriptions (fields.h).
+#pragma once
+
+#include <vector>
+
+#include "runtime/opencl.h"
+#include "runtime/runtime.h"
+#include "textures/fields.h"
+#include "textures/texture_spec.h"
+
+namespace squall::textures {
+
+// Mean and variance of each channel of the reference texture R over one period (Rhat of LTA11 eq. 4).
+struct ReferenceStats {
+  std::vector<double> mean, variance;
+};
+
+class DeviceInputs {
+ public:
+  // Uploads the grid frames (push-pull extrapolated where the spec asks) and the image planes.
+  DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats);
+
+  // The field over a step [t0, t1]: the two grid frames around t0 (or the one frame).
+  VelocityField velocity(double t0) const;
+  // The texture as evaluated at time `time` (flow noise turns with time).
+  TextureSource texture(double time) const;
+  // The output pixels, binned into tiles of `tile` pixels.
+  OutputGrid output(int tile) const;
+  // The host's fluid test, the one the kernels use.
+  bool fluid(double x, double y) const;
+
+  const cl::Buffer& grid() const { return grid_; }
+  const cl::Buffer& mask() const { return mask_; }
+  const cl::Buffer& image() const { return image_; }
+  const ReferenceStats& stats() const { return stats_; }
+
+ private:
+  VelocityField field_{};
+  TextureSource texture_{};
+  OutputSpec output_;
+  std::vector<double> times_;
+  std::vector<uint8_t> mask_host_;
+  ReferenceStats stats_;
+  cl::Buffer grid_, mask_, image_;
+};
+
+// The reference statistics of an image texture, computed from its pixels.
+ReferenceStats image_stats(const TextureSpec& texture);
+
+}  // namespace squall::textures

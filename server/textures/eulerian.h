@@ -1,0 +1,21 @@
+// Eulerian texture advection on nodes over the output region: F. Neyret, "Advected Textures" (SCA 2003),
+// N layers of regenerated texture coordinates with latencies, chosen per pixel from their accumulated
+// deformation (sec. 2) and blended before the final function (sec. 3). The same engine runs the game
+// engines' two-phase flow map (one layer, two phases with triangle weights) and naive advection (one
+// parameterization never regenerated).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "textures/advection.h"
+#include "textures/device_inputs.h"
+#include "textures/texture_kernels.h"
+
+namespace squall::textures {
+
+// `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
+std::unique_ptr<Advection> make_eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
+                                         std::shared_ptr<const DeviceInputs> inputs, const std::string& state);
+
+}  // namespace squall::textures

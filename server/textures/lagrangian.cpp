@@ -1,0 +1,354 @@
+#include "textures/lagrangian.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "textures/grid_quality.h"
+#include "textures/poisson.h"
+#include "textures/state_codec.h"
+
+namespace squall::textures {
+namespace {
+
+constexpr int kTile = 16;  // pixels per reconstruction tile side
+constexpr uint32_t kStateVersion = 1;
+constexpr double kAlive = std::numeric_limits<double>::infinity();
+
+struct Particle {
+  uint64_t id = 0;
+  double birth = 0;      // s
+  double kill = kAlive;  // s; finite once FADING
+  bool fading() const { return kill != kAlive; }
+};
+
+double milliseconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The per-frame arrays the reconstruction reads, built on the host.
+struct Reconstruction {
+  std::vector<float> weights;                    // one per vertex
+  std::vector<cl_float4> bounds;                 // per grid: xmin, ymin, xmax, ymax (du)
+  std::vector<cl_int> tile_offsets, tile_grids;  // grids per tile, CSR, in grid order
+};
+
+class Lagrangian final : public Advection {
+ public:
+  Lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
+             std::shared_ptr<const DeviceInputs> inputs, const std::string& state)
+      : runtime_(runtime),
+        kernels_(kernels),
+        params_(spec.lagrangian),
+        scale_(spec.texture.scale),
+        t0_(spec.t0),
+        dt_(spec.dt),
+        substeps_(spec.substeps),
+        inputs_(std::move(inputs)),
+        angle_rng_(spec.seed, RngPurpose::PoissonAngle),
+        patch_rng_(spec.seed, RngPurpose::PatchOrigin),
+        time_(spec.t0) {
+    const double d = params_.d;
+    region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d,
+               [in = inputs_](double x, double y) { return in->fluid(x, y); }};
+    if (!state.empty()) restore(state);
+  }
+
+  TextureFrame next() override {
+    ParticleStats stats;
+    std::vector<std::pair<std::string, double>> stages;
+    if (!started_) {
+      started_ = true;
+      auto start = std::chrono::steady_clock::now();
+      insert(stats, t0_ - params_.fade_tau);  // born one fade earlier: frame 0 shows them at full weight
+      stages.emplace_back("maintain", milliseconds_since(start));
+    } else {
+      auto start = std::chrono::steady_clock::now();
+      advect();
+      stages.emplace_back("advect", milliseconds_since(start));
+      start = std::chrono::steady_clock::now();
+      ++index_;
+      time_ = t0_ + index_ * dt_;
+      maintain(stats);
+      stages.emplace_back("maintain", milliseconds_since(start));
+    }
+    auto start = std::chrono::steady_clock::now();
+    TextureFrame frame = reconstruct(stats);
+    stages.emplace_back("reconstruct", milliseconds_since(start));
+    frame.stats.stage_ms = std::move(stages);
+    return frame;
+  }
+
+  std::string checkpoint() const override {
+    StateWriter out;
+    out.put(kStateVersion);
+    out.put(uint8_t(started_));
+    out.put(int64_t(index_));
+    out.put(counter_);
+    out.put(next_id_);
+    out.put_vector(particles_);
+    out.put_vector(positions_);
+    out.put_vector(uvs_);
+    return out.take();
+  }
+
+ private:
+  int res() const { return params_.grid_res; }
+  size_t vertices() const { return size_t(res()) * res(); }
+  double spacing() const { return (2 + params_.beta) * params_.d / (res() - 1); }  // sec. 3.3.1
+  GridView grid(size_t k) const { return {positions_.data() + 2 * k * vertices(), res(), spacing()}; }
+
+  Vec2 centre(size_t k) const {  // the centre of mass of the grid's vertices (sec. 3.3.2)
+    double x = 0, y = 0;
+    for (size_t v = 0; v < vertices(); ++v) {
+      x += positions_[2 * (k * vertices() + v)];
+      y += positions_[2 * (k * vertices() + v) + 1];
+    }
+    return {x / vertices(), y / vertices()};
+  }
+
+  std::vector<uint8_t> outside(size_t k) const {
+    std::vector<uint8_t> flags(vertices());
+    GridView g = grid(k);
+    for (int b = 0; b < res(); ++b)
+      for (int a = 0; a < res(); ++a) flags[a + res() * b] = !inputs_->fluid(g.vertex(a, b).x, g.vertex(a, b).y);
+    return flags;
+  }
+
+  void restore(const std::string& state) {
+    StateReader in(state);
+    if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
+    started_ = in.get<uint8_t>() != 0;
+    index_ = int(in.get<int64_t>());
+    counter_ = in.get<uint64_t>();
+    next_id_ = in.get<uint64_t>();
+    particles_ = in.get_vector<Particle>();
+    positions_ = in.get_vector<float>();
+    uvs_ = in.get_vector<float>();
+    if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
+      fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
+    time_ = t0_ + index_ * dt_;
+  }
+
+  // Carries every vertex over [time_, time_ + dt] on the device.
+  void advect() {
+    if (positions_.empty()) return;
+    size_t bytes = positions_.size() * sizeof(float);
+    cl::Buffer buffer(runtime_.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, positions_.data());
+    auto lock = runtime_.exclusive();
+    kernels_.lagrangian_advect.launch(cl::NDRange(positions_.size() / 2), cl::NullRange, buffer,
+                                      cl_int(positions_.size() / 2), inputs_->velocity(time_), inputs_->grid(),
+                                      cl_float(time_), cl_float(dt_), cl_int(substeps_));
+    runtime_.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, positions_.data());
+  }
+
+  // Kills, deletes and inserts particles at time_ (sec. 3.3.1-3.3.4).
+  void maintain(ParticleStats& stats) {
+    std::vector<Vec2> centres(particles_.size());
+    for (size_t k = 0; k < particles_.size(); ++k) centres[k] = centre(k);
+    kill_distorted(centres, stats);
+    kill_crowded(centres, stats);
+    erase_finished(stats);
+    insert(stats, time_);
+  }
+
+  // Rules 1-3: the grid no longer covers its kernel, some vertex quality fell below 1/2, or it folded.
+  void kill_distorted(const std::vector<Vec2>& centres, ParticleStats& stats) {
+    for (size_t k = 0; k < particles_.size(); ++k) {
+      if (particles_[k].fading()) continue;
+      GridQuality q = grid_quality(grid(k), params_.delta_max, outside(k));
+      int* rule = !covers_kernel(grid(k), centres[k], params_.d) ? &stats.killed_coverage
+                  : q.min_quality < 0.5                          ? &stats.killed_quality
+                  : q.folded                                     ? &stats.killed_fold
+                                                                 : nullptr;
+      if (rule) {
+        ++*rule;
+        particles_[k].kill = time_;
+      }
+    }
+  }
+
+  // Rule 4: ALIVE particles closer than (1 - alpha) d to an older one (oldest first, ties by id).
+  void kill_crowded(const std::vector<Vec2>& centres, ParticleStats& stats) {
+    std::vector<size_t> alive;
+    for (size_t k = 0; k < particles_.size(); ++k)
+      if (!particles_[k].fading()) alive.push_back(k);
+    std::stable_sort(alive.begin(), alive.end(),
+                     [&](size_t a, size_t b) { return particles_[a].birth < particles_[b].birth; });
+    std::vector<Vec2> points;
+    for (size_t k : alive) points.push_back(centres[k]);
+    for (size_t i : poisson_cull(points, (1 - params_.alpha) * params_.d)) {
+      particles_[alive[i]].kill = time_;
+      ++stats.killed_density;
+    }
+  }
+
+  // Deletes particles faded out and those whose grid left the sampled region, keeping the order.
+  void erase_finished(ParticleStats& stats) {
+    size_t kept = 0;
+    for (size_t k = 0; k < particles_.size(); ++k) {
+      const Particle& p = particles_[k];
+      bool faded = p.fading() && time_ - p.kill >= params_.fade_tau;
+      bool gone = !overlaps_region(k);
+      if (faded || gone) {
+        ++stats.deleted;
+        continue;
+      }
+      if (kept != k) {
+        particles_[kept] = p;
+        std::copy_n(positions_.begin() + 2 * k * vertices(), 2 * vertices(),
+                    positions_.begin() + 2 * kept * vertices());
+        std::copy_n(uvs_.begin() + 2 * k * vertices(), 2 * vertices(), uvs_.begin() + 2 * kept * vertices());
+      }
+      ++kept;
+    }
+    particles_.resize(kept);
+    positions_.resize(2 * kept * vertices());
+    uvs_.resize(2 * kept * vertices());
+  }
+
+  bool overlaps_region(size_t k) const {
+    cl_float4 box = bounds(k);
+    return box.s[2] >= region_.x0 && box.s[0] <= region_.x1 && box.s[3] >= region_.y0 && box.s[1] <= region_.y1;
+  }
+
+  cl_float4 bounds(size_t k) const {
+    const float* xy = positions_.data() + 2 * k * vertices();
+    cl_float4 box{{xy[0], xy[1], xy[0], xy[1]}};
+    for (size_t v = 1; v < vertices(); ++v) {
+      box.s[0] = std::min(box.s[0], xy[2 * v]);
+      box.s[1] = std::min(box.s[1], xy[2 * v + 1]);
+      box.s[2] = std::max(box.s[2], xy[2 * v]);
+      box.s[3] = std::max(box.s[3], xy[2 * v + 1]);
+    }
+    return box;
+  }
+
+  // Restores the Poisson-disk distribution around the ALIVE particles with particles born at `birth`.
+  void insert(ParticleStats& stats, double birth) {
+    std::vector<Vec2> alive;
+    for (size_t k = 0; k < particles_.size(); ++k)
+      if (!particles_[k].fading()) alive.push_back(centre(k));
+    for (Vec2 p : poisson_fill(alive, region_, params_.d, angle_rng_, counter_)) {
+      add_particle(p, birth);
+      ++stats.born;
+    }
+  }
+
+  // A regular grid centred on p (sec. 3.3.1), mapped to a random patch of R or to u = S x.
+  void add_particle(Vec2 p, double birth) {
+    Particle particle{next_id_++, birth, kAlive};
+    Vec2 u0{scale_ * p.x, scale_ * p.y};
+    if (params_.patch_origin == PatchOrigin::Random)
+      u0 = {patch_rng_.uniform(2 * particle.id), patch_rng_.uniform(2 * particle.id + 1)};
+    const double g = spacing(), half = (res() - 1) / 2.0;
+    for (int b = 0; b < res(); ++b) {
+      for (int a = 0; a < res(); ++a) {
+        double x = p.x + g * (a - half), y = p.y + g * (b - half);
+        positions_.insert(positions_.end(), {float(x), float(y)});
+        uvs_.insert(uvs_.end(), {float(u0.x + scale_ * (x - p.x)), float(u0.y + scale_ * (y - p.y))});
+      }
+    }
+    particles_.push_back(particle);
+  }
+
+  // Vertex weights (eqs. 5-8), grid bounds and tile lists for the frame at time_.
+  Reconstruction prepare(const OutputGrid& out, ParticleStats& stats) const {
+    Reconstruction r;
+    r.weights.resize(particles_.size() * vertices());
+    int tiles_y = (out.height + kTile - 1) / kTile;
+    std::vector<std::vector<cl_int>> tiles(size_t(out.tiles_x) * tiles_y);
+    for (size_t k = 0; k < particles_.size(); ++k) {
+      const Particle& p = particles_[k];
+      std::vector<uint8_t> flags = outside(k);
+      GridQuality q = grid_quality(grid(k), params_.delta_max, flags);
+      double since_kill = p.fading() ? time_ - p.kill : -1;
+      double temporal = temporal_weight(time_ - p.birth + dt_, since_kill, params_.fade_tau);  // eq. 6
+      vertex_weights(grid(k), centre(k), params_.d, temporal, q.vertex_quality, flags, &r.weights[k * vertices()]);
+      p.fading() ? ++stats.fading : ++stats.alive;
+      if (!p.fading()) {
+        stats.min_quality = std::min(stats.min_quality, q.min_quality);
+        stats.max_distortion = std::max(stats.max_distortion, q.max_distortion);
+      }
+      r.bounds.push_back(bounds(k));
+      bin(out, r.bounds.back(), cl_int(k), tiles);
+    }
+    r.tile_offsets.push_back(0);
+    for (auto& list : tiles) {
+      r.tile_grids.insert(r.tile_grids.end(), list.begin(), list.end());
+      r.tile_offsets.push_back(cl_int(r.tile_grids.size()));
+    }
+    if (r.tile_grids.empty()) r.tile_grids.push_back(0);
+    return r;
+  }
+
+  static void bin(const OutputGrid& out, const cl_float4& box, cl_int grid, std::vector<std::vector<cl_int>>& tiles) {
+    int tiles_y = int(tiles.size()) / out.tiles_x;
+    auto tile_of = [](float x, float origin, float pixel, int count) {
+      return std::clamp(int(std::floor((x - origin) / pixel / kTile)), 0, count - 1);
+    };
+    if (box.s[2] < out.x0 || box.s[3] < out.y0 || box.s[0] > out.x0 + out.width * out.pixel_x ||
+        box.s[1] > out.y0 + out.height * out.pixel_y)
+      return;
+    int i0 = tile_of(box.s[0], out.x0, out.pixel_x, out.tiles_x),
+        i1 = tile_of(box.s[2], out.x0, out.pixel_x, out.tiles_x);
+    int j0 = tile_of(box.s[1], out.y0, out.pixel_y, tiles_y), j1 = tile_of(box.s[3], out.y0, out.pixel_y, tiles_y);
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) tiles[size_t(i) + size_t(out.tiles_x) * j].push_back(grid);
+  }
+
+  TextureFrame reconstruct(const ParticleStats& counts) {
+    ParticleStats stats = counts;
+    OutputGrid out = inputs_->output(kTile);
+    Reconstruction r = prepare(out, stats);
+    TextureSource texture = inputs_->texture(time_);
+    TextureFrame frame = empty_frame(index_, time_, out, texture);
+    auto buffer = [&](auto& values) {
+      size_t bytes = std::max<size_t>(values.size() * sizeof(values[0]), 16);
+      cl::Buffer b(runtime_.context(), CL_MEM_READ_ONLY, bytes);
+      if (!values.empty())
+        runtime_.queue().enqueueWriteBuffer(b, CL_FALSE, 0, values.size() * sizeof(values[0]), values.data());
+      return b;
+    };
+    cl::Buffer planes(runtime_.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
+    {
+      auto lock = runtime_.exclusive();
+      cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), bounds = buffer(r.bounds);
+      cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
+      kernels_.lagrangian_reconstruct.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes, out, offsets,
+                                             grids, bounds, positions, uvs, weights, cl_int(res()),
+                                             cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture,
+                                             inputs_->image(), inputs_->velocity(time_), inputs_->mask());
+      runtime_.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
+    }
+    frame.stats = frame_stats(frame);
+    frame.stats.particles = stats;
+    return frame;
+  }
+
+  Runtime& runtime_;
+  TextureKernels& kernels_;
+  LagrangianParams params_;
+  double scale_, t0_, dt_;
+  int substeps_;
+  std::shared_ptr<const DeviceInputs> inputs_;
+  PoissonRegion region_;
+  CounterRng angle_rng_, patch_rng_;
+  // The state a checkpoint holds:
+  bool started_ = false;
+  int index_ = 0;
+  uint64_t counter_ = 0, next_id_ = 0;
+  std::vector<Particle> particles_;
+  std::vector<float> positions_, uvs_;  // 2 per vertex, grids in particle order
+  double time_;
+};
+
+}  // namespace
+
+std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
+                                           std::shared_ptr<const DeviceInputs> inputs, const std::string& state) {
+  return std::make_unique<Lagrangian>(runtime, kernels, spec, std::move(inputs), state);
+}
+
+}  // namespace squall::textures

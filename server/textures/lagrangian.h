@@ -1,0 +1,21 @@
+// Lagrangian texture advection (the primary method): Q. Yu, F. Neyret, E. Bruneton, N. Holzschuch,
+// "Lagrangian Texture Advection: Preserving both Spectrum and Velocity Field", IEEE TVCG 17(11), 2011.
+// Particles in a dynamic Poisson-disk distribution (sec. 3.3.1) carry G x G grids mapped to patches of the
+// reference texture; the vertices follow the flow on the device (sec. 3.3.2); the host kills distorted,
+// folded, uncovering and crowded particles, fades them out, inserts new ones (sec. 3.3.2-3.3.4) and weighs
+// the vertices (eqs. 5-8); the device rebuilds each frame directly (sec. 3.5.1) with eq. 4 or eq. 3.
+#pragma once
+
+#include <memory>
+
+#include "textures/advection.h"
+#include "textures/device_inputs.h"
+#include "textures/texture_kernels.h"
+
+namespace squall::textures {
+
+// `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
+std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
+                                           std::shared_ptr<const DeviceInputs> inputs, const std::string& state);
+
+}  // namespace squall::textures

@@ -1,0 +1,67 @@
+#include "textures/texture_engine.h"
+
+#include <cmath>
+
+#include "textures/eulerian.h"
+#include "textures/lagrangian.h"
+
+namespace squall::textures {
+namespace {
+
+constexpr int kStatsResolution = 256;  // texels per period when the stats of a procedural texture are measured
+
+void render_window(Runtime& runtime, TextureKernels& kernels, TextureFrame& frame, const OutputGrid& out, double scale,
+                   const TextureSource& texture, const cl::Buffer& image) {
+  cl::Buffer planes(runtime.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
+  auto lock = runtime.exclusive();
+  kernels.texture_window.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes, out, cl_float(scale),
+                                texture, image);
+  runtime.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
+}
+
+}  // namespace
+
+TextureEngine::TextureEngine(Runtime& runtime, const LimitGate& gate)
+    : runtime_(runtime), gate_(gate), kernels_(runtime) {}
+
+std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, const std::string& resume_state) {
+  auto inputs = std::make_shared<const DeviceInputs>(runtime_, spec, reference_stats(spec.texture));
+  if (spec.method == Method::LagrangianGrids) return make_lagrangian(runtime_, kernels_, spec, inputs, resume_state);
+  return make_eulerian(runtime_, kernels_, spec, inputs, resume_state);
+}
+
+TextureFrame TextureEngine::window(const AdvectSpec& spec) { return window(spec, reference_stats(spec.texture)); }
+
+TextureFrame TextureEngine::window(const AdvectSpec& spec, const ReferenceStats& stats) {
+  DeviceInputs inputs(runtime_, spec, stats);
+  OutputGrid out = inputs.output(1);
+  TextureSource texture = inputs.texture(spec.t0);
+  TextureFrame frame = empty_frame(0, spec.t0, out, texture);
+  render_window(runtime_, kernels_, frame, out, spec.texture.scale, texture, inputs.image());
+  frame.stats = frame_stats(frame);
+  return frame;
+}
+
+ReferenceStats TextureEngine::reference_stats(const TextureSpec& texture) {
+  if (texture.kind == SQUALL_TEXTURE_IMAGE) return image_stats(texture);
+  AdvectSpec one_period;
+  one_period.texture = texture;
+  one_period.texture.scale = 1;
+  one_period.output = {kStatsResolution, kStatsResolution, 0, 0, 1, 1};
+  TextureFrame frame = window(one_period, ReferenceStats{});  // rendering R itself blends nothing: no Rhat needed
+  ReferenceStats stats;
+  const size_t n = size_t(frame.width) * frame.height;
+  for (int c = 0; c < frame.raw_planes; ++c) {
+    const float* plane = frame.plane(frame.final_planes + c);
+    double sum = 0, sum2 = 0;
+    for (size_t k = 0; k < n; ++k) {
+      sum += plane[k];
+      sum2 += double(plane[k]) * plane[k];
+    }
+    stats.mean.push_back(sum / n);
+    stats.variance.push_back(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+  }
+  return stats;
+}
+
+}  // namespace squall::textures

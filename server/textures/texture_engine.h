@@ -1,0 +1,45 @@
+// The textures engine: validates advection requests and starts advections (Lagrangian grids, Eulerian
+// multi-layer, two-phase flow map, naive) on the daemon's device. No gRPC in here.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "common/limits.h"
+#include "runtime/runtime.h"
+#include "textures/advection.h"
+#include "textures/device_inputs.h"
+#include "textures/texture_kernels.h"
+#include "textures/texture_spec.h"
+
+namespace squall::textures {
+
+// Largest particle count a Lagrangian request may need (about region area / d^2).
+constexpr double kMaxParticles = 200000;
+
+class TextureEngine {
+ public:
+  TextureEngine(Runtime& runtime, const LimitGate& gate);
+
+  // Every field in range (INVALID_ARGUMENT naming "<path>.<field>") and the output and velocity grids
+  // within --max-grid-cells (RESOURCE_EXHAUSTED).
+  void validate(const AdvectSpec& spec, const std::string& path) const;
+
+  // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
+  // continues it bit-identically.
+  std::unique_ptr<Advection> start(const AdvectSpec& spec, const std::string& resume_state = "");
+
+  // The reference texture registered to the domain, T(S x), on the spec's output pixels.
+  TextureFrame window(const AdvectSpec& spec);
+  // Mean and variance of each channel of R over one period (images: from the pixels).
+  ReferenceStats reference_stats(const TextureSpec& texture);
+
+ private:
+  TextureFrame window(const AdvectSpec& spec, const ReferenceStats& stats);
+
+  Runtime& runtime_;
+  const LimitGate& gate_;
+  TextureKernels kernels_;
+};
+
+}  // namespace squall::textures

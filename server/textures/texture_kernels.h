@@ -1,0 +1,43 @@
+// Host declarations of the texture kernels (kernels/textures/): each argument list once, in the order of
+// the kernel's signature.
+#pragma once
+
+#include "runtime/kernel.h"
+#include "runtime/runtime.h"
+#include "textures/fields.h"
+
+SQUALL_KERNEL_STRUCT(VelocityField)
+SQUALL_KERNEL_STRUCT(TextureSource)
+SQUALL_KERNEL_STRUCT(OutputGrid)
+
+namespace squall::textures {
+
+struct TextureKernels {
+  // positions, count, velocity, grid, t, dt, substeps
+  Kernel<cl::Buffer, cl_int, VelocityField, cl::Buffer, cl_float, cl_float, cl_int> lagrangian_advect;
+  // out, frame, tile_offsets, tile_grids, grid_bounds, positions, uvs, weights, grid_res, blend, texture,
+  // image, velocity, mask
+  Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl_int, cl_int,
+         TextureSource, cl::Buffer, VelocityField, cl::Buffer>
+      lagrangian_reconstruct;
+  // state_in, state_out, nx, ny, frame, slots, velocity, grid, t, dt, scale, reset_mask
+  Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, VelocityField, cl::Buffer, cl_float, cl_float,
+         cl_float, cl_int>
+      eulerian_advect;
+  // out, frame, state, nx, ny, layers, phases, alpha, deformation_mode, d_star, blend, texture, image,
+  // velocity, mask
+  Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl_int, cl_int, cl_int, cl_int, cl::Buffer, cl_int, cl_float, cl_int,
+         TextureSource, cl::Buffer, VelocityField, cl::Buffer>
+      eulerian_render;
+  // out, frame, scale, texture, image
+  Kernel<cl::Buffer, OutputGrid, cl_float, TextureSource, cl::Buffer> texture_window;
+
+  explicit TextureKernels(Runtime& runtime)
+      : lagrangian_advect(runtime, "textures/lagrangian.cl", "lagrangian_advect"),
+        lagrangian_reconstruct(runtime, "textures/lagrangian.cl", "lagrangian_reconstruct"),
+        eulerian_advect(runtime, "textures/eulerian.cl", "eulerian_advect"),
+        eulerian_render(runtime, "textures/eulerian.cl", "eulerian_render"),
+        texture_window(runtime, "textures/reference.cl", "texture_window") {}
+};
+
+}  // namespace squall::textures

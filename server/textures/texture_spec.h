@@ -1,0 +1,124 @@
+// What an advection request asks for, validated by validate(spec, gate, path) (texture_engine.h): the
+// domain, the velocity field, the reference texture and its final function, the output, the method and
+// its parameters. Units: domain units (du) for lengths, seconds, texture periods for texture coordinates.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "textures/fields.h"
+
+namespace squall::textures {
+
+enum class Method {
+  LagrangianGrids,     // Yu, Neyret, Bruneton, Holzschuch 2011 (particles carrying deformable grids)
+  EulerianMultilayer,  // F. Neyret, "Advected Textures" (SCA 2003): N layers of regenerated coordinates
+  TwoPhaseFlowMap,     // the game engines' flow map: one layer, two phases half a latency apart
+  Naive,               // texture coordinates advected, never regenerated (the negative control)
+};
+constexpr int kMethods = 4;
+
+enum class Extrapolation { Clamp, Zero, PushPull };  // a velocity grid outside its nodes or its fluid
+
+struct VelocityFrame {
+  double time = 0;          // s
+  std::vector<float> u, v;  // du/s, nx * ny each, x fastest
+};
+
+struct VelocitySpec {
+  int kind = SQUALL_VELOCITY_UNIFORM;                   // SQUALL_VELOCITY_* (fields.h)
+  std::array<double, SQUALL_VELOCITY_PARAMS> params{};  // analytic parameters, as fields.h lists them
+  // SQUALL_VELOCITY_GRID only:
+  int nx = 0, ny = 0;                 // nodes, >= 2 each
+  double origin_x = 0, origin_y = 0;  // du, position of node (0, 0)
+  double hx = 0, hy = 0;              // du, > 0
+  std::vector<VelocityFrame> frames;  // increasing times; linear in time between them, held outside
+  Extrapolation extrapolation = Extrapolation::Clamp;
+  std::vector<uint8_t> mask;  // nx * ny, nonzero = fluid; empty = all fluid
+};
+
+struct TextureSpec {
+  int kind = SQUALL_TEXTURE_NOISE;  // SQUALL_TEXTURE_*
+  // Image: `channels` planes of width x height, x fastest, one period of a tileable texture.
+  int width = 0, height = 0, channels = 1;
+  std::vector<float> pixels;
+  // Noise: `bands` channels b_j(2^j u).
+  int bands = 4;
+  double base_cells = 4;  // lattice cells per period in band 0, 1..64
+  double spin = 0;        // flow noise: rad/s of band 0
+  uint32_t seed = 1;
+  double scale = 4;                            // S, texture periods per du
+  int final_function = SQUALL_FINAL_IDENTITY;  // SQUALL_FINAL_*
+  double final_scale = 1;
+};
+
+// The output frames: width x height pixels over the region [x0, x1] x [y0, y1] (du); pixel (px, py)
+// samples the region at its centre.
+struct OutputSpec {
+  int width = 128, height = 128;
+  double x0 = 0, y0 = 0, x1 = 1, y1 = 1;
+};
+
+enum class Blend {
+  VariancePreserving,  // LTA11 eq. 4: sum w (R - Rhat) / sqrt(sum w^2) + Rhat
+  Normalized,          // LTA11 eq. 3: sum w R / sum w
+};
+
+enum class PatchOrigin {
+  Random,  // each grid maps a random patch of the reference texture (LTA11 sec. 3.3.1)
+  Window,  // each grid starts registered to the domain: u = S x at birth
+};
+
+struct LagrangianParams {
+  double d = 0.1;          // Poisson radius (du); blending kernel radius
+  double alpha = 0.25;     // particles closer than (1 - alpha) d are culled
+  double beta = 0.6;       // grids are (2 + beta) d wide
+  int grid_res = 8;        // G x G vertices per grid, 3..16
+  double delta_max = 2.0;  // eq. 2: distortion at which the quality reaches 0
+  double fade_tau = 0.5;   // s, fade-in and fade-out durations (eq. 6)
+  Blend blend = Blend::VariancePreserving;
+  PatchOrigin patch_origin = PatchOrigin::Random;
+};
+
+enum class PhaseWeight {
+  Cosine,    // ADV03: (1 - cos(2 pi age / latency)) / phases
+  Triangle,  // game engines' flow maps: 1 - |2 age / latency - 1|
+};
+
+enum class DeformationSum {
+  Weighted,  // d^i = phases * sum_j alpha_j d_j: continuous in time
+  Paper,     // d^i = sum_j d_j (ADV03 sec. 2.1)
+};
+
+enum class EulerianBlend {
+  Octave,                    // blend the channels (noise octaves), then F (ADV03 sec. 3)
+  Final,                     // classical: F per parameterization, then blend (ghosting)
+  OctaveVariancePreserving,  // the channels blended with eq. 4 of LTA11, then F
+};
+
+struct EulerianParams {
+  std::vector<double> latencies = {0.6, 2.3, 4.0};  // s, one layer each, increasing
+  int phases = 3;                                   // regenerated parameterizations per layer, 2 or 3
+  PhaseWeight weight = PhaseWeight::Cosine;
+  double d_star = 1.0;  // target accumulated deformation (dimensionless, integral of |e| dt)
+  DeformationSum deformation = DeformationSum::Weighted;
+  EulerianBlend blend = EulerianBlend::Octave;
+  int grid_nx = 64, grid_ny = 64;  // advection nodes over the output region
+};
+
+struct AdvectSpec {
+  Method method = Method::LagrangianGrids;
+  VelocitySpec velocity;
+  TextureSpec texture;
+  OutputSpec output;
+  double t0 = 0;         // s, time of frame 0
+  double dt = 1.0 / 30;  // s between frames, > 0
+  int frames = 1;
+  int substeps = 1;  // integration steps per frame
+  uint64_t seed = 1;
+  LagrangianParams lagrangian;
+  EulerianParams eulerian;  // method EulerianMultilayer (TwoPhaseFlowMap and Naive set their own)
+};
+
+}  // namespace squall::textures

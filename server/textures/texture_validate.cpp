@@ -1,0 +1,133 @@
+// TextureEngine::validate: every field of an AdvectSpec, under the caller's path.
+#include <cmath>
+
+#include "common/error.h"
+#include "common/validate.h"
+#include "textures/texture_engine.h"
+
+namespace squall::textures {
+namespace {
+
+using namespace squall::validate;
+
+constexpr int kMaxFrames = 100000;
+constexpr int kMaxVelocityFrames = 4096;
+constexpr int kMaxLayers = 6;  // slots = layers * phases <= 12 (eulerian.cl)
+
+std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
+
+// Every analytic parameter finite, and the one the field divides by > 0.
+void analytic(const VelocitySpec& v, const std::string& path) {
+  for (int k = 0; k < SQUALL_VELOCITY_PARAMS; ++k) finite(param(path, k), v.params[k]);
+  int divisor = -1;  // the parameter a kind divides by (fields.h)
+  if (v.kind == SQUALL_VELOCITY_SINK || v.kind == SQUALL_VELOCITY_VORTEX || v.kind == SQUALL_VELOCITY_CYLINDER)
+    divisor = 3;                                            // eps of |x - c| + eps, core radius, cylinder radius
+  if (v.kind == SQUALL_VELOCITY_TAYLOR_GREEN) divisor = 1;  // period
+  if (v.kind == SQUALL_VELOCITY_CHANNEL) divisor = 2;       // half width
+  if (divisor >= 0) positive(param(path, divisor), v.params[divisor]);
+}
+
+void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::string& path) {
+  in(path + ".nx", int64_t(v.nx), 2, 1 << 20);
+  in(path + ".ny", int64_t(v.ny), 2, 1 << 20);
+  in(path + ".frames size", int64_t(v.frames.size()), 1, kMaxVelocityFrames);
+  gate.check_grid(path, v.nx, v.ny, int64_t(v.frames.size()));
+  finite(path + ".origin_x", v.origin_x);
+  finite(path + ".origin_y", v.origin_y);
+  positive(path + ".hx", v.hx);
+  positive(path + ".hy", v.hy);
+  const size_t nodes = size_t(v.nx) * v.ny;
+  for (size_t f = 0; f < v.frames.size(); ++f) {
+    const std::string frame = at(path + ".frames", f);
+    finite(frame + ".time", v.frames[f].time);
+    if (f > 0 && v.frames[f].time <= v.frames[f - 1].time)
+      reject(frame + ".time", v.frames[f].time, "greater than the previous frame's time");
+    count(frame + ".u", v.frames[f].u.size(), nodes, "nx * ny");
+    count(frame + ".v", v.frames[f].v.size(), nodes, "nx * ny");
+    each(frame + ".u", v.frames[f].u.data(), nodes);
+    each(frame + ".v", v.frames[f].v.data(), nodes);
+  }
+  if (!v.mask.empty()) count(path + ".mask", v.mask.size(), nodes, "nx * ny");
+}
+
+void texture(const TextureSpec& t, const LimitGate& gate, const std::string& path) {
+  known(path + ".kind", t.kind, 2, "texture kind");
+  if (t.kind == SQUALL_TEXTURE_IMAGE) {
+    gate.check_grid(path + ".image", t.width, t.height);
+    in(path + ".image.channels", int64_t(t.channels), 1, SQUALL_TEXTURE_MAX_CHANNELS);
+    const size_t n = size_t(t.width) * t.height * t.channels;
+    count(path + ".image.pixels", t.pixels.size(), n, "width * height * channels");
+    each(path + ".image.pixels", t.pixels.data(), n);
+  } else {
+    in(path + ".noise.bands", int64_t(t.bands), 1, SQUALL_TEXTURE_MAX_CHANNELS);
+    in(path + ".noise.base_cells", int64_t(t.base_cells), 1, 64);
+    if (t.base_cells != std::floor(t.base_cells)) reject(path + ".noise.base_cells", t.base_cells, "an integer");
+    finite(path + ".noise.spin", t.spin);
+  }
+  positive(path + ".scale", t.scale, 1e6);
+  known(path + ".final_function", t.final_function, SQUALL_FINAL_FUNCTIONS, "final function");
+  finite(path + ".final_scale", t.final_scale);
+}
+
+void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
+  gate.check_grid(path, o.width, o.height);
+  finite(path + ".x0", o.x0);
+  finite(path + ".y0", o.y0);
+  in(path + ".x1", o.x1, above(o.x0));
+  in(path + ".y1", o.y1, above(o.y0));
+}
+
+void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {
+  positive(path + ".d", p.d);
+  double area = (o.x1 - o.x0 + 2 * p.d) * (o.y1 - o.y0 + 2 * p.d);
+  if (area / (p.d * p.d) > kMaxParticles)
+    fail(Code::ResourceExhausted, path + ".d = " + number(p.d) + " would need about " + number(area / (p.d * p.d)) +
+                                      " particles over the output region; at most " + number(kMaxParticles));
+  in(path + ".alpha", p.alpha, open(0, 1));
+  in(path + ".beta", p.beta, closed(0, 4));
+  in(path + ".grid_res", int64_t(p.grid_res), 3, 16);
+  in(path + ".delta_max", p.delta_max, open_closed(1, 100));
+  positive(path + ".fade_tau", p.fade_tau, 1e6);
+}
+
+void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, const std::string& path) {
+  in(path + ".grid_nx", int64_t(p.grid_nx), 2, 4096);
+  in(path + ".grid_ny", int64_t(p.grid_ny), 2, 4096);
+  gate.check_grid(path + ".grid", p.grid_nx, p.grid_ny);
+  if (method == Method::Naive) return;  // never regenerated: no latency
+  in(path + ".latencies size", int64_t(p.latencies.size()), 1, method == Method::EulerianMultilayer ? kMaxLayers : 1);
+  for (size_t i = 0; i < p.latencies.size(); ++i) {
+    positive(at(path + ".latencies", i), p.latencies[i], 1e6);
+    if (i > 0 && p.latencies[i] <= p.latencies[i - 1])
+      reject(at(path + ".latencies", i), p.latencies[i], "greater than the previous layer's latency");
+  }
+  if (method != Method::EulerianMultilayer) return;
+  in(path + ".phases", int64_t(p.phases), 2, 3);
+  if (p.weight == PhaseWeight::Triangle && p.phases != 2)
+    reject(path + ".phases", p.phases, "2 with triangle phase weights (they sum to 1 for two phases only)");
+  positive(path + ".d_star", p.d_star, 1e6);
+}
+
+}  // namespace
+
+void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) const {
+  known(path + ".method", int(spec.method), kMethods, "method");
+  const std::string velocity = path + ".velocity";
+  known(velocity + ".kind", spec.velocity.kind, SQUALL_VELOCITY_KINDS, "velocity kind");
+  if (spec.velocity.kind == SQUALL_VELOCITY_GRID)
+    velocity_grid(spec.velocity, gate_, velocity + ".grid");
+  else
+    analytic(spec.velocity, velocity);
+  texture(spec.texture, gate_, path + ".texture");
+  output(spec.output, gate_, path + ".output");
+  finite(path + ".t0", spec.t0);
+  positive(path + ".dt", spec.dt, 1e4);
+  in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
+  in(path + ".substeps", int64_t(spec.substeps), 1, 64);
+  if (spec.method == Method::LagrangianGrids)
+    lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
+  else
+    eulerian(spec.eulerian, spec.method, gate_, path + ".eulerian");
+}
+
+}  // namespace squall::textures

@@ -1,0 +1,70 @@
+// Blending and coverage: LTA11 (Yu et al., TVCG 2011) eq. 4 keeps the mean and the variance of the
+// reference texture where eq. 3 lowers the variance to sigma^2 sum w^2 / (sum w)^2 (fig. 3 and appendix);
+// the grids cover every fluid pixel, near a sink (fig. 9) and along walls (sec. 3.3.4); the Eulerian phase
+// weights are a partition of unity (F. Neyret, "Advected Textures", SCA 2003, sec. 2.2).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "textures/textures_support.h"
+
+namespace squall::test {
+namespace {
+
+using namespace squall::textures;
+
+TEST(TexturesBlending, VariancePreservingBlendKeepsTheInputStdWhereNormalizedBlendLowersIt) {
+  // 256 x 256 pixels over 2 x 2 du hold 32 x 32 noise cells: the mean of a frame then deviates from Rhat
+  // by about sigma / 32 from sampling alone.
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {0.2, 0.1}, 256);
+  spec.output.x1 = spec.output.y1 = 2;
+  ReferenceStats reference = texture_engine().reference_stats(spec.texture);
+  const double sigma = std::sqrt(reference.variance[0]), mean = reference.mean[0];
+  TextureFrame preserving = run(spec, 16).back();
+  spec.lagrangian.blend = Blend::Normalized;
+  TextureFrame normalized = run(spec, 16).back();
+
+  Image image = plane_image(preserving, 0);
+  std::printf("sigma_R %.4f; eq. 4: mean %.4f std %.4f local-std CV %.3f\n", sigma, test::mean(image), stddev(image),
+              coefficient_of_variation(local_std(image, 32)));
+  EXPECT_NEAR(test::mean(image), mean, 0.1 * sigma);
+  EXPECT_NEAR(stddev(image), sigma, 0.05 * sigma);
+  EXPECT_LT(coefficient_of_variation(local_std(image, 32)), 0.15);
+
+  double predicted = 0;  // eq. 3: Var = sigma^2 sum w^2 / (sum w)^2, averaged over the pixels
+  const size_t n = size_t(normalized.width) * normalized.height;
+  for (size_t k = 0; k < n; ++k)
+    predicted += normalized.weight_sq_sum()[k] / (normalized.weight_sum()[k] * normalized.weight_sum()[k]);
+  predicted = sigma * std::sqrt(predicted / n);
+  double measured = stddev(plane_image(normalized, 0));
+  std::printf("eq. 3: std %.4f, predicted %.4f\n", measured, predicted);
+  EXPECT_LT(measured, 0.85 * sigma);
+  EXPECT_NEAR(measured, predicted, 0.10 * predicted);
+}
+
+void expect_covered(const AdvectSpec& spec, int frames, const char* what) {
+  int64_t solid = 0;
+  for (const TextureFrame& frame : run(spec, frames)) {
+    ASSERT_EQ(frame.stats.uncovered, 0) << what << ", frame " << frame.index;
+    for (int k = 0; k < frame.width * frame.height; ++k) solid += frame.coverage()[k] < 0;
+  }
+  std::printf("%s: no uncovered fluid pixel in %d frames (%lld solid pixel-frames)\n", what, frames, (long long)solid);
+}
+
+TEST(TexturesBlending, GridsCoverEveryFluidPixelNearASinkAndAlongWalls) {
+  expect_covered(noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_SINK, {0.25, 0.5, 0.5, 0.05}), 90, "sink");
+  expect_covered(noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_CHANNEL, {0.4, 0.5, 0.35}), 60, "channel");
+  expect_covered(noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_CYLINDER, {0.3, 0.5, 0.5, 0.15}), 60, "cylinder");
+}
+
+TEST(TexturesBlending, EulerianWeightsArePartitionsOfUnity) {
+  for (Method method : {Method::EulerianMultilayer, Method::TwoPhaseFlowMap}) {
+    for (const TextureFrame& frame : run(noise_spec(method, SQUALL_VELOCITY_VORTEX, {0.5, 0.5, 0.5, 0.1}), 90)) {
+      for (int k = 0; k < frame.width * frame.height; ++k)
+        ASSERT_NEAR(frame.weight_sum()[k], 1.0, 1e-5) << "method " << int(method) << " frame " << frame.index;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace squall::test
