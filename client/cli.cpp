@@ -7,6 +7,7 @@
 #include "client/ewave_cli.h"
 #include "client/cloud_cli.h"
 #include "client/ocean_cli.h"
+#include "client/texture_cli.h"
 
 namespace squall::cli {
 namespace {
@@ -56,6 +57,7 @@ std::map<std::string, Verb>& verbs() {
       {"ocean", {ocean::kVerbUsage, ocean::run}},
       {"ewave", {ewave::kVerbUsage, ewave::run}},
       {"cloud", {cloud::kVerbUsage, cloud::run}},
+      {"texture", {texture::kVerbUsage, texture::run}},
   };
   return table;
 }

@@ -15,6 +15,7 @@
 #include "ewave/ewave_service.h"
 #include "ocean/ocean_service.h"
 #include "rpc/request_log.h"
+#include "textures/textures_service.h"
 
 namespace squall::rpc {
 namespace {
@@ -33,6 +34,7 @@ std::vector<std::unique_ptr<Capability>> capabilities(ServingState& serving) {
   all.push_back(std::make_unique<OceanService>(serving));
   all.push_back(std::make_unique<EWaveService>(serving));
   all.push_back(std::make_unique<CloudsService>(serving));
+  all.push_back(std::make_unique<TexturesService>(serving));
   return all;
 }
 

@@ -30,7 +30,9 @@ std::vector<double> radial_power_spectrum(const Image&, int bins);
 double mean_abs_log10_ratio(const std::vector<double>& a, const std::vector<double>& b, int first, int last);
 
 // Spectral anisotropy lambda_max / lambda_min of M = sum |F(k)|^2 k k^T / sum |F(k)|^2 (mean removed, Hann
-// window), over k != 0 with |k| <= 0.5 cycles/pixel. 1 for an isotropic image.
+// window), over k != 0 with |k| <= 0.5 cycles/pixel. 1 for an isotropic image; a random isotropic texture
+// fluctuates about 1 by roughly 2 / sqrt(correlation cells in the image). Throws std::invalid_argument on a
+// constant image.
 double spectral_anisotropy(const Image&);
 
 // Displacement (in pixels) that moves window content of `a` to where it is in `b`: b(x) ~ a(x - d).
@@ -39,8 +41,10 @@ struct Displacement {
   bool valid = false;
 };
 
-// Phase correlation on the window [x0, x0+size) x [y0, y0+size) of both images (Hann windowed); the integer
-// peak is refined to sub-pixel by a three-point Gaussian fit. valid=false if the peak is weak.
+// Phase correlation on the window [x0, x0+size) x [y0, y0+size) of both images (Hann windowed); the peak is
+// located to sub-pixel by a three-point Gaussian fit, and b's window is resampled (bilinear, clamp-to-edge) at
+// the estimate and correlated again until the residual is below 0.01 px (at most 4 passes). valid=false if a
+// pass has a weak peak (below 0.6 of a perfect match).
 Displacement phase_correlation(const Image& a, const Image& b, int x0, int y0, int size);
 
 // Windowed Lucas-Kanade on the same window, iterated (up to 10 Gauss-Newton steps with bilinear warping) so

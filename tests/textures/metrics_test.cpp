@@ -8,6 +8,8 @@
 #include <functional>
 #include <numbers>
 #include <random>
+#include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "textures/metrics.h"
@@ -16,9 +18,9 @@ namespace squall::test {
 namespace {
 
 // Smooth band-limited noise: a sum of `count` cosines with random phases, wavelengths uniform in
-// [min_wavelength, max_wavelength] px and directions drawn uniformly within each of `count` equal sectors of [0, pi). Amplitudes are proportional to
-// the wavelength, so that every wave has the same weight |k|^2 |F|^2 in the spectral second moment; the sum is
-// scaled to unit standard deviation.
+// [min_wavelength, max_wavelength] px and directions drawn uniformly within each of `count` equal sectors of
+// [0, pi). Amplitudes are proportional to the wavelength, so that every wave has the same weight |k|^2 |F|^2 in
+// the spectral second moment; the sum is scaled to unit standard deviation.
 class Noise {
  public:
   Noise(int count, unsigned seed, double min_wavelength = 8, double max_wavelength = 32) {
@@ -128,7 +130,7 @@ TEST(Metrics, LucasKanadeOnAFlatImageIsInvalid) {
 }
 
 // The anisotropy of a random isotropic texture fluctuates like 1 + 2 / sqrt(number of correlation cells in the
-// window): wavelengths of 8-32 px give 1.1-1.35 on 256 x 256 (seeds 1-20), 3-12 px give 1.02-1.12.
+// window): wavelengths of 8-32 px give 1.06-1.35 on 256 x 256 (seeds 1-20), 3-12 px give 1.01-1.12.
 TEST(Metrics, SpectralAnisotropySeparatesIsotropicFromStretched) {
   const Noise noise(256, 3, 3, 12);
   const double isotropic = spectral_anisotropy(render(256, 256, noise));
@@ -137,16 +139,20 @@ TEST(Metrics, SpectralAnisotropySeparatesIsotropicFromStretched) {
   EXPECT_GE(isotropic, 1.0);
   EXPECT_LT(isotropic, 1.15);
   EXPECT_GT(stretched, 2.5);
+  EXPECT_THROW(spectral_anisotropy(Image{8, 8, std::vector<float>(64, 1.0f)}), std::invalid_argument);
 }
 
+// A Hann-windowed periodogram bin averages about a quarter as many independent values as it has frequencies:
+// 12 bins keep every bin from 2 on within 17% of the median for seeds 1-200 (32 bins: 53%).
 TEST(Metrics, RadialPowerSpectrumOfWhiteNoiseIsFlat) {
-  const std::vector<double> spectrum = radial_power_spectrum(white_noise(256, 5), 32);
-  ASSERT_EQ(spectrum.size(), 32u);
+  constexpr int kBins = 12;
+  const std::vector<double> spectrum = radial_power_spectrum(white_noise(256, 5), kBins);
+  ASSERT_EQ(spectrum.size(), static_cast<size_t>(kBins));
   std::vector<double> sorted = spectrum;
-  std::nth_element(sorted.begin(), sorted.begin() + 16, sorted.end());
-  const double median = sorted[16];
+  std::nth_element(sorted.begin(), sorted.begin() + kBins / 2, sorted.end());
+  const double median = sorted[kBins / 2];
   double worst = 0;
-  for (int b = 2; b < 32; ++b) worst = std::max(worst, std::abs(spectrum[b] / median - 1));
+  for (int b = 2; b < kBins; ++b) worst = std::max(worst, std::abs(spectrum[b] / median - 1));
   std::printf("radial_power_spectrum white noise: largest deviation from the median %.4f\n", worst);
   EXPECT_LT(worst, 0.2);
 }

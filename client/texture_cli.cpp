@@ -1,0 +1,363 @@
+#include "client/texture_cli.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "client/cli.h"
+#include "client/cli_flags.h"
+#include "client/image_io.h"
+#include "server/common/field_codec.h"
+#include "squall/v1/textures.grpc.pb.h"
+
+namespace squall::cli::texture {
+
+const char* const kVerbUsage =
+    "texture advect ...  a texture advected by a velocity field (AdvectTexture stream) -> EXR + PNG frames; "
+    "`squall texture help` lists the flags";
+
+namespace {
+
+namespace v1 = squall::v1;
+
+const char* const kHelp = R"(usage:
+  squall texture advect [FLAGS] --out DIR
+A reference texture (gradient noise bands, or an image) carried by a velocity field over the region
+[0, 1]^2 (domain units du, seconds), one frame every dt: Lagrangian grids (Yu, Neyret, Bruneton,
+Holzschuch, "Lagrangian Texture Advection", IEEE TVCG 2011), Eulerian multi-layer (Neyret, "Advected
+Textures", SCA 2003), a two-phase flow map or naive advection. Each frame is DIR/frame_NNNN.exr (every
+returned plane as a FLOAT channel, the request's parameters as attributes) and DIR/frame_NNNN.png (the
+first final plane, 8-bit grey).
+  --method NAME          lagrangian | eulerian | flowmap | naive (default lagrangian)
+  --velocity KIND:ARGS   (default uniform:0.1,0)
+      uniform:VX,VY               du/s
+      rotation:OMEGA[,CX,CY]      rad/s about (CX, CY) (default 0.5,0.5)
+      shear:RATE[,Y0]             1/s, v = (RATE (y - Y0), 0)
+      sink:SPEED[,CX,CY[,EPS]]    du/s toward (CX, CY), softened by EPS du
+      vortex:GAMMA[,CX,CY[,R]]    Rankine vortex: circulation du^2/s, core radius R du
+      taylor-green:U,PERIOD       du/s, du
+      channel:UMAX[,Y0,HALF]      Poiseuille channel: axis speed du/s, axis y, half width du
+      cylinder:U[,CX,CY[,R]]      potential flow at U du/s past a cylinder of radius R du
+  --noise BANDS[,CELLS[,SEED]]  gradient noise: bands 1..8, lattice cells per period 1..64 (default 4,4,1)
+  --spin W               flow noise: band 0 turns at W rad/s (default: still noise)
+  --image FILE           an image texture instead: FILE.exr (its R, G, B, A channels first, at most 8) or
+                         FILE.png (decoded by squalld)
+  --final NAME           identity | sum | turbulence | ridged (default identity)
+  --scale S              texture periods per du (default 4)
+  --size WxH             output pixels (default 256x256)
+  --region X0,Y0,X1,Y1   sampled region, du (default 0,0,1,1)
+  --planes A,B,...       final raw weight_sum weight_sq_sum coverage layer (default final)
+  --frames N             frames to stream, >= 1 (default 30)
+  --dt S                 seconds between frames (default 1/30)
+  --d D                  Lagrangian Poisson radius, du (default 0.1)
+  --seed N               particle placement seed (default 1)
+  --out DIR              output folder (created)
+The stream's deadline is --timeout times the number of frames.
+)";
+
+const std::map<std::string, v1::TextureMethod> kMethods = {{"lagrangian", v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS},
+                                                           {"eulerian", v1::TEXTURE_METHOD_EULERIAN_MULTILAYER},
+                                                           {"flowmap", v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP},
+                                                           {"naive", v1::TEXTURE_METHOD_NAIVE}};
+const std::map<std::string, v1::FinalFunction> kFinals = {{"identity", v1::FINAL_FUNCTION_IDENTITY},
+                                                          {"sum", v1::FINAL_FUNCTION_SUM_BANDS},
+                                                          {"turbulence", v1::FINAL_FUNCTION_TURBULENCE},
+                                                          {"ridged", v1::FINAL_FUNCTION_RIDGED}};
+const std::map<std::string, v1::TexturePlane> kPlanes = {
+    {"final", v1::TEXTURE_PLANE_FINAL},           {"raw", v1::TEXTURE_PLANE_RAW},
+    {"weight_sum", v1::TEXTURE_PLANE_WEIGHT_SUM}, {"weight_sq_sum", v1::TEXTURE_PLANE_WEIGHT_SQ_SUM},
+    {"coverage", v1::TEXTURE_PLANE_COVERAGE},     {"layer", v1::TEXTURE_PLANE_LAYER}};
+
+struct Advect {
+  v1::AdvectTextureRequest request;
+  std::string out;
+  std::vector<std::pair<std::string, std::string>> flags;  // as given, for the EXR attributes
+};
+
+std::vector<std::string> items(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
+  return out;
+}
+
+// A comma-separated list of one of the allowed lengths.
+std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths) {
+  std::vector<double> out;
+  for (const std::string& item : items(text)) out.push_back(number(flag, item, "a list of finite numbers"));
+  if (std::find(lengths.begin(), lengths.end(), out.size()) == lengths.end()) {
+    std::string allowed;
+    for (size_t n : lengths) allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);
+    throw UsageError(flag + " " + text + ": needs " + allowed + " numbers");
+  }
+  return out;
+}
+
+// The centre (x, y) at v[at], v[at + 1] when given.
+void center(const std::vector<double>& v, size_t at, v1::AnalyticVelocity* a) {
+  if (v.size() < at + 2) return;
+  a->mutable_center()->set_x(v[at]);
+  a->mutable_center()->set_y(v[at + 1]);
+}
+
+void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
+  const std::string flag = "--velocity";
+  const size_t colon = value.find(':');
+  const std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
+  if (kind == "uniform") {
+    auto v = numbers(flag, args, {2});
+    a->set_kind(v1::AnalyticVelocity::KIND_UNIFORM), a->set_velocity_x(v[0]), a->set_velocity_y(v[1]);
+  } else if (kind == "rotation") {
+    auto v = numbers(flag, args, {1, 3});
+    a->set_kind(v1::AnalyticVelocity::KIND_ROTATION), a->set_angular_velocity(v[0]), center(v, 1, a);
+  } else if (kind == "shear") {
+    auto v = numbers(flag, args, {1, 2});
+    a->set_kind(v1::AnalyticVelocity::KIND_SHEAR), a->set_shear_rate(v[0]);
+    if (v.size() == 2) a->set_y0(v[1]);
+  } else if (kind == "sink") {
+    auto v = numbers(flag, args, {1, 3, 4});
+    a->set_kind(v1::AnalyticVelocity::KIND_SINK), a->set_speed(v[0]), center(v, 1, a);
+    if (v.size() == 4) a->set_epsilon(v[3]);
+  } else if (kind == "vortex") {
+    auto v = numbers(flag, args, {1, 3, 4});
+    a->set_kind(v1::AnalyticVelocity::KIND_RANKINE_VORTEX), a->set_circulation(v[0]), center(v, 1, a);
+    if (v.size() == 4) a->set_core_radius(v[3]);
+  } else if (kind == "taylor-green") {
+    auto v = numbers(flag, args, {2});
+    a->set_kind(v1::AnalyticVelocity::KIND_TAYLOR_GREEN), a->set_speed(v[0]), a->set_period(v[1]);
+  } else if (kind == "channel") {
+    auto v = numbers(flag, args, {1, 3});
+    a->set_kind(v1::AnalyticVelocity::KIND_POISEUILLE_CHANNEL), a->set_speed(v[0]);
+    if (v.size() == 3) a->set_y0(v[1]), a->set_half_width(v[2]);
+  } else if (kind == "cylinder") {
+    auto v = numbers(flag, args, {1, 3, 4});
+    a->set_kind(v1::AnalyticVelocity::KIND_CYLINDER), a->set_speed(v[0]), center(v, 1, a);
+    if (v.size() == 4) a->set_radius(v[3]);
+  } else {
+    throw UsageError(flag + " " + value +
+                     ": uniform, rotation, shear, sink, vortex, taylor-green, channel or cylinder (KIND:ARGS)");
+  }
+}
+
+void noise_flag(const std::string& value, v1::NoiseTexture* n) {
+  auto v = items(value);
+  if (v.empty() || v.size() > 3) throw UsageError("--noise " + value + ": BANDS[,CELLS[,SEED]]");
+  n->set_bands(uint32_t(integer("--noise", v[0], 1)));
+  if (v.size() > 1) n->set_base_cells(uint32_t(integer("--noise", v[1], 1)));
+  if (v.size() > 2) n->set_seed(uint32_t(integer("--noise", v[2])));
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError("--image " + path + ": cannot read it");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// R, G, B, A first (in that order), then the others in the file's (alphabetical) order.
+std::vector<std::string> exr_channel_order(const Imf::ChannelList& list) {
+  std::vector<std::string> names;
+  for (auto it = list.begin(); it != list.end(); ++it) names.push_back(it.name());
+  auto rank = [](const std::string& name) {
+    const std::string order = "RGBA";
+    return name.size() == 1 && order.find(name[0]) != std::string::npos ? int(order.find(name[0])) : 4;
+  };
+  std::stable_sort(names.begin(), names.end(),
+                   [&](const std::string& a, const std::string& b) { return rank(a) < rank(b); });
+  if (names.size() > 8) names.resize(8);
+  return names;
+}
+
+// Up to 8 channels of an EXR file as float32 Fields; scanline j becomes texture row j (as write_exr writes).
+void read_exr(const std::string& path, v1::ImageTexture* image) {
+  Imf::InputFile file(path.c_str());
+  const Imath::Box2i window = file.header().dataWindow();
+  const int nx = window.max.x - window.min.x + 1, ny = window.max.y - window.min.y + 1;
+  const std::vector<std::string> names = exr_channel_order(file.header().channels());
+  std::vector<std::vector<float>> planes(names.size(), std::vector<float>(size_t(nx) * ny));
+  Imf::FrameBuffer frame;
+  const ptrdiff_t first = ptrdiff_t(window.min.x) + ptrdiff_t(window.min.y) * nx;  // the window's first pixel
+  for (size_t c = 0; c < names.size(); ++c) {
+    char* base = reinterpret_cast<char*>(planes[c].data()) - first * ptrdiff_t(sizeof(float));
+    frame.insert(names[c], Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * size_t(nx)));
+  }
+  file.setFrameBuffer(frame);
+  file.readPixels(window.min.y, window.max.y);
+  for (size_t c = 0; c < names.size(); ++c)
+    squall::field::encode({names[c], "1", uint32_t(nx), uint32_t(ny), 0, v1::DTYPE_FLOAT32}, planes[c],
+                          image->add_channels());
+}
+
+void image_flag(const std::string& path, v1::ImageTexture* image) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".png" || ext == ".PNG") return image->set_png(read_bytes(path));
+  if (ext != ".exr" && ext != ".EXR") throw UsageError("--image " + path + ": must be a .exr or .png file");
+  read_bytes(path);  // a clear message for a missing file
+  try {
+    read_exr(path, image);
+  } catch (const std::exception& e) {
+    throw UsageError("--image " + path + ": " + e.what());
+  }
+}
+
+void size_flag(const std::string& value, v1::TextureOutput* o) {
+  int w = 0, h = 0;
+  if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1) throw UsageError("--size " + value + ": WxH");
+  o->set_width(uint32_t(w));
+  o->set_height(uint32_t(h));
+}
+
+bool texture_flag(const std::string& flag, const std::string& value, v1::AdvectTextureRequest& r) {
+  auto* t = r.mutable_texture();
+  if (flag == "--noise")
+    noise_flag(value, t->mutable_noise());
+  else if (flag == "--spin")
+    t->mutable_noise()->set_spin(number(flag, value, "rad/s")), t->mutable_noise()->set_time_varying(true);
+  else if (flag == "--image")
+    image_flag(value, t->mutable_image());
+  else if (flag == "--final")
+    t->set_final_function(named(flag, value, kFinals));
+  else if (flag == "--scale")
+    t->set_scale(number(flag, value, "periods per du"));
+  else
+    return false;
+  return true;
+}
+
+bool output_flag(const std::string& flag, const std::string& value, v1::AdvectTextureRequest& r) {
+  auto* o = r.mutable_output();
+  if (flag == "--size") {
+    size_flag(value, o);
+  } else if (flag == "--region") {
+    auto v = numbers(flag, value, {4});
+    auto* region = o->mutable_region();
+    region->set_x0(v[0]), region->set_y0(v[1]), region->set_x1(v[2]), region->set_y1(v[3]);
+  } else if (flag == "--planes") {
+    o->clear_planes();
+    for (const std::string& name : items(value)) o->add_planes(named(flag, name, kPlanes));
+  } else {
+    return false;
+  }
+  return true;
+}
+
+void apply(const std::string& flag, const std::string& value, Advect& a) {
+  v1::AdvectTextureRequest& r = a.request;
+  if (flag == "--method")
+    r.set_method(named(flag, value, kMethods));
+  else if (flag == "--velocity")
+    velocity_flag(value, r.mutable_velocity()->mutable_named());
+  else if (flag == "--frames")
+    r.set_frames(uint32_t(std::min<uint64_t>(integer(flag, value, 1), UINT32_MAX)));
+  else if (flag == "--dt")
+    r.set_dt(number(flag, value, "s"));
+  else if (flag == "--d")
+    r.mutable_lagrangian()->set_d(number(flag, value, "du"));
+  else if (flag == "--seed")
+    r.set_seed(integer(flag, value));
+  else if (flag == "--out" || flag == "-o")
+    a.out = value;
+  else if (!texture_flag(flag, value, r) && !output_flag(flag, value, r))
+    throw UsageError("unknown flag " + flag);
+  a.flags.emplace_back(flag, value);
+}
+
+Advect parse(const std::vector<std::string>& args) {
+  Advect a;
+  auto* v = a.request.mutable_velocity()->mutable_named();
+  v->set_kind(v1::AnalyticVelocity::KIND_UNIFORM);
+  v->set_velocity_x(0.1);
+  a.request.mutable_output()->set_width(256);
+  a.request.mutable_output()->set_height(256);
+  a.request.set_frames(30);
+  for (size_t i = 1; i < args.size(); i += 2) {
+    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value (or is unknown)");
+    apply(args[i], args[i + 1], a);
+  }
+  if (a.out.empty()) throw UsageError("--out DIR is required");
+  return a;
+}
+
+// The request as text for the EXR header, its image bytes left out.
+std::string describe(const v1::AdvectTextureRequest& request) {
+  v1::AdvectTextureRequest copy = request;
+  if (copy.texture().has_image()) {
+    auto* image = copy.mutable_texture()->mutable_image();
+    for (auto& c : *image->mutable_channels()) c.clear_data();
+    image->clear_png();
+  }
+  return copy.ShortDebugString();
+}
+
+// The first final plane (the one the preview shows), else the first plane.
+const client::Channel& preview_channel(const client::Image& image) {
+  for (const auto& c : image.channels)
+    if (c.name == "final" || c.name.rfind("final_", 0) == 0) return c;
+  return image.channels.front();
+}
+
+void write_frame(const Advect& a, const std::string& request_text, const v1::TextureFrame& frame) {
+  client::Image image;
+  for (const auto& f : frame.planes()) {
+    image.nx = int(f.nx()), image.ny = int(f.ny());
+    image.channels.push_back({f.name(), squall::field::decode(f, "frame.planes." + f.name())});
+  }
+  if (image.channels.empty()) throw std::runtime_error("frame " + std::to_string(frame.index()) + " has no planes");
+  image.attributes.emplace_back("squall.request", request_text);
+  for (const auto& [flag, value] : a.flags) image.attributes.emplace_back("squall.texture.advect" + flag, value);
+  std::ostringstream t;
+  t.precision(17);
+  t << frame.time();
+  image.attributes.emplace_back("squall.time_seconds", t.str());
+  image.attributes.emplace_back("squall.frame", std::to_string(frame.index()));
+  char name[32];
+  std::snprintf(name, sizeof name, "/frame_%04u", frame.index());
+  client::write_exr(a.out + name + ".exr", image);
+  const client::Channel& preview = preview_channel(image);
+  client::write_png_preview(a.out + name + ".png", image.nx, image.ny, preview.values);
+}
+
+int advect(client::Client& client, const Advect& a) {
+  std::filesystem::create_directories(a.out);
+  auto service = v1::Textures::NewStub(client.channel());
+  auto context = client.context();
+  const auto now = std::chrono::system_clock::now();
+  context->set_deadline(now + (context->deadline() - now) * int64_t(a.request.frames()));
+  auto reader = service->AdvectTexture(context.get(), a.request);
+  const std::string request_text = describe(a.request);
+  v1::TextureFrame frame;
+  uint32_t written = 0;
+  try {
+    for (; reader->Read(&frame); ++written) write_frame(a, request_text, frame);
+  } catch (const std::exception& e) {
+    std::cerr << "squall texture: " << e.what() << "\n";
+    context->TryCancel();
+    reader->Finish();
+    return kLocalError;
+  }
+  client::check(reader->Finish(), "Textures.AdvectTexture");
+  std::cout << "wrote " << written << " frames to " << a.out << "\n";
+  return kOk;
+}
+
+}  // namespace
+
+int run(client::Client& client, const std::vector<std::string>& args) {
+  return run_verb("texture", kHelp, args, [&] {
+    if (args[0] != "advect") throw UsageError("unknown texture command " + args[0] + " (advect)");
+    return advect(client, parse(args));
+  });
+}
+
+}  // namespace squall::cli::texture

@@ -1,0 +1,413 @@
+#include "textures/textures_request.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "common/error.h"
+#include "common/field_codec.h"
+#include "common/validate.h"
+
+namespace squall::textures::rpc {
+namespace v1 = squall::v1;
+using validate::at;
+using validate::known;
+
+namespace {
+
+int clamped(uint32_t v) { return int(std::min<uint32_t>(v, 1u << 30)); }
+
+// ---- Velocity ----
+
+// A named analytic parameter: its proto field, its slot in fields.h's params[], and whether the field
+// divides by it (then it must be > 0, not only finite).
+struct Named {
+  const char* field;
+  int param;
+  double value;
+  bool divisor = false;
+};
+
+int velocity_kind(int kind, const std::string& path) {
+  known(path, kind, 9, "AnalyticVelocity.Kind");
+  constexpr int kKinds[] = {SQUALL_VELOCITY_UNIFORM,      SQUALL_VELOCITY_UNIFORM, SQUALL_VELOCITY_ROTATION,
+                            SQUALL_VELOCITY_SHEAR,        SQUALL_VELOCITY_SINK,    SQUALL_VELOCITY_VORTEX,
+                            SQUALL_VELOCITY_TAYLOR_GREEN, SQUALL_VELOCITY_CHANNEL, SQUALL_VELOCITY_CYLINDER};
+  return kKinds[kind];
+}
+
+// The fields a kind reads, in the params[] order of fields.h.
+std::vector<Named> named_params(const v1::AnalyticVelocity& a, int kind) {
+  const double cx = a.has_center() ? a.center().x() : 0.5, cy = a.has_center() ? a.center().y() : 0.5;
+  const double y0 = a.has_y0() ? a.y0() : 0.5;
+  switch (kind) {
+    case SQUALL_VELOCITY_ROTATION:
+      return {{"angular_velocity", 0, a.angular_velocity()}, {"center.x", 1, cx}, {"center.y", 2, cy}};
+    case SQUALL_VELOCITY_SHEAR: return {{"shear_rate", 0, a.shear_rate()}, {"y0", 1, y0}};
+    case SQUALL_VELOCITY_SINK:
+      return {{"speed", 0, a.speed()},
+              {"center.x", 1, cx},
+              {"center.y", 2, cy},
+              {"epsilon", 3, a.has_epsilon() ? a.epsilon() : 0.05, true}};
+    case SQUALL_VELOCITY_VORTEX:
+      return {{"circulation", 0, a.circulation()},
+              {"center.x", 1, cx},
+              {"center.y", 2, cy},
+              {"core_radius", 3, a.has_core_radius() ? a.core_radius() : 0.1, true}};
+    case SQUALL_VELOCITY_TAYLOR_GREEN:
+      return {{"speed", 0, a.speed()}, {"period", 1, a.has_period() ? a.period() : 1.0, true}};
+    case SQUALL_VELOCITY_CHANNEL:
+      return {
+          {"speed", 0, a.speed()}, {"y0", 1, y0}, {"half_width", 2, a.has_half_width() ? a.half_width() : 0.5, true}};
+    case SQUALL_VELOCITY_CYLINDER:
+      return {{"speed", 0, a.speed()},
+              {"center.x", 1, cx},
+              {"center.y", 2, cy},
+              {"radius", 3, a.has_radius() ? a.radius() : 0.1, true}};
+    default: return {{"velocity_x", 0, a.velocity_x()}, {"velocity_y", 1, a.velocity_y()}};
+  }
+}
+
+VelocitySpec analytic(const v1::AnalyticVelocity& a, const std::string& path) {
+  VelocitySpec v;
+  v.kind = velocity_kind(a.kind(), path + ".kind");
+  for (const Named& n : named_params(a, v.kind)) {
+    const std::string field = path + "." + n.field;
+    v.params[n.param] = n.divisor ? validate::positive(field, n.value) : validate::finite(field, n.value);
+  }
+  return v;
+}
+
+// A Field that must be an nx x ny plane, decoded.
+std::vector<float> plane(const v1::Field& f, const std::string& path, uint32_t nx, uint32_t ny, const char* owner) {
+  if (f.nx() != nx)
+    validate::reject(path + ".nx", double(f.nx()), std::string(owner) + "'s nx = " + std::to_string(nx));
+  if (f.ny() != ny)
+    validate::reject(path + ".ny", double(f.ny()), std::string(owner) + "'s ny = " + std::to_string(ny));
+  if (f.nz() > 1) validate::reject(path + ".nz", double(f.nz()), "0 or 1 (a 2D field)");
+  return field::decode(f, path);
+}
+
+Extrapolation extrapolation(int e, const std::string& path) {
+  known(path, e, 4, "VelocityGrid.Extrapolation");
+  if (e == v1::VelocityGrid::EXTRAPOLATION_ZERO) return Extrapolation::Zero;
+  if (e == v1::VelocityGrid::EXTRAPOLATION_PUSH_PULL) return Extrapolation::PushPull;
+  return Extrapolation::Clamp;
+}
+
+VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
+  VelocitySpec v;
+  v.kind = SQUALL_VELOCITY_GRID;
+  v.nx = clamped(g.nx());
+  v.ny = clamped(g.ny());
+  v.origin_x = validate::finite(path + ".origin.x", g.origin().x());
+  v.origin_y = validate::finite(path + ".origin.y", g.origin().y());
+  v.hx = validate::positive(path + ".spacing.x", g.spacing().x());
+  v.hy = validate::positive(path + ".spacing.y", g.spacing().y());
+  for (int f = 0; f < g.frames_size(); ++f) {
+    const auto& frame = g.frames(f);
+    const std::string fpath = at(path + ".frames", size_t(f));
+    v.frames.push_back({frame.time(), plane(frame.u(), fpath + ".u", g.nx(), g.ny(), "the grid"),
+                        plane(frame.v(), fpath + ".v", g.nx(), g.ny(), "the grid")});
+  }
+  v.extrapolation = extrapolation(g.extrapolation(), path + ".extrapolation");
+  if (g.has_mask()) {
+    for (float m : plane(g.mask(), path + ".mask", g.nx(), g.ny(), "the grid")) v.mask.push_back(m != 0);
+  }
+  return v;
+}
+
+VelocitySpec velocity(const v1::VelocitySpec& v, const std::string& path) {
+  if (v.has_grid()) return grid(v.grid(), path + ".grid");
+  return analytic(v.named(), path + ".named");
+}
+
+// ---- Texture ----
+
+// libpng reads the PNG from the request's bytes; its errors jump back to the setjmp of the stage that
+// called it, whose frame holds no C++ object.
+struct PngSource {
+  const std::string* bytes;
+  size_t offset;
+};
+
+void png_read_bytes(png_structp png, png_bytep out, png_size_t n) {
+  auto* source = static_cast<PngSource*>(png_get_io_ptr(png));
+  if (n > source->bytes->size() - source->offset) png_error(png, "truncated");
+  std::memcpy(out, source->bytes->data() + source->offset, n);
+  source->offset += n;
+}
+
+[[noreturn]] void png_fail(png_structp png, png_const_charp) { png_longjmp(png, 1); }
+void png_warn(png_structp, png_const_charp) {}
+
+struct PngHeader {
+  png_uint_32 width = 0, height = 0;
+  int channels = 0, depth = 0;
+};
+
+// Reads the header and asks for 8- or 16-bit samples, 1 to 4 per pixel (palette expanded to RGB,
+// transparency to alpha).
+bool png_header(png_structp png, png_infop info, PngHeader* header) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_read_info(png, info);
+  png_set_expand(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  header->width = png_get_image_width(png, info);
+  header->height = png_get_image_height(png, info);
+  header->channels = png_get_channels(png, info);
+  header->depth = png_get_bit_depth(png, info);
+  return true;
+}
+
+bool png_rows(png_structp png, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_read_image(png, rows);
+  png_read_end(png, nullptr);
+  return true;
+}
+
+struct PngReader {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngReader() { png_destroy_read_struct(&png, info ? &info : nullptr, nullptr); }
+};
+
+// The PNG's channels as planes of values in [0, 1], row j of the file as texture row j.
+void png_image(const std::string& bytes, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+  if (bytes.size() < 8 || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, 8) != 0)
+    fail(Code::InvalidArgument, path + " is not a PNG file (" + std::to_string(bytes.size()) + " bytes)");
+  PngReader reader;
+  PngSource source{&bytes, 0};
+  reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, png_fail, png_warn);
+  if (reader.png) reader.info = png_create_info_struct(reader.png);
+  if (!reader.png || !reader.info) fail(Code::Internal, "libpng could not start reading " + path);
+  png_set_read_fn(reader.png, &source, png_read_bytes);
+  PngHeader h;
+  if (!png_header(reader.png, reader.info, &h)) fail(Code::InvalidArgument, path + " is not a readable PNG file");
+  gate.check_grid(path, int64_t(h.width), int64_t(h.height));
+  const size_t row_bytes = size_t(h.width) * h.channels * (h.depth / 8);
+  std::vector<png_byte> pixels(row_bytes * h.height);
+  std::vector<png_bytep> rows(h.height);
+  for (size_t j = 0; j < h.height; ++j) rows[j] = pixels.data() + j * row_bytes;
+  if (!png_rows(reader.png, rows.data())) fail(Code::InvalidArgument, path + " is a damaged PNG file");
+  out.width = int(h.width);
+  out.height = int(h.height);
+  out.channels = h.channels;
+  const size_t n = size_t(h.width) * h.height;
+  out.pixels.assign(n * h.channels, 0);
+  for (size_t k = 0; k < n * h.channels; ++k) {
+    const size_t c = k % h.channels, pixel = k / h.channels;
+    out.pixels[c * n + pixel] =
+        h.depth == 16 ? float((pixels[2 * k] << 8 | pixels[2 * k + 1]) / 65535.0) : float(pixels[k] / 255.0);
+  }
+}
+
+void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+  out.kind = SQUALL_TEXTURE_IMAGE;
+  if (!im.png().empty()) {
+    if (im.channels_size()) fail(Code::InvalidArgument, path + " has both channels and png; send one of them");
+    return png_image(im.png(), gate, path + ".png", out);
+  }
+  if (im.channels_size() == 0) fail(Code::InvalidArgument, path + " has neither channels nor png; send one of them");
+  const uint32_t nx = im.channels(0).nx(), ny = im.channels(0).ny();
+  out.width = clamped(nx);
+  out.height = clamped(ny);
+  out.channels = im.channels_size();
+  for (int c = 0; c < im.channels_size(); ++c) {
+    const std::string cpath = at(path + ".channels", size_t(c));
+    std::vector<float> values = plane(im.channels(c), cpath, nx, ny, "channels[0]");
+    validate::each(cpath, values.data(), values.size());
+    out.pixels.insert(out.pixels.end(), values.begin(), values.end());
+  }
+}
+
+void noise(const v1::NoiseTexture& n, TextureSpec& out) {
+  out.kind = SQUALL_TEXTURE_NOISE;
+  out.bands = n.has_bands() ? int(std::min<uint32_t>(n.bands(), 1000)) : 4;
+  out.base_cells = n.has_base_cells() ? double(n.base_cells()) : 4.0;
+  out.spin = n.time_varying() ? (n.has_spin() ? n.spin() : 1.0) : 0.0;
+  out.seed = n.has_seed() ? n.seed() : 1;
+}
+
+int final_function(int f, const std::string& path) {
+  known(path, f, 5, "FinalFunction");
+  constexpr int kFunctions[] = {SQUALL_FINAL_IDENTITY, SQUALL_FINAL_IDENTITY, SQUALL_FINAL_SUM_BANDS,
+                                SQUALL_FINAL_TURBULENCE, SQUALL_FINAL_RIDGED};
+  return kFunctions[f];
+}
+
+TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std::string& path) {
+  TextureSpec out;
+  if (t.has_image())
+    image(t.image(), gate, path + ".image", out);
+  else
+    noise(t.noise(), out);
+  out.scale = t.has_scale() ? t.scale() : 4.0;
+  out.final_function = final_function(t.final_function(), path + ".final_function");
+  out.final_scale = t.has_final_scale() ? t.final_scale() : 1.0;
+  return out;
+}
+
+// ---- Output, methods ----
+
+OutputSpec output(const v1::TextureOutput& o, const std::string& path) {
+  OutputSpec out;
+  out.width = int(validate::in(path + ".width", int64_t(o.width()), 1, 1 << 30));
+  out.height = int(validate::in(path + ".height", int64_t(o.height()), 1, 1 << 30));
+  if (!o.has_region()) return out;  // the unit square
+  const auto& r = o.region();
+  out.x0 = validate::finite(path + ".region.x0", r.x0());
+  out.y0 = validate::finite(path + ".region.y0", r.y0());
+  out.x1 = validate::in(path + ".region.x1", r.x1(), validate::above(r.x0()));
+  out.y1 = validate::in(path + ".region.y1", r.y1(), validate::above(r.y0()));
+  return out;
+}
+
+Method method(int m, const std::string& path) {
+  known(path, m, 5, "TextureMethod");
+  switch (m) {
+    case v1::TEXTURE_METHOD_EULERIAN_MULTILAYER: return Method::EulerianMultilayer;
+    case v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP: return Method::TwoPhaseFlowMap;
+    case v1::TEXTURE_METHOD_NAIVE: return Method::Naive;
+    default: return Method::LagrangianGrids;
+  }
+}
+
+LagrangianParams lagrangian(const v1::LagrangianParams& p, const std::string& path) {
+  LagrangianParams out;  // texture_spec.h's defaults, the ones textures.proto publishes
+  if (p.has_d()) out.d = p.d();
+  if (p.has_alpha()) out.alpha = p.alpha();
+  if (p.has_beta()) out.beta = p.beta();
+  if (p.has_grid_res()) out.grid_res = int(std::min<uint32_t>(p.grid_res(), 1000));
+  if (p.has_delta_max()) out.delta_max = p.delta_max();
+  if (p.has_fade_tau()) out.fade_tau = p.fade_tau();
+  known(path + ".blend", p.blend(), 3, "LagrangianParams.Blend");
+  if (p.blend() == v1::LagrangianParams::BLEND_NORMALIZED) out.blend = Blend::Normalized;
+  known(path + ".patch_origin", p.patch_origin(), 3, "LagrangianParams.PatchOrigin");
+  if (p.patch_origin() == v1::LagrangianParams::PATCH_ORIGIN_WINDOW) out.patch_origin = PatchOrigin::Window;
+  return out;
+}
+
+EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::string& path) {
+  EulerianParams out;  // texture_spec.h's defaults
+  if (p.latencies_size())
+    out.latencies.assign(p.latencies().begin(), p.latencies().end());
+  else if (method != Method::EulerianMultilayer)
+    out.latencies = {1.0};  // the flow map's one layer
+  if (p.has_phases()) out.phases = int(std::min<uint32_t>(p.phases(), 1000));
+  known(path + ".weight", p.weight(), 3, "EulerianParams.PhaseWeight");
+  if (p.weight() == v1::EulerianParams::PHASE_WEIGHT_TRIANGLE) out.weight = PhaseWeight::Triangle;
+  if (p.has_d_star()) out.d_star = p.d_star();
+  known(path + ".deformation", p.deformation(), 3, "EulerianParams.DeformationSum");
+  if (p.deformation() == v1::EulerianParams::DEFORMATION_SUM_PAPER) out.deformation = DeformationSum::Paper;
+  known(path + ".blend", p.blend(), 4, "EulerianParams.Blend");
+  if (p.blend() == v1::EulerianParams::BLEND_FINAL) out.blend = EulerianBlend::Final;
+  if (p.blend() == v1::EulerianParams::BLEND_OCTAVE_VARIANCE_PRESERVING)
+    out.blend = EulerianBlend::OctaveVariancePreserving;
+  if (p.has_grid_nx()) out.grid_nx = clamped(p.grid_nx());
+  if (p.has_grid_ny()) out.grid_ny = clamped(p.grid_ny());
+  return out;
+}
+
+// ---- Frames ----
+
+int texture_channels(const TextureSpec& t) { return t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands; }
+
+void fill_stats(const FrameStats& s, v1::FrameStats* out) {
+  for (double m : s.mean) out->add_mean(m);
+  for (double d : s.stddev) out->add_stddev(d);
+  out->set_uncovered_pixels(s.uncovered);
+  const ParticleStats& p = s.particles;
+  auto* q = out->mutable_particles();
+  q->set_alive(p.alive);
+  q->set_fading(p.fading);
+  q->set_born(p.born);
+  q->set_killed_coverage(p.killed_coverage);
+  q->set_killed_quality(p.killed_quality);
+  q->set_killed_fold(p.killed_fold);
+  q->set_killed_density(p.killed_density);
+  q->set_deleted(p.deleted);
+  q->set_min_quality(p.min_quality);
+  q->set_max_distortion(p.max_distortion);
+  for (const auto& [stage, ms] : s.stage_ms) {
+    auto* timing = out->add_stages();
+    timing->set_stage(stage);
+    timing->set_milliseconds(ms);
+  }
+}
+
+}  // namespace
+
+AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const std::string& path) {
+  AdvectSpec s;
+  s.method = method(r.method(), path + ".method");
+  s.velocity = velocity(r.velocity(), path + ".velocity");
+  s.texture = texture(r.texture(), gate, path + ".texture");
+  s.output = output(r.output(), path + ".output");
+  s.t0 = r.t0();
+  s.dt = r.has_dt() ? r.dt() : 1.0 / 30;
+  s.frames = clamped(r.frames());
+  s.substeps = r.has_substeps() ? clamped(r.substeps()) : 1;
+  s.seed = r.has_seed() ? r.seed() : 1;
+  s.lagrangian = lagrangian(r.lagrangian(), path + ".lagrangian");
+  s.eulerian = eulerian(r.eulerian(), s.method, path + ".eulerian");
+  return s;
+}
+
+PlaneSelection planes(const v1::TextureOutput& o, const std::string& path) {
+  PlaneSelection p;
+  p.dtype = field::dtype(o.dtype(), path + ".dtype");
+  if (o.planes_size() == 0) return p;
+  p.final_planes = false;
+  for (int i = 0; i < o.planes_size(); ++i) {
+    switch (known(at(path + ".planes", size_t(i)), o.planes(i), 7, "TexturePlane")) {
+      case v1::TEXTURE_PLANE_RAW: p.raw_planes = true; break;
+      case v1::TEXTURE_PLANE_WEIGHT_SUM: p.weight_sum = true; break;
+      case v1::TEXTURE_PLANE_WEIGHT_SQ_SUM: p.weight_sq_sum = true; break;
+      case v1::TEXTURE_PLANE_COVERAGE: p.coverage = true; break;
+      case v1::TEXTURE_PLANE_LAYER: p.layer = true; break;
+      default: p.final_planes = true; break;
+    }
+  }
+  return p;
+}
+
+uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& p) {
+  const uint64_t channels = uint64_t(std::max(0, texture_channels(spec.texture)));
+  const uint64_t finals = spec.texture.final_function == SQUALL_FINAL_IDENTITY ? channels : 1;
+  const uint64_t planes = (p.final_planes ? finals : 0) + (p.raw_planes ? channels : 0) + p.weight_sum +
+                          p.weight_sq_sum + p.coverage + p.layer;
+  return planes * uint64_t(spec.output.width) * uint64_t(spec.output.height) * field::bytes_per_value(p.dtype);
+}
+
+void fill_frame(const TextureFrame& f, const AdvectSpec& spec, const PlaneSelection& p, v1::TextureFrame* out) {
+  out->set_index(uint32_t(f.index));
+  out->set_time(f.time);
+  const OutputSpec& o = spec.output;
+  const double px = (o.x1 - o.x0) / f.width, py = (o.y1 - o.y0) / f.height;
+  const size_t n = size_t(f.width) * f.height;
+  auto add = [&](const std::string& name, int k) {
+    v1::Field* field = out->add_planes();
+    field::encode({name, "1", uint32_t(f.width), uint32_t(f.height), 0, p.dtype}, f.plane(k), n, field);
+    field->mutable_spacing()->set_x(px);
+    field->mutable_spacing()->set_y(py);
+    field->mutable_origin()->set_x(o.x0 + 0.5 * px);
+    field->mutable_origin()->set_y(o.y0 + 0.5 * py);
+  };
+  if (p.final_planes)
+    for (int c = 0; c < f.final_planes; ++c) add(f.final_planes == 1 ? "final" : "final_" + std::to_string(c), c);
+  if (p.raw_planes)
+    for (int c = 0; c < f.raw_planes; ++c) add("raw_" + std::to_string(c), f.final_planes + c);
+  const int aux = f.final_planes + f.raw_planes;
+  if (p.weight_sum) add("weight_sum", aux);
+  if (p.weight_sq_sum) add("weight_sq_sum", aux + 1);
+  if (p.coverage) add("coverage", aux + 2);
+  if (p.layer) add("layer", aux + 3);
+  fill_stats(f.stats, out->mutable_stats());
+}
+
+}  // namespace squall::textures::rpc

@@ -1,0 +1,40 @@
+// squall.v1 Textures messages <-> the textures engine's structs: published defaults for unset optional
+// fields, the named analytic velocity parameters put in fields.h's params[] order, Fields decoded, and
+// frames encoded as Fields. Part of squall_rpc (includes the protos).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "common/limits.h"
+#include "squall/v1/textures.pb.h"
+#include "textures/advection.h"
+#include "textures/texture_spec.h"
+
+namespace squall::textures::rpc {
+
+// The planes a reply carries (TextureOutput.planes) and their element type.
+struct PlaneSelection {
+  bool final_planes = true, raw_planes = false, weight_sum = false, weight_sq_sum = false, coverage = false,
+       layer = false;
+  squall::v1::DType dtype = squall::v1::DTYPE_FLOAT32;
+};
+
+// Translates; what translation itself reads throws InvalidArgument naming the proto field under `path`:
+// an unknown enum value, a Field of the wrong shape, dtype or byte count, an image with both channels and
+// a PNG, an unreadable PNG, and the values whose engine names differ from the proto's (the named velocity
+// parameters, image values, the grid's origin and spacing, the output's size and region). A PNG larger
+// than --max-grid-cells is RESOURCE_EXHAUSTED before it is decoded. The other range checks happen in
+// TextureEngine::validate under the same path.
+AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate& gate,
+                const std::string& path = "request");
+PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
+
+// Bytes of the planes one frame carries (the Fields' data).
+uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& planes);
+
+// The frame's index, time, selected planes (placed on the output pixels) and statistics.
+void fill_frame(const TextureFrame& frame, const AdvectSpec& spec, const PlaneSelection& planes,
+                squall::v1::TextureFrame* out);
+
+}  // namespace squall::textures::rpc

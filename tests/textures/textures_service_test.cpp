@@ -1,0 +1,426 @@
+// squall.v1.Textures through a real squalld: frames of each method equal to an in-process TextureEngine
+// run bit for bit, checkpoints that resume a stream bit-identically, the documented errors, and the
+// `squall texture advect` command line.
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+
+#include "client/client.h"
+#include "client/image_io.h"
+#include "common/field_codec.h"
+#include "squall/v1/textures.grpc.pb.h"
+#include "support/daemon.h"
+#include "support/expect_error.h"
+#include "support/test_runtime.h"
+#include "textures/texture_engine.h"
+#include "textures/textures_request.h"
+
+namespace squall {
+namespace {
+
+namespace v1 = squall::v1;
+constexpr double kPi = 3.14159265358979323846;
+
+test::Daemon& daemon() {
+  static test::Daemon d;
+  return d;
+}
+
+// The engine the daemon runs, in this process, on the same device.
+textures::TextureEngine& engine() {
+  static LimitGate gate{Limits{}};
+  static textures::TextureEngine e(test::runtime(), gate);
+  return e;
+}
+
+struct Streamed {
+  std::vector<v1::TextureFrame> frames;
+  grpc::Status status;
+};
+
+Streamed advect(const v1::AdvectTextureRequest& request) {
+  client::Client client({daemon().address(), 300, ""});
+  auto service = v1::Textures::NewStub(client.channel());
+  auto context = client.context();
+  auto reader = service->AdvectTexture(context.get(), request);
+  Streamed s;
+  for (v1::TextureFrame frame; reader->Read(&frame);) s.frames.push_back(frame);
+  s.status = reader->Finish();
+  return s;
+}
+
+Code code_of(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::INVALID_ARGUMENT: return Code::InvalidArgument;
+    case grpc::StatusCode::RESOURCE_EXHAUSTED: return Code::ResourceExhausted;
+    case grpc::StatusCode::NOT_FOUND: return Code::NotFound;
+    case grpc::StatusCode::FAILED_PRECONDITION: return Code::FailedPrecondition;
+    case grpc::StatusCode::UNAVAILABLE: return Code::Unavailable;
+    default: return Code::Internal;
+  }
+}
+
+// The stream's status as the engine error it carries, for test::expect_error.
+void advect_or_throw(const v1::AdvectTextureRequest& request) {
+  Streamed s = advect(request);
+  if (!s.status.ok())
+    throw Error(code_of(s.status.error_code()),
+                std::to_string(int(s.status.error_code())) + ": " + s.status.error_message());
+}
+
+// The same request run by the in-process engine, frame by frame until frame `frames - 1`.
+std::vector<textures::TextureFrame> in_process(const v1::AdvectTextureRequest& request) {
+  textures::AdvectSpec spec = textures::rpc::spec(request, LimitGate{Limits{}});
+  engine().validate(spec, "request");
+  auto advection = engine().start(spec);
+  std::vector<textures::TextureFrame> frames;
+  for (int i = 0; i < spec.frames; ++i) frames.push_back(advection->next());
+  return frames;
+}
+
+v1::Field field(const std::string& name, uint32_t nx, uint32_t ny, const std::vector<float>& values) {
+  v1::Field f;
+  field::encode({name, "1", nx, ny, 0, v1::DTYPE_FLOAT32}, values, &f);
+  return f;
+}
+
+// Every plane of the frames (final, raw, the four auxiliary ones), in the engine's order.
+void all_planes(v1::AdvectTextureRequest& r) {
+  for (auto p : {v1::TEXTURE_PLANE_FINAL, v1::TEXTURE_PLANE_RAW, v1::TEXTURE_PLANE_WEIGHT_SUM,
+                 v1::TEXTURE_PLANE_WEIGHT_SQ_SUM, v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER})
+    r.mutable_output()->add_planes(p);
+}
+
+v1::AdvectTextureRequest noise_request(uint32_t frames) {
+  v1::AdvectTextureRequest r;
+  r.set_method(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS);
+  auto* v = r.mutable_velocity()->mutable_named();
+  v->set_kind(v1::AnalyticVelocity::KIND_ROTATION);
+  v->set_angular_velocity(0.8);
+  auto* noise = r.mutable_texture()->mutable_noise();
+  noise->set_bands(3);
+  noise->set_time_varying(true);
+  r.mutable_texture()->set_final_function(v1::FINAL_FUNCTION_SUM_BANDS);
+  r.mutable_output()->set_width(64);
+  r.mutable_output()->set_height(64);
+  r.set_t0(0.25);
+  r.set_dt(0.05);
+  r.set_frames(frames);
+  r.set_seed(7);
+  all_planes(r);
+  return r;
+}
+
+// A 32 x 32 two-channel image (smooth, tileable) advected by a Taylor-Green flow over a 48 x 40 output.
+v1::AdvectTextureRequest image_request(v1::TextureMethod method) {
+  v1::AdvectTextureRequest r;
+  r.set_method(method);
+  auto* v = r.mutable_velocity()->mutable_named();
+  v->set_kind(v1::AnalyticVelocity::KIND_TAYLOR_GREEN);
+  v->set_speed(0.3);
+  v->set_period(1);
+  std::vector<float> a(32 * 32), b(32 * 32);
+  for (int j = 0; j < 32; ++j) {
+    for (int i = 0; i < 32; ++i) {
+      a[i + 32 * j] = float(0.5 + 0.5 * std::sin(2 * kPi * i / 32) * std::cos(2 * kPi * j / 32));
+      b[i + 32 * j] = float(0.5 + 0.5 * std::cos(2 * kPi * (i + 2 * j) / 32));
+    }
+  }
+  auto* image = r.mutable_texture()->mutable_image();
+  *image->add_channels() = field("a", 32, 32, a);
+  *image->add_channels() = field("b", 32, 32, b);
+  image->set_tileable(true);
+  r.mutable_texture()->set_scale(2);
+  r.mutable_output()->set_width(48);
+  r.mutable_output()->set_height(40);
+  r.mutable_eulerian()->set_grid_nx(24);
+  r.mutable_eulerian()->set_grid_ny(20);
+  r.set_t0(1.0);
+  r.set_dt(0.1);
+  r.set_frames(3);
+  all_planes(r);
+  return r;
+}
+
+// A streamed frame equals the engine's: the same planes, byte for byte, and the same statistics.
+void expect_same(const v1::TextureFrame& got, const textures::TextureFrame& want) {
+  ASSERT_EQ(got.index(), uint32_t(want.index));
+  EXPECT_EQ(got.time(), want.time);
+  const int planes = want.final_planes + want.raw_planes + SQUALL_AUX_PLANES;
+  ASSERT_EQ(got.planes_size(), planes);
+  const size_t n = size_t(want.width) * want.height;
+  for (int k = 0; k < planes; ++k) {
+    const std::string& bytes = got.planes(k).data();
+    ASSERT_EQ(bytes.size(), n * sizeof(float)) << got.planes(k).name();
+    EXPECT_EQ(std::memcmp(bytes.data(), want.plane(k), bytes.size()), 0) << "plane " << got.planes(k).name();
+  }
+  ASSERT_EQ(got.stats().mean_size(), int(want.stats.mean.size()));
+  for (size_t c = 0; c < want.stats.mean.size(); ++c) {
+    EXPECT_EQ(got.stats().mean(int(c)), want.stats.mean[c]);
+    EXPECT_EQ(got.stats().stddev(int(c)), want.stats.stddev[c]);
+  }
+  EXPECT_EQ(got.stats().uncovered_pixels(), want.stats.uncovered);
+}
+
+// Indices 0.., times t0 + i dt, planes of the output's size placed on its pixels, finite values, stats.
+void expect_well_formed(const Streamed& s, const v1::AdvectTextureRequest& r) {
+  ASSERT_TRUE(s.status.ok()) << s.status.error_message();
+  ASSERT_EQ(s.frames.size(), size_t(r.frames()));
+  const uint32_t w = r.output().width(), h = r.output().height();
+  for (size_t i = 0; i < s.frames.size(); ++i) {
+    const v1::TextureFrame& f = s.frames[i];
+    EXPECT_EQ(f.index(), uint32_t(i));
+    EXPECT_NEAR(f.time(), r.t0() + double(i) * r.dt(), 1e-12);
+    ASSERT_GT(f.planes_size(), 0);
+    EXPECT_TRUE(f.planes(0).name() == "final" || f.planes(0).name() == "final_0") << f.planes(0).name();
+    for (const auto& p : f.planes()) {
+      EXPECT_EQ(p.nx(), w);
+      EXPECT_EQ(p.ny(), h);
+      EXPECT_DOUBLE_EQ(p.spacing().x(), 1.0 / w);
+      EXPECT_DOUBLE_EQ(p.origin().y(), 0.5 / h);
+      for (float v : field::decode(p, p.name())) ASSERT_TRUE(std::isfinite(v)) << p.name();
+    }
+    EXPECT_GT(f.stats().mean_size(), 0);
+    EXPECT_EQ(f.stats().mean_size(), f.stats().stddev_size());
+    EXPECT_GT(f.stats().stages_size(), 0);
+    EXPECT_TRUE(f.checkpoint().empty());
+  }
+}
+
+TEST(TexturesService, LagrangianNoiseMatchesTheEngine) {
+  v1::AdvectTextureRequest r = noise_request(3);
+  Streamed s = advect(r);
+  expect_well_formed(s, r);
+  ASSERT_EQ(s.frames.size(), 3u);
+  EXPECT_EQ(s.frames[0].planes_size(), 1 + 3 + 4);  // SUM_BANDS: one final plane, 3 raw bands, 4 auxiliary
+  EXPECT_GT(s.frames[2].stats().particles().alive(), 0);
+  EXPECT_NE(s.frames[0].planes(0).data(), s.frames[2].planes(0).data());  // the texture moved
+  auto want = in_process(r);
+  for (size_t i = 0; i < want.size(); ++i) expect_same(s.frames[i], want[i]);
+}
+
+TEST(TexturesService, ImageThroughEachEulerianMethodMatchesTheEngine) {
+  for (auto method :
+       {v1::TEXTURE_METHOD_EULERIAN_MULTILAYER, v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP, v1::TEXTURE_METHOD_NAIVE}) {
+    SCOPED_TRACE(v1::TextureMethod_Name(method));
+    v1::AdvectTextureRequest r = image_request(method);
+    Streamed s = advect(r);
+    expect_well_formed(s, r);
+    ASSERT_EQ(s.frames.size(), 3u);
+    EXPECT_EQ(s.frames[0].planes(1).name(), "final_1");  // IDENTITY of two channels
+    EXPECT_EQ(s.frames[0].planes(2).name(), "raw_0");
+    EXPECT_NE(s.frames[0].planes(0).data(), s.frames[2].planes(0).data());  // the texture moved
+    auto want = in_process(r);
+    for (size_t i = 0; i < want.size(); ++i) expect_same(s.frames[i], want[i]);
+  }
+}
+
+// checkpoint_every = 2 puts the state on frames 0, 2, 4; resuming from frame 2's sends frames 3 and 4,
+// bit-identical to the first stream's.
+TEST(TexturesService, CheckpointResumesBitIdentically) {
+  for (auto method : {v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, v1::TEXTURE_METHOD_EULERIAN_MULTILAYER}) {
+    SCOPED_TRACE(v1::TextureMethod_Name(method));
+    v1::AdvectTextureRequest r = noise_request(5);
+    r.set_method(method);
+    r.set_checkpoint_every(2);
+    Streamed first = advect(r);
+    ASSERT_TRUE(first.status.ok()) << first.status.error_message();
+    ASSERT_EQ(first.frames.size(), 5u);
+    for (size_t i = 0; i < 5; ++i) EXPECT_EQ(first.frames[i].checkpoint().empty(), i % 2 == 1) << "frame " << i;
+    r.set_checkpoint_every(0);
+    r.set_resume_state(first.frames[2].checkpoint());
+    Streamed resumed = advect(r);
+    ASSERT_TRUE(resumed.status.ok()) << resumed.status.error_message();
+    ASSERT_EQ(resumed.frames.size(), 2u);
+    for (size_t k = 0; k < 2; ++k) {
+      const v1::TextureFrame &a = resumed.frames[k], &b = first.frames[3 + k];
+      EXPECT_EQ(a.index(), b.index());
+      EXPECT_EQ(a.time(), b.time());
+      ASSERT_EQ(a.planes_size(), b.planes_size());
+      for (int p = 0; p < a.planes_size(); ++p) EXPECT_EQ(a.planes(p).data(), b.planes(p).data()) << a.planes(p).name();
+    }
+    r.set_resume_state(first.frames[4].checkpoint());  // the last frame: nothing left to send
+    test::expect_error(Code::InvalidArgument, "request.resume_state", [&] { advect_or_throw(r); });
+  }
+}
+
+// A 5 x 5 two-frame velocity grid with a solid node (push-pull), and a PNG image: float16 planes.
+v1::AdvectTextureRequest grid_png_request(const std::string& dir) {
+  v1::AdvectTextureRequest r;
+  r.set_method(v1::TEXTURE_METHOD_NAIVE);
+  auto* g = r.mutable_velocity()->mutable_grid();
+  g->set_nx(5);
+  g->set_ny(5);
+  g->mutable_spacing()->set_x(0.25);
+  g->mutable_spacing()->set_y(0.25);
+  for (double t : {0.0, 1.0}) {
+    auto* frame = g->add_frames();
+    frame->set_time(t);
+    std::vector<float> u(25, float(0.2 + 0.1 * t)), v(25);
+    for (int k = 0; k < 25; ++k) v[k] = float(0.1 * (k % 5) * 0.25);
+    *frame->mutable_u() = field("u", 5, 5, u);
+    *frame->mutable_v() = field("v", 5, 5, v);
+  }
+  std::vector<float> mask(25, 1);
+  mask[12] = 0;
+  *g->mutable_mask() = field("mask", 5, 5, mask);
+  g->set_extrapolation(v1::VelocityGrid::EXTRAPOLATION_PUSH_PULL);
+  std::vector<float> ramp(16 * 8);
+  for (size_t k = 0; k < ramp.size(); ++k) ramp[k] = float((k * 37) % 101);
+  client::write_png_preview(dir + "/texture.png", 16, 8, ramp);
+  r.mutable_texture()->mutable_image()->set_png(test::read_file(dir + "/texture.png"));
+  r.mutable_output()->set_width(24);
+  r.mutable_output()->set_height(24);
+  r.mutable_output()->set_dtype(v1::DTYPE_FLOAT16);
+  r.set_frames(2);
+  return r;
+}
+
+TEST(TexturesService, GridVelocityAndPngImage) {
+  v1::AdvectTextureRequest r = grid_png_request(test::temp_dir("textures-png"));
+  Streamed s = advect(r);
+  ASSERT_TRUE(s.status.ok()) << s.status.error_message();
+  ASSERT_EQ(s.frames.size(), 2u);
+  const v1::Field& f = s.frames[1].planes(0);
+  EXPECT_EQ(f.name(), "final");  // a grey PNG: one channel
+  EXPECT_EQ(f.dtype(), v1::DTYPE_FLOAT16);
+  EXPECT_EQ(f.data().size(), 24u * 24 * 2);
+  const std::vector<float> values = field::decode(f, "final");
+  for (float v : values) {
+    ASSERT_TRUE(std::isfinite(v));
+    EXPECT_GE(v, -1e-3);  // PNG values are in [0, 1]; naive advection only moves them
+    EXPECT_LE(v, 1 + 1e-3);
+  }
+  EXPECT_GT(*std::max_element(values.begin(), values.end()) - *std::min_element(values.begin(), values.end()), 0.5);
+}
+
+// A PNG's samples become channels in [0, 1]: 16-bit RGB and 8-bit grey + alpha, row j as texture row j.
+TEST(TexturesRequest, PngSamplesBecomeUnitChannels) {
+  const uint32_t w = 3, h = 2;
+  std::vector<uint16_t> rgb16(w * h * 3);
+  std::vector<uint8_t> ga8(w * h * 2);
+  for (size_t k = 0; k < rgb16.size(); ++k) rgb16[k] = uint16_t(k * 3000 + 7);
+  for (size_t k = 0; k < ga8.size(); ++k) ga8[k] = uint8_t(k * 20 + 1);
+  struct Case {
+    uint32_t format;
+    const void* samples;
+    int channels;
+    std::function<float(size_t)> value;  // sample k of the file, scaled
+  };
+  const Case cases[] = {{PNG_FORMAT_LINEAR_RGB, rgb16.data(), 3, [&](size_t k) { return float(rgb16[k] / 65535.0); }},
+                        {PNG_FORMAT_GA, ga8.data(), 2, [&](size_t k) { return float(ga8[k] / 255.0); }}};
+  for (const Case& c : cases) {
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    image.width = w;
+    image.height = h;
+    image.format = c.format;
+    png_alloc_size_t size = 0;
+    ASSERT_TRUE(png_image_write_to_memory(&image, nullptr, &size, 0, c.samples, 0, nullptr));
+    std::string bytes(size, '\0');
+    ASSERT_TRUE(png_image_write_to_memory(&image, bytes.data(), &size, 0, c.samples, 0, nullptr));
+    v1::AdvectTextureRequest r;
+    r.mutable_texture()->mutable_image()->set_png(bytes);
+    r.mutable_output()->set_width(1);
+    r.mutable_output()->set_height(1);
+    const textures::TextureSpec t = textures::rpc::spec(r, LimitGate{Limits{}}).texture;
+    ASSERT_EQ(t.kind, SQUALL_TEXTURE_IMAGE);
+    ASSERT_EQ(t.channels, c.channels);
+    ASSERT_EQ(t.width, int(w));
+    ASSERT_EQ(t.height, int(h));
+    for (size_t pixel = 0; pixel < w * h; ++pixel)
+      for (int ch = 0; ch < c.channels; ++ch)
+        EXPECT_EQ(t.pixels[ch * w * h + pixel], c.value(pixel * c.channels + ch)) << pixel << " " << ch;
+  }
+}
+
+TEST(TexturesService, BadRequestsGetClearErrors) {
+  struct Case {
+    std::function<void(v1::AdvectTextureRequest&)> edit;
+    Code code;
+    std::string needle;
+  };
+  std::vector<Case> cases = {
+      {[](v1::AdvectTextureRequest& r) {
+         auto* v = r.mutable_velocity()->mutable_named();
+         v->set_kind(v1::AnalyticVelocity::KIND_UNIFORM);
+         v->set_velocity_x(NAN);
+       },
+       Code::InvalidArgument, "request.velocity.named.velocity_x = nan"},
+      {[](v1::AdvectTextureRequest& r) {
+         r.set_method(v1::TEXTURE_METHOD_NAIVE);
+         *r.mutable_velocity()->mutable_grid() = grid_png_request(test::temp_dir("textures-bad")).velocity().grid();
+         *r.mutable_velocity()->mutable_grid()->mutable_frames(1)->mutable_u() =
+             field("u", 4, 5, std::vector<float>(20));
+       },
+       Code::InvalidArgument, "request.velocity.grid.frames[1].u.nx = 4"},
+      {[](v1::AdvectTextureRequest& r) { r.mutable_output()->set_width(0); }, Code::InvalidArgument,
+       "request.output.width = 0"},
+      {[](v1::AdvectTextureRequest& r) {
+         r.mutable_output()->set_width(100000);
+         r.mutable_output()->set_height(100000);
+       },
+       Code::ResourceExhausted, "request.output"},
+      {[](v1::AdvectTextureRequest& r) { r.set_resume_state("not a checkpoint at all"); }, Code::InvalidArgument,
+       "resume_state"},
+      {[](v1::AdvectTextureRequest& r) { r.mutable_texture()->mutable_image()->set_png("\x89PNG\r\n\x1a\n garbage"); },
+       Code::InvalidArgument, "request.texture.image.png"},
+      {[](v1::AdvectTextureRequest& r) { r.set_frames(0); }, Code::InvalidArgument, "request.frames = 0"},
+      {[](v1::AdvectTextureRequest& r) { r.mutable_output()->mutable_region()->set_x0(2); }, Code::InvalidArgument,
+       "request.output.region.x1 = 0 must be finite and > 2"},
+      {[](v1::AdvectTextureRequest& r) { r.mutable_output()->set_dtype(v1::DType(9)); }, Code::InvalidArgument,
+       "request.output.dtype"},
+  };
+  for (const auto& k : cases) {
+    v1::AdvectTextureRequest r = noise_request(2);
+    k.edit(r);
+    test::expect_error(k.code, k.needle, [&] { advect_or_throw(r); });
+  }
+  ASSERT_TRUE(daemon().running());
+  v1::AdvectTextureRequest good = noise_request(2);
+  Streamed s = advect(good);
+  expect_well_formed(s, good);
+}
+
+// `squall texture advect` writes numbered EXR frames and PNG previews; a bad flag exits 2.
+TEST(TexturesCli, AdvectWritesFrames) {
+  const std::string dir = test::temp_dir("textures-cli");
+  std::string out;
+  std::vector<std::string> argv = {test::squall_path(),
+                                   "--address",
+                                   daemon().address(),
+                                   "texture",
+                                   "advect",
+                                   "--frames",
+                                   "2",
+                                   "--size",
+                                   "32x32",
+                                   "--velocity",
+                                   "vortex:0.5,0.5,0.5",
+                                   "--noise",
+                                   "3,4,2",
+                                   "--final",
+                                   "turbulence",
+                                   "--planes",
+                                   "final,raw",
+                                   "--out",
+                                   dir};
+  ASSERT_EQ(test::run(argv, &out), 0) << out;
+  for (const char* name : {"frame_0000.exr", "frame_0000.png", "frame_0001.exr", "frame_0001.png"}) {
+    ASSERT_TRUE(std::filesystem::exists(dir + "/" + name)) << name << "\n" << out;
+    EXPECT_GT(std::filesystem::file_size(dir + "/" + name), 0u) << name;
+  }
+  EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--method", "magic",
+                       "--out", dir},
+                      &out),
+            2)
+      << out;
+}
+
+}  // namespace
+}  // namespace squall
