@@ -21,7 +21,7 @@ class DeviceInputs {
   // Uploads the grid frames (push-pull extrapolated where the spec asks) and the image planes.
   DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats);
 
-  // The field over a step [t0, t1]: the two grid frames around t0 (or the one frame).
+  // The field for a step starting at t0: the two grid frames around t0 (or the one frame).
   VelocityField velocity(double t0) const;
   // The texture as evaluated at time `time` (flow noise turns with time).
   TextureSource texture(double time) const;

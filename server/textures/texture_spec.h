@@ -1,4 +1,4 @@
-// What an advection request asks for, validated by validate(spec, gate, path) (texture_engine.h): the
+// What an advection request asks for, validated by TextureEngine::validate(spec, path): the
 // domain, the velocity field, the reference texture and its final function, the output, the method and
 // its parameters. Units: domain units (du) for lengths, seconds, texture periods for texture coordinates.
 #pragma once
