@@ -91,10 +91,11 @@ squall::v1::AdvectTextureRequest request_of(Method method, int size, int frames)
 }
 
 // Frames/s of one AdvectTexture stream after its first kWarmup frames.
-double through_stream(squall::v1::Textures::Stub& stub, Method method, int size, double expected_fps, double budget) {
+double through_stream(squall::v1::Textures::Stub& textures, Method method, int size, double expected_fps,
+                      double budget) {
   const int timed = std::max(3, int(expected_fps * budget));
   grpc::ClientContext context;
-  auto reader = stub.AdvectTexture(&context, request_of(method, size, kWarmup + timed));
+  auto reader = textures.AdvectTexture(&context, request_of(method, size, kWarmup + timed));
   squall::v1::TextureFrame frame;
   int read = 0;
   Clock::time_point start;
@@ -128,7 +129,7 @@ int main(int argc, char** argv) {
   TextureEngine engine(runtime, gate);
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);
-  auto stub =
+  auto textures =
       squall::v1::Textures::NewStub(grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
 
   std::printf("device: %s; squalld: %s\n", describe(runtime.device_info()).c_str(),
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
     double lagrangian_fps = 0;
     for (auto [method, name] : methods) {
       InProcess a = in_process(engine, spec_of(method, size), budget);
-      double b = address.empty() ? 0 : through_stream(*stub, method, size, a.fps, budget);
+      double b = address.empty() ? 0 : through_stream(*textures, method, size, a.fps, budget);
       if (method == Method::LagrangianGrids) lagrangian_fps = a.fps;
       double versus = method == Method::TwoPhaseFlowMap ? a.fps / lagrangian_fps : 0;
       std::printf("%-6d %-12s %10.2f %10.2f %10.2f %9d %10.2f %12.2f\n", size, name, a.fps, b, b / a.fps, a.alive,

@@ -159,17 +159,18 @@ class Eulerian final : public Advection {
     TextureFrame frame = empty_frame(index_, t, out, texture);
     std::vector<float> weights;
     for (int s = 0; s < slots(); ++s) weights.push_back(float(alpha(s, t)));
-    cl::Buffer planes(runtime_.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
+    BufferLease planes = runtime_.buffers().acquire(frame.planes.size() * sizeof(float));  // reused frame to frame
     cl::Buffer alphas(runtime_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, weights.size() * sizeof(float),
                       weights.data());
     {
       auto lock = runtime_.exclusive();
       kernels_.eulerian_render.launch(
-          cl::NDRange(out.width, out.height), cl::NullRange, planes, out, state_, cl_int(nx_), cl_int(ny_),
+          cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out, state_, cl_int(nx_), cl_int(ny_),
           cl_int(schedule_.latencies.size()), cl_int(schedule_.phases), alphas,
           cl_int(params_.deformation == DeformationSum::Paper ? 1 : 0), cl_float(params_.d_star),
           cl_int(int(params_.blend)), texture, inputs_->image(), inputs_->velocity(t), inputs_->mask());
-      runtime_.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
+      runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
+                                         frame.planes.data());
     }
     frame.stats = frame_stats(frame);
     return frame;

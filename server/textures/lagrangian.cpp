@@ -311,16 +311,17 @@ class Lagrangian final : public Advection {
         runtime_.queue().enqueueWriteBuffer(b, CL_FALSE, 0, values.size() * sizeof(values[0]), values.data());
       return b;
     };
-    cl::Buffer planes(runtime_.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
+    BufferLease planes = runtime_.buffers().acquire(frame.planes.size() * sizeof(float));  // reused frame to frame
     {
       auto lock = runtime_.exclusive();
       cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), bounds = buffer(r.bounds);
       cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
-      kernels_.lagrangian_reconstruct.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes, out, offsets,
-                                             grids, bounds, positions, uvs, weights, cl_int(res()),
+      kernels_.lagrangian_reconstruct.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out,
+                                             offsets, grids, bounds, positions, uvs, weights, cl_int(res()),
                                              cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture,
                                              inputs_->image(), inputs_->velocity(time_), inputs_->mask());
-      runtime_.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
+      runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
+                                         frame.planes.data());
     }
     frame.stats = frame_stats(frame);
     frame.stats.particles = stats;
