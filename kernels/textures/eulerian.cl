@@ -3,7 +3,9 @@
  * its accumulated deformation d^i_j (float4: u.x, u.y, d, 0), advected semi-Lagrangianly (J. Stam,
  * "Stable Fluids", SIGGRAPH 1999); the host regenerates slots (u = S x, d = 0) when their phase ends.
  * With one layer of two phases this is the game engines' two-phase flow map; one slot never regenerated
- * is naive advection. Node (i, j) sits at (x0 + i hx, y0 + j hy), hx = region width / (nx - 1). */
+ * is naive advection. Node (i, j) sits at (x0 + i hx, y0 + j hy), hx = region width / (nx - 1).
+ * With the vorticity cascade (sec. 4) the nodes also carry, per noise band k, a vorticity w_k and a phase
+ * theta_k (float2 per band and node, band-major like the slots), shared by every slot. */
 #include "textures/texture.clh"
 #include "textures/velocity.clh"
 
@@ -35,6 +37,12 @@ static float strain_rate_norm(const VelocityField* f, __global const float2* gri
   return sqrt(dvdx.x * dvdx.x + dvdy.y * dvdy.y + 2.0f * exy * exy);
 }
 
+/* The point the flow carries to x over [t, t + dt]: an RK2 (midpoint) backtrace. */
+static float2 backtrace(const VelocityField* f, __global const float2* grid, float2 x, float t, float dt) {
+  float2 mid = x - 0.5f * dt * velocity_at(f, grid, x, t + dt);
+  return x - dt * velocity_at(f, grid, mid, t + 0.5f * dt);
+}
+
 /* One step [t, t + dt]: backtrace each node along the flow (RK2 midpoint), take every slot's state from
  * there (fresh coordinates where the backtrace leaves the region), add |e| dt to the deformation, and
  * regenerate the slots whose bit is set in reset_mask. */
@@ -46,8 +54,7 @@ __kernel void eulerian_advect(__global const float4* state_in, __global float4* 
   float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
   float hy = frame.pixel_y * (float)frame.height / (float)(ny - 1);
   float2 x = (float2)(frame.x0 + (float)i * hx, frame.y0 + (float)j * hy);
-  float2 mid = x - 0.5f * dt * velocity_at(&velocity, grid, x, t + dt);
-  float2 back = x - dt * velocity_at(&velocity, grid, mid, t + 0.5f * dt);
+  float2 back = backtrace(&velocity, grid, x, t, dt);
   float2 g = (float2)((back.x - frame.x0) / hx, (back.y - frame.y0) / hy);
   bool inside = g.x >= 0.0f && g.y >= 0.0f && g.x <= (float)(nx - 1) && g.y <= (float)(ny - 1);
   float strain = strain_rate_norm(&velocity, grid, x, t + dt, 0.5f * min(hx, hy));
@@ -57,6 +64,53 @@ __kernel void eulerian_advect(__global const float4* state_in, __global float4* 
     q.z += strain * dt;
     if ((reset_mask >> s) & 1) q = (float4)(scale * x, 0.0f, 0.0f);
     state_out[(size_t)s * plane + node] = q;
+  }
+}
+
+/* The vorticity omega = dv_y/dx - dv_x/dy by central differences of step h. */
+static float vorticity_at(const VelocityField* f, __global const float2* grid, float2 x, float t, float h) {
+  float2 dvdx = velocity_at(f, grid, x + (float2)(h, 0.0f), t) - velocity_at(f, grid, x - (float2)(h, 0.0f), t);
+  float2 dvdy = velocity_at(f, grid, x + (float2)(0.0f, h), t) - velocity_at(f, grid, x - (float2)(0.0f, h), t);
+  return (dvdx.y - dvdy.x) / (2.0f * h);
+}
+
+/* Bilinear sample of band k's (w_k, theta_k) at node coordinates g, clamped to the grid: fluid entering
+ * the region brings the values of the edge it enters by. */
+static float2 cascade_at(__global const float2* cascade, int nx, int ny, int k, float2 g) {
+  g = clamp(g, (float2)(0.0f), (float2)((float)(nx - 1), (float)(ny - 1)));
+  int i = min((int)g.x, nx - 2), j = min((int)g.y, ny - 2);
+  float s = g.x - (float)i, r = g.y - (float)j;
+  __global const float2* q = cascade + (size_t)k * (size_t)nx * (size_t)ny;
+  float2 bottom = mix(q[i + nx * j], q[i + 1 + nx * j], s);
+  float2 top = mix(q[i + nx * (j + 1)], q[i + 1 + nx * (j + 1)], s);
+  return mix(bottom, top, r);
+}
+
+/* One step [t, t + dt] of the vorticity cascade (ADV03 sec. 4): every band's (w_k, theta_k) taken from the
+ * node's backtrace, then w_0 = c_w |omega| and, in increasing k with the previous step's w_(k-1),
+ * w_k := beta_k w_k + (1 - beta_k) w_(k-1), beta_k = 2^(-dt / tau_k), tau_k = tau tau_ratio^(k-1); and
+ * theta_k += w_k dt with the updated w_k. */
+__kernel void eulerian_cascade(__global const float2* cascade_in, __global float2* cascade_out, int nx, int ny,
+                               OutputGrid frame, int bands, float c_w, float tau, float tau_ratio,
+                               VelocityField velocity, __global const float2* grid, float t, float dt) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
+  float hy = frame.pixel_y * (float)frame.height / (float)(ny - 1);
+  float2 x = (float2)(frame.x0 + (float)i * hx, frame.y0 + (float)j * hy);
+  float2 back = backtrace(&velocity, grid, x, t, dt);
+  float2 g = (float2)((back.x - frame.x0) / hx, (back.y - frame.y0) / hy);
+  float w_0 = c_w * fabs(vorticity_at(&velocity, grid, x, t + dt, 0.5f * min(hx, hy)));
+  float w_coarser = 0.0f; /* w_(k-1) of the previous step */
+  for (int k = 0; k < bands; ++k) {
+    float2 q = cascade_at(cascade_in, nx, ny, k, g);
+    float w = w_0;
+    if (k > 0) {
+      float beta = exp2(-dt / (tau * pown(tau_ratio, k - 1)));
+      w = beta * q.x + (1.0f - beta) * w_coarser;
+    }
+    w_coarser = q.x;
+    cascade_out[(size_t)k * (size_t)nx * (size_t)ny + (size_t)i + (size_t)nx * (size_t)j] = (float2)(w, q.y + w * dt);
   }
 }
 
@@ -87,11 +141,13 @@ static float select_layers(const float* deformation, int layers, float d_star, f
 
 /* One output pixel: every slot's coordinate and deformation interpolated from the nodes, the layers
  * selected per pixel, the slots' samples blended with weights alpha'^i alpha^i_j. Planes as in
- * lagrangian_reconstruct, with the selected layer l* in the last one. */
+ * lagrangian_reconstruct, with the selected layer l* in the last one. Noise band c's gradients turn by the
+ * cascade phase theta_c for c < cascade_bands (0: no cascade; `cascade` is then not read). */
 __kernel void eulerian_render(__global float* out, OutputGrid frame, __global const float4* state, int nx, int ny,
                               int layers, int phases, __global const float* alpha, int deformation_mode, float d_star,
-                              int blend, TextureSource texture, __global const float* image, VelocityField velocity,
-                              __global const uchar* mask) {
+                              int blend, TextureSource texture, __global const float* image,
+                              __global const float* scalar, __global const float* lut, VelocityField velocity,
+                              __global const uchar* mask, __global const float2* cascade, int cascade_bands) {
   int px = get_global_id(0), py = get_global_id(1);
   if (px >= frame.width || py >= frame.height) return;
   float2 p = (float2)(frame.x0 + ((float)px + 0.5f) * frame.pixel_x, frame.y0 + ((float)py + 0.5f) * frame.pixel_y);
@@ -110,29 +166,38 @@ __kernel void eulerian_render(__global float* out, OutputGrid frame, __global co
     }
   }
   float level = select_layers(deformation, layers, d_star, layer_weight);
+  float theta[SQUALL_TEXTURE_MAX_CHANNELS]; /* band c's cascade phase (ADV03 sec. 4), bilinear from the nodes */
+  for (int c = 0; c < SQUALL_TEXTURE_MAX_CHANNELS; ++c)
+    theta[c] = c < cascade_bands ? cascade_at(cascade, nx, ny, c, g).y : 0.0f;
 
   float r[SQUALL_TEXTURE_MAX_CHANNELS], sample[SQUALL_TEXTURE_MAX_CHANNELS];
+  float f[SQUALL_LUT_MAX_CHANNELS], blended_final[SQUALL_LUT_MAX_CHANNELS];
+  bool final_blend = blend == SQUALL_EULERIAN_FINAL && texture.final_function != SQUALL_FINAL_IDENTITY;
+  int finals = final_channels(&texture);
   for (int c = 0; c < texture.channels; ++c) r[c] = 0.0f;
-  float s0 = 0.0f, s2 = 0.0f, blended_final = 0.0f;
+  for (int c = 0; c < SQUALL_LUT_MAX_CHANNELS; ++c) blended_final[c] = 0.0f;
+  float s0 = 0.0f, s2 = 0.0f;
   int n = 0;
   for (int s = 0; s < layers * phases; ++s) {
     float w = layer_weight[s / phases] * alpha[s];
     if (w <= 0.0f) continue;
     for (int c = 0; c < texture.channels; ++c) {
-      sample[c] = texture_channel(&texture, image, c, q[s].xy);
+      sample[c] = texture_channel_turned(&texture, image, c, q[s].xy, theta[c]);
       r[c] += w * (blend == SQUALL_EULERIAN_OCTAVE_VP ? sample[c] - texture.mean[c] : sample[c]);
     }
-    if (blend == SQUALL_EULERIAN_FINAL && texture.final_function != SQUALL_FINAL_IDENTITY)
-      blended_final += w * final_value(&texture, sample);
+    if (final_blend) {
+      final_values(&texture, scalar, lut, p, sample, f);
+      for (int c = 0; c < finals; ++c) blended_final[c] += w * f[c];
+    }
     s0 += w;
     s2 += w * w;
     ++n;
   }
   if (blend == SQUALL_EULERIAN_OCTAVE_VP)
     for (int c = 0; c < texture.channels; ++c) r[c] = r[c] / sqrt(max(s2, 1e-12f)) + texture.mean[c];
-  write_texture_planes(&texture, r, out, plane, pixel);
-  if (blend == SQUALL_EULERIAN_FINAL && texture.final_function != SQUALL_FINAL_IDENTITY) out[pixel] = blended_final;
-  int aux = final_channels(&texture) + texture.channels;
+  write_texture_planes(&texture, scalar, lut, p, r, out, plane, pixel);
+  for (int c = 0; final_blend && c < finals; ++c) out[(size_t)c * plane + pixel] = blended_final[c];
+  int aux = finals + texture.channels;
   out[(size_t)aux * plane + pixel] = s0;
   out[(size_t)(aux + 1) * plane + pixel] = s2;
   out[(size_t)(aux + 2) * plane + pixel] = velocity_fluid_at(&velocity, mask, p.x, p.y) ? (float)n : -1.0f;

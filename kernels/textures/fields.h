@@ -70,11 +70,14 @@ typedef struct VelocityField {
 #define SQUALL_FINAL_SUM_BANDS 1  /* T = scale sum_j 2^-j a_j */
 #define SQUALL_FINAL_TURBULENCE 2 /* T = scale sum_j 2^-j |2 a_j - 1| */
 #define SQUALL_FINAL_RIDGED 3     /* T = scale sum_j 2^-j (1 - |2 a_j - 1|) */
-#define SQUALL_FINAL_FUNCTIONS 4
+#define SQUALL_FINAL_LUT 4        /* T = LUT(s(x) + scale sum_j 2^-j g(a_j)), g the shaping of lut_band_shape */
+#define SQUALL_FINAL_FUNCTIONS 5
 
 #define SQUALL_TEXTURE_MAX_CHANNELS 8
+#define SQUALL_LUT_MAX_CHANNELS 4 /* output channels of the LUT (RGBA) */
+#define SQUALL_LUT_MAX_ENTRIES 4096
 
-/* Layout (80 bytes, every member 4 bytes, no padding):
+/* Layout (128 bytes, every member 4 bytes, no padding):
  *   offset  0  int   kind            SQUALL_TEXTURE_*
  *   offset  4  int   channels        image channels, or noise bands; 1..SQUALL_TEXTURE_MAX_CHANNELS
  *   offset  8  int   width, height   image pixels per period (image only)
@@ -85,8 +88,19 @@ typedef struct VelocityField {
  *   offset 32  float mean[8]         Rhat per channel (sec. 3.4, eq. 4)
  *   offset 64  int   final_function  SQUALL_FINAL_*
  *   offset 68  float final_scale     scale of F
- *   offset 72  int   reserved[2]
- * The image array holds `channels` planes of width x height floats, x fastest. */
+ * SQUALL_FINAL_LUT only (Q. Yu, F. Neyret, E. Bruneton, N. Holzschuch, "Lagrangian Texture Advection",
+ * IEEE TVCG 2011, sec. 3.2, the fire example: T = LUT(s(x) + final_scale sum_j 2^-j g(a_j))):
+ *   offset 72  int   lut_entries     N, 2..SQUALL_LUT_MAX_ENTRIES
+ *   offset 76  int   lut_channels    C, 1..SQUALL_LUT_MAX_CHANNELS: the final planes
+ *   offset 80  float lut_min, lut_max     the input range of the table: entry k at lut_min + k (max - min) / (N - 1)
+ *   offset 88  int   lut_band_shape  g: SQUALL_FINAL_SUM_BANDS (a), _TURBULENCE (|2a - 1|) or _RIDGED (1 - |2a - 1|)
+ *   offset 92  int   scalar_nx, scalar_ny       nodes of the scalar field s (0: no field, s = 0)
+ *   offset 100 float scalar_origin_x, scalar_origin_y   position of node (0, 0), du
+ *   offset 108 float scalar_hx, scalar_hy       node spacing, du
+ *   offset 116 int   reserved[3]
+ * The image array holds `channels` planes of width x height floats, x fastest. The LUT array holds N
+ * entries of C floats (entry after entry); the scalar array nx * ny floats, x fastest, bilinear and
+ * clamped to its edge nodes. */
 typedef struct TextureSource {
   int kind;
   int channels;
@@ -98,7 +112,13 @@ typedef struct TextureSource {
   float mean[SQUALL_TEXTURE_MAX_CHANNELS];
   int final_function;
   float final_scale;
-  int reserved[2];
+  int lut_entries, lut_channels;
+  float lut_min, lut_max;
+  int lut_band_shape;
+  int scalar_nx, scalar_ny;
+  float scalar_origin_x, scalar_origin_y;
+  float scalar_hx, scalar_hy;
+  int reserved[3];
 } TextureSource;
 
 /* The output pixels: width x height over a region whose lower-left corner is (x0, y0); pixel (px, py)
@@ -115,6 +135,12 @@ typedef struct OutputGrid {
 /* The auxiliary planes every method writes after the final and raw planes: the weight sum, the sum of
  * squared weights, the number of blended samples (-1 on solid pixels) and the selected layer l*. */
 #define SQUALL_AUX_PLANES 4
+
+/* The number of final planes F produces: every channel for the identity, the LUT's channels, else one. */
+static inline int final_channels(const TextureSource* t) {
+  if (t->final_function == SQUALL_FINAL_IDENTITY) return t->channels;
+  return t->final_function == SQUALL_FINAL_LUT ? t->lut_channels : 1;
+}
 
 /* Fluid test at (x, y): 0 inside the cylinder or outside the channel's walls, and on grid nodes the mask
  * marks solid (nearest node, clamped to the grid). */
@@ -159,7 +185,7 @@ SQUALL_ASSERT_OFFSET(OutputGrid, pixel_x, 16);
 SQUALL_ASSERT_OFFSET(OutputGrid, pixel_y, 20);
 SQUALL_ASSERT_OFFSET(OutputGrid, tile, 24);
 SQUALL_ASSERT_OFFSET(OutputGrid, tiles_x, 28);
-SQUALL_ASSERT_SIZE(TextureSource, 80);
+SQUALL_ASSERT_SIZE(TextureSource, 128);
 SQUALL_ASSERT_OFFSET(TextureSource, kind, 0);
 SQUALL_ASSERT_OFFSET(TextureSource, channels, 4);
 SQUALL_ASSERT_OFFSET(TextureSource, width, 8);
@@ -171,7 +197,18 @@ SQUALL_ASSERT_OFFSET(TextureSource, time, 28);
 SQUALL_ASSERT_OFFSET(TextureSource, mean, 32);
 SQUALL_ASSERT_OFFSET(TextureSource, final_function, 64);
 SQUALL_ASSERT_OFFSET(TextureSource, final_scale, 68);
-SQUALL_ASSERT_OFFSET(TextureSource, reserved, 72);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_entries, 72);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_channels, 76);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_min, 80);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_max, 84);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_band_shape, 88);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_nx, 92);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_ny, 96);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_x, 100);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_y, 104);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_hx, 108);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_hy, 112);
+SQUALL_ASSERT_OFFSET(TextureSource, reserved, 116);
 #endif
 
 #endif

@@ -61,7 +61,8 @@ __kernel void lagrangian_reconstruct(__global float* out, OutputGrid frame, __gl
                                      __global const int* tile_grids, __global const float4* grid_bounds,
                                      __global const float2* positions, __global const float2* uvs,
                                      __global const float* weights, int grid_res, int blend, TextureSource texture,
-                                     __global const float* image, VelocityField velocity, __global const uchar* mask) {
+                                     __global const float* image, __global const float* scalar,
+                                     __global const float* lut, VelocityField velocity, __global const uchar* mask) {
   int px = get_global_id(0), py = get_global_id(1);
   if (px >= frame.width || py >= frame.height) return;
   float2 p = (float2)(frame.x0 + ((float)px + 0.5f) * frame.pixel_x, frame.y0 + ((float)py + 0.5f) * frame.pixel_y);
@@ -99,7 +100,7 @@ __kernel void lagrangian_reconstruct(__global float* out, OutputGrid frame, __gl
     else
       r[c] = s1[c] / norm; /* eq. 3 */
   }
-  write_texture_planes(&texture, r, out, plane, pixel);
+  write_texture_planes(&texture, scalar, lut, p, r, out, plane, pixel);
   int aux = final_channels(&texture) + texture.channels;
   out[(size_t)aux * plane + pixel] = s0;
   out[(size_t)(aux + 1) * plane + pixel] = s2;

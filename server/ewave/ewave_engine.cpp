@@ -64,6 +64,10 @@ EWaveConfig EWaveEngine::config(const std::string& id) {
   return sessions_.with(id, [](EWaveSession& s) { return s.config(); });
 }
 
+SurfaceCurrent EWaveEngine::surface_current(const std::string& id) {
+  return sessions_.with(id, [](EWaveSession& s) { return s.surface_current(); });
+}
+
 void EWaveEngine::close(const std::string& id) { sessions_.close(id); }
 
 std::string EWaveEngine::checkpoint(const std::string& id) {

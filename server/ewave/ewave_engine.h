@@ -34,6 +34,8 @@ class EWaveEngine {
   void restore(const std::string& id, const std::string& bytes);
   void close(const std::string& id);
   EWaveConfig config(const std::string& id);
+  // The session's surface current after its last step, for the textures that follow its wakes.
+  SurfaceCurrent surface_current(const std::string& id);
 
   // The session as versioned bytes, and back under its id: to persist sessions or move them between
   // daemons.

@@ -2,7 +2,7 @@
 
 #include "common/field_codec.h"
 #include "ewave/ewave_request.h"
-#include "ocean/shared_engine.h"
+#include "ewave/shared_engine.h"
 #include "rpc/metadata.h"
 #include "rpc/streaming.h"
 
@@ -24,13 +24,7 @@ void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveS
 
 }  // namespace
 
-void EWaveService::start(EngineContext& context) {
-  ewave::EWaveEngineOptions options;
-  options.sessions = context.sessions;
-  // ambient_ocean / initial_ocean of eWave sessions, evaluated by the daemon's one ocean engine
-  options.ocean = &ocean::shared_engine(context);
-  engine_ = std::make_unique<ewave::EWaveEngine>(context.runtime, context.fft, context.gate, options);
-}
+void EWaveService::start(EngineContext& context) { engine_ = &ewave::shared_engine(context); }
 
 void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* frame) {
   auto& ewave = *engine_;

@@ -3,8 +3,6 @@
 // the first call after its TTL ran out. Calls that create a session announce its id as x-squall-session.
 #pragma once
 
-#include <memory>
-
 #include "ewave/ewave_engine.h"
 #include "rpc/capability.h"
 #include "rpc/serving.h"
@@ -39,7 +37,7 @@ class EWaveService final : public squall::v1::EWave::Service, public Capability 
   void step(const squall::v1::EWaveStepRequest& request, squall::v1::EWaveFrame* frame);
 
   ServingState& serving_;
-  std::unique_ptr<ewave::EWaveEngine> engine_;
+  ewave::EWaveEngine* engine_ = nullptr;  // the daemon's, shared with the textures that follow its sessions
 };
 
 }  // namespace squall::rpc

@@ -17,6 +17,16 @@
 
 namespace squall::ewave {
 
+// The horizontal velocity of the water surface, u = grad phi (the potential flow of Gilligan eq 11, on the
+// surface), at the session time: u and v in m/s on the cells, nx * ny each, x fastest, cell (i, j) at
+// ((i + 0.5) dx, (j + 0.5) dy).
+struct SurfaceCurrent {
+  int64_t nx = 0, ny = 0;
+  double dx = 0, dy = 0;  // m
+  double time = 0;        // s
+  std::vector<float> u, v;
+};
+
 class EWaveSession {
  public:
   // Validates the config (Error InvalidArgument naming the field) and uploads the initial fields.
@@ -30,6 +40,8 @@ class EWaveSession {
 
   // One step of inputs.dt (validated first; the session is unchanged when they are rejected).
   Frame step(const StepInputs& inputs);
+  // grad phi by central differences, periodic like the FFT propagation (error ~ (k dx)^2 / 6 at wavenumber k).
+  SurfaceCurrent surface_current() const;
 
   // The whole session (config without initial fields, step, time, h, phi) as bytes; restore() of those
   // bytes into a session of the same grid continues bit-identically.

@@ -166,4 +166,23 @@ Frame EWaveSession::read_frame(const OutputSelection& o) const {
   return f;
 }
 
+SurfaceCurrent EWaveSession::surface_current() const {
+  Frame potential;
+  {
+    auto lock = runtime_.exclusive();
+    potential = read_frame(OutputSelection{false, false, false, true});
+  }
+  const std::vector<float>& phi = potential.phi;
+  const int64_t nx = config_.nx, ny = config_.ny;
+  SurfaceCurrent current{nx, ny, config_.dx, config_.dy, time_, std::vector<float>(cells_), std::vector<float>(cells_)};
+  auto at = [&](int64_t i, int64_t j) { return double(phi[size_t(((j + ny) % ny) * nx + (i + nx) % nx)]); };
+  for (int64_t j = 0; j < ny; ++j) {
+    for (int64_t i = 0; i < nx; ++i) {
+      current.u[size_t(j * nx + i)] = float((at(i + 1, j) - at(i - 1, j)) / (2 * config_.dx));
+      current.v[size_t(j * nx + i)] = float((at(i, j + 1) - at(i, j - 1)) / (2 * config_.dy));
+    }
+  }
+  return current;
+}
+
 }  // namespace squall::ewave

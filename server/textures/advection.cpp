@@ -12,7 +12,7 @@ TextureFrame empty_frame(int index, double time, const OutputGrid& out, const Te
   frame.time = time;
   frame.width = out.width;
   frame.height = out.height;
-  frame.final_planes = texture.final_function == SQUALL_FINAL_IDENTITY ? texture.channels : 1;
+  frame.final_planes = final_channels(&texture);
   frame.raw_planes = texture.channels;
   frame.planes.assign(size_t(frame.final_planes + frame.raw_planes + SQUALL_AUX_PLANES) * out.width * out.height, 0);
   return frame;

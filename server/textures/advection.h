@@ -2,10 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "textures/device_inputs.h"
 #include "textures/fields.h"
 
 namespace squall::textures {
@@ -56,6 +58,12 @@ class Advection {
   virtual TextureFrame next() = 0;
   // The whole state after the last frame, from which resume() continues bit-identically.
   virtual std::string checkpoint() const = 0;
+
+  // Steering (TextureEngine::steer): from the next frame on, the velocity field and the texture's
+  // animation of `inputs`, `dt` seconds between frames and `substeps` integration steps per frame. The
+  // frame times stay continuous: the next frame is at the last frame's time + dt.
+  virtual void steer(std::shared_ptr<const DeviceInputs> inputs, double dt, int substeps) = 0;
+  virtual const DeviceInputs& inputs() const = 0;
 };
 
 }  // namespace squall::textures

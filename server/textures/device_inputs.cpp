@@ -28,6 +28,12 @@ std::vector<cl_float2> grid_pairs(const VelocitySpec& v) {
   return pairs;
 }
 
+// The LUT's table or scalar field when the final function is the LUT, else nothing.
+const std::vector<float>& lut_input(const TextureSpec& t, const std::vector<float>& values) {
+  static const std::vector<float> none;
+  return t.final_function == SQUALL_FINAL_LUT ? values : none;
+}
+
 VelocityField field_of(const VelocitySpec& v) {
   VelocityField f{};
   f.kind = v.kind;
@@ -44,6 +50,22 @@ VelocityField field_of(const VelocitySpec& v) {
   return f;
 }
 
+// The LUT final function's description: its table, band shaping and scalar field (fields.h).
+void lookup_of(const FinalLookupSpec& l, TextureSource& s) {
+  s.lut_channels = l.channels;
+  s.lut_entries = int(l.table.size()) / std::max(l.channels, 1);
+  s.lut_min = float(l.lut_min);
+  s.lut_max = float(l.lut_max);
+  s.lut_band_shape = l.band_shape;
+  if (l.field.values.empty()) return;  // s = 0
+  s.scalar_nx = l.field.nx;
+  s.scalar_ny = l.field.ny;
+  s.scalar_origin_x = float(l.field.origin_x);
+  s.scalar_origin_y = float(l.field.origin_y);
+  s.scalar_hx = float(l.field.hx);
+  s.scalar_hy = float(l.field.hy);
+}
+
 TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
   TextureSource s{};
   s.kind = t.kind;
@@ -56,21 +78,37 @@ TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
   for (int c = 0; c < s.channels && c < int(stats.mean.size()); ++c) s.mean[c] = float(stats.mean[c]);
   s.final_function = t.final_function;
   s.final_scale = float(t.final_scale);
+  if (t.final_function == SQUALL_FINAL_LUT) lookup_of(t.lut, s);
   return s;
 }
 
 }  // namespace
 
 DeviceInputs::DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats)
-    : field_(field_of(spec.velocity)),
-      texture_(source_of(spec.texture, stats)),
+    : texture_(source_of(spec.texture, stats)),
       output_(spec.output),
-      mask_host_(spec.velocity.mask),
       stats_(stats),
-      grid_(upload(runtime, grid_pairs(spec.velocity))),
-      mask_(upload(runtime, spec.velocity.mask)),
-      image_(upload(runtime, spec.texture.kind == SQUALL_TEXTURE_IMAGE ? spec.texture.pixels : std::vector<float>{})) {
-  for (const auto& frame : spec.velocity.frames) times_.push_back(frame.time);
+      image_(upload(runtime, spec.texture.kind == SQUALL_TEXTURE_IMAGE ? spec.texture.pixels : std::vector<float>{})),
+      scalar_(upload(runtime, lut_input(spec.texture, spec.texture.lut.field.values))),
+      lut_(upload(runtime, lut_input(spec.texture, spec.texture.lut.table))) {
+  set_velocity(runtime, spec.velocity);
+}
+
+void DeviceInputs::set_velocity(Runtime& runtime, const VelocitySpec& velocity) {
+  field_ = field_of(velocity);
+  times_.clear();
+  for (const auto& frame : velocity.frames) times_.push_back(frame.time);
+  mask_host_ = velocity.mask;
+  grid_ = upload(runtime, grid_pairs(velocity));
+  mask_ = upload(runtime, velocity.mask);
+}
+
+std::shared_ptr<const DeviceInputs> DeviceInputs::steered(Runtime& runtime, const AdvectSpec& spec) const {
+  auto next = std::make_shared<DeviceInputs>(*this);
+  next->set_velocity(runtime, spec.velocity);
+  next->texture_.spin = float(spec.texture.spin);
+  next->texture_.final_scale = float(spec.texture.final_scale);
+  return next;
 }
 
 VelocityField DeviceInputs::velocity(double t0) const {

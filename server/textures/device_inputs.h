@@ -1,7 +1,9 @@
 // The inputs every advection method reads on the device: the velocity field (analytic, or grid frames
-// with their fluid mask), the reference texture's image planes, and their kernel descriptions (fields.h).
+// with their fluid mask), the reference texture's image planes, the LUT final function's table and scalar
+// field, and their kernel descriptions (fields.h). Uploaded once per advection.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "runtime/opencl.h"
@@ -18,8 +20,12 @@ struct ReferenceStats {
 
 class DeviceInputs {
  public:
-  // Uploads the grid frames (push-pull extrapolated where the spec asks) and the image planes.
+  // Uploads the grid frames (push-pull extrapolated where the spec asks), the image planes, and the LUT's
+  // table and scalar field.
   DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats);
+  // These inputs with the velocity of `spec` (uploaded) and its texture's spin and final_scale; the
+  // texture's uploads and statistics are shared, not copied (steering a running advection).
+  std::shared_ptr<const DeviceInputs> steered(Runtime& runtime, const AdvectSpec& spec) const;
 
   // The field for a step starting at t0: the two grid frames around t0 (or the one frame).
   VelocityField velocity(double t0) const;
@@ -33,16 +39,20 @@ class DeviceInputs {
   const cl::Buffer& grid() const { return grid_; }
   const cl::Buffer& mask() const { return mask_; }
   const cl::Buffer& image() const { return image_; }
+  const cl::Buffer& scalar() const { return scalar_; }  // the LUT's scalar field s (a few zeros when absent)
+  const cl::Buffer& lut() const { return lut_; }        // the LUT's N x C table
   const ReferenceStats& stats() const { return stats_; }
 
  private:
+  void set_velocity(Runtime& runtime, const VelocitySpec& velocity);  // field, frame times, mask, uploads
+
   VelocityField field_{};
   TextureSource texture_{};
   OutputSpec output_;
   std::vector<double> times_;
   std::vector<uint8_t> mask_host_;
   ReferenceStats stats_;
-  cl::Buffer grid_, mask_, image_;
+  cl::Buffer grid_, mask_, image_, scalar_, lut_;
 };
 
 // The reference statistics of an image texture, computed from its pixels.

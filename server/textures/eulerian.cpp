@@ -1,5 +1,6 @@
 #include "textures/eulerian.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -28,6 +29,13 @@ Schedule schedule_of(const AdvectSpec& spec) {
   }
 }
 
+// The noise bands the vorticity cascade turns (ADV03 sec. 4): those of a multi-layer request with c_w > 0.
+int cascade_bands_of(const AdvectSpec& spec) {
+  const bool on = spec.method == Method::EulerianMultilayer && spec.texture.kind == SQUALL_TEXTURE_NOISE &&
+                  spec.eulerian.cascade.c_w > 0;
+  return on ? spec.texture.bands : 0;
+}
+
 class Eulerian final : public Advection {
  public:
   Eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
@@ -42,10 +50,14 @@ class Eulerian final : public Advection {
         substeps_(spec.substeps),
         inputs_(std::move(inputs)),
         nx_(params_.grid_nx),
-        ny_(params_.grid_ny) {
+        ny_(params_.grid_ny),
+        cascade_bands_(cascade_bands_of(spec)) {
     const size_t bytes = state_floats() * sizeof(float);
     state_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
     scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
+    const size_t cascade_bytes = std::max<size_t>(cascade_floats(), 2) * sizeof(float);  // one float2 when off
+    cascade_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, cascade_bytes);
+    cascade_scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, cascade_bytes);
     for (size_t i = 0; i < schedule_.latencies.size(); ++i)
       for (int j = 0; j < schedule_.phases; ++j)
         phase_start_.push_back(t0_ - j * schedule_.latencies[i] / schedule_.phases);
@@ -53,6 +65,7 @@ class Eulerian final : public Advection {
       std::vector<float> fresh(state_floats());
       for (int s = 0; s < slots(); ++s) fresh_slot(fresh, s);
       upload_state(fresh);
+      upload_cascade(std::vector<float>(cascade_floats()));  // w_k = theta_k = 0
     } else {
       restore(state);
     }
@@ -76,6 +89,17 @@ class Eulerian final : public Advection {
     return frame;
   }
 
+  void steer(std::shared_ptr<const DeviceInputs> inputs, double dt, int substeps) override {
+    inputs_ = std::move(inputs);
+    t0_ += index_ * (dt_ - dt);  // keeps the frame time t0_ + index_ dt_
+    dt_ = dt;
+    substeps_ = substeps;
+  }
+
+  const DeviceInputs& inputs() const override { return *inputs_; }
+
+  // Version, started, index, phase starts, the slots' node state (state_floats()), then with the cascade its
+  // (w_k, theta_k) per band and node (cascade_floats()).
   std::string checkpoint() const override {
     std::vector<float> values(state_floats());
     {
@@ -88,12 +112,14 @@ class Eulerian final : public Advection {
     out.put(int64_t(index_));
     out.put_vector(phase_start_);
     out.put_vector(values);
+    if (cascade_bands_ > 0) out.put_vector(download_cascade());
     return out.take();
   }
 
  private:
   int slots() const { return int(schedule_.latencies.size()) * schedule_.phases; }
   size_t state_floats() const { return size_t(slots()) * nx_ * ny_ * 4; }
+  size_t cascade_floats() const { return size_t(cascade_bands_) * nx_ * ny_ * 2; }
   double latency(int slot) const { return schedule_.latencies[slot / schedule_.phases]; }
 
   // u = S x, d = 0 at every node of slot s.
@@ -115,6 +141,19 @@ class Eulerian final : public Advection {
     runtime_.queue().enqueueWriteBuffer(state_, CL_TRUE, 0, values.size() * sizeof(float), values.data());
   }
 
+  void upload_cascade(const std::vector<float>& values) {
+    if (values.empty()) return;
+    auto lock = runtime_.exclusive();
+    runtime_.queue().enqueueWriteBuffer(cascade_, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+  }
+
+  std::vector<float> download_cascade() const {
+    std::vector<float> values(cascade_floats());
+    auto lock = runtime_.exclusive();
+    runtime_.queue().enqueueReadBuffer(cascade_, CL_TRUE, 0, values.size() * sizeof(float), values.data());
+    return values;
+  }
+
   void restore(const std::string& state) {
     StateReader in(state);
     if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
@@ -122,9 +161,12 @@ class Eulerian final : public Advection {
     index_ = int(in.get<int64_t>());
     phase_start_ = in.get_vector<double>();
     std::vector<float> values = in.get_vector<float>();
-    if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()))
-      fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases or grid");
+    std::vector<float> cascade = cascade_bands_ > 0 ? in.get_vector<float>() : std::vector<float>();
+    if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()) ||
+        cascade.size() != cascade_floats())
+      fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases, grid or cascade");
     upload_state(values);
+    upload_cascade(cascade);
   }
 
   // The phase weight alpha^i_j of slot s at time t (ADV03 sec. 2.2; triangle for the flow map).
@@ -151,6 +193,17 @@ class Eulerian final : public Advection {
                                     inputs_->output(1), cl_int(slots()), inputs_->velocity(t), inputs_->grid(),
                                     cl_float(t), cl_float(h), cl_float(scale_), reset);
     std::swap(state_, scratch_);
+    if (cascade_bands_ > 0) advance_cascade(t, h);
+  }
+
+  // The vorticity cascade's step [t, t + h] (ADV03 sec. 4); the caller holds runtime_.exclusive().
+  void advance_cascade(double t, double h) {
+    const VorticityCascade& c = params_.cascade;
+    kernels_.eulerian_cascade.launch(cl::NDRange(nx_, ny_), cl::NullRange, cascade_, cascade_scratch_, cl_int(nx_),
+                                     cl_int(ny_), inputs_->output(1), cl_int(cascade_bands_), cl_float(c.c_w),
+                                     cl_float(c.tau), cl_float(c.tau_ratio), inputs_->velocity(t), inputs_->grid(),
+                                     cl_float(t), cl_float(h));
+    std::swap(cascade_, cascade_scratch_);
   }
 
   TextureFrame render(double t) {
@@ -168,7 +221,8 @@ class Eulerian final : public Advection {
           cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out, state_, cl_int(nx_), cl_int(ny_),
           cl_int(schedule_.latencies.size()), cl_int(schedule_.phases), alphas,
           cl_int(params_.deformation == DeformationSum::Paper ? 1 : 0), cl_float(params_.d_star),
-          cl_int(int(params_.blend)), texture, inputs_->image(), inputs_->velocity(t), inputs_->mask());
+          cl_int(int(params_.blend)), texture, inputs_->image(), inputs_->scalar(), inputs_->lut(),
+          inputs_->velocity(t), inputs_->mask(), cascade_, cl_int(cascade_bands_));
       runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
                                          frame.planes.data());
     }
@@ -184,8 +238,10 @@ class Eulerian final : public Advection {
   int substeps_;
   std::shared_ptr<const DeviceInputs> inputs_;
   int nx_, ny_;
-  cl::Buffer state_, scratch_;  // float4 per slot and node: u.x, u.y, d, 0
-  // The state a checkpoint holds (with state_'s contents):
+  int cascade_bands_;                     // noise bands of the vorticity cascade; 0: off
+  cl::Buffer state_, scratch_;            // float4 per slot and node: u.x, u.y, d, 0
+  cl::Buffer cascade_, cascade_scratch_;  // float2 per band and node (band-major): w_k, theta_k
+  // The state a checkpoint holds (with state_'s and cascade_'s contents):
   bool started_ = false;
   int index_ = 0;
   std::vector<double> phase_start_;  // t0^i_j per slot: the time of its last regeneration

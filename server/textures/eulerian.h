@@ -2,7 +2,8 @@
 // N layers of regenerated texture coordinates with latencies, chosen per pixel from their accumulated
 // deformation (sec. 2) and blended before the final function (sec. 3). The same engine runs the game
 // engines' two-phase flow map (one layer, two phases with triangle weights) and naive advection (one
-// parameterization never regenerated).
+// parameterization never regenerated). With EulerianParams::cascade the multi-layer method also advects the
+// vorticity cascade of sec. 4, which turns the noise bands with the flow's vorticity.
 #pragma once
 
 #include <memory>

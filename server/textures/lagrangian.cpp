@@ -50,8 +50,8 @@ class Lagrangian final : public Advection {
         patch_rng_(spec.seed, RngPurpose::PatchOrigin),
         time_(spec.t0) {
     const double d = params_.d;
-    region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d,
-               [in = inputs_](double x, double y) { return in->fluid(x, y); }};
+    region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d, {}};
+    sample_fluid_of_inputs();
     if (!state.empty()) restore(state);
   }
 
@@ -80,6 +80,16 @@ class Lagrangian final : public Advection {
     return frame;
   }
 
+  void steer(std::shared_ptr<const DeviceInputs> inputs, double dt, int substeps) override {
+    inputs_ = std::move(inputs);
+    sample_fluid_of_inputs();
+    t0_ = time_ - index_ * dt;  // keeps time_ = t0_ + index_ dt_
+    dt_ = dt;
+    substeps_ = substeps;
+  }
+
+  const DeviceInputs& inputs() const override { return *inputs_; }
+
   std::string checkpoint() const override {
     StateWriter out;
     out.put(kStateVersion);
@@ -94,6 +104,11 @@ class Lagrangian final : public Advection {
   }
 
  private:
+  // Poisson sampling covers the fluid of the current inputs.
+  void sample_fluid_of_inputs() {
+    region_.inside = [in = inputs_](double x, double y) { return in->fluid(x, y); };
+  }
+
   int res() const { return params_.grid_res; }
   size_t vertices() const { return size_t(res()) * res(); }
   double spacing() const { return (2 + params_.beta) * params_.d / (res() - 1); }  // sec. 3.3.1
@@ -316,10 +331,10 @@ class Lagrangian final : public Advection {
       auto lock = runtime_.exclusive();
       cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), bounds = buffer(r.bounds);
       cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
-      kernels_.lagrangian_reconstruct.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out,
-                                             offsets, grids, bounds, positions, uvs, weights, cl_int(res()),
-                                             cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture,
-                                             inputs_->image(), inputs_->velocity(time_), inputs_->mask());
+      kernels_.lagrangian_reconstruct.launch(
+          cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out, offsets, grids, bounds, positions,
+          uvs, weights, cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
+          inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_), inputs_->mask());
       runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
                                          frame.planes.data());
     }

@@ -11,11 +11,11 @@ namespace {
 constexpr int kStatsResolution = 256;  // texels per period when the stats of a procedural texture are measured
 
 void render_window(Runtime& runtime, TextureKernels& kernels, TextureFrame& frame, const OutputGrid& out, double scale,
-                   const TextureSource& texture, const cl::Buffer& image) {
+                   const TextureSource& texture, const DeviceInputs& inputs) {
   cl::Buffer planes(runtime.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
   auto lock = runtime.exclusive();
   kernels.texture_window.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes, out, cl_float(scale),
-                                texture, image);
+                                texture, inputs.image(), inputs.scalar(), inputs.lut());
   runtime.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
 }
 
@@ -30,6 +30,10 @@ std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, const st
   return make_eulerian(runtime_, kernels_, spec, inputs, resume_state);
 }
 
+void TextureEngine::steer(Advection& advection, const AdvectSpec& spec) {
+  advection.steer(advection.inputs().steered(runtime_, spec), spec.dt, spec.substeps);
+}
+
 TextureFrame TextureEngine::window(const AdvectSpec& spec) { return window(spec, reference_stats(spec.texture)); }
 
 TextureFrame TextureEngine::window(const AdvectSpec& spec, const ReferenceStats& stats) {
@@ -37,7 +41,7 @@ TextureFrame TextureEngine::window(const AdvectSpec& spec, const ReferenceStats&
   OutputGrid out = inputs.output(1);
   TextureSource texture = inputs.texture(spec.t0);
   TextureFrame frame = empty_frame(0, spec.t0, out, texture);
-  render_window(runtime_, kernels_, frame, out, spec.texture.scale, texture, inputs.image());
+  render_window(runtime_, kernels_, frame, out, spec.texture.scale, texture, inputs);
   frame.stats = frame_stats(frame);
   return frame;
 }

@@ -29,6 +29,11 @@ class TextureEngine {
   // continues it bit-identically.
   std::unique_ptr<Advection> start(const AdvectSpec& spec, const std::string& resume_state = "");
 
+  // Changes a running advection from its next frame on: `spec` is the spec it was started with, where only
+  // the velocity, dt, substeps and the texture's spin and final_scale may differ (validated by the caller).
+  // The reference statistics stay those of the start (the texture's channels do not change).
+  void steer(Advection& advection, const AdvectSpec& spec);
+
   // The reference texture registered to the domain, T(S x), on the spec's output pixels.
   TextureFrame window(const AdvectSpec& spec);
   // Mean and variance of each channel of R over one period (images: from the pixels).

@@ -38,6 +38,24 @@ struct VelocitySpec {
   std::vector<uint8_t> mask;  // nx * ny, nonzero = fluid; empty = all fluid
 };
 
+// A scalar field s(x) on nodes (dimensionless): bilinear in space, clamped to its edge nodes.
+struct ScalarGridSpec {
+  int nx = 0, ny = 0;                 // nodes, >= 2 each; 0 and no values: no field (s = 0)
+  double origin_x = 0, origin_y = 0;  // du, position of node (0, 0)
+  double hx = 0, hy = 0;              // du, > 0
+  std::vector<float> values;          // nx * ny, x fastest
+};
+
+// The final function SQUALL_FINAL_LUT (LTA11 sec. 3.2, fire example): T = LUT(s(x) + final_scale
+// sum_j 2^-j g(a_j)), the table linear between its entries and clamped at its ends.
+struct FinalLookupSpec {
+  ScalarGridSpec field;
+  int channels = 1;                      // C, output channels per entry (final planes), 1..4
+  std::vector<float> table;              // N entries of C values, entry after entry; N in 2..4096
+  double lut_min = 0, lut_max = 1;       // input range: entry k at lut_min + k (lut_max - lut_min) / (N - 1)
+  int band_shape = SQUALL_FINAL_RIDGED;  // g: SQUALL_FINAL_SUM_BANDS, _TURBULENCE or _RIDGED
+};
+
 struct TextureSpec {
   int kind = SQUALL_TEXTURE_NOISE;  // SQUALL_TEXTURE_*
   // Image: `channels` planes of width x height, x fastest, one period of a tileable texture.
@@ -51,6 +69,7 @@ struct TextureSpec {
   double scale = 4;                            // S, texture periods per du
   int final_function = SQUALL_FINAL_IDENTITY;  // SQUALL_FINAL_*
   double final_scale = 1;
+  FinalLookupSpec lut;  // SQUALL_FINAL_LUT only
 };
 
 // The output frames: width x height pixels over the region [x0, x1] x [y0, y1] (du); pixel (px, py)
@@ -97,6 +116,18 @@ enum class EulerianBlend {
   OctaveVariancePreserving,  // the channels blended with eq. 4 of LTA11, then F
 };
 
+// The vorticity cascade of F. Neyret, "Advected Textures" (SCA 2003), sec. 4: every advection node carries,
+// per noise band k, a vorticity w_k (rad/s) and a phase theta_k (rad), advected with the fluid; each step
+// w_0 = c_w |omega| (omega = dv_y/dx - dv_x/dy), w_k := beta_k w_k + (1 - beta_k) w_(k-1) for k >= 1 with
+// beta_k = 2^(-dt / tau_k) (tau_k: band k's half-life, time constant tau_k / ln 2) and
+// tau_k = tau tau_ratio^(k-1), then theta_k += w_k dt; band k's gradients turn by theta_k on top of the
+// flow-noise spin. All start at 0.
+struct VorticityCascade {
+  double c_w = 0;                         // rad per unit of vorticity (dimensionless), >= 0; 0: off
+  double tau = 0.5;                       // s, > 0: tau_1
+  double tau_ratio = 0.6299605249474366;  // > 0; 2^(-2/3): Kolmogorov's eddy turnover time ~ scale^(2/3)
+};
+
 struct EulerianParams {
   std::vector<double> latencies = {0.6, 2.3, 4.0};  // s, one layer each, increasing
   int phases = 3;                                   // regenerated parameterizations per layer, 2 or 3
@@ -105,6 +136,7 @@ struct EulerianParams {
   DeformationSum deformation = DeformationSum::Weighted;
   EulerianBlend blend = EulerianBlend::Octave;
   int grid_nx = 64, grid_ny = 64;  // advection nodes over the output region
+  VorticityCascade cascade;        // EulerianMultilayer with a noise texture only
 };
 
 struct AdvectSpec {

@@ -50,6 +50,38 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   if (!v.mask.empty()) count(path + ".mask", v.mask.size(), nodes, "nx * ny");
 }
 
+// The LUT's scalar field: absent (no values, nx = ny = 0), or nx x ny finite values on a spaced grid.
+void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::string& path) {
+  if (g.values.empty() && g.nx == 0 && g.ny == 0) return;  // s = 0
+  in(path + ".nx", int64_t(g.nx), 2, 1 << 20);
+  in(path + ".ny", int64_t(g.ny), 2, 1 << 20);
+  gate.check_grid(path, g.nx, g.ny);
+  finite(path + ".origin_x", g.origin_x);
+  finite(path + ".origin_y", g.origin_y);
+  positive(path + ".hx", g.hx);
+  positive(path + ".hy", g.hy);
+  const size_t nodes = size_t(g.nx) * g.ny;
+  count(path + ".values", g.values.size(), nodes, "nx * ny");
+  each(path + ".values", g.values.data(), nodes);
+}
+
+// The LUT final function (LTA11 sec. 3.2): C channels, N in 2..4096 finite entries, lut_max > lut_min,
+// a band shaping g among SUM_BANDS, TURBULENCE, RIDGED.
+void lookup(const FinalLookupSpec& l, const LimitGate& gate, const std::string& path) {
+  const int64_t channels = in(path + ".channels", int64_t(l.channels), 1, SQUALL_LUT_MAX_CHANNELS);
+  const size_t size = l.table.size();
+  if (size % size_t(channels) != 0)
+    reject(path + ".table size", double(size), "a multiple of channels = " + std::to_string(channels));
+  in(path + ".table size / channels", int64_t(size / size_t(channels)), 2, SQUALL_LUT_MAX_ENTRIES);
+  each(path + ".table", l.table.data(), size);
+  finite(path + ".lut_min", l.lut_min);
+  in(path + ".lut_max", l.lut_max, above(l.lut_min));
+  if (l.band_shape != SQUALL_FINAL_SUM_BANDS && l.band_shape != SQUALL_FINAL_TURBULENCE &&
+      l.band_shape != SQUALL_FINAL_RIDGED)
+    reject(path + ".band_shape", double(l.band_shape), "sum of bands, turbulence or ridged");
+  scalar_grid(l.field, gate, path + ".field");
+}
+
 void texture(const TextureSpec& t, const LimitGate& gate, const std::string& path) {
   known(path + ".kind", t.kind, 2, "texture kind");
   if (t.kind == SQUALL_TEXTURE_IMAGE) {
@@ -67,6 +99,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
   positive(path + ".scale", t.scale, 1e6);
   known(path + ".final_function", t.final_function, SQUALL_FINAL_FUNCTIONS, "final function");
   finite(path + ".final_scale", t.final_scale);
+  if (t.final_function == SQUALL_FINAL_LUT) lookup(t.lut, gate, path + ".lut");
 }
 
 void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
@@ -108,6 +141,15 @@ void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, con
   positive(path + ".d_star", p.d_star, 1e6);
 }
 
+// The vorticity cascade (ADV03 sec. 4) of a multi-layer request: it turns noise bands, so c_w > 0 needs one.
+void cascade(const VorticityCascade& c, const TextureSpec& t, const std::string& path) {
+  non_negative(path + ".c_w", c.c_w, 1e6);
+  positive(path + ".tau", c.tau, 1e6);
+  positive(path + ".tau_ratio", c.tau_ratio, 100);
+  if (c.c_w > 0 && t.kind != SQUALL_TEXTURE_NOISE)
+    reject(path + ".c_w", c.c_w, "0 with an image texture (the cascade turns noise bands)");
+}
+
 }  // namespace
 
 void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) const {
@@ -128,6 +170,8 @@ void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) co
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else
     eulerian(spec.eulerian, spec.method, gate_, path + ".eulerian");
+  if (spec.method == Method::EulerianMultilayer)
+    cascade(spec.eulerian.cascade, spec.texture, path + ".eulerian.cascade");
 }
 
 }  // namespace squall::textures

@@ -121,6 +121,12 @@ VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
 
 VelocitySpec velocity(const v1::VelocitySpec& v, const std::string& path) {
   if (v.has_grid()) return grid(v.grid(), path + ".grid");
+  if (v.field_case() == v1::VelocitySpec::kEwaveSession) {
+    if (v.ewave_session().empty()) fail(Code::InvalidArgument, path + ".ewave_session is empty: pass a session id");
+    VelocitySpec followed;
+    followed.kind = SQUALL_VELOCITY_GRID;  // its frames come from the session (followed_session)
+    return followed;
+  }
   return analytic(v.named(), path + ".named");
 }
 
@@ -234,10 +240,42 @@ void noise(const v1::NoiseTexture& n, TextureSpec& out) {
 }
 
 int final_function(int f, const std::string& path) {
-  known(path, f, 5, "FinalFunction");
-  constexpr int kFunctions[] = {SQUALL_FINAL_IDENTITY, SQUALL_FINAL_IDENTITY, SQUALL_FINAL_SUM_BANDS,
-                                SQUALL_FINAL_TURBULENCE, SQUALL_FINAL_RIDGED};
+  known(path, f, 6, "FinalFunction");
+  constexpr int kFunctions[] = {SQUALL_FINAL_IDENTITY,   SQUALL_FINAL_IDENTITY, SQUALL_FINAL_SUM_BANDS,
+                                SQUALL_FINAL_TURBULENCE, SQUALL_FINAL_RIDGED,   SQUALL_FINAL_LUT};
   return kFunctions[f];
+}
+
+// The LUT's band shaping g: SUM_BANDS, TURBULENCE or RIDGED (UNSPECIFIED: RIDGED, as in LTA11 sec. 3.2).
+int band_shape(int f, const std::string& path) {
+  const int shape = f == v1::FINAL_FUNCTION_UNSPECIFIED ? SQUALL_FINAL_RIDGED : final_function(f, path);
+  if (shape == SQUALL_FINAL_IDENTITY || shape == SQUALL_FINAL_LUT)
+    validate::reject(path, double(f), "FINAL_FUNCTION_SUM_BANDS, _TURBULENCE or _RIDGED");
+  return shape;
+}
+
+// The LUT's scalar field: nx x ny node values placed by origin and spacing.
+ScalarGridSpec scalar_grid(const v1::ScalarGrid& g, const std::string& path) {
+  ScalarGridSpec out;
+  out.nx = int(validate::in(path + ".nx", int64_t(g.nx()), 2, 1 << 20));
+  out.ny = int(validate::in(path + ".ny", int64_t(g.ny()), 2, 1 << 20));
+  out.origin_x = validate::finite(path + ".origin.x", g.origin().x());
+  out.origin_y = validate::finite(path + ".origin.y", g.origin().y());
+  out.hx = validate::positive(path + ".spacing.x", g.spacing().x());
+  out.hy = validate::positive(path + ".spacing.y", g.spacing().y());
+  out.values = plane(g.values(), path + ".values", g.nx(), g.ny(), "the grid");
+  return out;
+}
+
+FinalLookupSpec lookup(const v1::FinalLookup& l, const std::string& path) {
+  FinalLookupSpec out;
+  if (l.has_field()) out.field = scalar_grid(l.field(), path + ".field");
+  out.channels = l.has_channels() ? int(std::min<uint32_t>(l.channels(), 1000)) : 1;
+  out.table.assign(l.table().begin(), l.table().end());
+  out.lut_min = l.lut_min();
+  out.lut_max = l.has_lut_max() ? l.lut_max() : 1.0;
+  out.band_shape = band_shape(l.band_shape(), path + ".band_shape");
+  return out;
 }
 
 TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std::string& path) {
@@ -249,6 +287,7 @@ TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std
   out.scale = t.has_scale() ? t.scale() : 4.0;
   out.final_function = final_function(t.final_function(), path + ".final_function");
   out.final_scale = t.has_final_scale() ? t.final_scale() : 1.0;
+  if (out.final_function == SQUALL_FINAL_LUT) out.lut = lookup(t.lut(), path + ".lut");
   return out;
 }
 
@@ -292,6 +331,15 @@ LagrangianParams lagrangian(const v1::LagrangianParams& p, const std::string& pa
   return out;
 }
 
+// Unset: off (c_w = 0) with texture_spec.h's time constants; ranges are checked by TextureEngine::validate.
+VorticityCascade cascade(const v1::VorticityCascade& c) {
+  VorticityCascade out;
+  out.c_w = c.c_w();
+  if (c.has_tau()) out.tau = c.tau();
+  if (c.has_tau_ratio()) out.tau_ratio = c.tau_ratio();
+  return out;
+}
+
 EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::string& path) {
   EulerianParams out;  // texture_spec.h's defaults
   if (p.latencies_size())
@@ -310,6 +358,7 @@ EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::s
     out.blend = EulerianBlend::OctaveVariancePreserving;
   if (p.has_grid_nx()) out.grid_nx = clamped(p.grid_nx());
   if (p.has_grid_ny()) out.grid_ny = clamped(p.grid_ny());
+  out.cascade = cascade(p.cascade());
   return out;
 }
 
@@ -358,6 +407,46 @@ AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const 
   return s;
 }
 
+std::string followed_session(const v1::VelocitySpec& velocity) {
+  return velocity.field_case() == v1::VelocitySpec::kEwaveSession ? velocity.ewave_session() : "";
+}
+
+AdvectSpec interactive_start(const v1::TextureControl& control, const LimitGate& gate, const std::string& path) {
+  if (!control.has_start())
+    fail(Code::InvalidArgument, path + ".start is unset: the first message starts the advection");
+  const v1::AdvectTextureRequest& start = control.start();
+  const std::string start_path = path + ".start";
+  if (start.frames() != 0)
+    validate::reject(start_path + ".frames", start.frames(), "0 (each message asks for its frames)");
+  if (start.checkpoint_every() != 0)
+    validate::reject(start_path + ".checkpoint_every", start.checkpoint_every(),
+                     "0 (interactive streams carry no checkpoints)");
+  if (!start.resume_state().empty())
+    fail(Code::InvalidArgument, start_path + ".resume_state is set: interactive streams do not resume checkpoints");
+  AdvectSpec s = spec(start, gate, start_path);
+  s.frames = 1;  // per message (control_frames)
+  return s;
+}
+
+uint32_t control_frames(const v1::TextureControl& control, const std::string& path) {
+  if (!control.has_frames()) return 1;
+  return uint32_t(validate::in(path + ".frames", int64_t(control.frames()), 0, kMaxControlFrames));
+}
+
+bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& path) {
+  if (control.has_velocity()) s.velocity = velocity(control.velocity(), path + ".velocity");
+  if (control.has_dt()) s.dt = control.dt();
+  if (control.has_substeps()) s.substeps = clamped(control.substeps());
+  if (control.has_final_scale()) s.texture.final_scale = validate::finite(path + ".final_scale", control.final_scale());
+  if (control.has_spin()) {
+    if (s.texture.kind != SQUALL_TEXTURE_NOISE)
+      validate::reject(path + ".spin", control.spin(), "unset: the texture is an image, not flow noise");
+    s.texture.spin = validate::finite(path + ".spin", control.spin());
+  }
+  return control.has_velocity() || control.has_dt() || control.has_substeps() || control.has_final_scale() ||
+         control.has_spin();
+}
+
 PlaneSelection planes(const v1::TextureOutput& o, const std::string& path) {
   PlaneSelection p;
   p.dtype = field::dtype(o.dtype(), path + ".dtype");
@@ -378,7 +467,10 @@ PlaneSelection planes(const v1::TextureOutput& o, const std::string& path) {
 
 uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& p) {
   const uint64_t channels = uint64_t(std::max(0, texture_channels(spec.texture)));
-  const uint64_t finals = spec.texture.final_function == SQUALL_FINAL_IDENTITY ? channels : 1;
+  const int function = spec.texture.final_function;
+  const uint64_t finals = function == SQUALL_FINAL_IDENTITY ? channels
+                          : function == SQUALL_FINAL_LUT    ? uint64_t(std::max(0, spec.texture.lut.channels))
+                                                            : 1;
   const uint64_t planes = (p.final_planes ? finals : 0) + (p.raw_planes ? channels : 0) + p.weight_sum +
                           p.weight_sq_sum + p.coverage + p.layer;
   return planes * uint64_t(spec.output.width) * uint64_t(spec.output.height) * field::bytes_per_value(p.dtype);

@@ -30,6 +30,20 @@ AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate
                 const std::string& path = "request");
 PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
 
+// The eWave session whose surface current a velocity follows (velocity.ewave_session), else "". spec()
+// leaves such a velocity an empty grid, which the caller fills from the session before validation.
+std::string followed_session(const squall::v1::VelocitySpec& velocity);
+
+// AdvectInteractive. The first message's start (required; frames, checkpoint_every and resume_state
+// unset), translated like spec() under `path`.start, with frames = 1.
+AdvectSpec interactive_start(const squall::v1::TextureControl& control, const LimitGate& gate, const std::string& path);
+// The frames a message asks for: 1 when unset, else 0..kMaxControlFrames.
+constexpr int64_t kMaxControlFrames = 1024;
+uint32_t control_frames(const squall::v1::TextureControl& control, const std::string& path);
+// A message's changes applied to the running spec: velocity, dt, substeps, spin (noise only), final_scale;
+// true when it changes any. The result is validated by TextureEngine::validate like a request.
+bool steer(const squall::v1::TextureControl& control, AdvectSpec& spec, const std::string& path);
+
 // Bytes of the planes one frame carries (the Fields' data).
 uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& planes);
 

@@ -58,6 +58,33 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
 }
 
+// The surface current is grad phi (Gilligan eq 11): for phi = a sin(kx x) cos(ky y), u = a kx cos(kx x) cos(ky y)
+// and v = -a ky sin(kx x) sin(ky y), to the central difference's factor sin(k h) / (k h) (0.99 here); and it
+// follows the state: after steps it is the gradient of the new phi.
+TEST(EWaveSession, SurfaceCurrentIsTheGradientOfPhi) {
+  EWaveConfig c = plain_config(64, 48, 0.02);
+  const double kx = 2 * 3.14159265358979 / c.length_x(), ky = 2 * 2 * 3.14159265358979 / c.length_y(), a = 0.01;
+  c.initial_phi = field(c, [&](double x, double y) { return a * std::sin(kx * x) * std::cos(ky * y); });
+  EWaveSession session = make_session(c);
+  SurfaceCurrent current = session.surface_current();
+  ASSERT_EQ(current.u.size(), c.cells());
+  EXPECT_EQ(current.dx, c.dx);
+  std::vector<float> u = field(c, [&](double x, double y) { return a * kx * std::cos(kx * x) * std::cos(ky * y); });
+  std::vector<float> v = field(c, [&](double x, double y) { return -a * ky * std::sin(kx * x) * std::sin(ky * y); });
+  const double fx = std::sin(kx * c.dx) / (kx * c.dx), fy = std::sin(ky * c.dy) / (ky * c.dy);
+  for (size_t n = 0; n < c.cells(); ++n) {
+    ASSERT_NEAR(current.u[n], fx * u[n], 1e-6) << n;
+    ASSERT_NEAR(current.v[n], fy * v[n], 1e-6) << n;
+  }
+  EXPECT_GT(max_abs(current.u), 0.9 * a * kx);
+  Frame after = session.step(plain_step(0.05));
+  current = session.surface_current();
+  EXPECT_EQ(current.time, after.time);
+  const size_t nx = size_t(c.nx), cell = 5 * nx + 7;
+  EXPECT_NEAR(current.u[cell], (after.phi[cell + 1] - after.phi[cell - 1]) / (2 * c.dx), 1e-6);
+  EXPECT_NEAR(current.v[cell], (after.phi[cell + nx] - after.phi[cell - nx]) / (2 * c.dy), 1e-6);
+}
+
 using squall::test::expect_error;
 
 TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {

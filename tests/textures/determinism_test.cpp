@@ -35,6 +35,12 @@ TEST(TexturesDeterminism, EulerianLayersResumeBitIdentically) {
   expect_resumes_exactly(noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_VORTEX, {0.5, 0.5, 0.5, 0.1}));
 }
 
+TEST(TexturesDeterminism, EulerianCascadeResumesBitIdentically) {
+  // The vorticity cascade's (w_k, theta_k) are part of the checkpoint (F. Neyret, "Advected Textures",
+  // SCA 2003, sec. 4).
+  expect_resumes_exactly(cascade_spec(SQUALL_VELOCITY_VORTEX, {0.06, 0.5, 0.5, 0.1}, 2.0));
+}
+
 TEST(TexturesDeterminism, ACheckpointOfAnotherShapeIsRefused) {
   AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM);
   auto advection = texture_engine().start(spec);

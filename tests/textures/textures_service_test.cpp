@@ -19,59 +19,14 @@
 #include "support/test_runtime.h"
 #include "textures/texture_engine.h"
 #include "textures/textures_request.h"
+#include "service_support.h"
 
 namespace squall {
 namespace {
 
 namespace v1 = squall::v1;
+using namespace squall::textures_test;
 constexpr double kPi = 3.14159265358979323846;
-
-test::Daemon& daemon() {
-  static test::Daemon d;
-  return d;
-}
-
-// The engine the daemon runs, in this process, on the same device.
-textures::TextureEngine& engine() {
-  static LimitGate gate{Limits{}};
-  static textures::TextureEngine e(test::runtime(), gate);
-  return e;
-}
-
-struct Streamed {
-  std::vector<v1::TextureFrame> frames;
-  grpc::Status status;
-};
-
-Streamed advect(const v1::AdvectTextureRequest& request) {
-  client::Client client({daemon().address(), 300, ""});
-  auto service = v1::Textures::NewStub(client.channel());
-  auto context = client.context();
-  auto reader = service->AdvectTexture(context.get(), request);
-  Streamed s;
-  for (v1::TextureFrame frame; reader->Read(&frame);) s.frames.push_back(frame);
-  s.status = reader->Finish();
-  return s;
-}
-
-Code code_of(grpc::StatusCode code) {
-  switch (code) {
-    case grpc::StatusCode::INVALID_ARGUMENT: return Code::InvalidArgument;
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return Code::ResourceExhausted;
-    case grpc::StatusCode::NOT_FOUND: return Code::NotFound;
-    case grpc::StatusCode::FAILED_PRECONDITION: return Code::FailedPrecondition;
-    case grpc::StatusCode::UNAVAILABLE: return Code::Unavailable;
-    default: return Code::Internal;
-  }
-}
-
-// The stream's status as the engine error it carries, for test::expect_error.
-void advect_or_throw(const v1::AdvectTextureRequest& request) {
-  Streamed s = advect(request);
-  if (!s.status.ok())
-    throw Error(code_of(s.status.error_code()),
-                std::to_string(int(s.status.error_code())) + ": " + s.status.error_message());
-}
 
 // The same request run by the in-process engine, frame by frame until frame `frames - 1`.
 std::vector<textures::TextureFrame> in_process(const v1::AdvectTextureRequest& request) {
@@ -81,39 +36,6 @@ std::vector<textures::TextureFrame> in_process(const v1::AdvectTextureRequest& r
   std::vector<textures::TextureFrame> frames;
   for (int i = 0; i < spec.frames; ++i) frames.push_back(advection->next());
   return frames;
-}
-
-v1::Field field(const std::string& name, uint32_t nx, uint32_t ny, const std::vector<float>& values) {
-  v1::Field f;
-  field::encode({name, "1", nx, ny, 0, v1::DTYPE_FLOAT32}, values, &f);
-  return f;
-}
-
-// Every plane of the frames (final, raw, the four auxiliary ones), in the engine's order.
-void all_planes(v1::AdvectTextureRequest& r) {
-  for (auto p : {v1::TEXTURE_PLANE_FINAL, v1::TEXTURE_PLANE_RAW, v1::TEXTURE_PLANE_WEIGHT_SUM,
-                 v1::TEXTURE_PLANE_WEIGHT_SQ_SUM, v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER})
-    r.mutable_output()->add_planes(p);
-}
-
-v1::AdvectTextureRequest noise_request(uint32_t frames) {
-  v1::AdvectTextureRequest r;
-  r.set_method(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS);
-  auto* v = r.mutable_velocity()->mutable_named();
-  v->set_kind(v1::AnalyticVelocity::KIND_ROTATION);
-  v->set_angular_velocity(0.8);
-  auto* noise = r.mutable_texture()->mutable_noise();
-  noise->set_bands(3);
-  noise->set_time_varying(true);
-  r.mutable_texture()->set_final_function(v1::FINAL_FUNCTION_SUM_BANDS);
-  r.mutable_output()->set_width(64);
-  r.mutable_output()->set_height(64);
-  r.set_t0(0.25);
-  r.set_dt(0.05);
-  r.set_frames(frames);
-  r.set_seed(7);
-  all_planes(r);
-  return r;
 }
 
 // A 32 x 32 two-channel image (smooth, tileable) advected by a Taylor-Green flow over a 48 x 40 output.
@@ -132,8 +54,8 @@ v1::AdvectTextureRequest image_request(v1::TextureMethod method) {
     }
   }
   auto* image = r.mutable_texture()->mutable_image();
-  *image->add_channels() = field("a", 32, 32, a);
-  *image->add_channels() = field("b", 32, 32, b);
+  *image->add_channels() = float_field("a", 32, 32, a);
+  *image->add_channels() = float_field("b", 32, 32, b);
   image->set_tileable(true);
   r.mutable_texture()->set_scale(2);
   r.mutable_output()->set_width(48);
@@ -263,12 +185,12 @@ v1::AdvectTextureRequest grid_png_request(const std::string& dir) {
     frame->set_time(t);
     std::vector<float> u(25, float(0.2 + 0.1 * t)), v(25);
     for (int k = 0; k < 25; ++k) v[k] = float(0.1 * (k % 5) * 0.25);
-    *frame->mutable_u() = field("u", 5, 5, u);
-    *frame->mutable_v() = field("v", 5, 5, v);
+    *frame->mutable_u() = float_field("u", 5, 5, u);
+    *frame->mutable_v() = float_field("v", 5, 5, v);
   }
   std::vector<float> mask(25, 1);
   mask[12] = 0;
-  *g->mutable_mask() = field("mask", 5, 5, mask);
+  *g->mutable_mask() = float_field("mask", 5, 5, mask);
   g->set_extrapolation(v1::VelocityGrid::EXTRAPOLATION_PUSH_PULL);
   std::vector<float> ramp(16 * 8);
   for (size_t k = 0; k < ramp.size(); ++k) ramp[k] = float((k * 37) % 101);
@@ -356,7 +278,7 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
          r.set_method(v1::TEXTURE_METHOD_NAIVE);
          *r.mutable_velocity()->mutable_grid() = grid_png_request(test::temp_dir("textures-bad")).velocity().grid();
          *r.mutable_velocity()->mutable_grid()->mutable_frames(1)->mutable_u() =
-             field("u", 4, 5, std::vector<float>(20));
+             float_field("u", 4, 5, std::vector<float>(20));
        },
        Code::InvalidArgument, "request.velocity.grid.frames[1].u.nx = 4"},
       {[](v1::AdvectTextureRequest& r) { r.mutable_output()->set_width(0); }, Code::InvalidArgument,
@@ -385,6 +307,41 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
   v1::AdvectTextureRequest good = noise_request(2);
   Streamed s = advect(good);
   expect_well_formed(s, good);
+}
+
+// FINAL_FUNCTION_LUT (LTA11 sec. 3.2): a 3-channel table and a 3 x 2 scalar field give planes final_0..2
+// equal to the engine's; a NaN entry, a LUT band shaping and a mis-sized field name their fields.
+TEST(TexturesService, LookupFinalFunctionMatchesTheEngine) {
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.mutable_texture()->set_final_function(v1::FINAL_FUNCTION_LUT);
+  auto* lut = r.mutable_texture()->mutable_lut();
+  lut->set_channels(3);
+  for (float v : {0.0f, 0.1f, 0.9f, 1.0f, 0.6f, 0.2f, 0.3f, 1.0f, 0.0f}) lut->add_table(v);
+  lut->set_lut_max(2);
+  auto* s = lut->mutable_field();
+  s->set_nx(3);
+  s->set_ny(2);
+  s->mutable_spacing()->set_x(0.5);
+  s->mutable_spacing()->set_y(1);
+  *s->mutable_values() = float_field("s", 3, 2, {0, 0.5f, 1, 0.2f, 0.7f, 1.2f});
+  Streamed got = advect(r);
+  expect_well_formed(got, r);
+  ASSERT_EQ(got.frames.size(), 2u);
+  EXPECT_EQ(got.frames[0].planes(2).name(), "final_2");
+  EXPECT_EQ(got.frames[0].planes(3).name(), "raw_0");
+  auto want = in_process(r);
+  for (size_t i = 0; i < want.size(); ++i) expect_same(got.frames[i], want[i]);
+
+  v1::AdvectTextureRequest bad = r;
+  bad.mutable_texture()->mutable_lut()->set_table(4, NAN);
+  test::expect_error(Code::InvalidArgument, "request.texture.lut.table[4] = nan must be finite",
+                     [&] { advect_or_throw(bad); });
+  bad = r;
+  bad.mutable_texture()->mutable_lut()->set_band_shape(v1::FINAL_FUNCTION_LUT);
+  test::expect_error(Code::InvalidArgument, "request.texture.lut.band_shape = 5", [&] { advect_or_throw(bad); });
+  bad = r;
+  *bad.mutable_texture()->mutable_lut()->mutable_field()->mutable_values() = float_field("s", 2, 2, {0, 0, 0, 0});
+  test::expect_error(Code::InvalidArgument, "request.texture.lut.field.values.nx = 2", [&] { advect_or_throw(bad); });
 }
 
 // `squall texture advect` writes numbered EXR frames and PNG previews; a bad flag exits 2.

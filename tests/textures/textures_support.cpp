@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "support/test_runtime.h"
+#include "textures/state_codec.h"
 
 namespace squall::test {
 
@@ -29,6 +30,26 @@ AdvectSpec noise_spec(Method method, int velocity_kind, std::vector<double> para
   spec.eulerian.grid_nx = spec.eulerian.grid_ny = 65;
   if (method == Method::TwoPhaseFlowMap) spec.eulerian.latencies = {1.0};
   return spec;
+}
+
+AdvectSpec cascade_spec(int velocity_kind, std::vector<double> params, double c_w) {
+  AdvectSpec spec = noise_spec(Method::EulerianMultilayer, velocity_kind, std::move(params), 64);
+  spec.texture.bands = 3;
+  spec.texture.base_cells = 4;
+  spec.texture.scale = 1;
+  spec.eulerian.grid_nx = spec.eulerian.grid_ny = 32;
+  spec.eulerian.cascade.c_w = c_w;
+  return spec;
+}
+
+std::vector<float> cascade_of_checkpoint(const std::string& checkpoint) {
+  StateReader in(checkpoint);  // the layout of Eulerian::checkpoint (eulerian.cpp)
+  in.get<uint32_t>();          // version
+  in.get<uint8_t>();           // started
+  in.get<int64_t>();           // frame index
+  in.get_vector<double>();     // phase starts
+  in.get_vector<float>();      // the slots' node state
+  return in.get_vector<float>();
 }
 
 std::vector<TextureFrame> run(const AdvectSpec& spec, int frames) {

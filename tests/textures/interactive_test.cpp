@@ -1,0 +1,288 @@
+// AdvectInteractive and eWave-driven textures through a real squalld: an unsteered interactive stream
+// equals AdvectTexture bit for bit; a steered velocity and dt move the texture by the measured amount from
+// the next frame on; a texture following an eWave session moves with its surface current grad phi; bad
+// messages and unknown sessions get the documented errors and the daemon keeps serving.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+
+#include "client/client.h"
+#include "common/field_codec.h"
+#include "metrics.h"
+#include "service_support.h"
+#include "squall/v1/ewave.grpc.pb.h"
+#include "support/expect_error.h"
+
+namespace squall {
+namespace {
+
+using namespace squall::textures_test;
+constexpr double kPi = 3.14159265358979323846;
+
+// An AdvectInteractive call: write a message, read the frames it asks for, and so on (the server reads
+// the next message only once these are written).
+class Interactive {
+ public:
+  Interactive()
+      : client_({daemon().address(), 300, ""}),
+        service_(v1::Textures::NewStub(client_.channel())),
+        context_(client_.context()),
+        stream_(service_->AdvectInteractive(context_.get())) {}
+
+  // Sends `control` and reads `frames` frames; false when the stream ended before (see finish()).
+  bool send(const v1::TextureControl& control, uint32_t frames) {
+    if (!stream_->Write(control)) return false;
+    for (uint32_t k = 0; k < frames; ++k) {
+      v1::TextureFrame frame;
+      if (!stream_->Read(&frame)) return false;
+      frames_.push_back(frame);
+    }
+    return true;
+  }
+
+  grpc::Status finish() {
+    stream_->WritesDone();
+    for (v1::TextureFrame frame; stream_->Read(&frame);) frames_.push_back(frame);
+    return stream_->Finish();
+  }
+
+  const std::vector<v1::TextureFrame>& frames() const { return frames_; }
+
+ private:
+  client::Client client_;
+  std::unique_ptr<v1::Textures::Stub> service_;
+  std::unique_ptr<grpc::ClientContext> context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::TextureControl, v1::TextureFrame>> stream_;
+  std::vector<v1::TextureFrame> frames_;
+};
+
+v1::TextureControl start(v1::AdvectTextureRequest request, uint32_t frames) {
+  request.set_frames(0);
+  v1::TextureControl c;
+  *c.mutable_start() = request;
+  c.set_frames(frames);
+  return c;
+}
+
+v1::TextureControl more(uint32_t frames) {
+  v1::TextureControl c;
+  c.set_frames(frames);
+  return c;
+}
+
+v1::VelocitySpec uniform(double vx, double vy) {
+  v1::VelocitySpec v;
+  v.mutable_named()->set_kind(v1::AnalyticVelocity::KIND_UNIFORM);
+  v.mutable_named()->set_velocity_x(vx);
+  v.mutable_named()->set_velocity_y(vy);
+  return v;
+}
+
+// Still 3-band noise (SUM_BANDS), two periods across a square region of `side` du at (x0, y0), 64 x 64
+// pixels: one final plane.
+v1::AdvectTextureRequest still_noise(v1::TextureMethod method, double x0, double y0, double side) {
+  v1::AdvectTextureRequest r;
+  r.set_method(method);
+  r.mutable_texture()->mutable_noise()->set_bands(3);
+  r.mutable_texture()->set_scale(2 / side);
+  r.mutable_texture()->set_final_function(v1::FINAL_FUNCTION_SUM_BANDS);
+  r.mutable_output()->set_width(64);
+  r.mutable_output()->set_height(64);
+  auto* region = r.mutable_output()->mutable_region();
+  region->set_x0(x0);
+  region->set_y0(y0);
+  region->set_x1(x0 + side);
+  region->set_y1(y0 + side);
+  r.set_dt(0.1);
+  return r;
+}
+
+test::Image final_plane(const v1::TextureFrame& f) {
+  return {int(f.planes(0).nx()), int(f.planes(0).ny()), field::decode(f.planes(0), "final")};
+}
+
+// The displacement (pixels) from frame a to frame b, over the central 32 x 32 pixels.
+test::Displacement motion(const v1::TextureFrame& a, const v1::TextureFrame& b) {
+  test::Displacement d = test::phase_correlation(final_plane(a), final_plane(b), 16, 16, 32);
+  EXPECT_TRUE(d.valid);
+  return d;
+}
+
+TEST(TexturesInteractive, UnsteeredStreamEqualsAdvectTexture) {
+  v1::AdvectTextureRequest r = noise_request(5);
+  Streamed want = advect(r);
+  ASSERT_TRUE(want.status.ok()) << want.status.error_message();
+  Interactive s;
+  ASSERT_TRUE(s.send(start(r, 2), 2));
+  ASSERT_TRUE(s.send(more(0), 0));
+  ASSERT_TRUE(s.send(more(3), 3));
+  ASSERT_TRUE(s.finish().ok());
+  ASSERT_EQ(s.frames().size(), want.frames.size());
+  for (size_t i = 0; i < want.frames.size(); ++i) {
+    const v1::TextureFrame &got = s.frames()[i], &ref = want.frames[i];
+    EXPECT_EQ(got.index(), ref.index());
+    EXPECT_EQ(got.time(), ref.time());
+    ASSERT_EQ(got.planes_size(), ref.planes_size());
+    for (int k = 0; k < got.planes_size(); ++k) EXPECT_EQ(got.planes(k).data(), ref.planes(k).data()) << i << " " << k;
+  }
+}
+
+// Uniform 0.2 du/s along +x, then along -y, then at dt 0.2: each frame pair moves by v dt / pixel.
+TEST(TexturesInteractive, SteeredVelocityAndDtTakeEffectAtTheNextFrame) {
+  for (auto method : {v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP}) {
+    v1::AdvectTextureRequest r = still_noise(method, 0, 0, 1);
+    *r.mutable_velocity() = uniform(0.2, 0);
+    r.mutable_eulerian()->add_latencies(4.0);  // the flow map regenerates after the frames below
+    Interactive s;
+    ASSERT_TRUE(s.send(start(r, 2), 2));
+    v1::TextureControl turn = more(2);
+    *turn.mutable_velocity() = uniform(0, -0.2);
+    ASSERT_TRUE(s.send(turn, 2));
+    v1::TextureControl slower = more(1);
+    slower.set_dt(0.2);
+    ASSERT_TRUE(s.send(slower, 1));
+    ASSERT_TRUE(s.finish().ok());
+    const auto& f = s.frames();
+    ASSERT_EQ(f.size(), 5u);
+    const double step = 0.2 * 0.1 * 64;  // px per frame at dt 0.1
+    struct Expect {
+      size_t from;
+      double dx, dy;
+    };
+    for (Expect e : {Expect{0, step, 0}, Expect{1, 0, -step}, Expect{2, 0, -step}, Expect{3, 0, -2 * step}}) {
+      test::Displacement d = motion(f[e.from], f[e.from + 1]);
+      EXPECT_NEAR(d.dx, e.dx, 0.1) << "method " << method << " frames " << e.from << "-" << e.from + 1;
+      EXPECT_NEAR(d.dy, e.dy, 0.1) << "method " << method << " frames " << e.from << "-" << e.from + 1;
+    }
+    EXPECT_NEAR(f[3].time() - f[2].time(), 0.1, 1e-12);
+    EXPECT_NEAR(f[4].time() - f[3].time(), 0.2, 1e-12);
+  }
+}
+
+// An eWave session of 64 x 64 cells over 2 m x 2 m whose potential phi = (U L / 2 pi) sin(2 pi x / L)
+// gives the surface current u = U cos(2 pi x / L), v = 0; nothing steps it, so the current is steady.
+std::string still_current_session(double U) {
+  const uint32_t n = 64;
+  const double L = 2.0;
+  v1::EWaveCreateSessionRequest create;
+  auto* c = create.mutable_config();
+  c->set_nx(n);
+  c->set_ny(n);
+  c->set_dx(L / n);
+  c->set_dy(L / n);
+  std::vector<float> phi(n * n);
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i) phi[i + n * j] = float(U * L / (2 * kPi) * std::sin(2 * kPi * (i + 0.5) / n));
+  field::encode({"phi", "m^2/s", n, n, 0, v1::DTYPE_FLOAT32}, phi, c->mutable_initial_phi());
+  client::Client client({daemon().address(), 60, ""});
+  auto ewave = v1::EWave::NewStub(client.channel());
+  auto context = client.context();
+  v1::EWaveSessionResponse session;
+  grpc::Status status = ewave->CreateSession(context.get(), create, &session);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return session.session_id();
+}
+
+// Around x = L/2 the current is -U (cos pi = -1, within 2% over the window): with U = 0.05 m/s and
+// dt = 0.1 s the texture moves by -0.005 m = -1.28 px per frame, for AdvectTexture and AdvectInteractive.
+TEST(TexturesEWave, TextureFollowsTheSessionsSurfaceCurrent) {
+  const std::string id = still_current_session(0.05);
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
+  r.mutable_velocity()->set_ewave_session(id);
+  r.set_frames(3);
+  Streamed streamed = advect(r);
+  ASSERT_TRUE(streamed.status.ok()) << streamed.status.error_message();
+  Interactive s;
+  ASSERT_TRUE(s.send(start(r, 3), 3));
+  ASSERT_TRUE(s.finish().ok());
+  using Frames = const std::vector<v1::TextureFrame>*;
+  for (Frames frames : {Frames(&streamed.frames), Frames(&s.frames())}) {
+    ASSERT_EQ(frames->size(), 3u);
+    for (size_t i = 0; i + 1 < 3; ++i) {
+      test::Displacement d = motion((*frames)[i], (*frames)[i + 1]);
+      EXPECT_NEAR(d.dx, -1.28 * 0.995, 0.08) << "frames " << i << "-" << i + 1;
+      EXPECT_NEAR(d.dy, 0, 0.08);
+    }
+  }
+}
+
+TEST(TexturesEWave, UnknownSessionIsNotFound) {
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_NAIVE, 0, 0, 1);
+  r.set_frames(2);
+  r.mutable_velocity()->set_ewave_session("no-such-session");
+  test::expect_error(Code::NotFound, "request.velocity.ewave_session: session_id = \"no-such-session\"",
+                     [&] { advect_or_throw(r); });
+  // Mid-stream: the frames before the bad message arrive, then the stream ends NOT_FOUND.
+  r.clear_velocity();
+  Interactive s;
+  ASSERT_TRUE(s.send(start(r, 2), 2));
+  v1::TextureControl follow = more(1);
+  follow.mutable_velocity()->set_ewave_session("no-such-session");
+  s.send(follow, 1);
+  grpc::Status status = s.finish();
+  EXPECT_EQ(s.frames().size(), 2u);
+  test::expect_error(Code::NotFound, "control[1].velocity.ewave_session", [&] { throw_status(status); });
+}
+
+TEST(TexturesInteractive, BadMessagesGetClearErrors) {
+  const v1::AdvectTextureRequest good = still_noise(v1::TEXTURE_METHOD_NAIVE, 0, 0, 1);
+  struct Case {
+    std::function<std::vector<v1::TextureControl>()> messages;
+    Code code;
+    std::string needle;
+  };
+  auto then = [&](std::function<void(v1::TextureControl&)> edit) {
+    return [=] {
+      v1::TextureControl second = more(1);
+      edit(second);
+      return std::vector<v1::TextureControl>{start(good, 1), second};
+    };
+  };
+  std::vector<Case> cases = {
+      {[] { return std::vector<v1::TextureControl>{more(1)}; }, Code::InvalidArgument, "control[0].start is unset"},
+      {[&] {
+         v1::TextureControl first = start(good, 1);
+         first.mutable_start()->set_frames(5);
+         return std::vector<v1::TextureControl>{first};
+       },
+       Code::InvalidArgument, "control[0].start.frames = 5"},
+      {[&] {
+         v1::TextureControl first = start(good, 1);
+         first.mutable_start()->mutable_output()->set_width(0);
+         return std::vector<v1::TextureControl>{first};
+       },
+       Code::InvalidArgument, "control[0].start.output.width = 0"},
+      {[&] { return std::vector<v1::TextureControl>{start(good, 5000)}; }, Code::InvalidArgument,
+       "control[0].frames = 5000"},
+      {then([&](v1::TextureControl& c) { *c.mutable_start() = good; }), Code::InvalidArgument,
+       "control[1].start is set"},
+      {then([](v1::TextureControl& c) { c.set_dt(NAN); }), Code::InvalidArgument, "control[1].dt = nan"},
+      {then([](v1::TextureControl& c) { c.set_substeps(0); }), Code::InvalidArgument, "control[1].substeps = 0"},
+      {then([](v1::TextureControl& c) { *c.mutable_velocity() = uniform(INFINITY, 0); }), Code::InvalidArgument,
+       "control[1].velocity.named.velocity_x = inf"},
+      {then([](v1::TextureControl& c) { c.set_final_scale(NAN); }), Code::InvalidArgument,
+       "control[1].final_scale = nan"},
+  };
+  for (const auto& k : cases) {
+    Interactive s;
+    for (const auto& m : k.messages()) s.send(m, 0);
+    grpc::Status status = s.finish();
+    test::expect_error(k.code, k.needle, [&] { throw_status(status); });
+  }
+  // An image texture has no flow noise to spin.
+  v1::AdvectTextureRequest image = good;
+  *image.mutable_texture()->mutable_image()->add_channels() = float_field("a", 2, 2, {0, 1, 1, 0});
+  Interactive s;
+  ASSERT_TRUE(s.send(start(image, 1), 1));
+  v1::TextureControl spin = more(1);
+  spin.set_spin(1);
+  s.send(spin, 1);
+  grpc::Status status = s.finish();
+  test::expect_error(Code::InvalidArgument, "control[1].spin = 1 must be unset", [&] { throw_status(status); });
+  ASSERT_TRUE(daemon().running());
+}
+
+}  // namespace
+}  // namespace squall
