@@ -144,25 +144,48 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
 // e^{iwt}] e^{-i k.U_D t} as in ocean_evolve, phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}]
 // e^{-i k.U_D t} (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e. eWave's exact
 // propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
+// The two halves of mode (i, j) at time t = t_hi + t_lo, shifted by the drift: plus = h0(k) e^{-iwt}
+// e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}; w = omega(k) (h0's third component).
+static void evolve_halves(__global const float4* h0, int i, int j, int nx, int ny, float kx, float ky, float t_hi,
+                          float t_lo, float2 drift, float2* plus, float2* minus, float* w) {
+  int mi = (nx - i) % nx, mj = (ny - j) % ny;
+  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
+  float phase = fma(a.z, t_hi, a.z * t_lo);
+  float c = cos(phase), s = sin(phase);
+  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
+  float2 shift = (float2)(cos(drift_phase), sin(drift_phase));
+  *plus = cmul(cmul(a.xy, (float2)(c, -s)), shift);
+  *minus = cmul(cmul((float2)(b.x, -b.y), (float2)(c, s)), shift);
+  *w = a.z;
+}
+
 __kernel void ocean_evolve_potential(__global const float4* h0, const int nx, const int ny, const float dkx,
                                      const float dky, const float t_hi, const float t_lo, const float2 drift,
                                      const float g, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
-  int n = mode_number(i, nx), m = mode_number(j, ny);
-  int mi = (nx - i) % nx, mj = (ny - j) % ny;
-  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
-  float phase = fma(a.z, t_hi, a.z * t_lo);
-  float c = cos(phase), s = sin(phase);
-  float2 plus = cmul(a.xy, (float2)(c, -s));
-  float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));
-  float kx = n * dkx, ky = m * dky;
-  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
-  float2 shift = (float2)(cos(drift_phase), sin(drift_phase));
-  float2 h = cmul(plus + minus, shift);
-  float g_over_w = a.z > 0.0f ? g / a.z : 0.0f;
-  float2 phi = -g_over_w * times_i(cmul(plus - minus, shift));
-  out[i + (size_t)nx * j] = pack(h, phi);
+  float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
+  float2 plus, minus;
+  float w;
+  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus, &minus, &w);
+  float g_over_w = w > 0.0f ? g / w : 0.0f;
+  out[i + (size_t)nx * j] = pack(plus + minus, -g_over_w * times_i(plus - minus));
+}
+
+// The horizontal current at the surface, u = grad phi of the potential above, packed as one pair (u, v)
+// for the textures that follow the waves (server/textures): u~ = i kx phi~ = kx (g/w) (plus - minus), and
+// ky for v~ (exact spectral derivatives; the drift U_D is added by the host).
+__kernel void ocean_evolve_current(__global const float4* h0, const int nx, const int ny, const float dkx,
+                                   const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                   const float g, __global float2* out) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
+  float2 plus, minus;
+  float w;
+  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus, &minus, &w);
+  float2 g_phi = (w > 0.0f ? g / w : 0.0f) * (plus - minus); /* phi~ = -i g_phi */
+  out[i + (size_t)nx * j] = pack(kx * g_phi, ky * g_phi);
 }
 
 // Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:

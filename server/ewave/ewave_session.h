@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/surface_current.h"
 #include "ewave/coefficient_cache.h"
 #include "ewave/ewave_config.h"
 #include "ewave/ewave_state_format.h"
@@ -16,16 +17,6 @@
 #include "runtime/runtime.h"
 
 namespace squall::ewave {
-
-// The horizontal velocity of the water surface, u = grad phi (the potential flow of Gilligan eq 11, on the
-// surface), at the session time: u and v in m/s on the cells, nx * ny each, x fastest, cell (i, j) at
-// ((i + 0.5) dx, (j + 0.5) dy).
-struct SurfaceCurrent {
-  int64_t nx = 0, ny = 0;
-  double dx = 0, dy = 0;  // m
-  double time = 0;        // s
-  std::vector<float> u, v;
-};
 
 class EWaveSession {
  public:
@@ -40,7 +31,8 @@ class EWaveSession {
 
   // One step of inputs.dt (validated first; the session is unchanged when they are rejected).
   Frame step(const StepInputs& inputs);
-  // grad phi by central differences, periodic like the FFT propagation (error ~ (k dx)^2 / 6 at wavenumber k).
+  // The surface current u = grad phi at the session time on the cells (nodes at ((i + 0.5) dx, (j + 0.5)
+  // dy)), by central differences, periodic like the FFT propagation.
   SurfaceCurrent surface_current() const;
 
   // The whole session (config without initial fields, step, time, h, phi) as bytes; restore() of those

@@ -172,16 +172,15 @@ SurfaceCurrent EWaveSession::surface_current() const {
     auto lock = runtime_.exclusive();
     potential = read_frame(OutputSelection{false, false, false, true});
   }
-  const std::vector<float>& phi = potential.phi;
-  const int64_t nx = config_.nx, ny = config_.ny;
-  SurfaceCurrent current{nx, ny, config_.dx, config_.dy, time_, std::vector<float>(cells_), std::vector<float>(cells_)};
-  auto at = [&](int64_t i, int64_t j) { return double(phi[size_t(((j + ny) % ny) * nx + (i + nx) % nx)]); };
-  for (int64_t j = 0; j < ny; ++j) {
-    for (int64_t i = 0; i < nx; ++i) {
-      current.u[size_t(j * nx + i)] = float((at(i + 1, j) - at(i - 1, j)) / (2 * config_.dx));
-      current.v[size_t(j * nx + i)] = float((at(i, j + 1) - at(i, j - 1)) / (2 * config_.dy));
-    }
-  }
+  SurfaceCurrent current;
+  current.nx = config_.nx;
+  current.ny = config_.ny;
+  current.origin_x = 0.5 * config_.dx;
+  current.origin_y = 0.5 * config_.dy;
+  current.dx = config_.dx;
+  current.dy = config_.dy;
+  current.time = time_;
+  periodic_gradient(potential.phi, current);
   return current;
 }
 

@@ -66,7 +66,7 @@ struct OceanEngine::Impl {
   EvolveKernel evolve;
   AccumulateKernel accumulate;
   FinalizeKernel finalize;
-  PotentialKernel evolve_potential;
+  PotentialKernel evolve_potential, evolve_current;
 
   struct Entry {
     std::string key;
@@ -88,7 +88,8 @@ struct OceanEngine::Impl {
         evolve(r, kProgram, "ocean_evolve"),
         accumulate(r, kProgram, "ocean_accumulate"),
         finalize(r, kProgram, "ocean_finalize"),
-        evolve_potential(r, kProgram, "ocean_evolve_potential") {}
+        evolve_potential(r, kProgram, "ocean_evolve_potential"),
+        evolve_current(r, kProgram, "ocean_evolve_current") {}
 
   // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
   const cl::Buffer& spectrum(const TileSpec& spec, size_t index) {
@@ -139,16 +140,17 @@ struct OceanEngine::Impl {
     return value;
   }
 
-  // The layer's (h, phi) pair at t on its own grid (ocean_evolve_potential, then the inverse FFT).
-  BufferLease layer_potential(const TileSpec& spec, size_t index, double t) {
+  // The layer's (h, phi) pair (evolve_potential) or (u, v) pair (evolve_current) at t on its own grid: the
+  // kernel, then the inverse FFT.
+  BufferLease layer_pair(const TileSpec& spec, size_t index, double t, PotentialKernel& kernel) {
     const LayerSpec& L = spec.layers[index];
     const cl::Buffer& h0 = spectrum(spec, index);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve_potential.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
-                            cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
-                            cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_float(L.gravity), fields.buffer());
+    kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
+                  cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
+                  cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_float(L.gravity), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -187,9 +189,55 @@ void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Bu
   validate::finite("t", t);
   OutputGrid grid = output_grid(spec);
   for (size_t a = 0; a < spec.layers.size(); ++a) {
-    BufferLease fields = impl_->layer_potential(spec, a, t);
+    BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_potential);
     impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out);
   }
+}
+
+void validate_current(const TileSpec& spec, const LimitGate& gate, const std::string& path) {
+  validate_tile(spec, gate, path);
+  const std::string layers = path.empty() ? "layers" : path + ".layers";
+  for (size_t i = 1; i < spec.layers.size(); ++i) {
+    const LayerSpec &a = spec.layers[i], &first = spec.layers[0];
+    const std::pair<const char*, std::pair<double, double>> drifts[] = {{"drift_x", {a.drift_x, first.drift_x}},
+                                                                        {"drift_y", {a.drift_y, first.drift_y}}};
+    for (const auto& [name, values] : drifts) {
+      if (values.first != values.second)
+        validate::reject(
+            validate::at(layers, i) + "." + name, values.first,
+            "equal to layers[0]'s " + validate::number(values.second) + " (one current carries the surface)");
+    }
+  }
+}
+
+SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
+  validate::finite("t", t);
+  const OutputGrid grid = output_grid(spec);
+  const size_t cells = size_t(grid.nx) * size_t(grid.ny);
+  SurfaceCurrent current;
+  current.nx = grid.nx;
+  current.ny = grid.ny;
+  current.dx = grid.lx / grid.nx;
+  current.dy = grid.ly / grid.ny;
+  current.time = t;
+  current.u.resize(cells);
+  current.v.resize(cells);
+  {
+    auto lock = impl_->runtime.exclusive();
+    BufferLease out = impl_->runtime.buffers().acquire(2 * cells * sizeof(float));
+    for (size_t a = 0; a < spec.layers.size(); ++a) {
+      BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_current);
+      impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out.buffer());
+    }
+    const cl::CommandQueue& queue = impl_->runtime.queue();
+    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, 0, cells * sizeof(float), current.u.data());
+    queue.enqueueReadBuffer(out.buffer(), CL_TRUE, cells * sizeof(float), cells * sizeof(float), current.v.data());
+  }
+  for (size_t n = 0; n < cells; ++n) {
+    current.u[n] += float(spec.layers[0].drift_x);
+    current.v[n] += float(spec.layers[0].drift_y);
+  }
+  return current;
 }
 
 size_t OceanEngine::cached_spectra() const {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/limits.h"
+#include "common/surface_current.h"
 #include "fft/fft.h"
 #include "ocean/ocean_params.h"
 #include "runtime/runtime.h"
@@ -55,6 +56,12 @@ class OceanEngine {
   // HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the runtime's queue).
   void surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out);
 
+  // For the textures that follow the waves (server/textures): the surface current at time t on the spec's
+  // output grid (node (i, j) at (i lx / nx, j ly / ny)), u = grad phi of the potential above (the
+  // orbital velocity of linear theory, exact spectral derivatives, summed over the layers) plus the drift
+  // U_D the layers share. The spec must pass validate_current().
+  SurfaceCurrent surface_current(const TileSpec& spec, double t);
+
   size_t cached_spectra() const;  // h0 entries on the device now
   size_t spectra_built() const;   // h0 computations so far (cache misses)
 
@@ -62,6 +69,10 @@ class OceanEngine {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// validate_tile(spec, gate, path), and one drift for every layer (a current carries the whole surface):
+// "<path>.layers[i].drift_x = 0.5 must equal layers[0]'s 0".
+void validate_current(const TileSpec& spec, const LimitGate& gate, const std::string& path);
 
 }  // namespace squall::ocean
 // API-READY

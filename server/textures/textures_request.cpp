@@ -9,6 +9,8 @@
 #include "common/error.h"
 #include "common/field_codec.h"
 #include "common/validate.h"
+#include "ocean/ocean_engine.h"
+#include "ocean/ocean_request.h"
 
 namespace squall::textures::rpc {
 namespace v1 = squall::v1;
@@ -121,11 +123,10 @@ VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
 
 VelocitySpec velocity(const v1::VelocitySpec& v, const std::string& path) {
   if (v.has_grid()) return grid(v.grid(), path + ".grid");
-  if (v.field_case() == v1::VelocitySpec::kEwaveSession) {
-    if (v.ewave_session().empty()) fail(Code::InvalidArgument, path + ".ewave_session is empty: pass a session id");
-    VelocitySpec followed;
-    followed.kind = SQUALL_VELOCITY_GRID;  // its frames come from the session (followed_session)
-    return followed;
+  if (v.field_case() == v1::VelocitySpec::kEwaveSession || v.has_ocean()) {
+    VelocitySpec current;
+    current.kind = SQUALL_VELOCITY_GRID;  // its frames come from the engine that computes it (followed())
+    return current;
   }
   return analytic(v.named(), path + ".named");
 }
@@ -407,8 +408,18 @@ AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const 
   return s;
 }
 
-std::string followed_session(const v1::VelocitySpec& velocity) {
-  return velocity.field_case() == v1::VelocitySpec::kEwaveSession ? velocity.ewave_session() : "";
+FollowedCurrent followed(const v1::VelocitySpec& velocity, const LimitGate& gate, const std::string& path) {
+  FollowedCurrent current;
+  if (velocity.field_case() == v1::VelocitySpec::kEwaveSession) {
+    current.path = path + ".ewave_session";
+    if (velocity.ewave_session().empty()) fail(Code::InvalidArgument, current.path + " is empty: pass a session id");
+    current.ewave_session = velocity.ewave_session();
+  } else if (velocity.has_ocean()) {
+    current.path = path + ".ocean";
+    current.ocean = ocean::rpc::tile_spec(velocity.ocean(), gate, current.path);
+    ocean::validate_current(*current.ocean, gate, current.path);
+  }
+  return current;
 }
 
 AdvectSpec interactive_start(const v1::TextureControl& control, const LimitGate& gate, const std::string& path) {

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "common/limits.h"
+#include "ocean/ocean_params.h"
 #include "squall/v1/textures.pb.h"
 #include "textures/advection.h"
 #include "textures/texture_spec.h"
@@ -30,9 +32,15 @@ AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate
                 const std::string& path = "request");
 PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
 
-// The eWave session whose surface current a velocity follows (velocity.ewave_session), else "". spec()
-// leaves such a velocity an empty grid, which the caller fills from the session before validation.
-std::string followed_session(const squall::v1::VelocitySpec& velocity);
+// A velocity read from another engine before each step: the surface current of an eWave session or of an
+// ocean tile. spec() leaves such a velocity an empty grid, which the caller fills before validation.
+struct FollowedCurrent {
+  std::string ewave_session;             // velocity.ewave_session
+  std::optional<ocean::TileSpec> ocean;  // velocity.ocean, validated (ocean::validate_current)
+  std::string path;                      // the request field that names it
+  bool any() const { return !ewave_session.empty() || ocean.has_value(); }
+};
+FollowedCurrent followed(const squall::v1::VelocitySpec& velocity, const LimitGate& gate, const std::string& path);
 
 // AdvectInteractive. The first message's start (required; frames, checkpoint_every and resume_state
 // unset), translated like spec() under `path`.start, with frames = 1.

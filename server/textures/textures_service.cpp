@@ -3,6 +3,7 @@
 #include "common/error.h"
 #include "common/validate.h"
 #include "ewave/shared_engine.h"
+#include "ocean/shared_engine.h"
 #include "rpc/streaming.h"
 #include "textures/textures_request.h"
 
@@ -13,50 +14,69 @@ namespace v1 = squall::v1;
 using namespace squall::textures;
 namespace req = squall::textures::rpc;
 
-// One advection stream: its spec (as steered so far), the planes it sends and the eWave session its
-// velocity follows ("" for none).
-struct Stream {
-  AdvectSpec spec;
-  req::PlaneSelection planes;
-  uint64_t frame_bytes = 0;  // the planes of one frame
-  std::string session;
-  std::string session_path;  // the request field that named the session
-};
-
-// The surface current of an eWave session as a one-frame velocity grid on its cells (du = m).
-VelocitySpec current_grid(ewave::SurfaceCurrent current) {
+// A velocity grid of surface currents on the same nodes (du = m), one frame per current.
+VelocitySpec current_grid(std::vector<SurfaceCurrent> currents) {
+  const SurfaceCurrent& first = currents.front();
   VelocitySpec v;
   v.kind = SQUALL_VELOCITY_GRID;
-  v.nx = int(current.nx);
-  v.ny = int(current.ny);
-  v.origin_x = 0.5 * current.dx;
-  v.origin_y = 0.5 * current.dy;
-  v.hx = current.dx;
-  v.hy = current.dy;
-  v.frames.push_back({current.time, std::move(current.u), std::move(current.v)});
+  v.nx = int(first.nx);
+  v.ny = int(first.ny);
+  v.origin_x = first.origin_x;
+  v.origin_y = first.origin_y;
+  v.hx = first.dx;
+  v.hy = first.dy;
+  for (SurfaceCurrent& c : currents) v.frames.push_back({c.time, std::move(c.u), std::move(c.v)});
   v.extrapolation = Extrapolation::Clamp;
   return v;
 }
 
 }  // namespace
 
+// One advection stream: its spec (as steered so far), the planes it sends, the current its velocity
+// follows (if any) and the time of its last frame.
+struct TexturesService::Stream {
+  AdvectSpec spec;
+  req::PlaneSelection planes;
+  uint64_t frame_bytes = 0;  // the planes of one frame
+  req::FollowedCurrent current;
+  double time = 0;  // s
+};
+
 void TexturesService::start(EngineContext& context) {
   engine_ = std::make_unique<TextureEngine>(context.runtime, context.gate);
   ewave_ = &ewave::shared_engine(context);
+  ocean_ = &ocean::shared_engine(context);
 }
 
-void TexturesService::follow(AdvectSpec& spec, const std::string& session, const std::string& path) {
-  ewave::SurfaceCurrent current;
+void TexturesService::follow(Stream& s) {
+  const req::FollowedCurrent& followed = s.current;
+  if (followed.ocean) {
+    s.spec.velocity = current_grid({ocean_->surface_current(*followed.ocean, s.time),
+                                    ocean_->surface_current(*followed.ocean, s.time + s.spec.dt)});
+    return;
+  }
+  if (followed.ewave_session.empty()) return;
+  SurfaceCurrent current;
   try {
-    current = ewave_->surface_current(session);
+    current = ewave_->surface_current(followed.ewave_session);
   } catch (const Error& e) {
     if (e.code() != Code::NotFound) throw;
-    fail(Code::NotFound, path + ": " + e.what());
+    fail(Code::NotFound, followed.path + ": " + e.what());
   }
   if (current.nx < 2 || current.ny < 2)
-    fail(Code::InvalidArgument, path + " is a session of " + std::to_string(current.nx) + " x " +
+    fail(Code::InvalidArgument, followed.path + " is a session of " + std::to_string(current.nx) + " x " +
                                     std::to_string(current.ny) + " cells: a followed current needs 2 x 2 or more");
-  spec.velocity = current_grid(std::move(current));
+  s.spec.velocity = current_grid({std::move(current)});
+}
+
+TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool first) {
+  if (!first && s.current.any()) {  // the step to this frame uses the current read now
+    follow(s);
+    engine_->steer(advection, s.spec);
+  }
+  TextureFrame frame = advection.next();
+  s.time = frame.time;
+  return frame;
 }
 
 grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const v1::AdvectTextureRequest* request,
@@ -65,9 +85,9 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     Stream s;
     s.spec = req::spec(*request, serving_.gate());
     s.planes = req::planes(request->output());
-    s.session = req::followed_session(request->velocity());
-    s.session_path = "request.velocity.ewave_session";
-    if (!s.session.empty()) follow(s.spec, s.session, s.session_path);
+    s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
+    s.time = s.spec.t0;
+    follow(s);
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
@@ -77,11 +97,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     std::unique_ptr<Advection> advection = engine_->start(s.spec, request->resume_state());
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {
-      if (!first && !s.session.empty()) {  // the step to this frame uses the session's current now
-        follow(s.spec, s.session, s.session_path);
-        engine_->steer(*advection, s.spec);
-      }
-      TextureFrame frame = advection->next();
+      TextureFrame frame = next_frame(s, *advection, first);
       if (frame.index >= s.spec.frames) {
         if (first)
           fail(Code::InvalidArgument, "request.resume_state is the checkpoint of frame " +
@@ -101,6 +117,30 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
   });
 }
 
+void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream& s,
+                            std::unique_ptr<Advection>& advection) {
+  const std::string path = validate::at("control", n);
+  if (n > 0 && control.has_start())
+    fail(Code::InvalidArgument, path + ".start is set: only the first message starts the advection");
+  if (n == 0) {
+    s.spec = req::interactive_start(control, serving_.gate(), path);
+    s.planes = req::planes(control.start().output(), path + ".start.output");
+    s.current = req::followed(control.start().velocity(), serving_.gate(), path + ".start.velocity");
+    s.time = s.spec.t0;
+  }
+  const bool changed = req::steer(control, s.spec, path);
+  if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
+  follow(s);
+  engine_->validate(s.spec, n == 0 ? path + ".start" : path);
+  if (n == 0) {
+    s.frame_bytes = req::frame_bytes(s.spec, s.planes);
+    serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
+    advection = engine_->start(s.spec);
+  } else if (changed || s.current.any()) {
+    engine_->steer(*advection, s.spec);
+  }
+}
+
 grpc::Status TexturesService::AdvectInteractive(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::TextureFrame, v1::TextureControl>* stream) {
   return serve_stream(*context, serving_, "AdvectInteractive", [&](StreamCall& call) {
@@ -108,38 +148,13 @@ grpc::Status TexturesService::AdvectInteractive(
     std::unique_ptr<Advection> advection;
     v1::TextureControl control;
     for (size_t n = 0; call.live() && stream->Read(&control); ++n) {
-      const std::string path = validate::at("control", n);
-      if (n > 0 && control.has_start())
-        fail(Code::InvalidArgument, path + ".start is set: only the first message starts the advection");
-      if (n == 0) {
-        s.spec = req::interactive_start(control, serving_.gate(), path);
-        s.planes = req::planes(control.start().output(), path + ".start.output");
-        s.session = req::followed_session(control.start().velocity());
-        s.session_path = path + ".start.velocity.ewave_session";
-      }
-      const uint32_t frames = req::control_frames(control, path);
-      const bool changed = req::steer(control, s.spec, path);
-      if (control.has_velocity()) {
-        s.session = req::followed_session(control.velocity());
-        s.session_path = path + ".velocity.ewave_session";
-      }
-      if (!s.session.empty()) follow(s.spec, s.session, s.session_path);
-      engine_->validate(s.spec, n == 0 ? path + ".start" : path);
-      if (n == 0) {
-        s.frame_bytes = req::frame_bytes(s.spec, s.planes);
-        serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-        advection = engine_->start(s.spec);
-      } else if (changed || !s.session.empty()) {
-        engine_->steer(*advection, s.spec);
-      }
-      for (uint32_t k = frames; k > 0 && call.live(); --k) {
+      const uint32_t frames = req::control_frames(control, validate::at("control", n));
+      apply(control, n, s, advection);
+      // The message's own steering (or current) already holds for its first frame's step.
+      for (uint32_t k = 0; k < frames && call.live(); ++k) {
         v1::TextureFrame out;
-        req::fill_frame(advection->next(), s.spec, s.planes, &out);
+        req::fill_frame(next_frame(s, *advection, k == 0), s.spec, s.planes, &out);
         if (!call.write(*stream, out)) return;
-        if (k > 1 && !s.session.empty()) {
-          follow(s.spec, s.session, s.session_path);
-          engine_->steer(*advection, s.spec);
-        }
       }
     }
   });

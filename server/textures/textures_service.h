@@ -1,13 +1,14 @@
 // squall.v1.Textures over a TextureEngine. Requests are translated in textures_request.h and validated by
 // the engine under the path "request" (AdvectInteractive: "control[n]"); each stream runs one advection,
-// frame by frame. A velocity may follow an eWave session: its surface current is read from the daemon's
-// eWave engine before each step.
+// frame by frame. A velocity may follow the surface current of an eWave session or of an ocean tile, read
+// from the daemon's eWave or ocean engine before each step.
 #pragma once
 
 #include <memory>
 #include <string>
 
 #include "ewave/ewave_engine.h"
+#include "ocean/ocean_engine.h"
 #include "rpc/capability.h"
 #include "rpc/serving.h"
 #include "squall/v1/textures.grpc.pb.h"
@@ -34,12 +35,21 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
       grpc::ServerReaderWriter<squall::v1::TextureFrame, squall::v1::TextureControl>* stream) override;
 
  private:
-  // The spec's velocity: the surface current of eWave session `session`, read now (NOT_FOUND naming `path`).
-  void follow(textures::AdvectSpec& spec, const std::string& session, const std::string& path);
+  struct Stream;  // one advection stream's state (textures_service.cpp)
+
+  // The stream's velocity from the current it follows, read now: an eWave session's (NOT_FOUND naming the
+  // field for an unknown id), or an ocean tile's over the step from s.time to s.time + dt. No-op otherwise.
+  void follow(Stream& s);
+  // The stream's next frame; before each step but the first, the followed current is read again.
+  textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool first);
+  // Message n of an AdvectInteractive stream applied to `s`: the first starts `advection`.
+  void apply(const squall::v1::TextureControl& control, size_t n, Stream& s,
+             std::unique_ptr<textures::Advection>& advection);
 
   ServingState& serving_;
   std::unique_ptr<textures::TextureEngine> engine_;
   ewave::EWaveEngine* ewave_ = nullptr;  // the daemon's
+  ocean::OceanEngine* ocean_ = nullptr;  // the daemon's
 };
 
 }  // namespace squall::rpc

@@ -1,7 +1,8 @@
-// AdvectInteractive and eWave-driven textures through a real squalld: an unsteered interactive stream
-// equals AdvectTexture bit for bit; a steered velocity and dt move the texture by the measured amount from
-// the next frame on; a texture following an eWave session moves with its surface current grad phi; bad
-// messages and unknown sessions get the documented errors and the daemon keeps serving.
+// AdvectInteractive and textures that follow the water, through a real squalld: an unsteered interactive
+// stream equals AdvectTexture bit for bit; a steered velocity and dt move the texture by the measured amount
+// from the next frame on; a texture following an eWave session moves with its surface current grad phi, one
+// following an ocean tile with its drift; bad messages, tiles and unknown sessions get the documented
+// errors and the daemon keeps serving.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -206,6 +207,48 @@ TEST(TexturesEWave, TextureFollowsTheSessionsSurfaceCurrent) {
       EXPECT_NEAR(d.dy, 0, 0.08);
     }
   }
+}
+
+// A Phillips layer of amplitude 0 (no waves) drifting at U_D: the current is U_D everywhere, and the
+// texture moves by U_D dt per frame (0.2, 0.1 du/s at dt 0.1 over 64 px/du: 1.28, 0.64 px).
+v1::TileSpec still_water(double drift_x, double drift_y) {
+  v1::TileSpec tile;
+  auto* layer = tile.add_layers();
+  layer->set_extent_x(1);
+  layer->set_extent_y(1);
+  layer->set_nx(16);
+  layer->set_ny(16);
+  layer->set_spectrum(v1::SPECTRUM_MODEL_PHILLIPS);
+  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  layer->set_wind_speed(5);
+  layer->set_phillips_amplitude(0);
+  layer->set_drift_x(drift_x);
+  layer->set_drift_y(drift_y);
+  return tile;
+}
+
+TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0, 0, 1);
+  *r.mutable_velocity()->mutable_ocean() = still_water(0.2, 0.1);
+  r.set_frames(3);
+  Streamed s = advect(r);
+  ASSERT_TRUE(s.status.ok()) << s.status.error_message();
+  ASSERT_EQ(s.frames.size(), 3u);
+  for (size_t i = 0; i + 1 < 3; ++i) {
+    test::Displacement d = motion(s.frames[i], s.frames[i + 1]);
+    EXPECT_NEAR(d.dx, 1.28, 0.1) << "frames " << i << "-" << i + 1;
+    EXPECT_NEAR(d.dy, 0.64, 0.1) << "frames " << i << "-" << i + 1;
+  }
+  // The tile is validated like GetTile's, and its layers must share one drift.
+  auto bad = r;
+  bad.mutable_velocity()->mutable_ocean()->mutable_layers(0)->set_wind_speed(NAN);
+  test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[0].wind_speed = nan",
+                     [&] { advect_or_throw(bad); });
+  bad = r;
+  *bad.mutable_velocity()->mutable_ocean()->add_layers() = r.velocity().ocean().layers(0);
+  bad.mutable_velocity()->mutable_ocean()->mutable_layers(1)->set_drift_x(0.5);
+  test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[1].drift_x = 0.5 must be equal",
+                     [&] { advect_or_throw(bad); });
 }
 
 TEST(TexturesEWave, UnknownSessionIsNotFound) {
