@@ -48,6 +48,8 @@ first final plane, 8-bit grey).
       taylor-green:U,PERIOD       du/s, du
       channel:UMAX[,Y0,HALF]      Poiseuille channel: axis speed du/s, axis y, half width du
       cylinder:U[,CX,CY[,R]]      potential flow at U du/s past a cylinder of radius R du
+      ewave:SESSION_ID            the surface current of a live eWave session, read before each step
+                                  (du = m; step the session from another client, e.g. squall ewave wake)
   --noise BANDS[,CELLS[,SEED]]  gradient noise: bands 1..8, lattice cells per period 1..64 (default 4,4,1)
   --spin W               flow noise: band 0 turns at W rad/s (default: still noise)
   --image FILE           an image texture instead: FILE.exr (its R, G, B, A channels first, at most 8) or
@@ -256,6 +258,8 @@ void apply(const std::string& flag, const std::string& value, Advect& a) {
   v1::AdvectTextureRequest& r = a.request;
   if (flag == "--method")
     r.set_method(named(flag, value, kMethods));
+  else if (flag == "--velocity" && value.rfind("ewave:", 0) == 0)
+    r.mutable_velocity()->set_ewave_session(value.substr(6));
   else if (flag == "--velocity")
     velocity_flag(value, r.mutable_velocity()->mutable_named());
   else if (flag == "--frames")

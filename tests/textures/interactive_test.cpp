@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 
 #include "client/client.h"
@@ -15,6 +16,7 @@
 #include "service_support.h"
 #include "squall/v1/ewave.grpc.pb.h"
 #include "support/expect_error.h"
+#include "support/process.h"
 
 namespace squall {
 namespace {
@@ -249,6 +251,22 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
   bad.mutable_velocity()->mutable_ocean()->mutable_layers(1)->set_drift_x(0.5);
   test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[1].drift_x = 0.5 must be equal",
                      [&] { advect_or_throw(bad); });
+}
+
+// `squall texture advect --velocity ewave:ID` streams frames following the session; an unknown id fails
+// with the NOT_FOUND message naming the field.
+TEST(TexturesEWave, CommandLineFollowsASession) {
+  const std::string dir = test::temp_dir("textures-cli-ewave"), id = still_current_session(0.05);
+  auto advect_cli = [&](const std::string& velocity, std::string* out) {
+    return test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--frames", "2",
+                      "--size", "32x32", "--region", "0.875,0.875,1.125,1.125", "--velocity", velocity, "--out", dir},
+                     out);
+  };
+  std::string out;
+  ASSERT_EQ(advect_cli("ewave:" + id, &out), 0) << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_0001.exr")) << out;
+  EXPECT_NE(advect_cli("ewave:no-such-session", &out), 0);
+  EXPECT_NE(out.find("request.velocity.ewave_session"), std::string::npos) << out;
 }
 
 TEST(TexturesEWave, UnknownSessionIsNotFound) {
