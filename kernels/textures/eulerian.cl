@@ -48,7 +48,7 @@ static float2 backtrace(const VelocityField* f, __global const float2* grid, flo
  * regenerate the slots whose bit is set in reset_mask. */
 __kernel void eulerian_advect(__global const float4* state_in, __global float4* state_out, int nx, int ny,
                               OutputGrid frame, int slots, VelocityField velocity, __global const float2* grid, float t,
-                              float dt, float scale, int reset_mask) {
+                              float dt, float scale, int reset_mask, __global const float2* offsets) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
@@ -60,9 +60,9 @@ __kernel void eulerian_advect(__global const float4* state_in, __global float4* 
   float strain = strain_rate_norm(&velocity, grid, x, t + dt, 0.5f * min(hx, hy));
   size_t node = (size_t)i + (size_t)nx * (size_t)j, plane = (size_t)nx * (size_t)ny;
   for (int s = 0; s < slots; ++s) {
-    float4 q = inside ? node_state_at(state_in, nx, ny, s, g) : (float4)(scale * back, 0.0f, 0.0f);
+    float4 q = inside ? node_state_at(state_in, nx, ny, s, g) : (float4)(scale * back + offsets[s], 0.0f, 0.0f);
     q.z += strain * dt;
-    if ((reset_mask >> s) & 1) q = (float4)(scale * x, 0.0f, 0.0f);
+    if ((reset_mask >> s) & 1) q = (float4)(scale * x + offsets[s], 0.0f, 0.0f);
     state_out[(size_t)s * plane + node] = q;
   }
 }

@@ -9,7 +9,7 @@
 namespace squall::textures {
 
 // What a draw is for, so that two purposes never share a sequence.
-enum class RngPurpose : uint64_t { PoissonSeed = 1, PoissonAngle = 2, PatchOrigin = 3 };
+enum class RngPurpose : uint64_t { PoissonSeed = 1, PoissonAngle = 2, PatchOrigin = 3, RegenerationOffset = 4 };
 
 inline uint64_t splitmix64(uint64_t z) {
   z += 0x9e3779b97f4a7c15ull;

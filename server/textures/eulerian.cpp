@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "textures/counter_rng.h"
 #include "textures/state_codec.h"
 
 namespace squall::textures {
@@ -51,7 +52,9 @@ class Eulerian final : public Advection {
         inputs_(std::move(inputs)),
         nx_(params_.grid_nx),
         ny_(params_.grid_ny),
-        cascade_bands_(cascade_bands_of(spec)) {
+        cascade_bands_(cascade_bands_of(spec)),
+        offset_rng_(spec.seed, RngPurpose::RegenerationOffset),
+        random_offset_(params_.random_offset && spec.method != Method::Naive) {
     const size_t bytes = state_floats() * sizeof(float);
     state_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
     scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
@@ -61,6 +64,7 @@ class Eulerian final : public Advection {
     for (size_t i = 0; i < schedule_.latencies.size(); ++i)
       for (int j = 0; j < schedule_.phases; ++j)
         phase_start_.push_back(t0_ - j * schedule_.latencies[i] / schedule_.phases);
+    first_start_ = phase_start_;
     if (state.empty()) {
       std::vector<float> fresh(state_floats());
       for (int s = 0; s < slots(); ++s) fresh_slot(fresh, s);
@@ -122,15 +126,32 @@ class Eulerian final : public Advection {
   size_t cascade_floats() const { return size_t(cascade_bands_) * nx_ * ny_ * 2; }
   double latency(int slot) const { return schedule_.latencies[slot / schedule_.phases]; }
 
-  // u = S x, d = 0 at every node of slot s.
+  // The offset o of slot s's current phase: 0, or with random_offset uniform in [0, 1)^2 periods, a pure
+  // function of (seed, slot, regeneration count) so that a resumed run draws the same.
+  cl_float2 offset(int s) const {
+    if (!random_offset_) return cl_float2{{0.0f, 0.0f}};
+    const uint64_t generation = uint64_t(std::llround((phase_start_[s] - first_start_[s]) / latency(s)));
+    const uint64_t counter = (uint64_t(s) << 48) + 2 * generation;
+    return cl_float2{{float(offset_rng_.uniform(counter)), float(offset_rng_.uniform(counter + 1))}};
+  }
+
+  cl::Buffer offsets() const {
+    std::vector<cl_float2> o;
+    for (int s = 0; s < slots(); ++s) o.push_back(offset(s));
+    return cl::Buffer(runtime_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, o.size() * sizeof(cl_float2),
+                      o.data());
+  }
+
+  // u = S x + o, d = 0 at every node of slot s.
   void fresh_slot(std::vector<float>& values, int s) const {
     OutputGrid out = inputs_->output(1);
     double hx = out.pixel_x * out.width / (nx_ - 1), hy = out.pixel_y * out.height / (ny_ - 1);
+    const cl_float2 o = offset(s);
     for (int j = 0; j < ny_; ++j) {
       for (int i = 0; i < nx_; ++i) {
         float* q = &values[4 * ((size_t(s) * ny_ + j) * nx_ + i)];
-        q[0] = float(scale_ * (out.x0 + i * hx));
-        q[1] = float(scale_ * (out.y0 + j * hy));
+        q[0] = float(scale_ * (out.x0 + i * hx)) + o.s[0];
+        q[1] = float(scale_ * (out.y0 + j * hy)) + o.s[1];
         q[2] = q[3] = 0;
       }
     }
@@ -188,10 +209,11 @@ class Eulerian final : public Advection {
         reset |= cl_int(1) << s;
       }
     }
+    const cl::Buffer slot_offsets = offsets();
     auto lock = runtime_.exclusive();
     kernels_.eulerian_advect.launch(cl::NDRange(nx_, ny_), cl::NullRange, state_, scratch_, cl_int(nx_), cl_int(ny_),
                                     inputs_->output(1), cl_int(slots()), inputs_->velocity(t), inputs_->grid(),
-                                    cl_float(t), cl_float(h), cl_float(scale_), reset);
+                                    cl_float(t), cl_float(h), cl_float(scale_), reset, slot_offsets);
     std::swap(state_, scratch_);
     if (cascade_bands_ > 0) advance_cascade(t, h);
   }
@@ -238,13 +260,16 @@ class Eulerian final : public Advection {
   int substeps_;
   std::shared_ptr<const DeviceInputs> inputs_;
   int nx_, ny_;
-  int cascade_bands_;                     // noise bands of the vorticity cascade; 0: off
+  int cascade_bands_;      // noise bands of the vorticity cascade; 0: off
+  CounterRng offset_rng_;  // the regeneration offsets (random_offset_)
+  bool random_offset_;
   cl::Buffer state_, scratch_;            // float4 per slot and node: u.x, u.y, d, 0
   cl::Buffer cascade_, cascade_scratch_;  // float2 per band and node (band-major): w_k, theta_k
   // The state a checkpoint holds (with state_'s and cascade_'s contents):
   bool started_ = false;
   int index_ = 0;
   std::vector<double> phase_start_;  // t0^i_j per slot: the time of its last regeneration
+  std::vector<double> first_start_;  // t0^i_j per slot at frame 0 (the regeneration count's origin)
 };
 
 }  // namespace

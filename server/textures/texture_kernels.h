@@ -15,14 +15,14 @@ namespace squall::textures {
 struct TextureKernels {
   // positions, count, velocity, grid, t, dt, substeps
   Kernel<cl::Buffer, cl_int, VelocityField, cl::Buffer, cl_float, cl_float, cl_int> lagrangian_advect;
-  // out, frame, tile_offsets, tile_grids, grid_bounds, positions, uvs, weights, grid_res, blend, texture,
+  // out, frame, tile_offsets, tile_grids, grid_boxes, positions, uvs, weights, grid_res, blend, texture,
   // image, scalar, lut, velocity, mask
   Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl_int, cl_int,
          TextureSource, cl::Buffer, cl::Buffer, cl::Buffer, VelocityField, cl::Buffer>
       lagrangian_reconstruct;
-  // state_in, state_out, nx, ny, frame, slots, velocity, grid, t, dt, scale, reset_mask
+  // state_in, state_out, nx, ny, frame, slots, velocity, grid, t, dt, scale, reset_mask, offsets
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, VelocityField, cl::Buffer, cl_float, cl_float,
-         cl_float, cl_int>
+         cl_float, cl_int, cl::Buffer>
       eulerian_advect;
   // cascade_in, cascade_out, nx, ny, frame, bands, c_w, tau, tau_ratio, velocity, grid, t, dt
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, cl_float, cl_float, cl_float, VelocityField,

@@ -137,6 +137,9 @@ struct EulerianParams {
   EulerianBlend blend = EulerianBlend::Octave;
   int grid_nx = 64, grid_ny = 64;  // advection nodes over the output region
   VorticityCascade cascade;        // EulerianMultilayer with a noise texture only
+  // Each regeneration resets a phase to S x + o, o uniform in [0, 1)^2 periods, drawn per (seed, slot,
+  // regeneration): the phases decorrelate (ADV03 resets to S x, o = 0: zero velocity is then static).
+  bool random_offset = false;
 };
 
 struct AdvectSpec {

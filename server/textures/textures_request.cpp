@@ -360,6 +360,7 @@ EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::s
   if (p.has_grid_nx()) out.grid_nx = clamped(p.grid_nx());
   if (p.has_grid_ny()) out.grid_ny = clamped(p.grid_ny());
   out.cascade = cascade(p.cascade());
+  out.random_offset = p.random_offset();
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "textures/textures_support.h"
 
@@ -64,6 +65,38 @@ TEST(TexturesBlending, EulerianWeightsArePartitionsOfUnity) {
         ASSERT_NEAR(frame.weight_sum()[k], 1.0, 1e-5) << "method " << int(method) << " frame " << frame.index;
     }
   }
+}
+
+// With zero velocity the flow map's phases reset to the same window coordinates, so every frame is the
+// texture (F. Neyret, "Advected Textures", SCA 2003, sec. 2.2). With a random offset per regeneration the
+// two phases are independent samples: the linear blend of weights (1/2, 1/2) has std sqrt(1/2) = 0.71 of
+// the texture's when their weights are equal, back to 1 when one phase holds all the weight; LTA11's eq. 4
+// applied to the phases keeps the std at the texture's throughout.
+TEST(TexturesBlending, RandomRegenerationOffsetsDecorrelateThePhases) {
+  AdvectSpec spec = noise_spec(Method::TwoPhaseFlowMap, SQUALL_VELOCITY_UNIFORM);
+  spec.eulerian.random_offset = true;
+  spec.dt = 1.0 / 40;
+  const double reference = texture_engine().window(spec).stats.stddev[0];
+  auto std_ratios = [&](const AdvectSpec& s) {
+    std::vector<double> ratios;
+    for (const TextureFrame& f : run(s, 41)) ratios.push_back(f.stats.stddev[0] / reference);
+    return ratios;
+  };
+  // Triangle weights 1 - |2 age / latency - 1| over the latency of 1 s, the phases half a latency apart:
+  // frame 0 (t = 0) and frame 20 (t = 0.5 s) have one phase at weight 1, frame 10 (t = 0.25 s) both at 1/2.
+  std::vector<double> linear = std_ratios(spec);
+  std::printf("linear blend: std ratio %.3f, %.3f, %.3f at frames 0, 10, 20\n", linear[0], linear[10], linear[20]);
+  EXPECT_NEAR(linear[0], 1.0, 0.03);
+  EXPECT_NEAR(linear[10], std::sqrt(0.5), 0.08);
+  EXPECT_NEAR(linear[20], 1.0, 0.03);
+  spec.eulerian.blend = EulerianBlend::OctaveVariancePreserving;
+  for (double r : std_ratios(spec)) EXPECT_NEAR(r, 1.0, 0.08);
+  // Successive regenerations draw new offsets: frame 40 (one latency on) is not frame 0; without offsets it is.
+  auto frames = run(spec, 41);
+  EXPECT_GT(max_abs_difference(frames[0], frames[40], 0), 0.1);
+  spec.eulerian.random_offset = false;
+  frames = run(spec, 41);
+  EXPECT_EQ(max_abs_difference(frames[0], frames[40], 0), 0.0);
 }
 
 }  // namespace

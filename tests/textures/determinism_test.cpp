@@ -41,6 +41,13 @@ TEST(TexturesDeterminism, EulerianCascadeResumesBitIdentically) {
   expect_resumes_exactly(cascade_spec(SQUALL_VELOCITY_VORTEX, {0.06, 0.5, 0.5, 0.1}, 2.0));
 }
 
+TEST(TexturesDeterminism, RandomRegenerationOffsetsResumeBitIdentically) {
+  AdvectSpec spec = noise_spec(Method::TwoPhaseFlowMap, SQUALL_VELOCITY_VORTEX, {0.5, 0.5, 0.5, 0.1});
+  spec.eulerian.latencies = {0.1};  // regenerations before and after the checkpoint
+  spec.eulerian.random_offset = true;
+  expect_resumes_exactly(spec);
+}
+
 TEST(TexturesDeterminism, ACheckpointOfAnotherShapeIsRefused) {
   AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM);
   auto advection = texture_engine().start(spec);
