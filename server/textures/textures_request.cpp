@@ -213,13 +213,31 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
   }
 }
 
+// 8-bit interleaved pixels as planes of byte / 255.
+void pixels8_image(const v1::Pixels8& p, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+  validate::in(path + ".width", int64_t(p.width()), 1, int64_t(1) << 30);
+  validate::in(path + ".height", int64_t(p.height()), 1, int64_t(1) << 30);
+  validate::in(path + ".channels", int64_t(p.channels()), 1, SQUALL_TEXTURE_MAX_CHANNELS);
+  gate.check_grid(path, int64_t(p.width()), int64_t(p.height()));
+  const size_t pixels = size_t(p.width()) * p.height();
+  validate::count(path + ".data", p.data().size(), pixels * p.channels(), "width x height x channels bytes");
+  out.width = int(p.width());
+  out.height = int(p.height());
+  out.channels = int(p.channels());
+  out.pixels.resize(pixels * p.channels());
+  const auto* bytes = reinterpret_cast<const unsigned char*>(p.data().data());
+  for (size_t k = 0; k < pixels; ++k)
+    for (int c = 0; c < out.channels; ++c) out.pixels[c * pixels + k] = float(bytes[k * out.channels + c]) / 255.0f;
+}
+
 void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string& path, TextureSpec& out) {
   out.kind = SQUALL_TEXTURE_IMAGE;
-  if (!im.png().empty()) {
-    if (im.channels_size()) fail(Code::InvalidArgument, path + " has both channels and png; send one of them");
-    return png_image(im.png(), gate, path + ".png", out);
-  }
-  if (im.channels_size() == 0) fail(Code::InvalidArgument, path + " has neither channels nor png; send one of them");
+  const int sources = (im.channels_size() > 0) + !im.png().empty() + im.has_pixels8();
+  if (sources != 1)
+    fail(Code::InvalidArgument,
+         path + " has " + std::to_string(sources) + " of channels, png and pixels8; send exactly one of them");
+  if (!im.png().empty()) return png_image(im.png(), gate, path + ".png", out);
+  if (im.has_pixels8()) return pixels8_image(im.pixels8(), gate, path + ".pixels8", out);
   const uint32_t nx = im.channels(0).nx(), ny = im.channels(0).ny();
   out.width = clamped(nx);
   out.height = clamped(ny);

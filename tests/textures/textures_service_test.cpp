@@ -261,6 +261,41 @@ TEST(TexturesRequest, PngSamplesBecomeUnitChannels) {
   }
 }
 
+// 8-bit interleaved pixels become planes of byte / 255; a wrong byte count, channel count or a second
+// image source is refused naming the field.
+TEST(TexturesRequest, EightBitPixelsBecomeUnitChannels) {
+  const uint32_t w = 3, h = 2, channels = 3;
+  std::string data(w * h * channels, '\0');
+  for (size_t k = 0; k < data.size(); ++k) data[k] = char(uint8_t(k * 13 + 2));
+  v1::AdvectTextureRequest r;
+  auto* pixels = r.mutable_texture()->mutable_image()->mutable_pixels8();
+  pixels->set_width(w);
+  pixels->set_height(h);
+  pixels->set_channels(channels);
+  pixels->set_data(data);
+  r.mutable_output()->set_width(1);
+  r.mutable_output()->set_height(1);
+  const LimitGate gate{Limits{}};
+  const textures::TextureSpec t = textures::rpc::spec(r, gate).texture;
+  ASSERT_EQ(t.channels, int(channels));
+  ASSERT_EQ(t.width, int(w));
+  for (size_t pixel = 0; pixel < w * h; ++pixel)
+    for (uint32_t c = 0; c < channels; ++c)
+      EXPECT_EQ(t.pixels[c * w * h + pixel], float(uint8_t(data[pixel * channels + c])) / 255.0f);
+  auto bad = r;
+  bad.mutable_texture()->mutable_image()->mutable_pixels8()->set_data(data.substr(1));
+  test::expect_error(Code::InvalidArgument, "request.texture.image.pixels8.data has 17 values, want",
+                     [&] { textures::rpc::spec(bad, gate); });
+  bad = r;
+  bad.mutable_texture()->mutable_image()->mutable_pixels8()->set_channels(9);
+  test::expect_error(Code::InvalidArgument, "request.texture.image.pixels8.channels = 9",
+                     [&] { textures::rpc::spec(bad, gate); });
+  bad = r;
+  bad.mutable_texture()->mutable_image()->set_png("x");
+  test::expect_error(Code::InvalidArgument, "request.texture.image has 2 of channels, png and pixels8",
+                     [&] { textures::rpc::spec(bad, gate); });
+}
+
 TEST(TexturesService, BadRequestsGetClearErrors) {
   struct Case {
     std::function<void(v1::AdvectTextureRequest&)> edit;
