@@ -58,7 +58,7 @@ first final plane, 8-bit grey).
   --scale S              texture periods per du (default 4)
   --size WxH             output pixels (default 256x256)
   --region X0,Y0,X1,Y1   sampled region, du (default 0,0,1,1)
-  --planes A,B,...       final raw weight_sum weight_sq_sum coverage layer (default final)
+  --planes A,B,...       final raw weight_sum weight_sq_sum coverage layer uv (default final)
   --frames N             frames to stream, >= 1 (default 30)
   --dt S                 seconds between frames (default 1/30)
   --d D                  Lagrangian Poisson radius, du (default 0.1)
@@ -78,7 +78,8 @@ const std::map<std::string, v1::FinalFunction> kFinals = {{"identity", v1::FINAL
 const std::map<std::string, v1::TexturePlane> kPlanes = {
     {"final", v1::TEXTURE_PLANE_FINAL},           {"raw", v1::TEXTURE_PLANE_RAW},
     {"weight_sum", v1::TEXTURE_PLANE_WEIGHT_SUM}, {"weight_sq_sum", v1::TEXTURE_PLANE_WEIGHT_SQ_SUM},
-    {"coverage", v1::TEXTURE_PLANE_COVERAGE},     {"layer", v1::TEXTURE_PLANE_LAYER}};
+    {"coverage", v1::TEXTURE_PLANE_COVERAGE},     {"layer", v1::TEXTURE_PLANE_LAYER},
+    {"uv", v1::TEXTURE_PLANE_UV}};
 
 struct Advect {
   v1::AdvectTextureRequest request;

@@ -59,8 +59,13 @@ __kernel void eulerian_advect(__global const float4* state_in, __global float4* 
   bool inside = g.x >= 0.0f && g.y >= 0.0f && g.x <= (float)(nx - 1) && g.y <= (float)(ny - 1);
   float strain = strain_rate_norm(&velocity, grid, x, t + dt, 0.5f * min(hx, hy));
   size_t node = (size_t)i + (size_t)nx * (size_t)j, plane = (size_t)nx * (size_t)ny;
+  /* Inflow (a backtrace that leaves the grid) continues the map of the nearest edge point with the
+   * window's gradient S: u(back) = u(edge) + S (back - edge), exact for a uniform flow. */
+  float2 edge = clamp(g, (float2)(0.0f), (float2)((float)(nx - 1), (float)(ny - 1)));
+  float2 beyond = scale * (back - (float2)(frame.x0 + edge.x * hx, frame.y0 + edge.y * hy));
   for (int s = 0; s < slots; ++s) {
-    float4 q = inside ? node_state_at(state_in, nx, ny, s, g) : (float4)(scale * back + offsets[s], 0.0f, 0.0f);
+    float4 q = node_state_at(state_in, nx, ny, s, edge);
+    if (!inside) q.xy += beyond;
     q.z += strain * dt;
     if ((reset_mask >> s) & 1) q = (float4)(scale * x + offsets[s], 0.0f, 0.0f);
     state_out[(size_t)s * plane + node] = q;
@@ -176,11 +181,13 @@ __kernel void eulerian_render(__global float* out, OutputGrid frame, __global co
   int finals = final_channels(&texture);
   for (int c = 0; c < texture.channels; ++c) r[c] = 0.0f;
   for (int c = 0; c < SQUALL_LUT_MAX_CHANNELS; ++c) blended_final[c] = 0.0f;
-  float s0 = 0.0f, s2 = 0.0f;
+  float s0 = 0.0f, s2 = 0.0f, w_max = 0.0f;
+  float2 u_max = (float2)(0.0f);
   int n = 0;
   for (int s = 0; s < layers * phases; ++s) {
     float w = layer_weight[s / phases] * alpha[s];
     if (w <= 0.0f) continue;
+    if (w > w_max) w_max = w, u_max = q[s].xy;
     for (int c = 0; c < texture.channels; ++c) {
       sample[c] = texture_channel_turned(&texture, image, c, q[s].xy, theta[c]);
       r[c] += w * (blend == SQUALL_EULERIAN_OCTAVE_VP ? sample[c] - texture.mean[c] : sample[c]);
@@ -202,4 +209,6 @@ __kernel void eulerian_render(__global float* out, OutputGrid frame, __global co
   out[(size_t)(aux + 1) * plane + pixel] = s2;
   out[(size_t)(aux + 2) * plane + pixel] = velocity_fluid_at(&velocity, mask, p.x, p.y) ? (float)n : -1.0f;
   out[(size_t)(aux + 3) * plane + pixel] = level;
+  out[(size_t)(aux + 4) * plane + pixel] = u_max.x;
+  out[(size_t)(aux + 5) * plane + pixel] = u_max.y;
 }

@@ -133,8 +133,9 @@ typedef struct OutputGrid {
 } OutputGrid;
 
 /* The auxiliary planes every method writes after the final and raw planes: the weight sum, the sum of
- * squared weights, the number of blended samples (-1 on solid pixels) and the selected layer l*. */
-#define SQUALL_AUX_PLANES 4
+ * squared weights, the number of blended samples (-1 on solid pixels), the selected layer l*, and the
+ * texture coordinate u (x then y, in periods) of the sample with the largest weight (0 where none). */
+#define SQUALL_AUX_PLANES 6
 
 /* The number of final planes F produces: every channel for the identity, the LUT's channels, else one. */
 static inline int final_channels(const TextureSource* t) {

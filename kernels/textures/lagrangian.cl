@@ -29,36 +29,53 @@ static float3 barycentric(float2 p, float2 a, float2 b, float2 c) {
   return (float3)(1.0f - l1 - l2, l1, l2);
 }
 
-/* The texture coordinate and weight of grid g at p, found in the triangle of its deformed lattice that
- * holds p (each quad split along its (0,0)-(1,1) diagonal); false when no triangle holds p. */
-static bool grid_sample(__global const float2* positions, __global const float2* uvs, __global const float* weights,
-                        int base, int res, float2 p, float2* u, float* w) {
+/* Whether p lies in box (xmin, ymin, xmax, ymax), edges included. */
+static bool box_holds(float4 box, float2 p) { return !(p.x < box.x || p.y < box.y || p.x > box.z || p.y > box.w); }
+
+/* The texture coordinate and weight at p of the quad whose corner (a, b) is vertex i00, if one of its two
+ * triangles (split along its (0,0)-(1,1) diagonal) holds p. */
+static bool quad_sample(__global const float2* positions, __global const float2* uvs, __global const float* weights,
+                        int i00, int res, float2 p, float2* u, float* w) {
   const float eps = -1e-5f;
-  for (int b = 0; b + 1 < res; ++b) {
-    for (int a = 0; a + 1 < res; ++a) {
-      int i00 = base + a + res * b, i10 = i00 + 1, i01 = i00 + res, i11 = i01 + 1;
-      float2 v00 = positions[i00], v10 = positions[i10], v01 = positions[i01], v11 = positions[i11];
-      float2 lo = fmin(fmin(v00, v10), fmin(v01, v11)), hi = fmax(fmax(v00, v10), fmax(v01, v11));
-      if (p.x < lo.x || p.y < lo.y || p.x > hi.x || p.y > hi.y) continue;
-      int3 tri = (int3)(i00, i10, i11);
-      float3 l = barycentric(p, v00, v10, v11);
-      if (min(l.x, min(l.y, l.z)) < eps) {
-        tri = (int3)(i00, i11, i01);
-        l = barycentric(p, v00, v11, v01);
-        if (min(l.x, min(l.y, l.z)) < eps) continue;
-      }
-      *u = l.x * uvs[tri.x] + l.y * uvs[tri.y] + l.z * uvs[tri.z];
-      *w = max(0.0f, l.x * weights[tri.x] + l.y * weights[tri.y] + l.z * weights[tri.z]);
-      return true;
-    }
+  int i10 = i00 + 1, i01 = i00 + res, i11 = i01 + 1;
+  float2 v00 = positions[i00], v10 = positions[i10], v01 = positions[i01], v11 = positions[i11];
+  float2 lo = fmin(fmin(v00, v10), fmin(v01, v11)), hi = fmax(fmax(v00, v10), fmax(v01, v11));
+  if (!box_holds((float4)(lo, hi), p)) return false;
+  int3 tri = (int3)(i00, i10, i11);
+  float3 l = barycentric(p, v00, v10, v11);
+  if (min(l.x, min(l.y, l.z)) < eps) {
+    tri = (int3)(i00, i11, i01);
+    l = barycentric(p, v00, v11, v01);
+    if (min(l.x, min(l.y, l.z)) < eps) return false;
   }
+  *u = l.x * uvs[tri.x] + l.y * uvs[tri.y] + l.z * uvs[tri.z];
+  *w = max(0.0f, l.x * weights[tri.x] + l.y * weights[tri.y] + l.z * weights[tri.z]);
+  return true;
+}
+
+/* The texture coordinate and weight at p of grid g, whose bounds box[0] hold p: those of the first quad
+ * (rows b, then a, ascending) of its deformed lattice with a triangle holding p; false when none does.
+ * Only the quads listed in p's bucket are tested: n x n buckets, n = min(2 (res - 1), 16), tile the
+ * bounds (box[1] holds their inverse size) and each lists, by first vertex (a + res b < 256) and in that
+ * order, every quad whose own bounds meet it (lagrangian.cpp): the others' bounds do not hold p. */
+static bool grid_sample(__global const float2* positions, __global const float2* uvs, __global const float* weights,
+                        __global const float4* box, __global const int* bucket_offsets,
+                        __global const uchar* bucket_quads, int g, int res, float2 p, float2* u, float* w) {
+  int n = min(2 * (res - 1), 16);
+  float2 cell = floor((p - box[0].xy) * box[1].xy);
+  int bucket = g * n * n + clamp((int)cell.x, 0, n - 1) + n * clamp((int)cell.y, 0, n - 1);
+  for (int k = bucket_offsets[bucket]; k < bucket_offsets[bucket + 1]; ++k)
+    if (quad_sample(positions, uvs, weights, g * res * res + bucket_quads[k], res, p, u, w)) return true;
   return false;
 }
 
 /* One pixel of the direct reconstruction: out holds final planes, raw planes R', then the auxiliary
- * planes sum w, sum w^2, the number of grids blended (-1 on solid pixels) and 0 (no layer). */
+ * planes sum w, sum w^2, the number of grids blended (-1 on solid pixels), 0 (no layer) and the texture
+ * coordinate of the grid with the largest weight (0 where none). grid_boxes holds 2 float4 per grid and
+ * bucket_offsets (CSR into bucket_quads) n^2 buckets per grid, as grid_sample reads them. */
 __kernel void lagrangian_reconstruct(__global float* out, OutputGrid frame, __global const int* tile_offsets,
-                                     __global const int* tile_grids, __global const float4* grid_bounds,
+                                     __global const int* tile_grids, __global const float4* grid_boxes,
+                                     __global const int* bucket_offsets, __global const uchar* bucket_quads,
                                      __global const float2* positions, __global const float2* uvs,
                                      __global const float* weights, int grid_res, int blend, TextureSource texture,
                                      __global const float* image, __global const float* scalar,
@@ -70,19 +87,24 @@ __kernel void lagrangian_reconstruct(__global float* out, OutputGrid frame, __gl
 
   float s1[SQUALL_TEXTURE_MAX_CHANNELS];
   for (int c = 0; c < texture.channels; ++c) s1[c] = 0.0f;
-  float s0 = 0.0f, s2 = 0.0f;
+  float s0 = 0.0f, s2 = 0.0f, w_max = 0.0f;
+  float2 u_max = (float2)(0.0f);
   int n = 0;
   int fluid = velocity_fluid_at(&velocity, mask, p.x, p.y);
+  float angle[SQUALL_TEXTURE_MAX_CHANNELS]; /* the bands' turns, the same for every grid */
+  for (int c = 0; c < texture.channels; ++c) angle[c] = band_angle(&texture, c, 0.0f);
   int tile = px / frame.tile + frame.tiles_x * (py / frame.tile);
   for (int k = tile_offsets[tile]; fluid && k < tile_offsets[tile + 1]; ++k) {
     int g = tile_grids[k];
-    float4 box = grid_bounds[g];
-    if (p.x < box.x || p.y < box.y || p.x > box.z || p.y > box.w) continue;
+    __global const float4* box = grid_boxes + 2 * (size_t)g;
+    if (!box_holds(box[0], p)) continue;
     float2 u;
     float w;
-    if (!grid_sample(positions, uvs, weights, g * grid_res * grid_res, grid_res, p, &u, &w) || w <= 0.0f) continue;
+    if (!grid_sample(positions, uvs, weights, box, bucket_offsets, bucket_quads, g, grid_res, p, &u, &w) || w <= 0.0f)
+      continue;
+    if (w > w_max) w_max = w, u_max = u;
     for (int c = 0; c < texture.channels; ++c) {
-      float r = texture_channel(&texture, image, c, u);
+      float r = texture_channel_at(&texture, image, c, u, angle[c]);
       s1[c] += w * (blend == SQUALL_BLEND_VARIANCE_PRESERVING ? r - texture.mean[c] : r);
     }
     s0 += w;
@@ -106,4 +128,6 @@ __kernel void lagrangian_reconstruct(__global float* out, OutputGrid frame, __gl
   out[(size_t)(aux + 1) * plane + pixel] = s2;
   out[(size_t)(aux + 2) * plane + pixel] = fluid ? (float)n : -1.0f;
   out[(size_t)(aux + 3) * plane + pixel] = 0.0f;
+  out[(size_t)(aux + 4) * plane + pixel] = u_max.x;
+  out[(size_t)(aux + 5) * plane + pixel] = u_max.y;
 }

@@ -17,4 +17,6 @@ __kernel void texture_window(__global float* out, OutputGrid frame, float scale,
   out[(size_t)(aux + 1) * plane + pixel] = 1.0f;
   out[(size_t)(aux + 2) * plane + pixel] = 1.0f;
   out[(size_t)(aux + 3) * plane + pixel] = 0.0f;
+  out[(size_t)(aux + 4) * plane + pixel] = scale * p.x;
+  out[(size_t)(aux + 5) * plane + pixel] = scale * p.y;
 }

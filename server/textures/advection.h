@@ -44,6 +44,8 @@ struct TextureFrame {
   const float* weight_sq_sum() const { return plane(final_planes + raw_planes + 1); }
   const float* coverage() const { return plane(final_planes + raw_planes + 2); }
   const float* layer() const { return plane(final_planes + raw_planes + 3); }
+  const float* uv_x() const { return plane(final_planes + raw_planes + 4); }
+  const float* uv_y() const { return plane(final_planes + raw_planes + 5); }
 };
 
 // A frame of `frame`'s size with every plane `texture` asks for, zeroed.

@@ -29,8 +29,10 @@ double milliseconds_since(std::chrono::steady_clock::time_point start) {
 
 // The per-frame arrays the reconstruction reads, built on the host.
 struct Reconstruction {
-  std::vector<float> weights;                    // one per vertex
-  std::vector<cl_float4> bounds;                 // per grid: xmin, ymin, xmax, ymax (du)
+  std::vector<float> weights;    // one per vertex
+  std::vector<cl_float4> boxes;  // per grid: its bounds (xmin, ymin, xmax, ymax; du), its buckets' inverse size
+  std::vector<cl_int> bucket_offsets{0};         // per grid, its buckets' quads, CSR (push_buckets)
+  std::vector<cl_uchar> bucket_quads;            // by first vertex: a + G b < 256 for G <= 16
   std::vector<cl_int> tile_offsets, tile_grids;  // grids per tile, CSR, in grid order
 };
 
@@ -152,9 +154,12 @@ class Lagrangian final : public Advection {
     size_t bytes = positions_.size() * sizeof(float);
     cl::Buffer buffer(runtime_.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, positions_.data());
     auto lock = runtime_.exclusive();
-    kernels_.lagrangian_advect.launch(cl::NDRange(positions_.size() / 2), cl::NullRange, buffer,
-                                      cl_int(positions_.size() / 2), inputs_->velocity(time_), inputs_->grid(),
-                                      cl_float(time_), cl_float(dt_), cl_int(substeps_));
+    // A fixed work-group size: with the device's choice, which follows the vertex count, PoCL compiles the
+    // kernel again for each new count (about 0.2 s on the CPU).
+    const size_t count = positions_.size() / 2, group = 64;
+    kernels_.lagrangian_advect.launch(cl::NDRange(round_up(count, group)), cl::NDRange(group), buffer, cl_int(count),
+                                      inputs_->velocity(time_), inputs_->grid(), cl_float(time_), cl_float(dt_),
+                                      cl_int(substeps_));
     runtime_.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, positions_.data());
   }
 
@@ -228,16 +233,74 @@ class Lagrangian final : public Advection {
     return box.s[2] >= region_.x0 && box.s[0] <= region_.x1 && box.s[3] >= region_.y0 && box.s[1] <= region_.y1;
   }
 
-  cl_float4 bounds(size_t k) const {
-    const float* xy = positions_.data() + 2 * k * vertices();
+  cl_float4 bounds(size_t k) const { return lattice_bounds(k, 0, 0, res(), res()); }
+
+  // Bounds of vertices (a0 .. a0 + na - 1, b0 .. b0 + nb - 1) of grid k.
+  cl_float4 lattice_bounds(size_t k, int a0, int b0, int na, int nb) const {
+    const float* xy = positions_.data() + 2 * (k * vertices() + a0 + size_t(res()) * b0);
     cl_float4 box{{xy[0], xy[1], xy[0], xy[1]}};
-    for (size_t v = 1; v < vertices(); ++v) {
-      box.s[0] = std::min(box.s[0], xy[2 * v]);
-      box.s[1] = std::min(box.s[1], xy[2 * v + 1]);
-      box.s[2] = std::max(box.s[2], xy[2 * v]);
-      box.s[3] = std::max(box.s[3], xy[2 * v + 1]);
+    for (int b = 0; b < nb; ++b) {
+      for (int a = 0; a < na; ++a) {
+        const float* v = xy + 2 * (a + size_t(res()) * b);
+        box.s[0] = std::min(box.s[0], v[0]);
+        box.s[1] = std::min(box.s[1], v[1]);
+        box.s[2] = std::max(box.s[2], v[0]);
+        box.s[3] = std::max(box.s[3], v[1]);
+      }
     }
     return box;
+  }
+
+  int buckets() const { return std::min(2 * (res() - 1), 16); }  // per side of a grid's bounds, as in lagrangian.cl
+
+  struct BucketRange {
+    int i0, i1, j0, j1;
+  };
+
+  // The buckets of a grid with bounds `box` and inverse bucket size `scale` that quad (a, b) of grid k
+  // meets, widened by 1e-3 bucket: far more than the float rounding of the bucket the kernel computes.
+  BucketRange quad_buckets(size_t k, int a, int b, const cl_float4& box, const cl_float4& scale) const {
+    const cl_float4 q = lattice_bounds(k, a, b, 2, 2);
+    auto at = [n = buckets()](float x, float origin, float inverse, double widen) {
+      double v = std::floor((double(x) - origin) * inverse + widen);
+      return v >= n - 1 ? n - 1 : v > 0 ? int(v) : 0;
+    };
+    return {at(q.s[0], box.s[0], scale.s[0], -1e-3), at(q.s[2], box.s[0], scale.s[0], 1e-3),
+            at(q.s[1], box.s[1], scale.s[1], -1e-3), at(q.s[3], box.s[1], scale.s[1], 1e-3)};
+  }
+
+  // Grid k's bounds and buckets for lagrangian_reconstruct: buckets() x buckets() over its bounds, each
+  // listing (by first vertex, rows b then a ascending, the order of a full scan) the quads whose bounds
+  // meet it. A pixel's bucket then lists every quad whose bounds hold it, in scan order: the kernel finds
+  // the triangle a full scan would.
+  void push_buckets(size_t k, Reconstruction& r) const {
+    const int n = buckets();
+    const cl_float4 box = bounds(k);
+    auto inverse = [n](float lo, float hi) { return hi > lo ? float(n / (double(hi) - lo)) : 0.0f; };
+    const cl_float4 scale{{inverse(box.s[0], box.s[2]), inverse(box.s[1], box.s[3]), 0, 0}};
+    r.boxes.insert(r.boxes.end(), {box, scale});
+    std::vector<BucketRange> ranges;  // per quad, in scan order
+    for (int b = 0; b + 1 < res(); ++b)
+      for (int a = 0; a + 1 < res(); ++a) ranges.push_back(quad_buckets(k, a, b, box, scale));
+    append_buckets(ranges, r);
+  }
+
+  // Appends a grid's buckets to r's lists (CSR): in each, the quads of `ranges` meeting it, in order.
+  void append_buckets(const std::vector<BucketRange>& ranges, Reconstruction& r) const {
+    const int n = buckets(), quads = res() - 1;
+    auto each_bucket = [n](const BucketRange& e, auto&& f) {
+      for (int j = e.j0; j <= e.j1; ++j)
+        for (int i = e.i0; i <= e.i1; ++i) f(i + n * j);
+    };
+    std::vector<cl_int> start(size_t(n) * n + 1, 0);  // counts, then each bucket's next free slot
+    for (const BucketRange& e : ranges) each_bucket(e, [&](int c) { ++start[c + 1]; });
+    for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+    const cl_int base = cl_int(r.bucket_quads.size());
+    for (size_t c = 1; c < start.size(); ++c) r.bucket_offsets.push_back(base + start[c]);
+    r.bucket_quads.resize(size_t(base) + start.back());
+    for (int q = 0; q < quads * quads; ++q)
+      each_bucket(ranges[q],
+                  [&](int c) { r.bucket_quads[base + start[c]++] = cl_uchar(q % quads + res() * (q / quads)); });
   }
 
   // Restores the Poisson-disk distribution around the ALIVE particles with particles born at `birth`.
@@ -268,7 +331,7 @@ class Lagrangian final : public Advection {
     particles_.push_back(particle);
   }
 
-  // Vertex weights (eqs. 5-8), grid bounds and tile lists for the frame at time_.
+  // Vertex weights (eqs. 5-8), grid boxes and tile lists for the frame at time_.
   Reconstruction prepare(const OutputGrid& out, ParticleStats& stats) const {
     Reconstruction r;
     r.weights.resize(particles_.size() * vertices());
@@ -286,8 +349,8 @@ class Lagrangian final : public Advection {
         stats.min_quality = std::min(stats.min_quality, q.min_quality);
         stats.max_distortion = std::max(stats.max_distortion, q.max_distortion);
       }
-      r.bounds.push_back(bounds(k));
-      bin(out, r.bounds.back(), cl_int(k), tiles);
+      push_buckets(k, r);
+      bin(out, r.boxes[2 * k], cl_int(k), tiles);
     }
     r.tile_offsets.push_back(0);
     for (auto& list : tiles) {
@@ -329,11 +392,14 @@ class Lagrangian final : public Advection {
     BufferLease planes = runtime_.buffers().acquire(frame.planes.size() * sizeof(float));  // reused frame to frame
     {
       auto lock = runtime_.exclusive();
-      cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), bounds = buffer(r.bounds);
+      cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), boxes = buffer(r.boxes);
+      cl::Buffer bucket_offsets = buffer(r.bucket_offsets), bucket_quads = buffer(r.bucket_quads);
       cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
+      // One work-group per tile: its pixels read the same grids (and a size fixed once per output size).
       kernels_.lagrangian_reconstruct.launch(
-          cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out, offsets, grids, bounds, positions,
-          uvs, weights, cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
+          cl::NDRange(round_up(out.width, kTile), round_up(out.height, kTile)), cl::NDRange(kTile, kTile),
+          planes.buffer(), out, offsets, grids, boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
+          cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
           inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_), inputs_->mask());
       runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
                                          frame.planes.data());

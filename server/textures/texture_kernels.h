@@ -15,10 +15,10 @@ namespace squall::textures {
 struct TextureKernels {
   // positions, count, velocity, grid, t, dt, substeps
   Kernel<cl::Buffer, cl_int, VelocityField, cl::Buffer, cl_float, cl_float, cl_int> lagrangian_advect;
-  // out, frame, tile_offsets, tile_grids, grid_boxes, positions, uvs, weights, grid_res, blend, texture,
-  // image, scalar, lut, velocity, mask
-  Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl_int, cl_int,
-         TextureSource, cl::Buffer, cl::Buffer, cl::Buffer, VelocityField, cl::Buffer>
+  // out, frame, tile_offsets, tile_grids, grid_boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
+  // grid_res, blend, texture, image, scalar, lut, velocity, mask
+  Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer,
+         cl::Buffer, cl_int, cl_int, TextureSource, cl::Buffer, cl::Buffer, cl::Buffer, VelocityField, cl::Buffer>
       lagrangian_reconstruct;
   // state_in, state_out, nx, ny, frame, slots, velocity, grid, t, dt, scale, reset_mask, offsets
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, VelocityField, cl::Buffer, cl_float, cl_float,

@@ -483,12 +483,13 @@ PlaneSelection planes(const v1::TextureOutput& o, const std::string& path) {
   if (o.planes_size() == 0) return p;
   p.final_planes = false;
   for (int i = 0; i < o.planes_size(); ++i) {
-    switch (known(at(path + ".planes", size_t(i)), o.planes(i), 7, "TexturePlane")) {
+    switch (known(at(path + ".planes", size_t(i)), o.planes(i), 8, "TexturePlane")) {
       case v1::TEXTURE_PLANE_RAW: p.raw_planes = true; break;
       case v1::TEXTURE_PLANE_WEIGHT_SUM: p.weight_sum = true; break;
       case v1::TEXTURE_PLANE_WEIGHT_SQ_SUM: p.weight_sq_sum = true; break;
       case v1::TEXTURE_PLANE_COVERAGE: p.coverage = true; break;
       case v1::TEXTURE_PLANE_LAYER: p.layer = true; break;
+      case v1::TEXTURE_PLANE_UV: p.uv = true; break;
       default: p.final_planes = true; break;
     }
   }
@@ -502,7 +503,7 @@ uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& p) {
                           : function == SQUALL_FINAL_LUT    ? uint64_t(std::max(0, spec.texture.lut.channels))
                                                             : 1;
   const uint64_t planes = (p.final_planes ? finals : 0) + (p.raw_planes ? channels : 0) + p.weight_sum +
-                          p.weight_sq_sum + p.coverage + p.layer;
+                          p.weight_sq_sum + p.coverage + p.layer + 2 * p.uv;
   return planes * uint64_t(spec.output.width) * uint64_t(spec.output.height) * field::bytes_per_value(p.dtype);
 }
 
@@ -529,6 +530,7 @@ void fill_frame(const TextureFrame& f, const AdvectSpec& spec, const PlaneSelect
   if (p.weight_sq_sum) add("weight_sq_sum", aux + 1);
   if (p.coverage) add("coverage", aux + 2);
   if (p.layer) add("layer", aux + 3);
+  if (p.uv) add("uv_x", aux + 4), add("uv_y", aux + 5);
   fill_stats(f.stats, out->mutable_stats());
 }
 

@@ -18,7 +18,7 @@ namespace squall::textures::rpc {
 // The planes a reply carries (TextureOutput.planes) and their element type.
 struct PlaneSelection {
   bool final_planes = true, raw_planes = false, weight_sum = false, weight_sq_sum = false, coverage = false,
-       layer = false;
+       layer = false, uv = false;
   squall::v1::DType dtype = squall::v1::DTYPE_FLOAT32;
 };
 

@@ -54,7 +54,8 @@ v1::Field float_field(const std::string& name, uint32_t nx, uint32_t ny, const s
 
 void all_planes(v1::AdvectTextureRequest& r) {
   for (auto p : {v1::TEXTURE_PLANE_FINAL, v1::TEXTURE_PLANE_RAW, v1::TEXTURE_PLANE_WEIGHT_SUM,
-                 v1::TEXTURE_PLANE_WEIGHT_SQ_SUM, v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER})
+                 v1::TEXTURE_PLANE_WEIGHT_SQ_SUM, v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER,
+                 v1::TEXTURE_PLANE_UV})
     r.mutable_output()->add_planes(p);
 }
 

@@ -119,7 +119,7 @@ TEST(TexturesService, LagrangianNoiseMatchesTheEngine) {
   Streamed s = advect(r);
   expect_well_formed(s, r);
   ASSERT_EQ(s.frames.size(), 3u);
-  EXPECT_EQ(s.frames[0].planes_size(), 1 + 3 + 4);  // SUM_BANDS: one final plane, 3 raw bands, 4 auxiliary
+  EXPECT_EQ(s.frames[0].planes_size(), 1 + 3 + 6);  // SUM_BANDS: one final plane, 3 raw bands, 6 auxiliary
   EXPECT_GT(s.frames[2].stats().particles().alive(), 0);
   EXPECT_NE(s.frames[0].planes(0).data(), s.frames[2].planes(0).data());  // the texture moved
   auto want = in_process(r);
