@@ -1,0 +1,244 @@
+"""The synchronous call layer: per-call metadata and deadlines, SquallError, stream iterators."""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, Tuple, TypeVar
+
+import grpc
+
+from squall._errors import SquallError
+
+T = TypeVar("T")
+
+DEFAULT_ADDRESS = "127.0.0.1:50051"
+# squalld enforces its own --max-message-bytes; the client takes whatever it is sent (as the C++
+# client).
+CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
+    ("grpc.max_receive_message_length", -1),
+    ("grpc.max_send_message_length", -1),
+]
+
+# Metadata keys (server/rpc/metadata.h).
+REQUEST_ID_KEY = "x-request-id"
+SESSION_KEY = "x-squall-session"
+AUTHORIZATION_KEY = "authorization"
+
+Metadata = Tuple[Tuple[str, str], ...]
+
+
+class Settings:
+    """What every call of one client carries: deadlines, the bearer token, the request id."""
+
+    def __init__(
+        self,
+        timeout: Optional[float],
+        stream_timeout: Optional[float],
+        token: Optional[str],
+        request_id: Optional[str],
+    ) -> None:
+        self.timeout = timeout
+        self.stream_timeout = stream_timeout
+        self.token = token
+        self.request_id = request_id
+
+    def metadata(self, session: Optional[str] = None) -> Metadata:
+        """authorization: Bearer <token>, x-request-id and x-squall-session, those that are set."""
+        items = []
+        if self.token:
+            items.append((AUTHORIZATION_KEY, f"Bearer {self.token}"))
+        if self.request_id:
+            items.append((REQUEST_ID_KEY, self.request_id))
+        if session:
+            items.append((SESSION_KEY, session))
+        return tuple(items)
+
+    def deadline(self, timeout: Optional[float], stream: bool) -> Optional[float]:
+        """Seconds for one call: `timeout`, else the client's default (unary calls or streams)."""
+        if timeout is None:
+            timeout = self.stream_timeout if stream else self.timeout
+        if timeout is None or math.isinf(timeout):
+            return None
+        return float(timeout)
+
+
+class Connection:
+    """A channel and the client's Settings; runs calls and turns gRPC errors into SquallError."""
+
+    def __init__(self, channel: grpc.Channel, settings: Settings) -> None:
+        self.channel = channel
+        self.settings = settings
+
+    def unary(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float] = None,
+        session: Optional[str] = None,
+    ) -> Any:
+        try:
+            return function(
+                request,
+                timeout=self.settings.deadline(timeout, stream=False),
+                metadata=self.settings.metadata(session),
+            )
+        except grpc.RpcError as error:
+            raise SquallError.from_rpc(error, method) from None
+
+    def stream(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        convert: Callable[[Any], Optional[T]],
+        timeout: Optional[float] = None,
+        session: Optional[str] = None,
+        feeder: Optional["RequestFeeder"] = None,
+    ) -> "Stream[T]":
+        """A server-streaming or bidirectional call (request: a message or an iterator of them)."""
+        try:
+            call = function(
+                request,
+                timeout=self.settings.deadline(timeout, stream=True),
+                metadata=self.settings.metadata(session),
+            )
+        except grpc.RpcError as error:
+            raise SquallError.from_rpc(error, method) from None
+        return Stream(call, method, convert, feeder)
+
+
+class Stream(Iterator[T], Generic[T]):
+    """An iterator over the messages of a streaming call, converted (numpy arrays).
+
+    The call ends when the server has sent everything, when ``cancel()`` (or ``close()``) is
+    called, when a ``with`` block around it ends, or when the iterator is garbage-collected; a
+    cancelled stream frees its --max-streams slot on the server. Errors raise SquallError while
+    iterating.
+    """
+
+    def __init__(
+        self,
+        call: Any,
+        method: str,
+        convert: Callable[[Any], Optional[T]],
+        feeder: Optional["RequestFeeder"] = None,
+    ) -> None:
+        self._call = call
+        self._method = method
+        self._convert = convert
+        self._cancelled = False
+        self._feeder = feeder
+
+    def __iter__(self) -> "Stream[T]":
+        return self
+
+    def __next__(self) -> T:
+        while True:
+            try:
+                message = next(self._call)
+            except StopIteration:
+                self._raise_feeder_error()
+                raise
+            except grpc.RpcError as error:
+                self._raise_feeder_error()
+                code = error.code()  # type: ignore[attr-defined]
+                if self._cancelled and code == grpc.StatusCode.CANCELLED:
+                    raise StopIteration from None
+                raise SquallError.from_rpc(error, self._method) from None
+            item = self._convert(message)
+            if item is not None:  # None: a partial message (a chunk of a frame)
+                return item
+
+    def _raise_feeder_error(self) -> None:
+        if self._feeder is not None and self._feeder.error is not None:
+            error, self._feeder.error = self._feeder.error, None
+            raise error
+
+    def cancel(self) -> None:
+        """Ends the call now (no-op when it already ended); iteration then stops."""
+        self._cancelled = True
+        self._call.cancel()
+
+    close = cancel
+
+    @property
+    def method(self) -> str:
+        return self._method
+
+    def __enter__(self) -> "Stream[T]":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.cancel()
+
+    def __del__(self) -> None:
+        try:
+            self._call.cancel()
+        except Exception:
+            pass
+
+
+_END = object()
+
+
+class RequestQueue(Iterator[Any]):
+    """The request side of a bidirectional call: put() one message at a time, close() to end."""
+
+    def __init__(self) -> None:
+        self._queue: "queue.Queue[Any]" = queue.Queue()
+        self._closed = threading.Event()
+
+    def put(self, message: Any) -> None:
+        if self._closed.is_set():
+            raise RuntimeError("the stream's request side is closed")
+        self._queue.put(message)
+
+    def close(self) -> None:
+        if not self._closed.is_set():
+            self._closed.set()
+            self._queue.put(_END)
+
+    def __iter__(self) -> "RequestQueue":
+        return self
+
+    def __next__(self) -> Any:
+        item = self._queue.get()
+        if item is _END:
+            raise StopIteration
+        return item
+
+
+class RequestFeeder(Iterator[Any]):
+    """The request side of a bidirectional call from an iterable, each item converted with its
+    index.
+
+    gRPC reads it on its own thread; an exception raised by the iterable or the conversion ends the
+    request side (the call finishes what it was sent) and is raised again by the Stream reading the
+    replies, instead of surfacing as a bare CANCELLED.
+    """
+
+    def __init__(self, items: Iterable[Any], convert: Callable[[Any, int], Any]) -> None:
+        self._items = iter(items)
+        self._convert = convert
+        self._index = 0
+        self.error: Optional[BaseException] = None
+
+    def __iter__(self) -> "RequestFeeder":
+        return self
+
+    def __next__(self) -> Any:
+        if self.error is not None:
+            raise StopIteration
+        try:
+            item = next(self._items)
+            message = self._convert(item, self._index)
+        except StopIteration:
+            raise
+        except Exception as error:  # handed to the reading side
+            self.error = error
+            raise StopIteration from None
+        self._index += 1
+        return message

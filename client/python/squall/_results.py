@@ -1,0 +1,211 @@
+"""What the calls return: dicts of numpy arrays keyed by field name, with the reply's metadata."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, Iterable, Iterator, Optional, Tuple
+
+import numpy as np
+
+from squall._convert import field_to_array
+from squall._pb import clouds_pb2, common_pb2, ewave_pb2, ocean_pb2, textures_pb2
+
+
+class FieldSet(Dict[str, np.ndarray]):
+    """Arrays keyed by field name ("height", "displacement_x", ...), in the order the server sent
+    them.
+
+    A 2D field is an array of shape (ny, nx) (x fastest: ``a[j, i]`` is sample (i, j)), float32, or
+    float16 when float16 was asked for. Per field, ``units[name]`` is its unit ("m", "1", "m^2/s"),
+    ``spacing[name]`` and ``origin[name]`` the (x, y, z) sample spacing and world position of
+    sample (0, 0) (metres, or du for textures).
+    """
+
+    def __init__(self, fields: Iterable[common_pb2.Field] = (), path: str = "fields") -> None:
+        super().__init__()
+        self.units: Dict[str, str] = {}
+        self.spacing: Dict[str, Tuple[float, float, float]] = {}
+        self.origin: Dict[str, Tuple[float, float, float]] = {}
+        for f in fields:
+            self[f.name] = field_to_array(f, f"{path}.{f.name}")
+            self.units[f.name] = f.unit
+            self.spacing[f.name] = (f.spacing.x, f.spacing.y, f.spacing.z)
+            self.origin[f.name] = (f.origin.x, f.origin.y, f.origin.z)
+
+    def _shapes(self) -> str:
+        return ", ".join(f"{k}: {v.dtype}{list(v.shape)}" for k, v in self.items())
+
+
+class Tile(FieldSet):
+    """One ocean tile (GetTile, or one frame of StreamTiles).
+
+    Attributes:
+        time: simulation time t of the tile, s.
+        unresolved_slope_variance: sigma_U^2 of TileSpec.pixel_scale (Gilligan eq 96), slope^2.
+        frame_index: 0, 1, ... in a stream (0 for GetTile).
+    """
+
+    def __init__(self, response: ocean_pb2.GetTileResponse, frame_index: int = 0) -> None:
+        super().__init__(response.fields)
+        self.time: float = response.time.seconds
+        self.unresolved_slope_variance: float = response.stats.unresolved_slope_variance
+        self.frame_index = frame_index
+        self.response = response  # the reassembled GetTileResponse
+
+    def __repr__(self) -> str:
+        return f"Tile(t={self.time} s, frame {self.frame_index}; {self._shapes()})"
+
+
+class EWaveFrame(FieldSet):
+    """The surface after one eWave step.
+
+    Attributes:
+        session_id: the session stepped.
+        step: steps the session has done (1 after its first step).
+        time: simulation time after the step, s.
+    """
+
+    def __init__(self, frame: ewave_pb2.EWaveFrame) -> None:
+        super().__init__(frame.fields)
+        self.session_id: str = frame.session_id
+        self.step: int = frame.step
+        self.time: float = frame.time.seconds
+
+    def __repr__(self) -> str:
+        return f"EWaveFrame(step {self.step}, t={self.time} s; {self._shapes()})"
+
+
+class TextureFrame(FieldSet):
+    """One frame of an advected texture: planes keyed by name ("final", "raw_0", "coverage", ...).
+
+    Attributes:
+        index: frame index, 0 .. frames - 1.
+        time: t0 + index dt, s.
+        stats: the frame's squall.v1.FrameStats (particles, stage timings, ...).
+        mean, stddev: per final plane, over the fluid pixels (dimensionless).
+        uncovered_pixels: fluid pixels no sample covered.
+        checkpoint: resume state after this frame (when checkpoint_every asked for it), else b"".
+    """
+
+    def __init__(self, frame: textures_pb2.TextureFrame) -> None:
+        super().__init__(frame.planes, "planes")
+        self.index: int = frame.index
+        self.time: float = frame.time
+        self.stats: textures_pb2.FrameStats = frame.stats
+        self.mean: Tuple[float, ...] = tuple(frame.stats.mean)
+        self.stddev: Tuple[float, ...] = tuple(frame.stats.stddev)
+        self.uncovered_pixels: int = frame.stats.uncovered_pixels
+        self.checkpoint: bytes = frame.checkpoint
+
+    def __repr__(self) -> str:
+        return f"TextureFrame({self.index}, t={self.time} s; {self._shapes()})"
+
+
+class Samples(Dict[str, np.ndarray]):
+    """SampleSurface's answer: one float64 array of shape (n,) per quantity, in point order.
+
+    Keys: "height", "displacement_x", "displacement_y" (m), "normal_x", "normal_y", "normal_z" (1),
+    "source_x", "source_y" (m: the sampled surface point before displacement).
+    """
+
+    KEYS = (
+        "height",
+        "displacement_x",
+        "displacement_y",
+        "normal_x",
+        "normal_y",
+        "normal_z",
+        "source_x",
+        "source_y",
+    )
+
+    def __init__(self, response: ocean_pb2.SampleSurfaceResponse) -> None:
+        super().__init__((k, np.array(getattr(response, k), dtype=np.float64)) for k in self.KEYS)
+        self.response = response
+
+    @property
+    def position(self) -> np.ndarray:
+        """(n, 3) positions of the sampled surface points (source + displacement, height), m."""
+        return np.stack(
+            [
+                self["source_x"] + self["displacement_x"],
+                self["source_y"] + self["displacement_y"],
+                self["height"],
+            ],
+            axis=1,
+        )
+
+
+@dataclass
+class Image:
+    """A ray-marched cloud image.
+
+    Attributes:
+        pixels: float32 array of shape (height, width, channels), row 0 at the top.
+        channels: channel names: "radiance_<i>" per wavelength (W m^-2 sr^-1 m^-1),
+            "transmittance_<i>" per wavelength (1), then "depth" (m; -1 where the ray saw no
+            cloud).
+        summary: the rendered volume's squall.v1.VolumeSummary.
+    """
+
+    pixels: np.ndarray
+    channels: Tuple[str, ...]
+    summary: Optional[clouds_pb2.VolumeSummary] = None
+
+    @classmethod
+    def from_proto(
+        cls, image: clouds_pb2.CloudImage, summary: Optional[clouds_pb2.VolumeSummary] = None
+    ) -> "Image":
+        count = image.width * image.height * len(image.channels)
+        if len(image.data) != 4 * count:
+            raise ValueError(
+                f"image.data has {len(image.data)} bytes, "
+                f"want width * height * channels * 4 = {4 * count}"
+            )
+        planes = np.frombuffer(image.data, dtype="<f4").reshape(
+            len(image.channels), image.height, image.width
+        )
+        pixels = np.ascontiguousarray(planes.transpose(1, 2, 0), dtype=np.float32)
+        return cls(pixels, tuple(image.channels), summary)
+
+    def __getitem__(self, channel: str) -> np.ndarray:
+        """One channel by name, shape (height, width)."""
+        return self.pixels[:, :, self.channels.index(channel)]
+
+    def __array__(self, dtype: Optional[np.dtype] = None) -> np.ndarray:
+        return self.pixels if dtype is None else self.pixels.astype(dtype)
+
+    @property
+    def shape(self) -> Tuple[int, ...]:
+        return self.pixels.shape  # type: ignore[no-any-return]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.channels)
+
+
+@dataclass
+class Volume:
+    """A built cloud volume.
+
+    Attributes:
+        summary: squall.v1.VolumeSummary (bounds m, voxel size m, active voxels, bytes, ...).
+        vdb: the grids ("density", and "temperature" when modeled) as .vdb file bytes, if asked.
+    """
+
+    summary: clouds_pb2.VolumeSummary
+    vdb: Optional[bytes] = None
+
+    @property
+    def id(self) -> Optional[str]:
+        """The volume id when it is stored on the server (keep=True), else None."""
+        return self.summary.volume_id or None
+
+
+@dataclass
+class EvolutionFrame:
+    """One frame of Clouds.StreamEvolution: time (s), image, summary, .vdb bytes if asked."""
+
+    time: float
+    image: Image
+    summary: clouds_pb2.VolumeSummary
+    vdb: Optional[bytes] = field(default=None)

@@ -1,0 +1,725 @@
+"""squall.aio: the asyncio flavour of squall.Client (grpc.aio), with async iterators for the
+streams.
+
+The same arguments and results as the synchronous client; every call is awaited, every stream is an
+async iterator. Create the client inside a running event loop::
+
+    import asyncio, squall, squall.aio
+
+    async def main():
+        async with squall.aio.Client("127.0.0.1:50051") as client:
+            spec = squall.ocean.tile_spec([squall.ocean.layer(extent=200, n=64)])
+            tile = await client.ocean.tile(spec, time=1.0)
+            async for frame in client.ocean.stream(spec, dt=0.1, frames=10):
+                print(frame.time, frame["height"].std())
+            async with client.ewave.session(nx=64, ny=64, dx=0.05) as session:
+                frame = await session.step(0.05)
+
+    asyncio.run(main())
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import (
+    Any,
+    AsyncIterable,
+    AsyncIterator,
+    Awaitable,
+    Callable,
+    Generator,
+    Generic,
+    Iterable,
+    List,
+    Mapping,
+    Optional,
+    Sequence,
+    Tuple,
+    TypeVar,
+    Union,
+)
+
+import grpc
+import grpc.aio
+
+from squall import clouds as _clouds
+from squall import ewave as _ewave
+from squall import ocean as _ocean
+from squall import textures as _textures
+from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Settings
+from squall._convert import to_message
+from squall._errors import SquallError
+from squall._pb import (
+    clouds_pb2,
+    clouds_pb2_grpc,
+    ewave_pb2,
+    ewave_pb2_grpc,
+    ocean_pb2,
+    ocean_pb2_grpc,
+    server_pb2,
+    server_pb2_grpc,
+    textures_pb2,
+    textures_pb2_grpc,
+)
+from squall._results import EvolutionFrame, EWaveFrame, Image, Samples, TextureFrame, Tile, Volume
+from squall.client import HEALTH_CHECK, decode_health_response, encode_health_request
+
+T = TypeVar("T")
+
+__all__ = ["Client", "AsyncStream", "EWaveSession", "Interactive"]
+
+
+class Connection:
+    """An asyncio channel and the client's Settings; runs calls and raises SquallError."""
+
+    def __init__(self, channel: grpc.aio.Channel, settings: Settings) -> None:
+        self.channel = channel
+        self.settings = settings
+
+    async def unary(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float] = None,
+        session: Optional[str] = None,
+    ) -> Any:
+        try:
+            return await function(
+                request,
+                timeout=self.settings.deadline(timeout, stream=False),
+                metadata=self.settings.metadata(session),
+            )
+        except grpc.RpcError as error:
+            raise SquallError.from_rpc(error, method) from None
+
+    def stream(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        convert: Callable[[Any], Optional[T]],
+        timeout: Optional[float] = None,
+        session: Optional[str] = None,
+        feeder: Any = None,
+    ) -> "AsyncStream[T]":
+        call = function(
+            request,
+            timeout=self.settings.deadline(timeout, stream=True),
+            metadata=self.settings.metadata(session),
+        )
+        return AsyncStream(call, method, convert, feeder)
+
+
+class AsyncStream(AsyncIterator[T], Generic[T]):
+    """An async iterator over a streaming call's messages, converted (numpy arrays).
+
+    ``cancel()`` (or leaving an ``async with`` block around it) ends the call and frees its
+    --max-streams slot; errors raise SquallError while iterating.
+    """
+
+    def __init__(
+        self, call: Any, method: str, convert: Callable[[Any], Optional[T]], feeder: Any = None
+    ) -> None:
+        self._call = call
+        self._iterator = call.__aiter__()
+        self._method = method
+        self._convert = convert
+        self._cancelled = False
+        self._feeder = feeder
+
+    def __aiter__(self) -> "AsyncStream[T]":
+        return self
+
+    def _raise_feeder_error(self) -> None:
+        if self._feeder is not None and self._feeder.error is not None:
+            error, self._feeder.error = self._feeder.error, None
+            raise error
+
+    async def __anext__(self) -> T:
+        while True:
+            try:
+                message = await self._iterator.__anext__()
+            except StopAsyncIteration:
+                self._raise_feeder_error()
+                raise
+            except asyncio.CancelledError:
+                if self._cancelled:
+                    raise StopAsyncIteration from None
+                raise
+            except grpc.RpcError as error:
+                self._raise_feeder_error()
+                code = error.code()  # type: ignore[attr-defined]
+                if self._cancelled and code == grpc.StatusCode.CANCELLED:
+                    raise StopAsyncIteration from None
+                raise SquallError.from_rpc(error, self._method) from None
+            item = self._convert(message)
+            if item is not None:
+                return item
+
+    def cancel(self) -> None:
+        """Ends the call now (no-op when it already ended); iteration then stops."""
+        self._cancelled = True
+        self._call.cancel()
+
+    close = cancel
+
+    async def __aenter__(self) -> "AsyncStream[T]":
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        self.cancel()
+
+
+class _AsyncFeeder:
+    """The request side of a bidirectional call from a (sync or async) iterable: RequestFeeder."""
+
+    def __init__(
+        self, items: Union[Iterable[Any], AsyncIterable[Any]], convert: Callable[[Any, int], Any]
+    ) -> None:
+        self._items = items
+        self._convert = convert
+        self.error: Optional[BaseException] = None
+
+    async def __aiter__(self) -> AsyncIterator[Any]:
+        index = 0
+        try:
+            if hasattr(self._items, "__aiter__"):
+                async for item in self._items:  # type: ignore[union-attr]
+                    yield self._convert(item, index)
+                    index += 1
+            else:
+                for item in self._items:  # type: ignore[union-attr]
+                    yield self._convert(item, index)
+                    index += 1
+        except Exception as error:  # handed to the reading side
+            self.error = error
+
+
+class Ocean:
+    """``client.ocean`` (asyncio): squall.ocean.Ocean, awaited; ``stream`` is an async iterator."""
+
+    def __init__(self, connection: Connection) -> None:
+        self._connection = connection
+        self._stub = ocean_pb2_grpc.OceanStub(connection.channel)
+
+    async def tile(
+        self,
+        spec: Optional[_ocean.TileLike] = None,
+        *,
+        time: float = 0.0,
+        outputs: Union[str, _ocean.Outputs] = ("height",),
+        dtype: Any = "float32",
+        timeout: Optional[float] = None,
+        request: Optional[ocean_pb2.GetTileRequest] = None,
+    ) -> Tile:
+        """One tile at time t, s (see squall.ocean.Ocean.tile)."""
+        message = _ocean.tile_request(spec, time, outputs, dtype, request)
+        return Tile(
+            await self._connection.unary("Ocean.GetTile", self._stub.GetTile, message, timeout)
+        )
+
+    def stream(
+        self,
+        spec: Optional[_ocean.TileLike] = None,
+        *,
+        dt: Optional[float] = None,
+        frames: int = 0,
+        t0: float = 0.0,
+        outputs: Union[str, _ocean.Outputs] = ("height",),
+        dtype: Any = "float32",
+        timeout: Optional[float] = None,
+        request: Optional[ocean_pb2.StreamTilesRequest] = None,
+    ) -> AsyncStream[Tile]:
+        """Frames at t0 + k dt (s), reassembled from their chunks (squall.ocean.Ocean.stream)."""
+        message = _ocean.stream_request(spec, dt, frames, t0, outputs, dtype, request)
+        return self._connection.stream(
+            "Ocean.StreamTiles",
+            self._stub.StreamTiles,
+            message,
+            _ocean.TileAssembler().add,
+            timeout,
+        )
+
+    async def sample(
+        self,
+        spec: Optional[_ocean.TileLike] = None,
+        points: Any = None,
+        *,
+        time: float = 0.0,
+        invert_displacement: bool = False,
+        timeout: Optional[float] = None,
+        request: Optional[ocean_pb2.SampleSurfaceRequest] = None,
+    ) -> Samples:
+        """Surface samples at world points (n, 2), m (see squall.ocean.Ocean.sample)."""
+        message = _ocean.sample_request(spec, points, time, invert_displacement, request)
+        return Samples(
+            await self._connection.unary(
+                "Ocean.SampleSurface", self._stub.SampleSurface, message, timeout
+            )
+        )
+
+
+class EWaveSession:
+    """One eWave session (asyncio); ``async with`` closes it. See squall.ewave.EWaveSession."""
+
+    def __init__(self, service: "EWave", response: ewave_pb2.EWaveSessionResponse) -> None:
+        self._service = service
+        self.id: str = response.session_id
+        self.config: ewave_pb2.EWaveConfig = response.config
+        self.closed = False
+
+    @property
+    def shape(self) -> Tuple[int, int]:
+        """(ny, nx) of the session's fields."""
+        return (self.config.ny, self.config.nx)
+
+    async def step(
+        self,
+        dt: Optional[float] = None,
+        *,
+        inputs: Optional[Union[ewave_pb2.EWaveInputs, Mapping[str, Any]]] = None,
+        timeout: Optional[float] = None,
+        **kwargs: Any,
+    ) -> EWaveFrame:
+        """One step of dt seconds (keywords of squall.ewave.inputs): the fields after it."""
+        request = ewave_pb2.EWaveStepRequest(
+            session_id=self.id, inputs=_ewave.as_inputs(inputs, dt, **kwargs)
+        )
+        conn = self._service._connection
+        return EWaveFrame(
+            await conn.unary("EWave.Step", self._service._stub.Step, request, timeout, self.id)
+        )
+
+    def run(
+        self, items: Union[Iterable[Any], AsyncIterable[Any]], *, timeout: Optional[float] = None
+    ) -> AsyncStream[EWaveFrame]:
+        """Steps over the Run stream: one frame per item (a sync or async iterable of EWaveInputs,
+        mappings of squall.ewave.inputs' arguments, dt values or EWaveStepRequests)."""
+        feeder = _AsyncFeeder(items, lambda item, i: _ewave.step_request(self.id, item, i))
+        conn = self._service._connection
+        return conn.stream(
+            "EWave.Run",
+            self._service._stub.Run,
+            feeder.__aiter__(),
+            EWaveFrame,
+            timeout,
+            self.id,
+            feeder,
+        )
+
+    async def state(self, *, timeout: Optional[float] = None) -> bytes:
+        """The session as opaque bytes for restore."""
+        request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
+        conn = self._service._connection
+        return (
+            await conn.unary(
+                "EWave.GetState", self._service._stub.GetState, request, timeout, self.id
+            )
+        ).state
+
+    async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> "EWaveSession":
+        """A new session continuing `state`."""
+        return await self._service.restore(state, timeout=timeout)
+
+    async def close(self, *, timeout: Optional[float] = None) -> None:
+        """Ends the session on the server. Idempotent."""
+        if self.closed:
+            return
+        request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
+        conn = self._service._connection
+        await conn.unary(
+            "EWave.CloseSession", self._service._stub.CloseSession, request, timeout, self.id
+        )
+        self.closed = True
+
+    async def __aenter__(self) -> "EWaveSession":
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.close()
+
+
+class _PendingSession:
+    """``await client.ewave.session(...)`` or ``async with client.ewave.session(...) as s``."""
+
+    def __init__(self, create: Callable[[], Awaitable[EWaveSession]]) -> None:
+        self._create = create
+        self._session: Optional[EWaveSession] = None
+
+    def __await__(self) -> Generator[Any, None, EWaveSession]:
+        return self._create().__await__()
+
+    async def __aenter__(self) -> EWaveSession:
+        self._session = await self._create()
+        return self._session
+
+    async def __aexit__(self, *exc: Any) -> None:
+        if self._session is not None:
+            await self._session.close()
+
+
+class EWave:
+    """``client.ewave`` (asyncio): sessions (see squall.ewave.EWave)."""
+
+    def __init__(self, connection: Connection) -> None:
+        self._connection = connection
+        self._stub = ewave_pb2_grpc.EWaveStub(connection.channel)
+
+    def session(
+        self,
+        config: Optional[Union[ewave_pb2.EWaveConfig, Mapping[str, Any]]] = None,
+        *,
+        timeout: Optional[float] = None,
+        **kwargs: Any,
+    ) -> _PendingSession:
+        """Creates a session from an EWaveConfig or squall.ewave.config's keyword arguments:
+        await it, or use it in ``async with`` (closed at the end)."""
+        request = ewave_pb2.EWaveCreateSessionRequest(config=_ewave.as_config(config, **kwargs))
+
+        async def create() -> EWaveSession:
+            response = await self._connection.unary(
+                "EWave.CreateSession", self._stub.CreateSession, request, timeout
+            )
+            return EWaveSession(self, response)
+
+        return _PendingSession(create)
+
+    async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
+        """A new session continuing a state snapshot."""
+        request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
+        return EWaveSession(
+            self,
+            await self._connection.unary("EWave.Restore", self._stub.Restore, request, timeout),
+        )
+
+    def attach(
+        self, session_id: str, config: Optional[ewave_pb2.EWaveConfig] = None
+    ) -> EWaveSession:
+        """A handle on an existing session id; nothing is sent."""
+        return EWaveSession(
+            self,
+            ewave_pb2.EWaveSessionResponse(
+                session_id=session_id, config=config or ewave_pb2.EWaveConfig()
+            ),
+        )
+
+
+class Clouds:
+    """``client.clouds`` (asyncio): see squall.clouds.Clouds."""
+
+    def __init__(self, connection: Connection) -> None:
+        self._connection = connection
+        self._stub = clouds_pb2_grpc.CloudsStub(connection.channel)
+
+    async def build(
+        self,
+        cloud: Optional[_clouds.ModelLike] = None,
+        *,
+        keep: bool = False,
+        return_vdb: bool = False,
+        path: Optional[_clouds.PathLike] = None,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.BuildVolumeRequest] = None,
+    ) -> Volume:
+        """Builds a volume (summary, .vdb bytes or file if asked, id if kept)."""
+        message = _clouds.build_request(cloud, keep, return_vdb or path is not None, request)
+        response = await self._connection.unary(
+            "Clouds.BuildVolume", self._stub.BuildVolume, message, timeout
+        )
+        return _clouds.volume_of(response, message.return_vdb, path)
+
+    async def render(
+        self,
+        source: Optional[_clouds.SourceLike] = None,
+        settings: Optional[_clouds.SettingsLike] = None,
+        *,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.RenderRequest] = None,
+        **kwargs: Any,
+    ) -> Image:
+        """Ray-marches a model, a stored Volume or a volume id: an (H, W, C) Image."""
+        message = _clouds.render_request(source, settings, kwargs, request)
+        response = await self._connection.unary(
+            "Clouds.Render", self._stub.Render, message, timeout
+        )
+        return Image.from_proto(response.image, response.summary)
+
+    def evolve(
+        self,
+        cloud: Optional[_clouds.ModelLike] = None,
+        times: Optional[Sequence[float]] = None,
+        *,
+        evolution: Any = None,
+        settings: Optional[_clouds.SettingsLike] = None,
+        include_vdb: bool = False,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.StreamEvolutionRequest] = None,
+        **kwargs: Any,
+    ) -> AsyncStream[EvolutionFrame]:
+        """One frame per time (s) of an evolving model (async iterator)."""
+        message = _clouds.evolution_request(
+            cloud, times, evolution, settings, include_vdb, kwargs, request
+        )
+        return self._connection.stream(
+            "Clouds.StreamEvolution",
+            self._stub.StreamEvolution,
+            message,
+            _clouds.evolution_frame,
+            timeout,
+        )
+
+    async def release(
+        self, volume: Union[str, Volume], *, timeout: Optional[float] = None
+    ) -> None:
+        """Drops a stored volume."""
+        message = clouds_pb2.ReleaseVolumeRequest(volume_id=_clouds.volume_id_of(volume))
+        await self._connection.unary(
+            "Clouds.ReleaseVolume", self._stub.ReleaseVolume, message, timeout
+        )
+
+
+class Interactive:
+    """A running AdvectInteractive stream (asyncio); ``async with`` ends it. See
+    squall.textures.Interactive.
+    """
+
+    METHOD = "Textures.AdvectInteractive"
+
+    def __init__(self, call: Any, start: textures_pb2.AdvectTextureRequest) -> None:
+        self._call = call
+        self._start: Optional[textures_pb2.AdvectTextureRequest] = start
+        self.frames_received = 0
+        self._ended = False  # the call has ended (its error, if any, was raised)
+
+    async def send(
+        self,
+        frames: int = 1,
+        *,
+        velocity: Any = None,
+        dt: Optional[float] = None,
+        substeps: Optional[int] = None,
+        spin: Optional[float] = None,
+        final_scale: Optional[float] = None,
+    ) -> List[TextureFrame]:
+        """Applies the changes given and returns `frames` more frames."""
+        if self._ended:
+            raise SquallError(
+                grpc.StatusCode.FAILED_PRECONDITION, "client: the stream has ended", self.METHOD
+            )
+        message = _textures.control_message(
+            self._start, frames, velocity, dt, substeps, spin, final_scale
+        )
+        self._start = None
+        out = []
+        try:
+            await self._call.write(message)
+            for _ in range(int(frames)):
+                frame = await self._call.read()
+                if frame is grpc.aio.EOF:
+                    self._ended = True
+                    await self._raise_status()
+                    raise SquallError(
+                        grpc.StatusCode.INTERNAL, "client: the stream ended early", self.METHOD
+                    )
+                out.append(TextureFrame(frame))
+        except grpc.RpcError as error:
+            self._ended = True
+            raise SquallError.from_rpc(error, self.METHOD) from None
+        except asyncio.InvalidStateError:  # written after the server ended the call
+            self._ended = True
+            await self._raise_status()
+            raise
+        self.frames_received += len(out)
+        return out
+
+    async def _raise_status(self) -> None:
+        code = await self._call.code()
+        if code != grpc.StatusCode.OK:
+            raise SquallError(code, await self._call.details(), self.METHOD)
+
+    async def close(self) -> None:
+        """Ends the request side and waits for the call's status (raised unless send raised it)."""
+        if self._ended:
+            return
+        self._ended = True
+        try:
+            await self._call.done_writing()
+            while await self._call.read() is not grpc.aio.EOF:
+                pass
+        except grpc.RpcError as error:
+            raise SquallError.from_rpc(error, self.METHOD) from None
+        await self._raise_status()
+
+    def cancel(self) -> None:
+        """Ends the call now."""
+        self._call.cancel()
+
+    async def __aenter__(self) -> "Interactive":
+        return self
+
+    async def __aexit__(self, exc_type: Any, *exc: Any) -> None:
+        if exc_type is None:
+            await self.close()
+        else:
+            self.cancel()
+
+
+class Textures:
+    """``client.textures`` (asyncio): see squall.textures.Textures."""
+
+    def __init__(self, connection: Connection) -> None:
+        self._connection = connection
+        self._stub = textures_pb2_grpc.TexturesStub(connection.channel)
+
+    def advect(
+        self,
+        *,
+        method: Union[str, int] = "lagrangian",
+        velocity: Any = None,
+        texture: Any = None,
+        size: Sequence[int] = (256, 256),
+        region: Optional[Sequence[float]] = None,
+        planes: Union[str, Sequence[Union[str, int]]] = ("final",),
+        dtype: Any = "float32",
+        output_spec: Optional[Union[textures_pb2.TextureOutput, Mapping[str, Any]]] = None,
+        frames: Optional[int] = None,
+        t0: float = 0.0,
+        dt: Optional[float] = None,
+        substeps: Optional[int] = None,
+        seed: Optional[int] = None,
+        lagrangian: Optional[Union[textures_pb2.LagrangianParams, Mapping[str, Any]]] = None,
+        eulerian: Optional[Union[textures_pb2.EulerianParams, Mapping[str, Any]]] = None,
+        checkpoint_every: int = 0,
+        resume_state: bytes = b"",
+        timeout: Optional[float] = None,
+        request: Optional[textures_pb2.AdvectTextureRequest] = None,
+    ) -> AsyncStream[TextureFrame]:
+        """Streams the frames of an advected texture (async iterator); the arguments of
+        squall.textures.Textures.advect (frames required)."""
+        if request is None and frames is None:
+            raise TypeError("advect: frames (1..100000) is required")
+        message = _textures.advect_request(
+            method=method,
+            velocity=velocity,
+            texture=texture,
+            size=size,
+            region=region,
+            planes=planes,
+            dtype=dtype,
+            output_spec=output_spec,
+            frames=frames or 0,
+            t0=t0,
+            dt=dt,
+            substeps=substeps,
+            seed=seed,
+            lagrangian=lagrangian,
+            eulerian=eulerian,
+            checkpoint_every=checkpoint_every,
+            resume_state=resume_state,
+            request=request,
+        )
+        return self._connection.stream(
+            "Textures.AdvectTexture", self._stub.AdvectTexture, message, TextureFrame, timeout
+        )
+
+    def interactive(
+        self,
+        start: Optional[Union[textures_pb2.AdvectTextureRequest, Mapping[str, Any]]] = None,
+        *,
+        timeout: Optional[float] = None,
+        **kwargs: Any,
+    ) -> Interactive:
+        """Starts an AdvectInteractive stream steered by ``await Interactive.send(...)``."""
+        if start is not None:
+            if kwargs:
+                raise TypeError(
+                    "interactive: pass either start or advect's keyword arguments, not both"
+                )
+            request = to_message(textures_pb2.AdvectTextureRequest, start, "start")
+        else:
+            request = _textures.advect_request(**kwargs)
+        settings = self._connection.settings
+        call = self._stub.AdvectInteractive(
+            timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
+        )
+        return Interactive(call, request)
+
+
+class Client:
+    """The asyncio client of one squalld: the arguments of squall.Client; use ``async with`` or
+    ``await client.close()``. Create it inside the event loop that uses it."""
+
+    def __init__(
+        self,
+        address: str = DEFAULT_ADDRESS,
+        timeout: Optional[float] = 30.0,
+        token: Optional[str] = None,
+        *,
+        stream_timeout: Optional[float] = None,
+        request_id: Optional[str] = None,
+        credentials: Optional[grpc.ChannelCredentials] = None,
+        options: Sequence[Tuple[str, Any]] = (),
+    ) -> None:
+        self.address = address
+        channel_options = list(CHANNEL_OPTIONS) + list(options)
+        if credentials is None:
+            channel = grpc.aio.insecure_channel(address, options=channel_options)
+        else:
+            channel = grpc.aio.secure_channel(address, credentials, options=channel_options)
+        self._connection = Connection(
+            channel, Settings(timeout, stream_timeout, token, request_id)
+        )
+        self._server = server_pb2_grpc.ServerStub(channel)
+        self._health = channel.unary_unary(
+            HEALTH_CHECK,
+            request_serializer=encode_health_request,
+            response_deserializer=decode_health_response,
+        )
+        self.ocean = Ocean(self._connection)
+        self.ewave = EWave(self._connection)
+        self.clouds = Clouds(self._connection)
+        self.textures = Textures(self._connection)
+
+    @property
+    def channel(self) -> grpc.aio.Channel:
+        return self._connection.channel
+
+    async def info(self, *, timeout: Optional[float] = None) -> server_pb2.GetInfoResponse:
+        """Server.GetInfo."""
+        request = server_pb2.GetInfoRequest(request_id=self._connection.settings.request_id or "")
+        reply: server_pb2.GetInfoResponse = await self._connection.unary(
+            "Server.GetInfo", self._server.GetInfo, request, timeout
+        )
+        return reply
+
+    async def health(self, service: str = "", *, timeout: Optional[float] = None) -> str:
+        """gRPC health: "SERVING", "NOT_SERVING", ..."""
+        status: str = await self._connection.unary("Health.Check", self._health, service, timeout)
+        return status
+
+    async def wait_until_serving(self, timeout: float = 60.0) -> bool:
+        """Polls health until SERVING (True) or `timeout` seconds passed (False)."""
+        end = time.monotonic() + timeout
+        while True:
+            try:
+                if (
+                    await self.health(timeout=max(0.1, min(2.0, end - time.monotonic())))
+                    == "SERVING"
+                ):
+                    return True
+            except SquallError:
+                pass
+            if time.monotonic() >= end:
+                return False
+            await asyncio.sleep(0.1)
+
+    async def close(self) -> None:
+        await self._connection.channel.close()
+
+    async def __aenter__(self) -> "Client":
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.close()

@@ -1,0 +1,168 @@
+"""squall.Client: a channel to squalld and one object per capability (synchronous)."""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Optional, Sequence, Tuple
+
+import grpc
+
+from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Connection, Settings
+from squall._errors import SquallError
+from squall._pb import server_pb2, server_pb2_grpc
+from squall.clouds import Clouds
+from squall.ewave import EWave
+from squall.ocean import Ocean
+from squall.textures import Textures
+
+# grpc.health.v1.Health/Check, encoded by hand: the health protos live in the `grpc` namespace,
+# which generated Python modules cannot share with the grpc package
+# (proto/grpc/health/v1/health.proto).
+HEALTH_CHECK = "/grpc.health.v1.Health/Check"
+SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
+
+
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while True:
+        byte = value & 0x7F
+        value >>= 7
+        out.append(byte | (0x80 if value else 0))
+        if not value:
+            return bytes(out)
+
+
+def encode_health_request(service: str) -> bytes:
+    """HealthCheckRequest { string service = 1; }"""
+    data = service.encode()
+    return b"\x0a" + _varint(len(data)) + data if data else b""
+
+
+def decode_health_response(data: bytes) -> str:
+    """HealthCheckResponse { ServingStatus status = 1; } -> "SERVING", "NOT_SERVING", ..."""
+    status, i = 0, 0
+    while i < len(data):
+        key, shift = 0, 0
+        while True:
+            byte = data[i]
+            i += 1
+            key |= (byte & 0x7F) << shift
+            shift += 7
+            if not byte & 0x80:
+                break
+        value, shift = 0, 0
+        if key & 7 != 0:  # not a varint: no such field in HealthCheckResponse
+            break
+        while True:
+            byte = data[i]
+            i += 1
+            value |= (byte & 0x7F) << shift
+            shift += 7
+            if not byte & 0x80:
+                break
+        if key >> 3 == 1:
+            status = value
+    return SERVING_STATUS.get(status, str(status))
+
+
+class Client:
+    """A client of one squalld.
+
+    Args:
+        address: "host:port" of squalld (default 127.0.0.1:50051).
+        timeout: deadline of each unary call, s (default 30); None: no deadline.
+        token: sent on every call as the metadata "authorization: Bearer <token>" (for a proxy or
+            gateway in front of squalld; squalld itself does not check it). None: not sent.
+        stream_timeout: deadline of each streaming call, s; None (default): none, streams run until
+            they end or are cancelled.
+        request_id: sent as "x-request-id" on every call; squalld shows it in its request log.
+        credentials: grpc.ChannelCredentials for a TLS channel (e.g. to a gateway); None: insecure.
+        options: extra gRPC channel options, added to squall's (no client-side message size limit).
+
+    Attributes:
+        ocean: Ocean tiles, streams and samples (squall.ocean.Ocean).
+        ewave: eWave sessions (squall.ewave.EWave).
+        clouds: cloud volumes and images (squall.clouds.Clouds).
+        textures: advected textures (squall.textures.Textures).
+
+    Each method takes ``timeout=`` to override the default for one call (``float("inf")``: none).
+    Failures raise squall.SquallError with the gRPC status code and the server's message. The
+    client is a context manager; ``close()`` closes its channel.
+    """
+
+    def __init__(
+        self,
+        address: str = DEFAULT_ADDRESS,
+        timeout: Optional[float] = 30.0,
+        token: Optional[str] = None,
+        *,
+        stream_timeout: Optional[float] = None,
+        request_id: Optional[str] = None,
+        credentials: Optional[grpc.ChannelCredentials] = None,
+        options: Sequence[Tuple[str, Any]] = (),
+    ) -> None:
+        self.address = address
+        channel_options = list(CHANNEL_OPTIONS) + list(options)
+        if credentials is None:
+            channel = grpc.insecure_channel(address, options=channel_options)
+        else:
+            channel = grpc.secure_channel(address, credentials, options=channel_options)
+        self._connection = Connection(
+            channel, Settings(timeout, stream_timeout, token, request_id)
+        )
+        self._server = server_pb2_grpc.ServerStub(channel)
+        self._health = channel.unary_unary(
+            HEALTH_CHECK,
+            request_serializer=encode_health_request,
+            response_deserializer=decode_health_response,
+        )
+        self.ocean = Ocean(self._connection)
+        self.ewave = EWave(self._connection)
+        self.clouds = Clouds(self._connection)
+        self.textures = Textures(self._connection)
+
+    @property
+    def channel(self) -> grpc.Channel:
+        """The gRPC channel (for squall.v1.*_pb2_grpc stubs of your own)."""
+        return self._connection.channel
+
+    def info(self, *, timeout: Optional[float] = None) -> server_pb2.GetInfoResponse:
+        """The daemon's version, devices, kernels, FFT backend, limits and readiness
+        (Server.GetInfo).
+        """
+        request = server_pb2.GetInfoRequest(request_id=self._connection.settings.request_id or "")
+        reply: server_pb2.GetInfoResponse = self._connection.unary(
+            "Server.GetInfo", self._server.GetInfo, request, timeout
+        )
+        return reply
+
+    def health(self, service: str = "", *, timeout: Optional[float] = None) -> str:
+        """gRPC health of `service` ("" = the whole server): "SERVING", "NOT_SERVING", ..."""
+        status: str = self._connection.unary("Health.Check", self._health, service, timeout)
+        return status
+
+    def wait_until_serving(self, timeout: float = 60.0) -> bool:
+        """Polls health until SERVING (True), or False once `timeout` seconds passed."""
+        end = time.monotonic() + timeout
+        while True:
+            try:
+                if self.health(timeout=max(0.1, min(2.0, end - time.monotonic()))) == "SERVING":
+                    return True
+            except SquallError:
+                pass  # not listening yet
+            if time.monotonic() >= end:
+                return False
+            time.sleep(0.1)
+
+    def close(self) -> None:
+        """Closes the channel (running streams are cancelled)."""
+        self._connection.channel.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"squall.Client({self.address!r})"

@@ -1,0 +1,455 @@
+"""Cloud volumes (squall.v1.Clouds): sparse volumes modeled with OpenVDB, ray-marched images.
+
+Builders: ``model`` (the CloudModel), ``camera``, ``sun`` / ``point_light`` and
+    ``render_settings``.
+Units: m, s, K; z is up (altitude). Level sets are > 0 inside a shape; density is dimensionless.
+
+Example::
+
+    cloud = squall.clouds.model(voxel_size=1.0, spheres=[(0, 0, 0, 20)], pyroclastic=dict(
+        layers=2, amplitude=4.0, noise=dict(frequency=0.05)))
+    volume = client.clouds.build(cloud, path="cloud.vdb")          # .vdb written, summary returned
+    image = client.clouds.render(cloud, camera=squall.clouds.camera(width=64, height=64),
+                                 lights=[squall.clouds.sun((1, 1, -1), 1.0)])
+    image.pixels.shape, image.channels   # (64, 64, 3), ('radiance_0', 'transmittance_0', 'depth')
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from squall._calls import Connection, Stream
+from squall._convert import enum_value, message_from, repeated_per, to_message, vec3
+from squall._pb import clouds_pb2, clouds_pb2_grpc
+from squall._results import EvolutionFrame, Image, Volume
+
+CloudModel = clouds_pb2.CloudModel
+RenderSettings = clouds_pb2.RenderSettings
+ModelLike = Union[clouds_pb2.CloudModel, Mapping[str, Any]]
+SettingsLike = Union[clouds_pb2.RenderSettings, Mapping[str, Any]]
+SourceLike = Union[str, Volume, clouds_pb2.CloudModel, Mapping[str, Any]]
+PathLike = Union[str, "os.PathLike[str]"]
+
+__all__ = [
+    "model",
+    "camera",
+    "sun",
+    "point_light",
+    "render_settings",
+    "Clouds",
+    "Image",
+    "Volume",
+    "EvolutionFrame",
+]
+
+
+def _mesh(value: Any, path: str) -> clouds_pb2.MeshSpec:
+    """A MeshSpec from OBJ text / bytes, a path to an .obj file, (vertices (n, 3), triangles
+    (m, 3)), a MeshSpec or a mapping of its fields."""
+    if isinstance(value, (clouds_pb2.MeshSpec, Mapping)):
+        return to_message(clouds_pb2.MeshSpec, value, path)
+    if isinstance(value, bytes):
+        return clouds_pb2.MeshSpec(obj=value)
+    if isinstance(value, (str, os.PathLike)):
+        text = str(value)
+        if "\n" in text or not os.path.exists(text):
+            return clouds_pb2.MeshSpec(obj=text.encode())
+        with open(text, "rb") as f:
+            return clouds_pb2.MeshSpec(obj=f.read())
+    vertices, triangles = value
+    return clouds_pb2.MeshSpec(
+        vertices=np.asarray(vertices, dtype=np.float64).ravel().tolist(),
+        triangles=np.asarray(triangles, dtype=np.int64).ravel().tolist(),
+    )
+
+
+def model(
+    voxel_size: float = 1.0,
+    *,
+    spheres: Sequence[Union[Sequence[float], Mapping[str, Any], clouds_pb2.SphereSpec]] = (),
+    ellipsoids: Sequence[Union[Sequence[float], Mapping[str, Any], clouds_pb2.EllipsoidSpec]] = (),
+    meshes: Sequence[Any] = (),
+    particles: Sequence[Union[Sequence[float], Mapping[str, Any], clouds_pb2.ParticleSpec]] = (),
+    pyroclastic: Optional[Union[Mapping[str, Any], clouds_pb2.PyroclasticSpec]] = None,
+    advection: Optional[Union[Mapping[str, Any], clouds_pb2.AdvectionSpec]] = None,
+    temperature: Optional[Union[Mapping[str, Any], clouds_pb2.TemperatureSpec]] = None,
+    skin: Optional[float] = None,
+    max_active_voxels: Optional[int] = None,
+) -> clouds_pb2.CloudModel:
+    """A cloud model (Gilligan sec. 6). None leaves an optional field at the server's default.
+
+    Args:
+        voxel_size: m, > 0 (default 1, as ``squall cloud``).
+        spheres: base spheres, unioned: (x, y, z, radius) in m, or SphereSpec / mappings.
+        ellipsoids: base ellipsoids: (x, y, z, rx, ry, rz) in m, or EllipsoidSpec / mappings.
+        meshes: closed triangle meshes: OBJ text or bytes, a path to an .obj file, or
+            (vertices (n, 3) m, triangles (m, 3) indices).
+        particles: noise-stamped particles (eqs 113-114): (x, y, z, radius) in m, or ParticleSpec /
+            mappings (amplitude, bias, fade, noise).
+        pyroclastic: PyroclasticSpec or mapping: layers 0..8, amplitude m, gamma, noise (a
+            NoiseSpec mapping: frequency 1/m, octaves, roughness, frequency_jump, offset).
+        advection: AdvectionSpec or mapping: speed m/s, time s, substeps, scheme, noise.
+        temperature: TemperatureSpec or mapping: enabled, surface K, base_altitude m, lapse_rate
+            K/m, fluctuation K, noise.
+        skin: skin thickness of the density ramp (eq 103), m; unset: 2 voxel sizes.
+        max_active_voxels: active-voxel budget; unset: the server's.
+    """
+
+    def shapes(items: Sequence[Any], cls: Any, name: str) -> list:
+        """(x, y, z, r) / (x, y, z, rx, ry, rz) tuples, or messages / mappings."""
+        out = []
+        for i, item in enumerate(items):
+            if not isinstance(item, (Mapping, cls)):
+                v = [float(x) for x in item]
+                if name == "ellipsoids":
+                    if len(v) != 6:
+                        raise ValueError(
+                            f"model.ellipsoids[{i}]: want (x, y, z, rx, ry, rz), got {item!r}"
+                        )
+                    item = {"center": v[:3], "radii": v[3:]}
+                else:
+                    if len(v) != 4:
+                        raise ValueError(
+                            f"model.{name}[{i}]: want (x, y, z, radius), got {item!r}"
+                        )
+                    item = {"center": v[:3], "radius": v[3]}
+            out.append(to_message(cls, item, f"model.{name}[{i}]"))
+        return out
+
+    return message_from(
+        clouds_pb2.CloudModel,
+        None,
+        "model",
+        voxel_size=voxel_size,
+        skin=skin,
+        spheres=shapes(spheres, clouds_pb2.SphereSpec, "spheres"),
+        ellipsoids=shapes(ellipsoids, clouds_pb2.EllipsoidSpec, "ellipsoids"),
+        meshes=[_mesh(m, f"model.meshes[{i}]") for i, m in enumerate(meshes)],
+        pyroclastic=pyroclastic,
+        particles=shapes(particles, clouds_pb2.ParticleSpec, "particles"),
+        advection=advection,
+        temperature=temperature,
+        max_active_voxels=max_active_voxels,
+    )
+
+
+def camera(
+    eye: Sequence[float] = (0.0, -100.0, 0.0),
+    look_at: Sequence[float] = (0.0, 0.0, 0.0),
+    up: Sequence[float] = (0.0, 0.0, 1.0),
+    *,
+    width: int = 256,
+    height: int = 256,
+    vertical_fov_deg: Optional[float] = None,
+) -> clouds_pb2.CameraSpec:
+    """A pinhole camera. Defaults as ``squall cloud render``.
+
+    Args:
+        eye, look_at: positions, m (look_at != eye).
+        up: up direction, not parallel to look_at - eye.
+        width, height: pixels, 1..8192.
+        vertical_fov_deg: degrees, (0, 170); unset: 40.
+    """
+    return message_from(
+        clouds_pb2.CameraSpec,
+        None,
+        "camera",
+        eye=vec3(eye),
+        look_at=vec3(look_at),
+        up=vec3(up),
+        width=width,
+        height=height,
+        vertical_fov_deg=vertical_fov_deg,
+    )
+
+
+_default_camera = camera
+
+
+def sun(
+    direction: Sequence[float], irradiance: Union[float, Sequence[float]]
+) -> clouds_pb2.LightSpec:
+    """A directional light toward `direction` (non-zero) with irradiance W m^-2 m^-1: one number
+    (repeated for every wavelength by ``render_settings``) or one per wavelength."""
+    values = [float(v) for v in np.atleast_1d(np.asarray(irradiance, dtype=float))]
+    return clouds_pb2.LightSpec(
+        kind=clouds_pb2.LIGHT_KIND_DIRECTIONAL, direction=vec3(direction), intensity=values
+    )
+
+
+def point_light(
+    position: Sequence[float], intensity: Union[float, Sequence[float]]
+) -> clouds_pb2.LightSpec:
+    """A point light at `position` (m) with intensity W sr^-1 m^-1 (one number, or one per
+    wavelength).
+    """
+    values = [float(v) for v in np.atleast_1d(np.asarray(intensity, dtype=float))]
+    return clouds_pb2.LightSpec(
+        kind=clouds_pb2.LIGHT_KIND_POINT, position=vec3(position), intensity=values
+    )
+
+
+def render_settings(
+    camera: Optional[Union[clouds_pb2.CameraSpec, Mapping[str, Any]]] = None,
+    *,
+    step: float = 1.0,
+    wavelengths: Sequence[float] = (550e-9,),
+    extinction: Union[float, Sequence[float]] = 0.1,
+    albedo: Union[float, Sequence[float]] = 0.9,
+    lights: Sequence[Union[clouds_pb2.LightSpec, Mapping[str, Any]]] = (),
+    phase: Optional[Union[clouds_pb2.PhaseSpec, Mapping[str, Any]]] = None,
+    shadow: Union[str, int, None] = None,
+    shadow_map_size: Optional[Sequence[int]] = None,
+    substeps: Optional[int] = None,
+    trilinear: bool = False,
+    seed: int = 0,
+    min_transmittance: Optional[float] = None,
+) -> clouds_pb2.RenderSettings:
+    """Ray-march settings (Gilligan sec. 7). Defaults as ``squall cloud render``.
+
+    Args:
+        camera: ``camera(...)``; None: its defaults (256 x 256 from (0, -100, 0)).
+        step: ray-march step, m, > 0.
+        wavelengths: m, (0, 1e-3], 1 to 8.
+        extinction: 1/m per unit density, one number for every wavelength or one per wavelength.
+        albedo: [0, 1], one number for every wavelength or one per wavelength.
+        lights: 0..4 ``sun`` / ``point_light``; a single intensity is repeated for every
+            wavelength.
+        phase: PhaseSpec or mapping (kind "uniform", "henyey_greenstein",
+            "double_henyey_greenstein", "fournier_forand"; g1, g2, weight, ff_n, ff_mu); unset:
+            Henyey-Greenstein g = 0.8.
+        shadow: "none", "direct", "deep_shadow_map" (default).
+        shadow_map_size: nodes along x, y, z, 2..512 each; unset: 64 each.
+        substeps: random sub-steps per step, 1..8; unset: 1.
+        trilinear: trilinear density (default: nearest voxel).
+        seed: jitter seed.
+        min_transmittance: early termination, [0, 1); unset: 1e-4.
+    """
+    count = len(wavelengths)
+    light_messages = []
+    for i, light in enumerate(lights):
+        message = clouds_pb2.LightSpec()
+        message.CopyFrom(to_message(clouds_pb2.LightSpec, light, f"settings.lights[{i}]"))
+        if len(message.intensity) == 1 and count > 1:
+            message.intensity[:] = [message.intensity[0]] * count
+        light_messages.append(message)
+    return message_from(
+        clouds_pb2.RenderSettings,
+        None,
+        "settings",
+        camera=_default_camera() if camera is None else camera,
+        step=step,
+        substeps=substeps,
+        trilinear=trilinear,
+        seed=seed,
+        min_transmittance=min_transmittance,
+        phase=phase,
+        wavelengths=[float(w) for w in wavelengths],
+        extinction=repeated_per(extinction, count),
+        albedo=repeated_per(albedo, count),
+        lights=light_messages,
+        shadow=None
+        if shadow is None
+        else enum_value(clouds_pb2.ShadowMode.DESCRIPTOR, shadow, "settings.shadow"),
+        shadow_map_size=None if shadow_map_size is None else [int(v) for v in shadow_map_size],
+    )
+
+
+def as_settings(
+    settings: Optional[SettingsLike], kwargs: Mapping[str, Any]
+) -> clouds_pb2.RenderSettings:
+    if settings is not None:
+        if kwargs:
+            raise TypeError(
+                "render: pass either settings or render_settings' keyword arguments, not both"
+            )
+        return to_message(clouds_pb2.RenderSettings, settings, "settings")
+    return render_settings(**kwargs)
+
+
+def build_request(
+    cloud: Optional[ModelLike],
+    keep: bool,
+    return_vdb: bool,
+    request: Optional[clouds_pb2.BuildVolumeRequest],
+) -> clouds_pb2.BuildVolumeRequest:
+    if request is not None:
+        return to_message(clouds_pb2.BuildVolumeRequest, request)
+    if cloud is None:
+        raise TypeError("build: a model is needed (squall.clouds.model(...), or request=...)")
+    return clouds_pb2.BuildVolumeRequest(
+        model=to_message(clouds_pb2.CloudModel, cloud, "model"),
+        keep=bool(keep),
+        return_vdb=bool(return_vdb),
+    )
+
+
+def render_request(
+    source: Optional[SourceLike],
+    settings: Optional[SettingsLike],
+    kwargs: Mapping[str, Any],
+    request: Optional[clouds_pb2.RenderRequest],
+) -> clouds_pb2.RenderRequest:
+    if request is not None:
+        return to_message(clouds_pb2.RenderRequest, request)
+    message = clouds_pb2.RenderRequest(settings=as_settings(settings, kwargs))
+    if isinstance(source, Volume):
+        if not source.id:
+            raise ValueError(
+                "render: the volume was not stored (build it with keep=True) or pass the model"
+            )
+        message.volume_id = source.id
+    elif isinstance(source, str):
+        message.volume_id = source
+    elif source is not None:
+        message.model.CopyFrom(to_message(clouds_pb2.CloudModel, source, "model"))
+    else:
+        raise TypeError("render: a source is needed: a model, a stored Volume or its volume id")
+    return message
+
+
+def evolution_request(
+    cloud: Optional[ModelLike],
+    times: Optional[Sequence[float]],
+    evolution: Optional[Union[clouds_pb2.EvolutionSpec, Mapping[str, Any]]],
+    settings: Optional[SettingsLike],
+    include_vdb: bool,
+    kwargs: Mapping[str, Any],
+    request: Optional[clouds_pb2.StreamEvolutionRequest],
+) -> clouds_pb2.StreamEvolutionRequest:
+    if request is not None:
+        return to_message(clouds_pb2.StreamEvolutionRequest, request)
+    if cloud is None or times is None:
+        raise TypeError("evolve: a model and times (s) are needed")
+    return clouds_pb2.StreamEvolutionRequest(
+        model=to_message(clouds_pb2.CloudModel, cloud, "model"),
+        evolution=to_message(clouds_pb2.EvolutionSpec, evolution, "evolution"),
+        times=[float(t) for t in np.asarray(times, dtype=np.float64).ravel()],
+        settings=as_settings(settings, kwargs),
+        include_vdb=bool(include_vdb),
+    )
+
+
+def volume_of(
+    response: clouds_pb2.BuildVolumeResponse, return_vdb: bool, path: Optional[PathLike]
+) -> Volume:
+    if path is not None:
+        with open(path, "wb") as f:
+            f.write(response.vdb)
+    return Volume(response.summary, response.vdb if return_vdb else None)
+
+
+def evolution_frame(frame: clouds_pb2.EvolutionFrame) -> EvolutionFrame:
+    return EvolutionFrame(
+        frame.time, Image.from_proto(frame.image, frame.summary), frame.summary, frame.vdb or None
+    )
+
+
+def volume_id_of(volume: Union[str, Volume]) -> str:
+    if isinstance(volume, Volume):
+        if not volume.id:
+            raise ValueError("release: the volume was not stored (keep=True)")
+        return volume.id
+    return volume
+
+
+class Clouds:
+    """``client.clouds``: the Clouds service (build, render, evolve, release)."""
+
+    def __init__(self, connection: Connection) -> None:
+        self._connection = connection
+        self._stub = clouds_pb2_grpc.CloudsStub(connection.channel)
+
+    def build(
+        self,
+        cloud: Optional[ModelLike] = None,
+        *,
+        keep: bool = False,
+        return_vdb: bool = False,
+        path: Optional[PathLike] = None,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.BuildVolumeRequest] = None,
+    ) -> Volume:
+        """Builds a volume from a model (BuildVolume).
+
+        Args:
+            cloud: the model (``model(...)``, a CloudModel or a mapping of its fields).
+            keep: store it on the server: ``Volume.id`` then names it for ``render`` (dropped after
+                --session-ttl idle, or by ``release``).
+            return_vdb: return the grids ("density", "temperature") as .vdb bytes (``Volume.vdb``).
+            path: write the .vdb file there (implies return_vdb).
+
+        Returns:
+            A Volume: ``summary`` (bounds m, active voxels, bytes, ...), ``vdb`` bytes if asked,
+                ``id``.
+        """
+        want_vdb = return_vdb or path is not None
+        message = build_request(cloud, keep, want_vdb, request)
+        response = self._connection.unary(
+            "Clouds.BuildVolume", self._stub.BuildVolume, message, timeout
+        )
+        return volume_of(response, message.return_vdb, path)
+
+    def render(
+        self,
+        source: Optional[SourceLike] = None,
+        settings: Optional[SettingsLike] = None,
+        *,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.RenderRequest] = None,
+        **kwargs: Any,
+    ) -> Image:
+        """Ray-marches a stored volume or a model built for this call (Render).
+
+        Args:
+            source: a model (built for this call), a stored Volume (keep=True) or its volume id.
+            settings: RenderSettings (or a mapping); or instead ``render_settings``' keyword
+                arguments (camera=, step=, wavelengths=, extinction=, albedo=, lights=, shadow=,
+                ...).
+
+        Returns:
+            An Image: ``pixels`` (height, width, channels) float32, row 0 at the top, and
+            ``channels`` ("radiance_<i>" W m^-2 sr^-1 m^-1 and "transmittance_<i>" per
+            wavelength, then "depth" m); ``image["depth"]`` is one channel.
+        """
+        message = render_request(source, settings, kwargs, request)
+        response = self._connection.unary("Clouds.Render", self._stub.Render, message, timeout)
+        return Image.from_proto(response.image, response.summary)
+
+    def evolve(
+        self,
+        cloud: Optional[ModelLike] = None,
+        times: Optional[Sequence[float]] = None,
+        *,
+        evolution: Optional[Union[clouds_pb2.EvolutionSpec, Mapping[str, Any]]] = None,
+        settings: Optional[SettingsLike] = None,
+        include_vdb: bool = False,
+        timeout: Optional[float] = None,
+        request: Optional[clouds_pb2.StreamEvolutionRequest] = None,
+        **kwargs: Any,
+    ) -> Stream[EvolutionFrame]:
+        """One frame per time of a model whose parameters evolve linearly (StreamEvolution, sec.
+        6.4).
+
+        Args:
+            cloud: the model at t = 0.
+            times: frame times, s, 1..1000.
+            evolution: EvolutionSpec or mapping: drift, noise_drift, velocity_drift (m/s, (x, y,
+                z)), amplitude_rate (m/s), advection_rate (s/s).
+            settings / keyword arguments: as for ``render``.
+            include_vdb: each frame carries its grids as .vdb bytes.
+        """
+        message = evolution_request(
+            cloud, times, evolution, settings, include_vdb, kwargs, request
+        )
+        return self._connection.stream(
+            "Clouds.StreamEvolution", self._stub.StreamEvolution, message, evolution_frame, timeout
+        )
+
+    def release(self, volume: Union[str, Volume], *, timeout: Optional[float] = None) -> None:
+        """Drops a stored volume (ReleaseVolume); NOT_FOUND when it is not stored."""
+        message = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id_of(volume))
+        self._connection.unary("Clouds.ReleaseVolume", self._stub.ReleaseVolume, message, timeout)

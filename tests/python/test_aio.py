@@ -1,0 +1,142 @@
+"""squall.aio against a real squalld: the same answers as the synchronous client, async iterators.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import grpc
+import pytest
+
+import squall
+import squall.aio
+
+from test_ewave import config, hull_inputs
+from test_ocean import OUTPUTS, small_tile
+
+
+def run(coroutine):
+    return asyncio.run(asyncio.wait_for(coroutine, 120))
+
+
+def test_ocean(client: squall.Client, daemon) -> None:
+    spec = small_tile()
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            assert await aclient.health() == "SERVING"
+            assert (await aclient.info()).ready
+            tile = await aclient.ocean.tile(spec, time=1.0, outputs=OUTPUTS)
+            frames = [
+                f
+                async for f in aclient.ocean.stream(
+                    spec, dt=0.5, frames=2, t0=1.0, outputs=OUTPUTS
+                )
+            ]
+            samples = await aclient.ocean.sample(spec, [[1.0, 2.0]], time=1.0)
+            with pytest.raises(squall.SquallError) as error:
+                await aclient.ocean.tile(spec, time=float("nan"))
+            assert (
+                error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+                and "time.seconds" in error.value.message
+            )
+            return tile, frames, samples
+
+    tile, frames, samples = run(main())
+    expected = client.ocean.tile(spec, time=1.0, outputs=OUTPUTS)
+    for name in OUTPUTS:
+        assert tile[name].tobytes() == expected[name].tobytes()
+        assert frames[0][name].tobytes() == expected[name].tobytes()
+    assert [f.time for f in frames] == [1.0, 1.5]
+    assert samples["height"] == pytest.approx(
+        client.ocean.sample(spec, [[1.0, 2.0]], time=1.0)["height"]
+    )
+
+
+def test_ewave_session(client: squall.Client, daemon) -> None:
+    async def inputs():  # an async generator feeds the Run stream
+        for n in range(1, 4):  # continuing after step 1
+            await asyncio.sleep(0)
+            yield hull_inputs(n)
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            async with aclient.ewave.session(**config()) as session:
+                first = await session.step(**hull_inputs(0))
+                state = await session.state()
+                rest = [f async for f in session.run(hull_inputs(n) for n in range(1, 3))]
+                copy = await aclient.ewave.restore(state)
+                replay = [f async for f in copy.run(inputs())]
+                await copy.close()
+                with pytest.raises(squall.SquallError) as error:
+                    await copy.step(0.02)
+                assert error.value.code == grpc.StatusCode.NOT_FOUND
+            return [first] + rest, replay
+
+    frames, replay = run(main())
+    assert [f.step for f in frames] == [1, 2, 3] and [f.step for f in replay] == [2, 3, 4]
+    with client.ewave.session(**config()) as session:  # the same steps, synchronously
+        for n, frame in enumerate(frames):
+            expected = session.step(**hull_inputs(n))
+            assert frame["height"].tobytes() == expected["height"].tobytes()
+    for a, b in zip(replay, frames[1:]):  # restored after step 1: the same steps 2 and 3
+        assert a["height"].tobytes() == b["height"].tobytes()
+
+
+def test_clouds_and_textures(client: squall.Client, daemon) -> None:
+    model = squall.clouds.model(spheres=[(0, 0, 0, 8)])
+    camera = squall.clouds.camera(eye=(0, -40, 0), width=8, height=8)
+    start = dict(
+        texture=squall.textures.noise(bands=2),
+        size=(16, 16),
+        dt=0.1,
+        velocity=squall.textures.analytic("uniform", velocity_x=0.1),
+    )
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            image = await aclient.clouds.render(model, camera=camera)
+            volume = await aclient.clouds.build(model, keep=True)
+            await aclient.clouds.release(volume)
+            evolution = [f async for f in aclient.clouds.evolve(model, [0.0, 1.0], camera=camera)]
+            frames = [f async for f in aclient.textures.advect(frames=2, **start)]
+            async with aclient.textures.interactive(**start) as steer:
+                steered = await steer.send(frames=2)
+            return image, volume, evolution, frames, steered
+
+    image, volume, evolution, frames, steered = run(main())
+    assert image.pixels.tobytes() == client.clouds.render(model, camera=camera).pixels.tobytes()
+    assert volume.id and [f.time for f in evolution] == [0.0, 1.0]
+    expected = list(client.textures.advect(frames=2, **start))
+    for a, b, c in zip(frames, steered, expected):
+        assert a.index == b.index == c.index
+        assert a["final_0"].tobytes() == b["final_0"].tobytes() == c["final_0"].tobytes()
+
+
+def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
+    spec = small_tile()
+
+    async def main():
+        async with squall.aio.Client(tight_daemon.address) as aclient:
+            endless = aclient.ocean.stream(spec, dt=0.1, outputs="height")
+            assert (await endless.__anext__()).frame_index == 0
+            endless.cancel()
+            assert [f async for f in endless] == []
+            deadline = time.monotonic() + 10
+            while True:
+                try:
+                    return [
+                        f.frame_index
+                        async for f in aclient.ocean.stream(
+                            spec, dt=0.1, frames=2, outputs="height"
+                        )
+                    ]
+                except squall.SquallError as e:
+                    assert (
+                        e.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+                        and time.monotonic() < deadline
+                    ), e
+                    await asyncio.sleep(0.05)
+
+    assert run(main()) == [0, 1]

@@ -1,0 +1,106 @@
+"""client.clouds against a real squalld: BuildVolume (.vdb), Render (H, W, C), StreamEvolution,
+release.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import grpc
+import numpy as np
+import pytest
+
+import squall
+from squall.v1 import clouds_pb2, clouds_pb2_grpc
+
+W, H = 24, 16
+
+
+def cloud() -> clouds_pb2.CloudModel:
+    return squall.clouds.model(voxel_size=1.0, spheres=[(0, 0, 0, 12)])
+
+
+def settings() -> clouds_pb2.RenderSettings:
+    # 60 m away with a 40 degree field of view: the 12 m sphere covers the middle, not the corners
+    return squall.clouds.render_settings(
+        squall.clouds.camera(eye=(0, -60, 0), width=W, height=H),
+        step=0.5,
+        lights=[squall.clouds.sun((1, 1, -1), 1.0)],
+        shadow="none",
+    )
+
+
+def test_build_writes_the_vdb(client: squall.Client, tmp_path) -> None:
+    path = tmp_path / "cloud.vdb"
+    volume = client.clouds.build(cloud(), path=path)
+    data = path.read_bytes()
+    assert volume.vdb == data and len(data) > 1000
+    assert struct.unpack("<q", data[:8])[0] == 0x56444220  # OpenVDB's file magic, "VDB "
+    s = volume.summary
+    assert volume.id is None and s.voxel_size == 1.0
+    # active voxels: about the ball's volume (4/3 pi r^3 = 7238 voxels for r = 12) plus the skin
+    assert 0.8 * 4 / 3 * math.pi * 12**3 < s.active_voxels < 2.0 * 4 / 3 * math.pi * 14**3
+    assert s.bounds_min.x == pytest.approx(-s.bounds_max.x, abs=2.0)
+    assert client.clouds.build(cloud()).vdb is None  # not asked for
+
+
+def test_render_stored_and_inline_are_equal(client: squall.Client) -> None:
+    volume = client.clouds.build(cloud(), keep=True)
+    assert volume.id
+    try:
+        stored = client.clouds.render(volume, settings())
+        inline = client.clouds.render(cloud(), settings())
+        assert stored.channels == ("radiance_0", "transmittance_0", "depth")
+        assert stored.pixels.shape == (H, W, 3) and stored.pixels.dtype == np.float32
+        assert stored.pixels.tobytes() == inline.pixels.tobytes()
+        # channel-major planes in the reply, decoded with struct: pixels[j, i, c]
+        request = clouds_pb2.RenderRequest(volume_id=volume.id, settings=settings())
+        raw = clouds_pb2_grpc.CloudsStub(client.channel).Render(request, timeout=60).image
+        planes = np.array(struct.unpack(f"<{W * H * 3}f", raw.data), dtype=np.float32).reshape(
+            3, H, W
+        )
+        for c, name in enumerate(stored.channels):
+            assert np.array_equal(stored[name], planes[c])
+        t = stored["transmittance_0"]
+        assert 0.0 <= t.min() and t.max() <= 1.0
+        assert t[H // 2, W // 2] < 0.9 and t[0, 0] == pytest.approx(
+            1.0
+        )  # the cloud is in the middle
+        assert (
+            stored["depth"][0, 0] == -1.0 and stored["depth"][H // 2, W // 2] > 40
+        )  # metres from the eye
+        assert np.asarray(stored).shape == (H, W, 3)
+    finally:
+        client.clouds.release(volume)
+    with pytest.raises(squall.SquallError) as error:
+        client.clouds.render(volume.id, settings())
+    assert error.value.code == grpc.StatusCode.NOT_FOUND
+
+
+def test_evolution_stream(client: squall.Client) -> None:
+    frames = list(
+        client.clouds.evolve(
+            cloud(), [0.0, 2.0], evolution=dict(drift=(2.0, 0.0, 0.0)), settings=settings()
+        )
+    )
+    assert [f.time for f in frames] == [0.0, 2.0]
+    assert frames[0].image.pixels.shape == (H, W, 3)
+    # the cloud drifted 4 m along +x
+    assert frames[1].summary.bounds_min.x == pytest.approx(
+        frames[0].summary.bounds_min.x + 4.0, abs=1.0
+    )
+
+
+def test_errors_name_the_field(client: squall.Client) -> None:
+    bad = squall.clouds.model(voxel_size=1.0, spheres=[(0, 0, 0, math.nan)])
+    with pytest.raises(squall.SquallError) as error:
+        client.clouds.build(bad)
+    assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "model.spheres[0].radius" in error.value.message
+    with pytest.raises(squall.SquallError) as error:
+        client.clouds.render(cloud(), camera=squall.clouds.camera(width=0, height=4))
+    assert (
+        error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+        and "settings.camera.width" in error.value.message
+    )

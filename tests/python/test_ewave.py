@@ -1,0 +1,114 @@
+"""client.ewave against a real squalld: sessions, Step, the Run stream, GetState / Restore, errors.
+"""
+
+from __future__ import annotations
+
+import grpc
+import numpy as np
+import pytest
+
+import squall
+
+NX, NY, DX = 48, 32, 0.01
+
+
+def config() -> dict:
+    return dict(nx=NX, ny=NY, dx=DX, source_scale=1.0)
+
+
+def hull_inputs(n: int) -> dict:
+    """A hull moving along +x through the middle of the grid, and a partly open obstruction."""
+    obstruction = np.ones((NY, NX), dtype=np.float32)
+    obstruction[2:5, 40:44] = 0.5
+    return dict(
+        dt=0.02,
+        shapes=[squall.ewave.ellipse(0.1 + 0.004 * n, NY * DX / 2, 0.06, 0.02)],
+        obstruction=obstruction,
+        outputs=("height", "phi", "normal_z"),
+    )
+
+
+def test_session_steps_and_closes(client: squall.Client) -> None:
+    with client.ewave.session(**config()) as session:
+        assert len(session.id) == 32 and session.shape == (NY, NX)
+        assert session.config.HasField("gravity")  # the config in force, defaults filled in
+        for n in range(3):
+            frame = session.step(**hull_inputs(n))
+        assert frame.step == 3 and frame.time == pytest.approx(0.06)
+        assert list(frame) == ["height", "phi", "normal_z"]
+        assert frame["height"].shape == (NY, NX) and frame.units["phi"] == "m^2/s"
+        assert frame.origin["height"][:2] == pytest.approx(
+            (DX / 2, DX / 2)
+        )  # centre of cell (0, 0)
+        assert float(np.abs(frame["height"]).max()) > 0  # the hull (a height source) made waves
+        session_id = session.id
+    assert session.closed
+    with pytest.raises(squall.SquallError) as error:
+        client.ewave.attach(session_id).step(0.02)
+    assert error.value.code == grpc.StatusCode.NOT_FOUND
+
+
+def test_run_stream_equals_unary_steps(client: squall.Client) -> None:
+    with client.ewave.session(**config()) as streamed, client.ewave.session(**config()) as stepped:
+        frames = list(
+            streamed.run(hull_inputs(n) for n in range(5))
+        )  # a generator: read as frames come
+        assert [f.step for f in frames] == [1, 2, 3, 4, 5]
+        assert all(f.session_id == streamed.id for f in frames)
+        for n, frame in enumerate(frames):
+            expected = stepped.step(**hull_inputs(n))
+            for name in expected:
+                assert frame[name].tobytes() == expected[name].tobytes(), (n, name)
+
+
+def test_state_and_restore_continue_bit_identically(client: squall.Client) -> None:
+    with client.ewave.session(**config()) as session:
+        for n in range(3):
+            session.step(**hull_inputs(n))
+        state = session.state()
+        assert isinstance(state, bytes) and len(state) > 2 * NX * NY * 4
+        with client.ewave.restore(state) as copy:
+            assert copy.id != session.id and copy.config.nx == NX
+            a, b = session.step(**hull_inputs(3)), copy.step(**hull_inputs(3))
+            assert a.step == b.step == 4
+            for name in a:
+                assert a[name].tobytes() == b[name].tobytes(), name
+
+
+def test_errors_name_the_field(client: squall.Client) -> None:
+    with client.ewave.session(**config()) as session:
+        with pytest.raises(squall.SquallError) as error:
+            session.step(0.0)
+        assert (
+            error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+            and "inputs.dt" in error.value.message
+        )
+        with pytest.raises(squall.SquallError) as error:
+            session.step(0.02, obstruction=np.ones((NY, NX - 1)))
+        assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+        assert "inputs.obstruction" in error.value.message
+        # a failing message ends the Run stream after the frames before it
+        items = [hull_inputs(0), hull_inputs(1), dict(dt=-1.0), hull_inputs(3)]
+        received = []
+        with pytest.raises(squall.SquallError) as error:
+            for frame in session.run(items):
+                received.append(frame.step)
+        assert received == [1, 2]
+        assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+        assert "Run message 2" in error.value.message and "inputs.dt" in error.value.message
+        # a bad item on the client side surfaces as itself, not as a cancelled stream
+        with pytest.raises(ValueError, match="outputs"):
+            list(session.run([hull_inputs(0), dict(dt=0.02, outputs=("heigth",))]))
+    with pytest.raises(squall.SquallError) as error:
+        client.ewave.session(nx=NX, ny=NY, dx=-1.0)
+    assert (
+        error.value.code == grpc.StatusCode.INVALID_ARGUMENT and "config.dx" in error.value.message
+    )
+
+
+def test_initial_height_from_numpy(client: squall.Client) -> None:
+    x = (np.arange(NX) + 0.5) * DX
+    bump = np.tile(0.01 * np.cos(2 * np.pi * x / (NX * DX)), (NY, 1)).astype(np.float32)
+    with client.ewave.session(nx=NX, ny=NY, dx=DX, trim=False, initial_height=bump) as session:
+        frame = session.step(1e-6)  # almost no time: the surface is still the initial bump
+        np.testing.assert_allclose(frame["height"], bump, atol=1e-6)

@@ -1,0 +1,176 @@
+"""The package without a daemon: generated stubs, the Field codec, enum and message conversion, the
+StreamTiles frame assembler and the hand-encoded health messages."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import grpc
+import numpy as np
+import pytest
+
+import squall
+from squall import _convert
+from squall.client import decode_health_response, encode_health_request
+from squall.ocean import TileAssembler
+from squall.v1 import common_pb2, ewave_pb2, ocean_pb2, textures_pb2
+
+PROTO_DIR = Path(__file__).resolve().parents[2] / "proto" / "squall" / "v1"
+
+
+def test_stubs_are_generated_into_the_installed_package() -> None:
+    import squall.v1
+
+    package = Path(squall.__file__).parent
+    generated = Path(squall.v1.__file__).parent
+    assert generated.parent == package
+    # one message module and one gRPC module per proto, nothing checked in next to the sources
+    for proto in PROTO_DIR.glob("*.proto"):
+        assert (generated / f"{proto.stem}_pb2.py").is_file()
+        assert (generated / f"{proto.stem}_pb2_grpc.py").is_file()
+    from squall.v1 import (
+        clouds_pb2_grpc,
+        ewave_pb2_grpc,
+        ocean_pb2_grpc,
+        server_pb2_grpc,
+        textures_pb2_grpc,
+    )
+
+    assert hasattr(ocean_pb2_grpc, "OceanStub") and hasattr(ewave_pb2_grpc, "EWaveStub")
+    assert hasattr(clouds_pb2_grpc, "CloudsStub") and hasattr(textures_pb2_grpc, "TexturesStub")
+    assert hasattr(server_pb2_grpc, "ServerStub")
+    # proto3 `optional` has presence (protoc >= 3.15)
+    layer = ocean_pb2.LayerSpec()
+    assert not layer.HasField("peak_enhancement")
+    layer.peak_enhancement = 3.3
+    assert layer.HasField("peak_enhancement")
+
+
+def test_field_codec_is_little_endian_x_fastest() -> None:
+    a = np.arange(12, dtype=np.float32).reshape(3, 4) * 0.5  # ny = 3, nx = 4
+    f = squall.array_to_field(a, "height", "m", spacing=(2.0, 3.0), origin=(1.0, 1.0, 0.0))
+    assert (f.nx, f.ny, f.nz, f.dtype) == (4, 3, 0, common_pb2.DTYPE_FLOAT32)
+    assert f.data == struct.pack("<12f", *a.ravel().tolist())  # value (i, j) at i + nx j
+    assert (f.spacing.x, f.spacing.y, f.spacing.z) == (2.0, 3.0, 0.0)
+    back = squall.field_to_array(f)
+    assert back.dtype == np.float32 and back.shape == (3, 4) and back.flags.writeable
+    assert np.array_equal(back, a)
+
+    h = squall.array_to_field(a, dtype="float16")
+    assert h.dtype == common_pb2.DTYPE_FLOAT16
+    assert h.data == a.astype("<f2").tobytes()
+    assert np.array_equal(squall.field_to_array(h), a.astype(np.float16))
+
+    cube = np.random.default_rng(1).random((2, 3, 4)).astype(np.float32)
+    c = squall.array_to_field(cube)
+    assert (c.nx, c.ny, c.nz) == (4, 3, 2)
+    assert np.array_equal(squall.field_to_array(c), cube)
+
+    with pytest.raises(ValueError, match="data has 8 bytes"):
+        squall.field_to_array(common_pb2.Field(nx=4, ny=3, data=b"\0" * 8))
+    with pytest.raises(ValueError, match="shape"):
+        squall.array_to_field(np.zeros(5))
+
+
+def test_enum_names() -> None:
+    spectrum = ocean_pb2.SpectrumModel.DESCRIPTOR
+    assert _convert.enum_value(spectrum, "jonswap") == ocean_pb2.SPECTRUM_MODEL_JONSWAP
+    assert (
+        _convert.enum_value(spectrum, "pierson-moskowitz")
+        == ocean_pb2.SPECTRUM_MODEL_PIERSON_MOSKOWITZ
+    )
+    assert _convert.enum_value(spectrum, "SPECTRUM_MODEL_TMA") == ocean_pb2.SPECTRUM_MODEL_TMA
+    assert _convert.enum_value(spectrum, 6) == ocean_pb2.SPECTRUM_MODEL_MULTIPEAK
+    method = textures_pb2.TextureMethod.DESCRIPTOR
+    assert (
+        _convert.enum_value(method, "lagrangian") == textures_pb2.TEXTURE_METHOD_LAGRANGIAN_GRIDS
+    )
+    assert (
+        _convert.enum_value(method, "eulerian") == textures_pb2.TEXTURE_METHOD_EULERIAN_MULTILAYER
+    )
+    with pytest.raises(ValueError, match="jonswap"):  # the choices are listed
+        _convert.enum_value(spectrum, "jonswop")
+    with pytest.raises(ValueError):
+        _convert.enum_value(spectrum, 99)
+
+
+def test_messages_from_mappings() -> None:
+    request = _convert.to_message(
+        ewave_pb2.EWaveStepRequest,
+        {
+            "session_id": "ab",
+            "inputs": {"dt": 0.1, "obstruction": np.ones((2, 3)), "outputs": ["height", "phi"]},
+        },
+    )
+    assert request.inputs.obstruction.nx == 3 and request.inputs.obstruction.ny == 2
+    assert list(request.inputs.outputs) == [
+        ewave_pb2.EWAVE_OUTPUT_HEIGHT,
+        ewave_pb2.EWAVE_OUTPUT_PHI,
+    ]
+    spec = _convert.to_message(
+        ocean_pb2.GetTileRequest, {"time": 2.5, "tile": {"layers": [{"nx": 8}]}}
+    )
+    assert spec.time.seconds == 2.5 and spec.tile.layers[0].nx == 8
+    # an empty sub-message is present (a oneof member with its defaults)
+    source = _convert.to_message(textures_pb2.TextureSource, {"noise": {}})
+    assert source.WhichOneof("source") == "noise"
+    with pytest.raises(TypeError, match="no field 'wind'"):
+        _convert.to_message(ocean_pb2.LayerSpec, {"wind": 3})
+    layer = squall.ocean.layer(
+        extent=(200, 100), n=(64, 32), peak_enhancement=2.0, partials=[(0.8, 2.0)]
+    )
+    assert (layer.extent_x, layer.extent_y, layer.nx, layer.ny) == (200, 100, 64, 32)
+    assert layer.HasField("peak_enhancement") and not layer.HasField("gravity")
+    assert layer.partials[0].significant_wave_height == 2.0
+
+
+def _piece(name: str, rows: np.ndarray, row_offset: int, full_ny: int) -> ocean_pb2.FieldPiece:
+    field = squall.array_to_field(rows, name, "m")
+    field.origin.y = float(row_offset)
+    return ocean_pb2.FieldPiece(field=field, row_offset=row_offset, full_ny=full_ny)
+
+
+def test_tile_assembler_joins_pieces_and_checks_order() -> None:
+    rng = np.random.default_rng(2)
+    a, b = rng.random((6, 4)).astype(np.float32), rng.random((6, 4)).astype(np.float32)
+    chunks = [
+        ocean_pb2.TileChunk(
+            frame_index=0,
+            chunk_index=0,
+            chunk_count=3,
+            pieces=[_piece("a", a, 0, 6), _piece("b", b[:2], 0, 6)],
+        ),
+        ocean_pb2.TileChunk(
+            frame_index=0, chunk_index=1, chunk_count=3, pieces=[_piece("b", b[2:5], 2, 6)]
+        ),
+        ocean_pb2.TileChunk(
+            frame_index=0, chunk_index=2, chunk_count=3, pieces=[_piece("b", b[5:], 5, 6)]
+        ),
+    ]
+    chunks[0].time.seconds = 1.5
+    chunks[0].stats.unresolved_slope_variance = 0.25
+    assembler = TileAssembler()
+    assert assembler.add(chunks[0]) is None and assembler.add(chunks[1]) is None
+    tile = assembler.add(chunks[2])
+    assert tile is not None and list(tile) == ["a", "b"]
+    assert np.array_equal(tile["a"], a) and np.array_equal(tile["b"], b)
+    assert tile.time == 1.5 and tile.unresolved_slope_variance == 0.25
+    assert tile.origin["b"] == (0.0, 0.0, 0.0)  # the first piece's origin is the field's
+    with pytest.raises(squall.SquallError, match="out of sequence") as error:
+        TileAssembler().add(chunks[1])
+    assert error.value.code == grpc.StatusCode.INTERNAL
+
+
+def test_health_messages() -> None:
+    assert encode_health_request("") == b""
+    assert encode_health_request("squall.v1.Ocean") == b"\x0a\x0fsquall.v1.Ocean"
+    assert decode_health_response(b"\x08\x01") == "SERVING"
+    assert decode_health_response(b"\x08\x02") == "NOT_SERVING"
+    assert decode_health_response(b"") == "UNKNOWN"
+
+
+def test_error_text() -> None:
+    error = squall.SquallError(grpc.StatusCode.NOT_FOUND, "no such session", "EWave.Step")
+    assert str(error) == "EWave.Step: NOT_FOUND: no such session"
+    assert error.code_name == "NOT_FOUND" and error.message == "no such session"
