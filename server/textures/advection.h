@@ -66,6 +66,8 @@ class Advection {
   // frame times stay continuous: the next frame is at the last frame's time + dt.
   virtual void steer(std::shared_ptr<const DeviceInputs> inputs, double dt, int substeps) = 0;
   virtual const DeviceInputs& inputs() const = 0;
+  // The time of the last frame next() returned (t0 before the first; a resumed advection: its checkpoint's).
+  virtual double time() const = 0;
 };
 
 }  // namespace squall::textures

@@ -101,6 +101,7 @@ class Eulerian final : public Advection {
   }
 
   const DeviceInputs& inputs() const override { return *inputs_; }
+  double time() const override { return t0_ + index_ * dt_; }
 
   // Version, started, index, phase starts, the slots' node state (state_floats()), then with the cascade its
   // (w_k, theta_k) per band and node (cascade_floats()).

@@ -91,6 +91,7 @@ class Lagrangian final : public Advection {
   }
 
   const DeviceInputs& inputs() const override { return *inputs_; }
+  double time() const override { return time_; }
 
   std::string checkpoint() const override {
     StateWriter out;

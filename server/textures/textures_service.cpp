@@ -32,14 +32,13 @@ VelocitySpec current_grid(std::vector<SurfaceCurrent> currents) {
 
 }  // namespace
 
-// One advection stream: its spec (as steered so far), the planes it sends, the current its velocity
-// follows (if any) and the time of its last frame.
+// One advection stream: its spec (as steered so far), the planes it sends and the current its velocity
+// follows (if any).
 struct TexturesService::Stream {
   AdvectSpec spec;
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
-  double time = 0;  // s
 };
 
 void TexturesService::start(EngineContext& context) {
@@ -48,11 +47,11 @@ void TexturesService::start(EngineContext& context) {
   ocean_ = &ocean::shared_engine(context);
 }
 
-void TexturesService::follow(Stream& s) {
+void TexturesService::follow(Stream& s, double from) {
   const req::FollowedCurrent& followed = s.current;
   if (followed.ocean) {
-    s.spec.velocity = current_grid({ocean_->surface_current(*followed.ocean, s.time),
-                                    ocean_->surface_current(*followed.ocean, s.time + s.spec.dt)});
+    s.spec.velocity = current_grid(
+        {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)});
     return;
   }
   if (followed.ewave_session.empty()) return;
@@ -69,14 +68,12 @@ void TexturesService::follow(Stream& s) {
   s.spec.velocity = current_grid({std::move(current)});
 }
 
-TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool first) {
-  if (!first && s.current.any()) {  // the step to this frame uses the current read now
-    follow(s);
+TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {
+  if (refresh && s.current.any()) {  // the step to this frame uses the current read now
+    follow(s, advection.time());
     engine_->steer(advection, s.spec);
   }
-  TextureFrame frame = advection.next();
-  s.time = frame.time;
-  return frame;
+  return advection.next();
 }
 
 grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const v1::AdvectTextureRequest* request,
@@ -86,8 +83,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.spec = req::spec(*request, serving_.gate());
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
-    s.time = s.spec.t0;
-    follow(s);
+    follow(s, s.spec.t0);
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
@@ -97,7 +93,8 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     std::unique_ptr<Advection> advection = engine_->start(s.spec, request->resume_state());
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {
-      TextureFrame frame = next_frame(s, *advection, first);
+      // Frame 0 takes no step, but a resumed stream's first frame does: read the current each time.
+      TextureFrame frame = next_frame(s, *advection, true);
       if (frame.index >= s.spec.frames) {
         if (first)
           fail(Code::InvalidArgument, "request.resume_state is the checkpoint of frame " +
@@ -126,11 +123,10 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
     s.spec = req::interactive_start(control, serving_.gate(), path);
     s.planes = req::planes(control.start().output(), path + ".start.output");
     s.current = req::followed(control.start().velocity(), serving_.gate(), path + ".start.velocity");
-    s.time = s.spec.t0;
   }
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
-  follow(s);
+  follow(s, advection ? advection->time() : s.spec.t0);
   engine_->validate(s.spec, n == 0 ? path + ".start" : path);
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
@@ -153,7 +149,7 @@ grpc::Status TexturesService::AdvectInteractive(
       // The message's own steering (or current) already holds for its first frame's step.
       for (uint32_t k = 0; k < frames && call.live(); ++k) {
         v1::TextureFrame out;
-        req::fill_frame(next_frame(s, *advection, k == 0), s.spec, s.planes, &out);
+        req::fill_frame(next_frame(s, *advection, k > 0), s.spec, s.planes, &out);
         if (!call.write(*stream, out)) return;
       }
     }

@@ -38,10 +38,10 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   struct Stream;  // one advection stream's state (textures_service.cpp)
 
   // The stream's velocity from the current it follows, read now: an eWave session's (NOT_FOUND naming the
-  // field for an unknown id), or an ocean tile's over the step from s.time to s.time + dt. No-op otherwise.
-  void follow(Stream& s);
-  // The stream's next frame; before each step but the first, the followed current is read again.
-  textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool first);
+  // field for an unknown id), or an ocean tile's over the step from `from` to from + dt. No-op otherwise.
+  void follow(Stream& s, double from);
+  // The advection's next frame; with `refresh`, the followed current is read for its step first.
+  textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool refresh);
   // Message n of an AdvectInteractive stream applied to `s`: the first starts `advection`.
   void apply(const squall::v1::TextureControl& control, size_t n, Stream& s,
              std::unique_ptr<textures::Advection>& advection);

@@ -253,6 +253,28 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
                      [&] { advect_or_throw(bad); });
 }
 
+// A stream resumed from a checkpoint reads the ocean's current for the checkpoint's time (not t0): its
+// frames equal the uninterrupted stream's bit for bit, under waves whose current changes every step.
+TEST(TexturesOcean, ResumedStreamFollowsTheCurrentFromTheCheckpointsTime) {
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0, 0, 1);
+  v1::TileSpec waves = still_water(0.05, 0);
+  waves.mutable_layers(0)->clear_phillips_amplitude();  // the default 1e-3: real waves
+  *r.mutable_velocity()->mutable_ocean() = waves;
+  r.set_frames(4);
+  r.set_checkpoint_every(2);
+  Streamed through = advect(r);
+  ASSERT_TRUE(through.status.ok()) << through.status.error_message();
+  ASSERT_EQ(through.frames.size(), 4u);
+  r.set_checkpoint_every(0);
+  r.set_resume_state(through.frames[2].checkpoint());
+  Streamed resumed = advect(r);
+  ASSERT_TRUE(resumed.status.ok()) << resumed.status.error_message();
+  ASSERT_EQ(resumed.frames.size(), 1u);
+  EXPECT_EQ(resumed.frames[0].index(), 3u);
+  EXPECT_EQ(resumed.frames[0].planes(0).data(), through.frames[3].planes(0).data());
+  EXPECT_NE(through.frames[3].planes(0).data(), through.frames[2].planes(0).data());
+}
+
 // `squall texture advect --velocity ewave:ID` streams frames following the session; an unknown id fails
 // with the NOT_FOUND message naming the field.
 TEST(TexturesEWave, CommandLineFollowsASession) {
