@@ -9,60 +9,27 @@ import grpc
 
 from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Connection, Settings
 from squall._errors import SquallError
+from squall import _health_pb2
 from squall._pb import server_pb2, server_pb2_grpc
 from squall.clouds import Clouds
 from squall.ewave import EWave
 from squall.ocean import Ocean
 from squall.textures import Textures
 
-# grpc.health.v1.Health/Check, encoded by hand: the health protos live in the `grpc` namespace,
-# which generated Python modules cannot share with the grpc package
-# (proto/grpc/health/v1/health.proto).
+# grpc.health.v1.Health/Check; its messages are generated at build time as squall._health_pb2 (see
+# setup.py: under grpc/health/v1/ the module would shadow the grpc package).
 HEALTH_CHECK = "/grpc.health.v1.Health/Check"
-SERVING_STATUS = {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}
-
-
-def _varint(value: int) -> bytes:
-    out = bytearray()
-    while True:
-        byte = value & 0x7F
-        value >>= 7
-        out.append(byte | (0x80 if value else 0))
-        if not value:
-            return bytes(out)
 
 
 def encode_health_request(service: str) -> bytes:
-    """HealthCheckRequest { string service = 1; }"""
-    data = service.encode()
-    return b"\x0a" + _varint(len(data)) + data if data else b""
+    """HealthCheckRequest(service) as bytes."""
+    return _health_pb2.HealthCheckRequest(service=service).SerializeToString()
 
 
 def decode_health_response(data: bytes) -> str:
-    """HealthCheckResponse { ServingStatus status = 1; } -> "SERVING", "NOT_SERVING", ..."""
-    status, i = 0, 0
-    while i < len(data):
-        key, shift = 0, 0
-        while True:
-            byte = data[i]
-            i += 1
-            key |= (byte & 0x7F) << shift
-            shift += 7
-            if not byte & 0x80:
-                break
-        value, shift = 0, 0
-        if key & 7 != 0:  # not a varint: no such field in HealthCheckResponse
-            break
-        while True:
-            byte = data[i]
-            i += 1
-            value |= (byte & 0x7F) << shift
-            shift += 7
-            if not byte & 0x80:
-                break
-        if key >> 3 == 1:
-            status = value
-    return SERVING_STATUS.get(status, str(status))
+    """HealthCheckResponse bytes -> "SERVING", "NOT_SERVING", "UNKNOWN", "SERVICE_UNKNOWN"."""
+    response = _health_pb2.HealthCheckResponse.FromString(data)
+    return _health_pb2.HealthCheckResponse.ServingStatus.Name(response.status)
 
 
 class Client:
