@@ -73,6 +73,8 @@ class Eulerian final : public Advection {
     } else {
       restore(state);
     }
+    offsets_ = cl::Buffer(runtime_.context(), CL_MEM_READ_ONLY, slots() * sizeof(cl_float2));
+    upload_offsets();
   }
 
   TextureFrame next() override {
@@ -136,11 +138,12 @@ class Eulerian final : public Advection {
     return cl_float2{{float(offset_rng_.uniform(counter)), float(offset_rng_.uniform(counter + 1))}};
   }
 
-  cl::Buffer offsets() const {
+  // Every slot's offset into offsets_ (at the start, and after a regeneration when they are random).
+  void upload_offsets() {
     std::vector<cl_float2> o;
     for (int s = 0; s < slots(); ++s) o.push_back(offset(s));
-    return cl::Buffer(runtime_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, o.size() * sizeof(cl_float2),
-                      o.data());
+    auto lock = runtime_.exclusive();
+    runtime_.queue().enqueueWriteBuffer(offsets_, CL_TRUE, 0, o.size() * sizeof(cl_float2), o.data());
   }
 
   // u = S x + o, d = 0 at every node of slot s.
@@ -210,11 +213,11 @@ class Eulerian final : public Advection {
         reset |= cl_int(1) << s;
       }
     }
-    const cl::Buffer slot_offsets = offsets();
+    if (reset != 0 && random_offset_) upload_offsets();
     auto lock = runtime_.exclusive();
     kernels_.eulerian_advect.launch(cl::NDRange(nx_, ny_), cl::NullRange, state_, scratch_, cl_int(nx_), cl_int(ny_),
                                     inputs_->output(1), cl_int(slots()), inputs_->velocity(t), inputs_->grid(),
-                                    cl_float(t), cl_float(h), cl_float(scale_), reset, slot_offsets);
+                                    cl_float(t), cl_float(h), cl_float(scale_), reset, offsets_);
     std::swap(state_, scratch_);
     if (cascade_bands_ > 0) advance_cascade(t, h);
   }
@@ -266,6 +269,7 @@ class Eulerian final : public Advection {
   bool random_offset_;
   cl::Buffer state_, scratch_;            // float4 per slot and node: u.x, u.y, d, 0
   cl::Buffer cascade_, cascade_scratch_;  // float2 per band and node (band-major): w_k, theta_k
+  cl::Buffer offsets_;                    // float2 per slot: the offset o of its current phase
   // The state a checkpoint holds (with state_'s and cascade_'s contents):
   bool started_ = false;
   int index_ = 0;

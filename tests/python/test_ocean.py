@@ -57,7 +57,7 @@ def test_tile_matches_the_raw_reply(client: squall.Client) -> None:
     for name in OUTPUTS:
         assert tile[name].shape == (64, 64) and tile[name].dtype == np.float32
     assert tile.spacing["height"][:2] == pytest.approx((200 / 64, 200 / 64))
-    # the same request through the raw generated stub, decoded with struct
+    # the same request through the raw generated client class, decoded with struct
     request = ocean_pb2.GetTileRequest(
         tile=spec,
         time=common_pb2.SimTime(seconds=2.5),

@@ -1,4 +1,4 @@
-"""The package without a daemon: generated stubs, the Field codec, enum and message conversion, the
+"""The package without a daemon: generated modules, the Field codec, enum and message conversion, the
 StreamTiles frame assembler and the hand-encoded health messages."""
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ try:
     )
 except ImportError as error:  # pragma: no cover - depends on how the package was installed
     raise ImportError(
-        "squall: the generated gRPC stubs (squall.v1) are missing: install the package with "
+        "squall: the generated gRPC modules (squall.v1) are missing: install the package with "
         "`pip install ./client/python` from a squall checkout, or generate them into the "
         "source tree with `python3 client/python/setup.py build_protos` (needs protoc and "
         "grpc_python_plugin). "

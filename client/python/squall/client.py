@@ -90,7 +90,7 @@ class Client:
 
     @property
     def channel(self) -> grpc.Channel:
-        """The gRPC channel (for squall.v1.*_pb2_grpc stubs of your own)."""
+        """The gRPC channel (for squall.v1.*_pb2_grpc client classes of your own)."""
         return self._connection.channel
 
     def info(self, *, timeout: Optional[float] = None) -> server_pb2.GetInfoResponse:

@@ -403,14 +403,14 @@ class Interactive:
     def __init__(
         self,
         connection: Connection,
-        stub: Any,
+        service: Any,
         start: textures_pb2.AdvectTextureRequest,
         timeout: Optional[float],
     ) -> None:
         self._requests = RequestQueue()
         self._start: Optional[textures_pb2.AdvectTextureRequest] = start
         try:
-            self._call = stub.AdvectInteractive(
+            self._call = service.AdvectInteractive(
                 self._requests,
                 timeout=connection.settings.deadline(timeout, stream=True),
                 metadata=connection.settings.metadata(),
