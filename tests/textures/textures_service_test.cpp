@@ -144,6 +144,24 @@ TEST(TexturesService, ImageThroughEachEulerianMethodMatchesTheEngine) {
 
 // checkpoint_every = 2 puts the state on frames 0, 2, 4; resuming from frame 2's sends frames 3 and 4,
 // bit-identical to the first stream's.
+// Every method streams both kinds of texture: noise and a two-channel image, each frame equal to the
+// in-process engine's.
+TEST(TexturesService, NoiseAndImageThroughEveryMethodMatchTheEngine) {
+  for (auto method : {v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, v1::TEXTURE_METHOD_EULERIAN_MULTILAYER,
+                      v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP, v1::TEXTURE_METHOD_NAIVE}) {
+    SCOPED_TRACE(v1::TextureMethod_Name(method));
+    v1::AdvectTextureRequest noise = noise_request(2);
+    noise.set_method(method);
+    for (const v1::AdvectTextureRequest& r : {noise, image_request(method)}) {
+      Streamed s = advect(r);
+      expect_well_formed(s, r);
+      auto want = in_process(r);
+      ASSERT_EQ(s.frames.size(), want.size());
+      for (size_t i = 0; i < want.size(); ++i) expect_same(s.frames[i], want[i]);
+    }
+  }
+}
+
 TEST(TexturesService, CheckpointResumesBitIdentically) {
   for (auto method : {v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, v1::TEXTURE_METHOD_EULERIAN_MULTILAYER}) {
     SCOPED_TRACE(v1::TextureMethod_Name(method));
