@@ -7,7 +7,7 @@
 //       h and phi, the per-mode propagator (Gilligan eq 64-65), C2R of h and phi.
 // Prints steps/s and the ratios (a)/(c) and (b)/(a).
 //
-//   build/bench/ewave_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft] [--address HOST:PORT] [--seconds S]
+//   build/bench/ewave_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft|fftw] [--address HOST:PORT] [--seconds S]
 #include <fftw3.h>
 #include <grpcpp/grpcpp.h>
 

@@ -4,7 +4,7 @@
 // frames), (c) the FFTW double-precision reference (server/ocean/cpu_reference.h) doing the same math on
 // N threads; prints the table and the ratios (goals: b/a >= 0.9, a/c >= 0.3).
 //
-//   build/bench/ocean_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft] [--seconds S] [--threads N]
+//   build/bench/ocean_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft|fftw] [--seconds S] [--threads N]
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>

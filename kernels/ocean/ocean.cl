@@ -120,15 +120,16 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   int n = mode_number(i, nx), m = mode_number(j, ny);
-  int mi = (nx - i) % nx, mj = (ny - j) % ny;
+  int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;  // the mode of -k
   float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
   float phase = fma(a.z, t_hi, a.z * t_lo);
-  float c = cos(phase), s = sin(phase);
+  float c, s = sincos(phase, &c);  // one call: the same values as sin and cos, faster on PoCL
   float2 plus = cmul(a.xy, (float2)(c, -s));                 // h0(k) e^{-iwt}
   float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));  // conj(h0(-k)) e^{+iwt}
   float kx = n * dkx, ky = m * dky;
   float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
-  float2 h = cmul(plus + minus, (float2)(cos(drift_phase), sin(drift_phase)));
+  float drift_c, drift_s = sincos(drift_phase, &drift_c);
+  float2 h = cmul(plus + minus, (float2)(drift_c, drift_s));
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
@@ -237,9 +238,12 @@ __kernel void ocean_finalize(__global const float* accum, const int cells, const
                              __global float* out) {
   int at = get_global_id(0);
   if (at >= cells) return;
-  float c[CHANNELS];
-  for (int q = 0; q < CHANNELS; ++q) c[q] = q < channels ? accum[q * cells + at] : 0.0f;
-  float h = c[0], Dx = c[1], Dy = c[2], ex = c[3], ey = c[4], Dxx = c[5], Dyy = c[6], Dxy = c[7];
+  // channels is 2, 4, 6 or 8 (pairs of the evolved spectra); the missing ones are 0. Read as scalars, not a
+  // private array: PoCL then keeps them in registers and vectorizes across work-items.
+  float h = accum[at], Dx = accum[cells + at];
+  float Dy = channels > 2 ? accum[2 * cells + at] : 0.0f, ex = channels > 3 ? accum[3 * cells + at] : 0.0f;
+  float ey = channels > 4 ? accum[4 * cells + at] : 0.0f, Dxx = channels > 5 ? accum[5 * cells + at] : 0.0f;
+  float Dyy = channels > 6 ? accum[6 * cells + at] : 0.0f, Dxy = channels > 7 ? accum[7 * cells + at] : 0.0f;
   if (flags & 1) out[OUT_HEIGHT * cells + at] = h;
   if (flags & 2) {
     out[OUT_DISP_X * cells + at] = lambda * Dx;

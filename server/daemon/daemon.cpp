@@ -45,8 +45,8 @@ void start_engines(DaemonState& daemon, const DaemonOptions& options,
   daemon.runtime.build_programs();
   std::string backend = options.fft;
   daemon.fft_selection = "flag --fft " + options.fft;
-  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection);
-  daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend));
+  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection, options.fftw);
+  daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend, options.fftw));
   log(LogLevel::Info, "FFT backend ", backend, " (", daemon.fft_selection, ")");
   SessionPolicy sessions;
   sessions.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));

@@ -33,9 +33,11 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
       {"fft",
        [o](const std::string& v) {
-         if (v != "auto" && v != "vkfft" && v != "clfft") throw std::invalid_argument("must be auto, vkfft or clfft");
+         if (v != "auto" && v != "vkfft" && v != "clfft" && v != "fftw")
+           throw std::invalid_argument("must be auto, vkfft, clfft or fftw");
          o->fft = v;
        }},
+      {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(positive_integer(v)); }},
       {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
@@ -106,7 +108,9 @@ std::string usage() {
          "  --port-file PATH          write the bound port to PATH once listening\n"
          "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
          "                            the first GPU, else the PoCL CPU device)\n"
-         "  --fft NAME                auto | vkfft | clfft (default auto: the faster, timed at start-up)\n"
+         "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
+         "                            fftw, on the host, only for CPU devices)\n"
+         "  --fft-threads N           FFTW's threads per transform (default: the device's compute units)\n"
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
          "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else ~/.cache/squall/pocl)\n"
          "  --max-grid-cells N        cells of one field (default " +

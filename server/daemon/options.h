@@ -5,6 +5,7 @@
 
 #include "common/limits.h"
 #include "common/log.h"
+#include "fft/fft.h"
 #include "runtime/runtime.h"
 
 namespace squall::rpc {
@@ -21,7 +22,8 @@ struct DaemonOptions {
   std::string port_file;                   // --port-file: write the bound port here once listening
   RuntimeOptions runtime;                  // --device, --kernel-dir
   std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
-  std::string fft = "auto";                // --fft vkfft | clfft | auto (the faster, measured at start-up)
+  std::string fft = "auto";                // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)
+  fft::FftwOptions fftw;                   // --fft-threads
   Limits limits = daemon_limits();         // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often

@@ -37,10 +37,17 @@ void Plan::check_direction(Direction direction) const {
     fail(Code::Internal, "a C2R plan runs inverse only (" + describe(key_) + ")");
 }
 
-std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name) {
+std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name, const FftwOptions& fftw) {
   if (name == "vkfft") return make_vkfft(runtime);
   if (name == "clfft") return make_clfft(runtime);
-  fail(Code::InvalidArgument, "--fft " + name + " is not a backend; use vkfft, clfft or auto");
+  if (name == "fftw") return make_fftw(runtime, fftw);
+  fail(Code::InvalidArgument, "--fft " + name + " is not a backend; use vkfft, clfft, fftw (CPU devices) or auto");
+}
+
+std::vector<std::string> available_backends(const Runtime& runtime) {
+  std::vector<std::string> names = {"vkfft", "clfft"};
+  if (runtime.device_info().type == "cpu") names.push_back("fftw");
+  return names;
 }
 
 Plan& Fft::plan(const PlanKey& key) {
@@ -74,7 +81,7 @@ double median_seconds(Runtime& runtime, Plan& plan, const cl::Buffer& data, int 
 
 }  // namespace
 
-std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why) {
+std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why, const FftwOptions& fftw) {
   PlanKey key{nx, ny, 1, Transform::C2C, Precision::F32};
   auto lease = runtime.buffers().acquire(key.complex_bytes());
   float zero = 0;
@@ -82,8 +89,8 @@ std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string*
   std::string best;
   double best_time = 0;
   std::ostringstream os;
-  for (const char* name : {"vkfft", "clfft"}) {
-    auto backend = make_backend(runtime, name);
+  for (const std::string& name : available_backends(runtime)) {
+    auto backend = make_backend(runtime, name, fftw);
     auto plan = backend->bake(key);
     double t = median_seconds(runtime, *plan, lease.buffer(), 7);
     os << name << " " << t * 1e3 << " ms, ";

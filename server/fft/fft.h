@@ -1,5 +1,5 @@
-// The FFT layer: batched 2D transforms on device buffers, behind one small interface with two backends
-// (VkFFT's OpenCL backend and clFFT).
+// The FFT layer: batched 2D transforms on device buffers, behind one small interface with three backends
+// (VkFFT's OpenCL backend and clFFT on any device; FFTW on the host for CPU devices).
 //
 // Conventions, the same for every backend (and FFTW's):
 // - Row-major, x fastest: element (i, j) of batch b sits at i + nx * (j + ny * b).
@@ -17,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "runtime/opencl.h"
 
@@ -72,10 +73,19 @@ class Backend {
   virtual std::unique_ptr<Plan> bake(const PlanKey& key) = 0;
 };
 
+struct FftwOptions {
+  int threads = 0;      // FFTW's threads per transform; 0: the device's compute units
+  bool measure = true;  // FFTW_MEASURE (plans take longer to make, run faster); false: FFTW_ESTIMATE
+};
+
 std::unique_ptr<Backend> make_vkfft(Runtime& runtime);
 std::unique_ptr<Backend> make_clfft(Runtime& runtime);
-// "vkfft" or "clfft"; throws Error(InvalidArgument) for any other name.
-std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name);
+// Throws Error(InvalidArgument) unless the runtime's device is a CPU (its buffers are host memory).
+std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options = {});
+// "vkfft", "clfft" or "fftw" (CPU devices only); throws Error(InvalidArgument) for any other name.
+std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name, const FftwOptions& fftw = {});
+// The backends make_backend accepts on this runtime's device: fftw only on a CPU device.
+std::vector<std::string> available_backends(const Runtime& runtime);
 
 // A backend with its plan cache: the object engines hold. Destroy it before main returns (not from a
 // static destructor): clFFT frees its plans through statics of its own that exit handlers destroy first.
@@ -94,8 +104,8 @@ class Fft {
   std::map<PlanKey, std::unique_ptr<Plan>> plans_;
 };
 
-// Times one complex nx x ny transform of each backend on the runtime's device (median of a few runs)
-// and returns the name of the faster, with a line explaining the choice in *why.
-std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why);
+// Times one complex nx x ny transform of each available backend on the runtime's device (median of a
+// few runs) and returns the name of the fastest, with a line explaining the choice in *why.
+std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why, const FftwOptions& fftw = {});
 
 }  // namespace squall::fft

@@ -25,8 +25,10 @@ void BufferLease::give_back() {
   pool_ = nullptr;
 }
 
-BufferPool::BufferPool(const cl::Context& context, size_t max_idle_bytes)
-    : context_(context), max_idle_bytes_(max_idle_bytes) {}
+BufferPool::BufferPool(const cl::Context& context, size_t max_idle_bytes, bool host_memory)
+    : context_(context),
+      max_idle_bytes_(max_idle_bytes),
+      flags_(CL_MEM_READ_WRITE | (host_memory ? CL_MEM_ALLOC_HOST_PTR : 0)) {}
 
 BufferLease BufferPool::acquire(size_t bytes) {
   {
@@ -40,7 +42,7 @@ BufferLease BufferPool::acquire(size_t bytes) {
     }
     ++allocations_;
   }
-  return BufferLease(this, cl::Buffer(context_, CL_MEM_READ_WRITE, bytes), bytes);
+  return BufferLease(this, cl::Buffer(context_, flags_, bytes), bytes);
 }
 
 void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {

@@ -38,8 +38,10 @@ class BufferLease {
 
 class BufferPool {
  public:
-  // Buffers handed back are kept while the idle ones total at most max_idle_bytes.
-  BufferPool(const cl::Context& context, size_t max_idle_bytes);
+  // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
+  // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR so that mapping them (the FFTW
+  // backend) does not copy.
+  BufferPool(const cl::Context& context, size_t max_idle_bytes, bool host_memory = false);
 
   BufferLease acquire(size_t bytes);  // bytes > 0
 
@@ -52,6 +54,7 @@ class BufferPool {
 
   cl::Context context_;
   size_t max_idle_bytes_;
+  cl_mem_flags flags_;
   mutable std::mutex mutex_;
   std::multimap<size_t, cl::Buffer> idle_;
   size_t idle_bytes_ = 0;

@@ -44,7 +44,7 @@ Runtime::Runtime(const RuntimeOptions& options)
       queue_(context_, found_.device, profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0),
       sources_(options.kernel_dir),
       program_prefixes_(options.program_prefixes),
-      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes)) {
+      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes, found_.info.type == "cpu")) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info));
   if (profiling_) log(LogLevel::Info, "kernel profiling on: each kernel launch waits for its device time");
 }

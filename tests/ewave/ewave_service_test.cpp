@@ -138,7 +138,7 @@ TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
   EXPECT_EQ(s.id().find_first_not_of("0123456789abcdef"), std::string::npos) << s.id();
 
   // The same steps in this process: an ellipse moving along x (shape translation), a uniform drift.
-  ewave::EWaveSession local(test::runtime(), test::fft("vkfft"), c);
+  ewave::EWaveSession local(test::runtime(), test::fft(), c);
   v1::EWaveFrame frame;
   ewave::Frame expected;
   for (int n = 0; n < 3; ++n) {

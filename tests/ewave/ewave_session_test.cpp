@@ -138,7 +138,7 @@ class EngineTest : public testing::Test {
     EWaveEngineOptions o;
     o.sessions.ttl = ttl;
     o.sessions.clock = [this] { return now_; };
-    return EWaveEngine(squall::test::runtime(), squall::test::fft("vkfft"), gate_, o);
+    return EWaveEngine(squall::test::runtime(), squall::test::fft(), gate_, o);
   }
   LimitGate gate_;
   std::chrono::steady_clock::time_point now_{};

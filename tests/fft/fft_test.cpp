@@ -1,8 +1,10 @@
-// Both FFT backends against FFTW in double precision on random input: relative L2 error <= 1e-6 in
-// single precision, for square, rectangular and non-power-of-two sizes, every transform kind, batched.
+// Every FFT backend against FFTW in double precision on random input: relative L2 error <= 1e-6 in
+// single precision, for square, rectangular, non-power-of-two and odd sizes, every transform kind,
+// batched. The fftw backend (host FFTW on a CPU device's mapped buffers) runs only on CPU devices.
 #include <fftw3.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -77,6 +79,10 @@ double relative_l2(const std::vector<float>& got, const std::vector<T>& want) {
 
 class FftAccuracy : public testing::TestWithParam<Case> {
  protected:
+  void SetUp() override {
+    if (GetParam().backend == "fftw" && test::runtime().device_info().type != "cpu")
+      GTEST_SKIP() << "the fftw backend runs on CPU devices only";
+  }
   fft::Plan& plan(Transform t, size_t batch = 1) {
     const Case& c = GetParam();
     return test::fft(c.backend).plan(PlanKey{c.nx, c.ny, batch, t, Precision::F32});
@@ -146,9 +152,14 @@ TEST_P(FftAccuracy, BatchedTransformsAreIndependent) {
   }
 }
 
-const std::vector<Case> kCases = {
-    {"vkfft", 64, 64}, {"vkfft", 256, 256}, {"vkfft", 512, 256}, {"vkfft", 1400, 600},
-    {"clfft", 64, 64}, {"clfft", 256, 256}, {"clfft", 512, 256}, {"clfft", 1400, 600},
+const std::
+    vector<Case>
+        kCases =
+            {
+                {"vkfft", 64, 64}, {"vkfft", 256, 256}, {"vkfft", 512, 256}, {"vkfft", 1400, 600},
+                {"clfft", 64, 64}, {"clfft", 256, 256}, {"clfft", 512, 256}, {"clfft", 1400, 600},
+                {"fftw", 64, 64},  {"fftw", 256, 256},  {"fftw", 512, 256},  {"fftw", 1400, 600},
+                {"fftw", 105, 77}, {"fftw", 1031, 64},  // odd, and a prime that clFFT cannot factor
 };
 INSTANTIATE_TEST_SUITE_P(Backends, FftAccuracy, testing::ValuesIn(kCases), case_name);
 
@@ -176,7 +187,7 @@ TEST(FftPlans, UnsupportedSizeIsAClearError) {
 TEST(FftPlans, DoublePrecisionMatchesFftwClosely) {
   if (!test::runtime().device_info().double_precision) GTEST_SKIP() << "device has no fp64";
   const size_t nx = 128, ny = 96;
-  for (const char* backend : {"vkfft", "clfft"}) {
+  for (const std::string& backend : fft::available_backends(test::runtime())) {
     auto input = random_floats(2 * nx * ny, 6);
     std::vector<double> in_d(input.begin(), input.end());
     cl::Buffer data = test::upload(in_d);
@@ -195,6 +206,36 @@ TEST(FftPlans, DoublePrecisionMatchesFftwClosely) {
     }
     EXPECT_LE(std::sqrt(err / norm), 1e-12) << backend;
   }
+}
+
+TEST(FftPlans, FftwIsOfferedOnCpuDevicesOnly) {
+  auto names = fft::available_backends(test::runtime());
+  bool cpu = test::runtime().device_info().type == "cpu";
+  EXPECT_EQ(std::count(names.begin(), names.end(), "fftw"), cpu ? 1 : 0);
+  if (!cpu) test::expect_error(Code::InvalidArgument, "CPU devices only", [] { fft::make_fftw(test::runtime()); });
+}
+
+// Host memory at an address FFTW's SIMD code does not assume (4 bytes past an aligned one), given to
+// the device as CL_MEM_USE_HOST_PTR: the fftw backend takes its unaligned plan and gets the same result.
+TEST(FftPlans, FftwTransformsUnalignedHostMemory) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
+  const size_t nx = 96, ny = 40;
+  auto input = random_floats(2 * nx * ny, 7);
+  float* aligned = fftwf_alloc_real(input.size() + 1);
+  float* unaligned = aligned + 1;
+  ASSERT_NE(fftwf_alignment_of(unaligned), 0);
+  std::copy(input.begin(), input.end(), unaligned);
+  cl::Buffer data(test::runtime().context(), CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, input.size() * 4, unaligned);
+  {
+    auto lock = test::runtime().exclusive();
+    test::fft("fftw")
+        .plan(PlanKey{nx, ny, 1, Transform::C2C, Precision::F32})
+        .enqueue(test::runtime().queue(), Direction::Forward, data, data);
+    test::runtime().queue().finish();
+  }
+  EXPECT_LE(relative_l2(test::read<float>(data, input.size()), reference_c2c(input, nx, ny, FFTW_FORWARD)), kTolerance);
+  data = cl::Buffer();
+  fftwf_free(aligned);
 }
 
 }  // namespace

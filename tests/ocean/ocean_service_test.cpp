@@ -42,7 +42,7 @@ Daemon& daemon() {
 
 // The in-process engine on this test's runtime (same device, same kernels, same FFT backend).
 ocean::OceanEngine& engine() {
-  static auto* e = new ocean::OceanEngine(test::runtime(), test::fft("vkfft"));
+  static auto* e = new ocean::OceanEngine(test::runtime(), test::fft());
   return *e;
 }
 

@@ -13,7 +13,7 @@
 namespace squall::ocean::test {
 
 inline OceanEngine& engine() {
-  static OceanEngine* e = new OceanEngine(squall::test::runtime(), squall::test::fft("vkfft"));
+  static OceanEngine* e = new OceanEngine(squall::test::runtime(), squall::test::fft());
   return *e;
 }
 

@@ -1,5 +1,6 @@
 #include "support/daemon.h"
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -7,6 +8,7 @@
 #include <thread>
 
 #include "client/client.h"
+#include "support/test_runtime.h"
 
 namespace squall::test {
 
@@ -16,6 +18,8 @@ std::string squall_path() { return std::string(SQUALL_BINARY_DIR) + "/squall"; }
 Daemon::Daemon(const std::vector<std::string>& extra_flags, double timeout_seconds) : dir_(temp_dir("squalld")) {
   std::vector<std::string> argv = {squalld_path(), "--listen", "127.0.0.1:0", "--port-file", dir_ + "/port"};
   argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
+  if (std::find(extra_flags.begin(), extra_flags.end(), "--fft") == extra_flags.end())
+    argv.insert(argv.end(), {"--fft", engine_fft_backend()});  // the in-process engines' backend: same frames
   process_ = std::make_unique<Process>(argv, dir_ + "/log.txt");
   auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(long(timeout_seconds * 1000));
   auto fail_if_gone = [&](const char* waiting_for) {

@@ -21,7 +21,7 @@ class InProcess {
  public:
   explicit InProcess(Limits limits = {}, std::chrono::milliseconds session_ttl = std::chrono::minutes(10))
       : serving_(limits),
-        engines_(runtime(), fft("vkfft"), serving_.gate(), SessionPolicy{session_ttl, [this] { return now(); }}),
+        engines_(runtime(), fft(), serving_.gate(), SessionPolicy{session_ttl, [this] { return now(); }}),
         service_(serving_) {
     service_.start(engines_);
     serving_.set_phase(rpc::ServingState::Phase::Serving);

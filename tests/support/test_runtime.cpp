@@ -31,6 +31,11 @@ Runtime& runtime() {
   return *instance;
 }
 
+std::string engine_fft_backend() {
+  const char* name = std::getenv("SQUALL_TEST_FFT");
+  return name && *name ? name : "vkfft";
+}
+
 fft::Fft& fft(const std::string& backend) {
   // Leaked like the runtime: clFFT's own statics die at exit before ours would, so plans must not be
   // destroyed by an exit handler.

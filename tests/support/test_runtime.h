@@ -11,7 +11,10 @@ Runtime& runtime();
 // The kernel programs this test binary builds: the PROGRAMS prefixes given to squall_test() in
 // tests/CMakeLists.txt (all programs when none are given).
 std::vector<std::string> programs_under_test();
-fft::Fft& fft(const std::string& backend);  // "vkfft" or "clfft", one plan cache each
+// The backend the engine tests run on: $SQUALL_TEST_FFT ("vkfft", "clfft" or "fftw"), default vkfft.
+std::string engine_fft_backend();
+// One plan cache per backend, default the engine tests' backend.
+fft::Fft& fft(const std::string& backend = engine_fft_backend());
 
 // Reads back n values of T from a device buffer.
 template <typename T>
