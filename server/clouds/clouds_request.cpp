@@ -51,8 +51,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   out.skin = m.has_skin() ? m.skin() : 2 * m.voxel_size();
   for (const auto& s : m.spheres()) out.spheres.push_back({vec(s.center()), s.radius()});
   for (const auto& e : m.ellipsoids()) out.ellipsoids.push_back({vec(e.center()), vec(e.radii())});
-  for (int i = 0; i < m.meshes_size(); ++i)
-    out.meshes.push_back(mesh(m.meshes(i), validate::at(f + ".meshes", i)));
+  for (int i = 0; i < m.meshes_size(); ++i) out.meshes.push_back(mesh(m.meshes(i), validate::at(f + ".meshes", i)));
   const auto& p = m.pyroclastic();
   out.pyroclastic.layers = int(std::min<uint32_t>(p.layers(), 1000));
   out.pyroclastic.amplitude = p.amplitude();
@@ -72,6 +71,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   out.advection.speed = a.speed();
   out.advection.time = a.time();
   out.advection.substeps = a.has_substeps() ? int(std::min<uint32_t>(a.substeps(), 100000)) : 1;
+  validate::known(f + ".advection.scheme", a.scheme(), v1::AdvectionScheme_ARRAYSIZE, "AdvectionScheme");
   out.advection.scheme = a.scheme() == v1::ADVECTION_SCHEME_SEMI_LAGRANGIAN ? AdvectionScheme::SemiLagrangian
                                                                             : AdvectionScheme::ModifiedMacCormack;
   out.advection.noise = noise(a.noise());

@@ -35,6 +35,11 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
   });
 }
 
+void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds::RenderSettings& settings) const {
+  serving_.gate().check_render_samples("settings.step", validate::number(settings.step),
+                                       clouds::estimated_samples(volume, settings));
+}
+
 grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::RenderRequest* request,
                                    v1::RenderResponse* response) {
   return serve(serving_, [&] {
@@ -51,6 +56,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
       volume = clouds.find(request->volume_id());
     }
+    check_work(volume->device, settings);
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "Render cancelled");
     req::fill_image(clouds.render(*volume, settings, "settings"), response->mutable_image());
     req::fill_summary(*volume, response->mutable_summary());
@@ -80,6 +86,7 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     for (double t : request->times()) {
       if (!call.live()) return;
       auto volume = engine_->build(model_at(base, evolution, t), "model");
+      check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);
       req::fill_image(engine_->render(*volume, settings, "settings"), frame.mutable_image());

@@ -31,6 +31,9 @@ class CloudsService final : public squall::v1::Clouds::Service, public Capabilit
                              squall::v1::ReleaseVolumeResponse* response) override;
 
  private:
+  // RESOURCE_EXHAUSTED naming settings.step when the render's estimated samples pass --max-render-samples.
+  void check_work(const clouds::DeviceVolume& volume, const clouds::RenderSettings& settings) const;
+
   ServingState& serving_;
   std::unique_ptr<clouds::CloudEngine> engine_;
 };

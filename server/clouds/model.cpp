@@ -1,5 +1,6 @@
 #include "clouds/model.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/error.h"
@@ -26,12 +27,23 @@ Vec3d cross(const Vec3d& a, const Vec3d& b) {
 double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 // Returns the enclosed volume (divergence theorem); throws on a degenerate mesh.
+// OpenVDB's voxel coordinates are int32: a shape, grown by `reach` (m), must stay within 2^30 voxels of
+// the origin along each axis, or its coordinates overflow (an empty volume with inverted bounds).
+void check_reach(const std::string& path, const Vec3d& center, double reach, double voxel_size) {
+  const double limit = std::ldexp(voxel_size, 30);
+  for (int a = 0; a < 3; ++a)
+    if (!(std::abs(center[a]) + reach <= limit))
+      fail(Code::InvalidArgument, path + " = (" + validate::number(center[0]) + ", " + validate::number(center[1]) +
+                                      ", " + validate::number(center[2]) + ") plus " + validate::number(reach) +
+                                      " m of shape must stay within 2^30 voxels (" + validate::number(limit) +
+                                      " m) of the origin");
+}
+
 double check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument,
          f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
-  for (size_t i = 0; i < m.vertices.size(); ++i)
-    validate::finite_xyz(validate::at(f + ".vertices", i), m.vertices[i]);
+  for (size_t i = 0; i < m.vertices.size(); ++i) validate::finite_xyz(validate::at(f + ".vertices", i), m.vertices[i]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
                                     " indices; it needs a multiple of 3 and at least 4 triangles");
@@ -86,6 +98,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
     std::string s = validate::at(f + ".spheres", i);
     validate::finite_xyz(s + ".center", m.spheres[i].center);
     positive(s + ".radius", m.spheres[i].radius);
+    check_reach(s + ".center", m.spheres[i].center, m.spheres[i].radius + grow, m.voxel_size);
     volume += 4.18879 * std::pow(m.spheres[i].radius + grow, 3);
   }
   for (size_t i = 0; i < m.ellipsoids.size(); ++i) {
@@ -95,11 +108,14 @@ void validate(const CloudModel& m, const std::string& prefix) {
     positive(s + ".radii.x", r[0]);
     positive(s + ".radii.y", r[1]);
     positive(s + ".radii.z", r[2]);
+    check_reach(s + ".center", m.ellipsoids[i].center, std::max({r[0], r[1], r[2]}) + grow, m.voxel_size);
     volume += 4.18879 * (r[0] + grow) * (r[1] + grow) * (r[2] + grow);
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
     std::string s = validate::at(f + ".meshes", i);
     double v = check_mesh(s, m.meshes[i]);
+    for (size_t k = 0; k < m.meshes[i].vertices.size(); ++k)
+      check_reach(validate::at(s + ".vertices", k), m.meshes[i].vertices[k], grow, m.voxel_size);
     volume += v + 4.83598 * std::pow(v, 2.0 / 3) * grow;  // + sphere-equivalent area * grow
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {
@@ -107,6 +123,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
     const auto& q = m.particles[i];
     validate::finite_xyz(s + ".center", q.center);
     positive(s + ".radius", q.radius);
+    check_reach(s + ".center", q.center, q.radius + grow, m.voxel_size);
     validate::non_negative(s + ".amplitude", q.amplitude, 1e6);
     validate::in(s + ".bias", q.bias, validate::closed(-1, 1));
     validate::in(s + ".fade", q.fade, validate::closed(0, 100));

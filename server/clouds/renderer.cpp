@@ -171,6 +171,18 @@ CloudRenderer::CloudRenderer(Runtime& runtime)
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
       render_(runtime, "clouds/render.cl", "cloud_render") {}
 
+double estimated_samples(const DeviceVolume& volume, const RenderSettings& s) {
+  const double steps = std::ceil(norm(sub(volume.world_max, volume.world_min)) / s.step) + 1,
+               lights = double(s.lights.size());
+  const double primary = double(s.camera.width) * s.camera.height * steps * s.substeps;
+  if (s.shadow == ShadowMode::Direct) return primary * (1 + lights * steps);
+  if (s.shadow == ShadowMode::DeepShadowMap) {
+    const auto& n = s.shadow_map_size;
+    return primary * (1 + lights) + double(n[0]) * n[1] * n[2] * lights * steps;
+  }
+  return primary;
+}
+
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field) {
   validate(settings, field);
   CloudRenderParams p = device_params(settings);

@@ -78,6 +78,12 @@ struct DeviceVolume {
 
 DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
 
+// Density samples a render of `volume` would take, an upper bound computed before it runs: every primary
+// ray crosses the volume's whole box diagonal in steps of s.step with s.substeps samples each; with direct
+// shadows every sample marches such a ray toward each light; a deep shadow map marches one per map node
+// and light. Early termination and empty-space skipping only make the real count smaller.
+double estimated_samples(const DeviceVolume& volume, const RenderSettings& s);
+
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
 

@@ -16,6 +16,7 @@ struct Limits {
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
                                                 // (squalld's default: half the device's global memory)
+  double max_render_samples = 4e11;             // --max-render-samples: estimated density samples of one cloud render
 };
 
 class LimitGate;
@@ -51,6 +52,11 @@ class LimitGate {
 
   // Bytes a reply would carry; RESOURCE_EXHAUSTED beyond max_message_bytes.
   void check_message_bytes(const std::string& what, uint64_t bytes) const;
+
+  // The work a cloud render would do, estimated before it runs (density samples, an upper bound);
+  // RESOURCE_EXHAUSTED naming `field` (the setting that drives it, e.g. "settings.step") beyond
+  // max_render_samples.
+  void check_render_samples(const std::string& field, const std::string& value, double samples) const;
 
   Slot acquire_stream();   // RESOURCE_EXHAUSTED when max_streams are open
   Slot acquire_session();  // RESOURCE_EXHAUSTED when max_sessions are live

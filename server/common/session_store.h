@@ -21,6 +21,7 @@
 #include "common/limits.h"
 #include "common/log.h"
 #include "common/session_checkpoint.h"
+#include "common/validate.h"
 
 namespace squall {
 
@@ -160,7 +161,8 @@ class SessionStore {
   };
 
   std::string not_found(const std::string& id) const {
-    return id_field_ + " = \"" + id + "\" is not a live " + kind_ + " (unknown, closed or expired)";
+    return id_field_ + " = \"" + validate::printable(id) + "\" is not a live " + kind_ +
+           " (unknown, closed or expired)";
   }
 
   std::shared_ptr<Entry> find(const std::string& id) {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 
 namespace squall::validate {
 
@@ -69,5 +70,11 @@ int known(const std::string& path, int value, int count, const std::string& type
 
 // "<path>[i]"
 std::string at(const std::string& path, size_t i);
+
+// Client text as messages and log lines show it: at most `max_bytes` bytes (then "..." and the full
+// size), with control characters, '"', '\\' and bytes >= 0x7f written as \xNN. A client's string never
+// reaches a message or the log whole or raw: a 1 MiB id would pass gRPC's metadata limit, a newline
+// would forge a log line.
+std::string printable(std::string_view text, size_t max_bytes = 64);
 
 }  // namespace squall::validate

@@ -43,6 +43,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
+      {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = double(positive_integer(v)); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
@@ -127,6 +128,8 @@ std::string usage() {
          ")\n"
          "  --max-session-bytes N     host + device bytes of all stateful sessions (default: half the device's\n"
          "                            global memory)\n"
+         "  --max-render-samples N    estimated density samples of one cloud render, an upper bound computed\n"
+         "                            before it runs (default 4e11)\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "
          "10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"

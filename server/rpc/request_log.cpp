@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/log.h"
+#include "common/validate.h"
 #include "common/status_names.h"
 #include "rpc/metadata.h"
 
@@ -57,9 +58,11 @@ class RequestLog : public grpc::experimental::Interceptor {
   void write(const char* status, const std::string& message) {
     logged_ = true;
     double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
-    log(LogLevel::Info, "request id=", id_.empty() ? "-" : id_, " method=", method_, " status=", status,
-        " duration_ms=", ms, session_.empty() ? "" : " session=" + session_,
-        message.empty() ? "" : " error=\"" + message + "\"");
+    // Client strings (the ids, and the error, which may quote the request) escaped: one call, one line.
+    log(LogLevel::Info, "request id=", id_.empty() ? "-" : validate::printable(id_, kMaxMetadataValue),
+        " method=", method_, " status=", status, " duration_ms=", ms,
+        session_.empty() ? "" : " session=" + validate::printable(session_, kMaxMetadataValue),
+        message.empty() ? "" : " error=\"" + validate::printable(message, 1024) + "\"");
   }
 
   std::string method_;

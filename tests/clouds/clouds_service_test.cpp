@@ -2,6 +2,7 @@
 // evolution stream, release, and the documented errors.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -174,18 +175,51 @@ TEST(CloudsService, BadRequestsGetClearErrors) {
        grpc::StatusCode::RESOURCE_EXHAUSTED, "model.max_active_voxels = 100"},
       {[](v1::RenderRequest& r) { r.mutable_settings()->set_step(-1); }, grpc::StatusCode::INVALID_ARGUMENT,
        "settings.step = -1"},
+      {[](v1::RenderRequest& r) { r.mutable_model()->mutable_advection()->set_scheme(v1::AdvectionScheme(7)); },
+       grpc::StatusCode::INVALID_ARGUMENT, "model.advection.scheme = 7 must be a known AdvectionScheme"},
+      {[](v1::RenderRequest& r) { r.mutable_model()->mutable_spheres(0)->mutable_center()->set_x(1e300); },
+       grpc::StatusCode::INVALID_ARGUMENT, "model.spheres[0].center = (1e+300, 0, 0) plus"},
+      {[](v1::RenderRequest& r) { r.set_volume_id(std::string(1 << 20, 'x')); }, grpc::StatusCode::NOT_FOUND,
+       "volume_id = \"xxxxxxxx"},
+      {[](v1::RenderRequest& r) { r.set_volume_id("cloud-\n404"); }, grpc::StatusCode::NOT_FOUND,
+       "volume_id = \"cloud-\\x0a404\""},
   };
   for (const auto& k : cases) {
     v1::RenderRequest request;
     *request.mutable_model() = sphere_model();
     *request.mutable_settings() = small_render();
     k.edit(request);
+    if (!request.volume_id().empty()) request.clear_model();
     auto c = call();
     v1::RenderResponse response;
     auto status = c.stub->Render(c.context.get(), request, &response);
     EXPECT_EQ(status.error_code(), k.code) << status.error_message();
     EXPECT_NE(status.error_message().find(k.needle), std::string::npos) << status.error_message();
+    EXPECT_LT(status.error_message().size(), 600u) << "client strings are truncated in messages";
   }
+}
+
+// A step of 1e-9 m through the sphere model (a box about 20 m across) asks for some 1e15 samples: refused before any kernel runs
+// (it used to hold the device for minutes), and the next render is served at once.
+TEST(CloudsService, ARenderBeyondTheSampleBudgetIsRefusedAtOnce) {
+  v1::RenderRequest request;
+  *request.mutable_model() = sphere_model();
+  *request.mutable_settings() = small_render();
+  request.mutable_settings()->set_step(1e-9);
+  auto c = call();
+  v1::RenderResponse response;
+  auto start = std::chrono::steady_clock::now();
+  auto status = c.stub->Render(c.context.get(), request, &response);
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("settings.step = 1e-09 makes an estimated"), std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("--max-render-samples"), std::string::npos) << status.error_message();
+  EXPECT_LT(seconds, 5.0);  // the model is built (about a second on 2 cores), nothing is rendered
+  request.mutable_settings()->set_step(0.25);
+  auto again = call();
+  EXPECT_TRUE(again.stub->Render(again.context.get(), request, &response).ok());
+  EXPECT_EQ(response.image().width(), 24u);
 }
 
 // `squall cloud build -o x.vdb` writes a file that OpenVDB's vdb_print lists; `squall cloud render` an EXR

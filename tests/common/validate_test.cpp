@@ -43,5 +43,12 @@ TEST(Validate, MapsHaveTheirShapeAndEveryValueIsChecked) {
   });
 }
 
+TEST(Validate, ClientTextIsEscapedAndCut) {
+  EXPECT_EQ(validate::printable("cloud-42"), "cloud-42");
+  EXPECT_EQ(validate::printable("a\nb\"c\\d\x7f\xff"), "a\\x0ab\\x22c\\x5cd\\x7f\\xff");
+  EXPECT_EQ(validate::printable(std::string(1 << 20, 'x'), 4), "xxxx... (1048576 bytes)");
+  EXPECT_EQ(validate::printable(std::string_view("a\0b", 3)), "a\\x00b");
+}
+
 }  // namespace
 }  // namespace squall

@@ -62,6 +62,26 @@ TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
       << log;
 }
 
+// A request_id is the client's text: a newline in it must not start a second (forged) log line, and a
+// long one is cut.
+TEST(Daemon, ClientTextInTheLogIsEscapedAndCut) {
+  auto stub = squall::v1::Server::NewStub(client::Client({shared_daemon().address(), 10, ""}).channel());
+  grpc::ClientContext context;
+  squall::v1::GetInfoRequest request;
+  request.set_request_id("log-test-44\n2026-01-01T00:00:00Z INFO  request id=forged" + std::string(4000, 'y'));
+  squall::v1::GetInfoResponse reply;
+  ASSERT_TRUE(stub->GetInfo(&context, request, &reply).ok());
+  std::string log;
+  for (int i = 0; i < 50 && log.find("log-test-44") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    log = shared_daemon().process().log();
+  }
+  EXPECT_NE(log.find("request id=log-test-44\\x0a2026-01-01T00:00:00Z INFO  request id=forged"), std::string::npos)
+      << log;
+  EXPECT_EQ(log.find("\n2026-01-01T00:00:00Z INFO  request id=forged"), std::string::npos) << log;
+  EXPECT_EQ(log.find(std::string(200, 'y')), std::string::npos) << "cut to the metadata limit";
+}
+
 TEST(Daemon, TheLogLineNamesTheSessionTheClientSends) {
   auto stub = squall::v1::Server::NewStub(client::Client({shared_daemon().address(), 10, ""}).channel());
   grpc::ClientContext context;
@@ -142,8 +162,11 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
   Daemon d({"--fft", "auto", "--grace-period", "5"});
   client::Client c({d.address(), 10, ""});
   auto info = c.info();
-  EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft");
+  EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft" || info.fft_backend() == "fftw");
   EXPECT_NE(info.fft_selection().find("measured at start-up"), std::string::npos) << info.fft_selection();
+  for (const auto& device : info.devices())  // a CPU device also times the fftw backend
+    if (device.selected() && device.type() == "cpu")
+      EXPECT_NE(info.fft_selection().find(", fftw "), std::string::npos) << info.fft_selection();
   d.process().signal(SIGTERM);
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
   std::string log = d.process().log();
