@@ -1,6 +1,7 @@
 // EWaveSession::step: one eWave step in the order of J. Tessendorf, "Gilligan: A Prototype Framework for
 // Simulating and Rendering Maritime Environments" (2017), sec. 3.7 (equation numbers are Gilligan's):
 // obstruction map, ewave_prepare, R2C, ewave_propagate, C2R, ewave_finish, read-back.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <type_traits>
@@ -15,6 +16,26 @@ namespace {
 bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normals; }
 
 cl::NDRange cells_range(const EWaveConfig& c) { return cl::NDRange(size_t(c.nx), size_t(c.ny)); }
+
+// The cells [i0, i1) x [j0, j1) that can meet a shape's bounding box, with a cell of margin and clamped
+// to the grid. ewave_rasterize leaves every other cell alone (its first test), so rasterizing only these
+// gives the same map.
+struct CellBox {
+  long i0 = 0, j0 = 0, i1 = 0, j1 = 0;
+  bool empty() const { return i1 <= i0 || j1 <= j0; }
+};
+
+CellBox shape_cells(const std::vector<EWaveShape>& shapes, const EWaveConfig& c) {
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  for (const auto& s : shapes) {
+    xmin = std::min<double>(xmin, s.xmin), xmax = std::max<double>(xmax, s.xmax);
+    ymin = std::min<double>(ymin, s.ymin), ymax = std::max<double>(ymax, s.ymax);
+  }
+  if (!(xmin <= xmax && ymin <= ymax)) return {};
+  auto clamp_cell = [](double v, long n) { return long(std::clamp(v, 0.0, double(n))); };
+  return {clamp_cell(std::floor(xmin / c.dx) - 1, c.nx), clamp_cell(std::floor(ymin / c.dy) - 1, c.ny),
+          clamp_cell(std::floor(xmax / c.dx) + 2, c.nx), clamp_cell(std::floor(ymax / c.dy) + 2, c.ny)};
+}
 
 // The state's type of the step kernels `k` (a StepKernels<Real>).
 template <typename K>
@@ -65,9 +86,11 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes) {
   if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
   runtime_.queue().enqueueWriteBuffer(shapes_.buffer(), CL_FALSE, 0, shape_bytes, device.data());
   upload(vertices_, vertices);
-  rasterize_.launch(cells_range(config_), cl::NullRange, obstruction_.buffer(), shapes_.buffer(), cl_int(device.size()),
-                    vertices_.buffer(), cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx),
-                    cl_float(config_.dy));
+  CellBox box = shape_cells(device, config_);
+  if (!box.empty())
+    rasterize_.launch_region(cl::NDRange(box.i0, box.j0), cl::NDRange(box.i1 - box.i0, box.j1 - box.j0), cl::NullRange,
+                             obstruction_.buffer(), shapes_.buffer(), cl_int(device.size()), vertices_.buffer(),
+                             cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy));
   runtime_.queue().finish();  // the host vectors must outlive the non-blocking writes
 }
 

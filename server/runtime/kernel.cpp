@@ -79,13 +79,13 @@ void verify_kernel_args(const cl::Kernel& kernel, const std::string& program, co
 }
 
 void launch_kernel(Runtime& runtime, const cl::Kernel& kernel, const std::string& program, const std::string& name,
-                   const cl::NDRange& global, const cl::NDRange& local) {
+                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local) {
   if (!runtime.profiling()) {
-    runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, global, local);
+    runtime.queue().enqueueNDRangeKernel(kernel, offset, global, local);
     return;
   }
   cl::Event event;
-  runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, global, local, nullptr, &event);
+  runtime.queue().enqueueNDRangeKernel(kernel, offset, global, local, nullptr, &event);
   event.wait();
   cl_ulong start = event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
   cl_ulong end = event.getProfilingInfo<CL_PROFILING_COMMAND_END>();

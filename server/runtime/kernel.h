@@ -77,10 +77,10 @@ struct KernelArgTraits<cl::LocalSpaceArg> {  // a __local pointer
 void verify_kernel_args(const cl::Kernel& kernel, const std::string& program, const std::string& name,
                         const std::vector<KernelArgSpec>& expected);
 
-// Enqueues an NDRange of `kernel` (arguments set) on the runtime's queue; in profile mode waits for it
-// and adds its device time under (program, name).
+// Enqueues an NDRange of `kernel` (arguments set) on the runtime's queue, its ids starting at `offset`
+// (cl::NullRange: 0); in profile mode waits for it and adds its device time under (program, name).
 void launch_kernel(Runtime& runtime, const cl::Kernel& kernel, const std::string& program, const std::string& name,
-                   const cl::NDRange& global, const cl::NDRange& local);
+                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local);
 
 [[noreturn]] void not_created();  // Error(Internal): a default-constructed Kernel was launched
 
@@ -107,13 +107,21 @@ class Kernel {
   // Runtime::exclusive(): a kernel object's arguments are shared by all its launches.
   template <typename... Given>
   void launch(const cl::NDRange& global, const cl::NDRange& local, const Given&... args) {
+    launch_region(cl::NullRange, global, local, args...);
+  }
+
+  // The same over a part of the index space: ids offset .. offset + global - 1 (get_global_id includes
+  // the offset).
+  template <typename... Given>
+  void launch_region(const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local,
+                     const Given&... args) {
     static_assert(sizeof...(Given) == sizeof...(Args), "kernel launched with the wrong number of arguments");
     static_assert(KernelArgsMatch<std::tuple<Given...>, std::tuple<Args...>>::value,
                   "kernel argument types differ from the declared ones (cast to the exact cl_ type)");
     if (!runtime_) not_created();
     cl_uint index = 0;
     (kernel_.setArg(index++, args), ...);
-    launch_kernel(*runtime_, kernel_, program_, name_, global, local);
+    launch_kernel(*runtime_, kernel_, program_, name_, offset, global, local);
   }
 
   const std::string& name() const { return name_; }
