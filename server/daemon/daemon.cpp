@@ -3,10 +3,13 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
 #include <signal.h>
 
 #include <cmath>
 #include <fstream>
+#include <memory>
+#include <vector>
 
 #include "clouds/clouds_service.h"
 #include "common/log.h"
@@ -72,6 +75,18 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }
 
+// Removes gRPC's reflection plugin from a builder: libgrpc++_reflection adds it to every builder as soon
+// as the library is loaded, so --reflection off has to take it out again.
+class WithoutReflection : public grpc::ServerBuilderOption {
+ public:
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    std::erase_if(*plugins, [](const auto& p) {
+      return dynamic_cast<grpc::reflection::ProtoServerReflectionPlugin*>(p.get()) != nullptr;
+    });
+  }
+};
+
 void write_port_file(const std::string& path, int port) {
   if (path.empty()) return;
   std::string tmp = path + ".tmp";
@@ -106,6 +121,7 @@ int run_daemon(const DaemonOptions& options) {
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  if (!reflection_enabled(options)) builder.SetOption(std::make_unique<WithoutReflection>());
   int port = 0;
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
   builder.RegisterService(&server_service);

@@ -52,6 +52,11 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
          if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
          o->runtime.profile_kernels = v == "on";
        }},
+      {"reflection",
+       [o](const std::string& v) {
+         if (v != "on" && v != "off" && v != "auto") throw std::invalid_argument("must be on, off or auto");
+         o->reflection = v;
+       }},
       {"log-level",
        [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
@@ -100,6 +105,12 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
   return true;
 }
 
+bool reflection_enabled(const DaemonOptions& options) {
+  if (options.reflection != "auto") return options.reflection == "on";
+  const std::string& a = options.listen;
+  return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
+}
+
 std::string usage() {
   DaemonOptions d;
   return "usage: squalld [flags]\n"
@@ -133,6 +144,7 @@ std::string usage() {
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "
          "10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
+         "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"
          "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"

@@ -29,7 +29,13 @@ struct DaemonOptions {
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
   double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
+  std::string reflection = "auto";         // --reflection on | off | auto (on only when listening on loopback)
 };
+
+// Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a
+// loopback address (127.0.0.0/8, [::1], localhost), so a daemon exposed to a network does not list its
+// API to anyone who asks.
+bool reflection_enabled(const DaemonOptions& options);
 
 // Returns false with a message in *error (naming the flag) on an unknown flag or a bad value.
 // Sets *help when --help is given.

@@ -137,6 +137,13 @@ TEST(Daemon, ReflectionListsTheServices) {
   EXPECT_NE(listed.find("grpc.health.v1.Health"), std::string::npos) << listed;
 }
 
+TEST(Daemon, ReflectionCanBeTurnedOff) {
+  Daemon d({"--fft", "vkfft", "--reflection", "off"});
+  EXPECT_EQ(reflection_list_services(d.address()).find("squall.v1.Server"), std::string::npos);
+  client::Client c({d.address(), 10, ""});
+  EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+}
+
 TEST(Cli, InfoAndHealthExitZero) {
   std::string out;
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &out), 0) << out;
