@@ -52,7 +52,9 @@ def python_rate(client: squall.Client, n: int, frames: int, fields: int) -> floa
 
 def cpp_rate(cpp: Path, address: str, n: int, frames: int, fields: int) -> float:
     argv = [str(cpp), "--address", address, "--n", str(n), "--frames", str(frames)]
-    out = subprocess.run(argv + ["--fields", str(fields)], check=True, capture_output=True, text=True)
+    out = subprocess.run(
+        argv + ["--fields", str(fields)], check=True, capture_output=True, text=True
+    )
     return float(out.stdout.split()[-1])
 
 
@@ -85,7 +87,9 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=40)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--squalld", type=Path, default=ROOT / "build" / "squalld")
-    parser.add_argument("--cpp", type=Path, default=ROOT / "build" / "bench" / "stream_client_bench")
+    parser.add_argument(
+        "--cpp", type=Path, default=ROOT / "build" / "bench" / "stream_client_bench"
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as directory:
         daemon = Daemon(args.squalld, Path(directory))
@@ -96,7 +100,9 @@ def main() -> None:
                 device = next(d.name for d in info.devices if d.selected)
                 print(f"squalld {daemon.address}: {device}, FFT {info.fft_backend}")
                 print(f"StreamTiles {args.n}x{args.n}, {args.frames} frames per call, float32")
-                print(f"{'fields':>7} {'C++ frames/s':>14} {'Python frames/s':>16} {'Python/C++':>11}")
+                print(
+                    f"{'fields':>7} {'C++ frames/s':>14} {'Python frames/s':>16} {'Python/C++':>11}"
+                )
                 for fields in (9, 1):
                     cpp: List[float] = []
                     python: List[float] = []
