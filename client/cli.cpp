@@ -39,10 +39,13 @@ int health(client::Client& client, const std::vector<std::string>& args) {
 }
 
 void print_usage() {
-  std::cerr << "usage: squall [--address HOST:PORT] [--timeout SECONDS] [--request-id ID] VERB [ARGS]\n"
+  std::cerr << "usage: squall [--address HOST:PORT] [--timeout SECONDS] [--request-id ID] [--tls-ca PEM]\n"
+               "              [--tls-cert PEM --tls-key PEM] VERB [ARGS]\n"
                "  --address     squalld's address (default 127.0.0.1:50051)\n"
                "  --timeout     deadline of each call in seconds (default 30)\n"
                "  --request-id  sent as x-request-id, shown in squalld's log\n"
+               "  --tls-ca      connect with TLS, trusting this CA (PEM; squalld's --tls-cert must be signed by it)\n"
+               "  --tls-cert, --tls-key  this client's certificate and key for mutual TLS (PEM)\n"
                "verbs:\n";
   for (const auto& [name, verb] : verbs()) std::cerr << "  " << verb.usage << "\n";
   std::cerr << "exit codes: 0 ok, 1 not serving, 2 usage, 3 unreachable, 4 refused by the server, 5 local error\n";
@@ -80,6 +83,12 @@ int main(int argc, char** argv) {
         return std::cerr << "squall: --timeout " << value << ": must be a number of seconds > 0\n", kUsage;
     } else if (arg == "--request-id") {
       options.request_id = value;
+    } else if (arg == "--tls-ca") {
+      options.tls_ca = value;
+    } else if (arg == "--tls-cert") {
+      options.tls_cert = value;
+    } else if (arg == "--tls-key") {
+      options.tls_key = value;
     } else {
       return std::cerr << "squall: unknown flag " << arg << "\n", print_usage(), kUsage;
     }
@@ -88,8 +97,8 @@ int main(int argc, char** argv) {
   auto it = verbs().find(argv[i]);
   if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
   std::vector<std::string> args(argv + i + 1, argv + argc);
-  client::Client client(options);
   try {
+    client::Client client(options);  // throws when a --tls-* file cannot be read
     return it->second.run(client, args);
   } catch (const client::RpcError& e) {
     std::cerr << "squall: " << e.what() << " (address " << options.address << ")\n";

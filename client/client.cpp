@@ -1,6 +1,8 @@
 #include "client/client.h"
 
 #include <chrono>
+#include <fstream>
+#include <iterator>
 #include <thread>
 
 #include "server/common/status_names.h"
@@ -15,11 +17,33 @@ RpcError::RpcError(const std::string& method, const grpc::Status& status)
     : std::runtime_error(method + ": " + status_code_name(status.error_code()) + ": " + status.error_message()),
       code_(status.error_code()) {}
 
+namespace {
+
+std::string read_file(const std::string& path, const char* flag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::shared_ptr<grpc::ChannelCredentials> credentials(const ClientOptions& o) {
+  if (o.tls_ca.empty() && o.tls_cert.empty() && o.tls_key.empty()) return grpc::InsecureChannelCredentials();
+  if (o.tls_cert.empty() != o.tls_key.empty()) throw std::runtime_error("--tls-cert and --tls-key go together");
+  grpc::SslCredentialsOptions ssl;
+  if (!o.tls_ca.empty()) ssl.pem_root_certs = read_file(o.tls_ca, "--tls-ca");
+  if (!o.tls_cert.empty()) {
+    ssl.pem_cert_chain = read_file(o.tls_cert, "--tls-cert");
+    ssl.pem_private_key = read_file(o.tls_key, "--tls-key");
+  }
+  return grpc::SslCredentials(ssl);
+}
+
+}  // namespace
+
 Client::Client(const ClientOptions& options) : options_(options) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
   args.SetMaxSendMessageSize(-1);
-  channel_ = grpc::CreateCustomChannel(options.address, grpc::InsecureChannelCredentials(), args);
+  channel_ = grpc::CreateCustomChannel(options.address, credentials(options), args);
 }
 
 std::unique_ptr<grpc::ClientContext> Client::context() const {

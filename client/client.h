@@ -17,6 +17,9 @@ struct ClientOptions {
   std::string address = "127.0.0.1:50051";  // host:port of squalld
   double timeout_seconds = 30;              // deadline of each call
   std::string request_id;                   // sent as x-request-id; empty: none
+  // TLS (any of the three set): the CA that signed squalld's certificate (PEM file; empty: the system's
+  // roots), and for mutual TLS this client's certificate chain and private key (PEM files).
+  std::string tls_ca, tls_cert, tls_key;
 };
 
 class RpcError : public std::runtime_error {

@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
+#include <stdexcept>
 #include <memory>
 #include <vector>
 
@@ -87,6 +89,27 @@ class WithoutReflection : public grpc::ServerBuilderOption {
   }
 };
 
+std::string read_pem(const std::string& path, const char* flag) {
+  std::ifstream in(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
+  if (text.find("-----BEGIN ") == std::string::npos)
+    throw std::runtime_error(std::string(flag) + " " + path + ": not a PEM file");
+  return text;
+}
+
+// Plaintext, or TLS with --tls-cert / --tls-key, and client certificates verified against --tls-client-ca.
+std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
+  if (options.tls_cert.empty()) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions ssl;
+  ssl.pem_key_cert_pairs.push_back({read_pem(options.tls_key, "--tls-key"), read_pem(options.tls_cert, "--tls-cert")});
+  if (!options.tls_client_ca.empty()) {
+    ssl.pem_root_certs = read_pem(options.tls_client_ca, "--tls-client-ca");
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(ssl);
+}
+
 void write_port_file(const std::string& path, int port) {
   if (path.empty()) return;
   std::string tmp = path + ".tmp";
@@ -105,7 +128,9 @@ int run_daemon(const DaemonOptions& options) {
   log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ",
       configure_kernel_cache(options.cache_dir));
   std::unique_ptr<DaemonState> daemon;
+  std::shared_ptr<grpc::ServerCredentials> credentials;
   try {
+    credentials = server_credentials(options);
     daemon = std::make_unique<DaemonState>(options.runtime, options.limits);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
@@ -123,7 +148,7 @@ int run_daemon(const DaemonOptions& options) {
   grpc::ServerBuilder builder;
   if (!reflection_enabled(options)) builder.SetOption(std::make_unique<WithoutReflection>());
   int port = 0;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(options.listen, credentials, &port);
   builder.RegisterService(&server_service);
   for (const auto& capability : served) builder.RegisterService(&capability->service());
   configure(builder, options);
@@ -135,7 +160,9 @@ int run_daemon(const DaemonOptions& options) {
   auto* health = server->GetHealthCheckService();
   health->SetServingStatus(false);
   write_port_file(options.port_file, port);
-  log(LogLevel::Info, "listening on ", options.listen, " (port ", port, "); NOT_SERVING until kernels are built");
+  const char* transport = options.tls_cert.empty() ? "plaintext" : options.tls_client_ca.empty() ? "TLS" : "mutual TLS";
+  log(LogLevel::Info, "listening on ", options.listen, " (port ", port, ", ", transport,
+      "); NOT_SERVING until kernels are built");
 
   try {
     start_engines(*daemon, options, served);

@@ -57,6 +57,9 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
          if (v != "on" && v != "off" && v != "auto") throw std::invalid_argument("must be on, off or auto");
          o->reflection = v;
        }},
+      {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
+      {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
+      {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
       {"log-level",
        [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
@@ -102,6 +105,14 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
       return false;
     }
   }
+  if (options->tls_cert.empty() != options->tls_key.empty()) {
+    *error = "--tls-cert and --tls-key go together";
+    return false;
+  }
+  if (!options->tls_client_ca.empty() && options->tls_cert.empty()) {
+    *error = "--tls-client-ca needs --tls-cert and --tls-key";
+    return false;
+  }
   return true;
 }
 
@@ -145,6 +156,8 @@ std::string usage() {
          "10)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
+         "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
+         "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"
          "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"

@@ -30,6 +30,8 @@ struct DaemonOptions {
   double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
   std::string reflection = "auto";         // --reflection on | off | auto (on only when listening on loopback)
+  std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
+  std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
 };
 
 // Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <thread>
+#include <tuple>
 
 #include <grpcpp/generic/generic_stub.h>
 
@@ -142,6 +143,87 @@ TEST(Daemon, ReflectionCanBeTurnedOff) {
   EXPECT_EQ(reflection_list_services(d.address()).find("squall.v1.Server"), std::string::npos);
   client::Client c({d.address(), 10, ""});
   EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+}
+
+// A CA, and a server (SAN IP 127.0.0.1) and a client certificate it signed, made by openssl (P-256 keys).
+struct Certificates {
+  std::string dir = test::temp_dir("tls");
+  std::string ca = dir + "/ca.pem", server = dir + "/server.pem", server_key = dir + "/server.key";
+  std::string client = dir + "/client.pem", client_key = dir + "/client.key";
+  std::string stranger = dir + "/stranger.pem", stranger_key = dir + "/stranger.key";  // self-signed, not by ca
+
+  Certificates() {
+    std::string out;
+    auto openssl = [&](std::vector<std::string> argv) {
+      argv.insert(argv.begin(), "/usr/bin/openssl");  // Debian's openssl (deploy/install-deps.sh)
+      ASSERT_EQ(test::run(argv, &out), 0) << out;
+    };
+    const std::vector<std::string> key = {"-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"};
+    auto with_key = [&](std::vector<std::string> argv) {
+      argv.insert(argv.end(), key.begin(), key.end());
+      openssl(argv);
+    };
+    with_key({"req", "-x509", "-keyout", dir + "/ca.key", "-out", ca, "-days", "1", "-subj", "/CN=squall test CA"});
+    with_key({"req", "-x509", "-keyout", stranger_key, "-out", stranger, "-days", "1", "-subj", "/CN=stranger"});
+    std::ofstream(dir + "/server.ext") << "subjectAltName=IP:127.0.0.1\n";
+    for (auto [name, pem, subject] :
+         {std::tuple{"server", server, "/CN=127.0.0.1"}, std::tuple{"client", client, "/CN=squall test client"}}) {
+      std::string csr = dir + "/" + name + ".csr";
+      with_key({"req", "-keyout", dir + "/" + name + ".key", "-out", csr, "-subj", subject});
+      std::vector<std::string> sign = {
+          "x509", "-req", "-in",   csr, "-CA", ca, "-CAkey", dir + "/ca.key", "-CAcreateserial",
+          "-out", pem,    "-days", "1"};
+      if (std::string(name) == "server") sign.insert(sign.end(), {"-extfile", dir + "/server.ext"});
+      openssl(sign);
+    }
+  }
+};
+
+// --tls-cert / --tls-key: the CLI gets in with --tls-ca, and a plaintext client does not.
+TEST(Tls, TheCliTalksTlsToADaemonThatServesIt) {
+  Certificates c;
+  client::ClientOptions probe;
+  probe.tls_ca = c.ca;
+  Daemon d({"--fft", "vkfft", "--tls-cert", c.server, "--tls-key", c.server_key}, 600, probe);
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--tls-ca", c.ca, "info"}, &out), 0) << out;
+  EXPECT_NE(out.find("runtime/selftest.cl"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--timeout", "5", "info"}, &out), 3) << out;
+  EXPECT_NE(d.process().log().find("(port " + d.address().substr(10) + ", TLS)"), std::string::npos);
+}
+
+// --tls-client-ca: only a client with a certificate that CA signed gets in.
+TEST(Tls, MutualTlsRequiresTheClientsCertificate) {
+  Certificates c;
+  client::ClientOptions probe;
+  probe.tls_ca = c.ca, probe.tls_cert = c.client, probe.tls_key = c.client_key;
+  Daemon d({"--fft", "vkfft", "--tls-cert", c.server, "--tls-key", c.server_key, "--tls-client-ca", c.ca}, 600, probe);
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--tls-ca", c.ca, "--tls-cert", c.client, "--tls-key",
+                       c.client_key, "health"},
+                      &out),
+            0)
+      << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--timeout", "5", "--tls-ca", c.ca, "health"}, &out), 3)
+      << out;
+  // a certificate that the CA did not sign is refused too
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--timeout", "5", "--tls-ca", c.ca, "--tls-cert", c.stranger,
+                       "--tls-key", c.stranger_key, "health"},
+                      &out),
+            3)
+      << out;
+}
+
+TEST(Tls, BadTlsFlagsExitTwo) {
+  std::string out;
+  EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--tls-cert", "/nonexistent.pem"}, &out), 2) << out;
+  EXPECT_NE(out.find("--tls-cert and --tls-key go together"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--tls-cert", "/nonexistent.pem", "--tls-key",
+                       "/nonexistent.key"},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--tls-key /nonexistent.key"), std::string::npos) << out;
 }
 
 TEST(Cli, InfoAndHealthExitZero) {

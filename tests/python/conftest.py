@@ -14,7 +14,7 @@ import signal
 import subprocess
 import time
 from pathlib import Path
-from typing import Iterator, List, Optional
+from typing import Any, Iterator, List, Optional
 
 import pytest
 
@@ -30,7 +30,7 @@ START_SECONDS = 300.0  # a cold PoCL kernel cache compiles every kernel first
 class Daemon:
     """squalld on 127.0.0.1 with a free port; SERVING once constructed."""
 
-    def __init__(self, flags: List[str], directory: Path) -> None:
+    def __init__(self, flags: List[str], directory: Path, **client: Any) -> None:
         self.directory = directory
         self.log_path = directory / "squalld.log"
         port_file = directory / "port"
@@ -64,7 +64,7 @@ class Daemon:
             time.sleep(0.02)
         self.port = int(port_file.read_text().strip())
         self.address = f"127.0.0.1:{self.port}"
-        with squall.Client(self.address) as probe:
+        with squall.Client(self.address, **client) as probe:  # client: e.g. TLS credentials
             while not probe.wait_until_serving(1.0):
                 self._fail_if_gone(deadline, "turned SERVING")
 
@@ -98,7 +98,7 @@ class Daemon:
         self._process = None
 
 
-def _start(flags: List[str], name: str) -> Iterator[Daemon]:
+def _start(flags: List[str], name: str, **client: Any) -> Iterator[Daemon]:
     if not SQUALLD.exists():
         pytest.fail(
             f"{SQUALLD} not found: build squall first (deploy/build.sh), or set SQUALL_SQUALLD"
@@ -107,7 +107,7 @@ def _start(flags: List[str], name: str) -> Iterator[Daemon]:
     directory = BINARY_DIR / "test-tmp" / f"python-{name}-{os.getpid()}"
     shutil.rmtree(directory, ignore_errors=True)
     directory.mkdir(parents=True)
-    daemon = Daemon(flags, directory)
+    daemon = Daemon(flags, directory, **client)
     try:
         yield daemon
     finally:

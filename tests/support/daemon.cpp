@@ -15,7 +15,8 @@ namespace squall::test {
 std::string squalld_path() { return std::string(SQUALL_BINARY_DIR) + "/squalld"; }
 std::string squall_path() { return std::string(SQUALL_BINARY_DIR) + "/squall"; }
 
-Daemon::Daemon(const std::vector<std::string>& extra_flags, double timeout_seconds) : dir_(temp_dir("squalld")) {
+Daemon::Daemon(const std::vector<std::string>& extra_flags, double timeout_seconds, client::ClientOptions probe)
+    : dir_(temp_dir("squalld")) {
   std::vector<std::string> argv = {squalld_path(), "--listen", "127.0.0.1:0", "--port-file", dir_ + "/port"};
   argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
   if (std::find(extra_flags.begin(), extra_flags.end(), "--fft") == extra_flags.end())
@@ -31,8 +32,10 @@ Daemon::Daemon(const std::vector<std::string>& extra_flags, double timeout_secon
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   std::ifstream(dir_ + "/port") >> port_;
-  client::Client probe({address(), 5, ""});
-  while (!probe.wait_until_serving(1)) fail_if_gone("turned SERVING");  // stop waiting once it exits
+  probe.address = address();
+  probe.timeout_seconds = 5;
+  client::Client prober(probe);
+  while (!prober.wait_until_serving(1)) fail_if_gone("turned SERVING");  // stop waiting once it exits
 }
 
 }  // namespace squall::test

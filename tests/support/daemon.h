@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "client/client.h"
 #include "support/process.h"
 
 namespace squall::test {
@@ -17,8 +18,10 @@ std::string squall_path();   // the squall CLI of this build tree
 class Daemon {
  public:
   // Starts squalld with `--listen 127.0.0.1:0 --port-file ...` and the extra flags. Throws, with the
-  // daemon's log, when it exits or is not SERVING within `timeout_seconds`.
-  explicit Daemon(const std::vector<std::string>& extra_flags = {}, double timeout_seconds = 600);
+  // daemon's log, when it exits or is not SERVING within `timeout_seconds`. `probe`: how to connect
+  // while waiting (its TLS files, for a daemon started with --tls-*); the address is filled in.
+  explicit Daemon(const std::vector<std::string>& extra_flags = {}, double timeout_seconds = 600,
+                  client::ClientOptions probe = {});
 
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   Process& process() { return *process_; }

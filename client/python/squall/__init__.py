@@ -32,12 +32,13 @@ from squall._results import (
     Tile,
     Volume,
 )
-from squall.client import Client
+from squall.client import Client, tls_credentials
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Client",
+    "tls_credentials",
     "SquallError",
     "ocean",
     "ewave",

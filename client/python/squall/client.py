@@ -32,6 +32,29 @@ def decode_health_response(data: bytes) -> str:
     return _health_pb2.HealthCheckResponse.ServingStatus.Name(response.status)
 
 
+def tls_credentials(
+    ca: Optional[str] = None, cert: Optional[str] = None, key: Optional[str] = None
+) -> grpc.ChannelCredentials:
+    """Channel credentials for a squalld that serves TLS (``--tls-cert`` / ``--tls-key``), as the
+    command line's ``--tls-ca`` / ``--tls-cert`` / ``--tls-key``.
+
+    Args:
+        ca: PEM file of the CA that signed squalld's certificate; None: the system's roots.
+        cert, key: PEM files of this client's certificate chain and private key, for a squalld
+            started with ``--tls-client-ca`` (mutual TLS); both or neither.
+    """
+    if (cert is None) != (key is None):
+        raise ValueError("tls_credentials: cert and key go together")
+
+    def read(path: Optional[str]) -> Optional[bytes]:
+        if path is None:
+            return None
+        with open(path, "rb") as f:
+            return f.read()
+
+    return grpc.ssl_channel_credentials(read(ca), read(key), read(cert))
+
+
 class Client:
     """A client of one squalld.
 
@@ -43,7 +66,8 @@ class Client:
         stream_timeout: deadline of each streaming call, s; None (default): none, streams run until
             they end or are cancelled.
         request_id: sent as "x-request-id" on every call; squalld shows it in its request log.
-        credentials: grpc.ChannelCredentials for a TLS channel (e.g. to a gateway); None: insecure.
+        credentials: grpc.ChannelCredentials for a TLS channel (``squall.tls_credentials(ca=...)``
+            for a squalld started with --tls-cert, or a gateway's); None: plaintext.
         options: extra gRPC channel options, added to squall's (no client-side message size limit).
 
     Attributes:
