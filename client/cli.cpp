@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <iostream>
 
 #include "client/ewave_cli.h"
@@ -40,12 +42,13 @@ int health(client::Client& client, const std::vector<std::string>& args) {
 
 void print_usage() {
   std::cerr << "usage: squall [--address HOST:PORT] [--timeout SECONDS] [--request-id ID] [--tls-ca PEM]\n"
-               "              [--tls-cert PEM --tls-key PEM] VERB [ARGS]\n"
+               "              [--tls-cert PEM --tls-key PEM] [--token-file FILE] VERB [ARGS]\n"
                "  --address     squalld's address (default 127.0.0.1:50051)\n"
                "  --timeout     deadline of each call in seconds (default 30)\n"
                "  --request-id  sent as x-request-id, shown in squalld's log\n"
                "  --tls-ca      connect with TLS, trusting this CA (PEM; squalld's --tls-cert must be signed by it)\n"
                "  --tls-cert, --tls-key  this client's certificate and key for mutual TLS (PEM)\n"
+               "  --token-file  send the token in this file (its first word) as a bearer token; also $SQUALL_TOKEN\n"
                "verbs:\n";
   for (const auto& [name, verb] : verbs()) std::cerr << "  " << verb.usage << "\n";
   std::cerr << "exit codes: 0 ok, 1 not serving, 2 usage, 3 unreachable, 4 refused by the server, 5 local error\n";
@@ -67,6 +70,7 @@ std::map<std::string, Verb>& verbs() {
 
 int main(int argc, char** argv) {
   client::ClientOptions options;
+  if (const char* token = std::getenv("SQUALL_TOKEN")) options.token = token;
   int i = 1;
   for (; i < argc; ++i) {
     std::string arg = argv[i];
@@ -83,6 +87,9 @@ int main(int argc, char** argv) {
         return std::cerr << "squall: --timeout " << value << ": must be a number of seconds > 0\n", kUsage;
     } else if (arg == "--request-id") {
       options.request_id = value;
+    } else if (arg == "--token-file") {
+      std::ifstream in(value);
+      if (!(in >> options.token)) return std::cerr << "squall: --token-file " << value << ": no token in it\n", kUsage;
     } else if (arg == "--tls-ca") {
       options.tls_ca = value;
     } else if (arg == "--tls-cert") {

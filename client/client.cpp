@@ -51,6 +51,7 @@ std::unique_ptr<grpc::ClientContext> Client::context() const {
   ctx->set_deadline(std::chrono::system_clock::now() +
                     std::chrono::milliseconds(static_cast<long long>(options_.timeout_seconds * 1000)));
   if (!options_.request_id.empty()) ctx->AddMetadata("x-request-id", options_.request_id);
+  if (!options_.token.empty()) ctx->AddMetadata("authorization", "Bearer " + options_.token);
   return ctx;
 }
 

@@ -20,6 +20,7 @@ struct ClientOptions {
   // TLS (any of the three set): the CA that signed squalld's certificate (PEM file; empty: the system's
   // roots), and for mutual TLS this client's certificate chain and private key (PEM files).
   std::string tls_ca, tls_cert, tls_key;
+  std::string token;  // sent as "authorization: Bearer <token>" (squalld --auth-tokens); empty: none
 };
 
 class RpcError : public std::runtime_error {

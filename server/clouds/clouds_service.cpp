@@ -22,7 +22,7 @@ void CloudsService::start(EngineContext& context) {
 
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     auto volume = engine_->build(req::model(request->model()), "model");
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
@@ -42,7 +42,7 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
 
 grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::RenderRequest* request,
                                    v1::RenderResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     CloudEngine& clouds = *engine_;
     RenderSettings settings = req::settings(request->settings());
     clouds::validate(settings, "settings");
@@ -101,9 +101,9 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
   });
 }
 
-grpc::Status CloudsService::ReleaseVolume(grpc::ServerContext*, const v1::ReleaseVolumeRequest* request,
+grpc::Status CloudsService::ReleaseVolume(grpc::ServerContext* context, const v1::ReleaseVolumeRequest* request,
                                           v1::ReleaseVolumeResponse*) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     if (!engine_->release(request->volume_id()))
       fail(Code::NotFound, "volume_id = \"" + request->volume_id() + "\" is not a stored volume");
     return grpc::Status::OK;

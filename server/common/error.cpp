@@ -9,6 +9,7 @@ const char* code_name(Code code) {
     case Code::ResourceExhausted: return "RESOURCE_EXHAUSTED";
     case Code::FailedPrecondition: return "FAILED_PRECONDITION";
     case Code::Unavailable: return "UNAVAILABLE";
+    case Code::Unauthenticated: return "UNAUTHENTICATED";
     case Code::Internal: return "INTERNAL";
   }
   return "UNKNOWN";

@@ -14,6 +14,7 @@ enum class Code {
   ResourceExhausted,   // a limit in force is exceeded (cells, streams, sessions, memory)
   FailedPrecondition,  // the request is valid but the daemon is not in a state to run it
   Unavailable,         // the daemon is starting up or draining
+  Unauthenticated,     // no valid credentials (--auth-tokens)
   Internal,            // a bug or a device failure; never the client's fault
 };
 

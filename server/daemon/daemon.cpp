@@ -9,6 +9,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <stdexcept>
 #include <memory>
 #include <vector>
@@ -98,6 +99,23 @@ std::string read_pem(const std::string& path, const char* flag) {
   return text;
 }
 
+// The tokens of --auth-tokens: the first word of each line, a name may follow; blank lines and lines
+// starting with '#' are skipped. No file: no tokens (no authentication); a file without any: an error.
+std::vector<std::string> read_tokens(const std::string& path) {
+  if (path.empty()) return {};
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("--auth-tokens " + path + ": cannot read the file");
+  std::vector<std::string> tokens;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream words(line);
+    std::string token;
+    if (words >> token && token[0] != '#') tokens.push_back(token);
+  }
+  if (tokens.empty()) throw std::runtime_error("--auth-tokens " + path + ": no tokens in the file");
+  log(LogLevel::Info, "authentication: ", tokens.size(), " bearer tokens from ", path);
+  return tokens;
+}
+
 // Plaintext, or TLS with --tls-cert / --tls-key, and client certificates verified against --tls-client-ca.
 std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
   if (options.tls_cert.empty()) return grpc::InsecureServerCredentials();
@@ -131,7 +149,9 @@ int run_daemon(const DaemonOptions& options) {
   std::shared_ptr<grpc::ServerCredentials> credentials;
   try {
     credentials = server_credentials(options);
+    std::vector<std::string> tokens = read_tokens(options.auth_tokens);
     daemon = std::make_unique<DaemonState>(options.runtime, options.limits);
+    daemon->serving.set_tokens(std::move(tokens));
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
     return kExitUsage;

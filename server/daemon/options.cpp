@@ -57,6 +57,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
          if (v != "on" && v != "off" && v != "auto") throw std::invalid_argument("must be on, off or auto");
          o->reflection = v;
        }},
+      {"auth-tokens", [o](const std::string& v) { o->auth_tokens = v; }},
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
@@ -118,6 +119,7 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
 
 bool reflection_enabled(const DaemonOptions& options) {
   if (options.reflection != "auto") return options.reflection == "on";
+  if (!options.auth_tokens.empty()) return false;
   const std::string& a = options.listen;
   return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
 }
@@ -158,6 +160,8 @@ std::string usage() {
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
          "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"
+         "  --auth-tokens FILE        require \"authorization: Bearer <token>\" with a token of FILE (one per line,\n"
+         "                            optionally followed by a name; # comments); health stays open\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"
          "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"

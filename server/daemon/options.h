@@ -31,12 +31,13 @@ struct DaemonOptions {
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
   std::string reflection = "auto";         // --reflection on | off | auto (on only when listening on loopback)
   std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
+  std::string auth_tokens;                 // --auth-tokens: file of accepted bearer tokens; empty: no auth
   std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
 };
 
 // Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a
-// loopback address (127.0.0.0/8, [::1], localhost), so a daemon exposed to a network does not list its
-// API to anyone who asks.
+// loopback address (127.0.0.0/8, [::1], localhost) and no --auth-tokens are required, so a daemon exposed
+// to a network, or one that checks tokens, does not list its API to anyone who asks.
 bool reflection_enabled(const DaemonOptions& options);
 
 // Returns false with a message in *error (naming the flag) on an unknown flag or a bad value.

@@ -21,9 +21,10 @@ void fill_device(const DeviceInfo& info, bool selected, squall::v1::Device* out)
 
 }  // namespace
 
-grpc::Status ServerService::GetInfo(grpc::ServerContext*, const squall::v1::GetInfoRequest*,
+grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::v1::GetInfoRequest*,
                                     squall::v1::GetInfoResponse* response) {
   return guarded([&] {
+    daemon_.serving.require_token(*context);
     response->set_version(SQUALL_VERSION);
     const Runtime& runtime = daemon_.runtime;
     for (const auto& found : find_devices())

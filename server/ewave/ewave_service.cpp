@@ -42,15 +42,16 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
 
 grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1::EWaveCreateSessionRequest* request,
                                          v1::EWaveSessionResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     session_reply(*engine_, engine_->create(config(request->config(), serving_.gate())), response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
 }
 
-grpc::Status EWaveService::Step(grpc::ServerContext*, const v1::EWaveStepRequest* request, v1::EWaveFrame* response) {
-  return serve(serving_, [&] {
+grpc::Status EWaveService::Step(grpc::ServerContext* context, const v1::EWaveStepRequest* request,
+                                v1::EWaveFrame* response) {
+  return serve(*context, serving_, [&] {
     step(*request, response);
     return grpc::Status::OK;
   });
@@ -73,9 +74,9 @@ grpc::Status EWaveService::Run(grpc::ServerContext* context,
   });
 }
 
-grpc::Status EWaveService::GetState(grpc::ServerContext*, const v1::EWaveSessionRequest* request,
+grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWaveSessionRequest* request,
                                     v1::EWaveStateResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     std::string state = engine_->state(session_id(request->session_id()));
     serving_.gate().check_message_bytes("GetState reply (the session's state)", state.size() + 64);
     *response->mutable_state() = std::move(state);
@@ -85,16 +86,16 @@ grpc::Status EWaveService::GetState(grpc::ServerContext*, const v1::EWaveSession
 
 grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     session_reply(*engine_, engine_->create_from_state(request->state()), response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
 }
 
-grpc::Status EWaveService::CloseSession(grpc::ServerContext*, const v1::EWaveSessionRequest* request,
+grpc::Status EWaveService::CloseSession(grpc::ServerContext* context, const v1::EWaveSessionRequest* request,
                                         v1::EWaveCloseResponse*) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     engine_->close(session_id(request->session_id()));
     return grpc::Status::OK;
   });

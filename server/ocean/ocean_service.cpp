@@ -59,7 +59,7 @@ void OceanService::start(EngineContext& context) { engine_ = &ocean::shared_engi
 
 grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
                                    v1::GetTileResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     double t = validate::finite("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
@@ -110,7 +110,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
 
 grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1::SampleSurfaceRequest* request,
                                          v1::SampleSurfaceResponse* response) {
-  return serve(serving_, [&] {
+  return serve(*context, serving_, [&] {
     ocean::TileSpec spec = tile_spec(request->tile(), serving_.gate());
     const double t = validate::finite("time.seconds", request->time().seconds());
     const int n = request->points_size();

@@ -1,5 +1,8 @@
 #include "rpc/serving.h"
 
+#include <algorithm>
+#include <string_view>
+
 #include "common/error.h"
 
 namespace squall::rpc {
@@ -11,6 +14,31 @@ void ServingState::require_serving() const {
       fail(Code::Unavailable, "squalld is still building its kernels; retry when health is SERVING");
     case Phase::Draining: fail(Code::Unavailable, "squalld is shutting down; retry on another replica");
   }
+}
+
+namespace {
+
+// Equal, in a time that depends on the longer length only, not on where the first difference is.
+bool same_in_constant_time(std::string_view a, std::string_view b) {
+  unsigned diff = a.size() != b.size();
+  for (size_t i = 0; i < std::max(a.size(), b.size()); ++i)
+    diff |= unsigned(i < a.size() ? a[i] : 0) ^ unsigned(i < b.size() ? b[i] : 0);
+  return diff == 0;
+}
+
+}  // namespace
+
+void ServingState::require_token(const grpc::ServerContext& context) const {
+  if (tokens_.empty()) return;
+  constexpr std::string_view kBearer = "Bearer ";
+  bool accepted = false;
+  for (const auto& [key, ref] : context.client_metadata()) {
+    std::string_view value(ref.data(), ref.size());
+    if (key != "authorization" || value.substr(0, kBearer.size()) != kBearer) continue;
+    std::string_view token = value.substr(kBearer.size());
+    for (const auto& t : tokens_) accepted |= same_in_constant_time(token, t);  // every token, always
+  }
+  if (!accepted) fail(Code::Unauthenticated, "a valid bearer token is required (authorization: Bearer ...)");
 }
 
 }  // namespace squall::rpc

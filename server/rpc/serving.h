@@ -2,8 +2,12 @@
 // built and not draining). Services hold a reference; the daemon owns it and flips it.
 #pragma once
 
+#include <grpcpp/server_context.h>
+
 #include <atomic>
 #include <chrono>
+#include <string>
+#include <vector>
 
 #include "common/limits.h"
 
@@ -25,12 +29,20 @@ class ServingState {
   // Every handler calls this first: UNAVAILABLE while kernels are being built or while draining.
   void require_serving() const;
 
+  // --auth-tokens: the accepted bearer tokens (none: every caller is let in).
+  void set_tokens(std::vector<std::string> tokens) { tokens_ = std::move(tokens); }
+  bool authenticating() const { return !tokens_.empty(); }
+  // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" with
+  // one of them, compared in constant time; the message says nothing about which part was wrong.
+  void require_token(const grpc::ServerContext& context) const;
+
   double uptime_seconds() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   }
 
  private:
   LimitGate gate_;
+  std::vector<std::string> tokens_;  // set before serving starts, read-only afterwards
   std::atomic<Phase> phase_{Phase::Starting};
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };

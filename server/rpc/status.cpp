@@ -10,6 +10,7 @@ grpc::Status to_status(const Error& error) {
     case Code::ResourceExhausted: code = grpc::StatusCode::RESOURCE_EXHAUSTED; break;
     case Code::FailedPrecondition: code = grpc::StatusCode::FAILED_PRECONDITION; break;
     case Code::Unavailable: code = grpc::StatusCode::UNAVAILABLE; break;
+    case Code::Unauthenticated: code = grpc::StatusCode::UNAUTHENTICATED; break;
     case Code::Internal: code = grpc::StatusCode::INTERNAL; break;
   }
   return grpc::Status(code, error.what());

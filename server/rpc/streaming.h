@@ -48,6 +48,7 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
                           Run&& run) {
   return guarded([&] {
     serving.require_serving();
+    serving.require_token(context);
     auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
     StreamCall call(context, method);
@@ -63,11 +64,12 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
       context, serving, method, [] { return 0; }, [&](StreamCall& call, int) { run(call); });
 }
 
-// A unary handler's body() -> grpc::Status under guarded(), after the serving check.
+// A unary handler's body() -> grpc::Status under guarded(), after the serving and token checks.
 template <typename Body>
-grpc::Status serve(ServingState& serving, Body&& body) {
+grpc::Status serve(const grpc::ServerContext& context, ServingState& serving, Body&& body) {
   return guarded([&] {
     serving.require_serving();
+    serving.require_token(context);
     return body();
   });
 }

@@ -11,6 +11,7 @@
 #include <grpcpp/generic/generic_stub.h>
 
 #include "client/client.h"
+#include "squall/v1/ocean.grpc.pb.h"
 #include "support/daemon.h"
 
 namespace squall {
@@ -224,6 +225,33 @@ TEST(Tls, BadTlsFlagsExitTwo) {
             2)
       << out;
   EXPECT_NE(out.find("--tls-key /nonexistent.key"), std::string::npos) << out;
+}
+
+// --auth-tokens: every squall call needs "authorization: Bearer <token>" with a token of the file;
+// health stays open (balancers probe it), and reflection turns off with auto.
+TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
+  std::string dir = test::temp_dir("auth");
+  std::ofstream(dir + "/tokens") << "# squalld tokens\n\ns3cret-alice alice\nother-token\n";
+  std::ofstream(dir + "/alice") << "s3cret-alice\n";
+  std::ofstream(dir + "/wrong") << "s3cret-alicf\n";
+  Daemon d({"--fft", "vkfft", "--auth-tokens", dir + "/tokens"});
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/alice", "info"}, &out), 0) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "info"}, &out), 4) << out;
+  EXPECT_NE(out.find("UNAUTHENTICATED: a valid bearer token is required"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/wrong", "info"}, &out), 4) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "health"}, &out), 0) << out;
+  EXPECT_EQ(reflection_list_services(d.address()).find("squall.v1.Server"), std::string::npos);
+
+  client::ClientOptions options{d.address(), 10, ""};
+  auto stub = squall::v1::Ocean::NewStub(client::Client(options).channel());  // a stream, without a token
+  grpc::ClientContext context;
+  squall::v1::StreamTilesRequest request;
+  auto reader = stub->StreamTiles(&context, request);
+  squall::v1::TileChunk chunk;
+  while (reader->Read(&chunk)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
 }
 
 TEST(Cli, InfoAndHealthExitZero) {

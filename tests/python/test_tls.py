@@ -75,3 +75,21 @@ def test_others_are_refused(mtls_daemon, certificates, who):
 def test_cert_without_key_is_a_usage_error(certificates):
     with pytest.raises(ValueError, match="cert and key go together"):
         squall.tls_credentials(ca=certificates["ca.pem"], cert=certificates["client.pem"])
+
+
+@pytest.fixture(scope="module")
+def token_daemon(tmp_path_factory) -> Iterator[Daemon]:
+    tokens = tmp_path_factory.mktemp("auth") / "tokens"
+    tokens.write_text("# one token per line, a name may follow\npython-s3cret python\n")
+    yield from _start(["--auth-tokens", str(tokens)], "auth")
+
+
+def test_a_bearer_token_gets_in_and_none_or_a_wrong_one_does_not(token_daemon):
+    with squall.Client(token_daemon.address, token="python-s3cret") as c:
+        assert c.info().version
+    for token in (None, "python-s3cres"):
+        with squall.Client(token_daemon.address, token=token) as c:
+            with pytest.raises(squall.SquallError) as refused:
+                c.info()
+            assert refused.value.code == grpc.StatusCode.UNAUTHENTICATED
+            assert c.health() == "SERVING"  # health stays open for balancers

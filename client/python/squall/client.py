@@ -61,8 +61,8 @@ class Client:
     Args:
         address: "host:port" of squalld (default 127.0.0.1:50051).
         timeout: deadline of each unary call, s (default 30); None: no deadline.
-        token: sent on every call as the metadata "authorization: Bearer <token>" (for a proxy or
-            gateway in front of squalld; squalld itself does not check it). None: not sent.
+        token: sent on every call as the metadata "authorization: Bearer <token>": a token of
+            squalld's --auth-tokens file (or of a gateway in front of it). None: not sent.
         stream_timeout: deadline of each streaming call, s; None (default): none, streams run until
             they end or are cancelled.
         request_id: sent as "x-request-id" on every call; squalld shows it in its request log.
