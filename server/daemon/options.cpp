@@ -58,6 +58,11 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
          o->reflection = v;
        }},
       {"auth-tokens", [o](const std::string& v) { o->auth_tokens = v; }},
+      {"insecure",
+       [o](const std::string& v) {
+         if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
+         o->insecure = v == "on";
+       }},
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
@@ -114,14 +119,24 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
     *error = "--tls-client-ca needs --tls-cert and --tls-key";
     return false;
   }
+  if (!listens_on_loopback(*options) && options->tls_cert.empty() && options->auth_tokens.empty() &&
+      !options->insecure) {
+    *error = "--listen " + options->listen +
+             " is not a loopback address: anyone who reaches it could use squalld; give --tls-cert/--tls-key "
+             "and/or --auth-tokens, or --insecure to serve it in plaintext to everyone anyway";
+    return false;
+  }
   return true;
+}
+
+bool listens_on_loopback(const DaemonOptions& options) {
+  const std::string& a = options.listen;
+  return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
 }
 
 bool reflection_enabled(const DaemonOptions& options) {
   if (options.reflection != "auto") return options.reflection == "on";
-  if (!options.auth_tokens.empty()) return false;
-  const std::string& a = options.listen;
-  return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
+  return listens_on_loopback(options) && options.auth_tokens.empty();
 }
 
 std::string usage() {
@@ -162,6 +177,7 @@ std::string usage() {
          "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"
          "  --auth-tokens FILE        require \"authorization: Bearer <token>\" with a token of FILE (one per line,\n"
          "                            optionally followed by a name; # comments); health stays open\n"
+         "  --insecure on|off         allow a non-loopback --listen without TLS or tokens (default off: refused)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"
          "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"

@@ -31,9 +31,13 @@ struct DaemonOptions {
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
   std::string reflection = "auto";         // --reflection on | off | auto (on only when listening on loopback)
   std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
+  bool insecure = false;                   // --insecure: allow a non-loopback --listen without TLS or tokens
   std::string auth_tokens;                 // --auth-tokens: file of accepted bearer tokens; empty: no auth
   std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
 };
+
+// --listen is 127.0.0.0/8, [::1] or localhost.
+bool listens_on_loopback(const DaemonOptions& options);
 
 // Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a
 // loopback address (127.0.0.0/8, [::1], localhost) and no --auth-tokens are required, so a daemon exposed

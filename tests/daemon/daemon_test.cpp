@@ -352,6 +352,9 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
   EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--device", "no-such-device"}, &out), 2) << out;
   EXPECT_NE(out.find("--device no-such-device matches no OpenCL device"), std::string::npos) << out;
+  // a non-loopback address without TLS or tokens is refused before anything listens
+  EXPECT_EQ(test::run({kSqualld, "--listen", "0.0.0.0:0"}, &out), 2) << out;
+  EXPECT_NE(out.find("--listen 0.0.0.0:0 is not a loopback address"), std::string::npos) << out;
 }
 
 TEST(Daemon, BusyPortExitsThree) {
