@@ -4,6 +4,9 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/impl/server_builder_option.h>
+#include <grpcpp/security/server_credentials.h>
+#include <grpcpp/security/tls_certificate_provider.h>
+#include <grpcpp/security/tls_credentials_options.h>
 #include <signal.h>
 
 #include <cmath>
@@ -117,15 +120,23 @@ std::vector<std::string> read_tokens(const std::string& path) {
 }
 
 // Plaintext, or TLS with --tls-cert / --tls-key, and client certificates verified against --tls-client-ca.
+// The files are checked here (a clear error at start) and then watched: gRPC's file watcher re-reads
+// them every --tls-refresh seconds, so a renewed certificate is served to new connections without a
+// restart and live streams keep theirs.
 std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
   if (options.tls_cert.empty()) return grpc::InsecureServerCredentials();
-  grpc::SslServerCredentialsOptions ssl;
-  ssl.pem_key_cert_pairs.push_back({read_pem(options.tls_key, "--tls-key"), read_pem(options.tls_cert, "--tls-cert")});
+  read_pem(options.tls_key, "--tls-key");
+  read_pem(options.tls_cert, "--tls-cert");
+  if (!options.tls_client_ca.empty()) read_pem(options.tls_client_ca, "--tls-client-ca");
+  auto files = std::make_shared<grpc::experimental::FileWatcherCertificateProvider>(
+      options.tls_key, options.tls_cert, options.tls_client_ca, options.tls_refresh_seconds);
+  grpc::experimental::TlsServerCredentialsOptions tls(files);
+  tls.watch_identity_key_cert_pairs();
   if (!options.tls_client_ca.empty()) {
-    ssl.pem_root_certs = read_pem(options.tls_client_ca, "--tls-client-ca");
-    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+    tls.watch_root_certs();
+    tls.set_cert_request_type(GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
   }
-  return grpc::SslServerCredentials(ssl);
+  return grpc::experimental::TlsServerCredentials(tls);
 }
 
 void write_port_file(const std::string& path, int port) {

@@ -66,6 +66,10 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
+      {"tls-refresh",
+       [o](const std::string& v) {
+         o->tls_refresh_seconds = unsigned(std::min<uint64_t>(positive_integer(v), 86400));
+       }},
       {"log-level",
        [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
@@ -175,6 +179,8 @@ std::string usage() {
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
          "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"
+         "  --tls-refresh SECONDS     re-read the TLS files this often: renewed certificates need no restart\n"
+         "                            (default 60)\n"
          "  --auth-tokens FILE        require \"authorization: Bearer <token>\" with a token of FILE (one per line,\n"
          "                            optionally followed by a name; # comments); health stays open\n"
          "  --insecure on|off         allow a non-loopback --listen without TLS or tokens (default off: refused)\n"

@@ -33,7 +33,9 @@ struct DaemonOptions {
   std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
   bool insecure = false;                   // --insecure: allow a non-loopback --listen without TLS or tokens
   std::string auth_tokens;                 // --auth-tokens: file of accepted bearer tokens; empty: no auth
-  std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
+  std::string tls_client_ca;
+  unsigned tls_refresh_seconds =
+      60;  // --tls-refresh: how often the TLS files are re-read               // --tls-client-ca: PEM CA; set: require and verify client certificates
 };
 
 // --listen is 127.0.0.0/8, [::1] or localhost.

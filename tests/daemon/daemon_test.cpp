@@ -215,6 +215,28 @@ TEST(Tls, MutualTlsRequiresTheClientsCertificate) {
       << out;
 }
 
+// The certificate files are re-read (--tls-refresh): after they are replaced by a certificate from
+// another CA, new connections get the new one, without a restart.
+TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
+  Certificates first, second;
+  client::ClientOptions probe;
+  probe.tls_ca = first.ca;
+  Daemon d({"--fft", "vkfft", "--tls-cert", first.server, "--tls-key", first.server_key, "--tls-refresh", "1"}, 600,
+           probe);
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--tls-ca", first.ca, "health"}, &out), 0) << out;
+  std::filesystem::copy_file(second.server_key, first.server_key, std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(second.server, first.server, std::filesystem::copy_options::overwrite_existing);
+  int code = -1;
+  for (int i = 0; i < 50 && code != 0; ++i) {  // the watcher looks every second
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    code = test::run({kSquall, "--address", d.address(), "--timeout", "5", "--tls-ca", second.ca, "health"}, &out);
+  }
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--timeout", "5", "--tls-ca", first.ca, "health"}, &out), 3)
+      << out;
+}
+
 TEST(Tls, BadTlsFlagsExitTwo) {
   std::string out;
   EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--tls-cert", "/nonexistent.pem"}, &out), 2) << out;
