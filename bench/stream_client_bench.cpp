@@ -37,10 +37,10 @@ v1::StreamTilesRequest request(int n, int frames, int fields) {
 
 // Frames per second of one StreamTiles call; every field of every frame decoded to floats.
 double stream_rate(squall::client::Client& client, const v1::StreamTilesRequest& r) {
-  auto stub = v1::Ocean::NewStub(client.channel());
+  auto service = v1::Ocean::NewStub(client.channel());
   auto context = client.context();
   auto start = std::chrono::steady_clock::now();
-  auto reader = stub->StreamTiles(context.get(), r);
+  auto reader = service->StreamTiles(context.get(), r);
   squall::client::ocean::FrameAssembler assembler;
   v1::TileChunk chunk;
   size_t frames = 0, values = 0;

@@ -11,7 +11,6 @@
 // Spectral channels, packed in pairs (re, im) of complex arrays for C2C inverse FFTs:
 //   pair 0: h, Dx        pair 1: Dy, eps_x      pair 2: eps_y, dDx/dx     pair 3: dDy/dy, dDx/dy
 // with D = sum i k/|k| h~ e^{ik.x} (crest-sharpening sign for lambda > 0) and eps = grad h (App A eq 37).
-#define CHANNELS 8
 
 // ---- counter-based Gaussian amplitudes, keyed by (seed, layer, n, m) ----
 inline ulong mix64(ulong z) {  // splitmix64 finalizer
@@ -191,7 +190,7 @@ __kernel void ocean_evolve_current(__global const float4* h0, const int nx, cons
 
 // Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:
 // output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y), periodic; bilinear between
-// layer points (exact where they coincide). accum: CHANNELS planes of onx * ony floats.
+// layer points (exact where they coincide). accum: 2 * pairs planes of onx * ony floats.
 __kernel void ocean_accumulate(__global const float2* fields, const int nx, const int ny, const int pairs,
                                const float2 scale, const int onx, const int ony, const int first,
                                __global float* accum) {

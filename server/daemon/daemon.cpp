@@ -93,13 +93,13 @@ class WithoutReflection : public grpc::ServerBuilderOption {
   }
 };
 
-std::string read_pem(const std::string& path, const char* flag) {
+// Fails with a message naming the flag unless `path` is a readable PEM file.
+void check_pem(const std::string& path, const char* flag) {
   std::ifstream in(path, std::ios::binary);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (!in.good() && !in.eof()) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
   if (text.find("-----BEGIN ") == std::string::npos)
     throw std::runtime_error(std::string(flag) + " " + path + ": not a PEM file");
-  return text;
 }
 
 // The tokens of --auth-tokens: the first word of each line, a name may follow; blank lines and lines
@@ -125,9 +125,9 @@ std::vector<std::string> read_tokens(const std::string& path) {
 // restart and live streams keep theirs.
 std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
   if (options.tls_cert.empty()) return grpc::InsecureServerCredentials();
-  read_pem(options.tls_key, "--tls-key");
-  read_pem(options.tls_cert, "--tls-cert");
-  if (!options.tls_client_ca.empty()) read_pem(options.tls_client_ca, "--tls-client-ca");
+  check_pem(options.tls_key, "--tls-key");
+  check_pem(options.tls_cert, "--tls-cert");
+  if (!options.tls_client_ca.empty()) check_pem(options.tls_client_ca, "--tls-client-ca");
   auto files = std::make_shared<grpc::experimental::FileWatcherCertificateProvider>(
       options.tls_key, options.tls_cert, options.tls_client_ca, options.tls_refresh_seconds);
   grpc::experimental::TlsServerCredentialsOptions tls(files);

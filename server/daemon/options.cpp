@@ -77,6 +77,12 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
   };
 }
 
+// --listen is 127.0.0.0/8, [::1] or localhost.
+bool listens_on_loopback(const DaemonOptions& options) {
+  const std::string& a = options.listen;
+  return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
+}
+
 }  // namespace
 
 bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error) {
@@ -131,11 +137,6 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
     return false;
   }
   return true;
-}
-
-bool listens_on_loopback(const DaemonOptions& options) {
-  const std::string& a = options.listen;
-  return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
 }
 
 bool reflection_enabled(const DaemonOptions& options) {

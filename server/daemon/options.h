@@ -38,9 +38,6 @@ struct DaemonOptions {
       60;  // --tls-refresh: how often the TLS files are re-read               // --tls-client-ca: PEM CA; set: require and verify client certificates
 };
 
-// --listen is 127.0.0.0/8, [::1] or localhost.
-bool listens_on_loopback(const DaemonOptions& options);
-
 // Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a
 // loopback address (127.0.0.0/8, [::1], localhost) and no --auth-tokens are required, so a daemon exposed
 // to a network, or one that checks tokens, does not list its API to anyone who asks.

@@ -31,7 +31,6 @@ class ServingState {
 
   // --auth-tokens: the accepted bearer tokens (none: every caller is let in).
   void set_tokens(std::vector<std::string> tokens) { tokens_ = std::move(tokens); }
-  bool authenticating() const { return !tokens_.empty(); }
   // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" with
   // one of them, compared in constant time; the message says nothing about which part was wrong.
   void require_token(const grpc::ServerContext& context) const;

@@ -19,7 +19,7 @@ from squall.v1 import common_pb2, ewave_pb2, ocean_pb2, textures_pb2
 PROTO_DIR = Path(__file__).resolve().parents[2] / "proto" / "squall" / "v1"
 
 
-def test_stubs_are_generated_into_the_installed_package() -> None:
+def test_grpc_modules_are_generated_into_the_installed_package() -> None:
     import squall.v1
 
     package = Path(squall.__file__).parent

@@ -202,7 +202,7 @@ class Ocean:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = ocean_pb2_grpc.OceanStub(connection.channel)
+        self._rpc = ocean_pb2_grpc.OceanStub(connection.channel)
 
     async def tile(
         self,
@@ -217,7 +217,7 @@ class Ocean:
         """One tile at time t, s (see squall.ocean.Ocean.tile)."""
         message = _ocean.tile_request(spec, time, outputs, dtype, request)
         return Tile(
-            await self._connection.unary("Ocean.GetTile", self._stub.GetTile, message, timeout)
+            await self._connection.unary("Ocean.GetTile", self._rpc.GetTile, message, timeout)
         )
 
     def stream(
@@ -236,7 +236,7 @@ class Ocean:
         message = _ocean.stream_request(spec, dt, frames, t0, outputs, dtype, request)
         return self._connection.stream(
             "Ocean.StreamTiles",
-            self._stub.StreamTiles,
+            self._rpc.StreamTiles,
             message,
             _ocean.TileAssembler().add,
             timeout,
@@ -256,7 +256,7 @@ class Ocean:
         message = _ocean.sample_request(spec, points, time, invert_displacement, request)
         return Samples(
             await self._connection.unary(
-                "Ocean.SampleSurface", self._stub.SampleSurface, message, timeout
+                "Ocean.SampleSurface", self._rpc.SampleSurface, message, timeout
             )
         )
 
@@ -289,7 +289,7 @@ class EWaveSession:
         )
         conn = self._service._connection
         return EWaveFrame(
-            await conn.unary("EWave.Step", self._service._stub.Step, request, timeout, self.id)
+            await conn.unary("EWave.Step", self._service._rpc.Step, request, timeout, self.id)
         )
 
     def run(
@@ -301,7 +301,7 @@ class EWaveSession:
         conn = self._service._connection
         return conn.stream(
             "EWave.Run",
-            self._service._stub.Run,
+            self._service._rpc.Run,
             feeder.__aiter__(),
             EWaveFrame,
             timeout,
@@ -315,7 +315,7 @@ class EWaveSession:
         conn = self._service._connection
         return (
             await conn.unary(
-                "EWave.GetState", self._service._stub.GetState, request, timeout, self.id
+                "EWave.GetState", self._service._rpc.GetState, request, timeout, self.id
             )
         ).state
 
@@ -330,7 +330,7 @@ class EWaveSession:
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
         await conn.unary(
-            "EWave.CloseSession", self._service._stub.CloseSession, request, timeout, self.id
+            "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
         )
         self.closed = True
 
@@ -365,7 +365,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = ewave_pb2_grpc.EWaveStub(connection.channel)
+        self._rpc = ewave_pb2_grpc.EWaveStub(connection.channel)
 
     def session(
         self,
@@ -380,7 +380,7 @@ class EWave:
 
         async def create() -> EWaveSession:
             response = await self._connection.unary(
-                "EWave.CreateSession", self._stub.CreateSession, request, timeout
+                "EWave.CreateSession", self._rpc.CreateSession, request, timeout
             )
             return EWaveSession(self, response)
 
@@ -391,7 +391,7 @@ class EWave:
         request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
         return EWaveSession(
             self,
-            await self._connection.unary("EWave.Restore", self._stub.Restore, request, timeout),
+            await self._connection.unary("EWave.Restore", self._rpc.Restore, request, timeout),
         )
 
     def attach(
@@ -411,7 +411,7 @@ class Clouds:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = clouds_pb2_grpc.CloudsStub(connection.channel)
+        self._rpc = clouds_pb2_grpc.CloudsStub(connection.channel)
 
     async def build(
         self,
@@ -426,7 +426,7 @@ class Clouds:
         """Builds a volume (summary, .vdb bytes or file if asked, id if kept)."""
         message = _clouds.build_request(cloud, keep, return_vdb or path is not None, request)
         response = await self._connection.unary(
-            "Clouds.BuildVolume", self._stub.BuildVolume, message, timeout
+            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
         )
         return _clouds.volume_of(response, message.return_vdb, path)
 
@@ -442,7 +442,7 @@ class Clouds:
         """Ray-marches a model, a stored Volume or a volume id: an (H, W, C) Image."""
         message = _clouds.render_request(source, settings, kwargs, request)
         response = await self._connection.unary(
-            "Clouds.Render", self._stub.Render, message, timeout
+            "Clouds.Render", self._rpc.Render, message, timeout
         )
         return Image.from_proto(response.image, response.summary)
 
@@ -464,7 +464,7 @@ class Clouds:
         )
         return self._connection.stream(
             "Clouds.StreamEvolution",
-            self._stub.StreamEvolution,
+            self._rpc.StreamEvolution,
             message,
             _clouds.evolution_frame,
             timeout,
@@ -476,7 +476,7 @@ class Clouds:
         """Drops a stored volume."""
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=_clouds.volume_id_of(volume))
         await self._connection.unary(
-            "Clouds.ReleaseVolume", self._stub.ReleaseVolume, message, timeout
+            "Clouds.ReleaseVolume", self._rpc.ReleaseVolume, message, timeout
         )
 
 
@@ -571,7 +571,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = textures_pb2_grpc.TexturesStub(connection.channel)
+        self._rpc = textures_pb2_grpc.TexturesStub(connection.channel)
 
     def advect(
         self,
@@ -621,7 +621,7 @@ class Textures:
             request=request,
         )
         return self._connection.stream(
-            "Textures.AdvectTexture", self._stub.AdvectTexture, message, TextureFrame, timeout
+            "Textures.AdvectTexture", self._rpc.AdvectTexture, message, TextureFrame, timeout
         )
 
     def interactive(
@@ -641,7 +641,7 @@ class Textures:
         else:
             request = _textures.advect_request(**kwargs)
         settings = self._connection.settings
-        call = self._stub.AdvectInteractive(
+        call = self._rpc.AdvectInteractive(
             timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
         )
         return Interactive(call, request)

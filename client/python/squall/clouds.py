@@ -361,7 +361,7 @@ class Clouds:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = clouds_pb2_grpc.CloudsStub(connection.channel)
+        self._rpc = clouds_pb2_grpc.CloudsStub(connection.channel)
 
     def build(
         self,
@@ -389,7 +389,7 @@ class Clouds:
         want_vdb = return_vdb or path is not None
         message = build_request(cloud, keep, want_vdb, request)
         response = self._connection.unary(
-            "Clouds.BuildVolume", self._stub.BuildVolume, message, timeout
+            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
         )
         return volume_of(response, message.return_vdb, path)
 
@@ -416,7 +416,7 @@ class Clouds:
             wavelength, then "depth" m); ``image["depth"]`` is one channel.
         """
         message = render_request(source, settings, kwargs, request)
-        response = self._connection.unary("Clouds.Render", self._stub.Render, message, timeout)
+        response = self._connection.unary("Clouds.Render", self._rpc.Render, message, timeout)
         return Image.from_proto(response.image, response.summary)
 
     def evolve(
@@ -446,10 +446,10 @@ class Clouds:
             cloud, times, evolution, settings, include_vdb, kwargs, request
         )
         return self._connection.stream(
-            "Clouds.StreamEvolution", self._stub.StreamEvolution, message, evolution_frame, timeout
+            "Clouds.StreamEvolution", self._rpc.StreamEvolution, message, evolution_frame, timeout
         )
 
     def release(self, volume: Union[str, Volume], *, timeout: Optional[float] = None) -> None:
         """Drops a stored volume (ReleaseVolume); NOT_FOUND when it is not stored."""
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id_of(volume))
-        self._connection.unary("Clouds.ReleaseVolume", self._stub.ReleaseVolume, message, timeout)
+        self._connection.unary("Clouds.ReleaseVolume", self._rpc.ReleaseVolume, message, timeout)

@@ -339,7 +339,7 @@ class EWaveSession:
         )
         conn = self._service._connection
         frame = conn.unary(
-            "EWave.Step", self._service._stub.Step, request, timeout, session=self.id
+            "EWave.Step", self._service._rpc.Step, request, timeout, session=self.id
         )
         return EWaveFrame(frame)
 
@@ -361,7 +361,7 @@ class EWaveSession:
         feeder = RequestFeeder(items, lambda item, i: step_request(self.id, item, i))
         conn = self._service._connection
         return conn.stream(
-            "EWave.Run", self._service._stub.Run, feeder, EWaveFrame, timeout, self.id, feeder
+            "EWave.Run", self._service._rpc.Run, feeder, EWaveFrame, timeout, self.id, feeder
         )
 
     def state(self, *, timeout: Optional[float] = None) -> bytes:
@@ -369,7 +369,7 @@ class EWaveSession:
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
         return conn.unary(
-            "EWave.GetState", self._service._stub.GetState, request, timeout, self.id
+            "EWave.GetState", self._service._rpc.GetState, request, timeout, self.id
         ).state
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> "EWaveSession":
@@ -385,7 +385,7 @@ class EWaveSession:
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
         conn.unary(
-            "EWave.CloseSession", self._service._stub.CloseSession, request, timeout, self.id
+            "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
         )
         self.closed = True
 
@@ -404,7 +404,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = ewave_pb2_grpc.EWaveStub(connection.channel)
+        self._rpc = ewave_pb2_grpc.EWaveStub(connection.channel)
 
     def session(
         self,
@@ -417,14 +417,14 @@ class EWave:
         of ``squall.ewave.config`` (nx, ny, dx, ...). A ``with`` block closes it at the end."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=as_config(config, **kwargs))
         response = self._connection.unary(
-            "EWave.CreateSession", self._stub.CreateSession, request, timeout
+            "EWave.CreateSession", self._rpc.CreateSession, request, timeout
         )
         return EWaveSession(self, response)
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session (new id) continuing a ``state()`` snapshot bit-identically (Restore)."""
         request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
-        response = self._connection.unary("EWave.Restore", self._stub.Restore, request, timeout)
+        response = self._connection.unary("EWave.Restore", self._rpc.Restore, request, timeout)
         return EWaveSession(self, response)
 
     def attach(

@@ -380,7 +380,7 @@ class Ocean:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = ocean_pb2_grpc.OceanStub(connection.channel)
+        self._rpc = ocean_pb2_grpc.OceanStub(connection.channel)
 
     def tile(
         self,
@@ -408,7 +408,7 @@ class Ocean:
             stream()).
         """
         message = tile_request(spec, time, outputs, dtype, request)
-        response = self._connection.unary("Ocean.GetTile", self._stub.GetTile, message, timeout)
+        response = self._connection.unary("Ocean.GetTile", self._rpc.GetTile, message, timeout)
         return Tile(response)
 
     def stream(
@@ -438,7 +438,7 @@ class Ocean:
         """
         message = stream_request(spec, dt, frames, t0, outputs, dtype, request)
         return self._connection.stream(
-            "Ocean.StreamTiles", self._stub.StreamTiles, message, TileAssembler().add, timeout
+            "Ocean.StreamTiles", self._rpc.StreamTiles, message, TileAssembler().add, timeout
         )
 
     def sample(
@@ -467,6 +467,6 @@ class Ocean:
         """
         message = sample_request(spec, points, time, invert_displacement, request)
         response = self._connection.unary(
-            "Ocean.SampleSurface", self._stub.SampleSurface, message, timeout
+            "Ocean.SampleSurface", self._rpc.SampleSurface, message, timeout
         )
         return Samples(response)

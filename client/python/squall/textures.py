@@ -501,7 +501,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._stub = textures_pb2_grpc.TexturesStub(connection.channel)
+        self._rpc = textures_pb2_grpc.TexturesStub(connection.channel)
 
     def advect(
         self,
@@ -581,7 +581,7 @@ class Textures:
             request=request,
         )
         return self._connection.stream(
-            "Textures.AdvectTexture", self._stub.AdvectTexture, message, TextureFrame, timeout
+            "Textures.AdvectTexture", self._rpc.AdvectTexture, message, TextureFrame, timeout
         )
 
     def interactive(
@@ -611,4 +611,4 @@ class Textures:
             request = to_message(textures_pb2.AdvectTextureRequest, start, "start")
         else:
             request = advect_request(**kwargs)
-        return Interactive(self._connection, self._stub, request, timeout)
+        return Interactive(self._connection, self._rpc, request, timeout)
