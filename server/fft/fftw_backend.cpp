@@ -106,9 +106,6 @@ class FftwPlan : public Plan {
       if (p) F::destroy(p);
   }
 
-  // Makes the plans this key always needs, so that a bad size fails at bake time.
-  void prepare() { plan(key().transform == Transform::C2R ? Direction::Inverse : Direction::Forward, false, false); }
-
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                const cl::Buffer& out) override {
     check_direction(direction);
@@ -164,19 +161,13 @@ class FftwBackend : public Backend {
   FftwBackend(int threads, unsigned planner) : threads_(threads), planner_(planner) {}
   std::string name() const override { return "fftw"; }
 
+  // FFTW plans any size; each (direction, placement, alignment) is planned on its first use and kept.
   std::unique_ptr<Plan> bake(const PlanKey& key) override {
-    if (key.precision == Precision::F32)
-      return prepared(std::make_unique<FftwPlan<Precision::F32>>(key, threads_, planner_));
-    return prepared(std::make_unique<FftwPlan<Precision::F64>>(key, threads_, planner_));
+    if (key.precision == Precision::F32) return std::make_unique<FftwPlan<Precision::F32>>(key, threads_, planner_);
+    return std::make_unique<FftwPlan<Precision::F64>>(key, threads_, planner_);
   }
 
  private:
-  template <typename T>
-  static std::unique_ptr<Plan> prepared(std::unique_ptr<T> plan) {
-    plan->prepare();
-    return plan;
-  }
-
   int threads_;
   unsigned planner_;
 };
