@@ -2,18 +2,11 @@
 
 #include <algorithm>
 
+#include "runtime/upload.h"
 #include "textures/push_pull.h"
 
 namespace squall::textures {
 namespace {
-
-template <typename T>
-cl::Buffer upload(Runtime& runtime, const std::vector<T>& values) {
-  static const T none[16] = {};  // OpenCL buffers may not be empty: absent inputs get a few zero bytes
-  const void* data = values.empty() ? static_cast<const void*>(none) : values.data();
-  size_t bytes = values.empty() ? sizeof(none) : values.size() * sizeof(T);
-  return cl::Buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, const_cast<void*>(data));
-}
 
 // The frames as (u, v) pairs, x fastest, frame after frame; extrapolated by push-pull if asked.
 std::vector<cl_float2> grid_pairs(const VelocitySpec& v) {

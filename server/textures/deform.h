@@ -1,0 +1,67 @@
+// Content-aware texture deformation on the device (G. Guingo et al., "Content-aware texture deformation with
+// dynamic control", Computers & Graphics 91, 2020): the flow field solved once from the rigidity map
+// (sec. 4, eq. 6), the per-texel warp moved every frame by its d mu (sec. 3.3, eq. 5), the controls of d mu
+// (sec. 5, eqs. 7-8) and the resampling stack (sec. 6.1, eqs. 9-14). No gRPC in here.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/limits.h"
+#include "runtime/runtime.h"
+#include "textures/deform_spec.h"
+
+namespace squall::textures {
+
+// The flow solve's outcome (the same for every frame of a deformation).
+struct FlowSolve {
+  int iterations = 0;
+  double residual = 0;  // |D^T (D v - R)| / |D^T R| at the end (0 when R is 0 everywhere)
+};
+
+// One frame: the planes asked for (DeformPlanes), each width * height floats, x fastest, in the order
+// color (channels planes), warp (x, y), reference (t*), level (h), flow (x, y).
+struct DeformFrame {
+  int index = 0;
+  double time = 0;  // s: index dt
+  int width = 0, height = 0;
+  std::vector<float> planes;
+  double max_warp = 0;                          // texels: max |W(u) - u|
+  double max_residual = 0;                      // texels: max |residual warp| (max_warp without a stack)
+  double min_reference = 0, max_reference = 0;  // t* over the texels
+};
+
+class Deformation {
+ public:
+  virtual ~Deformation() = default;
+  // Frame 0 (the undeformed texture), then each call takes one frame's step and returns the frame.
+  virtual DeformFrame next(const DeformPlanes& planes) = 0;
+  // From the next frame on: `control` replaces the running one. For the tensor controls,
+  // control.deformation_start is G now, reached at the next frame and held after it.
+  virtual void steer(const DeformControl& control) = 0;
+  virtual const FlowSolve& flow() const = 0;
+  // Device bytes this deformation holds (its state, flow, texture and stack).
+  virtual uint64_t device_bytes() const = 0;
+};
+
+class DeformEngine {
+ public:
+  DeformEngine(Runtime& runtime, const LimitGate& gate);
+  ~DeformEngine();
+
+  // Every field in range (INVALID_ARGUMENT naming "<path>.<field>", the proto's names: "texture",
+  // "rigidity", "chart", "d_mu_map", "strokes[i].radius", "deformation_start.xx", ...); width * height (and
+  // the stack's levels) within --max-grid-cells (RESOURCE_EXHAUSTED).
+  void validate(const DeformSpec& spec, const std::string& path) const;
+  // A validated spec's deformation. The flow field is solved here (or reused: the last few solves are
+  // kept, keyed by the rigidity, chart, size, tolerance and iterations).
+  std::unique_ptr<Deformation> start(const DeformSpec& spec);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace squall::textures

@@ -1,0 +1,309 @@
+#include "textures/river.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+#include "common/validate.h"
+#include "runtime/upload.h"
+
+namespace squall::textures {
+namespace {
+
+using namespace squall::validate;
+
+constexpr int kMaxChannels = 256, kMaxJunctions = 256, kMaxObstacles = 256;
+constexpr int kMaxPoints = 4096;     // per polyline
+constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
+constexpr int64_t kMaxBins = int64_t(1) << 20;
+
+void polyline(const std::vector<Point2>& points, int min_points, const std::string& path) {
+  in(path + ".points size", int64_t(points.size()), min_points, kMaxPoints);
+  for (size_t k = 0; k < points.size(); ++k) {
+    finite(at(path + ".points", k) + ".x", points[k].x);
+    finite(at(path + ".points", k) + ".y", points[k].y);
+    const Point2& next = points[(k + 1) % points.size()];
+    if (k + 1 < points.size() && points[k].x == next.x && points[k].y == next.y)
+      fail(Code::InvalidArgument, at(path + ".points", k + 1) + " repeats the point before it");
+  }
+}
+
+void junction(const RiverJunctionSpec& j, size_t channels, std::vector<int>& ends, std::vector<int>& starts,
+              const std::string& path) {
+  in(path + ".upstream size", int64_t(j.upstream.size()), 1, kMaxJunctionSide);
+  in(path + ".downstream size", int64_t(j.downstream.size()), 1, kMaxJunctionSide);
+  if (j.upstream.size() + j.downstream.size() < 3)
+    fail(Code::InvalidArgument, path + " joins " + std::to_string(j.upstream.size()) + " channel to " +
+                                    std::to_string(j.downstream.size()) +
+                                    ": a junction has 2 or more channels on one side (draw one channel instead)");
+  auto check = [&](const std::vector<int>& side, std::vector<int>& seen, const std::string& name) {
+    for (size_t k = 0; k < side.size(); ++k) {
+      const std::string field = at(path + "." + name, k);
+      in(field, int64_t(side[k]), 0, int64_t(channels) - 1);
+      if (seen[side[k]]++)
+        fail(Code::InvalidArgument, field + " = " + std::to_string(side[k]) + ": the channel is already " +
+                                        (name == "upstream" ? "ending" : "starting") + " at a junction");
+    }
+  };
+  check(j.upstream, ends, "upstream");
+  check(j.downstream, starts, "downstream");
+}
+
+}  // namespace
+
+// The river's walls and polygons on the device.
+struct RiverEngine::Geometry {
+  RiverGeometry geo{};
+  RiverNetwork network;
+  std::vector<double> obstacle_psi;
+  std::vector<float> boundary_psi, boundary_s;
+  cl::Buffer segments, segment_boundary, bin_start, bin_items, psi, s, polygon_start, polygon_points;
+};
+
+RiverEngine::RiverEngine(Runtime& runtime, const LimitGate& gate)
+    : runtime_(runtime),
+      gate_(gate),
+      points_(runtime, "textures/river.cl", "river_points"),
+      bake_(runtime, "textures/river.cl", "river_bake") {}
+
+void RiverEngine::validate(const RiverSpec& river, const std::string& path) const {
+  in(path + ".channels size", int64_t(river.channels.size()), 1, kMaxChannels);
+  in(path + ".junctions size", int64_t(river.junctions.size()), 0, kMaxJunctions);
+  in(path + ".obstacles size", int64_t(river.obstacles.size()), 0, kMaxObstacles);
+  for (size_t c = 0; c < river.channels.size(); ++c) {
+    const RiverChannelSpec& channel = river.channels[c];
+    const std::string cpath = at(path + ".channels", c);
+    polyline(channel.left, 2, cpath + ".left_bank");
+    polyline(channel.right, 2, cpath + ".right_bank");
+    if (channel.flow_rate) positive(cpath + ".flow_rate", *channel.flow_rate);
+    if (channel.cross_section)
+      positive(cpath + ".cross_section", *channel.cross_section);
+    else if (!(cross_section(channel) > 0))
+      fail(Code::InvalidArgument, cpath + ": the banks start at the same point; give cross_section");
+  }
+  std::vector<int> ends(river.channels.size()), starts(river.channels.size());
+  for (size_t j = 0; j < river.junctions.size(); ++j)
+    junction(river.junctions[j], river.channels.size(), ends, starts, at(path + ".junctions", j));
+  for (size_t o = 0; o < river.obstacles.size(); ++o) {
+    const std::string opath = at(path + ".obstacles", o);
+    polyline(river.obstacles[o].outline, 3, opath + ".outline");
+    if (river.obstacles[o].search_radius) positive(opath + ".search_radius", *river.obstacles[o].search_radius);
+  }
+  in(path + ".p", river.p, open_closed(0, 8));
+  if (river.search_radius) positive(path + ".search_radius", *river.search_radius);
+}
+
+void RiverEngine::validate(const BakeGrid& grid, const std::string& path) const {
+  in(path + ".nx", int64_t(grid.nx), 2, 4096);
+  in(path + ".ny", int64_t(grid.ny), 2, 4096);
+  gate_.check_grid(path, grid.nx, grid.ny);
+  finite(path + ".region.x0", grid.x0);
+  finite(path + ".region.y0", grid.y0);
+  in(path + ".region.x1", grid.x1, above(grid.x0));
+  in(path + ".region.y1", grid.y1, above(grid.y0));
+}
+
+namespace {
+
+struct Walls {
+  std::vector<cl_float4> segments;  // (a.x, a.y, b.x, b.y)
+  std::vector<cl_int> boundary;     // per segment
+  std::vector<cl_int> polygon_start{0};
+  std::vector<cl_float2> polygon_points;
+};
+
+void add_polyline(Walls& walls, const std::vector<Point2>& points, int boundary, bool closed) {
+  const size_t n = points.size(), segments = closed ? n : n - 1;
+  for (size_t k = 0; k < segments; ++k) {
+    const Point2 &a = points[k], &b = points[(k + 1) % n];
+    walls.segments.push_back({{float(a.x), float(a.y), float(b.x), float(b.y)}});
+    walls.boundary.push_back(boundary);
+  }
+}
+
+void add_polygon(Walls& walls, const std::vector<Point2>& points) {
+  for (const Point2& p : points) walls.polygon_points.push_back({{float(p.x), float(p.y)}});
+  walls.polygon_start.push_back(cl_int(walls.polygon_points.size()));
+}
+
+// The water of a channel: its left bank, then its right bank backwards.
+std::vector<Point2> channel_polygon(const RiverChannelSpec& c) {
+  std::vector<Point2> polygon = c.left;
+  polygon.insert(polygon.end(), c.right.rbegin(), c.right.rend());
+  return polygon;
+}
+
+// Bins of about s_max / 2 over the segments' bounding box (fewer, larger bins past kMaxBins), each listing
+// the segments whose bounding box touches it (CSR).
+void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& start, std::vector<cl_int>& items) {
+  float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  for (const cl_float4& s : walls.segments) {
+    x0 = std::min({x0, s.s[0], s.s[2]});
+    y0 = std::min({y0, s.s[1], s.s[3]});
+    x1 = std::max({x1, s.s[0], s.s[2]});
+    y1 = std::max({y1, s.s[1], s.s[3]});
+  }
+  const double area = double(x1 - x0) * double(y1 - y0);
+  geo.bin_size = float(std::max({0.5 * geo.s_max, std::sqrt(area / double(kMaxBins)) * 1.01, 1e-6}));
+  geo.bin_x0 = x0;
+  geo.bin_y0 = y0;
+  geo.bins_x = int((x1 - x0) / geo.bin_size) + 1;
+  geo.bins_y = int((y1 - y0) / geo.bin_size) + 1;
+  auto bin_range = [&](const cl_float4& s, int axis, int bins, float origin) {
+    const float lo = std::min(s.s[axis], s.s[axis + 2]), hi = std::max(s.s[axis], s.s[axis + 2]);
+    return std::pair{std::clamp(int((lo - origin) / geo.bin_size), 0, bins - 1),
+                     std::clamp(int((hi - origin) / geo.bin_size), 0, bins - 1)};
+  };
+  std::vector<std::vector<cl_int>> bins(size_t(geo.bins_x) * geo.bins_y);
+  for (size_t k = 0; k < walls.segments.size(); ++k) {
+    const auto [bx0, bx1] = bin_range(walls.segments[k], 0, geo.bins_x, geo.bin_x0);
+    const auto [by0, by1] = bin_range(walls.segments[k], 1, geo.bins_y, geo.bin_y0);
+    for (int by = by0; by <= by1; ++by)
+      for (int bx = bx0; bx <= bx1; ++bx) bins[size_t(by) * geo.bins_x + bx].push_back(cl_int(k));
+  }
+  start.assign(1, 0);
+  for (const auto& bin : bins) {
+    items.insert(items.end(), bin.begin(), bin.end());
+    start.push_back(cl_int(items.size()));
+  }
+}
+
+Point2 vertex_centroid(const std::vector<Point2>& points) {
+  Point2 c;
+  for (const Point2& p : points) {
+    c.x += p.x / double(points.size());
+    c.y += p.y / double(points.size());
+  }
+  return c;
+}
+
+}  // namespace
+
+RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::string& path) {
+  Geometry g;
+  g.network = solve_network(river, path);
+  double widest = 0;
+  for (const RiverChannelSpec& c : river.channels) widest = std::max(widest, cross_section(c));
+  const double s = river.search_radius.value_or(2 * widest);
+  Walls walls;
+  for (size_t c = 0; c < river.channels.size(); ++c) {
+    add_polyline(walls, river.channels[c].left, g.network.boundary_of[2 * c], false);
+    add_polyline(walls, river.channels[c].right, g.network.boundary_of[2 * c + 1], false);
+    add_polygon(walls, channel_polygon(river.channels[c]));
+  }
+  const int banks = int(g.network.boundary_psi.size());
+  for (double psi : g.network.boundary_psi) {
+    g.boundary_psi.push_back(float(psi));
+    g.boundary_s.push_back(float(s));
+  }
+  for (size_t o = 0; o < river.obstacles.size(); ++o) {
+    add_polyline(walls, river.obstacles[o].outline, banks + int(o), true);
+    add_polygon(walls, river.obstacles[o].outline);
+    g.boundary_psi.push_back(0);  // set below, from the banks
+    g.boundary_s.push_back(float(river.obstacles[o].search_radius.value_or(s)));
+  }
+  g.geo.segments = cl_int(walls.segments.size());
+  g.geo.boundaries = cl_int(g.boundary_psi.size());
+  g.geo.channel_polygons = cl_int(river.channels.size());
+  g.geo.obstacle_polygons = cl_int(river.obstacles.size());
+  g.geo.p = float(river.p);
+  g.geo.s_max = *std::max_element(g.boundary_s.begin(), g.boundary_s.end());
+  std::vector<cl_int> bin_start, bin_items;
+  bin_segments(walls, g.geo, bin_start, bin_items);
+  g.segments = squall::upload(runtime_, walls.segments);
+  g.segment_boundary = squall::upload(runtime_, walls.boundary);
+  g.bin_start = squall::upload(runtime_, bin_start);
+  g.bin_items = squall::upload(runtime_, bin_items);
+  g.s = squall::upload(runtime_, g.boundary_s);
+  g.polygon_start = squall::upload(runtime_, walls.polygon_start);
+  g.polygon_points = squall::upload(runtime_, walls.polygon_points);
+  g.psi = squall::upload(runtime_, g.boundary_psi);
+  if (river.obstacles.empty()) return g;
+  // RIV09 sec. 4.3: an obstacle's psi is the banks' psi (eq. 1 without the obstacles) at its centre.
+  std::vector<Point2> centres;
+  for (const RiverObstacleSpec& o : river.obstacles) centres.push_back(vertex_centroid(o.outline));
+  const std::vector<RiverSample> at_centres = run_points(g, centres, banks);
+  for (size_t o = 0; o < centres.size(); ++o) {
+    if (at_centres[o].undefined)
+      fail(Code::InvalidArgument,
+           at(path + ".obstacles", o) + ": no bank lies within the search radius of its centre (grow search_radius)");
+    g.obstacle_psi.push_back(at_centres[o].psi);
+    g.boundary_psi[banks + o] = float(at_centres[o].psi);
+  }
+  g.psi = squall::upload(runtime_, g.boundary_psi);
+  return g;
+}
+
+std::vector<RiverSample> RiverEngine::run_points(const Geometry& g, const std::vector<Point2>& points, int limit) {
+  std::vector<cl_float2> xy;
+  for (const Point2& p : points) xy.push_back({{float(p.x), float(p.y)}});
+  std::vector<cl_float4> out(points.size());
+  if (points.empty()) return {};
+  const cl::Buffer in = squall::upload(runtime_, xy);
+  cl::Buffer result(runtime_.context(), CL_MEM_WRITE_ONLY, out.size() * sizeof(cl_float4));
+  {
+    auto lock = runtime_.exclusive();
+    points_.launch(cl::NDRange(round_up(points.size(), 64)), cl::NullRange, result, in, cl_int(points.size()), g.geo,
+                   g.segments, g.segment_boundary, g.bin_start, g.bin_items, g.psi, g.s, g.polygon_start,
+                   g.polygon_points, cl_int(limit));
+    runtime_.queue().enqueueReadBuffer(result, CL_TRUE, 0, out.size() * sizeof(cl_float4), out.data());
+  }
+  std::vector<RiverSample> samples;
+  for (const cl_float4& o : out) {
+    const int flags = int(o.s[3]);
+    samples.push_back(
+        {o.s[0], o.s[1], o.s[2], (flags & SQUALL_RIVER_FLUID) != 0, (flags & SQUALL_RIVER_UNDEFINED) != 0});
+  }
+  return samples;
+}
+
+std::vector<RiverSample> RiverEngine::sample(const RiverSpec& river, const std::vector<Point2>& points,
+                                             const std::string& path) {
+  const Geometry g = upload(river, path);
+  return run_points(g, points, g.geo.boundaries);
+}
+
+RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path) {
+  Geometry g = upload(river, path);
+  const size_t nodes = size_t(grid.nx) * grid.ny;
+  std::vector<cl_float4> out(nodes);
+  cl::Buffer result(runtime_.context(), CL_MEM_WRITE_ONLY, nodes * sizeof(cl_float4));
+  const float hx = float((grid.x1 - grid.x0) / (grid.nx - 1)), hy = float((grid.y1 - grid.y0) / (grid.ny - 1));
+  {
+    auto lock = runtime_.exclusive();
+    bake_.launch(cl::NDRange(round_up(grid.nx, 8), round_up(grid.ny, 8)), cl::NDRange(8, 8), result, cl_int(grid.nx),
+                 cl_int(grid.ny), float(grid.x0), float(grid.y0), hx, hy, g.geo, g.segments, g.segment_boundary,
+                 g.bin_start, g.bin_items, g.psi, g.s, g.polygon_start, g.polygon_points);
+    runtime_.queue().enqueueReadBuffer(result, CL_TRUE, 0, nodes * sizeof(cl_float4), out.data());
+  }
+  RiverBake b;
+  b.grid = grid;
+  for (const cl_float4& o : out) {
+    const int flags = int(o.s[3]);
+    b.u.push_back(o.s[0]);
+    b.v.push_back(o.s[1]);
+    b.psi.push_back(o.s[2]);
+    b.fluid.push_back(flags & SQUALL_RIVER_FLUID ? 1.0f : 0.0f);
+    b.undefined += (flags & SQUALL_RIVER_FLUID) && (flags & SQUALL_RIVER_UNDEFINED);
+  }
+  b.network = std::move(g.network);
+  b.obstacle_psi = std::move(g.obstacle_psi);
+  return b;
+}
+
+VelocitySpec velocity_grid(const RiverBake& bake) {
+  VelocitySpec v;
+  v.kind = SQUALL_VELOCITY_GRID;
+  v.nx = bake.grid.nx;
+  v.ny = bake.grid.ny;
+  v.origin_x = bake.grid.x0;
+  v.origin_y = bake.grid.y0;
+  v.hx = (bake.grid.x1 - bake.grid.x0) / (bake.grid.nx - 1);
+  v.hy = (bake.grid.y1 - bake.grid.y0) / (bake.grid.ny - 1);
+  v.frames.push_back({0.0, bake.u, bake.v});
+  v.extrapolation = Extrapolation::PushPull;
+  for (float f : bake.fluid) v.mask.push_back(f != 0);
+  return v;
+}
+
+}  // namespace squall::textures

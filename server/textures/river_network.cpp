@@ -1,0 +1,168 @@
+#include "textures/river_network.h"
+
+#include <cmath>
+#include <numeric>
+#include <optional>
+#include <queue>
+
+#include "common/error.h"
+#include "common/validate.h"
+
+namespace squall::textures {
+namespace {
+
+using validate::at;
+using validate::number;
+
+int left_bank(int channel) { return 2 * channel; }
+int right_bank(int channel) { return 2 * channel + 1; }
+
+// Sum of the known flow rates of `channels`, and how many are unknown.
+struct SideSum {
+  double known = 0;
+  int unknown = 0;
+};
+
+SideSum side_sum(const std::vector<int>& channels, const std::vector<std::optional<double>>& q) {
+  SideSum s;
+  for (int c : channels) {
+    if (q[c])
+      s.known += *q[c];
+    else
+      ++s.unknown;
+  }
+  return s;
+}
+
+// One junction's law (sec. 4.1): when one side is fully known, the other side's unknown channels share
+// what it lacks in proportion to their cross-sections. True when it set a flow rate.
+bool apply_junction(const RiverJunctionSpec& j, const RiverSpec& river, std::vector<std::optional<double>>& q,
+                    const std::string& path) {
+  const SideSum in = side_sum(j.upstream, q), out = side_sum(j.downstream, q);
+  if (in.unknown == 0 && out.unknown == 0) {
+    if (std::abs(in.known - out.known) > 1e-9 * std::max(in.known, out.known))
+      fail(Code::InvalidArgument, path + ": flow in " + number(in.known) + " du^2/s != flow out " + number(out.known) +
+                                      " du^2/s (mass conservation)");
+    return false;
+  }
+  if (in.unknown > 0 && out.unknown > 0) return false;
+  const bool fill_upstream = in.unknown > 0;
+  const std::vector<int>& side = fill_upstream ? j.upstream : j.downstream;
+  const double missing = fill_upstream ? out.known - in.known : in.known - out.known;
+  if (!(missing > 0))
+    fail(Code::InvalidArgument, path + ": the given flow rates leave " + number(missing) +
+                                    " du^2/s for the channels whose flow_rate is unset (must be > 0)");
+  double width = 0;
+  for (int c : side)
+    if (!q[c]) width += cross_section(river.channels[c]);
+  for (int c : side)
+    if (!q[c]) q[c] = missing * cross_section(river.channels[c]) / width;
+  return true;
+}
+
+std::vector<double> flow_rates(const RiverSpec& river, const std::string& path) {
+  std::vector<std::optional<double>> q;
+  for (const RiverChannelSpec& c : river.channels) q.push_back(c.flow_rate);
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (size_t j = 0; j < river.junctions.size(); ++j)
+      changed |= apply_junction(river.junctions[j], river, q, at(path + ".junctions", j));
+  }
+  std::vector<double> rates;
+  for (size_t c = 0; c < q.size(); ++c) {
+    if (!q[c])
+      fail(Code::InvalidArgument,
+           at(path + ".channels", c) + ".flow_rate is unset and no junction determines it: give it (du^2/s)");
+    rates.push_back(*q[c]);
+  }
+  return rates;
+}
+
+int find(std::vector<int>& parent, int b) {
+  while (parent[b] != b) b = parent[b] = parent[parent[b]];
+  return b;
+}
+
+// Banks that continue through a junction: the outer banks, and the banks between neighbouring channels.
+std::vector<int> join_banks(const RiverSpec& river) {
+  std::vector<int> parent(2 * river.channels.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto join = [&](int a, int b) { parent[find(parent, a)] = find(parent, b); };
+  for (const RiverJunctionSpec& j : river.junctions) {
+    join(left_bank(j.upstream.front()), left_bank(j.downstream.front()));
+    join(right_bank(j.upstream.back()), right_bank(j.downstream.back()));
+    for (const std::vector<int>* side : {&j.upstream, &j.downstream})
+      for (size_t k = 0; k + 1 < side->size(); ++k) join(right_bank((*side)[k]), left_bank((*side)[k + 1]));
+  }
+  std::vector<int> boundary(parent.size(), -1), of(parent.size());
+  int boundaries = 0;
+  for (size_t b = 0; b < parent.size(); ++b) {
+    int& id = boundary[find(parent, int(b))];
+    if (id < 0) id = boundaries++;
+    of[b] = id;
+  }
+  return of;
+}
+
+// psi per boundary from psi_left - psi_right = Q of each channel, breadth first from psi = 0 on the right
+// bank of the first channel of each connected network.
+std::vector<double> boundary_values(const RiverNetwork& n, int boundaries, const std::string& path) {
+  struct Edge {
+    int to;
+    double difference;  // psi(to) - psi(from)
+    int channel;
+  };
+  std::vector<std::vector<Edge>> edges(boundaries);
+  for (size_t c = 0; c < n.flow_rate.size(); ++c) {
+    const int l = n.boundary_of[left_bank(int(c))], r = n.boundary_of[right_bank(int(c))];
+    edges[r].push_back({l, n.flow_rate[c], int(c)});
+    edges[l].push_back({r, -n.flow_rate[c], int(c)});
+  }
+  std::vector<std::optional<double>> psi(boundaries);
+  for (size_t c = 0; c < n.flow_rate.size(); ++c) {
+    const int start = n.boundary_of[right_bank(int(c))];
+    if (psi[start]) continue;
+    psi[start] = 0.0;
+    std::queue<int> todo;
+    todo.push(start);
+    for (; !todo.empty(); todo.pop()) {
+      for (const Edge& e : edges[todo.front()]) {
+        const double value = *psi[todo.front()] + e.difference;
+        if (!psi[e.to]) {
+          psi[e.to] = value;
+          todo.push(e.to);
+        } else if (std::abs(*psi[e.to] - value) > 1e-9 * (std::abs(value) + std::abs(e.difference))) {
+          fail(Code::InvalidArgument, at(path + ".channels", size_t(e.channel)) +
+                                          ": the flow rates around a loop of channels disagree (draw an "
+                                          "island as an obstacle, not as channels around it)");
+        }
+      }
+    }
+  }
+  std::vector<double> values;
+  for (const auto& v : psi) values.push_back(*v);
+  return values;
+}
+
+}  // namespace
+
+double cross_section(const RiverChannelSpec& channel) {
+  if (channel.cross_section) return *channel.cross_section;
+  return std::hypot(channel.left.front().x - channel.right.front().x, channel.left.front().y - channel.right.front().y);
+}
+
+RiverNetwork solve_network(const RiverSpec& river, const std::string& path) {
+  RiverNetwork n;
+  n.flow_rate = flow_rates(river, path);
+  n.boundary_of = join_banks(river);
+  int boundaries = 0;
+  for (int b : n.boundary_of) boundaries = std::max(boundaries, b + 1);
+  n.boundary_psi = boundary_values(n, boundaries, path);
+  for (size_t c = 0; c < river.channels.size(); ++c) {
+    n.left_psi.push_back(n.boundary_psi[n.boundary_of[left_bank(int(c))]]);
+    n.right_psi.push_back(n.boundary_psi[n.boundary_of[right_bank(int(c))]]);
+  }
+  return n;
+}
+
+}  // namespace squall::textures
