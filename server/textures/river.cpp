@@ -93,14 +93,15 @@ void RiverEngine::validate(const RiverSpec& river, const std::string& path) cons
   if (river.search_radius) positive(path + ".search_radius", *river.search_radius);
 }
 
-void RiverEngine::validate(const BakeGrid& grid, const std::string& path) const {
-  in(path + ".nx", int64_t(grid.nx), 2, 4096);
-  in(path + ".ny", int64_t(grid.ny), 2, 4096);
+void RiverEngine::validate(const BakeGrid& grid, const std::string& path, const std::string& prefix) const {
+  const std::string p = path + "." + prefix;
+  in(p + "nx", int64_t(grid.nx), 2, 4096);
+  in(p + "ny", int64_t(grid.ny), 2, 4096);
   gate_.check_grid(path, grid.nx, grid.ny);
-  finite(path + ".region.x0", grid.x0);
-  finite(path + ".region.y0", grid.y0);
-  in(path + ".region.x1", grid.x1, above(grid.x0));
-  in(path + ".region.y1", grid.y1, above(grid.y0));
+  finite(p + "region.x0", grid.x0);
+  finite(p + "region.y0", grid.y0);
+  in(p + "region.x1", grid.x1, above(grid.x0));
+  in(p + "region.y1", grid.y1, above(grid.y0));
 }
 
 namespace {

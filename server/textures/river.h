@@ -44,8 +44,9 @@ class RiverEngine {
 
   // Every field in range: INVALID_ARGUMENT naming "<path>.channels[c].left_bank.points[k].x", ...
   void validate(const RiverSpec& river, const std::string& path) const;
-  // nx, ny in 2..4096 and within --max-grid-cells (RESOURCE_EXHAUSTED); the region finite, x1 > x0, y1 > y0.
-  void validate(const BakeGrid& grid, const std::string& path) const;
+  // nx, ny in 2..4096 and within --max-grid-cells (RESOURCE_EXHAUSTED); the region finite, x1 > x0,
+  // y1 > y0. Messages name "<path>.<prefix>nx", "<path>.<prefix>region.x1", ...
+  void validate(const BakeGrid& grid, const std::string& path, const std::string& prefix = "") const;
 
   // A validated river on a validated grid. The network and the obstacles' psi may still fail
   // (INVALID_ARGUMENT naming the field under `path`).

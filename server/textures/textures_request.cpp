@@ -123,9 +123,9 @@ VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
 
 VelocitySpec velocity(const v1::VelocitySpec& v, const std::string& path) {
   if (v.has_grid()) return grid(v.grid(), path + ".grid");
-  if (v.field_case() == v1::VelocitySpec::kEwaveSession || v.has_ocean()) {
+  if (v.field_case() == v1::VelocitySpec::kEwaveSession || v.has_ocean() || v.has_river()) {
     VelocitySpec current;
-    current.kind = SQUALL_VELOCITY_GRID;  // its frames come from the engine that computes it (followed())
+    current.kind = SQUALL_VELOCITY_GRID;  // its frames come from the engine that computes it
     return current;
   }
   return analytic(v.named(), path + ".named");

@@ -33,7 +33,8 @@ AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate
 PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
 
 // A velocity read from another engine before each step: the surface current of an eWave session or of an
-// ocean tile. spec() leaves such a velocity an empty grid, which the caller fills before validation.
+// ocean tile. spec() leaves such a velocity (and a river's) an empty grid, which the caller fills before
+// validation.
 struct FollowedCurrent {
   std::string ewave_session;             // velocity.ewave_session
   std::optional<ocean::TileSpec> ocean;  // velocity.ocean, validated (ocean::validate_current)

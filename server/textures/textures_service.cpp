@@ -1,10 +1,12 @@
 #include "textures/textures_service.h"
 
 #include "common/error.h"
+#include "common/field_codec.h"
 #include "common/validate.h"
 #include "ewave/shared_engine.h"
 #include "ocean/shared_engine.h"
 #include "rpc/streaming.h"
+#include "textures/river_request.h"
 #include "textures/textures_request.h"
 
 namespace squall::rpc {
@@ -43,6 +45,7 @@ struct TexturesService::Stream {
 
 void TexturesService::start(EngineContext& context) {
   engine_ = std::make_unique<TextureEngine>(context.runtime, context.gate);
+  rivers_ = std::make_unique<RiverEngine>(context.runtime, context.gate);
   ewave_ = &ewave::shared_engine(context);
   ocean_ = &ocean::shared_engine(context);
 }
@@ -68,6 +71,15 @@ void TexturesService::follow(Stream& s, double from) {
   s.spec.velocity = current_grid({std::move(current)});
 }
 
+void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) {
+  if (!velocity.has_river()) return;
+  const RiverSpec river = req::river(velocity.river());
+  const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
+  rivers_->validate(river, path + ".river");
+  rivers_->validate(grid, path + ".river", "bake_");
+  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river"));
+}
+
 TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {
   if (refresh && s.current.any()) {  // the step to this frame uses the current read now
     follow(s, advection.time());
@@ -84,6 +96,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     follow(s, s.spec.t0);
+    bake_river(request->velocity(), s, "request.velocity");
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
@@ -127,6 +140,8 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
   follow(s, advection ? advection->time() : s.spec.t0);
+  if (n == 0) bake_river(control.start().velocity(), s, path + ".start.velocity");
+  if (control.has_velocity()) bake_river(control.velocity(), s, path + ".velocity");
   engine_->validate(s.spec, n == 0 ? path + ".start" : path);
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
@@ -153,6 +168,22 @@ grpc::Status TexturesService::AdvectInteractive(
         if (!call.write(*stream, out)) return;
       }
     }
+  });
+}
+
+grpc::Status TexturesService::BakeVelocity(grpc::ServerContext* context, const v1::BakeVelocityRequest* request,
+                                           v1::BakeVelocityReply* reply) {
+  return serve(*context, serving_, [&] {
+    const RiverSpec river = req::river(request->river());
+    const BakeGrid grid = req::bake_grid(*request);
+    rivers_->validate(river, "request.river");
+    rivers_->validate(grid, "request");
+    const uint64_t planes = request->psi() ? 4 : 3;
+    serving_.gate().check_message_bytes(
+        "BakeVelocityReply (ask for fewer nodes)",
+        planes * uint64_t(grid.nx) * uint64_t(grid.ny) * field::bytes_per_value(request->dtype(), "request.dtype"));
+    req::fill_bake(rivers_->bake(river, grid, "request.river"), *request, reply);
+    return grpc::Status::OK;
   });
 }
 

@@ -1,7 +1,7 @@
 // squall.v1.Textures over a TextureEngine. Requests are translated in textures_request.h and validated by
 // the engine under the path "request" (AdvectInteractive: "control[n]"); each stream runs one advection,
 // frame by frame. A velocity may follow the surface current of an eWave session or of an ocean tile, read
-// from the daemon's eWave or ocean engine before each step.
+// from the daemon's eWave or ocean engine before each step, or be a procedural river baked on a grid.
 #pragma once
 
 #include <memory>
@@ -12,6 +12,7 @@
 #include "rpc/capability.h"
 #include "rpc/serving.h"
 #include "squall/v1/textures.grpc.pb.h"
+#include "textures/river.h"
 #include "textures/texture_engine.h"
 
 namespace squall::rpc {
@@ -33,6 +34,8 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   grpc::Status AdvectInteractive(
       grpc::ServerContext* context,
       grpc::ServerReaderWriter<squall::v1::TextureFrame, squall::v1::TextureControl>* stream) override;
+  grpc::Status BakeVelocity(grpc::ServerContext* context, const squall::v1::BakeVelocityRequest* request,
+                            squall::v1::BakeVelocityReply* reply) override;
 
  private:
   struct Stream;  // one advection stream's state (textures_service.cpp)
@@ -40,6 +43,9 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // The stream's velocity from the current it follows, read now: an eWave session's (NOT_FOUND naming the
   // field for an unknown id), or an ocean tile's over the step from `from` to from + dt. No-op otherwise.
   void follow(Stream& s, double from);
+  // The river of `velocity` (the request field at `path`), if it is one, validated and baked into the
+  // stream's velocity.
+  void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path);
   // The advection's next frame; with `refresh`, the followed current is read for its step first.
   textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool refresh);
   // Message n of an AdvectInteractive stream applied to `s`: the first starts `advection`.
@@ -48,6 +54,7 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
 
   ServingState& serving_;
   std::unique_ptr<textures::TextureEngine> engine_;
+  std::unique_ptr<textures::RiverEngine> rivers_;
   ewave::EWaveEngine* ewave_ = nullptr;  // the daemon's
   ocean::OceanEngine* ocean_ = nullptr;  // the daemon's
 };

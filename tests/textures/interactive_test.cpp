@@ -24,57 +24,6 @@ namespace {
 using namespace squall::textures_test;
 constexpr double kPi = 3.14159265358979323846;
 
-// An AdvectInteractive call: write a message, read the frames it asks for, and so on (the server reads
-// the next message only once these are written).
-class Interactive {
- public:
-  Interactive()
-      : client_({daemon().address(), 300, ""}),
-        service_(v1::Textures::NewStub(client_.channel())),
-        context_(client_.context()),
-        stream_(service_->AdvectInteractive(context_.get())) {}
-
-  // Sends `control` and reads `frames` frames; false when the stream ended before (see finish()).
-  bool send(const v1::TextureControl& control, uint32_t frames) {
-    if (!stream_->Write(control)) return false;
-    for (uint32_t k = 0; k < frames; ++k) {
-      v1::TextureFrame frame;
-      if (!stream_->Read(&frame)) return false;
-      frames_.push_back(frame);
-    }
-    return true;
-  }
-
-  grpc::Status finish() {
-    stream_->WritesDone();
-    for (v1::TextureFrame frame; stream_->Read(&frame);) frames_.push_back(frame);
-    return stream_->Finish();
-  }
-
-  const std::vector<v1::TextureFrame>& frames() const { return frames_; }
-
- private:
-  client::Client client_;
-  std::unique_ptr<v1::Textures::Stub> service_;
-  std::unique_ptr<grpc::ClientContext> context_;
-  std::unique_ptr<grpc::ClientReaderWriter<v1::TextureControl, v1::TextureFrame>> stream_;
-  std::vector<v1::TextureFrame> frames_;
-};
-
-v1::TextureControl start(v1::AdvectTextureRequest request, uint32_t frames) {
-  request.set_frames(0);
-  v1::TextureControl c;
-  *c.mutable_start() = request;
-  c.set_frames(frames);
-  return c;
-}
-
-v1::TextureControl more(uint32_t frames) {
-  v1::TextureControl c;
-  c.set_frames(frames);
-  return c;
-}
-
 v1::VelocitySpec uniform(double vx, double vy) {
   v1::VelocitySpec v;
   v.mutable_named()->set_kind(v1::AnalyticVelocity::KIND_UNIFORM);

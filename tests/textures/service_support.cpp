@@ -53,9 +53,9 @@ v1::Field float_field(const std::string& name, uint32_t nx, uint32_t ny, const s
 }
 
 void all_planes(v1::AdvectTextureRequest& r) {
-  for (auto p : {v1::TEXTURE_PLANE_FINAL, v1::TEXTURE_PLANE_RAW, v1::TEXTURE_PLANE_WEIGHT_SUM,
-                 v1::TEXTURE_PLANE_WEIGHT_SQ_SUM, v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER,
-                 v1::TEXTURE_PLANE_UV})
+  for (auto p :
+       {v1::TEXTURE_PLANE_FINAL, v1::TEXTURE_PLANE_RAW, v1::TEXTURE_PLANE_WEIGHT_SUM, v1::TEXTURE_PLANE_WEIGHT_SQ_SUM,
+        v1::TEXTURE_PLANE_COVERAGE, v1::TEXTURE_PLANE_LAYER, v1::TEXTURE_PLANE_UV})
     r.mutable_output()->add_planes(p);
 }
 
@@ -77,6 +77,20 @@ v1::AdvectTextureRequest noise_request(uint32_t frames) {
   r.set_seed(7);
   all_planes(r);
   return r;
+}
+
+v1::TextureControl start(v1::AdvectTextureRequest request, uint32_t frames) {
+  request.set_frames(0);
+  v1::TextureControl c;
+  *c.mutable_start() = request;
+  c.set_frames(frames);
+  return c;
+}
+
+v1::TextureControl more(uint32_t frames) {
+  v1::TextureControl c;
+  c.set_frames(frames);
+  return c;
 }
 
 }  // namespace squall::textures_test

@@ -4,9 +4,12 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "client/client.h"
 #include "common/error.h"
 #include "squall/v1/textures.grpc.pb.h"
 #include "support/daemon.h"
@@ -39,5 +42,56 @@ v1::Field float_field(const std::string& name, uint32_t nx, uint32_t ny, const s
 void all_planes(v1::AdvectTextureRequest& r);
 // Lagrangian grids, 3 bands of flow noise (SUM_BANDS) under a solid rotation, 64 x 64 pixels, every plane.
 v1::AdvectTextureRequest noise_request(uint32_t frames);
+
+// A bidirectional call (AdvectInteractive, DeformInteractive): write a message, read the frames it asks for,
+// and so on (the server reads the next message only once these are written).
+template <typename Control, typename Frame>
+class InteractiveCall {
+ public:
+  using Stream = grpc::ClientReaderWriter<Control, Frame>;
+  using Open = std::function<std::unique_ptr<Stream>(v1::Textures::Stub&, grpc::ClientContext*)>;
+
+  explicit InteractiveCall(const Open& open)
+      : client_({daemon().address(), 300, ""}),
+        service_(v1::Textures::NewStub(client_.channel())),
+        context_(client_.context()),
+        stream_(open(*service_, context_.get())) {}
+
+  // Sends `control` and reads `frames` frames; false when the stream ended before (see finish()).
+  bool send(const Control& control, uint32_t frames) {
+    if (!stream_->Write(control)) return false;
+    for (uint32_t k = 0; k < frames; ++k) {
+      Frame frame;
+      if (!stream_->Read(&frame)) return false;
+      frames_.push_back(frame);
+    }
+    return true;
+  }
+
+  grpc::Status finish() {
+    stream_->WritesDone();
+    for (Frame frame; stream_->Read(&frame);) frames_.push_back(frame);
+    return stream_->Finish();
+  }
+
+  const std::vector<Frame>& frames() const { return frames_; }
+
+ private:
+  client::Client client_;
+  std::unique_ptr<v1::Textures::Stub> service_;
+  std::unique_ptr<grpc::ClientContext> context_;
+  std::unique_ptr<Stream> stream_;
+  std::vector<Frame> frames_;
+};
+
+struct Interactive : InteractiveCall<v1::TextureControl, v1::TextureFrame> {
+  Interactive()
+      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectInteractive(c); }) {}
+};
+
+// The first message of an AdvectInteractive call: `request` (its frames cleared), then `frames` frames.
+v1::TextureControl start(v1::AdvectTextureRequest request, uint32_t frames);
+// A message that only asks for `frames` more frames.
+v1::TextureControl more(uint32_t frames);
 
 }  // namespace squall::textures_test

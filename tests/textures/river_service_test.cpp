@@ -1,0 +1,240 @@
+// Procedural rivers through a real squalld: BakeVelocity returns the engine's bake bit for bit; a river with
+// a junction and an island drives AdvectTexture end to end (the texture coordinates move with the baked
+// flow); an obstacle moved between messages of AdvectInteractive takes effect at the next frame without a
+// restart; bad rivers get INVALID_ARGUMENT naming the field.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/field_codec.h"
+#include "service_support.h"
+#include "support/expect_error.h"
+#include "support/test_runtime.h"
+#include "textures/river.h"
+#include "textures/river_request.h"
+#include "textures/textures_request.h"
+
+namespace squall {
+namespace {
+
+using namespace squall::textures_test;
+constexpr double kPi = 3.14159265358979323846;
+
+textures::RiverEngine& rivers() {
+  static LimitGate gate{Limits{}};
+  static textures::RiverEngine engine(test::runtime(), gate);
+  return engine;
+}
+
+void polyline(v1::Polyline* line, std::vector<std::pair<double, double>> points) {
+  for (auto [x, y] : points) {
+    v1::Vec2* p = line->add_points();
+    p->set_x(x);
+    p->set_y(y);
+  }
+}
+
+// Channel 0 (2 du wide, Q = 3 du^2/s) with a round island at `island`, splitting at x = 2 into two branches
+// 1 du wide (left: to the upper right, right: to the lower right).
+v1::RiverVelocity y_river(double island_x = 1, double island_y = 1) {
+  v1::RiverVelocity r;
+  auto channel = [&](std::vector<std::pair<double, double>> left, std::vector<std::pair<double, double>> right) {
+    v1::RiverChannel* c = r.add_channels();
+    polyline(c->mutable_left_bank(), left);
+    polyline(c->mutable_right_bank(), right);
+    return c;
+  };
+  channel({{0, 2}, {2, 2}}, {{0, 0}, {2, 0}})->set_flow_rate(3);
+  channel({{2, 2}, {5, 3.5}}, {{2, 1}, {5, 2.5}});
+  channel({{2, 1}, {5, -0.5}}, {{2, 0}, {5, -1.5}});
+  v1::RiverJunction* j = r.add_junctions();
+  j->add_upstream(0);
+  j->add_downstream(1);
+  j->add_downstream(2);
+  std::vector<std::pair<double, double>> circle;
+  for (int k = 0; k < 32; ++k)
+    circle.push_back({island_x + 0.25 * std::cos(2 * kPi * k / 32), island_y + 0.25 * std::sin(2 * kPi * k / 32)});
+  polyline(r.add_obstacles()->mutable_outline(), circle);
+  r.set_search_radius(2);
+  r.set_bake_nx(96);
+  r.set_bake_ny(96);
+  return r;
+}
+
+// The naive method (texture coordinates advected, never regenerated) over [0, 5] x [-1.5, 3.5], 64 x 64
+// pixels, noise bands summed, the final and uv planes, 2 periods per du, dt 0.1 s.
+v1::AdvectTextureRequest river_request(uint32_t frames) {
+  v1::AdvectTextureRequest r;
+  r.set_method(v1::TEXTURE_METHOD_NAIVE);
+  *r.mutable_velocity()->mutable_river() = y_river();
+  r.mutable_texture()->set_scale(2);
+  r.mutable_texture()->set_final_function(v1::FINAL_FUNCTION_SUM_BANDS);
+  r.mutable_output()->set_width(64);
+  r.mutable_output()->set_height(64);
+  auto* region = r.mutable_output()->mutable_region();
+  region->set_x0(0);
+  region->set_y0(-1.5);
+  region->set_x1(5);
+  region->set_y1(3.5);
+  r.mutable_output()->add_planes(v1::TEXTURE_PLANE_FINAL);
+  r.mutable_output()->add_planes(v1::TEXTURE_PLANE_UV);
+  r.mutable_eulerian()->set_grid_nx(96);
+  r.mutable_eulerian()->set_grid_ny(96);
+  r.set_dt(0.1);
+  r.set_frames(frames);
+  return r;
+}
+
+// BakeVelocity's reply, or its status thrown as the engine error it carries.
+v1::BakeVelocityReply bake_velocity(const v1::BakeVelocityRequest& request) {
+  client::Client client({daemon().address(), 300, ""});
+  auto service = v1::Textures::NewStub(client.channel());
+  auto context = client.context();
+  v1::BakeVelocityReply reply;
+  throw_status(service->BakeVelocity(context.get(), request, &reply));
+  return reply;
+}
+
+// The request's advection in this process, on the river baked here.
+textures::AdvectSpec in_process_spec(const v1::AdvectTextureRequest& request, const v1::RiverVelocity& river) {
+  textures::AdvectSpec spec = textures::rpc::spec(request, LimitGate{Limits{}});
+  spec.velocity = textures::velocity_grid(
+      rivers().bake(textures::rpc::river(river), textures::rpc::bake_grid(river, spec.output), "river"));
+  engine().validate(spec, "request");
+  return spec;
+}
+
+std::vector<float> plane_named(const v1::TextureFrame& frame, const std::string& name) {
+  for (const v1::Field& plane : frame.planes())
+    if (plane.name() == name) return field::decode(plane, name);
+  ADD_FAILURE() << "no plane " << name;
+  return {};
+}
+
+void expect_same_planes(const v1::TextureFrame& got, const textures::TextureFrame& want,
+                        const textures::AdvectSpec& spec, const v1::TextureOutput& output) {
+  v1::TextureFrame encoded;
+  textures::rpc::fill_frame(want, spec, textures::rpc::planes(output), &encoded);
+  ASSERT_EQ(got.planes_size(), encoded.planes_size());
+  for (int k = 0; k < got.planes_size(); ++k) EXPECT_EQ(got.planes(k).data(), encoded.planes(k).data()) << k;
+}
+
+TEST(TexturesRiver, BakeVelocityEqualsTheEngine) {
+  v1::BakeVelocityRequest request;
+  *request.mutable_river() = y_river();
+  request.set_nx(80);
+  request.set_ny(72);
+  auto* region = request.mutable_region();
+  region->set_x0(0);
+  region->set_y0(-1.5);
+  region->set_x1(5);
+  region->set_y1(3.5);
+  request.set_psi(true);
+  const v1::BakeVelocityReply reply = bake_velocity(request);
+  const textures::RiverBake want =
+      rivers().bake(textures::rpc::river(request.river()), textures::rpc::bake_grid(request), "river");
+  EXPECT_EQ(field::decode(reply.u(), "u"), want.u);
+  EXPECT_EQ(field::decode(reply.v(), "v"), want.v);
+  EXPECT_EQ(field::decode(reply.psi(), "psi"), want.psi);
+  EXPECT_EQ(field::decode(reply.fluid(), "fluid"), want.fluid);
+  EXPECT_EQ(reply.u().nx(), 80u);
+  EXPECT_NEAR(reply.u().spacing().x(), 5.0 / 79, 1e-12);
+  ASSERT_EQ(reply.flow_rates_size(), 3);
+  EXPECT_DOUBLE_EQ(reply.flow_rates(1), 1.5);  // equal cross-sections: half of Q each
+  EXPECT_DOUBLE_EQ(reply.flow_rates(2), 1.5);
+  EXPECT_DOUBLE_EQ(reply.left_psi(0) - reply.right_psi(0), 3);
+  ASSERT_EQ(reply.obstacle_psi_size(), 1);
+  EXPECT_NEAR(reply.obstacle_psi(0), reply.right_psi(0) + 1.5, 0.05);  // the island sits on the axis
+  EXPECT_EQ(reply.undefined_nodes(), 0);
+}
+
+TEST(TexturesRiver, JunctionAndIslandDriveAnAdvectedTexture) {
+  const v1::AdvectTextureRequest request = river_request(6);
+  const Streamed got = advect(request);
+  ASSERT_TRUE(got.status.ok()) << got.status.error_message();
+  ASSERT_EQ(got.frames.size(), 6u);
+  const textures::AdvectSpec spec = in_process_spec(request, request.velocity().river());
+  auto advection = engine().start(spec);
+  for (const v1::TextureFrame& frame : got.frames) expect_same_planes(frame, advection->next(), spec, request.output());
+  // The texture moves with the water: at pixel (column 20, row 24), in the main channel below the island,
+  // the naive method's coordinate after 0.5 s is S X0 with X0 where the water there was at t = 0 (traced
+  // back through the river with RK2 steps of 0.01 s).
+  const textures::RiverSpec river = textures::rpc::river(request.velocity().river());
+  auto velocity = [&](textures::Point2 p) {
+    const textures::RiverSample s = rivers().sample(river, {p}, "river")[0];
+    EXPECT_TRUE(s.fluid);
+    return textures::Point2{s.u, s.v};
+  };
+  const textures::Point2 here{20.5 * 5 / 64, -1.5 + 24.5 * 5 / 64};
+  textures::Point2 foot = here;
+  for (int k = 0; k < 50; ++k) {
+    const textures::Point2 v1 = velocity(foot);
+    const textures::Point2 v2 = velocity({foot.x - 0.005 * v1.x, foot.y - 0.005 * v1.y});
+    foot = {foot.x - 0.01 * v2.x, foot.y - 0.01 * v2.y};
+  }
+  EXPECT_GT(here.x - foot.x, 0.6);  // it came about 0.75 du from upstream
+  const int pixel = 24 * 64 + 20;
+  const std::vector<float> uv0 = plane_named(got.frames[0], "uv_x"), uv5 = plane_named(got.frames[5], "uv_x");
+  EXPECT_NEAR(uv5[pixel] - uv0[pixel], 2 * (foot.x - here.x), 0.1 * 2 * (here.x - foot.x));
+}
+
+TEST(TexturesRiver, ObstacleMovedBetweenMessagesTakesEffectWithoutRestart) {
+  v1::AdvectTextureRequest request = river_request(0);
+  Interactive call;
+  ASSERT_TRUE(call.send(start(request, 3), 3));
+  v1::TextureControl moved = more(3);
+  *moved.mutable_velocity()->mutable_river() = y_river(1.2, 0.7);  // the island moved downstream and down
+  ASSERT_TRUE(call.send(moved, 3));
+  ASSERT_TRUE(call.finish().ok());
+  ASSERT_EQ(call.frames().size(), 6u);
+  for (uint32_t i = 0; i < 6; ++i) EXPECT_EQ(call.frames()[i].index(), i);  // one stream, no restart
+
+  request.set_frames(1);
+  const textures::AdvectSpec before = in_process_spec(request, y_river());
+  const textures::AdvectSpec after = in_process_spec(request, y_river(1.2, 0.7));
+  auto advection = engine().start(before), unmoved = engine().start(before);
+  for (int i = 0; i < 3; ++i) {
+    const textures::TextureFrame frame = advection->next();
+    unmoved->next();
+    expect_same_planes(call.frames()[i], frame, before, request.output());
+  }
+  engine().steer(*advection, after);
+  double changed = 0;
+  for (int i = 3; i < 6; ++i) {
+    const textures::TextureFrame frame = advection->next(), still = unmoved->next();
+    expect_same_planes(call.frames()[i], frame, after, request.output());
+    for (size_t k = 0; k < frame.planes.size(); ++k)
+      changed = std::max(changed, double(std::abs(frame.planes[k] - still.planes[k])));
+  }
+  EXPECT_GT(changed, 0.01) << "the moved island changed the flow";
+}
+
+TEST(TexturesRiver, BadRiversNameTheField) {
+  auto bake = [](const v1::BakeVelocityRequest& request) { bake_velocity(request); };
+  v1::BakeVelocityRequest request;
+  *request.mutable_river() = y_river();
+  request.set_nx(16);
+  request.set_ny(16);
+  test::expect_error(Code::InvalidArgument, "request.region is unset", [&] { bake(request); });
+  request.mutable_region()->set_x1(1);
+  request.mutable_region()->set_y1(1);
+  request.mutable_river()->mutable_channels(1)->mutable_left_bank()->mutable_points(1)->set_x(NAN);
+  test::expect_error(Code::InvalidArgument, "request.river.channels[1].left_bank.points[1].x", [&] { bake(request); });
+  *request.mutable_river() = y_river();
+  request.mutable_river()->mutable_channels(0)->clear_flow_rate();
+  test::expect_error(Code::InvalidArgument, "request.river.channels[0].flow_rate is unset", [&] { bake(request); });
+  *request.mutable_river() = y_river();
+  request.set_nx(5000);
+  test::expect_error(Code::InvalidArgument, "request.nx", [&] { bake(request); });
+
+  v1::AdvectTextureRequest advect_request = river_request(2);
+  advect_request.mutable_velocity()->mutable_river()->set_bake_nx(1);
+  test::expect_error(Code::InvalidArgument, "request.velocity.river.bake_nx", [&] { advect_or_throw(advect_request); });
+  advect_request = river_request(2);
+  advect_request.mutable_velocity()->mutable_river()->mutable_junctions(0)->add_downstream(9);
+  test::expect_error(Code::InvalidArgument, "request.velocity.river.junctions[0].downstream[2] = 9",
+                     [&] { advect_or_throw(advect_request); });
+}
+
+}  // namespace
+}  // namespace squall
