@@ -16,6 +16,8 @@
 
 #include "client/cli.h"
 #include "client/cli_flags.h"
+#include "client/texture_cli_flags.h"
+#include "client/texture_verbs.h"
 #include "client/image_io.h"
 #include "server/common/field_codec.h"
 #include "squall/v1/textures.grpc.pb.h"
@@ -23,8 +25,8 @@
 namespace squall::cli::texture {
 
 const char* const kVerbUsage =
-    "texture advect ...  a texture advected by a velocity field (AdvectTexture stream) -> EXR + PNG frames; "
-    "`squall texture help` lists the flags";
+    "texture advect|river|deform ...  advected textures, river velocities, content-aware deformation -> EXR "
+    "(+ PNG); `squall texture help` lists the flags";
 
 namespace {
 
@@ -50,6 +52,8 @@ first final plane, 8-bit grey).
       cylinder:U[,CX,CY[,R]]      potential flow at U du/s past a cylinder of radius R du
       ewave:SESSION_ID            the surface current of a live eWave session, read before each step
                                   (du = m; step the session from another client, e.g. squall ewave wake)
+      river:FILE.json             a procedural river (see `squall texture river`), baked on 128 x 128
+                                  nodes over the output region unless the file says otherwise
   --noise BANDS[,CELLS[,SEED]]  gradient noise: bands 1..8, lattice cells per period 1..64 (default 4,4,1)
   --spin W               flow noise: band 0 turns at W rad/s (default: still noise)
   --image FILE           an image texture instead: FILE.exr (its R, G, B, A channels first, at most 8) or
@@ -75,36 +79,19 @@ const std::map<std::string, v1::FinalFunction> kFinals = {{"identity", v1::FINAL
                                                           {"sum", v1::FINAL_FUNCTION_SUM_BANDS},
                                                           {"turbulence", v1::FINAL_FUNCTION_TURBULENCE},
                                                           {"ridged", v1::FINAL_FUNCTION_RIDGED}};
-const std::map<std::string, v1::TexturePlane> kPlanes = {
-    {"final", v1::TEXTURE_PLANE_FINAL},           {"raw", v1::TEXTURE_PLANE_RAW},
-    {"weight_sum", v1::TEXTURE_PLANE_WEIGHT_SUM}, {"weight_sq_sum", v1::TEXTURE_PLANE_WEIGHT_SQ_SUM},
-    {"coverage", v1::TEXTURE_PLANE_COVERAGE},     {"layer", v1::TEXTURE_PLANE_LAYER},
-    {"uv", v1::TEXTURE_PLANE_UV}};
+const std::map<std::string, v1::TexturePlane> kPlanes = {{"final", v1::TEXTURE_PLANE_FINAL},
+                                                         {"raw", v1::TEXTURE_PLANE_RAW},
+                                                         {"weight_sum", v1::TEXTURE_PLANE_WEIGHT_SUM},
+                                                         {"weight_sq_sum", v1::TEXTURE_PLANE_WEIGHT_SQ_SUM},
+                                                         {"coverage", v1::TEXTURE_PLANE_COVERAGE},
+                                                         {"layer", v1::TEXTURE_PLANE_LAYER},
+                                                         {"uv", v1::TEXTURE_PLANE_UV}};
 
 struct Advect {
   v1::AdvectTextureRequest request;
   std::string out;
   std::vector<std::pair<std::string, std::string>> flags;  // as given, for the EXR attributes
 };
-
-std::vector<std::string> items(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
-  return out;
-}
-
-// A comma-separated list of one of the allowed lengths.
-std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths) {
-  std::vector<double> out;
-  for (const std::string& item : items(text)) out.push_back(number(flag, item, "a list of finite numbers"));
-  if (std::find(lengths.begin(), lengths.end(), out.size()) == lengths.end()) {
-    std::string allowed;
-    for (size_t n : lengths) allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);
-    throw UsageError(flag + " " + text + ": needs " + allowed + " numbers");
-  }
-  return out;
-}
 
 // The centre (x, y) at v[at], v[at + 1] when given.
 void center(const std::vector<double>& v, size_t at, v1::AnalyticVelocity* a) {
@@ -160,60 +147,6 @@ void noise_flag(const std::string& value, v1::NoiseTexture* n) {
   if (v.size() > 2) n->set_seed(uint32_t(integer("--noise", v[2])));
 }
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw UsageError("--image " + path + ": cannot read it");
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// R, G, B, A first (in that order), then the others in the file's (alphabetical) order.
-std::vector<std::string> exr_channel_order(const Imf::ChannelList& list) {
-  std::vector<std::string> names;
-  for (auto it = list.begin(); it != list.end(); ++it) names.push_back(it.name());
-  auto rank = [](const std::string& name) {
-    const std::string order = "RGBA";
-    return name.size() == 1 && order.find(name[0]) != std::string::npos ? int(order.find(name[0])) : 4;
-  };
-  std::stable_sort(names.begin(), names.end(),
-                   [&](const std::string& a, const std::string& b) { return rank(a) < rank(b); });
-  if (names.size() > 8) names.resize(8);
-  return names;
-}
-
-// Up to 8 channels of an EXR file as float32 Fields; scanline j becomes texture row j (as write_exr writes).
-void read_exr(const std::string& path, v1::ImageTexture* image) {
-  Imf::InputFile file(path.c_str());
-  const Imath::Box2i window = file.header().dataWindow();
-  const int nx = window.max.x - window.min.x + 1, ny = window.max.y - window.min.y + 1;
-  const std::vector<std::string> names = exr_channel_order(file.header().channels());
-  std::vector<std::vector<float>> planes(names.size(), std::vector<float>(size_t(nx) * ny));
-  Imf::FrameBuffer frame;
-  const ptrdiff_t first = ptrdiff_t(window.min.x) + ptrdiff_t(window.min.y) * nx;  // the window's first pixel
-  for (size_t c = 0; c < names.size(); ++c) {
-    char* base = reinterpret_cast<char*>(planes[c].data()) - first * ptrdiff_t(sizeof(float));
-    frame.insert(names[c], Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * size_t(nx)));
-  }
-  file.setFrameBuffer(frame);
-  file.readPixels(window.min.y, window.max.y);
-  for (size_t c = 0; c < names.size(); ++c)
-    squall::field::encode({names[c], "1", uint32_t(nx), uint32_t(ny), 0, v1::DTYPE_FLOAT32}, planes[c],
-                          image->add_channels());
-}
-
-void image_flag(const std::string& path, v1::ImageTexture* image) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext == ".png" || ext == ".PNG") return image->set_png(read_bytes(path));
-  if (ext != ".exr" && ext != ".EXR") throw UsageError("--image " + path + ": must be a .exr or .png file");
-  read_bytes(path);  // a clear message for a missing file
-  try {
-    read_exr(path, image);
-  } catch (const std::exception& e) {
-    throw UsageError("--image " + path + ": " + e.what());
-  }
-}
-
 void size_flag(const std::string& value, v1::TextureOutput* o) {
   int w = 0, h = 0;
   if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1) throw UsageError("--size " + value + ": WxH");
@@ -228,7 +161,7 @@ bool texture_flag(const std::string& flag, const std::string& value, v1::AdvectT
   else if (flag == "--spin")
     t->mutable_noise()->set_spin(number(flag, value, "rad/s")), t->mutable_noise()->set_time_varying(true);
   else if (flag == "--image")
-    image_flag(value, t->mutable_image());
+    image_flag(flag, value, t->mutable_image());
   else if (flag == "--final")
     t->set_final_function(named(flag, value, kFinals));
   else if (flag == "--scale")
@@ -261,6 +194,8 @@ void apply(const std::string& flag, const std::string& value, Advect& a) {
     r.set_method(named(flag, value, kMethods));
   else if (flag == "--velocity" && value.rfind("ewave:", 0) == 0)
     r.mutable_velocity()->set_ewave_session(value.substr(6));
+  else if (flag == "--velocity" && value.rfind("river:", 0) == 0)
+    *r.mutable_velocity()->mutable_river() = river_file(flag, value.substr(6));
   else if (flag == "--velocity")
     velocity_flag(value, r.mutable_velocity()->mutable_named());
   else if (flag == "--frames")
@@ -359,8 +294,11 @@ int advect(client::Client& client, const Advect& a) {
 }  // namespace
 
 int run(client::Client& client, const std::vector<std::string>& args) {
-  return run_verb("texture", kHelp, args, [&] {
-    if (args[0] != "advect") throw UsageError("unknown texture command " + args[0] + " (advect)");
+  static const std::string help = std::string(kHelp) + kRiverHelp + kDeformHelp;
+  return run_verb("texture", help.c_str(), args, [&] {
+    if (args[0] == "river") return river(client, args);
+    if (args[0] == "deform") return deform(client, args);
+    if (args[0] != "advect") throw UsageError("unknown texture command " + args[0] + " (advect, river, deform)");
     return advect(client, parse(args));
   });
 }

@@ -411,6 +411,16 @@ void fill_stats(const FrameStats& s, v1::FrameStats* out) {
 
 }  // namespace
 
+TextureSpec image_texture(const v1::ImageTexture& im, const LimitGate& gate, const std::string& path) {
+  TextureSpec t;
+  image(im, gate, path, t);
+  return t;
+}
+
+std::vector<float> image_plane(const v1::Field& f, const std::string& path, uint32_t nx, uint32_t ny) {
+  return plane(f, path, nx, ny, "the texture");
+}
+
 AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const std::string& path) {
   AdvectSpec s;
   s.method = method(r.method(), path + ".method");

@@ -32,6 +32,12 @@ AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate
                 const std::string& path = "request");
 PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
 
+// An image's planes (kind SQUALL_TEXTURE_IMAGE), translated as AdvectTexture's texture.image.
+TextureSpec image_texture(const squall::v1::ImageTexture& image, const LimitGate& gate, const std::string& path);
+// A Field that must be an nx x ny plane (the texture's size), decoded: InvalidArgument naming `path`.nx,
+// .ny, .nz, .dtype or .data otherwise.
+std::vector<float> image_plane(const squall::v1::Field& field, const std::string& path, uint32_t nx, uint32_t ny);
+
 // A velocity read from another engine before each step: the surface current of an eWave session or of an
 // ocean tile. spec() leaves such a velocity (and a river's) an empty grid, which the caller fills before
 // validation.

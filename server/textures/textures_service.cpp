@@ -46,6 +46,7 @@ struct TexturesService::Stream {
 void TexturesService::start(EngineContext& context) {
   engine_ = std::make_unique<TextureEngine>(context.runtime, context.gate);
   rivers_ = std::make_unique<RiverEngine>(context.runtime, context.gate);
+  deform_ = std::make_unique<DeformEngine>(context.runtime, context.gate);
   ewave_ = &ewave::shared_engine(context);
   ocean_ = &ocean::shared_engine(context);
 }

@@ -2,6 +2,7 @@
 // the engine under the path "request" (AdvectInteractive: "control[n]"); each stream runs one advection,
 // frame by frame. A velocity may follow the surface current of an eWave session or of an ocean tile, read
 // from the daemon's eWave or ocean engine before each step, or be a procedural river baked on a grid.
+// DeformTexture and DeformInteractive stream content-aware deformations of a texture.
 #pragma once
 
 #include <memory>
@@ -12,6 +13,7 @@
 #include "rpc/capability.h"
 #include "rpc/serving.h"
 #include "squall/v1/textures.grpc.pb.h"
+#include "textures/deform.h"
 #include "textures/river.h"
 #include "textures/texture_engine.h"
 
@@ -37,6 +39,16 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   grpc::Status BakeVelocity(grpc::ServerContext* context, const squall::v1::BakeVelocityRequest* request,
                             squall::v1::BakeVelocityReply* reply) override;
 
+  // Content-aware deformation (deform_service.cpp). Holds a --max-streams slot; solves the flow (or
+  // reuses a cached solve) and writes frames 0 .. frames - 1, checking for cancellation before each.
+  grpc::Status DeformTexture(grpc::ServerContext* context, const squall::v1::DeformTextureRequest* request,
+                             grpc::ServerWriter<squall::v1::DeformFrame>* writer) override;
+  // Holds a --max-streams slot; reads one message, applies it (the first starts the deformation), writes
+  // the frames it asks for, then reads the next.
+  grpc::Status DeformInteractive(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<squall::v1::DeformFrame, squall::v1::DeformControl>* stream) override;
+
  private:
   struct Stream;  // one advection stream's state (textures_service.cpp)
 
@@ -55,6 +67,7 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   ServingState& serving_;
   std::unique_ptr<textures::TextureEngine> engine_;
   std::unique_ptr<textures::RiverEngine> rivers_;
+  std::unique_ptr<textures::DeformEngine> deform_;
   ewave::EWaveEngine* ewave_ = nullptr;  // the daemon's
   ocean::OceanEngine* ocean_ = nullptr;  // the daemon's
 };

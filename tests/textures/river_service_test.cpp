@@ -2,13 +2,21 @@
 // a junction and an island drives AdvectTexture end to end (the texture coordinates move with the baked
 // flow); an obstacle moved between messages of AdvectInteractive takes effect at the next frame without a
 // restart; bad rivers get INVALID_ARGUMENT naming the field.
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "common/field_codec.h"
 #include "service_support.h"
 #include "support/expect_error.h"
+#include "support/process.h"
 #include "support/test_runtime.h"
 #include "textures/river.h"
 #include "textures/river_request.h"
@@ -234,6 +242,61 @@ TEST(TexturesRiver, BadRiversNameTheField) {
   advect_request.mutable_velocity()->mutable_river()->mutable_junctions(0)->add_downstream(9);
   test::expect_error(Code::InvalidArgument, "request.velocity.river.junctions[0].downstream[2] = 9",
                      [&] { advect_or_throw(advect_request); });
+}
+
+// `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;
+// `squall texture advect --velocity river:FILE.json` streams frames driven by the same file.
+TEST(TexturesRiver, CommandLine) {
+  const std::string dir = test::temp_dir("textures-river-cli");
+  std::string json;
+  ASSERT_TRUE(google::protobuf::util::MessageToJsonString(y_river(), &json).ok());
+  std::ofstream(dir + "/river.json") << json;
+  std::string out;
+  ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "river", "--river",
+                       dir + "/river.json", "--size", "40x32", "--region", "0,-1.5,5,3.5", "--psi", "--out",
+                       dir + "/river.exr"},
+                      &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("channel 1: Q = 1.5 du^2/s"), std::string::npos) << out;
+  EXPECT_NE(out.find("obstacle 0: psi = "), std::string::npos) << out;
+  v1::BakeVelocityRequest request;
+  *request.mutable_river() = y_river();
+  request.set_nx(40);
+  request.set_ny(32);
+  request.mutable_region()->set_x0(0), request.mutable_region()->set_y0(-1.5);
+  request.mutable_region()->set_x1(5), request.mutable_region()->set_y1(3.5);
+  const v1::BakeVelocityReply reply = bake_velocity(request);
+  Imf::InputFile file((dir + "/river.exr").c_str());
+  std::vector<float> u(40 * 32);
+  for (const char* name : {"u", "v", "fluid", "psi"})
+    EXPECT_NE(file.header().channels().findChannel(name), nullptr) << name;
+  Imf::FrameBuffer frame;
+  frame.insert("u", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(u.data()), 4, 4 * 40));
+  file.setFrameBuffer(frame);
+  file.readPixels(file.header().dataWindow().min.y, file.header().dataWindow().max.y);
+  EXPECT_EQ(u, field::decode(reply.u(), "u"));
+
+  ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--method", "naive",
+                       "--velocity", "river:" + dir + "/river.json", "--region", "0,-1.5,5,3.5", "--size", "32x32",
+                       "--frames", "2", "--out", dir + "/frames"},
+                      &out),
+            0)
+      << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frames/frame_0001.exr")) << out;
+  // The README's example river.
+  ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "river", "--river",
+                       std::string(SQUALL_SOURCE_DIR) + "/docs/examples/river.json", "--size", "32x32", "--out",
+                       dir + "/example.exr"},
+                      &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("channel 2: Q = 1.5 du^2/s"), std::string::npos) << out;
+  EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "river", "--river",
+                       dir + "/missing.json", "--out", dir + "/x.exr"},
+                      &out),
+            2)
+      << out;
 }
 
 }  // namespace

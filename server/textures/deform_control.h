@@ -1,0 +1,38 @@
+// The controls of d mu as the host drives them each frame (G. Guingo et al., "Content-aware texture
+// deformation with dynamic control", Computers & Graphics 91, 2020, sec. 5): the running control, and for
+// the tensor controls the deformation gradient G of each frame, T = G_now G_before^-1 and A = T A.
+#pragma once
+
+#include "textures/deform_spec.h"
+
+namespace squall::textures {
+
+// What deform_step takes for one frame (deform.cl).
+struct StepControl {
+  int kind = 0;              // DeformControlKind
+  double d_mu = 0;           // constant; isotropic: eq. 7's d mu
+  double kappa = 1;          // map, anisotropic: the scale (times dt in paper mode)
+  Tensor2 t_minus_identity;  // anisotropic: T - I
+};
+
+class ControlState {
+ public:
+  explicit ControlState(const DeformSpec& spec);
+
+  // The control of frame `index` (>= 1): G_now from the ramp (or the steered G), T and A moved on.
+  StepControl advance(int index);
+  // From the next frame on: `control` runs; its deformation_start (tensor controls) is G from then on.
+  void steer(const DeformControl& control);
+  const DeformControl& control() const { return control_; }
+
+ private:
+  Tensor2 ramp(int index) const;
+
+  DeformControl control_;
+  int frames_;
+  double dt_;
+  bool held_ = false;  // after a steer: G stays at held_g_
+  Tensor2 held_g_, g_before_, a_;
+};
+
+}  // namespace squall::textures

@@ -1,0 +1,57 @@
+// The static flow field of a content-aware deformation (G. Guingo et al., "Content-aware texture
+// deformation with dynamic control", Computers & Graphics 91, 2020, sec. 4): div v = R (eq. 6) in the
+// least-squares sense, v = 0 on the fixed texels, solved once by CGLS and kept in a small cache.
+#pragma once
+
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "runtime/runtime.h"
+#include "textures/deform.h"
+#include "textures/deform_kernels.h"
+
+namespace squall::textures {
+
+struct FlowField {
+  int width = 0, height = 0;
+  std::vector<float> v;  // float2 per texel (x, y), x fastest: texels per unit of d mu
+  cl::Buffer buffer;     // the same on the device (read only once solved)
+  FlowSolve solve;
+  uint64_t bytes() const { return uint64_t(width) * height * 2 * sizeof(float); }
+};
+
+// Fixed texels (v = 0): the texture's border, texels outside the chart and their 4-neighbours. 1: free.
+std::vector<uint8_t> free_texels(int width, int height, const std::vector<uint8_t>& chart);
+
+// R_dual on the (W - 1) x (H - 1) dual cells: the mean of the 4 surrounding R.
+std::vector<double> dual_rigidity(int width, int height, const std::vector<float>& rigidity);
+
+// Solves eq. 6 for a validated spec on the device.
+std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec);
+
+// The last few solves, keyed by rigidity, chart, size, tolerance and iterations (compared in full).
+class FlowCache {
+ public:
+  std::shared_ptr<const FlowField> find(const DeformSpec& spec);
+  void keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow);
+
+ private:
+  struct Entry {
+    uint64_t hash;
+    int width, height, max_iterations;
+    double tolerance;
+    std::vector<float> rigidity;
+    std::vector<uint8_t> chart;
+    std::shared_ptr<const FlowField> flow;
+  };
+  static constexpr size_t kEntries = 4;
+  bool matches(const Entry& e, uint64_t hash, const DeformSpec& spec) const;
+
+  std::mutex mutex_;
+  std::list<Entry> entries_;  // most recently used first
+};
+
+}  // namespace squall::textures

@@ -1,0 +1,82 @@
+// TexturesService's content-aware deformation methods (squall.v1.Textures.DeformTexture and
+// DeformInteractive) over the DeformEngine.
+#include "common/field_codec.h"
+#include "common/validate.h"
+#include "rpc/streaming.h"
+#include "textures/deform_request.h"
+#include "textures/textures_service.h"
+
+namespace squall::rpc {
+namespace {
+
+namespace v1 = squall::v1;
+using namespace squall::textures;
+namespace req = squall::textures::rpc;
+
+// One deformation stream: its spec (as steered so far) and the planes it sends.
+struct DeformStream {
+  DeformSpec spec;
+  DeformPlanes planes;
+  v1::DType dtype = v1::DTYPE_FLOAT32;
+};
+
+// The planes of `request` and their bytes within --max-message-bytes.
+void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, const LimitGate& gate,
+                   const std::string& path) {
+  s.planes = req::deform_planes(request, path);
+  s.dtype = field::dtype(request.dtype(), path + ".dtype");
+  gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", req::frame_bytes(s.spec, s.planes, s.dtype));
+}
+
+v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {
+  v1::DeformFrame out;
+  req::fill_frame(deformation.next(s.planes), deformation.flow(), s.planes, s.spec.channels, s.dtype, &out);
+  return out;
+}
+
+}  // namespace
+
+grpc::Status TexturesService::DeformTexture(grpc::ServerContext* context, const v1::DeformTextureRequest* request,
+                                            grpc::ServerWriter<v1::DeformFrame>* writer) {
+  auto prepare = [&] {
+    DeformStream s;
+    s.spec = req::deform_spec(*request, serving_.gate());
+    deform_->validate(s.spec, "request");
+    choose_planes(s, *request, serving_.gate(), "request");
+    return s;
+  };
+  return serve_stream(*context, serving_, "DeformTexture", prepare, [&](StreamCall& call, DeformStream& s) {
+    std::unique_ptr<Deformation> deformation = deform_->start(s.spec);
+    for (int i = 0; i < s.spec.frames && call.live(); ++i)
+      if (!call.write(*writer, encode(s, *deformation))) return;
+  });
+}
+
+grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
+                                                grpc::ServerReaderWriter<v1::DeformFrame, v1::DeformControl>* stream) {
+  return serve_stream(*context, serving_, "DeformInteractive", [&](StreamCall& call) {
+    DeformStream s;
+    std::unique_ptr<Deformation> deformation;
+    v1::DeformControl message;
+    for (size_t n = 0; call.live() && stream->Read(&message); ++n) {
+      const std::string path = validate::at("control", n);
+      const uint32_t frames = req::deform_control_frames(message, path);
+      if (n > 0 && message.has_start())
+        fail(Code::InvalidArgument, path + ".start is set: only the first message starts the deformation");
+      if (n == 0) {
+        s.spec = req::deform_start(message, serving_.gate(), path);
+        deform_->validate(s.spec, path + ".start");
+        choose_planes(s, message.start(), serving_.gate(), path + ".start");
+        deformation = deform_->start(s.spec);
+      }
+      if (req::steer(message, s.spec, path)) {
+        deform_->validate(s.spec, path);
+        deformation->steer(s.spec.control);
+      }
+      for (uint32_t k = 0; k < frames && call.live(); ++k)
+        if (!call.write(*stream, encode(s, *deformation))) return;
+    }
+  });
+}
+
+}  // namespace squall::rpc

@@ -1,0 +1,89 @@
+// The ranges of a content-aware deformation (G. Guingo et al., "Content-aware texture deformation with
+// dynamic control", Computers & Graphics 91, 2020), as the proto's DeformTextureRequest states them.
+#include "textures/deform_validate.h"
+
+#include "common/error.h"
+#include "common/validate.h"
+
+namespace squall::textures {
+namespace {
+
+using namespace squall::validate;
+
+constexpr int kMaxSide = 1 << 20;
+constexpr int kMaxChannels = 8;
+constexpr int kMaxStrokes = 256;
+constexpr int kMaxFrames = 100000;
+constexpr int kMaxSubsteps = 100;
+constexpr int kMaxLevels = 16;
+constexpr int kMaxIterations = 100000;
+constexpr double kMaxKappa = 1e6, kMaxDmu = 100, kMaxRadius = 1e6, kMaxDt = 1e4;
+
+// Finite components and det > 0 (a deformation gradient).
+void tensor(const Tensor2& g, const std::string& path) {
+  finite(path + ".xx", g.xx);
+  finite(path + ".xy", g.xy);
+  finite(path + ".yx", g.yx);
+  finite(path + ".yy", g.yy);
+  const double det = g.xx * g.yy - g.xy * g.yx;
+  if (!(det > 0)) reject(path + " determinant", det, "> 0 (a deformation gradient)");
+}
+
+void stroke(const BrushStroke& s, const std::string& path) {
+  finite(path + ".center.x", s.center_x);
+  finite(path + ".center.y", s.center_y);
+  positive(path + ".radius", s.radius, kMaxRadius);
+  in(path + ".strength", s.strength, closed(-kMaxDmu, kMaxDmu));
+}
+
+void texture(const DeformSpec& spec, const LimitGate& gate, const std::string& path) {
+  in(path + ".width", int64_t(spec.width), 4, kMaxSide);
+  in(path + ".height", int64_t(spec.height), 4, kMaxSide);
+  gate.check_grid(path, spec.width, spec.height);
+  in(path + ".channels size", int64_t(spec.channels), 1, kMaxChannels);
+  const size_t n = size_t(spec.width) * spec.height * spec.channels;
+  count(path + ".channels", spec.pixels.size(), n, "width * height * channels");
+  each(path + ".channels", spec.pixels.data(), n);
+}
+
+}  // namespace
+
+void validate_control(const DeformControl& c, int width, int height, const std::string& prefix,
+                      const std::string& tensor_name) {
+  known(prefix + "control", int(c.kind), 5, "deform control");
+  in(prefix + "kappa", c.kappa, closed(-kMaxKappa, kMaxKappa));
+  in(prefix + "d_mu", c.d_mu, closed(-kMaxDmu, kMaxDmu));
+  if (c.kind == DeformControlKind::Map) {
+    const size_t n = size_t(width) * height;
+    count(prefix + "d_mu_map", c.d_mu_map.size(), n, "width * height");
+    each(prefix + "d_mu_map", c.d_mu_map.data(), n, closed(-kMaxDmu, kMaxDmu));
+  }
+  tensor(c.deformation_start, prefix + tensor_name);
+  in(prefix + "strokes size", int64_t(c.strokes.size()), 0, kMaxStrokes);
+  for (size_t k = 0; k < c.strokes.size(); ++k) stroke(c.strokes[k], at(prefix + "strokes", k));
+}
+
+void validate_deform(const DeformSpec& spec, const LimitGate& gate, const std::string& path) {
+  texture(spec, gate, path + ".texture");
+  const size_t n = size_t(spec.width) * spec.height;
+  count(path + ".rigidity", spec.rigidity.size(), n, "width * height");
+  each(path + ".rigidity", spec.rigidity.data(), n, closed(-1, 1));
+  if (!spec.chart.empty()) count(path + ".chart", spec.chart.size(), n, "width * height");
+  validate_control(spec.control, spec.width, spec.height, path + ".", "deformation_start");
+  tensor(spec.control.deformation_end, path + ".deformation_end");
+  in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
+  in(path + ".dt", spec.dt, open_closed(0, kMaxDt));
+  in(path + ".substeps", int64_t(spec.substeps), 1, kMaxSubsteps);
+  in(path + ".stack_levels", int64_t(spec.stack_levels), 0, kMaxLevels);
+  in(path + ".tolerance", spec.tolerance, closed(1e-12, 1e-1));
+  in(path + ".max_iterations", int64_t(spec.max_iterations), 1, kMaxIterations);
+  const double cells = double(n) * (2 * spec.stack_levels + 1);
+  if (cells > double(gate.limits().max_grid_cells))
+    fail(Code::ResourceExhausted,
+         path + ".stack_levels = " + std::to_string(spec.stack_levels) + ": " +
+             std::to_string(2 * spec.stack_levels + 1) +
+             " levels of width * height = " + std::to_string(uint64_t(cells)) +
+             " cells exceed --max-grid-cells = " + std::to_string(gate.limits().max_grid_cells));
+}
+
+}  // namespace squall::textures

@@ -1,0 +1,238 @@
+// Content-aware deformation through a real squalld: DeformTexture's frames equal the engine's in this
+// process bit for bit for every control; DeformInteractive applies each message's control (d mu, its map,
+// the deformation gradient, brush strokes) from its next frame on, as the engine's steer does; bad requests
+// get INVALID_ARGUMENT naming the field; `squall texture deform` writes EXR and PNG frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "common/field_codec.h"
+#include "service_support.h"
+#include "support/expect_error.h"
+#include "support/process.h"
+#include "support/test_runtime.h"
+#include "textures/deform.h"
+#include "textures/deform_request.h"
+
+namespace squall {
+namespace {
+
+using namespace squall::textures_test;
+constexpr int kSize = 48;
+
+textures::DeformEngine& deformer() {
+  static LimitGate gate{Limits{}};
+  static textures::DeformEngine engine(test::runtime(), gate);
+  return engine;
+}
+
+struct DeformInteractive : InteractiveCall<v1::DeformControl, v1::DeformFrame> {
+  DeformInteractive()
+      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformInteractive(c); }) {}
+};
+
+// A 48 x 48 two-channel texture (stripes and rings), R = 1 in a disk at the centre and -1 around it.
+v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames) {
+  v1::DeformTextureRequest r;
+  std::vector<float> a(kSize * kSize), b(kSize * kSize), rigidity(kSize * kSize);
+  for (int j = 0; j < kSize; ++j) {
+    for (int i = 0; i < kSize; ++i) {
+      const size_t k = size_t(j) * kSize + i;
+      const double dx = i + 0.5 - kSize / 2.0, dy = j + 0.5 - kSize / 2.0;
+      a[k] = float(0.5 + 0.5 * std::sin(0.7 * i));
+      b[k] = float(0.5 + 0.5 * std::cos(0.4 * std::hypot(dx, dy)));
+      rigidity[k] = dx * dx + dy * dy < 100 ? 1.0f : -1.0f;
+    }
+  }
+  *r.mutable_texture()->add_channels() = float_field("a", kSize, kSize, a);
+  *r.mutable_texture()->add_channels() = float_field("b", kSize, kSize, b);
+  *r.mutable_rigidity() = float_field("R", kSize, kSize, rigidity);
+  r.set_control(control);
+  r.set_d_mu(0.5);
+  std::vector<float> map(kSize * kSize);
+  for (int k = 0; k < kSize * kSize; ++k) map[k] = float(k % kSize) / kSize;
+  *r.mutable_d_mu_map() = float_field("map", kSize, kSize, map);
+  r.mutable_deformation_end()->set_xx(1.5);
+  r.mutable_deformation_end()->set_yy(1.0);
+  v1::BrushStroke* stroke = r.add_strokes();
+  stroke->mutable_center()->set_x(12);
+  stroke->mutable_center()->set_y(30);
+  stroke->set_radius(4);
+  stroke->set_strength(2);
+  r.set_frames(frames);
+  r.set_substeps(4);
+  r.add_planes(v1::DEFORM_PLANE_COLOR);
+  r.add_planes(v1::DEFORM_PLANE_WARP);
+  r.add_planes(v1::DEFORM_PLANE_REFERENCE);
+  r.add_planes(v1::DEFORM_PLANE_LEVEL);
+  r.add_planes(v1::DEFORM_PLANE_FLOW);
+  r.set_stack_levels(control == v1::DEFORM_CONTROL_CONSTANT ? 2 : 0);
+  return r;
+}
+
+struct DeformStreamed {
+  std::vector<v1::DeformFrame> frames;
+  grpc::Status status;
+};
+
+DeformStreamed deform(const v1::DeformTextureRequest& r) {
+  client::Client client({daemon().address(), 300, ""});
+  auto service = v1::Textures::NewStub(client.channel());
+  auto context = client.context();
+  auto reader = service->DeformTexture(context.get(), r);
+  DeformStreamed s;
+  for (v1::DeformFrame frame; reader->Read(&frame);) s.frames.push_back(frame);
+  s.status = reader->Finish();
+  return s;
+}
+
+void deform_or_throw(const v1::DeformTextureRequest& r) { throw_status(deform(r).status); }
+
+void expect_same(const v1::DeformFrame& got, const textures::DeformFrame& want, const textures::FlowSolve& flow,
+                 const v1::DeformTextureRequest& r) {
+  v1::DeformFrame encoded;
+  textures::rpc::fill_frame(want, flow, textures::rpc::deform_planes(r), r.texture().channels_size(), r.dtype(),
+                            &encoded);
+  ASSERT_EQ(got.planes_size(), encoded.planes_size());
+  for (int k = 0; k < got.planes_size(); ++k) {
+    EXPECT_EQ(got.planes(k).name(), encoded.planes(k).name());
+    EXPECT_EQ(got.planes(k).data(), encoded.planes(k).data()) << got.index() << " " << got.planes(k).name();
+  }
+  EXPECT_EQ(got.max_warp(), encoded.max_warp());
+  EXPECT_EQ(got.solver_iterations(), encoded.solver_iterations());
+}
+
+TEST(TexturesDeform, EveryControlStreamsTheEnginesFrames) {
+  for (auto control : {v1::DEFORM_CONTROL_CONSTANT, v1::DEFORM_CONTROL_MAP, v1::DEFORM_CONTROL_ISOTROPIC,
+                       v1::DEFORM_CONTROL_ANISOTROPIC, v1::DEFORM_CONTROL_BRUSH}) {
+    const v1::DeformTextureRequest r = request(control, 4);
+    const DeformStreamed got = deform(r);
+    ASSERT_TRUE(got.status.ok()) << got.status.error_message();
+    ASSERT_EQ(got.frames.size(), 4u) << control;
+    const textures::DeformSpec spec = textures::rpc::deform_spec(r, LimitGate{Limits{}});
+    auto deformation = deformer().start(spec);
+    const textures::DeformPlanes planes = textures::rpc::deform_planes(r);
+    for (const v1::DeformFrame& frame : got.frames)
+      expect_same(frame, deformation->next(planes), deformation->flow(), r);
+    EXPECT_EQ(got.frames[0].max_warp(), 0.0) << "frame 0 is the undeformed texture";
+    EXPECT_GT(got.frames[3].max_warp(), 0.01) << control;
+    EXPECT_EQ(got.frames[0].planes(0).name(), "color_0");
+    EXPECT_LT(got.frames[0].solver_residual(), 1e-5);
+  }
+}
+
+TEST(TexturesDeform, InteractiveMessagesSteerFromTheNextFrame) {
+  v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_BRUSH, 0);
+  r.clear_strokes();  // no brush at first: nothing moves
+  DeformInteractive call;
+  v1::DeformControl first;
+  *first.mutable_start() = r;
+  first.set_frames(2);
+  ASSERT_TRUE(call.send(first, 2));
+  v1::DeformControl stroke;
+  *stroke.add_strokes() = request(v1::DEFORM_CONTROL_BRUSH, 0).strokes(0);
+  stroke.set_frames(3);
+  ASSERT_TRUE(call.send(stroke, 3));
+  v1::DeformControl cleared;
+  cleared.set_clear_strokes(true);
+  cleared.set_frames(2);
+  ASSERT_TRUE(call.send(cleared, 2));
+  ASSERT_TRUE(call.finish().ok());
+  const auto& f = call.frames();
+  ASSERT_EQ(f.size(), 7u);
+  EXPECT_EQ(f[1].max_warp(), 0.0);  // no stroke yet
+  EXPECT_GT(f[2].max_warp(), 0.0);  // the stroke acts from the next frame
+  EXPECT_GT(f[4].max_warp(), f[2].max_warp());
+  EXPECT_EQ(f[6].max_warp(), f[4].max_warp());  // cleared: the warp holds
+
+  textures::DeformSpec spec = textures::rpc::deform_start(first, LimitGate{Limits{}}, "control[0]");
+  auto deformation = deformer().start(spec);
+  r.set_frames(1);
+  for (int i = 0; i < 2; ++i)
+    expect_same(f[i], deformation->next(textures::rpc::deform_planes(r)), deformation->flow(), r);
+  textures::rpc::steer(stroke, spec, "control[1]");
+  deformation->steer(spec.control);
+  for (int i = 2; i < 5; ++i)
+    expect_same(f[i], deformation->next(textures::rpc::deform_planes(r)), deformation->flow(), r);
+}
+
+TEST(TexturesDeform, TensorControlFollowsTheGradientSentEachMessage) {
+  v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_ISOTROPIC, 0);
+  r.clear_deformation_end();
+  DeformInteractive call;
+  v1::DeformControl first;
+  *first.mutable_start() = r;
+  first.set_frames(1);
+  ASSERT_TRUE(call.send(first, 1));
+  double last = 0;
+  for (double stretch : {1.1, 1.2, 1.3, 1.2, 1.1, 1.0}) {  // out to 1.3 and back to the rest shape
+    v1::DeformControl m;
+    m.mutable_deformation()->set_xx(stretch);
+    m.mutable_deformation()->set_yy(1);
+    ASSERT_TRUE(call.send(m, 1));
+    last = call.frames().back().max_warp();
+    if (stretch == 1.3) EXPECT_GT(last, 0.05);
+  }
+  ASSERT_TRUE(call.finish().ok());
+  EXPECT_LT(last, 0.1) << "the isotropic control is reversible (eq. 7)";
+}
+
+TEST(TexturesDeform, BadRequestsNameTheField) {
+  v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
+  r.clear_rigidity();
+  test::expect_error(Code::InvalidArgument, "request.rigidity is unset", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
+  std::vector<float> bad(kSize * kSize, 2.0f);
+  *r.mutable_rigidity() = float_field("R", kSize, kSize, bad);
+  test::expect_error(Code::InvalidArgument, "request.rigidity", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
+  *r.mutable_rigidity() = float_field("R", kSize, 4, std::vector<float>(kSize * 4));
+  test::expect_error(Code::InvalidArgument, "request.rigidity.ny", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_BRUSH, 2);
+  r.mutable_strokes(0)->set_radius(0);
+  test::expect_error(Code::InvalidArgument, "request.strokes[0].radius", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
+  r.set_d_mu(NAN);
+  test::expect_error(Code::InvalidArgument, "request.d_mu", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
+  r.set_control(v1::DeformControlKind(17));
+  test::expect_error(Code::InvalidArgument, "request.control = 17", [&] { deform_or_throw(r); });
+
+  DeformInteractive call;
+  v1::DeformControl first;
+  *first.mutable_start() = request(v1::DEFORM_CONTROL_ISOTROPIC, 0);
+  ASSERT_TRUE(call.send(first, 1));
+  v1::DeformControl flipped;
+  flipped.mutable_deformation()->set_xx(-1);
+  flipped.mutable_deformation()->set_yy(1);
+  call.send(flipped, 0);
+  test::expect_error(Code::InvalidArgument, "control[1].deformation determinant", [&] { throw_status(call.finish()); });
+}
+
+TEST(TexturesDeform, CommandLine) {
+  const std::string dir = test::temp_dir("textures-deform-cli");
+  std::string out;
+  ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--size", "32x32",
+                       "--frames", "1", "--final", "sum", "--out", dir + "/source"},
+                      &out),
+            0)
+      << out;
+  ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
+                       dir + "/source/frame_0000.png", "--rigidity", "0.5", "--control", "brush:16,16,4,1", "--frames",
+                       "3", "--planes", "color,warp", "--out", dir + "/deformed"},
+                      &out),
+            0)
+      << out;
+  for (const char* name : {"frame_0000.exr", "frame_0000.png", "frame_0002.exr", "frame_0002.png"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/deformed/" + name)) << name << "\n" << out;
+  EXPECT_NE(out.find("wrote 3 frames"), std::string::npos) << out;
+  EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
+                       dir + "/source/frame_0000.png", "--out", dir + "/x"},
+                      &out),
+            2)
+      << out;
+}
+
+}  // namespace
+}  // namespace squall
