@@ -6,9 +6,13 @@
 //   (b) content-aware deformation frames (G. Guingo et al., "Content-aware texture deformation with dynamic
 //       control", Computers & Graphics 2020) at the texel counts of its Table 1 (0.32, 1 and 3.24 million),
 //       1 and 10 Euler sub-steps per frame, one colour plane read back each frame, and the frame without
-//       a step (frame 0: the colour resolve and read-back alone, the paper's "standard" column).
+//       a step (frame 0: the colour resolve and read-back alone, the paper's "standard" column); in
+//       process, and through squall.v1.Textures/DeformTexture against a squalld (--address) with the colour
+//       plane streamed.
 //
-//   build/bench/river_deform_bench [--device auto|cpu|gpu|NAME] [--seconds S]
+//   build/bench/river_deform_bench [--device auto|cpu|gpu|NAME] [--seconds S] [--address HOST:PORT]
+#include <grpcpp/grpcpp.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -17,7 +21,9 @@
 #include <vector>
 
 #include "bench_util.h"
+#include "common/field_codec.h"
 #include "runtime/runtime.h"
+#include "squall/v1/textures.grpc.pb.h"
 #include "textures/deform.h"
 #include "textures/river.h"
 
@@ -135,12 +141,46 @@ DeformSpec deform_spec(int width, int height, int substeps) {
   return spec;
 }
 
-void bench_deform(DeformEngine& engine, double budget) {
+// The same deformation as a DeformTexture request (float32 colour plane).
+squall::v1::DeformTextureRequest deform_request(const DeformSpec& spec, uint32_t frames) {
+  squall::v1::DeformTextureRequest r;
+  const uint32_t w = uint32_t(spec.width), h = uint32_t(spec.height);
+  field::encode({"c", "1", w, h, 0, squall::v1::DTYPE_FLOAT32}, spec.pixels, r.mutable_texture()->add_channels());
+  field::encode({"R", "1", w, h, 0, squall::v1::DTYPE_FLOAT32}, spec.rigidity, r.mutable_rigidity());
+  r.set_control(squall::v1::DEFORM_CONTROL_CONSTANT);
+  r.set_d_mu(spec.control.d_mu);
+  r.set_frames(frames);
+  r.set_substeps(uint32_t(spec.substeps));
+  r.set_max_iterations(uint32_t(spec.max_iterations));
+  return r;
+}
+
+// Frames/s of a DeformTexture stream from its third frame on (the first two hold the flow solve).
+double through_stream(squall::v1::Textures::Stub* textures, const DeformSpec& spec, double expected_fps,
+                      double budget) {
+  if (!textures) return 0;
+  const int timed = std::max(3, int(expected_fps * budget));
+  grpc::ClientContext context;
+  auto reader = textures->DeformTexture(&context, deform_request(spec, uint32_t(2 + timed)));
+  squall::v1::DeformFrame frame;
+  int read = 0;
+  Clock::time_point start;
+  while (reader->Read(&frame))
+    if (++read == 2) start = Clock::now();
+  const grpc::Status status = reader->Finish();
+  if (!status.ok() || read != 2 + timed) {
+    std::fprintf(stderr, "DeformTexture failed: %s (%d frames)\n", status.error_message().c_str(), read);
+    return 0;
+  }
+  return timed / seconds_since(start);
+}
+
+void bench_deform(DeformEngine& engine, squall::v1::Textures::Stub* textures, double budget) {
   std::printf(
       "\ndeform frames (constant d mu, one colour plane read back; the flow solve capped at 200 "
       "iterations)\n");
-  std::printf("%-12s %8s %12s %10s %10s %12s %12s\n", "texels", "substeps", "solve ms/it", "frame 0 ms", "frame ms",
-              "frames/s", "frame/frame0");
+  std::printf("%-10s %8s %11s %10s %9s %10s %12s %10s %9s\n", "texels", "substeps", "solve ms/it", "frame 0 ms",
+              "frame ms", "frames/s", "frame/frame0", "stream f/s", "str/proc");
   const std::pair<int, int> sizes[] = {{566, 566}, {1000, 1000}, {1800, 1800}};  // 0.32, 1, 3.24 M texels
   for (auto [w, h] : sizes) {
     for (int substeps : {1, 10}) {
@@ -156,8 +196,9 @@ void bench_deform(DeformEngine& engine, double budget) {
       start = Clock::now();
       while (frames < 3 || seconds_since(start) < budget) deformation->next({}), ++frames;
       const double frame = seconds_since(start) / frames;
-      std::printf("%-12d %8d %12.2f %10.1f %10.1f %12.2f %12.2f\n", w * h, substeps, solve * 1e3, frame0 * 1e3,
-                  frame * 1e3, 1 / frame, frame / frame0);
+      const double stream = through_stream(textures, spec, 1 / frame, budget);
+      std::printf("%-10d %8d %11.2f %10.1f %9.1f %10.2f %12.2f %10.2f %9.2f\n", w * h, substeps, solve * 1e3,
+                  frame0 * 1e3, frame * 1e3, 1 / frame, frame / frame0, stream, stream * frame);
     }
   }
 }
@@ -168,9 +209,11 @@ int main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/", "textures/river", "textures/deform"};
   double budget = 2;
+  std::string address;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--device")) options.device = argv[i + 1];
     if (!std::strcmp(argv[i], "--seconds")) budget = std::stod(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--address")) address = argv[i + 1];
   }
   configure_kernel_cache();
   Runtime runtime(options);
@@ -178,9 +221,17 @@ int main(int argc, char** argv) {
   LimitGate gate{Limits{}};
   RiverEngine rivers(runtime, gate);
   DeformEngine deform(runtime, gate);
-  std::printf("device: %s\n\n", describe(runtime.device_info()).c_str());
+  std::unique_ptr<squall::v1::Textures::Stub> textures;
+  if (!address.empty()) {
+    grpc::ChannelArguments args;
+    args.SetMaxReceiveMessageSize(-1);
+    textures =
+        squall::v1::Textures::NewStub(grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
+  }
+  std::printf("device: %s; squalld: %s\n\n", describe(runtime.device_info()).c_str(),
+              address.empty() ? "none (--address not given)" : address.c_str());
   bench_river(rivers);
-  bench_deform(deform, budget);
+  bench_deform(deform, textures.get(), budget);
   if (runtime.profiling())
     std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s",
                 format_kernel_timings(runtime.kernel_timings()).c_str());

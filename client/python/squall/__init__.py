@@ -23,6 +23,8 @@ from squall import clouds, ewave, ocean, textures
 from squall._convert import array_to_field, field_to_array
 from squall._errors import SquallError
 from squall._results import (
+    BakedVelocity,
+    DeformFrame,
     EvolutionFrame,
     EWaveFrame,
     FieldSet,
@@ -48,6 +50,8 @@ __all__ = [
     "Samples",
     "EWaveFrame",
     "TextureFrame",
+    "BakedVelocity",
+    "DeformFrame",
     "Image",
     "Volume",
     "EvolutionFrame",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Iterable, Iterator, Optional, Tuple
+from typing import Dict, Iterable, Iterator, List, Optional, Tuple
 
 import numpy as np
 
@@ -99,6 +99,92 @@ class TextureFrame(FieldSet):
 
     def __repr__(self) -> str:
         return f"TextureFrame({self.index}, t={self.time} s; {self._shapes()})"
+
+
+class BakedVelocity(FieldSet):
+    """A river's velocity baked on a grid of nodes (Textures.BakeVelocity).
+
+    Arrays of shape (ny, nx) keyed "u", "v" (du/s; 0 on solid nodes), "psi" (du^2/s; only when
+    asked, evaluated on solid nodes too) and "fluid" (1 on water nodes, 0 on land and inside
+    obstacles); ``a[j, i]`` is node (i, j) at (x0 + i (x1 - x0) / (nx - 1), y0 + j (y1 - y0) /
+    (ny - 1)), which ``spacing`` and ``origin`` give per field (du).
+
+    Attributes:
+        u, v, fluid: the arrays above; psi: the stream function, or None unless asked.
+        flow_rates: Q of each channel, du^2/s, given or from the junctions.
+        left_psi, right_psi: psi on each channel's left and right bank, du^2/s.
+        obstacle_psi: psi on each obstacle, du^2/s.
+        undefined_nodes: water nodes with no boundary within the search radius (v = 0 there).
+        reply: the squall.v1.BakeVelocityReply.
+    """
+
+    SLOTS = ("u", "v", "psi", "fluid")
+
+    def __init__(self, reply: textures_pb2.BakeVelocityReply) -> None:
+        super().__init__()
+        for slot in self.SLOTS:  # keyed by the reply's field, whatever name the Field carries
+            if not reply.HasField(slot):
+                continue
+            f = getattr(reply, slot)
+            self[slot] = field_to_array(f, f"reply.{slot}")
+            self.units[slot] = f.unit
+            self.spacing[slot] = (f.spacing.x, f.spacing.y, f.spacing.z)
+            self.origin[slot] = (f.origin.x, f.origin.y, f.origin.z)
+        self.flow_rates: List[float] = list(reply.flow_rates)
+        self.left_psi: List[float] = list(reply.left_psi)
+        self.right_psi: List[float] = list(reply.right_psi)
+        self.obstacle_psi: List[float] = list(reply.obstacle_psi)
+        self.undefined_nodes: int = reply.undefined_nodes
+        self.reply = reply
+
+    @property
+    def u(self) -> np.ndarray:
+        return self["u"]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self["v"]
+
+    @property
+    def fluid(self) -> np.ndarray:
+        return self["fluid"]
+
+    @property
+    def psi(self) -> Optional[np.ndarray]:
+        return self.get("psi")
+
+    def __repr__(self) -> str:
+        return f"BakedVelocity(Q={self.flow_rates}; {self._shapes()})"
+
+
+class DeformFrame(FieldSet):
+    """One frame of a deformed texture (Textures.DeformTexture / DeformInteractive): planes keyed by
+    name ("color_<c>", "warp_x", "warp_y", "reference_time", "level", "flow_x", "flow_y"), arrays
+    of shape (H, W) (``a[j, i]`` is texel (i, j), centred at (i + 0.5, j + 0.5)).
+
+    Attributes:
+        index: frame index, 0 first (the undeformed texture).
+        time: index dt, s.
+        solver_iterations, solver_residual: the flow solve's iterations and final relative
+            residual (the same in every frame).
+        max_warp: the largest |W(u) - u|, texels.
+        max_residual: the largest residual warp of the stack, texels (max_warp without one).
+        min_reference, max_reference: the smallest and largest t* (summed d mu) of a texel.
+    """
+
+    def __init__(self, frame: textures_pb2.DeformFrame) -> None:
+        super().__init__(frame.planes, "planes")
+        self.index: int = frame.index
+        self.time: float = frame.time
+        self.solver_iterations: int = frame.solver_iterations
+        self.solver_residual: float = frame.solver_residual
+        self.max_warp: float = frame.max_warp
+        self.max_residual: float = frame.max_residual
+        self.min_reference: float = frame.min_reference
+        self.max_reference: float = frame.max_reference
+
+    def __repr__(self) -> str:
+        return f"DeformFrame({self.index}, t={self.time} s, max_warp={self.max_warp}; {self._shapes()})"
 
 
 class Samples(Dict[str, np.ndarray]):

@@ -62,12 +62,23 @@ from squall._pb import (
     textures_pb2,
     textures_pb2_grpc,
 )
-from squall._results import EvolutionFrame, EWaveFrame, Image, Samples, TextureFrame, Tile, Volume
+from squall._results import (
+    BakedVelocity,
+    DeformFrame,
+    EvolutionFrame,
+    EWaveFrame,
+    Image,
+    Samples,
+    TextureFrame,
+    Tile,
+    Volume,
+)
 from squall.client import HEALTH_CHECK, decode_health_response, encode_health_request
 
 T = TypeVar("T")
+S = TypeVar("S", bound="Steering[Any]")
 
-__all__ = ["Client", "AsyncStream", "EWaveSession", "Interactive"]
+__all__ = ["Client", "AsyncStream", "EWaveSession", "Interactive", "DeformInteractive"]
 
 
 class Connection:
@@ -480,37 +491,29 @@ class Clouds:
         )
 
 
-class Interactive:
-    """A running AdvectInteractive stream (asyncio); ``async with`` ends it. See
-    squall.textures.Interactive.
+class Steering(Generic[T]):
+    """A running bidirectional stream steered message by message (asyncio): the base of
+    ``Interactive`` and ``DeformInteractive``; ``async with`` ends it. See
+    squall.textures.Steering.
     """
 
-    METHOD = "Textures.AdvectInteractive"
+    METHOD = ""
 
-    def __init__(self, call: Any, start: textures_pb2.AdvectTextureRequest) -> None:
+    def __init__(self, call: Any, start: Any, convert: Callable[[Any], T]) -> None:
         self._call = call
-        self._start: Optional[textures_pb2.AdvectTextureRequest] = start
+        self._start: Any = start  # sent with the first message only
+        self._convert = convert
         self.frames_received = 0
         self._ended = False  # the call has ended (its error, if any, was raised)
 
-    async def send(
-        self,
-        frames: int = 1,
-        *,
-        velocity: Any = None,
-        dt: Optional[float] = None,
-        substeps: Optional[int] = None,
-        spin: Optional[float] = None,
-        final_scale: Optional[float] = None,
-    ) -> List[TextureFrame]:
-        """Applies the changes given and returns `frames` more frames."""
+    def _check_open(self) -> None:
         if self._ended:
             raise SquallError(
                 grpc.StatusCode.FAILED_PRECONDITION, "client: the stream has ended", self.METHOD
             )
-        message = _textures.control_message(
-            self._start, frames, velocity, dt, substeps, spin, final_scale
-        )
+
+    async def _exchange(self, message: Any, frames: int) -> List[T]:
+        """Writes one message and reads the `frames` frames it asks for."""
         self._start = None
         out = []
         try:
@@ -523,7 +526,7 @@ class Interactive:
                     raise SquallError(
                         grpc.StatusCode.INTERNAL, "client: the stream ended early", self.METHOD
                     )
-                out.append(TextureFrame(frame))
+                out.append(self._convert(frame))
         except grpc.RpcError as error:
             self._ended = True
             raise SquallError.from_rpc(error, self.METHOD) from None
@@ -556,7 +559,7 @@ class Interactive:
         """Ends the call now."""
         self._call.cancel()
 
-    async def __aenter__(self) -> "Interactive":
+    async def __aenter__(self: S) -> S:
         return self
 
     async def __aexit__(self, exc_type: Any, *exc: Any) -> None:
@@ -566,8 +569,66 @@ class Interactive:
             self.cancel()
 
 
+class Interactive(Steering[TextureFrame]):
+    """A running AdvectInteractive stream (asyncio); ``async with`` ends it. See
+    squall.textures.Interactive.
+    """
+
+    METHOD = "Textures.AdvectInteractive"
+
+    def __init__(self, call: Any, start: textures_pb2.AdvectTextureRequest) -> None:
+        super().__init__(call, start, TextureFrame)
+
+    async def send(
+        self,
+        frames: int = 1,
+        *,
+        velocity: Any = None,
+        dt: Optional[float] = None,
+        substeps: Optional[int] = None,
+        spin: Optional[float] = None,
+        final_scale: Optional[float] = None,
+    ) -> List[TextureFrame]:
+        """Applies the changes given and returns `frames` more frames."""
+        self._check_open()
+        message = _textures.control_message(
+            self._start, frames, velocity, dt, substeps, spin, final_scale
+        )
+        return await self._exchange(message, frames)
+
+
+class DeformInteractive(Steering[DeformFrame]):
+    """A running DeformInteractive stream (asyncio); ``async with`` ends it. See
+    squall.textures.DeformInteractive.
+    """
+
+    METHOD = "Textures.DeformInteractive"
+
+    def __init__(self, call: Any, start: textures_pb2.DeformTextureRequest) -> None:
+        super().__init__(call, start, DeformFrame)
+
+    async def send(
+        self,
+        frames: int = 1,
+        *,
+        d_mu: Optional[float] = None,
+        d_mu_map: Any = None,
+        deformation: Any = None,
+        strokes: Optional[Sequence[Any]] = None,
+        clear_strokes: bool = False,
+    ) -> List[DeformFrame]:
+        """Applies the changes given and returns `frames` more frames (see
+        squall.textures.DeformInteractive.send)."""
+        self._check_open()
+        message = _textures.deform_control_message(
+            self._start, frames, d_mu, d_mu_map, deformation, strokes, clear_strokes
+        )
+        return await self._exchange(message, frames)
+
+
 class Textures:
-    """``client.textures`` (asyncio): see squall.textures.Textures."""
+    """``client.textures`` (asyncio): see squall.textures.Textures (advect, interactive,
+    bake_velocity, deform, deform_interactive)."""
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
@@ -645,6 +706,108 @@ class Textures:
             timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
         )
         return Interactive(call, request)
+
+    async def bake_velocity(
+        self,
+        river: Any = None,
+        *,
+        size: Optional[Sequence[int]] = None,
+        region: Any = None,
+        psi: bool = False,
+        dtype: Any = "float32",
+        timeout: Optional[float] = None,
+        request: Optional[textures_pb2.BakeVelocityRequest] = None,
+    ) -> BakedVelocity:
+        """A river's velocity on a grid (see squall.textures.Textures.bake_velocity)."""
+        message = _textures.bake_request(
+            river, size=size, region=region, psi=psi, dtype=dtype, request=request
+        )
+        return BakedVelocity(
+            await self._connection.unary(
+                "Textures.BakeVelocity", self._rpc.BakeVelocity, message, timeout
+            )
+        )
+
+    def deform(
+        self,
+        image: Any = None,
+        rigidity: Any = None,
+        *,
+        control: Union[str, int] = "constant",
+        d_mu: Optional[float] = None,
+        d_mu_map: Any = None,
+        kappa: Optional[float] = None,
+        deformation_start: Any = None,
+        deformation_end: Any = None,
+        strokes: Optional[Sequence[Any]] = None,
+        paper_dt_factor: bool = False,
+        frames: Optional[int] = None,
+        dt: Optional[float] = None,
+        substeps: Optional[int] = None,
+        stack_levels: int = 0,
+        chart: Any = None,
+        planes: Union[str, int, Sequence[Union[str, int]]] = ("color",),
+        dtype: Any = "float32",
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        timeout: Optional[float] = None,
+        request: Optional[textures_pb2.DeformTextureRequest] = None,
+    ) -> AsyncStream[DeformFrame]:
+        """Streams the frames of a deformed texture (async iterator); the arguments of
+        squall.textures.Textures.deform (frames required)."""
+        if request is None and frames is None:
+            raise TypeError("deform: frames (1..100000) is required")
+        message = _textures.deform_request(
+            image,
+            rigidity,
+            control=control,
+            d_mu=d_mu,
+            d_mu_map=d_mu_map,
+            kappa=kappa,
+            deformation_start=deformation_start,
+            deformation_end=deformation_end,
+            strokes=strokes,
+            paper_dt_factor=paper_dt_factor,
+            frames=frames or 0,
+            dt=dt,
+            substeps=substeps,
+            stack_levels=stack_levels,
+            chart=chart,
+            planes=planes,
+            dtype=dtype,
+            tolerance=tolerance,
+            max_iterations=max_iterations,
+            request=request,
+        )
+        return self._connection.stream(
+            "Textures.DeformTexture", self._rpc.DeformTexture, message, DeformFrame, timeout
+        )
+
+    def deform_interactive(
+        self,
+        image: Any = None,
+        rigidity: Any = None,
+        *,
+        start: Optional[Union[textures_pb2.DeformTextureRequest, Mapping[str, Any]]] = None,
+        timeout: Optional[float] = None,
+        **kwargs: Any,
+    ) -> DeformInteractive:
+        """Starts a DeformInteractive stream steered by ``await DeformInteractive.send(...)``."""
+        if start is not None:
+            if kwargs or image is not None or rigidity is not None:
+                raise TypeError(
+                    "deform_interactive: pass either start or deform's arguments, not both"
+                )
+            request = to_message(textures_pb2.DeformTextureRequest, start, "start")
+        else:
+            if "frames" in kwargs:
+                raise TypeError("deform_interactive: each send() asks for its frames")
+            request = _textures.deform_request(image, rigidity, **kwargs)
+        settings = self._connection.settings
+        call = self._rpc.DeformInteractive(
+            timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
+        )
+        return DeformInteractive(call, request)
 
 
 class Client:
