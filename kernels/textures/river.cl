@@ -116,14 +116,23 @@ static bool in_polygon(float2 P, __global const float2* points, int begin, int e
   return inside;
 }
 
+/* Polygon k (its bounding box, then its points: river_geometry.h) contains P. */
+static bool polygon_contains(float2 P, __global const int* polygon_start, __global const float2* polygon_points,
+                             int k) {
+  const int begin = polygon_start[k], end = polygon_start[k + 1];
+  const float2 lo = polygon_points[begin], hi = polygon_points[begin + 1];
+  if (P.x < lo.x || P.y < lo.y || P.x > hi.x || P.y > hi.y) return false;
+  return in_polygon(P, polygon_points, begin + 2, end);
+}
+
 /* In a channel and outside every obstacle. */
 static bool in_water(float2 P, RiverGeometry geo, __global const int* polygon_start,
                      __global const float2* polygon_points) {
   bool water = false;
   for (int k = 0; k < geo.channel_polygons && !water; ++k)
-    water = in_polygon(P, polygon_points, polygon_start[k], polygon_start[k + 1]);
+    water = polygon_contains(P, polygon_start, polygon_points, k);
   for (int k = geo.channel_polygons; k < geo.channel_polygons + geo.obstacle_polygons && water; ++k)
-    water = !in_polygon(P, polygon_points, polygon_start[k], polygon_start[k + 1]);
+    water = !polygon_contains(P, polygon_start, polygon_points, k);
   return water;
 }
 

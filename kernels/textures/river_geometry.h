@@ -12,7 +12,8 @@
  *   boundary_psi      float per boundary: psi on it, du^2/s
  *   boundary_s        float per boundary: its search radius s, du
  *   polygon_start     int per polygon + 1: polygon k is polygon_points[polygon_start[k] .. polygon_start[k + 1] - 1]
- *   polygon_points    float2: closed polygons, the channels' water first, then the obstacles' land */
+ *   polygon_points    float2: per polygon its bounding box (lower corner, upper corner), then its points
+ *                     (closed); the channels' water first, then the obstacles' land */
 #ifndef SQUALL_TEXTURES_RIVER_GEOMETRY_H
 #define SQUALL_TEXTURES_RIVER_GEOMETRY_H
 

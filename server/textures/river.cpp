@@ -122,7 +122,15 @@ void add_polyline(Walls& walls, const std::vector<Point2>& points, int boundary,
   }
 }
 
+// The polygon's bounding box, then its points (river_geometry.h).
 void add_polygon(Walls& walls, const std::vector<Point2>& points) {
+  cl_float2 lo{{INFINITY, INFINITY}}, hi{{-INFINITY, -INFINITY}};
+  for (const Point2& p : points) {
+    lo = {{std::min(lo.s[0], float(p.x)), std::min(lo.s[1], float(p.y))}};
+    hi = {{std::max(hi.s[0], float(p.x)), std::max(hi.s[1], float(p.y))}};
+  }
+  walls.polygon_points.push_back(lo);
+  walls.polygon_points.push_back(hi);
   for (const Point2& p : points) walls.polygon_points.push_back({{float(p.x), float(p.y)}});
   walls.polygon_start.push_back(cl_int(walls.polygon_points.size()));
 }
