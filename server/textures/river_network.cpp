@@ -123,14 +123,14 @@ std::vector<double> boundary_values(const RiverNetwork& n, int boundaries, const
     const int start = n.boundary_of[right_bank(int(c))];
     if (psi[start]) continue;
     psi[start] = 0.0;
-    std::queue<int> todo;
-    todo.push(start);
-    for (; !todo.empty(); todo.pop()) {
-      for (const Edge& e : edges[todo.front()]) {
-        const double value = *psi[todo.front()] + e.difference;
+    std::queue<int> frontier;
+    frontier.push(start);
+    for (; !frontier.empty(); frontier.pop()) {
+      for (const Edge& e : edges[frontier.front()]) {
+        const double value = *psi[frontier.front()] + e.difference;
         if (!psi[e.to]) {
           psi[e.to] = value;
-          todo.push(e.to);
+          frontier.push(e.to);
         } else if (std::abs(*psi[e.to] - value) > 1e-9 * (std::abs(value) + std::abs(e.difference))) {
           fail(Code::InvalidArgument, at(path + ".channels", size_t(e.channel)) +
                                           ": the flow rates around a loop of channels disagree (draw an "
