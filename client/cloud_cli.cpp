@@ -47,6 +47,8 @@ render flags:
   --sun DX,DY,DZ,E          directional light toward DX,DY,DZ with irradiance E for every wavelength (repeatable)
   --phase uniform|hg:G|dhg:G1,G2,W|ff:N,MU   (default hg:0.8)
   --shadow none|direct|dsm  (default dsm)
+  --shadow-step M           step of the marches toward the lights, m (default: 3 steps)
+  --shadow-trilinear        trilinear density on those marches (default nearest voxel)
   --trilinear               trilinear density (default nearest voxel)
 )";
 
@@ -164,6 +166,8 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     c->set_height(uint32_t(h));
   } else if (flag == "--step")
     s.set_step(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--shadow-step")
+    s.set_shadow_step(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--wavelengths") {
     s.clear_wavelengths();
     for (double l : numbers(flag, value, 1, 8)) s.add_wavelengths(l);
@@ -229,8 +233,11 @@ Request parse(const std::vector<std::string>& args) {
       r.keep = true;
       continue;
     }
-    if (flag == "--trilinear") {
-      r.settings.set_trilinear(true);
+    if (flag == "--trilinear" || flag == "--shadow-trilinear") {
+      if (flag == "--trilinear")
+        r.settings.set_trilinear(true);
+      else
+        r.settings.set_shadow_trilinear(true);
       continue;
     }
     if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");

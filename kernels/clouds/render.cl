@@ -125,7 +125,11 @@ static inline void sq_substep_offsets(int n, uint* rng, float* r) {
   r[n] = 1.0f;
 }
 
-// Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax].
+// Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax], in
+// jittered steps of p->shadow_step clipped to the tree's nodes, sampling the nearest voxel or trilinear
+// (p->shadow_interpolation). The march stops once the column passes
+// p->shadow_column_max: the light's transmittance is then below min_transmittance at every wavelength, and
+// the estimate keeps at most that much light (the bias of early termination).
 static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, __private const CloudRenderParams* p,
                                uint* rng) {
   float3 o = sq_world_to_index(v, x) + 0.5f;
@@ -134,14 +138,14 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
   if (!sq_clip_root(v, o, d, &t0, &t1)) return 0.0f;
   float nudge = 1e-4f / length(d);
   float column = 0.0f;
-  for (float t = t0; t < t1;) {
+  for (float t = t0; t < t1 && column <= p->shadow_column_max;) {
     float exit;
     bool occupied = sq_node(v, o, d, t, nudge, &exit);
     exit = fmin(exit, t1);
-    for (float s = t; occupied && s < exit;) {
-      float h = fmin(p->step, exit - s);
+    for (float s = t; occupied && s < exit && column <= p->shadow_column_max;) {
+      float h = fmin(p->shadow_step, exit - s);
       float3 c = o + (s + sq_uniform(rng) * h) * d;
-      column += sq_sample(v, c - 0.5f, p->interpolation) * h;
+      column += sq_sample(v, c - 0.5f, p->shadow_interpolation) * h;
       s += h;
     }
     t = exit;

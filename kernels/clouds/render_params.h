@@ -58,6 +58,10 @@ typedef struct CloudRenderParams {
   int dsm_n[3];      // deep shadow map nodes per axis (>= 2 each)
   float dsm_min[3];  // world box of the map, m
   float dsm_max[3];
+  float shadow_step;        // step of the marches toward the lights (direct shadows, deep shadow map), m
+  float shadow_column_max;  // a shadow march stops past this column density, m (-ln(min_transmittance) /
+                            // the smallest extinction); FLT_MAX: never
+  int shadow_interpolation;  // density on the shadow marches: 0 nearest voxel, 1 trilinear
 } CloudRenderParams;
 
 #ifdef __cplusplus
@@ -67,7 +71,7 @@ SQUALL_ASSERT_OFFSET(CloudLight, kind, 0);
 SQUALL_ASSERT_OFFSET(CloudLight, position, 4);
 SQUALL_ASSERT_OFFSET(CloudLight, direction, 16);
 SQUALL_ASSERT_OFFSET(CloudLight, intensity, 28);
-SQUALL_ASSERT_SIZE(CloudRenderParams, 492);
+SQUALL_ASSERT_SIZE(CloudRenderParams, 504);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, eye, 0);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, forward, 12);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, right, 24);
@@ -97,6 +101,9 @@ SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow, 452);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, dsm_n, 456);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, dsm_min, 468);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, dsm_max, 480);
+SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_step, 492);
+SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_column_max, 496);
+SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_interpolation, 500);
 #endif
 
 #endif

@@ -105,6 +105,8 @@ RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
   out.trilinear = s.trilinear();
   out.seed = s.seed();
   out.min_transmittance = s.has_min_transmittance() ? s.min_transmittance() : 1e-4;
+  out.shadow_step = s.shadow_step();
+  out.shadow_trilinear = s.shadow_trilinear();
   const auto& ph = s.phase();
   switch (ph.kind()) {
     case v1::PHASE_KIND_UNIFORM: out.phase.kind = PhaseKind::Uniform; break;

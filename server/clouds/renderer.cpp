@@ -1,5 +1,7 @@
 #include "clouds/renderer.h"
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "clouds/nanovdb_volume.h"
@@ -22,6 +24,10 @@ Vec3d unit(const Vec3d& a) {
 void put(float* dst, const Vec3d& v) {
   for (int i = 0; i < 3; ++i) dst[i] = float(v[i]);
 }
+
+// The step of the marches toward the lights: its own, or 3 primary steps (vdb_render's default of 3 voxels
+// at a one-voxel step).
+double shadow_step(const RenderSettings& s) { return s.shadow_step > 0 ? s.shadow_step : 3 * s.step; }
 
 CloudRenderParams device_params(const RenderSettings& s) {
   CloudRenderParams p{};
@@ -63,6 +69,14 @@ CloudRenderParams device_params(const RenderSettings& s) {
   }
   p.shadow = int(s.shadow);
   for (int a = 0; a < 3; ++a) p.dsm_n[a] = s.shadow_map_size[a];
+  p.shadow_step = float(shadow_step(s));
+  p.shadow_interpolation = s.shadow_trilinear ? 1 : 0;
+  double kappa_min = INFINITY;
+  for (double kappa : s.extinction)
+    if (kappa > 0) kappa_min = std::min(kappa_min, kappa);
+  const bool stops = s.min_transmittance > 0 && kappa_min < INFINITY;
+  const double column_max = stops ? -std::log(s.min_transmittance) / kappa_min : INFINITY;
+  p.shadow_column_max = column_max < FLT_MAX ? float(column_max) : FLT_MAX;
   return p;
 }
 
@@ -102,6 +116,7 @@ void validate(const RenderSettings& s, const std::string& f) {
   validate::positive(f + ".step", s.step);
   validate::in(f + ".substeps", int64_t(s.substeps), 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   validate::in(f + ".min_transmittance", s.min_transmittance, validate::closed_open(0, 1));
+  validate::non_negative(f + ".shadow_step", s.shadow_step);
   const Phase& ph = s.phase;
   validate::in(f + ".phase.g1", ph.g1, validate::open(-1, 1));
   validate::in(f + ".phase.g2", ph.g2, validate::open(-1, 1));
@@ -172,13 +187,13 @@ CloudRenderer::CloudRenderer(Runtime& runtime)
       render_(runtime, "clouds/render.cl", "cloud_render") {}
 
 double estimated_samples(const DeviceVolume& volume, const RenderSettings& s) {
-  const double steps = std::ceil(norm(sub(volume.world_max, volume.world_min)) / s.step) + 1,
-               lights = double(s.lights.size());
+  const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
+  const double steps = std::ceil(diagonal / s.step) + 1, shadow_steps = std::ceil(diagonal / shadow_step(s)) + 1;
   const double primary = double(s.camera.width) * s.camera.height * steps * s.substeps;
-  if (s.shadow == ShadowMode::Direct) return primary * (1 + lights * steps);
+  if (s.shadow == ShadowMode::Direct) return primary * (1 + lights * shadow_steps);
   if (s.shadow == ShadowMode::DeepShadowMap) {
     const auto& n = s.shadow_map_size;
-    return primary * (1 + lights) + double(n[0]) * n[1] * n[2] * lights * steps;
+    return primary * (1 + lights) + double(n[0]) * n[1] * n[2] * lights * shadow_steps;
   }
   return primary;
 }

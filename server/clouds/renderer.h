@@ -46,7 +46,9 @@ struct RenderSettings {
   int substeps = 1;        // N_s, 1..8
   bool trilinear = false;  // density interpolation (false: nearest voxel)
   uint32_t seed = 1;
-  double min_transmittance = 1e-4;  // early termination, [0, 1)
+  double min_transmittance = 1e-4;  // early termination of primary and shadow marches, [0, 1)
+  double shadow_step = 0;           // m, >= 0: the step toward the lights; 0: 3 steps (vdb_render's 3 voxels)
+  bool shadow_trilinear = false;    // trilinear density on the marches toward the lights (false: nearest voxel)
   Phase phase;
   std::vector<double> wavelengths{550e-9};  // m, (0, 1e-3]; 1..8 channels
   std::vector<double> extinction{1.0};      // kappa per unit density, 1/m, >= 0; one per wavelength
