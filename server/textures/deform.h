@@ -39,8 +39,10 @@ class Deformation {
   // Frame 0 (the undeformed texture), then each call takes one frame's step and returns the frame.
   virtual DeformFrame next(const DeformPlanes& planes) = 0;
   // From the next frame on: `control` replaces the running one. For the tensor controls,
-  // control.deformation_start is G now, reached at the next frame and held after it.
-  virtual void steer(const DeformControl& control) = 0;
+  // control.deformation_start is G now, reached at the next frame and held after it. Checked first:
+  // INVALID_ARGUMENT naming DeformControl's fields under `path` ("<path>.d_mu", "<path>.deformation", ...;
+  // bare names when `path` is empty), and the deformation keeps its control.
+  virtual void steer(const DeformControl& control, const std::string& path = "") = 0;
   virtual const FlowSolve& flow() const = 0;
   // Device bytes this deformation holds (its state, flow, texture and stack).
   virtual uint64_t device_bytes() const = 0;

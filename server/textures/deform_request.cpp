@@ -117,12 +117,7 @@ bool steer(const v1::DeformControl& m, DeformSpec& s, const std::string& path) {
     changed = true;
   }
   if (m.has_deformation()) {
-    const Tensor2 g = tensor(m.deformation());
-    const std::string t = path + ".deformation";
-    validate::finite(t + ".xx", g.xx), validate::finite(t + ".xy", g.xy);
-    validate::finite(t + ".yx", g.yx), validate::finite(t + ".yy", g.yy);
-    validate::in(t + " determinant", g.xx * g.yy - g.xy * g.yx, validate::above(0));
-    c.deformation_start = c.deformation_end = g;
+    c.deformation_start = c.deformation_end = tensor(m.deformation());
     changed = true;
   }
   if (m.strokes_size() > 0 || m.clear_strokes()) c.strokes = strokes(m.strokes()), changed = true;

@@ -22,8 +22,7 @@ DeformSpec deform_start(const squall::v1::DeformControl& control, const LimitGat
 // The frames a message asks for: 1 when unset, else 0..1024.
 uint32_t deform_control_frames(const squall::v1::DeformControl& control, const std::string& path);
 // A message's changes applied to the running control (its tensor in deformation_start, as
-// Deformation::steer takes it); true when it changes any. Tensors are checked here (finite, det > 0),
-// the rest by DeformEngine::validate.
+// Deformation::steer takes it); true when it changes any. Deformation::steer checks the result.
 bool steer(const squall::v1::DeformControl& message, DeformSpec& spec, const std::string& path);
 
 // Bytes of the planes of one frame.

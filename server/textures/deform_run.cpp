@@ -49,8 +49,8 @@ class DeformRun final : public Deformation {
     return frame(planes);
   }
 
-  void steer(const DeformControl& control) override {
-    validate_control(control, w_, h_, "", "deformation");
+  void steer(const DeformControl& control, const std::string& path) override {
+    validate_control(control, w_, h_, path.empty() ? "" : path + ".", "deformation");
     upload_control(control);
     control_.steer(control);
   }

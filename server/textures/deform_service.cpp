@@ -69,10 +69,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
         choose_planes(s, message.start(), serving_.gate(), path + ".start");
         deformation = deform_->start(s.spec);
       }
-      if (req::steer(message, s.spec, path)) {
-        deform_->validate(s.spec, path);
-        deformation->steer(s.spec.control);
-      }
+      if (req::steer(message, s.spec, path)) deformation->steer(s.spec.control, path);
       for (uint32_t k = 0; k < frames && call.live(); ++k)
         if (!call.write(*stream, encode(s, *deformation))) return;
     }

@@ -71,20 +71,11 @@ v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames)
   return r;
 }
 
-struct DeformStreamed {
-  std::vector<v1::DeformFrame> frames;
-  grpc::Status status;
-};
+using DeformStreamed = StreamedOf<v1::DeformFrame>;
 
 DeformStreamed deform(const v1::DeformTextureRequest& r) {
-  client::Client client({daemon().address(), 300, ""});
-  auto service = v1::Textures::NewStub(client.channel());
-  auto context = client.context();
-  auto reader = service->DeformTexture(context.get(), r);
-  DeformStreamed s;
-  for (v1::DeformFrame frame; reader->Read(&frame);) s.frames.push_back(frame);
-  s.status = reader->Finish();
-  return s;
+  return read_stream<v1::DeformFrame>(
+      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); });
 }
 
 void deform_or_throw(const v1::DeformTextureRequest& r) { throw_status(deform(r).status); }
@@ -208,6 +199,12 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   flipped.mutable_deformation()->set_yy(1);
   call.send(flipped, 0);
   test::expect_error(Code::InvalidArgument, "control[1].deformation determinant", [&] { throw_status(call.finish()); });
+  DeformInteractive nan_call;
+  ASSERT_TRUE(nan_call.send(first, 1));
+  v1::DeformControl bad_d_mu;
+  bad_d_mu.set_d_mu(NAN);
+  nan_call.send(bad_d_mu, 0);
+  test::expect_error(Code::InvalidArgument, "control[1].d_mu = nan", [&] { throw_status(nan_call.finish()); });
 }
 
 TEST(TexturesDeform, CommandLine) {

@@ -18,14 +18,8 @@ textures::TextureEngine& engine() {
 }
 
 Streamed advect(const v1::AdvectTextureRequest& request) {
-  client::Client client({daemon().address(), 300, ""});
-  auto service = v1::Textures::NewStub(client.channel());
-  auto context = client.context();
-  auto reader = service->AdvectTexture(context.get(), request);
-  Streamed s;
-  for (v1::TextureFrame frame; reader->Read(&frame);) s.frames.push_back(frame);
-  s.status = reader->Finish();
-  return s;
+  return read_stream<v1::TextureFrame>(
+      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.AdvectTexture(c, request); });
 }
 
 Code code_of(grpc::StatusCode code) {

@@ -23,10 +23,27 @@ test::Daemon& daemon();
 // The engine the daemon runs, in this process, on the same device.
 textures::TextureEngine& engine();
 
-struct Streamed {
-  std::vector<v1::TextureFrame> frames;
+// A server stream read to its end: its frames and its status.
+template <typename Frame>
+struct StreamedOf {
+  std::vector<Frame> frames;
   grpc::Status status;
 };
+using Streamed = StreamedOf<v1::TextureFrame>;
+
+// Opens a server stream on a fresh client of the daemon (open(service, context) makes the call) and reads
+// it to its end.
+template <typename Frame, typename Open>
+StreamedOf<Frame> read_stream(const Open& open) {
+  client::Client client({daemon().address(), 300, ""});
+  auto service = v1::Textures::NewStub(client.channel());
+  auto context = client.context();
+  auto reader = open(*service, context.get());
+  StreamedOf<Frame> s;
+  for (Frame frame; reader->Read(&frame);) s.frames.push_back(frame);
+  s.status = reader->Finish();
+  return s;
+}
 
 // AdvectTexture read to its end.
 Streamed advect(const v1::AdvectTextureRequest& request);
