@@ -1,6 +1,9 @@
 #include "client/client.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <random>
 #include <fstream>
 #include <iterator>
 #include <thread>
@@ -37,21 +40,45 @@ std::shared_ptr<grpc::ChannelCredentials> credentials(const ClientOptions& o) {
   return grpc::SslCredentials(ssl);
 }
 
+// gRPC's service config: every squall service retries UNAVAILABLE (see ClientOptions::attempts).
+std::string retry_config(int attempts) {
+  std::string names;
+  for (const char* service : {"Server", "Ocean", "EWave", "Clouds", "Textures"})
+    names += std::string(names.empty() ? "" : ",") + "{\"service\":\"squall.v1." + service + "\"}";
+  return "{\"methodConfig\":[{\"name\":[" + names + "],\"retryPolicy\":{\"maxAttempts\":" +
+         std::to_string(attempts) +
+         ",\"initialBackoff\":\"0.1s\",\"maxBackoff\":\"2s\",\"backoffMultiplier\":2,"
+         "\"retryableStatusCodes\":[\"UNAVAILABLE\"]}}]}";
+}
+
 }  // namespace
+
+std::string propose_session_id(const std::string& prefix) {
+  std::random_device device;
+  std::string id = prefix;
+  for (int word = 0; word < 4; ++word) {
+    char hex[9];
+    std::snprintf(hex, sizeof(hex), "%08x", static_cast<unsigned>(device()));
+    id += hex;
+  }
+  return id;
+}
 
 Client::Client(const ClientOptions& options) : options_(options) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
   args.SetMaxSendMessageSize(-1);
+  if (options.attempts > 1) args.SetServiceConfigJSON(retry_config(std::min(options.attempts, 5)));
   channel_ = grpc::CreateCustomChannel(options.address, credentials(options), args);
 }
 
-std::unique_ptr<grpc::ClientContext> Client::context() const {
+std::unique_ptr<grpc::ClientContext> Client::context(const std::string& session) const {
   auto ctx = std::make_unique<grpc::ClientContext>();
   ctx->set_deadline(std::chrono::system_clock::now() +
                     std::chrono::milliseconds(static_cast<long long>(options_.timeout_seconds * 1000)));
   if (!options_.request_id.empty()) ctx->AddMetadata("x-request-id", options_.request_id);
   if (!options_.token.empty()) ctx->AddMetadata("authorization", "Bearer " + options_.token);
+  if (!session.empty()) ctx->AddMetadata("x-squall-session", session);
   return ctx;
 }
 

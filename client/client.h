@@ -21,7 +21,17 @@ struct ClientOptions {
   // roots), and for mutual TLS this client's certificate chain and private key (PEM files).
   std::string tls_ca, tls_cert, tls_key;
   std::string token;  // sent as "authorization: Bearer <token>" (squalld --auth-tokens); empty: none
+  // Attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica gone behind a proxy),
+  // with exponential backoff from 0.1 s to 2 s; 1: no retries. gRPC retries only calls the server has not
+  // begun to answer, and squalld answers UNAVAILABLE before it touches a session, so a retried step is
+  // never applied twice.
+  int attempts = 5;
 };
+
+// A fresh session id to propose when creating a session (x-squall-session on the creating call, so a
+// session-affine proxy routes it like the session's later calls): `prefix` and 32 hex digits from the
+// system's random device ("" for eWave sessions, "cloud-" for stored volumes).
+std::string propose_session_id(const std::string& prefix = "");
 
 class RpcError : public std::runtime_error {
  public:
@@ -46,8 +56,9 @@ class Client {
   bool wait_until_serving(double seconds);
 
   const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
-  // A context with this client's deadline and request id: for services' own stubs.
-  std::unique_ptr<grpc::ClientContext> context() const;
+  // A context with this client's deadline and request id, for services' own stubs; with `session`, the
+  // call names that session (or proposes that id) in x-squall-session, which a proxy routes on.
+  std::unique_ptr<grpc::ClientContext> context(const std::string& session = "") const;
 
  private:
   ClientOptions options_;

@@ -280,7 +280,7 @@ void print_summary(const v1::VolumeSummary& s) {
 
 int build(client::Client& client, const Request& r) {
   auto stub = v1::Clouds::NewStub(client.channel());
-  auto context = client.context();
+  auto context = client.context(r.keep ? client::propose_session_id("cloud-") : "");
   v1::BuildVolumeRequest request;
   *request.mutable_model() = r.model;
   request.set_keep(r.keep);
@@ -299,7 +299,7 @@ int build(client::Client& client, const Request& r) {
 
 int render(client::Client& client, const Request& r) {
   auto stub = v1::Clouds::NewStub(client.channel());
-  auto context = client.context();
+  auto context = client.context(r.volume_id);
   v1::RenderRequest request;
   if (!r.volume_id.empty())
     request.set_volume_id(r.volume_id);

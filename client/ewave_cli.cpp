@@ -179,7 +179,7 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
 // Streams the steps: a writer thread sends the requests (gRPC flow control holds it back when the
 // server falls behind) while this thread reads the frames and writes the files.
 int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWave::Stub& stub) {
-  auto context = client.context();
+  auto context = client.context(id);
   const auto now = std::chrono::system_clock::now();
   context->set_deadline(now + (context->deadline() - now) * int64_t(w.steps));
   auto call = stub.Run(context.get());
@@ -224,7 +224,8 @@ int wake(client::Client& client, const Wake& w) {
   v1::EWaveCreateSessionRequest create;
   *create.mutable_config() = w.config;
   v1::EWaveSessionResponse session;
-  grpc::Status status = stub->CreateSession(client.context().get(), create, &session);
+  const std::string id = client::propose_session_id();
+  grpc::Status status = stub->CreateSession(client.context(id).get(), create, &session);
   client::check(status, "EWave.CreateSession");
   int rc = kOk;
   try {
@@ -233,13 +234,13 @@ int wake(client::Client& client, const Wake& w) {
     v1::EWaveSessionRequest close;
     close.set_session_id(session.session_id());
     v1::EWaveCloseResponse closed;
-    stub->CloseSession(client.context().get(), close, &closed);
+    stub->CloseSession(client.context(id).get(), close, &closed);
     throw;
   }
   v1::EWaveSessionRequest close;
   close.set_session_id(session.session_id());
   v1::EWaveCloseResponse closed;
-  status = stub->CloseSession(client.context().get(), close, &closed);
+  status = stub->CloseSession(client.context(id).get(), close, &closed);
   client::check(status, "EWave.CloseSession");
   return rc;
 }

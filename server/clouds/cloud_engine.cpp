@@ -3,12 +3,20 @@
 #include "common/error.h"
 
 namespace squall::clouds {
+namespace {
+
+// A checkpoint's payload: the volume as .vdb bytes.
+std::string save(const StoredVolume& volume) { return write_vdb(volume.volume); }
+
+}  // namespace
 
 CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options)
     : runtime_(runtime),
       options_(options),
       renderer_(runtime),
-      stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {}
+      stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {
+  stored_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
+}
 
 std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
   auto stored = std::make_shared<StoredVolume>();
@@ -30,7 +38,9 @@ std::string CloudEngine::store(const std::string& id, const std::shared_ptr<Stor
   return stored_.add(id, std::move(reservation), volume);
 }
 
-std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume) { return store(stored_.new_id(), volume); }
+std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed) {
+  return store(stored_.id_for(proposed, kProposedIdField), volume);
+}
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return stored_.get(id); }
 
@@ -41,7 +51,7 @@ Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& sett
 }
 
 std::string CloudEngine::checkpoint(const std::string& id) {
-  return stored_.checkpoint(id, kCheckpointVersion, [](const StoredVolume& v) { return write_vdb(v.volume); });
+  return stored_.checkpoint(id, kCheckpointVersion, save);
 }
 
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {

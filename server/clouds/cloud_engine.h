@@ -38,7 +38,8 @@ class CloudEngine {
   // Builds the model (validated; its max_active_voxels is capped by the engine's) and uploads it.
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model");
   // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
-  std::string keep(const std::shared_ptr<StoredVolume>& volume);
+  // Stores `volume` under a new id, or the client's `proposed` one (SessionStore::id_for).
+  std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");
   // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id);
   bool release(const std::string& id);

@@ -29,7 +29,7 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
       response->set_vdb(std::move(vdb));
     }
-    if (request->keep()) announce_session(*context, engine_->keep(volume));
+    if (request->keep()) announce_session(*context, engine_->keep(volume, proposed_session(*context)));
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });

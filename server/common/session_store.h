@@ -5,6 +5,11 @@
 // restored under the same id (session_checkpoint.h), in this daemon or another. An unknown, closed or
 // evicted id is Error(NotFound) naming the id's request field.
 //
+// With a SessionRegistry that has a state directory (squalld --state-dir) and persist() called, the store
+// writes its sessions there when the registry asks (periodically, and when the daemon drains: then each
+// written session is released and answers UNAVAILABLE), and resumes an id it does not hold from there, so
+// a session outlives the replica it was created on. Closing or evicting a session removes its file.
+//
 // Threading: the store's map has its own lock; each entry has a lock of its own, held while with() runs,
 // so calls on one session are serialized and calls on different sessions are not.
 #pragma once
@@ -14,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,9 +27,14 @@
 #include "common/limits.h"
 #include "common/log.h"
 #include "common/session_checkpoint.h"
+#include "common/session_registry.h"
 #include "common/validate.h"
 
 namespace squall {
+
+// Where a client's proposed session id comes from, for messages: the RPC layer reads it from this
+// request metadata (a session-affine proxy hashes on it).
+inline constexpr const char* kProposedIdField = "metadata x-squall-session";
 
 using SteadyClock = std::function<std::chrono::steady_clock::time_point()>;
 
@@ -31,6 +42,7 @@ using SteadyClock = std::function<std::chrono::steady_clock::time_point()>;
 struct SessionPolicy {
   std::chrono::milliseconds ttl{std::chrono::minutes(10)};  // squalld --session-ttl
   SteadyClock clock = [] { return std::chrono::steady_clock::now(); };
+  SessionRegistry* registry = nullptr;  // the daemon's; null: no state directory, never draining
 };
 
 // A fresh id: 128 bits from the kernel's CSPRNG, as 32 hex digits, after `prefix`.
@@ -47,6 +59,23 @@ class SessionStore {
         kind_(std::move(kind)),
         id_field_(std::move(id_field)),
         prefix_(std::move(prefix)) {}
+  ~SessionStore() {
+    if (enrolled_) policy_.registry->withdraw(*enrolled_);
+  }
+  SessionStore(const SessionStore&) = delete;
+  SessionStore& operator=(const SessionStore&) = delete;
+
+  // Makes the store's sessions persistent in the registry's state directory (if it has one): `save`
+  // writes a session's payload of format `version`, `resume` rebuilds a session from a whole checkpoint
+  // (open_checkpoint, reserve, add under the checkpoint's id).
+  void persist(uint32_t version, std::function<std::string(const T&)> save,
+               std::function<void(const std::string& checkpoint)> resume) {
+    if (!policy_.registry || !policy_.registry->state_dir()) return;
+    version_ = version;
+    save_ = std::move(save);
+    resume_ = std::move(resume);
+    enrolled_ = policy_.registry->enroll([this](bool release) { return checkpoint_all(release); });
+  }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
   // RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes. Idle entries are evicted first, so they
@@ -67,12 +96,32 @@ class SessionStore {
   // A fresh id for add(): the caller may write it into the value before the value is shared.
   std::string new_id() const { return new_session_id(prefix_); }
 
+  // The id of a session about to be created: new_id(), or the client's `proposed` one (so that a proxy
+  // routes the creating call and the later ones alike), which must look like one of ours: the prefix and
+  // 32 lowercase hex digits; INVALID_ARGUMENT naming `field` otherwise.
+  std::string id_for(const std::string& proposed, const std::string& field) const {
+    if (proposed.empty()) return new_id();
+    bool ours = proposed.size() == prefix_.size() + 32 && proposed.compare(0, prefix_.size(), prefix_) == 0;
+    for (size_t i = prefix_.size(); ours && i < proposed.size(); ++i)
+      ours = (proposed[i] >= '0' && proposed[i] <= '9') || (proposed[i] >= 'a' && proposed[i] <= 'f');
+    if (!ours)
+      fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ + " id: " +
+                                      (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
+                                      "32 lowercase hex digits (128 random bits)");
+    if (const StateDir* dir = state_dir(); dir && dir->read(proposed))
+      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
+    return proposed;
+  }
+
   // Stores `value` under `id` (new_id(), or a checkpoint's); FAILED_PRECONDITION when `id` is live.
   std::string add(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
     auto entry = std::make_shared<Entry>();
+    entry->id = id;
     entry->value = std::move(value);
     entry->held = std::move(reservation);
     entry->last_use = policy_.clock();
+    if (policy_.registry && policy_.registry->draining())
+      fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
     std::lock_guard<std::mutex> lock(mutex_);
     if (!entries_.emplace(id, std::move(entry)).second)
       fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
@@ -87,19 +136,54 @@ class SessionStore {
   auto with(const std::string& id, F&& f) {
     std::shared_ptr<Entry> entry = find(id);
     std::lock_guard<std::mutex> lock(entry->mutex);
+    if (entry->released) fail(Code::Unavailable, released(id));
     return f(*entry->value);
   }
 
   // The value itself, for callers that only read it (its idle time restarts).
-  std::shared_ptr<T> get(const std::string& id) { return find(id)->value; }
+  std::shared_ptr<T> get(const std::string& id) {
+    std::shared_ptr<Entry> entry = find(id);
+    std::lock_guard<std::mutex> lock(entry->mutex);
+    if (entry->released) fail(Code::Unavailable, released(id));
+    return entry->value;
+  }
 
   // Removes the entry once a call in flight on it has finished; NOT_FOUND when absent.
   void close(const std::string& id) {
     std::shared_ptr<Entry> entry = take(id);
     if (!entry) fail(Code::NotFound, not_found(id));
     std::lock_guard<std::mutex> wait(entry->mutex);
+    if (const StateDir* dir = state_dir()) dir->remove(id);
   }
-  bool erase(const std::string& id) { return take(id) != nullptr; }
+  bool erase(const std::string& id) {
+    if (!take(id)) return false;
+    if (const StateDir* dir = state_dir()) dir->remove(id);
+    return true;
+  }
+
+  // Writes every live session to the state directory; with `release`, each written session then answers
+  // UNAVAILABLE (the daemon is draining: another replica resumes it). Returns how many were written; a
+  // session that cannot be written is logged and skipped.
+  size_t checkpoint_all(bool release) {
+    std::vector<std::pair<std::string, std::shared_ptr<Entry>>> live;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      live.assign(entries_.begin(), entries_.end());
+    }
+    size_t written = 0;
+    for (auto& [id, entry] : live) {
+      std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
+      if (entry->released) continue;
+      try {
+        state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        entry->released = release;
+        ++written;
+      } catch (const std::exception& e) {
+        log(LogLevel::Error, kind_, " ", id, " not checkpointed: ", e.what());
+      }
+    }
+    return written;
+  }
 
   // Removes entries idle longer than the TTL; returns how many.
   size_t evict_idle() {
@@ -115,6 +199,8 @@ class SessionStore {
       }
     }
     if (!evicted.empty()) log(LogLevel::Info, kind_, ": evicted ", evicted.size(), " idle past the TTL");
+    if (const StateDir* dir = state_dir())
+      for (const auto& entry : evicted) dir->remove(entry->id);
     return evicted.size();
   }
 
@@ -154,7 +240,9 @@ class SessionStore {
 
  private:
   struct Entry {
-    std::mutex mutex;  // one call at a time per entry
+    std::string id;
+    std::mutex mutex;  // one call at a time per entry; guards `released` too
+    bool released = false;  // checkpointed for another replica: calls answer UNAVAILABLE
     std::shared_ptr<T> value;
     Reservation held;
     std::chrono::steady_clock::time_point last_use;
@@ -165,13 +253,43 @@ class SessionStore {
            " (unknown, closed or expired)";
   }
 
+  std::string released(const std::string& id) const {
+    return kind_ + " " + id + " moved to the state directory as squalld shuts down; retry: another replica resumes it";
+  }
+
+  const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
+
   std::shared_ptr<Entry> find(const std::string& id) {
     evict_idle();
+    if (auto entry = lookup(id)) return entry;
+    resume(id);
+    if (auto entry = lookup(id)) return entry;
+    fail(Code::NotFound, not_found(id));
+  }
+
+  std::shared_ptr<Entry> lookup(const std::string& id) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(id);
-    if (it == entries_.end()) fail(Code::NotFound, not_found(id));
+    if (it == entries_.end()) return nullptr;
     it->second->last_use = policy_.clock();
     return it->second;
+  }
+
+  // An id this store does not hold, resumed from the state directory when a checkpoint of it is there
+  // (while draining: UNAVAILABLE, so that the client retries on a replica that resumes it).
+  void resume(const std::string& id) {
+    const StateDir* dir = state_dir();
+    if (!resume_ || !dir) return;
+    std::optional<std::string> checkpoint = dir->read(id);
+    if (!checkpoint) return;
+    if (policy_.registry->draining())
+      fail(Code::Unavailable, kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
+    try {
+      resume_(*checkpoint);
+      log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
+    } catch (const Error& e) {
+      if (e.code() != Code::FailedPrecondition) throw;  // FAILED_PRECONDITION: a concurrent call resumed it
+    }
   }
 
   std::shared_ptr<Entry> take(const std::string& id) {
@@ -189,6 +307,11 @@ class SessionStore {
   const std::string kind_, id_field_, prefix_;
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Entry>> entries_;
+  // persist(): the payload format and its writer and reader, and the registry's token for this store.
+  uint32_t version_ = 0;
+  std::function<std::string(const T&)> save_;
+  std::function<void(const std::string&)> resume_;
+  std::optional<size_t> enrolled_;
 };
 
 }  // namespace squall

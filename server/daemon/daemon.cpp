@@ -13,12 +13,15 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <thread>
 #include <stdexcept>
 #include <memory>
 #include <vector>
 
 #include "clouds/clouds_service.h"
 #include "common/log.h"
+#include "common/state_dir.h"
+#include "daemon/checkpoint_loop.h"
 #include "daemon/daemon_state.h"
 #include "daemon/server_service.h"
 #include "ewave/ewave_service.h"
@@ -59,11 +62,12 @@ void start_engines(DaemonState& daemon, const DaemonOptions& options,
   log(LogLevel::Info, "FFT backend ", backend, " (", daemon.fft_selection, ")");
   SessionPolicy sessions;
   sessions.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
+  sessions.registry = &daemon.sessions;
   daemon.engines = std::make_unique<EngineContext>(daemon.runtime, *daemon.fft, daemon.serving.gate(), sessions);
   for (const auto& capability : capabilities) capability->start(*daemon.engines);
 }
 
-void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
+void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const std::string& replica) {
   int max_bytes = static_cast<int>(std::min<uint64_t>(options.limits.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);
@@ -77,7 +81,7 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options) {
   // A second squalld on a port in use must fail, not silently share the port with the first.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
-  interceptors.push_back(std::make_unique<RequestLogFactory>());
+  interceptors.push_back(std::make_unique<RequestLogFactory>(replica));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }
 
@@ -139,6 +143,46 @@ std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions&
   return grpc::experimental::TlsServerCredentials(tls);
 }
 
+// PoCL writes every compiled kernel to its cache: with an unwritable one (a read-only root file system)
+// the first kernel build fails with a misleading error, so the directory is checked first, by name.
+void require_writable_kernel_cache(const std::string& dir) {
+  if (std::string why = unwritable_directory(dir); !why.empty())
+    throw std::runtime_error("kernel cache " + dir + ": " + why +
+                             "; PoCL stores compiled kernels there: give --cache-dir (or POCL_CACHE_DIR) a writable "
+                             "directory, e.g. on a tmpfs when the root file system is read-only");
+}
+
+std::unique_ptr<StateDir> state_dir(const DaemonOptions& options) {
+  if (options.state_dir.empty()) return nullptr;
+  auto dir = std::make_unique<StateDir>(options.state_dir, "--state-dir");
+  log(LogLevel::Info, "state directory ", options.state_dir, ": sessions checkpointed every ",
+      options.checkpoint_interval_seconds, " s (--checkpoint-interval) and on SIGTERM");
+  return dir;
+}
+
+std::chrono::milliseconds milliseconds(double seconds) {
+  return std::chrono::milliseconds(std::llround(seconds * 1000));
+}
+
+// Drains: health NOT_SERVING, no new sessions or stateless calls, every live session written to the state
+// directory and released (its later calls answer UNAVAILABLE, and another replica resumes it); calls
+// keep being answered (UNAVAILABLE: retry elsewhere) for --drain-wait, while proxies and clients notice
+// NOT_SERVING, since a call that reaches a closing server is CANCELLED, which no retry policy retries;
+// then the calls still in flight get the rest of the grace period.
+void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoints, const DaemonOptions& options) {
+  const auto deadline = std::chrono::system_clock::now() + milliseconds(options.grace_seconds);
+  server.GetHealthCheckService()->SetServingStatus(false);
+  daemon.serving.set_phase(ServingState::Phase::Draining);
+  daemon.sessions.begin_drain();
+  checkpoints.stop();
+  if (daemon.sessions.state_dir())
+    log(LogLevel::Info, "checkpointed ", daemon.sessions.checkpoint_all(true), " sessions to ",
+        daemon.sessions.state_dir()->path());
+  std::this_thread::sleep_for(milliseconds(std::min(options.drain_wait_seconds, options.grace_seconds / 2)));
+  server.Shutdown(deadline);
+  server.Wait();
+}
+
 void write_port_file(const std::string& path, int port) {
   if (path.empty()) return;
   std::string tmp = path + ".tmp";
@@ -148,21 +192,38 @@ void write_port_file(const std::string& path, int port) {
 
 }  // namespace
 
+uint64_t cgroup_memory_limit() {
+  for (const char* file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+    std::ifstream in(file);
+    std::string text;
+    if (!(in >> text) || text == "max") continue;
+    try {
+      const uint64_t bytes = std::stoull(text);
+      if (bytes < (uint64_t(1) << 60)) return bytes;  // cgroup v1 writes a huge number for "no limit"
+    } catch (const std::exception&) {
+    }
+  }
+  return 0;
+}
+
 int run_daemon(const DaemonOptions& options) {
   set_log_level(options.log_level);
   // Block the shutdown signals in every thread (gRPC's included, created later); main waits for them.
   sigset_t signals = shutdown_signals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting; kernel cache ",
-      configure_kernel_cache(options.cache_dir));
+  const std::string replica = replica_id(options);
+  const std::string cache = configure_kernel_cache(options.cache_dir);
+  log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting as replica ", replica, "; kernel cache ", cache);
   std::unique_ptr<DaemonState> daemon;
   std::shared_ptr<grpc::ServerCredentials> credentials;
   try {
+    require_writable_kernel_cache(cache);
     credentials = server_credentials(options);
     std::vector<std::string> tokens = read_tokens(options.auth_tokens);
-    daemon = std::make_unique<DaemonState>(options.runtime, options.limits);
+    daemon = std::make_unique<DaemonState>(options.runtime, options.limits, state_dir(options));
     daemon->serving.set_tokens(std::move(tokens));
+    daemon->serving.set_replica_id(replica);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
     return kExitUsage;
@@ -182,7 +243,7 @@ int run_daemon(const DaemonOptions& options) {
   builder.AddListeningPort(options.listen, credentials, &port);
   builder.RegisterService(&server_service);
   for (const auto& capability : served) builder.RegisterService(&capability->service());
-  configure(builder, options);
+  configure(builder, options, replica);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     log(LogLevel::Error, "cannot listen on ", options.listen);
@@ -205,16 +266,13 @@ int run_daemon(const DaemonOptions& options) {
   daemon->serving.set_phase(ServingState::Phase::Serving);
   health->SetServingStatus(true);
   log(LogLevel::Info, "SERVING");
+  CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
+                             milliseconds(options.session_ttl_seconds));
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
-  health->SetServingStatus(false);
-  daemon->serving.set_phase(ServingState::Phase::Draining);
-  auto deadline = std::chrono::system_clock::now() +
-                  std::chrono::milliseconds(static_cast<long long>(options.grace_seconds * 1000));
-  server->Shutdown(deadline);
-  server->Wait();
+  drain(*daemon, *server, checkpoints, options);
   if (options.runtime.profile_kernels)
     log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));
   log(LogLevel::Info, "stopped");

@@ -3,9 +3,11 @@
 // Only daemon/ includes this.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
+#include "common/session_registry.h"
 #include "fft/fft.h"
 #include "rpc/capability.h"
 #include "rpc/serving.h"
@@ -13,18 +15,29 @@
 
 namespace squall::rpc {
 
-// --max-session-bytes 0 (the default) is half the selected device's global memory.
+// The memory limit of squalld's control group (cgroup v2 memory.max, else v1 memory.limit_in_bytes);
+// 0 when there is none. PoCL reports the host's RAM as a CPU device's global memory even in a container
+// limited to less, so the session budget must look here too.
+uint64_t cgroup_memory_limit();
+
+// --max-session-bytes 0 (the default) is half the selected device's global memory, and on a CPU device
+// at most half the control group's memory limit.
 inline Limits with_session_budget(Limits limits, const Runtime& runtime) {
-  if (limits.max_session_bytes == 0) limits.max_session_bytes = runtime.device_info().global_memory_bytes / 2;
+  if (limits.max_session_bytes != 0) return limits;
+  limits.max_session_bytes = runtime.device_info().global_memory_bytes / 2;
+  const uint64_t cgroup = cgroup_memory_limit();
+  if (runtime.device_info().type == "cpu" && cgroup != 0)
+    limits.max_session_bytes = std::min<uint64_t>(limits.max_session_bytes, cgroup / 2);
   return limits;
 }
 
 struct DaemonState {
-  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits)
-      : runtime(runtime_options), serving(with_session_budget(limits, runtime)) {}
+  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits, std::unique_ptr<StateDir> state_dir)
+      : runtime(runtime_options), serving(with_session_budget(limits, runtime)), sessions(std::move(state_dir)) {}
 
   Runtime runtime;
   ServingState serving;
+  SessionRegistry sessions;                // every session store's, with the --state-dir
   std::unique_ptr<fft::Fft> fft;           // set during start-up, before SERVING
   std::string fft_selection;               // "flag --fft ...", or the start-up measurement that chose it
   std::unique_ptr<EngineContext> engines;  // set during start-up, after fft

@@ -1,5 +1,6 @@
 // squalld: the squall daemon. See README.md for the flags and the services.
 #include <cstdio>
+#include <cstdlib>
 
 #include "daemon/daemon.h"
 
@@ -7,7 +8,7 @@ int main(int argc, char** argv) {
   squall::rpc::DaemonOptions options;
   bool help = false;
   std::string error;
-  if (!squall::rpc::parse_options(argc, argv, &options, &help, &error)) {
+  if (!squall::rpc::parse_options(argc, argv, &options, &help, &error, std::getenv)) {
     std::fprintf(stderr, "squalld: %s\n%s", error.c_str(), squall::rpc::usage().c_str());
     return squall::rpc::kExitUsage;
   }

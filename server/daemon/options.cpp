@@ -1,5 +1,8 @@
 #include "daemon/options.h"
 
+#include <unistd.h>
+
+#include <cctype>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -15,6 +18,19 @@ uint64_t positive_integer(const std::string& text) {
   long long v = std::stoll(text, &used);
   if (used != text.size() || v < 1) throw std::invalid_argument("must be an integer >= 1");
   return static_cast<uint64_t>(v);
+}
+
+double seconds_or_zero(const std::string& text) {
+  size_t used = 0;
+  double v = std::stod(text, &used);
+  if (used != text.size() || !std::isfinite(v) || v < 0) throw std::invalid_argument("must be a number >= 0");
+  return v;
+}
+
+bool on_or_off(const std::string& v) {
+  if (v == "on" || v == "true" || v == "1") return true;
+  if (v == "off" || v == "false" || v == "0") return false;
+  throw std::invalid_argument("must be on or off");
 }
 
 double positive_seconds(const std::string& text) {
@@ -45,13 +61,11 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = double(positive_integer(v)); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
+      {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
       {"profile-kernels",
-       [o](const std::string& v) {
-         if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
-         o->runtime.profile_kernels = v == "on";
-       }},
+       [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
       {"reflection",
        [o](const std::string& v) {
          if (v != "on" && v != "off" && v != "auto") throw std::invalid_argument("must be on, off or auto");
@@ -59,10 +73,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        }},
       {"auth-tokens", [o](const std::string& v) { o->auth_tokens = v; }},
       {"insecure",
-       [o](const std::string& v) {
-         if (v != "on" && v != "off") throw std::invalid_argument("must be on or off");
-         o->insecure = v == "on";
-       }},
+       [o](const std::string& v) { o->insecure = on_or_off(v); }},
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
@@ -70,6 +81,13 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        [o](const std::string& v) {
          o->tls_refresh_seconds = unsigned(std::min<uint64_t>(positive_integer(v), 86400));
        }},
+      {"replica-id",
+       [o](const std::string& v) {
+         if (v.empty() || v.size() > 128) throw std::invalid_argument("must be 1 to 128 characters");
+         o->replica_id = v;
+       }},
+      {"state-dir", [o](const std::string& v) { o->state_dir = v; }},
+      {"checkpoint-interval", [o](const std::string& v) { o->checkpoint_interval_seconds = seconds_or_zero(v); }},
       {"log-level",
        [o](const std::string& v) {
          if (!parse_log_level(v, &o->log_level)) throw std::invalid_argument("must be debug, info, warn or error");
@@ -83,11 +101,42 @@ bool listens_on_loopback(const DaemonOptions& options) {
   return a.rfind("127.", 0) == 0 || a.rfind("[::1]:", 0) == 0 || a.rfind("localhost:", 0) == 0;
 }
 
+// The variable that sets --name: SQUALL_NAME, dashes as underscores.
+std::string variable_of(const std::string& name) {
+  std::string variable = "SQUALL_";
+  for (char c : name) variable += c == '-' ? '_' : char(std::toupper(static_cast<unsigned char>(c)));
+  return variable;
+}
+
+// Applies `value` to the flag's setter; false with *error naming `source` ("--name" or "SQUALL_NAME").
+bool apply(const Setter& set, const std::string& source, const std::string& value, std::string* error) {
+  try {
+    set(value);
+    return true;
+  } catch (const std::exception& e) {
+    *error = source + " " + value + ": " + (dynamic_cast<const std::invalid_argument*>(&e) ? e.what() : "out of range");
+    return false;
+  }
+}
+
 }  // namespace
 
-bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error) {
+std::string replica_id(const DaemonOptions& options) {
+  if (!options.replica_id.empty()) return options.replica_id;
+  char host[256] = {};
+  gethostname(host, sizeof(host) - 1);
+  const std::string port = options.listen.substr(options.listen.rfind(':') + 1);
+  return std::string(host) + ":" + (port == "0" ? "pid" + std::to_string(getpid()) : port);
+}
+
+bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error,
+                   const Environment& environment) {
   auto table = setters(options);
   *help = false;
+  for (const auto& [name, set] : table) {
+    const std::string variable = variable_of(name);
+    if (const char* value = environment(variable.c_str()); value && !apply(set, variable, value, error)) return false;
+  }
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
@@ -113,13 +162,7 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
       *error = "unknown flag --" + name + " (see --help)";
       return false;
     }
-    try {
-      it->second(value);
-    } catch (const std::exception& e) {
-      *error = "--" + name + " " + value + ": " +
-               (dynamic_cast<const std::invalid_argument*>(&e) ? e.what() : "out of range");
-      return false;
-    }
+    if (!apply(it->second, "--" + name, value, error)) return false;
   }
   if (options->tls_cert.empty() != options->tls_key.empty()) {
     *error = "--tls-cert and --tls-key go together";
@@ -146,7 +189,7 @@ bool reflection_enabled(const DaemonOptions& options) {
 
 std::string usage() {
   DaemonOptions d;
-  return "usage: squalld [flags]\n"
+  return "usage: squalld [flags]   (each flag may also be set as SQUALL_FLAG_NAME in the environment)\n"
          "  --listen HOST:PORT        address to serve on (default " +
          d.listen +
          "; port 0 picks a free port)\n"
@@ -176,6 +219,9 @@ std::string usage() {
          "                            before it runs (default 4e11)\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "
          "10)\n"
+         "  --drain-wait SECONDS      of the grace period, how long a draining squalld keeps answering UNAVAILABLE\n"
+         "                            (retry elsewhere) before it closes its port, so proxies and clients see\n"
+         "                            NOT_SERVING first (default 2; at most half the grace period)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
@@ -186,6 +232,12 @@ std::string usage() {
          "                            optionally followed by a name; # comments); health stays open\n"
          "  --insecure on|off         allow a non-loopback --listen without TLS or tokens (default off: refused)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
+         "  --replica-id NAME         this replica's name, sent back on every call as x-squall-replica and logged\n"
+         "                            (default hostname:port)\n"
+         "  --state-dir DIR           a directory shared by the replicas: live sessions are checkpointed there\n"
+         "                            (periodically and on SIGTERM), and an unknown session id is resumed from it\n"
+         "  --checkpoint-interval SECONDS  how often live sessions are written to --state-dir; what a replica\n"
+         "                            killed without SIGTERM loses (default 30; 0: only when draining)\n"
          "  --log-level LEVEL         debug | info | warn | error (default info)\n"
          "  --profile-kernels on|off  time every kernel launch (each waits for its kernel) and log the\n"
          "                            per-kernel table at shutdown (default off)\n";

@@ -1,6 +1,9 @@
-// squalld's command-line flags. Every flag is --name=value or --name value; --help prints usage().
+// squalld's command-line flags. Every flag is --name=value or --name value, or the environment variable
+// SQUALL_NAME (upper case, dashes as underscores: SQUALL_STATE_DIR for --state-dir), which a flag on the
+// command line overrides; --help prints usage().
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "common/limits.h"
@@ -26,6 +29,7 @@ struct DaemonOptions {
   fft::FftwOptions fftw;                   // --fft-threads
   Limits limits = daemon_limits();         // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
+  double drain_wait_seconds = 2;           // --drain-wait: answer UNAVAILABLE this long before closing
   double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
   double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
@@ -33,18 +37,26 @@ struct DaemonOptions {
   std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
   bool insecure = false;                   // --insecure: allow a non-loopback --listen without TLS or tokens
   std::string auth_tokens;                 // --auth-tokens: file of accepted bearer tokens; empty: no auth
-  std::string tls_client_ca;
-  unsigned tls_refresh_seconds =
-      60;  // --tls-refresh: how often the TLS files are re-read               // --tls-client-ca: PEM CA; set: require and verify client certificates
+  std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
+  unsigned tls_refresh_seconds = 60;       // --tls-refresh: how often the TLS files are re-read
+  std::string replica_id;                  // --replica-id: this replica's name; empty: hostname:port
+  std::string state_dir;                   // --state-dir: sessions are checkpointed here and resumed from here
+  double checkpoint_interval_seconds = 30; // --checkpoint-interval: live sessions written this often (0: at drain)
 };
+
+// --replica-id, else "<hostname>:<port of --listen>" (with port 0: "<hostname>:pid<pid>", unique too).
+std::string replica_id(const DaemonOptions& options);
 
 // Whether to serve gRPC server reflection: --reflection on / off, or with auto only when --listen is a
 // loopback address (127.0.0.0/8, [::1], localhost) and no --auth-tokens are required, so a daemon exposed
 // to a network, or one that checks tokens, does not list its API to anyone who asks.
 bool reflection_enabled(const DaemonOptions& options);
 
-// Returns false with a message in *error (naming the flag) on an unknown flag or a bad value.
-// Sets *help when --help is given.
+// Returns false with a message in *error (naming the flag or the variable) on an unknown flag or a bad
+// value. Sets *help when --help is given. `environment` looks variables up (getenv in squalld).
+using Environment = std::function<const char*(const char*)>;
+bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error,
+                   const Environment& environment);
 bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error);
 std::string usage();
 

@@ -48,6 +48,7 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::
     l->set_max_message_bytes(limits.max_message_bytes);
     response->set_ready(ready);
     response->set_uptime_seconds(daemon_.serving.uptime_seconds());
+    response->set_replica_id(daemon_.serving.replica_id());
     return grpc::Status::OK;
   });
 }

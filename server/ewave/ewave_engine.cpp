@@ -4,6 +4,12 @@
 #include "ewave/step_kernels.h"
 
 namespace squall::ewave {
+namespace {
+
+// A checkpoint's payload: the session's state bytes.
+std::string save(const EWaveSession& session) { return session.state(); }
+
+}  // namespace
 
 EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options)
     : runtime_(runtime),
@@ -11,6 +17,7 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
       gate_(gate),
       ocean_(options.ocean),
       sessions_(gate, std::move(options.sessions), "eWave session", "session_id") {
+  sessions_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
   // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.
   StepKernels<cl_float> single_precision(runtime);
   make_rasterize_kernel(runtime);
@@ -32,9 +39,10 @@ EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config) {
   return {std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_)};
 }
 
-std::string EWaveEngine::create(const EWaveConfig& config) {
+std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed) {
+  const std::string id = sessions_.id_for(proposed, kProposedIdField);
   auto [reservation, session] = new_session(config);
-  return sessions_.add(std::move(reservation), std::move(session));
+  return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
 EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes) {
@@ -43,9 +51,10 @@ EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes) {
   return made;
 }
 
-std::string EWaveEngine::create_from_state(const std::string& bytes) {
+std::string EWaveEngine::create_from_state(const std::string& bytes, const std::string& proposed) {
+  const std::string id = sessions_.id_for(proposed, kProposedIdField);
   auto [reservation, session] = from_state(bytes);
-  return sessions_.add(std::move(reservation), std::move(session));
+  return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
 Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs) {
@@ -71,7 +80,7 @@ SurfaceCurrent EWaveEngine::surface_current(const std::string& id) {
 void EWaveEngine::close(const std::string& id) { sessions_.close(id); }
 
 std::string EWaveEngine::checkpoint(const std::string& id) {
-  return sessions_.checkpoint(id, kCheckpointVersion, [](const EWaveSession& s) { return s.state(); });
+  return sessions_.checkpoint(id, kCheckpointVersion, save);
 }
 
 std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {

@@ -27,8 +27,10 @@ class EWaveEngine {
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
-  std::string create(const EWaveConfig& config);            // validated; RESOURCE_EXHAUSTED past --max-sessions
-  std::string create_from_state(const std::string& bytes);  // a new session continuing a saved state
+  // A new session of `config` (validated; RESOURCE_EXHAUSTED past --max-sessions), and one continuing a
+  // saved state; under the client's `proposed` id when one is given (SessionStore::id_for).
+  std::string create(const EWaveConfig& config, const std::string& proposed = "");
+  std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
   Frame step(const std::string& id, const StepInputs& inputs);
   std::string state(const std::string& id);
   void restore(const std::string& id, const std::string& bytes);

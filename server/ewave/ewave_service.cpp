@@ -43,7 +43,8 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
 grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1::EWaveCreateSessionRequest* request,
                                          v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    session_reply(*engine_, engine_->create(config(request->config(), serving_.gate())), response);
+    const auto created = engine_->create(config(request->config(), serving_.gate()), proposed_session(*context));
+    session_reply(*engine_, created, response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
@@ -87,7 +88,7 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
 grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    session_reply(*engine_, engine_->create_from_state(request->state()), response);
+    session_reply(*engine_, engine_->create_from_state(request->state(), proposed_session(*context)), response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });

@@ -14,6 +14,10 @@ std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::stri
   return metadata_value(metadata, kSessionKey);
 }
 
+std::string proposed_session(const grpc::ServerContext& context) {
+  return metadata_value(context.client_metadata(), kSessionKey);
+}
+
 void announce_session(grpc::ServerContext& context, const std::string& session_id) {
   context.AddInitialMetadata(kSessionKey, session_id);
 }

@@ -2,7 +2,10 @@
 //   x-request-id       a client's id for one call, shown in squalld's log (at most 128 bytes kept)
 //   x-squall-session   the session a call belongs to: sent back by calls that create one; a client
 //                      that sends it on the session's later calls lets a proxy in front of several
-//                      squalld replicas route them to the replica holding the session (hash on it)
+//                      squalld replicas route them to the replica holding the session (hash on it).
+//                      On a call that creates a session it proposes the new session's id, so that the
+//                      creating call is routed like the later ones
+//   x-squall-replica   sent back on every call: the replica that answered (squalld --replica-id)
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -13,6 +16,7 @@ namespace squall::rpc {
 
 inline constexpr const char* kRequestIdKey = "x-request-id";
 inline constexpr const char* kSessionKey = "x-squall-session";
+inline constexpr const char* kReplicaKey = "x-squall-replica";
 inline constexpr size_t kMaxMetadataValue = 128;
 
 // A value of the client's metadata, cut to kMaxMetadataValue bytes; empty when absent.
@@ -21,6 +25,9 @@ std::string metadata_value(const std::multimap<grpc::string_ref, grpc::string_re
 // The session a call names in x-squall-session (empty when none): the key a session-affine proxy routes
 // on, shown in the request log.
 std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata);
+
+// The id a session-creating call proposes in x-squall-session (empty: squalld picks one).
+std::string proposed_session(const grpc::ServerContext& context);
 
 // Tells the client (and any proxy) which session this call created: x-squall-session in the initial
 // metadata. Call before the first message is written.

@@ -18,8 +18,8 @@ using grpc::experimental::InterceptionHookPoints;
 
 class RequestLog : public grpc::experimental::Interceptor {
  public:
-  explicit RequestLog(grpc::experimental::ServerRpcInfo* info)
-      : method_(info->method()), start_(std::chrono::steady_clock::now()) {}
+  RequestLog(grpc::experimental::ServerRpcInfo* info, const std::string& replica)
+      : method_(info->method()), replica_(replica), start_(std::chrono::steady_clock::now()) {}
 
   ~RequestLog() override {
     if (!logged_) write("CANCELLED", "");  // the call ended without a status: client went away
@@ -31,6 +31,8 @@ class RequestLog : public grpc::experimental::Interceptor {
       id_ = metadata_value(metadata, kRequestIdKey);
       session_ = session_routing_key(metadata);
     }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_INITIAL_METADATA) && !replica_.empty())
+      methods->GetSendInitialMetadata()->emplace(kReplicaKey, replica_);
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
         is_squall_method())
       id_ = request_id_field(methods->GetRecvMessage());
@@ -60,12 +62,13 @@ class RequestLog : public grpc::experimental::Interceptor {
     double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
     // Client strings (the ids, and the error, which may quote the request) escaped: one call, one line.
     log(LogLevel::Info, "request id=", id_.empty() ? "-" : validate::printable(id_, kMaxMetadataValue),
-        " method=", method_, " status=", status, " duration_ms=", ms,
+        " method=", method_, " status=", status, " duration_ms=", ms, " replica=", replica_.empty() ? "-" : replica_,
         session_.empty() ? "" : " session=" + validate::printable(session_, kMaxMetadataValue),
         message.empty() ? "" : " error=\"" + validate::printable(message, 1024) + "\"");
   }
 
   std::string method_;
+  const std::string& replica_;  // the factory's, which outlives the server
   std::string id_;
   std::string session_;  // x-squall-session, when the client names one
   std::chrono::steady_clock::time_point start_;
@@ -75,7 +78,7 @@ class RequestLog : public grpc::experimental::Interceptor {
 }  // namespace
 
 grpc::experimental::Interceptor* RequestLogFactory::CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) {
-  return new RequestLog(info);
+  return new RequestLog(info, replica_id_);
 }
 
 }  // namespace squall::rpc

@@ -1,15 +1,23 @@
-// One log line per request: its id, method, status and duration (and the session the client names in
-// x-squall-session), written by a server interceptor so no handler has to remember. The id is the "x-request-id" metadata, else the request's `request_id`
-// field, else "-".
+// One log line per request: its id, method, status and duration, the replica that served it, and the
+// session the client names in x-squall-session, written by a server interceptor so no handler has to
+// remember. The id is the "x-request-id" metadata, else the request's `request_id` field, else "-".
+// The same interceptor tells every client which replica answered: x-squall-replica in the initial
+// metadata (rpc/metadata.h), so tests and operators behind a proxy see where each call went.
 #pragma once
 
 #include <grpcpp/support/server_interceptor.h>
+
+#include <string>
 
 namespace squall::rpc {
 
 class RequestLogFactory : public grpc::experimental::ServerInterceptorFactoryInterface {
  public:
+  explicit RequestLogFactory(std::string replica_id) : replica_id_(std::move(replica_id)) {}
   grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) override;
+
+ private:
+  std::string replica_id_;
 };
 
 }  // namespace squall::rpc

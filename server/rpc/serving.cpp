@@ -4,15 +4,18 @@
 #include <string_view>
 
 #include "common/error.h"
+#include "rpc/metadata.h"
 
 namespace squall::rpc {
 
-void ServingState::require_serving() const {
+void ServingState::require_serving(const grpc::ServerContext& context) const {
   switch (phase_.load()) {
     case Phase::Serving: return;
     case Phase::Starting:
       fail(Code::Unavailable, "squalld is still building its kernels; retry when health is SERVING");
-    case Phase::Draining: fail(Code::Unavailable, "squalld is shutting down; retry on another replica");
+    case Phase::Draining:
+      if (!session_routing_key(context.client_metadata()).empty()) return;
+      fail(Code::Unavailable, "squalld is shutting down; retry on another replica");
   }
 }
 

@@ -26,8 +26,14 @@ class ServingState {
   Phase phase() const { return phase_; }
   bool serving() const { return phase_ == Phase::Serving; }
 
-  // Every handler calls this first: UNAVAILABLE while kernels are being built or while draining.
-  void require_serving() const;
+  // Every handler calls this first: UNAVAILABLE while kernels are being built, and while draining, except
+  // for calls that name a session (x-squall-session): those go on until their session has been
+  // checkpointed for another replica (SessionStore answers UNAVAILABLE then, and refuses new sessions).
+  void require_serving(const grpc::ServerContext& context) const;
+
+  // This replica's name (squalld --replica-id), sent back on every call as x-squall-replica.
+  void set_replica_id(std::string id) { replica_id_ = std::move(id); }
+  const std::string& replica_id() const { return replica_id_; }
 
   // --auth-tokens: the accepted bearer tokens (none: every caller is let in).
   void set_tokens(std::vector<std::string> tokens) { tokens_ = std::move(tokens); }
@@ -42,6 +48,7 @@ class ServingState {
  private:
   LimitGate gate_;
   std::vector<std::string> tokens_;  // set before serving starts, read-only afterwards
+  std::string replica_id_;           // likewise
   std::atomic<Phase> phase_{Phase::Starting};
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };

@@ -47,12 +47,15 @@ template <typename Prepare, typename Run>
 grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Prepare&& prepare,
                           Run&& run) {
   return guarded([&] {
-    serving.require_serving();
+    serving.require_serving(context);
     serving.require_token(context);
     auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
     StreamCall call(context, method);
     run(call, prepared);
+    if (!call.live() && serving.phase() == ServingState::Phase::Draining)
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                          std::string(method) + " ended: squalld is shutting down; reopen the stream on another replica");
     return call.status();
   });
 }
@@ -68,7 +71,7 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
 template <typename Body>
 grpc::Status serve(const grpc::ServerContext& context, ServingState& serving, Body&& body) {
   return guarded([&] {
-    serving.require_serving();
+    serving.require_serving(context);
     serving.require_token(context);
     return body();
   });

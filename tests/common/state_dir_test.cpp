@@ -1,0 +1,128 @@
+// StateDir and persistent SessionStores: atomic files named by id, expiry, and sessions written by one
+// registry (a draining replica) and resumed by another (any replica sharing the directory). No device.
+#include "common/state_dir.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "common/session_store.h"
+#include "support/expect_error.h"
+#include "support/process.h"
+
+namespace squall {
+namespace {
+
+using test::expect_error;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+struct Counter {
+  int value = 0;
+};
+
+const std::string kId = "c-0123456789abcdef0123456789abcdef";
+
+// One replica's view: its registry over the shared directory, and a persistent store of Counters whose
+// checkpoint payload is the value as text.
+struct Replica {
+  explicit Replica(const std::string& dir)
+      : registry(std::make_unique<StateDir>(dir, "--state-dir")),
+        store(gate, SessionPolicy{1h, [] { return std::chrono::steady_clock::now(); }, &registry}, "counter",
+              "counter_id", "c-") {
+    store.persist(
+        1, [](const Counter& c) { return std::to_string(c.value); },
+        [this](const std::string& bytes) {
+          CheckpointHeader header;
+          std::string payload = store.open_checkpoint(bytes, "checkpoint", 1, &header);
+          auto counter = std::make_shared<Counter>();
+          counter->value = std::stoi(payload);
+          store.add(header.id, store.reserve(0), counter);
+        });
+  }
+  LimitGate gate{Limits{}};
+  SessionRegistry registry;
+  SessionStore<Counter> store;
+};
+
+std::vector<std::string> files(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  return names;
+}
+
+TEST(StateDir, WritesWholeFilesNamedByIdAndExpiresOldOnes) {
+  const std::string dir = test::temp_dir("state-dir");
+  StateDir state(dir, "--state-dir");
+  state.write(kId, "first");
+  state.write(kId, "second");
+  EXPECT_EQ(state.read(kId).value(), "second");
+  EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".session"}) << "no temporary file is left behind";
+  EXPECT_FALSE(state.read("../" + kId)) << "an id that is no file name reads nothing";
+  EXPECT_FALSE(state.read("C-UPPER"));
+  EXPECT_EQ(state.expire(1h), 0u);
+  std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(state.expire(10ms), 1u);
+  EXPECT_FALSE(state.read(kId));
+  EXPECT_THROW(StateDir("/proc/no-such-dir", "--state-dir"), std::runtime_error);
+}
+
+TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
+  const std::string dir = test::temp_dir("state-move");
+  Replica a(dir), b(dir);
+  const std::string id = a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>());
+  ASSERT_EQ(id, kId) << "the proposed id is taken";
+  a.store.with(id, [](Counter& c) { c.value = 7; });
+  EXPECT_EQ(a.registry.checkpoint_all(false), 1u);
+  a.store.with(id, [](Counter& c) { c.value = 8; });  // a periodic checkpoint does not release
+  a.registry.begin_drain();
+  EXPECT_EQ(a.registry.checkpoint_all(true), 1u);
+  expect_error(Code::Unavailable, "moved to the state directory", [&] { a.store.with(id, [](Counter&) {}); });
+  expect_error(Code::Unavailable, "shutting down", [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 8) << "resumed with the drained state";
+  EXPECT_EQ(b.store.size(), 1u);
+  b.store.close(id);
+  EXPECT_FALSE(b.registry.state_dir()->read(id)) << "closing removes the checkpoint";
+  Replica c(dir);
+  expect_error(Code::NotFound, "counter_id", [&] { c.store.get(id); });
+}
+
+TEST(StateDir, ADrainingReplicaSendsCallsForCheckpointedIdsElsewhere) {
+  const std::string dir = test::temp_dir("state-drain");
+  Replica a(dir), b(dir);
+  std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  a.registry.checkpoint_all(false);
+  b.registry.begin_drain();
+  expect_error(Code::Unavailable, "retry on another replica", [&] { b.store.get(id); });
+  expect_error(Code::NotFound, "counter_id", [&] { b.store.get("c-ffffffffffffffffffffffffffffffff"); });
+}
+
+TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
+  const std::string dir = test::temp_dir("state-ids");
+  Replica a(dir);
+  EXPECT_EQ(a.store.id_for("", "metadata x").size(), 2u + 32u);
+  for (const std::string bad : {"0123456789abcdef0123456789abcdef", "c-0123", "c-0123456789ABCDEF0123456789abcdef",
+                                "c-0123456789abcdef0123456789abcdeg", "c-../../../../etc/passwd/0123456789"})
+    expect_error(Code::InvalidArgument, "metadata x = ", [&] { a.store.id_for(bad, "metadata x"); });
+  a.registry.state_dir()->write(kId, "anything");
+  expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(kId, "metadata x"); });
+}
+
+TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
+  const std::string dir = test::temp_dir("state-evict");
+  LimitGate gate{Limits{}};
+  SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"));
+  auto now = std::chrono::steady_clock::now();
+  SessionStore<Counter> store(gate, SessionPolicy{100ms, [&] { return now; }, &registry}, "counter", "counter_id", "c-");
+  store.persist(1, [](const Counter&) { return std::string("x"); }, [](const std::string&) {});
+  std::string id = store.add(store.reserve(0), std::make_shared<Counter>());
+  registry.checkpoint_all(false);
+  ASSERT_TRUE(registry.state_dir()->read(id));
+  now += 200ms;
+  EXPECT_EQ(store.evict_idle(), 1u);
+  EXPECT_FALSE(registry.state_dir()->read(id)) << "an expired session does not come back from the directory";
+}
+
+}  // namespace
+}  // namespace squall
