@@ -6,6 +6,9 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <set>
+#include <utility>
+#include <vector>
 #include <stdexcept>
 
 namespace squall::rpc {
@@ -119,24 +122,9 @@ bool apply(const Setter& set, const std::string& source, const std::string& valu
   }
 }
 
-}  // namespace
-
-std::string replica_id(const DaemonOptions& options) {
-  if (!options.replica_id.empty()) return options.replica_id;
-  char host[256] = {};
-  gethostname(host, sizeof(host) - 1);
-  const std::string port = options.listen.substr(options.listen.rfind(':') + 1);
-  return std::string(host) + ":" + (port == "0" ? "pid" + std::to_string(getpid()) : port);
-}
-
-bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error,
-                   const Environment& environment) {
-  auto table = setters(options);
-  *help = false;
-  for (const auto& [name, set] : table) {
-    const std::string variable = variable_of(name);
-    if (const char* value = environment(variable.c_str()); value && !apply(set, variable, value, error)) return false;
-  }
+// The command line's flags as (name, value) pairs, in order; false with *error on a malformed or unknown one.
+bool read_command_line(int argc, char** argv, const std::map<std::string, Setter>& table,
+                       std::vector<std::pair<std::string, std::string>>* flags, bool* help, std::string* error) {
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
@@ -157,13 +145,41 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
       *error = "--" + name + " needs a value";
       return false;
     }
-    auto it = table.find(name);
-    if (it == table.end()) {
+    if (!table.count(name)) {
       *error = "unknown flag --" + name + " (see --help)";
       return false;
     }
-    if (!apply(it->second, "--" + name, value, error)) return false;
+    flags->emplace_back(name, value);
   }
+  return true;
+}
+
+}  // namespace
+
+std::string replica_id(const DaemonOptions& options) {
+  if (!options.replica_id.empty()) return options.replica_id;
+  char host[256] = {};
+  gethostname(host, sizeof(host) - 1);
+  const std::string port = options.listen.substr(options.listen.rfind(':') + 1);
+  return std::string(host) + ":" + (port == "0" ? "pid" + std::to_string(getpid()) : port);
+}
+
+bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, std::string* error,
+                   const Environment& environment) {
+  auto table = setters(options);
+  *help = false;
+  std::vector<std::pair<std::string, std::string>> flags;
+  if (!read_command_line(argc, argv, table, &flags, help, error)) return false;
+  if (*help) return true;
+  std::set<std::string> given;
+  for (const auto& flag : flags) given.insert(flag.first);
+  for (const auto& [name, set] : table) {  // the variables of the flags the command line does not give
+    const std::string variable = variable_of(name);
+    const char* value = environment(variable.c_str());
+    if (value && !given.count(name) && !apply(set, variable, value, error)) return false;
+  }
+  for (const auto& [name, value] : flags)
+    if (!apply(table.at(name), "--" + name, value, error)) return false;
   if (options->tls_cert.empty() != options->tls_key.empty()) {
     *error = "--tls-cert and --tls-key go together";
     return false;

@@ -1,0 +1,129 @@
+// Two squalld replicas sharing a --state-dir, no proxy: each names itself on every response, an eWave
+// session created under a client-proposed id survives its replica's SIGTERM and continues on the other
+// replica bit for bit; flags from SQUALL_* variables; an unwritable kernel cache is named at start.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <thread>
+
+#include "client/client.h"
+#include "squall/v1/ewave.grpc.pb.h"
+#include "support/daemon.h"
+
+namespace squall {
+namespace {
+
+namespace v1 = squall::v1;
+using test::Daemon;
+
+std::string metadata(const grpc::ClientContext& context, const char* key) {
+  auto it = context.GetServerInitialMetadata().find(key);
+  return it == context.GetServerInitialMetadata().end() ? "" : std::string(it->second.data(), it->second.size());
+}
+
+// A replica's eWave service through a client that retries nothing, so every status is the server's.
+struct Replica {
+  explicit Replica(const std::string& name, const std::string& state_dir)
+      : daemon({"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir, "--checkpoint-interval", "0",
+                "--drain-wait", "3"}),
+        client({daemon.address(), 30, "", "", "", "", "", 1}),
+        ewave(v1::EWave::NewStub(client.channel())) {}
+  Daemon daemon;
+  client::Client client;
+  std::unique_ptr<v1::EWave::Stub> ewave;
+};
+
+v1::EWaveCreateSessionRequest create_request() {
+  v1::EWaveCreateSessionRequest request;
+  auto* c = request.mutable_config();
+  c->set_nx(64), c->set_ny(48), c->set_dx(0.01), c->set_dy(0.01);
+  return request;
+}
+
+// Step n of a hull crossing the grid; the frame's height field as bytes.
+v1::EWaveStepRequest step_request(const std::string& id, int n) {
+  v1::EWaveStepRequest request;
+  request.set_session_id(id);
+  auto* in = request.mutable_inputs();
+  in->set_dt(0.01);
+  in->add_outputs(v1::EWAVE_OUTPUT_HEIGHT);
+  auto* circle = in->add_shapes()->mutable_circle();
+  circle->set_center_x(0.1 + 0.01 * n), circle->set_center_y(0.24), circle->set_radius(0.03);
+  return request;
+}
+
+grpc::Status step(Replica& r, const std::string& id, int n, std::string* height, std::string* replica = nullptr) {
+  auto context = r.client.context(id);
+  v1::EWaveFrame frame;
+  grpc::Status status = r.ewave->Step(context.get(), step_request(id, n), &frame);
+  if (status.ok()) *height = frame.fields(0).SerializeAsString();
+  if (replica) *replica = metadata(*context, "x-squall-replica");
+  return status;
+}
+
+TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
+  const std::string state = test::temp_dir("replicas-state");
+  Replica a("replica-a", state), b("replica-b", state);
+  EXPECT_EQ(a.client.info().replica_id(), "replica-a");
+
+  // The reference: the same steps on one session that never moves.
+  v1::EWaveSessionResponse reference;
+  ASSERT_TRUE(b.ewave->CreateSession(b.client.context().get(), create_request(), &reference).ok());
+  std::vector<std::string> expected(6);
+  for (int n = 0; n < 6; ++n) ASSERT_TRUE(step(b, reference.session_id(), n, &expected[n]).ok());
+
+  const std::string id = client::propose_session_id();
+  auto create = a.client.context(id);
+  v1::EWaveSessionResponse created;
+  ASSERT_TRUE(a.ewave->CreateSession(create.get(), create_request(), &created).ok());
+  EXPECT_EQ(created.session_id(), id) << "the proposed id is the session's";
+  EXPECT_EQ(metadata(*create, "x-squall-replica"), "replica-a");
+  std::string height, replica;
+  for (int n = 0; n < 3; ++n) {
+    ASSERT_TRUE(step(a, id, n, &height, &replica).ok());
+    EXPECT_EQ(height, expected[n]);
+    EXPECT_EQ(replica, "replica-a");
+  }
+
+  a.daemon.process().signal(SIGTERM);
+  for (int i = 0; i < 200 && a.daemon.process().log().find("checkpointed") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  grpc::Status moved = step(a, id, 3, &height);  // within --drain-wait: answered, not cancelled
+  EXPECT_EQ(moved.error_code(), grpc::StatusCode::UNAVAILABLE) << moved.error_message();
+  EXPECT_NE(moved.error_message().find("moved to the state directory"), std::string::npos) << moved.error_message();
+
+  for (int n = 3; n < 6; ++n) {
+    grpc::Status status = step(b, id, n, &height, &replica);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(replica, "replica-b");
+    EXPECT_EQ(height, expected[n]) << "step " << n << " after the move differs from the uninterrupted run";
+  }
+  EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
+  EXPECT_NE(b.daemon.process().log().find("resumed from the state directory"), std::string::npos);
+}
+
+TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
+  std::string out;
+  EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_MAX_STREAMS=0", test::squalld_path()}, &out), 2) << out;
+  EXPECT_NE(out.find("SQUALL_MAX_STREAMS 0: must be an integer >= 1"), std::string::npos) << out;
+  EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_LISTEN=0.0.0.0:0", test::squalld_path()}, &out), 2) << out;
+  EXPECT_NE(out.find("--listen 0.0.0.0:0 is not a loopback address"), std::string::npos) << out;
+  EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_MAX_STREAMS=0", test::squalld_path(), "--max-streams", "3", "--device", "none"},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--device none matches no OpenCL device"), std::string::npos) << "the flag overrode: " << out;
+}
+
+TEST(Replicas, AnUnwritableKernelCacheIsNamedAtStart) {
+  std::string out;
+  EXPECT_EQ(test::run({"/usr/bin/env", "-u", "POCL_CACHE_DIR", test::squalld_path(), "--listen", "127.0.0.1:0", "--cache-dir",
+                       "/proc/squall-cache"},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("kernel cache /proc/squall-cache: cannot create the directory"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace squall
