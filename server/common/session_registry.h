@@ -1,14 +1,25 @@
 // SessionRegistry: what every SessionStore of a daemon shares for the daemon's life cycle: whether new
-// sessions are taken (not once the daemon drains), and the state directory (squalld --state-dir) that
-// live sessions are checkpointed to, periodically and when the daemon drains, and that a store resumes an
-// unknown id from. Stores enroll themselves; the daemon checkpoints them all through here.
+// sessions are taken (not once the daemon drains), this replica's name, and the state directory
+// (squalld --state-dir) that sessions are checkpointed to (periodically, on a handover request, when the
+// daemon drains) and resumed from. Stores enroll themselves; the daemon's loop calls checkpoint_all() and
+// tick(), and its drain checkpoint_all(true).
+//
+// Ownership: a session lives on one replica at a time. The replica holding it is its owner in the state
+// directory; another replica that receives a call for it (a proxy's hash ring changed: a replica joined
+// or came back) does not resume the last checkpoint while the owner is alive (its heartbeat is younger
+// than `owner_timeout`): it asks the owner to hand the session over and answers UNAVAILABLE, and the
+// owner's next tick writes the session and lets it go, so the client's retry resumes the current state.
+// An owner whose heartbeat stopped (killed, node lost) is presumed dead and its sessions resume from
+// their last checkpoint.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 
 #include "common/state_dir.h"
 
@@ -16,20 +27,34 @@ namespace squall {
 
 class SessionRegistry {
  public:
-  explicit SessionRegistry(std::unique_ptr<StateDir> state_dir = nullptr) : state_dir_(std::move(state_dir)) {}
+  explicit SessionRegistry(std::unique_ptr<StateDir> state_dir = nullptr, std::string replica = "replica",
+                           std::chrono::milliseconds owner_timeout = std::chrono::seconds(5))
+      : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {}
 
   const StateDir* state_dir() const { return state_dir_.get(); }
+  const std::string& replica() const { return replica_; }
 
   // From now on stores refuse new sessions and resumes (UNAVAILABLE): the daemon is shutting down.
   void begin_drain() { draining_ = true; }
   bool draining() const { return draining_; }
 
-  // checkpoint(release) writes a store's live sessions to the state directory and returns how many; with
-  // release, each written session then answers UNAVAILABLE, so that another replica resumes it.
-  using Checkpoint = std::function<size_t(bool release)>;
-  size_t enroll(Checkpoint checkpoint) {
+  // The live replica other than this one that owns session `id`, if any.
+  std::optional<std::string> owned_elsewhere(const std::string& id) const {
+    std::optional<std::string> owner = state_dir_->owner(id);
+    if (!owner || *owner == replica_ || !state_dir_->alive(*owner, owner_timeout_)) return std::nullopt;
+    return owner;
+  }
+
+  // An enrolled store: checkpoint(release) writes its live sessions and returns how many (with release,
+  // each written session then answers UNAVAILABLE); hand_over(id) writes and lets go of session `id`,
+  // false when the store does not hold it.
+  struct Store {
+    std::function<size_t(bool release)> checkpoint;
+    std::function<bool(const std::string& id)> hand_over;
+  };
+  size_t enroll(Store store) {
     std::lock_guard<std::mutex> lock(mutex_);
-    stores_.emplace(next_, std::move(checkpoint));
+    stores_.emplace(next_, std::move(store));
     return next_++;
   }
   void withdraw(size_t token) {
@@ -42,15 +67,34 @@ class SessionRegistry {
     if (!state_dir_) return 0;
     std::lock_guard<std::mutex> lock(mutex_);
     size_t written = 0;
-    for (auto& [token, checkpoint] : stores_) written += checkpoint(release);
+    for (auto& [token, store] : stores_) written += store.checkpoint(release);
     return written;
+  }
+
+  // One beat of the daemon's loop: this replica's heartbeat, then the handover requests for sessions it
+  // holds (other replicas' requests are theirs to answer). Returns how many sessions were handed over.
+  size_t tick() {
+    if (!state_dir_) return 0;
+    state_dir_->heartbeat(replica_);
+    size_t handed = 0;
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const std::string& id : state_dir_->handover_requests())
+      for (auto& [token, store] : stores_)
+        if (store.hand_over(id)) {
+          state_dir_->clear_handover(id);
+          ++handed;
+          break;
+        }
+    return handed;
   }
 
  private:
   std::unique_ptr<StateDir> state_dir_;
+  const std::string replica_;
+  const std::chrono::milliseconds owner_timeout_;
   std::atomic<bool> draining_{false};
   std::mutex mutex_;
-  std::map<size_t, Checkpoint> stores_;
+  std::map<size_t, Store> stores_;
   size_t next_ = 0;
 };
 

@@ -74,7 +74,8 @@ class SessionStore {
     version_ = version;
     save_ = std::move(save);
     resume_ = std::move(resume);
-    enrolled_ = policy_.registry->enroll([this](bool release) { return checkpoint_all(release); });
+    enrolled_ = policy_.registry->enroll({[this](bool release) { return checkpoint_all(release); },
+                                          [this](const std::string& id) { return hand_over(id); }});
   }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
@@ -108,7 +109,7 @@ class SessionStore {
       fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ + " id: " +
                                       (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
-    if (const StateDir* dir = state_dir(); dir && dir->read(proposed))
+    if (const StateDir* dir = state_dir(); dir && (dir->read(proposed) || dir->owner(proposed)))
       fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
     return proposed;
   }
@@ -122,9 +123,12 @@ class SessionStore {
     entry->last_use = policy_.clock();
     if (policy_.registry && policy_.registry->draining())
       fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!entries_.emplace(id, std::move(entry)).second)
-      fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!entries_.emplace(id, std::move(entry)).second)
+        fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+    }
+    if (persistent()) state_dir()->set_owner(id, policy_.registry->replica());
     return id;
   }
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
@@ -153,11 +157,11 @@ class SessionStore {
     std::shared_ptr<Entry> entry = take(id);
     if (!entry) fail(Code::NotFound, not_found(id));
     std::lock_guard<std::mutex> wait(entry->mutex);
-    if (const StateDir* dir = state_dir()) dir->remove(id);
+    if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
   }
   bool erase(const std::string& id) {
     if (!take(id)) return false;
-    if (const StateDir* dir = state_dir()) dir->remove(id);
+    if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
     return true;
   }
 
@@ -176,6 +180,7 @@ class SessionStore {
       if (entry->released) continue;
       try {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        if (release) state_dir()->clear_owner(id);
         entry->released = release;
         ++written;
       } catch (const std::exception& e) {
@@ -199,7 +204,7 @@ class SessionStore {
       }
     }
     if (!evicted.empty()) log(LogLevel::Info, kind_, ": evicted ", evicted.size(), " idle past the TTL");
-    if (const StateDir* dir = state_dir())
+    if (const StateDir* dir = persistent() ? state_dir() : nullptr)
       for (const auto& entry : evicted) dir->remove(entry->id);
     return evicted.size();
   }
@@ -235,6 +240,25 @@ class SessionStore {
     return payload;
   }
 
+  // Writes session `id` to the state directory and lets it go (another replica asked for it: a proxy
+  // routes it there now); false when this store does not hold it.
+  bool hand_over(const std::string& id) {
+    std::shared_ptr<Entry> entry = lookup(id);
+    if (!entry) return false;
+    {
+      std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
+      if (!entry->released) {
+        state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        state_dir()->clear_owner(id);
+        entry->released = true;  // a call already waiting for this entry answers UNAVAILABLE
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    entries_.erase(id);
+    log(LogLevel::Info, kind_, " ", id, " handed over to the replica that asked for it");
+    return true;
+  }
+
   const std::string& kind() const { return kind_; }
   const std::string& id_field() const { return id_field_; }
 
@@ -258,6 +282,7 @@ class SessionStore {
   }
 
   const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
+  bool persistent() const { return resume_ && state_dir(); }
 
   std::shared_ptr<Entry> find(const std::string& id) {
     evict_idle();
@@ -275,11 +300,17 @@ class SessionStore {
     return it->second;
   }
 
-  // An id this store does not hold, resumed from the state directory when a checkpoint of it is there
-  // (while draining: UNAVAILABLE, so that the client retries on a replica that resumes it).
+  // An id this store does not hold: when another live replica owns it, a handover is requested and the
+  // call answered UNAVAILABLE (its retry finds the checkpoint); else it is resumed from its checkpoint
+  // when there is one (while draining: UNAVAILABLE, so that the client retries on another replica).
   void resume(const std::string& id) {
+    if (!persistent()) return;
     const StateDir* dir = state_dir();
-    if (!resume_ || !dir) return;
+    if (std::optional<std::string> owner = policy_.registry->owned_elsewhere(id)) {
+      if (!policy_.registry->draining()) dir->request_handover(id);
+      fail(Code::Unavailable, kind_ + " " + id + " is live on replica " + *owner +
+                                  ", which is asked to hand it over; retry in a moment");
+    }
     std::optional<std::string> checkpoint = dir->read(id);
     if (!checkpoint) return;
     if (policy_.registry->draining())

@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
+#include <cstdio>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -18,7 +20,9 @@ namespace fs = std::filesystem;
 namespace squall {
 namespace {
 
-constexpr const char* kSuffix = ".session";
+constexpr const char* kSession = ".session";
+constexpr const char* kOwner = ".owner";
+constexpr const char* kHandover = ".handover";
 
 void fail_io(const std::string& what, const std::string& path) {
   fail(Code::Internal, "state directory: cannot " + what + " " + path + ": " + std::strerror(errno));
@@ -41,11 +45,37 @@ void write_synced(const std::string& path, const std::string& bytes) {
   if (::fsync(fd) != 0 || ::close(fd) != 0) fail_io("sync", path);
 }
 
+std::optional<std::string> read_whole(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Age of a file, or nullopt when it does not exist.
+std::optional<fs::file_time_type::duration> age(const std::string& path) {
+  std::error_code error;
+  auto written = fs::last_write_time(path, error);
+  if (error) return std::nullopt;
+  return fs::file_time_type::clock::now() - written;
+}
+
 void sync_directory(const std::string& path) {
   int fd = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd < 0) fail_io("open", path);
   ::fsync(fd);  // makes the rename durable; some file systems refuse fsync on directories, which is harmless
   ::close(fd);
+}
+
+// Replaces `file` (in `directory`) with `bytes` at once.
+void write_atomically(const std::string& file, const std::string& directory, const std::string& bytes) {
+  static std::atomic<uint64_t> serial{0};  // temporaries unique per process and per write
+  const std::string tmp = file + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
+  write_synced(tmp, bytes);
+  if (std::rename(tmp.c_str(), file.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    fail_io("rename into place", file);
+  }
+  sync_directory(directory);
 }
 
 }  // namespace
@@ -64,36 +94,84 @@ StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(
   if (std::string why = unwritable_directory(path_); !why.empty()) throw std::runtime_error(flag + " " + path_ + ": " + why);
 }
 
-std::optional<std::string> StateDir::file_of(const std::string& id) const {
+std::optional<std::string> StateDir::file_of(const std::string& id, const char* suffix) const {
   if (id.empty() || id.size() > 128) return std::nullopt;
   for (char c : id)
     if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-')) return std::nullopt;
-  return path_ + "/" + id + kSuffix;
+  return path_ + "/" + id + suffix;
+}
+
+// Replica names are free text ("host:port"): every byte outside [A-Za-z0-9.-] is written as _XX (hex).
+std::string StateDir::replica_file(const std::string& replica) const {
+  std::string name;
+  for (unsigned char c : replica) {
+    char hex[4];
+    std::snprintf(hex, sizeof(hex), "_%02x", c);
+    name += std::isalnum(c) || c == '.' || c == '-' ? std::string(1, char(c)) : std::string(hex);
+  }
+  return path_ + "/replicas/" + name;
 }
 
 void StateDir::write(const std::string& id, const std::string& bytes) const {
-  auto file = file_of(id);
+  auto file = file_of(id, kSession);
   if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
-  static std::atomic<uint64_t> serial{0};  // temporaries unique per process and per write
-  const std::string tmp = *file + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
-  write_synced(tmp, bytes);
-  if (std::rename(tmp.c_str(), file->c_str()) != 0) {
-    std::remove(tmp.c_str());
-    fail_io("rename into place", *file);
-  }
-  sync_directory(path_);
+  write_atomically(*file, path_, bytes);
 }
 
 std::optional<std::string> StateDir::read(const std::string& id) const {
-  auto file = file_of(id);
-  if (!file) return std::nullopt;
-  std::ifstream in(*file, std::ios::binary);
-  if (!in) return std::nullopt;
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  auto file = file_of(id, kSession);
+  return file ? read_whole(*file) : std::nullopt;
 }
 
 void StateDir::remove(const std::string& id) const {
-  if (auto file = file_of(id)) std::remove(file->c_str());
+  for (const char* suffix : {kSession, kOwner, kHandover})
+    if (auto file = file_of(id, suffix)) std::remove(file->c_str());
+}
+
+void StateDir::set_owner(const std::string& id, const std::string& replica) const {
+  if (auto file = file_of(id, kOwner)) write_atomically(*file, path_, replica);
+}
+
+std::optional<std::string> StateDir::owner(const std::string& id) const {
+  auto file = file_of(id, kOwner);
+  return file ? read_whole(*file) : std::nullopt;
+}
+
+void StateDir::clear_owner(const std::string& id) const {
+  if (auto file = file_of(id, kOwner)) std::remove(file->c_str());
+}
+
+void StateDir::heartbeat(const std::string& replica) const {
+  const std::string file = replica_file(replica);
+  std::error_code error;
+  fs::create_directories(path_ + "/replicas", error);
+  std::ofstream(file, std::ios::trunc) << replica << "\n";  // rewriting it moves its time forward
+}
+
+void StateDir::retire(const std::string& replica) const { std::remove(replica_file(replica).c_str()); }
+
+bool StateDir::alive(const std::string& replica, std::chrono::milliseconds timeout) const {
+  auto since = age(replica_file(replica));
+  return since && *since <= timeout;
+}
+
+void StateDir::request_handover(const std::string& id) const {
+  if (auto file = file_of(id, kHandover)) std::ofstream(*file, std::ios::trunc) << id << "\n";
+}
+
+std::vector<std::string> StateDir::handover_requests() const {
+  std::vector<std::string> ids;
+  std::error_code error;
+  const std::string suffix = kHandover;
+  for (const auto& entry : fs::directory_iterator(path_, error)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() > suffix.size() && name.ends_with(suffix)) ids.push_back(name.substr(0, name.size() - suffix.size()));
+  }
+  return ids;
+}
+
+void StateDir::clear_handover(const std::string& id) const {
+  if (auto file = file_of(id, kHandover)) std::remove(file->c_str());
 }
 
 size_t StateDir::expire(std::chrono::milliseconds ttl) const {
@@ -102,9 +180,8 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
   const auto now = fs::file_time_type::clock::now();
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
-    const bool session = name.size() > std::strlen(kSuffix) && name.ends_with(kSuffix);
-    const bool stale_tmp = name.find(std::string(kSuffix) + ".tmp-") != std::string::npos;
-    if (!session && !stale_tmp) continue;
+    const bool expiring = name.ends_with(kSession) || name.ends_with(kHandover) || name.find(".tmp-") != std::string::npos;
+    if (!expiring) continue;
     auto written = entry.last_write_time(error);
     if (error || now - written <= ttl) continue;
     removed += fs::remove(entry.path(), error) ? 1 : 0;

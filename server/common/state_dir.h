@@ -1,14 +1,19 @@
-// StateDir: a directory shared by the replicas of a deployment (squalld --state-dir), holding one file per
-// checkpointed session, named by the session's id: "<id>.session", the bytes of encode_checkpoint().
+// StateDir: a directory shared by the replicas of a deployment (squalld --state-dir). Per session, named
+// by its id:
+//   <id>.session   its last checkpoint, the bytes of encode_checkpoint()
+//   <id>.owner     the replica that holds it live (written when a replica creates or resumes it, removed
+//                  when it releases, closes or evicts it)
+//   <id>.handover  another replica's request that the owner release it (a proxy now routes it there)
+// and per replica, replicas/<name>: a heartbeat whose age tells whether an owner is still alive.
 // Writes are atomic (a temporary file, fsync, rename, fsync of the directory), so a reader on another
-// replica sees the previous checkpoint or the new one, never half of one. Files not rewritten for longer
-// than the session TTL are expired. Ids name files only when they are made of [a-z0-9-] (every id squalld
-// makes or accepts is), so no id reaches outside the directory.
+// replica sees the previous file or the new one, never half of one. Ids name files only when they are
+// made of [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
 #pragma once
 
 #include <chrono>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace squall {
 
@@ -22,14 +27,28 @@ class StateDir {
 
   void write(const std::string& id, const std::string& bytes) const;
   std::optional<std::string> read(const std::string& id) const;  // nullopt: no such file (or no such id)
-  void remove(const std::string& id) const;
-  // Removes the session files last written more than `ttl` ago; returns how many.
+  void remove(const std::string& id) const;                       // the session's files, all of them
+
+  void set_owner(const std::string& id, const std::string& replica) const;
+  std::optional<std::string> owner(const std::string& id) const;
+  void clear_owner(const std::string& id) const;
+
+  void heartbeat(const std::string& replica) const;  // "alive now"
+  void retire(const std::string& replica) const;     // "gone": removes the heartbeat
+  bool alive(const std::string& replica, std::chrono::milliseconds timeout) const;
+
+  void request_handover(const std::string& id) const;
+  std::vector<std::string> handover_requests() const;  // the ids of the pending requests
+  void clear_handover(const std::string& id) const;
+
+  // Removes the checkpoints and handover requests last written more than `ttl` ago; returns how many.
   size_t expire(std::chrono::milliseconds ttl) const;
 
   const std::string& path() const { return path_; }
 
  private:
-  std::optional<std::string> file_of(const std::string& id) const;
+  std::optional<std::string> file_of(const std::string& id, const char* suffix) const;
+  std::string replica_file(const std::string& replica) const;
   std::string path_;
 };
 

@@ -9,7 +9,7 @@ namespace squall::rpc {
 CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval,
                                std::chrono::milliseconds ttl)
     : registry_(registry), interval_(interval), ttl_(ttl) {
-  if (registry_.state_dir() && interval_.count() > 0) thread_ = std::thread([this] { run(); });
+  if (registry_.state_dir()) thread_ = std::thread([this] { run(); });
 }
 
 void CheckpointLoop::stop() {
@@ -22,18 +22,28 @@ void CheckpointLoop::stop() {
 }
 
 void CheckpointLoop::run() {
+  constexpr auto kBeat = std::chrono::milliseconds(250);
+  constexpr auto kExpiry = std::chrono::minutes(1);
+  auto last_checkpoint = std::chrono::steady_clock::now(), last_expiry = last_checkpoint;
   std::unique_lock<std::mutex> lock(mutex_);
-  while (!wake_.wait_for(lock, interval_, [this] { return stopping_; })) {
+  do {
     lock.unlock();
     try {
-      size_t written = registry_.checkpoint_all(false);
-      size_t expired = registry_.state_dir()->expire(ttl_);
-      log(LogLevel::Debug, "state directory: ", written, " sessions checkpointed, ", expired, " expired");
+      registry_.tick();
+      const auto now = std::chrono::steady_clock::now();
+      if (interval_.count() > 0 && now - last_checkpoint >= interval_) {
+        last_checkpoint = now;
+        log(LogLevel::Debug, "state directory: ", registry_.checkpoint_all(false), " sessions checkpointed");
+      }
+      if (now - last_expiry >= kExpiry) {
+        last_expiry = now;
+        log(LogLevel::Debug, "state directory: ", registry_.state_dir()->expire(ttl_), " files expired");
+      }
     } catch (const std::exception& e) {
       log(LogLevel::Error, "state directory: ", e.what());
     }
     lock.lock();
-  }
+  } while (!wake_.wait_for(lock, kBeat, [this] { return stopping_; }));
 }
 
 }  // namespace squall::rpc

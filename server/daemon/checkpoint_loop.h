@@ -1,6 +1,8 @@
-// CheckpointLoop: a thread that writes every live session to the state directory every
-// --checkpoint-interval seconds (what a replica killed without SIGTERM loses is at most that much) and
-// expires the directory's files older than the session TTL. Stopped (and joined) before the daemon drains.
+// CheckpointLoop: with a state directory, a thread that beats four times a second (this replica's
+// heartbeat, and handing over the sessions other replicas ask for: SessionRegistry::tick), writes every
+// live session to the directory every --checkpoint-interval seconds (what a replica killed without
+// SIGTERM loses is at most that much) and, once a minute, expires files older than the session TTL.
+// Stopped (and joined) before the daemon drains.
 #pragma once
 
 #include <chrono>
@@ -14,7 +16,7 @@ namespace squall::rpc {
 
 class CheckpointLoop {
  public:
-  // Does nothing without a state directory or with a zero interval.
+  // Does nothing without a state directory; a zero interval: no periodic checkpoints.
   CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval, std::chrono::milliseconds ttl);
   ~CheckpointLoop() { stop(); }
   void stop();

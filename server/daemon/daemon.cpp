@@ -181,6 +181,7 @@ void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoint
   std::this_thread::sleep_for(milliseconds(std::min(options.drain_wait_seconds, options.grace_seconds / 2)));
   server.Shutdown(deadline);
   server.Wait();
+  if (daemon.sessions.state_dir()) daemon.sessions.state_dir()->retire(daemon.sessions.replica());
 }
 
 void write_port_file(const std::string& path, int port) {
@@ -221,7 +222,7 @@ int run_daemon(const DaemonOptions& options) {
     require_writable_kernel_cache(cache);
     credentials = server_credentials(options);
     std::vector<std::string> tokens = read_tokens(options.auth_tokens);
-    daemon = std::make_unique<DaemonState>(options.runtime, options.limits, state_dir(options));
+    daemon = std::make_unique<DaemonState>(options.runtime, options.limits, state_dir(options), replica);
     daemon->serving.set_tokens(std::move(tokens));
     daemon->serving.set_replica_id(replica);
   } catch (const std::exception& e) {

@@ -32,8 +32,11 @@ inline Limits with_session_budget(Limits limits, const Runtime& runtime) {
 }
 
 struct DaemonState {
-  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits, std::unique_ptr<StateDir> state_dir)
-      : runtime(runtime_options), serving(with_session_budget(limits, runtime)), sessions(std::move(state_dir)) {}
+  DaemonState(const RuntimeOptions& runtime_options, const Limits& limits, std::unique_ptr<StateDir> state_dir,
+              const std::string& replica)
+      : runtime(runtime_options),
+        serving(with_session_budget(limits, runtime)),
+        sessions(std::move(state_dir), replica) {}
 
   Runtime runtime;
   ServingState serving;

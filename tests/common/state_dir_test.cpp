@@ -27,8 +27,8 @@ const std::string kId = "c-0123456789abcdef0123456789abcdef";
 // One replica's view: its registry over the shared directory, and a persistent store of Counters whose
 // checkpoint payload is the value as text.
 struct Replica {
-  explicit Replica(const std::string& dir)
-      : registry(std::make_unique<StateDir>(dir, "--state-dir")),
+  explicit Replica(const std::string& dir, const std::string& name = "replica")
+      : registry(std::make_unique<StateDir>(dir, "--state-dir"), name),
         store(gate, SessionPolicy{1h, [] { return std::chrono::steady_clock::now(); }, &registry}, "counter",
               "counter_id", "c-") {
     store.persist(
@@ -65,12 +65,19 @@ TEST(StateDir, WritesWholeFilesNamedByIdAndExpiresOldOnes) {
   std::this_thread::sleep_for(20ms);
   EXPECT_EQ(state.expire(10ms), 1u);
   EXPECT_FALSE(state.read(kId));
+  state.heartbeat("host:50051/x");
+  EXPECT_TRUE(state.alive("host:50051/x", 1h));
+  EXPECT_TRUE(fs::exists(dir + "/replicas/host_3a50051_2fx")) << "a replica's name is escaped into one file name";
+  std::this_thread::sleep_for(20ms);
+  EXPECT_FALSE(state.alive("host:50051/x", 10ms)) << "an old heartbeat is a dead replica";
+  state.retire("host:50051/x");
+  EXPECT_FALSE(state.alive("host:50051/x", 1h));
   EXPECT_THROW(StateDir("/proc/no-such-dir", "--state-dir"), std::runtime_error);
 }
 
 TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
   const std::string dir = test::temp_dir("state-move");
-  Replica a(dir), b(dir);
+  Replica a(dir, "a"), b(dir, "b");
   const std::string id = a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>());
   ASSERT_EQ(id, kId) << "the proposed id is taken";
   a.store.with(id, [](Counter& c) { c.value = 7; });
@@ -88,11 +95,43 @@ TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
   expect_error(Code::NotFound, "counter_id", [&] { c.store.get(id); });
 }
 
+TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
+  const std::string dir = test::temp_dir("state-handover");
+  Replica a(dir, "a"), b(dir, "b");
+  std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  a.registry.checkpoint_all(false);                    // a periodic checkpoint: value 0
+  a.store.with(id, [](Counter& c) { c.value = 5; });  // the current state, on a only
+  EXPECT_EQ(a.registry.tick(), 0u);                    // a's heartbeat; no request yet
+  expect_error(Code::Unavailable, "is live on replica a, which is asked to hand it over",
+               [&] { b.store.get(id); });
+  EXPECT_EQ(b.registry.tick(), 0u) << "b holds nothing to hand over";
+  EXPECT_EQ(a.registry.tick(), 1u) << "a answers the request";
+  EXPECT_EQ(a.store.size(), 0u) << "a let the session go";
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 5) << "b resumed the current state, not 0";
+  EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
+  EXPECT_TRUE(b.registry.state_dir()->handover_requests().empty());
+}
+
+TEST(StateDir, ASessionOfADeadOwnerResumesFromItsLastCheckpoint) {
+  const std::string dir = test::temp_dir("state-dead");
+  std::string id;
+  {
+    Replica a(dir, "a");
+    id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+    a.store.with(id, [](Counter& c) { c.value = 3; });
+    a.registry.checkpoint_all(false);
+    a.registry.tick();
+    a.registry.state_dir()->retire("a");  // a is killed: its heartbeat stops
+  }
+  Replica b(dir, "b");
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 3);
+}
+
 TEST(StateDir, ADrainingReplicaSendsCallsForCheckpointedIdsElsewhere) {
   const std::string dir = test::temp_dir("state-drain");
-  Replica a(dir), b(dir);
+  Replica a(dir, "a"), b(dir, "b");
   std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
-  a.registry.checkpoint_all(false);
+  a.registry.checkpoint_all(true);
   b.registry.begin_drain();
   expect_error(Code::Unavailable, "retry on another replica", [&] { b.store.get(id); });
   expect_error(Code::NotFound, "counter_id", [&] { b.store.get("c-ffffffffffffffffffffffffffffffff"); });
@@ -107,6 +146,9 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
     expect_error(Code::InvalidArgument, "metadata x = ", [&] { a.store.id_for(bad, "metadata x"); });
   a.registry.state_dir()->write(kId, "anything");
   expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(kId, "metadata x"); });
+  const std::string owned = "c-00000000000000000000000000000001";
+  a.registry.state_dir()->set_owner(owned, "elsewhere");
+  expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(owned, "metadata x"); });
 }
 
 TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
