@@ -5,7 +5,8 @@
 //                      squalld replicas route them to the replica holding the session (hash on it).
 //                      On a call that creates a session it proposes the new session's id, so that the
 //                      creating call is routed like the later ones
-//   x-squall-replica   sent back on every call: the replica that answered (squalld --replica-id)
+//   x-squall-replica   sent back on every call: the replica that answered (squalld --replica-id), in
+//                      the initial metadata, or for a call that fails at once in the trailing metadata
 #pragma once
 
 #include <grpcpp/grpcpp.h>

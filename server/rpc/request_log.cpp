@@ -32,7 +32,7 @@ class RequestLog : public grpc::experimental::Interceptor {
       session_ = session_routing_key(metadata);
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_INITIAL_METADATA) && !replica_.empty())
-      methods->GetSendInitialMetadata()->emplace(kReplicaKey, replica_);
+      name_replica(methods);
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
         is_squall_method())
       id_ = request_id_field(methods->GetRecvMessage());
@@ -55,6 +55,16 @@ class RequestLog : public grpc::experimental::Interceptor {
     const auto* field = m->GetDescriptor()->FindFieldByName("request_id");
     if (!field || field->type() != google::protobuf::FieldDescriptor::TYPE_STRING || field->is_repeated()) return "";
     return m->GetReflection()->GetString(*m, field).substr(0, kMaxMetadataValue);
+  }
+
+  // x-squall-replica: in the initial metadata, unless this batch also ends the call with an error: then
+  // in the trailing metadata, so the failure stays a trailers-only response, which a client's gRPC retry
+  // policy may retry (response headers would commit the call to this replica).
+  void name_replica(grpc::experimental::InterceptorBatchMethods* methods) {
+    const bool fails_now = methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) &&
+                           !methods->GetSendStatus().ok();
+    auto* metadata = fails_now ? methods->GetSendTrailingMetadata() : methods->GetSendInitialMetadata();
+    metadata->emplace(kReplicaKey, replica_);
   }
 
   void write(const char* status, const std::string& message) {

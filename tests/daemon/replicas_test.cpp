@@ -21,12 +21,13 @@ std::string metadata(const grpc::ClientContext& context, const char* key) {
   return it == context.GetServerInitialMetadata().end() ? "" : std::string(it->second.data(), it->second.size());
 }
 
-// A replica's eWave service through a client that retries nothing, so every status is the server's.
+// A replica's eWave service through a client that makes `attempts` of each call (1: every status is
+// the server's).
 struct Replica {
-  explicit Replica(const std::string& name, const std::string& state_dir)
+  Replica(const std::string& name, const std::string& state_dir, int attempts = 1)
       : daemon({"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir, "--checkpoint-interval", "0",
                 "--drain-wait", "3"}),
-        client({daemon.address(), 30, "", "", "", "", "", 1}),
+        client({daemon.address(), 30, "", "", "", "", "", attempts}),
         ewave(v1::EWave::NewStub(client.channel())) {}
   Daemon daemon;
   client::Client client;
@@ -69,8 +70,8 @@ TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
   // The reference: the same steps on one session that never moves.
   v1::EWaveSessionResponse reference;
   ASSERT_TRUE(b.ewave->CreateSession(b.client.context().get(), create_request(), &reference).ok());
-  std::vector<std::string> expected(6);
-  for (int n = 0; n < 6; ++n) ASSERT_TRUE(step(b, reference.session_id(), n, &expected[n]).ok());
+  std::vector<std::string> expected(9);
+  for (int n = 0; n < 9; ++n) ASSERT_TRUE(step(b, reference.session_id(), n, &expected[n]).ok());
 
   const std::string id = client::propose_session_id();
   auto create = a.client.context(id);
@@ -86,7 +87,7 @@ TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
   }
 
   a.daemon.process().signal(SIGTERM);
-  for (int i = 0; i < 200 && a.daemon.process().log().find("checkpointed") == std::string::npos; ++i)
+  for (int i = 0; i < 200 && a.daemon.process().log().find("checkpointed 1 sessions") == std::string::npos; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   grpc::Status moved = step(a, id, 3, &height);  // within --drain-wait: answered, not cancelled
   EXPECT_EQ(moved.error_code(), grpc::StatusCode::UNAVAILABLE) << moved.error_message();
@@ -100,6 +101,19 @@ TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
   }
   EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
   EXPECT_NE(b.daemon.process().log().find("resumed from the state directory"), std::string::npos);
+
+  // A replica joins and a proxy now routes the session to it while b, its owner, lives: c asks b to hand
+  // it over and answers UNAVAILABLE; the client's retry policy tries again and c resumes b's current
+  // state (not a stale checkpoint: there is none newer than a's).
+  Replica c("replica-c", state, 5);
+  for (int n = 6; n < 9; ++n) {
+    grpc::Status status = step(c, id, n, &height, &replica);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(replica, "replica-c");
+    EXPECT_EQ(height, expected[n]) << "step " << n << " after the handover differs from the uninterrupted run";
+  }
+  EXPECT_NE(b.daemon.process().log().find("handed over to the replica that asked for it"), std::string::npos);
+  EXPECT_NE(c.daemon.process().log().find("asked to hand it over"), std::string::npos) << "the first try was refused";
 }
 
 TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
