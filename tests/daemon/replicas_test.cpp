@@ -1,12 +1,14 @@
-// Two squalld replicas sharing a --state-dir, no proxy: each names itself on every response, an eWave
-// session created under a client-proposed id survives its replica's SIGTERM and continues on the other
-// replica bit for bit; flags from SQUALL_* variables; an unwritable kernel cache is named at start.
+// squalld replicas sharing a --state-dir, no proxy: each names itself on every response; an eWave
+// session created under a client-proposed id survives its replica's SIGTERM and continues on another
+// replica bit for bit, and moves again to a joining replica by handover; a stored cloud volume renders
+// the same image after its move; flags from SQUALL_* variables; an unwritable kernel cache is named.
 #include <gtest/gtest.h>
 #include <signal.h>
 
 #include <thread>
 
 #include "client/client.h"
+#include "squall/v1/clouds.grpc.pb.h"
 #include "squall/v1/ewave.grpc.pb.h"
 #include "support/daemon.h"
 
@@ -114,6 +116,52 @@ TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
   }
   EXPECT_NE(b.daemon.process().log().find("handed over to the replica that asked for it"), std::string::npos);
   EXPECT_NE(c.daemon.process().log().find("asked to hand it over"), std::string::npos) << "the first try was refused";
+}
+
+v1::BuildVolumeRequest keep_a_sphere() {
+  v1::BuildVolumeRequest request;
+  auto* m = request.mutable_model();
+  m->set_voxel_size(0.5), m->set_skin(1.0);
+  m->add_spheres()->set_radius(4);
+  auto* p = m->mutable_pyroclastic();
+  p->set_layers(1), p->set_amplitude(1), p->mutable_noise()->set_frequency(0.3);
+  request.set_keep(true);
+  return request;
+}
+
+// The stored volume's image, as bytes.
+grpc::Status render(Replica& r, const std::string& volume_id, std::string* image) {
+  v1::RenderRequest request;
+  request.set_volume_id(volume_id);
+  auto* s = request.mutable_settings();
+  auto* c = s->mutable_camera();
+  c->mutable_eye()->set_y(-30), c->mutable_up()->set_z(1), c->set_width(24), c->set_height(16);
+  s->set_step(0.25), s->add_wavelengths(550e-9), s->add_extinction(0.5);
+  auto* light = s->add_lights();
+  light->mutable_direction()->set_z(1), light->add_intensity(1000);
+  v1::RenderResponse response;
+  grpc::Status status = v1::Clouds::NewStub(r.client.channel())->Render(r.client.context(volume_id).get(), request, &response);
+  *image = response.image().SerializeAsString();
+  return status;
+}
+
+TEST(Replicas, AStoredCloudVolumeMovesOnSigtermAndRendersTheSameImage) {
+  const std::string state = test::temp_dir("replicas-clouds");
+  Replica a("clouds-a", state), b("clouds-b", state);
+  const std::string id = client::propose_session_id("cloud-");
+  v1::BuildVolumeResponse built;
+  auto clouds = v1::Clouds::NewStub(a.client.channel());
+  ASSERT_TRUE(clouds->BuildVolume(a.client.context(id).get(), keep_a_sphere(), &built).ok());
+  EXPECT_EQ(built.summary().volume_id(), id);
+  std::string before, after;
+  ASSERT_TRUE(render(a, id, &before).ok());
+
+  a.daemon.process().signal(SIGTERM);
+  EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
+  grpc::Status status = render(b, id, &after);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(after, before) << "the resumed volume renders bit for bit the same image";
+  EXPECT_NE(b.daemon.process().log().find("stored volume " + id + " resumed"), std::string::npos);
 }
 
 TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
