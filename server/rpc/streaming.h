@@ -1,12 +1,15 @@
 // The bookkeeping of every streaming handler, written once: the serving check, a --max-streams slot held
 // for the whole call, cancellation (client gone, deadline passed, server shutting down) checked before
-// each message, and the status the call ends with.
+// each message, and the status the call ends with. When squalld drains, a stream that names no session
+// ends before its next message with UNAVAILABLE (reopen it on another replica); one that names a session
+// goes on until the session is checkpointed for another replica, whose calls then answer UNAVAILABLE.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
 #include <string>
 
+#include "rpc/metadata.h"
 #include "rpc/serving.h"
 #include "rpc/status.h"
 
@@ -14,10 +17,18 @@ namespace squall::rpc {
 
 class StreamCall {
  public:
-  StreamCall(grpc::ServerContext& context, const char* method) : context_(context), method_(method) {}
+  StreamCall(grpc::ServerContext& context, const char* method, const ServingState& serving)
+      : context_(context),
+        method_(method),
+        serving_(serving),
+        names_session_(!session_routing_key(context.client_metadata()).empty()) {}
 
-  // False once the call is cancelled or a write failed; the handler then stops.
-  bool live() const { return !ended_ && !context_.IsCancelled(); }
+  // False once the call is cancelled, a write failed, or squalld drains (streams naming no session); the
+  // handler then stops.
+  bool live() const {
+    if (!names_session_ && serving_.phase() == ServingState::Phase::Draining) stopped_by_drain_ = true;
+    return !ended_ && !context_.IsCancelled() && !stopped_by_drain_;
+  }
 
   // Writes one message unless the call is no longer live; returns live().
   template <typename Writer, typename Message>
@@ -28,8 +39,11 @@ class StreamCall {
 
   grpc::ServerContext& context() { return context_; }
 
-  // OK, or CANCELLED naming the method when the call did not end by itself.
+  // OK; UNAVAILABLE when squalld drains; CANCELLED naming the method when the call did not end by itself.
   grpc::Status status() const {
+    if (stopped_by_drain_)
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                          method_ + " ended: squalld is shutting down; reopen the stream on another replica");
     if (live()) return grpc::Status::OK;
     return grpc::Status(grpc::StatusCode::CANCELLED, method_ + " cancelled (client gone, deadline or shutdown)");
   }
@@ -37,7 +51,10 @@ class StreamCall {
  private:
   grpc::ServerContext& context_;
   std::string method_;
+  const ServingState& serving_;
+  const bool names_session_;  // x-squall-session: a session stream, which ends with its session's move
   bool ended_ = false;
+  mutable bool stopped_by_drain_ = false;  // live() said no because squalld drains
 };
 
 // Runs a streaming handler under guarded(): the serving check, then prepare() (the request's validation,
@@ -51,11 +68,8 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
     serving.require_token(context);
     auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
-    StreamCall call(context, method);
+    StreamCall call(context, method, serving);
     run(call, prepared);
-    if (!call.live() && serving.phase() == ServingState::Phase::Draining)
-      return grpc::Status(grpc::StatusCode::UNAVAILABLE,
-                          std::string(method) + " ended: squalld is shutting down; reopen the stream on another replica");
     return call.status();
   });
 }

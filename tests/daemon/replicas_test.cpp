@@ -10,6 +10,7 @@
 #include "client/client.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "squall/v1/ewave.grpc.pb.h"
+#include "squall/v1/ocean.grpc.pb.h"
 #include "support/daemon.h"
 
 namespace squall {
@@ -162,6 +163,30 @@ TEST(Replicas, AStoredCloudVolumeMovesOnSigtermAndRendersTheSameImage) {
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(after, before) << "the resumed volume renders bit for bit the same image";
   EXPECT_NE(b.daemon.process().log().find("stored volume " + id + " resumed"), std::string::npos);
+}
+
+TEST(Replicas, AStreamOfNoSessionEndsUnavailableWhenItsReplicaDrains) {
+  Replica a("streams-a", test::temp_dir("replicas-streams"));
+  v1::StreamTilesRequest request;
+  auto* layer = request.mutable_tile()->add_layers();
+  layer->set_extent_x(100), layer->set_extent_y(100), layer->set_nx(64), layer->set_ny(64);
+  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ), layer->set_wind_speed(10);
+  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU), layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  request.set_dt(0.1), request.set_frame_count(100000);
+  request.add_outputs(v1::TILE_OUTPUT_HEIGHT);
+  auto context = a.client.context();
+  auto reader = v1::Ocean::NewStub(a.client.channel())->StreamTiles(context.get(), request);
+  v1::TileChunk chunk;
+  ASSERT_TRUE(reader->Read(&chunk));
+  a.daemon.process().signal(SIGTERM);
+  size_t more = 0;
+  while (reader->Read(&chunk)) ++more;
+  grpc::Status status = reader->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  EXPECT_NE(status.error_message().find("reopen the stream on another replica"), std::string::npos)
+      << status.error_message();
+  EXPECT_LT(more, 100000u);
+  EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
 }
 
 TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
