@@ -7,6 +7,7 @@
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/security/tls_certificate_provider.h>
 #include <grpcpp/security/tls_credentials_options.h>
+#include <prometheus/exposer.h>
 #include <signal.h>
 
 #include <cmath>
@@ -22,6 +23,7 @@
 #include "common/log.h"
 #include "common/state_dir.h"
 #include "daemon/checkpoint_loop.h"
+#include "daemon/daemon_metrics.h"
 #include "daemon/daemon_state.h"
 #include "daemon/server_service.h"
 #include "ewave/ewave_service.h"
@@ -67,7 +69,8 @@ void start_engines(DaemonState& daemon, const DaemonOptions& options,
   for (const auto& capability : capabilities) capability->start(*daemon.engines);
 }
 
-void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const std::string& replica) {
+void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const std::string& replica,
+               Metrics* metrics) {
   int max_bytes = static_cast<int>(std::min<uint64_t>(options.limits.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);
@@ -81,7 +84,7 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   // A second squalld on a port in use must fail, not silently share the port with the first.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
-  interceptors.push_back(std::make_unique<RequestLogFactory>(replica));
+  interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }
 
@@ -184,6 +187,21 @@ void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoint
   if (daemon.sessions.state_dir()) daemon.sessions.state_dir()->retire(daemon.sessions.replica());
 }
 
+// Prometheus's text format at http://--metrics-listen/metrics: the calls' metrics and the daemon's
+// gauges. The exposer holds its collectables by weak pointer: the endpoint owns the daemon's (and is
+// destroyed after the exposer stops).
+struct MetricsEndpoint {
+  MetricsEndpoint(const std::string& address, const Metrics& metrics, const DaemonState& daemon)
+      : gauges(std::make_shared<DaemonMetrics>(daemon)), exposer(address, 1) {
+    exposer.RegisterCollectable(metrics.registry());
+    exposer.RegisterCollectable(gauges);
+    const auto ports = exposer.GetListeningPorts();
+    log(LogLevel::Info, "metrics at http://", address, "/metrics (port ", ports.empty() ? 0 : ports.front(), ")");
+  }
+  std::shared_ptr<DaemonMetrics> gauges;
+  prometheus::Exposer exposer;
+};
+
 void write_port_file(const std::string& path, int port) {
   if (path.empty()) return;
   std::string tmp = path + ".tmp";
@@ -244,10 +262,20 @@ int run_daemon(const DaemonOptions& options) {
   builder.AddListeningPort(options.listen, credentials, &port);
   builder.RegisterService(&server_service);
   for (const auto& capability : served) builder.RegisterService(&capability->service());
-  configure(builder, options, replica);
+  Metrics metrics;
+  configure(builder, options, replica, &metrics);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     log(LogLevel::Error, "cannot listen on ", options.listen);
+    return kExitListen;
+  }
+  std::unique_ptr<MetricsEndpoint> metrics_endpoint;
+  try {
+    if (!options.metrics_listen.empty())
+      metrics_endpoint = std::make_unique<MetricsEndpoint>(options.metrics_listen, metrics, *daemon);
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "--metrics-listen ", options.metrics_listen, ": ", e.what());
+    server->Shutdown();
     return kExitListen;
   }
   auto* health = server->GetHealthCheckService();

@@ -47,6 +47,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
   return {
       {"listen", [o](const std::string& v) { o->listen = v; }},
       {"port-file", [o](const std::string& v) { o->port_file = v; }},
+      {"metrics-listen", [o](const std::string& v) { o->metrics_listen = v; }},
       {"device", [o](const std::string& v) { o->runtime.device = v; }},
       {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
@@ -210,6 +211,7 @@ std::string usage() {
          d.listen +
          "; port 0 picks a free port)\n"
          "  --port-file PATH          write the bound port to PATH once listening\n"
+         "  --metrics-listen HOST:PORT  serve Prometheus metrics at http://HOST:PORT/metrics (default: none)\n"
          "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
          "                            the first GPU, else the PoCL CPU device)\n"
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"

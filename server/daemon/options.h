@@ -23,6 +23,7 @@ inline Limits daemon_limits() {
 struct DaemonOptions {
   std::string listen = "127.0.0.1:50051";  // --listen host:port (port 0 picks a free one)
   std::string port_file;                   // --port-file: write the bound port here once listening
+  std::string metrics_listen;              // --metrics-listen host:port: Prometheus /metrics; empty: none
   RuntimeOptions runtime;                  // --device, --kernel-dir
   std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
   std::string fft = "auto";                // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)

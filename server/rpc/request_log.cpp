@@ -18,8 +18,8 @@ using grpc::experimental::InterceptionHookPoints;
 
 class RequestLog : public grpc::experimental::Interceptor {
  public:
-  RequestLog(grpc::experimental::ServerRpcInfo* info, const std::string& replica)
-      : method_(info->method()), replica_(replica), start_(std::chrono::steady_clock::now()) {}
+  RequestLog(grpc::experimental::ServerRpcInfo* info, const std::string& replica, Metrics* metrics)
+      : method_(info->method()), replica_(replica), metrics_(metrics), start_(std::chrono::steady_clock::now()) {}
 
   ~RequestLog() override {
     if (!logged_) write("CANCELLED", "");  // the call ended without a status: client went away
@@ -33,6 +33,8 @@ class RequestLog : public grpc::experimental::Interceptor {
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_INITIAL_METADATA) && !replica_.empty())
       name_replica(methods);
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) && metrics_)
+      count_sent(methods->GetSendMessage());
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && id_.empty() &&
         is_squall_method())
       id_ = request_id_field(methods->GetRecvMessage());
@@ -67,9 +69,16 @@ class RequestLog : public grpc::experimental::Interceptor {
     metadata->emplace(kReplicaKey, replica_);
   }
 
+  // A response message: squall's are protobuf messages (their size is counted); gRPC's own, raw bytes.
+  void count_sent(const void* message) {
+    if (!message || !is_squall_method()) return;
+    metrics_->record_sent(method_, static_cast<const google::protobuf::Message*>(message)->ByteSizeLong());
+  }
+
   void write(const char* status, const std::string& message) {
     logged_ = true;
     double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+    if (metrics_) metrics_->record_call(method_, status, ms / 1000);
     // Client strings (the ids, and the error, which may quote the request) escaped: one call, one line.
     log(LogLevel::Info, "request id=", id_.empty() ? "-" : validate::printable(id_, kMaxMetadataValue),
         " method=", method_, " status=", status, " duration_ms=", ms, " replica=", replica_.empty() ? "-" : replica_,
@@ -79,6 +88,7 @@ class RequestLog : public grpc::experimental::Interceptor {
 
   std::string method_;
   const std::string& replica_;  // the factory's, which outlives the server
+  Metrics* metrics_;            // likewise; null: none
   std::string id_;
   std::string session_;  // x-squall-session, when the client names one
   std::chrono::steady_clock::time_point start_;
@@ -88,7 +98,7 @@ class RequestLog : public grpc::experimental::Interceptor {
 }  // namespace
 
 grpc::experimental::Interceptor* RequestLogFactory::CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) {
-  return new RequestLog(info, replica_id_);
+  return new RequestLog(info, replica_id_, metrics_);
 }
 
 }  // namespace squall::rpc

@@ -1,0 +1,56 @@
+#include "daemon/daemon_metrics.h"
+
+#include <unistd.h>
+
+#include <fstream>
+
+namespace squall::rpc {
+namespace {
+
+prometheus::MetricFamily gauge(const std::string& name, const std::string& help, double value,
+                               std::vector<prometheus::ClientMetric::Label> labels = {}) {
+  prometheus::ClientMetric metric;
+  metric.label = std::move(labels);
+  metric.gauge.value = value;
+  return {name, help, prometheus::MetricType::Gauge, {metric}};
+}
+
+double resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * double(sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace
+
+std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
+  const ServingState& serving = daemon_.serving;
+  const LimitGate& gate = serving.gate();
+  const DeviceInfo& device = daemon_.runtime.device_info();
+  const bool ready = serving.phase() == ServingState::Phase::Serving;
+  // The FFT backend is chosen during start-up: named once the daemon has served.
+  const std::string fft = serving.phase() == ServingState::Phase::Starting ? "" : daemon_.fft->name();
+  return {
+      gauge("squall_build_info", "squalld's version, replica, device and FFT backend (value 1)", 1,
+            {{"version", SQUALL_VERSION},
+             {"replica", serving.replica_id()},
+             {"device", device.name},
+             {"device_type", device.type},
+             {"fft_backend", fft}}),
+      gauge("squall_ready", "1 while squalld is SERVING, 0 while it starts or drains", ready ? 1 : 0),
+      gauge("squall_uptime_seconds", "Seconds since squalld started", serving.uptime_seconds()),
+      gauge("squall_streams_active", "Streaming calls in progress", gate.open_streams()),
+      gauge("squall_streams_limit", "Streaming calls allowed at once (--max-streams)", gate.limits().max_streams),
+      gauge("squall_sessions_active", "Live sessions: eWave sessions and stored cloud volumes", gate.live_sessions()),
+      gauge("squall_sessions_limit", "Live sessions allowed (--max-sessions)", gate.limits().max_sessions),
+      gauge("squall_session_bytes", "Host and device bytes the live sessions hold", double(gate.session_bytes())),
+      gauge("squall_session_bytes_budget", "Bytes the live sessions may hold (--max-session-bytes)",
+            double(gate.limits().max_session_bytes)),
+      gauge("squall_device_global_memory_bytes", "Global memory of the OpenCL device in use",
+            double(device.global_memory_bytes)),
+      gauge("process_resident_memory_bytes", "Resident memory of the squalld process", resident_bytes()),
+  };
+}
+
+}  // namespace squall::rpc

@@ -1,0 +1,31 @@
+// DaemonMetrics: the gauges squalld owns, read from its state at every scrape (a prometheus-cpp
+// Collectable next to the calls' metrics of rpc/metrics.h):
+//   squall_build_info{version, replica, device, device_type, fft_backend}  1
+//   squall_ready                              1 while SERVING, 0 while starting or draining
+//   squall_uptime_seconds
+//   squall_streams_active, squall_streams_limit           (--max-streams)
+//   squall_sessions_active, squall_sessions_limit         (--max-sessions)
+//   squall_session_bytes, squall_session_bytes_budget     (--max-session-bytes)
+//   squall_device_global_memory_bytes
+//   process_resident_memory_bytes             squalld's RSS (/proc/self/statm)
+#pragma once
+
+#include <prometheus/collectable.h>
+#include <prometheus/metric_family.h>
+
+#include <vector>
+
+#include "daemon/daemon_state.h"
+
+namespace squall::rpc {
+
+class DaemonMetrics : public prometheus::Collectable {
+ public:
+  explicit DaemonMetrics(const DaemonState& daemon) : daemon_(daemon) {}
+  std::vector<prometheus::MetricFamily> Collect() const override;
+
+ private:
+  const DaemonState& daemon_;
+};
+
+}  // namespace squall::rpc

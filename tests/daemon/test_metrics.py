@@ -1,0 +1,208 @@
+"""squalld --metrics-listen against the real Prometheus tools: the exposition counts exactly the calls
+the test made (by method and status code), names the replica, passes `promtool check metrics`, and a
+real Prometheus server scraping it answers a PromQL query for the same count.
+
+Processes are started detached with their PIDs recorded, talk only to 127.0.0.1, and are stopped by PID.
+Paths come from ctest's environment (tests/CMakeLists.txt).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import time
+import urllib.parse
+import urllib.request
+from pathlib import Path
+from typing import Iterator, List
+
+import pytest
+
+SQUALLD = os.environ.get("SQUALL_SQUALLD", "build/squalld")
+SQUALL = os.environ.get("SQUALL_CLI", "build/squall")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def start(argv: List[str], log: Path) -> subprocess.Popen:
+    with open(log, "wb") as out:
+        process = subprocess.Popen(
+            argv,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+    (log.parent / (log.stem + ".pid")).write_text(f"{process.pid}\n")
+    return process
+
+
+def stop(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        os.kill(process.pid, signal.SIGTERM)
+        try:
+            process.wait(30)
+        except subprocess.TimeoutExpired:
+            os.kill(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+def wait_for(condition, seconds: float, what: str):  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.2)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def http_get(url: str) -> str:
+    with urllib.request.urlopen(url, timeout=10) as response:
+        return response.read().decode()
+
+
+class Squalld:
+    def __init__(self, directory: Path) -> None:
+        self.grpc = f"127.0.0.1:{free_port()}"
+        self.log = directory / "squalld.log"
+        self.process = start(
+            [
+                SQUALLD,
+                "--listen",
+                self.grpc,
+                "--metrics-listen",
+                "127.0.0.1:0",
+                "--replica-id",
+                "metrics-r1",
+                "--fft",
+                "vkfft",
+            ],
+            self.log,
+        )
+        port = wait_for(
+            lambda: re.search(r"/metrics \(port (\d+)\)", self.log.read_text()),
+            120,
+            "metrics port",
+        )
+        self.metrics = f"127.0.0.1:{port.group(1)}"
+        wait_for(lambda: self.cli("health").returncode == 0, 300, "SERVING")
+
+    def cli(self, *args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [SQUALL, "--address", self.grpc, *args], capture_output=True, text=True
+        )
+
+
+@pytest.fixture(scope="module")
+def daemon(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Squalld]:
+    d = Squalld(tmp_path_factory.mktemp("metrics"))
+    yield d
+    stop(d.process)
+
+
+def value(exposition: str, name: str, **labels: str) -> float:
+    """The sample `name` whose labels include `labels` (exactly one must match)."""
+    found = []
+    for line in exposition.splitlines():
+        m = re.match(r"^(\w+)(?:\{(.*)\})? (\S+)$", line)
+        if not m or m.group(1) != name:
+            continue
+        have = dict(re.findall(r'(\w+)="((?:[^"\\]|\\.)*)"', m.group(2) or ""))
+        if all(have.get(k) == v for k, v in labels.items()):
+            found.append(float(m.group(3)))
+    assert len(found) == 1, f"{name}{labels}: {found}"
+    return found[0]
+
+
+def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
+    for _ in range(3):
+        assert daemon.cli("info").returncode == 0
+    unknown = daemon.cli("health", "no.such.Service")
+    assert unknown.returncode == 4, unknown.stderr  # refused by the server: NOT_FOUND
+    text = http_get(f"http://{daemon.metrics}/metrics")
+    ok = dict(service="squall.v1.Server", method="GetInfo")
+    assert value(text, "squall_requests_total", code="OK", **ok) == 3
+    assert value(text, "squall_messages_sent_total", **ok) == 3
+    assert (
+        value(text, "squall_sent_bytes_total", **ok) > 3 * 100
+    )  # devices and kernels: a kilobyte
+    assert value(text, "squall_request_duration_seconds_count", **ok) == 3
+    assert value(text, "squall_request_duration_seconds_bucket", le="+Inf", **ok) == 3
+    health = dict(service="grpc.health.v1.Health", method="Check")
+    assert value(text, "squall_requests_total", code="NOT_FOUND", **health) == 1
+    assert value(text, "squall_build_info", replica="metrics-r1", fft_backend="vkfft") == 1
+    assert value(text, "squall_ready") == 1
+    assert value(text, "squall_sessions_active") == 0
+    assert value(text, "squall_streams_limit") == 16
+    assert value(text, "process_resident_memory_bytes") > 10e6
+
+
+def test_promtool_accepts_the_exposition(daemon: Squalld) -> None:
+    promtool = shutil.which("promtool")
+    assert (
+        promtool
+    ), "promtool missing: deploy/install-deps.sh installs Debian's prometheus package"
+    text = http_get(f"http://{daemon.metrics}/metrics")
+    checked = subprocess.run(
+        [promtool, "check", "metrics"], input=text, capture_output=True, text=True
+    )
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    broken = text.replace(
+        "# TYPE squall_requests_total counter", "# TYPE squall_requests_total gauge\n# TYPE x y"
+    )
+    refused = subprocess.run(
+        [promtool, "check", "metrics"], input=broken, capture_output=True, text=True
+    )
+    assert (
+        refused.returncode != 0
+    ), "promtool must refuse a malformed exposition for this check to mean anything"
+
+
+def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
+    prometheus = shutil.which("prometheus")
+    assert (
+        prometheus
+    ), "prometheus missing: deploy/install-deps.sh installs Debian's prometheus package"
+    for _ in range(2):
+        assert daemon.cli("ocean", "sample", "--grid", "32", "--point", "1,2").returncode == 0
+    config = tmp_path / "prometheus.yml"
+    config.write_text(
+        "global: {scrape_interval: 1s, evaluation_interval: 1s}\n"
+        "scrape_configs:\n"
+        f"  - job_name: squalld\n    static_configs: [{{targets: ['{daemon.metrics}']}}]\n"
+    )
+    web = f"127.0.0.1:{free_port()}"
+    server = start(
+        [
+            prometheus,
+            f"--config.file={config}",
+            f"--storage.tsdb.path={tmp_path / 'tsdb'}",
+            f"--web.listen-address={web}",
+        ],
+        tmp_path / "prometheus.log",
+    )
+    try:
+        query = urllib.parse.quote('squall_requests_total{method="SampleSurface",code="OK"}')
+
+        def scraped() -> List[dict]:
+            try:
+                answer = json.loads(http_get(f"http://{web}/api/v1/query?query={query}"))
+            except OSError:
+                return []
+            return answer["data"]["result"] if answer.get("status") == "success" else []
+
+        result = wait_for(scraped, 60, "a scrape with the sample count")
+        assert result[0]["metric"]["job"] == "squalld"
+        assert float(result[0]["value"][1]) == 2
+    finally:
+        stop(server)
