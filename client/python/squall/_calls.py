@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
 import queue
+import secrets
 import threading
 from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, Tuple, TypeVar
 
@@ -24,7 +26,41 @@ CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
 # Metadata keys (server/rpc/metadata.h).
 REQUEST_ID_KEY = "x-request-id"
 SESSION_KEY = "x-squall-session"
+REPLICA_KEY = "x-squall-replica"
 AUTHORIZATION_KEY = "authorization"
+
+SERVICES = ("Server", "Ocean", "EWave", "Clouds", "Textures")
+
+
+def retry_options(attempts: int) -> List[Tuple[str, Any]]:
+    """Channel options that retry calls answered UNAVAILABLE (squalld starting or draining, a
+    replica gone behind a proxy, a session being handed over) up to `attempts` times in all, with
+    exponential backoff from 0.1 s to 2 s; none for attempts <= 1.
+
+    gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
+    it touches a session, so a retried eWave step is never applied twice.
+    """
+    if attempts <= 1:
+        return [("grpc.enable_retries", 0)]
+    policy = {
+        "maxAttempts": min(attempts, 5),
+        "initialBackoff": "0.1s",
+        "maxBackoff": "2s",
+        "backoffMultiplier": 2,
+        "retryableStatusCodes": ["UNAVAILABLE"],
+    }
+    names = [{"service": f"squall.v1.{s}"} for s in SERVICES]
+    config = {"methodConfig": [{"name": names, "retryPolicy": policy}]}
+    return [("grpc.enable_retries", 1), ("grpc.service_config", json.dumps(config))]
+
+
+def propose_session_id(prefix: str = "") -> str:
+    """A fresh session id for a call that creates a session: sent as x-squall-session, it routes
+    the creating call through a session-affine proxy like the session's later calls (squalld takes
+    it as the session's id). 128 random bits in lowercase hex, after `prefix` ("cloud-" for
+    stored volumes)."""
+    return prefix + secrets.token_hex(16)
+
 
 Metadata = Tuple[Tuple[str, str], ...]
 

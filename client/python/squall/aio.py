@@ -47,7 +47,13 @@ from squall import clouds as _clouds
 from squall import ewave as _ewave
 from squall import ocean as _ocean
 from squall import textures as _textures
-from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Settings
+from squall._calls import (
+    CHANNEL_OPTIONS,
+    DEFAULT_ADDRESS,
+    Settings,
+    propose_session_id,
+    retry_options,
+)
 from squall._convert import to_message
 from squall._errors import SquallError
 from squall._pb import (
@@ -388,10 +394,11 @@ class EWave:
         """Creates a session from an EWaveConfig or squall.ewave.config's keyword arguments:
         await it, or use it in ``async with`` (closed at the end)."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=_ewave.as_config(config, **kwargs))
+        proposed = propose_session_id()
 
         async def create() -> EWaveSession:
             response = await self._connection.unary(
-                "EWave.CreateSession", self._rpc.CreateSession, request, timeout
+                "EWave.CreateSession", self._rpc.CreateSession, request, timeout, session=proposed
             )
             return EWaveSession(self, response)
 
@@ -402,7 +409,9 @@ class EWave:
         request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
         return EWaveSession(
             self,
-            await self._connection.unary("EWave.Restore", self._rpc.Restore, request, timeout),
+            await self._connection.unary(
+                "EWave.Restore", self._rpc.Restore, request, timeout, session=propose_session_id()
+            ),
         )
 
     def attach(
@@ -436,8 +445,9 @@ class Clouds:
     ) -> Volume:
         """Builds a volume (summary, .vdb bytes or file if asked, id if kept)."""
         message = _clouds.build_request(cloud, keep, return_vdb or path is not None, request)
+        proposed = propose_session_id("cloud-") if message.keep else None
         response = await self._connection.unary(
-            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
+            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, session=proposed
         )
         return _clouds.volume_of(response, message.return_vdb, path)
 
@@ -824,9 +834,10 @@ class Client:
         request_id: Optional[str] = None,
         credentials: Optional[grpc.ChannelCredentials] = None,
         options: Sequence[Tuple[str, Any]] = (),
+        retries: int = 5,
     ) -> None:
         self.address = address
-        channel_options = list(CHANNEL_OPTIONS) + list(options)
+        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
         if credentials is None:
             channel = grpc.aio.insecure_channel(address, options=channel_options)
         else:

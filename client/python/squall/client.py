@@ -7,7 +7,7 @@ from typing import Any, Optional, Sequence, Tuple
 
 import grpc
 
-from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Connection, Settings
+from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Connection, Settings, retry_options
 from squall._errors import SquallError
 from squall import _health_pb2
 from squall._pb import server_pb2, server_pb2_grpc
@@ -69,6 +69,10 @@ class Client:
         credentials: grpc.ChannelCredentials for a TLS channel (``squall.tls_credentials(ca=...)``
             for a squalld started with --tls-cert, or a gateway's); None: plaintext.
         options: extra gRPC channel options, added to squall's (no client-side message size limit).
+        retries: attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica
+            gone behind a proxy), with backoff from 0.1 s to 2 s (at most 5; 1: no retries).
+            gRPC retries only calls the server has not begun to answer, and squalld answers
+            UNAVAILABLE before it touches a session, so a retried step is never applied twice.
 
     Attributes:
         ocean: Ocean tiles, streams and samples (squall.ocean.Ocean).
@@ -91,9 +95,10 @@ class Client:
         request_id: Optional[str] = None,
         credentials: Optional[grpc.ChannelCredentials] = None,
         options: Sequence[Tuple[str, Any]] = (),
+        retries: int = 5,
     ) -> None:
         self.address = address
-        channel_options = list(CHANNEL_OPTIONS) + list(options)
+        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
         if credentials is None:
             channel = grpc.insecure_channel(address, options=channel_options)
         else:

@@ -21,7 +21,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from squall._calls import Connection, Stream
+from squall._calls import Connection, Stream, propose_session_id
 from squall._convert import enum_value, message_from, repeated_per, to_message, vec3
 from squall._pb import clouds_pb2, clouds_pb2_grpc
 from squall._results import EvolutionFrame, Image, Volume
@@ -388,8 +388,9 @@ class Clouds:
         """
         want_vdb = return_vdb or path is not None
         message = build_request(cloud, keep, want_vdb, request)
+        proposed = propose_session_id("cloud-") if message.keep else None
         response = self._connection.unary(
-            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
+            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, session=proposed
         )
         return volume_of(response, message.return_vdb, path)
 

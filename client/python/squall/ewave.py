@@ -21,7 +21,7 @@ from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from squall._calls import Connection, RequestFeeder, Stream
+from squall._calls import Connection, RequestFeeder, Stream, propose_session_id
 from squall._convert import (
     ArrayLike,
     FieldLike,
@@ -417,14 +417,20 @@ class EWave:
         of ``squall.ewave.config`` (nx, ny, dx, ...). A ``with`` block closes it at the end."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=as_config(config, **kwargs))
         response = self._connection.unary(
-            "EWave.CreateSession", self._rpc.CreateSession, request, timeout
+            "EWave.CreateSession",
+            self._rpc.CreateSession,
+            request,
+            timeout,
+            session=propose_session_id(),
         )
         return EWaveSession(self, response)
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session (new id) continuing a ``state()`` snapshot bit-identically (Restore)."""
         request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
-        response = self._connection.unary("EWave.Restore", self._rpc.Restore, request, timeout)
+        response = self._connection.unary(
+            "EWave.Restore", self._rpc.Restore, request, timeout, session=propose_session_id()
+        )
         return EWaveSession(self, response)
 
     def attach(

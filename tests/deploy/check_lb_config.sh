@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# deploy/lb/envoy.yaml and nginx.conf are exactly what deploy/lb/proxy-config.py writes for three replicas
+# (no drift between the example and the generator the tests use), and Envoy and nginx accept them.
+# Usage: check_lb_config.sh SOURCE_DIR TOOLS_VENV WORK_DIR
+set -euo pipefail
+source_dir=$1 tools=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+for tool in "$tools/bin/envoy" /usr/sbin/nginx; do
+  [ -x "$tool" ] || { echo "missing $tool: run deploy/install-deploy-tools.sh" >&2; exit 1; }
+done
+upstreams=(--upstream 127.0.0.1:50061 --upstream 127.0.0.1:50062 --upstream 127.0.0.1:50063)
+generate() { python3 "$source_dir/deploy/lb/proxy-config.py" "$@" --listen 127.0.0.1:50051 "${upstreams[@]}"; }
+generate envoy > "$work/envoy.yaml"
+generate nginx > "$work/nginx.conf"
+diff -u "$source_dir/deploy/lb/envoy.yaml" "$work/envoy.yaml"
+diff -u "$source_dir/deploy/lb/nginx.conf" "$work/nginx.conf"
+"$tools/bin/envoy" --mode validate -c "$work/envoy.yaml" --log-level error
+mkdir -p /tmp/squall-nginx  # the example's prefix
+nginx -t -p /tmp/squall-nginx -c "$work/nginx.conf"
+# A broken configuration must fail the same checks.
+sed 's/lb_policy: RING_HASH/lb_policy: RING_HASHH/' "$work/envoy.yaml" > "$work/broken.yaml"
+if "$tools/bin/envoy" --mode validate -c "$work/broken.yaml" --log-level critical >/dev/null 2>&1; then
+  echo "envoy accepted a broken configuration" >&2; exit 1
+fi
+echo "lb configurations: OK"
