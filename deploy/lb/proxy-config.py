@@ -2,6 +2,7 @@
 """Writes the configuration of an L7 gRPC proxy in front of several squalld replicas.
 
     proxy-config.py envoy --listen 127.0.0.1:50051 --upstream 127.0.0.1:50061 --upstream ... [--admin ADDR]
+    proxy-config.py envoy --listen 0.0.0.0:8080 --dns --upstream squalld-pods:50051  (Kubernetes)
     proxy-config.py nginx --listen 127.0.0.1:50051 --upstream 127.0.0.1:50061 --upstream ... [--prefix DIR]
 
 Both route a session's calls by the request metadata x-squall-session (consistent hashing, so a
@@ -16,7 +17,9 @@ nginx (simpler, Debian's package): `hash $squall_route consistent` over `grpc_pa
 failover (open-source nginx has no active gRPC health checks): a draining replica keeps its traffic
 until its port closes, and clients' retries bridge the gap.
 
-deploy/lb/envoy.yaml and deploy/lb/nginx.conf are this script's output for three replicas on one host.
+deploy/lb/envoy.yaml and deploy/lb/nginx.conf are this script's output for three replicas on one host;
+deploy/k8s/overlays/two-tier/envoy.yaml its output for the headless Service of the replicas' pods
+(--dns: every address the name resolves to is a host, re-resolved as pods come and go).
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ def host_port(address: str) -> Tuple[str, int]:
     return host, int(port)
 
 
-def envoy(listen: str, upstreams: List[str], admin: str) -> str:
+def envoy(listen: str, upstreams: List[str], admin: str, dns: bool) -> str:
     lhost, lport = host_port(listen)
     ahost, aport = host_port(admin)
     endpoints = "".join(
@@ -41,6 +44,9 @@ def envoy(listen: str, upstreams: List[str], admin: str) -> str:
               - endpoint: {{address: {{socket_address: {{address: {h}, port_value: {p}}}}}}}"""
         for h, p in map(host_port, upstreams)
     )
+    dns_options = """
+      dns_lookup_family: V4_ONLY
+      dns_refresh_rate: 5s"""
     return f"""# Envoy in front of squalld replicas: written by deploy/lb/proxy-config.py.
 admin:
   address: {{socket_address: {{address: {ahost}, port_value: {aport}}}}}
@@ -85,7 +91,7 @@ static_resources:
                       "@type": type.googleapis.com/envoy.extensions.filters.http.router.v3.Router
   clusters:
     - name: squalld
-      type: STATIC
+      type: {"STRICT_DNS" if dns else "STATIC"}{dns_options if dns else ""}
       lb_policy: RING_HASH
       typed_extension_protocol_options:
         envoy.extensions.upstreams.http.v3.HttpProtocolOptions:
@@ -156,11 +162,12 @@ def main() -> None:
     parser.add_argument(
         "--prefix", default="/tmp/squall-nginx", help="nginx's directory for pid, temp"
     )
+    parser.add_argument("--dns", action="store_true", help="Envoy: upstreams are DNS names")
     args = parser.parse_args()
     for address in [args.listen, args.admin, *args.upstream]:
         host_port(address)
     if args.proxy == "envoy":
-        sys.stdout.write(envoy(args.listen, args.upstream, args.admin))
+        sys.stdout.write(envoy(args.listen, args.upstream, args.admin, args.dns))
     else:
         sys.stdout.write(nginx(args.listen, args.upstream, args.prefix))
 

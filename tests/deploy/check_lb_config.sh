@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # deploy/lb/envoy.yaml and nginx.conf are exactly what deploy/lb/proxy-config.py writes for three replicas
-# (no drift between the example and the generator the tests use), and Envoy and nginx accept them.
+# (no drift between the example and the generator the tests use), as is the Kubernetes two-tier overlay's
+# envoy.yaml for the pods' headless Service, and Envoy and nginx accept them.
 # Usage: check_lb_config.sh SOURCE_DIR TOOLS_VENV WORK_DIR
 set -euo pipefail
 source_dir=$1 tools=$2 work=$3
@@ -14,6 +15,9 @@ generate envoy > "$work/envoy.yaml"
 generate nginx > "$work/nginx.conf"
 diff -u "$source_dir/deploy/lb/envoy.yaml" "$work/envoy.yaml"
 diff -u "$source_dir/deploy/lb/nginx.conf" "$work/nginx.conf"
+python3 "$source_dir/deploy/lb/proxy-config.py" envoy --listen 0.0.0.0:8080 --dns --upstream squalld-pods:50051 \
+  --admin 127.0.0.1:9901 > "$work/two-tier-envoy.yaml"
+diff -u "$source_dir/deploy/k8s/overlays/two-tier/envoy.yaml" "$work/two-tier-envoy.yaml"
 "$tools/bin/envoy" --mode validate -c "$work/envoy.yaml" --log-level error
 mkdir -p /tmp/squall-nginx  # the example's prefix
 nginx -t -p /tmp/squall-nginx -c "$work/nginx.conf"

@@ -1,0 +1,171 @@
+"""The Kubernetes manifests (deploy/k8s), validated offline (kubectl's dry runs need an API server):
+each overlay renders with `kubectl kustomize`, the objects pass `kubernetes-validate --strict` (bundled
+schemas; without --strict a misspelled field passes), and the checks below hold. The checks are shown
+to fail on a broken copy (a probe removed, a field misspelled) before they are trusted.
+
+Usage: check_manifests.py SOURCE_DIR TOOLS_VENV WORK_DIR
+"""
+
+from __future__ import annotations
+
+import copy
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any, Dict, List
+
+import yaml
+
+KUBERNETES = "1.30.0"
+OVERLAYS = ("cpu", "gpu", "two-tier")
+Doc = Dict[str, Any]
+
+
+def render(overlay: Path) -> List[Doc]:
+    kubectl = shutil.which("kubectl")
+    if not kubectl:
+        sys.exit("kubectl missing: run deploy/install-deploy-tools.sh")
+    out = subprocess.run(
+        [kubectl, "kustomize", str(overlay)], capture_output=True, text=True, check=False
+    )
+    if out.returncode != 0:
+        sys.exit(f"kubectl kustomize {overlay} failed:\n{out.stderr}")
+    return [d for d in yaml.safe_load_all(out.stdout) if d]
+
+
+def validate(
+    documents: List[Doc], tools: Path, work: Path, name: str, report: bool = True
+) -> bool:
+    path = work / f"{name}.yaml"
+    path.write_text(yaml.safe_dump_all(documents))
+    validator = tools / "bin/kubernetes-validate"
+    out = subprocess.run(
+        [str(validator), "--strict", "--quiet", "-k", KUBERNETES, str(path)],
+        capture_output=True,
+        text=True,
+    )
+    if out.returncode != 0 and report:
+        print(f"{name}: kubernetes-validate --strict:\n{out.stdout}{out.stderr}")
+    return out.returncode == 0
+
+
+def problems(documents: List[Doc], overlay: str) -> List[str]:
+    """What a production deployment must have, per workload; empty when all is there."""
+    found: List[str] = []
+    config = {
+        k: v
+        for d in documents
+        if d["kind"] == "ConfigMap" and d["metadata"]["name"].startswith("squalld-config")
+        for k, v in d.get("data", {}).items()
+    }
+    grace = float(config.get("SQUALL_GRACE_PERIOD", "10"))
+    deployments = [d for d in documents if d["kind"] == "Deployment"]
+    if not any(d["metadata"]["name"] == "squalld" for d in deployments):
+        found.append("no squalld Deployment")
+    for d in deployments:
+        name = d["metadata"]["name"]
+        pod = d["spec"]["template"]["spec"]
+        if not pod.get("securityContext", {}).get("runAsNonRoot"):
+            found.append(f"{name}: pod securityContext.runAsNonRoot is not true")
+        for c in pod["containers"]:
+            where = f"{name}/{c['name']}"
+            for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
+                if probe not in c:
+                    found.append(f"{where}: no {probe}")
+            if name == "squalld":
+                for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
+                    if "grpc" not in c.get(probe, {}):
+                        found.append(f"{where}: {probe} is not a gRPC health probe")
+            resources = c.get("resources", {})
+            for kind in ("requests", "limits"):
+                for resource in ("cpu", "memory"):
+                    if resource not in resources.get(kind, {}):
+                        found.append(f"{where}: no {kind}.{resource}")
+            security = c.get("securityContext", {})
+            if security.get("readOnlyRootFilesystem") is not True:
+                found.append(f"{where}: root file system not read-only")
+            if security.get("allowPrivilegeEscalation") is not False:
+                found.append(f"{where}: privilege escalation allowed")
+            if security.get("capabilities", {}).get("drop") != ["ALL"]:
+                found.append(f"{where}: capabilities not all dropped")
+        if name == "squalld":
+            if pod.get("terminationGracePeriodSeconds", 30) <= grace:
+                found.append(
+                    f"{name}: terminationGracePeriodSeconds <= SQUALL_GRACE_PERIOD {grace}"
+                )
+            mounts = {m["mountPath"] for c in pod["containers"] for m in c.get("volumeMounts", [])}
+            if config.get("SQUALL_STATE_DIR") not in mounts:
+                found.append(f"{name}: SQUALL_STATE_DIR is not a mounted volume")
+            gpus = [c["resources"]["limits"].get("nvidia.com/gpu") for c in pod["containers"]]
+            if (overlay == "gpu") != any(gpus):
+                found.append(f"{name}: nvidia.com/gpu limit {gpus} in overlay {overlay}")
+    claims = [d for d in documents if d["kind"] == "PersistentVolumeClaim"]
+    if not any("ReadWriteMany" in c["spec"]["accessModes"] for c in claims):
+        found.append("no ReadWriteMany claim for the shared state directory")
+    kinds = {d["kind"] for d in documents}
+    for kind in ("Service", "PodDisruptionBudget", "ConfigMap"):
+        if kind not in kinds:
+            found.append(f"no {kind}")
+    if overlay == "two-tier" and "squall-proxy" not in {
+        d["metadata"]["name"] for d in deployments
+    }:
+        found.append("two-tier: no squall-proxy (Envoy) Deployment")
+    return found
+
+
+def envoy_config_validates(documents: List[Doc], tools: Path, work: Path) -> bool:
+    """The two-tier overlay's Envoy configuration, as the ConfigMap carries it, passes Envoy's check."""
+    maps = [d for d in documents if d["metadata"]["name"].startswith("squall-proxy-config")]
+    path = work / "two-tier-envoy.yaml"
+    path.write_text(maps[0]["data"]["envoy.yaml"])
+    out = subprocess.run(
+        [str(tools / "bin/envoy"), "--mode", "validate", "-c", str(path), "--log-level", "error"],
+        capture_output=True,
+        text=True,
+    )
+    if out.returncode != 0:
+        print(f"two-tier envoy.yaml:\n{out.stdout}{out.stderr}")
+    return out.returncode == 0
+
+
+def the_checks_can_fail(documents: List[Doc], tools: Path, work: Path) -> None:
+    """A probe removed and a field misspelled must each be caught."""
+    broken = copy.deepcopy(documents)
+    deployment = next(d for d in broken if d["kind"] == "Deployment")
+    del deployment["spec"]["template"]["spec"]["containers"][0]["readinessProbe"]
+    assert problems(broken, "cpu"), "the checks missed a removed readiness probe"
+    misspelled = copy.deepcopy(documents)
+    deployment = next(d for d in misspelled if d["kind"] == "Deployment")
+    deployment["spec"]["template"]["spec"]["containers"][0]["readinesProbe"] = {
+        "grpc": {"port": 1}
+    }
+    assert not validate(
+        misspelled, tools, work, "misspelled"
+    ), "--strict passed a misspelled field"
+
+
+def main() -> None:
+    source, tools, work = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
+    work.mkdir(parents=True, exist_ok=True)
+    if not (tools / "bin/kubernetes-validate").exists():
+        sys.exit(f"{tools}/bin/kubernetes-validate missing: run deploy/install-deploy-tools.sh")
+    failed = False
+    for overlay in OVERLAYS:
+        documents = render(source / "deploy/k8s/overlays" / overlay)
+        ok = validate(documents, tools, work, overlay)
+        for problem in problems(documents, overlay):
+            print(f"{overlay}: {problem}")
+            ok = False
+        if overlay == "two-tier":
+            ok = envoy_config_validates(documents, tools, work) and ok
+        if overlay == "cpu":
+            the_checks_can_fail(documents, tools, work)
+        kinds = sorted(f"{d['kind']}/{d['metadata']['name']}" for d in documents)
+        print(f"{overlay}: {'OK' if ok else 'FAILED'} ({', '.join(kinds)})")
+        failed |= not ok
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()
