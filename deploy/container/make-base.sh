@@ -15,7 +15,12 @@ security=${DEBIAN_SECURITY_MIRROR:-http://deb.debian.org/debian-security}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The suites a Debian 12 host uses, so the image gets the same package versions (and security fixes).
-mmdebstrap --variant=minbase --quiet bookworm "$work/base.tar" "deb $mirror bookworm main" \
+# Like Debian's -slim images: no manual pages, documentation (but the copyright files) or translations,
+# in the base and in every package installed on it later (the options stay in /etc/dpkg/dpkg.cfg.d).
+slim=(--dpkgopt='path-exclude=/usr/share/man/*' --dpkgopt='path-exclude=/usr/share/doc/*'
+  --dpkgopt='path-include=/usr/share/doc/*/copyright' --dpkgopt='path-exclude=/usr/share/locale/*'
+  --dpkgopt='path-exclude=/usr/share/info/*')
+mmdebstrap --variant=minbase --quiet "${slim[@]}" bookworm "$work/base.tar" "deb $mirror bookworm main" \
   "deb $mirror bookworm-updates main" "deb $security bookworm-security main"
 podman import --quiet "$work/base.tar" "$tag" >/dev/null
 echo "make-base: $tag from $mirror and $security ($(podman image inspect --format '{{.Size}}' "$tag") bytes)"

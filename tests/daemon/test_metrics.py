@@ -12,10 +12,8 @@ import json
 import os
 import re
 import shutil
-import signal
-import socket
 import subprocess
-import time
+import sys
 import urllib.parse
 import urllib.request
 from pathlib import Path
@@ -23,47 +21,11 @@ from typing import Iterator, List
 
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+from processes import Process, free_port, wait_for  # noqa: E402  (tests/support)
+
 SQUALLD = os.environ.get("SQUALL_SQUALLD", "build/squalld")
 SQUALL = os.environ.get("SQUALL_CLI", "build/squall")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def start(argv: List[str], log: Path) -> subprocess.Popen:
-    with open(log, "wb") as out:
-        process = subprocess.Popen(
-            argv,
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            start_new_session=True,
-        )
-    (log.parent / (log.stem + ".pid")).write_text(f"{process.pid}\n")
-    return process
-
-
-def stop(process: subprocess.Popen) -> None:
-    if process.poll() is None:
-        os.kill(process.pid, signal.SIGTERM)
-        try:
-            process.wait(30)
-        except subprocess.TimeoutExpired:
-            os.kill(process.pid, signal.SIGKILL)
-            process.wait()
-
-
-def wait_for(condition, seconds: float, what: str):  # type: ignore[no-untyped-def]
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def http_get(url: str) -> str:
@@ -75,7 +37,7 @@ class Squalld:
     def __init__(self, directory: Path) -> None:
         self.grpc = f"127.0.0.1:{free_port()}"
         self.log = directory / "squalld.log"
-        self.process = start(
+        self.process = Process(
             [
                 SQUALLD,
                 "--listen",
@@ -107,7 +69,7 @@ class Squalld:
 def daemon(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Squalld]:
     d = Squalld(tmp_path_factory.mktemp("metrics"))
     yield d
-    stop(d.process)
+    d.process.stop()
 
 
 def value(exposition: str, name: str, **labels: str) -> float:
@@ -182,7 +144,7 @@ def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
         f"  - job_name: squalld\n    static_configs: [{{targets: ['{daemon.metrics}']}}]\n"
     )
     web = f"127.0.0.1:{free_port()}"
-    server = start(
+    server = Process(
         [
             prometheus,
             f"--config.file={config}",
@@ -205,4 +167,4 @@ def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
         assert result[0]["metric"]["job"] == "squalld"
         assert float(result[0]["value"][1]) == 2
     finally:
-        stop(server)
+        server.stop()

@@ -16,13 +16,12 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
 from collections import Counter
 from pathlib import Path
-from typing import Callable, Dict, Iterator, List, Tuple, TypeVar
+from typing import Dict, Iterator, List, Tuple
 
 import grpc
 import pytest
@@ -31,57 +30,15 @@ import squall
 from squall._calls import REPLICA_KEY, SESSION_KEY, propose_session_id, retry_options
 from squall.v1 import ewave_pb2, ewave_pb2_grpc, ocean_pb2, ocean_pb2_grpc
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+from processes import Process, free_port, wait_for  # noqa: E402  (tests/support)
+
 SOURCE_DIR = Path(os.environ.get("SQUALL_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 BINARY_DIR = Path(os.environ.get("SQUALL_BINARY_DIR", SOURCE_DIR / "build"))
 SQUALLD = os.environ.get("SQUALL_SQUALLD", str(BINARY_DIR / "squalld"))
 TOOLS = Path(os.environ.get("SQUALL_TOOLS", BINARY_DIR / "deploy-tools"))
 GRACE = 10.0
 SESSIONS, STEPS, DRAIN_AT = 5, 8, 3
-
-T = TypeVar("T")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class Process:
-    """A detached child with its PID written next to its log; stopped by PID."""
-
-    def __init__(self, argv: List[str], log: Path) -> None:
-        self.log = log
-        with open(log, "wb") as out:
-            self.popen = subprocess.Popen(
-                argv,
-                stdout=out,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
-                start_new_session=True,
-                env={**os.environ, "POCL_CACHE_DIR": str(BINARY_DIR / "pocl-cache")},
-            )
-        self.pid = self.popen.pid
-        log.with_suffix(".pid").write_text(f"{self.pid}\n")
-
-    def stop(self) -> None:
-        if self.popen.poll() is None:
-            os.kill(self.pid, signal.SIGTERM)
-            try:
-                self.popen.wait(30)
-            except subprocess.TimeoutExpired:
-                os.kill(self.pid, signal.SIGKILL)
-                self.popen.wait()
-
-
-def wait_for(condition: Callable[[], T], seconds: float, what: str) -> T:
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def serving(address: str) -> bool:
@@ -95,7 +52,8 @@ class Replica(Process):
         self.address = f"127.0.0.1:{free_port()}"
         flags = ["--listen", self.address, "--replica-id", name, "--state-dir", str(state_dir)]
         flags += ["--fft", "vkfft", "--grace-period", str(GRACE), "--drain-wait", "2"]
-        super().__init__([SQUALLD, *flags], directory / f"{name}.log")
+        cache = {"POCL_CACHE_DIR": str(BINARY_DIR / "pocl-cache")}
+        super().__init__([SQUALLD, *flags], directory / f"{name}.log", cache)
 
 
 def start_proxy(kind: str, listen: str, upstreams: List[str], directory: Path) -> Process:
