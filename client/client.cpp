@@ -45,8 +45,7 @@ std::string retry_config(int attempts) {
   std::string names;
   for (const char* service : {"Server", "Ocean", "EWave", "Clouds", "Textures"})
     names += std::string(names.empty() ? "" : ",") + "{\"service\":\"squall.v1." + service + "\"}";
-  return "{\"methodConfig\":[{\"name\":[" + names + "],\"retryPolicy\":{\"maxAttempts\":" +
-         std::to_string(attempts) +
+  return "{\"methodConfig\":[{\"name\":[" + names + "],\"retryPolicy\":{\"maxAttempts\":" + std::to_string(attempts) +
          ",\"initialBackoff\":\"0.1s\",\"maxBackoff\":\"2s\",\"backoffMultiplier\":2,"
          "\"retryableStatusCodes\":[\"UNAVAILABLE\"]}}]}";
 }

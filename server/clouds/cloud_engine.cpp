@@ -50,9 +50,7 @@ Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& sett
   return renderer_.render(volume.device, settings, field);
 }
 
-std::string CloudEngine::checkpoint(const std::string& id) {
-  return stored_.checkpoint(id, kCheckpointVersion, save);
-}
+std::string CloudEngine::checkpoint(const std::string& id) { return stored_.checkpoint(id, kCheckpointVersion, save); }
 
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;

@@ -106,8 +106,8 @@ class SessionStore {
     for (size_t i = prefix_.size(); ours && i < proposed.size(); ++i)
       ours = (proposed[i] >= '0' && proposed[i] <= '9') || (proposed[i] >= 'a' && proposed[i] <= 'f');
     if (!ours)
-      fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ + " id: " +
-                                      (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
+      fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ +
+                                      " id: " + (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
     if (const StateDir* dir = state_dir(); dir && (dir->read(proposed) || dir->owner(proposed)))
       fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
@@ -265,7 +265,7 @@ class SessionStore {
  private:
   struct Entry {
     std::string id;
-    std::mutex mutex;  // one call at a time per entry; guards `released` too
+    std::mutex mutex;       // one call at a time per entry; guards `released` too
     bool released = false;  // checkpointed for another replica: calls answer UNAVAILABLE
     std::shared_ptr<T> value;
     Reservation held;
@@ -308,13 +308,14 @@ class SessionStore {
     const StateDir* dir = state_dir();
     if (std::optional<std::string> owner = policy_.registry->owned_elsewhere(id)) {
       if (!policy_.registry->draining()) dir->request_handover(id);
-      fail(Code::Unavailable, kind_ + " " + id + " is live on replica " + *owner +
-                                  ", which is asked to hand it over; retry in a moment");
+      fail(Code::Unavailable,
+           kind_ + " " + id + " is live on replica " + *owner + ", which is asked to hand it over; retry in a moment");
     }
     std::optional<std::string> checkpoint = dir->read(id);
     if (!checkpoint) return;
     if (policy_.registry->draining())
-      fail(Code::Unavailable, kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
+      fail(Code::Unavailable,
+           kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
     try {
       resume_(*checkpoint);
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");

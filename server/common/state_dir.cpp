@@ -91,7 +91,8 @@ std::string unwritable_directory(const std::string& path) {
 }
 
 StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(path)) {
-  if (std::string why = unwritable_directory(path_); !why.empty()) throw std::runtime_error(flag + " " + path_ + ": " + why);
+  if (std::string why = unwritable_directory(path_); !why.empty())
+    throw std::runtime_error(flag + " " + path_ + ": " + why);
 }
 
 std::optional<std::string> StateDir::file_of(const std::string& id, const char* suffix) const {
@@ -165,7 +166,8 @@ std::vector<std::string> StateDir::handover_requests() const {
   const std::string suffix = kHandover;
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
-    if (name.size() > suffix.size() && name.ends_with(suffix)) ids.push_back(name.substr(0, name.size() - suffix.size()));
+    if (name.size() > suffix.size() && name.ends_with(suffix))
+      ids.push_back(name.substr(0, name.size() - suffix.size()));
   }
   return ids;
 }
@@ -180,7 +182,8 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
   const auto now = fs::file_time_type::clock::now();
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
-    const bool expiring = name.ends_with(kSession) || name.ends_with(kHandover) || name.find(".tmp-") != std::string::npos;
+    const bool expiring =
+        name.ends_with(kSession) || name.ends_with(kHandover) || name.find(".tmp-") != std::string::npos;
     if (!expiring) continue;
     auto written = entry.last_write_time(error);
     if (error || now - written <= ttl) continue;

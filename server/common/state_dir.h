@@ -27,7 +27,7 @@ class StateDir {
 
   void write(const std::string& id, const std::string& bytes) const;
   std::optional<std::string> read(const std::string& id) const;  // nullopt: no such file (or no such id)
-  void remove(const std::string& id) const;                       // the session's files, all of them
+  void remove(const std::string& id) const;                      // the session's files, all of them
 
   void set_owner(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;

@@ -68,16 +68,14 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
-      {"profile-kernels",
-       [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
+      {"profile-kernels", [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
       {"reflection",
        [o](const std::string& v) {
          if (v != "on" && v != "off" && v != "auto") throw std::invalid_argument("must be on, off or auto");
          o->reflection = v;
        }},
       {"auth-tokens", [o](const std::string& v) { o->auth_tokens = v; }},
-      {"insecure",
-       [o](const std::string& v) { o->insecure = on_or_off(v); }},
+      {"insecure", [o](const std::string& v) { o->insecure = on_or_off(v); }},
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},

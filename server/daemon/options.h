@@ -21,28 +21,28 @@ inline Limits daemon_limits() {
 }
 
 struct DaemonOptions {
-  std::string listen = "127.0.0.1:50051";  // --listen host:port (port 0 picks a free one)
-  std::string port_file;                   // --port-file: write the bound port here once listening
-  std::string metrics_listen;              // --metrics-listen host:port: Prometheus /metrics; empty: none
-  RuntimeOptions runtime;                  // --device, --kernel-dir
-  std::string cache_dir;                   // --cache-dir: POCL_CACHE_DIR unless the environment sets it
-  std::string fft = "auto";                // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)
-  fft::FftwOptions fftw;                   // --fft-threads
-  Limits limits = daemon_limits();         // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
-  double grace_seconds = 10;               // --grace-period: how long shutdown lets calls finish
-  double drain_wait_seconds = 2;           // --drain-wait: answer UNAVAILABLE this long before closing
-  double keepalive_seconds = 60;           // --keepalive: server pings an idle connection this often
-  double session_ttl_seconds = 600;        // --session-ttl: stateful sessions idle this long are evicted
-  LogLevel log_level = LogLevel::Info;     // --log-level debug | info | warn | error
-  std::string reflection = "auto";         // --reflection on | off | auto (on only when listening on loopback)
-  std::string tls_cert, tls_key;           // --tls-cert, --tls-key: PEM files; both set: serve TLS only
-  bool insecure = false;                   // --insecure: allow a non-loopback --listen without TLS or tokens
-  std::string auth_tokens;                 // --auth-tokens: file of accepted bearer tokens; empty: no auth
-  std::string tls_client_ca;               // --tls-client-ca: PEM CA; set: require and verify client certificates
-  unsigned tls_refresh_seconds = 60;       // --tls-refresh: how often the TLS files are re-read
-  std::string replica_id;                  // --replica-id: this replica's name; empty: hostname:port
-  std::string state_dir;                   // --state-dir: sessions are checkpointed here and resumed from here
-  double checkpoint_interval_seconds = 30; // --checkpoint-interval: live sessions written this often (0: at drain)
+  std::string listen = "127.0.0.1:50051";   // --listen host:port (port 0 picks a free one)
+  std::string port_file;                    // --port-file: write the bound port here once listening
+  std::string metrics_listen;               // --metrics-listen host:port: Prometheus /metrics; empty: none
+  RuntimeOptions runtime;                   // --device, --kernel-dir
+  std::string cache_dir;                    // --cache-dir: POCL_CACHE_DIR unless the environment sets it
+  std::string fft = "auto";                 // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)
+  fft::FftwOptions fftw;                    // --fft-threads
+  Limits limits = daemon_limits();          // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
+  double grace_seconds = 10;                // --grace-period: how long shutdown lets calls finish
+  double drain_wait_seconds = 2;            // --drain-wait: answer UNAVAILABLE this long before closing
+  double keepalive_seconds = 60;            // --keepalive: server pings an idle connection this often
+  double session_ttl_seconds = 600;         // --session-ttl: stateful sessions idle this long are evicted
+  LogLevel log_level = LogLevel::Info;      // --log-level debug | info | warn | error
+  std::string reflection = "auto";          // --reflection on | off | auto (on only when listening on loopback)
+  std::string tls_cert, tls_key;            // --tls-cert, --tls-key: PEM files; both set: serve TLS only
+  bool insecure = false;                    // --insecure: allow a non-loopback --listen without TLS or tokens
+  std::string auth_tokens;                  // --auth-tokens: file of accepted bearer tokens; empty: no auth
+  std::string tls_client_ca;                // --tls-client-ca: PEM CA; set: require and verify client certificates
+  unsigned tls_refresh_seconds = 60;        // --tls-refresh: how often the TLS files are re-read
+  std::string replica_id;                   // --replica-id: this replica's name; empty: hostname:port
+  std::string state_dir;                    // --state-dir: sessions are checkpointed here and resumed from here
+  double checkpoint_interval_seconds = 30;  // --checkpoint-interval: live sessions written this often (0: at drain)
 };
 
 // --replica-id, else "<hostname>:<port of --listen>" (with port 0: "<hostname>:pid<pid>", unique too).

@@ -5,9 +5,8 @@ namespace {
 
 // Latency buckets, seconds: 1 ms to 100 s in steps of about x2.5 (a tile is milliseconds, a cloud
 // render or a long stream seconds to minutes).
-const prometheus::Histogram::BucketBoundaries kDurationBuckets = {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1,
-                                                                  0.25,  0.5,    1,     2.5,  5,     10,   25,
-                                                                  50,    100};
+const prometheus::Histogram::BucketBoundaries kDurationBuckets = {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
+                                                                  0.5,   1,      2.5,   5,    10,    25,   50,  100};
 
 }  // namespace
 

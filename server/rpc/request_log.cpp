@@ -63,8 +63,8 @@ class RequestLog : public grpc::experimental::Interceptor {
   // in the trailing metadata, so the failure stays a trailers-only response, which a client's gRPC retry
   // policy may retry (response headers would commit the call to this replica).
   void name_replica(grpc::experimental::InterceptorBatchMethods* methods) {
-    const bool fails_now = methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) &&
-                           !methods->GetSendStatus().ok();
+    const bool fails_now =
+        methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) && !methods->GetSendStatus().ok();
     auto* metadata = fails_now ? methods->GetSendTrailingMetadata() : methods->GetSendInitialMetadata();
     metadata->emplace(kReplicaKey, replica_);
   }

@@ -16,8 +16,7 @@ namespace squall::rpc {
 class RequestLogFactory : public grpc::experimental::ServerInterceptorFactoryInterface {
  public:
   // `metrics` (may be null: none) outlives the server.
-  RequestLogFactory(std::string replica_id, Metrics* metrics)
-      : replica_id_(std::move(replica_id)), metrics_(metrics) {}
+  RequestLogFactory(std::string replica_id, Metrics* metrics) : replica_id_(std::move(replica_id)), metrics_(metrics) {}
   grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) override;
 
  private:

@@ -86,7 +86,8 @@ TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
   a.registry.begin_drain();
   EXPECT_EQ(a.registry.checkpoint_all(true), 1u);
   expect_error(Code::Unavailable, "moved to the state directory", [&] { a.store.with(id, [](Counter&) {}); });
-  expect_error(Code::Unavailable, "shutting down", [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
+  expect_error(Code::Unavailable, "shutting down",
+               [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 8) << "resumed with the drained state";
   EXPECT_EQ(b.store.size(), 1u);
   b.store.close(id);
@@ -99,11 +100,10 @@ TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
   const std::string dir = test::temp_dir("state-handover");
   Replica a(dir, "a"), b(dir, "b");
   std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
-  a.registry.checkpoint_all(false);                    // a periodic checkpoint: value 0
+  a.registry.checkpoint_all(false);                   // a periodic checkpoint: value 0
   a.store.with(id, [](Counter& c) { c.value = 5; });  // the current state, on a only
-  EXPECT_EQ(a.registry.tick(), 0u);                    // a's heartbeat; no request yet
-  expect_error(Code::Unavailable, "is live on replica a, which is asked to hand it over",
-               [&] { b.store.get(id); });
+  EXPECT_EQ(a.registry.tick(), 0u);                   // a's heartbeat; no request yet
+  expect_error(Code::Unavailable, "is live on replica a, which is asked to hand it over", [&] { b.store.get(id); });
   EXPECT_EQ(b.registry.tick(), 0u) << "b holds nothing to hand over";
   EXPECT_EQ(a.registry.tick(), 1u) << "a answers the request";
   EXPECT_EQ(a.store.size(), 0u) << "a let the session go";
@@ -156,8 +156,10 @@ TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
   LimitGate gate{Limits{}};
   SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"));
   auto now = std::chrono::steady_clock::now();
-  SessionStore<Counter> store(gate, SessionPolicy{100ms, [&] { return now; }, &registry}, "counter", "counter_id", "c-");
-  store.persist(1, [](const Counter&) { return std::string("x"); }, [](const std::string&) {});
+  SessionStore<Counter> store(gate, SessionPolicy{100ms, [&] { return now; }, &registry}, "counter", "counter_id",
+                              "c-");
+  store.persist(
+      1, [](const Counter&) { return std::string("x"); }, [](const std::string&) {});
   std::string id = store.add(store.reserve(0), std::make_shared<Counter>());
   registry.checkpoint_all(false);
   ASSERT_TRUE(registry.state_dir()->read(id));

@@ -141,7 +141,8 @@ grpc::Status render(Replica& r, const std::string& volume_id, std::string* image
   auto* light = s->add_lights();
   light->mutable_direction()->set_z(1), light->add_intensity(1000);
   v1::RenderResponse response;
-  grpc::Status status = v1::Clouds::NewStub(r.client.channel())->Render(r.client.context(volume_id).get(), request, &response);
+  grpc::Status status =
+      v1::Clouds::NewStub(r.client.channel())->Render(r.client.context(volume_id).get(), request, &response);
   *image = response.image().SerializeAsString();
   return status;
 }
@@ -195,7 +196,8 @@ TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
   EXPECT_NE(out.find("SQUALL_MAX_STREAMS 0: must be an integer >= 1"), std::string::npos) << out;
   EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_LISTEN=0.0.0.0:0", test::squalld_path()}, &out), 2) << out;
   EXPECT_NE(out.find("--listen 0.0.0.0:0 is not a loopback address"), std::string::npos) << out;
-  EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_MAX_STREAMS=0", test::squalld_path(), "--max-streams", "3", "--device", "none"},
+  EXPECT_EQ(test::run({"/usr/bin/env", "SQUALL_MAX_STREAMS=0", test::squalld_path(), "--max-streams", "3", "--device",
+                       "none"},
                       &out),
             2)
       << out;
@@ -204,8 +206,8 @@ TEST(Replicas, FlagsComeFromSquallVariablesTooAndTheFlagWins) {
 
 TEST(Replicas, AnUnwritableKernelCacheIsNamedAtStart) {
   std::string out;
-  EXPECT_EQ(test::run({"/usr/bin/env", "-u", "POCL_CACHE_DIR", test::squalld_path(), "--listen", "127.0.0.1:0", "--cache-dir",
-                       "/proc/squall-cache"},
+  EXPECT_EQ(test::run({"/usr/bin/env", "-u", "POCL_CACHE_DIR", test::squalld_path(), "--listen", "127.0.0.1:0",
+                       "--cache-dir", "/proc/squall-cache"},
                       &out),
             2)
       << out;
