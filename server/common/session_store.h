@@ -254,7 +254,7 @@ class SessionStore {
       }
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    entries_.erase(id);
+    if (auto it = entries_.find(id); it != entries_.end() && it->second == entry) entries_.erase(it);
     log(LogLevel::Info, kind_, " ", id, " handed over to the replica that asked for it");
     return true;
   }
@@ -278,7 +278,9 @@ class SessionStore {
   }
 
   std::string released(const std::string& id) const {
-    return kind_ + " " + id + " moved to the state directory as squalld shuts down; retry: another replica resumes it";
+    return kind_ + " " + id +
+           " moved to the state directory (squalld is shutting down, or another replica asked for it); retry: "
+           "another replica resumes it";
   }
 
   const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
