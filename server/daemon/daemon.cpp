@@ -34,11 +34,13 @@
 namespace squall::rpc {
 namespace {
 
-sigset_t shutdown_signals() {
+// SIGTERM and SIGINT drain and stop squalld; SIGHUP re-reads the --auth-tokens file.
+sigset_t handled_signals() {
   sigset_t set;
   sigemptyset(&set);
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGHUP);
   return set;
 }
 
@@ -202,6 +204,25 @@ struct MetricsEndpoint {
   prometheus::Exposer exposer;
 };
 
+// Waits for SIGTERM or SIGINT (returned); on each SIGHUP re-reads --auth-tokens, keeping the tokens in
+// force when the file cannot be read or holds none. TLS files need no signal: they are watched.
+int wait_for_shutdown(const sigset_t& signals, ServingState& serving, const DaemonOptions& options) {
+  for (;;) {
+    int signal_number = 0;
+    sigwait(&signals, &signal_number);
+    if (signal_number != SIGHUP) return signal_number;
+    if (options.auth_tokens.empty()) {
+      log(LogLevel::Info, "received SIGHUP; nothing to reload (no --auth-tokens)");
+      continue;
+    }
+    try {
+      serving.set_tokens(read_tokens(options.auth_tokens));
+    } catch (const std::exception& e) {
+      log(LogLevel::Error, "SIGHUP: ", e.what(), "; the tokens in force stay");
+    }
+  }
+}
+
 void write_port_file(const std::string& path, int port) {
   if (path.empty()) return;
   std::string tmp = path + ".tmp";
@@ -227,8 +248,8 @@ uint64_t cgroup_memory_limit() {
 
 int run_daemon(const DaemonOptions& options) {
   set_log_level(options.log_level);
-  // Block the shutdown signals in every thread (gRPC's included, created later); main waits for them.
-  sigset_t signals = shutdown_signals();
+  // Block the handled signals in every thread (gRPC's included, created later); main waits for them.
+  sigset_t signals = handled_signals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   const std::string replica = replica_id(options);
@@ -298,8 +319,7 @@ int run_daemon(const DaemonOptions& options) {
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));
 
-  int signal_number = 0;
-  sigwait(&signals, &signal_number);
+  int signal_number = wait_for_shutdown(signals, daemon->serving, options);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
   drain(*daemon, *server, checkpoints, options);
   if (options.runtime.profile_kernels)

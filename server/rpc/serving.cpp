@@ -32,14 +32,19 @@ bool same_in_constant_time(std::string_view a, std::string_view b) {
 }  // namespace
 
 void ServingState::require_token(const grpc::ServerContext& context) const {
-  if (tokens_.empty()) return;
+  std::shared_ptr<const std::vector<std::string>> tokens;
+  {
+    std::lock_guard<std::mutex> lock(tokens_mutex_);
+    tokens = tokens_;
+  }
+  if (tokens->empty()) return;
   constexpr std::string_view kBearer = "Bearer ";
   bool accepted = false;
   for (const auto& [key, ref] : context.client_metadata()) {
     std::string_view value(ref.data(), ref.size());
     if (key != "authorization" || value.substr(0, kBearer.size()) != kBearer) continue;
     std::string_view token = value.substr(kBearer.size());
-    for (const auto& t : tokens_) accepted |= same_in_constant_time(token, t);  // every token, always
+    for (const auto& t : *tokens) accepted |= same_in_constant_time(token, t);  // every token, always
   }
   if (!accepted) fail(Code::Unauthenticated, "a valid bearer token is required (authorization: Bearer ...)");
 }

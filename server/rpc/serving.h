@@ -6,6 +6,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -35,8 +37,13 @@ class ServingState {
   void set_replica_id(std::string id) { replica_id_ = std::move(id); }
   const std::string& replica_id() const { return replica_id_; }
 
-  // --auth-tokens: the accepted bearer tokens (none: every caller is let in).
-  void set_tokens(std::vector<std::string> tokens) { tokens_ = std::move(tokens); }
+  // --auth-tokens: the accepted bearer tokens (none: every caller is let in); replaced as a whole when
+  // squalld re-reads the file (SIGHUP), while calls check theirs.
+  void set_tokens(std::vector<std::string> tokens) {
+    auto next = std::make_shared<const std::vector<std::string>>(std::move(tokens));
+    std::lock_guard<std::mutex> lock(tokens_mutex_);
+    tokens_ = std::move(next);
+  }
   // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" with
   // one of them, compared in constant time; the message says nothing about which part was wrong.
   void require_token(const grpc::ServerContext& context) const;
@@ -47,8 +54,9 @@ class ServingState {
 
  private:
   LimitGate gate_;
-  std::vector<std::string> tokens_;  // set before serving starts, read-only afterwards
-  std::string replica_id_;           // likewise
+  mutable std::mutex tokens_mutex_;  // guards the pointer; the vector it points to never changes
+  std::shared_ptr<const std::vector<std::string>> tokens_ = std::make_shared<const std::vector<std::string>>();
+  std::string replica_id_;  // set before serving starts, read-only afterwards
   std::atomic<Phase> phase_{Phase::Starting};
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };

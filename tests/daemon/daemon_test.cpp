@@ -276,6 +276,42 @@ TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
   EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
 }
 
+// SIGHUP re-reads --auth-tokens: a token taken out is refused from then on, a new one accepted; a file
+// that cannot be read leaves the tokens in force.
+TEST(Auth, SighupReloadsTheTokens) {
+  std::string dir = test::temp_dir("auth-reload");
+  std::ofstream(dir + "/tokens") << "old-token\n";
+  std::ofstream(dir + "/old") << "old-token\n";
+  std::ofstream(dir + "/new") << "new-token\n";
+  Daemon d({"--fft", "vkfft", "--auth-tokens", dir + "/tokens"});
+  auto info_with = [&](const std::string& token_file) {
+    std::string out;
+    return test::run({kSquall, "--address", d.address(), "--token-file", dir + "/" + token_file, "info"}, &out);
+  };
+  auto count = [&](const std::string& text) {  // occurrences of `text` in the daemon's log
+    std::string log = d.process().log();
+    size_t n = 0;
+    for (size_t at = log.find(text); at != std::string::npos; at = log.find(text, at + 1)) ++n;
+    return n;
+  };
+  auto reload = [&](const std::string& logged) {  // SIGHUP, then wait until the log says it once more
+    const size_t before = count(logged);
+    d.process().signal(SIGHUP);
+    for (int i = 0; i < 200 && count(logged) == before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_GT(count(logged), before) << d.process().log();
+  };
+  ASSERT_EQ(info_with("old"), 0);
+  ASSERT_EQ(info_with("new"), 4);
+  std::ofstream(dir + "/tokens") << "new-token\n";
+  reload("bearer tokens from");
+  EXPECT_EQ(info_with("new"), 0);
+  EXPECT_EQ(info_with("old"), 4) << "a token taken out of the file is refused after SIGHUP";
+  std::filesystem::remove(dir + "/tokens");
+  reload("the tokens in force stay");
+  EXPECT_EQ(info_with("new"), 0) << "an unreadable file keeps the tokens in force";
+  EXPECT_TRUE(d.running());
+}
+
 TEST(Cli, InfoAndHealthExitZero) {
   std::string out;
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &out), 0) << out;
