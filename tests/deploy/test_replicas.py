@@ -76,15 +76,28 @@ def start_proxy(kind: str, listen: str, upstreams: List[str], directory: Path) -
 
 
 class Cluster:
+    """Three replicas sharing a state directory behind the proxy `kind`; whatever started is stopped
+    (by PID) if the rest fails to start."""
+
     def __init__(self, kind: str, directory: Path) -> None:
         self.kind = kind
+        self.started: List[Process] = []
+        try:
+            self._start(directory)
+        except BaseException:
+            self.stop()
+            raise
+
+    def _start(self, directory: Path) -> None:
         state = directory / "state"
         self.replicas = [Replica(f"r{i}", state, directory) for i in range(3)]
+        self.started += self.replicas
         for r in self.replicas:
             wait_for(lambda: serving(r.address), 300, f"{r.name} SERVING")
         self.address = f"127.0.0.1:{free_port()}"
-        self.proxy = start_proxy(kind, self.address, [r.address for r in self.replicas], directory)
-        wait_for(lambda: serving(self.address), 60, f"{kind} forwarding to a SERVING replica")
+        proxy = start_proxy(self.kind, self.address, [r.address for r in self.replicas], directory)
+        self.started.append(proxy)
+        wait_for(lambda: serving(self.address), 60, f"{self.kind} forwarding to a SERVING replica")
         # Envoy: every replica has passed an active health check (1 s interval) before traffic counts.
         time.sleep(2)
         options = [("grpc.max_receive_message_length", -1)] + retry_options(5)
@@ -93,10 +106,10 @@ class Cluster:
         self.ewave = ewave_pb2_grpc.EWaveStub(self.channel)
 
     def stop(self) -> None:
-        self.channel.close()
-        self.proxy.stop()
-        for r in self.replicas:
-            r.stop()
+        if hasattr(self, "channel"):
+            self.channel.close()
+        for process in reversed(self.started):
+            process.stop()
 
 
 @pytest.fixture(params=["envoy", "nginx"])
