@@ -27,9 +27,10 @@ std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
   return stored;
 }
 
-std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field) {
+std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field,
+                                                 const Cancellation& cancel) {
   if (model.max_active_voxels > options_.max_active_voxels) model.max_active_voxels = options_.max_active_voxels;
-  return upload(build_cloud(model, field));
+  return upload(build_cloud(model, field, cancel));
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {
@@ -46,8 +47,9 @@ std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return 
 
 bool CloudEngine::release(const std::string& id) { return stored_.erase(id); }
 
-Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field) {
-  return renderer_.render(volume.device, settings, field);
+Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field,
+                          const Cancellation& cancel) {
+  return renderer_.render(volume.device, settings, field, cancel);
 }
 
 std::string CloudEngine::checkpoint(const std::string& id) { return stored_.checkpoint(id, kCheckpointVersion, save); }

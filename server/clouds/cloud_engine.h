@@ -36,14 +36,17 @@ class CloudEngine {
   CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options);
 
   // Builds the model (validated; its max_active_voxels is capped by the engine's) and uploads it.
-  std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model");
+  // Error(Cancelled) once `cancel` is requested (checked between stages and slices; also for render).
+  std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model",
+                                      const Cancellation& cancel = {});
   // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
   // Stores `volume` under a new id, or the client's `proposed` one (SessionStore::id_for).
   std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");
   // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id);
   bool release(const std::string& id);
-  Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings");
+  Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings",
+               const Cancellation& cancel = {});
 
   // A stored volume as versioned bytes, and back under its id.
   std::string checkpoint(const std::string& id);

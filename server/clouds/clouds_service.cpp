@@ -23,7 +23,7 @@ void CloudsService::start(EngineContext& context) {
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
-    auto volume = engine_->build(req::model(request->model()), "model");
+    auto volume = engine_->build(req::model(request->model()), "model", cancellation(*context));
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
@@ -44,21 +44,21 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
                                    v1::RenderResponse* response) {
   return serve(*context, serving_, [&] {
     CloudEngine& clouds = *engine_;
+    const Cancellation cancel = cancellation(*context);
     RenderSettings settings = req::settings(request->settings());
     clouds::validate(settings, "settings");
     serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
                                         req::image_bytes(settings));
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
-      volume = clouds.build(req::model(request->model()), "model");
+      volume = clouds.build(req::model(request->model()), "model", cancel);
     } else {
       if (request->volume_id().empty())
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
       volume = clouds.find(request->volume_id());
     }
     check_work(volume->device, settings);
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "Render cancelled");
-    req::fill_image(clouds.render(*volume, settings, "settings"), response->mutable_image());
+    req::fill_image(clouds.render(*volume, settings, "settings", cancel), response->mutable_image());
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });
@@ -85,11 +85,11 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     const auto& [base, evolution, settings] = s;
     for (double t : request->times()) {
       if (!call.live()) return;
-      auto volume = engine_->build(model_at(base, evolution, t), "model");
+      auto volume = engine_->build(model_at(base, evolution, t), "model", call.cancellation());
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);
-      req::fill_image(engine_->render(*volume, settings, "settings"), frame.mutable_image());
+      req::fill_image(engine_->render(*volume, settings, "settings", call.cancellation()), frame.mutable_image());
       req::fill_summary(*volume, frame.mutable_summary());
       if (request->include_vdb()) {
         std::string vdb = write_vdb(volume->volume);

@@ -12,6 +12,14 @@
 namespace squall::clouds {
 namespace {
 
+// The first slice of a render holds about this many density samples (its cost, an upper bound): a
+// tenth of a second on a 2-core CPU device; the slices after it are sized by the time it took.
+constexpr double kFirstSliceSamples = 2e7;
+
+size_t first_slice(double samples_per_item) {
+  return size_t(std::clamp(kFirstSliceSamples / std::max(samples_per_item, 1.0), 1.0, 1e9));
+}
+
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3d cross(const Vec3d& a, const Vec3d& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
@@ -186,19 +194,28 @@ CloudRenderer::CloudRenderer(Runtime& runtime)
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
       render_(runtime, "clouds/render.cl", "cloud_render") {}
 
-double estimated_samples(const DeviceVolume& volume, const RenderSettings& s) {
+SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s) {
   const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
   const double steps = std::ceil(diagonal / s.step) + 1, shadow_steps = std::ceil(diagonal / shadow_step(s)) + 1;
-  const double primary = double(s.camera.width) * s.camera.height * steps * s.substeps;
-  if (s.shadow == ShadowMode::Direct) return primary * (1 + lights * shadow_steps);
+  const double primary = steps * s.substeps;
+  SampleEstimate e;
+  e.per_pixel = primary;
+  if (s.shadow == ShadowMode::Direct) e.per_pixel = primary * (1 + lights * shadow_steps);
   if (s.shadow == ShadowMode::DeepShadowMap) {
-    const auto& n = s.shadow_map_size;
-    return primary * (1 + lights) + double(n[0]) * n[1] * n[2] * lights * shadow_steps;
+    e.per_pixel = primary * (1 + lights);
+    e.per_map_node = shadow_steps;
+    e.map_nodes = double(s.shadow_map_size[0]) * s.shadow_map_size[1] * s.shadow_map_size[2] * lights;
   }
-  return primary;
+  e.total = e.per_pixel * s.camera.width * s.camera.height + e.per_map_node * e.map_nodes;
+  return e;
 }
 
-Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field) {
+double estimated_samples(const DeviceVolume& volume, const RenderSettings& s) {
+  return estimate_samples(volume, s).total;
+}
+
+Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field,
+                            const Cancellation& cancel) {
   validate(settings, field);
   CloudRenderParams p = device_params(settings);
   p.has_temperature = volume.has_temperature ? 1 : 0;
@@ -214,24 +231,38 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   const size_t pixels = size_t(p.width) * p.height;
   image.data.resize(pixels * image.channels.size());
 
-  auto lock = runtime_.exclusive();
-  const auto& queue = runtime_.queue();
+  const SampleEstimate cost = estimate_samples(volume, settings);
   size_t dsm_floats = 1;
   if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0)
     dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
   auto dsm = runtime_.buffers().acquire(dsm_floats * sizeof(float));
+  auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
   BufferLease mask;
   if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
     std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
     mask = runtime_.buffers().acquire(needed.size());
-    queue.enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
-    shadow_map_.launch(cl::NDRange(round_up(dsm_floats, 64)), cl::NDRange(64), volume.density, p, mask.buffer(),
-                       dsm.buffer());
+    {
+      auto lock = runtime_.exclusive();
+      runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
+    }
+    run_sliced(runtime_, {round_up(dsm_floats, 64), 64, first_slice(cost.per_map_node)}, cancel,
+               field + ": the deep shadow map", [&](size_t first, size_t count) {
+                 shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
+                                           mask.buffer(), dsm.buffer());
+               });
   }
-  auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
-  render_.launch(cl::NDRange(round_up(p.width, 8), round_up(p.height, 8)), cl::NDRange(8, 8), volume.density,
-                 volume.temperature, dsm.buffer(), p, out.buffer());
-  queue.enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
+  // Slices of 8x8 tiles in row order (a slice is up to three rectangles: a row's end, whole rows, a row's
+  // start), so that even a costly pixel's tile can be a slice of its own.
+  const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
+  run_sliced(runtime_, {tiles.x * tiles.y, 1, first_slice(64 * cost.per_pixel)}, cancel, field + ": the render",
+             [&](size_t first, size_t count) {
+               for (const auto& r : tiles.rectangles(first, count))
+                 render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height),
+                                       cl::NDRange(8, 8), volume.density, volume.temperature, dsm.buffer(), p,
+                                       out.buffer());
+             });
+  auto lock = runtime_.exclusive();
+  runtime_.queue().enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
   return image;
 }
 

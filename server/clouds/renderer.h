@@ -8,8 +8,10 @@
 
 #include "clouds/render_params.h"
 #include "clouds/volume.h"
+#include "common/cancel.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
+#include "runtime/slices.h"
 
 SQUALL_KERNEL_STRUCT(CloudRenderParams)
 
@@ -85,6 +87,11 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
 // shadows every sample marches such a ray toward each light; a deep shadow map marches one per map node
 // and light. Early termination and empty-space skipping only make the real count smaller.
 double estimated_samples(const DeviceVolume& volume, const RenderSettings& s);
+// The same bound by part: per pixel (primary march and direct shadows), per deep shadow map node.
+struct SampleEstimate {
+  double per_pixel = 0, per_map_node = 0, map_nodes = 0, total = 0;
+};
+SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s);
 
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
@@ -93,7 +100,10 @@ class CloudRenderer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/".
   explicit CloudRenderer(Runtime& runtime);
-  Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render");
+  // Renders in slices of rows (the shadow map in slices of nodes), checking `cancel` between them: a
+  // cancelled render frees the device within a slice (Error(Cancelled)).
+  Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
+               const Cancellation& cancel = {});
 
  private:
   Runtime& runtime_;

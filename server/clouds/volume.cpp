@@ -9,6 +9,7 @@
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
 
+#include <atomic>
 #include <cmath>
 #include <mutex>
 #include <sstream>
@@ -43,13 +44,13 @@ void check_budget(const FloatGrid& density, const CloudModel& model, const std::
 
 }  // namespace
 
-FloatGrid::Ptr advect_density(const FloatGrid& density, const Advection& advection) {
+FloatGrid::Ptr advect_density(const FloatGrid& density, const Advection& advection, const Cancellation& cancel) {
   return advect_density(density, noise_velocity(advection), std::sqrt(3.0) * advection.speed, advection.time,
-                        advection.substeps, advection.scheme);
+                        advection.substeps, advection.scheme, cancel);
 }
 
 FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, double max_speed, double time,
-                              int substeps, AdvectionScheme scheme) {
+                              int substeps, AdvectionScheme scheme, const Cancellation& cancel) {
   const double dx = density.transform().voxelSize()[0];
   const double reach = 2 * max_speed * time;  // MM moves a point by at most twice the SL step
   FloatGrid::Ptr out = density.deepCopy();
@@ -58,7 +59,12 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
   openvdb::tools::dilateActiveValues(out->tree(), dilation, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                      openvdb::tools::EXPAND_TILES);
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+  std::atomic<bool> cancelled{false};
   leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+    if (cancelled || cancel.requested()) {  // a leaf (512 voxels) is the slice
+      cancelled = true;
+      return;
+    }
     auto in = density.getConstAccessor();
     openvdb::tools::GridSampler<FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(in, density.transform());
     for (auto it = leaf.beginValueOn(); it; ++it) {
@@ -67,6 +73,7 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
       it.setValue(sampler.wsSample(openvdb::Vec3d(X[0], X[1], X[2])));  // eq 116: rho(X(x))
     }
   });
+  cancel.check("advection");
   tidy_density(*out);
   return out;
 }
@@ -151,13 +158,15 @@ CloudVolume read_vdb(const std::string& bytes, const std::string& field) {
   return volume;
 }
 
-CloudVolume build_cloud(const CloudModel& model, const std::string& field) {
+CloudVolume build_cloud(const CloudModel& model, const std::string& field, const Cancellation& cancel) {
   initialize_openvdb();
   validate(model, field);
   const double dx = model.voxel_size;
   FloatGrid::Ptr density;
   if (auto ls = base_level_set(model, pyroclastic_bound(model.pyroclastic) + 3 * dx, model.skin + 3 * dx)) {
+    cancel.check(field + ": the base shapes");
     if (model.pyroclastic.layers > 0) ls = pyroclastic_displace(*ls, model.pyroclastic);
+    cancel.check(field + ": the pyroclastic displacement");
     density = density_from_level_set(*ls, model.skin);
   } else {
     density = FloatGrid::create(0.0f);
@@ -169,11 +178,12 @@ CloudVolume build_cloud(const CloudModel& model, const std::string& field) {
   stamp_particles(*density, model.particles, model.skin);
   check_budget(*density, model, field, "stamping");
   if (model.advection.speed > 0 && model.advection.time > 0) {
-    density = advect_density(*density, model.advection);
+    density = advect_density(*density, model.advection, cancel);
     check_budget(*density, model, field, "advection");
   }
   CloudVolume volume;
   volume.density = density;
+  cancel.check(field + ": the build");
   if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature);
   volume.stats = volume_stats(*density);
   return volume;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "clouds/model.h"
+#include "common/cancel.h"
 
 namespace squall::clouds {
 
@@ -35,8 +36,9 @@ struct CloudVolume {
 void initialize_openvdb();
 
 // Validates and builds the model (throws squall::Error naming the field; ResourceExhausted when the
-// active voxels exceed model.max_active_voxels).
-CloudVolume build_cloud(const CloudModel& model, const std::string& field = "model");
+// active voxels exceed model.max_active_voxels). `cancel` is checked between the stages and, while
+// advecting, between leaves: Error(Cancelled) then.
+CloudVolume build_cloud(const CloudModel& model, const std::string& field = "model", const Cancellation& cancel = {});
 
 // The base level set (l > 0 inside, the convention of sec. 6.2.2) of the union of the model's spheres,
 // ellipsoids and meshes, valid within at least `exterior` m outside and `interior` m inside the surface;
@@ -51,10 +53,12 @@ openvdb::FloatGrid::Ptr density_from_level_set(const openvdb::FloatGrid& level_s
 void stamp_particles(openvdb::FloatGrid& density, const std::vector<Particle>& particles, double skin);
 // Eqs 115-117 / App E: density(x) <- density(X(x)) with trilinear sampling, over the active set dilated by
 // the largest displacement.
-openvdb::FloatGrid::Ptr advect_density(const openvdb::FloatGrid& density, const Advection& advection);
+openvdb::FloatGrid::Ptr advect_density(const openvdb::FloatGrid& density, const Advection& advection,
+                                       const Cancellation& cancel = {});
 // The same with any steady velocity field whose speed is at most max_speed (m/s).
 openvdb::FloatGrid::Ptr advect_density(const openvdb::FloatGrid& density, const std::function<Vec3d(const Vec3d&)>& u,
-                                       double max_speed, double time, int substeps, AdvectionScheme scheme);
+                                       double max_speed, double time, int substeps, AdvectionScheme scheme,
+                                       const Cancellation& cancel = {});
 // §6.3 on the active voxels of density.
 openvdb::FloatGrid::Ptr temperature_field(const openvdb::FloatGrid& density, const Temperature& temperature);
 // Clouds of a library combined by maximum density (§6.2.5); the temperature follows the denser cloud.

@@ -10,6 +10,7 @@ const char* code_name(Code code) {
     case Code::FailedPrecondition: return "FAILED_PRECONDITION";
     case Code::Unavailable: return "UNAVAILABLE";
     case Code::Unauthenticated: return "UNAUTHENTICATED";
+    case Code::Cancelled: return "CANCELLED";
     case Code::Internal: return "INTERNAL";
   }
   return "UNKNOWN";

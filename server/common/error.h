@@ -15,6 +15,7 @@ enum class Code {
   FailedPrecondition,  // the request is valid but the daemon is not in a state to run it
   Unavailable,         // the daemon is starting up or draining
   Unauthenticated,     // no valid credentials (--auth-tokens)
+  Cancelled,           // the caller gave up (gone, deadline passed) or squalld shut down mid-work
   Internal,            // a bug or a device failure; never the client's fault
 };
 

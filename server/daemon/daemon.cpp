@@ -22,6 +22,7 @@
 #include "clouds/clouds_service.h"
 #include "common/log.h"
 #include "common/state_dir.h"
+#include "common/watchdog.h"
 #include "daemon/checkpoint_loop.h"
 #include "daemon/daemon_metrics.h"
 #include "daemon/daemon_state.h"
@@ -176,6 +177,9 @@ std::chrono::milliseconds milliseconds(double seconds) {
 // then the calls still in flight get the rest of the grace period.
 void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoints, const DaemonOptions& options) {
   const auto deadline = std::chrono::system_clock::now() + milliseconds(options.grace_seconds);
+  Watchdog watchdog(milliseconds(options.grace_seconds + kShutdownBound), kExitOverran,
+                    "a call still runs " + std::to_string(int(kShutdownBound)) +
+                        " s after the grace period ended: exiting without it");
   server.GetHealthCheckService()->SetServingStatus(false);
   daemon.serving.set_phase(ServingState::Phase::Draining);
   daemon.sessions.begin_drain();

@@ -9,6 +9,7 @@
 
 #include <string>
 
+#include "common/cancel.h"
 #include "rpc/metadata.h"
 #include "rpc/serving.h"
 #include "rpc/status.h"
@@ -38,6 +39,11 @@ class StreamCall {
   }
 
   grpc::ServerContext& context() { return context_; }
+
+  // For the engines' long work: requested once the call is no longer live.
+  Cancellation cancellation() const {
+    return Cancellation([this] { return !live(); });
+  }
 
   // OK; UNAVAILABLE when squalld drains; CANCELLED naming the method when the call did not end by itself.
   grpc::Status status() const {
@@ -69,7 +75,11 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
     auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
     StreamCall call(context, method, serving);
-    run(call, prepared);
+    try {
+      run(call, prepared);
+    } catch (const Error& e) {
+      if (e.code() != Code::Cancelled) throw;  // work stopped because the call ended: say why it ended
+    }
     return call.status();
   });
 }
@@ -79,6 +89,12 @@ template <typename Run>
 grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Run&& run) {
   return serve_stream(
       context, serving, method, [] { return 0; }, [&](StreamCall& call, int) { run(call); });
+}
+
+// A unary call's cancellation for the engines: requested once the client is gone, its deadline passed or
+// the server shuts down.
+inline Cancellation cancellation(const grpc::ServerContext& context) {
+  return Cancellation([&context] { return context.IsCancelled(); });
 }
 
 // A unary handler's body() -> grpc::Status under guarded(), after the serving and token checks.

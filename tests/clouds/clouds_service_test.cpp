@@ -7,7 +7,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 #include <thread>
+
+#include <unistd.h>
 
 #include "client/client.h"
 #include <openvdb/io/Stream.h>
@@ -15,6 +19,7 @@
 #include "clouds/volume.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "support/daemon.h"
+#include "support/long_work.h"
 
 namespace squall {
 namespace {
@@ -220,6 +225,74 @@ TEST(CloudsService, ARenderBeyondTheSampleBudgetIsRefusedAtOnce) {
   auto again = call();
   EXPECT_TRUE(again.stub->Render(again.context.get(), request, &response).ok());
   EXPECT_EQ(response.image().width(), 24u);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void expire_in(grpc::ClientContext& context, double seconds) {
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(int64_t(seconds * 1000)));
+}
+
+// squalld's CPU time (user + system), s, from /proc/PID/stat.
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(text.substr(text.rfind(')') + 2));  // after "pid (comm) "
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i)
+    if (i >= 14) ticks += std::stod(field);  // utime, stime
+  return ticks / double(sysconf(_SC_CLK_TCK));
+}
+
+// A render whose deadline passes mid-way ends DEADLINE_EXCEEDED and leaves the device within a slice: a
+// small render right after it is served at once (it used to wait for the whole heavy render, and a
+// cancelled render held the device 13-17 s).
+TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
+  auto c = call();
+  v1::BuildVolumeRequest build;
+  *build.mutable_model() = sphere_model();
+  build.set_keep(true);
+  v1::BuildVolumeResponse built;
+  ASSERT_TRUE(c.stub->BuildVolume(c.context.get(), build, &built).ok());
+  v1::RenderRequest request;
+  request.set_volume_id(built.summary().volume_id());
+  *request.mutable_settings() = test::long_render_settings();
+  auto heavy = call();
+  expire_in(*heavy.context, 1.5);
+  v1::RenderResponse response;
+  EXPECT_EQ(heavy.stub->Render(heavy.context.get(), request, &response).error_code(),
+            grpc::StatusCode::DEADLINE_EXCEEDED);
+  *request.mutable_settings() = small_render();
+  auto next = call();
+  expire_in(*next.context, 30);
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_TRUE(next.stub->Render(next.context.get(), request, &response).ok());
+  EXPECT_LT(seconds_since(start), 1.5) << "the expired render still held the device";
+}
+
+// A build with 256 advection substeps per voxel (about a minute of 2 cores) and a 1 s deadline: squalld
+// stops working on it within a second of the deadline (it used to go on for more than 90 s).
+TEST(CloudsService, AnExpiredBuildStopsUsingTheCores) {
+  v1::BuildVolumeRequest build;
+  *build.mutable_model() = sphere_model();
+  build.mutable_model()->set_voxel_size(0.25);
+  auto* advection = build.mutable_model()->mutable_advection();
+  advection->set_speed(1);
+  advection->set_time(1);
+  advection->set_substeps(256);
+  advection->set_scheme(v1::ADVECTION_SCHEME_MODIFIED_MACCORMACK);
+  auto c = call();
+  expire_in(*c.context, 1);
+  v1::BuildVolumeResponse built;
+  EXPECT_EQ(c.stub->BuildVolume(c.context.get(), build, &built).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const pid_t pid = daemon().process().pid();
+  const double before = cpu_seconds(pid);
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  EXPECT_LT(cpu_seconds(pid) - before, 0.5) << "squalld kept computing the expired build";
 }
 
 // `squall cloud build -o x.vdb` writes a file that OpenVDB's vdb_print lists; `squall cloud render` an EXR

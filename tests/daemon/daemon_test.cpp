@@ -11,8 +11,10 @@
 #include <grpcpp/generic/generic_stub.h>
 
 #include "client/client.h"
+#include "squall/v1/clouds.grpc.pb.h"
 #include "squall/v1/ocean.grpc.pb.h"
 #include "support/daemon.h"
+#include "support/long_work.h"
 
 namespace squall {
 namespace {
@@ -348,6 +350,30 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
   EXPECT_NE(log.find("draining"), std::string::npos) << log;
   EXPECT_NE(log.find("stopped"), std::string::npos) << log;
   EXPECT_THROW(c.info(), client::RpcError);
+}
+
+// SIGTERM while a render of minutes runs: the render is cancelled when the grace period ends and stops
+// within a slice, so squalld exits 0 by --grace-period + kShutdownBound (5 s) (it used to run until the
+// render ended, and only SIGKILL stopped it).
+TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
+  Daemon d({"--fft", "vkfft", "--grace-period", "2", "--drain-wait", "0"});
+  client::Client c({d.address(), 600, ""});
+  grpc::StatusCode render_code = grpc::StatusCode::OK;
+  std::thread render([&] {
+    v1::RenderRequest request;
+    *request.mutable_model() = test::long_work_sphere();
+    *request.mutable_settings() = test::long_render_settings();
+    v1::RenderResponse response;
+    auto context = c.context();
+    render_code = v1::Clouds::NewStub(c.channel())->Render(context.get(), request, &response).error_code();
+  });
+  std::this_thread::sleep_for(std::chrono::seconds(3));  // the model is built (about a second), the render runs
+  const auto start = std::chrono::steady_clock::now();
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(2 + 5 + 5), 0) << d.process().log();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2 + 5);
+  render.join();
+  EXPECT_NE(render_code, grpc::StatusCode::OK);
 }
 
 TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
