@@ -12,6 +12,10 @@ namespace v1 = squall::v1;
 using namespace squall::clouds;
 namespace req = squall::clouds::rpc;
 
+// Memory a render holds while it runs, an estimate taken against --memory-budget: the image on the
+// device, on the host and in the reply.
+uint64_t render_working_bytes(const RenderSettings& settings) { return 3 * req::image_bytes(settings); }
+
 }  // namespace
 
 void CloudsService::start(EngineContext& context) {
@@ -49,9 +53,11 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     clouds::validate(settings, "settings");
     serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
                                         req::image_bytes(settings));
+    Slot memory = serving_.gate().acquire_memory("Render's image", render_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
       volume = clouds.build(req::model(request->model()), "model", cancel);
+      model_memory = serving_.gate().acquire_memory("Render's model, built", volume->bytes);
     } else {
       if (request->volume_id().empty())
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
@@ -70,22 +76,26 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     CloudModel base;
     Evolution evolution;
     RenderSettings settings;
+    Slot memory;  // held for the whole stream
   };
   auto prepare = [&] {
-    Stream s{req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings())};
+    Stream s{
+        req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings()), {}};
     clouds::validate(s.evolution, "evolution");
     clouds::validate(s.settings, "settings");
     serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
     for (int i = 0; i < request->times_size(); ++i) validate::finite(validate::at("times", i), request->times(i));
+    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
     return s;
   };
   return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {
-    const auto& [base, evolution, settings] = s;
+    const auto& [base, evolution, settings, memory] = s;
     for (double t : request->times()) {
       if (!call.live()) return;
       auto volume = engine_->build(model_at(base, evolution, t), "model", call.cancellation());
+      Slot volume_memory = serving_.gate().acquire_memory("StreamEvolution's volume, built", volume->bytes);
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);

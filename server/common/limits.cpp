@@ -81,4 +81,10 @@ Slot LimitGate::acquire_session_bytes(const std::string& what, uint64_t bytes) {
               "bytes already held");
 }
 
+Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
+  return take(memory_bytes_, bytes, limits_.memory_budget,
+              what + " (" + std::to_string(bytes) + " bytes) would pass the memory budget", "--memory-budget",
+              "bytes already in use");
+}
+
 }  // namespace squall

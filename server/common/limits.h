@@ -17,6 +17,9 @@ struct Limits {
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
                                                 // (squalld's default: half the device's global memory)
   double max_render_samples = 4e11;             // --max-render-samples: estimated density samples of one cloud render
+  uint64_t memory_budget = 8ull << 30;          // --memory-budget: bytes of sessions, stored volumes and calls'
+                                                // working memory together (squalld's default: 3/4 of the
+                                                // cgroup memory limit, else of the physical memory)
 };
 
 class LimitGate;
@@ -63,9 +66,15 @@ class LimitGate {
   // `bytes` more held by sessions; RESOURCE_EXHAUSTED naming `what` past max_session_bytes.
   Slot acquire_session_bytes(const std::string& what, uint64_t bytes);
 
+  // `bytes` more of the one memory budget (a session's or stored volume's bytes, a call's working memory
+  // while it runs); RESOURCE_EXHAUSTED naming `what` and --memory-budget past memory_budget. Taken before
+  // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer.
+  Slot acquire_memory(const std::string& what, uint64_t bytes);
+
   uint32_t open_streams() const { return uint32_t(streams_.load()); }
   uint32_t live_sessions() const { return uint32_t(sessions_.load()); }
   uint64_t session_bytes() const { return session_bytes_.load(); }
+  uint64_t memory_bytes() const { return memory_bytes_.load(); }
 
  private:
   static Slot take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,
@@ -75,6 +84,7 @@ class LimitGate {
   std::atomic<uint64_t> streams_{0};
   std::atomic<uint64_t> sessions_{0};
   std::atomic<uint64_t> session_bytes_{0};
+  std::atomic<uint64_t> memory_bytes_{0};
 };
 
 }  // namespace squall

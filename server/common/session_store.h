@@ -79,10 +79,10 @@ class SessionStore {
   }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
-  // RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes. Idle entries are evicted first, so they
-  // never block a new one.
+  // RESOURCE_EXHAUSTED past --max-sessions, --max-session-bytes or --memory-budget. Idle entries are
+  // evicted first, so they never block a new one.
   struct Reservation {
-    Slot session, memory;
+    Slot session, memory, budget;
     uint64_t bytes = 0;
   };
   Reservation reserve(uint64_t bytes) {
@@ -90,6 +90,7 @@ class SessionStore {
     Reservation r;
     r.session = gate_.acquire_session();
     r.memory = gate_.acquire_session_bytes("keeping this " + kind_, bytes);
+    r.budget = gate_.acquire_memory("keeping this " + kind_, bytes);
     r.bytes = bytes;
     return r;
   }

@@ -1,5 +1,7 @@
 #include "daemon/daemon.h"
 
+#include <unistd.h>
+
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -250,6 +252,11 @@ uint64_t cgroup_memory_limit() {
   return 0;
 }
 
+uint64_t usable_memory() {
+  if (const uint64_t cgroup = cgroup_memory_limit()) return cgroup;
+  return uint64_t(sysconf(_SC_PHYS_PAGES)) * uint64_t(sysconf(_SC_PAGE_SIZE));
+}
+
 int run_daemon(const DaemonOptions& options) {
   set_log_level(options.log_level);
   // Block the handled signals in every thread (gRPC's included, created later); main waits for them.
@@ -276,7 +283,7 @@ int run_daemon(const DaemonOptions& options) {
   const Limits& limits = daemon->serving.gate().limits();
   log(LogLevel::Info, "limits: ", limits.max_sessions, " sessions holding at most ", limits.max_session_bytes,
       " bytes (--max-sessions, --max-session-bytes), ", limits.max_streams, " streams, ", limits.max_grid_cells,
-      " cells per field");
+      " cells per field, ", limits.memory_budget, " bytes of memory in all (--memory-budget)");
   ServerService server_service(*daemon);
   const auto served = capabilities(daemon->serving);
   grpc::EnableDefaultHealthCheckService(true);

@@ -20,14 +20,19 @@ namespace squall::rpc {
 // limited to less, so the session budget must look here too.
 uint64_t cgroup_memory_limit();
 
+// The memory squalld may use: its control group's limit, else the physical memory.
+uint64_t usable_memory();
+
 // --max-session-bytes 0 (the default) is half the selected device's global memory, and on a CPU device
-// at most half the control group's memory limit.
-inline Limits with_session_budget(Limits limits, const Runtime& runtime) {
-  if (limits.max_session_bytes != 0) return limits;
-  limits.max_session_bytes = runtime.device_info().global_memory_bytes / 2;
+// at most half the control group's memory limit; --memory-budget 0 (the default) is 3/4 of usable_memory().
+inline Limits with_memory_budgets(Limits limits, const Runtime& runtime) {
   const uint64_t cgroup = cgroup_memory_limit();
-  if (runtime.device_info().type == "cpu" && cgroup != 0)
-    limits.max_session_bytes = std::min<uint64_t>(limits.max_session_bytes, cgroup / 2);
+  if (limits.max_session_bytes == 0) {
+    limits.max_session_bytes = runtime.device_info().global_memory_bytes / 2;
+    if (runtime.device_info().type == "cpu" && cgroup != 0)
+      limits.max_session_bytes = std::min<uint64_t>(limits.max_session_bytes, cgroup / 2);
+  }
+  if (limits.memory_budget == 0) limits.memory_budget = usable_memory() / 4 * 3;
   return limits;
 }
 
@@ -35,7 +40,7 @@ struct DaemonState {
   DaemonState(const RuntimeOptions& runtime_options, const Limits& limits, std::unique_ptr<StateDir> state_dir,
               const std::string& replica)
       : runtime(runtime_options),
-        serving(with_session_budget(limits, runtime)),
+        serving(with_memory_budgets(limits, runtime)),
         sessions(std::move(state_dir), replica) {}
 
   Runtime runtime;

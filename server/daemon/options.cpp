@@ -61,6 +61,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
+      {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = double(positive_integer(v)); }},
@@ -231,6 +232,8 @@ std::string usage() {
          ")\n"
          "  --max-session-bytes N     host + device bytes of all stateful sessions (default: half the device's\n"
          "                            global memory)\n"
+         "  --memory-budget N         bytes of sessions, stored volumes and running calls' working memory\n"
+         "                            together (default: 3/4 of the cgroup memory limit, else of the RAM)\n"
          "  --max-render-samples N    estimated density samples of one cloud render, an upper bound computed\n"
          "                            before it runs (default 4e11)\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "

@@ -13,10 +13,12 @@
 
 namespace squall::rpc {
 
-// squalld's default limits: Limits' own, but --max-session-bytes 0 (half the device's global memory).
+// squalld's default limits: Limits' own, but --max-session-bytes 0 (half the device's global memory) and
+// --memory-budget 0 (3/4 of the memory squalld may use): chosen at start-up.
 inline Limits daemon_limits() {
   Limits limits;
   limits.max_session_bytes = 0;
+  limits.memory_budget = 0;
   return limits;
 }
 

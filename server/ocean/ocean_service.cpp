@@ -28,6 +28,13 @@ struct TileJob {
 
   uint64_t row_bytes() const { return uint64_t(nx) * squall::field::bytes_per_value(dtype); }
   uint64_t frame_bytes() const { return outputs.size() * (row_bytes() * ny + 128) + 256; }
+  // Memory a call holds while it runs, an estimate taken against --memory-budget: per frame the engine's
+  // float fields, their device buffers (complex spectra) and the reply, twice that for a stream (it
+  // computes the next frame while writing one).
+  uint64_t working_bytes(int frames) const {
+    const uint64_t floats = outputs.size() * uint64_t(nx) * uint64_t(ny) * 4;
+    return uint64_t(frames) * (3 * floats + frame_bytes());
+  }
 };
 
 TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField<int>& outputs, v1::DType d,
@@ -63,6 +70,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     double t = validate::finite("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
+    Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
     ocean::TileFields fields = engine_->tile(job.spec, t, job.flags);
     frame_reply(job, fields, t, response);
@@ -76,16 +84,18 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     TileJob job;
     double t0, dt;
     ChunkPlan plan;
+    Slot memory;  // held for the whole stream
   };
   auto prepare = [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     const double t0 = validate::finite("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
-    return Stream{std::move(job), t0, dt, std::move(plan)};
+    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2));
+    return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
   };
   return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, const Stream& stream) {
-    const auto& [job, t0, dt, plan] = stream;
+    const auto& [job, t0, dt, plan, memory] = stream;
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) { return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps); };

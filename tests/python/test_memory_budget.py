@@ -1,0 +1,70 @@
+"""The one memory budget (--memory-budget): a flood of eWave sessions, and one of ocean streams whose
+clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before squalld's resident
+memory passes it (measured above its level when idle); what the flood held is given back when it ends,
+and squalld then serves as before."""
+
+from __future__ import annotations
+
+import contextlib
+from typing import Iterator, List
+
+import grpc
+import pytest
+
+import squall
+from conftest import Daemon, _start
+from test_load import resident_bytes
+
+BUDGET = 1 << 30
+ALL_OUTPUTS = [n for n in squall.ocean.ocean_pb2.TileOutput.keys() if n != "TILE_OUTPUT_UNSPECIFIED"]
+
+
+@pytest.fixture(scope="module")
+def budget_daemon() -> Iterator[Daemon]:
+    """Only the memory budget limits this squalld: its session, stream and session-byte caps are high."""
+    flags = ["--memory-budget", str(BUDGET), "--max-sessions", "1000", "--max-streams", "1000"]
+    yield from _start(flags + ["--max-session-bytes", str(64 << 30)], "budget")
+
+
+def refused_by_the_budget(error: squall.SquallError) -> bool:
+    return error.code == grpc.StatusCode.RESOURCE_EXHAUSTED and "--memory-budget" in error.message
+
+
+def test_a_session_flood_is_refused_within_the_budget(budget_daemon: Daemon) -> None:
+    idle = resident_bytes(budget_daemon.pid)
+    with squall.Client(budget_daemon.address, timeout=120) as client:
+        sessions: List[squall.ewave.EWaveSession] = []
+        with pytest.raises(squall.SquallError) as refused:
+            for _ in range(100):
+                sessions.append(client.ewave.session(nx=1024, ny=1024, dx=0.05))
+                assert resident_bytes(budget_daemon.pid) - idle < BUDGET
+        assert refused_by_the_budget(refused.value), refused.value
+        assert 2 <= len(sessions) < 100
+        grown = resident_bytes(budget_daemon.pid) - idle
+        print(f"{len(sessions)} sessions of 1024^2, then refused; RSS +{grown >> 20} MiB")
+        for session in sessions:
+            session.close()
+        again = client.ewave.session(nx=1024, ny=1024, dx=0.05)  # the bytes came back
+        again.close()
+
+
+def test_a_flood_of_unread_streams_is_refused_within_the_budget(budget_daemon: Daemon) -> None:
+    idle = resident_bytes(budget_daemon.pid)
+    spec = squall.ocean.tile_spec(
+        [squall.ocean.layer(extent=500, n=1024, wind_speed=12, fetch=50000)], output=(1024, 1024)
+    )
+    with squall.Client(budget_daemon.address, timeout=120) as client, contextlib.ExitStack() as held:
+        streams = []
+        with pytest.raises(squall.SquallError) as refused:
+            for _ in range(100):
+                stream = held.enter_context(client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS))
+                next(stream)  # its first frame arrives; the client never reads another
+                streams.append(stream)
+                assert resident_bytes(budget_daemon.pid) - idle < BUDGET
+        assert refused_by_the_budget(refused.value), refused.value
+        assert 2 <= len(streams) < 100
+        grown = resident_bytes(budget_daemon.pid) - idle
+        print(f"{len(streams)} unread streams of 12 fields at 1024^2, then refused; RSS +{grown >> 20} MiB")
+    with squall.Client(budget_daemon.address, timeout=120) as client:
+        tile = client.ocean.tile(spec, time=1.0, outputs=ALL_OUTPUTS)  # the streams' memory came back
+        assert len(tile) == len(ALL_OUTPUTS)
