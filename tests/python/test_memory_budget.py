@@ -16,7 +16,9 @@ from conftest import Daemon, _start
 from test_load import resident_bytes
 
 BUDGET = 1 << 30
-ALL_OUTPUTS = [n for n in squall.ocean.ocean_pb2.TileOutput.keys() if n != "TILE_OUTPUT_UNSPECIFIED"]
+ALL_OUTPUTS = [
+    n for n in squall.ocean.ocean_pb2.TileOutput.keys() if n != "TILE_OUTPUT_UNSPECIFIED"
+]
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +55,9 @@ def test_a_flood_of_unread_streams_is_refused_within_the_budget(budget_daemon: D
     spec = squall.ocean.tile_spec(
         [squall.ocean.layer(extent=500, n=1024, wind_speed=12, fetch=50000)], output=(1024, 1024)
     )
-    with squall.Client(budget_daemon.address, timeout=120) as client, contextlib.ExitStack() as held:
+    with squall.Client(
+        budget_daemon.address, timeout=120
+    ) as client, contextlib.ExitStack() as held:
         streams = []
         with pytest.raises(squall.SquallError) as refused:
             for _ in range(100):
@@ -64,7 +68,11 @@ def test_a_flood_of_unread_streams_is_refused_within_the_budget(budget_daemon: D
         assert refused_by_the_budget(refused.value), refused.value
         assert 2 <= len(streams) < 100
         grown = resident_bytes(budget_daemon.pid) - idle
-        print(f"{len(streams)} unread streams of 12 fields at 1024^2, then refused; RSS +{grown >> 20} MiB")
+        print(
+            f"{len(streams)} unread streams of 12 fields at 1024^2, then refused; RSS +{grown >> 20} MiB"
+        )
     with squall.Client(budget_daemon.address, timeout=120) as client:
-        tile = client.ocean.tile(spec, time=1.0, outputs=ALL_OUTPUTS)  # the streams' memory came back
+        tile = client.ocean.tile(
+            spec, time=1.0, outputs=ALL_OUTPUTS
+        )  # the streams' memory came back
         assert len(tile) == len(ALL_OUTPUTS)
