@@ -95,7 +95,9 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
   };
   return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, const Stream& stream) {
-    const auto& [job, t0, dt, plan, memory] = stream;
+    const TileJob& job = stream.job;  // not a structured binding: lambdas below capture these
+    const double t0 = stream.t0, dt = stream.dt;
+    const ChunkPlan& plan = stream.plan;
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) { return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps); };

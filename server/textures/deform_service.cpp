@@ -18,14 +18,17 @@ struct DeformStream {
   DeformSpec spec;
   DeformPlanes planes;
   v1::DType dtype = v1::DTYPE_FLOAT32;
+  Slot memory;  // the stream's working memory, against --memory-budget
 };
 
-// The planes of `request` and their bytes within --max-message-bytes.
-void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, const LimitGate& gate,
-                   const std::string& path) {
+// The planes of `request`, their bytes within --max-message-bytes, and the stream's working memory
+// (an estimate: a frame's planes on the device, on the host, in the message and serialized) reserved.
+void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, LimitGate& gate, const std::string& path) {
   s.planes = req::deform_planes(request, path);
   s.dtype = field::dtype(request.dtype(), path + ".dtype");
-  gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", req::frame_bytes(s.spec, s.planes, s.dtype));
+  const uint64_t frame_bytes = req::frame_bytes(s.spec, s.planes, s.dtype);
+  gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", frame_bytes);
+  s.memory = gate.acquire_memory("the deformation's frames", 4 * frame_bytes);
 }
 
 v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {

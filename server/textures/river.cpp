@@ -66,7 +66,13 @@ RiverEngine::RiverEngine(Runtime& runtime, const LimitGate& gate)
       points_(runtime, "textures/river.cl", "river_points"),
       bake_(runtime, "textures/river.cl", "river_bake") {}
 
-void RiverEngine::validate(const RiverSpec& river, const std::string& path) const {
+void RiverEngine::validate(const RiverSpec& river, const std::string& path) const { validate_river(river, path); }
+
+void RiverEngine::validate(const BakeGrid& grid, const std::string& path, const std::string& prefix) const {
+  validate_bake_grid(grid, gate_, path, prefix);
+}
+
+void validate_river(const RiverSpec& river, const std::string& path) {
   in(path + ".channels size", int64_t(river.channels.size()), 1, kMaxChannels);
   in(path + ".junctions size", int64_t(river.junctions.size()), 0, kMaxJunctions);
   in(path + ".obstacles size", int64_t(river.obstacles.size()), 0, kMaxObstacles);
@@ -93,11 +99,12 @@ void RiverEngine::validate(const RiverSpec& river, const std::string& path) cons
   if (river.search_radius) positive(path + ".search_radius", *river.search_radius);
 }
 
-void RiverEngine::validate(const BakeGrid& grid, const std::string& path, const std::string& prefix) const {
+void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
+                        const std::string& prefix) {
   const std::string p = path + "." + prefix;
   in(p + "nx", int64_t(grid.nx), 2, 4096);
   in(p + "ny", int64_t(grid.ny), 2, 4096);
-  gate_.check_grid(path, grid.nx, grid.ny);
+  gate.check_grid(path, grid.nx, grid.ny);
   finite(p + "region.x0", grid.x0);
   finite(p + "region.y0", grid.y0);
   in(p + "region.x1", grid.x1, above(grid.x0));

@@ -38,6 +38,11 @@ struct RiverBake {
   std::vector<double> obstacle_psi;
 };
 
+// RiverEngine::validate without an engine.
+void validate_river(const RiverSpec& river, const std::string& path);
+void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
+                        const std::string& prefix = "");
+
 class RiverEngine {
  public:
   RiverEngine(Runtime& runtime, const LimitGate& gate);

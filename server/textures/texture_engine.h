@@ -17,6 +17,9 @@ namespace squall::textures {
 // Largest particle count a Lagrangian request may need (about region area / d^2).
 constexpr double kMaxParticles = 200000;
 
+// TextureEngine::validate without an engine: the same checks against `gate`.
+void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path);
+
 class TextureEngine {
  public:
   TextureEngine(Runtime& runtime, const LimitGate& gate);

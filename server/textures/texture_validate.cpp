@@ -153,15 +153,19 @@ void cascade(const VorticityCascade& c, const TextureSpec& t, const std::string&
 }  // namespace
 
 void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) const {
+  validate_advect(spec, gate_, path);
+}
+
+void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path) {
   known(path + ".method", int(spec.method), kMethods, "method");
   const std::string velocity = path + ".velocity";
   known(velocity + ".kind", spec.velocity.kind, SQUALL_VELOCITY_KINDS, "velocity kind");
   if (spec.velocity.kind == SQUALL_VELOCITY_GRID)
-    velocity_grid(spec.velocity, gate_, velocity + ".grid");
+    velocity_grid(spec.velocity, gate, velocity + ".grid");
   else
     analytic(spec.velocity, velocity);
-  texture(spec.texture, gate_, path + ".texture");
-  output(spec.output, gate_, path + ".output");
+  texture(spec.texture, gate, path + ".texture");
+  output(spec.output, gate, path + ".output");
   finite(path + ".t0", spec.t0);
   positive(path + ".dt", spec.dt, 1e4);
   in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
@@ -169,7 +173,7 @@ void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) co
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else
-    eulerian(spec.eulerian, spec.method, gate_, path + ".eulerian");
+    eulerian(spec.eulerian, spec.method, gate, path + ".eulerian");
   if (spec.method == Method::EulerianMultilayer)
     cascade(spec.eulerian.cascade, spec.texture, path + ".eulerian.cascade");
 }

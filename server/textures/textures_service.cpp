@@ -41,7 +41,16 @@ struct TexturesService::Stream {
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
+  Slot memory;  // the stream's working memory, against --memory-budget
 };
+
+namespace {
+
+// Memory an advection stream holds, an estimate: a frame's planes on the device, on the host, in the
+// message and serialized.
+uint64_t advection_working_bytes(uint64_t frame_bytes) { return 4 * frame_bytes; }
+
+}  // namespace
 
 void TexturesService::start(EngineContext& context) {
   engine_ = std::make_unique<TextureEngine>(context.runtime, context.gate);
@@ -101,6 +110,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
+    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames", advection_working_bytes(s.frame_bytes));
     return s;
   };
   return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {
@@ -147,6 +157,7 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
+    s.memory = serving_.gate().acquire_memory("AdvectInteractive's frames", advection_working_bytes(s.frame_bytes));
     advection = engine_->start(s.spec);
   } else if (changed || s.current.any()) {
     engine_->steer(*advection, s.spec);

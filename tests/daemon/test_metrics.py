@@ -107,6 +107,8 @@ def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
     assert value(text, "squall_sessions_active") == 0
     assert value(text, "squall_streams_limit") == 16
     assert value(text, "process_resident_memory_bytes") > 10e6
+    assert value(text, "squall_memory_bytes") == 0  # nothing held between calls
+    assert value(text, "squall_memory_budget_bytes") > 100e6  # 3/4 of the machine's memory
 
 
 def test_promtool_accepts_the_exposition(daemon: Squalld) -> None:
