@@ -45,7 +45,7 @@ std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, const
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return stored_.get(id); }
 
-bool CloudEngine::release(const std::string& id) { return stored_.erase(id); }
+void CloudEngine::release(const std::string& id) { stored_.close(id); }
 
 Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field,
                           const Cancellation& cancel) {

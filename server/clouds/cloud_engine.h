@@ -44,7 +44,8 @@ class CloudEngine {
   std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");
   // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id);
-  bool release(const std::string& id);
+  // Drops a stored volume; NOT_FOUND naming volume_id (the id escaped and cut) when there is none.
+  void release(const std::string& id);
   Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings",
                const Cancellation& cancel = {});
 

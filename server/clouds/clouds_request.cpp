@@ -130,7 +130,9 @@ RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
     out.albedo.assign(s.albedo().begin(), s.albedo().end());
   else
     out.albedo.assign(out.wavelengths.size(), 0.9);
-  for (const auto& l : s.lights()) {
+  for (int i = 0; i < s.lights_size(); ++i) {
+    const auto& l = s.lights(i);
+    validate::known(validate::at(f + ".lights", i) + ".kind", l.kind(), v1::LightKind_ARRAYSIZE, "LightKind");
     Light light;
     light.kind = l.kind() == v1::LIGHT_KIND_POINT ? LightKind::Point : LightKind::Directional;
     light.position = vec(l.position());

@@ -39,8 +39,12 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
   });
 }
 
+// The refusal names the finer of the two steps that drive the cost: the primary march's or the shadows'.
 void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds::RenderSettings& settings) const {
-  serving_.gate().check_render_samples("settings.step", validate::number(settings.step),
+  const bool shadows = settings.shadow != ShadowMode::None && !settings.lights.empty();
+  const bool by_shadow_step = shadows && settings.shadow_step > 0 && settings.shadow_step < settings.step;
+  serving_.gate().check_render_samples(by_shadow_step ? "settings.shadow_step" : "settings.step",
+                                       validate::number(by_shadow_step ? settings.shadow_step : settings.step),
                                        clouds::estimated_samples(volume, settings));
 }
 
@@ -114,8 +118,7 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
 grpc::Status CloudsService::ReleaseVolume(grpc::ServerContext* context, const v1::ReleaseVolumeRequest* request,
                                           v1::ReleaseVolumeResponse*) {
   return serve(*context, serving_, [&] {
-    if (!engine_->release(request->volume_id()))
-      fail(Code::NotFound, "volume_id = \"" + request->volume_id() + "\" is not a stored volume");
+    engine_->release(request->volume_id());
     return grpc::Status::OK;
   });
 }

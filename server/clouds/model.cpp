@@ -94,10 +94,12 @@ void validate(const CloudModel& m, const std::string& prefix) {
   double grow = pyroclastic_bound(p) + band + std::sqrt(3.0) * a.speed * a.time;
   // Estimated active voxels: shape volumes grown by the displacement band (interior tiles included).
   double volume = 0;
+  // A sphere or ellipsoid finer than half a voxel is not resolved (and OpenVDB refuses to build it).
+  const validate::Interval radius = validate::at_least(0.5 * m.voxel_size);
   for (size_t i = 0; i < m.spheres.size(); ++i) {
     std::string s = validate::at(f + ".spheres", i);
     validate::finite_xyz(s + ".center", m.spheres[i].center);
-    positive(s + ".radius", m.spheres[i].radius);
+    validate::in(s + ".radius", m.spheres[i].radius, radius);
     check_reach(s + ".center", m.spheres[i].center, m.spheres[i].radius + grow, m.voxel_size);
     volume += 4.18879 * std::pow(m.spheres[i].radius + grow, 3);
   }
@@ -105,9 +107,9 @@ void validate(const CloudModel& m, const std::string& prefix) {
     std::string s = validate::at(f + ".ellipsoids", i);
     validate::finite_xyz(s + ".center", m.ellipsoids[i].center);
     const auto& r = m.ellipsoids[i].radii;
-    positive(s + ".radii.x", r[0]);
-    positive(s + ".radii.y", r[1]);
-    positive(s + ".radii.z", r[2]);
+    validate::in(s + ".radii.x", r[0], radius);
+    validate::in(s + ".radii.y", r[1], radius);
+    validate::in(s + ".radii.z", r[2], radius);
     check_reach(s + ".center", m.ellipsoids[i].center, std::max({r[0], r[1], r[2]}) + grow, m.voxel_size);
     volume += 4.18879 * (r[0] + grow) * (r[1] + grow) * (r[2] + grow);
   }

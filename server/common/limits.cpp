@@ -1,5 +1,7 @@
 #include "common/limits.h"
 
+#include <functional>
+
 #include "common/error.h"
 #include "common/validate.h"
 
@@ -69,6 +71,13 @@ Slot LimitGate::take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t l
 
 Slot LimitGate::acquire_stream() {
   return take(streams_, 1, limits_.max_streams, "streams", "--max-streams", "already open");
+}
+
+Slot LimitGate::acquire_client_stream(const std::string& client) {
+  if (limits_.max_streams_per_client == 0) return Slot();
+  auto& bucket = client_streams_[std::hash<std::string>{}(client) % kClientBuckets];
+  return take(bucket, 1, limits_.max_streams_per_client, "streams of " + validate::printable(client),
+              "--max-streams-per-client", "already open");
 }
 
 Slot LimitGate::acquire_session() {

@@ -3,6 +3,7 @@
 //   "height.nx * height.ny = 67108864 cells exceeds --max-grid-cells = 16777216".
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -12,6 +13,8 @@ namespace squall {
 struct Limits {
   uint64_t max_grid_cells = 4096ull * 4096ull;  // --max-grid-cells: cells of one field
   uint32_t max_streams = 16;                    // --max-streams: concurrent streaming calls
+  uint32_t max_streams_per_client = 0;          // --max-streams-per-client: of those, one client's (0: no
+                                                // limit of its own)
   uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
@@ -61,7 +64,12 @@ class LimitGate {
   // max_render_samples.
   void check_render_samples(const std::string& field, const std::string& value, double samples) const;
 
-  Slot acquire_stream();   // RESOURCE_EXHAUSTED when max_streams are open
+  Slot acquire_stream();  // RESOURCE_EXHAUSTED when max_streams are open
+  // One of `client`'s streams (a peer address, a token's name); RESOURCE_EXHAUSTED when it has
+  // max_streams_per_client open. Clients are counted in kClientBuckets buckets by a hash of the name, so
+  // the memory is fixed; two clients sharing a bucket share its limit. An empty Slot when there is no
+  // such limit.
+  Slot acquire_client_stream(const std::string& client);
   Slot acquire_session();  // RESOURCE_EXHAUSTED when max_sessions are live
   // `bytes` more held by sessions; RESOURCE_EXHAUSTED naming `what` past max_session_bytes.
   Slot acquire_session_bytes(const std::string& what, uint64_t bytes);
@@ -85,6 +93,8 @@ class LimitGate {
   std::atomic<uint64_t> sessions_{0};
   std::atomic<uint64_t> session_bytes_{0};
   std::atomic<uint64_t> memory_bytes_{0};
+  static constexpr size_t kClientBuckets = 4096;
+  std::array<std::atomic<uint64_t>, kClientBuckets> client_streams_{};
 };
 
 }  // namespace squall

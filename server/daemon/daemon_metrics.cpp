@@ -7,6 +7,12 @@
 namespace squall::rpc {
 namespace {
 
+prometheus::MetricFamily counter(const std::string& name, const std::string& help, double value) {
+  prometheus::ClientMetric metric;
+  metric.counter.value = value;
+  return {name, help, prometheus::MetricType::Counter, {metric}};
+}
+
 prometheus::MetricFamily gauge(const std::string& name, const std::string& help, double value,
                                std::vector<prometheus::ClientMetric::Label> labels = {}) {
   prometheus::ClientMetric metric;
@@ -28,6 +34,7 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
   const ServingState& serving = daemon_.serving;
   const LimitGate& gate = serving.gate();
   const DeviceInfo& device = daemon_.runtime.device_info();
+  const Runtime::DeviceWait wait = daemon_.runtime.device_wait();
   const bool ready = serving.phase() == ServingState::Phase::Serving;
   // The FFT backend is chosen during start-up: named once the daemon has served.
   const std::string fft = serving.phase() == ServingState::Phase::Starting ? "" : daemon_.fft->name();
@@ -54,6 +61,12 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
       gauge("squall_device_global_memory_bytes", "Global memory of the OpenCL device in use",
             double(device.global_memory_bytes)),
       gauge("process_resident_memory_bytes", "Resident memory of the squalld process", resident_bytes()),
+      counter("squall_device_lock_acquisitions_total", "Times device work took the device (its queue's lock)",
+              double(wait.acquisitions)),
+      counter("squall_device_lock_wait_seconds_total",
+              "Seconds device work waited for the device: requests queued "
+              "behind each other",
+              wait.seconds),
   };
 }
 

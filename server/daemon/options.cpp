@@ -60,6 +60,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(positive_integer(v)); }},
       {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
+      {"max-streams-per-client",
+       [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
@@ -224,6 +226,8 @@ std::string usage() {
          "  --max-streams N           concurrent streaming calls (default " +
          std::to_string(d.limits.max_streams) +
          ")\n"
+         "  --max-streams-per-client N  of those, one client's (its address without the port; default: no\n"
+         "                            limit of its own)\n"
          "  --max-sessions N          live stateful sessions (default " +
          std::to_string(d.limits.max_sessions) +
          ")\n"

@@ -21,10 +21,13 @@ void fill_device(const DeviceInfo& info, bool selected, squall::v1::Device* out)
 
 }  // namespace
 
-grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::v1::GetInfoRequest*,
+grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::v1::GetInfoRequest* request,
                                     squall::v1::GetInfoResponse* response) {
   return guarded([&] {
     daemon_.serving.require_token(*context);
+    if (request->request_id().size() > 128)
+      fail(Code::InvalidArgument,
+           "request_id has " + std::to_string(request->request_id().size()) + " bytes: at most 128");
     response->set_version(SQUALL_VERSION);
     const Runtime& runtime = daemon_.runtime;
     for (const auto& found : find_devices())

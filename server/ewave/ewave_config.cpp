@@ -15,9 +15,15 @@ using validate::finite;
 using validate::non_negative;
 using validate::positive;
 
+// Bounds that keep every intermediate of a step finite in single precision (float32 overflows at 3.4e38):
+// field values (m, m/s, m^2/s), speeds (m/s), lengths (m), times (s).
+const validate::Interval kMapValues = validate::closed(-1e6, 1e6);
+const validate::Interval kLengths = validate::closed(1e-6, 1e6);
+constexpr double kMaxSpeed = 1e3, kMaxScale = 1e6, kMaxTime = 1e9;
+
 // A per-cell map: empty, or exactly `cells` finite values (within `range`).
 void check_map(const std::string& field, const std::vector<float>& map, size_t cells,
-               const validate::Interval& range = validate::any()) {
+               const validate::Interval& range = kMapValues) {
   if (map.empty()) return;
   validate::count(field, map.size(), cells, "nx * ny");
   validate::each(field, map.data(), map.size(), range);
@@ -48,30 +54,29 @@ double EWaveConfig::effective_trim_width() const {
 
 void validate(const EWaveConfig& c, const LimitGate* gate) {
   if (gate) gate->check_grid("config.grid", c.nx, c.ny);
-  if (c.nx < 1 || c.ny < 1)
-    fail(Code::InvalidArgument,
-         "config.grid = " + std::to_string(c.nx) + " x " + std::to_string(c.ny) + " must be at least 1 x 1");
-  positive("config.dx", c.dx);
-  positive("config.dy", c.dy);
+  validate::in("config.nx", int64_t(c.nx), 2, int64_t(1) << 30);  // an FFT needs 2 points per axis
+  validate::in("config.ny", int64_t(c.ny), 2, int64_t(1) << 30);
+  validate::in("config.dx", c.dx, kLengths);
+  validate::in("config.dy", c.dy, kLengths);
   validate::known("config.dispersion", int(c.dispersion), 4, "dispersion model (deep, shallow, capillary, combined)");
-  positive("config.gravity", c.gravity);
+  positive("config.gravity", c.gravity, 1e3);
   if (c.dispersion == DispersionKind::Shallow || c.dispersion == DispersionKind::Combined)
-    positive("config.depth", c.depth);
+    positive("config.depth", c.depth, 1e5);
   else
-    non_negative("config.depth", c.depth);
-  non_negative("config.capillary_length", c.capillary_length);
+    non_negative("config.depth", c.depth, 1e5);
+  non_negative("config.capillary_length", c.capillary_length, 1);
   non_negative("config.trim_width", c.trim_width);
   double half = 0.5 * std::min(c.length_x(), c.length_y());
   if (c.effective_trim_width() > half)
     validate::reject("config.trim_width", c.effective_trim_width(),
                      "<= half the shorter side (" + validate::number(half) + " m)");
   positive("config.trim_alpha", c.trim_alpha, 10);
-  non_negative("config.friction_time", c.friction_time);
-  finite("config.source_scale", c.source_scale);
-  finite("config.displacement_scale", c.displacement_scale);
+  non_negative("config.friction_time", c.friction_time, kMaxTime);
+  validate::in("config.source_scale", c.source_scale, validate::closed(-kMaxScale, kMaxScale));
+  validate::in("config.displacement_scale", c.displacement_scale, validate::closed(-kMaxScale, kMaxScale));
   check_map("config.initial_height", c.initial_height, c.cells());
   check_map("config.initial_phi", c.initial_phi, c.cells());
-  finite("config.start_time", c.start_time);
+  validate::in("config.start_time", c.start_time, validate::closed(-kMaxTime, kMaxTime));
   if (c.initial_ocean) {
     if (!c.initial_height.empty() || !c.initial_phi.empty())
       fail(Code::InvalidArgument, "config.initial_ocean excludes config.initial_height and config.initial_phi");
@@ -102,7 +107,7 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
 }
 
 void validate(const StepInputs& in, const EWaveConfig& c) {
-  positive("inputs.dt", in.dt);
+  positive("inputs.dt", in.dt, 1e4);
   size_t cells = c.cells();
   check_map("inputs.obstruction", in.obstruction, cells, validate::closed(0, 1));
   check_map("inputs.ambient_height", in.ambient_height, cells);
@@ -113,10 +118,11 @@ void validate(const StepInputs& in, const EWaveConfig& c) {
   }
   check_map("inputs.source_height", in.source_height, cells);
   check_map("inputs.source_phi", in.source_phi, cells);
-  finite("inputs.drift_x", in.drift_x);
-  finite("inputs.drift_y", in.drift_y);
-  check_map("inputs.drift_field_x", in.drift_field_x, cells);
-  check_map("inputs.drift_field_y", in.drift_field_y, cells);
+  validate::in("inputs.drift_x", in.drift_x, validate::closed(-kMaxSpeed, kMaxSpeed));
+  validate::in("inputs.drift_y", in.drift_y, validate::closed(-kMaxSpeed, kMaxSpeed));
+  const validate::Interval speeds = validate::closed(-kMaxSpeed, kMaxSpeed);
+  check_map("inputs.drift_field_x", in.drift_field_x, cells, speeds);
+  check_map("inputs.drift_field_y", in.drift_field_y, cells, speeds);
   if (in.drift_field_x.empty() != in.drift_field_y.empty())
     fail(Code::InvalidArgument, "inputs.drift_field_x and inputs.drift_field_y must be given together");
   if (in.shapes.size() > kMaxShapes)

@@ -229,4 +229,8 @@ void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::
   field->mutable_origin();  // (0, 0, 0)
 }
 
+double sim_time(const std::string& path, double seconds) {
+  return validate::in(path, seconds, validate::closed(-1e9, 1e9));
+}
+
 }  // namespace squall::ocean::rpc

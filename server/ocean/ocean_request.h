@@ -14,6 +14,9 @@ namespace squall::ocean::rpc {
 
 // The engine spec of a request's tile (field path prefix `path`, e.g. "tile"). Throws squall::Error:
 // InvalidArgument naming the field, ResourceExhausted for grids beyond --max-grid-cells.
+// A SimTime's seconds: finite and within +-1e9 s (INVALID_ARGUMENT naming `path`).
+double sim_time(const std::string& path, double seconds);
+
 TileSpec tile_spec(const squall::v1::TileSpec& tile, const LimitGate& gate, const std::string& path = "tile");
 
 // The outputs asked for, validated (at least one, each known, none twice).

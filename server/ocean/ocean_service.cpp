@@ -68,7 +68,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
                                    v1::GetTileResponse* response) {
   return serve(*context, serving_, [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
-    double t = validate::finite("time.seconds", request->time().seconds());
+    double t = sim_time("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
@@ -88,7 +88,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
   };
   auto prepare = [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
-    const double t0 = validate::finite("t0.seconds", request->t0().seconds());
+    const double t0 = sim_time("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
     Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2));
@@ -124,7 +124,7 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
                                          v1::SampleSurfaceResponse* response) {
   return serve(*context, serving_, [&] {
     ocean::TileSpec spec = tile_spec(request->tile(), serving_.gate());
-    const double t = validate::finite("time.seconds", request->time().seconds());
+    const double t = sim_time("time.seconds", request->time().seconds());
     const int n = request->points_size();
     if (n < 1 || n > kMaxSamplePoints)
       fail(Code::InvalidArgument,

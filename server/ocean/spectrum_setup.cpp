@@ -50,7 +50,7 @@ void validate_spectrum(const std::string& f, const LayerSpec& L) {
   validate::in(f + ".gamma", L.gamma, kPeakEnhancementRange);
   validate::in(f + ".sigma_a", L.sigma_a, kPeakWidthRange);
   validate::in(f + ".sigma_b", L.sigma_b, kPeakWidthRange);
-  non_negative(f + ".phillips_amplitude", L.phillips_amplitude);
+  non_negative(f + ".phillips_amplitude", L.phillips_amplitude, 1e3);
   non_negative(f + ".phillips_cutoff", L.phillips_cutoff);
   non_negative(f + ".phillips_exponent", L.phillips_exponent, 64);
   if (multipeak) validate_partials(f, L);  // other spectra ignore partials

@@ -20,7 +20,7 @@ inline constexpr int kMaxLayers = 8;
 // Ranges of the fields whose request names differ from the engine's (extent_x is lx, peak_enhancement is
 // gamma, sigma_below_peak / sigma_above_peak are sigma_a / sigma_b): the request translation checks them
 // under their request names with these same ranges.
-inline const validate::Interval kExtentRange = validate::open_closed(0, 1e6);      // m
+inline const validate::Interval kExtentRange = validate::closed(1e-3, 1e6);        // m
 inline const validate::Interval kPeakEnhancementRange = validate::closed(1, 100);  // JONSWAP gamma
 inline const validate::Interval kPeakWidthRange = validate::open_closed(0, 10);    // JONSWAP sigma
 

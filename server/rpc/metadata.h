@@ -30,6 +30,10 @@ std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::stri
 // The id a session-creating call proposes in x-squall-session (empty: squalld picks one).
 std::string proposed_session(const grpc::ServerContext& context);
 
+// Who is calling, for per-client limits: the peer's address without its port ("ipv4:10.0.0.7",
+// "ipv6:[::1]"). Behind a proxy every client is the proxy: limit per client there.
+std::string client_address(const grpc::ServerContext& context);
+
 // Tells the client (and any proxy) which session this call created: x-squall-session in the initial
 // metadata. Call before the first message is written.
 void announce_session(grpc::ServerContext& context, const std::string& session_id);

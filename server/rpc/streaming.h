@@ -74,6 +74,7 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
     serving.require_token(context);
     auto prepared = prepare();
     Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
+    Slot client_slot = serving.gate().acquire_client_stream(client_address(context));
     StreamCall call(context, method, serving);
     try {
       run(call, prepared);

@@ -128,4 +128,16 @@ cl::Kernel Runtime::kernel(const std::string& program, const std::string& name) 
   return cl::Kernel(it->second, name.c_str());
 }
 
+std::unique_lock<std::mutex> Runtime::exclusive() {
+  std::unique_lock<std::mutex> lock(device_mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    const auto start = std::chrono::steady_clock::now();
+    lock.lock();
+    wait_ns_ += uint64_t(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
+  }
+  ++acquisitions_;
+  return lock;
+}
+
 }  // namespace squall

@@ -2,6 +2,7 @@
 // compiled once. It lives as long as the daemon (or the test binary); requests only enqueue work.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -72,7 +73,16 @@ class Runtime {
 
   // Device work of one request runs under this lock: the queue is in order and one kernel already
   // fills every compute unit, so requests take turns rather than interleave their kernel arguments.
-  std::unique_lock<std::mutex> exclusive() { return std::unique_lock<std::mutex>(device_mutex_); }
+  // The time spent waiting for it is counted (device_wait()).
+  std::unique_lock<std::mutex> exclusive();
+
+  // How often the lock was taken, and the seconds callers waited for it, since start-up: the queueing
+  // of requests behind each other (squalld's metrics).
+  struct DeviceWait {
+    uint64_t acquisitions = 0;
+    double seconds = 0;
+  };
+  DeviceWait device_wait() const { return {acquisitions_.load(), double(wait_ns_.load()) * 1e-9}; }
 
   // Profile mode (RuntimeOptions::profile_kernels): the per-kernel table, sorted by program and kernel.
   bool profiling() const { return profiling_; }
@@ -93,6 +103,7 @@ class Runtime {
   std::vector<ProgramBuild> builds_;
   std::unique_ptr<BufferPool> buffers_;
   std::mutex device_mutex_;
+  std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};
   bool built_ = false;
   mutable std::mutex timings_mutex_;
   std::map<std::pair<std::string, std::string>, KernelTiming> timings_;

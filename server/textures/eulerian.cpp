@@ -183,7 +183,7 @@ class Eulerian final : public Advection {
     StateReader in(state);
     if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
     started_ = in.get<uint8_t>() != 0;
-    index_ = int(in.get<int64_t>());
+    index_ = in.frame_index(kMaxTextureFrames);
     phase_start_ = in.get_vector<double>();
     std::vector<float> values = in.get_vector<float>();
     std::vector<float> cascade = cascade_bands_ > 0 ? in.get_vector<float>() : std::vector<float>();
@@ -208,8 +208,11 @@ class Eulerian final : public Advection {
     cl_int reset = 0;
     for (int s = 0; s < slots(); ++s) {
       if (std::isinf(latency(s))) continue;
-      while (t + h - phase_start_[s] >= latency(s) * (1 - 1e-9)) {
-        phase_start_[s] += latency(s);
+      // The whole latencies ended by t + h, at once: a loop over them may never end when a latency is
+      // tiny against h or below the rounding of the phase start.
+      const double ended = std::floor((t + h - phase_start_[s]) / latency(s) + 1e-9);
+      if (ended >= 1) {
+        phase_start_[s] += ended * latency(s);
         reset |= cl_int(1) << s;
       }
     }

@@ -138,7 +138,7 @@ class Lagrangian final : public Advection {
     StateReader in(state);
     if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
     started_ = in.get<uint8_t>() != 0;
-    index_ = int(in.get<int64_t>());
+    index_ = in.frame_index(kMaxTextureFrames);
     counter_ = in.get<uint64_t>();
     next_id_ = in.get<uint64_t>();
     particles_ = in.get_vector<Particle>();

@@ -16,12 +16,13 @@ constexpr int kMaxChannels = 256, kMaxJunctions = 256, kMaxObstacles = 256;
 constexpr int kMaxPoints = 4096;     // per polyline
 constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
 constexpr int64_t kMaxBins = int64_t(1) << 20;
+constexpr double kMaxCoordinate = 1e7;  // m: the device works in float32
 
 void polyline(const std::vector<Point2>& points, int min_points, const std::string& path) {
   in(path + ".points size", int64_t(points.size()), min_points, kMaxPoints);
   for (size_t k = 0; k < points.size(); ++k) {
-    finite(at(path + ".points", k) + ".x", points[k].x);
-    finite(at(path + ".points", k) + ".y", points[k].y);
+    in(at(path + ".points", k) + ".x", points[k].x, closed(-kMaxCoordinate, kMaxCoordinate));
+    in(at(path + ".points", k) + ".y", points[k].y, closed(-kMaxCoordinate, kMaxCoordinate));
     const Point2& next = points[(k + 1) % points.size()];
     if (k + 1 < points.size() && points[k].x == next.x && points[k].y == next.y)
       fail(Code::InvalidArgument, at(path + ".points", k + 1) + " repeats the point before it");
@@ -159,8 +160,10 @@ void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& s
     x1 = std::max({x1, s.s[0], s.s[2]});
     y1 = std::max({y1, s.s[1], s.s[3]});
   }
-  const double area = double(x1 - x0) * double(y1 - y0);
-  geo.bin_size = float(std::max({0.5 * geo.s_max, std::sqrt(area / double(kMaxBins)) * 1.01, 1e-6}));
+  const double width = double(x1 - x0), height = double(y1 - y0);
+  double size = std::max({0.5 * geo.s_max, std::sqrt(width * height / double(kMaxBins)) * 1.01, 1e-6});
+  while ((width / size + 1) * (height / size + 1) > double(kMaxBins)) size *= 1.5;  // a long, thin box
+  geo.bin_size = float(size);
   geo.bin_x0 = x0;
   geo.bin_y0 = y0;
   geo.bins_x = int((x1 - x0) / geo.bin_size) + 1;

@@ -48,6 +48,14 @@ class StateReader {
     std::memcpy(values.data(), take(n * sizeof(T)), n * sizeof(T));
     return values;
   }
+  // A frame index: InvalidArgument naming resume_state unless it is in [0, max].
+  int frame_index(int64_t max) {
+    const int64_t index = get<int64_t>();
+    if (index < 0 || index > max)
+      fail(Code::InvalidArgument, "resume_state holds frame index " + std::to_string(index) +
+                                      ": not a frame of a stream (0.." + std::to_string(max) + ")");
+    return int(index);
+  }
   bool done() const { return offset_ == bytes_.size(); }
 
  private:

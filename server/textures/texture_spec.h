@@ -18,6 +18,10 @@ enum class Method {
   Naive,               // texture coordinates advected, never regenerated (the negative control)
 };
 constexpr int kMethods = 4;
+constexpr int kMaxTextureFrames = 100000;  // frames of one AdvectTexture stream
+// Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
+// those a field divides by at least kMinVelocityDivisor.
+constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;
 
 enum class Extrapolation { Clamp, Zero, PushPull };  // a velocity grid outside its nodes or its fluid
 

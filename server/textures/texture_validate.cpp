@@ -10,21 +10,22 @@ namespace {
 
 using namespace squall::validate;
 
-constexpr int kMaxFrames = 100000;
 constexpr int kMaxVelocityFrames = 4096;
 constexpr int kMaxLayers = 6;  // slots = layers * phases <= 12 (eulerian.cl)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
 
-// Every analytic parameter finite, and the one the field divides by > 0.
+// Every analytic parameter within +-kMaxVelocityParam, and the one the field divides by at least
+// kMinVelocityDivisor.
 void analytic(const VelocitySpec& v, const std::string& path) {
-  for (int k = 0; k < SQUALL_VELOCITY_PARAMS; ++k) finite(param(path, k), v.params[k]);
+  for (int k = 0; k < SQUALL_VELOCITY_PARAMS; ++k)
+    in(param(path, k), v.params[k], closed(-kMaxVelocityParam, kMaxVelocityParam));
   int divisor = -1;  // the parameter a kind divides by (fields.h)
   if (v.kind == SQUALL_VELOCITY_SINK || v.kind == SQUALL_VELOCITY_VORTEX || v.kind == SQUALL_VELOCITY_CYLINDER)
     divisor = 3;                                            // eps of |x - c| + eps, core radius, cylinder radius
   if (v.kind == SQUALL_VELOCITY_TAYLOR_GREEN) divisor = 1;  // period
   if (v.kind == SQUALL_VELOCITY_CHANNEL) divisor = 2;       // half width
-  if (divisor >= 0) positive(param(path, divisor), v.params[divisor]);
+  if (divisor >= 0) in(param(path, divisor), v.params[divisor], closed(kMinVelocityDivisor, kMaxVelocityParam));
 }
 
 void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::string& path) {
@@ -111,7 +112,7 @@ void output(const OutputSpec& o, const LimitGate& gate, const std::string& path)
 }
 
 void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {
-  positive(path + ".d", p.d);
+  positive(path + ".d", p.d, 1e6);
   double area = (o.x1 - o.x0 + 2 * p.d) * (o.y1 - o.y0 + 2 * p.d);
   if (area / (p.d * p.d) > kMaxParticles)
     fail(Code::ResourceExhausted, path + ".d = " + number(p.d) + " would need about " + number(area / (p.d * p.d)) +
@@ -168,7 +169,7 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
   output(spec.output, gate, path + ".output");
   finite(path + ".t0", spec.t0);
   positive(path + ".dt", spec.dt, 1e4);
-  in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
+  in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
   in(path + ".substeps", int64_t(spec.substeps), 1, 64);
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");

@@ -77,7 +77,8 @@ VelocitySpec analytic(const v1::AnalyticVelocity& a, const std::string& path) {
   v.kind = velocity_kind(a.kind(), path + ".kind");
   for (const Named& n : named_params(a, v.kind)) {
     const std::string field = path + "." + n.field;
-    v.params[n.param] = n.divisor ? validate::positive(field, n.value) : validate::finite(field, n.value);
+    const double lo = n.divisor ? kMinVelocityDivisor : -kMaxVelocityParam;
+    v.params[n.param] = validate::in(field, n.value, validate::closed(lo, kMaxVelocityParam));
   }
   return v;
 }
@@ -475,8 +476,10 @@ uint32_t control_frames(const v1::TextureControl& control, const std::string& pa
 
 bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& path) {
   if (control.has_velocity()) s.velocity = velocity(control.velocity(), path + ".velocity");
-  if (control.has_dt()) s.dt = control.dt();
-  if (control.has_substeps()) s.substeps = clamped(control.substeps());
+  // Checked here as well as by TextureEngine::validate, so that the first message's steering is named as
+  // the message's own field, not the start's.
+  if (control.has_dt()) s.dt = validate::positive(path + ".dt", control.dt(), 1e4);
+  if (control.has_substeps()) s.substeps = int(validate::in(path + ".substeps", int64_t(control.substeps()), 1, 64));
   if (control.has_final_scale()) s.texture.final_scale = validate::finite(path + ".final_scale", control.final_scale());
   if (control.has_spin()) {
     if (s.texture.kind != SQUALL_TEXTURE_NOISE)

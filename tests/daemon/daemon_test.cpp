@@ -67,14 +67,17 @@ TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
 }
 
 // A request_id is the client's text: a newline in it must not start a second (forged) log line, and a
-// long one is cut.
+// long one is refused (server.proto: at most 128 characters) and cut in the log.
 TEST(Daemon, ClientTextInTheLogIsEscapedAndCut) {
   auto stub = squall::v1::Server::NewStub(client::Client({shared_daemon().address(), 10, ""}).channel());
   grpc::ClientContext context;
   squall::v1::GetInfoRequest request;
   request.set_request_id("log-test-44\n2026-01-01T00:00:00Z INFO  request id=forged" + std::string(4000, 'y'));
   squall::v1::GetInfoResponse reply;
-  ASSERT_TRUE(stub->GetInfo(&context, request, &reply).ok());
+  const grpc::Status status = stub->GetInfo(&context, request, &reply);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("request_id has 4056 bytes: at most 128"), std::string::npos)
+      << status.error_message();
   std::string log;
   for (int i = 0; i < 50 && log.find("log-test-44") == std::string::npos; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));

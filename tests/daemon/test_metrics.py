@@ -111,6 +111,19 @@ def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
     assert value(text, "squall_memory_budget_bytes") > 100e6  # 3/4 of the machine's memory
 
 
+def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
+    def scrape() -> str:
+        return http_get(f"http://{daemon.metrics}/metrics")
+
+    before = value(scrape(), "squall_device_lock_acquisitions_total")
+    assert daemon.cli("ocean", "sample", "--grid", "32", "--point", "1,2").returncode == 0
+    text = scrape()
+    assert value(text, "squall_device_lock_acquisitions_total") > before
+    assert (
+        0 <= value(text, "squall_device_lock_wait_seconds_total") < 60
+    )  # one client: little waiting
+
+
 def test_promtool_accepts_the_exposition(daemon: Squalld) -> None:
     promtool = shutil.which("promtool")
     assert (
@@ -137,6 +150,13 @@ def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
     assert (
         prometheus
     ), "prometheus missing: deploy/install-deps.sh installs Debian's prometheus package"
+    samples = dict(service="squall.v1.Ocean", method="SampleSurface", code="OK")
+    exposition = http_get(f"http://{daemon.metrics}/metrics")
+    before = (
+        value(exposition, "squall_requests_total", **samples)
+        if "SampleSurface" in exposition
+        else 0
+    )
     for _ in range(2):
         assert daemon.cli("ocean", "sample", "--grid", "32", "--point", "1,2").returncode == 0
     config = tmp_path / "prometheus.yml"
@@ -167,6 +187,6 @@ def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
 
         result = wait_for(scraped, 60, "a scrape with the sample count")
         assert result[0]["metric"]["job"] == "squalld"
-        assert float(result[0]["value"][1]) == 2
+        assert float(result[0]["value"][1]) == before + 2  # the calls this test made
     finally:
         server.stop()

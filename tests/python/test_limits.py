@@ -1,12 +1,16 @@
-"""The one memory budget (--memory-budget): a flood of eWave sessions, and one of ocean streams whose
+"""Limits that protect squalld from its clients.
+
+The one memory budget (--memory-budget): a flood of eWave sessions, and one of ocean streams whose
 clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before squalld's resident
 memory passes it (measured above its level when idle); what the flood held is given back when it ends,
-and squalld then serves as before."""
+and squalld then serves as before. --max-streams-per-client: one client cannot take more stream slots
+than that while others still find free ones."""
 
 from __future__ import annotations
 
 import contextlib
-from typing import Iterator, List
+import time
+from typing import Any, Iterator, List
 
 import grpc
 import pytest
@@ -76,3 +80,32 @@ def test_a_flood_of_unread_streams_is_refused_within_the_budget(budget_daemon: D
             spec, time=1.0, outputs=ALL_OUTPUTS
         )  # the streams' memory came back
         assert len(tile) == len(ALL_OUTPUTS)
+
+
+def test_one_client_cannot_take_more_streams_than_its_share() -> None:
+    small = squall.ocean.tile_spec([squall.ocean.layer(extent=50, n=16, wind_speed=8)])
+    for daemon in _start(["--max-streams", "4", "--max-streams-per-client", "2"], "per-client"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            first = client.ocean.stream(small, dt=0.1)
+            second = client.ocean.stream(small, dt=0.1)
+            next(first), next(second)
+            with pytest.raises(squall.SquallError) as refused:
+                next(client.ocean.stream(small, dt=0.1))
+            assert refused.value.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+            assert "--max-streams-per-client = 2" in refused.value.message, refused.value
+            first.cancel()
+            # the slot comes back once the server notices the cancel (at its next frame)
+            deadline = time.monotonic() + 10
+            while not opens(client, small):
+                assert time.monotonic() < deadline, "no third stream 10 s after a cancel"
+                time.sleep(0.1)
+            second.cancel()
+
+
+def opens(client: squall.Client, spec: Any) -> bool:
+    try:
+        with client.ocean.stream(spec, dt=0.1, frames=1) as stream:
+            return len(list(stream)) == 1
+    except squall.SquallError as error:
+        assert error.code == grpc.StatusCode.RESOURCE_EXHAUSTED, error
+        return False
