@@ -12,6 +12,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import urllib.parse
@@ -122,6 +123,28 @@ def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
     assert (
         0 <= value(text, "squall_device_lock_wait_seconds_total") < 60
     )  # one client: little waiting
+
+
+def test_a_client_killed_mid_stream_is_reclaimed_and_counted(
+    daemon: Squalld, tmp_path: Path
+) -> None:
+    """SIGKILL a CLI in the middle of a StreamTiles: squalld notices the connection go, ends the
+    stream, frees its slot and counts the call CANCELLED."""
+
+    def scrape() -> str:
+        return http_get(f"http://{daemon.metrics}/metrics")
+
+    stream = dict(service="squall.v1.Ocean", method="StreamTiles", code="CANCELLED")
+    argv = [SQUALL, "--address", daemon.grpc, "ocean", "stream", "--grid", "64", "--dt", "0.1"]
+    client = Process(argv + ["--frames", "100000", "-o", str(tmp_path)], tmp_path / "cli.log")
+    try:
+        wait_for(lambda: value(scrape(), "squall_streams_active") == 1, 60, "the stream open")
+    finally:
+        os.kill(client.pid, signal.SIGKILL)
+        client.stop()
+    wait_for(lambda: value(scrape(), "squall_streams_active") == 0, 30, "its slot given back")
+    wait_for(lambda: "CANCELLED" in scrape(), 30, "the call counted")
+    assert value(scrape(), "squall_requests_total", **stream) == 1
 
 
 def test_promtool_accepts_the_exposition(daemon: Squalld) -> None:
