@@ -2,7 +2,6 @@
 // session, Restore's state bytes) through the conversion and validation the service and the engine run
 // before any device work (tests/support/fuzz.h).
 #include "common/field_codec.h"
-#include "common/limits.h"
 #include "ewave/ewave_request.h"
 #include "ewave/ewave_session.h"
 #include "squall/v1/ewave.pb.h"
@@ -13,11 +12,6 @@ namespace {
 namespace v1 = squall::v1;
 using namespace squall;
 
-const LimitGate& gate() {
-  static const LimitGate g{Limits{}};
-  return g;
-}
-
 // The config of the session a Step goes to.
 const ewave::EWaveConfig& session_config() {
   static const ewave::EWaveConfig config = [] {
@@ -25,7 +19,7 @@ const ewave::EWaveConfig& session_config() {
     c.set_nx(64);
     c.set_ny(48);
     c.set_dx(0.1);
-    return ewave::rpc::config(c, gate());
+    return ewave::rpc::config(c, test::default_gate());
   }();
   return config;
 }
@@ -33,7 +27,7 @@ const ewave::EWaveConfig& session_config() {
 const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::EWaveCreateSessionRequest r;
-      if (test::parse(bytes, &r)) ewave::rpc::config(r.config(), gate());
+      if (test::parse(bytes, &r)) ewave::rpc::config(r.config(), test::default_gate());
     },
     [](const std::string& bytes) {
       v1::EWaveStepRequest r;
@@ -45,7 +39,7 @@ const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::EWaveRestoreRequest r;
       if (!test::parse(bytes, &r)) return;
-      ewave::validate(ewave::EWaveSession::config_from_state(r.state()), &gate());
+      ewave::validate(ewave::EWaveSession::config_from_state(r.state()), &test::default_gate());
     },
 };
 

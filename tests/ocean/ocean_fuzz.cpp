@@ -1,7 +1,6 @@
 // libFuzzer harness: squall.v1.Ocean's requests (GetTile, StreamTiles, SampleSurface) through the
 // conversion and validation the service runs before any device work (tests/support/fuzz.h).
 #include "common/field_codec.h"
-#include "common/limits.h"
 #include "common/validate.h"
 #include "ocean/ocean_request.h"
 #include "squall/v1/ocean.pb.h"
@@ -12,13 +11,8 @@ namespace {
 namespace v1 = squall::v1;
 using namespace squall;
 
-const LimitGate& gate() {
-  static const LimitGate g{Limits{}};
-  return g;
-}
-
 void tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField<int>& outputs, v1::DType dtype) {
-  ocean::TileSpec spec = ocean::rpc::tile_spec(tile, gate());
+  ocean::TileSpec spec = ocean::rpc::tile_spec(tile, test::default_gate());
   ocean::rpc::output_flags(ocean::rpc::outputs(outputs));
   field::dtype(dtype, "dtype");
   int64_t nx = 0, ny = 0;
@@ -42,7 +36,7 @@ const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::SampleSurfaceRequest r;
       if (!test::parse(bytes, &r)) return;
-      ocean::rpc::tile_spec(r.tile(), gate());
+      ocean::rpc::tile_spec(r.tile(), test::default_gate());
       for (int i = 0; i < r.points_size(); ++i) validate::finite(validate::at("points", i) + ".x", r.points(i).x());
     },
 };

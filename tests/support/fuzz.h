@@ -17,6 +17,7 @@
 #include <google/protobuf/stubs/logging.h>
 
 #include "common/error.h"
+#include "common/limits.h"
 
 namespace squall::test {
 
@@ -39,6 +40,12 @@ inline int fuzz_requests(const uint8_t* data, size_t size, const std::vector<Req
     }
   }
   return 0;
+}
+
+// The limits of a squalld started with its default flags.
+inline const LimitGate& default_gate() {
+  static const LimitGate gate{Limits{}};
+  return gate;
 }
 
 // Parses `bytes` as Message; false (the input is skipped) when they are not one.

@@ -1,7 +1,6 @@
 // libFuzzer harness: squall.v1.Textures' requests (AdvectTexture, BakeVelocity, DeformTexture) through
 // the conversion and validation the service and its engines run before any device work
 // (tests/support/fuzz.h).
-#include "common/limits.h"
 #include "squall/v1/textures.pb.h"
 #include "support/fuzz.h"
 #include "textures/deform_request.h"
@@ -17,29 +16,24 @@ namespace v1 = squall::v1;
 using namespace squall;
 namespace req = squall::textures::rpc;
 
-const LimitGate& gate() {
-  static const LimitGate g{Limits{}};
-  return g;
-}
-
 const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::AdvectTextureRequest r;
       if (!test::parse(bytes, &r)) return;
-      textures::validate_advect(req::spec(r, gate()), gate(), "request");
+      textures::validate_advect(req::spec(r, test::default_gate()), test::default_gate(), "request");
       req::planes(r.output());
-      req::followed(r.velocity(), gate(), "request.velocity");
+      req::followed(r.velocity(), test::default_gate(), "request.velocity");
     },
     [](const std::string& bytes) {
       v1::BakeVelocityRequest r;
       if (!test::parse(bytes, &r)) return;
       textures::validate_river(req::river(r.river()), "request.river");
-      textures::validate_bake_grid(req::bake_grid(r), gate(), "request");
+      textures::validate_bake_grid(req::bake_grid(r), test::default_gate(), "request");
     },
     [](const std::string& bytes) {
       v1::DeformTextureRequest r;
       if (!test::parse(bytes, &r)) return;
-      textures::validate_deform(req::deform_spec(r, gate()), gate(), "request");
+      textures::validate_deform(req::deform_spec(r, test::default_gate()), test::default_gate(), "request");
       req::deform_planes(r, "request");
     },
 };
