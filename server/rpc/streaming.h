@@ -7,6 +7,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <atomic>
 #include <string>
 
 #include "common/cancel.h"
@@ -60,7 +61,8 @@ class StreamCall {
   const ServingState& serving_;
   const bool names_session_;  // x-squall-session: a session stream, which ends with its session's move
   bool ended_ = false;
-  mutable bool stopped_by_drain_ = false;  // live() said no because squalld drains
+  // live() said no because squalld drains; atomic: engines ask live() from their worker threads
+  mutable std::atomic<bool> stopped_by_drain_{false};
 };
 
 // Runs a streaming handler under guarded(): the serving check, then prepare() (the request's validation,
