@@ -283,7 +283,8 @@ void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t c
 
 }  // namespace
 
-TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps) {
+TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps,
+                             const Cancellation& cancel) {
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
@@ -302,6 +303,10 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   Runtime& runtime = impl_->runtime;
   BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
+    if (a > 0 && cancel.requested()) {  // a layer is the slice
+      runtime.queue().finish();         // the layers enqueued so far end before their buffers go back
+      cancel.check("tile: before layer " + std::to_string(a));
+    }
     BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
     impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
   }

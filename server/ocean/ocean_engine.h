@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "common/surface_current.h"
 #include "fft/fft.h"
@@ -40,7 +41,10 @@ class OceanEngine {
   // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be
   // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the
   // map of one stream across frames (see WhitecapState).
-  TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr);
+  // `cancel` is checked between layers (each waited for): a cancelled call frees the device within a
+  // layer (Error(Cancelled)).
+  TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
+                  const Cancellation& cancel = {});
 
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is

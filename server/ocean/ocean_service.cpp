@@ -72,7 +72,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags);
+    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags, nullptr, cancellation(*context));
     frame_reply(job, fields, t, response);
     return grpc::Status::OK;
   });
@@ -100,7 +100,9 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     const ChunkPlan& plan = stream.plan;
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
-    auto compute = [&](uint64_t frame) { return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps); };
+    auto compute = [&](uint64_t frame) {
+      return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps, call.cancellation());
+    };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
     // Pipelined: the engine computes frame i + 1 while frame i is encoded and written. An early return
     // waits for the pending frame (std::future's destructor) before the locals it uses go away.

@@ -18,7 +18,7 @@ import pytest
 import squall
 from squall.v1 import common_pb2, ocean_pb2, ocean_pb2_grpc
 
-from conftest import SQUALL_CLI
+from conftest import SQUALL_CLI, _start
 
 OUTPUTS = ("height", "displacement_x", "normal_z")
 
@@ -195,3 +195,20 @@ def test_a_cancelled_stream_releases_its_slot(tight_client: squall.Client) -> No
             assert e.code == grpc.StatusCode.RESOURCE_EXHAUSTED and time.monotonic() < deadline, e
             time.sleep(0.05)
     assert [f.frame_index for f in frames] == [0, 1]
+
+
+def test_an_expired_tile_frees_the_device_within_a_layer() -> None:
+    """A tile of six 2048^2 layers (about 10 s on 2 cores) whose deadline passes after 1.5 s ends
+    DEADLINE_EXCEEDED, and the device is free within a layer: a small tile right after it is served at
+    once (it used to wait for every layer). On a squalld of its own: the layers' spectra stay cached.
+    """
+    layers = [squall.ocean.layer(extent=1000, n=2048, wind_speed=12, seed=s) for s in range(6)]
+    heavy = squall.ocean.tile_spec(layers, output=(2048, 2048))
+    for daemon in _start([], "expired-tile"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            with pytest.raises(squall.SquallError) as expired:
+                client.ocean.tile(heavy, time=1.0, outputs=("height",), timeout=1.5)
+            assert expired.value.code == grpc.StatusCode.DEADLINE_EXCEEDED, expired.value
+            start = time.monotonic()
+            client.ocean.tile(small_tile(), time=1.0)
+            assert time.monotonic() - start < 3.5, "the expired tile still held the device"
