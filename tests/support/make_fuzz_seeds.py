@@ -1,7 +1,8 @@
 """Writes the libFuzzer harnesses' seed corpora (tests/<capability>/fuzz_seeds/): one valid request per
 check of each harness (tests/<capability>/<capability>_fuzz.cpp), its first byte the check's index, the
 rest the request's protobuf bytes. The requests are the bad-input sweep's valid bases
-(tests/python/test_bad_input.py). Run from the Python tests' venv:
+(tests/python/test_bad_input.py); Restore's is the state of a real 16 x 16 session after three steps,
+taken from a squalld this script starts (build/squalld). Run from the Python tests' venv:
 
     build/tests/python/venv/bin/python tests/support/make_fuzz_seeds.py
 """
@@ -15,28 +16,48 @@ from typing import Any, Dict, List
 TESTS = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(TESTS / "python"))
 
+import squall  # noqa: E402
 import test_bad_input as base  # noqa: E402
+from conftest import _start  # noqa: E402
 from squall._pb import clouds_pb2, ewave_pb2  # noqa: E402
 
-# In the order of each harness's checks.
-SEEDS: Dict[str, List[Any]] = {
-    "ocean": [base.get_tile_request(), base.stream_tiles_request(), base.sample_surface_request()],
-    "ewave": [
-        base.create_session_request(),
-        base.step_request("0123456789abcdef0123456789abcdef"),
-        ewave_pb2.EWaveRestoreRequest(),
-    ],
-    "clouds": [
-        clouds_pb2.BuildVolumeRequest(model=base.cloud_model()),
-        clouds_pb2.RenderRequest(model=base.cloud_model(), settings=base.render_settings()),
-        base.stream_evolution_request(),
-    ],
-    "textures": [base.advect_request(), base.bake_request(), base.deform_request()],
-}
+
+def ewave_state() -> bytes:
+    """GetState of a 16 x 16 session after three steps with a hull."""
+    state = b""
+    for daemon in _start([], "fuzz-seeds"):  # stopped when the loop ends
+        with squall.Client(daemon.address, timeout=120) as client:
+            with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+                for _ in range(3):
+                    session.step(dt=0.02, shapes=[squall.ewave.ellipse(0.8, 0.8, 0.3, 0.1)])
+                state = session.state()
+    return state
+
+
+def seeds() -> Dict[str, List[Any]]:
+    """The requests of each harness, in the order of its checks."""
+    return {
+        "ocean": [
+            base.get_tile_request(),
+            base.stream_tiles_request(),
+            base.sample_surface_request(),
+        ],
+        "ewave": [
+            base.create_session_request(),
+            base.step_request("0123456789abcdef0123456789abcdef"),
+            ewave_pb2.EWaveRestoreRequest(state=ewave_state()),
+        ],
+        "clouds": [
+            clouds_pb2.BuildVolumeRequest(model=base.cloud_model()),
+            clouds_pb2.RenderRequest(model=base.cloud_model(), settings=base.render_settings()),
+            base.stream_evolution_request(),
+        ],
+        "textures": [base.advect_request(), base.bake_request(), base.deform_request()],
+    }
 
 
 def main() -> None:
-    for capability, requests in SEEDS.items():
+    for capability, requests in seeds().items():
         directory = TESTS / capability / "fuzz_seeds"
         directory.mkdir(exist_ok=True)
         for index, request in enumerate(requests):
