@@ -30,6 +30,7 @@ std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
 std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field,
                                                  const Cancellation& cancel) {
   if (model.max_active_voxels > options_.max_active_voxels) model.max_active_voxels = options_.max_active_voxels;
+  model.max_advection_samples = options_.max_advection_samples;
   return upload(build_cloud(model, field, cancel));
 }
 

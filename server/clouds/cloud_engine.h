@@ -18,6 +18,7 @@ namespace squall::clouds {
 struct CloudEngineOptions {
   SessionPolicy sessions;  // a stored volume idle past sessions.ttl is dropped (clock: tests replace it)
   uint64_t max_active_voxels = 256ull << 20;  // cap on any model's max_active_voxels
+  double max_advection_samples = 1e9;         // any model's max_advection_samples (--max-advection-samples)
 };
 
 // A built volume, uploaded to the device. Immutable once built: renders share it without a lock.

@@ -21,6 +21,7 @@ uint64_t render_working_bytes(const RenderSettings& settings) { return 3 * req::
 void CloudsService::start(EngineContext& context) {
   CloudEngineOptions options;
   options.sessions = context.sessions;
+  options.max_advection_samples = context.gate.limits().max_advection_samples;
   engine_ = std::make_unique<CloudEngine>(context.runtime, context.gate, options);
 }
 
@@ -43,9 +44,15 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
 void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds::RenderSettings& settings) const {
   const bool shadows = settings.shadow != ShadowMode::None && !settings.lights.empty();
   const bool by_shadow_step = shadows && settings.shadow_step > 0 && settings.shadow_step < settings.step;
-  serving_.gate().check_render_samples(by_shadow_step ? "settings.shadow_step" : "settings.step",
-                                       validate::number(by_shadow_step ? settings.shadow_step : settings.step),
-                                       clouds::estimated_samples(volume, settings));
+  const std::string field = by_shadow_step ? "settings.shadow_step" : "settings.step";
+  const std::string value = validate::number(by_shadow_step ? settings.shadow_step : settings.step);
+  const clouds::SampleEstimate estimate = clouds::estimate_samples(volume, settings);
+  serving_.gate().check_render_samples(field, value, estimate.total);
+  if (estimate.per_pixel > clouds::kMaxSamplesPerPixel)
+    fail(Code::ResourceExhausted, field + " = " + value + " makes an estimated " +
+                                      validate::number(estimate.per_pixel) + " density samples per pixel, more than " +
+                                      validate::number(clouds::kMaxSamplesPerPixel) +
+                                      " (a pixel's march cannot be cancelled midway; a larger step costs less)");
 }
 
 grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::RenderRequest* request,

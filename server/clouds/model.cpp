@@ -144,6 +144,15 @@ void validate(const CloudModel& m, const std::string& prefix) {
   if (voxels > static_cast<double>(m.max_active_voxels))
     fail(Code::ResourceExhausted, f + ": an estimated " + validate::number(voxels) + " active voxels exceed " + f +
                                       ".max_active_voxels = " + std::to_string(m.max_active_voxels));
+  if (a.speed > 0 && a.time > 0) {  // each voxel maps its point back through every substep (eqs 115-117)
+    const double samples = voxels * a.substeps * (a.scheme == AdvectionScheme::ModifiedMacCormack ? 2 : 1);
+    if (samples > m.max_advection_samples)
+      fail(Code::ResourceExhausted, f + ".advection.substeps = " + std::to_string(a.substeps) + " makes an estimated " +
+                                        validate::number(samples) +
+                                        " velocity samples (active voxels x substeps, x2 for MacCormack), more than "
+                                        "--max-advection-samples = " +
+                                        validate::number(m.max_advection_samples));
+  }
 }
 
 }  // namespace squall::clouds

@@ -81,11 +81,12 @@ struct CloudModel {
   Advection advection;
   Temperature temperature;
   uint64_t max_active_voxels = 64ull << 20;  // budget; the build fails rather than exceed it
+  double max_advection_samples = 1e9;        // budget: estimated active voxels x substeps (x2 for MacCormack)
 };
 
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
 // non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
-// voxel count exceeds max_active_voxels.
+// voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples.
 void validate(const CloudModel& model, const std::string& prefix = "model");
 
 // Largest displacement the pyroclastic layers can add, m (sum over layers of amplitude (r^n)^gamma).

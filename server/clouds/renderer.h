@@ -93,6 +93,10 @@ struct SampleEstimate {
 };
 SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s);
 
+// A pixel's march runs to its end once started: this bound on its density samples bounds how long one
+// slice (a tile of 64 pixels) can hold the device, and so how soon a cancelled render lets go of it.
+inline constexpr double kMaxSamplesPerPixel = 1e7;
+
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
 

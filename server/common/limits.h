@@ -20,6 +20,8 @@ struct Limits {
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
                                                 // (squalld's default: half the device's global memory)
   double max_render_samples = 4e11;             // --max-render-samples: estimated density samples of one cloud render
+  double max_advection_samples = 1e9;           // --max-advection-samples: a cloud build's estimated velocity
+                                                // samples (active voxels x substeps, x2 for MacCormack)
   uint64_t memory_budget = 8ull << 30;          // --memory-budget: bytes of sessions, stored volumes and calls'
                                                 // working memory together (squalld's default: 3/4 of the
                                                 // cgroup memory limit, else of the physical memory)

@@ -67,6 +67,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = double(positive_integer(v)); }},
+      {"max-advection-samples",
+       [o](const std::string& v) { o->limits.max_advection_samples = double(positive_integer(v)); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
@@ -238,6 +240,8 @@ std::string usage() {
          "                            global memory)\n"
          "  --memory-budget N         bytes of sessions, stored volumes and running calls' working memory\n"
          "                            together (default: 3/4 of the cgroup memory limit, else of the RAM)\n"
+         "  --max-advection-samples N  a cloud build's estimated velocity samples: active voxels x advection\n"
+         "                            substeps, x2 for MacCormack (default 1e9)\n"
          "  --max-render-samples N    estimated density samples of one cloud render, an upper bound computed\n"
          "                            before it runs (default 4e11)\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "

@@ -295,6 +295,47 @@ TEST(CloudsService, AnExpiredBuildStopsUsingTheCores) {
   EXPECT_LT(cpu_seconds(pid) - before, 0.5) << "squalld kept computing the expired build";
 }
 
+// 64 pixels at a 0.1 mm step with direct shadows every cm: 2.6e10 samples in all (admitted by
+// --max-render-samples) but 4e8 per pixel, which one work-item would march for minutes with no way to stop
+// it: refused, naming the step.
+TEST(CloudsService, ARenderWhosePixelsAreTooCostlyIsRefused) {
+  v1::RenderRequest request;
+  *request.mutable_model() = test::long_work_sphere();
+  *request.mutable_settings() = test::long_render_settings();
+  request.mutable_settings()->mutable_camera()->set_width(8);
+  request.mutable_settings()->mutable_camera()->set_height(8);
+  request.mutable_settings()->set_step(1e-4);
+  request.mutable_settings()->set_shadow_step(0.01);
+  auto c = call();
+  v1::RenderResponse response;
+  auto status = c.stub->Render(c.context.get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("settings.step = 0.0001 makes an estimated"), std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("samples per pixel"), std::string::npos) << status.error_message();
+}
+
+// A sphere of 5 m in 5 cm voxels (about 7e6) advected in 256 MacCormack substeps: 4e9 velocity samples,
+// past --max-advection-samples = 1e9: refused before the build starts, naming the substeps.
+TEST(CloudsService, ABuildWhoseAdvectionIsTooCostlyIsRefused) {
+  v1::BuildVolumeRequest build;
+  *build.mutable_model() = test::long_work_sphere();
+  build.mutable_model()->set_voxel_size(0.05);
+  auto* advection = build.mutable_model()->mutable_advection();
+  advection->set_speed(1);
+  advection->set_time(1);
+  advection->set_substeps(256);
+  auto c = call();
+  v1::BuildVolumeResponse built;
+  const auto start = std::chrono::steady_clock::now();
+  auto status = c.stub->BuildVolume(c.context.get(), build, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("model.advection.substeps = 256 makes an estimated"), std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("--max-advection-samples"), std::string::npos) << status.error_message();
+  EXPECT_LT(seconds_since(start), 1.0);
+}
+
 // `squall cloud build -o x.vdb` writes a file that OpenVDB's vdb_print lists; `squall cloud render` an EXR
 // (and PNG preview); bad flags exit 2, a refused request 4.
 TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
