@@ -25,6 +25,7 @@
 #include "common/log.h"
 #include "common/state_dir.h"
 #include "common/watchdog.h"
+#include "daemon/admission_watch.h"
 #include "daemon/checkpoint_loop.h"
 #include "daemon/daemon_metrics.h"
 #include "daemon/daemon_state.h"
@@ -329,9 +330,11 @@ int run_daemon(const DaemonOptions& options) {
   log(LogLevel::Info, "SERVING");
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));
+  AdmissionWatch admission(daemon->serving.gate(), *health);
 
   int signal_number = wait_for_shutdown(signals, daemon->serving, options);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
+  admission.stop();
   drain(*daemon, *server, checkpoints, options);
   if (options.runtime.profile_kernels)
     log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));

@@ -3,7 +3,8 @@
 The one memory budget (--memory-budget): a flood of eWave sessions, and one of ocean streams whose
 clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before squalld's resident
 memory passes it (measured above its level when idle); what the flood held is given back when it ends,
-and squalld then serves as before. --max-streams-per-client: one client cannot take more stream slots
+and squalld then serves as before; while 90% of the budget is reserved, health says NOT_SERVING (new
+work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client cannot take more stream slots
 than that while others still find free ones."""
 
 from __future__ import annotations
@@ -95,10 +96,7 @@ def test_one_client_cannot_take_more_streams_than_its_share() -> None:
             assert "--max-streams-per-client = 2" in refused.value.message, refused.value
             first.cancel()
             # the slot comes back once the server notices the cancel (at its next frame)
-            deadline = time.monotonic() + 10
-            while not opens(client, small):
-                assert time.monotonic() < deadline, "no third stream 10 s after a cancel"
-                time.sleep(0.1)
+            assert until(lambda: opens(client, small), 10), "no third stream 10 s after a cancel"
             second.cancel()
 
 
@@ -109,3 +107,27 @@ def opens(client: squall.Client, spec: Any) -> bool:
     except squall.SquallError as error:
         assert error.code == grpc.StatusCode.RESOURCE_EXHAUSTED, error
         return False
+
+
+def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
+    """One unread StreamTiles of 12 fields at 256^2 reserves about 25 MB (two frames: the engine's
+    fields, their device buffers, the reply) of a 27 MB budget: health turns NOT_SERVING within a
+    second, and SERVING again once the stream is cancelled."""
+    spec = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=256, wind_speed=12)])
+    for daemon in _start(["--memory-budget", str(27_000_000)], "admission"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            assert client.health() == "SERVING"
+            stream = client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS)
+            next(stream)
+            assert until(lambda: client.health() == "NOT_SERVING"), "health stayed SERVING"
+            stream.cancel()
+            assert until(lambda: client.health() == "SERVING"), "health stayed NOT_SERVING"
+
+
+def until(condition: Any, seconds: float = 5.0) -> bool:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
