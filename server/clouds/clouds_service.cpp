@@ -25,6 +25,14 @@ void CloudsService::start(EngineContext& context) {
   engine_ = std::make_unique<CloudEngine>(context.runtime, context.gate, options);
 }
 
+std::vector<CapabilityGauge> CloudsService::gauges() const {
+  if (!engine_) return {};
+  return {{"squall_stored_volumes", "Cloud volumes stored on the server (BuildVolume with keep)",
+           double(engine_->stored_count())},
+          {"squall_stored_volume_bytes", "Host and device bytes of the stored cloud volumes",
+           double(engine_->stored_bytes())}};
+}
+
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {

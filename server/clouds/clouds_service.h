@@ -18,6 +18,8 @@ class CloudsService final : public squall::v1::Clouds::Service, public Capabilit
 
   grpc::Service& service() override { return *this; }
   void start(EngineContext& context) override;
+  // squall_stored_volumes, squall_stored_volume_bytes (host trees + device uploads).
+  std::vector<CapabilityGauge> gauges() const override;
 
   grpc::Status BuildVolume(grpc::ServerContext* context, const squall::v1::BuildVolumeRequest* request,
                            squall::v1::BuildVolumeResponse* response) override;

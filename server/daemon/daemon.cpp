@@ -200,8 +200,9 @@ void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoint
 // gauges. The exposer holds its collectables by weak pointer: the endpoint owns the daemon's (and is
 // destroyed after the exposer stops).
 struct MetricsEndpoint {
-  MetricsEndpoint(const std::string& address, const Metrics& metrics, const DaemonState& daemon)
-      : gauges(std::make_shared<DaemonMetrics>(daemon)), exposer(address, 1) {
+  MetricsEndpoint(const std::string& address, const Metrics& metrics, const DaemonState& daemon,
+                  const std::vector<std::unique_ptr<Capability>>& capabilities)
+      : gauges(std::make_shared<DaemonMetrics>(daemon, capabilities)), exposer(address, 1) {
     exposer.RegisterCollectable(metrics.registry());
     exposer.RegisterCollectable(gauges);
     const auto ports = exposer.GetListeningPorts();
@@ -305,7 +306,7 @@ int run_daemon(const DaemonOptions& options) {
   std::unique_ptr<MetricsEndpoint> metrics_endpoint;
   try {
     if (!options.metrics_listen.empty())
-      metrics_endpoint = std::make_unique<MetricsEndpoint>(options.metrics_listen, metrics, *daemon);
+      metrics_endpoint = std::make_unique<MetricsEndpoint>(options.metrics_listen, metrics, *daemon, served);
   } catch (const std::exception& e) {
     log(LogLevel::Error, "--metrics-listen ", options.metrics_listen, ": ", e.what());
     server->Shutdown();

@@ -38,7 +38,7 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
   const bool ready = serving.phase() == ServingState::Phase::Serving;
   // The FFT backend is chosen during start-up: named once the daemon has served.
   const std::string fft = serving.phase() == ServingState::Phase::Starting ? "" : daemon_.fft->name();
-  return {
+  std::vector<prometheus::MetricFamily> families = {
       gauge("squall_build_info", "squalld's version, replica, device and FFT backend (value 1)", 1,
             {{"version", SQUALL_VERSION},
              {"replica", serving.replica_id()},
@@ -64,10 +64,11 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
       counter("squall_device_lock_acquisitions_total", "Times device work took the device (its queue's lock)",
               double(wait.acquisitions)),
       counter("squall_device_lock_wait_seconds_total",
-              "Seconds device work waited for the device: requests queued "
-              "behind each other",
-              wait.seconds),
+              "Seconds device work waited for the device: requests queued behind each other", wait.seconds),
   };
+  for (const auto& capability : capabilities_)
+    for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));
+  return families;
 }
 
 }  // namespace squall::rpc

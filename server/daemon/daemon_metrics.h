@@ -8,11 +8,13 @@
 //   squall_session_bytes, squall_session_bytes_budget     (--max-session-bytes)
 //   squall_device_global_memory_bytes
 //   process_resident_memory_bytes             squalld's RSS (/proc/self/statm)
+//   and each capability's own gauges (Capability::gauges(), e.g. squall_stored_volume_bytes)
 #pragma once
 
 #include <prometheus/collectable.h>
 #include <prometheus/metric_family.h>
 
+#include <memory>
 #include <vector>
 
 #include "daemon/daemon_state.h"
@@ -21,11 +23,13 @@ namespace squall::rpc {
 
 class DaemonMetrics : public prometheus::Collectable {
  public:
-  explicit DaemonMetrics(const DaemonState& daemon) : daemon_(daemon) {}
+  DaemonMetrics(const DaemonState& daemon, const std::vector<std::unique_ptr<Capability>>& capabilities)
+      : daemon_(daemon), capabilities_(capabilities) {}
   std::vector<prometheus::MetricFamily> Collect() const override;
 
  private:
   const DaemonState& daemon_;
+  const std::vector<std::unique_ptr<Capability>>& capabilities_;
 };
 
 }  // namespace squall::rpc

@@ -8,7 +8,9 @@
 
 #include <map>
 #include <memory>
+#include <string>
 #include <typeindex>
+#include <vector>
 
 #include "common/limits.h"
 #include "common/session_store.h"
@@ -42,12 +44,20 @@ class EngineContext {
   std::map<std::type_index, std::shared_ptr<void>> shared_;
 };
 
+// A gauge a capability reports about its own state (squalld's /metrics reads them at every scrape).
+struct CapabilityGauge {
+  std::string name, help;
+  double value = 0;
+};
+
 class Capability {
  public:
   virtual ~Capability() = default;
   virtual grpc::Service& service() = 0;
   // Builds the engine; called once, after the kernels are built and before health turns SERVING.
   virtual void start(EngineContext& context) = 0;
+  // Its gauges now (none by default; none before start()). Called from the metrics endpoint's thread.
+  virtual std::vector<CapabilityGauge> gauges() const { return {}; }
 };
 
 }  // namespace squall::rpc

@@ -147,6 +147,26 @@ def test_a_client_killed_mid_stream_is_reclaimed_and_counted(
     assert value(scrape(), "squall_requests_total", **stream) == 1
 
 
+def test_stored_volumes_are_gauged(daemon: Squalld, tmp_path: Path) -> None:
+    """A capability's own gauges: a cloud volume kept on the server shows in squall_stored_volumes and
+    its bytes in squall_stored_volume_bytes."""
+    built = daemon.cli(
+        "cloud",
+        "build",
+        "--voxel-size",
+        "0.5",
+        "--sphere",
+        "0,0,0,4",
+        "--keep",
+        "-o",
+        str(tmp_path / "c.vdb"),
+    )
+    assert built.returncode == 0, built.stderr
+    text = http_get(f"http://{daemon.metrics}/metrics")
+    assert value(text, "squall_stored_volumes") == 1
+    assert value(text, "squall_stored_volume_bytes") > 10_000  # a sphere of 4 m in 0.5 m voxels
+
+
 def test_promtool_accepts_the_exposition(daemon: Squalld) -> None:
     promtool = shutil.which("promtool")
     assert (
