@@ -210,10 +210,6 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
   return e;
 }
 
-double estimated_samples(const DeviceVolume& volume, const RenderSettings& s) {
-  return estimate_samples(volume, s).total;
-}
-
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field,
                             const Cancellation& cancel) {
   validate(settings, field);

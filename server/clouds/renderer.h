@@ -85,9 +85,8 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
 // Density samples a render of `volume` would take, an upper bound computed before it runs: every primary
 // ray crosses the volume's whole box diagonal in steps of s.step with s.substeps samples each; with direct
 // shadows every sample marches such a ray toward each light; a deep shadow map marches one per map node
-// and light. Early termination and empty-space skipping only make the real count smaller.
-double estimated_samples(const DeviceVolume& volume, const RenderSettings& s);
-// The same bound by part: per pixel (primary march and direct shadows), per deep shadow map node.
+// and light. Early termination and empty-space skipping only make the real count smaller. By part: per
+// pixel (primary march and direct shadows), per deep shadow map node, and in all.
 struct SampleEstimate {
   double per_pixel = 0, per_map_node = 0, map_nodes = 0, total = 0;
 };

@@ -1,18 +1,14 @@
-// AdmissionWatch: while squalld serves, a thread that four times a second turns gRPC health NOT_SERVING
-// when the memory budget is nearly spent (at least kFullShare of --memory-budget reserved: new work would
-// be refused RESOURCE_EXHAUSTED, so balancers should send it elsewhere) and SERVING again once the
-// reservations fall below kFreeShare (the gap keeps it from flapping). Stopped (and joined) before the
-// daemon drains, which turns health NOT_SERVING for good.
+// AdmissionWatch: while squalld serves, four times a second, turns gRPC health NOT_SERVING when the memory
+// budget is nearly spent (at least kFullShare of --memory-budget reserved: new work would be refused
+// RESOURCE_EXHAUSTED, so balancers should send it elsewhere) and SERVING again once the reservations fall
+// below kFreeShare (the gap keeps it from flapping). Stopped before the daemon drains, which turns health
+// NOT_SERVING for good.
 #pragma once
-
-#include <chrono>
-#include <condition_variable>
-#include <mutex>
-#include <thread>
 
 #include <grpcpp/health_check_service_interface.h>
 
 #include "common/limits.h"
+#include "daemon/beat.h"
 
 namespace squall::rpc {
 
@@ -21,18 +17,15 @@ class AdmissionWatch {
   static constexpr double kFullShare = 0.9, kFreeShare = 0.8;
 
   AdmissionWatch(const LimitGate& gate, grpc::HealthCheckServiceInterface& health);
-  ~AdmissionWatch() { stop(); }
-  void stop();
+  void stop() { beat_.stop(); }
 
  private:
-  void run();
+  void tick();
 
   const LimitGate& gate_;
   grpc::HealthCheckServiceInterface& health_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stopping_ = false;
-  std::thread thread_;
+  bool admitting_ = true;  // touched by the beat's thread only
+  Beat beat_;              // last: it starts ticking once the members above exist
 };
 
 }  // namespace squall::rpc

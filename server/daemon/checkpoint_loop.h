@@ -6,11 +6,10 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
-#include <mutex>
-#include <thread>
+#include <memory>
 
 #include "common/session_registry.h"
+#include "daemon/beat.h"
 
 namespace squall::rpc {
 
@@ -18,18 +17,17 @@ class CheckpointLoop {
  public:
   // Does nothing without a state directory; a zero interval: no periodic checkpoints.
   CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval, std::chrono::milliseconds ttl);
-  ~CheckpointLoop() { stop(); }
-  void stop();
+  void stop() {
+    if (beat_) beat_->stop();
+  }
 
  private:
-  void run();
+  void tick();
 
   SessionRegistry& registry_;
   const std::chrono::milliseconds interval_, ttl_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stopping_ = false;
-  std::thread thread_;
+  std::chrono::steady_clock::time_point last_checkpoint_, last_expiry_;  // the beat's thread only
+  std::unique_ptr<Beat> beat_;  // last: it starts ticking once the members above exist
 };
 
 }  // namespace squall::rpc

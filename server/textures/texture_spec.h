@@ -19,6 +19,8 @@ enum class Method {
 };
 constexpr int kMethods = 4;
 constexpr int kMaxTextureFrames = 100000;  // frames of one AdvectTexture stream
+constexpr double kMaxTextureDt = 1e4;      // s between frames
+constexpr int kMaxTextureSubsteps = 64;    // integration steps per frame
 // Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
 // those a field divides by at least kMinVelocityDivisor.
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;

@@ -168,9 +168,9 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
   texture(spec.texture, gate, path + ".texture");
   output(spec.output, gate, path + ".output");
   finite(path + ".t0", spec.t0);
-  positive(path + ".dt", spec.dt, 1e4);
+  positive(path + ".dt", spec.dt, kMaxTextureDt);
   in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
-  in(path + ".substeps", int64_t(spec.substeps), 1, 64);
+  in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else

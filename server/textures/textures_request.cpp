@@ -478,8 +478,9 @@ bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& 
   if (control.has_velocity()) s.velocity = velocity(control.velocity(), path + ".velocity");
   // Checked here as well as by TextureEngine::validate, so that the first message's steering is named as
   // the message's own field, not the start's.
-  if (control.has_dt()) s.dt = validate::positive(path + ".dt", control.dt(), 1e4);
-  if (control.has_substeps()) s.substeps = int(validate::in(path + ".substeps", int64_t(control.substeps()), 1, 64));
+  if (control.has_dt()) s.dt = validate::positive(path + ".dt", control.dt(), kMaxTextureDt);
+  if (control.has_substeps())
+    s.substeps = int(validate::in(path + ".substeps", int64_t(control.substeps()), 1, kMaxTextureSubsteps));
   if (control.has_final_scale()) s.texture.final_scale = validate::finite(path + ".final_scale", control.final_scale());
   if (control.has_spin()) {
     if (s.texture.kind != SQUALL_TEXTURE_NOISE)

@@ -36,6 +36,13 @@ struct Call {
   std::unique_ptr<client::Client> client;
   std::unique_ptr<v1::Clouds::Stub> stub;
   std::unique_ptr<grpc::ClientContext> context;
+
+  grpc::Status build(const v1::BuildVolumeRequest& request, v1::BuildVolumeResponse* response) {
+    return stub->BuildVolume(context.get(), request, response);
+  }
+  grpc::Status render(const v1::RenderRequest& request, v1::RenderResponse* response) {
+    return stub->Render(context.get(), request, response);
+  }
 };
 
 Call call() {
@@ -256,38 +263,46 @@ TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
   *build.mutable_model() = sphere_model();
   build.set_keep(true);
   v1::BuildVolumeResponse built;
-  ASSERT_TRUE(c.stub->BuildVolume(c.context.get(), build, &built).ok());
+  const grpc::Status kept = c.build(build, &built);
+  ASSERT_TRUE(kept.ok()) << kept.error_message();
   v1::RenderRequest request;
   request.set_volume_id(built.summary().volume_id());
   *request.mutable_settings() = test::long_render_settings();
   auto heavy = call();
   expire_in(*heavy.context, 1.5);
   v1::RenderResponse response;
-  EXPECT_EQ(heavy.stub->Render(heavy.context.get(), request, &response).error_code(),
-            grpc::StatusCode::DEADLINE_EXCEEDED);
+  const grpc::Status expired = heavy.render(request, &response);
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   *request.mutable_settings() = small_render();
   auto next = call();
   expire_in(*next.context, 30);
   const auto start = std::chrono::steady_clock::now();
-  ASSERT_TRUE(next.stub->Render(next.context.get(), request, &response).ok());
+  const grpc::Status served = next.render(request, &response);
+  ASSERT_TRUE(served.ok()) << served.error_message();
   EXPECT_LT(seconds_since(start), 1.5) << "the expired render still held the device";
 }
 
-// A build with 256 advection substeps per voxel (about a minute of 2 cores) and a 1 s deadline: squalld
-// stops working on it within a second of the deadline (it used to go on for more than 90 s).
-TEST(CloudsService, AnExpiredBuildStopsUsingTheCores) {
+// `model` in voxels of `voxel_size`, advected for 1 s at 1 m/s in 256 MacCormack substeps.
+v1::BuildVolumeRequest advected_build(const v1::CloudModel& model, double voxel_size) {
   v1::BuildVolumeRequest build;
-  *build.mutable_model() = sphere_model();
-  build.mutable_model()->set_voxel_size(0.25);
+  *build.mutable_model() = model;
+  build.mutable_model()->set_voxel_size(voxel_size);
   auto* advection = build.mutable_model()->mutable_advection();
   advection->set_speed(1);
   advection->set_time(1);
   advection->set_substeps(256);
   advection->set_scheme(v1::ADVECTION_SCHEME_MODIFIED_MACCORMACK);
+  return build;
+}
+
+// A build with 256 advection substeps per voxel (about a minute of 2 cores) and a 1 s deadline: squalld
+// stops working on it within a second of the deadline (it used to go on for more than 90 s).
+TEST(CloudsService, AnExpiredBuildStopsUsingTheCores) {
   auto c = call();
   expire_in(*c.context, 1);
   v1::BuildVolumeResponse built;
-  EXPECT_EQ(c.stub->BuildVolume(c.context.get(), build, &built).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  const grpc::Status expired = c.build(advected_build(sphere_model(), 0.25), &built);
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   std::this_thread::sleep_for(std::chrono::seconds(1));
   const pid_t pid = daemon().process().pid();
   const double before = cpu_seconds(pid);
@@ -306,9 +321,8 @@ TEST(CloudsService, ARenderWhosePixelsAreTooCostlyIsRefused) {
   request.mutable_settings()->mutable_camera()->set_height(8);
   request.mutable_settings()->set_step(1e-4);
   request.mutable_settings()->set_shadow_step(0.01);
-  auto c = call();
   v1::RenderResponse response;
-  auto status = c.stub->Render(c.context.get(), request, &response);
+  const grpc::Status status = call().render(request, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_NE(status.error_message().find("settings.step = 0.0001 makes an estimated"), std::string::npos)
       << status.error_message();
@@ -318,17 +332,9 @@ TEST(CloudsService, ARenderWhosePixelsAreTooCostlyIsRefused) {
 // A sphere of 5 m in 5 cm voxels (about 7e6) advected in 256 MacCormack substeps: 4e9 velocity samples,
 // past --max-advection-samples = 1e9: refused before the build starts, naming the substeps.
 TEST(CloudsService, ABuildWhoseAdvectionIsTooCostlyIsRefused) {
-  v1::BuildVolumeRequest build;
-  *build.mutable_model() = test::long_work_sphere();
-  build.mutable_model()->set_voxel_size(0.05);
-  auto* advection = build.mutable_model()->mutable_advection();
-  advection->set_speed(1);
-  advection->set_time(1);
-  advection->set_substeps(256);
-  auto c = call();
   v1::BuildVolumeResponse built;
   const auto start = std::chrono::steady_clock::now();
-  auto status = c.stub->BuildVolume(c.context.get(), build, &built);
+  const grpc::Status status = call().build(advected_build(test::long_work_sphere(), 0.05), &built);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_NE(status.error_message().find("model.advection.substeps = 256 makes an estimated"), std::string::npos)
       << status.error_message();

@@ -75,7 +75,7 @@ TEST(Daemon, ClientTextInTheLogIsEscapedAndCut) {
   request.set_request_id("log-test-44\n2026-01-01T00:00:00Z INFO  request id=forged" + std::string(4000, 'y'));
   squall::v1::GetInfoResponse reply;
   const grpc::Status status = stub->GetInfo(&context, request, &reply);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
   EXPECT_NE(status.error_message().find("request_id has 4056 bytes: at most 128"), std::string::npos)
       << status.error_message();
   std::string log;
@@ -361,14 +361,14 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
 TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
   Daemon d({"--fft", "vkfft", "--grace-period", "2", "--drain-wait", "0"});
   client::Client c({d.address(), 600, ""});
-  grpc::StatusCode render_code = grpc::StatusCode::OK;
+  grpc::Status rendered;
   std::thread render([&] {
     v1::RenderRequest request;
     *request.mutable_model() = test::long_work_sphere();
     *request.mutable_settings() = test::long_render_settings();
     v1::RenderResponse response;
     auto context = c.context();
-    render_code = v1::Clouds::NewStub(c.channel())->Render(context.get(), request, &response).error_code();
+    rendered = v1::Clouds::NewStub(c.channel())->Render(context.get(), request, &response);
   });
   std::this_thread::sleep_for(std::chrono::seconds(3));  // the model is built (about a second), the render runs
   const auto start = std::chrono::steady_clock::now();
@@ -376,7 +376,10 @@ TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
   EXPECT_EQ(d.process().wait(2 + 5 + 5), 0) << d.process().log();
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2 + 5);
   render.join();
-  EXPECT_NE(render_code, grpc::StatusCode::OK);
+  // Cancelled by the shutdown (or cut with the connection), never finished.
+  EXPECT_TRUE(rendered.error_code() == grpc::StatusCode::CANCELLED ||
+              rendered.error_code() == grpc::StatusCode::UNAVAILABLE)
+      << rendered.error_code() << ": " << rendered.error_message();
 }
 
 TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {

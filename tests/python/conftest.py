@@ -12,6 +12,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any, Iterator, List, Optional
@@ -19,6 +20,9 @@ from typing import Any, Iterator, List, Optional
 import pytest
 
 import squall
+
+# The Python helpers shared with the other test folders (wait_for, ...): tests/support.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
 
 SOURCE_DIR = Path(os.environ.get("SQUALL_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 BINARY_DIR = Path(os.environ.get("SQUALL_BINARY_DIR", SOURCE_DIR / "build"))

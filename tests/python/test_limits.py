@@ -10,7 +10,6 @@ than that while others still find free ones."""
 from __future__ import annotations
 
 import contextlib
-import time
 from typing import Any, Iterator, List
 
 import grpc
@@ -18,6 +17,7 @@ import pytest
 
 import squall
 from conftest import Daemon, _start
+from processes import wait_for
 from test_load import resident_bytes
 
 BUDGET = 1 << 30
@@ -96,7 +96,7 @@ def test_one_client_cannot_take_more_streams_than_its_share() -> None:
             assert "--max-streams-per-client = 2" in refused.value.message, refused.value
             first.cancel()
             # the slot comes back once the server notices the cancel (at its next frame)
-            assert until(lambda: opens(client, small), 10), "no third stream 10 s after a cancel"
+            wait_for(lambda: opens(client, small), 10, "a third stream after a cancel")
             second.cancel()
 
 
@@ -119,15 +119,6 @@ def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
             assert client.health() == "SERVING"
             stream = client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS)
             next(stream)
-            assert until(lambda: client.health() == "NOT_SERVING"), "health stayed SERVING"
+            wait_for(lambda: client.health() == "NOT_SERVING", 5, "NOT_SERVING")
             stream.cancel()
-            assert until(lambda: client.health() == "SERVING"), "health stayed NOT_SERVING"
-
-
-def until(condition: Any, seconds: float = 5.0) -> bool:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.05)
-    return True
+            wait_for(lambda: client.health() == "SERVING", 5, "SERVING again")
