@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "clouds/nanovdb_volume.h"
+#include "clouds/occupancy.h"
 #include "clouds/render_params.h"
 #include "common/error.h"
 #include "common/validate.h"
@@ -12,13 +13,9 @@
 namespace squall::clouds {
 namespace {
 
-// The first slice of a render holds about this many density samples (its cost, an upper bound): a
-// tenth of a second on a 2-core CPU device; the slices after it are sized by the time it took.
+// The first slice of a render holds about this many estimated density samples: a tenth of a second on a
+// 2-core CPU device; the slices after it are sized by the rate it ran at.
 constexpr double kFirstSliceSamples = 2e7;
-
-size_t first_slice(double samples_per_item) {
-  return size_t(std::clamp(kFirstSliceSamples / std::max(samples_per_item, 1.0), 1.0, 1e9));
-}
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3d cross(const Vec3d& a, const Vec3d& b) {
@@ -107,6 +104,52 @@ std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const CloudRen
   return mask;
 }
 
+// Density samples taken per primary sample: the sample itself and, with direct shadows, a march toward
+// each light across at most the box diagonal; with a deep shadow map, one lookup per light.
+double samples_per_primary_sample(const RenderSettings& s, double diagonal) {
+  const double lights = double(s.lights.size());
+  if (s.shadow == ShadowMode::Direct) return 1 + lights * (std::ceil(diagonal / shadow_step(s)) + 1);
+  if (s.shadow == ShadowMode::DeepShadowMap) return 1 + lights;
+  return 1;
+}
+
+// The direction of the primary ray through image point (u, v), in pixels from the top-left corner: the
+// camera of cloud_render.
+Vec3d camera_ray(const CloudRenderParams& p, double u, double v) {
+  const double aspect = double(p.width) / p.height;
+  const double sx = (2 * u / p.width - 1) * p.tan_half_fov_y * aspect, sy = (1 - 2 * v / p.height) * p.tan_half_fov_y;
+  Vec3d d;
+  for (int a = 0; a < 3; ++a) d[a] = p.forward[a] + sx * p.right[a] + sy * p.up[a];
+  return unit(d);
+}
+
+// Each 8x8 tile's estimated density samples, in row order: the length of its rays inside density (the
+// mean over its corners and centre, from the coarse occupancy; empty space is skipped by the march) in
+// steps, times the samples per step, plus one per pixel for the ray itself. Only the ratios between tiles
+// matter: they size the render's slices.
+std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings& s, const CloudRenderParams& p,
+                               const TileGrid& tiles) {
+  const double per_metre =
+      s.substeps / s.step * samples_per_primary_sample(s, norm(sub(volume.world_max, volume.world_min)));
+  auto length = [&](size_t u, size_t v) {
+    return volume.coarse.marked_length(
+        s.camera.eye, camera_ray(p, double(std::min<size_t>(u, p.width)), double(std::min<size_t>(v, p.height))));
+  };
+  std::vector<double> corners((tiles.x + 1) * (tiles.y + 1));
+  for (size_t j = 0; j <= tiles.y; ++j)
+    for (size_t i = 0; i <= tiles.x; ++i) corners[j * (tiles.x + 1) + i] = length(8 * i, 8 * j);
+  std::vector<double> costs(tiles.x * tiles.y);
+  for (size_t j = 0; j < tiles.y; ++j)
+    for (size_t i = 0; i < tiles.x; ++i) {
+      const size_t c = j * (tiles.x + 1) + i;
+      const double mean = (corners[c] + corners[c + 1] + corners[c + tiles.x + 1] + corners[c + tiles.x + 2] +
+                           length(8 * i + 4, 8 * j + 4)) /
+                          5;
+      costs[j * tiles.x + i] = 64 * (1 + mean * per_metre);
+    }
+  return costs;
+}
+
 }  // namespace
 
 void validate(const RenderSettings& s, const std::string& f) {
@@ -186,6 +229,7 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
     d.world_min[a] = (b.min()[a] - 0.5) * dx;
     d.world_max[a] = (b.max()[a] + 0.5) * dx;
   }
+  d.coarse = CoarseOccupancy::of(d.world_min, d.world_max, d.occupied);
   return d;
 }
 
@@ -196,14 +240,11 @@ CloudRenderer::CloudRenderer(Runtime& runtime)
 
 SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s) {
   const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
-  const double steps = std::ceil(diagonal / s.step) + 1, shadow_steps = std::ceil(diagonal / shadow_step(s)) + 1;
-  const double primary = steps * s.substeps;
+  const double steps = std::ceil(diagonal / s.step) + 1;
   SampleEstimate e;
-  e.per_pixel = primary;
-  if (s.shadow == ShadowMode::Direct) e.per_pixel = primary * (1 + lights * shadow_steps);
+  e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal);
   if (s.shadow == ShadowMode::DeepShadowMap) {
-    e.per_pixel = primary * (1 + lights);
-    e.per_map_node = shadow_steps;
+    e.per_map_node = std::ceil(diagonal / shadow_step(s)) + 1;
     e.map_nodes = double(s.shadow_map_size[0]) * s.shadow_map_size[1] * s.shadow_map_size[2] * lights;
   }
   e.total = e.per_pixel * s.camera.width * s.camera.height + e.per_map_node * e.map_nodes;
@@ -241,22 +282,28 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
       auto lock = runtime_.exclusive();
       runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
     }
-    run_sliced(runtime_, {round_up(dsm_floats, 64), 64, first_slice(cost.per_map_node)}, cancel,
-               field + ": the deep shadow map", [&](size_t first, size_t count) {
-                 shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
-                                           mask.buffer(), dsm.buffer());
-               });
+    auto node_cost = [&](size_t g) {  // a needed node marches toward its light, the others are skipped
+      double c = 0;
+      for (size_t id = 64 * g; id < std::min(64 * (g + 1), dsm_floats); ++id)
+        c += needed[id % needed.size()] ? cost.per_map_node : 1;
+      return std::max(c, 1.0);
+    };
+    const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples};
+    run_sliced(runtime_, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
+      shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
+                                mask.buffer(), dsm.buffer());
+    });
   }
   // Slices of 8x8 tiles in row order (a slice is up to three rectangles: a row's end, whole rows, a row's
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
-  run_sliced(runtime_, {tiles.x * tiles.y, 1, first_slice(64 * cost.per_pixel)}, cancel, field + ": the render",
-             [&](size_t first, size_t count) {
-               for (const auto& r : tiles.rectangles(first, count))
-                 render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height),
-                                       cl::NDRange(8, 8), volume.density, volume.temperature, dsm.buffer(), p,
-                                       out.buffer());
-             });
+  const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
+  SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, kFirstSliceSamples};
+  run_sliced(runtime_, plan, cancel, field + ": the render", [&](size_t first, size_t count) {
+    for (const auto& r : tiles.rectangles(first, count))
+      render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
+                            volume.density, volume.temperature, dsm.buffer(), p, out.buffer());
+  });
   auto lock = runtime_.exclusive();
   runtime_.queue().enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
   return image;

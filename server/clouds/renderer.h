@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "clouds/occupancy.h"
 #include "clouds/render_params.h"
 #include "clouds/volume.h"
 #include "common/cancel.h"
@@ -77,6 +78,7 @@ struct DeviceVolume {
   // World boxes (min x, y, z, max x, y, z; m) of the density's active leaves and tiles grown by a voxel:
   // where the deep shadow map is needed (its nodes farther than one map cell from all are skipped).
   std::vector<std::array<double, 6>> occupied;
+  CoarseOccupancy coarse;  // `occupied` on a coarse grid over the box: what a ray's march will cost
   uint64_t device_bytes = 0;
 };
 
@@ -103,8 +105,8 @@ class CloudRenderer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/".
   explicit CloudRenderer(Runtime& runtime);
-  // Renders in slices of rows (the shadow map in slices of nodes), checking `cancel` between them: a
-  // cancelled render frees the device within a slice (Error(Cancelled)).
+  // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
+  // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
                const Cancellation& cancel = {});
 

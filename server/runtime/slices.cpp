@@ -6,12 +6,10 @@
 namespace squall {
 namespace {
 
-// The next slice's size: the last one's scaled toward kSliceSeconds, by at most 4x either way (one odd
-// timing does not swing it), in granules, at least one.
-size_t next_count(size_t count, double seconds, size_t granule) {
-  const double scale = std::clamp(kSliceSeconds / std::max(seconds, 1e-6), 0.25, 4.0);
-  const size_t granules = std::max<size_t>(1, size_t(double(count / granule) * scale));
-  return granules * granule;
+// The next slice's cost: the cost the last one would have needed to take kSliceSeconds at the rate it
+// ran, changed by at most 4x (one odd timing does not swing it).
+double next_cost(double budget, double cost, double seconds) {
+  return std::clamp(cost / std::max(seconds, 1e-6) * kSliceSeconds, budget / 4, budget * 4);
 }
 
 }  // namespace
@@ -35,22 +33,28 @@ std::vector<TileGrid::Rect> TileGrid::rectangles(size_t first, size_t count) con
 
 size_t run_sliced(Runtime& runtime, const SlicePlan& plan, const Cancellation& cancel, const std::string& what,
                   const std::function<void(size_t first, size_t count)>& enqueue) {
-  const size_t granule = std::max<size_t>(1, plan.granule);
-  size_t count = std::max<size_t>(1, plan.first_count / granule) * granule, first = 0, slices = 0;
-  while (first < plan.total) {
+  double budget = plan.first_cost;
+  size_t first = 0, slices = 0;
+  double next = plan.granules > 0 ? plan.cost(0) : 0;  // the cost of granule `first`
+  while (first < plan.granules) {
     cancel.check(what);
-    count = std::min(count, plan.total - first);
+    size_t end = first;
+    double cost = 0;
+    do {
+      cost += next;
+      next = ++end < plan.granules ? plan.cost(end) : 0;
+    } while (end < plan.granules && cost + next <= budget);
     double seconds = 0;
     {
       auto lock = runtime.exclusive();
       const auto start = std::chrono::steady_clock::now();  // the device's time, not the wait for the lock
-      enqueue(first, count);
+      enqueue(first * plan.granule, (end - first) * plan.granule);
       runtime.queue().finish();
       seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
     ++slices;
-    first += count;
-    count = next_count(count, seconds, granule);
+    first = end;
+    budget = next_cost(budget, cost, seconds);
   }
   return slices;
 }

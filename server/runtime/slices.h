@@ -1,8 +1,9 @@
 // Device work too long for one launch runs in slices of its index space along one axis: each slice is
 // enqueued under Runtime::exclusive(), waited for and timed; between slices the lock is free (other
-// requests' work goes in between) and the caller's cancellation is checked. Slices grow or shrink toward
-// kSliceSeconds, so a GPU does a whole image in a few launches while a CPU device stops within about one
-// slice of a cancel.
+// requests' work goes in between) and the caller's cancellation is checked. Slices are sized by the
+// estimated cost of their granules toward kSliceSeconds at the rate the last slice ran, so a GPU does a
+// whole image in a few launches while a CPU device stops within about one slice of a cancel, even where
+// cheap granules (rays that miss a cloud) come before costly ones.
 #pragma once
 
 #include <cstddef>
@@ -18,10 +19,13 @@ namespace squall {
 // The time one slice aims at, s. A cancel takes effect after the slice in flight: at most a few times this.
 inline constexpr double kSliceSeconds = 0.1;
 
+// The sliced axis: granules (work-groups) of `granule` ids, each with an estimated cost in any unit
+// proportional to its device time (density samples, say). Only ratios of costs matter.
 struct SlicePlan {
-  size_t total = 0;        // ids along the sliced axis, a multiple of granule
-  size_t granule = 1;      // slices are multiples of this (the work-group size along the axis)
-  size_t first_count = 1;  // ids in the first slice (rounded to granule): small, its cost is unknown
+  size_t granules = 0;
+  size_t granule = 1;
+  std::function<double(size_t)> cost = [](size_t) { return 1.0; };  // granule g's cost, > 0; uniform by default
+  double first_cost = 1;  // the first slice's cost: small, the rate is not known yet
 };
 
 // A 2D grid of work-groups (tiles) numbered in row order, for slicing 2D work along that order.
@@ -35,8 +39,8 @@ struct TileGrid {
   std::vector<Rect> rectangles(size_t first, size_t count) const;
 };
 
-// Calls enqueue(first, count) for consecutive slices covering [0, plan.total), each under the runtime's
-// lock and followed by a wait; throws Error(Cancelled) naming `what` when cancel is requested between
+// Calls enqueue(first, count) (in ids) for consecutive slices covering the plan's granules, each under the
+// runtime's lock and followed by a wait; a slice is at least one granule; throws Error(Cancelled) naming `what` when cancel is requested between
 // slices. Returns the number of slices.
 size_t run_sliced(Runtime& runtime, const SlicePlan& plan, const Cancellation& cancel, const std::string& what,
                   const std::function<void(size_t first, size_t count)>& enqueue);

@@ -1,7 +1,9 @@
 """A bounded load on one squalld from eight clients at once: ocean tiles and samples, eWave sessions
 stepping, cloud renders, mixed, for SQUALL_LOAD_SECONDS (default 20 s; a longer soak: set it). Asserts
 no unexpected error, every eWave session's frames identical to the same steps run alone (concurrent
-calls do not mix their state), the daemon SERVING afterwards, and its resident memory after the run at
+calls do not mix their state), every tile, sample and render bit-identical to the same request made
+alone before the load (concurrent requests do not mix their kernel arguments or buffers), the daemon
+SERVING afterwards, and its resident memory after the run at
 most 64 MiB above what it was after a warm-up with the same load (no leak per call). Prints the
 calls made and the p50 / p99 latency per kind."""
 
@@ -11,7 +13,7 @@ import os
 import statistics
 import threading
 import time
-from typing import Callable, Dict, List
+from typing import Any, Callable, Dict, List, Mapping
 
 import numpy as np
 
@@ -36,27 +38,33 @@ def ewave_run(client: squall.Client, steps: int = 4) -> List[bytes]:
         return [session.step(**hull_inputs(n))["height"].tobytes() for n in range(steps)]
 
 
-def calls(client: squall.Client, reference: List[bytes]) -> Dict[str, Callable[[], None]]:
+def fields(result: Mapping[str, Any]) -> Dict[str, bytes]:
+    """A tile's or samples' fields as bytes, for bit-for-bit comparison."""
+    return {name: np.asarray(values).tobytes() for name, values in result.items()}
+
+
+def requests(client: squall.Client) -> Dict[str, Callable[[], Any]]:
+    """The load's calls, each returning its result as comparable bytes."""
     spec = small_tile()
     model = squall.clouds.model(spheres=[(0, 0, 0, 6)])
     camera = squall.clouds.camera(eye=(0, -30, 0), width=8, height=8)
-
-    def ewave() -> None:
-        assert ewave_run(client) == reference, "a session's frames changed under load"
-
-    def sample() -> None:
-        assert np.isfinite(client.ocean.sample(spec, [[1.0, 2.0]], time=1.0)["height"]).all()
-
     return {
-        "tile": lambda: client.ocean.tile(spec, time=1.0),
-        "sample": sample,
-        "ewave": ewave,
-        "render": lambda: client.clouds.render(model, camera=camera),
+        "tile": lambda: fields(client.ocean.tile(spec, time=1.0)),
+        "sample": lambda: fields(client.ocean.sample(spec, [[1.0, 2.0]], time=1.0)),
+        "ewave": lambda: ewave_run(client),
+        "render": lambda: client.clouds.render(model, camera=camera).pixels.tobytes(),
     }
 
 
-def load(address: str, reference: List[bytes], seconds: float) -> Dict[str, List[float]]:
-    """CLIENTS threads calling for `seconds`; the latencies by kind. Fails on any error."""
+def references(address: str) -> Dict[str, Any]:
+    """Every call's result made alone, one at a time."""
+    with squall.Client(address, timeout=120) as client:
+        return {name: call() for name, call in requests(client).items()}
+
+
+def load(address: str, reference: Dict[str, Any], seconds: float) -> Dict[str, List[float]]:
+    """CLIENTS threads calling for `seconds`; the latencies by kind. Fails on any error or any result
+    that differs from its reference."""
     latencies: Dict[str, List[float]] = {}
     errors: List[BaseException] = []
     lock = threading.Lock()
@@ -64,13 +72,13 @@ def load(address: str, reference: List[bytes], seconds: float) -> Dict[str, List
 
     def worker(index: int) -> None:
         with squall.Client(address, timeout=120) as client:
-            kinds = list(calls(client, reference).items())
+            kinds = list(requests(client).items())
             n = index
             while time.monotonic() < deadline and not errors:
                 name, call = kinds[n % len(kinds)]
                 start = time.monotonic()
                 try:
-                    call()
+                    assert call() == reference[name], f"a {name} changed under load"
                 except BaseException as error:  # noqa: B902 - reported below, the test fails
                     with lock:
                         errors.append(error)
@@ -85,13 +93,12 @@ def load(address: str, reference: List[bytes], seconds: float) -> Dict[str, List
     for t in threads:
         t.join(seconds + 300)
     assert not errors, f"{len(errors)} calls failed, first: {errors[0]!r}"
-    assert set(latencies) == {"tile", "sample", "ewave", "render"}, latencies.keys()
+    assert set(latencies) == set(reference), latencies.keys()
     return latencies
 
 
 def test_eight_clients_mixed_calls(daemon: Daemon) -> None:
-    with squall.Client(daemon.address, timeout=120) as first:
-        reference = ewave_run(first)
+    reference = references(daemon.address)
     # Warm-up: the same load for a while, so that every thread's allocator arena, gRPC's thread pool
     # and the plan caches reach their working size before memory is compared.
     load(daemon.address, reference, min(5.0, SECONDS))
@@ -105,7 +112,7 @@ def test_eight_clients_mixed_calls(daemon: Daemon) -> None:
 
     with squall.Client(daemon.address) as after:
         assert after.health() == "SERVING"
-        assert ewave_run(after) == reference
+        assert ewave_run(after) == reference["ewave"]
     growth = resident_bytes(daemon.pid) - before
     print(
         f"resident memory: {before >> 20} MiB after warm-up, {growth / 2**20:+.1f} MiB after the load"

@@ -1,6 +1,7 @@
 // Sliced device work (run_sliced): slices cover the index space once, in order, in granules; they grow
-// toward kSliceSeconds when the work is quick and shrink when it is slow; a cancel stops the work between
-// two slices; a slice of a 2D grid of tiles is a few rectangles. The Watchdog that bounds a shutdown ends the process when it is not disarmed in time.
+// toward kSliceSeconds when the work is quick and shrink when it is slow, by the granules' estimated costs;
+// a cancel stops the work between two slices; a slice of a 2D grid of tiles is a few rectangles. The
+// Watchdog that bounds a shutdown ends the process when it is not disarmed in time.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -18,17 +19,29 @@ namespace {
 
 using Slices = std::vector<std::pair<size_t, size_t>>;
 
-Slices record(const SlicePlan& plan, double seconds_per_id = 0, const Cancellation& cancel = {}) {
+// Runs `plan` with a device time of seconds_per_cost times each slice's cost.
+Slices record(const SlicePlan& plan, double seconds_per_cost = 0, std::vector<double>* seconds = nullptr) {
   Slices slices;
-  run_sliced(test::runtime(), plan, cancel, "test work", [&](size_t first, size_t count) {
+  run_sliced(test::runtime(), plan, {}, "test work", [&](size_t first, size_t count) {
     slices.emplace_back(first, count);
-    std::this_thread::sleep_for(std::chrono::duration<double>(seconds_per_id * double(count)));
+    double cost = 0;
+    for (size_t g = first / plan.granule; g < (first + count) / plan.granule; ++g) cost += plan.cost(g);
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds_per_cost * cost));
+    if (seconds) seconds->push_back(seconds_per_cost * cost);
   });
   return slices;
 }
 
+SlicePlan uniform(size_t granules, size_t granule, double first_cost) {
+  SlicePlan plan;
+  plan.granules = granules;
+  plan.granule = granule;
+  plan.first_cost = first_cost;
+  return plan;
+}
+
 TEST(Slices, CoverTheIndexSpaceOnceInOrderInGranules) {
-  const Slices slices = record({8 * 1000, 8, 20});
+  const Slices slices = record(uniform(1000, 8, 2.5));
   size_t next = 0;
   for (const auto& [first, count] : slices) {
     EXPECT_EQ(first, next);
@@ -37,11 +50,11 @@ TEST(Slices, CoverTheIndexSpaceOnceInOrderInGranules) {
     next = first + count;
   }
   EXPECT_EQ(next, 8000u);
-  EXPECT_EQ(slices.front().second, 16u) << "the first slice is rounded down to granules";
+  EXPECT_EQ(slices.front().second, 16u) << "the first slice: whole granules within its cost";
 }
 
 TEST(Slices, QuickWorkGrowsFourfoldASliceUpToTheWhole) {
-  const Slices slices = record({1 << 20, 1, 1});
+  const Slices slices = record(uniform(1 << 20, 1, 1));
   ASSERT_GE(slices.size(), 3u);
   EXPECT_EQ(slices[1].second, 4u);
   EXPECT_EQ(slices[2].second, 16u);
@@ -50,7 +63,7 @@ TEST(Slices, QuickWorkGrowsFourfoldASliceUpToTheWhole) {
 
 // 1 ms per id: a slice of 100 ids is kSliceSeconds. Starting from 400 (0.4 s) the slices shrink to it.
 TEST(Slices, SlowWorkShrinksTowardTheTargetTime) {
-  const Slices slices = record({1000, 1, 400}, 1e-3);
+  const Slices slices = record(uniform(1000, 1, 400), 1e-3);
   ASSERT_GE(slices.size(), 3u);
   EXPECT_EQ(slices[0].second, 400u);
   EXPECT_EQ(slices[1].second, 100u);
@@ -61,9 +74,23 @@ TEST(Slices, ACancelStopsTheWorkBetweenTwoSlices) {
   int calls = 0;
   Cancellation cancel([&] { return calls >= 2; });
   test::expect_error(Code::Cancelled, "test work cancelled", [&] {
-    run_sliced(test::runtime(), {100, 1, 1}, cancel, "test work", [&](size_t, size_t) { ++calls; });
+    run_sliced(test::runtime(), uniform(100, 1, 1), cancel, "test work", [&](size_t, size_t) { ++calls; });
   });
   EXPECT_EQ(calls, 2);
+}
+
+// 2000 cheap granules (a ray that misses the cloud: 10 us) then 500 costly ones (1 ms): sized by count, the
+// slices grow on the cheap ones to thousands and the first costly slice holds the device for seconds;
+// sized by cost, no slice takes much more than kSliceSeconds.
+TEST(Slices, CostlyGranulesAfterCheapOnesKeepTheSliceTime) {
+  SlicePlan plan = uniform(2500, 1, 10);
+  plan.cost = [](size_t g) { return g < 2000 ? 0.01 : 1.0; };
+  std::vector<double> seconds;
+  const Slices slices = record(plan, 1e-3, &seconds);
+  EXPECT_EQ(slices.back().first + slices.back().second, 2500u);
+  for (size_t i = 0; i < slices.size(); ++i)
+    EXPECT_LE(seconds[i], 2 * kSliceSeconds)
+        << "slice " << i << ": " << slices[i].second << " granules from " << slices[i].first;
 }
 
 // Every slice of a 5 x 4 grid of tiles, as rectangles, covers exactly its tiles.
