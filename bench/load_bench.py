@@ -7,7 +7,7 @@ at most 10x the p50 at 1 client, zero errors. Run with the Python of the client'
 on the cores:
 
     build/tests/python/venv/bin/python bench/load_bench.py [--seconds 10] [--clients 1,2,4,8,16]
-        [--squalld build/squalld]
+        [--squalld build/squalld] [--device-queues N]
 """
 
 from __future__ import annotations
@@ -94,10 +94,14 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10)
     parser.add_argument("--clients", default="1,2,4,8,16")
     parser.add_argument("--squalld", type=Path, default=ROOT / "build" / "squalld")
+    parser.add_argument(
+        "--device-queues", type=int, default=0, help="squalld --device-queues (0: its default)"
+    )
     args = parser.parse_args()
+    flags = ["--device-queues", str(args.device_queues)] if args.device_queues > 0 else []
     counts = [int(c) for c in args.clients.split(",")]
     with tempfile.TemporaryDirectory() as directory:
-        daemon = Daemon(args.squalld, Path(directory))
+        daemon = Daemon(args.squalld, Path(directory), flags)
         try:
             with squall.Client(daemon.address, timeout=600) as client:
                 client.wait_until_serving(300)
@@ -106,7 +110,10 @@ def main() -> None:
                 volume = client.clouds.build(
                     squall.clouds.model(spheres=[(0, 0, 0, 6)]), keep=True
                 ).id
-                print(f"squalld {daemon.address}: {device}, FFT {info.fft_backend}")
+                print(
+                    f"squalld {daemon.address}: {device}, FFT {info.fft_backend}, "
+                    f"{info.device_queues} device queue(s)"
+                )
                 run_level(daemon.address, volume, 1, min(2.0, args.seconds))  # warm-up
                 header = f"{'clients':>7} {'calls/s':>8} {'x 1 client':>10} {'errors':>6}"
                 for m in METHODS:

@@ -20,7 +20,7 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
-from typing import List
+from typing import List, Sequence
 
 import squall
 
@@ -61,11 +61,11 @@ def cpp_rate(cpp: Path, address: str, n: int, frames: int, fields: int) -> float
 class Daemon:
     """squalld on a free loopback port, detached, stopped by PID."""
 
-    def __init__(self, squalld: Path, directory: Path) -> None:
+    def __init__(self, squalld: Path, directory: Path, flags: Sequence[str] = ()) -> None:
         port_file = directory / "port"
         env = dict(os.environ)
         env.setdefault("POCL_CACHE_DIR", str(ROOT / "build" / "pocl-cache"))
-        argv = [str(squalld), "--listen", "127.0.0.1:0", "--port-file", str(port_file)]
+        argv = [str(squalld), "--listen", "127.0.0.1:0", "--port-file", str(port_file), *flags]
         with open(directory / "squalld.log", "wb") as log:
             self.process = subprocess.Popen(
                 argv, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True

@@ -23,6 +23,7 @@ int info(client::Client& client, const std::vector<std::string>&) {
               << d.opencl_c_version() << ", " << d.compute_units() << " CUs, " << (d.global_memory_bytes() >> 20)
               << " MiB)\n";
   std::cout << "fft: " << r.fft_backend() << " (" << r.fft_selection() << ")\n";
+  std::cout << "device queues: " << r.device_queues() << "\n";
   for (const auto& k : r.kernels()) {
     std::cout << "program " << k.program() << " built in " << k.build_seconds() << " s:";
     for (const auto& name : k.kernels()) std::cout << " " << name;

@@ -50,6 +50,12 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"metrics-listen", [o](const std::string& v) { o->metrics_listen = v; }},
       {"device", [o](const std::string& v) { o->runtime.device = v; }},
       {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
+      {"device-queues",
+       [o](const std::string& v) {
+         const uint64_t n = positive_integer(v);
+         if (n > 16) throw std::invalid_argument("must be 1 to 16");
+         o->runtime.queues = size_t(n);
+       }},
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
       {"fft",
        [o](const std::string& v) {
@@ -217,6 +223,8 @@ std::string usage() {
          "  --metrics-listen HOST:PORT  serve Prometheus metrics at http://HOST:PORT/metrics (default: none)\n"
          "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
          "                            the first GPU, else the PoCL CPU device)\n"
+         "  --device-queues N         requests on the device at once, each on its own in-order queue, 1..16\n"
+         "                            (default: 1 on a CPU device, whose every core one kernel fills; 2 on others)\n"
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
          "                            fftw, on the host, only for CPU devices)\n"
          "  --fft-threads N           FFTW's threads per transform (default: the device's compute units)\n"

@@ -41,6 +41,7 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::
         k->set_build_seconds(build.seconds);
       }
       response->set_fft_backend(daemon_.fft->name());
+      response->set_device_queues(uint32_t(daemon_.runtime.queue_count()));
       response->set_fft_selection(daemon_.fft_selection);
     }
     const Limits& limits = daemon_.serving.gate().limits();

@@ -70,6 +70,10 @@ class ClfftPlan : public Plan {
     clfftPlanHandle plan = handle(in_place);
     cl_command_queue q = queue();
     cl_mem input = in(), output = out();
+    // clFFT shares one cl_kernel between the plans of one size (its FFTRepo) and sets its arguments at
+    // each enqueue: plans of two device queues must not enqueue at once.
+    static std::mutex enqueue_mutex;
+    std::lock_guard<std::mutex> lock(enqueue_mutex);
     check(clfftEnqueueTransform(plan, direction == Direction::Forward ? CLFFT_FORWARD : CLFFT_BACKWARD, 1, &q, 0,
                                 nullptr, nullptr, &input, in_place ? nullptr : &output, nullptr),
           "clfftEnqueueTransform " + describe(key()));

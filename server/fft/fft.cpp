@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/error.h"
+#include "runtime/queue_slots.h"
 #include "runtime/runtime.h"
 
 namespace squall::fft {
@@ -52,9 +53,10 @@ std::vector<std::string> available_backends(const Runtime& runtime) {
 
 Plan& Fft::plan(const PlanKey& key) {
   if (key.nx < 1 || key.ny < 1 || key.batch < 1) fail(Code::InvalidArgument, "fft: empty transform " + describe(key));
+  const std::pair<size_t, PlanKey> slot_key{current_queue_slot(), key};
   std::lock_guard<std::mutex> lock(mutex_);
-  auto it = plans_.find(key);
-  if (it == plans_.end()) it = plans_.emplace(key, backend_->bake(key)).first;
+  auto it = plans_.find(slot_key);
+  if (it == plans_.end()) it = plans_.emplace(slot_key, backend_->bake(key)).first;
   return *it->second;
 }
 

@@ -17,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "runtime/opencl.h"
@@ -94,14 +95,15 @@ class Fft {
   explicit Fft(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {}
   const std::string name() const { return backend_->name(); }
 
-  // The cached plan for key, baked on first use. Thread-safe; the plan lives as long as this object.
+  // The cached plan for key on the calling thread's device queue, baked on first use (a plan's scratch
+  // memory serves one queue). Thread-safe; the plan lives as long as this object.
   Plan& plan(const PlanKey& key);
-  size_t cached_plans() const;
+  size_t cached_plans() const;  // over all queues
 
  private:
   std::unique_ptr<Backend> backend_;
   mutable std::mutex mutex_;
-  std::map<PlanKey, std::unique_ptr<Plan>> plans_;
+  std::map<std::pair<size_t, PlanKey>, std::unique_ptr<Plan>> plans_;  // by queue slot and key
 };
 
 // Times one complex nx x ny transform of each available backend on the runtime's device (median of a

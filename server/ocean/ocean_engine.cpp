@@ -91,8 +91,9 @@ struct OceanEngine::Impl {
         evolve_potential(r, kProgram, "ocean_evolve_potential"),
         evolve_current(r, kProgram, "ocean_evolve_current") {}
 
-  // h0 of layer `index`, computed on a miss. Runs under runtime.exclusive().
-  const cl::Buffer& spectrum(const TileSpec& spec, size_t index) {
+  // h0 of layer `index`, computed on a miss (and finished before it is cached: other queues may read it
+  // at once). Runs under runtime.exclusive(). A handle, not a reference: another request may evict it.
+  cl::Buffer spectrum(const TileSpec& spec, size_t index) {
     std::string key = h0_key(spec, index);
     std::lock_guard<std::mutex> guard(cache_mutex);
     for (auto it = cache.begin(); it != cache.end(); ++it)

@@ -1,8 +1,11 @@
 // Device buffers reused across requests of the same shape: a request leases a buffer of an exact byte
 // size, and the lease hands it back when it ends, so the next request of that shape allocates nothing.
+// A buffer handed back while its thread holds a device queue may still be in use by work queued there:
+// until that queue's lease ends (settle()), only the same queue gets it again, in order after that work.
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <mutex>
 
@@ -41,9 +44,16 @@ class BufferPool {
   // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
   // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR so that mapping them (the FFTW
   // backend) does not copy.
-  BufferPool(const cl::Context& context, size_t max_idle_bytes, bool host_memory = false);
+  // held_slot: the queue slot the calling thread holds, -1 for none (held_queue_slot()).
+  BufferPool(
+      const cl::Context& context, size_t max_idle_bytes, bool host_memory = false,
+      std::function<int()> held_slot = [] { return -1; });
 
   BufferLease acquire(size_t bytes);  // bytes > 0
+
+  // The lease of queue `slot` has ended and its queue finished: what was handed back under it is free
+  // for every queue.
+  void settle(int slot);
 
   size_t idle_bytes() const;
   size_t allocations() const;  // clCreateBuffer calls so far: the measure of reuse
@@ -55,8 +65,14 @@ class BufferPool {
   cl::Context context_;
   size_t max_idle_bytes_;
   cl_mem_flags flags_;
+  struct Idle {
+    cl::Buffer buffer;
+    int slot;  // the queue whose work may still use it, -1 for none
+  };
+
+  std::function<int()> held_slot_;
   mutable std::mutex mutex_;
-  std::multimap<size_t, cl::Buffer> idle_;
+  std::multimap<size_t, Idle> idle_;
   size_t idle_bytes_ = 0;
   size_t allocations_ = 0;
 };

@@ -55,6 +55,8 @@ cl::Kernel create_kernel(Runtime& runtime, const std::string& program, const std
   }
 }
 
+size_t queue_count(const Runtime& runtime) { return runtime.queue_count(); }
+
 void verify_kernel_args(const cl::Kernel& kernel, const std::string& program, const std::string& name,
                         const std::vector<KernelArgSpec>& expected) {
   const std::string where = "kernel " + name + " of " + program;

@@ -3,9 +3,9 @@
 // not compile (an int where the kernel takes a uint is caught); at creation, the device's own view of the
 // kernel (CL_KERNEL_NUM_ARGS, and with -cl-kernel-arg-info each argument's type name and address space)
 // must match, or Error(Internal) names the program, the kernel and the argument. One launch entry point
-// enqueues on the Runtime's queue and, in profile mode, records the kernel's device time. In the spirit
-// of cl::KernelFunctor (Khronos OpenCL C++ bindings) and of pbrt-v4's single GPU launch entry point,
-// GPUParallelFor (Pharr, Jakob, Humphreys, "Physically Based Rendering", 4th ed., chapter 15).
+// enqueues on the calling thread's queue and, in profile mode, records the kernel's device time. In the
+// spirit of cl::KernelFunctor (Khronos OpenCL C++ bindings) and of pbrt-v4's single GPU launch entry
+// point, GPUParallelFor (Pharr, Jakob, Humphreys, "Physically Based Rendering", 4th ed., chapter 15).
 //
 //   Kernel<cl::Buffer, cl_int, cl_float> scale(runtime, "x/x.cl", "scale");
 //   scale.launch(cl::NDRange(n), cl::NullRange, buffer, cl_int(n), 2.0f);
@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "runtime/opencl.h"
+#include "runtime/queue_slots.h"
 
 namespace squall {
 
@@ -87,6 +88,7 @@ void launch_kernel(Runtime& runtime, const cl::Kernel& kernel, const std::string
 // runtime.kernel(program, name), out of line so that this header needs only a declaration of Runtime;
 // Error(Internal) when the program has no such kernel.
 cl::Kernel create_kernel(Runtime& runtime, const std::string& program, const std::string& name);
+size_t queue_count(const Runtime& runtime);  // runtime.queue_count(), out of line as well
 
 // True when Given... (decayed) is exactly Expected..., element by element.
 template <typename Given, typename Expected>
@@ -103,8 +105,9 @@ class Kernel {
   // Creates the kernel `name` of the built `program` and checks its signature against Args.
   Kernel(Runtime& runtime, const std::string& program, const std::string& name);
 
-  // Sets every argument and enqueues global (local: cl::NullRange lets the device choose). Must run under
-  // Runtime::exclusive(): a kernel object's arguments are shared by all its launches.
+  // Sets every argument and enqueues global (local: cl::NullRange lets the device choose) on the calling
+  // thread's queue. Must run under Runtime::exclusive(): the kernel object of each queue is shared by
+  // every launch on that queue.
   template <typename... Given>
   void launch(const cl::NDRange& global, const cl::NDRange& local, const Given&... args) {
     launch_region(cl::NullRange, global, local, args...);
@@ -119,9 +122,10 @@ class Kernel {
     static_assert(KernelArgsMatch<std::tuple<Given...>, std::tuple<Args...>>::value,
                   "kernel argument types differ from the declared ones (cast to the exact cl_ type)");
     if (!runtime_) not_created();
+    cl::Kernel& kernel = kernels_[current_queue_slot()];  // the calling thread's queue's
     cl_uint index = 0;
-    (kernel_.setArg(index++, args), ...);
-    launch_kernel(*runtime_, kernel_, program_, name_, offset, global, local);
+    (kernel.setArg(index++, args), ...);
+    launch_kernel(*runtime_, kernel, program_, name_, offset, global, local);
   }
 
   const std::string& name() const { return name_; }
@@ -129,13 +133,14 @@ class Kernel {
  private:
   Runtime* runtime_ = nullptr;
   std::string program_, name_;
-  cl::Kernel kernel_;
+  std::vector<cl::Kernel> kernels_;  // one per device queue: launches on two queues at once set their own arguments
 };
 
 template <typename... Args>
 Kernel<Args...>::Kernel(Runtime& runtime, const std::string& program, const std::string& name)
-    : runtime_(&runtime), program_(program), name_(name), kernel_(create_kernel(runtime, program, name)) {
-  verify_kernel_args(kernel_, program, name, {KernelArgTraits<Args>::spec...});
+    : runtime_(&runtime), program_(program), name_(name) {
+  for (size_t i = 0; i < queue_count(runtime); ++i) kernels_.push_back(create_kernel(runtime, program, name));
+  verify_kernel_args(kernels_.front(), program, name, {KernelArgTraits<Args>::spec...});
 }
 
 }  // namespace squall

@@ -41,11 +41,17 @@ Runtime::Runtime(const RuntimeOptions& options)
     : profiling_(options.profile_kernels || profile_from_environment()),
       found_(select_device(options.device)),
       context_(found_.device),
-      queue_(context_, found_.device, profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0),
       sources_(options.kernel_dir),
       program_prefixes_(options.program_prefixes),
-      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes, found_.info.type == "cpu")) {
-  log(LogLevel::Info, "OpenCL ", describe(found_.info));
+      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes, found_.info.type == "cpu",
+                                            held_queue_slot)),
+      queues_(std::make_unique<QueueSlots>(context_, found_.device,
+                                           options.queues > 0          ? options.queues
+                                           : found_.info.type == "cpu" ? 1
+                                                                       : 2,
+                                           profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0,
+                                           [this](size_t slot) { buffers_->settle(int(slot)); })) {
+  log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
   if (profiling_) log(LogLevel::Info, "kernel profiling on: each kernel launch waits for its device time");
 }
 
@@ -126,18 +132,6 @@ cl::Kernel Runtime::kernel(const std::string& program, const std::string& name) 
   auto it = programs_.find(program);
   if (it == programs_.end()) fail(Code::Internal, "program " + program + " is not built");
   return cl::Kernel(it->second, name.c_str());
-}
-
-std::unique_lock<std::mutex> Runtime::exclusive() {
-  std::unique_lock<std::mutex> lock(device_mutex_, std::try_to_lock);
-  if (!lock.owns_lock()) {
-    const auto start = std::chrono::steady_clock::now();
-    lock.lock();
-    wait_ns_ += uint64_t(
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
-  }
-  ++acquisitions_;
-  return lock;
 }
 
 }  // namespace squall

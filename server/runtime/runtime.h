@@ -1,5 +1,5 @@
-// squall::Runtime: one OpenCL device, its context and in-order queue, and every program of kernels/
-// compiled once. It lives as long as the daemon (or the test binary); requests only enqueue work.
+// squall::Runtime: one OpenCL device, its context and in-order queues (QueueSlots), and every program of
+// kernels/ compiled once. It lives as long as the daemon (or the test binary); requests only enqueue work.
 #pragma once
 
 #include <atomic>
@@ -14,6 +14,7 @@
 #include "runtime/device.h"
 #include "runtime/kernel_sources.h"
 #include "runtime/opencl.h"
+#include "runtime/queue_slots.h"
 
 namespace squall {
 
@@ -28,6 +29,9 @@ struct RuntimeOptions {
   // Queue with CL_QUEUE_PROFILING_ENABLE; every Kernel<...>::launch waits for its kernel and adds its
   // device time to kernel_timings(). Off: launches do not wait. SQUALL_PROFILE_KERNELS=1 also turns it on.
   bool profile_kernels = false;
+  // --device-queues: in-order command queues on the device, each serving one request at a time
+  // (1..16); 0: one on a CPU device (one kernel already fills every core), two on others.
+  size_t queues = 0;
 };
 
 // Device time of one kernel in profile mode, summed over its launches.
@@ -64,17 +68,20 @@ class Runtime {
   const cl::Device& device() const { return found_.device; }
   const cl::Platform& platform() const { return found_.platform; }
   const cl::Context& context() const { return context_; }
-  const cl::CommandQueue& queue() const { return queue_; }
+  // The calling thread's queue: the one its lease (exclusive()) holds; outside a lease the first.
+  const cl::CommandQueue& queue() const { return queues_->queue(current_queue_slot()); }
+  size_t queue_count() const { return queues_->count(); }
   BufferPool& buffers() { return *buffers_; }
 
   // A new kernel object of a built program. cl::Kernel arguments are per object, so each caller
   // (a request, a session) owns its own.
   cl::Kernel kernel(const std::string& program, const std::string& name) const;
 
-  // Device work of one request runs under this lock: the queue is in order and one kernel already
-  // fills every compute unit, so requests take turns rather than interleave their kernel arguments.
-  // The time spent waiting for it is counted (device_wait()).
-  std::unique_lock<std::mutex> exclusive();
+  // Device work of one request runs under a lease of one of the device's queues: the thread's queue()
+  // until the lease ends, which waits for the queue's work. With one queue, requests take turns; with
+  // more, that many run at once (their kernel objects and FFT plans are per queue, and a buffer handed
+  // back goes to another queue only once its queue has finished). The waits are counted (device_wait()).
+  QueueLease exclusive() { return queues_->acquire(); }
 
   // How often the lock was taken, and the seconds callers waited for it, since start-up: the queueing
   // of requests behind each other (squalld's metrics).
@@ -82,7 +89,7 @@ class Runtime {
     uint64_t acquisitions = 0;
     double seconds = 0;
   };
-  DeviceWait device_wait() const { return {acquisitions_.load(), double(wait_ns_.load()) * 1e-9}; }
+  DeviceWait device_wait() const { return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9}; }
 
   // Profile mode (RuntimeOptions::profile_kernels): the per-kernel table, sorted by program and kernel.
   bool profiling() const { return profiling_; }
@@ -96,14 +103,12 @@ class Runtime {
 
   FoundDevice found_;
   cl::Context context_;
-  cl::CommandQueue queue_;
   KernelSources sources_;
   std::vector<std::string> program_prefixes_;
   std::map<std::string, cl::Program> programs_;
   std::vector<ProgramBuild> builds_;
   std::unique_ptr<BufferPool> buffers_;
-  std::mutex device_mutex_;
-  std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};
+  std::unique_ptr<QueueSlots> queues_;
   bool built_ = false;
   mutable std::mutex timings_mutex_;
   std::map<std::pair<std::string, std::string>, KernelTiming> timings_;

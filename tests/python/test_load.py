@@ -1,4 +1,5 @@
-"""A bounded load on one squalld from eight clients at once: ocean tiles and samples, eWave sessions
+"""A bounded load on one squalld with four device queues (four requests' device work at once) from eight
+clients at once: ocean tiles and samples, eWave sessions
 stepping, cloud renders, mixed, for SQUALL_LOAD_SECONDS (default 20 s; a longer soak: set it). Asserts
 no unexpected error, every eWave session's frames identical to the same steps run alone (concurrent
 calls do not mix their state), every tile, sample and render bit-identical to the same request made
@@ -13,12 +14,13 @@ import os
 import statistics
 import threading
 import time
-from typing import Any, Callable, Dict, List, Mapping
+from typing import Any, Callable, Dict, Iterator, List, Mapping
 
 import numpy as np
+import pytest
 
 import squall
-from conftest import Daemon
+from conftest import Daemon, _start
 from test_ewave import config, hull_inputs
 from test_ocean import small_tile
 
@@ -97,7 +99,16 @@ def load(address: str, reference: Dict[str, Any], seconds: float) -> Dict[str, L
     return latencies
 
 
-def test_eight_clients_mixed_calls(daemon: Daemon) -> None:
+@pytest.fixture(scope="module")
+def concurrent_daemon() -> Iterator[Daemon]:
+    """A squalld whose device runs four requests at once, each on its own queue."""
+    yield from _start(["--device-queues", "4"], "queues")
+
+
+def test_eight_clients_mixed_calls(concurrent_daemon: Daemon) -> None:
+    daemon = concurrent_daemon
+    with squall.Client(daemon.address) as probe:
+        assert probe.info().device_queues == 4
     reference = references(daemon.address)
     # Warm-up: the same load for a while, so that every thread's allocator arena, gRPC's thread pool
     # and the plan caches reach their working size before memory is compared.

@@ -1,0 +1,77 @@
+#include "runtime/queue_slots.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "common/error.h"
+#include "common/log.h"
+
+namespace squall {
+namespace {
+
+thread_local int t_slot = -1;  // the slot of the lease this thread holds
+
+}  // namespace
+
+int held_queue_slot() { return t_slot; }
+size_t current_queue_slot() { return t_slot < 0 ? 0 : size_t(t_slot); }
+
+QueueLease::QueueLease(QueueLease&& other) noexcept : slots_(other.slots_), slot_(other.slot_) {
+  other.slots_ = nullptr;
+}
+
+QueueLease& QueueLease::operator=(QueueLease&& other) noexcept {
+  if (this != &other) {
+    unlock();
+    slots_ = other.slots_;
+    slot_ = other.slot_;
+    other.slots_ = nullptr;
+  }
+  return *this;
+}
+
+void QueueLease::unlock() {
+  if (!slots_) return;
+  slots_->release(slot_);
+  slots_ = nullptr;
+}
+
+QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, size_t count,
+                       cl_command_queue_properties properties, std::function<void(size_t)> on_settled)
+    : on_settled_(std::move(on_settled)), busy_(std::clamp<size_t>(count, 1, 16), false) {
+  for (size_t i = 0; i < busy_.size(); ++i) queues_.emplace_back(context, device, properties);
+}
+
+QueueLease QueueSlots::acquire() {
+  if (t_slot >= 0) fail(Code::Internal, "a thread asked for a second device queue while holding one");
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto free_slot = [&] { return std::find(busy_.begin(), busy_.end(), false); };
+  if (free_slot() == busy_.end()) {
+    const auto start = std::chrono::steady_clock::now();
+    freed_.wait(lock, [&] { return free_slot() != busy_.end(); });
+    wait_ns_ += uint64_t(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
+  }
+  const size_t slot = size_t(free_slot() - busy_.begin());
+  busy_[slot] = true;
+  ++acquisitions_;
+  t_slot = int(slot);
+  return QueueLease(this, slot);
+}
+
+void QueueSlots::release(size_t slot) {
+  try {
+    queues_[slot].finish();
+  } catch (const cl::Error& e) {  // the device failed: the next call on it reports it
+    log(LogLevel::Error, "finishing device queue ", slot, ": ", e.what(), " (", e.err(), ")");
+  }
+  if (t_slot == int(slot)) t_slot = -1;
+  if (on_settled_) on_settled_(slot);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    busy_[slot] = false;
+  }
+  freed_.notify_one();
+}
+
+}  // namespace squall

@@ -1,0 +1,135 @@
+// The device's queues (--device-queues): two requests hold two queues at once and a third waits for one;
+// one kernel object launched from two queues at once keeps each launch's arguments; a buffer handed back
+// under one queue goes to another only after that queue's lease has ended (its work finished); one
+// queue serializes as the single in-order queue did.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <thread>
+#include <vector>
+
+#include "common/error.h"
+#include "runtime/kernel.h"
+#include "runtime/runtime.h"
+#include "support/expect_error.h"
+
+namespace squall {
+namespace {
+
+// A runtime of the CPU device with two queues and the runtime/ programs (built once per test binary).
+Runtime& two_queue_runtime() {
+  static Runtime* instance = [] {
+    RuntimeOptions options;
+    if (const char* d = std::getenv("SQUALL_TEST_DEVICE")) options.device = d;
+    options.program_prefixes = {"runtime/"};
+    options.queues = 2;
+    auto* r = new Runtime(options);  // never destroyed, like test::runtime()
+    r->build_programs();
+    return r;
+  }();
+  return *instance;
+}
+
+TEST(DeviceQueues, TwoLeasesHoldTwoQueuesAtOnceAndAThirdWaits) {
+  Runtime& rt = two_queue_runtime();
+  ASSERT_EQ(rt.queue_count(), 2u);
+  std::promise<void> second_held, release;
+  std::shared_future<void> released = release.get_future().share();
+  std::atomic<bool> third_held{false};
+  const cl::CommandQueue* holder_queue = nullptr;
+  const auto waited = rt.device_wait();
+  std::thread holder([&] {
+    auto lease = rt.exclusive();
+    EXPECT_EQ(held_queue_slot(), int(lease.slot()));
+    holder_queue = &rt.queue();
+    second_held.set_value();
+    released.wait();
+  });
+  second_held.get_future().wait();
+  {
+    auto lease = rt.exclusive();  // the other queue, while the holder keeps its own
+    EXPECT_EQ(held_queue_slot(), int(lease.slot()));
+    EXPECT_NE(&rt.queue(), holder_queue);
+    std::thread third([&] {
+      auto lease3 = rt.exclusive();
+      third_held = true;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_FALSE(third_held) << "a third request ran while both queues were held";
+    release.set_value();
+    third.join();
+  }
+  holder.join();
+  EXPECT_TRUE(third_held);
+  EXPECT_EQ(held_queue_slot(), -1);
+  EXPECT_GT(rt.device_wait().seconds, waited.seconds) << "the third request's wait is counted";
+}
+
+// Two threads launch the same Kernel<> object 200 times each, on their own queues, each filling its own
+// buffer with its own value: with one kernel object for both queues, the arguments one thread sets
+// would be launched by the other.
+TEST(DeviceQueues, OneKernelLaunchedFromTwoQueuesKeepsEachLaunchsArguments) {
+  Runtime& rt = two_queue_runtime();
+  Kernel<cl::Buffer, cl_float, cl_int> fill(rt, "runtime/selftest.cl", "fill");
+  const int n = 4096;
+  std::atomic<int> wrong{0};
+  auto run = [&](float value) {
+    cl::Buffer buffer(rt.context(), CL_MEM_READ_WRITE, n * sizeof(float));
+    std::vector<float> out(n);
+    for (int i = 0; i < 200; ++i) {
+      auto lease = rt.exclusive();
+      fill.launch(cl::NDRange(n), cl::NullRange, buffer, cl_float(value + float(i)), cl_int(n));
+      rt.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, n * sizeof(float), out.data());
+      for (float v : out)
+        if (v != value + float(i)) ++wrong;
+    }
+  };
+  std::thread a(run, 1000.0f), b(run, 2000.0f);
+  a.join();
+  b.join();
+  EXPECT_EQ(wrong.load(), 0);
+}
+
+TEST(DeviceQueues, ABufferHandedBackUnderOneQueueGoesToAnotherOnlyWhenItsLeaseEnds) {
+  Runtime& rt = two_queue_runtime();
+  const size_t bytes = 12345 * 4;  // a size of its own in the pool
+  std::promise<void> handed_back, other_done;
+  std::shared_future<void> other = other_done.get_future().share();
+  cl_mem first_buffer = nullptr;
+  std::thread first([&] {
+    auto lease = rt.exclusive();
+    {
+      BufferLease b = rt.buffers().acquire(bytes);
+      first_buffer = b.buffer()();
+    }
+    {
+      BufferLease again = rt.buffers().acquire(bytes);  // the same queue: after its own work, in order
+      EXPECT_EQ(again.buffer()(), first_buffer);
+    }
+    handed_back.set_value();
+    other.wait();
+  });
+  handed_back.get_future().wait();
+  BufferLease kept;  // kept out of the pool, which then holds only the first thread's buffer
+  {
+    auto lease = rt.exclusive();  // the other queue, while the first is still held
+    kept = rt.buffers().acquire(bytes);
+    EXPECT_NE(kept.buffer()(), first_buffer) << "a buffer went to another queue while its queue was held";
+  }
+  other_done.set_value();
+  first.join();  // the first lease has ended: its buffer is free for every queue
+  auto lease = rt.exclusive();
+  BufferLease b = rt.buffers().acquire(bytes);
+  EXPECT_EQ(b.buffer()(), first_buffer);
+}
+
+TEST(DeviceQueues, ASecondLeaseOnOneThreadIsAnInternalError) {
+  Runtime& rt = two_queue_runtime();
+  auto lease = rt.exclusive();
+  test::expect_error(Code::Internal, "second device queue", [&] { auto again = rt.exclusive(); });
+}
+
+}  // namespace
+}  // namespace squall
