@@ -61,10 +61,10 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
       gauge("squall_device_global_memory_bytes", "Global memory of the OpenCL device in use",
             double(device.global_memory_bytes)),
       gauge("process_resident_memory_bytes", "Resident memory of the squalld process", resident_bytes()),
-      counter("squall_device_lock_acquisitions_total", "Times device work took the device (its queue's lock)",
-              double(wait.acquisitions)),
+      counter("squall_device_lock_acquisitions_total",
+              "Times device work took one of the device's queues (--device-queues)", double(wait.acquisitions)),
       counter("squall_device_lock_wait_seconds_total",
-              "Seconds device work waited for the device: requests queued behind each other", wait.seconds),
+              "Seconds device work waited for a free device queue: requests queued behind each other", wait.seconds),
   };
   for (const auto& capability : capabilities_)
     for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));

@@ -224,7 +224,7 @@ std::string usage() {
          "  --device SPEC             auto | cpu | gpu | substring of the platform or device name (default auto:\n"
          "                            the first GPU, else the PoCL CPU device)\n"
          "  --device-queues N         requests on the device at once, each on its own in-order queue, 1..16\n"
-         "                            (default: 1 on a CPU device, whose every core one kernel fills; 2 on others)\n"
+         "                            (default 4; 1 serializes them)\n"
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
          "                            fftw, on the host, only for CPU devices)\n"
          "  --fft-threads N           FFTW's threads per transform (default: the device's compute units)\n"

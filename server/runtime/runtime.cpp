@@ -45,10 +45,7 @@ Runtime::Runtime(const RuntimeOptions& options)
       program_prefixes_(options.program_prefixes),
       buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes, found_.info.type == "cpu",
                                             held_queue_slot)),
-      queues_(std::make_unique<QueueSlots>(context_, found_.device,
-                                           options.queues > 0          ? options.queues
-                                           : found_.info.type == "cpu" ? 1
-                                                                       : 2,
+      queues_(std::make_unique<QueueSlots>(context_, found_.device, options.queues,
                                            profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0,
                                            [this](size_t slot) { buffers_->settle(int(slot)); })) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
