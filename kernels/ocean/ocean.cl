@@ -126,9 +126,12 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
   float2 plus = cmul(a.xy, (float2)(c, -s));                 // h0(k) e^{-iwt}
   float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));  // conj(h0(-k)) e^{+iwt}
   float kx = n * dkx, ky = m * dky;
-  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
-  float drift_c, drift_s = sincos(drift_phase, &drift_c);
-  float2 h = cmul(plus + minus, (float2)(drift_c, drift_s));
+  float2 h = plus + minus;
+  if (drift.x != 0.0f || drift.y != 0.0f) {  // the same for every work-item: most layers have no drift
+    float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
+    float drift_c, drift_s = sincos(drift_phase, &drift_c);
+    h = cmul(h, (float2)(drift_c, drift_s));
+  }
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
@@ -214,6 +217,13 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
   }
 }
 
+// Channel pair k (channels 2k and 2k + 1) at cell `at` of the summed fields: planes of float2 as the
+// inverse FFT of ocean_evolve leaves them (interleaved), or two planes of floats (ocean_accumulate's).
+static inline float2 channel_pair(__global const float* sums, int interleaved, int k, int cells, int at) {
+  if (interleaved) return ((__global const float2*)sums)[(size_t)k * cells + at];
+  return (float2)(sums[(size_t)(2 * k) * cells + at], sums[(size_t)(2 * k + 1) * cells + at]);
+}
+
 // Output planes of ocean_finalize (each onx * ony floats).
 #define OUT_HEIGHT 0
 #define OUT_DISP_X 1
@@ -232,17 +242,19 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
 // eqs 45-47), whitecaps (section 5.3.3: 1 where J- < threshold, else W * decay; decay = exp(-dt/T), or 0
 // for a frame without history). flags: bit 0 height, 1 displacement, 2 slopes, 3 normals, 4 Jacobian,
 // 5 whitecaps.
-__kernel void ocean_finalize(__global const float* accum, const int cells, const int channels, const float lambda,
-                             const int flags, const float threshold, const float decay, __global float* whitecap,
-                             __global float* out) {
+__kernel void ocean_finalize(__global const float* sums, const int interleaved, const int cells, const int channels,
+                             const float lambda, const int flags, const float threshold, const float decay,
+                             __global float* whitecap, __global float* out) {
   int at = get_global_id(0);
   if (at >= cells) return;
-  // channels is 2, 4, 6 or 8 (pairs of the evolved spectra); the missing ones are 0. Read as scalars, not a
-  // private array: PoCL then keeps them in registers and vectorizes across work-items.
-  float h = accum[at], Dx = accum[cells + at];
-  float Dy = channels > 2 ? accum[2 * cells + at] : 0.0f, ex = channels > 3 ? accum[3 * cells + at] : 0.0f;
-  float ey = channels > 4 ? accum[4 * cells + at] : 0.0f, Dxx = channels > 5 ? accum[5 * cells + at] : 0.0f;
-  float Dyy = channels > 6 ? accum[6 * cells + at] : 0.0f, Dxy = channels > 7 ? accum[7 * cells + at] : 0.0f;
+  // channels is 2, 4, 6 or 8: pairs (h, Dx), (Dy, ex), (ey, Dxx), (Dyy, Dxy) of the evolved spectra; the
+  // missing ones are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
+  // vectorizes across work-items.
+  float2 zero = (float2)(0.0f, 0.0f), p0 = channel_pair(sums, interleaved, 0, cells, at);
+  float2 p1 = channels > 2 ? channel_pair(sums, interleaved, 1, cells, at) : zero;
+  float2 p2 = channels > 4 ? channel_pair(sums, interleaved, 2, cells, at) : zero;
+  float2 p3 = channels > 6 ? channel_pair(sums, interleaved, 3, cells, at) : zero;
+  float h = p0.x, Dx = p0.y, Dy = p1.x, ex = p1.y, ey = p2.x, Dxx = p2.y, Dyy = p3.x, Dxy = p3.y;
   if (flags & 1) out[OUT_HEIGHT * cells + at] = h;
   if (flags & 2) {
     out[OUT_DISP_X * cells + at] = lambda * Dx;

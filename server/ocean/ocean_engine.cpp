@@ -28,8 +28,9 @@ using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
 // fields, nx, ny, pairs, scale, onx, ony, first, accum
 using AccumulateKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl::Buffer>;
-// accum, cells, channels, lambda, flags, threshold, decay, whitecap, out
-using FinalizeKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
+// sums, interleaved, cells, channels, lambda, flags, threshold, decay, whitecap, out
+using FinalizeKernel =
+    Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
 
 template <typename T>
 void append(std::string& key, const T& value) {
@@ -302,22 +303,28 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
 
   auto lock = impl_->runtime.exclusive();
   Runtime& runtime = impl_->runtime;
-  BufferLease accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
+  // One layer on the output grid: ocean_finalize reads the inverse FFT's output as it is (no resampling).
+  const LayerSpec& first = spec.layers.front();
+  const bool direct = spec.layers.size() == 1 && first.nx == grid.nx && first.ny == grid.ny && first.lx == grid.lx &&
+                      first.ly == grid.ly;
+  BufferLease accum, fields;
+  if (!direct) accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
     if (a > 0 && cancel.requested()) {  // a layer is the slice
       runtime.queue().finish();         // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
-    BufferLease fields = impl_->layer_fields(spec, a, t, pairs);
-    impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
+    fields = impl_->layer_fields(spec, a, t, pairs);
+    if (!direct) impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
   }
+  const cl::Buffer& sums = direct ? fields.buffer() : accum.buffer();
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, accum.buffer(), cl_int(cells), cl_int(2 * pairs),
-                         cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
-                         whitecap.buffer(), out.buffer());
+  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, sums, cl_int(direct ? 1 : 0), cl_int(cells),
+                         cl_int(2 * pairs), cl_float(spec.choppiness), cl_int(outputs),
+                         cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
   read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
   lock.unlock();
 
