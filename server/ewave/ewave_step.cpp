@@ -15,7 +15,7 @@ namespace {
 
 bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normals; }
 
-cl::NDRange cells_range(const EWaveConfig& c) { return cl::NDRange(size_t(c.nx), size_t(c.ny)); }
+cl::NDRange cells_range(const EWaveConfig& c) { return row_groups(size_t(c.nx), size_t(c.ny)); }
 
 // The cells [i0, i1) x [j0, j1) that can meet a shape's bounding box, with a cell of margin and clamped
 // to the grid. ewave_rasterize leaves every other cell alone (its first test), so rasterizing only these
@@ -111,7 +111,7 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.prepare.launch(cells_range(config_), cl::NullRange, state_.buffer(), cl_int(config_.nx), cl_int(config_.ny),
+        k.prepare.launch(cells_range(config_), kRowGroupRange, state_.buffer(), cl_int(config_.nx), cl_int(config_.ny),
                          obstruction, cl_int(has_obstruction), ambient_height ? *ambient_height : none,
                          cl_int(ambient_height != nullptr), trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim),
                          source_h, cl_int(!in.source_height.empty()), source_phi, cl_int(!in.source_phi.empty()),
@@ -122,11 +122,11 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
 
 void EWaveSession::propagate(double dt, int fields) {
   const cl::Buffer& coefficients = coefficients_.get(runtime_, config_, dt);
-  const cl::NDRange modes(size_t(config_.nx) / 2 + 1, size_t(config_.ny));
+  const cl::NDRange modes = row_groups(size_t(config_.nx) / 2 + 1, size_t(config_.ny));
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.propagate.launch(modes, cl::NullRange, spectrum_.buffer(), coefficients, cl_int(config_.nx),
+        k.propagate.launch(modes, kRowGroupRange, spectrum_.buffer(), coefficients, cl_int(config_.nx),
                            cl_int(config_.ny), Real(2 * std::numbers::pi / config_.length_x()),
                            Real(2 * std::numbers::pi / config_.length_y()), cl_int(fields));
       },
@@ -144,7 +144,7 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.finish.launch(cells_range(config_), cl::NullRange, work_.buffer(), cl_int(fields), state_.buffer(),
+        k.finish.launch(cells_range(config_), kRowGroupRange, work_.buffer(), cl_int(fields), state_.buffer(),
                         out_.buffer(), cl_int(config_.nx), cl_int(config_.ny), drift_mode,
                         Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
                         Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),

@@ -161,7 +161,7 @@ struct OceanEngine::Impl {
   void accumulate_layer(const cl::Buffer& fields, const LayerSpec& L, int pairs, const OutputGrid& grid, bool first,
                         const cl::Buffer& accum) {
     cl_float2 scale{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}};
-    accumulate.launch(cl::NDRange(grid.nx, grid.ny), cl::NullRange, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs),
+    accumulate.launch(row_groups(grid.nx, grid.ny), kRowGroupRange, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs),
                       scale, cl_int(grid.nx), cl_int(grid.ny), cl_int(first ? 1 : 0), accum);
   }
 
@@ -172,7 +172,7 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
+    evolve.launch(row_groups(L.nx, L.ny), kRowGroupRange, h0, cl_int(L.nx), cl_int(L.ny),
                   cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
                   cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_int(pairs), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
@@ -322,7 +322,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  impl_->finalize.launch(cl::NDRange(cells), cl::NullRange, sums, cl_int(direct ? 1 : 0), cl_int(cells),
+  impl_->finalize.launch(row_groups(cells), kRowGroupRange, sums, cl_int(direct ? 1 : 0), cl_int(cells),
                          cl_int(2 * pairs), cl_float(spec.choppiness), cl_int(outputs),
                          cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
   read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
