@@ -28,17 +28,21 @@ static bool inside_shape(EWaveShape s, float px, float py, __global const float*
   }
 }
 
-// O[i, j] *= 1 - (fraction of the cell covered by the union of the shapes).
+// O[i, j] *= 1 - (fraction of the cell covered by the union of the shapes); with reset, O[i, j] = that
+// factor (1 away from the shapes).
 __kernel void ewave_rasterize(__global float* obstruction, __global const EWaveShape* shapes, const int shape_count,
                               __global const float* vertices, const int nx, const int ny, const float dx,
-                              const float dy) {
+                              const float dy, const int reset) {
   uint i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float x0 = i * dx, y0 = j * dy, x1 = x0 + dx, y1 = y0 + dy;  // the cell's extent
   bool near = false;
   for (int s = 0; s < shape_count && !near; ++s)
     near = shapes[s].xmax >= x0 && shapes[s].xmin <= x1 && shapes[s].ymax >= y0 && shapes[s].ymin <= y1;
-  if (!near) return;
+  if (!near) {
+    if (reset) obstruction[i + nx * j] = 1.0f;
+    return;
+  }
   int covered = 0;
   for (int sy = 0; sy < SUBSAMPLES; ++sy) {
     float py = y0 + (sy + 0.5f) * dy / SUBSAMPLES;
@@ -49,5 +53,6 @@ __kernel void ewave_rasterize(__global float* obstruction, __global const EWaveS
       covered += hit ? 1 : 0;
     }
   }
-  obstruction[i + nx * j] *= 1.0f - (float)covered / (SUBSAMPLES * SUBSAMPLES);
+  float base = reset ? 1.0f : obstruction[i + nx * j];
+  obstruction[i + nx * j] = base * (1.0f - (float)covered / (SUBSAMPLES * SUBSAMPLES));
 }

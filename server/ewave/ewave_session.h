@@ -18,6 +18,12 @@
 
 namespace squall::ewave {
 
+// The cells [i0, i1) x [j0, j1) of a grid.
+struct CellBox {
+  long i0 = 0, j0 = 0, i1 = 0, j1 = 0;
+  bool empty() const { return i1 <= i0 || j1 <= j0; }
+};
+
 class EWaveSession {
  public:
   // Validates the config (Error InvalidArgument naming the field) and uploads the initial fields.
@@ -54,7 +60,9 @@ class EWaveSession {
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
   // The step pipeline (ewave_step.cpp), in the order of step().
   bool build_obstruction(const StepInputs& inputs);
-  void rasterize(const std::vector<Shape>& shapes);
+  // O *= the uncovered fraction of `shapes` around them; reset: O = that fraction there, and 1 again
+  // in the cells the last reset covered (shape_map_cells_).
+  void rasterize(const std::vector<Shape>& shapes, bool reset);
   void prepare(const StepInputs& inputs, bool has_obstruction);
   void propagate(double dt, int fields);
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
@@ -74,6 +82,10 @@ class EWaveSession {
   RasterizeKernel rasterize_;
   BufferLease state_, spectrum_, work_, out_, trim_x_, trim_y_, placeholder_;
   BufferLease obstruction_, ambient_, source_h_, source_phi_, drift_x_, drift_y_, shapes_, vertices_;
+  // obstruction_ holds a map of shapes alone: 1 outside shape_map_cells_ (the last shapes' cells), so the
+  // next one rewrites those and its own cells, not the grid.
+  bool shape_map_ = false;
+  CellBox shape_map_cells_;
   CoefficientCache coefficients_;
 };
 

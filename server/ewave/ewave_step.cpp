@@ -17,14 +17,9 @@ bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normal
 
 cl::NDRange cells_range(const EWaveConfig& c) { return row_groups(size_t(c.nx), size_t(c.ny)); }
 
-// The cells [i0, i1) x [j0, j1) that can meet a shape's bounding box, with a cell of margin and clamped
-// to the grid. ewave_rasterize leaves every other cell alone (its first test), so rasterizing only these
-// gives the same map.
-struct CellBox {
-  long i0 = 0, j0 = 0, i1 = 0, j1 = 0;
-  bool empty() const { return i1 <= i0 || j1 <= j0; }
-};
-
+// The cells that can meet the shapes' bounding box, with a cell of margin and clamped to the grid.
+// ewave_rasterize leaves every other cell alone (its first test), so rasterizing only these gives the
+// same map.
 CellBox shape_cells(const std::vector<EWaveShape>& shapes, const EWaveConfig& c) {
   double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
   for (const auto& s : shapes) {
@@ -35,6 +30,13 @@ CellBox shape_cells(const std::vector<EWaveShape>& shapes, const EWaveConfig& c)
   auto clamp_cell = [](double v, long n) { return long(std::clamp(v, 0.0, double(n))); };
   return {clamp_cell(std::floor(xmin / c.dx) - 1, c.nx), clamp_cell(std::floor(ymin / c.dy) - 1, c.ny),
           clamp_cell(std::floor(xmax / c.dx) + 2, c.nx), clamp_cell(std::floor(ymax / c.dy) + 2, c.ny)};
+}
+
+// The smallest box holding both.
+CellBox cover(const CellBox& a, const CellBox& b) {
+  if (a.empty()) return b;
+  if (b.empty()) return a;
+  return {std::min(a.i0, b.i0), std::min(a.j0, b.j0), std::max(a.i1, b.i1), std::max(a.j1, b.j1)};
 }
 
 // The state's type of the step kernels `k` (a StepKernels<Real>).
@@ -65,20 +67,30 @@ Frame EWaveSession::step(const StepInputs& in) {
 }
 
 // O = (the obstruction field, or 1) times the uncovered fraction of the shapes. False when neither is given.
+// A map of shapes alone is filled with 1 once; later steps rewrite only the cells around the last shapes
+// and the new ones.
 bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
-  if (in.obstruction.empty()) {
-    if (obstruction_.bytes() != cells_ * sizeof(float))
-      obstruction_ = runtime_.buffers().acquire(cells_ * sizeof(float));
-    runtime_.queue().enqueueFillBuffer(obstruction_.buffer(), cl_float(1.0f), 0, cells_ * sizeof(float));
-  } else {
+  if (!in.obstruction.empty()) {
     upload(obstruction_, in.obstruction);
+    shape_map_ = false;
+    if (!in.shapes.empty()) rasterize(in.shapes, false);
+    return true;
   }
-  if (!in.shapes.empty()) rasterize(in.shapes);
+  if (obstruction_.bytes() != cells_ * sizeof(float)) {
+    obstruction_ = runtime_.buffers().acquire(cells_ * sizeof(float));
+    shape_map_ = false;
+  }
+  if (!shape_map_) {
+    runtime_.queue().enqueueFillBuffer(obstruction_.buffer(), cl_float(1.0f), 0, cells_ * sizeof(float));
+    shape_map_cells_ = {};
+  }
+  rasterize(in.shapes, true);
+  shape_map_ = true;
   return true;
 }
 
-void EWaveSession::rasterize(const std::vector<Shape>& shapes) {
+void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
   std::vector<float> vertices;
   std::vector<EWaveShape> device = device_shapes(shapes, &vertices);
   if (vertices.empty()) vertices.assign(2, 0.0f);
@@ -86,11 +98,14 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes) {
   if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
   runtime_.queue().enqueueWriteBuffer(shapes_.buffer(), CL_FALSE, 0, shape_bytes, device.data());
   upload(vertices_, vertices);
-  CellBox box = shape_cells(device, config_);
+  const CellBox cells = shape_cells(device, config_);
+  const CellBox box = reset ? cover(cells, shape_map_cells_) : cells;
   if (!box.empty())
     rasterize_.launch_region(cl::NDRange(box.i0, box.j0), cl::NDRange(box.i1 - box.i0, box.j1 - box.j0), cl::NullRange,
                              obstruction_.buffer(), shapes_.buffer(), cl_int(device.size()), vertices_.buffer(),
-                             cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy));
+                             cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy),
+                             cl_int(reset ? 1 : 0));
+  if (reset) shape_map_cells_ = cells;
   runtime_.queue().finish();  // the host vectors must outlive the non-blocking writes
 }
 

@@ -46,8 +46,8 @@ inline AnyStepKernels make_step_kernels(Runtime& runtime, bool double_precision)
   return AnyStepKernels(std::in_place_index<0>, runtime);
 }
 
-// obstruction, shapes (EWaveShape), shape_count, vertices, nx, ny, dx, dy
-using RasterizeKernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer, cl_int, cl_int, cl_float, cl_float>;
+// obstruction, shapes (EWaveShape), shape_count, vertices, nx, ny, dx, dy, reset
+using RasterizeKernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_int>;
 
 inline RasterizeKernel make_rasterize_kernel(Runtime& runtime) {
   return RasterizeKernel(runtime, "ewave/obstruction.cl", "ewave_rasterize");
