@@ -11,6 +11,7 @@
 #include "ewave/coefficient_cache.h"
 #include "ewave/ewave_config.h"
 #include "ewave/ewave_state_format.h"
+#include "ewave/shapes.h"
 #include "ewave/step_kernels.h"
 #include "fft/fft.h"
 #include "ocean/ocean_engine.h"
@@ -86,6 +87,8 @@ class EWaveSession {
   // next one rewrites those and its own cells, not the grid.
   bool shape_map_ = false;
   CellBox shape_map_cells_;
+  std::vector<EWaveShape> shape_staging_;  // the host side of the shapes' and vertices' last uploads
+  std::vector<float> vertex_staging_;
   CoefficientCache coefficients_;
 };
 

@@ -91,8 +91,11 @@ bool EWaveSession::build_obstruction(const StepInputs& in) {
 }
 
 void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
-  std::vector<float> vertices;
-  std::vector<EWaveShape> device = device_shapes(shapes, &vertices);
+  // Kept in members until the next step: the writes are not waited for (the step's read-back is).
+  std::vector<float>& vertices = vertex_staging_;
+  std::vector<EWaveShape>& device = shape_staging_;
+  vertices.clear();
+  device = device_shapes(shapes, &vertices);
   if (vertices.empty()) vertices.assign(2, 0.0f);
   size_t shape_bytes = device.size() * sizeof(EWaveShape);
   if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
@@ -106,7 +109,6 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
                              cl_int(config_.nx), cl_int(config_.ny), cl_float(config_.dx), cl_float(config_.dy),
                              cl_int(reset ? 1 : 0));
   if (reset) shape_map_cells_ = cells;
-  runtime_.queue().finish();  // the host vectors must outlive the non-blocking writes
 }
 
 void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
