@@ -7,6 +7,7 @@
 // so no work of a request is still running when the buffers it handed back go to another queue.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -72,7 +73,7 @@ class QueueSlots {
   std::mutex mutex_;
   std::condition_variable freed_;
   std::vector<bool> busy_;
-  uint64_t acquisitions_ = 0, wait_ns_ = 0;  // under mutex_ (read without it: statistics)
+  std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
 };
 
 }  // namespace squall
