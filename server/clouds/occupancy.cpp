@@ -38,11 +38,18 @@ double CoarseOccupancy::marked_length(const Vec3d& origin, const Vec3d& directio
     t0 = std::max(t0, enter);
     t1 = std::min(t1, exit);
   }
+  if (!(t1 > t0) || !std::isfinite(t1)) return 0;
+  // Steps counted from the entry point, not accumulated onto t: far from the grid (a camera 1e18 m
+  // away) t0 + step would round back to t0. The span is at most the grid's diagonal, a few kCells cells.
   const double step = cell / 2;
+  const int steps = int(std::min(std::ceil((t1 - t0) / step), 8.0 * kCells));
+  Vec3d entry;
+  for (int a = 0; a < 3; ++a) entry[a] = origin[a] + t0 * direction[a] - min[a];
   double length = 0;
-  for (double t = t0 + step / 2; t < t1; t += step) {
+  for (int k = 0; k < steps; ++k) {
+    const double s = (k + 0.5) * step;
     int c[3];
-    for (int a = 0; a < 3; ++a) c[a] = std::clamp(int((origin[a] + t * direction[a] - min[a]) / cell), 0, n[a] - 1);
+    for (int a = 0; a < 3; ++a) c[a] = std::clamp(int(std::floor((entry[a] + s * direction[a]) / cell)), 0, n[a] - 1);
     if (marked[(size_t(c[2]) * n[1] + c[1]) * n[0] + c[0]]) length += step;
   }
   return length;

@@ -124,26 +124,34 @@ Vec3d camera_ray(const CloudRenderParams& p, double u, double v) {
 }
 
 // Each 8x8 tile's estimated density samples, in row order: the length of its rays inside density (the
-// mean over its corners and centre, from the coarse occupancy; empty space is skipped by the march) in
-// steps, times the samples per step, plus one per pixel for the ray itself. Only the ratios between tiles
-// matter: they size the render's slices.
+// mean over the corners and centre of its block, from the coarse occupancy; empty space is skipped by
+// the march) in steps, times the samples per step, plus one per pixel for the ray itself. A block is
+// one tile, or several a side in images of over kBlocks tiles a side (an 8192^2 image would otherwise
+// trace 2 M rays on the host). Only the ratios between tiles matter: they size the render's slices.
 std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings& s, const CloudRenderParams& p,
                                const TileGrid& tiles) {
+  constexpr size_t kBlocks = 256;
+  const size_t block = (std::max(tiles.x, tiles.y) + kBlocks - 1) / kBlocks, side = 8 * block;  // tiles, pixels
+  const size_t bx = (tiles.x + block - 1) / block, by = (tiles.y + block - 1) / block;
   const double per_metre =
       s.substeps / s.step * samples_per_primary_sample(s, norm(sub(volume.world_max, volume.world_min)));
   auto length = [&](size_t u, size_t v) {
     return volume.coarse.marked_length(
         s.camera.eye, camera_ray(p, double(std::min<size_t>(u, p.width)), double(std::min<size_t>(v, p.height))));
   };
-  std::vector<double> corners((tiles.x + 1) * (tiles.y + 1));
-  for (size_t j = 0; j <= tiles.y; ++j)
-    for (size_t i = 0; i <= tiles.x; ++i) corners[j * (tiles.x + 1) + i] = length(8 * i, 8 * j);
+  std::vector<double> corners((bx + 1) * (by + 1));
+  for (size_t j = 0; j <= by; ++j)
+    for (size_t i = 0; i <= bx; ++i) corners[j * (bx + 1) + i] = length(side * i, side * j);
   std::vector<double> costs(tiles.x * tiles.y);
   for (size_t j = 0; j < tiles.y; ++j)
     for (size_t i = 0; i < tiles.x; ++i) {
-      const size_t c = j * (tiles.x + 1) + i;
-      const double mean = (corners[c] + corners[c + 1] + corners[c + tiles.x + 1] + corners[c + tiles.x + 2] +
-                           length(8 * i + 4, 8 * j + 4)) /
+      const size_t bi = i / block, bj = j / block, c = bj * (bx + 1) + bi;
+      if (i % block != 0 || j % block != 0) {  // the block's first tile has its cost
+        costs[j * tiles.x + i] = costs[(bj * block) * tiles.x + bi * block];
+        continue;
+      }
+      const double mean = (corners[c] + corners[c + 1] + corners[c + bx + 1] + corners[c + bx + 2] +
+                           length(side * bi + side / 2, side * bj + side / 2)) /
                           5;
       costs[j * tiles.x + i] = 64 * (1 + mean * per_metre);
     }
@@ -205,17 +213,15 @@ void validate(const RenderSettings& s, const std::string& f) {
 
 DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
   DeviceVolume d;
-  NanoHandle density = to_nanovdb(*volume.density);
-  d.density = upload_nanovdb(runtime, density);
-  d.device_bytes = density.size();
-  if (volume.temperature) {
-    NanoHandle temperature = to_nanovdb(*volume.temperature);
-    d.temperature = upload_nanovdb(runtime, temperature);
-    d.has_temperature = true;
-    d.device_bytes += temperature.size();
-  } else {
-    d.temperature = d.density;
+  const NanoHandle density = to_nanovdb(*volume.density);
+  const NanoHandle temperature = volume.temperature ? to_nanovdb(*volume.temperature) : NanoHandle();
+  {
+    auto lock = runtime.exclusive();  // a queue of its own, not one another request holds
+    d.density = upload_nanovdb(runtime, density);
+    d.temperature = volume.temperature ? upload_nanovdb(runtime, temperature) : d.density;
   }
+  d.has_temperature = bool(volume.temperature);
+  d.device_bytes = density.size() + (volume.temperature ? temperature.size() : 0);
   const auto& b = volume.stats.bounds;
   double dx = volume.density->voxelSize()[0];
   auto box = [&](const openvdb::CoordBBox& c) {  // grown by a voxel: trilinear density spills that far
@@ -282,10 +288,14 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
       auto lock = runtime_.exclusive();
       runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
     }
-    auto node_cost = [&](size_t g) {  // a needed node marches toward its light, the others are skipped
+    // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
+    // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
+    // nodes after them do not reach, and their slice would overrun.
+    constexpr double kSkippedNodeSamples = 0.1;
+    auto node_cost = [&](size_t g) {
       double c = 0;
       for (size_t id = 64 * g; id < std::min(64 * (g + 1), dsm_floats); ++id)
-        c += needed[id % needed.size()] ? cost.per_map_node : 1;
+        c += needed[id % needed.size()] ? cost.per_map_node : kSkippedNodeSamples;
       return std::max(c, 1.0);
     };
     const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples};

@@ -314,8 +314,11 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
       runtime.queue().finish();         // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
-    fields = impl_->layer_fields(spec, a, t, pairs);
-    if (!direct) impl_->accumulate_layer(fields.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
+    BufferLease layer = impl_->layer_fields(spec, a, t, pairs);  // back to the pool before the next layer's
+    if (direct)
+      fields = std::move(layer);
+    else
+      impl_->accumulate_layer(layer.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
   }
   const cl::Buffer& sums = direct ? fields.buffer() : accum.buffer();
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));

@@ -25,7 +25,9 @@ int held_queue_slot();
 // held_queue_slot(), or 0 outside any lease: the queue (and kernel object, plan) to use.
 size_t current_queue_slot();
 
-// Exclusive use of one queue by the calling thread, until unlock() or destruction. Movable.
+// Exclusive use of one queue by the calling thread, until unlock() or destruction. Movable, but only
+// within that thread: the slot is the thread's (a thread_local), and it is that thread's release that
+// clears it.
 class QueueLease {
  public:
   QueueLease() = default;

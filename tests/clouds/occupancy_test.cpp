@@ -32,6 +32,16 @@ TEST(CoarseOccupancy, RaysThatMissTheBoxOrTheGridHaveNoLength) {
   EXPECT_NEAR(grid.marked_length({16, 16, 16}, {0, 0, 1}), 4.5, 0.5);  // from inside the box: half of it
 }
 
+TEST(CoarseOccupancy, ARayFromFarAwayEndsAndStillFindsTheBox) {
+  const CoarseOccupancy grid = centred_box();
+  // 1e12 m: t is exact to 1e-4 m, the box's 8 m (and the half-cell sampling) come out as near.
+  EXPECT_NEAR(grid.marked_length({16, 16, 1e12}, {0, 0, -1}), 9.0, 0.5);
+  // 1e18 m: t0 + half a cell rounds back to t0; the march still ends, within the grid's diagonal.
+  const double far = grid.marked_length({16, 16, 1e18}, {0, 0, -1});
+  EXPECT_GE(far, 0.0);
+  EXPECT_LE(far, 32 * std::sqrt(3.0));
+}
+
 TEST(CoarseOccupancy, AFlatBoxGetsCubicCellsOfItsLongestSideOver32AndAtLeastOneLayer) {
   const CoarseOccupancy grid = CoarseOccupancy::of({0, 0, 0}, {64, 8, 0}, {});
   EXPECT_EQ(grid.n, (std::array<int, 3>{32, 4, 1}));

@@ -78,6 +78,19 @@ TEST(Runtime, AxpyKernelComputesExactly) {
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], 2.0f * float(i) + 0.5f * float(i) + 1) << i;
 }
 
+TEST(Kernel, AGroupLargerThanTheDeviceAllowsIsLeftToTheDevice) {
+  Runtime& rt = test::runtime();
+  auto lock = rt.exclusive();
+  Kernel<cl::Buffer, cl_float, cl_int> fill(rt, "runtime/selftest.cl", "fill");
+  const size_t limit =
+      rt.kernel("runtime/selftest.cl", "fill").getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(rt.device());
+  const size_t group = 2 * limit, n = 3 * group;  // one group over the limit (CL_INVALID_WORK_GROUP_SIZE as such)
+  cl::Buffer out(rt.context(), CL_MEM_READ_WRITE, n * sizeof(float));
+  fill.launch(cl::NDRange(n), cl::NDRange(group), out, 2.5f, cl_int(n));
+  auto values = test::read<float>(out, n);
+  for (size_t i = 0; i < n; ++i) ASSERT_EQ(values[i], 2.5f) << i;
+}
+
 // A launch with other argument types does not compile; these are the conditions its static_asserts test.
 static_assert(KernelArgsMatch<std::tuple<float, cl::Buffer, const cl::Buffer&, int>,
                               std::tuple<cl_float, cl::Buffer, cl::Buffer, cl_int>>::value);
