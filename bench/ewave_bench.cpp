@@ -8,6 +8,7 @@
 // Prints steps/s and the ratios (a)/(c) and (b)/(a).
 //
 //   build/bench/ewave_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft|fftw] [--address HOST:PORT] [--seconds S]
+//                     [--grid NXxNY (one grid instead of the four)]
 #include <fftw3.h>
 #include <grpcpp/grpcpp.h>
 
@@ -18,6 +19,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ewave/ewave_session.h"
 #include "ewave/propagator.h"
@@ -169,11 +171,14 @@ int main(int argc, char** argv) {
   options.program_prefixes = {"runtime/", "ewave/"};
   std::string backend = "vkfft", address;
   double budget = 3;
+  std::vector<std::pair<size_t, size_t>> sizes = {{256, 256}, {512, 512}, {1024, 1024}, {1400, 600}};
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--device")) options.device = argv[i + 1];
     if (!std::strcmp(argv[i], "--fft")) backend = argv[i + 1];
     if (!std::strcmp(argv[i], "--address")) address = argv[i + 1];
     if (!std::strcmp(argv[i], "--seconds")) budget = std::stod(argv[i + 1]);
+    size_t nx = 0, ny = 0;
+    if (!std::strcmp(argv[i], "--grid") && std::sscanf(argv[i + 1], "%zux%zu", &nx, &ny) == 2) sizes = {{nx, ny}};
   }
   configure_kernel_cache();
   Runtime runtime(options);
@@ -187,7 +192,6 @@ int main(int argc, char** argv) {
   std::printf("steps/s of one eWave step (moving hull, trim, height returned); >= %.0f s per cell\n\n", budget);
   std::printf("%-10s %12s %12s %12s %14s %14s\n", "grid", "in-process", "Run stream", "fftw ref", "process/fftw",
               "stream/process");
-  const std::pair<size_t, size_t> sizes[] = {{256, 256}, {512, 512}, {1024, 1024}, {1400, 600}};
   for (auto [nx, ny] : sizes) {
     ewave::EWaveConfig c = config(nx, ny);
     double a = in_process(runtime, fft, c, budget);

@@ -161,12 +161,13 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.finish.launch(cells_range(config_), kRowGroupRange, work_.buffer(), cl_int(fields), state_.buffer(),
-                        out_.buffer(), cl_int(config_.nx), cl_int(config_.ny), drift_mode,
-                        Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
-                        Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
-                        Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
-                        trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
+        auto& kernel = drift_mode == 0 ? k.finish : k.finish_advect;
+        kernel.launch(cells_range(config_), kRowGroupRange, work_.buffer(), cl_int(fields), state_.buffer(),
+                      out_.buffer(), cl_int(config_.nx), cl_int(config_.ny), drift_mode,
+                      Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
+                      Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
+                      Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
+                      trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
       },
       kernels_);
 }

@@ -26,16 +26,18 @@ struct StepKernels {
   // spectrum, coefficients, nx, ny, kx_unit, ky_unit, fields
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, Real, Real, cl_int> propagate;
   // work, fields, state, out, nx, ny, drift_mode, shift_x, shift_y, drift_x, drift_y, dt_over_dx,
-  // dt_over_dy, obstruction, has_obstruction, mask_phi, trim_x, trim_y, has_trim, displacement_scale
-  Kernel<cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int, cl_int, cl_int, Real, Real, cl::Buffer, cl::Buffer, Real,
-         Real, cl::Buffer, cl_int, cl_int, cl::Buffer, cl::Buffer, cl_int, Real>
-      finish;
+  // dt_over_dy, obstruction, has_obstruction, mask_phi, trim_x, trim_y, has_trim, displacement_scale;
+  // ewave_finish (no drift: drift_mode and the shifts are not read) and ewave_finish_advect
+  using Finish = Kernel<cl::Buffer, cl_int, cl::Buffer, cl::Buffer, cl_int, cl_int, cl_int, Real, Real, cl::Buffer,
+                        cl::Buffer, Real, Real, cl::Buffer, cl_int, cl_int, cl::Buffer, cl::Buffer, cl_int, Real>;
+  Finish finish, finish_advect;
 
   StepKernels() = default;
   explicit StepKernels(Runtime& runtime)
       : prepare(runtime, kProgram, "ewave_prepare"),
         propagate(runtime, kProgram, "ewave_propagate"),
-        finish(runtime, kProgram, "ewave_finish") {}
+        finish(runtime, kProgram, "ewave_finish"),
+        finish_advect(runtime, kProgram, "ewave_finish_advect") {}
 };
 
 // The step kernels of either precision.
