@@ -5,6 +5,8 @@
 // conventions: server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolve -> inverse FFTs
 // -> ocean_accumulate onto the output grid; then ocean_finalize derives the requested outputs.
 #include "common/dispersion.h"
+#include "common/sincos.h"
+#include "common/surface_normal.h"
 #include "ocean/params.h"
 #include "ocean/spectra.h"
 
@@ -111,35 +113,52 @@ inline float2 times_i(float2 a) { return (float2)(-a.y, a.x); }
 // a + i b for two Hermitian spectra a, b: the inverse FFT then gives the two real fields in (re, im).
 inline float2 pack(float2 a, float2 b) { return (float2)(a.x - b.y, a.y + b.x); }
 
+// Stores a + i b for two Hermitian spectra a, b at `at` of a float2 array: the inverse FFT then gives
+// the two real fields in (re, im).
+inline void store_pack(__global float* out, size_t at, float a_re, float a_im, float b_re, float b_im) {
+  out[2 * at] = a_re - b_im;
+  out[2 * at + 1] = a_im + b_re;
+}
+
 // Eq 1 / 43 at absolute time t: h~(k,t) = [h0(k) e^{-iwt} + conj(h0(-k)) e^{iwt}] e^{-i k.U_D t}, and
 // its derived channels, packed into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats).
+// Complex values are pairs of floats, read and written as floats: PoCL vectorizes a kernel across
+// work-items only when it computes with no OpenCL vector (float2, float4) values, which LLVM's loop
+// vectorizer cannot widen (nor a struct of two floats, passed by value as a float2).
 __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny, const float dkx, const float dky,
                            const float t_hi, const float t_lo, const float2 drift, const int pairs,
                            __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
+  __global const float* h0f = (__global const float*)h0;
+  __global float* outf = (__global float*)out;
+  const float drift_x = drift.x, drift_y = drift.y;
   int n = mode_number(i, nx), m = mode_number(j, ny);
   int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;  // the mode of -k
-  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
-  float phase = fma(a.z, t_hi, a.z * t_lo);
-  float c, s = sincos(phase, &c);  // one call: the same values as sin and cos, faster on PoCL
-  float2 plus = cmul(a.xy, (float2)(c, -s));                 // h0(k) e^{-iwt}
-  float2 minus = cmul((float2)(b.x, -b.y), (float2)(c, s));  // conj(h0(-k)) e^{+iwt}
+  size_t a = 4 * (i + (size_t)nx * j), b = 4 * (mi + (size_t)nx * mj);
+  float a_re = h0f[a], a_im = h0f[a + 1], b_re = h0f[b], b_im = h0f[b + 1];
+  float c, s;
+  sq_sincos_phase(h0f[a + 2], t_hi, t_lo, &s, &c);  // omega t
+  // (a_re + i a_im)(c - i s) + (b_re - i b_im)(c + i s)
+  float h_re = (a_re + b_re) * c + (a_im + b_im) * s, h_im = (a_im - b_im) * c - (a_re - b_re) * s;
   float kx = n * dkx, ky = m * dky;
-  float2 h = plus + minus;
-  if (drift.x != 0.0f || drift.y != 0.0f) {  // the same for every work-item: most layers have no drift
-    float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
-    float drift_c, drift_s = sincos(drift_phase, &drift_c);
-    h = cmul(h, (float2)(drift_c, drift_s));
+  if (drift_x != 0.0f || drift_y != 0.0f) {  // the same for every work-item: most layers have no drift
+    float drift_c, drift_s;
+    sq_sincos_phase(-(kx * drift_x + ky * drift_y), t_hi, t_lo, &drift_s, &drift_c);  // -k.U_D t
+    float re = h_re * drift_c - h_im * drift_s;
+    h_im = h_re * drift_s + h_im * drift_c;
+    h_re = re;
   }
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
-  float2 dx = times_i(h) * (kx * inv_k), dy = times_i(h) * (ky * inv_k);
-  out[at] = pack(h, dx);
-  if (pairs > 1) out[cells + at] = pack(dy, times_i(h) * kx);
-  if (pairs > 2) out[2 * cells + at] = pack(times_i(h) * ky, h * (-kx * kx * inv_k));
-  if (pairs > 3) out[3 * cells + at] = pack(h * (-ky * ky * inv_k), h * (-kx * ky * inv_k));
+  float kx_k = kx * inv_k, ky_k = ky * inv_k;
+  // i h times each factor: (-h_im, h_re) f
+  store_pack(outf, at, h_re, h_im, -h_im * kx_k, h_re * kx_k);  // h, D_x
+  if (pairs > 1) store_pack(outf, cells + at, -h_im * ky_k, h_re * ky_k, -h_im * kx, h_re * kx);  // D_y, eps_x
+  float xx = -kx * kx_k, yy = -ky * ky_k, xy = -kx * ky_k;
+  if (pairs > 2) store_pack(outf, 2 * cells + at, -h_im * ky, h_re * ky, h_re * xx, h_im * xx);  // eps_y, D_xx
+  if (pairs > 3) store_pack(outf, 3 * cells + at, h_re * yy, h_im * yy, h_re * xy, h_im * xy);   // D_yy, D_xy
 }
 
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
@@ -153,10 +172,10 @@ static void evolve_halves(__global const float4* h0, int i, int j, int nx, int n
                           float t_lo, float2 drift, float2* plus, float2* minus, float* w) {
   int mi = (nx - i) % nx, mj = (ny - j) % ny;
   float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
-  float phase = fma(a.z, t_hi, a.z * t_lo);
-  float c = cos(phase), s = sin(phase);
-  float drift_phase = -fma(kx * drift.x + ky * drift.y, t_hi, (kx * drift.x + ky * drift.y) * t_lo);
-  float2 shift = (float2)(cos(drift_phase), sin(drift_phase));
+  float c, s, shift_c, shift_s;
+  sq_sincos_phase(a.z, t_hi, t_lo, &s, &c);
+  sq_sincos_phase(-(kx * drift.x + ky * drift.y), t_hi, t_lo, &shift_s, &shift_c);
+  float2 shift = (float2)(shift_c, shift_s);
   *plus = cmul(cmul(a.xy, (float2)(c, -s)), shift);
   *minus = cmul(cmul((float2)(b.x, -b.y), (float2)(c, s)), shift);
   *w = a.z;
@@ -219,9 +238,16 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
 
 // Channel pair k (channels 2k and 2k + 1) at cell `at` of the summed fields: planes of float2 as the
 // inverse FFT of ocean_evolve leaves them (interleaved), or two planes of floats (ocean_accumulate's).
-static inline float2 channel_pair(__global const float* sums, int interleaved, int k, int cells, int at) {
-  if (interleaved) return ((__global const float2*)sums)[(size_t)k * cells + at];
-  return (float2)(sums[(size_t)(2 * k) * cells + at], sums[(size_t)(2 * k + 1) * cells + at]);
+// Floats, not a float2: see store_pack.
+static inline void channel_pair(__global const float* sums, int interleaved, int k, int cells, int at, float* first,
+                                float* second) {
+  if (interleaved) {
+    *first = sums[2 * ((size_t)k * cells + at)];
+    *second = sums[2 * ((size_t)k * cells + at) + 1];
+  } else {
+    *first = sums[(size_t)(2 * k) * cells + at];
+    *second = sums[(size_t)(2 * k + 1) * cells + at];
+  }
 }
 
 // Output planes of ocean_finalize (each onx * ony floats).
@@ -250,11 +276,11 @@ __kernel void ocean_finalize(__global const float* sums, const int interleaved, 
   // channels is 2, 4, 6 or 8: pairs (h, Dx), (Dy, ex), (ey, Dxx), (Dyy, Dxy) of the evolved spectra; the
   // missing ones are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
   // vectorizes across work-items.
-  float2 zero = (float2)(0.0f, 0.0f), p0 = channel_pair(sums, interleaved, 0, cells, at);
-  float2 p1 = channels > 2 ? channel_pair(sums, interleaved, 1, cells, at) : zero;
-  float2 p2 = channels > 4 ? channel_pair(sums, interleaved, 2, cells, at) : zero;
-  float2 p3 = channels > 6 ? channel_pair(sums, interleaved, 3, cells, at) : zero;
-  float h = p0.x, Dx = p0.y, Dy = p1.x, ex = p1.y, ey = p2.x, Dxx = p2.y, Dyy = p3.x, Dxy = p3.y;
+  float h, Dx, Dy = 0.0f, ex = 0.0f, ey = 0.0f, Dxx = 0.0f, Dyy = 0.0f, Dxy = 0.0f;
+  channel_pair(sums, interleaved, 0, cells, at, &h, &Dx);
+  if (channels > 2) channel_pair(sums, interleaved, 1, cells, at, &Dy, &ex);
+  if (channels > 4) channel_pair(sums, interleaved, 2, cells, at, &ey, &Dxx);
+  if (channels > 6) channel_pair(sums, interleaved, 3, cells, at, &Dyy, &Dxy);
   if (flags & 1) out[OUT_HEIGHT * cells + at] = h;
   if (flags & 2) {
     out[OUT_DISP_X * cells + at] = lambda * Dx;
@@ -265,12 +291,12 @@ __kernel void ocean_finalize(__global const float* sums, const int interleaved, 
     out[OUT_SLOPE_Y * cells + at] = ey;
   }
   float Jxx = 1.0f + lambda * Dxx, Jyy = 1.0f + lambda * Dyy, Jxy = lambda * Dxy;
-  if (flags & 8) {  // eq 94: n ~ (1 + l dDx/dx, l dDy/dx, eps_x) x (l dDx/dy, 1 + l dDy/dy, eps_y)
-    float3 tx = (float3)(Jxx, Jxy, ex), ty = (float3)(Jxy, Jyy, ey);
-    float3 nrm = normalize(cross(tx, ty));
-    out[OUT_NORMAL_X * cells + at] = nrm.x;
-    out[OUT_NORMAL_Y * cells + at] = nrm.y;
-    out[OUT_NORMAL_Z * cells + at] = nrm.z;
+  if (flags & 8) {  // eq 94
+    float n_x, n_y, n_z;
+    sq_surface_normal(Jxx, Jyy, Jxy, ex, ey, &n_x, &n_y, &n_z);
+    out[OUT_NORMAL_X * cells + at] = n_x;
+    out[OUT_NORMAL_Y * cells + at] = n_y;
+    out[OUT_NORMAL_Z * cells + at] = n_z;
   }
   float mean = 0.5f * (Jxx + Jyy), diff = 0.5f * (Jxx - Jyy);
   float radius = sqrt(diff * diff + Jxy * Jxy);

@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "common/dispersion.h"
+#include "common/sincos.h"
 #include "ocean/cpu_reference.h"
 #include "ocean/spectra.h"
 
@@ -169,6 +171,42 @@ TEST(Dispersion, GroupVelocityMatchesFiniteDifferenceAndLimits) {
   EXPECT_EQ(dispersion_omega(0.0f, deep), 0.0f);
   Dispersion capillary{SQUALL_DISPERSION_CAPILLARY, 9.81f, 1, 0};  // l = 0 turns capillarity off
   EXPECT_EQ(dispersion_omega(3.0f, capillary), dispersion_omega(3.0f, deep));
+}
+
+// The largest error of sq_sincos_phase(w, t_hi, t_lo) against sin and cos of w (t_hi + t_lo) in double, over
+// n random w in [0, w_max] and t in [0, t_max].
+double sincos_phase_error(double w_max, double t_max, int n) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> w_of(0, w_max), t_of(0, t_max);
+  double worst = 0;
+  for (int i = 0; i < n; ++i) {
+    const float w = float(w_of(rng));
+    const double t = t_of(rng);
+    const float t_hi = float(t), t_lo = float(t - t_hi);
+    float s, c;
+    sq_sincos_phase(w, t_hi, t_lo, &s, &c);
+    const double phase = double(w) * (double(t_hi) + double(t_lo));
+    worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
+  }
+  return worst;
+}
+
+TEST(SinCosPhase, EveryQuadrantOfOneTurnToAFewUlps) {
+  double worst = 0;
+  for (int i = -40000; i <= 40000; ++i) {  // -2 pi .. 2 pi, through every quadrant's edges
+    const float x = float(i * 2 * M_PI / 40000);
+    float s, c;
+    sq_sincos_phase(1.0f, x, 0.0f, &s, &c);
+    worst = std::max({worst, std::abs(s - std::sin(double(x))), std::abs(c - std::cos(double(x)))});
+  }
+  EXPECT_LT(worst, 3e-7);
+}
+
+TEST(SinCosPhase, LongTimesKeepThePhaseOfTheTwoFloatTime) {
+  // omega up to 40 rad/s (a 4 cm wave), t up to 600 s: below 2^12 turns, where the reduction is exact.
+  EXPECT_LT(sincos_phase_error(40, 600, 200000), 5e-7);
+  // t up to 1e4 s (4e5 rad, 2^16 turns): n C2 rounds, still far below the 0.03 rad of w t in one float.
+  EXPECT_LT(sincos_phase_error(40, 1e4, 200000), 1e-5);
 }
 
 }  // namespace

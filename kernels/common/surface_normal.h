@@ -1,0 +1,25 @@
+/* The unit normal of a displaced surface, eq 94 of J. Tessendorf, "Gilligan: A Prototype Framework for
+ * Simulating and Rendering Maritime Environments" (2017): with lambda the displacement scale,
+ *   n ~ (1 + l dDx/dx, l dDx/dy, eps_x) x (l dDx/dy, 1 + l dDy/dy, eps_y),
+ * given jxx = 1 + l dDx/dx, jyy = 1 + l dDy/dy, jxy = l dDx/dy and the slopes (eps_x, eps_y). In scalars,
+ * not float3: PoCL vectorizes a kernel across work-items only when it computes with no OpenCL vector
+ * values. A degenerate (zero) cross product gives the zero vector, as normalize does.
+ */
+#ifndef SQUALL_COMMON_SURFACE_NORMAL_H
+#define SQUALL_COMMON_SURFACE_NORMAL_H
+
+#ifndef __OPENCL_VERSION__
+#include <math.h>
+#endif
+
+static inline void sq_surface_normal(float jxx, float jyy, float jxy, float eps_x, float eps_y, float* n_x, float* n_y,
+                                     float* n_z) {
+  const float x = jxy * eps_y - eps_x * jyy, y = eps_x * jxy - jxx * eps_y, z = jxx * jyy - jxy * jxy;
+  const float length = sqrt(x * x + y * y + z * z);
+  const float inverse = length > 0.0f ? 1.0f / length : 0.0f;
+  *n_x = x * inverse;
+  *n_y = y * inverse;
+  *n_z = z * inverse;
+}
+
+#endif
