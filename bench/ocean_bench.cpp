@@ -5,6 +5,7 @@
 // N threads; prints the table and the ratios (goals: b/a >= 0.9, a/c >= 0.3).
 //
 //   build/bench/ocean_bench [--device auto|cpu|gpu|NAME] [--fft vkfft|clfft|fftw] [--seconds S] [--threads N]
+//                           [--kernel-dir DIR (kernels from DIR, e.g. another commit's, not the embedded ones)]
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>
@@ -94,6 +95,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--fft")) backend = argv[i + 1];
     if (!std::strcmp(argv[i], "--seconds")) budget = std::stod(argv[i + 1]);
     if (!std::strcmp(argv[i], "--threads")) threads = std::stoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--kernel-dir")) options.kernel_dir = argv[i + 1];  // other kernels, same host code
   }
   configure_kernel_cache();
   Runtime runtime(options);

@@ -238,9 +238,9 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
 
 // Channel pair k (channels 2k and 2k + 1) at cell `at` of the summed fields: planes of float2 as the
 // inverse FFT of ocean_evolve leaves them (interleaved), or two planes of floats (ocean_accumulate's).
-// Floats, not a float2: see store_pack.
-static inline void channel_pair(__global const float* sums, int interleaved, int k, int cells, int at, float* first,
-                                float* second) {
+// Floats, not a float2: see store_pack. `interleaved` is a constant of each kernel that inlines it.
+__attribute__((always_inline)) static void channel_pair(__global const float* sums, int interleaved, int k, int cells,
+                                                        int at, float* first, float* second) {
   if (interleaved) {
     *first = sums[2 * ((size_t)k * cells + at)];
     *second = sums[2 * ((size_t)k * cells + at) + 1];
@@ -267,12 +267,13 @@ static inline void channel_pair(__global const float* sums, int interleaved, int
 // From the summed channels: displacement lambda D, slopes, normals (eq 94), J and its eigenvalues (App A
 // eqs 45-47), whitecaps (section 5.3.3: 1 where J- < threshold, else W * decay; decay = exp(-dt/T), or 0
 // for a frame without history). flags: bit 0 height, 1 displacement, 2 slopes, 3 normals, 4 Jacobian,
-// 5 whitecaps.
-__kernel void ocean_finalize(__global const float* sums, const int interleaved, const int cells, const int channels,
-                             const float lambda, const int flags, const float threshold, const float decay,
-                             __global float* whitecap, __global float* out) {
-  int at = get_global_id(0);
-  if (at >= cells) return;
+// 5 whitecaps. Two kernels run it, one per layout of the sums (ocean_finalize: ocean_accumulate's planes;
+// ocean_finalize_direct: the inverse FFT's interleaved output): with the layout a constant, each
+// vectorizes its own loads (a layout chosen at run time put both kinds of load in one loop, 2x slower).
+__attribute__((always_inline)) static void finalize_cell(int at, __global const float* sums, const int interleaved,
+                                                         const int cells, const int channels, const float lambda,
+                                                         const int flags, const float threshold, const float decay,
+                                                         __global float* whitecap, __global float* out) {
   // channels is 2, 4, 6 or 8: pairs (h, Dx), (Dy, ex), (ey, Dxx), (Dyy, Dxy) of the evolved spectra; the
   // missing ones are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
   // vectorizes across work-items.
@@ -311,4 +312,18 @@ __kernel void ocean_finalize(__global const float* sums, const int interleaved, 
     whitecap[at] = w;
     out[OUT_WHITECAP * cells + at] = w;
   }
+}
+
+__kernel void ocean_finalize(__global const float* sums, const int cells, const int channels, const float lambda,
+                             const int flags, const float threshold, const float decay, __global float* whitecap,
+                             __global float* out) {
+  int at = get_global_id(0);
+  if (at < cells) finalize_cell(at, sums, 0, cells, channels, lambda, flags, threshold, decay, whitecap, out);
+}
+
+__kernel void ocean_finalize_direct(__global const float* sums, const int cells, const int channels,
+                                    const float lambda, const int flags, const float threshold, const float decay,
+                                    __global float* whitecap, __global float* out) {
+  int at = get_global_id(0);
+  if (at < cells) finalize_cell(at, sums, 1, cells, channels, lambda, flags, threshold, decay, whitecap, out);
 }

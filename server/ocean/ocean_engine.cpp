@@ -28,9 +28,8 @@ using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
 // fields, nx, ny, pairs, scale, onx, ony, first, accum
 using AccumulateKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl::Buffer>;
-// sums, interleaved, cells, channels, lambda, flags, threshold, decay, whitecap, out
-using FinalizeKernel =
-    Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
+// sums, cells, channels, lambda, flags, threshold, decay, whitecap, out (ocean_finalize, ocean_finalize_direct)
+using FinalizeKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
 
 template <typename T>
 void append(std::string& key, const T& value) {
@@ -66,7 +65,7 @@ struct OceanEngine::Impl {
   H0Kernel h0_kernel;
   EvolveKernel evolve;
   AccumulateKernel accumulate;
-  FinalizeKernel finalize;
+  FinalizeKernel finalize, finalize_direct;
   PotentialKernel evolve_potential, evolve_current;
 
   struct Entry {
@@ -89,6 +88,7 @@ struct OceanEngine::Impl {
         evolve(r, kProgram, "ocean_evolve"),
         accumulate(r, kProgram, "ocean_accumulate"),
         finalize(r, kProgram, "ocean_finalize"),
+        finalize_direct(r, kProgram, "ocean_finalize_direct"),
         evolve_potential(r, kProgram, "ocean_evolve_potential"),
         evolve_current(r, kProgram, "ocean_evolve_current") {}
 
@@ -325,9 +325,9 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  impl_->finalize.launch(row_groups(cells), kRowGroupRange, sums, cl_int(direct ? 1 : 0), cl_int(cells),
-                         cl_int(2 * pairs), cl_float(spec.choppiness), cl_int(outputs),
-                         cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
+  FinalizeKernel& finalize = direct ? impl_->finalize_direct : impl_->finalize;
+  finalize.launch(row_groups(cells), kRowGroupRange, sums, cl_int(cells), cl_int(2 * pairs), cl_float(spec.choppiness),
+                  cl_int(outputs), cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
   read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
   lock.unlock();
 
