@@ -263,6 +263,15 @@ __attribute__((always_inline)) static void channel_pair(__global const float* su
 #define OUT_J_MINUS 9
 #define OUT_J_PLUS 10
 #define OUT_WHITECAP 11
+#define OUT_SCRATCH 12  // where the outputs not asked for go
+
+// Plane `plane`'s element `at`, or the scratch plane's when the output is not asked for. Every store of
+// ocean_finalize is unconditional: a vectorized `if (flag) out[...] = v` is a masked store, and its
+// masked-out lanes on pages never written (the planes no request asked for) cost a microcode assist
+// each on an x86 CPU (ocean_finalize ran 8x slower).
+inline size_t out_at(int plane, int wanted, int cells, int at) {
+  return (size_t)(wanted ? plane : OUT_SCRATCH) * cells + at;
+}
 
 // From the summed channels: displacement lambda D, slopes, normals (eq 94), J and its eigenvalues (App A
 // eqs 45-47), whitecaps (section 5.3.3: 1 where J- < threshold, else W * decay; decay = exp(-dt/T), or 0
@@ -277,41 +286,35 @@ __attribute__((always_inline)) static void finalize_cell(int at, __global const 
   // channels is 2, 4, 6 or 8: pairs (h, Dx), (Dy, ex), (ey, Dxx), (Dyy, Dxy) of the evolved spectra; the
   // missing ones are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
   // vectorizes across work-items.
-  float h, Dx, Dy = 0.0f, ex = 0.0f, ey = 0.0f, Dxx = 0.0f, Dyy = 0.0f, Dxy = 0.0f;
+  // The pairs not computed read pair 0 (present: no masked loads, see out_at) and count as 0.
+  float h, Dx, Dy, ex, ey, Dxx, Dyy, Dxy;
   channel_pair(sums, interleaved, 0, cells, at, &h, &Dx);
-  if (channels > 2) channel_pair(sums, interleaved, 1, cells, at, &Dy, &ex);
-  if (channels > 4) channel_pair(sums, interleaved, 2, cells, at, &ey, &Dxx);
-  if (channels > 6) channel_pair(sums, interleaved, 3, cells, at, &Dyy, &Dxy);
-  if (flags & 1) out[OUT_HEIGHT * cells + at] = h;
-  if (flags & 2) {
-    out[OUT_DISP_X * cells + at] = lambda * Dx;
-    out[OUT_DISP_Y * cells + at] = lambda * Dy;
-  }
-  if (flags & 4) {
-    out[OUT_SLOPE_X * cells + at] = ex;
-    out[OUT_SLOPE_Y * cells + at] = ey;
-  }
+  channel_pair(sums, interleaved, channels > 2 ? 1 : 0, cells, at, &Dy, &ex);
+  channel_pair(sums, interleaved, channels > 4 ? 2 : 0, cells, at, &ey, &Dxx);
+  channel_pair(sums, interleaved, channels > 6 ? 3 : 0, cells, at, &Dyy, &Dxy);
+  if (channels <= 2) Dy = ex = 0.0f;
+  if (channels <= 4) ey = Dxx = 0.0f;
+  if (channels <= 6) Dyy = Dxy = 0.0f;
+  out[out_at(OUT_HEIGHT, flags & 1, cells, at)] = h;
+  out[out_at(OUT_DISP_X, flags & 2, cells, at)] = lambda * Dx;
+  out[out_at(OUT_DISP_Y, flags & 2, cells, at)] = lambda * Dy;
+  out[out_at(OUT_SLOPE_X, flags & 4, cells, at)] = ex;
+  out[out_at(OUT_SLOPE_Y, flags & 4, cells, at)] = ey;
   float Jxx = 1.0f + lambda * Dxx, Jyy = 1.0f + lambda * Dyy, Jxy = lambda * Dxy;
-  if (flags & 8) {  // eq 94
-    float n_x, n_y, n_z;
-    sq_surface_normal(Jxx, Jyy, Jxy, ex, ey, &n_x, &n_y, &n_z);
-    out[OUT_NORMAL_X * cells + at] = n_x;
-    out[OUT_NORMAL_Y * cells + at] = n_y;
-    out[OUT_NORMAL_Z * cells + at] = n_z;
-  }
+  float n_x, n_y, n_z;
+  sq_surface_normal(Jxx, Jyy, Jxy, ex, ey, &n_x, &n_y, &n_z);  // eq 94
+  out[out_at(OUT_NORMAL_X, flags & 8, cells, at)] = n_x;
+  out[out_at(OUT_NORMAL_Y, flags & 8, cells, at)] = n_y;
+  out[out_at(OUT_NORMAL_Z, flags & 8, cells, at)] = n_z;
   float mean = 0.5f * (Jxx + Jyy), diff = 0.5f * (Jxx - Jyy);
   float radius = sqrt(diff * diff + Jxy * Jxy);
-  float Jminus = mean - radius, Jplus = mean + radius;  // App A eq 47
-  if (flags & 16) {
-    out[OUT_J * cells + at] = Jxx * Jyy - Jxy * Jxy;  // App A eq 45
-    out[OUT_J_MINUS * cells + at] = Jminus;
-    out[OUT_J_PLUS * cells + at] = Jplus;
-  }
-  if (flags & 32) {
-    float w = Jminus < threshold ? 1.0f : whitecap[at] * decay;
-    whitecap[at] = w;
-    out[OUT_WHITECAP * cells + at] = w;
-  }
+  float Jminus = mean - radius, Jplus = mean + radius;                   // App A eq 47
+  out[out_at(OUT_J, flags & 16, cells, at)] = Jxx * Jyy - Jxy * Jxy;  // App A eq 45
+  out[out_at(OUT_J_MINUS, flags & 16, cells, at)] = Jminus;
+  out[out_at(OUT_J_PLUS, flags & 16, cells, at)] = Jplus;
+  float w = Jminus < threshold ? 1.0f : whitecap[at] * decay;  // history: garbage without whitecaps, unused
+  whitecap[at] = w;
+  out[out_at(OUT_WHITECAP, flags & 32, cells, at)] = w;
 }
 
 __kernel void ocean_finalize(__global const float* sums, const int cells, const int channels, const float lambda,

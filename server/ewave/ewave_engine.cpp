@@ -29,7 +29,7 @@ uint64_t session_bytes(const EWaveConfig& config) {
   const uint64_t modes = uint64_t(config.nx / 2 + 1) * config.ny;
   const uint64_t real = config.double_precision ? 8 : 4;
   const uint64_t state = 2 * cells * real, spectrum = 2 * modes * 2 * real;
-  const uint64_t work = 2 * cells * real + 9 * cells * 4;  // work + output, 9 float maps (inputs, absent ones)
+  const uint64_t work = 2 * cells * real + 9 * cells * 4;  // work + output, 9 float maps (inputs, zeros)
   return state + spectrum + work;
 }
 

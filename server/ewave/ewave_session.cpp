@@ -28,6 +28,7 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   out_ = pool.acquire(5 * cells_ * sizeof(float));
   placeholder_ = pool.acquire(cells_ * sizeof(float));
   auto lock = runtime_.exclusive();
+  runtime_.queue().enqueueFillBuffer(placeholder_.buffer(), cl_float(0), 0, cells_ * sizeof(float));  // every page present
   upload_initial_fields();
   // Bake the plans of every step now, not during the first step.
   fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::R2C, precision()});

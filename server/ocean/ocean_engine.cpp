@@ -16,7 +16,7 @@ namespace squall::ocean {
 namespace {
 
 constexpr const char* kProgram = "ocean/ocean.cl";
-constexpr int kOutputPlanes = 12;  // OUT_* of ocean.cl
+constexpr int kOutputPlanes = 13;  // OUT_* of ocean.cl, the last the scratch plane
 
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0

@@ -1,8 +1,5 @@
 #include "runtime/buffer_pool.h"
 
-#include <cstdlib>
-#include <memory>
-
 namespace squall {
 
 BufferLease::BufferLease(BufferLease&& other) noexcept
@@ -49,15 +46,7 @@ BufferLease BufferPool::acquire(size_t bytes) {
     }
     ++allocations_;
   }
-  return BufferLease(this, allocate(bytes), bytes);
-}
-
-cl::Buffer BufferPool::allocate(size_t bytes) const {
-  if (!(flags_ & CL_MEM_ALLOC_HOST_PTR)) return cl::Buffer(context_, flags_, bytes);
-  // Copied from calloc's zero pages: every page of the buffer is written once, here.
-  std::unique_ptr<void, decltype(&std::free)> zeros(std::calloc(bytes, 1), &std::free);
-  if (!zeros) throw std::bad_alloc();
-  return cl::Buffer(context_, flags_ | CL_MEM_COPY_HOST_PTR, bytes, zeros.get());
+  return BufferLease(this, cl::Buffer(context_, flags_, bytes), bytes);
 }
 
 void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {

@@ -43,9 +43,7 @@ class BufferPool {
  public:
   // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
   // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR so that mapping them (the FFTW
-  // backend) does not copy, and zeroed: a kernel vectorized across work-items loads and stores under
-  // masks, and a masked-out lane on a page the process has not touched yet costs a microcode assist
-  // per instruction (ocean_finalize ran 2x slower writing beside a plane it never fills).
+  // backend) does not copy.
   // held_slot: the queue slot the calling thread holds, -1 for none (held_queue_slot()).
   BufferPool(
       const cl::Context& context, size_t max_idle_bytes, bool host_memory = false,
@@ -63,7 +61,6 @@ class BufferPool {
  private:
   friend class BufferLease;
   void put_back(cl::Buffer buffer, size_t bytes);
-  cl::Buffer allocate(size_t bytes) const;
 
   cl::Context context_;
   size_t max_idle_bytes_;

@@ -211,29 +211,6 @@ TEST(CloudsService, BadRequestsGetClearErrors) {
   }
 }
 
-// A step of 1e-9 m through the sphere model (a box about 20 m across) asks for some 1e15 samples: refused before any kernel runs
-// (it used to hold the device for minutes), and the next render is served at once.
-TEST(CloudsService, ARenderBeyondTheSampleBudgetIsRefusedAtOnce) {
-  v1::RenderRequest request;
-  *request.mutable_model() = sphere_model();
-  *request.mutable_settings() = small_render();
-  request.mutable_settings()->set_step(1e-9);
-  auto c = call();
-  v1::RenderResponse response;
-  auto start = std::chrono::steady_clock::now();
-  auto status = c.stub->Render(c.context.get(), request, &response);
-  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
-  EXPECT_NE(status.error_message().find("settings.step = 1e-09 makes an estimated"), std::string::npos)
-      << status.error_message();
-  EXPECT_NE(status.error_message().find("--max-render-samples"), std::string::npos) << status.error_message();
-  EXPECT_LT(seconds, 5.0);  // the model is built (about a second on 2 cores), nothing is rendered
-  request.mutable_settings()->set_step(0.25);
-  auto again = call();
-  EXPECT_TRUE(again.stub->Render(again.context.get(), request, &response).ok());
-  EXPECT_EQ(response.image().width(), 24u);
-}
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -270,20 +247,25 @@ double cpu_seconds(pid_t pid) {
   return ticks / double(sysconf(_SC_CLK_TCK));
 }
 
-// A render whose deadline passes mid-way ends DEADLINE_EXCEEDED and leaves the device within a slice: a
-// small render right after it takes at most kSliceBound longer than alone. Unsliced, a cancelled render
-// held the device 13-17 s; sliced by tile count rather than cost, the empty sky's quick tiles grew the
-// slices until one on the sphere held it 1.5 s past the deadline.
-TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
+// The sphere model kept as a volume: the renders below time the render alone, not the build.
+std::string kept_sphere() {
   auto c = call();
   v1::BuildVolumeRequest build;
   *build.mutable_model() = sphere_model();
   build.set_keep(true);
   v1::BuildVolumeResponse built;
   const grpc::Status kept = c.build(build, &built);
-  ASSERT_TRUE(kept.ok()) << kept.error_message();
+  EXPECT_TRUE(kept.ok()) << kept.error_message();
+  return built.summary().volume_id();
+}
+
+// A render whose deadline passes mid-way ends DEADLINE_EXCEEDED and leaves the device within a slice: a
+// small render right after it takes at most kSliceBound longer than alone. Unsliced, a cancelled render
+// held the device 13-17 s; sliced by tile count rather than cost, the empty sky's quick tiles grew the
+// slices until one on the sphere held it 1.5 s past the deadline.
+TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
   v1::RenderRequest small;
-  small.set_volume_id(built.summary().volume_id());
+  small.set_volume_id(kept_sphere());
   *small.mutable_settings() = small_render();
   const double alone = timed_render(small);
   v1::RenderRequest heavy = small;
@@ -296,6 +278,49 @@ TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
   const double after = timed_render(small);
   EXPECT_LT(after, alone + kSliceBound) << "the expired render still held the device (the small render takes " << alone
                                         << " s alone)";
+}
+
+// A step of 1e-9 m through the sphere (a box about 20 m across) asks for some 1e15 samples: refused within
+// a second, before any kernel runs (it used to hold the device for minutes), and the next render is served
+// at once.
+TEST(CloudsService, ARenderBeyondTheSampleBudgetIsRefusedAtOnce) {
+  v1::RenderRequest request;
+  request.set_volume_id(kept_sphere());
+  *request.mutable_settings() = small_render();
+  request.mutable_settings()->set_step(1e-9);
+  auto c = call();
+  v1::RenderResponse response;
+  const auto start = std::chrono::steady_clock::now();
+  const grpc::Status status = c.render(request, &response);
+  EXPECT_LT(seconds_since(start), 1.0);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("settings.step = 1e-09 makes an estimated"), std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("--max-render-samples"), std::string::npos) << status.error_message();
+  request.mutable_settings()->set_step(0.25);
+  EXPECT_LT(timed_render(request), 1.0);
+}
+
+// A render its client cancels ends CANCELLED and leaves the device within a slice, as an expired one does.
+TEST(CloudsService, ACancelledRenderFreesTheDeviceWithinASlice) {
+  v1::RenderRequest small;
+  small.set_volume_id(kept_sphere());
+  *small.mutable_settings() = small_render();
+  const double alone = timed_render(small);
+  v1::RenderRequest heavy = small;
+  *heavy.mutable_settings() = test::long_render_settings();
+  auto cancelled = call();
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    cancelled.context->TryCancel();
+  });
+  v1::RenderResponse response;
+  const grpc::Status status = cancelled.render(heavy, &response);
+  canceller.join();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED) << status.error_message();
+  const double after = timed_render(small);
+  EXPECT_LT(after, alone + kSliceBound) << "the cancelled render still held the device (the small render takes "
+                                        << alone << " s alone)";
 }
 
 // `model` in voxels of `voxel_size`, advected for 1 s at 1 m/s in 256 MacCormack substeps.

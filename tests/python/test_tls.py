@@ -93,3 +93,28 @@ def test_a_bearer_token_gets_in_and_none_or_a_wrong_one_does_not(token_daemon):
                 c.info()
             assert refused.value.code == grpc.StatusCode.UNAUTHENTICATED
             assert c.health() == "SERVING"  # health stays open for balancers
+
+
+def test_the_token_comes_from_a_file_or_squall_token_as_in_the_cli(
+    token_daemon, tmp_path, monkeypatch
+):
+    good, wrong = tmp_path / "good", tmp_path / "wrong"
+    good.write_text("python-s3cret python\n")  # the first word, as the CLI's --token-file
+    wrong.write_text("python-s3cres\n")
+    monkeypatch.setenv("SQUALL_TOKEN", "python-s3cres")
+    with squall.Client(token_daemon.address, token_file=str(good)) as c:  # the file wins
+        assert c.info().version
+    with squall.Client(token_daemon.address) as c:  # the variable's wrong token
+        with pytest.raises(squall.SquallError) as refused:
+            c.info()
+        assert refused.value.code == grpc.StatusCode.UNAUTHENTICATED
+    monkeypatch.setenv("SQUALL_TOKEN", "python-s3cret")
+    with squall.Client(token_daemon.address) as c:
+        assert c.info().version
+    with squall.Client(token_daemon.address, token_file=str(wrong)) as c:
+        with pytest.raises(squall.SquallError):
+            c.info()
+    empty = tmp_path / "empty"
+    empty.write_text("\n")
+    with pytest.raises(ValueError, match="no token"):
+        squall.Client(token_daemon.address, token_file=str(empty))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import queue
 import secrets
 import threading
@@ -63,6 +64,22 @@ def propose_session_id(prefix: str = "") -> str:
 
 
 Metadata = Tuple[Tuple[str, str], ...]
+
+TOKEN_VARIABLE = "SQUALL_TOKEN"
+
+
+def resolve_token(token: Optional[str], token_file: Optional[str]) -> Optional[str]:
+    """The bearer token a client sends, as the squall CLI chooses it: `token`, else the first word
+    of `token_file`, else $SQUALL_TOKEN; None (nothing sent) when none is set."""
+    if token is not None:
+        return token
+    if token_file is not None:
+        with open(token_file, encoding="utf-8") as f:
+            words = f.read().split()
+        if not words:
+            raise ValueError(f"token_file {token_file}: no token in it")
+        return words[0]
+    return os.environ.get(TOKEN_VARIABLE) or None
 
 
 class Settings:

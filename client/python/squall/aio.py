@@ -52,6 +52,7 @@ from squall._calls import (
     DEFAULT_ADDRESS,
     Settings,
     propose_session_id,
+    resolve_token,
     retry_options,
 )
 from squall._convert import to_message
@@ -835,6 +836,7 @@ class Client:
         credentials: Optional[grpc.ChannelCredentials] = None,
         options: Sequence[Tuple[str, Any]] = (),
         retries: int = 5,
+        token_file: Optional[str] = None,
     ) -> None:
         self.address = address
         channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
@@ -843,7 +845,8 @@ class Client:
         else:
             channel = grpc.aio.secure_channel(address, credentials, options=channel_options)
         self._connection = Connection(
-            channel, Settings(timeout, stream_timeout, token, request_id)
+            channel,
+            Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id),
         )
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(

@@ -7,7 +7,14 @@ from typing import Any, Optional, Sequence, Tuple
 
 import grpc
 
-from squall._calls import CHANNEL_OPTIONS, DEFAULT_ADDRESS, Connection, Settings, retry_options
+from squall._calls import (
+    CHANNEL_OPTIONS,
+    DEFAULT_ADDRESS,
+    Connection,
+    Settings,
+    resolve_token,
+    retry_options,
+)
 from squall._errors import SquallError
 from squall import _health_pb2
 from squall._pb import server_pb2, server_pb2_grpc
@@ -62,7 +69,9 @@ class Client:
         address: "host:port" of squalld (default 127.0.0.1:50051).
         timeout: deadline of each unary call, s (default 30); None: no deadline.
         token: sent on every call as the metadata "authorization: Bearer <token>": a token of
-            squalld's --auth-tokens file (or of a gateway in front of it). None: not sent.
+            squalld's --auth-tokens file (or of a gateway in front of it). None: the first word of
+            `token_file` if given, else $SQUALL_TOKEN if set, else none is sent (as the squall CLI's
+            --token-file and $SQUALL_TOKEN).
         stream_timeout: deadline of each streaming call, s; None (default): none, streams run until
             they end or are cancelled.
         request_id: sent as "x-request-id" on every call; squalld shows it in its request log.
@@ -73,6 +82,7 @@ class Client:
             gone behind a proxy), with backoff from 0.1 s to 2 s (at most 5; 1: no retries).
             gRPC retries only calls the server has not begun to answer, and squalld answers
             UNAVAILABLE before it touches a session, so a retried step is never applied twice.
+        token_file: a file whose first word is the token, read once here (see `token`).
 
     Attributes:
         ocean: Ocean tiles, streams and samples (squall.ocean.Ocean).
@@ -96,6 +106,7 @@ class Client:
         credentials: Optional[grpc.ChannelCredentials] = None,
         options: Sequence[Tuple[str, Any]] = (),
         retries: int = 5,
+        token_file: Optional[str] = None,
     ) -> None:
         self.address = address
         channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
@@ -104,7 +115,8 @@ class Client:
         else:
             channel = grpc.secure_channel(address, credentials, options=channel_options)
         self._connection = Connection(
-            channel, Settings(timeout, stream_timeout, token, request_id)
+            channel,
+            Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id),
         )
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(
