@@ -198,6 +198,11 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
     *error = "--tls-client-ca needs --tls-cert and --tls-key";
     return false;
   }
+  if (options->reflection == "on" && !options->auth_tokens.empty()) {  // reflection follows auth: it cannot
+    *error = "--reflection on with --auth-tokens: gRPC's reflection service does not check tokens, so it would "
+             "describe the API to callers without one; use --reflection auto (off with tokens) or off";
+    return false;
+  }
   if (!listens_on_loopback(*options) && options->tls_cert.empty() && options->auth_tokens.empty() &&
       !options->insecure) {
     *error = "--listen " + options->listen +

@@ -445,6 +445,9 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   // a non-loopback address without TLS or tokens is refused before anything listens
   EXPECT_EQ(test::run({kSqualld, "--listen", "0.0.0.0:0"}, &out), 2) << out;
   EXPECT_NE(out.find("--listen 0.0.0.0:0 is not a loopback address"), std::string::npos) << out;
+  // reflection would answer without a token
+  EXPECT_EQ(test::run({kSqualld, "--reflection", "on", "--auth-tokens", "/dev/null"}, &out), 2) << out;
+  EXPECT_NE(out.find("--reflection on with --auth-tokens"), std::string::npos) << out;
 }
 
 TEST(Daemon, BusyPortExitsThree) {
