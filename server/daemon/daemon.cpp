@@ -180,9 +180,12 @@ std::chrono::milliseconds milliseconds(double seconds) {
 // then the calls still in flight get the rest of the grace period.
 void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoints, const DaemonOptions& options) {
   const auto deadline = std::chrono::system_clock::now() + milliseconds(options.grace_seconds);
-  Watchdog watchdog(milliseconds(options.grace_seconds + kShutdownBound), kExitOverran,
-                    "a call still runs " + std::to_string(int(kShutdownBound)) +
-                        " s after the grace period ended: exiting without it");
+  // Calls are cancelled at the end of the grace period and long work stops within a slice; one that does
+  // not (a single long device launch) is ended with the process.
+  std::ostringstream overran;
+  overran << "a call still runs " << options.shutdown_bound_seconds
+          << " s (--shutdown-bound) after the grace period ended: exiting without it";
+  Watchdog watchdog(milliseconds(options.grace_seconds + options.shutdown_bound_seconds), kExitOverran, overran.str());
   server.GetHealthCheckService()->SetServingStatus(false);
   daemon.serving.set_phase(ServingState::Phase::Draining);
   daemon.sessions.begin_drain();

@@ -13,12 +13,8 @@ enum ExitCode {
   kExitKernelBuild = 1,  // a kernel program failed to build (its log is printed)
   kExitUsage = 2,        // bad flags, or no device matches --device
   kExitListen = 3,       // the address could not be bound
-  kExitOverran = 4,      // on SIGTERM, a call outlived --grace-period + kShutdownBound: the watchdog ended it
+  kExitOverran = 4,      // on SIGTERM, a call outlived --grace-period + --shutdown-bound: the watchdog ended it
 };
-
-// Seconds past --grace-period that a drain may take: calls are cancelled at the end of the grace period
-// and long work stops within a slice; one that does not is ended by a watchdog (kExitOverran).
-inline constexpr double kShutdownBound = 5;
 
 int run_daemon(const DaemonOptions& options);
 

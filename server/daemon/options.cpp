@@ -77,6 +77,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        [o](const std::string& v) { o->limits.max_advection_samples = double(positive_integer(v)); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
+      {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
       {"profile-kernels", [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
@@ -199,8 +200,9 @@ bool parse_options(int argc, char** argv, DaemonOptions* options, bool* help, st
     return false;
   }
   if (options->reflection == "on" && !options->auth_tokens.empty()) {  // reflection follows auth: it cannot
-    *error = "--reflection on with --auth-tokens: gRPC's reflection service does not check tokens, so it would "
-             "describe the API to callers without one; use --reflection auto (off with tokens) or off";
+    *error =
+        "--reflection on with --auth-tokens: gRPC's reflection service does not check tokens, so it would "
+        "describe the API to callers without one; use --reflection auto (off with tokens) or off";
     return false;
   }
   if (!listens_on_loopback(*options) && options->tls_cert.empty() && options->auth_tokens.empty() &&
@@ -262,6 +264,8 @@ std::string usage() {
          "  --drain-wait SECONDS      of the grace period, how long a draining squalld keeps answering UNAVAILABLE\n"
          "                            (retry elsewhere) before it closes its port, so proxies and clients see\n"
          "                            NOT_SERVING first (default 2; at most half the grace period)\n"
+         "  --shutdown-bound SECONDS  past the grace period, how long cancelled calls get to stop before a\n"
+         "                            watchdog ends squalld with exit code 4 (default 5)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"

@@ -33,6 +33,7 @@ struct DaemonOptions {
   Limits limits = daemon_limits();          // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;                // --grace-period: how long shutdown lets calls finish
   double drain_wait_seconds = 2;            // --drain-wait: answer UNAVAILABLE this long before closing
+  double shutdown_bound_seconds = 5;        // --shutdown-bound: past the grace period, then the watchdog exits
   double keepalive_seconds = 60;            // --keepalive: server pings an idle connection this often
   double session_ttl_seconds = 600;         // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;      // --log-level debug | info | warn | error

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -356,7 +357,7 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
 }
 
 // SIGTERM while a render of minutes runs: the render is cancelled when the grace period ends and stops
-// within a slice, so squalld exits 0 by --grace-period + kShutdownBound (5 s) (it used to run until the
+// within a slice, so squalld exits 0 by --grace-period + --shutdown-bound (5 s) (it used to run until the
 // render ended, and only SIGKILL stopped it).
 TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
   Daemon d({"--fft", "vkfft", "--grace-period", "2", "--drain-wait", "0"});
@@ -380,6 +381,34 @@ TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
   EXPECT_TRUE(rendered.error_code() == grpc::StatusCode::CANCELLED ||
               rendered.error_code() == grpc::StatusCode::UNAVAILABLE)
       << rendered.error_code() << ": " << rendered.error_message();
+}
+
+// SIGTERM while a call is stuck in one device launch that no cancellation can cut (the first sample of
+// a 4096^2 spectrum builds it in one kernel: about 15 s on 2 CPU cores): the watchdog ends squalld at
+// --grace-period + --shutdown-bound, exit code 4 (it used to wait for the job, or forever).
+TEST(Daemon, SigtermWithAStuckCallExitsFourByTheGracePeriodAndBound) {
+  Daemon d({"--fft", "vkfft", "--grace-period", "1", "--drain-wait", "0", "--shutdown-bound", "1"});
+  std::atomic<bool> sampled{false};
+  std::thread sample([&] {
+    std::string out;
+    test::run({kSquall, "--address", d.address(), "--timeout", "120", "ocean", "sample", "--grid", "4096", "--seed",
+               "77", "--point", "1,2"},
+              &out, 120);
+    sampled = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the spectrum's kernel runs
+  if (sampled) {
+    sample.join();
+    GTEST_SKIP() << "this device built the 4096^2 spectrum in 1.5 s: no call stays stuck long enough";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(30), 4) << "exit code 4: the drain overran" << d.process().log();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 1 + 1 + 1.5) << "the watchdog fires at grace + bound";
+  EXPECT_NE(d.process().log().find("after the grace period ended: exiting without it"), std::string::npos)
+      << d.process().log();
+  sample.join();
 }
 
 TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
