@@ -5,12 +5,15 @@ clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before 
 memory passes it (measured above its level when idle); what the flood held is given back when it ends,
 and squalld then serves as before; while 90% of the budget is reserved, health says NOT_SERVING (new
 work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client cannot take more stream slots
-than that while others still find free ones."""
+than that while others still find free ones. Stored cloud volumes count as sessions (--max-sessions),
+and their bytes leave the metrics when they are released."""
 
 from __future__ import annotations
 
 import contextlib
-from typing import Any, Iterator, List
+import re
+import urllib.request
+from typing import Any, Iterator, List, Tuple
 
 import grpc
 import pytest
@@ -122,3 +125,45 @@ def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
             wait_for(lambda: client.health() == "NOT_SERVING", 5, "NOT_SERVING")
             stream.cancel()
             wait_for(lambda: client.health() == "SERVING", 5, "SERVING again")
+
+
+@pytest.fixture(scope="module")
+def volume_daemon() -> Iterator[Daemon]:
+    """At most two live sessions (stored cloud volumes count), its metrics on a port of its own."""
+    yield from _start(["--max-sessions", "2", "--metrics-listen", "127.0.0.1:0"], "volumes")
+
+
+def volume_gauges(daemon: Daemon) -> Tuple[float, float]:
+    """squall_stored_volumes and squall_stored_volume_bytes from the daemon's /metrics."""
+    port = re.search(r"/metrics \(port (\d+)\)", daemon.log_path.read_text())
+    assert port, "squalld logs its metrics port"
+    with urllib.request.urlopen(f"http://127.0.0.1:{port.group(1)}/metrics", timeout=10) as reply:
+        text = reply.read().decode()
+
+    def gauge(name: str) -> float:
+        found = re.search(rf"^{name} (\S+)$", text, re.MULTILINE)
+        assert found, name
+        return float(found.group(1))
+
+    return gauge("squall_stored_volumes"), gauge("squall_stored_volume_bytes")
+
+
+def test_kept_volumes_count_against_the_sessions_and_their_bytes_return_on_release(
+    volume_daemon: Daemon,
+) -> None:
+    model = squall.clouds.model(voxel_size=1.0, spheres=[(0, 0, 0, 12)])
+    with squall.Client(volume_daemon.address, timeout=120) as client:
+        kept = [client.clouds.build(model, keep=True) for _ in range(2)]
+        with pytest.raises(squall.SquallError) as refused:  # it used to keep any number
+            client.clouds.build(model, keep=True)
+        assert refused.value.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+        assert "--max-sessions" in refused.value.message, refused.value.message
+        count, two = volume_gauges(volume_daemon)
+        assert count == 2 and two > 2 * 10_000
+        client.clouds.release(kept[0])
+        count, one = volume_gauges(volume_daemon)  # the released volume's bytes are given back
+        assert count == 1 and one == pytest.approx(two / 2)
+        again = client.clouds.build(model, keep=True)
+        client.clouds.release(again)
+        client.clouds.release(kept[1])
+        assert volume_gauges(volume_daemon) == (0, 0)
