@@ -221,8 +221,26 @@ TEST(Tls, MutualTlsRequiresTheClientsCertificate) {
       << out;
 }
 
+// An endless ocean stream of 256^2 heights (256 KiB a frame).
+squall::v1::StreamTilesRequest endless_stream() {
+  squall::v1::StreamTilesRequest request;
+  auto* layer = request.mutable_tile()->add_layers();
+  layer->set_extent_x(256);
+  layer->set_extent_y(256);
+  layer->set_nx(256);
+  layer->set_ny(256);
+  layer->set_spectrum(squall::v1::SPECTRUM_MODEL_JONSWAP);
+  layer->set_spreading(squall::v1::SPREADING_MODEL_MITSUYASU);
+  layer->set_dispersion(squall::v1::DISPERSION_MODEL_DEEP);
+  layer->set_wind_speed(10);
+  layer->set_fetch(50000);
+  request.set_dt(0.1);
+  request.add_outputs(squall::v1::TILE_OUTPUT_HEIGHT);
+  return request;
+}
+
 // The certificate files are re-read (--tls-refresh): after they are replaced by a certificate from
-// another CA, new connections get the new one, without a restart.
+// another CA, new connections get the new one, without a restart, and a stream opened before goes on.
 TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
   Certificates first, second;
   client::ClientOptions probe;
@@ -231,6 +249,13 @@ TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
            probe);
   std::string out;
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--tls-ca", first.ca, "health"}, &out), 0) << out;
+  client::ClientOptions streaming = probe;
+  streaming.address = d.address();
+  client::Client live(streaming);
+  grpc::ClientContext context;
+  auto stream = squall::v1::Ocean::NewStub(live.channel())->StreamTiles(&context, endless_stream());
+  squall::v1::TileChunk chunk;
+  ASSERT_TRUE(stream->Read(&chunk)) << "a frame before the renewal";
   std::filesystem::copy_file(second.server_key, first.server_key, std::filesystem::copy_options::overwrite_existing);
   std::filesystem::copy_file(second.server, first.server, std::filesystem::copy_options::overwrite_existing);
   int code = -1;
@@ -241,6 +266,12 @@ TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
   EXPECT_EQ(code, 0) << out;
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--timeout", "5", "--tls-ca", first.ca, "health"}, &out), 3)
       << out;
+  // 10 MiB: more than the transport holds in flight, so most of these frames were sent after the renewal
+  for (int frame = 0; frame < 40; ++frame) ASSERT_TRUE(stream->Read(&chunk)) << "frame " << frame << " after it";
+  context.TryCancel();
+  while (stream->Read(&chunk)) {
+  }
+  EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
 }
 
 TEST(Tls, BadTlsFlagsExitTwo) {
