@@ -20,6 +20,9 @@ class CloudsService final : public squall::v1::Clouds::Service, public Capabilit
   void start(EngineContext& context) override;
   // squall_stored_volumes, squall_stored_volume_bytes (host trees + device uploads).
   std::vector<CapabilityGauge> gauges() const override;
+  void evict_idle() override {  // stored volumes
+    if (engine_) engine_->evict_expired();
+  }
 
   grpc::Status BuildVolume(grpc::ServerContext* context, const squall::v1::BuildVolumeRequest* request,
                            squall::v1::BuildVolumeResponse* response) override;

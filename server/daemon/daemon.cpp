@@ -26,6 +26,7 @@
 #include "common/state_dir.h"
 #include "common/watchdog.h"
 #include "daemon/admission_watch.h"
+#include "daemon/beat.h"
 #include "daemon/checkpoint_loop.h"
 #include "daemon/daemon_metrics.h"
 #include "daemon/daemon_state.h"
@@ -335,10 +336,18 @@ int run_daemon(const DaemonOptions& options) {
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));
   AdmissionWatch admission(daemon->serving.gate(), *health);
+  Beat sweeper(std::chrono::seconds(1), [&served] {
+    for (const auto& capability : served) try {
+        capability->evict_idle();
+      } catch (const std::exception& e) {
+        log(LogLevel::Error, "evicting idle sessions: ", e.what());
+      }
+  });
 
   int signal_number = wait_for_shutdown(signals, daemon->serving, options);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
   admission.stop();
+  sweeper.stop();
   drain(*daemon, *server, checkpoints, options);
   if (options.runtime.profile_kernels)
     log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));

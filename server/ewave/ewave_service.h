@@ -16,6 +16,9 @@ class EWaveService final : public squall::v1::EWave::Service, public Capability 
 
   grpc::Service& service() override { return *this; }
   void start(EngineContext& context) override;
+  void evict_idle() override {
+    if (engine_) engine_->evict_idle();
+  }
 
   grpc::Status CreateSession(grpc::ServerContext* context, const squall::v1::EWaveCreateSessionRequest* request,
                              squall::v1::EWaveSessionResponse* response) override;

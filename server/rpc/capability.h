@@ -58,6 +58,10 @@ class Capability {
   virtual void start(EngineContext& context) = 0;
   // Its gauges now (none by default; none before start()). Called from the metrics endpoint's thread.
   virtual std::vector<CapabilityGauge> gauges() const { return {}; }
+  // Ends its sessions idle past --session-ttl now (none by default; nothing before start()). The daemon
+  // calls it every second from a thread of its own, so an abandoned session's memory comes back without
+  // waiting for the next call to its store.
+  virtual void evict_idle() {}
 };
 
 }  // namespace squall::rpc
