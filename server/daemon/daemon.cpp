@@ -30,6 +30,7 @@
 #include "daemon/checkpoint_loop.h"
 #include "daemon/daemon_metrics.h"
 #include "daemon/daemon_state.h"
+#include "daemon/health_service.h"
 #include "daemon/server_service.h"
 #include "ewave/ewave_service.h"
 #include "ocean/ocean_service.h"
@@ -179,7 +180,8 @@ std::chrono::milliseconds milliseconds(double seconds) {
 // keep being answered (UNAVAILABLE: retry elsewhere) for --drain-wait, while proxies and clients notice
 // NOT_SERVING, since a call that reaches a closing server is CANCELLED, which no retry policy retries;
 // then the calls still in flight get the rest of the grace period.
-void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoints, const DaemonOptions& options) {
+void drain(DaemonState& daemon, grpc::Server& server, HealthService& health, CheckpointLoop& checkpoints,
+           const DaemonOptions& options) {
   const auto deadline = std::chrono::system_clock::now() + milliseconds(options.grace_seconds);
   // Calls are cancelled at the end of the grace period and long work stops within a slice; one that does
   // not (a single long device launch) is ended with the process.
@@ -187,7 +189,7 @@ void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoint
   overran << "a call still runs " << options.shutdown_bound_seconds
           << " s (--shutdown-bound) after the grace period ended: exiting without it";
   Watchdog watchdog(milliseconds(options.grace_seconds + options.shutdown_bound_seconds), kExitOverran, overran.str());
-  server.GetHealthCheckService()->SetServingStatus(false);
+  health.SetServingStatus(false);
   daemon.serving.set_phase(ServingState::Phase::Draining);
   daemon.sessions.begin_drain();
   checkpoints.stop();
@@ -195,6 +197,7 @@ void drain(DaemonState& daemon, grpc::Server& server, CheckpointLoop& checkpoint
     log(LogLevel::Info, "checkpointed ", daemon.sessions.checkpoint_all(true), " sessions to ",
         daemon.sessions.state_dir()->path());
   std::this_thread::sleep_for(milliseconds(std::min(options.drain_wait_seconds, options.grace_seconds / 2)));
+  health.Shutdown();  // watches end: the server closes
   server.Shutdown(deadline);
   server.Wait();
   if (daemon.sessions.state_dir()) daemon.sessions.state_dir()->retire(daemon.sessions.replica());
@@ -292,13 +295,15 @@ int run_daemon(const DaemonOptions& options) {
       " cells per field, ", limits.memory_budget, " bytes of memory in all (--memory-budget)");
   ServerService server_service(*daemon);
   const auto served = capabilities(daemon->serving);
-  grpc::EnableDefaultHealthCheckService(true);
+  grpc::EnableDefaultHealthCheckService(false);  // squall's own: it can ask for a token
+  HealthService health(daemon->serving, options.auth_exempt_health);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   if (!reflection_enabled(options)) builder.SetOption(std::make_unique<WithoutReflection>());
   int port = 0;
   builder.AddListeningPort(options.listen, credentials, &port);
   builder.RegisterService(&server_service);
+  builder.RegisterService(&health);
   for (const auto& capability : served) builder.RegisterService(&capability->service());
   Metrics metrics;
   configure(builder, options, replica, &metrics);
@@ -316,8 +321,7 @@ int run_daemon(const DaemonOptions& options) {
     server->Shutdown();
     return kExitListen;
   }
-  auto* health = server->GetHealthCheckService();
-  health->SetServingStatus(false);
+  health.SetServingStatus(false);
   write_port_file(options.port_file, port);
   const char* transport = options.tls_cert.empty() ? "plaintext" : options.tls_client_ca.empty() ? "TLS" : "mutual TLS";
   log(LogLevel::Info, "listening on ", options.listen, " (port ", port, ", ", transport,
@@ -331,11 +335,11 @@ int run_daemon(const DaemonOptions& options) {
     return kExitKernelBuild;
   }
   daemon->serving.set_phase(ServingState::Phase::Serving);
-  health->SetServingStatus(true);
+  health.SetServingStatus(true);
   log(LogLevel::Info, "SERVING");
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));
-  AdmissionWatch admission(daemon->serving.gate(), *health);
+  AdmissionWatch admission(daemon->serving.gate(), health);
   Beat sweeper(std::chrono::seconds(1), [&served] {
     for (const auto& capability : served) try {
         capability->evict_idle();
@@ -348,7 +352,7 @@ int run_daemon(const DaemonOptions& options) {
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");
   admission.stop();
   sweeper.stop();
-  drain(*daemon, *server, checkpoints, options);
+  drain(*daemon, *server, health, checkpoints, options);
   if (options.runtime.profile_kernels)
     log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));
   log(LogLevel::Info, "stopped");

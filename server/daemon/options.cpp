@@ -88,6 +88,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        }},
       {"auth-tokens", [o](const std::string& v) { o->auth_tokens = v; }},
       {"insecure", [o](const std::string& v) { o->insecure = on_or_off(v); }},
+      {"auth-exempt-health", [o](const std::string& v) { o->auth_exempt_health = on_or_off(v); }},
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
@@ -273,7 +274,8 @@ std::string usage() {
          "  --tls-refresh SECONDS     re-read the TLS files this often: renewed certificates need no restart\n"
          "                            (default 60)\n"
          "  --auth-tokens FILE        require \"authorization: Bearer <token>\" with a token of FILE (one per line,\n"
-         "                            optionally followed by a name; # comments); health stays open\n"
+         "                            optionally followed by a name; # comments); health stays open unless\n"
+         "  --auth-exempt-health on|off  off: health checks need the token too (default on: balancers probe it)\n"
          "  --insecure on|off         allow a non-loopback --listen without TLS or tokens (default off: refused)\n"
          "  --session-ttl SECONDS     evict stateful sessions (eWave) idle this long (default 600)\n"
          "  --replica-id NAME         this replica's name, sent back on every call as x-squall-replica and logged\n"

@@ -41,6 +41,7 @@ struct DaemonOptions {
   std::string tls_cert, tls_key;            // --tls-cert, --tls-key: PEM files; both set: serve TLS only
   bool insecure = false;                    // --insecure: allow a non-loopback --listen without TLS or tokens
   std::string auth_tokens;                  // --auth-tokens: file of accepted bearer tokens; empty: no auth
+  bool auth_exempt_health = true;           // --auth-exempt-health: health answers without a token
   std::string tls_client_ca;                // --tls-client-ca: PEM CA; set: require and verify client certificates
   unsigned tls_refresh_seconds = 60;        // --tls-refresh: how often the TLS files are re-read
   std::string replica_id;                   // --replica-id: this replica's name; empty: hostname:port

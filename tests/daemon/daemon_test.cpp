@@ -288,6 +288,26 @@ TEST(Tls, BadTlsFlagsExitTwo) {
 
 // --auth-tokens: every squall call needs "authorization: Bearer <token>" with a token of the file;
 // health stays open (balancers probe it), and reflection turns off with auto.
+// --auth-exempt-health off: health checks need a token too (Check and Watch), for a balancer that sends one.
+TEST(Auth, HealthNeedsTheTokenWhenNotExempt) {
+  std::string dir = test::temp_dir("auth-health");
+  std::ofstream(dir + "/tokens") << "s3cret-bob bob\n";
+  std::ofstream(dir + "/bob") << "s3cret-bob\n";
+  client::ClientOptions probe;
+  probe.token = "s3cret-bob";
+  Daemon d({"--fft", "vkfft", "--auth-tokens", dir + "/tokens", "--auth-exempt-health", "off"}, 600, probe);
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/bob", "health"}, &out), 0) << out;
+  EXPECT_NE(test::run({kSquall, "--address", d.address(), "health"}, &out), 0) << out;
+  EXPECT_NE(out.find("UNAUTHENTICATED"), std::string::npos) << out;
+  auto stub = grpc::health::v1::Health::NewStub(client::Client({d.address(), 10, ""}).channel());
+  grpc::ClientContext context;
+  auto watch = stub->Watch(&context, grpc::health::v1::HealthCheckRequest());
+  grpc::health::v1::HealthCheckResponse update;
+  EXPECT_FALSE(watch->Read(&update));
+  EXPECT_EQ(watch->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+}
+
 TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
   std::string dir = test::temp_dir("auth");
   std::ofstream(dir + "/tokens") << "# squalld tokens\n\ns3cret-alice alice\nother-token\n";

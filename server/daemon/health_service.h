@@ -1,0 +1,49 @@
+// grpc.health.v1.Health served by squalld itself, in place of gRPC's built-in service, which cannot ask
+// for a token: with --auth-exempt-health off, Check and Watch need the bearer token the other services
+// need. The daemon sets the server's status through it (grpc::HealthCheckServiceInterface), as it did
+// through the built-in one: the status "" (the server as a whole) and of any service name set; Check of
+// an unknown name is NOT_FOUND, Watch of one SERVICE_UNKNOWN, as the health protocol says.
+#pragma once
+
+#include <grpcpp/health_check_service_interface.h>
+
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <string>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "rpc/serving.h"
+
+namespace squall::rpc {
+
+class HealthService final : public grpc::health::v1::Health::Service, public grpc::HealthCheckServiceInterface {
+ public:
+  using Response = grpc::health::v1::HealthCheckResponse;
+
+  // exempt: Check and Watch need no token (--auth-exempt-health on: balancers and kubelets probe it).
+  HealthService(const ServingState& serving, bool exempt) : serving_(serving), exempt_(exempt) {}
+
+  void SetServingStatus(const std::string& service_name, bool serving) override;
+  void SetServingStatus(bool serving) override;  // every name's
+  // NOT_SERVING from now on, whatever is set later, and every Watch ends.
+  void Shutdown() override;
+
+  grpc::Status Check(grpc::ServerContext* context, const grpc::health::v1::HealthCheckRequest* request,
+                     Response* response) override;
+  // Writes the status, then each change, until the client goes or Shutdown().
+  grpc::Status Watch(grpc::ServerContext* context, const grpc::health::v1::HealthCheckRequest* request,
+                     grpc::ServerWriter<Response>* writer) override;
+
+ private:
+  Response::ServingStatus status_of(const std::string& name) const;  // under mutex_
+
+  const ServingState& serving_;
+  const bool exempt_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::string, bool> serving_by_name_{{"", false}};
+  bool shut_down_ = false;
+};
+
+}  // namespace squall::rpc
