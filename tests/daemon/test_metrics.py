@@ -233,3 +233,20 @@ def test_a_real_prometheus_scrapes_it(daemon: Squalld, tmp_path: Path) -> None:
         assert float(result[0]["value"][1]) == before + 2  # the calls this test made
     finally:
         server.stop()
+
+
+def usable_memory() -> int:
+    """The control group's memory limit (v2 memory.max, else v1), else the RAM: read here on its own."""
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            text = Path(path).read_text().strip()
+        except OSError:
+            continue
+        if text != "max" and int(text) < 1 << 60:
+            return int(text)
+    return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_the_default_memory_budget_is_three_quarters_of_the_usable_memory(daemon: Squalld) -> None:
+    text = http_get(f"http://{daemon.metrics}/metrics")
+    assert value(text, "squall_memory_budget_bytes") == pytest.approx(usable_memory() // 4 * 3, rel=1e-9)
