@@ -7,7 +7,7 @@ at most 10x the p50 at 1 client, zero errors. Run with the Python of the client'
 on the cores:
 
     build/tests/python/venv/bin/python bench/load_bench.py [--seconds 10] [--clients 1,2,4,8,16]
-        [--squalld build/squalld] [--device-queues N]
+        [--squalld build/squalld] [--device-queues N] [--squalld-flags "--fft-threads 1"]
 """
 
 from __future__ import annotations
@@ -97,8 +97,12 @@ def main() -> None:
     parser.add_argument(
         "--device-queues", type=int, default=0, help="squalld --device-queues (0: its default)"
     )
+    parser.add_argument(
+        "--squalld-flags", default="", help='more squalld flags, e.g. "--fft-threads 1"'
+    )
     args = parser.parse_args()
     flags = ["--device-queues", str(args.device_queues)] if args.device_queues > 0 else []
+    flags += args.squalld_flags.split()
     counts = [int(c) for c in args.clients.split(",")]
     with tempfile.TemporaryDirectory() as directory:
         daemon = Daemon(args.squalld, Path(directory), flags)
