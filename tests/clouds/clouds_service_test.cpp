@@ -259,25 +259,44 @@ std::string kept_sphere() {
   return built.summary().volume_id();
 }
 
+// A small render of the kept sphere alone, then a heavy render that its deadline (after `deadline` s) or its
+// client (after `cancel_after` s, when > 0) ends, then the small render again: their times and how the heavy
+// one ended.
+struct EndedRender {
+  double alone, after;
+  grpc::Status status;
+};
+EndedRender end_a_heavy_render(double deadline, double cancel_after) {
+  v1::RenderRequest small;
+  small.set_volume_id(kept_sphere());
+  *small.mutable_settings() = small_render();
+  EndedRender r;
+  r.alone = timed_render(small);
+  v1::RenderRequest heavy = small;
+  *heavy.mutable_settings() = test::long_render_settings();
+  auto c = call();
+  expire_in(*c.context, deadline);
+  std::thread canceller([&] {
+    if (cancel_after <= 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(int64_t(cancel_after * 1000)));
+    c.context->TryCancel();
+  });
+  v1::RenderResponse response;
+  r.status = c.render(heavy, &response);
+  canceller.join();
+  r.after = timed_render(small);
+  return r;
+}
+
 // A render whose deadline passes mid-way ends DEADLINE_EXCEEDED and leaves the device within a slice: a
 // small render right after it takes at most kSliceBound longer than alone. Unsliced, a cancelled render
 // held the device 13-17 s; sliced by tile count rather than cost, the empty sky's quick tiles grew the
 // slices until one on the sphere held it 1.5 s past the deadline.
 TEST(CloudsService, AnExpiredRenderFreesTheDeviceWithinASlice) {
-  v1::RenderRequest small;
-  small.set_volume_id(kept_sphere());
-  *small.mutable_settings() = small_render();
-  const double alone = timed_render(small);
-  v1::RenderRequest heavy = small;
-  *heavy.mutable_settings() = test::long_render_settings();
-  auto expiring = call();
-  expire_in(*expiring.context, 1.5);
-  v1::RenderResponse response;
-  const grpc::Status expired = expiring.render(heavy, &response);
-  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
-  const double after = timed_render(small);
-  EXPECT_LT(after, alone + kSliceBound) << "the expired render still held the device (the small render takes " << alone
-                                        << " s alone)";
+  const EndedRender r = end_a_heavy_render(1.5, 0);
+  EXPECT_EQ(r.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << r.status.error_message();
+  EXPECT_LT(r.after, r.alone + kSliceBound)
+      << "the expired render still held the device (the small render takes " << r.alone << " s alone)";
 }
 
 // A step of 1e-9 m through the sphere (a box about 20 m across) asks for some 1e15 samples: refused within
@@ -303,24 +322,10 @@ TEST(CloudsService, ARenderBeyondTheSampleBudgetIsRefusedAtOnce) {
 
 // A render its client cancels ends CANCELLED and leaves the device within a slice, as an expired one does.
 TEST(CloudsService, ACancelledRenderFreesTheDeviceWithinASlice) {
-  v1::RenderRequest small;
-  small.set_volume_id(kept_sphere());
-  *small.mutable_settings() = small_render();
-  const double alone = timed_render(small);
-  v1::RenderRequest heavy = small;
-  *heavy.mutable_settings() = test::long_render_settings();
-  auto cancelled = call();
-  std::thread canceller([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-    cancelled.context->TryCancel();
-  });
-  v1::RenderResponse response;
-  const grpc::Status status = cancelled.render(heavy, &response);
-  canceller.join();
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED) << status.error_message();
-  const double after = timed_render(small);
-  EXPECT_LT(after, alone + kSliceBound) << "the cancelled render still held the device (the small render takes "
-                                        << alone << " s alone)";
+  const EndedRender r = end_a_heavy_render(60, 1.5);
+  EXPECT_EQ(r.status.error_code(), grpc::StatusCode::CANCELLED) << r.status.error_message();
+  EXPECT_LT(r.after, r.alone + kSliceBound)
+      << "the cancelled render still held the device (the small render takes " << r.alone << " s alone)";
 }
 
 // `model` in voxels of `voxel_size`, advected for 1 s at 1 m/s in 256 MacCormack substeps.
