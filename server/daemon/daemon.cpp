@@ -318,6 +318,7 @@ int run_daemon(const DaemonOptions& options) {
       metrics_endpoint = std::make_unique<MetricsEndpoint>(options.metrics_listen, metrics, *daemon, served);
   } catch (const std::exception& e) {
     log(LogLevel::Error, "--metrics-listen ", options.metrics_listen, ": ", e.what());
+    health.Shutdown();  // a watch would keep the server from closing
     server->Shutdown();
     return kExitListen;
   }
@@ -331,6 +332,7 @@ int run_daemon(const DaemonOptions& options) {
     start_engines(*daemon, options, served);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
+    health.Shutdown();
     server->Shutdown();
     return kExitKernelBuild;
   }
