@@ -7,6 +7,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "squall/v1/server.grpc.pb.h"
@@ -14,6 +15,11 @@
 namespace squall::client {
 
 struct ClientOptions {
+  ClientOptions() = default;
+  // The common case, `{address, timeout}`: the other members keep their defaults.
+  ClientOptions(std::string address, double timeout_seconds, std::string request_id = "")
+      : address(std::move(address)), timeout_seconds(timeout_seconds), request_id(std::move(request_id)) {}
+
   std::string address = "127.0.0.1:50051";  // host:port of squalld
   double timeout_seconds = 30;              // deadline of each call
   std::string request_id;                   // sent as x-request-id; empty: none

@@ -108,11 +108,6 @@ __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* 
   h0[i + nx * j] = (float4)(xi.x * amplitude, xi.y * amplitude, w, 0.0f);
 }
 
-inline float2 cmul(float2 a, float2 b) { return (float2)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
-inline float2 times_i(float2 a) { return (float2)(-a.y, a.x); }
-// a + i b for two Hermitian spectra a, b: the inverse FFT then gives the two real fields in (re, im).
-inline float2 pack(float2 a, float2 b) { return (float2)(a.x - b.y, a.y + b.x); }
-
 // Stores a + i b for two Hermitian spectra a, b at `at` of a float2 array: the inverse FFT then gives
 // the two real fields in (re, im).
 inline void store_pack(__global float* out, size_t at, float a_re, float a_im, float b_re, float b_im) {
@@ -120,35 +115,47 @@ inline void store_pack(__global float* out, size_t at, float a_re, float a_im, f
   out[2 * at + 1] = a_im + b_re;
 }
 
-// Eq 1 / 43 at absolute time t: h~(k,t) = [h0(k) e^{-iwt} + conj(h0(-k)) e^{iwt}] e^{-i k.U_D t}, and
-// its derived channels, packed into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats).
-// Complex values are pairs of floats, read and written as floats: PoCL vectorizes a kernel across
-// work-items only when it computes with no OpenCL vector (float2, float4) values, which LLVM's loop
-// vectorizer cannot widen (nor a struct of two floats, passed by value as a float2).
+// The two halves of mode (i, j) of eq 1 / 43 at time t = t_hi + t_lo, shifted by the drift U_D:
+// plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im); w =
+// omega(k) (h0's third component). Complex values are pairs of floats, read and written as floats: PoCL
+// vectorizes a kernel across work-items only when it computes with no OpenCL vector (float2, float4)
+// values, which LLVM's loop vectorizer cannot widen (nor a struct of two floats, passed as a float2).
+__attribute__((always_inline)) static void evolve_halves(__global const float4* h0, int i, int j, int nx, int ny,
+                                                         float kx, float ky, float t_hi, float t_lo, float2 drift,
+                                                         float* plus_re, float* plus_im, float* minus_re,
+                                                         float* minus_im, float* w) {
+  __global const float* h0f = (__global const float*)h0;
+  int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;  // the mode of -k
+  size_t a = 4 * (i + (size_t)nx * j), b = 4 * (mi + (size_t)nx * mj);
+  float a_re = h0f[a], a_im = h0f[a + 1], b_re = h0f[b], b_im = h0f[b + 1];
+  *w = h0f[a + 2];
+  float c, s;
+  sq_sincos_phase(*w, t_hi, t_lo, &s, &c);
+  *plus_re = a_re * c + a_im * s, *plus_im = a_im * c - a_re * s;     // (a_re + i a_im)(c - i s)
+  *minus_re = b_re * c + b_im * s, *minus_im = b_re * s - b_im * c;   // (b_re - i b_im)(c + i s)
+  const float drift_x = drift.x, drift_y = drift.y;
+  if (drift_x != 0.0f || drift_y != 0.0f) {  // the same for every work-item: most layers have no drift
+    float shift_c, shift_s;
+    sq_sincos_phase(-(kx * drift_x + ky * drift_y), t_hi, t_lo, &shift_s, &shift_c);  // -k.U_D t
+    float re = *plus_re * shift_c - *plus_im * shift_s;
+    *plus_im = *plus_re * shift_s + *plus_im * shift_c, *plus_re = re;
+    re = *minus_re * shift_c - *minus_im * shift_s;
+    *minus_im = *minus_re * shift_s + *minus_im * shift_c, *minus_re = re;
+  }
+}
+
+// Eq 1 / 43 at absolute time t: h~(k,t) = plus + minus (evolve_halves), and its derived channels, packed
+// into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats).
 __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny, const float dkx, const float dky,
                            const float t_hi, const float t_lo, const float2 drift, const int pairs,
                            __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
-  __global const float* h0f = (__global const float*)h0;
   __global float* outf = (__global float*)out;
-  const float drift_x = drift.x, drift_y = drift.y;
-  int n = mode_number(i, nx), m = mode_number(j, ny);
-  int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;  // the mode of -k
-  size_t a = 4 * (i + (size_t)nx * j), b = 4 * (mi + (size_t)nx * mj);
-  float a_re = h0f[a], a_im = h0f[a + 1], b_re = h0f[b], b_im = h0f[b + 1];
-  float c, s;
-  sq_sincos_phase(h0f[a + 2], t_hi, t_lo, &s, &c);  // omega t
-  // (a_re + i a_im)(c - i s) + (b_re - i b_im)(c + i s)
-  float h_re = (a_re + b_re) * c + (a_im + b_im) * s, h_im = (a_im - b_im) * c - (a_re - b_re) * s;
-  float kx = n * dkx, ky = m * dky;
-  if (drift_x != 0.0f || drift_y != 0.0f) {  // the same for every work-item: most layers have no drift
-    float drift_c, drift_s;
-    sq_sincos_phase(-(kx * drift_x + ky * drift_y), t_hi, t_lo, &drift_s, &drift_c);  // -k.U_D t
-    float re = h_re * drift_c - h_im * drift_s;
-    h_im = h_re * drift_s + h_im * drift_c;
-    h_re = re;
-  }
+  float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
+  float plus_re, plus_im, minus_re, minus_im, w;
+  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
+  float h_re = plus_re + minus_re, h_im = plus_im + minus_im;
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
@@ -162,36 +169,21 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
 }
 
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
-// the eWave engine's ambient and initial fields (server/ewave). With h~ = [h0(k) e^{-iwt} + conj(h0(-k))
-// e^{iwt}] e^{-i k.U_D t} as in ocean_evolve, phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}]
-// e^{-i k.U_D t} (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e. eWave's exact
-// propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
-// The two halves of mode (i, j) at time t = t_hi + t_lo, shifted by the drift: plus = h0(k) e^{-iwt}
-// e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}; w = omega(k) (h0's third component).
-static void evolve_halves(__global const float4* h0, int i, int j, int nx, int ny, float kx, float ky, float t_hi,
-                          float t_lo, float2 drift, float2* plus, float2* minus, float* w) {
-  int mi = (nx - i) % nx, mj = (ny - j) % ny;
-  float4 a = h0[i + nx * j], b = h0[mi + nx * mj];
-  float c, s, shift_c, shift_s;
-  sq_sincos_phase(a.z, t_hi, t_lo, &s, &c);
-  sq_sincos_phase(-(kx * drift.x + ky * drift.y), t_hi, t_lo, &shift_s, &shift_c);
-  float2 shift = (float2)(shift_c, shift_s);
-  *plus = cmul(cmul(a.xy, (float2)(c, -s)), shift);
-  *minus = cmul(cmul((float2)(b.x, -b.y), (float2)(c, s)), shift);
-  *w = a.z;
-}
-
+// the eWave engine's ambient and initial fields (server/ewave). With h~ = plus + minus as in ocean_evolve,
+// phi~ = -i (g/w) (plus - minus) (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e.
+// eWave's exact propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
 __kernel void ocean_evolve_potential(__global const float4* h0, const int nx, const int ny, const float dkx,
                                      const float dky, const float t_hi, const float t_lo, const float2 drift,
                                      const float g, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
-  float2 plus, minus;
-  float w;
-  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus, &minus, &w);
+  float plus_re, plus_im, minus_re, minus_im, w;
+  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
   float g_over_w = w > 0.0f ? g / w : 0.0f;
-  out[i + (size_t)nx * j] = pack(plus + minus, -g_over_w * times_i(plus - minus));
+  float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);
+  // phi~ = -i (d_re + i d_im) = (d_im, -d_re)
+  store_pack((__global float*)out, i + (size_t)nx * j, plus_re + minus_re, plus_im + minus_im, d_im, -d_re);
 }
 
 // The horizontal current at the surface, u = grad phi of the potential above, packed as one pair (u, v)
@@ -203,11 +195,11 @@ __kernel void ocean_evolve_current(__global const float4* h0, const int nx, cons
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
-  float2 plus, minus;
-  float w;
-  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus, &minus, &w);
-  float2 g_phi = (w > 0.0f ? g / w : 0.0f) * (plus - minus); /* phi~ = -i g_phi */
-  out[i + (size_t)nx * j] = pack(kx * g_phi, ky * g_phi);
+  float plus_re, plus_im, minus_re, minus_im, w;
+  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
+  float g_over_w = w > 0.0f ? g / w : 0.0f;
+  float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);  // phi~ = -i d
+  store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);
 }
 
 // Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:

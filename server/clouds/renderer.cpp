@@ -142,19 +142,18 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
   std::vector<double> corners((bx + 1) * (by + 1));
   for (size_t j = 0; j <= by; ++j)
     for (size_t i = 0; i <= bx; ++i) corners[j * (bx + 1) + i] = length(side * i, side * j);
-  std::vector<double> costs(tiles.x * tiles.y);
-  for (size_t j = 0; j < tiles.y; ++j)
-    for (size_t i = 0; i < tiles.x; ++i) {
-      const size_t bi = i / block, bj = j / block, c = bj * (bx + 1) + bi;
-      if (i % block != 0 || j % block != 0) {  // the block's first tile has its cost
-        costs[j * tiles.x + i] = costs[(bj * block) * tiles.x + bi * block];
-        continue;
-      }
+  std::vector<double> block_cost(bx * by);
+  for (size_t bj = 0; bj < by; ++bj)
+    for (size_t bi = 0; bi < bx; ++bi) {
+      const size_t c = bj * (bx + 1) + bi;
       const double mean = (corners[c] + corners[c + 1] + corners[c + bx + 1] + corners[c + bx + 2] +
                            length(side * bi + side / 2, side * bj + side / 2)) /
                           5;
-      costs[j * tiles.x + i] = 64 * (1 + mean * per_metre);
+      block_cost[bj * bx + bi] = 64 * (1 + mean * per_metre);
     }
+  std::vector<double> costs(tiles.x * tiles.y);
+  for (size_t j = 0; j < tiles.y; ++j)
+    for (size_t i = 0; i < tiles.x; ++i) costs[j * tiles.x + i] = block_cost[(j / block) * bx + i / block];
   return costs;
 }
 

@@ -175,6 +175,17 @@ std::chrono::milliseconds milliseconds(double seconds) {
   return std::chrono::milliseconds(std::llround(seconds * 1000));
 }
 
+// Every capability's sessions idle past --session-ttl, now (the daemon's sweeper calls it every second).
+void evict_idle_sessions(const std::vector<std::unique_ptr<Capability>>& capabilities) {
+  for (const auto& capability : capabilities) {
+    try {
+      capability->evict_idle();
+    } catch (const std::exception& e) {
+      log(LogLevel::Error, "evicting idle sessions: ", e.what());
+    }
+  }
+}
+
 // Drains: health NOT_SERVING, no new sessions or stateless calls, every live session written to the state
 // directory and released (its later calls answer UNAVAILABLE, and another replica resumes it); calls
 // keep being answered (UNAVAILABLE: retry elsewhere) for --drain-wait, while proxies and clients notice
@@ -342,13 +353,7 @@ int run_daemon(const DaemonOptions& options) {
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));
   AdmissionWatch admission(daemon->serving.gate(), health);
-  Beat sweeper(std::chrono::seconds(1), [&served] {
-    for (const auto& capability : served) try {
-        capability->evict_idle();
-      } catch (const std::exception& e) {
-        log(LogLevel::Error, "evicting idle sessions: ", e.what());
-      }
-  });
+  Beat sweeper(std::chrono::seconds(1), [&served] { evict_idle_sessions(served); });
 
   int signal_number = wait_for_shutdown(signals, daemon->serving, options);
   log(LogLevel::Info, "received ", strsignal(signal_number), "; draining for up to ", options.grace_seconds, " s");

@@ -26,9 +26,9 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   spectrum_ = pool.acquire(kOutputFields * half_ * 2 * real_size_);
   work_ = pool.acquire(kOutputFields * cells_ * real_size_);
   out_ = pool.acquire(5 * cells_ * sizeof(float));
-  placeholder_ = pool.acquire(cells_ * sizeof(float));
+  absent_map_ = pool.acquire(cells_ * sizeof(float));
   auto lock = runtime_.exclusive();
-  runtime_.queue().enqueueFillBuffer(placeholder_.buffer(), cl_float(0), 0, cells_ * sizeof(float));  // every page present
+  runtime_.queue().enqueueFillBuffer(absent_map_.buffer(), cl_float(0), 0, cells_ * sizeof(float));
   upload_initial_fields();
   // Bake the plans of every step now, not during the first step.
   fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::R2C, precision()});

@@ -82,7 +82,10 @@ class EWaveSession {
   AnyStepKernels kernels_;  // of the state's precision
   RasterizeKernel rasterize_;
   BufferLease state_, spectrum_, work_, out_, trim_x_, trim_y_;
-  BufferLease placeholder_;  // zeros, one float a cell: the absent optional maps (step_impl.clh says why)
+  // Passed for every optional map a step does not give (its has_* flag 0): zeros, one float a cell, each
+  // page written once. The kernels' masked loads name every cell's address of it; on a CPU device a
+  // masked-out lane on a page not mapped or not yet touched costs a microcode assist per load.
+  BufferLease absent_map_;
   BufferLease obstruction_, ambient_, source_h_, source_phi_, drift_x_, drift_y_, shapes_, vertices_;
   // obstruction_ holds a map of shapes alone: 1 outside shape_map_cells_ (the last shapes' cells), so the
   // next one rewrites those and its own cells, not the grid.

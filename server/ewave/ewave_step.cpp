@@ -112,7 +112,7 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
 }
 
 void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
-  const cl::Buffer& none = placeholder_.buffer();
+  const cl::Buffer& none = absent_map_.buffer();
   auto optional = [&](BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
     return values.empty() ? none : upload(lease, values);
   };
@@ -151,7 +151,7 @@ void EWaveSession::propagate(double dt, int fields) {
 }
 
 void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction) {
-  const cl::Buffer& none = placeholder_.buffer();
+  const cl::Buffer& none = absent_map_.buffer();
   bool field_drift = !in.drift_field_x.empty();
   bool uniform_drift = !field_drift && (in.drift_x != 0 || in.drift_y != 0);
   const cl_int drift_mode = field_drift ? 2 : uniform_drift ? 1 : 0;

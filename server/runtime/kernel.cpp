@@ -1,5 +1,7 @@
 #include "runtime/kernel.h"
 
+#include <cstdint>
+
 #include "common/error.h"
 #include "runtime/runtime.h"
 
@@ -80,27 +82,17 @@ void verify_kernel_args(const cl::Kernel& kernel, const std::string& program, co
   }
 }
 
-namespace {
-
-// `local`, or the device's choice where `local` is more than the device allows for this kernel (rows of
-// kRowGroup on a GPU that runs a register-heavy kernel in smaller groups) and the kernel has no __local
-// memory: its groups are then only a layout, not part of what it computes.
-cl::NDRange fitted_local(const Runtime& runtime, const cl::Kernel& kernel, const cl::NDRange& local) {
-  if (local.dimensions() == 0) return local;
-  size_t items = 1;
-  for (cl_uint d = 0; d < local.dimensions(); ++d) items *= local[d];
+size_t work_group_limit(Runtime& runtime, const cl::Kernel& kernel) {
   const cl::Device& device = runtime.device();
-  if (items <= kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device) ||
-      kernel.getWorkGroupInfo<CL_KERNEL_LOCAL_MEM_SIZE>(device) > 0)
-    return local;
-  return cl::NullRange;
+  if (kernel.getWorkGroupInfo<CL_KERNEL_LOCAL_MEM_SIZE>(device) > 0) return SIZE_MAX;
+  return kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device);
 }
 
-}  // namespace
-
 void launch_kernel(Runtime& runtime, const cl::Kernel& kernel, const std::string& program, const std::string& name,
-                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local) {
-  const cl::NDRange group = fitted_local(runtime, kernel, local);
+                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local, size_t group_limit) {
+  size_t items = 1;
+  for (cl_uint d = 0; d < local.dimensions(); ++d) items *= local[d];
+  const cl::NDRange& group = items <= group_limit ? local : cl::NullRange;
   if (!runtime.profiling()) {
     runtime.queue().enqueueNDRangeKernel(kernel, offset, global, group);
     return;

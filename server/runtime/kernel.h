@@ -79,9 +79,16 @@ void verify_kernel_args(const cl::Kernel& kernel, const std::string& program, co
                         const std::vector<KernelArgSpec>& expected);
 
 // Enqueues an NDRange of `kernel` (arguments set) on the runtime's queue, its ids starting at `offset`
-// (cl::NullRange: 0); in profile mode waits for it and adds its device time under (program, name).
+// (cl::NullRange: 0), in groups of `local`, or of the device's choice where `local` has more items than
+// `group_limit` (work_group_limit()); in profile mode waits for it and adds its device time under
+// (program, name).
 void launch_kernel(Runtime& runtime, const cl::Kernel& kernel, const std::string& program, const std::string& name,
-                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local);
+                   const cl::NDRange& offset, const cl::NDRange& global, const cl::NDRange& local, size_t group_limit);
+
+// The most work-items a launch of `kernel` may group as it asks: the device's limit for this kernel
+// (rows of kRowGroup may be more than a GPU runs a register-heavy kernel in), or no limit when the kernel
+// uses __local memory (its groups are then part of what it computes, not only a layout).
+size_t work_group_limit(Runtime& runtime, const cl::Kernel& kernel);
 
 [[noreturn]] void not_created();  // Error(Internal): a default-constructed Kernel was launched
 
@@ -125,7 +132,7 @@ class Kernel {
     cl::Kernel& kernel = kernels_[current_queue_slot()];  // the calling thread's queue's
     cl_uint index = 0;
     (kernel.setArg(index++, args), ...);
-    launch_kernel(*runtime_, kernel, program_, name_, offset, global, local);
+    launch_kernel(*runtime_, kernel, program_, name_, offset, global, local, group_limit_);
   }
 
   const std::string& name() const { return name_; }
@@ -134,6 +141,7 @@ class Kernel {
   Runtime* runtime_ = nullptr;
   std::string program_, name_;
   std::vector<cl::Kernel> kernels_;  // one per device queue: launches on two queues at once set their own arguments
+  size_t group_limit_ = 0;           // work_group_limit() of the kernel, asked once
 };
 
 template <typename... Args>
@@ -141,6 +149,7 @@ Kernel<Args...>::Kernel(Runtime& runtime, const std::string& program, const std:
     : runtime_(&runtime), program_(program), name_(name) {
   for (size_t i = 0; i < queue_count(runtime); ++i) kernels_.push_back(create_kernel(runtime, program, name));
   verify_kernel_args(kernels_.front(), program, name, {KernelArgTraits<Args>::spec...});
+  group_limit_ = work_group_limit(runtime, kernels_.front());
 }
 
 }  // namespace squall

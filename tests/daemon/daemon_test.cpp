@@ -252,8 +252,9 @@ TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
   client::ClientOptions streaming = probe;
   streaming.address = d.address();
   client::Client live(streaming);
+  auto ocean = squall::v1::Ocean::NewStub(live.channel());
   grpc::ClientContext context;
-  auto stream = squall::v1::Ocean::NewStub(live.channel())->StreamTiles(&context, endless_stream());
+  auto stream = ocean->StreamTiles(&context, endless_stream());
   squall::v1::TileChunk chunk;
   ASSERT_TRUE(stream->Read(&chunk)) << "a frame before the renewal";
   std::filesystem::copy_file(second.server_key, first.server_key, std::filesystem::copy_options::overwrite_existing);
@@ -300,9 +301,10 @@ TEST(Auth, HealthNeedsTheTokenWhenNotExempt) {
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/bob", "health"}, &out), 0) << out;
   EXPECT_NE(test::run({kSquall, "--address", d.address(), "health"}, &out), 0) << out;
   EXPECT_NE(out.find("UNAUTHENTICATED"), std::string::npos) << out;
-  auto stub = grpc::health::v1::Health::NewStub(client::Client({d.address(), 10, ""}).channel());
+  client::Client without_token({d.address(), 10});
+  auto health = grpc::health::v1::Health::NewStub(without_token.channel());
   grpc::ClientContext context;
-  auto watch = stub->Watch(&context, grpc::health::v1::HealthCheckRequest());
+  auto watch = health->Watch(&context, grpc::health::v1::HealthCheckRequest());
   grpc::health::v1::HealthCheckResponse update;
   EXPECT_FALSE(watch->Read(&update));
   EXPECT_EQ(watch->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
@@ -396,9 +398,11 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
   auto info = c.info();
   EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft" || info.fft_backend() == "fftw");
   EXPECT_NE(info.fft_selection().find("measured at start-up"), std::string::npos) << info.fft_selection();
-  for (const auto& device : info.devices())  // a CPU device also times the fftw backend
-    if (device.selected() && device.type() == "cpu")
+  for (const auto& device : info.devices()) {  // a CPU device also times the fftw backend
+    if (device.selected() && device.type() == "cpu") {
       EXPECT_NE(info.fft_selection().find(", fftw "), std::string::npos) << info.fft_selection();
+    }
+  }
   d.process().signal(SIGTERM);
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
   std::string log = d.process().log();

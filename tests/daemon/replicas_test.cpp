@@ -26,11 +26,18 @@ std::string metadata(const grpc::ClientContext& context, const char* key) {
 
 // A replica's eWave service through a client that makes `attempts` of each call (1: every status is
 // the server's).
+// A client of `address` that makes `attempts` attempts of a call answered UNAVAILABLE.
+client::ClientOptions options(const std::string& address, int attempts) {
+  client::ClientOptions o{address, 30};
+  o.attempts = attempts;
+  return o;
+}
+
 struct Replica {
   Replica(const std::string& name, const std::string& state_dir, int attempts = 1)
       : daemon({"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir, "--checkpoint-interval", "0",
                 "--drain-wait", "3"}),
-        client({daemon.address(), 30, "", "", "", "", "", attempts}),
+        client(options(daemon.address(), attempts)),
         ewave(v1::EWave::NewStub(client.channel())) {}
   Daemon daemon;
   client::Client client;

@@ -23,15 +23,11 @@ from typing import Iterator, List
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
-from processes import Process, free_port, wait_for  # noqa: E402  (tests/support)
+from exposition import http_get, value  # noqa: E402  (tests/support)
+from processes import Process, free_port, wait_for  # noqa: E402
 
 SQUALLD = os.environ.get("SQUALL_SQUALLD", "build/squalld")
 SQUALL = os.environ.get("SQUALL_CLI", "build/squall")
-
-
-def http_get(url: str) -> str:
-    with urllib.request.urlopen(url, timeout=10) as response:
-        return response.read().decode()
 
 
 class Squalld:
@@ -71,20 +67,6 @@ def daemon(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Squalld]:
     d = Squalld(tmp_path_factory.mktemp("metrics"))
     yield d
     d.process.stop()
-
-
-def value(exposition: str, name: str, **labels: str) -> float:
-    """The sample `name` whose labels include `labels` (exactly one must match)."""
-    found = []
-    for line in exposition.splitlines():
-        m = re.match(r"^(\w+)(?:\{(.*)\})? (\S+)$", line)
-        if not m or m.group(1) != name:
-            continue
-        have = dict(re.findall(r'(\w+)="((?:[^"\\]|\\.)*)"', m.group(2) or ""))
-        if all(have.get(k) == v for k, v in labels.items()):
-            found.append(float(m.group(3)))
-    assert len(found) == 1, f"{name}{labels}: {found}"
-    return found[0]
 
 
 def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
@@ -249,4 +231,6 @@ def usable_memory() -> int:
 
 def test_the_default_memory_budget_is_three_quarters_of_the_usable_memory(daemon: Squalld) -> None:
     text = http_get(f"http://{daemon.metrics}/metrics")
-    assert value(text, "squall_memory_budget_bytes") == pytest.approx(usable_memory() // 4 * 3, rel=1e-9)
+    assert value(text, "squall_memory_budget_bytes") == pytest.approx(
+        usable_memory() // 4 * 3, rel=1e-9
+    )

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import re
-import urllib.request
 from typing import Any, Iterator, List, Tuple
 
 import grpc
@@ -20,6 +19,7 @@ import pytest
 
 import squall
 from conftest import Daemon, _start
+from exposition import http_get, samples, value
 from processes import wait_for
 from test_load import resident_bytes
 
@@ -137,21 +137,13 @@ def scrape(daemon: Daemon) -> str:
     """The daemon's /metrics (its port from its log)."""
     port = re.search(r"/metrics \(port (\d+)\)", daemon.log_path.read_text())
     assert port, "squalld logs its metrics port"
-    with urllib.request.urlopen(f"http://127.0.0.1:{port.group(1)}/metrics", timeout=10) as reply:
-        return reply.read().decode()
-
-
-def metric(text: str, name: str, labels: str = "") -> float:
-    """The sample `name{labels}` (labels as exposed, in order), 0 when absent."""
-    pattern = rf"^{name}" + (rf"\{{{re.escape(labels)}\}}" if labels else "") + r" (\S+)$"
-    found = re.search(pattern, text, re.MULTILINE)
-    return float(found.group(1)) if found else 0.0
+    return http_get(f"http://127.0.0.1:{port.group(1)}/metrics")
 
 
 def volume_gauges(daemon: Daemon) -> Tuple[float, float]:
     """squall_stored_volumes and squall_stored_volume_bytes."""
     text = scrape(daemon)
-    return metric(text, "squall_stored_volumes"), metric(text, "squall_stored_volume_bytes")
+    return value(text, "squall_stored_volumes"), value(text, "squall_stored_volume_bytes")
 
 
 def test_kept_volumes_count_against_the_sessions_and_their_bytes_return_on_release(
@@ -180,23 +172,21 @@ def test_abandoned_sessions_and_dropped_streams_are_reclaimed_and_counted() -> N
     whose client stops reading until its deadline give back their slots; the metrics show all three.
     """
     small = squall.ocean.tile_spec([squall.ocean.layer(extent=50, n=16, wind_speed=8)])
-    stream_calls = 'code="{}",method="StreamTiles",service="squall.v1.Ocean"'
+    stream_calls = dict(service="squall.v1.Ocean", method="StreamTiles")
     for daemon in _start(["--session-ttl", "2", "--metrics-listen", "127.0.0.1:0"], "faults"):
         with squall.Client(daemon.address, timeout=60) as client:
             client.ewave.session(nx=64, ny=64, dx=0.05)  # never closed
-            assert metric(scrape(daemon), "squall_sessions_active") == 1
+            assert value(scrape(daemon), "squall_sessions_active") == 1
             cancelled = client.ocean.stream(small, dt=0.1)
             next(cancelled)
             cancelled.cancel()
             unread = client.ocean.stream(small, dt=0.1, timeout=1.5)
             next(unread)  # and no more
-            wait_for(
-                lambda: metric(scrape(daemon), "squall_streams_active") == 0, 30, "slots back"
-            )
-            wait_for(lambda: metric(scrape(daemon), "squall_sessions_active") == 0, 30, "evicted")
+            wait_for(lambda: value(scrape(daemon), "squall_streams_active") == 0, 30, "slots back")
+            wait_for(lambda: value(scrape(daemon), "squall_sessions_active") == 0, 30, "evicted")
             text = scrape(daemon)
             ended = [
-                metric(text, "squall_requests_total", stream_calls.format(code))
+                sum(samples(text, "squall_requests_total", code=code, **stream_calls))
                 for code in ("CANCELLED", "DEADLINE_EXCEEDED")
             ]
             assert sum(ended) == 2, ended  # the server sees a passed deadline as its client gone

@@ -163,7 +163,9 @@ TEST(TexturesDeform, TensorControlFollowsTheGradientSentEachMessage) {
     m.mutable_deformation()->set_yy(1);
     ASSERT_TRUE(call.send(m, 1));
     last = call.frames().back().max_warp();
-    if (stretch == 1.3) EXPECT_GT(last, 0.05);
+    if (stretch == 1.3) {
+      EXPECT_GT(last, 0.05);
+    }
   }
   ASSERT_TRUE(call.finish().ok());
   EXPECT_LT(last, 0.1) << "the isotropic control is reversible (eq. 7)";
