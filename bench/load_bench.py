@@ -1,5 +1,5 @@
 """Concurrent clients against one squalld on loopback: 1, 2, 4, 8 and 16 clients, each with its own
-channel, calling in turn GetTile (256 x 256, height and normals), an eWave Step (256 x 256, its own
+connection, calling in turn GetTile (256 x 256, height and normals), an eWave Step (256 x 256, its own
 session) and a cloud Render (64 x 64, a stored volume) for --seconds per level. Prints per level the
 calls per second of all clients together and its ratio to one client's, p50 / p99 latency per method and
 the errors; then the goals: throughput never falls as clients are added (no collapse), p99 at 8 clients
@@ -7,13 +7,20 @@ at most 10x the p50 at 1 client, zero errors. Run with the Python of the client'
 on the cores:
 
     build/tests/python/venv/bin/python bench/load_bench.py [--seconds 10] [--clients 1,2,4,8,16]
-        [--squalld build/squalld] [--device-queues N] [--squalld-flags "--fft-threads 1"]
+        [--client cpp|python] [--squalld build/squalld] [--device-queues N]
+        [--squalld-flags "--fft-threads 1"]
+
+The clients are C++ threads (build/bench/load_client, the default) or Python threads of the squall
+package (--client python): both send the same requests, built here by the Python client. On a machine
+whose few cores the clients share with squalld, the Python clients take a third of them, so the C++
+clients measure the server and the Python ones what a Python caller sees.
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
+import subprocess
 import tempfile
 import threading
 import time
@@ -21,9 +28,11 @@ from pathlib import Path
 from typing import Callable, Dict, List
 
 import numpy as np
+from google.protobuf.message import Message
 
 import squall
 from python_client_bench import ROOT, Daemon
+from squall._pb import ewave_pb2
 
 METHODS = ("GetTile", "Step", "Render")
 
@@ -45,18 +54,31 @@ class Level:
         return sum(len(v) for v in self.latencies.values())
 
 
-def client_loop(address: str, volume: str, seconds: float, level: Level) -> None:
+def requests(volume: str) -> Dict[str, Message]:
+    """Every client's calls, as the Python client builds them: a GetTile, the creation of an eWave
+    session and a Step in it (its session id left to each client), a Render of the stored volume.
+    """
     tile = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=256, wind_speed=12, seed=3)])
     camera = squall.clouds.camera(eye=(0, -30, 0), width=64, height=64)
     hull = squall.ewave.ellipse(5.0, 5.0, 0.6, 0.2)
+    inputs = squall.ewave.as_inputs(None, 0.02, shapes=[hull], outputs=("height",))
+    return {
+        "tile": squall.ocean.tile_request(tile, time=1.0, outputs=("height", "normal_z")),
+        "session": ewave_pb2.EWaveCreateSessionRequest(
+            config=squall.ewave.as_config(nx=256, ny=256, dx=0.05)
+        ),
+        "step": ewave_pb2.EWaveStepRequest(inputs=inputs),
+        "render": squall.clouds.render_request(volume, None, {"camera": camera}, None),
+    }
+
+
+def python_client(address: str, calls: Dict[str, Message], seconds: float, level: Level) -> None:
     with squall.Client(address, timeout=600) as client:
-        with client.ewave.session(nx=256, ny=256, dx=0.05) as session:
-            calls: Dict[str, Callable[[], object]] = {
-                "GetTile": lambda: client.ocean.tile(
-                    tile, time=1.0, outputs=("height", "normal_z")
-                ),
-                "Step": lambda: session.step(dt=0.02, shapes=[hull], outputs=("height",)),
-                "Render": lambda: client.clouds.render(volume, camera=camera),
+        with client.ewave.session(calls["session"].config) as session:
+            methods: Dict[str, Callable[[], object]] = {
+                "GetTile": lambda: client.ocean.tile(request=calls["tile"]),
+                "Step": lambda: session.step(inputs=calls["step"].inputs),
+                "Render": lambda: client.clouds.render(request=calls["render"]),
             }
             deadline = time.monotonic() + seconds
             n = 0
@@ -65,7 +87,7 @@ def client_loop(address: str, volume: str, seconds: float, level: Level) -> None
                 n += 1
                 start = time.perf_counter()
                 try:
-                    calls[method]()
+                    methods[method]()
                 except squall.SquallError as error:
                     with level.lock:
                         level.errors.append(f"{method}: {error}")
@@ -74,10 +96,11 @@ def client_loop(address: str, volume: str, seconds: float, level: Level) -> None
                     level.latencies[method].append(time.perf_counter() - start)
 
 
-def run_level(address: str, volume: str, clients: int, seconds: float) -> Level:
+def python_level(address: str, calls: Dict[str, Message], clients: int, seconds: float) -> Level:
+    """`clients` threads of this process, each with its own squall.Client."""
     level = Level()
     threads = [
-        threading.Thread(target=client_loop, args=(address, volume, seconds, level))
+        threading.Thread(target=python_client, args=(address, calls, seconds, level))
         for _ in range(clients)
     ]
     start = time.perf_counter()
@@ -89,11 +112,33 @@ def run_level(address: str, volume: str, clients: int, seconds: float) -> Level:
     return level
 
 
+def cpp_level(
+    load_client: Path, address: str, directory: Path, clients: int, seconds: float
+) -> Level:
+    """`clients` threads of build/bench/load_client, which replays the requests in `directory`."""
+    argv = [str(load_client), "--address", address, "--requests", str(directory)]
+    argv += ["--clients", str(clients), "--seconds", str(seconds)]
+    out = subprocess.run(argv, check=True, capture_output=True, text=True).stdout
+    level = Level()
+    level.seconds = seconds
+    for line in out.splitlines():
+        word, _, rest = line.partition(" ")
+        if word == "error":
+            level.errors.append(rest)
+        elif word in level.latencies:
+            level.latencies[word] = [1e-6 * float(us) for us in rest.split()]
+    return level
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=10)
     parser.add_argument("--clients", default="1,2,4,8,16")
+    parser.add_argument("--client", choices=("cpp", "python"), default="cpp")
     parser.add_argument("--squalld", type=Path, default=ROOT / "build" / "squalld")
+    parser.add_argument(
+        "--load-client", type=Path, default=ROOT / "build" / "bench" / "load_client"
+    )
     parser.add_argument(
         "--device-queues", type=int, default=0, help="squalld --device-queues (0: its default)"
     )
@@ -114,31 +159,44 @@ def main() -> None:
                 volume = client.clouds.build(
                     squall.clouds.model(spheres=[(0, 0, 0, 6)]), keep=True
                 ).id
-                print(
-                    f"squalld {daemon.address}: {device}, FFT {info.fft_backend}, "
-                    f"{info.device_queues} device queue(s)"
+            print(
+                f"squalld {daemon.address}: {device}, FFT {info.fft_backend}, "
+                f"{info.device_queues} device queue(s); {args.client} clients"
+            )
+            calls = requests(volume)
+            for name, message in calls.items():
+                (Path(directory) / f"{name}.pb").write_bytes(message.SerializeToString())
+
+            def run_level(clients: int, seconds: float) -> Level:
+                if args.client == "python":
+                    return python_level(daemon.address, calls, clients, seconds)
+                return cpp_level(
+                    args.load_client, daemon.address, Path(directory), clients, seconds
                 )
-                run_level(daemon.address, volume, 1, min(2.0, args.seconds))  # warm-up
-                header = f"{'clients':>7} {'calls/s':>8} {'x 1 client':>10} {'errors':>6}"
-                for m in METHODS:
-                    header += f" {m + ' p50/p99 ms':>22}"
-                print(header)
-                levels: Dict[int, Level] = {}
-                for clients in counts:
-                    level = levels[clients] = run_level(
-                        daemon.address, volume, clients, args.seconds
-                    )
-                    rate = level.calls() / level.seconds
-                    base = levels[counts[0]].calls() / levels[counts[0]].seconds
-                    line = f"{clients:>7} {rate:>8.1f} {rate / base:>10.2f} {len(level.errors):>6}"
-                    for m in METHODS:
-                        lat = level.latencies[m]
-                        p50, p99 = 1e3 * quantile(lat, 0.5), 1e3 * quantile(lat, 0.99)
-                        line += f" {p50:>10.1f} / {p99:>9.1f}"
-                    print(line, flush=True)
-                report_goals(levels, counts)
+
+            run_level(1, min(2.0, args.seconds))  # warm-up
+            header = f"{'clients':>7} {'calls/s':>8} {'x 1 client':>10} {'errors':>6}"
+            for m in METHODS:
+                header += f" {m + ' p50/p99 ms':>22}"
+            print(header)
+            levels: Dict[int, Level] = {}
+            for clients in counts:
+                levels[clients] = run_level(clients, args.seconds)
+                print(level_line(levels[clients], clients, levels[counts[0]]), flush=True)
+            report_goals(levels, counts)
         finally:
             daemon.stop()
+
+
+def level_line(level: Level, clients: int, first: Level) -> str:
+    """Calls per second, their ratio to the first level's, errors, p50 / p99 per method (ms)."""
+    rate = level.calls() / level.seconds
+    base = first.calls() / first.seconds
+    line = f"{clients:>7} {rate:>8.1f} {rate / base:>10.2f} {len(level.errors):>6}"
+    for m in METHODS:
+        lat = level.latencies[m]
+        line += f" {1e3 * quantile(lat, 0.5):>10.1f} / {1e3 * quantile(lat, 0.99):>9.1f}"
+    return line
 
 
 def report_goals(levels: Dict[int, Level], counts: List[int]) -> None:

@@ -279,14 +279,17 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
     dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
   auto dsm = runtime_.buffers().acquire(dsm_floats * sizeof(float));
   auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
+  // Slices of 8x8 tiles in row order (a slice is up to three rectangles: a row's end, whole rows, a row's
+  // start), so that even a costly pixel's tile can be a slice of its own.
+  const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
+  const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
   BufferLease mask;
+  QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
   if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
     std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
     mask = runtime_.buffers().acquire(needed.size());
-    {
-      auto lock = runtime_.exclusive();
-      runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
-    }
+    lease = runtime_.exclusive();
+    runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
     // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
     // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
     // nodes after them do not reach, and their slice would overrun.
@@ -298,22 +301,17 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
       return std::max(c, 1.0);
     };
     const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples};
-    run_sliced(runtime_, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
+    run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
       shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
                                 mask.buffer(), dsm.buffer());
     });
   }
-  // Slices of 8x8 tiles in row order (a slice is up to three rectangles: a row's end, whole rows, a row's
-  // start), so that even a costly pixel's tile can be a slice of its own.
-  const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
-  const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
   SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, kFirstSliceSamples};
-  run_sliced(runtime_, plan, cancel, field + ": the render", [&](size_t first, size_t count) {
+  run_sliced(runtime_, lease, plan, cancel, field + ": the render", [&](size_t first, size_t count) {
     for (const auto& r : tiles.rectangles(first, count))
       render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
                             volume.density, volume.temperature, dsm.buffer(), p, out.buffer());
   });
-  auto lock = runtime_.exclusive();
   runtime_.queue().enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
   return image;
 }

@@ -65,6 +65,7 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
               "Times device work took one of the device's queues (--device-queues)", double(wait.acquisitions)),
       counter("squall_device_lock_wait_seconds_total",
               "Seconds device work waited for a free device queue: requests queued behind each other", wait.seconds),
+      gauge("squall_device_lock_waiting", "Device work waiting for a free device queue now", double(wait.waiting)),
   };
   for (const auto& capability : capabilities_)
     for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));

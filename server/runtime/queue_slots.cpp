@@ -45,18 +45,28 @@ QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, siz
 QueueLease QueueSlots::acquire() {
   if (t_slot >= 0) fail(Code::Internal, "a thread asked for a second device queue while holding one");
   std::unique_lock<std::mutex> lock(mutex_);
-  auto free_slot = [&] { return std::find(busy_.begin(), busy_.end(), false); };
-  if (free_slot() == busy_.end()) {
+  int slot = -1;
+  const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
+  if (waiting_.empty() && free_slot != busy_.end()) {
+    slot = int(free_slot - busy_.begin());
+    busy_[size_t(slot)] = true;
+  } else {  // in line behind the callers that came first; release() hands this one its slot
+    Waiter self;
+    waiting_.push_back(&self);
     const auto start = std::chrono::steady_clock::now();
-    freed_.wait(lock, [&] { return free_slot() != busy_.end(); });
+    self.handed.wait(lock, [&] { return self.slot >= 0; });
     wait_ns_ += uint64_t(
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
+    slot = self.slot;
   }
-  const size_t slot = size_t(free_slot() - busy_.begin());
-  busy_[slot] = true;
   ++acquisitions_;
-  t_slot = int(slot);
-  return QueueLease(this, slot);
+  t_slot = slot;
+  return QueueLease(this, size_t(slot));
+}
+
+size_t QueueSlots::waiting() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return waiting_.size();
 }
 
 void QueueSlots::release(size_t slot) {
@@ -67,11 +77,15 @@ void QueueSlots::release(size_t slot) {
   }
   if (t_slot == int(slot)) t_slot = -1;
   if (on_settled_) on_settled_(slot);
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (waiting_.empty()) {
     busy_[slot] = false;
+    return;
   }
-  freed_.notify_one();
+  Waiter* next = waiting_.front();  // the slot goes straight to the first in line: no caller overtakes it
+  waiting_.pop_front();
+  next->slot = int(slot);
+  next->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
 }
 
 }  // namespace squall

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <mutex>
 #include <vector>
@@ -37,6 +38,7 @@ class QueueLease {
   QueueLease& operator=(const QueueLease&) = delete;
   ~QueueLease() { unlock(); }
 
+  bool held() const { return slots_ != nullptr; }
   size_t slot() const { return slot_; }
   // Waits for the queue's work and gives the queue back.
   void unlock();
@@ -60,10 +62,11 @@ class QueueSlots {
   const cl::CommandQueue& queue(size_t slot) const { return queues_.at(slot); }
 
   // Waits for a free queue (the wait is counted) and leases it to the calling thread, which must not
-  // hold one already.
+  // hold one already. Waiting callers get queues in the order they asked: none waits behind a later one.
   QueueLease acquire();
 
   uint64_t acquisitions() const { return acquisitions_; }
+  size_t waiting();  // callers waiting for a queue now
   uint64_t wait_ns() const { return wait_ns_; }
 
  private:
@@ -72,9 +75,13 @@ class QueueSlots {
 
   std::vector<cl::CommandQueue> queues_;
   std::function<void(size_t)> on_settled_;
+  struct Waiter {
+    std::condition_variable handed;
+    int slot = -1;  // the slot release() handed it
+  };
   std::mutex mutex_;
-  std::condition_variable freed_;
   std::vector<bool> busy_;
+  std::deque<Waiter*> waiting_;                         // callers of acquire() waiting for a slot, first come first
   std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
 };
 

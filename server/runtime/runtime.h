@@ -90,8 +90,11 @@ class Runtime {
   struct DeviceWait {
     uint64_t acquisitions = 0;
     double seconds = 0;
+    size_t waiting = 0;  // callers waiting for a queue now
   };
-  DeviceWait device_wait() const { return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9}; }
+  DeviceWait device_wait() const {
+    return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9, queues_->waiting()};
+  }
 
   // Profile mode (RuntimeOptions::profile_kernels): the per-kernel table, sorted by program and kernel.
   bool profiling() const { return profiling_; }

@@ -31,11 +31,13 @@ std::vector<TileGrid::Rect> TileGrid::rectangles(size_t first, size_t count) con
   return out;
 }
 
-size_t run_sliced(Runtime& runtime, const SlicePlan& plan, const Cancellation& cancel, const std::string& what,
-                  const std::function<void(size_t first, size_t count)>& enqueue) {
+size_t run_sliced(Runtime& runtime, QueueLease& lease, const SlicePlan& plan, const Cancellation& cancel,
+                  const std::string& what, const std::function<void(size_t first, size_t count)>& enqueue) {
+  using Clock = std::chrono::steady_clock;
   double budget = plan.first_cost;
   size_t first = 0, slices = 0;
   double next = plan.granules > 0 ? plan.cost(0) : 0;  // the cost of granule `first`
+  auto held_since = Clock::now();
   while (first < plan.granules) {
     cancel.check(what);
     size_t end = first;
@@ -44,18 +46,21 @@ size_t run_sliced(Runtime& runtime, const SlicePlan& plan, const Cancellation& c
       cost += next;
       next = ++end < plan.granules ? plan.cost(end) : 0;
     } while (end < plan.granules && cost + next <= budget);
-    double seconds = 0;
-    {
-      auto lock = runtime.exclusive();
-      const auto start = std::chrono::steady_clock::now();  // the device's time, not the wait for the lock
-      enqueue(first * plan.granule, (end - first) * plan.granule);
-      runtime.queue().finish();
-      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (lease.held() && Clock::now() - held_since >= std::chrono::duration<double>(kSliceSeconds / 2))
+      lease.unlock();  // other requests' work goes in between
+    if (!lease.held()) {
+      lease = runtime.exclusive();
+      held_since = Clock::now();
     }
+    const auto start = Clock::now();  // the device's time, not the wait for the lease
+    enqueue(first * plan.granule, (end - first) * plan.granule);
+    runtime.queue().finish();
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     ++slices;
     first = end;
     budget = next_cost(budget, cost, seconds);
   }
+  if (!lease.held()) lease = runtime.exclusive();
   return slices;
 }
 

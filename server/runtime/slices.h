@@ -1,6 +1,7 @@
 // Device work too long for one launch runs in slices of its index space along one axis: each slice is
-// enqueued under Runtime::exclusive(), waited for and timed; between slices the lock is free (other
-// requests' work goes in between) and the caller's cancellation is checked. Slices are sized by the
+// enqueued under a lease of a device queue (Runtime::exclusive()), waited for and timed; between slices the
+// caller's cancellation is checked and, once the lease has been held for about a slice's time, it is given
+// back (other requests' work goes in between). Slices are sized by the
 // estimated cost of their granules toward kSliceSeconds at the rate the last slice ran, so a GPU does a
 // whole image in a few launches while a CPU device stops within about one slice of a cancel, even where
 // cheap granules (rays that miss a cloud) come before costly ones.
@@ -39,10 +40,13 @@ struct TileGrid {
   std::vector<Rect> rectangles(size_t first, size_t count) const;
 };
 
-// Calls enqueue(first, count) (in ids) for consecutive slices covering the plan's granules, each under the
-// runtime's lock and followed by a wait; a slice is at least one granule; throws Error(Cancelled) naming `what` when cancel is requested between
-// slices. Returns the number of slices.
-size_t run_sliced(Runtime& runtime, const SlicePlan& plan, const Cancellation& cancel, const std::string& what,
-                  const std::function<void(size_t first, size_t count)>& enqueue);
+// Calls enqueue(first, count) (in ids) for consecutive slices covering the plan's granules, each followed by
+// a wait; a slice is at least one granule; throws Error(Cancelled) naming `what` when cancel is requested
+// between slices. Returns the number of slices. The slices run under `lease` (taken here when it is not
+// held): kept from one slice to the next until it has been held for half of kSliceSeconds, then given
+// back and taken anew, so that a short job takes a device queue once and a long one lets other requests'
+// work in after about every slice. It is held on return, for the caller to read back the results on its queue.
+size_t run_sliced(Runtime& runtime, QueueLease& lease, const SlicePlan& plan, const Cancellation& cancel,
+                  const std::string& what, const std::function<void(size_t first, size_t count)>& enqueue);
 
 }  // namespace squall

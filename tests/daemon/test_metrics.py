@@ -105,6 +105,7 @@ def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
     assert (
         0 <= value(text, "squall_device_lock_wait_seconds_total") < 60
     )  # one client: little waiting
+    assert value(text, "squall_device_lock_waiting") == 0  # and nothing waits once it is answered
 
 
 def test_a_client_killed_mid_stream_is_reclaimed_and_counted(

@@ -1,12 +1,14 @@
 // The device's queues (--device-queues): two requests hold two queues at once and a third waits for one;
 // one kernel object launched from two queues at once keeps each launch's arguments; a buffer handed back
 // under one queue goes to another only after that queue's lease has ended (its work finished); one
-// queue serializes as the single in-order queue did.
+// queue serializes as the single in-order queue did; a freed queue goes to the request that waited longest.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -123,6 +125,41 @@ TEST(DeviceQueues, ABufferHandedBackUnderOneQueueGoesToAnotherOnlyWhenItsLeaseEn
   auto lease = rt.exclusive();
   BufferLease b = rt.buffers().acquire(bytes);
   EXPECT_EQ(b.buffer()(), first_buffer);
+}
+
+// A request that gives its queue back and asks again at once (as a long render does between slices)
+// goes behind the request already waiting: the freed queue is handed to the first in line.
+TEST(DeviceQueues, AFreedQueueGoesToTheRequestWaitingNotToOneAskingLater) {
+  Runtime& rt = two_queue_runtime();
+  std::promise<void> other_held, finished;
+  std::shared_future<void> done = finished.get_future().share();
+  std::thread other([&] {
+    auto lease = rt.exclusive();
+    other_held.set_value();
+    done.wait();
+  });
+  other_held.get_future().wait();
+  auto lease = rt.exclusive();
+  std::mutex mutex;
+  std::vector<std::string> order;
+  std::thread waiter([&] {
+    auto mine = rt.exclusive();
+    std::lock_guard<std::mutex> lock(mutex);
+    order.push_back("waiting");
+  });
+  while (rt.device_wait().waiting == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  lease.unlock();
+  lease = rt.exclusive();
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    order.push_back("asking later");
+  }
+  waiter.join();
+  lease.unlock();
+  finished.set_value();
+  other.join();
+  EXPECT_EQ(order, (std::vector<std::string>{"waiting", "asking later"}));
+  EXPECT_EQ(rt.device_wait().waiting, 0u);
 }
 
 TEST(DeviceQueues, ASecondLeaseOnOneThreadIsAnInternalError) {

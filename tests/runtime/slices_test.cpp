@@ -22,7 +22,8 @@ using Slices = std::vector<std::pair<size_t, size_t>>;
 // Runs `plan` with a device time of seconds_per_cost times each slice's cost.
 Slices record(const SlicePlan& plan, double seconds_per_cost = 0, std::vector<double>* seconds = nullptr) {
   Slices slices;
-  run_sliced(test::runtime(), plan, {}, "test work", [&](size_t first, size_t count) {
+  QueueLease lease;
+  run_sliced(test::runtime(), lease, plan, {}, "test work", [&](size_t first, size_t count) {
     slices.emplace_back(first, count);
     double cost = 0;
     for (size_t g = first / plan.granule; g < (first + count) / plan.granule; ++g) cost += plan.cost(g);
@@ -74,9 +75,28 @@ TEST(Slices, ACancelStopsTheWorkBetweenTwoSlices) {
   int calls = 0;
   Cancellation cancel([&] { return calls >= 2; });
   test::expect_error(Code::Cancelled, "test work cancelled", [&] {
-    run_sliced(test::runtime(), uniform(100, 1, 1), cancel, "test work", [&](size_t, size_t) { ++calls; });
+    QueueLease lease;
+    run_sliced(test::runtime(), lease, uniform(100, 1, 1), cancel, "test work", [&](size_t, size_t) { ++calls; });
   });
   EXPECT_EQ(calls, 2);
+}
+
+// Quick slices share one lease of a device queue, still held at the end for the caller's read-back; slices
+// of kSliceSeconds each take the queue anew, so other requests' work goes in between.
+TEST(Slices, AShortJobTakesTheDeviceOnceALongOneLetsOthersIn) {
+  Runtime& runtime = test::runtime();
+  const uint64_t before = runtime.device_wait().acquisitions;
+  QueueLease lease;
+  const size_t quick = run_sliced(runtime, lease, uniform(1 << 12, 1, 1), {}, "test work", [](size_t, size_t) {});
+  EXPECT_GE(quick, 3u);
+  EXPECT_TRUE(lease.held());
+  EXPECT_EQ(held_queue_slot(), int(lease.slot()));
+  lease.unlock();
+  EXPECT_EQ(runtime.device_wait().acquisitions - before, 1u) << quick << " quick slices";
+
+  const uint64_t middle = runtime.device_wait().acquisitions;
+  const Slices slow = record(uniform(300, 1, 100), 1e-3);  // 0.1 s a slice
+  EXPECT_EQ(runtime.device_wait().acquisitions - middle, slow.size());
 }
 
 // 2000 cheap granules (a ray that misses the cloud: 10 us) then 500 costly ones (1 ms): sized by count, the
