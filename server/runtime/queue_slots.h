@@ -81,7 +81,7 @@ class QueueSlots {
   };
   std::mutex mutex_;
   std::vector<bool> busy_;
-  std::deque<Waiter*> waiting_;                         // callers of acquire() waiting for a slot, first come first
+  std::deque<Waiter*> waiting_;  // callers of acquire() waiting for a slot, first come, first served
   std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
 };
 

@@ -1,10 +1,10 @@
 // Device work too long for one launch runs in slices of its index space along one axis: each slice is
 // enqueued under a lease of a device queue (Runtime::exclusive()), waited for and timed; between slices the
-// caller's cancellation is checked and, once the lease has been held for about a slice's time, it is given
-// back (other requests' work goes in between). Slices are sized by the
-// estimated cost of their granules toward kSliceSeconds at the rate the last slice ran, so a GPU does a
-// whole image in a few launches while a CPU device stops within about one slice of a cancel, even where
-// cheap granules (rays that miss a cloud) come before costly ones.
+// caller's cancellation is checked and, once the lease has been held for half a slice's time, it is given
+// back (other requests' work goes in between). Slices are sized by the estimated cost of their granules
+// toward kSliceSeconds at the rate the last slice ran, so a GPU does a whole image in a few launches while
+// a CPU device stops within about one slice of a cancel, even where cheap granules (rays that miss a
+// cloud) come before costly ones.
 #pragma once
 
 #include <cstddef>
