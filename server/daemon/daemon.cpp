@@ -91,6 +91,10 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   // A second squalld on a port in use must fail, not silently share the port with the first.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  // gRPC's synchronous server keeps at most MAX_POLLERS idle threads (default 2) and starts a thread for a
+  // call that finds none: under a few clients' load that was hundreds of threads started and ended a
+  // second. Up to --rpc-threads now wait for the next call.
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, options.rpc_threads);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));

@@ -79,6 +79,12 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
+      {"rpc-threads",
+       [o](const std::string& v) {
+         const uint64_t n = positive_integer(v);
+         if (n > 1024) throw std::invalid_argument("must be 1 to 1024");
+         o->rpc_threads = int(n);
+       }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
       {"profile-kernels", [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
       {"reflection",
@@ -268,6 +274,8 @@ std::string usage() {
          "  --shutdown-bound SECONDS  past the grace period, how long cancelled calls get to stop before a\n"
          "                            watchdog ends squalld with exit code 4 (default 5)\n"
          "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
+         "  --rpc-threads N           gRPC threads kept waiting for the next call, 1..1024 (default 32); past\n"
+         "                            them a call starts a thread of its own, which ends with it\n"
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback)\n"
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
          "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"

@@ -35,6 +35,7 @@ struct DaemonOptions {
   double drain_wait_seconds = 2;            // --drain-wait: answer UNAVAILABLE this long before closing
   double shutdown_bound_seconds = 5;        // --shutdown-bound: past the grace period, then the watchdog exits
   double keepalive_seconds = 60;            // --keepalive: server pings an idle connection this often
+  int rpc_threads = 32;                     // --rpc-threads: gRPC threads kept waiting for calls
   double session_ttl_seconds = 600;         // --session-ttl: stateful sessions idle this long are evicted
   LogLevel log_level = LogLevel::Info;      // --log-level debug | info | warn | error
   std::string reflection = "auto";          // --reflection on | off | auto (on only when listening on loopback)

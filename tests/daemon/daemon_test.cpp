@@ -523,6 +523,8 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   std::string out;
   EXPECT_EQ(test::run({kSqualld, "--max-streams", "0"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-streams 0: must be an integer >= 1"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--rpc-threads", "1025"}, &out), 2) << out;
+  EXPECT_NE(out.find("--rpc-threads 1025: must be 1 to 1024"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
   EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--device", "no-such-device"}, &out), 2) << out;
   EXPECT_NE(out.find("--device no-such-device matches no OpenCL device"), std::string::npos) << out;
