@@ -82,19 +82,25 @@ static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, flo
   return sq_clip((float3)(lo.x, lo.y, lo.z), (float3)(hi.x + 1, hi.y + 1, hi.z + 1), o, d, t0, t1);
 }
 
-// The node containing the cell at ray parameter t (a leaf, or a tile of the given dimension): its exit
-// parameter, and whether it can hold density (a leaf or an active tile).
-static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float t, float nudge, float* exit) {
+// The node containing the cell at ray parameter t, from one tree query: a leaf (walked whole), or a tile
+// of a lower node (8 voxels a side), an upper node (128) or the root (4096). Returns its exit parameter,
+// whether it can hold density (a leaf, or a tile of nonzero value) and in *tile the tile's value, the
+// density at every voxel of it (-1 in a leaf, whose voxels differ).
+static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, float* exit,
+                           float* tile) {
   float3 c = o + (t + nudge) * d;
   pnanovdb_coord_t ijk = {(int)floor(c.x), (int)floor(c.y), (int)floor(c.z)};
-  int dim = (int)pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk);
-  bool occupied = dim == 1 || pnanovdb_readaccessor_is_active(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk);
-  if (dim == 1) dim = 8;  // a voxel of a leaf: walk the whole leaf
-  int3 lo = (int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1));
-  float t0 = t, t1 = 1e30f;
-  sq_clip(convert_float3(lo), convert_float3(lo + dim), o, d, &t0, &t1);
-  *exit = fmax(t1, t + nudge);
-  return occupied;
+  pnanovdb_uint32_t level = 0;
+  pnanovdb_address_t at =
+      pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk, &level);
+  *tile = level == 0 ? -1.0f : pnanovdb_read_float(v->buf, at);
+  int dim = level <= 1 ? 8 : level == 2 ? 128 : 4096;
+  float3 lo = convert_float3((int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1)));
+  // The nearest of the three planes the ray leaves through (inv_d = 1 / d; an axis it runs parallel to
+  // gives +inf, or NaN on the plane itself, which fmin passes over).
+  float3 far = (select(lo, lo + (float)dim, isgreater(inv_d, 0.0f)) - o) * inv_d;
+  *exit = fmax(fmin(fmin(far.x, far.y), far.z), t + nudge);
+  return *tile != 0.0f;
 }
 
 static inline uint sq_hash(uint x) {
@@ -137,11 +143,17 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
   float t0 = 0.0f, t1 = tmax;
   if (!sq_clip_root(v, o, d, &t0, &t1)) return 0.0f;
   float nudge = 1e-4f / length(d);
+  float3 inv_d = 1.0f / d;
   float column = 0.0f;
   for (float t = t0; t < t1 && column <= p->shadow_column_max;) {
-    float exit;
-    bool occupied = sq_node(v, o, d, t, nudge, &exit);
+    float exit, tile;
+    bool occupied = sq_node(v, o, d, inv_d, t, nudge, &exit, &tile);
     exit = fmin(exit, t1);
+    if (tile >= 0.0f && !p->shadow_interpolation) {  // nearest voxels of a tile: the steps would sum to this
+      column += tile * (exit - t);
+      t = exit;
+      continue;
+    }
     for (float s = t; occupied && s < exit && column <= p->shadow_column_max;) {
       float h = fmin(p->shadow_step, exit - s);
       float3 c = o + (s + sq_uniform(rng) * h) * d;
@@ -240,12 +252,13 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
   float t0 = 0.0f, t1 = 1e30f;
   bool hit = sq_clip_root(&v, o, d, &t0, &t1);
   float nudge = 1e-4f / length(d);
+  float3 inv_d = 1.0f / d;
   float r[SQUALL_CLOUD_MAX_SUBSTEPS + 1];
   int ns = clamp(p.substeps, 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   bool done = !hit;
   for (float t = t0; !done && t < t1;) {
-    float exit;
-    bool occupied = sq_node(&v, o, d, t, nudge, &exit);
+    float exit, tile;
+    bool occupied = sq_node(&v, o, d, inv_d, t, nudge, &exit, &tile);
     exit = fmin(exit, t1);
     for (float s = t; occupied && !done && s < exit;) {
       float h = fmin(p.step, exit - s);
@@ -254,7 +267,7 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         float len = (r[j] - r[j - 1]) * h;
         float at = s + (r[j - 1] + sq_uniform(&rng) * (r[j] - r[j - 1])) * h;
         float3 c = o + at * d;
-        float rho = sq_sample(&v, c - 0.5f, p.interpolation);
+        float rho = tile >= 0.0f && !p.interpolation ? tile : sq_sample(&v, c - 0.5f, p.interpolation);
         if (!(rho > 0.0f) || len <= 0.0f) continue;
         float3 x = eye + at * dir;
         float temp = p.has_temperature ? sq_sample(&tv, c - 0.5f, p.interpolation) : 0.0f;
