@@ -15,8 +15,10 @@
 // (steps end at leaf and tile boundaries and at the grid's bounding box, so e.g. nearest-voxel density that
 // is constant over each leaf it fills).
 // Empty-space skipping: the ray walks the NanoVDB tree node by node (the hierarchical DDA of NanoVDB's
-// HDDA: the node dimension from pnanovdb_readaccessor_get_dim, the node's exit from pnanovdb_hdda_ray_clip)
-// and marches only through leaves and active tiles.
+// HDDA: the node's level and value from pnanovdb_readaccessor_get_value_address_and_level, its exit from
+// the ray's inverse direction) and marches only through leaves and tiles of nonzero density. A tile's
+// density is one value: the primary ray reads it without a lookup, and a nearest-voxel shadow ray adds
+// value x length, what its jittered steps would sum to.
 // Index convention: voxel ijk is centred at index position ijk (OpenVDB); the walk uses "cell space"
 // c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres.
 #include "clouds/pnanovdb_cl.h"
