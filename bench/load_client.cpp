@@ -1,5 +1,5 @@
-// The C++ clients of bench/load_bench.py: `--clients` threads, each with its own channel (its own TCP
-// connection) and eWave session, call in turn Ocean.GetTile, EWave.Step and Clouds.Render with the
+// The C++ clients of bench/load_bench.py: `--clients` threads, each a squall::client::Client with its own
+// TCP connection and eWave session, call in turn Ocean.GetTile, EWave.Step and Clouds.Render with the
 // requests load_bench.py wrote (serialized protobuf), for `--seconds` after all of them are ready. A
 // C++ client spends little CPU per call, so on a machine whose cores the clients share with squalld the
 // latencies measure the server rather than the clients.
@@ -8,21 +8,19 @@
 //   DIR: tile.pb (GetTileRequest), session.pb (EWaveCreateSessionRequest), step.pb (EWaveStepRequest, its
 //        session id set per client) and render.pb (RenderRequest)
 //   prints, per method: "<method> <latency in us> ...", then one "error <method>: <message>" per failure
-#include <grpcpp/grpcpp.h>
-
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <functional>
 #include <latch>
-#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "client/client.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "squall/v1/ewave.grpc.pb.h"
 #include "squall/v1/ocean.grpc.pb.h"
@@ -56,22 +54,16 @@ struct Record {
   std::vector<std::string> errors;
 };
 
-std::unique_ptr<grpc::ClientContext> context_with_deadline() {
-  auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(10));
-  return context;
-}
-
 void client(const std::string& address, const Requests& requests, double seconds, std::latch& ready, Record& record) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);  // a connection of its own, as a remote client has
-  args.SetMaxReceiveMessageSize(-1);
-  auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-  auto ocean = v1::Ocean::NewStub(channel);
-  auto ewave = v1::EWave::NewStub(channel);
-  auto clouds = v1::Clouds::NewStub(channel);
+  squall::client::ClientOptions options{address, 600};
+  options.own_connection = true;  // as a remote client has
+  squall::client::Client client(options);
+  auto ocean = v1::Ocean::NewStub(client.channel());
+  auto ewave = v1::EWave::NewStub(client.channel());
+  auto clouds = v1::Clouds::NewStub(client.channel());
   v1::EWaveSessionResponse session;
-  grpc::Status created = ewave->CreateSession(context_with_deadline().get(), requests.session, &session);
+  const grpc::Status created =
+      ewave->CreateSession(client.context(squall::client::propose_session_id()).get(), requests.session, &session);
   ready.arrive_and_wait();
   if (!created.ok()) {
     record.errors.push_back("CreateSession: " + created.error_message());
@@ -83,9 +75,9 @@ void client(const std::string& address, const Requests& requests, double seconds
   v1::EWaveFrame frame;
   v1::RenderResponse image;
   const std::function<grpc::Status()> calls[] = {
-      [&] { return ocean->GetTile(context_with_deadline().get(), requests.tile, &tile); },
-      [&] { return ewave->Step(context_with_deadline().get(), step, &frame); },
-      [&] { return clouds->Render(context_with_deadline().get(), requests.render, &image); },
+      [&] { return ocean->GetTile(client.context().get(), requests.tile, &tile); },
+      [&] { return ewave->Step(client.context(session.session_id()).get(), step, &frame); },
+      [&] { return clouds->Render(client.context().get(), requests.render, &image); },
   };
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (size_t n = 0; std::chrono::steady_clock::now() < deadline; ++n) {
@@ -101,7 +93,8 @@ void client(const std::string& address, const Requests& requests, double seconds
   v1::EWaveSessionRequest close;
   close.set_session_id(session.session_id());
   v1::EWaveCloseResponse closed;
-  ewave->CloseSession(context_with_deadline().get(), close, &closed);
+  const grpc::Status ended = ewave->CloseSession(client.context(session.session_id()).get(), close, &closed);
+  if (!ended.ok()) record.errors.push_back("CloseSession: " + ended.error_message());
 }
 
 }  // namespace

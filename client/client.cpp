@@ -68,6 +68,7 @@ Client::Client(const ClientOptions& options) : options_(options) {
   args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
   args.SetMaxSendMessageSize(-1);
   if (options.attempts > 1) args.SetServiceConfigJSON(retry_config(std::min(options.attempts, 5)));
+  if (options.own_connection) args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   channel_ = grpc::CreateCustomChannel(options.address, credentials(options), args);
 }
 

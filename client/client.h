@@ -32,6 +32,9 @@ struct ClientOptions {
   // begun to answer, and squalld answers UNAVAILABLE before it touches a session, so a retried step is
   // never applied twice.
   int attempts = 5;
+  // A TCP connection of its own. By default, Clients of one address in a process share one connection,
+  // which is what one program wants; a load generator wants each of its clients to have its own.
+  bool own_connection = false;
 };
 
 // A fresh session id to propose when creating a session (x-squall-session on the creating call, so a

@@ -251,10 +251,11 @@ TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--tls-ca", first.ca, "health"}, &out), 0) << out;
   client::ClientOptions streaming = probe;
   streaming.address = d.address();
+  streaming.timeout_seconds = 600;  // the stream outlives the renewal
   client::Client live(streaming);
   auto ocean = squall::v1::Ocean::NewStub(live.channel());
-  grpc::ClientContext context;
-  auto stream = ocean->StreamTiles(&context, endless_stream());
+  auto context = live.context();
+  auto stream = ocean->StreamTiles(context.get(), endless_stream());
   squall::v1::TileChunk chunk;
   ASSERT_TRUE(stream->Read(&chunk)) << "a frame before the renewal";
   std::filesystem::copy_file(second.server_key, first.server_key, std::filesystem::copy_options::overwrite_existing);
@@ -269,7 +270,7 @@ TEST(Tls, ARenewedCertificateIsServedWithoutARestart) {
       << out;
   // 10 MiB: more than the transport holds in flight, so most of these frames were sent after the renewal
   for (int frame = 0; frame < 40; ++frame) ASSERT_TRUE(stream->Read(&chunk)) << "frame " << frame << " after it";
-  context.TryCancel();
+  context->TryCancel();
   while (stream->Read(&chunk)) {
   }
   EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
@@ -303,8 +304,8 @@ TEST(Auth, HealthNeedsTheTokenWhenNotExempt) {
   EXPECT_NE(out.find("UNAUTHENTICATED"), std::string::npos) << out;
   client::Client without_token({d.address(), 10});
   auto health = grpc::health::v1::Health::NewStub(without_token.channel());
-  grpc::ClientContext context;
-  auto watch = health->Watch(&context, grpc::health::v1::HealthCheckRequest());
+  auto context = without_token.context();
+  auto watch = health->Watch(context.get(), grpc::health::v1::HealthCheckRequest());
   grpc::health::v1::HealthCheckResponse update;
   EXPECT_FALSE(watch->Read(&update));
   EXPECT_EQ(watch->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);

@@ -24,8 +24,6 @@ std::string metadata(const grpc::ClientContext& context, const char* key) {
   return it == context.GetServerInitialMetadata().end() ? "" : std::string(it->second.data(), it->second.size());
 }
 
-// A replica's eWave service through a client that makes `attempts` of each call (1: every status is
-// the server's).
 // A client of `address` that makes `attempts` attempts of a call answered UNAVAILABLE.
 client::ClientOptions options(const std::string& address, int attempts) {
   client::ClientOptions o{address, 30};
@@ -33,6 +31,8 @@ client::ClientOptions options(const std::string& address, int attempts) {
   return o;
 }
 
+// A replica's eWave service through a client that makes `attempts` of each call (1: every status is
+// the server's).
 struct Replica {
   Replica(const std::string& name, const std::string& state_dir, int attempts = 1)
       : daemon({"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir, "--checkpoint-interval", "0",
