@@ -105,6 +105,15 @@ static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float
   return *tile != 0.0f;
 }
 
+// 1 - e^{-x} for x >= 0, the opacity of a sub-step: its Taylor series to x^6 below x = 1/4 (relative error
+// below x^6/7! = 5e-8 there), 1 - exp(-x) above (exp's 3 ulp, OpenCL's bound, are below 1e-6 of the
+// result there). Within float noise of -expm1(-x), which PoCL runs as a call into SLEEF's scalar expm1:
+// 40% of the render kernel's time in a profile of small renders.
+static inline float sq_opacity(float x) {
+  if (x >= 0.25f) return 1.0f - exp(-x);
+  return x * (1.0f - x / 2.0f * (1.0f - x / 3.0f * (1.0f - x / 4.0f * (1.0f - x / 5.0f * (1.0f - x / 6.0f)))));
+}
+
 static inline uint sq_hash(uint x) {
   x ^= x >> 16;
   x *= 0x7feb352dU;
@@ -286,7 +295,7 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         }
         for (int w = 0; w < nw; ++w) {
           float kappa = p.extinction[w];
-          float opacity = -expm1(-kappa * rho * len);                 // 1 - dT (A.26)
+          float opacity = sq_opacity(kappa * rho * len);               // 1 - dT (A.26)
           float weight = kappa > 0.0f ? opacity / kappa : rho * len;  // (1 - dT)/kappa
           float ci = 0.0f;
           for (int i = 0; i < p.n_lights; ++i)

@@ -2,7 +2,7 @@
 // The spectral ocean (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and Rendering Maritime
 // Environments" (2017), sec. 2 and 5.3.3, and its App. A, J. Tessendorf, "Simulating Ocean Water", sec.
 // 4.3-4.6; bare equation numbers below are Gilligan's, "App A eq" ones the course notes'). Grid and sign
-// conventions: server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolve -> inverse FFTs
+// conventions: server/ocean/ocean_params.h. Per layer: ocean_h0 (cached), then per frame ocean_evolveN -> inverse FFTs
 // -> ocean_accumulate onto the output grid; then ocean_finalize derives the requested outputs.
 #include "common/dispersion.h"
 #include "common/sincos.h"
@@ -82,10 +82,20 @@ inline float band_count(float kx, float ky, __global const float4* bands, int nb
   return count;
 }
 
-// h0(k) of App A eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k).
-// Output per mode: (Re h0, Im h0, omega, 0).
+// The spectrum of a layer, planar: H0_PLANES planes of nx * ny floats, mode (i, j) at i + nx * j of each, so
+// that evolve_halves reads every value of a mode with one wide load per plane (a record of four floats, or
+// the mode of -k at a mirrored index, would be an AVX-512 gather on a CPU device).
+#define H0_RE 0        // Re h0(k)
+#define H0_IM 1        // Im h0(k)
+#define H0_OMEGA 2     // omega(k)
+#define H0_MINUS_RE 3  // Re h0(-k)
+#define H0_MINUS_IM 4  // Im h0(-k)
+#define H0_PLANES 5
+
+// h0(k) of App A eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k):
+// planes H0_RE, H0_IM and H0_OMEGA (ocean_h0_mirror fills the other two).
 __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* bands, const int nbands,
-                       __global float4* h0) {
+                       __global float* h0) {
   int i = get_global_id(0), j = get_global_id(1);
   int nx = layer->nx, ny = layer->ny;
   if (i >= nx || j >= ny) return;
@@ -105,7 +115,20 @@ __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* 
   ulong seed = ((ulong)layer->seed_hi << 32) | (ulong)layer->seed_lo;
   float2 xi = gaussian_pair(seed, layer->layer_index, n, m);
   float amplitude = sqrt(0.5f * P * layer->dkx * layer->dky);
-  h0[i + nx * j] = (float4)(xi.x * amplitude, xi.y * amplitude, w, 0.0f);
+  size_t at = i + (size_t)nx * j, cells = (size_t)nx * ny;
+  h0[H0_RE * cells + at] = xi.x * amplitude;
+  h0[H0_IM * cells + at] = xi.y * amplitude;
+  h0[H0_OMEGA * cells + at] = w;
+}
+
+// Planes H0_MINUS_RE and H0_MINUS_IM: h0 of the mode of -k, stored at k.
+__kernel void ocean_h0_mirror(__global float* h0, const int nx, const int ny) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= nx || j >= ny) return;
+  int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;
+  size_t at = i + (size_t)nx * j, minus = mi + (size_t)nx * mj, cells = (size_t)nx * ny;
+  h0[H0_MINUS_RE * cells + at] = h0[H0_RE * cells + minus];
+  h0[H0_MINUS_IM * cells + at] = h0[H0_IM * cells + minus];
 }
 
 // Stores a + i b for two Hermitian spectra a, b at `at` of a float2 array: the inverse FFT then gives
@@ -117,18 +140,17 @@ inline void store_pack(__global float* out, size_t at, float a_re, float a_im, f
 
 // The two halves of mode (i, j) of eq 1 / 43 at time t = t_hi + t_lo, shifted by the drift U_D:
 // plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im); w =
-// omega(k) (h0's third component). Complex values are pairs of floats, read and written as floats: PoCL
+// omega(k) (plane H0_OMEGA). Complex values are pairs of floats, read and written as floats: PoCL
 // vectorizes a kernel across work-items only when it computes with no OpenCL vector (float2, float4)
 // values, which LLVM's loop vectorizer cannot widen (nor a struct of two floats, passed as a float2).
-__attribute__((always_inline)) static void evolve_halves(__global const float4* h0, int i, int j, int nx, int ny,
+__attribute__((always_inline)) static void evolve_halves(__global const float* h0, int i, int j, int nx, int ny,
                                                          float kx, float ky, float t_hi, float t_lo, float2 drift,
                                                          float* plus_re, float* plus_im, float* minus_re,
                                                          float* minus_im, float* w) {
-  __global const float* h0f = (__global const float*)h0;
-  int mi = i == 0 ? 0 : nx - i, mj = j == 0 ? 0 : ny - j;  // the mode of -k
-  size_t a = 4 * (i + (size_t)nx * j), b = 4 * (mi + (size_t)nx * mj);
-  float a_re = h0f[a], a_im = h0f[a + 1], b_re = h0f[b], b_im = h0f[b + 1];
-  *w = h0f[a + 2];
+  size_t at = i + (size_t)nx * j, cells = (size_t)nx * ny;
+  float a_re = h0[H0_RE * cells + at], a_im = h0[H0_IM * cells + at];
+  float b_re = h0[H0_MINUS_RE * cells + at], b_im = h0[H0_MINUS_IM * cells + at];
+  *w = h0[H0_OMEGA * cells + at];
   float c, s;
   sq_sincos_phase(*w, t_hi, t_lo, &s, &c);
   *plus_re = a_re * c + a_im * s, *plus_im = a_im * c - a_re * s;     // (a_re + i a_im)(c - i s)
@@ -145,13 +167,13 @@ __attribute__((always_inline)) static void evolve_halves(__global const float4* 
 }
 
 // Eq 1 / 43 at absolute time t: h~(k,t) = plus + minus (evolve_halves), and its derived channels, packed
-// into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats).
-__kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny, const float dkx, const float dky,
-                           const float t_hi, const float t_lo, const float2 drift, const int pairs,
-                           __global float2* out) {
+// into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats). Kernels ocean_evolve1 to 4 run
+// it with `pairs` a constant, launched over exactly nx x ny work-items: with no store under a condition,
+// the packed stores vectorize as wide stores, not as scatters.
+__attribute__((always_inline)) static void evolve_pairs(__global const float* h0, int nx, int ny, float dkx, float dky,
+                                                        float t_hi, float t_lo, float2 drift, const int pairs,
+                                                        __global float* outf) {
   int i = get_global_id(0), j = get_global_id(1);
-  if (i >= nx || j >= ny) return;
-  __global float* outf = (__global float*)out;
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
   evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
@@ -168,15 +190,31 @@ __kernel void ocean_evolve(__global const float4* h0, const int nx, const int ny
   if (pairs > 3) store_pack(outf, 3 * cells + at, h_re * yy, h_im * yy, h_re * xy, h_im * xy);   // D_yy, D_xy
 }
 
+__kernel void ocean_evolve1(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
+                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 1, out);
+}
+__kernel void ocean_evolve2(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
+                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, out);
+}
+__kernel void ocean_evolve3(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
+                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, out);
+}
+__kernel void ocean_evolve4(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
+                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 4, out);
+}
+
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
-// the eWave engine's ambient and initial fields (server/ewave). With h~ = plus + minus as in ocean_evolve,
+// the eWave engine's ambient and initial fields (server/ewave). With h~ = plus + minus as in evolve_pairs,
 // phi~ = -i (g/w) (plus - minus) (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e.
 // eWave's exact propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
-__kernel void ocean_evolve_potential(__global const float4* h0, const int nx, const int ny, const float dkx,
+__kernel void ocean_evolve_potential(__global const float* h0, const int nx, const int ny, const float dkx,
                                      const float dky, const float t_hi, const float t_lo, const float2 drift,
                                      const float g, __global float2* out) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= nx || j >= ny) return;
+  int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
   evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
@@ -189,11 +227,10 @@ __kernel void ocean_evolve_potential(__global const float4* h0, const int nx, co
 // The horizontal current at the surface, u = grad phi of the potential above, packed as one pair (u, v)
 // for the textures that follow the waves (server/textures): u~ = i kx phi~ = kx (g/w) (plus - minus), and
 // ky for v~ (exact spectral derivatives; the drift U_D is added by the host).
-__kernel void ocean_evolve_current(__global const float4* h0, const int nx, const int ny, const float dkx,
+__kernel void ocean_evolve_current(__global const float* h0, const int nx, const int ny, const float dkx,
                                    const float dky, const float t_hi, const float t_lo, const float2 drift,
                                    const float g, __global float2* out) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= nx || j >= ny) return;
+  int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
   evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
@@ -202,7 +239,7 @@ __kernel void ocean_evolve_current(__global const float4* h0, const int nx, cons
   store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);
 }
 
-// Adds one layer's real fields (the inverse FFT of ocean_evolve's pairs) at the output grid points:
+// Adds one layer's real fields (the inverse FFT of evolve_pairs) at the output grid points:
 // output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y), periodic; bilinear between
 // layer points (exact where they coincide). accum: 2 * pairs planes of onx * ony floats.
 __kernel void ocean_accumulate(__global const float2* fields, const int nx, const int ny, const int pairs,
@@ -229,7 +266,7 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
 }
 
 // Channel pair k (channels 2k and 2k + 1) at cell `at` of the summed fields: planes of float2 as the
-// inverse FFT of ocean_evolve leaves them (interleaved), or two planes of floats (ocean_accumulate's).
+// inverse FFT of evolve_pairs leaves them (interleaved), or two planes of floats (ocean_accumulate's).
 // Floats, not a float2: see store_pack. `interleaved` is a constant of each kernel that inlines it.
 __attribute__((always_inline)) static void channel_pair(__global const float* sums, int interleaved, int k, int cells,
                                                         int at, float* first, float* second) {
@@ -312,13 +349,13 @@ __attribute__((always_inline)) static void finalize_cell(int at, __global const 
 __kernel void ocean_finalize(__global const float* sums, const int cells, const int channels, const float lambda,
                              const int flags, const float threshold, const float decay, __global float* whitecap,
                              __global float* out) {
-  int at = get_global_id(0);
-  if (at < cells) finalize_cell(at, sums, 0, cells, channels, lambda, flags, threshold, decay, whitecap, out);
+  int at = get_global_id(0);  // launched over exactly `cells` work-items
+  finalize_cell(at, sums, 0, cells, channels, lambda, flags, threshold, decay, whitecap, out);
 }
 
 __kernel void ocean_finalize_direct(__global const float* sums, const int cells, const int channels,
                                     const float lambda, const int flags, const float threshold, const float decay,
                                     __global float* whitecap, __global float* out) {
-  int at = get_global_id(0);
-  if (at < cells) finalize_cell(at, sums, 1, cells, channels, lambda, flags, threshold, decay, whitecap, out);
+  int at = get_global_id(0);  // launched over exactly `cells` work-items
+  finalize_cell(at, sums, 1, cells, channels, lambda, flags, threshold, decay, whitecap, out);
 }

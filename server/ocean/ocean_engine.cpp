@@ -20,9 +20,10 @@ constexpr int kOutputPlanes = 13;  // OUT_* of ocean.cl, the last the scratch pl
 
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
-// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, pairs, out
-using EvolveKernel =
-    Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_int, cl::Buffer>;
+using H0MirrorKernel = Kernel<cl::Buffer, cl_int, cl_int>;            // h0, nx, ny
+constexpr size_t kH0Planes = 5;                                       // H0_PLANES of ocean.cl
+// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, out (ocean_evolve1 to 4, one per count of channel pairs)
+using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl::Buffer>;
 // h0, nx, ny, dkx, dky, t_hi, t_lo, drift, g, out
 using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
@@ -63,14 +64,15 @@ struct OceanEngine::Impl {
   LimitGate gate;  // the grid limit of tile() and sample()
   size_t max_cached_bytes;
   H0Kernel h0_kernel;
-  EvolveKernel evolve;
+  H0MirrorKernel h0_mirror;
+  std::array<EvolveKernel, 4> evolve;  // [pairs - 1]
   AccumulateKernel accumulate;
   FinalizeKernel finalize, finalize_direct;
   PotentialKernel evolve_potential, evolve_current;
 
   struct Entry {
     std::string key;
-    cl::Buffer h0;  // float4 per mode: (Re h0, Im h0, omega, 0)
+    cl::Buffer h0;  // kH0Planes planes of nx * ny floats (H0_* of ocean.cl)
     size_t bytes;
   };
   std::list<Entry> cache;  // most recently used first
@@ -85,7 +87,9 @@ struct OceanEngine::Impl {
         gate(limits),
         max_cached_bytes(max_bytes),
         h0_kernel(r, kProgram, "ocean_h0"),
-        evolve(r, kProgram, "ocean_evolve"),
+        h0_mirror(r, kProgram, "ocean_h0_mirror"),
+        evolve{EvolveKernel(r, kProgram, "ocean_evolve1"), EvolveKernel(r, kProgram, "ocean_evolve2"),
+               EvolveKernel(r, kProgram, "ocean_evolve3"), EvolveKernel(r, kProgram, "ocean_evolve4")},
         accumulate(r, kProgram, "ocean_accumulate"),
         finalize(r, kProgram, "ocean_finalize"),
         finalize_direct(r, kProgram, "ocean_finalize_direct"),
@@ -103,7 +107,7 @@ struct OceanEngine::Impl {
         return cache.front().h0;
       }
     const LayerSpec& L = spec.layers[index];
-    size_t cells = size_t(L.nx) * size_t(L.ny), bytes = cells * 4 * sizeof(float);
+    size_t cells = size_t(L.nx) * size_t(L.ny), bytes = cells * kH0Planes * sizeof(float);
     while (!cache.empty() && cached_bytes + bytes > max_cached_bytes) {
       cached_bytes -= cache.back().bytes;
       cache.pop_back();
@@ -118,6 +122,7 @@ struct OceanEngine::Impl {
                            bands.empty() ? none.data() : bands.front().data());
     cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
     h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
+    h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
     runtime.queue().finish();  // the parameter buffers go out of scope
     cache.push_front(Entry{key, h0, bytes});
     cached_bytes += bytes;
@@ -150,9 +155,9 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny),
-                  cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
-                  cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_float(L.gravity), fields.buffer());
+    kernel.launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
+                       cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
+                       cl_float(L.gravity), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -172,9 +177,9 @@ struct OceanEngine::Impl {
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve.launch(row_groups(L.nx, L.ny), kRowGroupRange, h0, cl_int(L.nx), cl_int(L.ny),
-                  cl_float(2 * SQUALL_PI / L.lx), cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
-                  cl_float2{{float(L.drift_x), float(L.drift_y)}}, cl_int(pairs), fields.buffer());
+    evolve.at(pairs - 1).launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
+                                     cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
+                                     cl_float2{{float(L.drift_x), float(L.drift_y)}}, fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -326,8 +331,8 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
   FinalizeKernel& finalize = direct ? impl_->finalize_direct : impl_->finalize;
-  finalize.launch(row_groups(cells), kRowGroupRange, sums, cl_int(cells), cl_int(2 * pairs), cl_float(spec.choppiness),
-                  cl_int(outputs), cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
+  finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * pairs), cl_float(spec.choppiness), cl_int(outputs),
+                       cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
   read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
   lock.unlock();
 

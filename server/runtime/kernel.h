@@ -105,6 +105,16 @@ requires(sizeof...(Given) == sizeof...(Expected)) struct KernelArgsMatch<std::tu
     : std::bool_constant<(std::is_same_v<std::decay_t<Given>, Expected> && ...)> {
 };
 
+// Rounds n up to a multiple of m (global work sizes).
+inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
+
+// Element-wise kernels over an nx x ny grid (or n cells) in work-groups of one row of kRowGroup items
+// (the kernels skip the ids past the grid). PoCL's own choice for a NullRange local size made
+// ewave_finish, ewave_prepare and ewave_propagate 20-35% slower on the CPU device.
+inline constexpr size_t kRowGroup = 256;
+inline cl::NDRange row_groups(size_t nx, size_t ny = 1) { return cl::NDRange(round_up(nx, kRowGroup), ny); }
+inline const cl::NDRange kRowGroupRange{kRowGroup, 1};
+
 template <typename... Args>
 class Kernel {
  public:
@@ -133,6 +143,18 @@ class Kernel {
     cl_uint index = 0;
     (kernel.setArg(index++, args), ...);
     launch_kernel(*runtime_, kernel, program_, name_, offset, global, local, group_limit_);
+  }
+
+  // Exactly nx x ny work-items: the first nx - nx % kRowGroup columns in work-groups of one row of
+  // kRowGroup items, the other columns in a second launch, one row of them a group. A kernel launched so
+  // has no ids past the grid to skip. A bounds check masks every load and store of the loop that a CPU
+  // device makes of a work-group, and LLVM turns masked strided accesses (interleaved complex values) into
+  // AVX-512 gathers and scatters where unmasked ones become wide loads and shuffles.
+  template <typename... Given>
+  void launch_rows(size_t nx, size_t ny, const Given&... args) {
+    const size_t whole = nx - nx % kRowGroup, rest = nx % kRowGroup;
+    if (whole > 0 && ny > 0) launch(cl::NDRange(whole, ny), kRowGroupRange, args...);
+    if (rest > 0 && ny > 0) launch_region(cl::NDRange(whole, 0), cl::NDRange(rest, ny), cl::NDRange(rest, 1), args...);
   }
 
   const std::string& name() const { return name_; }

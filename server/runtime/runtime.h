@@ -123,14 +123,4 @@ class Runtime {
 // the total device time; slowest first.
 std::string format_kernel_timings(const std::vector<KernelTiming>& timings);
 
-// Rounds n up to a multiple of m (global work sizes).
-inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
-
-// Element-wise kernels over an nx x ny grid (or n cells) in work-groups of one row of kRowGroup items
-// (the kernels skip the ids past the grid). PoCL's own choice for a NullRange local size made
-// ewave_finish, ewave_prepare and ewave_propagate 20-35% slower on the CPU device.
-inline constexpr size_t kRowGroup = 256;
-inline cl::NDRange row_groups(size_t nx, size_t ny = 1) { return cl::NDRange(round_up(nx, kRowGroup), ny); }
-inline const cl::NDRange kRowGroupRange{kRowGroup, 1};
-
 }  // namespace squall

@@ -316,6 +316,26 @@ TEST(OceanReference, LayersWithBCorrectionOnAnotherGridAgree) {
   expect_matches_reference(spec, 6.0);
 }
 
+// A layer wider than a row group of work-items and not a multiple of one (300 x 40 cells): its kernels run
+// in two launches, the second at an offset. Every output, then each smaller count of channel pairs.
+TEST(OceanReference, AGridWiderThanARowGroupAgrees) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 40, 120);
+  spec.layers[0].nx = 300, spec.layers[0].lx = 900;
+  spec.choppiness = 0.9;
+  expect_matches_reference(spec, 3.5);
+  CpuReference reference;
+  auto height = [](const TileFields& f) { return &f.height; };
+  auto displacement = [](const TileFields& f) { return &f.displacement_y; };
+  auto slope = [](const TileFields& f) { return &f.slope_y; };
+  for (auto [outputs, field] : {std::pair<unsigned, const std::vector<float>* (*)(const TileFields&)>{Height, height},
+                                {Displacement, displacement},
+                                {Slopes, slope}}) {
+    auto e = engine().tile(spec, 3.5, outputs), r = reference.tile(spec, 3.5, outputs);
+    ASSERT_EQ(field(e)->size(), 300u * 40u);
+    EXPECT_LT(test::relative_rms_error(*field(e), *field(r)), 1e-4) << "outputs " << outputs;
+  }
+}
+
 TEST(OceanSlopeVariance, UnresolvedSlopeVarianceFallsWithPixelScale) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200);
   double previous = 0;

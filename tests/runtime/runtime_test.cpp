@@ -78,6 +78,22 @@ TEST(Runtime, AxpyKernelComputesExactly) {
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], 2.0f * float(i) + 0.5f * float(i) + 1) << i;
 }
 
+// launch_rows runs each work-item of the grid once and none past it, for widths below, at and above a
+// row group and between multiples of it (a second launch at an offset).
+TEST(Kernel, LaunchRowsRunsEachCellOfTheGridOnce) {
+  Runtime& rt = test::runtime();
+  auto lock = rt.exclusive();
+  Kernel<cl::Buffer, cl_int> count_ids(rt, "runtime/selftest.cl", "count_ids");
+  for (auto [nx, ny] : {std::pair<size_t, size_t>{1, 1}, {100, 3}, {kRowGroup, 2}, {300, 5}, {2 * kRowGroup + 7, 1}}) {
+    const size_t cells = nx * ny, guard = kRowGroup;  // counts past the grid would land in the guard cells
+    cl::Buffer out = test::upload(std::vector<float>(cells + guard, 0.0f));
+    count_ids.launch_rows(nx, ny, out, cl_int(nx));
+    auto counts = test::read<float>(out, cells + guard);
+    for (size_t c = 0; c < cells + guard; ++c)
+      ASSERT_EQ(counts[c], c < cells ? 1.0f : 0.0f) << nx << " x " << ny << ", cell " << c;
+  }
+}
+
 TEST(Kernel, AGroupLargerThanTheDeviceAllowsIsLeftToTheDevice) {
   Runtime& rt = test::runtime();
   auto lock = rt.exclusive();
