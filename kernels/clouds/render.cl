@@ -84,25 +84,44 @@ static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, flo
   return sq_clip((float3)(lo.x, lo.y, lo.z), (float3)(hi.x + 1, hi.y + 1, hi.z + 1), o, d, t0, t1);
 }
 
-// The node containing the cell at ray parameter t, from one tree query: a leaf (walked whole), or a tile
-// of a lower node (8 voxels a side), an upper node (128) or the root (4096). Returns its exit parameter,
-// whether it can hold density (a leaf, or a tile of nonzero value) and in *tile the tile's value, the
-// density at every voxel of it (-1 in a leaf, whose voxels differ).
-static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, float* exit,
-                           float* tile) {
+// One node of the tree along a ray: a leaf (8 voxels a side), or a tile of a lower node (8), an upper
+// node (128) or the root (4096).
+typedef struct {
+  float exit;                 // the ray parameter where the ray leaves it
+  float tile;                 // a tile's value, the density at every voxel of it; -1 in a leaf
+  int3 lo;                    // a leaf's first voxel (cell space)
+  pnanovdb_address_t values;  // a leaf's value table: voxel lo + (i, j, k) at 4 (64 i + 8 j + k) bytes
+} VdbNode;
+
+// The node containing the cell at ray parameter t, from one tree query. Returns whether it can hold
+// density (a leaf, or a tile of nonzero value).
+static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, VdbNode* node) {
   float3 c = o + (t + nudge) * d;
   pnanovdb_coord_t ijk = {(int)floor(c.x), (int)floor(c.y), (int)floor(c.z)};
   pnanovdb_uint32_t level = 0;
   pnanovdb_address_t at =
       pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk, &level);
-  *tile = level == 0 ? -1.0f : pnanovdb_read_float(v->buf, at);
+  node->tile = level == 0 ? -1.0f : pnanovdb_read_float(v->buf, at);
+  node->values = pnanovdb_address_offset_neg(at, 4u * pnanovdb_leaf_coord_to_offset(&ijk));
   int dim = level <= 1 ? 8 : level == 2 ? 128 : 4096;
-  float3 lo = convert_float3((int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1)));
+  node->lo = (int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1));
+  float3 lo = convert_float3(node->lo);
   // The nearest of the three planes the ray leaves through (inv_d = 1 / d; an axis it runs parallel to
   // gives +inf, or NaN on the plane itself, which fmin passes over).
   float3 far = (select(lo, lo + (float)dim, isgreater(inv_d, 0.0f)) - o) * inv_d;
-  *exit = fmax(fmin(fmin(far.x, far.y), far.z), t + nudge);
-  return *tile != 0.0f;
+  node->exit = fmax(fmin(fmin(far.x, far.y), far.z), t + nudge);
+  return node->tile != 0.0f;
+}
+
+// Density at cell-space point c of the ray's current node: a tile's value, the nearest voxel read from
+// the leaf's own value table (no tree query; c is clamped into the leaf, where rounding puts a step on
+// the face it leaves through), or trilinear (a query per corner: they may lie in the next leaf).
+static inline float sq_node_density(VdbVolume* v, const VdbNode* node, float3 c, int trilinear) {
+  if (trilinear) return sq_sample(v, c - 0.5f, 1);
+  if (node->tile >= 0.0f) return node->tile;
+  int3 ijk = clamp(convert_int3_rtn(c), node->lo, node->lo + 7);
+  pnanovdb_coord_t voxel = {ijk.x, ijk.y, ijk.z};
+  return pnanovdb_read_float(v->buf, pnanovdb_address_offset(node->values, 4u * pnanovdb_leaf_coord_to_offset(&voxel)));
 }
 
 // 1 - e^{-x} for x >= 0, the opacity of a sub-step: its Taylor series to x^6 below x = 1/4 (relative error
@@ -157,18 +176,18 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
   float3 inv_d = 1.0f / d;
   float column = 0.0f;
   for (float t = t0; t < t1 && column <= p->shadow_column_max;) {
-    float exit, tile;
-    bool occupied = sq_node(v, o, d, inv_d, t, nudge, &exit, &tile);
-    exit = fmin(exit, t1);
-    if (tile >= 0.0f && !p->shadow_interpolation) {  // nearest voxels of a tile: the steps would sum to this
-      column += tile * (exit - t);
+    VdbNode node;
+    bool occupied = sq_node(v, o, d, inv_d, t, nudge, &node);
+    float exit = fmin(node.exit, t1);
+    if (node.tile >= 0.0f && !p->shadow_interpolation) {  // nearest voxels of a tile: the steps would sum to this
+      column += node.tile * (exit - t);
       t = exit;
       continue;
     }
     for (float s = t; occupied && s < exit && column <= p->shadow_column_max;) {
       float h = fmin(p->shadow_step, exit - s);
       float3 c = o + (s + sq_uniform(rng) * h) * d;
-      column += sq_sample(v, c - 0.5f, p->shadow_interpolation) * h;
+      column += sq_node_density(v, &node, c, p->shadow_interpolation) * h;
       s += h;
     }
     t = exit;
@@ -268,9 +287,9 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
   int ns = clamp(p.substeps, 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   bool done = !hit;
   for (float t = t0; !done && t < t1;) {
-    float exit, tile;
-    bool occupied = sq_node(&v, o, d, inv_d, t, nudge, &exit, &tile);
-    exit = fmin(exit, t1);
+    VdbNode node;
+    bool occupied = sq_node(&v, o, d, inv_d, t, nudge, &node);
+    float exit = fmin(node.exit, t1);
     for (float s = t; occupied && !done && s < exit;) {
       float h = fmin(p.step, exit - s);
       sq_substep_offsets(ns, &rng, r);
@@ -278,7 +297,7 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         float len = (r[j] - r[j - 1]) * h;
         float at = s + (r[j - 1] + sq_uniform(&rng) * (r[j] - r[j - 1])) * h;
         float3 c = o + at * d;
-        float rho = tile >= 0.0f && !p.interpolation ? tile : sq_sample(&v, c - 0.5f, p.interpolation);
+        float rho = sq_node_density(&v, &node, c, p.interpolation);
         if (!(rho > 0.0f) || len <= 0.0f) continue;
         float3 x = eye + at * dir;
         float temp = p.has_temperature ? sq_sample(&tv, c - 0.5f, p.interpolation) : 0.0f;
