@@ -7,7 +7,8 @@
 // (2) build time of a reference cumulus at N^3 effective resolution (OpenVDB on the host), render time and
 //     rays per second of squall's OpenCL ray marcher on the device, beside OpenVDB's own CPU volume
 //     renderer (tools::VolumeRender, what vdb_render uses) linked in, on the same grid, image and step.
-// Usage: clouds_bench [N ...]   (default: 256 512; 0: part (1) alone). (2): image 256x256, step = 1 voxel, one directional light.
+// Usage: clouds_bench [--kernel-dir DIR] [N ...]   (default: 256 512; 0: part (1) alone; DIR: kernels from DIR,
+// e.g. another commit's, not the embedded ones). (2): image 256x256, step = 1 voxel, one directional light.
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -19,6 +20,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -259,10 +261,14 @@ int main(int argc, char** argv) {
   clouds::initialize_openvdb();
   RuntimeOptions options;
   options.program_prefixes = {"clouds/"};
+  std::vector<int> sizes;
+  for (int i = 1; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--kernel-dir") && i + 1 < argc)
+      options.kernel_dir = argv[++i];  // other kernels, same host code
+    else
+      sizes.push_back(std::atoi(argv[i]));
   Runtime runtime(options);
   runtime.build_programs();
-  std::vector<int> sizes;
-  for (int i = 1; i < argc; ++i) sizes.push_back(std::atoi(argv[i]));
   if (sizes.empty()) sizes = {256, 512};
   std::printf("device: %s; image %dx%d, step 1 voxel\n", runtime.device_info().name.c_str(), clouds::kImage,
               clouds::kImage);
