@@ -58,6 +58,7 @@ void client(const std::string& address, const Requests& requests, double seconds
   squall::client::ClientOptions options{address, 600};
   options.own_connection = true;  // as a remote client has
   squall::client::Client client(options);
+  // The services' generated stubs on the client's connection; every call takes a context() of the client.
   auto ocean = v1::Ocean::NewStub(client.channel());
   auto ewave = v1::EWave::NewStub(client.channel());
   auto clouds = v1::Clouds::NewStub(client.channel());

@@ -1,5 +1,7 @@
-// squall's C++ client library: a channel to squalld with a per-call deadline and request id, and one
-// method per RPC. Failures throw squall::client::RpcError carrying the gRPC status.
+// squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
+// (deadline, request id, session routing). The server's own RPCs are methods here (info, health); a
+// capability's RPCs go through its generated stub on channel(), each call with a context() of this
+// client. Failures of the methods here throw squall::client::RpcError carrying the gRPC status.
 #pragma once
 
 #include <grpcpp/grpcpp.h>

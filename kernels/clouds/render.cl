@@ -51,24 +51,39 @@ static inline float3 sq_world_to_index_dir(VdbVolume* v, float3 d) {
   return (float3)(i.x, i.y, i.z);
 }
 
-// Trilinear interpolation at weights w of the corner values cXYZ (X, Y, Z: 0 at the lower voxel, 1 at the upper).
-static inline float sq_trilinear(float c000, float c100, float c010, float c110, float c001, float c101, float c011,
-                                 float c111, float3 w) {
+// One node of the tree along a ray: a leaf (8 voxels a side), or a tile of a lower node (8), an upper
+// node (128) or the root (4096).
+typedef struct {
+  float exit;                   // the ray parameter where the ray leaves it
+  float tile;                   // a tile's value, the density at every voxel of it; -1 in a leaf
+  int3 lo;                      // its first voxel (cell space)
+  int dim;                      // voxels a side
+  pnanovdb_leaf_handle_t leaf;  // a leaf's handle (the one its query cached in the accessor)
+} VdbNode;
+
+// The value of voxel ijk: from the leaf of `node`, which must hold it (no tree query), or with no node
+// through the accessor.
+static inline float sq_voxel(VdbVolume* v, const VdbNode* node, int3 ijk) {
+  if (!node) return sq_vdb_value(v->buf, &v->acc, ijk);
+  pnanovdb_coord_t c = {ijk.x, ijk.y, ijk.z};
+  return pnanovdb_read_float(v->buf, pnanovdb_leaf_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, v->buf, node->leaf, &c));
+}
+
+// Trilinear interpolation at index-space position p between the 8 voxels around it, read as sq_voxel does.
+static float sq_trilinear(VdbVolume* v, const VdbNode* node, float3 p) {
+  float3 f = floor(p), w = p - f;
+  int3 i = convert_int3(f);
+  float c000 = sq_voxel(v, node, i), c100 = sq_voxel(v, node, i + (int3)(1, 0, 0));
+  float c010 = sq_voxel(v, node, i + (int3)(0, 1, 0)), c110 = sq_voxel(v, node, i + (int3)(1, 1, 0));
+  float c001 = sq_voxel(v, node, i + (int3)(0, 0, 1)), c101 = sq_voxel(v, node, i + (int3)(1, 0, 1));
+  float c011 = sq_voxel(v, node, i + (int3)(0, 1, 1)), c111 = sq_voxel(v, node, i + (int3)(1, 1, 1));
   float c00 = mix(c000, c100, w.x), c10 = mix(c010, c110, w.x), c01 = mix(c001, c101, w.x), c11 = mix(c011, c111, w.x);
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
 
 // Density at index-space position p.
 static inline float sq_sample(VdbVolume* v, float3 p, int trilinear) {
-  if (!trilinear) return sq_vdb_value(v->buf, &v->acc, convert_int3_rtn(p + 0.5f));
-  float3 f = floor(p);
-  int3 i = convert_int3(f);
-  pnanovdb_readaccessor_t* a = &v->acc;
-  return sq_trilinear(sq_vdb_value(v->buf, a, i), sq_vdb_value(v->buf, a, i + (int3)(1, 0, 0)),
-                      sq_vdb_value(v->buf, a, i + (int3)(0, 1, 0)), sq_vdb_value(v->buf, a, i + (int3)(1, 1, 0)),
-                      sq_vdb_value(v->buf, a, i + (int3)(0, 0, 1)), sq_vdb_value(v->buf, a, i + (int3)(1, 0, 1)),
-                      sq_vdb_value(v->buf, a, i + (int3)(0, 1, 1)), sq_vdb_value(v->buf, a, i + (int3)(1, 1, 1)),
-                      p - f);
+  return trilinear ? sq_trilinear(v, 0, p) : sq_voxel(v, 0, convert_int3_rtn(p + 0.5f));
 }
 
 // Clips [*t0, *t1] to the cell-space box [lo, hi) (pnanovdb_hdda_ray_clip); false when it misses.
@@ -87,16 +102,6 @@ static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, flo
   return sq_clip((float3)(lo.x, lo.y, lo.z), (float3)(hi.x + 1, hi.y + 1, hi.z + 1), o, d, t0, t1);
 }
 
-// One node of the tree along a ray: a leaf (8 voxels a side), or a tile of a lower node (8), an upper
-// node (128) or the root (4096).
-typedef struct {
-  float exit;                 // the ray parameter where the ray leaves it
-  float tile;                 // a tile's value, the density at every voxel of it; -1 in a leaf
-  int3 lo;                    // its first voxel (cell space)
-  int dim;                    // voxels a side
-  pnanovdb_address_t values;  // a leaf's value table: voxel lo + (i, j, k) at 4 (64 i + 8 j + k) bytes
-} VdbNode;
-
 // The node containing the cell at ray parameter t, from one tree query. Returns whether it can hold
 // density (a leaf, or a tile of nonzero value).
 static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, VdbNode* node) {
@@ -106,7 +111,7 @@ static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float
   pnanovdb_address_t at =
       pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk, &level);
   node->tile = level == 0 ? -1.0f : pnanovdb_read_float(v->buf, at);
-  node->values = pnanovdb_address_offset_neg(at, 4u * pnanovdb_leaf_coord_to_offset(&ijk));
+  node->leaf = v->acc.leaf;  // meaningful at level 0
   int dim = level <= 1 ? 8 : level == 2 ? 128 : 4096;
   node->dim = dim;
   node->lo = (int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1));
@@ -118,24 +123,14 @@ static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float
   return node->tile != 0.0f;
 }
 
-// The value of a leaf's voxel lo + (i, j, k) (pnanovdb_leaf_coord_to_offset's order: x, then y, then z).
-static inline float sq_leaf_value(VdbVolume* v, const VdbNode* leaf, int i, int j, int k) {
-  return pnanovdb_read_float(v->buf, pnanovdb_address_offset(leaf->values, 4u * (64 * i + 8 * j + k)));
-}
-
 // Trilinear density at cell-space point c of the ray's current node: where the 8 voxels around c lie in
 // the node, a tile's value or the leaf's own values (no tree query); elsewhere a query per corner. Not
 // inlined: inlined into the marches it made the nearest-voxel shadow rays 9% slower.
 __attribute__((noinline)) static float sq_node_trilinear(VdbVolume* v, const VdbNode* node, float3 c) {
-  float3 p = c - 0.5f, f = floor(p);
-  int3 i = convert_int3(f) - node->lo;
-  if (any(i < 0) || any(i > node->dim - 2)) return sq_sample(v, p, 1);
-  if (node->tile >= 0.0f) return node->tile;
-  return sq_trilinear(sq_leaf_value(v, node, i.x, i.y, i.z), sq_leaf_value(v, node, i.x + 1, i.y, i.z),
-                      sq_leaf_value(v, node, i.x, i.y + 1, i.z), sq_leaf_value(v, node, i.x + 1, i.y + 1, i.z),
-                      sq_leaf_value(v, node, i.x, i.y, i.z + 1), sq_leaf_value(v, node, i.x + 1, i.y, i.z + 1),
-                      sq_leaf_value(v, node, i.x, i.y + 1, i.z + 1), sq_leaf_value(v, node, i.x + 1, i.y + 1, i.z + 1),
-                      p - f);
+  float3 p = c - 0.5f;
+  int3 i = convert_int3(floor(p)) - node->lo;
+  if (any(i < 0) || any(i > node->dim - 2)) return sq_trilinear(v, 0, p);
+  return node->tile >= 0.0f ? node->tile : sq_trilinear(v, node, p);
 }
 
 // Density at cell-space point c of the ray's current node: trilinear (sq_node_trilinear), or the nearest
@@ -144,8 +139,7 @@ __attribute__((noinline)) static float sq_node_trilinear(VdbVolume* v, const Vdb
 static inline float sq_node_density(VdbVolume* v, const VdbNode* node, float3 c, int trilinear) {
   if (trilinear) return sq_node_trilinear(v, node, c);
   if (node->tile >= 0.0f) return node->tile;
-  int3 i = clamp(convert_int3_rtn(c) - node->lo, 0, 7);
-  return sq_leaf_value(v, node, i.x, i.y, i.z);
+  return sq_voxel(v, node, clamp(convert_int3_rtn(c), node->lo, node->lo + 7));
 }
 
 // 1 - e^{-x} for x >= 0, the opacity of a sub-step: its Taylor series to x^6 below x = 1/4 (relative error
