@@ -49,7 +49,7 @@ Frame EWaveSession::step(const StepInputs& in) {
   validate(in, config_);
   const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
-  auto lock = runtime_.exclusive();
+  auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});
   bool has_obstruction = build_obstruction(in);
   prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
   fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})

@@ -306,7 +306,9 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   std::vector<float> previous;
   if (outputs & Whitecaps) previous = previous_whitecaps(spec, t, grid, whitecaps, &decay);
 
-  auto lock = impl_->runtime.exclusive();
+  size_t work = cells;  // the finalize's cells and each layer's transformed ones
+  for (const LayerSpec& L : spec.layers) work += size_t(L.nx) * size_t(L.ny) * size_t(pairs);
+  auto lock = impl_->runtime.exclusive({"ocean.tile", work});
   Runtime& runtime = impl_->runtime;
   // One layer on the output grid: ocean_finalize reads the inverse FFT's output as it is (no resampling).
   const LayerSpec& first = spec.layers.front();

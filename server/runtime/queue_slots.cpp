@@ -1,6 +1,7 @@
 #include "runtime/queue_slots.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 
 #include "common/error.h"
@@ -16,7 +17,11 @@ thread_local int t_slot = -1;  // the slot of the lease this thread holds
 int held_queue_slot() { return t_slot; }
 size_t current_queue_slot() { return t_slot < 0 ? 0 : size_t(t_slot); }
 
-QueueLease::QueueLease(QueueLease&& other) noexcept : slots_(other.slots_), slot_(other.slot_) {
+QueueLease::QueueLease(QueueSlots* slots, size_t slot, int kind)
+    : slots_(slots), slot_(slot), kind_(kind), since_(std::chrono::steady_clock::now()) {}
+
+QueueLease::QueueLease(QueueLease&& other) noexcept
+    : slots_(other.slots_), slot_(other.slot_), kind_(other.kind_), since_(other.since_) {
   other.slots_ = nullptr;
 }
 
@@ -25,6 +30,8 @@ QueueLease& QueueLease::operator=(QueueLease&& other) noexcept {
     unlock();
     slots_ = other.slots_;
     slot_ = other.slot_;
+    kind_ = other.kind_;
+    since_ = other.since_;
     other.slots_ = nullptr;
   }
   return *this;
@@ -32,7 +39,7 @@ QueueLease& QueueLease::operator=(QueueLease&& other) noexcept {
 
 void QueueLease::unlock() {
   if (!slots_) return;
-  slots_->release(slot_);
+  slots_->release(slot_, kind_, since_);
   slots_ = nullptr;
 }
 
@@ -42,17 +49,19 @@ QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, siz
   for (size_t i = 0; i < busy_.size(); ++i) queues_.emplace_back(context, device, properties);
 }
 
-QueueLease QueueSlots::acquire() {
+QueueLease QueueSlots::acquire(const WorkKind& kind) {
   if (t_slot >= 0) fail(Code::Internal, "a thread asked for a second device queue while holding one");
   std::unique_lock<std::mutex> lock(mutex_);
+  const int k = kind_index(kind);
   int slot = -1;
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
   if (waiting_.empty() && free_slot != busy_.end()) {
     slot = int(free_slot - busy_.begin());
     busy_[size_t(slot)] = true;
-  } else {  // in line behind the callers that came first; release() hands this one its slot
+  } else {  // in line behind the callers that came first (or most of them); release() hands it its slot
     Waiter self;
-    waiting_.push_back(&self);
+    self.expected = k < 0 ? 0 : holds_[size_t(k)];
+    waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
     wait_ns_ += uint64_t(
@@ -61,7 +70,37 @@ QueueLease QueueSlots::acquire() {
   }
   ++acquisitions_;
   t_slot = slot;
-  return QueueLease(this, size_t(slot));
+  return QueueLease(this, size_t(slot), k);
+}
+
+double QueueSlots::expected_hold(const WorkKind& kind) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int k = kind_index(kind);
+  return k < 0 ? 0 : holds_[size_t(k)];
+}
+
+int QueueSlots::kind_index(const WorkKind& kind) {
+  if (!kind.site) return -1;
+  const std::string key = std::string(kind.site) + "/" + std::to_string(std::bit_width(kind.size));
+  const auto [it, added] = kinds_.emplace(key, int(holds_.size()));
+  if (added) holds_.push_back(0);
+  return it->second;
+}
+
+// Behind the last waiter that the caller may not pass: one expected to take less than kPassRatio times
+// the caller's hold, or passed kMaxPassed times already. A caller of unknown hold passes none; a waiter
+// of unknown hold may be passed.
+std::deque<QueueSlots::Waiter*>::iterator QueueSlots::place_in_line(double expected) {
+  auto at = waiting_.end();
+  if (expected <= 0) return at;
+  while (at != waiting_.begin()) {
+    const Waiter* w = *std::prev(at);
+    const bool longer = w->expected <= 0 || w->expected >= kPassRatio * expected;
+    if (!longer || w->passed >= kMaxPassed) break;
+    --at;
+  }
+  for (auto it = at; it != waiting_.end(); ++it) ++(*it)->passed;
+  return at;
 }
 
 size_t QueueSlots::waiting() {
@@ -69,7 +108,7 @@ size_t QueueSlots::waiting() {
   return waiting_.size();
 }
 
-void QueueSlots::release(size_t slot) {
+void QueueSlots::release(size_t slot, int kind, std::chrono::steady_clock::time_point since) {
   try {
     queues_[slot].finish();
   } catch (const cl::Error& e) {  // the device failed: the next call on it reports it
@@ -78,6 +117,11 @@ void QueueSlots::release(size_t slot) {
   if (t_slot == int(slot)) t_slot = -1;
   if (on_settled_) on_settled_(slot);
   std::lock_guard<std::mutex> lock(mutex_);
+  if (kind >= 0) {  // a running mean over about the last 8 leases; the first sets it
+    const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+    double& hold = holds_[size_t(kind)];
+    hold = hold > 0 ? hold + (held - hold) / 8 : held;
+  }
   if (waiting_.empty()) {
     busy_[slot] = false;
     return;

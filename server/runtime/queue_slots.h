@@ -5,14 +5,23 @@
 // and makes it the calling thread's queue: Runtime::queue(), Kernel<...>::launch (one kernel object per
 // queue) and the FFT plans (one per queue) use it. When the lease ends it waits for its queue (clFinish),
 // so no work of a request is still running when the buffers it handed back go to another queue.
+//
+// Callers wait in line for a queue, first come, first served, with one exception: a request expected to
+// hold its queue for much less time than those waiting at the end of the line goes ahead of them (shortest
+// job first: L. Kleinrock, "Queueing Systems, Volume 2: Computer Applications", 1976, ch. 3), so a small
+// render does not wait behind a row of large tiles. Expectations are learned: the pool keeps, per kind of
+// work (WorkKind), a running mean of how long its leases held their queue.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "runtime/opencl.h"
@@ -20,6 +29,14 @@
 namespace squall {
 
 class QueueSlots;
+
+// What a lease is for: the call site (a string literal, e.g. "ocean.tile") and the size of its work in the
+// site's own unit (cells, pixels). Sizes within a factor of two share one learned hold time. No site:
+// nothing is learned, and the caller waits in turn.
+struct WorkKind {
+  const char* site = nullptr;
+  size_t size = 0;
+};
 
 // The queue slot the calling thread's lease holds: 0 .. count - 1, or -1 outside any lease.
 int held_queue_slot();
@@ -45,10 +62,12 @@ class QueueLease {
 
  private:
   friend class QueueSlots;
-  QueueLease(QueueSlots* slots, size_t slot) : slots_(slots), slot_(slot) {}
+  QueueLease(QueueSlots* slots, size_t slot, int kind);
 
   QueueSlots* slots_ = nullptr;
   size_t slot_ = 0;
+  int kind_ = -1;  // index of the lease's WorkKind in the pool's learned holds, -1 for none
+  std::chrono::steady_clock::time_point since_;
 };
 
 class QueueSlots {
@@ -61,9 +80,19 @@ class QueueSlots {
   size_t count() const { return queues_.size(); }
   const cl::CommandQueue& queue(size_t slot) const { return queues_.at(slot); }
 
+  // A caller in line is passed by at most this many shorter requests, each expected to hold its queue at
+  // most 1 / kPassRatio as long as the caller: it waits at most kMaxPassed / kPassRatio of its own hold
+  // longer than in turn.
+  static constexpr int kMaxPassed = 4;
+  static constexpr double kPassRatio = 2;
+
   // Waits for a free queue (the wait is counted) and leases it to the calling thread, which must not
-  // hold one already. Waiting callers get queues in the order they asked: none waits behind a later one.
-  QueueLease acquire();
+  // hold one already. Waiting callers get queues in the order they asked, but for the shorter requests
+  // that may pass them (see above); a caller of no kind never passes another.
+  QueueLease acquire(const WorkKind& kind = {});
+
+  // The learned hold of `kind`, s (0 before its first lease ends).
+  double expected_hold(const WorkKind& kind);
 
   uint64_t acquisitions() const { return acquisitions_; }
   size_t waiting();  // callers waiting for a queue now
@@ -71,17 +100,24 @@ class QueueSlots {
 
  private:
   friend class QueueLease;
-  void release(size_t slot);
+  struct Waiter;
+  void release(size_t slot, int kind, std::chrono::steady_clock::time_point since);
+  int kind_index(const WorkKind& kind);                          // under mutex_
+  std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
 
   std::vector<cl::CommandQueue> queues_;
   std::function<void(size_t)> on_settled_;
   struct Waiter {
     std::condition_variable handed;
-    int slot = -1;  // the slot release() handed it
+    int slot = -1;        // the slot release() handed it
+    double expected = 0;  // its kind's learned hold, s; 0: not known
+    int passed = 0;       // by how many callers that came after it
   };
   std::mutex mutex_;
   std::vector<bool> busy_;
-  std::deque<Waiter*> waiting_;  // callers of acquire() waiting for a slot, first come, first served
+  std::deque<Waiter*> waiting_;                         // callers of acquire() waiting for a slot, in the order served
+  std::unordered_map<std::string, int> kinds_;          // "site/log2 size" -> index in holds_
+  std::vector<double> holds_;                           // learned hold per kind, s
   std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
 };
 

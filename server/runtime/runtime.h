@@ -83,7 +83,9 @@ class Runtime {
   // until the lease ends, which waits for the queue's work. With one queue, requests take turns; with
   // more, that many run at once (their kernel objects and FFT plans are per queue, and a buffer handed
   // back goes to another queue only once its queue has finished). The waits are counted (device_wait()).
-  QueueLease exclusive() { return queues_->acquire(); }
+  // `kind` lets a request much shorter than those waiting go first (QueueSlots).
+  QueueLease exclusive(const WorkKind& kind = {}) { return queues_->acquire(kind); }
+  double expected_hold(const WorkKind& kind) { return queues_->expected_hold(kind); }
 
   // How often the lock was taken, and the seconds callers waited for it, since start-up: the queueing
   // of requests behind each other (squalld's metrics).

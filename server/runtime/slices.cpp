@@ -49,7 +49,7 @@ size_t run_sliced(Runtime& runtime, QueueLease& lease, const SlicePlan& plan, co
     if (lease.held() && Clock::now() - held_since >= std::chrono::duration<double>(kSliceSeconds / 2))
       lease.unlock();  // other requests' work goes in between
     if (!lease.held()) {
-      lease = runtime.exclusive();
+      lease = runtime.exclusive(plan.kind);
       held_since = Clock::now();
     }
     const auto start = Clock::now();  // the device's time, not the wait for the lease
@@ -60,7 +60,7 @@ size_t run_sliced(Runtime& runtime, QueueLease& lease, const SlicePlan& plan, co
     first = end;
     budget = next_cost(budget, cost, seconds);
   }
-  if (!lease.held()) lease = runtime.exclusive();
+  if (!lease.held()) lease = runtime.exclusive(plan.kind);
   return slices;
 }
 

@@ -27,6 +27,7 @@ struct SlicePlan {
   size_t granule = 1;
   std::function<double(size_t)> cost = [](size_t) { return 1.0; };  // granule g's cost, > 0; uniform by default
   double first_cost = 1;  // the first slice's cost: small, the rate is not known yet
+  WorkKind kind;          // what the slices' leases are for (Runtime::exclusive)
 };
 
 // A 2D grid of work-groups (tiles) numbered in row order, for slicing 2D work along that order.

@@ -1,7 +1,8 @@
 // The device's queues (--device-queues): two requests hold two queues at once and a third waits for one;
 // one kernel object launched from two queues at once keeps each launch's arguments; a buffer handed back
 // under one queue goes to another only after that queue's lease has ended (its work finished); one
-// queue serializes as the single in-order queue did; a freed queue goes to the request that waited longest.
+// queue serializes as the single in-order queue did; a freed queue goes to the request that waited longest,
+// unless a much shorter kind of work asks meanwhile, which goes first a bounded number of times.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -160,6 +161,74 @@ TEST(DeviceQueues, AFreedQueueGoesToTheRequestWaitingNotToOneAskingLater) {
   other.join();
   EXPECT_EQ(order, (std::vector<std::string>{"waiting", "asking later"}));
   EXPECT_EQ(rt.device_wait().waiting, 0u);
+}
+
+// One queue of the runtime's device, and the order in which callers that wait for it get it.
+struct OneQueue {
+  QueueSlots slots{two_queue_runtime().context(), two_queue_runtime().device(), 1, 0, nullptr};
+  std::mutex mutex;
+  std::vector<std::string> order;
+  std::vector<std::thread> callers;
+
+  // A lease of `kind` held for `ms` milliseconds, `times` times in a row: what the pool learns from.
+  void hold(const WorkKind& kind, int ms, int times) {
+    for (int i = 0; i < times; ++i) {
+      auto lease = slots.acquire(kind);
+      std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    }
+  }
+  // A caller of `kind` that waits in line and records `name` when it gets the queue.
+  void ask(const WorkKind& kind, const std::string& name) {
+    const size_t before = slots.waiting();
+    callers.emplace_back([this, kind, name] {
+      auto lease = slots.acquire(kind);
+      std::lock_guard<std::mutex> lock(mutex);
+      order.push_back(name);
+    });
+    while (slots.waiting() == before) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::vector<std::string> served() {
+    for (auto& c : callers) c.join();
+    return order;
+  }
+};
+
+constexpr WorkKind kTile{"test.tile", 1 << 20}, kRender{"test.render", 4096};
+
+// The pool learns that a tile holds its queue 20 ms and a render 1 ms: a render asking while a tile
+// waits gets the queue first; a caller of no kind waits in turn; a render of another size is another kind.
+TEST(DeviceQueues, AMuchShorterKindOfWorkGoesAheadOfLongerWorkWaiting) {
+  OneQueue q;
+  q.hold(kTile, 20, 3);
+  q.hold(kRender, 1, 3);
+  EXPECT_NEAR(q.slots.expected_hold(kTile), 0.020, 0.015);
+  EXPECT_LT(q.slots.expected_hold(kRender), q.slots.expected_hold(kTile) / QueueSlots::kPassRatio);
+  EXPECT_EQ(q.slots.expected_hold({"test.render", 1 << 20}), 0) << "a size 256x larger is another kind";
+  {
+    auto holder = q.slots.acquire();
+    q.ask(kTile, "tile");
+    q.ask({}, "no kind");
+    q.ask(kRender, "render");
+  }
+  EXPECT_EQ(q.served(), (std::vector<std::string>{"render", "tile", "no kind"}));
+}
+
+// Work of about the same hold keeps its turn, and a waiter is passed at most kMaxPassed times.
+TEST(DeviceQueues, WorkOfAboutTheSameHoldKeepsItsTurnAndAWaiterIsPassedABoundedNumberOfTimes) {
+  OneQueue q;
+  q.hold(kTile, 20, 3);
+  q.hold(kRender, 1, 3);
+  q.hold({"test.step", 1 << 16}, 15, 3);  // 15 ms: shorter than a tile, not twice so
+  {
+    auto holder = q.slots.acquire();
+    q.ask(kTile, "tile");
+    q.ask({"test.step", 1 << 16}, "step");
+    for (int i = 0; i <= QueueSlots::kMaxPassed; ++i) q.ask(kRender, "render " + std::to_string(i));
+  }
+  std::vector<std::string> expected;
+  for (int i = 0; i < QueueSlots::kMaxPassed; ++i) expected.push_back("render " + std::to_string(i));
+  expected.insert(expected.end(), {"tile", "step", "render 4"});
+  EXPECT_EQ(q.served(), expected);
 }
 
 TEST(DeviceQueues, ASecondLeaseOnOneThreadIsAnInternalError) {
