@@ -85,7 +85,6 @@ class Runtime {
   // back goes to another queue only once its queue has finished). The waits are counted (device_wait()).
   // `kind` lets a request much shorter than those waiting go first (QueueSlots).
   QueueLease exclusive(const WorkKind& kind = {}) { return queues_->acquire(kind); }
-  double expected_hold(const WorkKind& kind) { return queues_->expected_hold(kind); }
 
   // How often the lock was taken, and the seconds callers waited for it, since start-up: the queueing
   // of requests behind each other (squalld's metrics).
