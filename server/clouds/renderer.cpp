@@ -287,12 +287,13 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   BufferLease mask;
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
-  // much larger work waiting for a queue.
+  // much larger work waiting for a queue. A deep shadow map is a kind of its own, by its map's size.
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
+  const WorkKind map_kind{"clouds.shadow_map", dsm_floats};
   if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
     std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
     mask = runtime_.buffers().acquire(needed.size());
-    lease = runtime_.exclusive(kind);
+    lease = runtime_.exclusive(map_kind);
     runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
     // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
     // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
@@ -304,7 +305,7 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
         c += needed[id % needed.size()] ? cost.per_map_node : kSkippedNodeSamples;
       return std::max(c, 1.0);
     };
-    const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, kind};
+    const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, map_kind};
     run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
       shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
                                 mask.buffer(), dsm.buffer());

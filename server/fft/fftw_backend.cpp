@@ -113,12 +113,17 @@ class FftwPlan : public Plan {
     const bool in_place = in() == out();
     if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
     // input_bytes: what this key's transform reads (complex for C2R), in either direction. One wait: the
-    // output's map is enqueued first without waiting, and the in-order queue finishes it before the
-    // input's blocking map returns.
-    void* dst =
-        in_place ? nullptr : queue.enqueueMapBuffer(out, CL_FALSE, CL_MAP_WRITE_INVALIDATE_REGION, 0, k.output_bytes());
+    // output's map is enqueued first without waiting, and the in-order queue completes it before the
+    // input's blocking map returns (its event's wait then returns at once, or reports its error).
+    cl::Event output_mapped;
+    void* dst = in_place ? nullptr
+                         : queue.enqueueMapBuffer(out, CL_FALSE, CL_MAP_WRITE_INVALIDATE_REGION, 0, k.output_bytes(),
+                                                  nullptr, &output_mapped);
     void* src = queue.enqueueMapBuffer(in, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, k.input_bytes());
-    if (in_place) dst = src;
+    if (in_place)
+      dst = src;
+    else
+      output_mapped.wait();
     const bool unaligned = F::alignment(src) != 0 || F::alignment(dst) != 0;
     F::execute(plan(direction, in_place, unaligned), k.transform, src, dst);
     if (!in_place) queue.enqueueUnmapMemObject(out, dst);

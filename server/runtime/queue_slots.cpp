@@ -12,6 +12,11 @@ namespace {
 
 thread_local int t_slot = -1;  // the slot of the lease this thread holds
 
+// A kind's key in the learned holds: its site and its size's power of two; empty for no kind.
+std::string kind_key(const WorkKind& kind) {
+  return kind.site ? std::string(kind.site) + "/" + std::to_string(std::bit_width(kind.size)) : std::string();
+}
+
 }  // namespace
 
 int held_queue_slot() { return t_slot; }
@@ -51,8 +56,9 @@ QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, siz
 
 QueueLease QueueSlots::acquire(const WorkKind& kind) {
   if (t_slot >= 0) fail(Code::Internal, "a thread asked for a second device queue while holding one");
+  const std::string key = kind_key(kind);
   std::unique_lock<std::mutex> lock(mutex_);
-  const int k = kind_index(kind);
+  const int k = kind_index(key);
   int slot = -1;
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
   if (waiting_.empty() && free_slot != busy_.end()) {
@@ -74,28 +80,42 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
 }
 
 double QueueSlots::expected_hold(const WorkKind& kind) {
+  const std::string key = kind_key(kind);
   std::lock_guard<std::mutex> lock(mutex_);
-  const int k = kind_index(kind);
-  return k < 0 ? 0 : holds_[size_t(k)];
+  const auto it = kinds_.find(key);
+  return it == kinds_.end() ? 0 : holds_[size_t(it->second)];
 }
 
-int QueueSlots::kind_index(const WorkKind& kind) {
-  if (!kind.site) return -1;
-  const std::string key = std::string(kind.site) + "/" + std::to_string(std::bit_width(kind.size));
+void QueueSlots::record_hold(const WorkKind& kind, double seconds) {
+  const std::string key = kind_key(kind);
+  std::lock_guard<std::mutex> lock(mutex_);
+  learn(kind_index(key), seconds);
+}
+
+int QueueSlots::kind_index(const std::string& key) {
+  if (key.empty()) return -1;
   const auto [it, added] = kinds_.emplace(key, int(holds_.size()));
   if (added) holds_.push_back(0);
   return it->second;
 }
 
+// An exponential moving average of the kind's holds with weight 1/8 for the newest, the first hold its
+// start: it follows a change of load within some 10 leases.
+void QueueSlots::learn(int kind, double seconds) {
+  if (kind < 0) return;
+  double& hold = holds_[size_t(kind)];
+  hold = hold > 0 ? hold + (seconds - hold) / 8 : seconds;
+}
+
 // Behind the last waiter that the caller may not pass: one expected to take less than kPassRatio times
-// the caller's hold, or passed kMaxPassed times already. A caller of unknown hold passes none; a waiter
-// of unknown hold may be passed.
+// the caller's hold, or of unknown hold, or passed kMaxPassed times already. A caller of unknown hold
+// passes none.
 std::deque<QueueSlots::Waiter*>::iterator QueueSlots::place_in_line(double expected) {
   auto at = waiting_.end();
   if (expected <= 0) return at;
   while (at != waiting_.begin()) {
     const Waiter* w = *std::prev(at);
-    const bool longer = w->expected <= 0 || w->expected >= kPassRatio * expected;
+    const bool longer = w->expected > 0 && w->expected >= kPassRatio * expected;
     if (!longer || w->passed >= kMaxPassed) break;
     --at;
   }
@@ -116,12 +136,9 @@ void QueueSlots::release(size_t slot, int kind, std::chrono::steady_clock::time_
   }
   if (t_slot == int(slot)) t_slot = -1;
   if (on_settled_) on_settled_(slot);
+  const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
   std::lock_guard<std::mutex> lock(mutex_);
-  if (kind >= 0) {  // a running mean over about the last 8 leases; the first sets it
-    const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-    double& hold = holds_[size_t(kind)];
-    hold = hold > 0 ? hold + (held - hold) / 8 : held;
-  }
+  learn(kind, held);
   if (waiting_.empty()) {
     busy_[slot] = false;
     return;

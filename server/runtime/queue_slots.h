@@ -32,7 +32,7 @@ class QueueSlots;
 
 // What a lease is for: the call site (a string literal, e.g. "ocean.tile") and the size of its work in the
 // site's own unit (cells, pixels). Sizes within a factor of two share one learned hold time. No site:
-// nothing is learned, and the caller waits in turn.
+// nothing is learned, and the caller waits in turn and is never passed.
 struct WorkKind {
   const char* site = nullptr;
   size_t size = 0;
@@ -88,11 +88,14 @@ class QueueSlots {
 
   // Waits for a free queue (the wait is counted) and leases it to the calling thread, which must not
   // hold one already. Waiting callers get queues in the order they asked, but for the shorter requests
-  // that may pass them (see above); a caller of no kind never passes another.
+  // that may pass them (see above); a caller of no kind, or of a kind not learned yet, neither passes nor
+  // is passed.
   QueueLease acquire(const WorkKind& kind = {});
 
   // The learned hold of `kind`, s (0 before its first lease ends).
   double expected_hold(const WorkKind& kind);
+  // Learns one hold of `kind`, s, as the end of each of its leases does (tests, warm-up).
+  void record_hold(const WorkKind& kind, double seconds);
 
   uint64_t acquisitions() const { return acquisitions_; }
   size_t waiting();  // callers waiting for a queue now
@@ -102,7 +105,8 @@ class QueueSlots {
   friend class QueueLease;
   struct Waiter;
   void release(size_t slot, int kind, std::chrono::steady_clock::time_point since);
-  int kind_index(const WorkKind& kind);                          // under mutex_
+  int kind_index(const std::string& key);                        // under mutex_; -1 for the empty key (no kind)
+  void learn(int kind, double seconds);                          // under mutex_
   std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
 
   std::vector<cl::CommandQueue> queues_;
