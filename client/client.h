@@ -1,7 +1,12 @@
 // squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
-// (deadline, request id, session routing). The server's own RPCs are methods here (info, health); a
-// capability's RPCs go through its generated stub on channel(), each call with a context() of this
-// client. Failures of the methods here throw squall::client::RpcError carrying the gRPC status.
+// (deadline, request id, session routing). The server's own RPCs are methods here (info, health). The
+// capabilities' RPCs are called on their generated stubs, which share this client's connection:
+//
+//   auto ocean = squall::v1::Ocean::NewStub(client.channel());
+//   squall::client::check(ocean->GetTile(client.context().get(), request, &response), "Ocean.GetTile");
+//
+// Failures throw squall::client::RpcError carrying the gRPC status: from the methods here, and from
+// check() on a stub call's status.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
