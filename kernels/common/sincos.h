@@ -8,7 +8,7 @@
  *   then by quarter turns to |y| <= pi/4, where the minimax polynomials of Cephes' sinf and cosf
  *   (S. L. Moshier, "Methods and Programs for Mathematical Functions", 1989) are within 1e-7.
  * Past 2^12 turns the phase's error grows as |w t| 2^-24: that of rounding w t to one float.
- * Shared by OpenCL C and host C++ (the tests run it on the host; <math.h> provides rint and fma).
+ * Shared by OpenCL C and host C++ (the tests run it on the host; <math.h> provides fabs, copysign and fma).
  */
 #ifndef SQUALL_COMMON_SINCOS_H
 #define SQUALL_COMMON_SINCOS_H
@@ -16,6 +16,14 @@
 #ifndef __OPENCL_VERSION__
 #include <math.h>
 #endif
+
+/* rint(x): x to the nearest integer, ties to even. Below 2^23 in magnitude, adding 2^23 leaves no bits
+ * below the units, so the addition rounds (to even) and the subtraction is exact; from 2^23 on every float
+ * is an integer. In float arithmetic, with no call: PoCL's rint is a bitwise emulation 3x as long. */
+static inline float sq_rint(float x) {
+  const float two_23 = 8388608.0f;
+  return fabs(x) < two_23 ? copysign((fabs(x) + two_23) - two_23, x) : x;
+}
 
 /* sin y and cos y for |y| <= pi/4 (Cephes sinf.c, cosf.c). */
 static inline void sq_sincos_octant(float y, float* s, float* c) {
@@ -28,9 +36,9 @@ static inline void sq_sincos_octant(float y, float* s, float* c) {
 static inline void sq_sincos_phase(float w, float t_hi, float t_lo, float* s, float* c) {
   float p = w * t_hi;
   float e = fma(w, t_hi, -p) + w * t_lo; /* w t = p + e */
-  float n = rint(p * 0.15915493667125702f);
+  float n = sq_rint(p * 0.15915493667125702f);
   float r = ((p - n * 6.28125f) - n * 1.9350051879882812e-3f) - n * 3.019916050561733e-07f + e; /* |r| <~ pi */
-  float q = rint(r * 0.6366197466850281f);
+  float q = sq_rint(r * 0.6366197466850281f);
   float y = (r - q * 1.5707963705062866f) - q * -4.371138828673793e-08f; /* r = y + q pi/2 */
   float sy, cy;
   sq_sincos_octant(y, &sy, &cy);

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "common/dispersion.h"
 #include "common/sincos.h"
@@ -189,6 +190,20 @@ double sincos_phase_error(double w_max, double t_max, int n) {
     worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
   }
   return worst;
+}
+
+TEST(SinCosPhase, RoundsToTheNearestIntegerTiesToEvenAsRintDoes) {
+  std::vector<float> xs = {0.0f,       -0.0f,      0.5f,       -0.5f,       1.5f,       2.5f,        -2.5f, 0.49999997f,
+                           4194303.5f, 4194304.5f, 8388607.5f, -8388607.5f, 8388608.0f, 16777217.0f, 1e30f, -1e30f};
+  std::mt19937 rng(11);
+  for (double scale : {1.0, 1e3, 1e6, 1e7, 1e8})
+    for (int i = 0; i < 20000; ++i) xs.push_back(float(std::uniform_real_distribution<double>(-scale, scale)(rng)));
+  for (float x : xs) {
+    EXPECT_EQ(sq_rint(x), std::rint(x)) << "x = " << x;
+    EXPECT_EQ(std::signbit(sq_rint(x)), std::signbit(std::rint(x))) << "x = " << x;
+  }
+  EXPECT_TRUE(std::isnan(sq_rint(NAN)));
+  EXPECT_EQ(sq_rint(INFINITY), INFINITY);
 }
 
 TEST(SinCosPhase, EveryQuadrantOfOneTurnToAFewUlps) {
