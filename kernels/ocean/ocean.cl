@@ -10,9 +10,12 @@
 #include "ocean/params.h"
 #include "ocean/spectra.h"
 
-// Spectral channels, packed in pairs (re, im) of complex arrays for C2C inverse FFTs:
-//   pair 0: h, Dx        pair 1: Dy, eps_x      pair 2: eps_y, dDx/dx     pair 3: dDy/dy, dDx/dy
+// Spectral channels, packed in pairs (re, im) of complex arrays for C2C inverse FFTs, in one of two layouts:
+//   displaced:   pair 0: h, Dx        pair 1: Dy, eps_x      pair 2: eps_y, dDx/dx     pair 3: dDy/dy, dDx/dy
+//   undisplaced: pair 0: h, eps_x     pair 1: eps_y, dDx/dx  pair 2: dDy/dy, dDx/dy
 // with D = sum i k/|k| h~ e^{ik.x} (crest-sharpening sign for lambda > 0) and eps = grad h (App A eq 37).
+// A tile that returns no displacement needs no Dx and Dy (the normals and J need only their derivatives):
+// the undisplaced layout transforms one pair fewer.
 
 // ---- counter-based Gaussian amplitudes, keyed by (seed, layer, n, m) ----
 inline ulong mix64(ulong z) {  // splitmix64 finalizer
@@ -167,12 +170,13 @@ __attribute__((always_inline)) static void evolve_halves(__global const float* h
 }
 
 // Eq 1 / 43 at absolute time t: h~(k,t) = plus + minus (evolve_halves), and its derived channels, packed
-// into `pairs` complex arrays of nx*ny each. t = t_hi + t_lo (two floats). Kernels ocean_evolve1 to 4 run
-// it with `pairs` a constant, launched over exactly nx x ny work-items: with no store under a condition,
-// the packed stores vectorize as wide stores, not as scatters.
+// into `pairs` complex arrays of nx*ny each, in the displaced or the undisplaced layout. t = t_hi + t_lo
+// (two floats). Kernels ocean_evolve1 to 4 (displaced) and ocean_evolve_undisplaced2 and 3 run it with
+// `pairs` and `displaced` constants, launched over exactly nx x ny work-items: with no store under a
+// condition, the packed stores vectorize as wide stores, not as scatters.
 __attribute__((always_inline)) static void evolve_pairs(__global const float* h0, int nx, int ny, float dkx, float dky,
                                                         float t_hi, float t_lo, float2 drift, const int pairs,
-                                                        __global float* outf) {
+                                                        const int displaced, __global float* outf) {
   int i = get_global_id(0), j = get_global_id(1);
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
@@ -182,29 +186,46 @@ __attribute__((always_inline)) static void evolve_pairs(__global const float* h0
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
   float kx_k = kx * inv_k, ky_k = ky * inv_k;
-  // i h times each factor: (-h_im, h_re) f
-  store_pack(outf, at, h_re, h_im, -h_im * kx_k, h_re * kx_k);  // h, D_x
-  if (pairs > 1) store_pack(outf, cells + at, -h_im * ky_k, h_re * ky_k, -h_im * kx, h_re * kx);  // D_y, eps_x
   float xx = -kx * kx_k, yy = -ky * ky_k, xy = -kx * ky_k;
-  if (pairs > 2) store_pack(outf, 2 * cells + at, -h_im * ky, h_re * ky, h_re * xx, h_im * xx);  // eps_y, D_xx
-  if (pairs > 3) store_pack(outf, 3 * cells + at, h_re * yy, h_im * yy, h_re * xy, h_im * xy);   // D_yy, D_xy
+  // i h times each factor: (-h_im, h_re) f
+  if (displaced) {
+    store_pack(outf, at, h_re, h_im, -h_im * kx_k, h_re * kx_k);                                     // h, D_x
+    if (pairs > 1) store_pack(outf, cells + at, -h_im * ky_k, h_re * ky_k, -h_im * kx, h_re * kx);  // D_y, eps_x
+    if (pairs > 2) store_pack(outf, 2 * cells + at, -h_im * ky, h_re * ky, h_re * xx, h_im * xx);  // eps_y, D_xx
+    if (pairs > 3) store_pack(outf, 3 * cells + at, h_re * yy, h_im * yy, h_re * xy, h_im * xy);   // D_yy, D_xy
+  } else {
+    store_pack(outf, at, h_re, h_im, -h_im * kx, h_re * kx);                                     // h, eps_x
+    if (pairs > 1) store_pack(outf, cells + at, -h_im * ky, h_re * ky, h_re * xx, h_im * xx);  // eps_y, D_xx
+    if (pairs > 2) store_pack(outf, 2 * cells + at, h_re * yy, h_im * yy, h_re * xy, h_im * xy);  // D_yy, D_xy
+  }
 }
 
 __kernel void ocean_evolve1(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
                             const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 1, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 1, 1, out);
 }
 __kernel void ocean_evolve2(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
                             const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, 1, out);
 }
 __kernel void ocean_evolve3(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
                             const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, 1, out);
 }
 __kernel void ocean_evolve4(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
                             const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 4, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 4, 1, out);
+}
+
+__kernel void ocean_evolve_undisplaced2(__global const float* h0, const int nx, const int ny, const float dkx,
+                                         const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                         __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, 0, out);
+}
+__kernel void ocean_evolve_undisplaced3(__global const float* h0, const int nx, const int ny, const float dkx,
+                                         const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                         __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, 0, out);
 }
 
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
@@ -305,25 +326,31 @@ inline size_t out_at(int plane, int wanted, int cells, int at) {
 // From the summed channels: displacement lambda D, slopes, normals (eq 94), J and its eigenvalues (App A
 // eqs 45-47), whitecaps (section 5.3.3: 1 where J- < threshold, else W * decay; decay = exp(-dt/T), or 0
 // for a frame without history). flags: bit 0 height, 1 displacement, 2 slopes, 3 normals, 4 Jacobian,
-// 5 whitecaps. Two kernels run it, one per layout of the sums (ocean_finalize: ocean_accumulate's planes;
-// ocean_finalize_direct: the inverse FFT's interleaved output): with the layout a constant, each
-// vectorizes its own loads (a layout chosen at run time put both kinds of load in one loop, 2x slower).
+// 5 whitecaps. Two kernels run it, one per memory layout of the sums (ocean_finalize: ocean_accumulate's
+// planes; ocean_finalize_direct: the inverse FFT's interleaved output): with that layout a constant, each
+// vectorizes its own loads (one chosen at run time put both kinds of load in one loop, 2x slower). The
+// channel layout (displaced or not) only picks which pair a load reads, the same for every work-item.
 __attribute__((always_inline)) static void finalize_cell(int at, __global const float* sums, const int interleaved,
-                                                         const int cells, const int channels, const float lambda,
-                                                         const int flags, const float threshold, const float decay,
-                                                         __global float* whitecap, __global float* out) {
-  // channels is 2, 4, 6 or 8: pairs (h, Dx), (Dy, ex), (ey, Dxx), (Dyy, Dxy) of the evolved spectra; the
-  // missing ones are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
+                                                         const int cells, const int channels, const int displaced,
+                                                         const float lambda, const int flags, const float threshold,
+                                                         const float decay, __global float* whitecap,
+                                                         __global float* out) {
+  // channels is 2, 4, 6 or 8: the leading pairs of the displaced or undisplaced layout (top of this file);
+  // the missing channels are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
   // vectorizes across work-items.
   // The pairs not computed read pair 0 (present: no masked loads, see out_at) and count as 0.
-  float h, Dx, Dy, ex, ey, Dxx, Dyy, Dxy;
-  channel_pair(sums, interleaved, 0, cells, at, &h, &Dx);
-  channel_pair(sums, interleaved, channels > 2 ? 1 : 0, cells, at, &Dy, &ex);
-  channel_pair(sums, interleaved, channels > 4 ? 2 : 0, cells, at, &ey, &Dxx);
-  channel_pair(sums, interleaved, channels > 6 ? 3 : 0, cells, at, &Dyy, &Dxy);
-  if (channels <= 2) Dy = ex = 0.0f;
-  if (channels <= 4) ey = Dxx = 0.0f;
-  if (channels <= 6) Dyy = Dxy = 0.0f;
+  const int pairs = channels / 2, lacking = displaced ? 0 : 1;  // the undisplaced layout lacks (Dy, ex)
+  float h, second, Dx, Dy, ex, ey, Dxx, Dyy, Dxy;
+  channel_pair(sums, interleaved, 0, cells, at, &h, &second);
+  channel_pair(sums, interleaved, displaced && pairs > 1 ? 1 : 0, cells, at, &Dy, &ex);
+  channel_pair(sums, interleaved, pairs > 2 - lacking ? 2 - lacking : 0, cells, at, &ey, &Dxx);
+  channel_pair(sums, interleaved, pairs > 3 - lacking ? 3 - lacking : 0, cells, at, &Dyy, &Dxy);
+  Dx = displaced ? second : 0.0f;
+  ex = displaced ? ex : second;
+  if (!displaced || pairs <= 1) Dy = 0.0f;
+  if (displaced && pairs <= 1) ex = 0.0f;
+  if (pairs <= 2 - lacking) ey = Dxx = 0.0f;
+  if (pairs <= 3 - lacking) Dyy = Dxy = 0.0f;
   out[out_at(OUT_HEIGHT, flags & 1, cells, at)] = h;
   out[out_at(OUT_DISP_X, flags & 2, cells, at)] = lambda * Dx;
   out[out_at(OUT_DISP_Y, flags & 2, cells, at)] = lambda * Dy;
@@ -346,16 +373,16 @@ __attribute__((always_inline)) static void finalize_cell(int at, __global const 
   out[out_at(OUT_WHITECAP, flags & 32, cells, at)] = w;
 }
 
-__kernel void ocean_finalize(__global const float* sums, const int cells, const int channels, const float lambda,
-                             const int flags, const float threshold, const float decay, __global float* whitecap,
-                             __global float* out) {
+__kernel void ocean_finalize(__global const float* sums, const int cells, const int channels, const int displaced,
+                             const float lambda, const int flags, const float threshold, const float decay,
+                             __global float* whitecap, __global float* out) {
   int at = get_global_id(0);  // launched over exactly `cells` work-items
-  finalize_cell(at, sums, 0, cells, channels, lambda, flags, threshold, decay, whitecap, out);
+  finalize_cell(at, sums, 0, cells, channels, displaced, lambda, flags, threshold, decay, whitecap, out);
 }
 
 __kernel void ocean_finalize_direct(__global const float* sums, const int cells, const int channels,
-                                    const float lambda, const int flags, const float threshold, const float decay,
-                                    __global float* whitecap, __global float* out) {
+                                    const int displaced, const float lambda, const int flags, const float threshold,
+                                    const float decay, __global float* whitecap, __global float* out) {
   int at = get_global_id(0);  // launched over exactly `cells` work-items
-  finalize_cell(at, sums, 1, cells, channels, lambda, flags, threshold, decay, whitecap, out);
+  finalize_cell(at, sums, 1, cells, channels, displaced, lambda, flags, threshold, decay, whitecap, out);
 }

@@ -22,15 +22,18 @@ constexpr int kOutputPlanes = 13;  // OUT_* of ocean.cl, the last the scratch pl
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
 using H0MirrorKernel = Kernel<cl::Buffer, cl_int, cl_int>;            // h0, nx, ny
 constexpr size_t kH0Planes = 5;                                       // H0_PLANES of ocean.cl
-// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, out (ocean_evolve1 to 4, one per count of channel pairs)
+// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, out (ocean_evolve1 to 4 and ocean_evolve_undisplaced2 and 3, one per
+// channel layout and count of pairs)
 using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl::Buffer>;
 // h0, nx, ny, dkx, dky, t_hi, t_lo, drift, g, out
 using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
 // fields, nx, ny, pairs, scale, onx, ony, first, accum
 using AccumulateKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl::Buffer>;
-// sums, cells, channels, lambda, flags, threshold, decay, whitecap, out (ocean_finalize, ocean_finalize_direct)
-using FinalizeKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
+// sums, cells, channels, displaced, lambda, flags, threshold, decay, whitecap, out (ocean_finalize,
+// ocean_finalize_direct)
+using FinalizeKernel =
+    Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
 
 template <typename T>
 void append(std::string& key, const T& value) {
@@ -65,7 +68,8 @@ struct OceanEngine::Impl {
   size_t max_cached_bytes;
   H0Kernel h0_kernel;
   H0MirrorKernel h0_mirror;
-  std::array<EvolveKernel, 4> evolve;  // [pairs - 1]
+  std::array<EvolveKernel, 4> evolve;              // displaced layout, [pairs - 1]
+  std::array<EvolveKernel, 2> evolve_undisplaced;  // undisplaced layout, [pairs - 2]
   AccumulateKernel accumulate;
   FinalizeKernel finalize, finalize_direct;
   PotentialKernel evolve_potential, evolve_current;
@@ -90,6 +94,8 @@ struct OceanEngine::Impl {
         h0_mirror(r, kProgram, "ocean_h0_mirror"),
         evolve{EvolveKernel(r, kProgram, "ocean_evolve1"), EvolveKernel(r, kProgram, "ocean_evolve2"),
                EvolveKernel(r, kProgram, "ocean_evolve3"), EvolveKernel(r, kProgram, "ocean_evolve4")},
+        evolve_undisplaced{EvolveKernel(r, kProgram, "ocean_evolve_undisplaced2"),
+                           EvolveKernel(r, kProgram, "ocean_evolve_undisplaced3")},
         accumulate(r, kProgram, "ocean_accumulate"),
         finalize(r, kProgram, "ocean_finalize"),
         finalize_direct(r, kProgram, "ocean_finalize_direct"),
@@ -170,16 +176,17 @@ struct OceanEngine::Impl {
                       scale, cl_int(grid.nx), cl_int(grid.ny), cl_int(first ? 1 : 0), accum);
   }
 
-  // The layer's real channels at t on its own grid: `pairs` complex arrays (ocean.cl).
-  BufferLease layer_fields(const TileSpec& spec, size_t index, double t, int pairs) {
+  // The layer's real channels at t on its own grid: `layout.pairs` complex arrays (ocean.cl).
+  BufferLease layer_fields(const TileSpec& spec, size_t index, double t, ChannelLayout layout) {
     const LayerSpec& L = spec.layers[index];
     const cl::Buffer& h0 = spectrum(spec, index);
-    fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(pairs), fft::Transform::C2C, fft::Precision::F32};
+    fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(layout.pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     float t_hi = float(t), t_lo = float(t - double(t_hi));
-    evolve.at(pairs - 1).launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
-                                     cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo,
-                                     cl_float2{{float(L.drift_x), float(L.drift_y)}}, fields.buffer());
+    EvolveKernel& kernel = layout.displaced ? evolve.at(layout.pairs - 1) : evolve_undisplaced.at(layout.pairs - 2);
+    kernel.launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
+                       cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
+                       fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -298,7 +305,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   validate::finite("t", t);
   const OutputGrid grid = output_grid(spec);
   const size_t cells = size_t(grid.nx) * size_t(grid.ny);
-  const int pairs = channel_pairs(outputs);
+  const ChannelLayout layout = channel_layout(outputs);
   TileFields result;
   result.nx = grid.nx, result.ny = grid.ny, result.t = t;
   result.dx = grid.lx / grid.nx, result.dy = grid.ly / grid.ny;
@@ -307,7 +314,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   if (outputs & Whitecaps) previous = previous_whitecaps(spec, t, grid, whitecaps, &decay);
 
   size_t work = cells;  // the finalize's cells and each layer's transformed ones
-  for (const LayerSpec& L : spec.layers) work += size_t(L.nx) * size_t(L.ny) * size_t(pairs);
+  for (const LayerSpec& L : spec.layers) work += size_t(L.nx) * size_t(L.ny) * size_t(layout.pairs);
   auto lock = impl_->runtime.exclusive({"ocean.tile", work});
   Runtime& runtime = impl_->runtime;
   // One layer on the output grid: ocean_finalize reads the inverse FFT's output as it is (no resampling).
@@ -315,17 +322,17 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   const bool direct = spec.layers.size() == 1 && first.nx == grid.nx && first.ny == grid.ny && first.lx == grid.lx &&
                       first.ly == grid.ly;
   BufferLease accum, fields;
-  if (!direct) accum = runtime.buffers().acquire(size_t(2 * pairs) * cells * sizeof(float));
+  if (!direct) accum = runtime.buffers().acquire(size_t(2 * layout.pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
     if (a > 0 && cancel.requested()) {  // a layer is the slice
       runtime.queue().finish();         // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
-    BufferLease layer = impl_->layer_fields(spec, a, t, pairs);  // back to the pool before the next layer's
+    BufferLease layer = impl_->layer_fields(spec, a, t, layout);  // back to the pool before the next layer's
     if (direct)
       fields = std::move(layer);
     else
-      impl_->accumulate_layer(layer.buffer(), spec.layers[a], pairs, grid, a == 0, accum.buffer());
+      impl_->accumulate_layer(layer.buffer(), spec.layers[a], layout.pairs, grid, a == 0, accum.buffer());
   }
   const cl::Buffer& sums = direct ? fields.buffer() : accum.buffer();
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
@@ -333,8 +340,9 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
   FinalizeKernel& finalize = direct ? impl_->finalize_direct : impl_->finalize;
-  finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * pairs), cl_float(spec.choppiness), cl_int(outputs),
-                       cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
+  finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
+                       cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
+                       whitecap.buffer(), out.buffer());
   read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
   lock.unlock();
 
@@ -376,7 +384,7 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
     auto lock = impl_->runtime.exclusive();
     for (size_t a = 0; a < spec.layers.size(); ++a) {
       const LayerSpec& L = spec.layers[a];
-      BufferLease fields = impl_->layer_fields(spec, a, t, 4);
+      BufferLease fields = impl_->layer_fields(spec, a, t, {4, true});  // every channel, as sample_channels reads
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
       impl_->runtime.queue().enqueueReadBuffer(fields.buffer(), CL_TRUE, 0, layers[a].size() * sizeof(float),
                                                layers[a].data());

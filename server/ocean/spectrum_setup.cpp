@@ -104,11 +104,12 @@ OutputGrid output_grid(const TileSpec& spec) {
   return {L.nx, L.ny, L.lx, L.ly};
 }
 
-int channel_pairs(unsigned outputs) {
-  if (outputs & (Normals | Jacobian | Whitecaps)) return 4;
-  if (outputs & Slopes) return 3;
-  if (outputs & Displacement) return 2;
-  return 1;
+ChannelLayout channel_layout(unsigned outputs) {
+  const bool derivatives = outputs & (Normals | Jacobian | Whitecaps);
+  if (!(outputs & Displacement) && (derivatives || (outputs & Slopes))) return {derivatives ? 3 : 2, false};
+  if (derivatives) return {4, true};
+  if (outputs & Slopes) return {3, true};
+  return {outputs & Displacement ? 2 : 1, true};
 }
 
 SpectrumParams derive_spectrum(const LayerSpec& L) {

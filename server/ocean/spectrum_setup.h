@@ -47,7 +47,13 @@ struct OutputGrid {
 };
 OutputGrid output_grid(const TileSpec& spec);
 
-// Channel pairs (ocean.cl) the outputs need: 1 (height, displacement x), 2, 3 or 4.
-int channel_pairs(unsigned outputs);
+// The spectral channels a tile transforms (kernels/ocean/ocean.cl): the leading `pairs` of the displaced
+// layout (h, Dx), (Dy, eps_x), (eps_y, Dxx), (Dyy, Dxy), or, where no displacement is asked for but slopes or
+// derivatives are, of the undisplaced layout (h, eps_x), (eps_y, Dxx), (Dyy, Dxy): one pair fewer.
+struct ChannelLayout {
+  int pairs;       // 1 to 4 displaced, 2 or 3 undisplaced
+  bool displaced;  // the layout
+};
+ChannelLayout channel_layout(unsigned outputs);
 
 }  // namespace squall::ocean

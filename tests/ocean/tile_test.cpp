@@ -336,6 +336,47 @@ TEST(OceanReference, AGridWiderThanARowGroupAgrees) {
   }
 }
 
+// A tile that asks for no displacement transforms the undisplaced channel layout, one pair fewer: every
+// output of every such set (and of the displaced sets beside them) agrees with the FFTW double reference,
+// on one layer (finalize reads the FFT's output) and on two layers (finalize reads the accumulated planes).
+TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
+  TileSpec one = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
+  one.layers[0].drift_x = 0.4;
+  one.choppiness = 1.2;
+  TileSpec two = one;
+  two.layers.push_back(one.layers[0]);
+  two.layers[1].nx = two.layers[1].ny = 32, two.layers[1].lx = two.layers[1].ly = 41, two.layers[1].seed = 5;
+  using Field = std::vector<float> TileFields::*;
+  const std::vector<std::pair<Output, std::vector<Field>>> fields = {
+      {Height, {&TileFields::height}},
+      {Displacement, {&TileFields::displacement_x, &TileFields::displacement_y}},
+      {Slopes, {&TileFields::slope_x, &TileFields::slope_y}},
+      {Normals, {&TileFields::normal_x, &TileFields::normal_y, &TileFields::normal_z}},
+      {Jacobian, {&TileFields::jacobian, &TileFields::jacobian_minus, &TileFields::jacobian_plus}}};
+  const unsigned sets[] = {Height | Normals,
+                           Slopes,
+                           Height | Slopes,
+                           Normals,
+                           Jacobian,
+                           Slopes | Jacobian,
+                           Height | Displacement | Normals,
+                           Displacement | Slopes,
+                           Height};
+  for (const TileSpec* spec : {&one, &two}) {
+    const TileFields r = CpuReference().tile(*spec, 2.5, kAllOutputs);
+    for (unsigned outputs : sets) {
+      const TileFields e = engine().tile(*spec, 2.5, outputs);
+      for (const auto& [output, members] : fields)
+        for (Field f : members) {
+          ASSERT_EQ((e.*f).size(), (outputs & output) ? (r.*f).size() : 0u) << "outputs " << outputs;
+          if (outputs & output)
+            EXPECT_LT(test::relative_rms_error(e.*f, r.*f), 1e-4)
+                << "outputs " << outputs << ", output " << output << ", layers " << spec->layers.size();
+        }
+    }
+  }
+}
+
 TEST(OceanSlopeVariance, UnresolvedSlopeVarianceFallsWithPixelScale) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200);
   double previous = 0;
