@@ -81,11 +81,12 @@ struct FftwOptions {
 
 std::unique_ptr<Backend> make_vkfft(Runtime& runtime);
 std::unique_ptr<Backend> make_clfft(Runtime& runtime);
-// Throws Error(InvalidArgument) unless the runtime's device is a CPU (its buffers are host memory).
+// Throws Error(InvalidArgument) unless the runtime's device is a CPU (its buffers are host memory) that runs native
+// kernels (each transform is one).
 std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options = {});
 // "vkfft", "clfft" or "fftw" (CPU devices only); throws Error(InvalidArgument) for any other name.
 std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name, const FftwOptions& fftw = {});
-// The backends make_backend accepts on this runtime's device: fftw only on a CPU device.
+// The backends make_backend accepts on this runtime's device: fftw only on a CPU device that runs native kernels.
 std::vector<std::string> available_backends(const Runtime& runtime);
 
 // A backend with its plan cache: the object engines hold. Destroy it before main returns (not from a

@@ -1,14 +1,16 @@
 // FFTW on the host for CPU devices (M. Frigo and S. G. Johnson, "The Design and Implementation of
-// FFTW3", Proc. IEEE 93(2), 2005). A CPU device's buffers live in host memory: the plan maps them
-// (PoCL maps without copying; the pool allocates them with CL_MEM_ALLOC_HOST_PTR on CPU devices),
-// runs FFTW's new-array execute on the mapped pointers, and unmaps. The blocking map waits for the
-// kernels queued before; the unmap is queued, so kernels after it see the result.
+// FFTW3", Proc. IEEE 93(2), 2005). A CPU device's buffers live in host memory: a transform is one native
+// kernel (clEnqueueNativeKernel), a host function that the device's worker thread calls in queue order
+// with the buffers' addresses, and that runs FFTW's new-array execute on them. The caller does not wait:
+// the kernels queued after it see its result, as after any kernel.
 #include <fftw3.h>
 
 #include <algorithm>
+#include <memory>
 #include <mutex>
 
 #include "common/error.h"
+#include "common/log.h"
 #include "fft/fft.h"
 #include "runtime/runtime.h"
 
@@ -90,9 +92,10 @@ struct Fftw<Precision::F64> {
 };
 
 // A cached transform: one FFTW plan per direction, placement (in place or not) and alignment, each made
-// on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Mapped buffers are normally
-// SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plan; any other pointer runs a plan
-// made with FFTW_UNALIGNED.
+// on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Device buffers are normally
+// SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plan, made when the transform is
+// enqueued (a planning error reaches the caller); any other address runs a plan made with FFTW_UNALIGNED
+// when it first meets one.
 template <Precision P>
 class FftwPlan : public Plan {
   using F = Fftw<P>;
@@ -112,25 +115,58 @@ class FftwPlan : public Plan {
     const PlanKey& k = key();
     const bool in_place = in() == out();
     if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
-    // input_bytes: what this key's transform reads (complex for C2R), in either direction. One wait: the
-    // output's map is enqueued first without waiting, and the in-order queue completes it before the
-    // input's blocking map returns (its event's wait then returns at once, or reports its error).
-    cl::Event output_mapped;
-    void* dst = in_place ? nullptr
-                         : queue.enqueueMapBuffer(out, CL_FALSE, CL_MAP_WRITE_INVALIDATE_REGION, 0, k.output_bytes(),
-                                                  nullptr, &output_mapped);
-    void* src = queue.enqueueMapBuffer(in, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, k.input_bytes());
-    if (in_place)
-      dst = src;
-    else
-      output_mapped.wait();
-    const bool unaligned = F::alignment(src) != 0 || F::alignment(dst) != 0;
-    F::execute(plan(direction, in_place, unaligned), k.transform, src, dst);
-    if (!in_place) queue.enqueueUnmapMemObject(out, dst);
-    queue.enqueueUnmapMemObject(in, src);
+    plan(direction, in_place, false);
+    // Out of place, two native kernels of one buffer each: PoCL 3.1 hands a native kernel the addresses
+    // of its buffers in the order they were created (pocl_create_command_full sorts them), not in the
+    // order of mem_list, so a kernel of two buffers could not tell input from output. The first notes
+    // the output's address in a cell that the second, which transforms, reads and deletes.
+    void** output = nullptr;
+    if (!in_place) {
+      auto cell = std::make_unique<void*>(nullptr);
+      enqueue_native(queue, &FftwPlan::note_output, {out(), cell.get(), this, direction});
+      output = cell.release();  // note_output writes it; transform reads and deletes it
+    }
+    enqueue_native(queue, &FftwPlan::transform, {in(), output, this, direction});
   }
 
  private:
+  // A native kernel's argument block, copied by clEnqueueNativeKernel.
+  struct Call {
+    void* buffer;    // the buffer's cl_mem handle when enqueued, its address when run
+    void** output;   // out of place: the output's address, noted by note_output; null in place
+    FftwPlan* self;  // cached by the Fft for its lifetime, which outlasts its queues' commands
+    Direction direction;
+  };
+
+  // Throws on failure (the cell of a note_output enqueued before is then leaked, not freed under it).
+  void enqueue_native(const cl::CommandQueue& queue, void(CL_CALLBACK* function)(void*), Call call) const {
+    const cl_mem buffer = static_cast<cl_mem>(call.buffer);
+    const void* handle = &call.buffer;
+    const cl_int status =
+        clEnqueueNativeKernel(queue(), function, &call, sizeof(call), 1, &buffer, &handle, 0, nullptr, nullptr);
+    if (status != CL_SUCCESS)
+      fail(Code::Internal,
+           "fftw: clEnqueueNativeKernel of " + describe(key()) + " failed (" + std::to_string(status) + ")");
+  }
+
+  static void CL_CALLBACK note_output(void* arguments) {
+    const Call& c = *static_cast<const Call*>(arguments);
+    *c.output = c.buffer;
+  }
+
+  static void CL_CALLBACK transform(void* arguments) {
+    const Call& c = *static_cast<const Call*>(arguments);
+    const std::unique_ptr<void*> output(c.output);
+    void* in = c.buffer;
+    void* out = output ? *output : in;
+    const bool unaligned = F::alignment(in) != 0 || F::alignment(out) != 0;
+    try {
+      F::execute(c.self->plan(c.direction, !output, unaligned), c.self->key().transform, in, out);
+    } catch (const std::exception& e) {  // not thrown across the OpenCL runtime: the output is left as it was
+      log(LogLevel::Error, "fftw: ", describe(c.self->key()), " not run: ", e.what());
+    }
+  }
+
   typename F::PlanT plan(Direction direction, bool in_place, bool unaligned) {
     auto& slot = plans_[4 * int(unaligned) + 2 * int(direction) + int(in_place)];
     std::lock_guard<std::mutex> lock(planner_mutex());
@@ -187,6 +223,9 @@ std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options)
   if (device.type != "cpu")
     fail(Code::InvalidArgument, "--fft fftw runs on CPU devices only (the device is " + device.type + ": " +
                                     device.name + "); use vkfft or clfft");
+  if (!(runtime.device().getInfo<CL_DEVICE_EXECUTION_CAPABILITIES>() & CL_EXEC_NATIVE_KERNEL))
+    fail(Code::InvalidArgument,
+         "--fft fftw needs a device that runs native kernels, and " + device.name + " does not; use vkfft or clfft");
   static const bool thread_safe = (fftw_make_planner_thread_safe(), fftwf_make_planner_thread_safe(), true);
   (void)thread_safe;  // other FFTW users in the process (the references of tests and benchmarks) plan too
   int threads = options.threads > 0 ? options.threads : int(std::max(1u, device.compute_units));

@@ -42,8 +42,8 @@ class BufferLease {
 class BufferPool {
  public:
   // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
-  // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR so that mapping them (the FFTW
-  // backend) does not copy.
+  // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR, in host memory where the FFTW
+  // backend's native kernels and a map reach them without a copy.
   // held_slot: the queue slot the calling thread holds, -1 for none (held_queue_slot()).
   BufferPool(
       const cl::Context& context, size_t max_idle_bytes, bool host_memory = false,
