@@ -241,7 +241,8 @@ std::string usage() {
          "                            (default 4; 1 serializes them)\n"
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
          "                            fftw, on the host, only for CPU devices)\n"
-         "  --fft-threads N           FFTW's threads per transform (default: the device's compute units)\n"
+         "  --fft-threads N           FFTW's threads per transform of a request alone on the device (default:\n"
+         "                            the device's compute units; one while other requests run)\n"
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
          "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else ~/.cache/squall/pocl)\n"
          "  --max-grid-cells N        cells of one field (default " +

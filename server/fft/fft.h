@@ -75,7 +75,8 @@ class Backend {
 };
 
 struct FftwOptions {
-  int threads = 0;      // FFTW's threads per transform; 0: the device's compute units
+  int threads = 0;      // FFTW's threads per transform of a request alone on the device (one beside others);
+                        // 0: the device's compute units
   bool measure = true;  // FFTW_MEASURE (plans take longer to make, run faster); false: FFTW_ESTIMATE
 };
 

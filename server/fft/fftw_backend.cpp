@@ -91,17 +91,23 @@ struct Fftw<Precision::F64> {
   static int alignment(void* p) { return fftw_alignment_of((Real*)p); }
 };
 
-// A cached transform: one FFTW plan per direction, placement (in place or not) and alignment, each made
-// on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Device buffers are normally
-// SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plan, made when the transform is
-// enqueued (a planning error reaches the caller); any other address runs a plan made with FFTW_UNALIGNED
-// when it first meets one.
+// A cached transform: one FFTW plan per direction, placement (in place or not), alignment and thread
+// count, each made on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Device buffers
+// are normally SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plans, made when the
+// transform is enqueued (a planning error reaches the caller); any other address runs a plan made with
+// FFTW_UNALIGNED when it first meets one.
+//
+// Threads: a transform runs on `threads` threads when its request is the only one holding a device
+// queue, and on one thread when others run beside it. Two threads take 0.6-0.9 of one thread's time on a
+// 256^2 batch of two or three, so they cost more CPU time in all; while other requests keep the cores
+// busy, that time is theirs.
 template <Precision P>
 class FftwPlan : public Plan {
   using F = Fftw<P>;
 
  public:
-  FftwPlan(const PlanKey& key, int threads, unsigned planner) : Plan(key), threads_(threads), planner_(planner) {}
+  FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner)
+      : Plan(key), runtime_(runtime), threads_(threads), planner_(planner) {}
 
   ~FftwPlan() override {
     std::lock_guard<std::mutex> lock(planner_mutex());
@@ -115,7 +121,8 @@ class FftwPlan : public Plan {
     const PlanKey& k = key();
     const bool in_place = in() == out();
     if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
-    plan(direction, in_place, false);
+    plan(direction, in_place, false, true);
+    plan(direction, in_place, false, false);
     // Out of place, two native kernels of one buffer each: PoCL 3.1 hands a native kernel the addresses
     // of its buffers in the order they were created (pocl_create_command_full sorts them), not in the
     // order of mem_list, so a kernel of two buffers could not tell input from output. The first notes
@@ -160,27 +167,30 @@ class FftwPlan : public Plan {
     void* in = c.buffer;
     void* out = output ? *output : in;
     const bool unaligned = F::alignment(in) != 0 || F::alignment(out) != 0;
+    const bool alone = c.self->runtime_.queues_held() <= 1;
     try {
-      F::execute(c.self->plan(c.direction, !output, unaligned), c.self->key().transform, in, out);
+      F::execute(c.self->plan(c.direction, !output, unaligned, alone), c.self->key().transform, in, out);
     } catch (const std::exception& e) {  // not thrown across the OpenCL runtime: the output is left as it was
       log(LogLevel::Error, "fftw: ", describe(c.self->key()), " not run: ", e.what());
     }
   }
 
-  typename F::PlanT plan(Direction direction, bool in_place, bool unaligned) {
-    auto& slot = plans_[4 * int(unaligned) + 2 * int(direction) + int(in_place)];
+  // threaded: on threads_ threads (if more than one), else on one.
+  typename F::PlanT plan(Direction direction, bool in_place, bool unaligned, bool threaded) {
+    const int threads = threaded ? threads_ : 1;
+    auto& slot = plans_[8 * int(threads > 1) + 4 * int(unaligned) + 2 * int(direction) + int(in_place)];
     std::lock_guard<std::mutex> lock(planner_mutex());
-    if (!slot) slot = make(direction, in_place, unaligned);
+    if (!slot) slot = make(direction, in_place, unaligned, threads);
     return slot;
   }
 
-  typename F::PlanT make(Direction direction, bool in_place, bool unaligned) {
+  typename F::PlanT make(Direction direction, bool in_place, bool unaligned, int threads) {
     const PlanKey& k = key();
     const int n[2] = {int(k.ny), int(k.nx)};  // row-major, x fastest: FFTW's last dimension
     const int real = int(k.nx * k.ny), complex = int((k.transform == Transform::C2C ? k.nx : k.nx / 2 + 1) * k.ny);
     void* a = F::alloc(std::max(k.real_bytes(), k.complex_bytes()));
     void* b = in_place ? a : F::alloc(std::max(k.real_bytes(), k.complex_bytes()));
-    F::threads(threads_);
+    F::threads(threads);
     const unsigned flags = planner_ | (unaligned ? FFTW_UNALIGNED : 0);
     typename F::PlanT p;
     if (k.transform == Transform::C2C)
@@ -195,23 +205,27 @@ class FftwPlan : public Plan {
     return p;
   }
 
+  const Runtime& runtime_;
   int threads_;
   unsigned planner_;
-  typename F::PlanT plans_[8] = {};  // [4 * unaligned + 2 * direction + in_place]
+  typename F::PlanT plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
 };
 
 class FftwBackend : public Backend {
  public:
-  FftwBackend(int threads, unsigned planner) : threads_(threads), planner_(planner) {}
+  FftwBackend(const Runtime& runtime, int threads, unsigned planner)
+      : runtime_(runtime), threads_(threads), planner_(planner) {}
   std::string name() const override { return "fftw"; }
 
   // FFTW plans any size; each (direction, placement, alignment) is planned on its first use and kept.
   std::unique_ptr<Plan> bake(const PlanKey& key) override {
-    if (key.precision == Precision::F32) return std::make_unique<FftwPlan<Precision::F32>>(key, threads_, planner_);
-    return std::make_unique<FftwPlan<Precision::F64>>(key, threads_, planner_);
+    if (key.precision == Precision::F32)
+      return std::make_unique<FftwPlan<Precision::F32>>(key, runtime_, threads_, planner_);
+    return std::make_unique<FftwPlan<Precision::F64>>(key, runtime_, threads_, planner_);
   }
 
  private:
+  const Runtime& runtime_;
   int threads_;
   unsigned planner_;
 };
@@ -229,7 +243,7 @@ std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options)
   static const bool thread_safe = (fftw_make_planner_thread_safe(), fftwf_make_planner_thread_safe(), true);
   (void)thread_safe;  // other FFTW users in the process (the references of tests and benchmarks) plan too
   int threads = options.threads > 0 ? options.threads : int(std::max(1u, device.compute_units));
-  return std::make_unique<FftwBackend>(threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE);
+  return std::make_unique<FftwBackend>(runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE);
 }
 
 }  // namespace squall::fft

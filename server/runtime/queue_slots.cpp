@@ -75,6 +75,7 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
     slot = self.slot;
   }
   ++acquisitions_;
+  ++held_;
   t_slot = slot;
   return QueueLease(this, size_t(slot), k);
 }
@@ -135,6 +136,7 @@ void QueueSlots::release(size_t slot, int kind, std::chrono::steady_clock::time_
     log(LogLevel::Error, "finishing device queue ", slot, ": ", e.what(), " (", e.err(), ")");
   }
   if (t_slot == int(slot)) t_slot = -1;
+  --held_;
   if (on_settled_) on_settled_(slot);
   const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
   std::lock_guard<std::mutex> lock(mutex_);

@@ -98,7 +98,8 @@ class QueueSlots {
   void record_hold(const WorkKind& kind, double seconds);
 
   uint64_t acquisitions() const { return acquisitions_; }
-  size_t waiting();  // callers waiting for a queue now
+  size_t waiting();                      // callers waiting for a queue now
+  size_t held() const { return held_; }  // leases held now
   uint64_t wait_ns() const { return wait_ns_; }
 
  private:
@@ -123,6 +124,7 @@ class QueueSlots {
   std::unordered_map<std::string, int> kinds_;          // "site/log2 size" -> index in holds_
   std::vector<double> holds_;                           // learned hold per kind, s
   std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
+  std::atomic<size_t> held_{0};                         // leases from acquire() to the end of release()
 };
 
 }  // namespace squall

@@ -96,6 +96,8 @@ class Runtime {
   DeviceWait device_wait() const {
     return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9, queues_->waiting()};
   }
+  // The queues leased now (exclusive()): 1 when the caller's request is the only one on the device.
+  size_t queues_held() const { return queues_->held(); }
 
   // Profile mode (RuntimeOptions::profile_kernels): the per-kernel table, sorted by program and kernel.
   bool profiling() const { return profiling_; }

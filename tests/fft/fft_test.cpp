@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <future>
 #include <random>
+#include <thread>
 
 #include "common/error.h"
 #include "fft/fft.h"
@@ -153,6 +155,36 @@ TEST_P(FftAccuracy, OutOfPlaceWithItsOutputMadeBeforeItsInput) {
   EXPECT_LE(relative_l2(test::read<float>(full, complex.size()), reference_c2c(complex, nx, ny, FFTW_FORWARD)),
             kTolerance);
   EXPECT_EQ(test::read<float>(real_in, real.size()), real) << "out-of-place must leave its input alone";
+}
+
+// With another request holding a device queue, the fftw backend runs its plans of one thread instead of
+// several: they agree with FFTW as well.
+TEST_P(FftAccuracy, TransformsBesideAnotherRequestMatchFftw) {
+  const auto [backend, nx, ny] = GetParam();
+  std::promise<void> held, done;
+  std::thread other([&] {
+    auto lease = test::runtime().exclusive();
+    held.set_value();
+    done.get_future().wait();
+  });
+  held.get_future().wait();
+  auto complex = random_floats(2 * nx * ny, 8), real = random_floats(nx * ny, 9);
+  cl::Buffer data = test::upload(complex), real_in = test::upload(real);
+  cl::Buffer half(test::runtime().context(), CL_MEM_READ_WRITE, (nx / 2 + 1) * ny * 8);
+  size_t beside = 0;
+  {
+    auto lease = test::runtime().exclusive();
+    beside = test::runtime().queues_held();
+    plan(Transform::C2C).enqueue(test::runtime().queue(), Direction::Inverse, data, data);
+    plan(Transform::R2C).enqueue(test::runtime().queue(), Direction::Forward, real_in, half);
+  }
+  done.set_value();
+  other.join();
+  EXPECT_EQ(beside, 2u);
+  EXPECT_LE(relative_l2(test::read<float>(data, complex.size()), reference_c2c(complex, nx, ny, FFTW_BACKWARD)),
+            kTolerance);
+  auto want = reference_r2c(real, nx, ny);
+  EXPECT_LE(relative_l2(test::read<float>(half, 2 * want.size()), want), kTolerance);
 }
 
 TEST_P(FftAccuracy, BatchedTransformsAreIndependent) {
