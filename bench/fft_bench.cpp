@@ -1,7 +1,8 @@
 // One complex 2D FFT (forward, single precision, in place) with each backend the device offers (VkFFT,
-// clFFT, and on a CPU device the fftw backend on mapped OpenCL buffers) and with plain FFTW on host arrays
-// (2 threads, the reference) at 256^2, 512^2 and 1024^2 on this machine, in one run; prints medians and
-// the ratios to the reference.
+// clFFT, and on a CPU device the fftw backend, FFTW in a native kernel on the OpenCL buffer) and with plain
+// FFTW on host arrays (2 threads, the reference; and 1 thread) at 256^2, 512^2 and 1024^2 on this machine,
+// in one run; prints medians, the ratios to the reference and the reference's time over one thread's
+// (what a second thread gains: 0.5 at best).
 //
 //   build/bench/fft_bench [--device auto|cpu|gpu|NAME] [--runs N]
 #include <fftw3.h>
@@ -29,18 +30,18 @@ int main(int argc, char** argv) {
   configure_kernel_cache();
   Runtime runtime(options);
   fftwf_init_threads();
-  fftwf_plan_with_nthreads(2);
   std::vector<std::string> names = fft::available_backends(runtime);
   std::vector<std::unique_ptr<fft::Fft>> backends;
   for (const auto& name : names) backends.push_back(std::make_unique<fft::Fft>(fft::make_backend(runtime, name)));
 
   std::printf(
       "device: %s\nmedian of %d runs, one forward C2C transform, f32, in place; reference: FFTW on host "
-      "arrays, 2 threads\n\n%-10s",
+      "arrays, 2 threads (and 1)\n\n%-10s",
       describe(runtime.device_info()).c_str(), runs, "size");
   for (const auto& name : names) std::printf(" %10s ms", name.c_str());
-  std::printf(" %10s ms", "reference");
+  std::printf(" %10s ms %10s ms", "reference", "1 thread");
   for (const auto& name : names) std::printf(" %10s/ref", name.c_str());
+  std::printf(" %14s", "ref/1 thread");
   std::printf("\n");
   for (size_t n : {256, 512, 1024}) {
     fft::PlanKey key{n, n, 1, fft::Transform::C2C, fft::Precision::F32};
@@ -60,13 +61,19 @@ int main(int argc, char** argv) {
           runs));
     }
     auto* buf = reinterpret_cast<fftwf_complex*>(host.data());
-    fftwf_plan plan = fftwf_plan_dft_2d(int(n), int(n), buf, buf, FFTW_FORWARD, FFTW_MEASURE);
-    double t_fftw = bench::median_seconds([&] { fftwf_execute(plan); }, runs);
-    fftwf_destroy_plan(plan);
+    auto fftw_seconds = [&](int threads) {
+      fftwf_plan_with_nthreads(threads);
+      fftwf_plan plan = fftwf_plan_dft_2d(int(n), int(n), buf, buf, FFTW_FORWARD, FFTW_MEASURE);
+      double t = bench::median_seconds([&] { fftwf_execute(plan); }, runs);
+      fftwf_destroy_plan(plan);
+      return t;
+    };
+    const double t_fftw = fftw_seconds(2), t_one = fftw_seconds(1);
     std::printf("%4zux%-5zu", n, n);
     for (double t : times) std::printf(" %13.3f", t * 1e3);
-    std::printf(" %13.3f", t_fftw * 1e3);
+    std::printf(" %13.3f %13.3f", t_fftw * 1e3, t_one * 1e3);
     for (double t : times) std::printf(" %14.2f", t / t_fftw);
+    std::printf(" %14.2f", t_fftw / t_one);
     std::printf("\n");
     std::fflush(stdout);
   }

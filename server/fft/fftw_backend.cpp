@@ -98,9 +98,9 @@ struct Fftw<Precision::F64> {
 // FFTW_UNALIGNED when it first meets one.
 //
 // Threads: a transform runs on `threads` threads when its request is the only one holding a device
-// queue, and on one thread when others run beside it. Two threads take 0.6-0.9 of one thread's time on a
-// 256^2 batch of two or three, so they cost more CPU time in all; while other requests keep the cores
-// busy, that time is theirs.
+// queue, and on one thread when others run beside it. Two threads take 0.9 of one thread's time at 256^2
+// and 0.53 from 512^2 on (bench/fft_bench): 1.8 and 1.06 times the CPU time. While other requests keep
+// the cores busy, that time is theirs.
 template <Precision P>
 class FftwPlan : public Plan {
   using F = Fftw<P>;
