@@ -16,7 +16,8 @@ namespace squall::ocean {
 namespace {
 
 constexpr const char* kProgram = "ocean/ocean.cl";
-constexpr int kOutputPlanes = 13;  // OUT_* of ocean.cl, the last the scratch plane
+constexpr int kOutputPlanes = 13;   // OUT_* of ocean.cl, the last the scratch plane
+constexpr int kWhitecapPlane = 11;  // OUT_WHITECAP
 
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
@@ -279,10 +280,12 @@ std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const Outp
   return whitecaps->map();
 }
 
-// Reads the planes of `outputs` from the finalize kernel's output (kOutputPlanes planes of `cells`).
-void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t cells, unsigned outputs,
+// Reads the planes of `outputs` that `planes` names from the finalize kernel's output (kOutputPlanes
+// planes of `cells`, in TileFields' order).
+void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t cells, unsigned outputs, unsigned planes,
                   TileFields& result) {
   auto read = [&](int plane, std::vector<float>& into) {
+    if (!(planes & (1u << plane))) return;
     into.resize(cells);
     queue.enqueueReadBuffer(out, CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
   };
@@ -291,14 +294,14 @@ void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t c
   if (outputs & Slopes) read(3, result.slope_x), read(4, result.slope_y);
   if (outputs & Normals) read(5, result.normal_x), read(6, result.normal_y), read(7, result.normal_z);
   if (outputs & Jacobian) read(8, result.jacobian), read(9, result.jacobian_minus), read(10, result.jacobian_plus);
-  if (outputs & Whitecaps) read(11, result.whitecaps);
+  if (outputs & Whitecaps) read(kWhitecapPlane, result.whitecaps);
   queue.finish();
 }
 
 }  // namespace
 
 TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps,
-                             const Cancellation& cancel) {
+                             const Cancellation& cancel, unsigned planes) {
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
@@ -343,7 +346,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
                        cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                        whitecap.buffer(), out.buffer());
-  read_outputs(runtime.queue(), out.buffer(), cells, outputs, result);
+  read_outputs(runtime.queue(), out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {

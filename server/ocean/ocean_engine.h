@@ -42,9 +42,10 @@ class OceanEngine {
   // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the
   // map of one stream across frames (see WhitecapState).
   // `cancel` is checked between layers (each waited for): a cancelled call frees the device within a
-  // layer (Error(Cancelled)).
+  // layer (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read back; the
+  // others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
-                  const Cancellation& cancel = {});
+                  const Cancellation& cancel = {}, unsigned planes = kAllPlanes);
 
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is

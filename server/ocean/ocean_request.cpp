@@ -187,6 +187,12 @@ unsigned output_flags(const std::vector<v1::TileOutput>& outputs) {
   return flags;
 }
 
+unsigned output_planes(const std::vector<v1::TileOutput>& outputs) {
+  unsigned planes = 0;
+  for (auto o : outputs) planes |= 1u << (unsigned(o) - 1);  // ocean.proto's order is TileFields'
+  return planes;
+}
+
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny) {
   bool own = spec.nx > 0 && spec.ny > 0;
   *nx = own ? spec.nx : spec.layers.at(0).nx;

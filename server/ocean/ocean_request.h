@@ -22,7 +22,8 @@ TileSpec tile_spec(const squall::v1::TileSpec& tile, const LimitGate& gate, cons
 // The outputs asked for, validated (at least one, each known, none twice).
 std::vector<squall::v1::TileOutput> outputs(const google::protobuf::RepeatedField<int>& outputs,
                                             const std::string& path = "outputs");
-unsigned output_flags(const std::vector<squall::v1::TileOutput>& outputs);  // engine Output bits
+unsigned output_flags(const std::vector<squall::v1::TileOutput>& outputs);   // engine Output bits
+unsigned output_planes(const std::vector<squall::v1::TileOutput>& outputs);  // engine kAllPlanes bits
 
 // Output grid of a validated spec (the first layer's when the spec leaves it 0).
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);

@@ -22,7 +22,8 @@ constexpr uint64_t kSampleBytesPerPoint = 8 * 9;  // eight packed doubles
 struct TileJob {
   ocean::TileSpec spec;
   std::vector<v1::TileOutput> outputs;
-  unsigned flags = 0;
+  unsigned flags = 0;   // the outputs' Output groups
+  unsigned planes = 0;  // the outputs themselves (kAllPlanes bits)
   v1::DType dtype = v1::DTYPE_FLOAT32;
   int64_t nx = 0, ny = 0;
 
@@ -43,6 +44,7 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
   job.spec = tile_spec(tile, gate);  // validated under "tile."
   job.outputs = squall::ocean::rpc::outputs(outputs);
   job.flags = output_flags(job.outputs);
+  job.planes = output_planes(job.outputs);
   job.dtype = squall::field::dtype(d, "dtype");
   output_grid(job.spec, &job.nx, &job.ny);
   return job;
@@ -72,7 +74,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags, nullptr, cancellation(*context));
+    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags, nullptr, cancellation(*context), job.planes);
     frame_reply(job, fields, t, response);
     return grpc::Status::OK;
   });
@@ -101,7 +103,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) {
-      return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps, call.cancellation());
+      return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps, call.cancellation(), job.planes);
     };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
     // Pipelined: the engine computes frame i + 1 while frame i is encoded and written. An early return

@@ -306,6 +306,26 @@ v1::SampleSurfaceResponse sample(const std::vector<std::pair<double, double>>& p
   return response;
 }
 
+// A request naming some fields of a group (normal_z of the normals), in any order, gets those fields, the
+// same as in a request for every output (which transforms the displaced channel layout: float rounding).
+TEST(OceanService, SomeFieldsOfAGroupAreThoseOfTheWholeTile) {
+  v1::GetTileRequest all = tile_request(3.0), some = all;
+  some.clear_outputs();
+  some.add_outputs(v1::TILE_OUTPUT_NORMAL_Z), some.add_outputs(v1::TILE_OUTPUT_HEIGHT);
+  v1::GetTileResponse whole = get_tile(daemon().address(), all), part = get_tile(daemon().address(), some);
+  ASSERT_EQ(part.fields_size(), 2);
+  const std::vector<std::pair<int, int>> pairs = {{0, 7}, {1, 0}};  // (part, whole) field indices
+  for (auto [p, w] : pairs) {
+    EXPECT_EQ(part.fields(p).name(), whole.fields(w).name());
+    auto a = client::ocean::values(part.fields(p)), b = client::ocean::values(whole.fields(w));
+    ASSERT_EQ(a.size(), b.size());
+    double worst = 0, scale = 0;
+    for (size_t i = 0; i < a.size(); ++i)
+      worst = std::max(worst, double(std::abs(a[i] - b[i]))), scale = std::max(scale, double(std::abs(b[i])));
+    EXPECT_LT(worst, 1e-5 * scale) << part.fields(p).name();
+  }
+}
+
 // At the tile's grid points (also one period away) the samples are the tile's values; with
 // invert_displacement, the query at a displaced point finds the grid point it came from.
 TEST(OceanService, SampleSurfaceAtGridPointsEqualsTheTile) {

@@ -377,6 +377,20 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
   }
 }
 
+// `planes` names the fields read back: the others of their groups stay empty, the named ones are those of
+// a tile that reads every plane; whitecaps asked for are read whatever `planes` says (the stream's map).
+TEST(OceanTile, ReadsBackOnlyTheNamedPlanes) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
+  const unsigned height_and_normal_z = (1u << 0) | (1u << 7);
+  const TileFields all = engine().tile(spec, 1.5, Height | Normals | Whitecaps);
+  const TileFields named = engine().tile(spec, 1.5, Height | Normals | Whitecaps, nullptr, {}, height_and_normal_z);
+  EXPECT_EQ(named.height, all.height);
+  EXPECT_EQ(named.normal_z, all.normal_z);
+  EXPECT_EQ(named.whitecaps, all.whitecaps);
+  EXPECT_EQ(named.height.size(), 64u * 64u);
+  EXPECT_TRUE(named.normal_x.empty() && named.normal_y.empty());
+}
+
 TEST(OceanSlopeVariance, UnresolvedSlopeVarianceFallsWithPixelScale) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200);
   double previous = 0;
