@@ -1,11 +1,12 @@
 // FFTW on the host for CPU devices (M. Frigo and S. G. Johnson, "The Design and Implementation of
-// FFTW3", Proc. IEEE 93(2), 2005). A CPU device's buffers live in host memory: a transform is one native
-// kernel (clEnqueueNativeKernel), a host function that the device's worker thread calls in queue order
-// with the buffers' addresses, and that runs FFTW's new-array execute on them. The caller does not wait:
-// the kernels queued after it see its result, as after any kernel.
+// FFTW3", Proc. IEEE 93(2), 2005). A CPU device's buffers live in host memory: a transform is queued as a
+// native kernel (clEnqueueNativeKernel), a host function that the device's worker thread calls in queue
+// order with the buffers' addresses, and that runs FFTW's new-array execute on them. The caller does not
+// wait: the kernels queued after it see its result, as after any kernel.
 #include <fftw3.h>
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 #include <mutex>
 
@@ -112,7 +113,7 @@ class FftwPlan : public Plan {
   ~FftwPlan() override {
     std::lock_guard<std::mutex> lock(planner_mutex());
     for (auto& p : plans_)
-      if (p) F::destroy(p);
+      if (p.load()) F::destroy(p.load());
   }
 
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
@@ -175,13 +176,16 @@ class FftwPlan : public Plan {
     }
   }
 
-  // threaded: on threads_ threads (if more than one), else on one.
+  // threaded: on threads_ threads (if more than one), else on one. A plan made is read without the
+  // planner's lock, which a worker thread running a transform would otherwise wait for while another
+  // thread plans.
   typename F::PlanT plan(Direction direction, bool in_place, bool unaligned, bool threaded) {
     const int threads = threaded ? threads_ : 1;
     auto& slot = plans_[8 * int(threads > 1) + 4 * int(unaligned) + 2 * int(direction) + int(in_place)];
+    if (typename F::PlanT made = slot.load(std::memory_order_acquire)) return made;
     std::lock_guard<std::mutex> lock(planner_mutex());
-    if (!slot) slot = make(direction, in_place, unaligned, threads);
-    return slot;
+    if (!slot.load()) slot.store(make(direction, in_place, unaligned, threads), std::memory_order_release);
+    return slot.load();
   }
 
   typename F::PlanT make(Direction direction, bool in_place, bool unaligned, int threads) {
@@ -208,7 +212,7 @@ class FftwPlan : public Plan {
   const Runtime& runtime_;
   int threads_;
   unsigned planner_;
-  typename F::PlanT plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
+  std::atomic<typename F::PlanT> plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
 };
 
 class FftwBackend : public Backend {
