@@ -16,30 +16,41 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Callable, Dict, List, Tuple
+from typing import Callable, Dict, List, NamedTuple, Tuple
 
 import squall
 from load_bench import METHODS, requests
 from python_client_bench import ROOT, Daemon
 
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+class Cost(NamedTuple):
+    cpu_ms: float  # squalld's CPU time per call
+    switches: float  # context switches of squalld's threads per call
+    wall_ms: float  # wall time per call, at the client
+
 
 def usage(pid: int) -> Tuple[float, int]:
-    """CPU seconds (user + system) and context switches of the threads of process `pid` so far."""
-    seconds, switches = 0.0, 0
+    """CPU seconds (user + system) of process `pid` so far, its ended threads' included, and the
+    context switches of its threads alive now (an ended thread's are lost: squalld's threads are
+    pooled and live on between calls)."""
+    stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    seconds = (int(stat[11]) + int(stat[12])) / CLOCK_TICKS
+    switches = 0
     for tid in os.listdir(f"/proc/{pid}/task"):
         try:
-            stat = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()
             status = Path(f"/proc/{pid}/task/{tid}/status").read_text().splitlines()
         except FileNotFoundError:  # a thread that ended meanwhile
             continue
-        seconds += (int(stat[11]) + int(stat[12])) / os.sysconf("SC_CLK_TCK")
+        # voluntary_ctxt_switches and nonvoluntary_ctxt_switches, both counted
         switches += sum(int(line.split()[1]) for line in status if "ctxt_switches:" in line)
     return seconds, switches
 
 
-def measure(squalld: Path, calls: int) -> Dict[str, Tuple[float, float, float]]:
-    """Per method: squalld CPU ms per call, context switches per call, wall ms per call."""
-    result: Dict[str, Tuple[float, float, float]] = {}
+def measure(squalld: Path, calls: int) -> Dict[str, Cost]:
+    """The cost of each method's call on a fresh squalld."""
+    result: Dict[str, Cost] = {}
     with tempfile.TemporaryDirectory() as directory:
         daemon = Daemon(squalld, Path(directory))
         try:
@@ -54,9 +65,8 @@ def measure(squalld: Path, calls: int) -> Dict[str, Tuple[float, float, float]]:
                         "Render": lambda: client.clouds.render(request=made["render"]),
                     }
                     for name in METHODS:
-                        for _ in range(
-                            max(20, calls // 10)
-                        ):  # warm: plans, kernels, learned holds
+                        # warm: FFT plans, kernels for the launch sizes, learned holds
+                        for _ in range(max(20, calls // 10)):
                             methods[name]()
                         cpu0, switches0 = usage(daemon.process.pid)
                         start = time.perf_counter()
@@ -64,7 +74,7 @@ def measure(squalld: Path, calls: int) -> Dict[str, Tuple[float, float, float]]:
                             methods[name]()
                         wall = time.perf_counter() - start
                         cpu1, switches1 = usage(daemon.process.pid)
-                        result[name] = (
+                        result[name] = Cost(
                             1e3 * (cpu1 - cpu0) / calls,
                             (switches1 - switches0) / calls,
                             1e3 * wall / calls,
@@ -81,7 +91,7 @@ def main() -> None:
     parser.add_argument("--squalld", type=Path, action="append")
     args = parser.parse_args()
     binaries: List[Path] = args.squalld or [ROOT / "build" / "squalld"]
-    runs: Dict[Path, List[Dict[str, Tuple[float, float, float]]]] = {b: [] for b in binaries}
+    runs: Dict[Path, List[Dict[str, Cost]]] = {b: [] for b in binaries}
     for _ in range(args.runs):
         for binary in binaries:
             runs[binary].append(measure(binary, args.calls))
@@ -90,9 +100,12 @@ def main() -> None:
     )
     for binary in binaries:
         for name in METHODS:
-            columns = [statistics.median(run[name][i] for run in runs[binary]) for i in range(3)]
+            median = Cost(
+                *(statistics.median(c) for c in zip(*(run[name] for run in runs[binary])))
+            )
             print(
-                f"{str(binary):40s} {name:8s} {columns[0]:12.3f} {columns[1]:14.1f} {columns[2]:13.3f}"
+                f"{str(binary):40s} {name:8s} {median.cpu_ms:12.3f} {median.switches:14.1f} "
+                f"{median.wall_ms:13.3f}"
             )
     print(f"medians of {args.runs} runs of {args.calls} calls per method, one client")
 

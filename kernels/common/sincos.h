@@ -19,7 +19,7 @@
 
 /* rint(x): x to the nearest integer, ties to even. Below 2^23 in magnitude, adding 2^23 leaves no bits
  * below the units, so the addition rounds (to even) and the subtraction is exact; from 2^23 on every float
- * is an integer. In float arithmetic, with no call: PoCL's rint is a bitwise emulation 3x as long. */
+ * is an integer. In float arithmetic, with no call: PoCL's rint is a longer bitwise emulation. */
 static inline float sq_rint(float x) {
   const float two_23 = 8388608.0f;
   return fabs(x) < two_23 ? copysign((fabs(x) + two_23) - two_23, x) : x;

@@ -47,8 +47,7 @@ std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name,
 
 std::vector<std::string> available_backends(const Runtime& runtime) {
   std::vector<std::string> names = {"vkfft", "clfft"};
-  const bool native_kernels = runtime.device().getInfo<CL_DEVICE_EXECUTION_CAPABILITIES>() & CL_EXEC_NATIVE_KERNEL;
-  if (runtime.device_info().type == "cpu" && native_kernels) names.push_back("fftw");
+  if (runtime.device_info().type == "cpu" && runs_native_kernels(runtime)) names.push_back("fftw");
   return names;
 }
 

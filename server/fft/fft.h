@@ -85,6 +85,7 @@ std::unique_ptr<Backend> make_clfft(Runtime& runtime);
 // Throws Error(InvalidArgument) unless the runtime's device is a CPU (its buffers are host memory) that runs native
 // kernels (each transform is one).
 std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options = {});
+bool runs_native_kernels(const Runtime& runtime);  // CL_EXEC_NATIVE_KERNEL: what the fftw backend needs
 // "vkfft", "clfft" or "fftw" (CPU devices only); throws Error(InvalidArgument) for any other name.
 std::unique_ptr<Backend> make_backend(Runtime& runtime, const std::string& name, const FftwOptions& fftw = {});
 // The backends make_backend accepts on this runtime's device: fftw only on a CPU device that runs native kernels.

@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <memory>
 #include <mutex>
+#include <string>
 
 #include "common/error.h"
 #include "common/log.h"
@@ -99,9 +101,9 @@ struct Fftw<Precision::F64> {
 // FFTW_UNALIGNED when it first meets one.
 //
 // Threads: a transform runs on `threads` threads when its request is the only one holding a device
-// queue, and on one thread when others run beside it. Two threads take 0.9 of one thread's time at 256^2
-// and 0.53 from 512^2 on (bench/fft_bench): 1.8 and 1.06 times the CPU time. While other requests keep
-// the cores busy, that time is theirs.
+// queue, and on one thread when others run beside it. A second thread shortens a small transform by
+// little and costs more CPU time in all (bench/fft_bench prints both); while other requests keep the
+// cores busy, that time is theirs.
 template <Precision P>
 class FftwPlan : public Plan {
   using F = Fftw<P>;
@@ -122,6 +124,10 @@ class FftwPlan : public Plan {
     const PlanKey& k = key();
     const bool in_place = in() == out();
     if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
+    {
+      std::lock_guard<std::mutex> lock(failure_mutex_);
+      if (!failure_.empty()) fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + failure_);
+    }
     plan(direction, in_place, false, true);
     plan(direction, in_place, false, false);
     // Out of place, two native kernels of one buffer each: PoCL 3.1 hands a native kernel the addresses
@@ -171,9 +177,21 @@ class FftwPlan : public Plan {
     const bool alone = c.self->runtime_.queues_held() <= 1;
     try {
       F::execute(c.self->plan(c.direction, !output, unaligned, alone), c.self->key().transform, in, out);
-    } catch (const std::exception& e) {  // not thrown across the OpenCL runtime: the output is left as it was
-      log(LogLevel::Error, "fftw: ", describe(c.self->key()), " not run: ", e.what());
+    } catch (const std::exception& e) {  // not thrown across the OpenCL runtime
+      c.self->failed(e.what(), out);
     }
+  }
+
+  // A transform that could not run (an unaligned plan that FFTW would not make) leaves NaN in its
+  // output, is logged, and fails the next enqueue.
+  void failed(const std::string& what, void* out) {
+    using Real = typename F::Real;
+    const PlanKey& k = key();
+    const size_t bytes = k.transform == Transform::C2R ? k.real_bytes() : k.complex_bytes();
+    std::fill_n(static_cast<Real*>(out), bytes / sizeof(Real), std::numeric_limits<Real>::quiet_NaN());
+    log(LogLevel::Error, "fftw: ", describe(k), " not run: ", what);
+    std::lock_guard<std::mutex> lock(failure_mutex_);
+    failure_ = what;
   }
 
   // threaded: on threads_ threads (if more than one), else on one. A plan made is read without the
@@ -212,6 +230,8 @@ class FftwPlan : public Plan {
   const Runtime& runtime_;
   int threads_;
   unsigned planner_;
+  std::mutex failure_mutex_;
+  std::string failure_;                            // why a transform did not run; empty while all ran
   std::atomic<typename F::PlanT> plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
 };
 
@@ -236,12 +256,16 @@ class FftwBackend : public Backend {
 
 }  // namespace
 
+bool runs_native_kernels(const Runtime& runtime) {
+  return runtime.device().getInfo<CL_DEVICE_EXECUTION_CAPABILITIES>() & CL_EXEC_NATIVE_KERNEL;
+}
+
 std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options) {
   const DeviceInfo& device = runtime.device_info();
   if (device.type != "cpu")
     fail(Code::InvalidArgument, "--fft fftw runs on CPU devices only (the device is " + device.type + ": " +
                                     device.name + "); use vkfft or clfft");
-  if (!(runtime.device().getInfo<CL_DEVICE_EXECUTION_CAPABILITIES>() & CL_EXEC_NATIVE_KERNEL))
+  if (!runs_native_kernels(runtime))
     fail(Code::InvalidArgument,
          "--fft fftw needs a device that runs native kernels, and " + device.name + " does not; use vkfft or clfft");
   static const bool thread_safe = (fftw_make_planner_thread_safe(), fftwf_make_planner_thread_safe(), true);

@@ -188,8 +188,10 @@ unsigned output_flags(const std::vector<v1::TileOutput>& outputs) {
 }
 
 unsigned output_planes(const std::vector<v1::TileOutput>& outputs) {
+  static_assert(v1::TILE_OUTPUT_HEIGHT == 1 && v1::TILE_OUTPUT_NORMAL_Z == 8 && v1::TILE_OUTPUT_WHITECAP == 12,
+                "TileOutput n is the n-th field of TileFields (kAllPlanes bit n - 1)");
   unsigned planes = 0;
-  for (auto o : outputs) planes |= 1u << (unsigned(o) - 1);  // ocean.proto's order is TileFields'
+  for (auto o : outputs) planes |= 1u << (unsigned(o) - 1);
   return planes;
 }
 

@@ -161,6 +161,7 @@ TEST_P(FftAccuracy, OutOfPlaceWithItsOutputMadeBeforeItsInput) {
 // several: they agree with FFTW as well.
 TEST_P(FftAccuracy, TransformsBesideAnotherRequestMatchFftw) {
   const auto [backend, nx, ny] = GetParam();
+  if (backend != "fftw") GTEST_SKIP() << "only the fftw backend picks its plans by the requests beside it";
   std::promise<void> held, done;
   std::thread other([&] {
     auto lease = test::runtime().exclusive();
@@ -172,11 +173,15 @@ TEST_P(FftAccuracy, TransformsBesideAnotherRequestMatchFftw) {
   cl::Buffer data = test::upload(complex), real_in = test::upload(real);
   cl::Buffer half(test::runtime().context(), CL_MEM_READ_WRITE, (nx / 2 + 1) * ny * 8);
   size_t beside = 0;
-  {
+  try {
     auto lease = test::runtime().exclusive();
     beside = test::runtime().queues_held();
     plan(Transform::C2C).enqueue(test::runtime().queue(), Direction::Inverse, data, data);
     plan(Transform::R2C).enqueue(test::runtime().queue(), Direction::Forward, real_in, half);
+  } catch (...) {  // the other lease ends first: its thread would otherwise outlive the test
+    done.set_value();
+    other.join();
+    throw;
   }
   done.set_value();
   other.join();

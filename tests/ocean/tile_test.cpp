@@ -359,6 +359,7 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
                            Normals,
                            Jacobian,
                            Slopes | Jacobian,
+                           Height | Whitecaps,
                            Height | Displacement | Normals,
                            Displacement | Slopes,
                            Height};
@@ -373,6 +374,10 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
             EXPECT_LT(test::relative_rms_error(e.*f, r.*f), 1e-4)
                 << "outputs " << outputs << ", output " << output << ", layers " << spec->layers.size();
         }
+      ASSERT_EQ(e.whitecaps.size(), (outputs & Whitecaps) ? r.whitecaps.size() : 0u) << "outputs " << outputs;
+      size_t differ = 0;  // J- is compared with a threshold: a cell at it may go either way
+      for (size_t i = 0; i < e.whitecaps.size(); ++i) differ += e.whitecaps[i] != r.whitecaps[i];
+      EXPECT_LE(differ, r.whitecaps.size() / 1000) << "outputs " << outputs << ", layers " << spec->layers.size();
     }
   }
 }
