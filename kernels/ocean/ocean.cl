@@ -339,18 +339,18 @@ __attribute__((always_inline)) static void finalize_cell(int at, __global const 
   // the missing channels are 0. Read as scalars, not a private array: PoCL then keeps them in registers and
   // vectorizes across work-items.
   // The pairs not computed read pair 0 (present: no masked loads, see out_at) and count as 0.
-  const int pairs = channels / 2, lacking = displaced ? 0 : 1;  // the undisplaced layout lacks (Dy, ex)
-  float h, second, Dx, Dy, ex, ey, Dxx, Dyy, Dxy;
-  channel_pair(sums, interleaved, 0, cells, at, &h, &second);
-  channel_pair(sums, interleaved, displaced && pairs > 1 ? 1 : 0, cells, at, &Dy, &ex);
-  channel_pair(sums, interleaved, pairs > 2 - lacking ? 2 - lacking : 0, cells, at, &ey, &Dxx);
-  channel_pair(sums, interleaved, pairs > 3 - lacking ? 3 - lacking : 0, cells, at, &Dyy, &Dxy);
-  Dx = displaced ? second : 0.0f;
-  ex = displaced ? ex : second;
-  if (!displaced || pairs <= 1) Dy = 0.0f;
-  if (displaced && pairs <= 1) ex = 0.0f;
-  if (pairs <= 2 - lacking) ey = Dxx = 0.0f;
-  if (pairs <= 3 - lacking) Dyy = Dxy = 0.0f;
+  const int pairs = channels / 2, none = 4;  // a layout's index of each pair; none: not in the layout
+  const int dy_ex = displaced ? 1 : none, ey_dxx = displaced ? 2 : 1, dyy_dxy = displaced ? 3 : 2;
+  float h, second, Dy, ex, ey, Dxx, Dyy, Dxy;
+  channel_pair(sums, interleaved, 0, cells, at, &h, &second);  // (h, Dx) displaced, (h, ex) undisplaced
+  channel_pair(sums, interleaved, dy_ex < pairs ? dy_ex : 0, cells, at, &Dy, &ex);
+  channel_pair(sums, interleaved, ey_dxx < pairs ? ey_dxx : 0, cells, at, &ey, &Dxx);
+  channel_pair(sums, interleaved, dyy_dxy < pairs ? dyy_dxy : 0, cells, at, &Dyy, &Dxy);
+  const float Dx = displaced ? second : 0.0f;
+  if (!displaced) Dy = 0.0f, ex = second;
+  else if (dy_ex >= pairs) Dy = ex = 0.0f;
+  if (ey_dxx >= pairs) ey = Dxx = 0.0f;
+  if (dyy_dxy >= pairs) Dyy = Dxy = 0.0f;
   out[out_at(OUT_HEIGHT, flags & 1, cells, at)] = h;
   out[out_at(OUT_DISP_X, flags & 2, cells, at)] = lambda * Dx;
   out[out_at(OUT_DISP_Y, flags & 2, cells, at)] = lambda * Dy;
