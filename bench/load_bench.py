@@ -198,9 +198,8 @@ def main() -> None:
             for m in METHODS:
                 header += f" {m + ' p50/p99 ms':>22}"
             levels: Dict[int, Level] = {c: Level() for c in counts}
-            for r in range(
-                args.rounds
-            ):  # in turn, so that a slow spell of the machine hits every level
+            # the levels in turn, so that a slow spell of the machine hits every level
+            for r in range(args.rounds):
                 for clients in counts:
                     levels[clients].add_round(run_level(clients, args.seconds))
                 rates = ", ".join(f"{levels[c].rates[-1]:.0f}" for c in counts)

@@ -1,12 +1,8 @@
 // squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
-// (deadline, request id, session routing). The server's own RPCs are methods here (info, health). The
-// capabilities' RPCs are called on their generated stubs, which share this client's connection:
-//
-//   auto ocean = squall::v1::Ocean::NewStub(client.channel());
-//   squall::client::check(ocean->GetTile(client.context().get(), request, &response), "Ocean.GetTile");
-//
-// Failures throw squall::client::RpcError carrying the gRPC status: from the methods here, and from
-// check() on a stub call's status.
+// (deadline, request id, session routing). The server's own RPCs are methods here (info, health).
+// A capability's RPC is called on its generated stub over channel(), with a context() of this client;
+// check() turns the call's failed status into the RpcError that the methods here throw.
+// client/cloud_cli.cpp calls Clouds.BuildVolume and Clouds.Render this way.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
