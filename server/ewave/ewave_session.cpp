@@ -30,9 +30,12 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   auto lock = runtime_.exclusive();
   runtime_.queue().enqueueFillBuffer(absent_map_.buffer(), cl_float(0), 0, cells_ * sizeof(float));
   upload_initial_fields();
-  // Bake the plans of every step now, not during the first step.
-  fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::R2C, precision()});
-  fft_.plan({size_t(config_.nx), size_t(config_.ny), kStateFields, fft::Transform::C2R, precision()});
+  // The plans of every step, made now rather than during the first step: the state's forward transform,
+  // and the inverse one of the state alone or of the state with the derived outputs (step()).
+  const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
+  fft_.prepare({nx, ny, kStateFields, fft::Transform::R2C, precision()}, fft::Direction::Forward, false);
+  for (int fields : {kStateFields, kOutputFields})
+    fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
 }
 
 void EWaveSession::upload_initial_fields() {

@@ -60,6 +60,12 @@ Plan& Fft::plan(const PlanKey& key) {
   return *it->second;
 }
 
+Plan& Fft::prepare(const PlanKey& key, Direction direction, bool in_place) {
+  Plan& p = plan(key);
+  p.prepare(direction, in_place);
+  return p;
+}
+
 size_t Fft::cached_plans() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return plans_.size();

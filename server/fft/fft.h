@@ -59,6 +59,11 @@ class Plan {
   virtual void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                        const cl::Buffer& out) = 0;
 
+  // Makes now whatever running `direction` in place (in == out) or not still needs, so that the first
+  // such enqueue costs no more than the next ones. FFTW makes its plans here; a backend whose plan is
+  // complete when baked has nothing to do.
+  virtual void prepare(Direction direction, bool /*in_place*/) { check_direction(direction); }
+
  protected:
   void check_direction(Direction direction) const;  // R2C must be Forward, C2R Inverse
 
@@ -101,6 +106,10 @@ class Fft {
   // The cached plan for key on the calling thread's device queue, baked on first use (a plan's scratch
   // memory serves one queue). Thread-safe; the plan lives as long as this object.
   Plan& plan(const PlanKey& key);
+  // plan(key), prepared to run `direction` in place or not: what a session does when it is created, so
+  // that its first step plans nothing. FFTW keeps what its planner measured (its wisdom), so the same
+  // transform prepared for one queue is planned for another at no cost.
+  Plan& prepare(const PlanKey& key, Direction direction, bool in_place);
   size_t cached_plans() const;  // over all queues
 
  private:

@@ -97,8 +97,8 @@ struct Fftw<Precision::F64> {
 // A cached transform: one FFTW plan per direction, placement (in place or not), alignment and thread
 // count, each made on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Device buffers
 // are normally SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plans, made when the
-// transform is enqueued (a planning error reaches the caller); any other address runs a plan made with
-// FFTW_UNALIGNED when it first meets one.
+// transform is prepared or first enqueued (a planning error reaches the caller); any other address runs
+// a plan made with FFTW_UNALIGNED when it first meets one.
 //
 // Threads: a transform runs on `threads` threads when its request is the only one holding a device
 // queue, and on one thread when others run beside it. A second thread shortens a small transform by
@@ -118,9 +118,15 @@ class FftwPlan : public Plan {
       if (p.load()) F::destroy(p.load());
   }
 
+  // The aligned plans, on one thread and on threads_: a planning error reaches the caller.
+  void prepare(Direction direction, bool in_place) override {
+    check_direction(direction);
+    plan(direction, in_place, false, true);
+    plan(direction, in_place, false, false);
+  }
+
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                const cl::Buffer& out) override {
-    check_direction(direction);
     const PlanKey& k = key();
     const bool in_place = in() == out();
     if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
@@ -128,8 +134,7 @@ class FftwPlan : public Plan {
       std::lock_guard<std::mutex> lock(failure_mutex_);
       if (!failure_.empty()) fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + failure_);
     }
-    plan(direction, in_place, false, true);
-    plan(direction, in_place, false, false);
+    prepare(direction, in_place);
     // Out of place, two native kernels of one buffer each: PoCL 3.1 hands a native kernel the addresses
     // of its buffers in the order they were created (pocl_create_command_full sorts them), not in the
     // order of mem_list, so a kernel of two buffers could not tell input from output. The first notes

@@ -8,6 +8,7 @@
 #include "ewave/ewave_engine.h"
 #include "ewave_support.h"
 #include "support/expect_error.h"
+#include "support/fftw_wisdom.h"
 #include "support/test_runtime.h"
 
 namespace squall::ewave::test {
@@ -100,6 +101,20 @@ TEST(EWaveSession, SurfaceCurrentIsTheGradientOfPhi) {
 }
 
 using squall::test::expect_error;
+
+// A session makes the FFT plans of its steps when it is created. On the fftw backend, which measures a
+// plan on first use, neither a step of the state alone nor one with the derived outputs adds to FFTW's
+// wisdom.
+TEST(EWaveSession, StepsOnFftwMakeNoPlanOfTheirOwn) {
+  if (squall::test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
+  EWaveSession session(squall::test::runtime(), squall::test::fft("fftw"), plain_config(44, 36));  // a size of its own
+  const std::string created = squall::test::fftwf_wisdom();
+  Frame state = session.step(plain_step(0.01));
+  Frame outputs = session.step(busy_step(0));
+  EXPECT_EQ(squall::test::fftwf_wisdom(), created) << "a step made an FFTW plan";
+  EXPECT_EQ(state.height.size(), size_t(44 * 36));
+  EXPECT_EQ(outputs.normals.size(), size_t(3 * 44 * 36));
+}
 
 TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {
   EWaveSession s = make_session(plain_config(32, 16));

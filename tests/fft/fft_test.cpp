@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "fft/fft.h"
 #include "support/expect_error.h"
+#include "support/fftw_wisdom.h"
 #include "support/test_runtime.h"
 
 namespace squall {
@@ -267,6 +268,29 @@ TEST(FftPlans, FftwIsOfferedOnCpuDevicesOnly) {
   bool cpu = test::runtime().device_info().type == "cpu";
   EXPECT_EQ(std::count(names.begin(), names.end(), "fftw"), cpu ? 1 : 0);
   if (!cpu) test::expect_error(Code::InvalidArgument, "CPU devices only", [] { fft::make_fftw(test::runtime()); });
+}
+
+// A prepared transform measures nothing when it first runs: FFTW's wisdom is the same after that run as
+// before it, and the result is FFTW's.
+TEST(FftPlans, FftwPreparedTransformPlansNothingWhenItRuns) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
+  const PlanKey key{72, 56, 2, Transform::R2C, Precision::F32};  // a size no other test plans
+  auto real = random_floats(key.nx * key.ny * key.batch, 10);
+  cl::Buffer in = test::upload(real), out(test::runtime().context(), CL_MEM_READ_WRITE, key.complex_bytes());
+  std::string prepared, ran;
+  {
+    auto lock = test::runtime().exclusive();
+    fft::Plan& plan = test::fft("fftw").prepare(key, Direction::Forward, false);
+    prepared = test::fftwf_wisdom();
+    plan.enqueue(test::runtime().queue(), Direction::Forward, in, out);
+    test::runtime().queue().finish();
+    ran = test::fftwf_wisdom();
+  }
+  EXPECT_FALSE(prepared.empty());
+  EXPECT_EQ(ran, prepared) << "the first run of a prepared transform made a plan";
+  real.resize(key.nx * key.ny);  // the first of the batch
+  auto want = reference_r2c(real, key.nx, key.ny);
+  EXPECT_LE(relative_l2(test::read<float>(out, 2 * want.size()), want), kTolerance);
 }
 
 // Host memory at an address FFTW's SIMD code does not assume (4 bytes past an aligned one), given to
