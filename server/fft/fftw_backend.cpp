@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "fft/fft.h"
+#include "runtime/buffer_pool.h"
 #include "runtime/runtime.h"
 
 namespace squall::fft {
@@ -135,34 +136,46 @@ class FftwPlan : public Plan {
       if (!failure_.empty()) fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + failure_);
     }
     prepare(direction, in_place);
-    // Out of place, two native kernels of one buffer each: PoCL 3.1 hands a native kernel the addresses
-    // of its buffers in the order they were created (pocl_create_command_full sorts them), not in the
-    // order of mem_list, so a kernel of two buffers could not tell input from output. The first notes
-    // the output's address in a cell that the second, which transforms, reads and deletes.
-    void** output = nullptr;
-    if (!in_place) {
+    // PoCL 3.1 hands a native kernel the addresses of its buffers in the order they were created
+    // (pocl_create_command_full sorts them), not in the order of mem_list: a kernel of two buffers cannot
+    // tell input from output by them. A buffer made over host memory of its own (the buffer pool's on a
+    // CPU device) is transformed at that address (host_storage()), so one kernel does, given both
+    // buffers only so that the runtime keeps them until it has run. Out of place on other buffers, it
+    // takes two kernels of one buffer each: the first notes the output's address in a cell that the
+    // second, which transforms, reads and deletes.
+    void* in_storage = host_storage(in);
+    void* out_storage = in_place ? in_storage : host_storage(out);
+    if (in_storage && out_storage) {
+      enqueue_native(queue, &FftwPlan::transform, {{in(), out()}, in_storage, out_storage, nullptr, this, direction},
+                     in_place ? 1 : 2);
+    } else if (in_place) {
+      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, nullptr, this, direction}, 1);
+    } else {
       auto cell = std::make_unique<void*>(nullptr);
-      enqueue_native(queue, &FftwPlan::note_output, {out(), cell.get(), this, direction});
-      output = cell.release();  // note_output writes it; transform reads and deletes it
+      enqueue_native(queue, &FftwPlan::note_output, {{out()}, nullptr, nullptr, cell.get(), this, direction}, 1);
+      void** output = cell.release();  // note_output writes it; transform reads and deletes it
+      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, output, this, direction}, 1);
     }
-    enqueue_native(queue, &FftwPlan::transform, {in(), output, this, direction});
   }
 
  private:
   // A native kernel's argument block, copied by clEnqueueNativeKernel.
   struct Call {
-    void* buffer;    // the buffer's cl_mem handle when enqueued, its address when run
-    void** output;   // out of place: the output's address, noted by note_output; null in place
-    FftwPlan* self;  // cached by the Fft for its lifetime, which outlasts its queues' commands
+    void* buffers[2];  // cl_mem handles when enqueued, their addresses in the runtime's order when run
+    void* in;          // the input's host storage, or null: the input is buffers[0]
+    void* out;         // the output's host storage, or null: *output, or in place when output is null too
+    void** output;     // out of place on buffers of unknown storage: the output's address, noted by note_output
+    FftwPlan* self;    // cached by the Fft for its lifetime, which outlasts its queues' commands
     Direction direction;
   };
 
   // Throws on failure (the cell of a note_output enqueued before is then leaked, not freed under it).
-  void enqueue_native(const cl::CommandQueue& queue, void(CL_CALLBACK* function)(void*), Call call) const {
-    const cl_mem buffer = static_cast<cl_mem>(call.buffer);
-    const void* handle = &call.buffer;
+  void enqueue_native(const cl::CommandQueue& queue, void(CL_CALLBACK* function)(void*), Call call,
+                      cl_uint buffers) const {
+    const cl_mem mem[2] = {static_cast<cl_mem>(call.buffers[0]), static_cast<cl_mem>(call.buffers[1])};
+    const void* locations[2] = {&call.buffers[0], &call.buffers[1]};
     const cl_int status =
-        clEnqueueNativeKernel(queue(), function, &call, sizeof(call), 1, &buffer, &handle, 0, nullptr, nullptr);
+        clEnqueueNativeKernel(queue(), function, &call, sizeof(call), buffers, mem, locations, 0, nullptr, nullptr);
     if (status != CL_SUCCESS)
       fail(Code::Internal,
            "fftw: clEnqueueNativeKernel of " + describe(key()) + " failed (" + std::to_string(status) + ")");
@@ -170,18 +183,18 @@ class FftwPlan : public Plan {
 
   static void CL_CALLBACK note_output(void* arguments) {
     const Call& c = *static_cast<const Call*>(arguments);
-    *c.output = c.buffer;
+    *c.output = c.buffers[0];
   }
 
   static void CL_CALLBACK transform(void* arguments) {
     const Call& c = *static_cast<const Call*>(arguments);
     const std::unique_ptr<void*> output(c.output);
-    void* in = c.buffer;
-    void* out = output ? *output : in;
+    void* in = c.in ? c.in : c.buffers[0];
+    void* out = c.out ? c.out : output ? *output : in;
     const bool unaligned = F::alignment(in) != 0 || F::alignment(out) != 0;
     const bool alone = c.self->runtime_.queues_held() <= 1;
     try {
-      F::execute(c.self->plan(c.direction, !output, unaligned, alone), c.self->key().transform, in, out);
+      F::execute(c.self->plan(c.direction, in == out, unaligned, alone), c.self->key().transform, in, out);
     } catch (const std::exception& e) {  // not thrown across the OpenCL runtime
       c.self->failed(e.what(), out);
     }

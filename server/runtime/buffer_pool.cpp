@@ -1,6 +1,15 @@
 #include "runtime/buffer_pool.h"
 
+#include <cstdlib>
+
+#include "common/error.h"
+
 namespace squall {
+
+void* host_storage(const cl::Buffer& buffer) {
+  if (!(buffer.getInfo<CL_MEM_FLAGS>() & CL_MEM_USE_HOST_PTR)) return nullptr;
+  return buffer.getInfo<CL_MEM_HOST_PTR>();
+}
 
 BufferLease::BufferLease(BufferLease&& other) noexcept
     : pool_(other.pool_), buffer_(std::move(other.buffer_)), bytes_(other.bytes_) {
@@ -27,10 +36,7 @@ void BufferLease::give_back() {
 
 BufferPool::BufferPool(const cl::Context& context, size_t max_idle_bytes, bool host_memory,
                        std::function<int()> held_slot)
-    : context_(context),
-      max_idle_bytes_(max_idle_bytes),
-      flags_(CL_MEM_READ_WRITE | (host_memory ? CL_MEM_ALLOC_HOST_PTR : 0)),
-      held_slot_(std::move(held_slot)) {}
+    : context_(context), max_idle_bytes_(max_idle_bytes), host_memory_(host_memory), held_slot_(std::move(held_slot)) {}
 
 BufferLease BufferPool::acquire(size_t bytes) {
   const int slot = held_slot_();
@@ -46,7 +52,26 @@ BufferLease BufferPool::acquire(size_t bytes) {
     }
     ++allocations_;
   }
-  return BufferLease(this, cl::Buffer(context_, flags_, bytes), bytes);
+  return BufferLease(this, allocate(bytes), bytes);
+}
+
+// On a CPU device, over memory of its own that the buffer's destructor callback frees once the runtime
+// has released it (after the last command that uses it).
+cl::Buffer BufferPool::allocate(size_t bytes) const {
+  if (!host_memory_) return cl::Buffer(context_, CL_MEM_READ_WRITE, bytes);
+  void* memory = std::aligned_alloc(kHostAlignment, (bytes + kHostAlignment - 1) / kHostAlignment * kHostAlignment);
+  if (!memory)
+    fail(Code::ResourceExhausted, "no host memory for a device buffer of " + std::to_string(bytes) + " bytes");
+  cl::Buffer buffer;
+  try {
+    buffer = cl::Buffer(context_, CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, bytes, memory);
+    buffer.setDestructorCallback([](cl_mem, void* p) { std::free(p); }, memory);
+  } catch (...) {
+    buffer = cl::Buffer();  // released before the memory it was made over
+    std::free(memory);
+    throw;
+  }
+  return buffer;
 }
 
 void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {

@@ -15,6 +15,14 @@ namespace squall {
 
 class BufferPool;
 
+// The alignment of a CPU device's pool buffers: PoCL's own (CL_DEVICE_MEM_BASE_ADDR_ALIGN, 1024 bits),
+// more than any SIMD load needs.
+inline constexpr size_t kHostAlignment = 128;
+
+// The host memory a buffer made with CL_MEM_USE_HOST_PTR was made over, as the buffer pool's are on a
+// CPU device, whose kernels compute in that memory; null for any other buffer.
+void* host_storage(const cl::Buffer& buffer);
+
 // A read-write device buffer held for the lifetime of one request. Movable, not copyable.
 class BufferLease {
  public:
@@ -42,8 +50,9 @@ class BufferLease {
 class BufferPool {
  public:
   // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
-  // device is a CPU; buffers are allocated with CL_MEM_ALLOC_HOST_PTR, in host memory where the FFTW
-  // backend's native kernels and a map reach them without a copy.
+  // device is a CPU, which computes in host memory; each buffer is made over host memory of its own
+  // (CL_MEM_USE_HOST_PTR, kHostAlignment bytes aligned), which the FFTW backend's native kernels and a
+  // map reach without a copy, and which host_storage() names.
   // held_slot: the queue slot the calling thread holds, -1 for none (held_queue_slot()).
   BufferPool(
       const cl::Context& context, size_t max_idle_bytes, bool host_memory = false,
@@ -61,10 +70,11 @@ class BufferPool {
  private:
   friend class BufferLease;
   void put_back(cl::Buffer buffer, size_t bytes);
+  cl::Buffer allocate(size_t bytes) const;
 
   cl::Context context_;
   size_t max_idle_bytes_;
-  cl_mem_flags flags_;
+  bool host_memory_;
   struct Idle {
     cl::Buffer buffer;
     int slot;  // the queue whose work may still use it, -1 for none

@@ -22,18 +22,13 @@
 namespace squall::ewave::test {
 namespace {
 
-fft::Fft& test_fft() {
-  const char* backend = std::getenv("SQUALL_EWAVE_TEST_FFT");
-  return squall::test::fft(backend ? backend : "vkfft");
-}
-
 ocean::OceanEngine& ocean_engine() {
-  static ocean::OceanEngine engine(squall::test::runtime(), test_fft());
+  static ocean::OceanEngine engine(squall::test::runtime(), session_fft());
   return engine;
 }
 
 EWaveSession ocean_session(const EWaveConfig& c) {
-  return EWaveSession(squall::test::runtime(), test_fft(), c, &ocean_engine());
+  return EWaveSession(squall::test::runtime(), session_fft(), c, &ocean_engine());
 }
 
 // A 64 m x 64 m session at 1 m (Pierson-Moskowitz, 5 m/s: peak wavelength ~20 m, all modes resolved).

@@ -17,9 +17,13 @@ EWaveConfig plain_config(int64_t nx, int64_t ny, double spacing) {
   return c;
 }
 
+fft::Fft& session_fft() {
+  const char* backend = std::getenv("SQUALL_EWAVE_TEST_FFT");  // a backend other than the engine tests' one
+  return squall::test::fft(backend ? backend : squall::test::engine_fft_backend());
+}
+
 EWaveSession make_session(const EWaveConfig& config) {
-  const char* backend = std::getenv("SQUALL_EWAVE_TEST_FFT");  // "vkfft" (default) or "clfft"
-  return EWaveSession(squall::test::runtime(), squall::test::fft(backend ? backend : "vkfft"), config);
+  return EWaveSession(squall::test::runtime(), session_fft(), config);
 }
 
 double reference_omega(double k, const EWaveConfig& c) {

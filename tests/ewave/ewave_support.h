@@ -14,7 +14,10 @@ namespace squall::ewave::test {
 
 // A 1 cm, deep-water, untrimmed config of nx x ny.
 EWaveConfig plain_config(int64_t nx, int64_t ny, double spacing = 0.01);
-EWaveSession make_session(const EWaveConfig& config);
+// The plan cache of the sessions' FFTs: $SQUALL_EWAVE_TEST_FFT, else the engine tests' backend
+// (squall::test::engine_fft_backend()).
+fft::Fft& session_fft();
+EWaveSession make_session(const EWaveConfig& config);  // on session_fft()
 
 // omega(k) in double, written from Table 1 independently of kernels/common/dispersion.h.
 double reference_omega(double k, const EWaveConfig& config);

@@ -2,11 +2,14 @@
 // buffer reuse, include splicing and the kernel cache.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
 #include "common/error.h"
+#include "runtime/buffer_pool.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
 #include "support/expect_error.h"
@@ -198,6 +201,33 @@ TEST(BufferPool, ReusesBuffersOfTheSameSize) {
   auto big = pool.acquire(2 << 20);  // larger than the idle cap: not kept when handed back
   big = BufferLease();
   EXPECT_EQ(pool.idle_bytes(), 4096u * 2 + 8192u);
+}
+
+// On a CPU device each pool buffer is made over host memory of its own, aligned, in which the device
+// computes: what the device writes is there, and a map of the buffer returns that memory. Other buffers
+// name none.
+TEST(BufferPool, ACpuDeviceComputesInTheHostStorageOfItsBuffers) {
+  const bool cpu = test::runtime().device_info().type == "cpu";
+  BufferPool pool(test::runtime().context(), 1 << 20, cpu);
+  auto lease = pool.acquire(1000);  // not a multiple of the alignment
+  EXPECT_EQ(host_storage(cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, 1000)), nullptr);
+  void* storage = host_storage(lease.buffer());
+  if (!cpu) {
+    EXPECT_EQ(storage, nullptr) << "only a CPU device's pool makes buffers over host memory";
+    return;
+  }
+  ASSERT_NE(storage, nullptr);
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(storage) % kHostAlignment, 0u);
+  auto lock = test::runtime().exclusive();
+  const cl::CommandQueue& queue = test::runtime().queue();
+  queue.enqueueFillBuffer(lease.buffer(), cl_float(2.5f), 0, 248 * sizeof(float));
+  queue.finish();
+  const float* values = static_cast<const float*>(storage);
+  EXPECT_EQ(std::count(values, values + 248, 2.5f), 248);
+  void* mapped = queue.enqueueMapBuffer(lease.buffer(), CL_TRUE, CL_MAP_READ, 0, 1000);
+  EXPECT_EQ(mapped, storage);
+  queue.enqueueUnmapMemObject(lease.buffer(), mapped);
+  queue.finish();
 }
 
 TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
