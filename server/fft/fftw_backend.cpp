@@ -139,12 +139,13 @@ class FftwPlan : public Plan {
     // PoCL 3.1 hands a native kernel the addresses of its buffers in the order they were created
     // (pocl_create_command_full sorts them), not in the order of mem_list: a kernel of two buffers cannot
     // tell input from output by them. A buffer made over host memory of its own (the buffer pool's on a
-    // CPU device) is transformed at that address (host_storage()), so one kernel does, given both
+    // CPU device that computes there) is transformed at that address (host_storage()), so one kernel does, given both
     // buffers only so that the runtime keeps them until it has run. Out of place on other buffers, it
     // takes two kernels of one buffer each: the first notes the output's address in a cell that the
     // second, which transforms, reads and deletes.
-    void* in_storage = host_storage(in);
-    void* out_storage = in_place ? in_storage : host_storage(out);
+    const bool direct = runtime_.computes_in_host_storage();
+    void* in_storage = direct ? host_storage(in) : nullptr;
+    void* out_storage = in_place ? in_storage : direct ? host_storage(out) : nullptr;
     if (in_storage && out_storage) {
       enqueue_native(queue, &FftwPlan::transform, {{in(), out()}, in_storage, out_storage, nullptr, this, direction},
                      in_place ? 1 : 2);

@@ -35,6 +35,17 @@ bool profile_from_environment() {
   return value && std::string(value) == "1";
 }
 
+// A fill by the device lands in a pool buffer's host storage: the device computes there.
+bool probe_host_storage(BufferPool& pool, const cl::CommandQueue& queue) {
+  constexpr size_t kValues = 64;
+  const BufferLease lease = pool.acquire(kValues * sizeof(float));
+  const auto* storage = static_cast<const float*>(host_storage(lease.buffer()));
+  if (!storage) return false;
+  queue.enqueueFillBuffer(lease.buffer(), cl_float(1.5f), 0, kValues * sizeof(float));
+  queue.finish();
+  return std::all_of(storage, storage + kValues, [](float v) { return v == 1.5f; });
+}
+
 }  // namespace
 
 Runtime::Runtime(const RuntimeOptions& options)
@@ -49,6 +60,7 @@ Runtime::Runtime(const RuntimeOptions& options)
                                            profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0,
                                            [this](size_t slot) { buffers_->settle(int(slot)); })) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
+  computes_in_host_storage_ = probe_host_storage(*buffers_, queues_->queue(0));
   if (profiling_) log(LogLevel::Info, "kernel profiling on: each kernel launch waits for its device time");
 }
 

@@ -74,6 +74,10 @@ class Runtime {
   const cl::CommandQueue& queue() const { return queues_->queue(current_queue_slot()); }
   size_t queue_count() const { return queues_->count(); }
   BufferPool& buffers() { return *buffers_; }
+  // Whether the device computes in the host memory its pool's buffers are made over (host_storage()), as
+  // PoCL's CPU devices do; an OpenCL may instead keep a copy of such a buffer on the device. Probed once,
+  // at construction, by a fill on the device. The fftw backend hands FFTW that memory only where it is so.
+  bool computes_in_host_storage() const { return computes_in_host_storage_; }
 
   // A new kernel object of a built program. cl::Kernel arguments are per object, so each caller
   // (a request, a session) owns its own.
@@ -108,6 +112,7 @@ class Runtime {
   bool selected(const std::string& program) const;
 
   bool profiling_;
+  bool computes_in_host_storage_ = false;
 
   FoundDevice found_;
   cl::Context context_;

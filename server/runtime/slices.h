@@ -1,10 +1,10 @@
 // Device work too long for one launch runs in slices of its index space along one axis: each slice is
 // enqueued under a lease of a device queue (Runtime::exclusive()), waited for and timed (but the last, which
 // the caller's read-back waits for); between slices the caller's cancellation is checked and, once the
-// lease has been held for half a slice's time, it is given back (other requests' work goes in between). Slices are sized by the estimated cost of their granules
-// toward kSliceSeconds at the rate the last slice ran, so a GPU does a whole image in a few launches while
-// a CPU device stops within about one slice of a cancel, even where cheap granules (rays that miss a
-// cloud) come before costly ones.
+// lease has been held for half a slice's time, it is given back (other requests' work goes in between).
+// Slices are sized by the estimated cost of their granules toward kSliceSeconds at the rate the last slice
+// ran, so a GPU does a whole image in a few launches while a CPU device stops within about one slice of a
+// cancel, even where cheap granules (rays that miss a cloud) come before costly ones.
 #pragma once
 
 #include <cstddef>
@@ -43,11 +43,12 @@ struct TileGrid {
 
 // Calls enqueue(first, count) (in ids) for consecutive slices covering the plan's granules, each but the
 // last followed by a wait (the last may still run on return: the caller's blocking read-back on the same
-// queue, or the lease's end, waits for it); a slice is at least one granule; throws Error(Cancelled) naming `what` when cancel is requested
-// between slices. Returns the number of slices. The slices run under `lease` (taken here when it is not
-// held): kept from one slice to the next until it has been held for half of kSliceSeconds, then given
-// back and taken anew, so that a short job takes a device queue once and a long one lets other requests'
-// work in after about every slice. It is held on return, for the caller to read back the results on its queue.
+// queue, or the lease's end, waits for it); a slice is at least one granule; throws Error(Cancelled)
+// naming `what` when cancel is requested between slices. Returns the number of slices. The slices run
+// under `lease` (taken here when it is not held): kept from one slice to the next until it has been held
+// for half of kSliceSeconds, then given back and taken anew, so that a short job takes a device queue once
+// and a long one lets other requests' work in after about every slice. It is held on return, for the
+// caller to read back the results on its queue.
 size_t run_sliced(Runtime& runtime, QueueLease& lease, const SlicePlan& plan, const Cancellation& cancel,
                   const std::string& what, const std::function<void(size_t first, size_t count)>& enqueue);
 

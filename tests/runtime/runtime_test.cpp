@@ -214,10 +214,12 @@ TEST(BufferPool, ACpuDeviceComputesInTheHostStorageOfItsBuffers) {
   void* storage = host_storage(lease.buffer());
   if (!cpu) {
     EXPECT_EQ(storage, nullptr) << "only a CPU device's pool makes buffers over host memory";
+    EXPECT_FALSE(test::runtime().computes_in_host_storage());
     return;
   }
   ASSERT_NE(storage, nullptr);
   EXPECT_EQ(reinterpret_cast<uintptr_t>(storage) % kHostAlignment, 0u);
+  EXPECT_TRUE(test::runtime().computes_in_host_storage()) << "the runtime's own probe of the same";
   auto lock = test::runtime().exclusive();
   const cl::CommandQueue& queue = test::runtime().queue();
   queue.enqueueFillBuffer(lease.buffer(), cl_float(2.5f), 0, 248 * sizeof(float));
