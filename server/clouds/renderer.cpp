@@ -284,6 +284,7 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
   const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
+  std::vector<cl_uchar> needed;  // the map's mask, uploaded without a wait: it outlives the lease's work
   BufferLease mask;
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
@@ -291,10 +292,10 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
   const WorkKind map_kind{"clouds.shadow_map", dsm_floats};
   if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
-    std::vector<cl_uchar> needed = shadow_map_mask(volume, p);
+    needed = shadow_map_mask(volume, p);
     mask = runtime_.buffers().acquire(needed.size());
     lease = runtime_.exclusive(map_kind);
-    runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_TRUE, 0, needed.size(), needed.data());
+    runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_FALSE, 0, needed.size(), needed.data());
     // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
     // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
     // nodes after them do not reach, and their slice would overrun.
@@ -310,6 +311,8 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
       shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
                                 mask.buffer(), dsm.buffer());
     });
+    // Its last slice is not waited for: the render's first slice, timed with it, may size the second
+    // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.
   }
   SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, kFirstSliceSamples, kind};
   run_sliced(runtime_, lease, plan, cancel, field + ": the render", [&](size_t first, size_t count) {

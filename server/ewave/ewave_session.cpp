@@ -30,6 +30,7 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   auto lock = runtime_.exclusive();
   runtime_.queue().enqueueFillBuffer(absent_map_.buffer(), cl_float(0), 0, cells_ * sizeof(float));
   upload_initial_fields();
+  lock.unlock();  // measuring FFTW plans takes up to seconds: no device queue is held meanwhile
   // The plans of every step, made now rather than during the first step: the state's forward transform,
   // and the inverse one of the state alone or of the state with the derived outputs (step()).
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);

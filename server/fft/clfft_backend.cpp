@@ -62,6 +62,12 @@ class ClfftPlan : public Plan {
       if (baked_[i]) clfftDestroyPlan(&handles_[i]);
   }
 
+  // The in-place plan is baked on first use; out of place is baked already.
+  void prepare(Direction direction, bool in_place) override {
+    check_direction(direction);
+    handle(in_place && key().transform == Transform::C2C);
+  }
+
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                const cl::Buffer& out) override {
     check_direction(direction);

@@ -60,8 +60,8 @@ class Plan {
                        const cl::Buffer& out) = 0;
 
   // Makes now whatever running `direction` in place (in == out) or not still needs, so that the first
-  // such enqueue costs no more than the next ones. FFTW makes its plans here; a backend whose plan is
-  // complete when baked has nothing to do.
+  // such enqueue costs no more than the next ones: FFTW measures its plans, clFFT bakes its in-place
+  // plan. VkFFT's plan is complete when baked.
   virtual void prepare(Direction direction, bool /*in_place*/) { check_direction(direction); }
 
  protected:
@@ -107,8 +107,8 @@ class Fft {
   // memory serves one queue). Thread-safe; the plan lives as long as this object.
   Plan& plan(const PlanKey& key);
   // plan(key), prepared to run `direction` in place or not: what a session does when it is created, so
-  // that its first step plans nothing. FFTW keeps what its planner measured (its wisdom), so the same
-  // transform prepared for one queue is planned for another at no cost.
+  // that its first step measures nothing. FFTW keeps what its planner measured (its wisdom), so the same
+  // transform prepared for one queue is planned for another from that wisdom, without measuring.
   Plan& prepare(const PlanKey& key, Direction direction, bool in_place);
   size_t cached_plans() const;  // over all queues
 

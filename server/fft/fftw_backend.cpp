@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -97,9 +98,9 @@ struct Fftw<Precision::F64> {
 
 // A cached transform: one FFTW plan per direction, placement (in place or not), alignment and thread
 // count, each made on first use on scratch arrays (FFTW_MEASURE overwrites its arrays). Device buffers
-// are normally SIMD-aligned (PoCL aligns them to 128 bytes) and run the aligned plans, made when the
-// transform is prepared or first enqueued (a planning error reaches the caller); any other address runs
-// a plan made with FFTW_UNALIGNED when it first meets one.
+// are normally SIMD-aligned (the buffer pool aligns them to kHostAlignment) and run the aligned plans,
+// made when the transform is prepared or first enqueued (a planning error reaches the caller); any other
+// address runs a plan made with FFTW_UNALIGNED when it first meets one.
 //
 // Threads: a transform runs on `threads` threads when its request is the only one holding a device
 // queue, and on one thread when others run beside it. A second thread shortens a small transform by
@@ -122,6 +123,8 @@ class FftwPlan : public Plan {
   // The aligned plans, on one thread and on threads_: a planning error reaches the caller.
   void prepare(Direction direction, bool in_place) override {
     check_direction(direction);
+    if (in_place && key().transform != Transform::C2C)
+      fail(Code::Internal, "fftw: " + describe(key()) + " needs two buffers");
     plan(direction, in_place, false, true);
     plan(direction, in_place, false, false);
   }
@@ -130,7 +133,6 @@ class FftwPlan : public Plan {
                const cl::Buffer& out) override {
     const PlanKey& k = key();
     const bool in_place = in() == out();
-    if (in_place && k.transform != Transform::C2C) fail(Code::Internal, "fftw: " + describe(k) + " needs two buffers");
     {
       std::lock_guard<std::mutex> lock(failure_mutex_);
       if (!failure_.empty()) fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + failure_);
@@ -138,24 +140,23 @@ class FftwPlan : public Plan {
     prepare(direction, in_place);
     // PoCL 3.1 hands a native kernel the addresses of its buffers in the order they were created
     // (pocl_create_command_full sorts them), not in the order of mem_list: a kernel of two buffers cannot
-    // tell input from output by them. A buffer made over host memory of its own (the buffer pool's on a
-    // CPU device that computes there) is transformed at that address (host_storage()), so one kernel does, given both
-    // buffers only so that the runtime keeps them until it has run. Out of place on other buffers, it
-    // takes two kernels of one buffer each: the first notes the output's address in a cell that the
-    // second, which transforms, reads and deletes.
-    const bool direct = runtime_.computes_in_host_storage();
-    void* in_storage = direct ? host_storage(in) : nullptr;
-    void* out_storage = in_place ? in_storage : direct ? host_storage(out) : nullptr;
+    // tell input from output by them. A pool buffer on a device that computes in its host storage (the
+    // runtime's probe) is transformed at that memory, so one kernel does; it is given the buffers only
+    // so that the runtime keeps them until it has run. Out of place on other buffers, it takes two
+    // kernels of one buffer each: the first notes the output's address in a cell that the second, which
+    // transforms, reads and deletes.
+    void* in_storage = pool_storage(in);
+    void* out_storage = in_place ? in_storage : pool_storage(out);
     if (in_storage && out_storage) {
-      enqueue_native(queue, &FftwPlan::transform, {{in(), out()}, in_storage, out_storage, nullptr, this, direction},
-                     in_place ? 1 : 2);
+      enqueue_native(queue, &FftwPlan::transform,
+                     {{in(), out()}, in_storage, out_storage, nullptr, in_place, this, direction}, in_place ? 1 : 2);
     } else if (in_place) {
-      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, nullptr, this, direction}, 1);
+      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, nullptr, true, this, direction}, 1);
     } else {
       auto cell = std::make_unique<void*>(nullptr);
-      enqueue_native(queue, &FftwPlan::note_output, {{out()}, nullptr, nullptr, cell.get(), this, direction}, 1);
+      enqueue_native(queue, &FftwPlan::note_output, {{out()}, nullptr, nullptr, cell.get(), false, this, direction}, 1);
       void** output = cell.release();  // note_output writes it; transform reads and deletes it
-      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, output, this, direction}, 1);
+      enqueue_native(queue, &FftwPlan::transform, {{in()}, nullptr, nullptr, output, false, this, direction}, 1);
     }
   }
 
@@ -164,11 +165,20 @@ class FftwPlan : public Plan {
   struct Call {
     void* buffers[2];  // cl_mem handles when enqueued, their addresses in the runtime's order when run
     void* in;          // the input's host storage, or null: the input is buffers[0]
-    void* out;         // the output's host storage, or null: *output, or in place when output is null too
+    void* out;         // the output's host storage, or null: *output, or the input in place
     void** output;     // out of place on buffers of unknown storage: the output's address, noted by note_output
+    bool in_place;     // the same buffer in and out (as enqueued: not two buffers over one memory)
     FftwPlan* self;    // cached by the Fft for its lifetime, which outlasts its queues' commands
     Direction direction;
   };
+
+  // The host storage of a buffer of the runtime's pool (kHostAlignment aligned) on a device that
+  // computes there; null for any other buffer.
+  void* pool_storage(const cl::Buffer& buffer) const {
+    if (!runtime_.computes_in_host_storage()) return nullptr;
+    void* storage = host_storage(buffer);
+    return reinterpret_cast<uintptr_t>(storage) % kHostAlignment == 0 ? storage : nullptr;
+  }
 
   // Throws on failure (the cell of a note_output enqueued before is then leaked, not freed under it).
   void enqueue_native(const cl::CommandQueue& queue, void(CL_CALLBACK* function)(void*), Call call,
@@ -191,11 +201,11 @@ class FftwPlan : public Plan {
     const Call& c = *static_cast<const Call*>(arguments);
     const std::unique_ptr<void*> output(c.output);
     void* in = c.in ? c.in : c.buffers[0];
-    void* out = c.out ? c.out : output ? *output : in;
+    void* out = c.in_place ? in : c.out ? c.out : *output;
     const bool unaligned = F::alignment(in) != 0 || F::alignment(out) != 0;
     const bool alone = c.self->runtime_.queues_held() <= 1;
     try {
-      F::execute(c.self->plan(c.direction, in == out, unaligned, alone), c.self->key().transform, in, out);
+      F::execute(c.self->plan(c.direction, c.in_place, unaligned, alone), c.self->key().transform, in, out);
     } catch (const std::exception& e) {  // not thrown across the OpenCL runtime
       c.self->failed(e.what(), out);
     }

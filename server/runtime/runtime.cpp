@@ -35,15 +35,18 @@ bool profile_from_environment() {
   return value && std::string(value) == "1";
 }
 
-// A fill by the device lands in a pool buffer's host storage: the device computes there.
+// The device computes in its pool buffers' host storage when what the host writes there is what a copy
+// on the device reads, and what the copy writes lands in the other buffer's storage.
 bool probe_host_storage(BufferPool& pool, const cl::CommandQueue& queue) {
-  constexpr size_t kValues = 64;
-  const BufferLease lease = pool.acquire(kValues * sizeof(float));
-  const auto* storage = static_cast<const float*>(host_storage(lease.buffer()));
-  if (!storage) return false;
-  queue.enqueueFillBuffer(lease.buffer(), cl_float(1.5f), 0, kValues * sizeof(float));
+  constexpr size_t kBytes = 256;
+  const BufferLease from = pool.acquire(kBytes), to = pool.acquire(kBytes);
+  auto* written = static_cast<unsigned char*>(host_storage(from.buffer()));
+  const auto* copied = static_cast<const unsigned char*>(host_storage(to.buffer()));
+  if (!written || !copied) return false;
+  for (size_t i = 0; i < kBytes; ++i) written[i] = static_cast<unsigned char>(i * 7 + 1);
+  queue.enqueueCopyBuffer(from.buffer(), to.buffer(), 0, 0, kBytes);
   queue.finish();
-  return std::all_of(storage, storage + kValues, [](float v) { return v == 1.5f; });
+  return std::equal(written, written + kBytes, copied);
 }
 
 }  // namespace
@@ -61,6 +64,10 @@ Runtime::Runtime(const RuntimeOptions& options)
                                            [this](size_t slot) { buffers_->settle(int(slot)); })) {
   log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
   computes_in_host_storage_ = probe_host_storage(*buffers_, queues_->queue(0));
+  if (found_.info.type == "cpu" && !computes_in_host_storage_)
+    log(LogLevel::Warn,
+        "the device keeps copies of host-memory buffers: out of place, an FFTW transform runs as "
+        "two native kernels");
   if (profiling_) log(LogLevel::Info, "kernel profiling on: each kernel launch waits for its device time");
 }
 
