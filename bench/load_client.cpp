@@ -58,8 +58,8 @@ void client(const std::string& address, const Requests& requests, double seconds
   squall::client::ClientOptions options{address, 600};
   options.own_connection = true;  // as a remote client has
   squall::client::Client client(options);
-  // The services' stubs share this client's connection (client.h).
-  // A failed call is recorded in `record.errors` and the benchmark goes on: no check() here.
+  // Each service's generated stub runs over this client's own connection, as client.h describes.
+  // A failed call is recorded in `record.errors` and the benchmark goes on, so check() is not used.
   auto ocean = v1::Ocean::NewStub(client.channel());
   auto ewave = v1::EWave::NewStub(client.channel());
   auto clouds = v1::Clouds::NewStub(client.channel());

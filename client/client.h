@@ -1,8 +1,8 @@
 // squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
 // (deadline, request id, session routing). The server's own RPCs are methods here (info, health).
-// A capability's RPC is called on its generated stub over channel(), with a context() of this client;
+// A capability's RPC is called on its generated stub over channel(), with a context() of this client.
 // check() turns the call's failed status into the RpcError that the methods here throw.
-// client/cloud_cli.cpp calls Clouds.BuildVolume and Clouds.Render this way.
+// client/cloud_cli.cpp calls Clouds.BuildVolume and Clouds.Render in this way.
 #pragma once
 
 #include <grpcpp/grpcpp.h>

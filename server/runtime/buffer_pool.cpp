@@ -3,6 +3,7 @@
 #include <cstdlib>
 
 #include "common/error.h"
+#include "runtime/kernel.h"
 
 namespace squall {
 
@@ -59,7 +60,7 @@ BufferLease BufferPool::acquire(size_t bytes) {
 // has released it (after the last command that uses it).
 cl::Buffer BufferPool::allocate(size_t bytes) const {
   if (!host_memory_) return cl::Buffer(context_, CL_MEM_READ_WRITE, bytes);
-  void* memory = std::aligned_alloc(kHostAlignment, (bytes + kHostAlignment - 1) / kHostAlignment * kHostAlignment);
+  void* memory = std::aligned_alloc(kHostAlignment, round_up(bytes, kHostAlignment));
   if (!memory)
     fail(Code::ResourceExhausted, "no host memory for a device buffer of " + std::to_string(bytes) + " bytes");
   cl::Buffer buffer;
