@@ -10,6 +10,7 @@
 #include "clouds/render_params.h"
 #include "common/error.h"
 #include "common/validate.h"
+#include "runtime/host_transfer.h"
 
 namespace squall::clouds {
 namespace {
@@ -320,7 +321,7 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
       render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
                             volume.density, volume.temperature, dsm.buffer(), p, out.buffer());
   });
-  runtime_.queue().enqueueReadBuffer(out.buffer(), CL_TRUE, 0, image.data.size() * sizeof(float), image.data.data());
+  read_back(runtime_, out.buffer(), image.data.size() * sizeof(float), image.data.data());
   return image;
 }
 

@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "ewave/propagator.h"
+#include "runtime/host_transfer.h"
 
 namespace squall::ewave {
 
@@ -76,7 +77,7 @@ void EWaveSession::initial_from_ocean() {
 const cl::Buffer& EWaveSession::upload(BufferLease& lease, const std::vector<float>& values) {
   size_t bytes = values.size() * sizeof(float);
   if (lease.bytes() != bytes) lease = runtime_.buffers().acquire(bytes);
-  runtime_.queue().enqueueWriteBuffer(lease.buffer(), CL_FALSE, 0, bytes, values.data());
+  write_buffer(runtime_, lease.buffer(), bytes, values.data());
   return lease.buffer();
 }
 

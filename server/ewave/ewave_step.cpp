@@ -9,6 +9,7 @@
 
 #include "ewave/ewave_session.h"
 #include "ewave/propagator.h"
+#include "runtime/host_transfer.h"
 
 namespace squall::ewave {
 namespace {
@@ -50,6 +51,7 @@ Frame EWaveSession::step(const StepInputs& in) {
   const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
   auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});
+  upload_maps(in);
   bool has_obstruction = build_obstruction(in);
   prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
   fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})
@@ -66,13 +68,22 @@ Frame EWaveSession::step(const StepInputs& in) {
   return frame;
 }
 
+// The step's maps, before its first command: on a CPU device they are copied into their buffers' host
+// storage with no command and no wait (write_buffer()).
+void EWaveSession::upload_maps(const StepInputs& in) {
+  if (!in.obstruction.empty()) upload(obstruction_, in.obstruction);
+  if (!in.ambient_height.empty()) upload(ambient_, in.ambient_height);
+  if (!in.source_height.empty()) upload(source_h_, in.source_height);
+  if (!in.source_phi.empty()) upload(source_phi_, in.source_phi);
+  if (!in.drift_field_x.empty()) upload(drift_x_, in.drift_field_x), upload(drift_y_, in.drift_field_y);
+}
+
 // O = (the obstruction field, or 1) times the uncovered fraction of the shapes. False when neither is given.
 // A map of shapes alone is filled with 1 once; later steps rewrite only the cells around the last shapes
 // and the new ones.
 bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
-  if (!in.obstruction.empty()) {
-    upload(obstruction_, in.obstruction);
+  if (!in.obstruction.empty()) {  // uploaded (upload_maps())
     shape_map_ = false;
     if (!in.shapes.empty()) rasterize(in.shapes, false);
     return true;
@@ -99,7 +110,7 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
   if (vertices.empty()) vertices.assign(2, 0.0f);
   size_t shape_bytes = device.size() * sizeof(EWaveShape);
   if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
-  runtime_.queue().enqueueWriteBuffer(shapes_.buffer(), CL_FALSE, 0, shape_bytes, device.data());
+  write_buffer(runtime_, shapes_.buffer(), shape_bytes, device.data());
   upload(vertices_, vertices);
   const CellBox cells = shape_cells(device, config_);
   const CellBox box = reset ? cover(cells, shape_map_cells_) : cells;
@@ -113,8 +124,8 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
 
 void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
   const cl::Buffer& none = absent_map_.buffer();
-  auto optional = [&](BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
-    return values.empty() ? none : upload(lease, values);
+  auto optional = [&](const BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
+    return values.empty() ? none : lease.buffer();  // uploaded (upload_maps())
   };
   double decay = 1, gain = in.dt;   // eq 60-61
   if (config_.friction_time > 0) {  // eq 72-73
@@ -155,8 +166,8 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
   bool field_drift = !in.drift_field_x.empty();
   bool uniform_drift = !field_drift && (in.drift_x != 0 || in.drift_y != 0);
   const cl_int drift_mode = field_drift ? 2 : uniform_drift ? 1 : 0;
-  const cl::Buffer& drift_x = field_drift ? upload(drift_x_, in.drift_field_x) : none;
-  const cl::Buffer& drift_y = field_drift ? upload(drift_y_, in.drift_field_y) : none;
+  const cl::Buffer& drift_x = field_drift ? drift_x_.buffer() : none;  // uploaded (upload_maps())
+  const cl::Buffer& drift_y = field_drift ? drift_y_.buffer() : none;
   const cl::Buffer& obstruction = has_obstruction ? obstruction_.buffer() : none;
   std::visit(
       [&](auto& k) {
@@ -173,7 +184,7 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
 }
 
 const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction) {
-  if (!in.ambient_height.empty()) return &upload(ambient_, in.ambient_height);
+  if (!in.ambient_height.empty()) return &ambient_.buffer();  // uploaded (upload_maps())
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
   ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");
@@ -185,25 +196,27 @@ const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstructi
 
 Frame EWaveSession::read_frame(const OutputSelection& o) const {
   Frame f;
-  const cl::CommandQueue& q = runtime_.queue();
+  ReadBack back(runtime_);
   auto read = [&](const cl::Buffer& buffer, size_t offset, size_t count, std::vector<float>& into) {
     into.resize(count);
-    q.enqueueReadBuffer(buffer, CL_FALSE, offset * sizeof(float), count * sizeof(float), into.data());
+    back.add(buffer, offset * sizeof(float), count * sizeof(float), into.data());
   };
-  auto read_state = [&](size_t offset, std::vector<float>& into) {
+  std::vector<double> height, phi;  // a double-precision state, converted after the wait
+  auto read_state = [&](size_t offset, std::vector<float>& into, std::vector<double>& values) {
     if (!config_.double_precision) return read(state_.buffer(), offset, cells_, into);
-    std::vector<double> values(cells_);
-    q.enqueueReadBuffer(state_.buffer(), CL_TRUE, offset * sizeof(double), cells_ * sizeof(double), values.data());
-    into.assign(values.begin(), values.end());
+    values.resize(cells_);
+    back.add(state_.buffer(), offset * sizeof(double), cells_ * sizeof(double), values.data());
   };
-  if (o.height) read_state(0, f.height);
-  if (o.phi) read_state(cells_, f.phi);
+  if (o.height) read_state(0, f.height, height);
+  if (o.phi) read_state(cells_, f.phi, phi);
   if (o.displacement) {
     read(out_.buffer(), 0, cells_, f.displacement_x);
     read(out_.buffer(), cells_, cells_, f.displacement_y);
   }
   if (o.normals) read(out_.buffer(), 2 * cells_, 3 * cells_, f.normals);
-  q.finish();
+  back.wait();
+  if (!height.empty()) f.height.assign(height.begin(), height.end());
+  if (!phi.empty()) f.phi.assign(phi.begin(), phi.end());
   return f;
 }
 

@@ -11,6 +11,7 @@
 #include "common/validate.h"
 #include "ocean/spectrum_setup.h"
 #include "runtime/kernel.h"
+#include "runtime/host_transfer.h"
 
 namespace squall::ocean {
 namespace {
@@ -244,9 +245,10 @@ SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
       BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_current);
       impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out.buffer());
     }
-    const cl::CommandQueue& queue = impl_->runtime.queue();
-    queue.enqueueReadBuffer(out.buffer(), CL_FALSE, 0, cells * sizeof(float), current.u.data());
-    queue.enqueueReadBuffer(out.buffer(), CL_TRUE, cells * sizeof(float), cells * sizeof(float), current.v.data());
+    ReadBack read(impl_->runtime);
+    read.add(out.buffer(), 0, cells * sizeof(float), current.u.data());
+    read.add(out.buffer(), cells * sizeof(float), cells * sizeof(float), current.v.data());
+    read.wait();
   }
   for (size_t n = 0; n < cells; ++n) {
     current.u[n] += float(spec.layers[0].drift_x);
@@ -282,12 +284,13 @@ std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const Outp
 
 // Reads the planes of `outputs` that `planes` names from the finalize kernel's output (kOutputPlanes
 // planes of `cells`, in TileFields' order).
-void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t cells, unsigned outputs, unsigned planes,
+void read_outputs(const Runtime& runtime, const cl::Buffer& out, size_t cells, unsigned outputs, unsigned planes,
                   TileFields& result) {
+  ReadBack back(runtime);
   auto read = [&](int plane, std::vector<float>& into) {
     if (!(planes & (1u << plane))) return;
     into.resize(cells);
-    queue.enqueueReadBuffer(out, CL_FALSE, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
+    back.add(out, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
   };
   if (outputs & Height) read(0, result.height);
   if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);
@@ -295,7 +298,7 @@ void read_outputs(const cl::CommandQueue& queue, const cl::Buffer& out, size_t c
   if (outputs & Normals) read(5, result.normal_x), read(6, result.normal_y), read(7, result.normal_z);
   if (outputs & Jacobian) read(8, result.jacobian), read(9, result.jacobian_minus), read(10, result.jacobian_plus);
   if (outputs & Whitecaps) read(kWhitecapPlane, result.whitecaps);
-  queue.finish();
+  back.wait();
 }
 
 }  // namespace
@@ -346,7 +349,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
                        cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                        whitecap.buffer(), out.buffer());
-  read_outputs(runtime.queue(), out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), result);
+  read_outputs(runtime, out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {
@@ -385,12 +388,11 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
   std::vector<std::vector<float>> layers(spec.layers.size());
   {
     auto lock = impl_->runtime.exclusive();
-    for (size_t a = 0; a < spec.layers.size(); ++a) {
+    for (size_t a = 0; a < spec.layers.size(); ++a) {  // one layer's buffer at a time
       const LayerSpec& L = spec.layers[a];
       BufferLease fields = impl_->layer_fields(spec, a, t, {4, true});  // every channel, as sample_channels reads
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
-      impl_->runtime.queue().enqueueReadBuffer(fields.buffer(), CL_TRUE, 0, layers[a].size() * sizeof(float),
-                                               layers[a].data());
+      read_back(impl_->runtime, fields.buffer(), layers[a].size() * sizeof(float), layers[a].data());
     }
   }
   const double lambda = spec.choppiness;

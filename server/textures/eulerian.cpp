@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "textures/counter_rng.h"
+#include "runtime/host_transfer.h"
 #include "textures/state_codec.h"
 
 namespace squall::textures {
@@ -252,8 +253,7 @@ class Eulerian final : public Advection {
           cl_int(params_.deformation == DeformationSum::Paper ? 1 : 0), cl_float(params_.d_star),
           cl_int(int(params_.blend)), texture, inputs_->image(), inputs_->scalar(), inputs_->lut(),
           inputs_->velocity(t), inputs_->mask(), cascade_, cl_int(cascade_bands_));
-      runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
-                                         frame.planes.data());
+      read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
     }
     frame.stats = frame_stats(frame);
     return frame;

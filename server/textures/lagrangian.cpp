@@ -7,6 +7,7 @@
 
 #include "textures/grid_quality.h"
 #include "textures/poisson.h"
+#include "runtime/host_transfer.h"
 #include "textures/state_codec.h"
 
 namespace squall::textures {
@@ -402,8 +403,7 @@ class Lagrangian final : public Advection {
           planes.buffer(), out, offsets, grids, boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
           cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
           inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_), inputs_->mask());
-      runtime_.queue().enqueueReadBuffer(planes.buffer(), CL_TRUE, 0, frame.planes.size() * sizeof(float),
-                                         frame.planes.data());
+      read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
     }
     frame.stats = frame_stats(frame);
     frame.stats.particles = stats;

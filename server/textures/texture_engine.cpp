@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "runtime/host_transfer.h"
 #include "textures/eulerian.h"
 #include "textures/lagrangian.h"
 
@@ -12,11 +13,12 @@ constexpr int kStatsResolution = 256;  // texels per period when the stats of a 
 
 void render_window(Runtime& runtime, TextureKernels& kernels, TextureFrame& frame, const OutputGrid& out, double scale,
                    const TextureSource& texture, const DeviceInputs& inputs) {
-  cl::Buffer planes(runtime.context(), CL_MEM_WRITE_ONLY, frame.planes.size() * sizeof(float));
+  const size_t bytes = frame.planes.size() * sizeof(float);
   auto lock = runtime.exclusive();
-  kernels.texture_window.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes, out, cl_float(scale),
-                                texture, inputs.image(), inputs.scalar(), inputs.lut());
-  runtime.queue().enqueueReadBuffer(planes, CL_TRUE, 0, frame.planes.size() * sizeof(float), frame.planes.data());
+  BufferLease planes = runtime.buffers().acquire(bytes);
+  kernels.texture_window.launch(cl::NDRange(out.width, out.height), cl::NullRange, planes.buffer(), out,
+                                cl_float(scale), texture, inputs.image(), inputs.scalar(), inputs.lut());
+  read_back(runtime, planes.buffer(), bytes, frame.planes.data());
 }
 
 }  // namespace

@@ -7,10 +7,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "common/error.h"
 #include "runtime/buffer_pool.h"
 #include "runtime/kernel.h"
+#include "runtime/host_transfer.h"
 #include "runtime/runtime.h"
 #include "support/expect_error.h"
 #include "support/process.h"
@@ -230,6 +232,84 @@ TEST(BufferPool, ACpuDeviceComputesInTheHostStorageOfItsBuffers) {
   EXPECT_EQ(mapped, storage);
   queue.enqueueUnmapMemObject(lease.buffer(), mapped);
   queue.finish();
+}
+
+// Holds the calling thread's queue until `gate` opens, 50 ms later: work queued meanwhile has not run
+// when the caller's next statements do, unless they wait for it.
+class QueueGate {
+ public:
+  explicit QueueGate(Runtime& runtime) : gate_(runtime.context()) {
+    std::vector<cl::Event> after{gate_};
+    runtime.queue().enqueueBarrierWithWaitList(&after);
+    opener_ = std::thread([this] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      gate_.setStatus(CL_COMPLETE);
+    });
+  }
+  ~QueueGate() { opener_.join(); }
+
+ private:
+  cl::UserEvent gate_;
+  std::thread opener_;
+};
+
+size_t count_of(const std::vector<float>& values, float v) {
+  return size_t(std::count(values.begin(), values.end(), v));
+}
+
+// Where the device computes in its pool buffers' host storage, a read of a pool buffer queues no
+// command; a buffer of no host storage is read by one. Either way the bytes are those the device wrote
+// last: a copy made before the queue has finished would find the first fill's zeros.
+TEST(HostTransfer, ReadsPoolBuffersWithNoCommandAfterTheQueueHasFinished) {
+  Runtime& runtime = test::runtime();
+  constexpr size_t n = 1 << 16, tail = 64;
+  auto pooled = runtime.buffers().acquire(n * sizeof(float));
+  cl::Buffer plain(runtime.context(), CL_MEM_READ_WRITE, tail * sizeof(float));
+  auto lock = runtime.exclusive();
+  const cl::CommandQueue& queue = runtime.queue();
+  queue.enqueueFillBuffer(pooled.buffer(), cl_float(0), 0, n * sizeof(float));
+  queue.finish();
+  QueueGate gate(runtime);
+  queue.enqueueFillBuffer(pooled.buffer(), cl_float(1), 0, n * sizeof(float));
+  queue.enqueueFillBuffer(pooled.buffer(), cl_float(2), (n - tail) * sizeof(float), tail * sizeof(float));
+  queue.enqueueFillBuffer(plain, cl_float(3), 0, tail * sizeof(float));
+  std::vector<float> whole(n), end(tail), other(tail);
+  ReadBack back(runtime);
+  back.add(pooled.buffer(), 0, n * sizeof(float), whole.data());
+  back.add(pooled.buffer(), (n - tail) * sizeof(float), tail * sizeof(float), end.data());
+  back.add(plain, 0, tail * sizeof(float), other.data());
+  EXPECT_EQ(back.commands(), runtime.computes_in_host_storage() ? 1u : 3u);
+  back.wait();
+  EXPECT_EQ(count_of(whole, 1.0f), n - tail);
+  EXPECT_EQ(count_of(end, 2.0f), tail);
+  EXPECT_EQ(count_of(other, 3.0f), tail);
+}
+
+// A write into a pool buffer's host storage (no command) lands after the commands queued before it, as a
+// write command would: the fills queued behind the gate do not overwrite it.
+TEST(HostTransfer, AWriteWithNoCommandComesAfterTheCommandsQueuedBeforeIt) {
+  Runtime& runtime = test::runtime();
+  constexpr size_t n = 1 << 16;
+  auto pooled = runtime.buffers().acquire(n * sizeof(float));
+  cl::Buffer plain(runtime.context(), CL_MEM_READ_WRITE, n * sizeof(float));
+  auto lock = runtime.exclusive();
+  const cl::CommandQueue& queue = runtime.queue();
+  const std::vector<float> twos(n, 2.0f);
+  std::vector<float> pooled_values(n), plain_values(n);
+  {
+    QueueGate gate(runtime);
+    queue.enqueueFillBuffer(pooled.buffer(), cl_float(1), 0, n * sizeof(float));
+    queue.enqueueFillBuffer(plain, cl_float(1), 0, n * sizeof(float));
+    EXPECT_EQ(write_buffer(runtime, pooled.buffer(), n * sizeof(float), twos.data()),
+              !runtime.computes_in_host_storage());
+    EXPECT_TRUE(write_buffer(runtime, plain, n * sizeof(float), twos.data()));
+    ReadBack back(runtime);
+    back.add(pooled.buffer(), 0, n * sizeof(float), pooled_values.data());
+    back.add(plain, 0, n * sizeof(float), plain_values.data());
+    back.wait();
+  }
+  EXPECT_EQ(count_of(pooled_values, 2.0f), n);
+  EXPECT_EQ(count_of(plain_values, 2.0f), n);
 }
 
 TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {

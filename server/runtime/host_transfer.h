@@ -1,0 +1,54 @@
+// Copies between host memory and device buffers that, where they can, queue no command: ReadBack and
+// write_buffer().
+//
+// Where the device computes in its pool buffers' host storage (Runtime::computes_in_host_storage()), the
+// host copies the bytes of such a buffer itself, once the queue has finished. PoCL's worker threads take
+// the commands of every queue one at a time and are woken for each, so a copy they need not run leaves
+// them to the kernels of other requests. Any other copy is a non-blocking command.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "runtime/opencl.h"
+
+namespace squall {
+
+class Runtime;
+
+// Reads of device buffers into host memory, all waited for at once: wait() finishes the queue, then
+// copies the bytes of those in host storage; the others are read commands that the same finish waits for.
+// Used on the thread that holds the queue (Runtime::exclusive()). An `into` holds its bytes once wait()
+// has returned, not before.
+class ReadBack {
+ public:
+  explicit ReadBack(const Runtime& runtime);  // on the calling thread's queue (Runtime::queue())
+
+  // `bytes` bytes from `offset` in `from` into `into`.
+  void add(const cl::Buffer& from, size_t offset, size_t bytes, void* into);
+  void wait();
+
+  size_t commands() const { return commands_; }  // read commands queued: those not copied by wait()
+
+ private:
+  struct Copy {
+    const std::byte* from;
+    size_t bytes;
+    void* into;
+  };
+  const cl::CommandQueue& queue_;
+  bool direct_;
+  std::vector<Copy> copies_;
+  size_t commands_ = 0;
+};
+
+// One read, waited for: a ReadBack of one add().
+void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, void* into);
+
+// Writes `bytes` bytes of `from` at the start of `to`, on the calling thread's queue. Into host storage:
+// the queue is finished first (no wait when nothing is queued, as before a request's first kernel), and
+// the bytes are in `to` when this returns. Otherwise a non-blocking write command: `from` must stay as it
+// is until the queue has run it (its next wait). Returns whether a command was queued.
+bool write_buffer(const Runtime& runtime, const cl::Buffer& to, size_t bytes, const void* from);
+
+}  // namespace squall
