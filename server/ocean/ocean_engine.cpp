@@ -10,8 +10,8 @@
 #include "common/error.h"
 #include "common/validate.h"
 #include "ocean/spectrum_setup.h"
-#include "runtime/kernel.h"
 #include "runtime/host_transfer.h"
+#include "runtime/kernel.h"
 
 namespace squall::ocean {
 namespace {

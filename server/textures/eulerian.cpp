@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "textures/counter_rng.h"
 #include "runtime/host_transfer.h"
+#include "textures/counter_rng.h"
 #include "textures/state_codec.h"
 
 namespace squall::textures {

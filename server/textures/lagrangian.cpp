@@ -5,9 +5,9 @@
 #include <cmath>
 #include <limits>
 
+#include "runtime/host_transfer.h"
 #include "textures/grid_quality.h"
 #include "textures/poisson.h"
-#include "runtime/host_transfer.h"
 #include "textures/state_codec.h"
 
 namespace squall::textures {

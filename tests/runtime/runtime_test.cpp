@@ -11,8 +11,8 @@
 
 #include "common/error.h"
 #include "runtime/buffer_pool.h"
-#include "runtime/kernel.h"
 #include "runtime/host_transfer.h"
+#include "runtime/kernel.h"
 #include "runtime/runtime.h"
 #include "support/expect_error.h"
 #include "support/process.h"
