@@ -60,7 +60,7 @@ class EWaveSession {
   ocean::OceanEngine& ocean_engine(const std::string& field) const;
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
   // The step pipeline (ewave_step.cpp), in the order of step().
-  void upload_maps(const StepInputs& inputs);  // the obstruction, ambient, source and drift fields given
+  void upload_maps(const StepInputs& inputs);  // uploads those of the obstruction, ambient, source and drift maps given
   bool build_obstruction(const StepInputs& inputs);
   // O *= the uncovered fraction of `shapes` around them; reset: O = that fraction there, and 1 again
   // in the cells the last reset covered (shape_map_cells_).

@@ -60,7 +60,7 @@ Frame EWaveSession::step(const StepInputs& in) {
   fft_.plan({nx, ny, size_t(fields), fft::Transform::C2R, precision()})
       .enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());  // eq 66-67
   finish(in, fields, has_obstruction);   // eq 68-69, §3.7 steps 5-7
-  Frame frame = read_frame(in.outputs);  // blocking reads: the host vectors of the inputs are free after this
+  Frame frame = read_frame(in.outputs);  // waits for the queue: the host vectors of the inputs are free after it
   ++step_;
   time_ += in.dt;
   frame.step = step_;
@@ -69,7 +69,7 @@ Frame EWaveSession::step(const StepInputs& in) {
 }
 
 // The step's maps, before its first command: on a CPU device they are copied into their buffers' host
-// storage with no command and no wait (write_buffer()).
+// storage with no command, and the queue they finish first is empty (write_buffer()).
 void EWaveSession::upload_maps(const StepInputs& in) {
   if (!in.obstruction.empty()) upload(obstruction_, in.obstruction);
   if (!in.ambient_height.empty()) upload(ambient_, in.ambient_height);
@@ -83,7 +83,7 @@ void EWaveSession::upload_maps(const StepInputs& in) {
 // and the new ones.
 bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
-  if (!in.obstruction.empty()) {  // uploaded (upload_maps())
+  if (!in.obstruction.empty()) {  // upload_maps() has uploaded it
     shape_map_ = false;
     if (!in.shapes.empty()) rasterize(in.shapes, false);
     return true;
@@ -102,7 +102,7 @@ bool EWaveSession::build_obstruction(const StepInputs& in) {
 }
 
 void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
-  // Kept in members until the next step: the writes are not waited for (the step's read-back is).
+  // Kept in members until the next step: a write command (on a GPU) is not waited for; the read-back is.
   std::vector<float>& vertices = vertex_staging_;
   std::vector<EWaveShape>& device = shape_staging_;
   vertices.clear();
@@ -125,7 +125,7 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
 void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
   const cl::Buffer& none = absent_map_.buffer();
   auto optional = [&](const BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
-    return values.empty() ? none : lease.buffer();  // uploaded (upload_maps())
+    return values.empty() ? none : lease.buffer();  // upload_maps() has uploaded it
   };
   double decay = 1, gain = in.dt;   // eq 60-61
   if (config_.friction_time > 0) {  // eq 72-73
@@ -166,7 +166,7 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
   bool field_drift = !in.drift_field_x.empty();
   bool uniform_drift = !field_drift && (in.drift_x != 0 || in.drift_y != 0);
   const cl_int drift_mode = field_drift ? 2 : uniform_drift ? 1 : 0;
-  const cl::Buffer& drift_x = field_drift ? drift_x_.buffer() : none;  // uploaded (upload_maps())
+  const cl::Buffer& drift_x = field_drift ? drift_x_.buffer() : none;  // upload_maps() has uploaded both
   const cl::Buffer& drift_y = field_drift ? drift_y_.buffer() : none;
   const cl::Buffer& obstruction = has_obstruction ? obstruction_.buffer() : none;
   std::visit(
@@ -184,7 +184,7 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
 }
 
 const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction) {
-  if (!in.ambient_height.empty()) return &ambient_.buffer();  // uploaded (upload_maps())
+  if (!in.ambient_height.empty()) return &ambient_.buffer();  // upload_maps() has uploaded it
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
   ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");

@@ -388,7 +388,7 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
   std::vector<std::vector<float>> layers(spec.layers.size());
   {
     auto lock = impl_->runtime.exclusive();
-    for (size_t a = 0; a < spec.layers.size(); ++a) {  // one layer's buffer at a time
+    for (size_t a = 0; a < spec.layers.size(); ++a) {  // a layer's buffer goes back before the next is taken
       const LayerSpec& L = spec.layers[a];
       BufferLease fields = impl_->layer_fields(spec, a, t, {4, true});  // every channel, as sample_channels reads
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);

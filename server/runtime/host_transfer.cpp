@@ -2,25 +2,45 @@
 
 #include <cstring>
 
+#include "common/error.h"
 #include "runtime/buffer_pool.h"
 #include "runtime/runtime.h"
 
 namespace squall {
+namespace {
 
-ReadBack::ReadBack(const Runtime& runtime) : queue_(runtime.queue()), direct_(runtime.computes_in_host_storage()) {}
+// A read command would fail with CL_INVALID_VALUE; a copy would overrun the buffer's host storage.
+void check_within(const cl::Buffer& buffer, size_t offset, size_t bytes, const char* what) {
+  const size_t size = buffer.getInfo<CL_MEM_SIZE>();
+  if (offset > size || bytes > size - offset)
+    fail(Code::Internal, std::string(what) + " of " + std::to_string(bytes) + " bytes at " + std::to_string(offset) +
+                             " runs past the end of a buffer of " + std::to_string(size));
+}
+
+}  // namespace
+
+ReadBack::ReadBack(const Runtime& runtime)
+    : queue_(runtime.queue()), in_host_storage_(runtime.computes_in_host_storage()) {}
+
+ReadBack::~ReadBack() {
+  if (reading_) clFinish(queue_());  // no throw from a destructor: the status is dropped
+}
 
 void ReadBack::add(const cl::Buffer& from, size_t offset, size_t bytes, void* into) {
-  const void* storage = direct_ ? host_storage(from) : nullptr;
+  const void* storage = in_host_storage_ ? host_storage(from) : nullptr;
   if (storage) {
+    check_within(from, offset, bytes, "a read");
     copies_.push_back({static_cast<const std::byte*>(storage) + offset, bytes, into});
     return;
   }
   queue_.enqueueReadBuffer(from, CL_FALSE, offset, bytes, into);
   ++commands_;
+  reading_ = true;
 }
 
 void ReadBack::wait() {
   queue_.finish();
+  reading_ = false;
   for (const Copy& c : copies_) std::memcpy(c.into, c.from, c.bytes);
   copies_.clear();
 }
@@ -37,6 +57,7 @@ bool write_buffer(const Runtime& runtime, const cl::Buffer& to, size_t bytes, co
     runtime.queue().enqueueWriteBuffer(to, CL_FALSE, 0, bytes, from);
     return true;
   }
+  check_within(to, 0, bytes, "a write");
   runtime.queue().finish();
   std::memcpy(storage, from, bytes);
   return false;

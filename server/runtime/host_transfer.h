@@ -20,11 +20,16 @@ class Runtime;
 // copies the bytes of those in host storage; the others are read commands that the same finish waits for.
 // Used on the thread that holds the queue (Runtime::exclusive()). An `into` holds its bytes once wait()
 // has returned, not before.
+//
+// Dropped before wait() (an exception), it finishes the queue, so that no read outlives its `into`.
 class ReadBack {
  public:
   explicit ReadBack(const Runtime& runtime);  // on the calling thread's queue (Runtime::queue())
+  ReadBack(const ReadBack&) = delete;
+  ReadBack& operator=(const ReadBack&) = delete;
+  ~ReadBack();
 
-  // `bytes` bytes from `offset` in `from` into `into`.
+  // `bytes` bytes from `offset` in `from` into `into`; Error(Internal) beyond the end of `from`.
   void add(const cl::Buffer& from, size_t offset, size_t bytes, void* into);
   void wait();
 
@@ -37,15 +42,17 @@ class ReadBack {
     void* into;
   };
   const cl::CommandQueue& queue_;
-  bool direct_;
+  bool in_host_storage_;  // the device computes in its pool buffers' host storage
   std::vector<Copy> copies_;
   size_t commands_ = 0;
+  bool reading_ = false;  // read commands queued and not yet waited for
 };
 
 // One read, waited for: a ReadBack of one add().
 void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, void* into);
 
-// Writes `bytes` bytes of `from` at the start of `to`, on the calling thread's queue. Into host storage:
+// Writes `bytes` bytes of `from` at the start of `to` (Error(Internal) beyond its end), on the calling
+// thread's queue. Into host storage:
 // the queue is finished first (no wait when nothing is queued, as before a request's first kernel), and
 // the bytes are in `to` when this returns. Otherwise a non-blocking write command: `from` must stay as it
 // is until the queue has run it (its next wait). Returns whether a command was queued.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -310,6 +311,22 @@ TEST(HostTransfer, AWriteWithNoCommandComesAfterTheCommandsQueuedBeforeIt) {
   }
   EXPECT_EQ(count_of(pooled_values, 2.0f), n);
   EXPECT_EQ(count_of(plain_values, 2.0f), n);
+}
+
+// A copy from or into host storage past the buffer's end is refused, as the command it replaces would be.
+TEST(HostTransfer, ACopyPastTheEndOfABufferIsRefused) {
+  Runtime& runtime = test::runtime();
+  if (!runtime.computes_in_host_storage()) GTEST_SKIP() << "copies are commands on this device";
+  auto pooled = runtime.buffers().acquire(1000);
+  std::vector<char> bytes(1001);
+  auto lock = runtime.exclusive();
+  ReadBack back(runtime);
+  test::expect_error(Code::Internal, "a read of 8 bytes at 996 runs past the end of a buffer of 1000",
+                     [&] { back.add(pooled.buffer(), 996, 8, bytes.data()); });
+  test::expect_error(Code::Internal, "a write of 1001 bytes at 0 runs past the end of a buffer of 1000",
+                     [&] { write_buffer(runtime, pooled.buffer(), 1001, bytes.data()); });
+  back.add(pooled.buffer(), 992, 8, bytes.data());
+  back.wait();
 }
 
 TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
