@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <map>
 
 namespace squall::rpc {
 namespace {
@@ -21,6 +22,20 @@ prometheus::MetricFamily gauge(const std::string& name, const std::string& help,
   return {name, help, prometheus::MetricType::Gauge, {metric}};
 }
 
+// One counter per call site of device work (WorkKind::site; "other" for work of no kind).
+prometheus::MetricFamily counter_by_site(const std::string& name, const std::string& help,
+                                         const std::map<std::string, QueueSlots::SiteTimes>& sites,
+                                         double (*value)(const QueueSlots::SiteTimes&)) {
+  prometheus::MetricFamily family{name, help, prometheus::MetricType::Counter, {}};
+  for (const auto& [site, times] : sites) {
+    prometheus::ClientMetric metric;
+    metric.label = {{"site", site.empty() ? "other" : site}};
+    metric.counter.value = value(times);
+    family.metric.push_back(std::move(metric));
+  }
+  return family;
+}
+
 double resident_bytes() {
   std::ifstream statm("/proc/self/statm");
   double pages = 0, resident = 0;
@@ -35,6 +50,7 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
   const LimitGate& gate = serving.gate();
   const DeviceInfo& device = daemon_.runtime.device_info();
   const Runtime::DeviceWait wait = daemon_.runtime.device_wait();
+  const auto sites = daemon_.runtime.device_site_times();
   const bool ready = serving.phase() == ServingState::Phase::Serving;
   // The FFT backend is chosen during start-up: named once the daemon has served.
   const std::string fft = serving.phase() == ServingState::Phase::Starting ? "" : daemon_.fft->name();
@@ -66,6 +82,13 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
       counter("squall_device_lock_wait_seconds_total",
               "Seconds device work waited for a free device queue: requests queued behind each other", wait.seconds),
       gauge("squall_device_lock_waiting", "Device work waiting for a free device queue now", double(wait.waiting)),
+      counter_by_site("squall_device_queue_leases_total", "Device queue leases ended, by call site", sites,
+                      [](const QueueSlots::SiteTimes& t) { return double(t.leases); }),
+      counter_by_site("squall_device_queue_wait_seconds_total", "Seconds waited for a free device queue, by call site",
+                      sites, [](const QueueSlots::SiteTimes& t) { return t.wait_seconds; }),
+      counter_by_site("squall_device_queue_hold_seconds_total",
+                      "Seconds a device queue was held (the work's time on the device), by call site", sites,
+                      [](const QueueSlots::SiteTimes& t) { return t.hold_seconds; }),
   };
   for (const auto& capability : capabilities_)
     for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));

@@ -22,11 +22,11 @@ std::string kind_key(const WorkKind& kind) {
 int held_queue_slot() { return t_slot; }
 size_t current_queue_slot() { return t_slot < 0 ? 0 : size_t(t_slot); }
 
-QueueLease::QueueLease(QueueSlots* slots, size_t slot, int kind)
-    : slots_(slots), slot_(slot), kind_(kind), since_(std::chrono::steady_clock::now()) {}
+QueueLease::QueueLease(QueueSlots* slots, size_t slot, int kind, const char* site)
+    : slots_(slots), slot_(slot), kind_(kind), site_(site), since_(std::chrono::steady_clock::now()) {}
 
 QueueLease::QueueLease(QueueLease&& other) noexcept
-    : slots_(other.slots_), slot_(other.slot_), kind_(other.kind_), since_(other.since_) {
+    : slots_(other.slots_), slot_(other.slot_), kind_(other.kind_), site_(other.site_), since_(other.since_) {
   other.slots_ = nullptr;
 }
 
@@ -36,6 +36,7 @@ QueueLease& QueueLease::operator=(QueueLease&& other) noexcept {
     slots_ = other.slots_;
     slot_ = other.slot_;
     kind_ = other.kind_;
+    site_ = other.site_;
     since_ = other.since_;
     other.slots_ = nullptr;
   }
@@ -44,7 +45,7 @@ QueueLease& QueueLease::operator=(QueueLease&& other) noexcept {
 
 void QueueLease::unlock() {
   if (!slots_) return;
-  slots_->release(slot_, kind_, since_);
+  slots_->release(*this);
   slots_ = nullptr;
 }
 
@@ -59,6 +60,7 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   const std::string key = kind_key(kind);
   std::unique_lock<std::mutex> lock(mutex_);
   const int k = kind_index(key);
+  const char* site = kind.site ? kind.site : "";
   int slot = -1;
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
   if (waiting_.empty() && free_slot != busy_.end()) {
@@ -70,14 +72,15 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
-    wait_ns_ += uint64_t(
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
+    const auto waited = std::chrono::steady_clock::now() - start;
+    wait_ns_ += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(waited).count());
+    site_times_[site].wait_seconds += std::chrono::duration<double>(waited).count();
     slot = self.slot;
   }
   ++acquisitions_;
   ++held_;
   t_slot = slot;
-  return QueueLease(this, size_t(slot), k);
+  return QueueLease(this, size_t(slot), k, site);
 }
 
 double QueueSlots::expected_hold(const WorkKind& kind) {
@@ -129,7 +132,13 @@ size_t QueueSlots::waiting() {
   return waiting_.size();
 }
 
-void QueueSlots::release(size_t slot, int kind, std::chrono::steady_clock::time_point since) {
+std::map<std::string, QueueSlots::SiteTimes> QueueSlots::site_times() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return site_times_;
+}
+
+void QueueSlots::release(const QueueLease& lease) {
+  const size_t slot = lease.slot_;
   try {
     queues_[slot].finish();
   } catch (const cl::Error& e) {  // the device failed: the next call on it reports it
@@ -138,9 +147,12 @@ void QueueSlots::release(size_t slot, int kind, std::chrono::steady_clock::time_
   if (t_slot == int(slot)) t_slot = -1;
   --held_;
   if (on_settled_) on_settled_(slot);
-  const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+  const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - lease.since_).count();
   std::lock_guard<std::mutex> lock(mutex_);
-  learn(kind, held);
+  learn(lease.kind_, held);
+  SiteTimes& times = site_times_[lease.site_];
+  ++times.leases;
+  times.hold_seconds += held;
   if (waiting_.empty()) {
     busy_[slot] = false;
     return;

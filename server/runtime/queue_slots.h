@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <string>
 #include <unordered_map>
@@ -62,11 +63,12 @@ class QueueLease {
 
  private:
   friend class QueueSlots;
-  QueueLease(QueueSlots* slots, size_t slot, int kind);
+  QueueLease(QueueSlots* slots, size_t slot, int kind, const char* site);
 
   QueueSlots* slots_ = nullptr;
   size_t slot_ = 0;
-  int kind_ = -1;  // index of the lease's WorkKind in the pool's learned holds, -1 for none
+  int kind_ = -1;          // index of the lease's WorkKind in the pool's learned holds, -1 for none
+  const char* site_ = "";  // its WorkKind's site
   std::chrono::steady_clock::time_point since_;
 };
 
@@ -101,11 +103,19 @@ class QueueSlots {
   size_t waiting();                      // callers waiting for a queue now
   size_t held() const { return held_; }  // leases held now
   uint64_t wait_ns() const { return wait_ns_; }
+  // Per call site (WorkKind::site, "" for work of no kind), since start-up: the leases that have ended,
+  // and the seconds they waited for a queue and held one. Where a request's time on the device goes.
+  struct SiteTimes {
+    uint64_t leases = 0;
+    double wait_seconds = 0;
+    double hold_seconds = 0;
+  };
+  std::map<std::string, SiteTimes> site_times();
 
  private:
   friend class QueueLease;
   struct Waiter;
-  void release(size_t slot, int kind, std::chrono::steady_clock::time_point since);
+  void release(const QueueLease& lease);
   int kind_index(const std::string& key);                        // under mutex_; -1 for the empty key (no kind)
   void learn(int kind, double seconds);                          // under mutex_
   std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
@@ -125,6 +135,7 @@ class QueueSlots {
   std::vector<double> holds_;                           // learned hold per kind, s
   std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
   std::atomic<size_t> held_{0};                         // leases from acquire() to the end of release()
+  std::map<std::string, SiteTimes> site_times_;         // under mutex_
 };
 
 }  // namespace squall

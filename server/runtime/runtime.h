@@ -100,6 +100,8 @@ class Runtime {
   DeviceWait device_wait() const {
     return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9, queues_->waiting()};
   }
+  // Per call site of exclusive() (WorkKind::site): leases ended, seconds waited for a queue and held.
+  std::map<std::string, QueueSlots::SiteTimes> device_site_times() const { return queues_->site_times(); }
   // The queues leased now (exclusive()): 1 when the caller's request is the only one on the device.
   size_t queues_held() const { return queues_->held(); }
 

@@ -23,7 +23,7 @@ from typing import Iterator, List
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
-from exposition import http_get, value  # noqa: E402  (tests/support)
+from exposition import http_get, samples, value  # noqa: E402  (tests/support)
 from processes import Process, free_port, wait_for  # noqa: E402
 
 SQUALLD = os.environ.get("SQUALL_SQUALLD", "build/squalld")
@@ -98,7 +98,13 @@ def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
     def scrape() -> str:
         return http_get(f"http://{daemon.metrics}/metrics")
 
-    before = value(scrape(), "squall_device_lock_acquisitions_total")
+    def unnamed(text: str, name: str) -> float:
+        """The sample of work of no kind, as an ocean sample's; 0 before there is any."""
+        return sum(samples(text, name, site="other"))
+
+    text = scrape()
+    before = value(text, "squall_device_lock_acquisitions_total")
+    leases_before = unnamed(text, "squall_device_queue_leases_total")
     assert daemon.cli("ocean", "sample", "--grid", "32", "--point", "1,2").returncode == 0
     text = scrape()
     assert value(text, "squall_device_lock_acquisitions_total") > before
@@ -106,6 +112,10 @@ def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
         0 <= value(text, "squall_device_lock_wait_seconds_total") < 60
     )  # one client: little waiting
     assert value(text, "squall_device_lock_waiting") == 0  # and nothing waits once it is answered
+    # The same by call site: the sample's lease has ended, and its queue was held for some time.
+    assert unnamed(text, "squall_device_queue_leases_total") > leases_before
+    assert unnamed(text, "squall_device_queue_hold_seconds_total") > 0
+    assert 0 <= unnamed(text, "squall_device_queue_wait_seconds_total") < 60
 
 
 def test_a_client_killed_mid_stream_is_reclaimed_and_counted(

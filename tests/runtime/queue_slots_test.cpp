@@ -208,6 +208,30 @@ TEST(DeviceQueues, TheQueuesLearnHowLongEachKindOfWorkHoldsOne) {
   EXPECT_EQ(q.slots.expected_hold({"test.render", 8191}), 0.020) << "4096 to 8191: one kind";
 }
 
+// Each call site's leases, waits and holds are summed: a tile holds the queue 40 ms while a render
+// waits for it; a lease of no kind is counted under "".
+TEST(DeviceQueues, EachCallSitesWaitsAndHoldsAreSummed) {
+  OneQueue q;
+  {
+    auto tile = q.slots.acquire(kTile);
+    q.ask(kRender, "render");
+    std::this_thread::sleep_for(std::chrono::milliseconds(40));
+  }
+  q.served();
+  { auto unnamed = q.slots.acquire(); }
+  const auto sites = q.slots.site_times();
+  ASSERT_EQ(sites.size(), 3u);
+  const auto& tile = sites.at("test.tile");
+  const auto& render = sites.at("test.render");
+  EXPECT_EQ(tile.leases, 1u);
+  EXPECT_EQ(tile.wait_seconds, 0) << "the queue was free";
+  EXPECT_GE(tile.hold_seconds, 0.040);  // a sleep lasts at least its time
+  EXPECT_EQ(render.leases, 1u);
+  EXPECT_GT(render.wait_seconds, 0.020) << "it waited for the tile's sleep, less the time it took to ask";
+  EXPECT_LT(render.hold_seconds, tile.hold_seconds);
+  EXPECT_EQ(sites.at("").leases, 1u);
+}
+
 // A render expected to take 1 ms goes ahead of a 60 ms tile waiting, but not of a caller of no kind
 // (which may be short); a render of a size not learned yet waits in turn.
 TEST(DeviceQueues, AMuchShorterKindOfWorkGoesAheadOfLongerWorkWaiting) {
