@@ -1,6 +1,6 @@
 // squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
 // (deadline, request id, session routing). The server's own RPCs are methods here (info, health).
-// A capability's RPC is called on its generated stub over channel(), with a context() of this client.
+// To call a capability's RPC, make its generated stub over channel() and pass it a context() of this client.
 // check() turns the call's failed status into the RpcError that the methods here throw.
 // client/cloud_cli.cpp calls Clouds.BuildVolume and Clouds.Render in this way.
 #pragma once

@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdint>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -16,7 +15,7 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "fft/fft.h"
-#include "runtime/buffer_pool.h"
+#include "runtime/host_transfer.h"
 #include "runtime/runtime.h"
 
 namespace squall::fft {
@@ -145,8 +144,8 @@ class FftwPlan : public Plan {
     // so that the runtime keeps them until it has run. Out of place on other buffers, it takes two
     // kernels of one buffer each: the first notes the output's address in a cell that the second, which
     // transforms, reads and deletes.
-    void* in_storage = pool_storage(in);
-    void* out_storage = in_place ? in_storage : pool_storage(out);
+    void* in_storage = computed_host_storage(runtime_, in);
+    void* out_storage = in_place ? in_storage : computed_host_storage(runtime_, out);
     if (in_storage && out_storage) {
       enqueue_native(queue, &FftwPlan::transform,
                      {{in(), out()}, in_storage, out_storage, nullptr, in_place, this, direction}, in_place ? 1 : 2);
@@ -171,14 +170,6 @@ class FftwPlan : public Plan {
     FftwPlan* self;    // cached by the Fft for its lifetime, which outlasts its queues' commands
     Direction direction;
   };
-
-  // The host storage of a buffer of the runtime's pool (kHostAlignment aligned) on a device that
-  // computes there; null for any other buffer.
-  void* pool_storage(const cl::Buffer& buffer) const {
-    if (!runtime_.computes_in_host_storage()) return nullptr;
-    void* storage = host_storage(buffer);
-    return reinterpret_cast<uintptr_t>(storage) % kHostAlignment == 0 ? storage : nullptr;
-  }
 
   // Throws on failure (the cell of a note_output enqueued before is then leaked, not freed under it).
   void enqueue_native(const cl::CommandQueue& queue, void(CL_CALLBACK* function)(void*), Call call,

@@ -1,5 +1,6 @@
 #include "runtime/host_transfer.h"
 
+#include <cstdint>
 #include <cstring>
 
 #include "common/error.h"
@@ -19,15 +20,20 @@ void check_within(const cl::Buffer& buffer, size_t offset, size_t bytes, const c
 
 }  // namespace
 
-ReadBack::ReadBack(const Runtime& runtime)
-    : queue_(runtime.queue()), in_host_storage_(runtime.computes_in_host_storage()) {}
+void* computed_host_storage(const Runtime& runtime, const cl::Buffer& buffer) {
+  if (!runtime.computes_in_host_storage()) return nullptr;
+  void* storage = host_storage(buffer);
+  return reinterpret_cast<uintptr_t>(storage) % kHostAlignment == 0 ? storage : nullptr;
+}
+
+ReadBack::ReadBack(const Runtime& runtime) : runtime_(runtime), queue_(runtime.queue()) {}
 
 ReadBack::~ReadBack() {
   if (reading_) clFinish(queue_());  // no throw from a destructor: the status is dropped
 }
 
 void ReadBack::add(const cl::Buffer& from, size_t offset, size_t bytes, void* into) {
-  const void* storage = in_host_storage_ ? host_storage(from) : nullptr;
+  const void* storage = computed_host_storage(runtime_, from);
   if (storage) {
     check_within(from, offset, bytes, "a read");
     copies_.push_back({static_cast<const std::byte*>(storage) + offset, bytes, into});
@@ -52,7 +58,7 @@ void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, voi
 }
 
 bool write_buffer(const Runtime& runtime, const cl::Buffer& to, size_t bytes, const void* from) {
-  void* storage = runtime.computes_in_host_storage() ? host_storage(to) : nullptr;
+  void* storage = computed_host_storage(runtime, to);
   if (!storage) {
     runtime.queue().enqueueWriteBuffer(to, CL_FALSE, 0, bytes, from);
     return true;

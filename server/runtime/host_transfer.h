@@ -16,6 +16,11 @@ namespace squall {
 
 class Runtime;
 
+// The host storage of `buffer` where the device computes in it (Runtime::computes_in_host_storage()) and
+// it is aligned as the pool's buffers are (kHostAlignment); null elsewhere, where only a command reaches
+// the buffer's bytes.
+void* computed_host_storage(const Runtime& runtime, const cl::Buffer& buffer);
+
 // Reads of device buffers into host memory, all waited for at once: wait() finishes the queue, then
 // copies the bytes of those in host storage; the others are read commands that the same finish waits for.
 // Used on the thread that holds the queue (Runtime::exclusive()). An `into` holds its bytes once wait()
@@ -41,8 +46,8 @@ class ReadBack {
     size_t bytes;
     void* into;
   };
+  const Runtime& runtime_;
   const cl::CommandQueue& queue_;
-  bool in_host_storage_;  // the device computes in its pool buffers' host storage
   std::vector<Copy> copies_;
   size_t commands_ = 0;
   bool reading_ = false;  // read commands queued and not yet waited for

@@ -76,7 +76,8 @@ class Runtime {
   BufferPool& buffers() { return *buffers_; }
   // Whether the device computes in the host memory its pool's buffers are made over (host_storage()), as
   // PoCL's CPU devices do; an OpenCL may instead keep a copy of such a buffer on the device. Probed once,
-  // at construction, by a fill on the device. The fftw backend hands FFTW that memory only where it is so.
+  // at construction, by a copy on the device. Only where it is so do the host copies of host_transfer.h
+  // and the fftw backend's transforms reach that memory (computed_host_storage()).
   bool computes_in_host_storage() const { return computes_in_host_storage_; }
 
   // A new kernel object of a built program. cl::Kernel arguments are per object, so each caller
