@@ -48,6 +48,19 @@ typedef struct {
   sq_real partial_n[SQUALL_MAX_PARTIALS], partial_m[SQUALL_MAX_PARTIALS];
 } SpectrumParams;
 
+/* x^y for x >= 0, as pow (0^y is 0 for y > 0, 1 for y = 0, +inf for y < 0). In the kernels exp(y ln x):
+ * OpenCL's pow on PoCL's CPU device goes through an extended-precision log and exp, which took most of
+ * ocean_h0's time; this form's relative error is about |y ln x| ulp, under 1e-5 for the exponents and
+ * ranges of the spectra below. The host keeps pow in double. */
+static inline sq_real sq_powr(sq_real x, sq_real y) {
+#ifdef __OPENCL_VERSION__
+  if (x > 0) return exp(y * log(x));
+  return y > 0 ? (sq_real)0 : (y == 0 ? (sq_real)1 : (sq_real)INFINITY);
+#else
+  return pow(x, y);
+#endif
+}
+
 /* ---- parameters of the wind spectra ---- */
 static inline sq_real sq_pm_omega_p(sq_real g, sq_real U) { return 0.879 * g / U; } /* eq 4 table */
 static inline sq_real sq_jonswap_alpha(sq_real g, sq_real U, sq_real X) {
@@ -62,14 +75,15 @@ static inline sq_real sq_jonswap_omega_p(sq_real g, sq_real U, sq_real X) { /* e
 static inline sq_real sq_pierson_moskowitz(sq_real w, sq_real alpha, sq_real g, sq_real wp) {
   if (w <= 0) return 0;
   sq_real r = wp / w;
-  return alpha * g * g * pow(w, (sq_real)-5) * exp(-1.25 * r * r * r * r);
+  sq_real w2 = w * w;
+  return alpha * g * g / (w2 * w2 * w) * exp(-1.25 * r * r * r * r);
 }
 
 /* eqs 6, 10 (fixed: sigma_b for w > w_p), 14: the peak enhancement gamma^delta */
 static inline sq_real sq_peak_enhancement(sq_real w, sq_real wp, sq_real gamma, sq_real sa, sq_real sb) {
   sq_real sigma = w <= wp ? sa : sb;
   sq_real d = (w - wp) / (sigma * wp);
-  return pow(gamma, exp(-0.5 * d * d));
+  return sq_powr(gamma, exp(-0.5 * d * d));
 }
 
 /* eq 5 */
@@ -91,9 +105,9 @@ static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
 static inline sq_real sq_modified_jonswap(sq_real w, sq_real g, sq_real U, sq_real wp, sq_real sa, sq_real sb) {
   if (w <= 0) return 0;
   sq_real nu = sq_modified_jonswap_nu(g, U, wp);
-  sq_real beta = 0.006 * pow(nu, (sq_real)0.55);
+  sq_real beta = 0.006 * sq_powr(nu, (sq_real)0.55);
   sq_real r = wp / w;
-  return beta * g * g / wp * pow(w, (sq_real)-4) * exp(-r * r * r * r) *
+  return beta * g * g / wp / (w * w * w * w) * exp(-r * r * r * r) *
          sq_peak_enhancement(w, wp, sq_modified_jonswap_gamma(nu), sa, sb);
 }
 
@@ -122,7 +136,7 @@ static inline sq_real sq_tma_r(sq_real w, sq_real depth, sq_real g) {
 static inline sq_real sq_multipeak_shape(sq_real r, sq_real A, sq_real B, sq_real C, sq_real n, sq_real m) {
   if (r <= 0) return 0;
   sq_real q = r - 1.0;
-  return A * exp(-B * q * q) + C * pow(r, -n) * exp(-7.987 * pow(r, -m));
+  return A * exp(-B * q * q) + C * sq_powr(r, -n) * exp(-7.987 * sq_powr(r, -m));
 }
 
 /* S(w) of the layer's model (not Phillips, which has no S), m^2 s */
@@ -175,31 +189,34 @@ static inline sq_real sq_bessel_i0_scaled(sq_real x) {
 /* eq 34-37: Mitsuyasu's spreading parameter s(w) */
 static inline sq_real sq_mitsuyasu_s(sq_real w, sq_real wp, sq_real U, sq_real g) {
   sq_real wt = w * U / g, wtp = wp * U / g;
-  sq_real sp = 11.5 * pow(wtp, (sq_real)-2.5);
+  sq_real sp = 11.5 * sq_powr(wtp, (sq_real)-2.5);
   sq_real r = wt / wtp;
-  return w <= wp ? sp * pow(r, (sq_real)5.0) : sp * pow(r, (sq_real)-2.5);
+  return w <= wp ? sp * (r * r * r * r * r) : sp * sq_powr(r, (sq_real)-2.5);
 }
 
-/* eqs 33 / 38: (2^{2s-1} / pi) Gamma^2(s+1) / Gamma(2s+1) cos^{2s}(d/2), via lgamma */
+/* eqs 33 / 38: (2^{2s-1} / pi) Gamma^2(s+1) / Gamma(2s+1) cos^{2s}(d/2), via lgamma. cos(d/2) is taken as
+ * sin((pi - |d|) / 2), exactly 0 upwind (|d| = pi) in float and double alike and accurate near it:
+ * cos(pi/2) rounds to 6e-17 in double and to -4e-8 in float, and at the small s of short waves c^{2s}
+ * turns that into 0.9 or 0. */
 static inline sq_real sq_cos2s(sq_real d, sq_real s) {
   sq_real lnorm =
       (2.0 * s - 1.0) * log((sq_real)2.0) - log((sq_real)SQUALL_PI) + 2.0 * lgamma(s + 1.0) - lgamma(2.0 * s + 1.0);
-  sq_real c = cos(0.5 * d);
-  return exp(lnorm) * pow(fmax(c, (sq_real)0.0), 2.0 * s);
+  sq_real c = sin(0.5 * ((sq_real)SQUALL_PI - fabs(d)));
+  return exp(lnorm) * sq_powr(fmax(c, (sq_real)0.0), 2.0 * s);
 }
 
 /* eq 39-41 with the central values: s = s_p (w / w_p)^mu */
 static inline sq_real sq_jonswap_spread_s(sq_real w, sq_real k, sq_real wp, sq_real U) {
-  if (w < wp) return 6.97 * pow(w / wp, (sq_real)4.06);
+  if (w < wp) return 6.97 * sq_powr(w / wp, (sq_real)4.06);
   sq_real C = w / k;
   sq_real mu = -2.33 - 1.45 * (U / C - 1.17);
-  return 9.77 * pow(w / wp, mu);
+  return 9.77 * sq_powr(w / wp, mu);
 }
 
 /* eq 46 */
 static inline sq_real sq_hyperbolic_beta(sq_real r) {
-  if (r > 0.56 && r < 0.95) return 2.61 * pow(r, (sq_real)1.3);
-  if (r >= 0.95 && r < 1.6) return 2.28 * pow(r, (sq_real)-1.3);
+  if (r > 0.56 && r < 0.95) return 2.61 * sq_powr(r, (sq_real)1.3);
+  if (r >= 0.95 && r < 1.6) return 2.28 * sq_powr(r, (sq_real)-1.3);
   return 1.24;
 }
 
@@ -215,13 +232,13 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_re
       if (fabs(d) >= 0.5 * SQUALL_PI) return 0;
       sq_real s = w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
       sq_real norm = exp(lgamma(0.5 * s + 1.0) - lgamma(0.5 * (s + 1.0))) / sqrt((sq_real)SQUALL_PI);
-      return norm * pow(fmax(cos(d), (sq_real)0.0), s);
+      return norm * sq_powr(fmax(cos(d), (sq_real)0.0), s);
     }
     case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));  /* eq 33 */
     case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed)); /* eq 38 */
     case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
       sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
-      sq_real width = 2.0 * acos(pow((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));
+      sq_real width = 2.0 * acos(sq_powr((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));
       sq_real c = log((sq_real)2.0) / (1.0 - cos(width));
       return exp(c * (cos(d) - 1.0)) / (2.0 * SQUALL_PI * sq_bessel_i0_scaled(c));
     }
@@ -241,7 +258,7 @@ static inline sq_real sq_phillips(SpectrumParams p, sq_real kx, sq_real ky) {
   sq_real k = sqrt(k2);
   sq_real kL = k * p.phillips_length;
   sq_real cosine = fabs(kx * cos(p.theta0) + ky * sin(p.theta0)) / k;
-  return p.phillips_amplitude * exp(-1.0 / (kL * kL)) / (k2 * k2) * pow(cosine, p.phillips_exponent) *
+  return p.phillips_amplitude * exp(-1.0 / (kL * kL)) / (k2 * k2) * sq_powr(cosine, p.phillips_exponent) *
          exp(-k2 * p.phillips_cutoff * p.phillips_cutoff);
 }
 
