@@ -61,14 +61,17 @@ std::vector<std::unique_ptr<Capability>> capabilities(ServingState& serving) {
 }
 
 // Compiles every kernel program, chooses the FFT backend and starts every capability: the work that
-// precedes SERVING.
-void start_engines(DaemonState& daemon, const DaemonOptions& options,
+// precedes SERVING. FFTW's wisdom is kept in --fft-wisdom, by default the kernel cache, beside the
+// kernels PoCL compiled.
+void start_engines(DaemonState& daemon, const DaemonOptions& options, const std::string& cache,
                    const std::vector<std::unique_ptr<Capability>>& capabilities) {
   daemon.runtime.build_programs();
   std::string backend = options.fft;
   daemon.fft_selection = "flag --fft " + options.fft;
-  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection, options.fftw);
-  daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend, options.fftw));
+  fft::FftwOptions fftw = options.fftw;
+  fftw.wisdom_dir = options.fft_wisdom.empty() ? cache : options.fft_wisdom == "none" ? "" : options.fft_wisdom;
+  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection, fftw);
+  daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend, fftw));
   log(LogLevel::Info, "FFT backend ", backend, " (", daemon.fft_selection, ")");
   SessionPolicy sessions;
   sessions.ttl = std::chrono::milliseconds(std::llround(options.session_ttl_seconds * 1000));
@@ -344,7 +347,7 @@ int run_daemon(const DaemonOptions& options) {
       "); NOT_SERVING until kernels are built");
 
   try {
-    start_engines(*daemon, options, served);
+    start_engines(*daemon, options, cache, served);
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
     health.Shutdown();

@@ -64,6 +64,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
          o->fft = v;
        }},
       {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(positive_integer(v)); }},
+      {"fft-wisdom", [o](const std::string& v) { o->fft_wisdom = v; }},
       {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
       {"max-streams-per-client",
@@ -243,6 +244,8 @@ std::string usage() {
          "                            fftw, on the host, only for CPU devices)\n"
          "  --fft-threads N           FFTW's threads per transform of a request alone on the device (default:\n"
          "                            the device's compute units; one while other requests run)\n"
+         "  --fft-wisdom DIR|none     where FFTW's measured plans are kept for the next start (default: the\n"
+         "                            kernel cache)\n"
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
          "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else ~/.cache/squall/pocl)\n"
          "  --max-grid-cells N        cells of one field (default " +

@@ -30,6 +30,7 @@ struct DaemonOptions {
   std::string cache_dir;                    // --cache-dir: POCL_CACHE_DIR unless the environment sets it
   std::string fft = "auto";                 // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)
   fft::FftwOptions fftw;                    // --fft-threads
+  std::string fft_wisdom;                   // --fft-wisdom: a directory, "none", or "" for the kernel cache
   Limits limits = daemon_limits();          // --max-grid-cells, --max-streams, --max-sessions, --max-*-bytes
   double grace_seconds = 10;                // --grace-period: how long shutdown lets calls finish
   double drain_wait_seconds = 2;            // --drain-wait: answer UNAVAILABLE this long before closing

@@ -5,8 +5,12 @@
 // wait: the kernels queued after it see its result, as after any kernel.
 #include <fftw3.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cctype>
 #include <atomic>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -36,9 +40,12 @@ struct Fftw<Precision::F32> {
   using Real = float;
   using Complex = fftwf_complex;
   using PlanT = fftwf_plan;
-  static void threads(int n) {
+  static bool init_threads() {
     static const bool initialized = fftwf_init_threads() != 0;
-    if (initialized) fftwf_plan_with_nthreads(n);
+    return initialized;
+  }
+  static void threads(int n) {
+    if (init_threads()) fftwf_plan_with_nthreads(n);
   }
   static void* alloc(size_t bytes) { return fftwf_malloc(bytes); }
   static void free(void* p) { fftwf_free(p); }
@@ -61,6 +68,9 @@ struct Fftw<Precision::F32> {
     if (t == Transform::C2R) fftwf_execute_dft_c2r(p, (Complex*)in, (Real*)out);
   }
   static int alignment(void* p) { return fftwf_alignment_of((Real*)p); }
+  static constexpr const char* kWisdomSuffix = ".f32";
+  static bool import_wisdom(const std::string& path) { return fftwf_import_wisdom_from_filename(path.c_str()); }
+  static bool export_wisdom(const std::string& path) { return fftwf_export_wisdom_to_filename(path.c_str()); }
 };
 
 template <>
@@ -68,9 +78,12 @@ struct Fftw<Precision::F64> {
   using Real = double;
   using Complex = fftw_complex;
   using PlanT = fftw_plan;
-  static void threads(int n) {
+  static bool init_threads() {
     static const bool initialized = fftw_init_threads() != 0;
-    if (initialized) fftw_plan_with_nthreads(n);
+    return initialized;
+  }
+  static void threads(int n) {
+    if (init_threads()) fftw_plan_with_nthreads(n);
   }
   static void* alloc(size_t bytes) { return fftw_malloc(bytes); }
   static void free(void* p) { fftw_free(p); }
@@ -93,6 +106,43 @@ struct Fftw<Precision::F64> {
     if (t == Transform::C2R) fftw_execute_dft_c2r(p, (Complex*)in, (Real*)out);
   }
   static int alignment(void* p) { return fftw_alignment_of((Real*)p); }
+  static constexpr const char* kWisdomSuffix = ".f64";
+  static bool import_wisdom(const std::string& path) { return fftw_import_wisdom_from_filename(path.c_str()); }
+  static bool export_wisdom(const std::string& path) { return fftw_export_wisdom_to_filename(path.c_str()); }
+};
+
+// FFTW's wisdom of one precision in a file, "<stem>.f32" or "<stem>.f64": loaded when the backend is
+// made, written after each measured plan. A write goes to a file of its own, then is renamed over the
+// old one, so that another process (a second daemon on the same cache) reads a whole file or none.
+template <Precision P>
+class WisdomFile {
+  using F = Fftw<P>;
+
+ public:
+  explicit WisdomFile(const std::string& stem) : path_(stem.empty() ? "" : stem + F::kWisdomSuffix) {}
+
+  // Wisdom names the solvers it used, and the threaded ones exist once FFTW's threads are initialized:
+  // wisdom written after that is read only after it too.
+  void load() const {  // under planner_mutex()
+    if (path_.empty() || !std::filesystem::exists(path_)) return;
+    F::init_threads();
+    if (!F::import_wisdom(path_))
+      log(LogLevel::Warn, "fftw: ignored the wisdom in ", path_, ", which FFTW cannot read");
+  }
+
+  void save() const {  // under planner_mutex()
+    if (path_.empty()) return;
+    const std::string part = path_ + ".part" + std::to_string(getpid());
+    std::error_code ec;
+    if (F::export_wisdom(part)) std::filesystem::rename(part, path_, ec);
+    if (!std::filesystem::exists(path_) || ec) {
+      std::filesystem::remove(part, ec);
+      log(LogLevel::Warn, "fftw: cannot write wisdom to ", path_, "; plans are measured again by the next process");
+    }
+  }
+
+ private:
+  std::string path_;
 };
 
 // A cached transform: one FFTW plan per direction, placement (in place or not), alignment and thread
@@ -110,8 +160,8 @@ class FftwPlan : public Plan {
   using F = Fftw<P>;
 
  public:
-  FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner)
-      : Plan(key), runtime_(runtime), threads_(threads), planner_(planner) {}
+  FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner, const std::string& wisdom)
+      : Plan(key), runtime_(runtime), threads_(threads), planner_(planner), wisdom_(wisdom) {}
 
   ~FftwPlan() override {
     std::lock_guard<std::mutex> lock(planner_mutex());
@@ -222,7 +272,10 @@ class FftwPlan : public Plan {
     auto& slot = plans_[8 * int(threads > 1) + 4 * int(unaligned) + 2 * int(direction) + int(in_place)];
     if (typename F::PlanT made = slot.load(std::memory_order_acquire)) return made;
     std::lock_guard<std::mutex> lock(planner_mutex());
-    if (!slot.load()) slot.store(make(direction, in_place, unaligned, threads), std::memory_order_release);
+    if (!slot.load()) {
+      slot.store(make(direction, in_place, unaligned, threads), std::memory_order_release);
+      if (!(planner_ & FFTW_ESTIMATE)) wisdom_.save();  // FFTW_MEASURE is 0: not a bit to test
+    }
     return slot.load();
   }
 
@@ -250,6 +303,7 @@ class FftwPlan : public Plan {
   const Runtime& runtime_;
   int threads_;
   unsigned planner_;
+  WisdomFile<P> wisdom_;
   std::mutex failure_mutex_;
   std::string failure_;                            // why a transform did not run; empty while all ran
   std::atomic<typename F::PlanT> plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
@@ -257,22 +311,37 @@ class FftwPlan : public Plan {
 
 class FftwBackend : public Backend {
  public:
-  FftwBackend(const Runtime& runtime, int threads, unsigned planner)
-      : runtime_(runtime), threads_(threads), planner_(planner) {}
+  FftwBackend(const Runtime& runtime, int threads, unsigned planner, const std::string& wisdom)
+      : runtime_(runtime), threads_(threads), planner_(planner), wisdom_(wisdom) {
+    std::lock_guard<std::mutex> lock(planner_mutex());
+    WisdomFile<Precision::F32>(wisdom_).load();
+    WisdomFile<Precision::F64>(wisdom_).load();
+  }
   std::string name() const override { return "fftw"; }
 
   // FFTW plans any size; each (direction, placement, alignment) is planned on its first use and kept.
   std::unique_ptr<Plan> bake(const PlanKey& key) override {
     if (key.precision == Precision::F32)
-      return std::make_unique<FftwPlan<Precision::F32>>(key, runtime_, threads_, planner_);
-    return std::make_unique<FftwPlan<Precision::F64>>(key, runtime_, threads_, planner_);
+      return std::make_unique<FftwPlan<Precision::F32>>(key, runtime_, threads_, planner_, wisdom_);
+    return std::make_unique<FftwPlan<Precision::F64>>(key, runtime_, threads_, planner_, wisdom_);
   }
 
  private:
   const Runtime& runtime_;
   int threads_;
   unsigned planner_;
+  std::string wisdom_;  // the stem of the wisdom files, "" for none
 };
+
+// "<dir>/fftw-wisdom-<device name>", the name reduced to [A-Za-z0-9._-]: plans measured on one CPU are
+// not loaded on another. "" for no directory.
+std::string wisdom_stem(const std::string& dir, const std::string& device) {
+  if (dir.empty()) return "";
+  std::string name = device;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+  return dir + "/fftw-wisdom-" + name;
+}
 
 }  // namespace
 
@@ -291,7 +360,8 @@ std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options)
   static const bool thread_safe = (fftw_make_planner_thread_safe(), fftwf_make_planner_thread_safe(), true);
   (void)thread_safe;  // other FFTW users in the process (the references of tests and benchmarks) plan too
   int threads = options.threads > 0 ? options.threads : int(std::max(1u, device.compute_units));
-  return std::make_unique<FftwBackend>(runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE);
+  return std::make_unique<FftwBackend>(runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE,
+                                       wisdom_stem(options.wisdom_dir, device.name));
 }
 
 }  // namespace squall::fft

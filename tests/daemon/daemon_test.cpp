@@ -485,6 +485,33 @@ TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
   EXPECT_NE(refused.find("--profile-kernels maybe: must be on or off"), std::string::npos) << refused;
 }
 
+// --fft-wisdom: the plans a call's transforms measured are in that directory when it returns, and the
+// next daemon on it loads them (a file FFTW cannot read would be logged as ignored).
+TEST(Daemon, FftwWisdomIsKeptInTheFftWisdomDirectoryForTheNextStart) {
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-daemon-wisdom";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  auto sample = [&](int round) {
+    Daemon d({"--fft", "fftw", "--fft-wisdom", dir.string()});
+    std::string out;
+    EXPECT_EQ(test::run({kSquall, "--address", d.address(), "ocean", "sample", "--grid", "44", "--point", "1,2"}, &out),
+              0)
+        << out;
+    d.process().signal(SIGTERM);
+    EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+    EXPECT_EQ(d.process().log().find("wisdom"), std::string::npos) << "round " << round << ": " << d.process().log();
+  };
+  sample(1);
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.file_size() > 0) files.push_back(entry.path().filename().string());
+  ASSERT_EQ(files.size(), 1u) << "one file of single-precision wisdom";
+  EXPECT_EQ(files[0].rfind("fftw-wisdom-", 0), 0u) << files[0];
+  EXPECT_EQ(files[0].substr(files[0].size() - 4), ".f32") << files[0];
+  sample(2);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Daemon, DrainingTurnsNotServingForWatchersAndEndsTheirStreams) {
   Daemon d({"--fft", "vkfft", "--grace-period", "2"});
   auto stub = grpc::health::v1::Health::NewStub(client::Client({d.address(), 60, ""}).channel());

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <filesystem>
 #include <future>
 #include <random>
 #include <thread>
@@ -311,6 +312,43 @@ TEST(FftPlans, FftwPreparedTransformPlansNothingWhenItRuns) {
   real.resize(key.nx * key.ny);  // the first of the batch
   auto want = reference_r2c(real, key.nx, key.ny);
   EXPECT_LE(relative_l2(test::read<float>(out, 2 * want.size()), want), kTolerance);
+}
+
+// Wisdom files carry what one backend measured to the next process: after FFTW forgets its wisdom (as a
+// new process starts with none), a backend made on the same directory prepares the transform without
+// measuring, while one made without the directory measures it again.
+TEST(FftPlans, FftwWisdomFilesSpareTheNextProcessItsMeasurements) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
+  const PlanKey key{88, 52, 1, Transform::C2C, Precision::F32};  // a size no other test plans
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-fftw-wisdom";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  fft::FftwOptions options;
+  options.wisdom_dir = dir.string();
+  auto prepare = [&](const fft::FftwOptions& o) {
+    fft::Fft fft(fft::make_fftw(test::runtime(), o));
+    auto lock = test::runtime().exclusive();
+    fft.prepare(key, Direction::Forward, false);
+  };
+  prepare(options);
+  size_t files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) files += entry.file_size() > 0;
+  EXPECT_EQ(files, 1u) << "one file of single-precision wisdom, and no temporary file left";
+
+  fftwf_forget_wisdom();
+  prepare(fft::FftwOptions{});
+  EXPECT_NE(test::fftwf_wisdom(), "") << "with no wisdom, preparing measures";
+
+  fftwf_forget_wisdom();
+  fft::Fft loaded(fft::make_fftw(test::runtime(), options));
+  const std::string before = test::fftwf_wisdom();
+  EXPECT_NE(before, "") << "the backend loaded no wisdom";
+  {
+    auto lock = test::runtime().exclusive();
+    loaded.prepare(key, Direction::Forward, false);
+  }
+  EXPECT_EQ(test::fftwf_wisdom(), before) << "a transform in the loaded wisdom was measured again";
+  std::filesystem::remove_all(dir);
 }
 
 // Host memory at an address FFTW's SIMD code does not assume (4 bytes past an aligned one), given to
