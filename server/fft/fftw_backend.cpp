@@ -8,8 +8,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cctype>
 #include <atomic>
+#include <cctype>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -360,6 +360,8 @@ std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options)
   static const bool thread_safe = (fftw_make_planner_thread_safe(), fftwf_make_planner_thread_safe(), true);
   (void)thread_safe;  // other FFTW users in the process (the references of tests and benchmarks) plan too
   int threads = options.threads > 0 ? options.threads : int(std::max(1u, device.compute_units));
+  std::error_code ec;  // a directory that cannot be made: its writes fail, and each is logged
+  if (!options.wisdom_dir.empty()) std::filesystem::create_directories(options.wisdom_dir, ec);
   return std::make_unique<FftwBackend>(runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE,
                                        wisdom_stem(options.wisdom_dir, device.name));
 }
