@@ -488,6 +488,9 @@ TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
 // --fft-wisdom: the plans a call's transforms measured are in that directory when it returns, and the
 // next daemon on it loads them (a file FFTW cannot read would be logged as ignored).
 TEST(Daemon, FftwWisdomIsKeptInTheFftWisdomDirectoryForTheNextStart) {
+  std::string info;
+  ASSERT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &info), 0) << info;
+  if (info.find("(cpu,") == std::string::npos) GTEST_SKIP() << "--fft fftw runs on CPU devices only: " << info;
   const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-daemon-wisdom";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
