@@ -58,7 +58,7 @@ void client(const std::string& address, const Requests& requests, double seconds
   squall::client::ClientOptions options{address, 600};
   options.own_connection = true;  // as a remote client has
   squall::client::Client client(options);
-  // The calls go through each service's generated stub, made over the connection this client owns.
+  // Each service is called through its generated gRPC client class, over the connection this client owns.
   // A failed call is recorded in `record.errors` and the benchmark goes on, so check() is not used.
   auto ocean = v1::Ocean::NewStub(client.channel());
   auto ewave = v1::EWave::NewStub(client.channel());

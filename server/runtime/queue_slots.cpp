@@ -72,9 +72,7 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
-    const auto waited = std::chrono::steady_clock::now() - start;
-    wait_ns_ += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(waited).count());
-    site_times_[site].wait_seconds += std::chrono::duration<double>(waited).count();
+    site_times_[site].wait_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     slot = self.slot;
   }
   ++acquisitions_;
@@ -130,6 +128,13 @@ std::deque<QueueSlots::Waiter*>::iterator QueueSlots::place_in_line(double expec
 size_t QueueSlots::waiting() {
   std::lock_guard<std::mutex> lock(mutex_);
   return waiting_.size();
+}
+
+double QueueSlots::wait_seconds() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  double seconds = 0;
+  for (const auto& [site, times] : site_times_) seconds += times.wait_seconds;
+  return seconds;
 }
 
 std::map<std::string, QueueSlots::SiteTimes> QueueSlots::site_times() {

@@ -102,7 +102,7 @@ class QueueSlots {
   uint64_t acquisitions() const { return acquisitions_; }
   size_t waiting();                      // callers waiting for a queue now
   size_t held() const { return held_; }  // leases held now
-  uint64_t wait_ns() const { return wait_ns_; }
+  double wait_seconds();                 // waited for a queue since start-up, all call sites together
   // Per call site (WorkKind::site, "" for work of no kind), since start-up: the leases that have ended,
   // and the seconds they waited for a queue and held one. Where a request's time on the device goes.
   struct SiteTimes {
@@ -130,12 +130,12 @@ class QueueSlots {
   };
   std::mutex mutex_;
   std::vector<bool> busy_;
-  std::deque<Waiter*> waiting_;                         // callers of acquire() waiting for a slot, in the order served
-  std::unordered_map<std::string, int> kinds_;          // "site/log2 size" -> index in holds_
-  std::vector<double> holds_;                           // learned hold per kind, s
-  std::atomic<uint64_t> acquisitions_{0}, wait_ns_{0};  // statistics, read without mutex_
-  std::atomic<size_t> held_{0};                         // leases from acquire() to the end of release()
-  std::map<std::string, SiteTimes> site_times_;         // under mutex_
+  std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in the order served
+  std::unordered_map<std::string, int> kinds_;   // "site/log2 size" -> index in holds_
+  std::vector<double> holds_;                    // learned hold per kind, s
+  std::atomic<uint64_t> acquisitions_{0};        // statistics, read without mutex_
+  std::atomic<size_t> held_{0};                  // leases from acquire() to the end of release()
+  std::map<std::string, SiteTimes> site_times_;  // under mutex_
 };
 
 }  // namespace squall

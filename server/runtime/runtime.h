@@ -98,9 +98,7 @@ class Runtime {
     double seconds = 0;
     size_t waiting = 0;  // callers waiting for a queue now
   };
-  DeviceWait device_wait() const {
-    return {queues_->acquisitions(), double(queues_->wait_ns()) * 1e-9, queues_->waiting()};
-  }
+  DeviceWait device_wait() const { return {queues_->acquisitions(), queues_->wait_seconds(), queues_->waiting()}; }
   // Per call site of exclusive() (WorkKind::site): leases ended, seconds waited for a queue and held.
   std::map<std::string, QueueSlots::SiteTimes> device_site_times() const { return queues_->site_times(); }
   // The queues leased now (exclusive()): 1 when the caller's request is the only one on the device.
