@@ -44,18 +44,22 @@ void append_bytes(const float* values, size_t count, v1::DType d, std::string* o
   }
 }
 
-void encode(const Header& header, const float* values, size_t count, v1::Field* out) {
-  const size_t want = times(times(header.nx, header.ny), std::max<uint32_t>(header.nz, 1));
-  if (count != want)
-    fail(Code::Internal, "field " + header.name + ": " + std::to_string(count) + " values for a grid of " +
-                             std::to_string(header.nx) + " x " + std::to_string(header.ny) + " x " +
-                             std::to_string(std::max<uint32_t>(header.nz, 1)) + " = " + std::to_string(want));
+void set_header(const Header& header, v1::Field* out) {
   out->set_name(header.name);
   out->set_unit(header.unit);
   out->set_nx(header.nx);
   out->set_ny(header.ny);
   out->set_nz(header.nz);
   out->set_dtype(dtype(header.dtype));
+}
+
+void encode(const Header& header, const float* values, size_t count, v1::Field* out) {
+  const size_t want = times(times(header.nx, header.ny), std::max<uint32_t>(header.nz, 1));
+  if (count != want)
+    fail(Code::Internal, "field " + header.name + ": " + std::to_string(count) + " values for a grid of " +
+                             std::to_string(header.nx) + " x " + std::to_string(header.ny) + " x " +
+                             std::to_string(std::max<uint32_t>(header.nz, 1)) + " = " + std::to_string(want));
+  set_header(header, out);
   std::string* data = out->mutable_data();
   data->clear();
   append_bytes(values, count, out->dtype(), data);

@@ -107,12 +107,13 @@ OutputInfo info(v1::EWaveOutput o) {
   }
 }
 
-// The values of one output, from the engine frame (normals come interleaved x, y, z).
-std::vector<float> output_values(const Frame& f, v1::EWaveOutput o) {
-  auto normal = [&](size_t component) {
-    std::vector<float> v(f.normals.size() / 3);
-    for (size_t c = 0; c < v.size(); ++c) v[c] = f.normals[3 * c + component];
-    return v;
+// The values of one output: a plane of the engine frame itself, or one component of its normals (which
+// come interleaved x, y, z) gathered into `scratch`.
+const std::vector<float>& output_values(const Frame& f, v1::EWaveOutput o, std::vector<float>& scratch) {
+  auto normal = [&](size_t component) -> const std::vector<float>& {
+    scratch.resize(f.normals.size() / 3);
+    for (size_t c = 0; c < scratch.size(); ++c) scratch[c] = f.normals[3 * c + component];
+    return scratch;
   };
   switch (o) {
     case v1::EWAVE_OUTPUT_HEIGHT: return f.height;
@@ -122,7 +123,7 @@ std::vector<float> output_values(const Frame& f, v1::EWaveOutput o) {
     case v1::EWAVE_OUTPUT_NORMAL_Y: return normal(1);
     case v1::EWAVE_OUTPUT_NORMAL_Z: return normal(2);
     case v1::EWAVE_OUTPUT_PHI: return f.phi;
-    default: return {};
+    default: fail(Code::Internal, "unknown EWaveOutput " + std::to_string(int(o)));
   }
 }
 
@@ -205,8 +206,7 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
   if (size_t(p.shapes_size()) > kMaxShapes)
     fail(Code::InvalidArgument,
          "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " + std::to_string(kMaxShapes));
-  for (int s = 0; s < p.shapes_size(); ++s)
-    in.shapes.push_back(shape(p.shapes(s), validate::at("inputs.shapes", s)));
+  for (int s = 0; s < p.shapes_size(); ++s) in.shapes.push_back(shape(p.shapes(s), validate::at("inputs.shapes", s)));
   in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
   if (p.has_ambient_ocean()) {
     LimitGate defaults{Limits{}};
@@ -238,10 +238,11 @@ void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWav
                 v1::EWaveFrame* reply) {
   reply->set_step(f.step);
   reply->mutable_time()->set_seconds(f.time);
+  std::vector<float> scratch;
   for (auto o : outputs) {
     v1::Field* field = reply->add_fields();
-    squall::field::encode({info(o).name, info(o).unit, uint32_t(c.nx), uint32_t(c.ny), 0, d}, output_values(f, o),
-                          field);
+    squall::field::encode({info(o).name, info(o).unit, uint32_t(c.nx), uint32_t(c.ny), 0, d},
+                          output_values(f, o, scratch), field);
     field->mutable_spacing()->set_x(c.dx), field->mutable_spacing()->set_y(c.dy);
     field->mutable_origin()->set_x(0.5 * c.dx), field->mutable_origin()->set_y(0.5 * c.dy);
   }

@@ -283,14 +283,18 @@ std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const Outp
 }
 
 // Reads the planes of `outputs` that `planes` names from the finalize kernel's output (kOutputPlanes
-// planes of `cells`, in TileFields' order).
+// planes of `cells`, in TileFields' order), each where `destination` says or into its TileFields vector.
 void read_outputs(const Runtime& runtime, const cl::Buffer& out, size_t cells, unsigned outputs, unsigned planes,
-                  TileFields& result) {
+                  const PlaneDestination& destination, TileFields& result) {
   ReadBack back(runtime);
-  auto read = [&](int plane, std::vector<float>& into) {
+  auto read = [&](int plane, std::vector<float>& values) {
     if (!(planes & (1u << plane))) return;
-    into.resize(cells);
-    back.add(out, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into.data());
+    float* into = destination && plane != kWhitecapPlane ? destination(plane, cells) : nullptr;
+    if (!into) {
+      values.resize(cells);
+      into = values.data();
+    }
+    back.add(out, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into);
   };
   if (outputs & Height) read(0, result.height);
   if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);
@@ -304,7 +308,7 @@ void read_outputs(const Runtime& runtime, const cl::Buffer& out, size_t cells, u
 }  // namespace
 
 TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps,
-                             const Cancellation& cancel, unsigned planes) {
+                             const Cancellation& cancel, unsigned planes, const PlaneDestination& into) {
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
@@ -349,7 +353,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
                        cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                        whitecap.buffer(), out.buffer());
-  read_outputs(runtime, out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), result);
+  read_outputs(runtime, out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), into, result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {

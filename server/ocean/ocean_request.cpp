@@ -187,11 +187,15 @@ unsigned output_flags(const std::vector<v1::TileOutput>& outputs) {
   return flags;
 }
 
-unsigned output_planes(const std::vector<v1::TileOutput>& outputs) {
+int output_plane(v1::TileOutput output) {
   static_assert(v1::TILE_OUTPUT_HEIGHT == 1 && v1::TILE_OUTPUT_NORMAL_Z == 8 && v1::TILE_OUTPUT_WHITECAP == 12,
                 "TileOutput n is the n-th field of TileFields (kAllPlanes bit n - 1)");
+  return int(output) - 1;
+}
+
+unsigned output_planes(const std::vector<v1::TileOutput>& outputs) {
   unsigned planes = 0;
-  for (auto o : outputs) planes |= 1u << (unsigned(o) - 1);
+  for (auto o : outputs) planes |= 1u << output_plane(o);
   return planes;
 }
 
@@ -231,7 +235,13 @@ Selected select(const TileFields& f, v1::TileOutput o) {
 
 void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::Field* field) {
   Selected s = select(tile, output);
-  squall::field::encode({s.name, s.unit, uint32_t(tile.nx), uint32_t(tile.ny), 0, d}, *s.values, field);
+  const squall::field::Header header{s.name, s.unit, uint32_t(tile.nx), uint32_t(tile.ny), 0, d};
+  const bool read_in_place = s.values->empty() && squall::field::dtype(d) == v1::DTYPE_FLOAT32 &&
+                             field->data().size() == size_t(tile.nx) * size_t(tile.ny) * sizeof(float);
+  if (read_in_place)
+    squall::field::set_header(header, field);
+  else
+    squall::field::encode(header, *s.values, field);
   field->mutable_spacing()->set_x(tile.dx);
   field->mutable_spacing()->set_y(tile.dy);
   field->mutable_origin();  // (0, 0, 0)

@@ -24,12 +24,15 @@ std::vector<squall::v1::TileOutput> outputs(const google::protobuf::RepeatedFiel
                                             const std::string& path = "outputs");
 unsigned output_flags(const std::vector<squall::v1::TileOutput>& outputs);   // engine Output bits
 unsigned output_planes(const std::vector<squall::v1::TileOutput>& outputs);  // engine kAllPlanes bits
+int output_plane(squall::v1::TileOutput output);                             // its kAllPlanes bit index
 
 // Output grid of a validated spec (the first layer's when the spec leaves it 0).
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);
 
 // The Field of one output of a computed tile, as GetTile returns it (name, unit, grid, dtype, bytes;
-// encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype).
+// encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype). A
+// float32 field whose bytes the engine read in place (its TileFields vector empty, the Field's data
+// of the grid's size: OceanEngine::tile's PlaneDestination) keeps them.
 void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v1::DType dtype,
                 squall::v1::Field* field);
 

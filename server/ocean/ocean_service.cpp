@@ -1,5 +1,6 @@
 #include "ocean/ocean_service.h"
 
+#include <array>
 #include <future>
 
 #include "common/field_codec.h"
@@ -50,10 +51,26 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
   return job;
 }
 
-void frame_reply(const TileJob& job, const ocean::TileFields& fields, double t, v1::GetTileResponse* reply) {
+// One frame's reply, the outputs in request order. Float32 planes are read by the engine straight into
+// their Field's bytes; the others (float16, whitecaps) are encoded from the engine's vectors.
+void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
+                const Cancellation& cancel, v1::GetTileResponse* reply) {
+  std::array<v1::Field*, 12> by_plane{};
+  for (auto o : job.outputs) by_plane.at(size_t(output_plane(o))) = reply->add_fields();
+  ocean::PlaneDestination into;
+  if (job.dtype == v1::DTYPE_FLOAT32)
+    into = [&](int plane, size_t cells) -> float* {
+      v1::Field* field = by_plane.at(size_t(plane));
+      if (!field) return nullptr;
+      std::string* bytes = field->mutable_data();
+      bytes->resize(cells * sizeof(float));
+      return reinterpret_cast<float*>(bytes->data());
+    };
+  ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, into);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
-  for (auto o : job.outputs) fill_field(fields, o, job.dtype, reply->add_fields());
+  for (size_t i = 0; i < job.outputs.size(); ++i)
+    fill_field(fields, job.outputs[i], job.dtype, reply->mutable_fields(int(i)));
 }
 
 ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
@@ -74,8 +91,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    ocean::TileFields fields = engine_->tile(job.spec, t, job.flags, nullptr, cancellation(*context), job.planes);
-    frame_reply(job, fields, t, response);
+    tile_reply(*engine_, job, t, nullptr, cancellation(*context), response);
     return grpc::Status::OK;
   });
 }
@@ -103,19 +119,19 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     ocean::WhitecapState whitecaps;  // touched by one compute at a time: frame i + 1 starts after i ended
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) {
-      return engine_->tile(job.spec, time_of(frame), job.flags, &whitecaps, call.cancellation(), job.planes);
+      v1::GetTileResponse reply;
+      tile_reply(*engine_, job, time_of(frame), &whitecaps, call.cancellation(), &reply);
+      return reply;
     };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
     // Pipelined: the engine computes frame i + 1 while frame i is encoded and written. An early return
     // waits for the pending frame (std::future's destructor) before the locals it uses go away.
-    std::future<ocean::TileFields> next = std::async(std::launch::async, compute, 0);
+    std::future<v1::GetTileResponse> next = std::async(std::launch::async, compute, 0);
     v1::TileChunk chunk;
     for (uint64_t frame = 0; more(frame); ++frame) {
-      ocean::TileFields fields = next.get();
+      v1::GetTileResponse reply = next.get();
       if (!call.live()) return;
       if (more(frame + 1)) next = std::async(std::launch::async, compute, frame + 1);
-      v1::GetTileResponse reply;
-      frame_reply(job, fields, time_of(frame), &reply);
       for (uint32_t c = 0; c < plan.size(); ++c) {
         fill_chunk(reply, plan, c, uint32_t(frame), &chunk);
         if (!call.write(*writer, chunk)) return;

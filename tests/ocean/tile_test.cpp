@@ -413,6 +413,30 @@ TEST(OceanTile, ReadsBackOnlyTheNamedPlanes) {
   EXPECT_TRUE(named.normal_x.empty() && named.normal_y.empty());
 }
 
+// A reply's bytes, read in place: the planes a PlaneDestination gives memory for land there, bit for bit
+// as in the vectors, which stay empty; a plane it declines and the whitecaps (never offered) keep theirs.
+TEST(OceanTile, ReadsPlanesWhereTheDestinationSays) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
+  const TileFields all = engine().tile(spec, 1.5, Height | Normals | Whitecaps);
+  std::vector<float> height, normal_x;
+  std::vector<int> asked;
+  PlaneDestination into = [&](int plane, size_t cells) -> float* {
+    asked.push_back(plane);
+    std::vector<float>* memory = plane == 0 ? &height : plane == 5 ? &normal_x : nullptr;
+    if (!memory) return nullptr;
+    memory->assign(cells, -1.0f);
+    return memory->data();
+  };
+  const TileFields got = engine().tile(spec, 1.5, Height | Normals | Whitecaps, nullptr, {}, kAllPlanes, into);
+  EXPECT_EQ(asked, (std::vector<int>{0, 5, 6, 7}));
+  EXPECT_EQ(height, all.height);
+  EXPECT_EQ(normal_x, all.normal_x);
+  EXPECT_TRUE(got.height.empty() && got.normal_x.empty());
+  EXPECT_EQ(got.normal_y, all.normal_y);
+  EXPECT_EQ(got.normal_z, all.normal_z);
+  EXPECT_EQ(got.whitecaps, all.whitecaps);
+}
+
 TEST(OceanSlopeVariance, UnresolvedSlopeVarianceFallsWithPixelScale) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200);
   double previous = 0;
