@@ -228,13 +228,22 @@ class SessionStore {
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
   // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint,
-  // FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it under header.id.
+  // FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it
+  // under header.id.
   std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t version,
                               CheckpointHeader* header) {
+    return open_checkpoint(data, field, version, version, header);
+  }
+  // The same for a store that still reads older payload formats: any version in [oldest, newest], which
+  // the caller finds in header->version.
+  std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t oldest, uint32_t newest,
+                              CheckpointHeader* header) {
     std::string payload = decode_checkpoint(data, kind_, field, header);
-    if (header->version != version)
-      fail(Code::InvalidArgument, field + " holds " + kind_ + " payload version " + std::to_string(header->version) +
-                                      "; this squalld reads version " + std::to_string(version));
+    if (header->version < oldest || header->version > newest)
+      fail(Code::InvalidArgument,
+           field + " holds " + kind_ + " payload version " + std::to_string(header->version) + "; this squalld reads " +
+               (oldest == newest ? "version " + std::to_string(newest)
+                                 : "versions " + std::to_string(oldest) + " to " + std::to_string(newest)));
     std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.count(header->id))
       fail(Code::FailedPrecondition, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);

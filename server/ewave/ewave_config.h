@@ -48,7 +48,8 @@ struct EWaveConfig {
   // and gravity are the session's and its drift is 0). Exclusive with initial_height / initial_phi.
   std::optional<ocean::TileSpec> initial_ocean;
   // ambient_ocean: h_A of eq 77 for every step that brings no ambient of its own, evaluated at the session
-  // time at the start of the step (when eq 77 is applied). Not part of GetState's bytes.
+  // time at the start of the step (when eq 77 is applied). Not part of GetState's bytes; the engine's
+  // checkpoints (EWaveEngine::checkpoint, --state-dir) carry it.
   std::optional<ocean::TileSpec> ambient_ocean;
 
   size_t cells() const { return size_t(nx) * size_t(ny); }

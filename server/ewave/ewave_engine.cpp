@@ -1,13 +1,73 @@
 #include "ewave/ewave_engine.h"
 
+#include <optional>
+#include <string_view>
+
 #include "common/error.h"
 #include "ewave/step_kernels.h"
+#include "ocean/tile_spec_bytes.h"
 
 namespace squall::ewave {
 namespace {
 
-// A checkpoint's payload: the session's state bytes.
-std::string save(const EWaveSession& session) { return session.state(); }
+// A checkpoint's payload, version 2 (little-endian):
+//   offset  size  field
+//   0       8     u64 state length S
+//   8       S     the session's state bytes (ewave_state_format.h)
+//   8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
+//   16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
+// Version 1 is the state bytes alone: a session saved so resumes without an ambient ocean.
+std::string save(const EWaveSession& session) {
+  const std::string state = session.state();
+  const std::optional<ocean::TileSpec>& ambient = session.config().ambient_ocean;
+  const std::string spec = ambient ? ocean::encode_tile_spec(*ambient) : std::string();
+  auto put_u64 = [](std::string& out, uint64_t value) {
+    for (int b = 0; b < 8; ++b) out.push_back(char(uint8_t(value >> (8 * b))));
+  };
+  std::string out;
+  out.reserve(16 + state.size() + spec.size());
+  put_u64(out, state.size());
+  out += state;
+  put_u64(out, spec.size());
+  out += spec;
+  return out;
+}
+
+struct Saved {
+  std::string state;
+  std::optional<ocean::TileSpec> ambient_ocean;
+};
+
+[[noreturn]] void reject_payload(const std::string& why) {
+  fail(Code::InvalidArgument, "checkpoint is not an eWave session payload: " + why);
+}
+
+// A payload of `version` back; InvalidArgument naming "checkpoint" (its ambient ocean: naming
+// "checkpoint.ambient_ocean") when it is none.
+Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
+  if (version == 1) return {std::move(payload), std::nullopt};
+  size_t at = 0;
+  // The length at `at` and the bytes it counts after it, in place.
+  auto counted = [&](const std::string& what) {
+    if (payload.size() - at < 8)
+      reject_payload("truncated at byte " + std::to_string(at) + " (reading the " + what + " length)");
+    uint64_t n = 0;
+    for (int b = 0; b < 8; ++b) n |= uint64_t(uint8_t(payload[at + b])) << (8 * b);
+    at += 8;
+    if (n > payload.size() - at)
+      reject_payload("its " + what + " of " + std::to_string(n) + " bytes runs past its end (" +
+                     std::to_string(payload.size() - at) + " bytes left)");
+    std::string_view bytes(payload.data() + at, n);
+    at += n;
+    return bytes;
+  };
+  Saved saved;
+  saved.state = std::string(counted("state"));
+  const std::string_view spec = counted("ambient ocean");
+  if (at != payload.size()) reject_payload(std::to_string(payload.size() - at) + " bytes follow the ambient ocean");
+  if (!spec.empty()) saved.ambient_ocean = ocean::decode_tile_spec(spec, gate, "checkpoint.ambient_ocean");
+  return saved;
+}
 
 }  // namespace
 
@@ -45,8 +105,11 @@ std::string EWaveEngine::create(const EWaveConfig& config, const std::string& pr
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
-EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes) {
-  NewSession made = new_session(EWaveSession::config_from_state(bytes));
+EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes,
+                                                std::optional<ocean::TileSpec> ambient_ocean) {
+  EWaveConfig config = EWaveSession::config_from_state(bytes);
+  config.ambient_ocean = std::move(ambient_ocean);
+  NewSession made = new_session(config);
   made.second->restore(bytes);
   return made;
 }
@@ -85,8 +148,10 @@ std::string EWaveEngine::checkpoint(const std::string& id) {
 
 std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
-  std::string state = sessions_.open_checkpoint(bytes, "checkpoint", kCheckpointVersion, &header);
-  auto [reservation, session] = from_state(state);
+  std::string payload =
+      sessions_.open_checkpoint(bytes, "checkpoint", kOldestCheckpointVersion, kCheckpointVersion, &header);
+  Saved saved = load(std::move(payload), header.version, gate_);
+  auto [reservation, session] = from_state(saved.state, std::move(saved.ambient_ocean));
   return sessions_.add(header.id, std::move(reservation), std::move(session));
 }
 

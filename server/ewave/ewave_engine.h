@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "common/limits.h"
@@ -22,8 +23,10 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
-  // Version of the checkpoint payload (the session's state bytes).
-  static constexpr uint32_t kCheckpointVersion = 1;
+  // Version of the checkpoint payload (ewave_engine.cpp): 2, the session's state bytes and its config's
+  // ambient_ocean; version 1, the state bytes alone (no ambient ocean), is still read.
+  static constexpr uint32_t kCheckpointVersion = 2;
+  static constexpr uint32_t kOldestCheckpointVersion = 1;
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
@@ -40,7 +43,8 @@ class EWaveEngine {
   SurfaceCurrent surface_current(const std::string& id);
 
   // The session as versioned bytes, and back under its id: to persist sessions or move them between
-  // daemons.
+  // daemons. Unlike state(), a checkpoint holds the config's ambient_ocean too, so a restored session
+  // continues bit-identically.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 
@@ -48,10 +52,11 @@ class EWaveEngine {
   size_t size() const { return sessions_.size(); }
 
  private:
-  // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`.
+  // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`,
+  // its config given `ambient_ocean` (which state bytes do not hold).
   using NewSession = std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>>;
   NewSession new_session(const EWaveConfig& config);
-  NewSession from_state(const std::string& bytes);
+  NewSession from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean = std::nullopt);
 
   Runtime& runtime_;
   fft::Fft& fft_;

@@ -14,8 +14,12 @@
 #include <string>
 
 #include "common/error.h"
+#include "common/limits.h"
+#include "common/session_checkpoint.h"
+#include "ewave/ewave_engine.h"
 #include "ewave_support.h"
 #include "ocean/ocean_engine.h"
+#include "ocean/tile_spec_bytes.h"
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
 
@@ -210,6 +214,126 @@ TEST(OceanAmbient, BadSpecsNameTheField) {
   with_bad.ambient_ocean = sea_spec(c);
   expect_error(Code::FailedPrecondition, "config.ambient_ocean needs the ocean engine",
                [&] { make_session(with_bad); });
+}
+
+// An engine as squalld builds it (server/ewave/shared_engine.h): its sessions' ocean specs evaluated.
+EWaveEngine ocean_ewave_engine(LimitGate& gate) {
+  EWaveEngineOptions options;
+  options.ocean = &ocean_engine();
+  return EWaveEngine(squall::test::runtime(), session_fft(), gate, options);
+}
+
+// A hull (O = 0 inside, soft edge) moving across the 64 m sea, so that eq 77 subtracts h_A (1 - O) every step.
+StepInputs hull_step(int n) {
+  StepInputs in = plain_step(0.05);
+  Shape hull;
+  hull.kind = ShapeKind::Ellipse;
+  hull.x = 20 + 1.5 * n, hull.y = 30, hull.a = 8, hull.b = 3, hull.heading = 0.3;
+  in.shapes.push_back(hull);
+  in.outputs.displacement = in.outputs.normals = true;
+  return in;
+}
+
+// A config's ambient_ocean with a second layer and its other members away from their defaults.
+EWaveConfig ambient_config() {
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  ocean::TileSpec spec = sea_spec(c);
+  ocean::LayerSpec swell = spec.layers[0];
+  swell.lx = swell.ly = 128, swell.nx = swell.ny = 32;
+  swell.spectrum = ocean::SpectrumModel::Jonswap;
+  swell.wind_speed = 9, swell.fetch = 40e3, swell.gamma = 2.5, swell.wind_direction = -0.7, swell.seed = 11;
+  spec.layers.push_back(swell);
+  spec.b_correction = true, spec.choppiness = 0.8, spec.whitecap_threshold = 0.2, spec.slope_k_max = 500;
+  c.ambient_ocean = spec;
+  return c;
+}
+
+// A version-2 checkpoint payload written out by hand (the layout in server/ewave/ewave_engine.cpp): u64 state
+// length, the state, u64 ambient ocean length, the ambient ocean's bytes.
+std::string checkpoint_payload(const std::string& state, const std::string& spec) {
+  std::string out;
+  auto put_u64 = [&](uint64_t n) {
+    for (int b = 0; b < 8; ++b) out.push_back(char(uint8_t(n >> (8 * b))));
+  };
+  put_u64(state.size());
+  out += state;
+  put_u64(spec.size());
+  out += spec;
+  return out;
+}
+
+// The checkpoint of a session with an ambient ocean (EWaveEngine::checkpoint, what --state-dir writes)
+// carries its config's ambient_ocean: restored into another engine (another replica, a restarted squalld),
+// the session steps on bit-identically with the obstruction subtracting the same h_A (eq 77). Control: the
+// same state without the ambient ocean (Restore's bytes alone) gives other frames.
+TEST(OceanAmbient, CheckpointResumesWithTheAmbientOceanBitIdentically) {
+  LimitGate gate{Limits{}};
+  const EWaveConfig c = ambient_config();
+  std::string id, saved, state;
+  std::vector<Frame> expected;
+  {
+    EWaveEngine first = ocean_ewave_engine(gate);
+    id = first.create(c);
+    for (int n = 0; n < 4; ++n) first.step(id, hull_step(n));
+    saved = first.checkpoint(id);
+    state = first.state(id);
+    for (int n = 4; n < 10; ++n) expected.push_back(first.step(id, hull_step(n)));
+  }
+  EWaveEngine second = ocean_ewave_engine(gate);
+  EXPECT_EQ(second.restore_checkpoint(saved), id);
+  const EWaveConfig restored = second.config(id);
+  ASSERT_TRUE(restored.ambient_ocean.has_value()) << "the checkpoint lost config.ambient_ocean";
+  EXPECT_EQ(ocean::encode_tile_spec(*restored.ambient_ocean), ocean::encode_tile_spec(*c.ambient_ocean));
+  for (int n = 4; n < 10; ++n) expect_bit_identical(second.step(id, hull_step(n)), expected[n - 4]);
+
+  const std::string without = second.create_from_state(state);
+  EXPECT_FALSE(second.config(without).ambient_ocean.has_value());
+  EXPECT_GT(rms_difference(second.step(without, hull_step(4)).height, expected[0].height),
+            1e-3 * rms(expected[0].height));
+}
+
+// A version-1 checkpoint (the state bytes alone, as squalld wrote them before payload version 2) still
+// resumes, without an ambient ocean: like a session made from those state bytes.
+TEST(OceanAmbient, VersionOneCheckpointResumesWithoutTheAmbientOcean) {
+  LimitGate gate{Limits{}};
+  EWaveEngine e = ocean_ewave_engine(gate);
+  const std::string id = e.create(ambient_config());
+  for (int n = 0; n < 3; ++n) e.step(id, hull_step(n));
+  const std::string state = e.state(id);
+  e.close(id);
+  EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 1, id}, state)), id);
+  EXPECT_FALSE(e.config(id).ambient_ocean.has_value());
+  const std::string from_state = e.create_from_state(state);
+  for (int n = 3; n < 6; ++n) expect_bit_identical(e.step(id, hull_step(n)), e.step(from_state, hull_step(n)));
+  e.close(id);
+
+  expect_error(Code::InvalidArgument, "payload version 3; this squalld reads versions 1 to 2", [&] {
+    e.restore_checkpoint(encode_checkpoint({"eWave session", 3, id}, state));
+  });
+}
+
+// A version-2 payload that is cut short, or whose ambient ocean is invalid, is InvalidArgument naming it.
+TEST(OceanAmbient, BadCheckpointPayloadsAreInvalidArgument) {
+  LimitGate gate{Limits{}};
+  EWaveEngine e = ocean_ewave_engine(gate);
+  const EWaveConfig c = ambient_config();
+  const std::string id = e.create(c), state = e.state(id);
+  e.close(id);
+  auto restore = [&](const std::string& payload) {
+    e.restore_checkpoint(encode_checkpoint({"eWave session", 2, id}, payload));
+  };
+  const std::string good = checkpoint_payload(state, ocean::encode_tile_spec(*c.ambient_ocean));
+  expect_error(Code::InvalidArgument, "checkpoint is not an eWave session payload: truncated",
+               [&] { restore(good.substr(0, 4)); });
+  expect_error(Code::InvalidArgument, "ambient ocean of", [&] { restore(good.substr(0, good.size() - 1)); });
+  expect_error(Code::InvalidArgument, "1 bytes follow the ambient ocean", [&] { restore(good + "x"); });
+  ocean::TileSpec bad = *c.ambient_ocean;
+  bad.layers[1].wind_speed = NAN;
+  expect_error(Code::InvalidArgument, "checkpoint.ambient_ocean.layers[1].wind_speed",
+               [&] { restore(checkpoint_payload(state, ocean::encode_tile_spec(bad))); });
+  EXPECT_EQ(e.size(), 0u);
+  EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 2, id}, good)), id);
+  EXPECT_TRUE(e.config(id).ambient_ocean.has_value());
 }
 
 }  // namespace

@@ -36,15 +36,6 @@ StepInputs busy_step(int n) {
   return in;
 }
 
-void expect_bit_identical(const Frame& a, const Frame& b) {
-  EXPECT_EQ(a.step, b.step);
-  EXPECT_EQ(a.time, b.time);
-  EXPECT_EQ(a.height, b.height);
-  EXPECT_EQ(a.phi, b.phi);
-  EXPECT_EQ(a.displacement_x, b.displacement_x);
-  EXPECT_EQ(a.normals, b.normals);
-}
-
 TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   EWaveSession a = make_session(busy_config());
   for (int n = 0; n < 5; ++n) a.step(busy_step(n));

@@ -1,6 +1,7 @@
 #include "ewave_support.h"
 
 #include <fftw3.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <complex>
@@ -24,6 +25,16 @@ fft::Fft& session_fft() {
 
 EWaveSession make_session(const EWaveConfig& config) {
   return EWaveSession(squall::test::runtime(), session_fft(), config);
+}
+
+void expect_bit_identical(const Frame& a, const Frame& b) {
+  EXPECT_EQ(a.step, b.step);
+  EXPECT_EQ(a.time, b.time);
+  EXPECT_EQ(a.height, b.height);
+  EXPECT_EQ(a.phi, b.phi);
+  EXPECT_EQ(a.displacement_x, b.displacement_x);
+  EXPECT_EQ(a.displacement_y, b.displacement_y);
+  EXPECT_EQ(a.normals, b.normals);
 }
 
 double reference_omega(double k, const EWaveConfig& c) {

@@ -32,6 +32,9 @@ StepInputs plain_step(double dt);
 // A field f(x, y) at the cell centres ((i + 0.5) dx, (j + 0.5) dy).
 std::vector<float> field(const EWaveConfig& config, const std::function<double(double, double)>& f);
 
+// Every field of two frames equal bit for bit (gtest expectations).
+void expect_bit_identical(const Frame& a, const Frame& b);
+
 double rms(const std::vector<float>& a);
 double rms_difference(const std::vector<float>& a, const std::vector<float>& b);
 double max_abs(const std::vector<float>& a);
