@@ -1,8 +1,9 @@
-// Small helpers shared by squall's benchmarks: median timing and table printing.
+// Small helpers shared by squall's benchmarks: median timing and goal lines.
 #pragma once
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <functional>
 #include <vector>
 
@@ -19,6 +20,13 @@ inline double median_seconds(const std::function<void()>& f, int runs) {
   }
   std::sort(t.begin(), t.end());
   return t[t.size() / 2];
+}
+
+// One line per goal, the same in every benchmark, so that a script can collect them:
+//   "goal on a GPU: ocean 512x512 in process >= 2000 tiles/s: 812.3 (not met on this device)"
+inline void print_gpu_goal(const char* what, double measured, double goal, const char* unit) {
+  std::printf("goal on a GPU: %s >= %g %s: %.1f (%s on this device)\n", what, goal, unit, measured,
+              measured >= goal ? "met" : "not met");
 }
 
 }  // namespace squall::bench

@@ -7,8 +7,10 @@
 // (2) build time of a reference cumulus at N^3 effective resolution (OpenVDB on the host), render time and
 //     rays per second of squall's OpenCL ray marcher on the device, beside OpenVDB's own CPU volume
 //     renderer (tools::VolumeRender, what vdb_render uses) linked in, on the same grid, image and step.
-// Usage: clouds_bench [--kernel-dir DIR] [N ...]   (default: 256 512; 0: part (1) alone; DIR: kernels from DIR,
-// e.g. another commit's, not the embedded ones). (2): image 256x256, step = 1 voxel, one directional light.
+// Usage: clouds_bench [--device auto|cpu|gpu|NAME] [--image WxH] [--kernel-dir DIR] [N ...]
+//   N: the cumuli of (2) (default: 256 512; 0: part (1) alone); --image: the image of (2) (default 256x256;
+//   1920x1080 for the goal on a GPU, whose frames/s it prints); DIR: kernels from DIR, e.g. another commit's,
+//   not the embedded ones. (2): step = 1 voxel, one directional light.
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -55,7 +57,12 @@ CloudModel reference_cumulus(int n) {
   return m;
 }
 
-constexpr int kImage = 256;
+// The image of (2): --image. OpenVDB's camera spans the film's width with its aperture and squall's the
+// height with its field of view, so only square images frame the same view (the timings compare either way).
+struct ImageSize {
+  int width = 256, height = 256;
+};
+ImageSize g_image;
 constexpr double kExtinction = 0.01, kAlbedo = 0.9;  // 1/m per unit density
 const Vec3d kLight{0.5, -0.3, 0.8};
 
@@ -65,7 +72,8 @@ RenderSettings squall_settings(double dx, ShadowMode shadow, int shadow_map_node
   s.camera.look_at = {0, 0, 100};
   s.camera.up = {0, 0, 1};
   s.camera.vertical_fov_deg = 2 * std::atan(0.5 * 41.2136 / 50.0) * 180 / M_PI;  // OpenVDB's default camera
-  s.camera.width = s.camera.height = kImage;
+  s.camera.width = g_image.width;
+  s.camera.height = g_image.height;
   s.step = dx;
   s.trilinear = true;
   s.min_transmittance = 1e-3;
@@ -85,7 +93,7 @@ RenderSettings squall_settings(double dx, ShadowMode shadow, int shadow_map_node
 
 double openvdb_render_seconds(const openvdb::FloatGrid& grid, double dx) {
   using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::FloatGrid>;
-  openvdb::tools::Film film(kImage, kImage);
+  openvdb::tools::Film film(g_image.width, g_image.height);
   // Looks along +y from (0, -2000, 100): rotate -z onto +y (90 degrees about x).
   openvdb::tools::PerspectiveCamera camera(film, openvdb::Vec3R(90, 0, 0), openvdb::Vec3R(0, -2000, 100));
   Intersector intersector(grid);
@@ -240,13 +248,17 @@ void run(Runtime& runtime, int n) {
   std::printf("  NanoVDB conversion + upload %.2f s, %.1f MB on the device\n", upload, device.device_bytes / 1e6);
   CloudRenderer renderer(runtime);
   const double dx = volume.density->voxelSize()[0];
-  const double rays = double(kImage) * kImage;
+  const double rays = double(g_image.width) * g_image.height;
   for (int nodes : {64, 128, 0}) {  // 0: direct shadow rays
     RenderSettings settings =
         squall_settings(dx, nodes ? ShadowMode::DeepShadowMap : ShadowMode::Direct, nodes ? nodes : 2);
     double t = bench::median_seconds([&] { renderer.render(device, settings); }, 3);
     std::string mode = nodes ? "sparse DSM " + std::to_string(nodes) + "^3" : std::string("direct");
-    std::printf("  squall OpenCL render (%s shadows): %.3f s, %.3g rays/s\n", mode.c_str(), t, rays / t);
+    std::printf("  squall OpenCL render (%s shadows): %.3f s, %.3g rays/s, %.2f frames/s\n", mode.c_str(), t, rays / t,
+                1 / t);
+    if (g_image.width == 1920 && g_image.height == 1080 && nodes != 128)
+      bench::print_gpu_goal(("cloud 1920x1080, N=" + std::to_string(n) + " cumulus, " + mode + " shadows").c_str(),
+                            1 / t, 30, "frames/s");
   }
   double vdb = openvdb_render_seconds(*volume.density, dx);
   std::printf("  openvdb::tools::VolumeRender (direct shadows, CPU, TBB): %.3f s, %.3g rays/s\n", vdb, rays / vdb);
@@ -265,13 +277,21 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i)
     if (!std::strcmp(argv[i], "--kernel-dir") && i + 1 < argc)
       options.kernel_dir = argv[++i];  // other kernels, same host code
+    else if (!std::strcmp(argv[i], "--device") && i + 1 < argc)
+      options.device = argv[++i];
+    else if (!std::strcmp(argv[i], "--image") && i + 1 < argc)
+      std::sscanf(argv[++i], "%dx%d", &clouds::g_image.width, &clouds::g_image.height);
     else
       sizes.push_back(std::atoi(argv[i]));
+  if (clouds::g_image.width < 1 || clouds::g_image.height < 1) {
+    std::fprintf(stderr, "clouds_bench: --image WxH needs two positive sizes\n");
+    return 2;
+  }
   Runtime runtime(options);
   runtime.build_programs();
   if (sizes.empty()) sizes = {256, 512};
-  std::printf("device: %s; image %dx%d, step 1 voxel\n", runtime.device_info().name.c_str(), clouds::kImage,
-              clouds::kImage);
+  std::printf("device: %s; image of the cumuli %dx%d, step 1 voxel\n", runtime.device_info().name.c_str(),
+              clouds::g_image.width, clouds::g_image.height);
   clouds::run_fog(runtime);
   for (int n : sizes)
     if (n > 0) clouds::run(runtime, n);  // 0: the fog volume alone
