@@ -23,9 +23,9 @@ inline double median_seconds(const std::function<void()>& f, int runs) {
 }
 
 // One line per goal, the same in every benchmark, so that a script can collect them:
-//   "goal on a GPU: ocean 512x512 in process >= 2000 tiles/s: 812.3 (not met on this device)"
+//   "goal on a GPU: ocean 512x512 in process >= 2000 tiles/s: 812 (not met on this device)"
 inline void print_gpu_goal(const char* what, double measured, double goal, const char* unit) {
-  std::printf("goal on a GPU: %s >= %g %s: %.1f (%s on this device)\n", what, goal, unit, measured,
+  std::printf("goal on a GPU: %s >= %g %s: %.3g (%s on this device)\n", what, goal, unit, measured,
               measured >= goal ? "met" : "not met");
 }
 

@@ -116,7 +116,8 @@ constexpr unsigned kAllOutputs = Height | Displacement | Slopes | Normals | Jaco
 // Bit flags of single fields (planes), for reading back fewer than the Output groups hold: bit i is the
 // i-th field of TileFields (height, displacement_x, displacement_y, slope_x, slope_y, normal_x, normal_y,
 // normal_z, jacobian, jacobian_minus, jacobian_plus, whitecaps).
-constexpr unsigned kAllPlanes = (1u << 12) - 1;
+constexpr int kPlaneCount = 12;
+constexpr unsigned kAllPlanes = (1u << kPlaneCount) - 1;
 
 // A tile: the sum of its layers, sampled on the output grid.
 struct TileSpec {

@@ -55,7 +55,7 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
 // their Field's bytes; the others (float16, whitecaps) are encoded from the engine's vectors.
 void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
                 const Cancellation& cancel, v1::GetTileResponse* reply) {
-  std::array<v1::Field*, 12> by_plane{};
+  std::array<v1::Field*, ocean::kPlaneCount> by_plane{};
   for (auto o : job.outputs) by_plane.at(size_t(output_plane(o))) = reply->add_fields();
   ocean::PlaneDestination into;
   if (job.dtype == v1::DTYPE_FLOAT32)
