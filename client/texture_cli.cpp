@@ -271,7 +271,9 @@ void write_frame(const Advect& a, const std::string& request_text, const v1::Tex
 int advect(client::Client& client, const Advect& a) {
   std::filesystem::create_directories(a.out);
   auto service = v1::Textures::NewStub(client.channel());
-  auto context = client.context();
+  // A texture that follows an eWave session names it (x-squall-session), so that a session-affine proxy
+  // routes the stream to the replica holding that session.
+  auto context = client.context(a.request.velocity().ewave_session());
   const auto now = std::chrono::system_clock::now();
   context->set_deadline(now + (context->deadline() - now) * int64_t(a.request.frames()));
   auto reader = service->AdvectTexture(context.get(), a.request);

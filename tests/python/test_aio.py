@@ -1,9 +1,9 @@
-"""squall.aio against a real squalld: the same answers as the synchronous client, async iterators.
-"""
+"""squall.aio against a real squalld: the same answers as the synchronous client, async iterators."""
 
 from __future__ import annotations
 
 import asyncio
+import re
 import time
 
 import grpc
@@ -140,3 +140,24 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
                     await asyncio.sleep(0.05)
 
     assert run(main()) == [0, 1]
+
+
+def test_a_texture_that_follows_an_ewave_session_names_it(daemon) -> None:
+    """As the synchronous client (test_routing.py): both texture streams on an eWave session's
+    current send x-squall-session, which squalld's request log shows."""
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            async with aclient.ewave.session(nx=16, ny=16, dx=0.1) as session:
+                start = dict(velocity=session.id, size=(16, 16))
+                frames = [f async for f in aclient.textures.advect(frames=1, **start)]
+                async with aclient.textures.interactive(**start) as steer:
+                    await steer.send(frames=1)
+                return session.id, len(frames)
+
+    session_id, frames = run(main())
+    assert frames == 1
+    log = daemon.log()
+    for method in ("AdvectTexture", "AdvectInteractive"):
+        pattern = rf"method=/squall\.v1\.Textures/{method} status=OK .*? session={session_id}\b"
+        assert re.search(pattern, log), method

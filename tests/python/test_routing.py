@@ -56,3 +56,18 @@ def test_the_retry_policy_retries_unavailable_only() -> None:
     assert config["retryPolicy"]["maxAttempts"] == 5
     assert {"service": "squall.v1.EWave"} in config["name"]
     assert dict(retry_options(1)) == {"grpc.enable_retries": 0}
+
+
+def test_a_texture_that_follows_an_ewave_session_names_it(
+    client: squall.Client, daemon: Daemon
+) -> None:
+    """AdvectTexture and AdvectInteractive on an eWave session's current send x-squall-session, so
+    that a session-affine proxy routes them to the replica that holds the session."""
+    with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+        frames = list(client.textures.advect(velocity=session, frames=1, size=(16, 16)))
+        with client.textures.interactive(velocity=session.id, size=(16, 16)) as run:
+            run.send(frames=1)
+        assert len(frames) == 1
+    log = daemon.log()
+    assert ("OK", session.id) in created_ids(log, "Textures/AdvectTexture")
+    assert ("OK", session.id) in created_ids(log, "Textures/AdvectInteractive")

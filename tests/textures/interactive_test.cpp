@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <regex>
 
 #include "client/client.h"
 #include "common/field_codec.h"
@@ -224,8 +225,9 @@ TEST(TexturesOcean, ResumedStreamFollowsTheCurrentFromTheCheckpointsTime) {
   EXPECT_NE(through.frames[3].planes(0).data(), through.frames[2].planes(0).data());
 }
 
-// `squall texture advect --velocity ewave:ID` streams frames following the session; an unknown id fails
-// with the NOT_FOUND message naming the field.
+// `squall texture advect --velocity ewave:ID` streams frames following the session, and names it in
+// x-squall-session (squalld's request log shows it) for a session-affine proxy to route on; an unknown id
+// fails with the NOT_FOUND message naming the field.
 TEST(TexturesEWave, CommandLineFollowsASession) {
   const std::string dir = test::temp_dir("textures-cli-ewave"), id = still_current_session(0.05);
   auto advect_cli = [&](const std::string& velocity, std::string* out) {
@@ -236,6 +238,8 @@ TEST(TexturesEWave, CommandLineFollowsASession) {
   std::string out;
   ASSERT_EQ(advect_cli("ewave:" + id, &out), 0) << out;
   EXPECT_TRUE(std::filesystem::exists(dir + "/frame_0001.exr")) << out;
+  const std::regex named("method=/squall\\.v1\\.Textures/AdvectTexture status=OK .* session=" + id);
+  EXPECT_TRUE(std::regex_search(daemon().process().log(), named)) << "no AdvectTexture call named session " << id;
   EXPECT_NE(advect_cli("ewave:no-such-session", &out), 0);
   EXPECT_NE(out.find("request.velocity.ewave_session"), std::string::npos) << out;
 }

@@ -693,7 +693,12 @@ class Textures:
             request=request,
         )
         return self._connection.stream(
-            "Textures.AdvectTexture", self._rpc.AdvectTexture, message, TextureFrame, timeout
+            "Textures.AdvectTexture",
+            self._rpc.AdvectTexture,
+            message,
+            TextureFrame,
+            timeout,
+            session=_textures.followed_session(message),
         )
 
     def interactive(
@@ -714,7 +719,8 @@ class Textures:
             request = _textures.advect_request(**kwargs)
         settings = self._connection.settings
         call = self._rpc.AdvectInteractive(
-            timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
+            timeout=settings.deadline(timeout, stream=True),
+            metadata=settings.metadata(_textures.followed_session(request)),
         )
         return Interactive(call, request)
 

@@ -346,6 +346,13 @@ def output(
     )
 
 
+def followed_session(request: textures_pb2.AdvectTextureRequest) -> Optional[str]:
+    """The eWave session whose surface current the advection follows, if any: sent as
+    x-squall-session, so that a session-affine proxy routes the stream to the replica holding it.
+    """
+    return request.velocity.ewave_session or None
+
+
 def advect_request(
     *,
     method: Union[str, int] = "lagrangian",
@@ -864,6 +871,7 @@ class Steering(Generic[F]):
         convert: Callable[[Any], F],
         start: Any,
         timeout: Optional[float],
+        session: Optional[str] = None,
     ) -> None:
         self._requests = RequestQueue()
         self._convert = convert
@@ -872,7 +880,7 @@ class Steering(Generic[F]):
             self._call = open_call(
                 self._requests,
                 timeout=connection.settings.deadline(timeout, stream=True),
-                metadata=connection.settings.metadata(),
+                metadata=connection.settings.metadata(session),
             )
         except grpc.RpcError as error:
             raise SquallError.from_rpc(error, self.METHOD) from None
@@ -957,7 +965,14 @@ class Interactive(Steering[TextureFrame]):
         start: textures_pb2.AdvectTextureRequest,
         timeout: Optional[float],
     ) -> None:
-        super().__init__(connection, service.AdvectInteractive, TextureFrame, start, timeout)
+        super().__init__(
+            connection,
+            service.AdvectInteractive,
+            TextureFrame,
+            start,
+            timeout,
+            session=followed_session(start),
+        )
 
     def send(
         self,
@@ -1120,7 +1135,12 @@ class Textures:
             request=request,
         )
         return self._connection.stream(
-            "Textures.AdvectTexture", self._rpc.AdvectTexture, message, TextureFrame, timeout
+            "Textures.AdvectTexture",
+            self._rpc.AdvectTexture,
+            message,
+            TextureFrame,
+            timeout,
+            session=followed_session(message),
         )
 
     def interactive(
