@@ -233,12 +233,10 @@ Selected select(const TileFields& f, v1::TileOutput o) {
 
 }  // namespace
 
-void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::Field* field) {
+void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::Field* field, bool values_in_place) {
   Selected s = select(tile, output);
   const squall::field::Header header{s.name, s.unit, uint32_t(tile.nx), uint32_t(tile.ny), 0, d};
-  const bool read_in_place = s.values->empty() && squall::field::dtype(d) == v1::DTYPE_FLOAT32 &&
-                             field->data().size() == size_t(tile.nx) * size_t(tile.ny) * sizeof(float);
-  if (read_in_place)
+  if (values_in_place)
     squall::field::set_header(header, field);
   else
     squall::field::encode(header, *s.values, field);

@@ -57,11 +57,13 @@ void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean:
                 const Cancellation& cancel, v1::GetTileResponse* reply) {
   std::array<v1::Field*, ocean::kPlaneCount> by_plane{};
   for (auto o : job.outputs) by_plane.at(size_t(output_plane(o))) = reply->add_fields();
+  unsigned in_place = 0;  // kAllPlanes bits of the planes read into their Field
   ocean::PlaneDestination into;
   if (job.dtype == v1::DTYPE_FLOAT32)
     into = [&](int plane, size_t cells) -> float* {
       v1::Field* field = by_plane.at(size_t(plane));
       if (!field) return nullptr;
+      in_place |= 1u << plane;
       std::string* bytes = field->mutable_data();
       bytes->resize(cells * sizeof(float));
       return reinterpret_cast<float*>(bytes->data());
@@ -69,8 +71,10 @@ void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean:
   ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, into);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
-  for (size_t i = 0; i < job.outputs.size(); ++i)
-    fill_field(fields, job.outputs[i], job.dtype, reply->mutable_fields(int(i)));
+  for (size_t i = 0; i < job.outputs.size(); ++i) {
+    const bool read = in_place & (1u << output_plane(job.outputs[i]));
+    fill_field(fields, job.outputs[i], job.dtype, reply->mutable_fields(int(i)), read);
+  }
 }
 
 ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
