@@ -10,28 +10,16 @@
 namespace squall::ewave {
 namespace {
 
-// A checkpoint's payload, version 2 (little-endian):
-//   offset  size  field
-//   0       8     u64 state length S
-//   8       S     the session's state bytes (ewave_state_format.h)
-//   8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
-//   16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
-// Version 1 is the state bytes alone: a session saved so resumes without an ambient ocean.
-std::string save(const EWaveSession& session) {
-  const std::string state = session.state();
-  const std::optional<ocean::TileSpec>& ambient = session.config().ambient_ocean;
-  const std::string spec = ambient ? ocean::encode_tile_spec(*ambient) : std::string();
-  auto put_u64 = [](std::string& out, uint64_t value) {
-    for (int b = 0; b < 8; ++b) out.push_back(char(uint8_t(value >> (8 * b))));
-  };
-  std::string out;
-  out.reserve(16 + state.size() + spec.size());
-  put_u64(out, state.size());
-  out += state;
-  put_u64(out, spec.size());
-  out += spec;
-  return out;
-}
+// A checkpoint's payload, version 3: the session's state bytes (ewave_state_format.h), which hold its
+// config's ambient_ocean. Versions 1 and 2 are still read:
+//   version 1: state bytes of version 1 alone (no ambient ocean);
+//   version 2 (little-endian):
+//     offset  size  field
+//     0       8     u64 state length S
+//     8       S     state bytes of version 1
+//     8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
+//     16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
+std::string save(const EWaveSession& session) { return session.state(); }
 
 struct Saved {
   std::string state;
@@ -43,9 +31,10 @@ struct Saved {
 }
 
 // A payload of `version` back; InvalidArgument naming "checkpoint" (its ambient ocean: naming
-// "checkpoint.ambient_ocean") when it is none.
+// "checkpoint.ambient_ocean") when it is none. The state of versions 1 and 3 holds what ambient ocean
+// there is.
 Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
-  if (version == 1) return {std::move(payload), std::nullopt};
+  if (version != 2) return {std::move(payload), std::nullopt};
   size_t at = 0;
   // The length at `at` and the bytes it counts after it, in place.
   auto counted = [&](const std::string& what) {
@@ -107,8 +96,8 @@ std::string EWaveEngine::create(const EWaveConfig& config, const std::string& pr
 
 EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes,
                                                 std::optional<ocean::TileSpec> ambient_ocean) {
-  EWaveConfig config = EWaveSession::config_from_state(bytes);
-  config.ambient_ocean = std::move(ambient_ocean);
+  EWaveConfig config = EWaveSession::config_from_state(bytes, gate_);
+  if (!config.ambient_ocean) config.ambient_ocean = std::move(ambient_ocean);
   NewSession made = new_session(config);
   made.second->restore(bytes);
   return made;
@@ -126,10 +115,6 @@ Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs) {
 
 std::string EWaveEngine::state(const std::string& id) {
   return sessions_.with(id, [](EWaveSession& s) { return s.state(); });
-}
-
-void EWaveEngine::restore(const std::string& id, const std::string& bytes) {
-  sessions_.with(id, [&](EWaveSession& s) { s.restore(bytes); });
 }
 
 EWaveConfig EWaveEngine::config(const std::string& id) {

@@ -23,9 +23,9 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
-  // Version of the checkpoint payload (ewave_engine.cpp): 2, the session's state bytes and its config's
-  // ambient_ocean; version 1, the state bytes alone (no ambient ocean), is still read.
-  static constexpr uint32_t kCheckpointVersion = 2;
+  // Version of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes (its config's
+  // ambient_ocean among them); versions 1 (no ambient ocean) and 2 are still read.
+  static constexpr uint32_t kCheckpointVersion = 3;
   static constexpr uint32_t kOldestCheckpointVersion = 1;
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
@@ -36,15 +36,13 @@ class EWaveEngine {
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
   Frame step(const std::string& id, const StepInputs& inputs);
   std::string state(const std::string& id);
-  void restore(const std::string& id, const std::string& bytes);
   void close(const std::string& id);
   EWaveConfig config(const std::string& id);
   // The session's surface current after its last step, for the textures that follow its wakes.
   SurfaceCurrent surface_current(const std::string& id);
 
   // The session as versioned bytes, and back under its id: to persist sessions or move them between
-  // daemons. Unlike state(), a checkpoint holds the config's ambient_ocean too, so a restored session
-  // continues bit-identically.
+  // daemons. A restored session continues bit-identically, as one made from state() does.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 
@@ -53,7 +51,7 @@ class EWaveEngine {
 
  private:
   // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`,
-  // its config given `ambient_ocean` (which state bytes do not hold).
+  // with the ambient ocean they hold, else `ambient_ocean` (a version-2 checkpoint's, beside its state).
   using NewSession = std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>>;
   NewSession new_session(const EWaveConfig& config);
   NewSession from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean = std::nullopt);

@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "ewave/propagator.h"
+#include "ocean/tile_spec_bytes.h"
 #include "runtime/host_transfer.h"
 
 namespace squall::ewave {
@@ -98,7 +99,13 @@ std::string EWaveSession::state() const {
   return bytes;
 }
 
-EWaveConfig EWaveSession::config_from_state(const std::string& bytes) { return config_of(parse_state_header(bytes)); }
+EWaveConfig EWaveSession::config_from_state(const std::string& bytes, const LimitGate& gate) {
+  const StateHeader h = parse_state_header(bytes);
+  EWaveConfig config = config_of(h);
+  const std::string_view ambient = ambient_ocean_bytes(bytes, h);
+  if (!ambient.empty()) config.ambient_ocean = ocean::decode_tile_spec(ambient, gate, "state.ambient_ocean");
+  return config;
+}
 
 void EWaveSession::check_same_grid(const StateHeader& h) const {
   if (h.nx != config_.nx || h.ny != config_.ny || (h.double_precision != 0) != config_.double_precision)
@@ -112,7 +119,7 @@ void EWaveSession::restore(const std::string& bytes) {
   check_same_grid(h);
   check_fields_finite(bytes, h);
   EWaveConfig restored = config_of(h);
-  restored.ambient_ocean = config_.ambient_ocean;  // not in the state bytes: the session keeps its own
+  restored.ambient_ocean = config_.ambient_ocean;  // the session's own (config_from_state() gives the bytes')
   config_ = std::move(restored);
   coefficients_.clear();  // the dispersion may differ
   auto lock = runtime_.exclusive();

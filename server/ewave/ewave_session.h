@@ -42,12 +42,15 @@ class EWaveSession {
   // dy)), by central differences, periodic like the FFT propagation.
   SurfaceCurrent surface_current() const;
 
-  // The whole session (config without initial fields, step, time, h, phi) as bytes; restore() of those
-  // bytes into a session of the same grid continues bit-identically.
+  // The whole session (config without initial fields, step, time, h, phi) as bytes. A session made with
+  // config_from_state() of those bytes, then restore() of them, continues bit-identically.
   std::string state() const;
+  // The bytes' step, time, h, phi and config, into a session of the same grid, which keeps the ambient
+  // ocean it was made with (an ocean engine evaluates it).
   void restore(const std::string& bytes);
-  // A config from state bytes (for a new session); throws InvalidArgument when the bytes are not a state.
-  static EWaveConfig config_from_state(const std::string& bytes);
+  // A config from state bytes (for a new session), with their ambient ocean validated against `gate`;
+  // throws InvalidArgument when the bytes are not a state (naming "state.ambient_ocean..." for its spec).
+  static EWaveConfig config_from_state(const std::string& bytes, const LimitGate& gate);
 
  private:
   void upload_initial_fields();  // config_'s initial h, phi (or initial_ocean) into state_ (under the lock)

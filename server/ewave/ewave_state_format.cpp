@@ -1,15 +1,25 @@
 #include "ewave/ewave_state_format.h"
 
+#include <algorithm>
 #include <cstring>
 #include <type_traits>
 
 #include "common/error.h"
 #include "common/validate.h"
+#include "ocean/tile_spec_bytes.h"
 
 namespace squall::ewave {
 namespace {
 
-constexpr char kMagic[8] = {'S', 'Q', 'E', 'W', 'A', 'V', 'E', '1'};
+constexpr char kMagic[8] = {'S', 'Q', 'E', 'W', 'A', 'V', 'E', '2'};
+constexpr char kMagicVersion1[8] = {'S', 'Q', 'E', 'W', 'A', 'V', 'E', '1'};
+constexpr size_t kLengthBytes = sizeof(uint64_t);  // the ambient ocean's length
+
+bool is_version1(const StateHeader& h) { return std::memcmp(h.magic, kMagicVersion1, sizeof(kMagicVersion1)) == 0; }
+
+size_t ambient_ocean_offset(const StateHeader& h) {
+  return sizeof(StateHeader) + state_field_bytes(h.nx, h.ny, h.double_precision != 0);
+}
 
 // The one mapping between header members and config members, used both ways: copy(stored, value) is
 // called once per pair, with the header (or the config) const for writing (or reading).
@@ -46,9 +56,11 @@ std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
               [](auto& stored, const auto& value) { stored = static_cast<std::decay_t<decltype(stored)>>(value); });
   h.step = step;
   h.time = time;
-  std::string bytes(sizeof(h) + state_field_bytes(h.nx, h.ny, config.double_precision), '\0');
+  const std::string ambient = config.ambient_ocean ? ocean::encode_tile_spec(*config.ambient_ocean) : std::string();
+  std::string bytes(ambient_ocean_offset(h), '\0');
   std::memcpy(bytes.data(), &h, sizeof(h));
-  return bytes;
+  for (size_t b = 0; b < kLengthBytes; ++b) bytes.push_back(char(uint8_t(uint64_t(ambient.size()) >> (8 * b))));
+  return bytes + ambient;
 }
 
 char* state_fields(std::string& state) { return state.data() + sizeof(StateHeader); }
@@ -59,14 +71,27 @@ StateHeader parse_state_header(const std::string& bytes) {
   if (bytes.size() < sizeof(h))
     fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, too few for an eWave state");
   std::memcpy(&h, bytes.data(), sizeof(h));
-  if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0)
+  if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0 && !is_version1(h))
     fail(Code::InvalidArgument, "state is not an eWave state (bad magic)");
   if (h.nx < 1 || h.ny < 1 || h.nx > (int64_t(1) << 20) || h.ny > (int64_t(1) << 20))
     fail(Code::InvalidArgument, "state.grid is invalid");
-  size_t want = sizeof(h) + state_field_bytes(h.nx, h.ny, h.double_precision != 0);
+  size_t want = ambient_ocean_offset(h);
+  if (!is_version1(h) && bytes.size() >= want + kLengthBytes) {
+    uint64_t ambient = 0;
+    for (size_t b = 0; b < kLengthBytes; ++b) ambient |= uint64_t(uint8_t(bytes[want + b])) << (8 * b);
+    want += kLengthBytes + std::min<uint64_t>(ambient, bytes.size());
+  } else if (!is_version1(h)) {
+    want += kLengthBytes;
+  }
   if (bytes.size() != want)
-    fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, want " + std::to_string(want));
+    fail(Code::InvalidArgument, "state has " + std::to_string(bytes.size()) + " bytes, want " + std::to_string(want) +
+                                    " for its grid" + (is_version1(h) ? "" : " and ambient ocean"));
   return h;
+}
+
+std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader& h) {
+  if (is_version1(h)) return {};
+  return std::string_view(bytes).substr(ambient_ocean_offset(h) + kLengthBytes);
 }
 
 EWaveConfig config_of(const StateHeader& header) {

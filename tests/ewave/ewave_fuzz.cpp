@@ -39,7 +39,7 @@ const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::EWaveRestoreRequest r;
       if (!test::parse(bytes, &r)) return;
-      ewave::validate(ewave::EWaveSession::config_from_state(r.state()), &test::default_gate());
+      ewave::validate(ewave::EWaveSession::config_from_state(r.state(), test::default_gate()), &test::default_gate());
     },
 };
 

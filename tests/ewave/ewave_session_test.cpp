@@ -40,7 +40,8 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   EWaveSession a = make_session(busy_config());
   for (int n = 0; n < 5; ++n) a.step(busy_step(n));
   std::string saved = a.state();
-  EWaveSession b = make_session(EWaveSession::config_from_state(saved));
+  const LimitGate gate{Limits{}};
+  EWaveSession b = make_session(EWaveSession::config_from_state(saved, gate));
   b.restore(saved);
   for (int n = 5; n < 10; ++n) expect_bit_identical(a.step(busy_step(n)), b.step(busy_step(n)));
   // And into the original session: rewinding it reproduces the same steps.

@@ -387,9 +387,10 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
       for (const auto& [output, members] : fields)
         for (Field f : members) {
           ASSERT_EQ((e.*f).size(), (outputs & output) ? (r.*f).size() : 0u) << "outputs " << outputs;
-          if (outputs & output)
+          if (outputs & output) {
             EXPECT_LT(test::relative_rms_error(e.*f, r.*f), 1e-4)
                 << "outputs " << outputs << ", output " << output << ", layers " << spec->layers.size();
+          }
         }
       ASSERT_EQ(e.whitecaps.size(), (outputs & Whitecaps) ? r.whitecaps.size() : 0u) << "outputs " << outputs;
       size_t differ = 0;  // J- is compared with a threshold: a cell at it may go either way

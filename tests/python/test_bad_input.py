@@ -1075,17 +1075,18 @@ for R in ("EWave.GetState", "EWave.CloseSession"):
     ]
 
 
-# The header of an eWave state (ewave_state_format.h): magic, then 8-byte members.
+# The header of an eWave state (ewave_state_format.h): magic, then 8-byte members; after the fields, the
+# u64 length of the ambient ocean and its bytes.
 STATE_NX, STATE_NY, STATE_DX, STATE_DISPERSION, STATE_FIELDS = 8, 16, 24, 40, 152
 
 
 def resized_state(nx: int, ny: int) -> Change:
-    """The state's header with grid nx x ny, and zero fields of that size."""
+    """The state's header with grid nx x ny, zero fields of that size and no ambient ocean."""
 
     def change(request: ewave_pb2.EWaveRestoreRequest, env: Optional[Env]) -> None:
         header = bytearray(request.state[:STATE_FIELDS])
         struct.pack_into("<qq", header, STATE_NX, nx, ny)
-        request.state = bytes(header) + bytes(2 * 4 * nx * ny)
+        request.state = bytes(header) + bytes(2 * 4 * nx * ny) + struct.pack("<Q", 0)
 
     return change
 
