@@ -3,6 +3,7 @@
 #include <optional>
 #include <string_view>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 #include "ewave/step_kernels.h"
 #include "ocean/tile_spec_bytes.h"
@@ -13,7 +14,7 @@ namespace {
 // A checkpoint's payload, version 3: the session's state bytes (ewave_state_format.h), which hold its
 // config's ambient_ocean. Versions 1 and 2 are still read:
 //   version 1: state bytes of version 1 alone (no ambient ocean);
-//   version 2 (little-endian):
+//   version 2 (common/byte_codec.h's layout: little-endian):
 //     offset  size  field
 //     0       8     u64 state length S
 //     8       S     state bytes of version 1
@@ -26,34 +27,16 @@ struct Saved {
   std::optional<ocean::TileSpec> ambient_ocean;
 };
 
-[[noreturn]] void reject_payload(const std::string& why) {
-  fail(Code::InvalidArgument, "checkpoint is not an eWave session payload: " + why);
-}
-
 // A payload of `version` back; InvalidArgument naming "checkpoint" (its ambient ocean: naming
 // "checkpoint.ambient_ocean") when it is none. The state of versions 1 and 3 holds what ambient ocean
 // there is.
 Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
   if (version != 2) return {std::move(payload), std::nullopt};
-  size_t at = 0;
-  // The length at `at` and the bytes it counts after it, in place.
-  auto counted = [&](const std::string& what) {
-    if (payload.size() - at < 8)
-      reject_payload("truncated at byte " + std::to_string(at) + " (reading the " + what + " length)");
-    uint64_t n = 0;
-    for (int b = 0; b < 8; ++b) n |= uint64_t(uint8_t(payload[at + b])) << (8 * b);
-    at += 8;
-    if (n > payload.size() - at)
-      reject_payload("its " + what + " of " + std::to_string(n) + " bytes runs past its end (" +
-                     std::to_string(payload.size() - at) + " bytes left)");
-    std::string_view bytes(payload.data() + at, n);
-    at += n;
-    return bytes;
-  };
+  ByteReader in(payload, "checkpoint", "an eWave session payload");
   Saved saved;
-  saved.state = std::string(counted("state"));
-  const std::string_view spec = counted("ambient ocean");
-  if (at != payload.size()) reject_payload(std::to_string(payload.size() - at) + " bytes follow the ambient ocean");
+  saved.state = std::string(in.get_counted("the state"));
+  const std::string_view spec = in.get_counted("the ambient ocean");
+  in.finish("the ambient ocean");
   if (!spec.empty()) saved.ambient_ocean = ocean::decode_tile_spec(spec, gate, "checkpoint.ambient_ocean");
   return saved;
 }

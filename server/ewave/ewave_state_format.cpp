@@ -4,6 +4,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 #include "common/validate.h"
 #include "ocean/tile_spec_bytes.h"
@@ -59,8 +60,9 @@ std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
   const std::string ambient = config.ambient_ocean ? ocean::encode_tile_spec(*config.ambient_ocean) : std::string();
   std::string bytes(ambient_ocean_offset(h), '\0');
   std::memcpy(bytes.data(), &h, sizeof(h));
-  for (size_t b = 0; b < kLengthBytes; ++b) bytes.push_back(char(uint8_t(uint64_t(ambient.size()) >> (8 * b))));
-  return bytes + ambient;
+  ByteWriter out(std::move(bytes));
+  out.put_counted(ambient);
+  return out.take();
 }
 
 char* state_fields(std::string& state) { return state.data() + sizeof(StateHeader); }
@@ -77,9 +79,8 @@ StateHeader parse_state_header(const std::string& bytes) {
     fail(Code::InvalidArgument, "state.grid is invalid");
   size_t want = ambient_ocean_offset(h);
   if (!is_version1(h) && bytes.size() >= want + kLengthBytes) {
-    uint64_t ambient = 0;
-    for (size_t b = 0; b < kLengthBytes; ++b) ambient |= uint64_t(uint8_t(bytes[want + b])) << (8 * b);
-    want += kLengthBytes + std::min<uint64_t>(ambient, bytes.size());
+    ByteReader length(std::string_view(bytes).substr(want), "state", "an eWave state");
+    want += kLengthBytes + std::min<uint64_t>(length.get<uint64_t>("the ambient ocean length"), bytes.size());
   } else if (!is_version1(h)) {
     want += kLengthBytes;
   }

@@ -1,10 +1,10 @@
 #include "ocean/tile_spec_bytes.h"
 
-#include <bit>
 #include <cstdint>
 #include <limits>
 #include <vector>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 #include "common/limits.h"
 #include "common/validate.h"
@@ -80,102 +80,76 @@ void tile_members(Io& io, Tile& spec, const std::string& path) {
   io.sequence(join(path, "layers"), spec.layers, [&](auto& L, const std::string& at) { layer_members(io, L, at); });
 }
 
-// Appends each member as its `size` low-order bytes, least significant first.
+// The member adapters of the lists above over the byte codec (common/byte_codec.h): an enum is an i32 and
+// a count a u32, whatever their types in the structs.
 class Writer {
  public:
-  std::string out;
+  ByteWriter out;
 
-  void put(uint64_t value, int size) {
-    for (int b = 0; b < size; ++b) out.push_back(char(uint8_t(value >> (8 * b))));
-  }
-  void flag(const std::string&, bool v) { put(v ? 1 : 0, 1); }
-  void f64(const std::string&, double v) { put(std::bit_cast<uint64_t>(v), 8); }
-  void i64(const std::string&, int64_t v) { put(static_cast<uint64_t>(v), 8); }
-  void u64(const std::string&, uint64_t v) { put(v, 8); }
+  void flag(const std::string&, bool v) { out.put(v); }
+  void f64(const std::string&, double v) { out.put(v); }
+  void i64(const std::string&, int64_t v) { out.put(v); }
+  void u64(const std::string&, uint64_t v) { out.put(v); }
   template <typename E>
   void enumeration(const std::string&, E v) {
-    put(static_cast<uint32_t>(static_cast<int32_t>(v)), 4);
+    out.put(static_cast<int32_t>(v));
   }
   template <typename T, typename F>
   void sequence(const std::string& path, const std::vector<T>& items, F&& each) {
     if (items.size() > std::numeric_limits<uint32_t>::max())
       fail(Code::InvalidArgument, path + " has " + std::to_string(items.size()) + " entries: too many to encode");
-    put(items.size(), 4);
+    out.put(uint32_t(items.size()));
     for (size_t i = 0; i < items.size(); ++i) each(items[i], validate::at(path, i));
   }
 };
 
-// Reads the members front to back; a read past the end is InvalidArgument naming the member.
 class Reader {
  public:
-  Reader(std::string_view bytes, const std::string& path) : bytes_(bytes), path_(path.empty() ? "bytes" : path) {}
+  ByteReader in;
 
-  uint64_t get(const std::string& member, size_t size) {
-    if (size > bytes_.size() - at_)
-      reject("truncated at byte " + std::to_string(at_) + " of " + std::to_string(bytes_.size()) + " (reading " +
-             member + ")");
-    uint64_t value = 0;
-    for (size_t b = 0; b < size; ++b) value |= uint64_t(uint8_t(bytes_[at_ + b])) << (8 * b);
-    at_ += size;
-    return value;
-  }
-  void flag(const std::string& member, bool& v) {
-    const uint64_t byte = get(member, 1);
-    if (byte > 1) validate::reject(member, std::to_string(byte), "0 or 1");
-    v = byte == 1;
-  }
-  void f64(const std::string& member, double& v) { v = std::bit_cast<double>(get(member, 8)); }
-  void i64(const std::string& member, int64_t& v) { v = static_cast<int64_t>(get(member, 8)); }
-  void u64(const std::string& member, uint64_t& v) { v = get(member, 8); }
+  void flag(const std::string& member, bool& v) { v = in.get<bool>(member); }
+  void f64(const std::string& member, double& v) { v = in.get<double>(member); }
+  void i64(const std::string& member, int64_t& v) { v = in.get<int64_t>(member); }
+  void u64(const std::string& member, uint64_t& v) { v = in.get<uint64_t>(member); }
   template <typename E>
   void enumeration(const std::string& member, E& v) {
-    v = E(static_cast<int32_t>(static_cast<uint32_t>(get(member, 4))));
+    v = E(in.get<int32_t>(member));
   }
   // The entries one by one, as the bytes hold them: a count past the end is caught as truncation at the
   // first entry missing, before anything is allocated for the rest.
   template <typename T, typename F>
   void sequence(const std::string& path, std::vector<T>& items, F&& each) {
-    const uint64_t count = get(path + " count", 4);
+    const uint32_t count = in.get<uint32_t>(path + " count");
     items.clear();
-    for (uint64_t i = 0; i < count; ++i) {
+    for (uint32_t i = 0; i < count; ++i) {
       items.emplace_back();
       each(items.back(), validate::at(path, i));
     }
   }
-  void finish() const {
-    if (at_ != bytes_.size()) reject(std::to_string(bytes_.size() - at_) + " bytes follow the last layer");
-  }
-  [[noreturn]] void reject(const std::string& why) const {
-    fail(Code::InvalidArgument, path_ + " is not an ocean tile spec: " + why);
-  }
-
- private:
-  std::string_view bytes_;
-  const std::string path_;
-  size_t at_ = 0;
 };
 
 }  // namespace
 
 std::string encode_tile_spec(const TileSpec& spec) {
   Writer out;
-  out.out.assign(kMagic, sizeof kMagic);
-  out.put(kTileSpecBytesVersion, 4);
+  out.out.put_bytes(std::string_view(kMagic, sizeof kMagic));
+  out.out.put(kTileSpecBytesVersion);
   tile_members(out, spec, "");
-  return std::move(out.out);
+  return out.out.take();
 }
 
 TileSpec decode_tile_spec(std::string_view bytes, const LimitGate& gate, const std::string& path) {
-  Reader in(bytes, path);
+  Reader reader{ByteReader(bytes, path.empty() ? "bytes" : path, "an ocean tile spec")};
+  ByteReader& in = reader.in;
   if (bytes.substr(0, sizeof kMagic) != std::string_view(kMagic, sizeof kMagic))
     in.reject("it does not start with the magic \"SQOCNSPC\"");
-  in.get("magic", sizeof kMagic);
-  if (const uint64_t version = in.get("format version", 4); version != kTileSpecBytesVersion)
+  in.get_bytes(sizeof kMagic, "magic");
+  if (const uint32_t version = in.get<uint32_t>("format version"); version != kTileSpecBytesVersion)
     in.reject("format version " + std::to_string(version) + "; this squalld reads version " +
               std::to_string(kTileSpecBytesVersion));
   TileSpec spec;
-  tile_members(in, spec, path);
-  in.finish();
+  tile_members(reader, spec, path);
+  in.finish("the last layer");
   validate_tile(spec, gate, path);
   return spec;
 }

@@ -1,7 +1,8 @@
 // An ocean TileSpec (ocean_params.h) as bytes and back: every member of the spec, its layers and their
 // partial spectra, for what keeps a spec beyond a request (an eWave session's checkpoint holds its
-// config's ambient_ocean this way). Explicit little-endian layout, independent of the host: f64 is an IEEE
-// 754 binary64 (its bits as a u64), i32 / i64 two's complement, u8 / u32 / u64 unsigned; no padding.
+// config's ambient_ocean this way). The byte codec's layout (common/byte_codec.h), independent of the host:
+// little-endian, f64 an IEEE 754 binary64 (its bits as a u64), i32 / i64 two's complement, u8 / u32 / u64
+// unsigned; no padding.
 //
 // Format version 1:
 //   offset  size  field
@@ -45,8 +46,8 @@ inline constexpr uint32_t kTileSpecBytesVersion = 1;
 std::string encode_tile_spec(const TileSpec& spec);
 
 // The spec of `bytes`, validated like every tile request (validate_tile, with `gate`'s grid limit).
-// Throws Error(InvalidArgument) naming `path`: "<path> is not an ocean tile spec: truncated at byte 89
-// (reading <path>.layers[0].lx)", a wrong magic or version, bytes after the last layer, a flag that is
+// Throws Error(InvalidArgument) naming `path`: "<path> is not an ocean tile spec: truncated at byte 89 of
+// 100 (reading <path>.layers[0].lx)", a wrong magic or version, bytes after the last layer, a flag that is
 // neither 0 nor 1; then validate_tile's own messages ("<path>.layers[0].wind_speed = nan must be ...").
 TileSpec decode_tile_spec(std::string_view bytes, const LimitGate& gate, const std::string& path);
 

@@ -116,7 +116,7 @@ class Eulerian final : public Advection {
     }
     StateWriter out;
     out.put(kStateVersion);
-    out.put(uint8_t(started_));
+    out.put(started_);
     out.put(int64_t(index_));
     out.put_vector(phase_start_);
     out.put_vector(values);
@@ -182,12 +182,13 @@ class Eulerian final : public Advection {
 
   void restore(const std::string& state) {
     StateReader in(state);
-    if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
-    started_ = in.get<uint8_t>() != 0;
+    if (in.get<uint32_t>("the version") != kStateVersion)
+      fail(Code::InvalidArgument, "resume_state has an unknown version");
+    started_ = in.get<bool>("started");
     index_ = in.frame_index(kMaxTextureFrames);
-    phase_start_ = in.get_vector<double>();
-    std::vector<float> values = in.get_vector<float>();
-    std::vector<float> cascade = cascade_bands_ > 0 ? in.get_vector<float>() : std::vector<float>();
+    phase_start_ = in.get_vector<double>("the phase starts");
+    std::vector<float> values = in.get_vector<float>("the node state");
+    std::vector<float> cascade = cascade_bands_ > 0 ? in.get_vector<float>("the cascade") : std::vector<float>();
     if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()) ||
         cascade.size() != cascade_floats())
       fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases, grid or cascade");

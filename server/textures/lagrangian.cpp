@@ -97,11 +97,16 @@ class Lagrangian final : public Advection {
   std::string checkpoint() const override {
     StateWriter out;
     out.put(kStateVersion);
-    out.put(uint8_t(started_));
+    out.put(started_);
     out.put(int64_t(index_));
     out.put(counter_);
     out.put(next_id_);
-    out.put_vector(particles_);
+    out.put(uint64_t(particles_.size()));  // then each particle's members, in order
+    for (const Particle& p : particles_) {
+      out.put(p.id);
+      out.put(p.birth);
+      out.put(p.kill);
+    }
     out.put_vector(positions_);
     out.put_vector(uvs_);
     return out.take();
@@ -137,14 +142,22 @@ class Lagrangian final : public Advection {
 
   void restore(const std::string& state) {
     StateReader in(state);
-    if (in.get<uint32_t>() != kStateVersion) fail(Code::InvalidArgument, "resume_state has an unknown version");
-    started_ = in.get<uint8_t>() != 0;
+    if (in.get<uint32_t>("the version") != kStateVersion)
+      fail(Code::InvalidArgument, "resume_state has an unknown version");
+    started_ = in.get<bool>("started");
     index_ = in.frame_index(kMaxTextureFrames);
-    counter_ = in.get<uint64_t>();
-    next_id_ = in.get<uint64_t>();
-    particles_ = in.get_vector<Particle>();
-    positions_ = in.get_vector<float>();
-    uvs_ = in.get_vector<float>();
+    counter_ = in.get<uint64_t>("the particle counter");
+    next_id_ = in.get<uint64_t>("the next particle id");
+    // One by one: a count past the end is caught at the first particle missing, before the rest is allocated.
+    particles_.clear();
+    for (uint64_t n = in.get<uint64_t>("the particle count"), i = 0; i < n; ++i) {
+      Particle& p = particles_.emplace_back();
+      p.id = in.get<uint64_t>("a particle's id");
+      p.birth = in.get<double>("a particle's birth time");
+      p.kill = in.get<double>("a particle's kill time");
+    }
+    positions_ = in.get_vector<float>("the positions");
+    uvs_ = in.get_vector<float>("the uvs");
     if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
       fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
     time_ = t0_ + index_ * dt_;

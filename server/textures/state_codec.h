@@ -1,76 +1,44 @@
-// The bytes of an advection checkpoint: little-endian values written and read in the same order, each
-// read checked against the end of the data (a truncated or foreign checkpoint is INVALID_ARGUMENT).
+// The bytes of an advection checkpoint, in the byte codec's layout (common/byte_codec.h): values written
+// and read in the same order, a vector as a u64 count and then its values. A truncated or foreign
+// checkpoint is INVALID_ARGUMENT "resume_state is not a texture checkpoint: ...".
 #pragma once
 
 #include <cstdint>
-#include <cstring>
 #include <string>
-#include <type_traits>
+#include <string_view>
 #include <vector>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 
 namespace squall::textures {
 
-class StateWriter {
+class StateWriter : public ByteWriter {
  public:
-  template <typename T>
-  void put(const T& value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    bytes_.append(reinterpret_cast<const char*>(&value), sizeof(T));
-  }
   template <typename T>
   void put_vector(const std::vector<T>& values) {
     put(uint64_t(values.size()));
-    bytes_.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+    put_array(values.data(), values.size());
   }
-  std::string take() { return std::move(bytes_); }
-
- private:
-  std::string bytes_;
 };
 
-class StateReader {
+class StateReader : public ByteReader {
  public:
-  explicit StateReader(const std::string& bytes) : bytes_(bytes) {}
+  explicit StateReader(std::string_view bytes) : ByteReader(bytes, "resume_state", "a texture checkpoint") {}
+
   template <typename T>
-  T get() {
-    static_assert(std::is_trivially_copyable_v<T>);
-    T value;
-    std::memcpy(&value, take(sizeof(T)), sizeof(T));
-    return value;
-  }
-  template <typename T>
-  std::vector<T> get_vector() {
-    uint64_t n = get<uint64_t>();
-    if (n > (bytes_.size() - offset_) / sizeof(T)) truncated();
-    std::vector<T> values(n);
-    std::memcpy(values.data(), take(n * sizeof(T)), n * sizeof(T));
-    return values;
+  std::vector<T> get_vector(const std::string& member) {
+    return get_array<T>(get<uint64_t>(member + " count"), member);
   }
   // A frame index: InvalidArgument naming resume_state unless it is in [0, max].
   int frame_index(int64_t max) {
-    const int64_t index = get<int64_t>();
+    const int64_t index = get<int64_t>("the frame index");
     if (index < 0 || index > max)
       fail(Code::InvalidArgument, "resume_state holds frame index " + std::to_string(index) +
                                       ": not a frame of a stream (0.." + std::to_string(max) + ")");
     return int(index);
   }
-  bool done() const { return offset_ == bytes_.size(); }
-
- private:
-  const char* take(size_t n) {
-    if (n > bytes_.size() - offset_) truncated();
-    const char* at = bytes_.data() + offset_;
-    offset_ += n;
-    return at;
-  }
-  [[noreturn]] static void truncated() {
-    fail(Code::InvalidArgument, "resume_state is truncated or not a texture checkpoint");
-  }
-
-  const std::string& bytes_;
-  size_t offset_ = 0;
+  bool done() const { return left() == 0; }
 };
 
 }  // namespace squall::textures

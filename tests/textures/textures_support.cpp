@@ -44,12 +44,12 @@ AdvectSpec cascade_spec(int velocity_kind, std::vector<double> params, double c_
 
 std::vector<float> cascade_of_checkpoint(const std::string& checkpoint) {
   StateReader in(checkpoint);  // the layout of Eulerian::checkpoint (eulerian.cpp)
-  in.get<uint32_t>();          // version
-  in.get<uint8_t>();           // started
-  in.get<int64_t>();           // frame index
-  in.get_vector<double>();     // phase starts
-  in.get_vector<float>();      // the slots' node state
-  return in.get_vector<float>();
+  in.get<uint32_t>("the version");
+  in.get<bool>("started");
+  in.get<int64_t>("the frame index");
+  in.get_vector<double>("the phase starts");
+  in.get_vector<float>("the node state");
+  return in.get_vector<float>("the cascade");
 }
 
 std::vector<TextureFrame> run(const AdvectSpec& spec, int frames) {
