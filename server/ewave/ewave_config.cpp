@@ -106,7 +106,7 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
   ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
-void validate(const StepInputs& in, const EWaveConfig& c) {
+void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
   positive("inputs.dt", in.dt, 1e4);
   size_t cells = c.cells();
   check_map("inputs.obstruction", in.obstruction, cells, validate::closed(0, 1));
@@ -114,7 +114,7 @@ void validate(const StepInputs& in, const EWaveConfig& c) {
   if (in.ambient_ocean) {
     if (!in.ambient_height.empty())
       fail(Code::InvalidArgument, "inputs.ambient_ocean and inputs.ambient_height are exclusive: give one");
-    validate_ocean("inputs.ambient_ocean", *in.ambient_ocean, c);
+    validate_ocean("inputs.ambient_ocean", *in.ambient_ocean, c, gate);
   }
   check_map("inputs.source_height", in.source_height, cells);
   check_map("inputs.source_phi", in.source_phi, cells);

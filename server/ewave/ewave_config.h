@@ -102,8 +102,10 @@ struct StepInputs {
   OutputSelection outputs;
 };
 
-// Throws Error(InvalidArgument) naming the field (e.g. "inputs.obstruction has 10 values, want 4096").
-void validate(const StepInputs& inputs, const EWaveConfig& config);
+// Throws Error(InvalidArgument) naming the field (e.g. "inputs.obstruction has 10 values, want 4096"); an
+// ambient ocean's layers are checked against `gate`'s --max-grid-cells (RESOURCE_EXHAUSTED), or the
+// default limits without one.
+void validate(const StepInputs& inputs, const EWaveConfig& config, const LimitGate* gate = nullptr);
 
 struct Frame {
   uint64_t step = 0;  // steps done so far (1 after the first step)

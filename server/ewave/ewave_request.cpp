@@ -199,7 +199,7 @@ std::vector<v1::EWaveOutput> outputs(const v1::EWaveInputs& p) {
   return list;
 }
 
-StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
+StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c, const LimitGate& gate) {
   StepInputs in;
   in.dt = p.dt();
   in.obstruction = map(p.has_obstruction(), p.obstruction(), c, "inputs.obstruction");
@@ -208,10 +208,7 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
          "inputs.shapes has " + std::to_string(p.shapes_size()) + " shapes, at most " + std::to_string(kMaxShapes));
   for (int s = 0; s < p.shapes_size(); ++s) in.shapes.push_back(shape(p.shapes(s), validate::at("inputs.shapes", s)));
   in.ambient_height = map(p.has_ambient_height(), p.ambient_height(), c, "inputs.ambient_height");
-  if (p.has_ambient_ocean()) {
-    LimitGate defaults{Limits{}};
-    in.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), defaults, "inputs.ambient_ocean");
-  }
+  if (p.has_ambient_ocean()) in.ambient_ocean = ocean::rpc::tile_spec(p.ambient_ocean(), gate, "inputs.ambient_ocean");
   in.source_height = map(p.has_source_height(), p.source_height(), c, "inputs.source_height");
   in.source_phi = map(p.has_source_phi(), p.source_phi(), c, "inputs.source_phi");
   in.drift_x = p.drift_x(), in.drift_y = p.drift_y();
@@ -226,7 +223,7 @@ StepInputs inputs(const v1::EWaveInputs& p, const EWaveConfig& c) {
         out == v1::EWAVE_OUTPUT_NORMAL_X || out == v1::EWAVE_OUTPUT_NORMAL_Y || out == v1::EWAVE_OUTPUT_NORMAL_Z;
     o.phi |= out == v1::EWAVE_OUTPUT_PHI;
   }
-  validate(in, c);  // dt, value ranges, finite values; messages name "inputs.<field>"
+  validate(in, c, &gate);  // dt, value ranges, finite values; messages name "inputs.<field>"
   return in;
 }
 

@@ -17,7 +17,7 @@ EWaveConfig config(const squall::v1::EWaveConfig& proto, const LimitGate& gate);
 void fill_config(const EWaveConfig& config, squall::v1::EWaveConfig* proto);
 
 // One step's inputs for a session of `config` ("inputs").
-StepInputs inputs(const squall::v1::EWaveInputs& proto, const EWaveConfig& config);
+StepInputs inputs(const squall::v1::EWaveInputs& proto, const EWaveConfig& config, const LimitGate& gate);
 
 // The validated output list of inputs (empty: height only). The reply's element type is checked by
 // squall::field::dtype (common/field_codec.h).

@@ -35,7 +35,7 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
   // Refused before the step, so that a frame too large to send does not advance the session.
   serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)",
                                       frame_bytes(config, outputs.size(), type));
-  ewave::Frame result = ewave.step(id, inputs(request.inputs(), config));
+  ewave::Frame result = ewave.step(id, inputs(request.inputs(), config, serving_.gate()));
   frame->set_session_id(id);
   fill_frame(result, config, outputs, type, frame);
 }

@@ -9,9 +9,10 @@
 
 namespace squall::ewave {
 
-EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean)
-    : runtime_(runtime), fft_(fft), ocean_(ocean), config_(config) {
-  validate(config_);
+EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean,
+                           const LimitGate* gate)
+    : runtime_(runtime), fft_(fft), ocean_(ocean), gate_(gate), config_(config) {
+  validate(config_, gate_);
   if (config_.initial_ocean) ocean_engine("config.initial_ocean");
   if (config_.ambient_ocean) ocean_engine("config.ambient_ocean");
   time_ = config_.start_time;

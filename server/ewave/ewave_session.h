@@ -30,7 +30,10 @@ class EWaveSession {
   // Validates the config (Error InvalidArgument naming the field) and uploads the initial fields.
   // `ocean` evaluates the config's and the steps' ocean specs (initial_ocean, ambient_ocean); without it
   // such specs give Error(FailedPrecondition). It must outlive the session and share the runtime.
-  EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean = nullptr);
+  // `gate` holds the daemon's limits (--max-grid-cells) that the ocean specs' layers are checked against;
+  // null: the default limits. It must outlive the session.
+  EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean = nullptr,
+               const LimitGate* gate = nullptr);
 
   const EWaveConfig& config() const { return config_; }
   uint64_t step_index() const { return step_; }
@@ -78,6 +81,7 @@ class EWaveSession {
   Runtime& runtime_;
   fft::Fft& fft_;
   ocean::OceanEngine* ocean_;
+  const LimitGate* gate_;
   EWaveConfig config_;
   size_t cells_, half_;  // nx ny real cells; (nx/2+1) ny spectrum modes
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)

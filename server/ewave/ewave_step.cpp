@@ -47,7 +47,7 @@ using RealOf = typename std::decay_t<K>::RealType;
 }  // namespace
 
 Frame EWaveSession::step(const StepInputs& in) {
-  validate(in, config_);
+  validate(in, config_, gate_);
   const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
   auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});

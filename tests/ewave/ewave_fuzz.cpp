@@ -34,7 +34,7 @@ const std::vector<test::RequestCheck> kChecks = {
       if (!test::parse(bytes, &r)) return;
       ewave::rpc::outputs(r.inputs());
       field::dtype(r.inputs().dtype(), "inputs.dtype");
-      ewave::rpc::inputs(r.inputs(), session_config());
+      ewave::rpc::inputs(r.inputs(), session_config(), test::default_gate());
     },
     [](const std::string& bytes) {
       v1::EWaveRestoreRequest r;

@@ -216,6 +216,33 @@ TEST(OceanAmbient, BadSpecsNameTheField) {
                [&] { make_session(with_bad); });
 }
 
+// A step's ambient ocean has its layers checked against the daemon's --max-grid-cells, not the default:
+// a smaller limit refuses a layer the default allows, and a larger one allows a layer the default refuses.
+TEST(OceanAmbient, AStepsOceanLayersAreCheckedAgainstTheDaemonsGridLimit) {
+  const EWaveConfig c = sea_config(DispersionKind::Deep);  // 64 x 64
+  StepInputs in = plain_step(0.1);
+  in.ambient_ocean = sea_spec(c);
+  in.ambient_ocean->layers[0].nx = in.ambient_ocean->layers[0].ny = 128;
+  Limits small;
+  small.max_grid_cells = uint64_t(c.cells());
+  const LimitGate small_gate{small};
+  EXPECT_NO_THROW(validate(in, c));
+  expect_error(Code::ResourceExhausted, "inputs.ambient_ocean.layers[0]", [&] { validate(in, c, &small_gate); });
+  EWaveEngineOptions options;
+  options.ocean = &ocean_engine();
+  LimitGate engine_gate{small};
+  EWaveEngine engine(squall::test::runtime(), session_fft(), engine_gate, options);
+  const std::string id = engine.create(c);
+  expect_error(Code::ResourceExhausted, "inputs.ambient_ocean.layers[0]", [&] { engine.step(id, in); });
+
+  Limits large;
+  large.max_grid_cells = 2 * Limits{}.max_grid_cells;
+  const LimitGate large_gate{large};
+  in.ambient_ocean->layers[0].nx = 8192, in.ambient_ocean->layers[0].ny = 3072;  // 1.5 x the default limit
+  EXPECT_NO_THROW(validate(in, c, &large_gate));
+  expect_error(Code::ResourceExhausted, "inputs.ambient_ocean.layers[0]", [&] { validate(in, c); });
+}
+
 // An engine as squalld builds it (server/ewave/shared_engine.h): its sessions' ocean specs evaluated.
 EWaveEngine ocean_ewave_engine(LimitGate& gate) {
   EWaveEngineOptions options;

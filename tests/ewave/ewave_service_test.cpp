@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "client/client.h"
+#include "ewave/ewave_request.h"
 #include "ewave/ewave_session.h"
 #include "ewave_support.h"
 #include "common/field_codec.h"
@@ -24,6 +25,7 @@
 #include "ewave/ewave_service.h"
 #include "rpc/metadata.h"
 #include "support/daemon.h"
+#include "support/expect_error.h"
 #include "support/in_process.h"
 #include "support/test_runtime.h"
 
@@ -173,6 +175,25 @@ TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
   EXPECT_EQ(values(frame.fields(2)), normal_z);
   EXPECT_GT(ewave::test::max_abs(expected.height), 1e-4) << "the hump and the source must show";
   EXPECT_TRUE(s.close().ok());
+}
+
+// The request translator checks a step's ambient ocean against the daemon's --max-grid-cells (the gate it
+// is given), as it does the config's ocean specs.
+TEST(EWaveService, AStepsAmbientOceanIsCheckedAgainstTheDaemonsGridLimit) {
+  const ewave::EWaveConfig c = engine_config();
+  v1::EWaveInputs in = plain_inputs(0.01);
+  v1::LayerSpec* layer = in.mutable_ambient_ocean()->add_layers();
+  layer->set_extent_x(100), layer->set_extent_y(100), layer->set_nx(128), layer->set_ny(128);
+  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
+  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU);
+  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  layer->set_wind_speed(5);
+  const LimitGate defaults{Limits{}};
+  EXPECT_TRUE(ewave::rpc::inputs(in, c, defaults).ambient_ocean.has_value());
+  Limits small;
+  small.max_grid_cells = uint64_t(c.cells());
+  test::expect_error(Code::ResourceExhausted, "inputs.ambient_ocean.layers[0]",
+                     [&] { ewave::rpc::inputs(in, c, LimitGate{small}); });
 }
 
 // A session created from an ocean spec over gRPC (config.initial_ocean at config.start_time = t0) continues
