@@ -153,10 +153,13 @@ class SessionStore {
     return entry->value;
   }
 
-  // Removes the entry once a call in flight on it has finished; NOT_FOUND when absent.
+  // Removes the entry once a call in flight on it has finished, and its checkpoint. An id this store does
+  // not hold but the state directory does (its replica drained) is closed by removing its checkpoint; one
+  // that another live replica holds is UNAVAILABLE (that replica is asked to hand it over, so the retry
+  // closes it here). NOT_FOUND when absent.
   void close(const std::string& id) {
     std::shared_ptr<Entry> entry = take(id);
-    if (!entry) fail(Code::NotFound, not_found(id));
+    if (!entry) return close_checkpoint(id);
     std::lock_guard<std::mutex> wait(entry->mutex);
     if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
   }
@@ -312,17 +315,31 @@ class SessionStore {
     return it->second;
   }
 
-  // An id this store does not hold: when another live replica owns it, a handover is requested and the
-  // call answered UNAVAILABLE (its retry finds the checkpoint); else it is resumed from its checkpoint
-  // when there is one (while draining: UNAVAILABLE, so that the client retries on another replica).
-  void resume(const std::string& id) {
-    if (!persistent()) return;
-    const StateDir* dir = state_dir();
+  // When another live replica owns `id`, a handover is requested and the call answered UNAVAILABLE (its
+  // retry finds the checkpoint).
+  void require_not_owned_elsewhere(const std::string& id) {
     if (std::optional<std::string> owner = policy_.registry->owned_elsewhere(id)) {
-      if (!policy_.registry->draining()) dir->request_handover(id);
+      if (!policy_.registry->draining()) state_dir()->request_handover(id);
       fail(Code::Unavailable,
            kind_ + " " + id + " is live on replica " + *owner + ", which is asked to hand it over; retry in a moment");
     }
+  }
+
+  // close() of an id this store does not hold: its checkpoint removed, else NOT_FOUND.
+  void close_checkpoint(const std::string& id) {
+    if (persistent()) {
+      require_not_owned_elsewhere(id);
+      if (state_dir()->read(id)) return state_dir()->remove(id);
+    }
+    fail(Code::NotFound, not_found(id));
+  }
+
+  // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there
+  // is one (while draining: UNAVAILABLE, so that the client retries on another replica).
+  void resume(const std::string& id) {
+    if (!persistent()) return;
+    require_not_owned_elsewhere(id);
+    const StateDir* dir = state_dir();
     std::optional<std::string> checkpoint = dir->read(id);
     if (!checkpoint) return;
     if (policy_.registry->draining())

@@ -126,6 +126,35 @@ TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
   EXPECT_NE(c.daemon.process().log().find("asked to hand it over"), std::string::npos) << "the first try was refused";
 }
 
+// A session whose replica drained lives on in the state directory: another replica closes it there (the
+// checkpoint removed, no session resumed), after which its id is NOT_FOUND everywhere.
+TEST(Replicas, ASessionCheckpointedByADrainedReplicaClosesOnAnother) {
+  const std::string state = test::temp_dir("replicas-close");
+  const std::string id = client::propose_session_id();
+  {
+    Replica a("replica-a", state);
+    v1::EWaveSessionResponse created;
+    ASSERT_TRUE(a.ewave->CreateSession(a.client.context(id).get(), create_request(), &created).ok());
+    std::string height;
+    ASSERT_TRUE(step(a, id, 0, &height).ok());
+    a.daemon.process().signal(SIGTERM);
+    EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
+    EXPECT_NE(a.daemon.process().log().find("checkpointed 1 sessions"), std::string::npos);
+  }
+  Replica b("replica-b", state);
+  v1::EWaveSessionRequest close;
+  close.set_session_id(id);
+  v1::EWaveCloseResponse closed;
+  grpc::Status status = b.ewave->CloseSession(b.client.context(id).get(), close, &closed);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(b.daemon.process().log().find("resumed from the state directory"), std::string::npos)
+      << "closing needs no resume";
+  std::string height;
+  EXPECT_EQ(step(b, id, 1, &height).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(b.ewave->CloseSession(b.client.context(id).get(), close, &closed).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+}
+
 v1::BuildVolumeRequest keep_a_sphere() {
   v1::BuildVolumeRequest request;
   auto* m = request.mutable_model();
