@@ -23,6 +23,15 @@ uint64_t positive_integer(const std::string& text) {
   return static_cast<uint64_t>(v);
 }
 
+// A count written as an integer or in the exponent notation of the defaults (--max-render-samples 4e11).
+double positive_count(const std::string& text) {
+  size_t used = 0;
+  double v = std::stod(text, &used);
+  if (used != text.size() || !std::isfinite(v) || v < 1 || v != std::floor(v))
+    throw std::invalid_argument("must be a whole number >= 1 (e.g. 4e11)");
+  return v;
+}
+
 double seconds_or_zero(const std::string& text) {
   size_t used = 0;
   double v = std::stod(text, &used);
@@ -73,9 +82,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
-      {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = double(positive_integer(v)); }},
-      {"max-advection-samples",
-       [o](const std::string& v) { o->limits.max_advection_samples = double(positive_integer(v)); }},
+      {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = positive_count(v); }},
+      {"max-advection-samples", [o](const std::string& v) { o->limits.max_advection_samples = positive_count(v); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},

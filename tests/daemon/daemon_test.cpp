@@ -558,6 +558,11 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--rpc-threads", "1025"}, &out), 2) << out;
   EXPECT_NE(out.find("--rpc-threads 1025: must be 1 to 1024"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
+  // The sample budgets take the exponent notation their --help defaults are written in, and whole numbers only.
+  EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "4e11", "--max-advection-samples", "1e9", "--help"}, &out), 0)
+      << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "1.5"}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-render-samples 1.5: must be a whole number >= 1"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--device", "no-such-device"}, &out), 2) << out;
   EXPECT_NE(out.find("--device no-such-device matches no OpenCL device"), std::string::npos) << out;
   // a non-loopback address without TLS or tokens is refused before anything listens
