@@ -254,5 +254,28 @@ TEST(TexturesFinalLut, ScalarFieldPastTheCellLimitIsResourceExhausted) {
   expect_error(Code::ResourceExhausted, "spec.texture.lut.field", [&] { engine.validate(spec, "spec"); });
 }
 
+// --max-grid-cells bounds a velocity grid's nodes, nx * ny, whatever its number of frames (the frames are
+// bounded by the request's size): 5 x 4 nodes in 2 frames pass a limit of 20, 6 x 4 nodes do not.
+TEST(TexturesFinalLut, AVelocityGridsCellLimitCountsItsNodesNotItsFrames) {
+  Limits limits;
+  limits.max_grid_cells = 20;
+  LimitGate gate(limits);
+  TextureEngine engine(runtime(), gate);
+  AdvectSpec spec = static_lut_spec(Method::EulerianMultilayer);
+  spec.texture.width = spec.texture.height = 4;
+  spec.texture.pixels.resize(16);
+  spec.output.width = spec.output.height = 4;
+  spec.eulerian.grid_nx = spec.eulerian.grid_ny = 4;
+  VelocitySpec& v = spec.velocity;
+  v.kind = SQUALL_VELOCITY_GRID;
+  v.nx = 5, v.ny = 4, v.hx = v.hy = 1;
+  v.frames = {VelocityFrame{0, std::vector<float>(20, 0.1f), std::vector<float>(20, 0.0f)},
+              VelocityFrame{1, std::vector<float>(20, 0.2f), std::vector<float>(20, 0.0f)}};
+  EXPECT_NO_THROW(engine.validate(spec, "spec"));
+  v.nx = 6;
+  for (VelocityFrame& f : v.frames) f.u.resize(24, 0.1f), f.v.resize(24, 0.0f);
+  expect_error(Code::ResourceExhausted, "spec.velocity.grid", [&] { engine.validate(spec, "spec"); });
+}
+
 }  // namespace
 }  // namespace squall::test
