@@ -27,11 +27,24 @@ std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
   return stored;
 }
 
+namespace {
+
+// The model with the engine's budgets: its max_active_voxels capped, the advection samples the daemon's.
+CloudModel budgeted(CloudModel model, const CloudEngineOptions& options) {
+  if (model.max_active_voxels > options.max_active_voxels) model.max_active_voxels = options.max_active_voxels;
+  model.max_advection_samples = options.max_advection_samples;
+  return model;
+}
+
+}  // namespace
+
 std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field,
                                                  const Cancellation& cancel) {
-  if (model.max_active_voxels > options_.max_active_voxels) model.max_active_voxels = options_.max_active_voxels;
-  model.max_advection_samples = options_.max_advection_samples;
-  return upload(build_cloud(model, field, cancel));
+  return upload(build_cloud(budgeted(std::move(model), options_), field, cancel));
+}
+
+void CloudEngine::validate(CloudModel model, const std::string& field) const {
+  clouds::validate(budgeted(std::move(model), options_), field);
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {

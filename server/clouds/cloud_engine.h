@@ -40,6 +40,9 @@ class CloudEngine {
   // Error(Cancelled) once `cancel` is requested (checked between stages and slices; also for render).
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model",
                                       const Cancellation& cancel = {});
+  // What build() checks before building anything: the model with the engine's budgets, validated
+  // (Error(InvalidArgument) naming `field`).
+  void validate(CloudModel model, const std::string& field = "model") const;
   // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
   // Stores `volume` under a new id, or the client's `proposed` one (SessionStore::id_for).
   std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");

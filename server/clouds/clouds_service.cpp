@@ -105,7 +105,12 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
-    for (int i = 0; i < request->times_size(); ++i) validate::finite(validate::at("times", i), request->times(i));
+    // The request's model, then every frame's, before the stream takes a slot or sends a frame.
+    engine_->validate(s.base, "model");
+    for (int i = 0; i < request->times_size(); ++i) {
+      const std::string at = validate::at("times", i);
+      engine_->validate(model_at(s.base, s.evolution, validate::finite(at, request->times(i))), "model at " + at);
+    }
     s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
     return s;
   };

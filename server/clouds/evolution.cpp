@@ -41,7 +41,7 @@ CloudModel model_at(const CloudModel& base, const Evolution& e, double t) {
   move_pattern(m.pyroclastic.noise, e.noise_drift, t);
   m.pyroclastic.amplitude = std::max(0.0, m.pyroclastic.amplitude + e.amplitude_rate * t);
   move_pattern(m.temperature.noise, e.noise_drift, t);
-  m.advection.time += e.advection_rate * t;
+  m.advection.time = std::max(0.0, m.advection.time + e.advection_rate * t);
   move_pattern(m.advection.noise, e.velocity_drift, t);
   return m;
 }

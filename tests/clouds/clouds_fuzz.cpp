@@ -35,9 +35,14 @@ const std::vector<test::RequestCheck> kChecks = {
       v1::StreamEvolutionRequest r;
       if (!test::parse(bytes, &r)) return;
       check_settings(r.settings());
-      clouds::validate(clouds::rpc::evolution(r.evolution()), "evolution");
-      check_model(r.model());
-      for (int i = 0; i < r.times_size(); ++i) validate::finite(validate::at("times", i), r.times(i));
+      const clouds::Evolution evolution = clouds::rpc::evolution(r.evolution());
+      clouds::validate(evolution, "evolution");
+      const clouds::CloudModel base = clouds::rpc::model(r.model());
+      clouds::validate(base, "model");
+      for (int i = 0; i < r.times_size(); ++i) {
+        const std::string at = validate::at("times", i);
+        clouds::validate(clouds::model_at(base, evolution, validate::finite(at, r.times(i))), "model at " + at);
+      }
     },
 };
 

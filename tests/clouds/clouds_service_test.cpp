@@ -167,6 +167,26 @@ TEST(CloudsService, EvolutionStreamsOneFramePerTime) {
   EXPECT_NEAR(x_min[2] - x_min[0], 4.0, 1e-9);
 }
 
+// Times before 0 are valid: advection time, like the pyroclastic amplitude, is clamped at 0 (the model at
+// t = -1 with advection_rate 1 has an advection time of 0, not -1).
+TEST(CloudsService, EvolutionAtNegativeTimesClampsTheAdvectionTime) {
+  auto c = call();
+  v1::StreamEvolutionRequest request;
+  *request.mutable_model() = sphere_model();
+  request.mutable_evolution()->set_advection_rate(1);
+  request.mutable_evolution()->mutable_drift()->set_x(2);
+  for (double t : {-1.0, 0.0}) request.add_times(t);
+  *request.mutable_settings() = small_render();
+  auto reader = c.stub->StreamEvolution(c.context.get(), request);
+  v1::EvolutionFrame frame;
+  std::vector<double> x_min;
+  while (reader->Read(&frame)) x_min.push_back(frame.summary().bounds_min().x());
+  auto status = reader->Finish();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(x_min.size(), 2u);
+  EXPECT_NEAR(x_min[1] - x_min[0], 2.0, 1e-9);
+}
+
 TEST(CloudsService, BadRequestsGetClearErrors) {
   struct Case {
     std::function<void(v1::RenderRequest&)> edit;
