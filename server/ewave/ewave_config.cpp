@@ -19,7 +19,7 @@ using validate::positive;
 // field values (m, m/s, m^2/s), speeds (m/s), lengths (m), times (s).
 const validate::Interval kMapValues = validate::closed(-1e6, 1e6);
 const validate::Interval kLengths = validate::closed(1e-6, 1e6);
-constexpr double kMaxSpeed = 1e3, kMaxScale = 1e6, kMaxTime = 1e9;
+constexpr double kMaxSpeed = 1e3, kMaxScale = 1e6;
 
 // A per-cell map: empty, or exactly `cells` finite values (within `range`).
 void check_map(const std::string& field, const std::vector<float>& map, size_t cells,

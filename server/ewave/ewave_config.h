@@ -113,6 +113,8 @@ struct Frame {
   std::vector<float> height, displacement_x, displacement_y, normals, phi;  // as selected; empty otherwise
 };
 
+// A session's time and config.start_time: within +-kMaxTime s (a SimTime's range).
+constexpr double kMaxTime = 1e9;
 constexpr size_t kMaxShapes = 1024;
 constexpr size_t kMaxShapeVertices = 65536;
 

@@ -100,6 +100,7 @@ EWaveConfig config_of(const StateHeader& header) {
   each_member(header, c,
               [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
   validate(c);
+  validate::in("state.time", header.time, validate::closed(-kMaxTime, kMaxTime));
   return c;
 }
 

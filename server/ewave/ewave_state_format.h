@@ -54,7 +54,8 @@ StateHeader parse_state_header(const std::string& bytes);
 // The bytes of the config's ambient_ocean in state bytes whose header parse_state_header() returned;
 // empty when it has none (a version 1 state never has one).
 std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader& header);
-// The config a header describes, validated (InvalidArgument naming the field).
+// The config a header describes, validated (InvalidArgument naming the field); also checks the header's
+// time (naming state.time).
 EWaveConfig config_of(const StateHeader& header);
 // Throws Error(InvalidArgument) naming the first field value of the state that is not finite.
 void check_fields_finite(const std::string& bytes, const StateHeader& header);

@@ -112,6 +112,8 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     const double t0 = sim_time("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
+    if (request->frame_count() > 0)  // the last frame's time, before the first frame is sent
+      sim_time("t0 + (frame_count - 1) dt", t0 + double(request->frame_count() - 1) * dt);
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
     Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2));
     return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
@@ -124,7 +126,8 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     auto time_of = [&](uint64_t frame) { return t0 + double(frame) * dt; };  // no accumulated rounding
     auto compute = [&](uint64_t frame) {
       v1::GetTileResponse reply;
-      tile_reply(*engine_, job, time_of(frame), &whitecaps, call.cancellation(), &reply);
+      const double t = sim_time("t0 + frame_index dt", time_of(frame));  // an endless stream's end of time
+      tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), &reply);
       return reply;
     };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };

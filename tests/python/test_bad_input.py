@@ -777,6 +777,18 @@ CASES += [
     bad(R, "dt_nan", put("dt", NAN), "dt"),
     bad(R, "dt_negative", put("dt", -0.25), "dt"),
     bad(R, "t0_inf", put("t0.seconds", INF), "t0.seconds"),
+    bad(
+        R,
+        "last_frame_past_the_time_range",
+        also(put("dt", 1e8), put("frame_count", 12)),
+        "frame_count",
+    ),
+    bad(
+        R,
+        "endless_stream_past_the_time_range",
+        also(put("dt", 1e9), put("frame_count", 0)),
+        "frame_index",
+    ),
     bad(R, "wind_speed_inf", put(f"{L0}.wind_speed", INF), f"{L0}.wind_speed"),
     bad(
         R,
@@ -1077,7 +1089,7 @@ for R in ("EWave.GetState", "EWave.CloseSession"):
 
 # The header of an eWave state (ewave_state_format.h): magic, then 8-byte members; after the fields, the
 # u64 length of the ambient ocean and its bytes.
-STATE_NX, STATE_NY, STATE_DX, STATE_DISPERSION, STATE_FIELDS = 8, 16, 24, 40, 152
+STATE_NX, STATE_NY, STATE_DX, STATE_DISPERSION, STATE_TIME, STATE_FIELDS = 8, 16, 24, 40, 144, 152
 
 
 def resized_state(nx: int, ny: int) -> Change:
@@ -1100,6 +1112,8 @@ CASES += [
     bad(R, "state_field_nan", patch(STATE_FIELDS, "<f", NAN), "state.fields[0]"),
     bad(R, "state_grid_zero", patch(STATE_NX, "<q", 0), "state.grid"),
     bad(R, "state_dx_nan", patch(STATE_DX, "<d", NAN), "dx"),
+    bad(R, "state_time_nan", patch(STATE_TIME, "<d", NAN), "state.time"),
+    bad(R, "state_time_out_of_range", patch(STATE_TIME, "<d", 1e10), "state.time"),
     bad(R, "state_dispersion_unknown_enum", patch(STATE_DISPERSION, "<q", 9), "dispersion"),
     bad(R, "state_grid_oversize", resized_state(512, 512), "config.grid", EXHAUSTED),
     bad(
@@ -1325,6 +1339,12 @@ CASES += [
         "advection_rate_negative",
         put("evolution.advection_rate", -1.0),
         "evolution.advection_rate",
+    ),
+    bad(
+        R,
+        "advection_time_past_its_range",
+        also(put("evolution.advection_rate", 1e3), put("times[1]", 2e3)),
+        "model at times[1].advection.time",
     ),
     bad(R, "settings_step_zero", put("settings.step", 0.0), "settings.step"),
     bad(R, "settings_width_zero", put("settings.camera.width", 0), "settings.camera.width"),
