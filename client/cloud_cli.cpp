@@ -44,7 +44,8 @@ render flags:
   --wavelengths L1,L2,...   m (default 550e-9)
   --extinction K            1/m per unit density, for every wavelength (default 0.1)
   --albedo A                for every wavelength (default 0.9)
-  --sun DX,DY,DZ,E          directional light toward DX,DY,DZ with irradiance E for every wavelength (repeatable)
+  --sun DX,DY,DZ,E          directional light, DX,DY,DZ pointing from the scene to it (DZ > 0: above the horizon),
+                            irradiance E for every wavelength (repeatable)
   --phase uniform|hg:G|dhg:G1,G2,W|ff:N,MU   (default hg:0.8)
   --shadow none|direct|dsm  (default dsm)
   --shadow-step M           step of the marches toward the lights, m (default: 3 steps)

@@ -114,6 +114,29 @@ def test_clouds_and_textures(client: squall.Client, daemon) -> None:
         assert a["final_0"].tobytes() == b["final_0"].tobytes() == c["final_0"].tobytes()
 
 
+def test_a_cancelled_steering_stream_ends_quietly_as_in_the_sync_client(daemon) -> None:
+    start = dict(
+        texture=squall.textures.noise(bands=2),
+        size=(16, 16),
+        dt=0.1,
+        velocity=squall.textures.analytic("uniform", velocity_x=0.1),
+    )
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            async with aclient.textures.interactive(**start) as steer:
+                assert len(await steer.send(frames=1)) == 1
+                steer.cancel()  # leaving the block raises nothing
+            with pytest.raises(squall.SquallError):
+                await steer.send(frames=1)  # the stream has ended
+
+    run(main())
+    with squall.Client(daemon.address) as client:
+        with client.textures.interactive(**start) as steer:
+            steer.send(frames=1)
+            steer.cancel()
+
+
 def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
     spec = small_tile()
 

@@ -26,7 +26,7 @@ def settings() -> clouds_pb2.RenderSettings:
     return squall.clouds.render_settings(
         squall.clouds.camera(eye=(0, -60, 0), width=W, height=H),
         step=0.5,
-        lights=[squall.clouds.sun((1, 1, -1), 1.0)],
+        lights=[squall.clouds.sun((1, -1, 1), 1.0)],
         shadow="none",
     )
 
@@ -104,3 +104,40 @@ def test_errors_name_the_field(client: squall.Client) -> None:
         error.value.code == grpc.StatusCode.INVALID_ARGUMENT
         and "settings.camera.width" in error.value.message
     )
+
+
+def test_build_of_a_request_with_a_path_writes_the_vdb(client: squall.Client, tmp_path) -> None:
+    path = tmp_path / "request.vdb"
+    volume = client.clouds.build(request=clouds_pb2.BuildVolumeRequest(model=cloud()), path=path)
+    assert volume.vdb and path.read_bytes() == volume.vdb  # the path asked for the bytes
+
+
+def test_a_sun_lights_the_side_its_direction_points_to(client: squall.Client) -> None:
+    """A directional light's direction points from the scene toward the light (z up): a sun
+    overhead makes the sphere's upper half brighter than its lower half, and one below the
+    reverse, by far more than the jitter's noise."""
+
+    def halves(direction) -> tuple:
+        image = client.clouds.render(
+            cloud(),
+            camera=squall.clouds.camera(eye=(0, -60, 0), width=W, height=H),
+            step=0.5,
+            lights=[squall.clouds.sun(direction, 1.0)],
+            shadow="direct",
+            shadow_step=1.0,
+            shadow_trilinear=True,
+        )
+        radiance = image["radiance_0"]  # row 0 at the top
+        return float(radiance[: H // 2].mean()), float(radiance[H // 2 :].mean())
+
+    top, bottom = halves((0, 0, 1))
+    print(f"[clouds] sun overhead: upper half {top:.4g}, lower half {bottom:.4g}")
+    assert top > 1.5 * bottom
+    top, bottom = halves((0, 0, -1))
+    assert bottom > 1.5 * top
+
+
+def test_render_settings_take_the_shadow_march_options() -> None:
+    s = squall.clouds.render_settings(shadow_step=0.75, shadow_trilinear=True)
+    assert s.shadow_step == 0.75 and s.shadow_trilinear
+    assert squall.clouds.render_settings().shadow_step == 0.0

@@ -1,5 +1,4 @@
-"""client.ewave against a real squalld: sessions, Step, the Run stream, GetState / Restore, errors.
-"""
+"""client.ewave against a real squalld: sessions, Step, the Run stream, GetState / Restore, errors."""
 
 from __future__ import annotations
 
@@ -112,3 +111,10 @@ def test_initial_height_from_numpy(client: squall.Client) -> None:
     with client.ewave.session(nx=NX, ny=NY, dx=DX, trim=False, initial_height=bump) as session:
         frame = session.step(1e-6)  # almost no time: the surface is still the initial bump
         np.testing.assert_allclose(frame["height"], bump, atol=1e-6)
+
+
+def test_an_attached_session_knows_its_shape_only_from_a_config(client: squall.Client) -> None:
+    with pytest.raises(ValueError, match="attach"):
+        client.ewave.attach("0" * 32).shape
+    config = squall.ewave.config(nx=32, ny=16, dx=0.1)
+    assert client.ewave.attach("0" * 32, config).shape == (16, 32)

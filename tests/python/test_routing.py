@@ -29,11 +29,15 @@ def test_sessions_take_the_ids_the_client_proposes(client: squall.Client, daemon
     volume = client.clouds.build(
         dict(voxel_size=0.5, spheres=[dict(radius=2)]), keep=True
     )  # a stored volume: "cloud-" and 32 hex digits
+    camera = squall.clouds.camera((0, -20, 0), (0, 0, 0), (0, 0, 1), width=8, height=8)
+    client.clouds.render(volume, camera=camera)  # the stored volume's calls name it too
     client.clouds.release(volume.id)
     log = daemon.log()
     assert ("OK", session.id) in created_ids(log, "EWave/CreateSession")
     assert ("OK", restored.id) in created_ids(log, "EWave/Restore")
     assert ("OK", volume.id) in created_ids(log, "Clouds/BuildVolume")
+    assert ("OK", volume.id) in created_ids(log, "Clouds/Render")
+    assert ("OK", volume.id) in created_ids(log, "Clouds/ReleaseVolume")
     assert re.fullmatch(r"[0-9a-f]{32}", session.id) and re.fullmatch(
         r"cloud-[0-9a-f]{32}", volume.id
     )

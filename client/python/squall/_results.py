@@ -229,8 +229,8 @@ class Image:
     Attributes:
         pixels: float32 array of shape (height, width, channels), row 0 at the top.
         channels: channel names: "radiance_<i>" per wavelength (W m^-2 sr^-1 m^-1),
-            "transmittance_<i>" per wavelength (1), then "depth" (m; -1 where the ray saw no
-            cloud).
+            "transmittance_<i>" per wavelength (1), then "depth" (m: where the first wavelength's
+            transmittance falls below 0.5; -1 where it stays >= 0.5, thin cloud included).
         summary: the rendered volume's squall.v1.VolumeSummary.
     """
 

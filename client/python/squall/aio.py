@@ -290,8 +290,8 @@ class EWaveSession:
 
     @property
     def shape(self) -> Tuple[int, int]:
-        """(ny, nx) of the session's fields."""
-        return (self.config.ny, self.config.nx)
+        """(ny, nx) of the session's fields (ValueError for an ``attach`` given no config)."""
+        return _ewave.session_shape(self.config)
 
     async def step(
         self,
@@ -464,7 +464,11 @@ class Clouds:
         """Ray-marches a model, a stored Volume or a volume id: an (H, W, C) Image."""
         message = _clouds.render_request(source, settings, kwargs, request)
         response = await self._connection.unary(
-            "Clouds.Render", self._rpc.Render, message, timeout
+            "Clouds.Render",
+            self._rpc.Render,
+            message,
+            timeout,
+            session=_clouds.stored_session(message),
         )
         return Image.from_proto(response.image, response.summary)
 
@@ -498,7 +502,11 @@ class Clouds:
         """Drops a stored volume."""
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=_clouds.volume_id_of(volume))
         await self._connection.unary(
-            "Clouds.ReleaseVolume", self._rpc.ReleaseVolume, message, timeout
+            "Clouds.ReleaseVolume",
+            self._rpc.ReleaseVolume,
+            message,
+            timeout,
+            session=message.volume_id,
         )
 
 
@@ -567,7 +575,9 @@ class Steering(Generic[T]):
         await self._raise_status()
 
     def cancel(self) -> None:
-        """Ends the call now."""
+        """Ends the call now; ``close`` (and leaving ``async with``) then raises nothing, as in the
+        sync client."""
+        self._ended = True
         self._call.cancel()
 
     async def __aenter__(self: S) -> S:

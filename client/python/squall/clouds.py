@@ -10,7 +10,7 @@ Example::
         layers=2, amplitude=4.0, noise=dict(frequency=0.05)))
     volume = client.clouds.build(cloud, path="cloud.vdb")          # .vdb written, summary returned
     image = client.clouds.render(cloud, camera=squall.clouds.camera(width=64, height=64),
-                                 lights=[squall.clouds.sun((1, 1, -1), 1.0)])
+                                 lights=[squall.clouds.sun((1, -1, 1), 1.0)])
     image.pixels.shape, image.channels   # (64, 64, 3), ('radiance_0', 'transmittance_0', 'depth')
 """
 
@@ -172,8 +172,9 @@ _default_camera = camera
 def sun(
     direction: Sequence[float], irradiance: Union[float, Sequence[float]]
 ) -> clouds_pb2.LightSpec:
-    """A directional light toward `direction` (non-zero) with irradiance W m^-2 m^-1: one number
-    (repeated for every wavelength by ``render_settings``) or one per wavelength."""
+    """A directional light: `direction` (non-zero) points from the scene toward the light (z up:
+    a sun above the horizon has direction z > 0), irradiance W m^-2 m^-1: one number (repeated
+    for every wavelength by ``render_settings``) or one per wavelength."""
     values = [float(v) for v in np.atleast_1d(np.asarray(irradiance, dtype=float))]
     return clouds_pb2.LightSpec(
         kind=clouds_pb2.LIGHT_KIND_DIRECTIONAL, direction=vec3(direction), intensity=values
@@ -203,6 +204,8 @@ def render_settings(
     phase: Optional[Union[clouds_pb2.PhaseSpec, Mapping[str, Any]]] = None,
     shadow: Union[str, int, None] = None,
     shadow_map_size: Optional[Sequence[int]] = None,
+    shadow_step: float = 0.0,
+    shadow_trilinear: bool = False,
     substeps: Optional[int] = None,
     trilinear: bool = False,
     seed: int = 0,
@@ -223,6 +226,9 @@ def render_settings(
             Henyey-Greenstein g = 0.8.
         shadow: "none", "direct", "deep_shadow_map" (default).
         shadow_map_size: nodes along x, y, z, 2..512 each; unset: 64 each.
+        shadow_step: step of the marches toward the lights, m, >= 0; 0: 3 primary steps.
+        shadow_trilinear: trilinear density on the marches toward the lights (default: the
+            nearest voxel).
         substeps: random sub-steps per step, 1..8; unset: 1.
         trilinear: trilinear density (default: nearest voxel).
         seed: jitter seed.
@@ -251,10 +257,14 @@ def render_settings(
         extinction=repeated_per(extinction, count),
         albedo=repeated_per(albedo, count),
         lights=light_messages,
-        shadow=None
-        if shadow is None
-        else enum_value(clouds_pb2.ShadowMode.DESCRIPTOR, shadow, "settings.shadow"),
+        shadow=(
+            None
+            if shadow is None
+            else enum_value(clouds_pb2.ShadowMode.DESCRIPTOR, shadow, "settings.shadow")
+        ),
         shadow_map_size=None if shadow_map_size is None else [int(v) for v in shadow_map_size],
+        shadow_step=shadow_step,
+        shadow_trilinear=shadow_trilinear,
     )
 
 
@@ -270,6 +280,12 @@ def as_settings(
     return render_settings(**kwargs)
 
 
+def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
+    """The stored volume a render names, sent as its session (x-squall-session) so that a
+    session-affine proxy routes the call to the replica that holds it; None for a model."""
+    return message.volume_id if message.WhichOneof("source") == "volume_id" else None
+
+
 def build_request(
     cloud: Optional[ModelLike],
     keep: bool,
@@ -277,7 +293,10 @@ def build_request(
     request: Optional[clouds_pb2.BuildVolumeRequest],
 ) -> clouds_pb2.BuildVolumeRequest:
     if request is not None:
-        return to_message(clouds_pb2.BuildVolumeRequest, request)
+        message = clouds_pb2.BuildVolumeRequest()
+        message.CopyFrom(to_message(clouds_pb2.BuildVolumeRequest, request))
+        message.return_vdb = message.return_vdb or return_vdb  # a path asks for the bytes
+        return message
     if cloud is None:
         raise TypeError("build: a model is needed (squall.clouds.model(...), or request=...)")
     return clouds_pb2.BuildVolumeRequest(
@@ -417,7 +436,9 @@ class Clouds:
             wavelength, then "depth" m); ``image["depth"]`` is one channel.
         """
         message = render_request(source, settings, kwargs, request)
-        response = self._connection.unary("Clouds.Render", self._rpc.Render, message, timeout)
+        response = self._connection.unary(
+            "Clouds.Render", self._rpc.Render, message, timeout, session=stored_session(message)
+        )
         return Image.from_proto(response.image, response.summary)
 
     def evolve(
@@ -453,4 +474,10 @@ class Clouds:
     def release(self, volume: Union[str, Volume], *, timeout: Optional[float] = None) -> None:
         """Drops a stored volume (ReleaseVolume); NOT_FOUND when it is not stored."""
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id_of(volume))
-        self._connection.unary("Clouds.ReleaseVolume", self._rpc.ReleaseVolume, message, timeout)
+        self._connection.unary(
+            "Clouds.ReleaseVolume",
+            self._rpc.ReleaseVolume,
+            message,
+            timeout,
+            session=message.volume_id,
+        )

@@ -81,7 +81,7 @@ def config(
     """A session's grid and physics (fixed for the session's life). None: the proto's default.
 
     Args:
-        nx, ny: grid cells along x and y, each >= 1 (any size); nx * ny at most --max-grid-cells.
+        nx, ny: grid cells along x and y, each >= 2 (any size); nx * ny at most --max-grid-cells.
         dx, dy: cell size, m, > 0; dy None: dx.
         dispersion: "deep" (default), "shallow", "capillary", "combined".
         gravity: g, m/s^2, > 0; unset: 9.81.
@@ -122,17 +122,17 @@ def config(
         mask_phi=mask_phi,
         double_precision=double_precision,
         displacement_scale=displacement_scale,
-        initial_height=None
-        if initial_height is None
-        else to_field(initial_height, "config.initial_height"),
+        initial_height=(
+            None if initial_height is None else to_field(initial_height, "config.initial_height")
+        ),
         initial_phi=None if initial_phi is None else to_field(initial_phi, "config.initial_phi"),
         start_time=start_time,
-        initial_ocean=None
-        if initial_ocean is None
-        else as_tile_spec(initial_ocean, "config.initial_ocean"),
-        ambient_ocean=None
-        if ambient_ocean is None
-        else as_tile_spec(ambient_ocean, "config.ambient_ocean"),
+        initial_ocean=(
+            None if initial_ocean is None else as_tile_spec(initial_ocean, "config.initial_ocean")
+        ),
+        ambient_ocean=(
+            None if ambient_ocean is None else as_tile_spec(ambient_ocean, "config.ambient_ocean")
+        ),
     )
 
 
@@ -228,15 +228,15 @@ def inputs(
             to_message(ewave_pb2.EWaveShape, s, f"inputs.shapes[{i}]")
             for i, s in enumerate(shapes)
         ],
-        ambient_height=None
-        if ambient_height is None
-        else to_field(ambient_height, "inputs.ambient_height"),
-        ambient_ocean=None
-        if ambient_ocean is None
-        else as_tile_spec(ambient_ocean, "inputs.ambient_ocean"),
-        source_height=None
-        if source_height is None
-        else to_field(source_height, "inputs.source_height"),
+        ambient_height=(
+            None if ambient_height is None else to_field(ambient_height, "inputs.ambient_height")
+        ),
+        ambient_ocean=(
+            None if ambient_ocean is None else as_tile_spec(ambient_ocean, "inputs.ambient_ocean")
+        ),
+        source_height=(
+            None if source_height is None else to_field(source_height, "inputs.source_height")
+        ),
         source_phi=None if source_phi is None else to_field(source_phi, "inputs.source_phi"),
         drift_x=drift_x,
         drift_y=drift_y,
@@ -299,13 +299,23 @@ def step_request(session_id: str, item: InputsLike, index: int = 0) -> ewave_pb2
     return ewave_pb2.EWaveStepRequest(session_id=session_id, inputs=as_inputs(item))
 
 
+def session_shape(config: ewave_pb2.EWaveConfig) -> Tuple[int, int]:
+    """(ny, nx) of a session's config; ValueError when the config is not known (no grid)."""
+    if config.nx == 0 or config.ny == 0:
+        raise ValueError(
+            "the session's grid is not known here: pass its config to attach(session_id, config)"
+        )
+    return (config.ny, config.nx)
+
+
 class EWaveSession:
     """One eWave session (sync). A context manager: leaving the ``with`` block closes the session.
 
     Attributes:
         id: the session id (32 hex digits): a bearer secret, whoever holds it can drive the
             session.
-        config: the EWaveConfig in force (defaults filled in).
+        config: the EWaveConfig in force (defaults filled in); for a session from ``attach``,
+            the config given to it (empty when none was).
     """
 
     def __init__(self, service: "EWave", response: ewave_pb2.EWaveSessionResponse) -> None:
@@ -316,8 +326,9 @@ class EWaveSession:
 
     @property
     def shape(self) -> Tuple[int, int]:
-        """(ny, nx): the shape of the session's fields and input maps."""
-        return (self.config.ny, self.config.nx)
+        """(ny, nx): the shape of the session's fields and input maps (ValueError for an
+        ``attach`` given no config)."""
+        return session_shape(self.config)
 
     def step(
         self,
@@ -436,7 +447,8 @@ class EWave:
     def attach(
         self, session_id: str, config: Optional[ewave_pb2.EWaveConfig] = None
     ) -> EWaveSession:
-        """A handle on an existing session id (e.g. from another process); nothing is sent."""
+        """A handle on an existing session id (e.g. from another process); nothing is sent. No
+        RPC returns a live session's config: without `config`, ``shape`` raises ValueError."""
         return EWaveSession(
             self,
             ewave_pb2.EWaveSessionResponse(

@@ -3,7 +3,7 @@ frames.
 
 Methods: "lagrangian" (Lagrangian grids, Yu et al. 2011), "eulerian" (multi-layer, Neyret 2003),
 "two_phase_flow_map", "naive". Domain units (du) for lengths, s for times; texture coordinates in
-texture periods. Output planes are arrays of shape (height, width): ``frame["final"][j, i]`` is
+texture periods. Output planes are arrays of shape (height, width): ``frame["final_0"][j, i]`` is
 pixel (i, j) at (x0 + (i + 0.5) px, y0 + (j + 0.5) py).
 
 Example::
@@ -12,7 +12,7 @@ Example::
         method="lagrangian", velocity=squall.textures.analytic("rotation", angular_velocity=0.5),
         texture=squall.textures.noise(bands=4), size=(128, 128), frames=30, dt=1 / 30)
     for frame in frames:
-        frame["final"]    # (128, 128) float32, dimensionless
+        frame["final_0"]  # (128, 128) float32, dimensionless: the first of the 4 bands' planes
 
 Rivers (Yu et al. 2009): ``river(channels=[{"left": [...], "right": [...], "flow_rate": q}],
 ...)`` is a velocity for ``advect``; ``client.textures.bake_velocity(river, size, region)`` returns
