@@ -60,7 +60,7 @@ void print_usage() {
 std::map<std::string, Verb>& verbs() {
   static std::map<std::string, Verb> table = {
       {"info", {"info              print the daemon's version, devices, kernels, FFT backend and limits", info}},
-      {"health", {"health [SERVICE]  print SERVING or NOT_SERVING (exit 1 when not serving)", health}},
+      {"health", {"health [SERVICE]  SERVING / NOT_SERVING of the server, a service or liveness", health}},
       {"ocean", {ocean::kVerbUsage, ocean::run}},
       {"ewave", {ewave::kVerbUsage, ewave::run}},
       {"cloud", {cloud::kVerbUsage, cloud::run}},

@@ -16,7 +16,7 @@ const char* const kHelp = R"(usage:
                       [--invert-displacement on|off]
 layer flags (apply to the current layer; --add-layer starts another, a copy of the current one):
   --extent LX[,LY]          patch size, m (default 1000)
-  --grid NX[,NY]            FFT grid, even, 2..4096 (default 256)
+  --grid NX[,NY]            FFT grid, each even and >= 2, NX NY <= --max-grid-cells (default 256)
   --spectrum NAME           phillips | pierson-moskowitz | jonswap | modified-jonswap | tma | multipeak (default jonswap)
   --spreading NAME          none | isotropic | pierson-cos2 | krylov | mitsuyasu | jonswap | von-mises | hyperbolic
                             (default mitsuyasu; none only with phillips)
@@ -39,7 +39,7 @@ tile flags:
   --b-correction on|off     multi-layer spectrum correction (default off)
   --output-grid NX,NY       output samples (default: the first layer's grid)
   --output-extent LX,LY     output area, m (default: the first layer's extent)
-  --whitecap-threshold J    J- below this marks whitecaps (default 0)
+  --whitecap-threshold J    J- below this marks whitecaps (default 0.3)
   --whitecap-decay-time T   s, e-folding time (default 4)
   --pixel-scale R           m, for the unresolved slope variance (default: the output cell size)
   --outputs A,B,...         height displacement_x displacement_y slope_x slope_y normal_x normal_y normal_z

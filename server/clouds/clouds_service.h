@@ -17,6 +17,7 @@ class CloudsService final : public squall::v1::Clouds::Service, public Capabilit
   explicit CloudsService(ServingState& serving) : serving_(serving) {}
 
   grpc::Service& service() override { return *this; }
+  const char* service_name() const override { return squall::v1::Clouds::service_full_name(); }
   void start(EngineContext& context) override;
   // squall_stored_volumes, squall_stored_volume_bytes (host trees + device uploads).
   std::vector<CapabilityGauge> gauges() const override;

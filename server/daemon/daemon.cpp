@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <future>
 #include <iterator>
 #include <sstream>
 #include <thread>
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "clouds/clouds_service.h"
+#include "common/error.h"
 #include "common/log.h"
 #include "common/state_dir.h"
 #include "common/watchdog.h"
@@ -239,21 +241,43 @@ struct MetricsEndpoint {
 
 // Waits for SIGTERM or SIGINT (returned); on each SIGHUP re-reads --auth-tokens, keeping the tokens in
 // force when the file cannot be read or holds none. TLS files need no signal: they are watched.
+void reload_tokens(ServingState& serving, const DaemonOptions& options) {
+  if (options.auth_tokens.empty()) {
+    log(LogLevel::Info, "received SIGHUP; nothing to reload (no --auth-tokens)");
+    return;
+  }
+  try {
+    serving.set_tokens(read_tokens(options.auth_tokens));
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "SIGHUP: ", e.what(), "; the tokens in force stay");
+  }
+}
+
 int wait_for_shutdown(const sigset_t& signals, ServingState& serving, const DaemonOptions& options) {
   for (;;) {
     int signal_number = 0;
     sigwait(&signals, &signal_number);
     if (signal_number != SIGHUP) return signal_number;
-    if (options.auth_tokens.empty()) {
-      log(LogLevel::Info, "received SIGHUP; nothing to reload (no --auth-tokens)");
-      continue;
-    }
-    try {
-      serving.set_tokens(read_tokens(options.auth_tokens));
-    } catch (const std::exception& e) {
-      log(LogLevel::Error, "SIGHUP: ", e.what(), "; the tokens in force stay");
-    }
+    reload_tokens(serving, options);
   }
+}
+
+// start_engines() on a thread of its own while this one waits for signals: SIGTERM or SIGINT during the
+// kernel build (minutes with a cold cache) ends the process at once, with nothing to drain yet (no call
+// was served). Rethrows start_engines()'s exception; returns once it has returned.
+void start_engines_or_stop(DaemonState& daemon, const DaemonOptions& options, const std::string& cache,
+                           const std::vector<std::unique_ptr<Capability>>& capabilities, const sigset_t& signals) {
+  std::future<void> started =
+      std::async(std::launch::async, [&] { start_engines(daemon, options, cache, capabilities); });
+  const timespec poll{0, 100'000'000};  // 0.1 s
+  while (started.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    const int signal_number = sigtimedwait(&signals, nullptr, &poll);
+    if (signal_number == SIGHUP) reload_tokens(daemon.serving, options);
+    if (signal_number != SIGTERM && signal_number != SIGINT) continue;
+    log(LogLevel::Info, "received ", strsignal(signal_number), " while starting: exiting");
+    std::_Exit(kExitOk);
+  }
+  started.get();
 }
 
 void write_port_file(const std::string& path, int port) {
@@ -340,22 +364,31 @@ int run_daemon(const DaemonOptions& options) {
     server->Shutdown();
     return kExitListen;
   }
-  health.SetServingStatus(false);
+  for (const auto& capability : served) health.SetServingStatus(capability->service_name(), false);
+  health.SetServingStatus(squall::v1::Server::service_full_name(), false);
   write_port_file(options.port_file, port);
   const char* transport = options.tls_cert.empty() ? "plaintext" : options.tls_client_ca.empty() ? "TLS" : "mutual TLS";
   log(LogLevel::Info, "listening on ", options.listen, " (port ", port, ", ", transport,
       "); NOT_SERVING until kernels are built");
 
+  int refused = kExitOk;
   try {
-    start_engines(*daemon, options, cache, served);
+    start_engines_or_stop(*daemon, options, cache, served, signals);
+  } catch (const Error& e) {  // INVALID_ARGUMENT: a flag the device cannot honour (--fft fftw on a GPU)
+    log(LogLevel::Error, e.what());
+    refused = e.code() == Code::InvalidArgument ? kExitUsage : kExitKernelBuild;
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
+    refused = kExitKernelBuild;
+  }
+  if (refused != kExitOk) {
     health.Shutdown();
     server->Shutdown();
-    return kExitKernelBuild;
+    return refused;
   }
   daemon->serving.set_phase(ServingState::Phase::Serving);
   health.SetServingStatus(true);
+  health.SetServingStatus(HealthService::kLiveness, true);
   log(LogLevel::Info, "SERVING");
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));

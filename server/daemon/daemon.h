@@ -11,7 +11,7 @@ namespace squall::rpc {
 enum ExitCode {
   kExitOk = 0,
   kExitKernelBuild = 1,  // a kernel program failed to build (its log is printed)
-  kExitUsage = 2,        // bad flags, or no device matches --device
+  kExitUsage = 2,        // bad flags, no device matches --device, or the device cannot honour a flag
   kExitListen = 3,       // the address could not be bound
   kExitOverran = 4,      // on SIGTERM, a call outlived --grace-period + --shutdown-bound: the watchdog ended it
 };

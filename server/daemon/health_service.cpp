@@ -17,7 +17,8 @@ void HealthService::SetServingStatus(const std::string& service_name, bool servi
 void HealthService::SetServingStatus(bool serving) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& [name, value] : serving_by_name_) value = serving && !shut_down_;
+    for (auto& [name, value] : serving_by_name_)
+      if (name != kLiveness) value = serving && !shut_down_;
   }
   changed_.notify_all();
 }

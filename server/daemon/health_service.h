@@ -3,6 +3,11 @@
 // need. The daemon sets the server's status through it (grpc::HealthCheckServiceInterface), as it did
 // through the built-in one: the status "" (the server as a whole) and of any service name set; Check of
 // an unknown name is NOT_FOUND, Watch of one SERVICE_UNKNOWN, as the health protocol says.
+//
+// Two kinds of name: readiness names ("" and each service's, "squall.v1.Ocean"), NOT_SERVING while the
+// kernels build, while the daemon drains and while the memory budget is nearly spent (take the replica
+// out of rotation); and kLiveness, SERVING from the first SERVING on until shutdown (restart the
+// process only when it stops answering, never because it is busy).
 #pragma once
 
 #include <grpcpp/health_check_service_interface.h>
@@ -24,8 +29,10 @@ class HealthService final : public grpc::health::v1::Health::Service, public grp
   // exempt: Check and Watch need no token (--auth-exempt-health on: balancers and kubelets probe it).
   HealthService(const ServingState& serving, bool exempt) : serving_(serving), exempt_(exempt) {}
 
+  static constexpr const char* kLiveness = "liveness";
+
   void SetServingStatus(const std::string& service_name, bool serving) override;
-  void SetServingStatus(bool serving) override;  // every name's
+  void SetServingStatus(bool serving) override;  // every readiness name's (all but kLiveness)
   // NOT_SERVING from now on, whatever is set later, and every Watch ends.
   void Shutdown() override;
 

@@ -15,6 +15,7 @@ class EWaveService final : public squall::v1::EWave::Service, public Capability 
   explicit EWaveService(ServingState& serving) : serving_(serving) {}
 
   grpc::Service& service() override { return *this; }
+  const char* service_name() const override { return squall::v1::EWave::service_full_name(); }
   void start(EngineContext& context) override;
   void evict_idle() override {
     if (engine_) engine_->evict_idle();

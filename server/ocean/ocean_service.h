@@ -13,6 +13,7 @@ class OceanService final : public squall::v1::Ocean::Service, public Capability 
   explicit OceanService(ServingState& serving) : serving_(serving) {}
 
   grpc::Service& service() override { return *this; }
+  const char* service_name() const override { return squall::v1::Ocean::service_full_name(); }
   void start(EngineContext& context) override;
 
   grpc::Status GetTile(grpc::ServerContext* context, const squall::v1::GetTileRequest* request,

@@ -54,6 +54,8 @@ class Capability {
  public:
   virtual ~Capability() = default;
   virtual grpc::Service& service() = 0;
+  // Its gRPC service's full name ("squall.v1.Ocean"): its name in grpc.health.v1.
+  virtual const char* service_name() const = 0;
   // Builds the engine; called once, after the kernels are built and before health turns SERVING.
   virtual void start(EngineContext& context) = 0;
   // Its gauges now (none by default; none before start()). Called from the metrics endpoint's thread.

@@ -24,6 +24,7 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   explicit TexturesService(ServingState& serving) : serving_(serving) {}
 
   grpc::Service& service() override { return *this; }
+  const char* service_name() const override { return squall::v1::Textures::service_full_name(); }
   void start(EngineContext& context) override;
 
   // Holds a --max-streams slot; starts the advection (or resumes it from resume_state) and writes its

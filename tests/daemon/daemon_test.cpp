@@ -50,9 +50,16 @@ TEST(Daemon, GetInfoThroughTheClientLibrary) {
   EXPECT_GT(info.uptime_seconds(), 0);
 }
 
+// The server as a whole, each service by its name and the liveness name (which the memory budget and a
+// drain leave SERVING: tests/python/test_limits.py) all say SERVING once the kernels are built.
 TEST(Daemon, HealthIsServing) {
   client::Client c({shared_daemon().address(), 10, ""});
-  EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+  for (const char* service : {"", "squall.v1.Ocean", "squall.v1.EWave", "squall.v1.Clouds", "squall.v1.Textures",
+                              "squall.v1.Server", "liveness"})
+    EXPECT_EQ(c.health(service), grpc::health::v1::HealthCheckResponse::SERVING) << service;
+  std::string out;
+  EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health", "squall.v1.Ocean"}, &out), 0) << out;
+  EXPECT_NE(out.find("SERVING"), std::string::npos) << out;
 }
 
 TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
@@ -392,6 +399,22 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_EQ(test::run({kSquall, "--timeout", "-1", "info"}, &out), 2) << out;
   // The server answers NOT_FOUND for a service it does not know: refused, not unreachable.
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health", "no.such.Service"}, &out), 4) << out;
+}
+
+// With a cold kernel cache the build takes minutes on PoCL; SIGINT during it ends squalld at once (exit 0),
+// not after the build.
+TEST(Daemon, SigintDuringTheKernelBuildExitsAtOnce) {
+  const std::string dir = test::temp_dir("cold-start");
+  test::Process p({kSqualld, "--listen", "127.0.0.1:0", "--fft", "vkfft", "--cache-dir", dir + "/cache"},
+                  dir + "/squalld.log");
+  for (int i = 0; i < 600 && p.log().find("NOT_SERVING until kernels are built") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_NE(p.log().find("NOT_SERVING until kernels are built"), std::string::npos) << p.log();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // into the build
+  p.signal(SIGINT);
+  EXPECT_EQ(p.wait(5), 0) << p.log();
+  EXPECT_NE(p.log().find("while starting: exiting"), std::string::npos) << p.log();
+  EXPECT_EQ(p.log().find("SERVING\n"), std::string::npos) << "it stopped before the build ended";
 }
 
 TEST(Daemon, SigtermDrainsAndExitsZero) {

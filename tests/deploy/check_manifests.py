@@ -77,6 +77,9 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
                 for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
                     if "grpc" not in c.get(probe, {}):
                         found.append(f"{where}: {probe} is not a gRPC health probe")
+                # readiness may fail under load; liveness must not, or a busy pod is restarted
+                if c.get("livenessProbe", {}).get("grpc", {}).get("service") != "liveness":
+                    found.append(f"{where}: livenessProbe does not ask for the service liveness")
             resources = c.get("resources", {})
             for kind in ("requests", "limits"):
                 for resource in ("cpu", "memory"):

@@ -123,6 +123,8 @@ def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
             stream = client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS)
             next(stream)
             wait_for(lambda: client.health() == "NOT_SERVING", 5, "NOT_SERVING")
+            assert client.health("squall.v1.Ocean") == "NOT_SERVING"
+            assert client.health("liveness") == "SERVING"  # busy, not broken: no restart
             stream.cancel()
             wait_for(lambda: client.health() == "SERVING", 5, "SERVING again")
 
