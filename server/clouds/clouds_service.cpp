@@ -1,5 +1,7 @@
 #include "clouds/clouds_service.h"
 
+#include <algorithm>
+
 #include "clouds/clouds_request.h"
 #include "common/validate.h"
 #include "rpc/metadata.h"
@@ -15,6 +17,18 @@ namespace req = squall::clouds::rpc;
 // Memory a render holds while it runs, an estimate taken against --memory-budget: the image on the
 // device, on the host and in the reply.
 uint64_t render_working_bytes(const RenderSettings& settings) { return 3 * req::image_bytes(settings); }
+
+// The times, the request's model, then the frames' models at the earliest and the latest time, before the
+// stream takes a slot or sends a frame. Every parameter of model_at() is linear in t or clamped linear
+// (monotone), so a frame between those two times is within bounds when they are.
+void validate_frames(const CloudEngine& engine, const CloudModel& base, const Evolution& evolution,
+                     const google::protobuf::RepeatedField<double>& times) {
+  for (int i = 0; i < times.size(); ++i) validate::finite(validate::at("times", i), times[i]);
+  engine.validate(base, "model");
+  const auto [earliest, latest] = std::minmax_element(times.begin(), times.end());
+  for (auto t : {earliest, latest})
+    engine.validate(model_at(base, evolution, *t), "model at " + validate::at("times", int(t - times.begin())));
+}
 
 }  // namespace
 
@@ -105,12 +119,7 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
-    // The request's model, then every frame's, before the stream takes a slot or sends a frame.
-    engine_->validate(s.base, "model");
-    for (int i = 0; i < request->times_size(); ++i) {
-      const std::string at = validate::at("times", i);
-      engine_->validate(model_at(s.base, s.evolution, validate::finite(at, request->times(i))), "model at " + at);
-    }
+    validate_frames(*engine_, s.base, s.evolution, request->times());
     s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
     return s;
   };

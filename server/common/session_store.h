@@ -97,16 +97,20 @@ class SessionStore {
 
   // A fresh id for add(): the caller may write it into the value before the value is shared.
   std::string new_id() const { return new_session_id(prefix_); }
+  // An id of this store's form: the prefix and 32 lowercase hex digits (another store's ids are not).
+  bool is_our_id(const std::string& id) const {
+    bool ours = id.size() == prefix_.size() + 32 && id.compare(0, prefix_.size(), prefix_) == 0;
+    for (size_t i = prefix_.size(); ours && i < id.size(); ++i)
+      ours = (id[i] >= '0' && id[i] <= '9') || (id[i] >= 'a' && id[i] <= 'f');
+    return ours;
+  }
 
   // The id of a session about to be created: new_id(), or the client's `proposed` one (so that a proxy
   // routes the creating call and the later ones alike), which must look like one of ours: the prefix and
   // 32 lowercase hex digits; INVALID_ARGUMENT naming `field` otherwise.
   std::string id_for(const std::string& proposed, const std::string& field) const {
     if (proposed.empty()) return new_id();
-    bool ours = proposed.size() == prefix_.size() + 32 && proposed.compare(0, prefix_.size(), prefix_) == 0;
-    for (size_t i = prefix_.size(); ours && i < proposed.size(); ++i)
-      ours = (proposed[i] >= '0' && proposed[i] <= '9') || (proposed[i] >= 'a' && proposed[i] <= 'f');
-    if (!ours)
+    if (!is_our_id(proposed))
       fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ +
                                       " id: " + (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
@@ -158,9 +162,15 @@ class SessionStore {
   // that another live replica holds is UNAVAILABLE (that replica is asked to hand it over, so the retry
   // closes it here). NOT_FOUND when absent.
   void close(const std::string& id) {
-    std::shared_ptr<Entry> entry = take(id);
-    if (!entry) return close_checkpoint(id);
+    std::shared_ptr<Entry> entry;
+    {
+      std::lock_guard<std::mutex> moving(moving_);  // no resume of `id` between looking and removing
+      entry = take(id);
+      if (!entry) return close_checkpoint(id);
+    }
     std::lock_guard<std::mutex> wait(entry->mutex);
+    // Released by a drain: another replica may hold it by now, and closes it when asked.
+    if (entry->released) fail(Code::Unavailable, released(id));
     if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
   }
   bool erase(const std::string& id) {
@@ -325,9 +335,9 @@ class SessionStore {
     }
   }
 
-  // close() of an id this store does not hold: its checkpoint removed, else NOT_FOUND.
+  // close() of an id this store does not hold, under moving_: its checkpoint removed, else NOT_FOUND.
   void close_checkpoint(const std::string& id) {
-    if (persistent()) {
+    if (persistent() && is_our_id(id)) {
       require_not_owned_elsewhere(id);
       if (state_dir()->read(id)) return state_dir()->remove(id);
     }
@@ -337,7 +347,9 @@ class SessionStore {
   // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there
   // is one (while draining: UNAVAILABLE, so that the client retries on another replica).
   void resume(const std::string& id) {
-    if (!persistent()) return;
+    if (!persistent() || !is_our_id(id)) return;
+    std::lock_guard<std::mutex> moving(moving_);
+    if (lookup(id)) return;  // resumed by a call that held moving_ before this one
     require_not_owned_elsewhere(id);
     const StateDir* dir = state_dir();
     std::optional<std::string> checkpoint = dir->read(id);
@@ -349,7 +361,7 @@ class SessionStore {
       resume_(*checkpoint);
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (const Error& e) {
-      if (e.code() != Code::FailedPrecondition) throw;  // FAILED_PRECONDITION: a concurrent call resumed it
+      if (e.code() != Code::FailedPrecondition) throw;  // FAILED_PRECONDITION: its id is live here already
     }
   }
 
@@ -367,6 +379,7 @@ class SessionStore {
   const SessionPolicy policy_;
   const std::string kind_, id_field_, prefix_;
   mutable std::mutex mutex_;
+  std::mutex moving_;  // a checkpoint resumed or closed from the state directory, one id at a time
   std::map<std::string, std::shared_ptr<Entry>> entries_;
   // persist(): the payload format and its writer and reader, and the registry's token for this store.
   uint32_t version_ = 0;

@@ -23,7 +23,6 @@
 #include <vector>
 
 #include "clouds/clouds_service.h"
-#include "common/error.h"
 #include "common/log.h"
 #include "common/state_dir.h"
 #include "common/watchdog.h"
@@ -239,8 +238,8 @@ struct MetricsEndpoint {
   prometheus::Exposer exposer;
 };
 
-// Waits for SIGTERM or SIGINT (returned); on each SIGHUP re-reads --auth-tokens, keeping the tokens in
-// force when the file cannot be read or holds none. TLS files need no signal: they are watched.
+// SIGHUP: re-reads --auth-tokens, keeping the tokens in force when the file cannot be read or holds none.
+// TLS files need no signal: they are watched.
 void reload_tokens(ServingState& serving, const DaemonOptions& options) {
   if (options.auth_tokens.empty()) {
     log(LogLevel::Info, "received SIGHUP; nothing to reload (no --auth-tokens)");
@@ -253,6 +252,7 @@ void reload_tokens(ServingState& serving, const DaemonOptions& options) {
   }
 }
 
+// Waits for SIGTERM or SIGINT (returned), reloading the tokens on each SIGHUP.
 int wait_for_shutdown(const sigset_t& signals, ServingState& serving, const DaemonOptions& options) {
   for (;;) {
     int signal_number = 0;
@@ -263,8 +263,9 @@ int wait_for_shutdown(const sigset_t& signals, ServingState& serving, const Daem
 }
 
 // start_engines() on a thread of its own while this one waits for signals: SIGTERM or SIGINT during the
-// kernel build (minutes with a cold cache) ends the process at once, with nothing to drain yet (no call
-// was served). Rethrows start_engines()'s exception; returns once it has returned.
+// kernel build (minutes with a cold cache) ends the process at once, with nothing to drain yet (no session
+// exists, and every call but GetInfo and health was answered UNAVAILABLE). Rethrows start_engines()'s
+// exception; returns once it has returned.
 void start_engines_or_stop(DaemonState& daemon, const DaemonOptions& options, const std::string& cache,
                            const std::vector<std::unique_ptr<Capability>>& capabilities, const sigset_t& signals) {
   std::future<void> started =
@@ -366,29 +367,22 @@ int run_daemon(const DaemonOptions& options) {
   }
   for (const auto& capability : served) health.SetServingStatus(capability->service_name(), false);
   health.SetServingStatus(squall::v1::Server::service_full_name(), false);
+  health.SetServingStatus(HealthService::kLiveness, true);  // up: signals are answered from now on
   write_port_file(options.port_file, port);
   const char* transport = options.tls_cert.empty() ? "plaintext" : options.tls_client_ca.empty() ? "TLS" : "mutual TLS";
   log(LogLevel::Info, "listening on ", options.listen, " (port ", port, ", ", transport,
       "); NOT_SERVING until kernels are built");
 
-  int refused = kExitOk;
   try {
     start_engines_or_stop(*daemon, options, cache, served, signals);
-  } catch (const Error& e) {  // INVALID_ARGUMENT: a flag the device cannot honour (--fft fftw on a GPU)
-    log(LogLevel::Error, e.what());
-    refused = e.code() == Code::InvalidArgument ? kExitUsage : kExitKernelBuild;
   } catch (const std::exception& e) {
     log(LogLevel::Error, e.what());
-    refused = kExitKernelBuild;
-  }
-  if (refused != kExitOk) {
     health.Shutdown();
     server->Shutdown();
-    return refused;
+    return kExitKernelBuild;
   }
   daemon->serving.set_phase(ServingState::Phase::Serving);
   health.SetServingStatus(true);
-  health.SetServingStatus(HealthService::kLiveness, true);
   log(LogLevel::Info, "SERVING");
   CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
                              milliseconds(options.session_ttl_seconds));

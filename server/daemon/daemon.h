@@ -10,8 +10,8 @@ namespace squall::rpc {
 // Exit codes of squalld.
 enum ExitCode {
   kExitOk = 0,
-  kExitKernelBuild = 1,  // a kernel program failed to build (its log is printed)
-  kExitUsage = 2,        // bad flags, no device matches --device, or the device cannot honour a flag
+  kExitKernelBuild = 1,  // a kernel program failed to build (its log is printed), or the FFT backend's set-up
+  kExitUsage = 2,        // bad flags, or no device matches --device
   kExitListen = 3,       // the address could not be bound
   kExitOverran = 4,      // on SIGTERM, a call outlived --grace-period + --shutdown-bound: the watchdog ended it
 };

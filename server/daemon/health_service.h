@@ -6,8 +6,8 @@
 //
 // Two kinds of name: readiness names ("" and each service's, "squall.v1.Ocean"), NOT_SERVING while the
 // kernels build, while the daemon drains and while the memory budget is nearly spent (take the replica
-// out of rotation); and kLiveness, SERVING from the first SERVING on until shutdown (restart the
-// process only when it stops answering, never because it is busy).
+// out of rotation); and kLiveness, SERVING from the moment the daemon listens until shutdown (restart
+// the process only when it stops answering, never because it is busy or still building kernels).
 #pragma once
 
 #include <grpcpp/health_check_service_interface.h>

@@ -11,16 +11,20 @@
 namespace squall::ewave {
 namespace {
 
-// A checkpoint's payload, version 3: the session's state bytes (ewave_state_format.h), which hold its
-// config's ambient_ocean. Versions 1 and 2 are still read:
-//   version 1: state bytes of version 1 alone (no ambient ocean);
-//   version 2 (common/byte_codec.h's layout: little-endian):
-//     offset  size  field
-//     0       8     u64 state length S
-//     8       S     state bytes of version 1
-//     8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
-//     16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
-std::string save(const EWaveSession& session) { return session.state(); }
+// A checkpoint's payload, version 2 (common/byte_codec.h's layout: little-endian):
+//   offset  size  field
+//   0       8     u64 state length S
+//   8       S     the session's state bytes of version 1 (ewave_state_format.h)
+//   8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
+//   16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
+// Version 1, the state bytes alone (no ambient ocean), is still read.
+std::string save(const EWaveSession& session) {
+  const std::optional<ocean::TileSpec>& ambient = session.config().ambient_ocean;
+  ByteWriter out;
+  out.put_counted(without_ambient_ocean(session.state()));
+  out.put_counted(ambient ? ocean::encode_tile_spec(*ambient) : std::string());
+  return out.take();
+}
 
 struct Saved {
   std::string state;
@@ -28,10 +32,10 @@ struct Saved {
 };
 
 // A payload of `version` back; InvalidArgument naming "checkpoint" (its ambient ocean: naming
-// "checkpoint.ambient_ocean") when it is none. The state of versions 1 and 3 holds what ambient ocean
-// there is.
+// "checkpoint.ambient_ocean") when it is none.
 Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
-  if (version != 2) return {std::move(payload), std::nullopt};
+  if (version == 1) return {std::move(payload), std::nullopt};
+  if (version != 2) fail(Code::InvalidArgument, "checkpoint has payload version " + std::to_string(version));
   ByteReader in(payload, "checkpoint", "an eWave session payload");
   Saved saved;
   saved.state = std::string(in.get_counted("the state"));

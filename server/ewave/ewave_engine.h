@@ -23,9 +23,9 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
-  // Version of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes (its config's
-  // ambient_ocean among them); versions 1 (no ambient ocean) and 2 are still read.
-  static constexpr uint32_t kCheckpointVersion = 3;
+  // Version of the checkpoint payload (ewave_engine.cpp): 2, the session's state bytes and its config's
+  // ambient_ocean; version 1, the state bytes alone (no ambient ocean), is still read.
+  static constexpr uint32_t kCheckpointVersion = 2;
   static constexpr uint32_t kOldestCheckpointVersion = 1;
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});

@@ -52,17 +52,24 @@ size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision) {
 
 std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
   StateHeader h{};
-  std::memcpy(h.magic, kMagic, sizeof(kMagic));
+  std::memcpy(h.magic, config.ambient_ocean ? kMagic : kMagicVersion1, sizeof(kMagic));
   each_member(h, config,
               [](auto& stored, const auto& value) { stored = static_cast<std::decay_t<decltype(stored)>>(value); });
   h.step = step;
   h.time = time;
-  const std::string ambient = config.ambient_ocean ? ocean::encode_tile_spec(*config.ambient_ocean) : std::string();
   std::string bytes(ambient_ocean_offset(h), '\0');
   std::memcpy(bytes.data(), &h, sizeof(h));
+  if (!config.ambient_ocean) return bytes;
   ByteWriter out(std::move(bytes));
-  out.put_counted(ambient);
+  out.put_counted(ocean::encode_tile_spec(*config.ambient_ocean));
   return out.take();
+}
+
+std::string without_ambient_ocean(const std::string& state) {
+  const StateHeader h = parse_state_header(state);
+  std::string v1 = state.substr(0, ambient_ocean_offset(h));
+  std::memcpy(v1.data(), kMagicVersion1, sizeof(kMagicVersion1));
+  return v1;
 }
 
 char* state_fields(std::string& state) { return state.data() + sizeof(StateHeader); }

@@ -7,7 +7,8 @@
 //                 config.double_precision), F = state_field_bytes()
 //   152+F   8     u64 ambient ocean length A; 0: the config has no ambient_ocean
 //   160+F   A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
-// Version 1 ("SQEWAVE1") ends after phi: it holds no ambient ocean. It is still read.
+// Version 1 ("SQEWAVE1") ends after phi: it holds no ambient ocean. A config without one is written so, as
+// squalld wrote every state before version 2 (which older daemons then still read).
 #pragma once
 
 #include <cstddef>
@@ -41,9 +42,11 @@ static_assert(sizeof(StateHeader) == 8 + 18 * 8, "StateHeader: 8-byte members, n
 // Bytes of the h and phi fields of a grid in the state's type.
 size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision);
 
-// A state of `config` at (step, time), version 2: the header and the config's ambient ocean written, the
-// fields zero (to be filled at state_fields()).
+// A state of `config` at (step, time): version 2 with the config's ambient ocean written, version 1 without
+// one; the fields zero (to be filled at state_fields()).
 std::string new_state(const EWaveConfig& config, uint64_t step, double time);
+// The version-1 bytes of a state: the same header (its magic "SQEWAVE1"), h and phi, no ambient ocean.
+std::string without_ambient_ocean(const std::string& state);
 char* state_fields(std::string& state);
 const char* state_fields(const std::string& state);
 

@@ -7,6 +7,8 @@
 #include <type_traits>
 #include <variant>
 
+#include "common/error.h"
+#include "common/validate.h"
 #include "ewave/ewave_session.h"
 #include "ewave/propagator.h"
 #include "runtime/host_transfer.h"
@@ -48,6 +50,9 @@ using RealOf = typename std::decay_t<K>::RealType;
 
 Frame EWaveSession::step(const StepInputs& in) {
   validate(in, config_, gate_);
+  if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
+    fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
+                                    validate::number(time_) + " s past " + validate::number(kMaxTime) + " s");
   const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
   auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});

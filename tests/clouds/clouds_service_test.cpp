@@ -167,24 +167,27 @@ TEST(CloudsService, EvolutionStreamsOneFramePerTime) {
   EXPECT_NEAR(x_min[2] - x_min[0], 4.0, 1e-9);
 }
 
-// Times before 0 are valid: advection time, like the pyroclastic amplitude, is clamped at 0 (the model at
-// t = -1 with advection_rate 1 has an advection time of 0, not -1).
+// Times before 0 are valid: advection time, like the pyroclastic amplitude, is clamped at 0. With
+// advection_rate 1, the model at t = -1 is advected for 0 s as at t = 0 (not for 1 s, nor refused): the
+// two frames hold the same voxels, and the frame at t = 1 others.
 TEST(CloudsService, EvolutionAtNegativeTimesClampsTheAdvectionTime) {
   auto c = call();
   v1::StreamEvolutionRequest request;
   *request.mutable_model() = sphere_model();
+  request.mutable_model()->mutable_advection()->set_speed(2);
+  request.mutable_model()->mutable_advection()->mutable_noise()->set_frequency(0.2);
   request.mutable_evolution()->set_advection_rate(1);
-  request.mutable_evolution()->mutable_drift()->set_x(2);
-  for (double t : {-1.0, 0.0}) request.add_times(t);
+  for (double t : {-1.0, 0.0, 1.0}) request.add_times(t);
   *request.mutable_settings() = small_render();
   auto reader = c.stub->StreamEvolution(c.context.get(), request);
   v1::EvolutionFrame frame;
-  std::vector<double> x_min;
-  while (reader->Read(&frame)) x_min.push_back(frame.summary().bounds_min().x());
+  std::vector<v1::VolumeSummary> frames;
+  while (reader->Read(&frame)) frames.push_back(frame.summary());
   auto status = reader->Finish();
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ASSERT_EQ(x_min.size(), 2u);
-  EXPECT_NEAR(x_min[1] - x_min[0], 2.0, 1e-9);
+  ASSERT_EQ(frames.size(), 3u);
+  EXPECT_EQ(frames[1].SerializeAsString(), frames[0].SerializeAsString());
+  EXPECT_NE(frames[2].active_voxels(), frames[1].active_voxels()) << "advected for 1 s, the cloud changes";
 }
 
 TEST(CloudsService, BadRequestsGetClearErrors) {

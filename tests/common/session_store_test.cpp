@@ -7,6 +7,7 @@
 #include <set>
 
 #include "support/expect_error.h"
+#include "support/process.h"
 
 namespace squall {
 namespace {
@@ -106,6 +107,53 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
   expect_error(Code::InvalidArgument, "holds a counter, not a volume",
                [&] { other.open_checkpoint(saved, "state", 7, &header); });
+}
+
+// Stores of two kinds (ids "c-..." and "v-...") on two replicas sharing one state directory, as squalld's
+// eWave sessions and cloud volumes do: each store writes its values as text and resumes them.
+struct Replica {
+  Replica(const std::string& dir, const std::string& name)
+      : registry(std::make_unique<StateDir>(dir, "--state-dir"), name),
+        counters(gate, policy(), "counter", "counter_id", "c-"),
+        volumes(gate, policy(), "volume", "volume_id", "v-") {
+    for (SessionStore<Counter>* store : {&counters, &volumes})
+      store->persist(
+          1, [](const Counter& c) { return std::to_string(c.value); },
+          [store](const std::string& bytes) {
+            CheckpointHeader header;
+            const std::string value = store->open_checkpoint(bytes, "checkpoint", 1, &header);
+            store->add(header.id, store->reserve(8), std::make_shared<Counter>(Counter{std::stoi(value)}));
+          });
+  }
+  SessionPolicy policy() {
+    SessionPolicy p;
+    p.registry = &registry;
+    return p;
+  }
+  LimitGate gate{Limits{}};
+  SessionRegistry registry;
+  SessionStore<Counter> counters, volumes;
+};
+
+// A session whose replica drained lives on in the state directory: closing it on another replica removes
+// its checkpoint (nothing is resumed, and its id is NOT_FOUND after), the drained replica answers
+// UNAVAILABLE (the session is no longer its to close), and a store of another kind never touches it.
+TEST(SessionStoreStateDir, ClosingACheckpointedSessionRemovesItsCheckpointOnly) {
+  const std::string dir = test::temp_dir("store-close");
+  Replica a(dir, "a"), b(dir, "b");
+  const std::string id = a.counters.add(a.counters.reserve(8), std::make_shared<Counter>(Counter{7}));
+  ASSERT_EQ(a.counters.checkpoint_all(true), 1u);  // a drains
+  const StateDir& files = *a.registry.state_dir();
+  ASSERT_TRUE(files.read(id).has_value());
+
+  expect_error(Code::NotFound, "volume_id", [&] { b.volumes.close(id); });
+  EXPECT_TRUE(files.read(id).has_value()) << "a volume store removed a counter's checkpoint";
+  b.counters.close(id);
+  EXPECT_FALSE(files.read(id).has_value());
+  EXPECT_EQ(b.counters.size(), 0u) << "closing resumed it";
+  expect_error(Code::NotFound, "counter_id", [&] { b.counters.close(id); });
+  expect_error(Code::NotFound, "counter_id", [&] { b.counters.with(id, [](Counter&) {}); });
+  expect_error(Code::Unavailable, "moved to the state directory", [&] { a.counters.close(id); });
 }
 
 TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {

@@ -13,6 +13,7 @@
 #include <functional>
 #include <string>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 #include "common/limits.h"
 #include "common/session_checkpoint.h"
@@ -275,27 +276,13 @@ EWaveConfig ambient_config() {
   return c;
 }
 
-// A version-2 checkpoint payload written out by hand (the layout in server/ewave/ewave_engine.cpp): u64 state
-// length, the state (of version 1), u64 ambient ocean length, the ambient ocean's bytes.
+// A version-2 checkpoint payload written out (the layout in server/ewave/ewave_engine.cpp): the state's
+// bytes and the ambient ocean's, each after its u64 length.
 std::string checkpoint_payload(const std::string& state, const std::string& spec) {
-  std::string out;
-  auto put_u64 = [&](uint64_t n) {
-    for (int b = 0; b < 8; ++b) out.push_back(char(uint8_t(n >> (8 * b))));
-  };
-  put_u64(state.size());
-  out += state;
-  put_u64(spec.size());
-  out += spec;
-  return out;
-}
-
-// The version-1 state of the same session (as squalld wrote it before state version 2): the header with
-// the magic "SQEWAVE1", h and phi, and no ambient ocean after them.
-std::string version1_state(const std::string& state) {
-  const StateHeader h = parse_state_header(state);
-  std::string v1 = state.substr(0, sizeof(StateHeader) + state_field_bytes(h.nx, h.ny, h.double_precision != 0));
-  v1[7] = '1';
-  return v1;
+  ByteWriter out;
+  out.put_counted(state);
+  out.put_counted(spec);
+  return out.take();
 }
 
 // The checkpoint of a session with an ambient ocean (EWaveEngine::checkpoint, what --state-dir writes) and
@@ -326,22 +313,20 @@ TEST(OceanAmbient, CheckpointAndStateResumeWithTheAmbientOceanBitIdentically) {
     for (int n = 4; n < 10; ++n) expect_bit_identical(second.step(restored, hull_step(n)), expected[n - 4]);
   }
 
-  const std::string without = second.create_from_state(version1_state(state));
+  const std::string without = second.create_from_state(without_ambient_ocean(state));
   EXPECT_FALSE(second.config(without).ambient_ocean.has_value());
   EXPECT_GT(rms_difference(second.step(without, hull_step(4)).height, expected[0].height),
             1e-3 * rms(expected[0].height));
 }
 
-// Checkpoints of payload versions 1 (a version-1 state alone) and 2 (a version-1 state and the ambient
-// ocean beside it), as squalld wrote them before, still resume: version 1 without an ambient ocean, like a
-// session made from those state bytes, version 2 with it.
-TEST(OceanAmbient, OlderCheckpointsResume) {
+// A version-1 checkpoint (the state bytes alone, as squalld wrote them before payload version 2) still
+// resumes, without an ambient ocean: like a session made from those state bytes.
+TEST(OceanAmbient, VersionOneCheckpointResumesWithoutTheAmbientOcean) {
   LimitGate gate{Limits{}};
   EWaveEngine e = ocean_ewave_engine(gate);
-  const EWaveConfig c = ambient_config();
-  const std::string id = e.create(c);
+  const std::string id = e.create(ambient_config());
   for (int n = 0; n < 3; ++n) e.step(id, hull_step(n));
-  const std::string state = version1_state(e.state(id));
+  const std::string state = without_ambient_ocean(e.state(id));
   e.close(id);
   EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 1, id}, state)), id);
   EXPECT_FALSE(e.config(id).ambient_ocean.has_value());
@@ -349,15 +334,27 @@ TEST(OceanAmbient, OlderCheckpointsResume) {
   for (int n = 3; n < 6; ++n) expect_bit_identical(e.step(id, hull_step(n)), e.step(from_state, hull_step(n)));
   e.close(id);
 
-  const std::string spec = ocean::encode_tile_spec(*c.ambient_ocean);
-  EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 2, id}, checkpoint_payload(state, spec))), id);
-  ASSERT_TRUE(e.config(id).ambient_ocean.has_value());
-  EXPECT_EQ(ocean::encode_tile_spec(*e.config(id).ambient_ocean), spec);
-  e.close(id);
-
-  expect_error(Code::InvalidArgument, "payload version 4; this squalld reads versions 1 to 3", [&] {
-    e.restore_checkpoint(encode_checkpoint({"eWave session", 4, id}, state));
+  expect_error(Code::InvalidArgument, "payload version 3; this squalld reads versions 1 to 2", [&] {
+    e.restore_checkpoint(encode_checkpoint({"eWave session", 3, id}, state));
   });
+}
+
+// Older daemons read what a session without an ambient ocean writes: its state is of version 1 (magic
+// "SQEWAVE1", nothing after phi) and its checkpoint's payload of version 2, as before state version 2. A
+// session with one writes a state of version 2.
+TEST(OceanAmbient, OnlyAStateWithAnAmbientOceanIsOfVersionTwo) {
+  LimitGate gate{Limits{}};
+  EWaveEngine e = ocean_ewave_engine(gate);
+  const EWaveConfig plain = sea_config(DispersionKind::Deep);
+  const std::string id = e.create(plain), ambient = e.create(ambient_config());
+  const std::string state = e.state(id);
+  EXPECT_EQ(state.substr(0, 8), "SQEWAVE1");
+  EXPECT_EQ(state.size(), sizeof(StateHeader) + state_field_bytes(plain.nx, plain.ny, false));
+  EXPECT_EQ(without_ambient_ocean(state), state);
+  EXPECT_EQ(e.state(ambient).substr(0, 8), "SQEWAVE2");
+  CheckpointHeader header;
+  decode_checkpoint(e.checkpoint(ambient), "eWave session", "checkpoint", &header);
+  EXPECT_EQ(header.version, 2u);
 }
 
 // State bytes whose ambient ocean is cut short, followed by more bytes, or invalid are InvalidArgument
@@ -368,24 +365,19 @@ TEST(OceanAmbient, BadAmbientOceansInStateBytesAreInvalidArgument) {
   const EWaveConfig c = ambient_config();
   const std::string id = e.create(c), state = e.state(id);
   e.close(id);
-  const std::string v1 = version1_state(state);
+  const std::string v1 = without_ambient_ocean(state);
+  const std::string head = state.substr(0, v1.size());  // the version-2 header, h and phi
   ASSERT_EQ(state.size(), v1.size() + 8 + ocean::encode_tile_spec(*c.ambient_ocean).size());
   expect_error(Code::InvalidArgument, "want " + std::to_string(state.size()) + " for its grid and ambient ocean",
                [&] { e.create_from_state(state.substr(0, state.size() - 1)); });
   expect_error(Code::InvalidArgument, "for its grid and ambient ocean", [&] { e.create_from_state(state + "x"); });
-  std::string no_length = state.substr(0, v1.size());
-  no_length[7] = '2';
-  expect_error(Code::InvalidArgument, "want " + std::to_string(v1.size() + 8), [&] { e.create_from_state(no_length); });
+  expect_error(Code::InvalidArgument, "want " + std::to_string(v1.size() + 8), [&] { e.create_from_state(head); });
   ocean::TileSpec bad = *c.ambient_ocean;
   bad.layers[1].wind_speed = NAN;
-  EWaveConfig with_bad = c;
-  with_bad.ambient_ocean.reset();
-  std::string bad_state = new_state(with_bad, 3, 0.5);  // ends in an ambient ocean length of 0
-  bad_state.resize(bad_state.size() - 8);
-  const std::string bad_spec = ocean::encode_tile_spec(bad);
-  for (int b = 0; b < 8; ++b) bad_state.push_back(char(uint8_t(uint64_t(bad_spec.size()) >> (8 * b))));
+  ByteWriter with_bad(head);
+  with_bad.put_counted(ocean::encode_tile_spec(bad));
   expect_error(Code::InvalidArgument, "state.ambient_ocean.layers[1].wind_speed",
-               [&] { e.create_from_state(bad_state + bad_spec); });
+               [&] { e.create_from_state(with_bad.take()); });
   EXPECT_EQ(e.size(), 0u);
   EXPECT_TRUE(e.config(e.create_from_state(state)).ambient_ocean.has_value()) << "the good bytes restore";
 }
@@ -395,7 +387,7 @@ TEST(OceanAmbient, BadCheckpointPayloadsAreInvalidArgument) {
   LimitGate gate{Limits{}};
   EWaveEngine e = ocean_ewave_engine(gate);
   const EWaveConfig c = ambient_config();
-  const std::string id = e.create(c), state = version1_state(e.state(id));
+  const std::string id = e.create(c), state = without_ambient_ocean(e.state(id));
   e.close(id);
   auto restore = [&](const std::string& payload) {
     e.restore_checkpoint(encode_checkpoint({"eWave session", 2, id}, payload));

@@ -146,6 +146,21 @@ TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {
   expect_error(Code::InvalidArgument, "state", [&] { s.restore("not a state"); });
 }
 
+// A step may not take the session's time past kMaxTime (1e9 s, a SimTime's range), which its state bytes
+// could then not be restored with.
+TEST(EWaveSession, AStepPastTheTimeRangeIsRefused) {
+  EWaveConfig c = plain_config(32, 16);
+  c.start_time = kMaxTime - 0.05;
+  EWaveSession s = make_session(c);
+  StepInputs in;
+  in.dt = 0.1;
+  expect_error(Code::InvalidArgument, "inputs.dt = 0.1 takes the session's time", [&] { s.step(in); });
+  EXPECT_EQ(s.step_index(), 0u);
+  in.dt = 0.01;
+  s.step(in);
+  EXPECT_EQ(s.step_index(), 1u);
+}
+
 class EngineTest : public testing::Test {
  protected:
   EngineTest() : gate_(limits()) {}

@@ -84,15 +84,20 @@ def test_ewave_session(client: squall.Client, daemon) -> None:
         assert a["height"].tobytes() == b["height"].tobytes()
 
 
-def test_clouds_and_textures(client: squall.Client, daemon) -> None:
-    model = squall.clouds.model(spheres=[(0, 0, 0, 8)])
-    camera = squall.clouds.camera(eye=(0, -40, 0), width=8, height=8)
-    start = dict(
+def small_texture_stream() -> dict:
+    """The arguments of a small texture stream (advect, interactive)."""
+    return dict(
         texture=squall.textures.noise(bands=2),
         size=(16, 16),
         dt=0.1,
         velocity=squall.textures.analytic("uniform", velocity_x=0.1),
     )
+
+
+def test_clouds_and_textures(client: squall.Client, daemon) -> None:
+    model = squall.clouds.model(spheres=[(0, 0, 0, 8)])
+    camera = squall.clouds.camera(eye=(0, -40, 0), width=8, height=8)
+    start = small_texture_stream()
 
     async def main():
         async with squall.aio.Client(daemon.address) as aclient:
@@ -115,12 +120,7 @@ def test_clouds_and_textures(client: squall.Client, daemon) -> None:
 
 
 def test_a_cancelled_steering_stream_ends_quietly_as_in_the_sync_client(daemon) -> None:
-    start = dict(
-        texture=squall.textures.noise(bands=2),
-        size=(16, 16),
-        dt=0.1,
-        velocity=squall.textures.analytic("uniform", velocity_x=0.1),
-    )
+    start = small_texture_stream()
 
     async def main():
         async with squall.aio.Client(daemon.address) as aclient:

@@ -242,15 +242,21 @@ TEST(TexturesFinalLut, BadLookupsAreRejectedNamingTheField) {
   texture_engine().validate(spec, "spec");
 }
 
+// static_lut_spec with a 4 x 4 texture and output, for checks against a small --max-grid-cells.
+AdvectSpec small_lut_spec() {
+  AdvectSpec spec = static_lut_spec(Method::EulerianMultilayer);
+  spec.texture.width = spec.texture.height = 4;
+  spec.texture.pixels.resize(16);
+  spec.output.width = spec.output.height = 4;
+  return spec;
+}
+
 TEST(TexturesFinalLut, ScalarFieldPastTheCellLimitIsResourceExhausted) {
   Limits limits;
   limits.max_grid_cells = 19;  // the 5 x 4 field has 20 cells; the output is made smaller
   LimitGate gate(limits);
   TextureEngine engine(runtime(), gate);
-  AdvectSpec spec = static_lut_spec(Method::EulerianMultilayer);
-  spec.texture.width = spec.texture.height = 4;
-  spec.texture.pixels.resize(16);
-  spec.output.width = spec.output.height = 4;
+  AdvectSpec spec = small_lut_spec();
   expect_error(Code::ResourceExhausted, "spec.texture.lut.field", [&] { engine.validate(spec, "spec"); });
 }
 
@@ -261,10 +267,7 @@ TEST(TexturesFinalLut, AVelocityGridsCellLimitCountsItsNodesNotItsFrames) {
   limits.max_grid_cells = 20;
   LimitGate gate(limits);
   TextureEngine engine(runtime(), gate);
-  AdvectSpec spec = static_lut_spec(Method::EulerianMultilayer);
-  spec.texture.width = spec.texture.height = 4;
-  spec.texture.pixels.resize(16);
-  spec.output.width = spec.output.height = 4;
+  AdvectSpec spec = small_lut_spec();
   spec.eulerian.grid_nx = spec.eulerian.grid_ny = 4;
   VelocitySpec& v = spec.velocity;
   v.kind = SQUALL_VELOCITY_GRID;
