@@ -1,8 +1,9 @@
 """Writes the libFuzzer harnesses' seed corpora (tests/<capability>/fuzz_seeds/): one valid request per
 check of each harness (tests/<capability>/<capability>_fuzz.cpp), its first byte the check's index, the
 rest the request's protobuf bytes. The requests are the bad-input sweep's valid bases
-(tests/python/test_bad_input.py); Restore's is the state of a real 16 x 16 session after three steps,
-taken from a squalld this script starts (build/squalld). Run from the Python tests' venv:
+(tests/python/test_bad_input.py); Restore's are the states of two real 16 x 16 sessions after three
+steps, one without and one with an ambient ocean (state versions 1 and 2), taken from a squalld this
+script starts (build/squalld). Run from the Python tests' venv:
 
     build/tests/python/venv/bin/python tests/support/make_fuzz_seeds.py
 """
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Tuple
 
 TESTS = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(TESTS / "python"))
@@ -22,12 +23,15 @@ from conftest import _start  # noqa: E402
 from squall._pb import clouds_pb2, ewave_pb2  # noqa: E402
 
 
-def ewave_state() -> bytes:
-    """GetState of a 16 x 16 session after three steps with a hull."""
+def ewave_state(ambient: bool = False) -> bytes:
+    """GetState of a 16 x 16 session after three steps with a hull; with `ambient`, its config has
+    an ambient ocean on its grid."""
+    sea = squall.ocean.tile_spec([squall.ocean.layer(extent=1.6, n=16, wind_speed=3)])
     state = b""
     for daemon in _start([], "fuzz-seeds"):  # stopped when the loop ends
         with squall.Client(daemon.address, timeout=120) as client:
-            with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+            config = dict(nx=16, ny=16, dx=0.1, ambient_ocean=sea if ambient else None)
+            with client.ewave.session(**config) as session:
                 for _ in range(3):
                     session.step(dt=0.02, shapes=[squall.ewave.ellipse(0.8, 0.8, 0.3, 0.1)])
                 state = session.state()
@@ -56,13 +60,25 @@ def seeds() -> Dict[str, List[Any]]:
     }
 
 
+def more_seeds() -> Dict[str, List[Tuple[int, str, Any]]]:
+    """Further requests for some checks: (the check's index, a name, the request)."""
+    restore = ewave_pb2.EWaveRestoreRequest(state=ewave_state(ambient=True))
+    return {"ewave": [(2, "ambient_ocean", restore)]}
+
+
+def write(capability: str, index: int, name: str, request: Any) -> None:
+    directory = TESTS / capability / "fuzz_seeds"
+    directory.mkdir(exist_ok=True)
+    (directory / name).write_bytes(bytes([index]) + request.SerializeToString())
+
+
 def main() -> None:
     for capability, requests in seeds().items():
-        directory = TESTS / capability / "fuzz_seeds"
-        directory.mkdir(exist_ok=True)
         for index, request in enumerate(requests):
-            name = f"{index}-{type(request).__name__}"
-            (directory / name).write_bytes(bytes([index]) + request.SerializeToString())
+            write(capability, index, f"{index}-{type(request).__name__}", request)
+    for capability, extra in more_seeds().items():
+        for index, suffix, request in extra:
+            write(capability, index, f"{index}-{type(request).__name__}-{suffix}", request)
 
 
 if __name__ == "__main__":
