@@ -417,8 +417,10 @@ TEST(Daemon, SigintDuringTheKernelBuildExitsAtOnce) {
   EXPECT_EQ(p.log().find("SERVING\n"), std::string::npos) << "it stopped before the build ended";
 }
 
+// SIGTERM: health turns NOT_SERVING for the server and each service while 'liveness' stays SERVING
+// through the drain (--drain-wait), so that a liveness probe does not restart a draining replica.
 TEST(Daemon, SigtermDrainsAndExitsZero) {
-  Daemon d({"--fft", "auto", "--grace-period", "5"});
+  Daemon d({"--fft", "auto", "--grace-period", "5", "--drain-wait", "2"});
   client::Client c({d.address(), 10, ""});
   auto info = c.info();
   EXPECT_TRUE(info.fft_backend() == "vkfft" || info.fft_backend() == "clfft" || info.fft_backend() == "fftw");
@@ -429,6 +431,11 @@ TEST(Daemon, SigtermDrainsAndExitsZero) {
     }
   }
   d.process().signal(SIGTERM);
+  for (int i = 0; i < 100 && c.health() == grpc::health::v1::HealthCheckResponse::SERVING; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+  EXPECT_EQ(c.health("squall.v1.EWave"), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+  EXPECT_EQ(c.health("liveness"), grpc::health::v1::HealthCheckResponse::SERVING);
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
   std::string log = d.process().log();
   EXPECT_NE(log.find("draining"), std::string::npos) << log;
