@@ -1093,12 +1093,14 @@ STATE_NX, STATE_NY, STATE_DX, STATE_DISPERSION, STATE_TIME, STATE_FIELDS = 8, 16
 
 
 def resized_state(nx: int, ny: int) -> Change:
-    """The state's header with grid nx x ny, zero fields of that size and no ambient ocean."""
+    """The state's header with grid nx x ny, zero fields of that size and no ambient ocean (a
+    version-2 state says so with a length of 0)."""
 
     def change(request: ewave_pb2.EWaveRestoreRequest, env: Optional[Env]) -> None:
         header = bytearray(request.state[:STATE_FIELDS])
         struct.pack_into("<qq", header, STATE_NX, nx, ny)
-        request.state = bytes(header) + bytes(2 * 4 * nx * ny) + struct.pack("<Q", 0)
+        no_ambient = b"" if header.startswith(b"SQEWAVE1") else struct.pack("<Q", 0)
+        request.state = bytes(header) + bytes(2 * 4 * nx * ny) + no_ambient
 
     return change
 
