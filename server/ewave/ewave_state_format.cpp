@@ -65,11 +65,11 @@ std::string new_state(const EWaveConfig& config, uint64_t step, double time) {
   return out.take();
 }
 
-std::string without_ambient_ocean(const std::string& state) {
+std::string without_ambient_ocean(std::string state) {
   const StateHeader h = parse_state_header(state);
-  std::string v1 = state.substr(0, ambient_ocean_offset(h));
-  std::memcpy(v1.data(), kMagicVersion1, sizeof(kMagicVersion1));
-  return v1;
+  state.resize(ambient_ocean_offset(h));  // a version-1 state is that long already: nothing is copied
+  std::memcpy(state.data(), kMagicVersion1, sizeof(kMagicVersion1));
+  return state;
 }
 
 char* state_fields(std::string& state) { return state.data() + sizeof(StateHeader); }

@@ -46,7 +46,7 @@ size_t state_field_bytes(int64_t nx, int64_t ny, bool double_precision);
 // one; the fields zero (to be filled at state_fields()).
 std::string new_state(const EWaveConfig& config, uint64_t step, double time);
 // The version-1 bytes of a state: the same header (its magic "SQEWAVE1"), h and phi, no ambient ocean.
-std::string without_ambient_ocean(const std::string& state);
+std::string without_ambient_ocean(std::string state);
 char* state_fields(std::string& state);
 const char* state_fields(const std::string& state);
 

@@ -7,8 +7,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <thread>
 
 #include <unistd.h>
@@ -146,48 +148,56 @@ TEST(CloudsService, BuildKeepRenderRelease) {
   EXPECT_NE(status.error_message().find("volume_id"), std::string::npos) << status.error_message();
 }
 
-TEST(CloudsService, EvolutionStreamsOneFramePerTime) {
+// A StreamEvolution of sphere_model() (and `edit`'s changes) at `times`, small_render() frames: the frames
+// it sent, and its status.
+std::vector<v1::EvolutionFrame> evolve(const std::vector<double>& times,
+                                       const std::function<void(v1::StreamEvolutionRequest&)>& edit,
+                                       grpc::Status* status) {
   auto c = call();
   v1::StreamEvolutionRequest request;
   *request.mutable_model() = sphere_model();
-  request.mutable_evolution()->mutable_drift()->set_x(2);
-  for (double t : {0.0, 1.0, 2.0}) request.add_times(t);
+  for (double t : times) request.add_times(t);
   *request.mutable_settings() = small_render();
+  edit(request);
   auto reader = c.stub->StreamEvolution(c.context.get(), request);
   v1::EvolutionFrame frame;
-  std::vector<double> x_min;
-  while (reader->Read(&frame)) {
-    x_min.push_back(frame.summary().bounds_min().x());
-    EXPECT_EQ(frame.image().width(), 24u);
-  }
-  auto status = reader->Finish();
+  std::vector<v1::EvolutionFrame> frames;
+  while (reader->Read(&frame)) frames.push_back(frame);
+  *status = reader->Finish();
+  return frames;
+}
+
+TEST(CloudsService, EvolutionStreamsOneFramePerTime) {
+  grpc::Status status;
+  const auto frames = evolve(
+      {0.0, 1.0, 2.0}, [](v1::StreamEvolutionRequest& r) { r.mutable_evolution()->mutable_drift()->set_x(2); },
+      &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ASSERT_EQ(x_min.size(), 3u);
-  EXPECT_NEAR(x_min[1] - x_min[0], 2.0, 1e-9);  // the cloud drifts 2 m/s
-  EXPECT_NEAR(x_min[2] - x_min[0], 4.0, 1e-9);
+  ASSERT_EQ(frames.size(), 3u);
+  for (const auto& frame : frames) EXPECT_EQ(frame.image().width(), 24u);
+  const double x0 = frames[0].summary().bounds_min().x();
+  EXPECT_NEAR(frames[1].summary().bounds_min().x() - x0, 2.0, 1e-9);  // the cloud drifts 2 m/s
+  EXPECT_NEAR(frames[2].summary().bounds_min().x() - x0, 4.0, 1e-9);
 }
 
 // Times before 0 are valid: advection time, like the pyroclastic amplitude, is clamped at 0. With
 // advection_rate 1, the model at t = -1 is advected for 0 s as at t = 0 (not for 1 s, nor refused): the
 // two frames hold the same voxels, and the frame at t = 1 others.
 TEST(CloudsService, EvolutionAtNegativeTimesClampsTheAdvectionTime) {
-  auto c = call();
-  v1::StreamEvolutionRequest request;
-  *request.mutable_model() = sphere_model();
-  request.mutable_model()->mutable_advection()->set_speed(2);
-  request.mutable_model()->mutable_advection()->mutable_noise()->set_frequency(0.2);
-  request.mutable_evolution()->set_advection_rate(1);
-  for (double t : {-1.0, 0.0, 1.0}) request.add_times(t);
-  *request.mutable_settings() = small_render();
-  auto reader = c.stub->StreamEvolution(c.context.get(), request);
-  v1::EvolutionFrame frame;
-  std::vector<v1::VolumeSummary> frames;
-  while (reader->Read(&frame)) frames.push_back(frame.summary());
-  auto status = reader->Finish();
+  grpc::Status status;
+  const auto frames = evolve(
+      {-1.0, 0.0, 1.0},
+      [](v1::StreamEvolutionRequest& r) {
+        r.mutable_model()->mutable_advection()->set_speed(2);
+        r.mutable_model()->mutable_advection()->mutable_noise()->set_frequency(0.2);
+        r.mutable_evolution()->set_advection_rate(1);
+      },
+      &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_EQ(frames.size(), 3u);
-  EXPECT_EQ(frames[1].SerializeAsString(), frames[0].SerializeAsString());
-  EXPECT_NE(frames[2].active_voxels(), frames[1].active_voxels()) << "advected for 1 s, the cloud changes";
+  EXPECT_EQ(frames[1].summary().SerializeAsString(), frames[0].summary().SerializeAsString());
+  EXPECT_NE(frames[2].summary().active_voxels(), frames[1].summary().active_voxels())
+      << "advected for 1 s, the cloud changes";
 }
 
 TEST(CloudsService, BadRequestsGetClearErrors) {
