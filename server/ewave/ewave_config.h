@@ -35,7 +35,7 @@ struct EWaveConfig {
   bool mask_phi = false;              // also multiply phi by O (Gilligan eq 74 masks h only)
   bool double_precision = false;      // h, phi and the FFTs in double (needs fp64): the float FFTs of the backends
                                       // lose ~1e-7 of the energy per step (see tests/ewave), double ~1e-15
-  double displacement_scale = 1;      // lambda: D = lambda FFT^-1(-i k/k h~) (eq 47) and in the normals (eq 94)
+  double displacement_scale = 1;      // lambda: D = lambda FFT^-1(i k/k h~) (the ocean's sign) and in eq 94
   std::vector<float> initial_height;  // m, nx*ny values or empty (zero)
   std::vector<float> initial_phi;     // m^2/s, nx*ny values or empty (zero)
   double start_time = 0;              // s, finite: the session's simulation time before its first step
@@ -81,7 +81,7 @@ struct Shape {
 
 struct OutputSelection {
   bool height = true;         // h after the step (m)
-  bool displacement = false;  // D_x, D_y (m), eq 47
+  bool displacement = false;  // D_x, D_y (m), eq 47 with the ocean's sign
   bool normals = false;       // unit normals (eq 90/94), interleaved x, y, z
   bool phi = false;           // velocity potential (m^2/s)
 };
