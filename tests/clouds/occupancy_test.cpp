@@ -36,10 +36,11 @@ TEST(CoarseOccupancy, ARayFromFarAwayEndsAndStillFindsTheBox) {
   const CoarseOccupancy grid = centred_box();
   // 1e12 m: t is exact to 1e-4 m, the box's 8 m (and the half-cell sampling) come out as near.
   EXPECT_NEAR(grid.marked_length({16, 16, 1e12}, {0, 0, -1}), 9.0, 0.5);
-  // 1e18 m: t0 + half a cell rounds back to t0; the march still ends, within the grid's diagonal.
-  const double far = grid.marked_length({16, 16, 1e18}, {0, 0, -1});
-  EXPECT_GE(far, 0.0);
-  EXPECT_LE(far, 32 * std::sqrt(3.0));
+  // 1e17 m: doubles there are 16 m apart, so t0 + half a cell rounds back to t0. Steps counted from the
+  // entry point still cross the grid's 32 m and find the box; steps added onto t would never leave t0.
+  EXPECT_NEAR(grid.marked_length({16, 16, 1e17}, {0, 0, -1}), 9.0, 0.5);
+  // 1e18 m: the grid's span itself rounds away (doubles 128 m apart): nothing is found, and the call ends.
+  EXPECT_EQ(grid.marked_length({16, 16, 1e18}, {0, 0, -1}), 0.0);
 }
 
 TEST(CoarseOccupancy, AFlatBoxGetsCubicCellsOfItsLongestSideOver32AndAtLeastOneLayer) {

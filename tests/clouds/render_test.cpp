@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "clouds/render_params.h"
 #include "clouds/renderer.h"
@@ -96,22 +97,26 @@ TEST(Render, SlabTransmittanceIsExpMinusSigmaLForAnyStep) {
 }
 
 // Direct shadows in a slab lit from below (the camera's side): a sample at depth s along a ray of cosine
-// mu_c sees the light through the column rho s mu_c / mu_L, so (uniform phase)
-//   L = albedo E / (4 pi) (1 - exp(-tau (1 + mu_c / mu_L))) / (1 + mu_c / mu_L),  tau = kappa rho L / mu_c.
+// mu_c sees the light through the column rho s mu_c / mu_L, so (phase p, 1 / (4 pi) when uniform)
+//   L = albedo E p (1 - exp(-tau (1 + mu_c / mu_L))) / (1 + mu_c / mu_L),  tau = kappa rho L / mu_c.
 // The shadow march is exact for constant density whatever its step (its steps end at the tree's nodes).
 // The primary march samples the light's transmittance at one jittered point per step: unbiased to
 // O((kappa rho h)^2), noisy per pixel, so the steps are short and the image mean is compared.
-double lit_from_below(double tau, double mu_c, double mu_l, double albedo, double e) {
+double lit_from_below(double tau, double mu_c, double mu_l, double albedo, double e, double phase) {
   const double k = 1 + mu_c / mu_l;
-  return albedo * e / (4 * kPi) * (1 - std::exp(-tau * k)) / k;
+  return albedo * e * phase * (1 - std::exp(-tau * k)) / k;
 }
 
-// The image's mean radiance against the closed form's mean over the same pixels, and the worst pixel.
-std::pair<double, double> slab_errors(const Image& img, const RenderSettings& s, double tau_axis, double mu_l) {
+// The image's mean radiance against the closed form's mean over the same pixels, and the worst pixel;
+// phase(mu_c): the phase function's value on the ray of cosine mu_c.
+std::pair<double, double> slab_errors(
+    const Image& img, const RenderSettings& s, double tau_axis, double mu_l,
+    const std::function<double(double)>& phase = [](double) { return 1 / (4 * kPi); }) {
   double got = 0, want = 0, worst = 0;
   for (int y = 0; y < s.camera.height; ++y)
     for (int x = 0; x < s.camera.width; ++x) {
-      const double mu_c = pixel_cos(s, x, y), w = lit_from_below(tau_axis / mu_c, mu_c, mu_l, 0.8, 1000);
+      const double mu_c = pixel_cos(s, x, y);
+      const double w = lit_from_below(tau_axis / mu_c, mu_c, mu_l, 0.8, 1000, phase(mu_c));
       got += img.at(0, x, y), want += w;
       worst = std::max(worst, std::abs(img.at(0, x, y) - w) / w);
     }
@@ -148,6 +153,33 @@ TEST(Render, DirectShadowsOfASlabMatchTheClosedFormForAnyShadowStep) {
   const auto [mean, worst] = slab_errors(renderer.render(thick, s), s, 40, mu_l);
   EXPECT_LT(mean, 1e-2);
   std::printf("thick slab, min_transmittance 1e-2: mean radiance error %.2e, worst pixel %.2e\n", mean, worst);
+}
+
+// The slab lit from straight below, behind the camera, with a strongly forward-scattering phase
+// (Henyey-Greenstein, g = 0.8, eq A.8): the light reaches the camera by scattering back, at the angle
+// Theta with cos Theta = -mu_c between the light's travel and the camera's, where p is about 700 times weaker
+// than at -Theta.
+TEST(Render, ALightBehindTheCameraIsSeenByBackscatter) {
+  const double dx = 0.5, L = 20 * dx, rho = 0.6, kappa = 0.25, g = 0.8;
+  CloudRenderer renderer(test::runtime());
+  DeviceVolume dv = upload_volume(test::runtime(), slab(dx, 20, float(rho), false));
+  RenderSettings s = slab_camera(0.01 * L);
+  s.extinction = {kappa};
+  s.albedo = {0.8};
+  s.phase.kind = PhaseKind::HenyeyGreenstein;
+  s.phase.g1 = g;
+  Light sun;
+  sun.direction = {0, 0, -1};
+  sun.intensity = {1000};
+  s.lights = {sun};
+  s.shadow = ShadowMode::Direct;
+  auto hg = [&](double mu) { return (1 - g * g) / (4 * kPi * std::pow(1 + g * g - 2 * g * mu, 1.5)); };
+  const auto [mean, worst] =
+      slab_errors(renderer.render(dv, s), s, kappa * rho * L, 1, [&](double mu_c) { return hg(-mu_c); });
+  std::printf("slab lit from behind the camera, g = %.1f: mean radiance error %.2e, worst pixel %.2e\n", g, mean,
+              worst);
+  EXPECT_LT(mean, 1e-3);
+  EXPECT_LT(worst, 1e-2);
 }
 
 // A soft sphere cloud (no noise) of radius 6 m, voxel 0.25 m, skin 1.5 m.

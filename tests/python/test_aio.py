@@ -114,6 +114,7 @@ def test_clouds_and_textures(client: squall.Client, daemon) -> None:
     assert image.pixels.tobytes() == client.clouds.render(model, camera=camera).pixels.tobytes()
     assert volume.id and [f.time for f in evolution] == [0.0, 1.0]
     expected = list(client.textures.advect(frames=2, **start))
+    assert len(frames) == len(steered) == len(expected) == 2
     for a, b, c in zip(frames, steered, expected):
         assert a.index == b.index == c.index
         assert a["final_0"].tobytes() == b["final_0"].tobytes() == c["final_0"].tobytes()

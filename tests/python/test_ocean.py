@@ -142,9 +142,13 @@ def test_sample_matches_the_cli(client: squall.Client, daemon) -> None:
 def test_inverted_samples_land_on_the_query_points(client: squall.Client) -> None:
     points = np.random.default_rng(3).uniform(0, 200, size=(50, 2))
     samples = client.ocean.sample(small_tile(), points, time=4.0, invert_displacement=True)
-    # x0 + lambda D(x0) = x where the surface does not fold: the sampled point lies over the query
-    # point
-    np.testing.assert_allclose(samples.position[:, :2], points, atol=1e-3)
+    # x0 + lambda D(x0) = x where the surface does not fold: the surface point found, x0, sampled
+    # again without the inversion, is displaced onto the query point
+    sources = np.stack([samples["source_x"], samples["source_y"]], axis=1)
+    assert np.abs(sources - points).max() > 0.1  # the tile's displacement is not negligible
+    again = client.ocean.sample(small_tile(), sources, time=4.0)
+    np.testing.assert_allclose(again.position[:, :2], points, atol=1e-3)
+    np.testing.assert_allclose(again["height"], samples["height"], atol=1e-4)
     assert np.allclose(
         np.linalg.norm(
             np.stack([samples["normal_x"], samples["normal_y"], samples["normal_z"]]), axis=0

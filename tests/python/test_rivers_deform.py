@@ -231,6 +231,7 @@ def test_aio_bake_and_deform(client: squall.Client, daemon: Any) -> None:
             image, rigidity, control="brush", strokes=[STROKE], frames=3, dt=0.5
         )
     )
+    assert len(frames) == len(oneshot) == 3
     for a, b in zip(frames, oneshot):
         assert a.index == b.index and a.max_warp == b.max_warp
         assert a["color_0"].tobytes() == b["color_0"].tobytes()

@@ -51,6 +51,7 @@ def test_numpy_inputs(client: squall.Client) -> None:
     a = list(client.textures.advect(texture=squall.textures.image(pixels, scale=1.0), **common))
     b = list(client.textures.advect(texture=squall.textures.image(planes, scale=1.0), **common))
     assert list(a[0]) == ["final_0", "final_1", "final_2", "raw_0", "raw_1", "raw_2"]
+    assert len(a) == len(b) == 2
     for fa, fb in zip(a, b):
         for name in fa:
             np.testing.assert_allclose(fa[name], fb[name], atol=1e-6, err_msg=name)
@@ -66,6 +67,7 @@ def test_numpy_inputs(client: squall.Client) -> None:
             velocity=squall.textures.analytic("uniform", velocity_x=0.2, velocity_y=-0.1), **common
         )
     )
+    assert len(gridded) == len(uniform) == 3
     for fg, fu in zip(gridded, uniform):
         np.testing.assert_allclose(fg["final_0"], fu["final_0"], atol=1e-5)
 
@@ -88,6 +90,7 @@ def test_interactive(client: squall.Client) -> None:
         assert run.send(frames=0) == []
     # the same first frames as the one-shot stream of that request
     oneshot = list(client.textures.advect(frames=2, **start))
+    assert len(oneshot) == 2
     for a, b in zip(first, oneshot):
         assert a["final_0"].tobytes() == b["final_0"].tobytes()
     with client.textures.interactive(**start) as run:

@@ -155,8 +155,8 @@ TEST(DeviceQueues, AFreedQueueGoesToTheRequestWaitingNotToOneAskingLater) {
     std::lock_guard<std::mutex> lock(mutex);
     order.push_back("asking later");
   }
+  lease.unlock();  // before the join: if the queue went to this thread, the waiter still gets one
   waiter.join();
-  lease.unlock();
   finished.set_value();
   other.join();
   EXPECT_EQ(order, (std::vector<std::string>{"waiting", "asking later"}));

@@ -297,7 +297,7 @@ TEST(Deform, IsotropicStretchKeepsTheRigidDiskArea) {
   std::printf(
       "isotropic 1.5x stretch, kappa %.4f: texture area x%.4f, 3D area ratio %.4f (unwarped 1.5), vertical x%.4f\n",
       kIsotropicKappa, o.area_ratio, ratio, o.vertical_ratio);
-  EXPECT_LT(std::abs(ratio - 1), 0.5 * 0.5);
+  EXPECT_LT(std::abs(ratio - 1), 0.05);  // 1.003 measured; half the control's strength leaves about 1.22
   EXPECT_LT(o.vertical_ratio, 0.95) << "isotropic control shrinks across the stretch too";
 }
 
@@ -306,7 +306,7 @@ TEST(Deform, AnisotropicStretchKeepsTheDiskHeight) {
   std::printf("anisotropic 1.5x stretch, kappa %.4f: texture area x%.4f, 3D ratio %.4f, vertical x%.4f\n",
               kAnisotropicKappa, o.area_ratio, 1.5 * o.area_ratio, o.vertical_ratio);
   EXPECT_NEAR(o.vertical_ratio, 1.0, 0.03);
-  EXPECT_LT(std::abs(1.5 * o.area_ratio - 1), 0.5 * 0.5);
+  EXPECT_LT(std::abs(1.5 * o.area_ratio - 1), 0.1);  // 1.049 measured; at half strength about 1.22
 }
 
 TEST(Deform, CompressionGrowsTheDisk) {
@@ -318,8 +318,12 @@ TEST(Deform, CompressionGrowsTheDisk) {
     EXPECT_GT(o.area_ratio, 1.15);
     // Closer to 1 than the unwarped 0.667. Isotropic: t* = -kappa (sqrt 2 - |diag(1 / 1.5, 1)|_F) = -0.12 grows
     // the area by about exp(0.12 (1 - mean R)) = 1.25 only (3D 0.83): |A|_F changes less than under the stretch.
-    EXPECT_GT(ratio, 0.75);
-    EXPECT_LT(ratio, 1.1);
+    // Anisotropic: the model above undoes the compression (3D 1). Measured 0.81 and 0.93; at half the
+    // control's strength about 0.75 and 0.82.
+    if (kind == DeformControlKind::Isotropic)
+      EXPECT_NEAR(ratio, 0.83, 0.05);
+    else
+      EXPECT_NEAR(ratio, 1.0, 0.1);
   }
 }
 
@@ -359,11 +363,13 @@ double round_trip(DeformControlKind kind) {
   return f.max_warp;
 }
 
-TEST(Deform, IsotropicStretchAndBackIsReversible) { EXPECT_LT(round_trip(DeformControlKind::Isotropic), 0.1); }
-
-TEST(Deform, AnisotropicStretchAndBackLeavesAWarp) {
-  EXPECT_GT(round_trip(DeformControlKind::Anisotropic), 0.0);  // not reversible (sec. 5.1); reported
+TEST(Deform, IsotropicStretchAndBackIsReversible) {
+  EXPECT_LT(round_trip(DeformControlKind::Isotropic), 0.002);  // 0.0006 px measured, from 1.9 px at 1.5x
 }
+
+// Not reversible (sec. 5.1): measured 0.0082 px back at 1x, where the isotropic control leaves 0.0006 px (the
+// float round-off of 121 frames), so a reversible anisotropic control would leave about as little.
+TEST(Deform, AnisotropicStretchAndBackLeavesAWarp) { EXPECT_GT(round_trip(DeformControlKind::Anisotropic), 0.004); }
 
 // ---- Brush, map ----
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <numeric>
 #include <vector>
@@ -283,7 +284,15 @@ double wall_slope(double p) {
 TEST(River, WallLawSlopeIsPMinusOne) {
   // psi - psi_wall ~ d^p near a wall, so the tangential speed goes as d^(p - 1): p < 1 slip (the speed
   // grows towards the wall), p > 1 no-slip (it falls to 0), RIV09 fig. 8.
-  for (double p : {0.9, 1.0, 1.2}) EXPECT_NEAR(wall_slope(p), p - 1, 0.1) << "p = " << p;
+  // The fitted slopes share a bias of about +0.07 (measured -0.240, -0.027, 0.079, 0.287 at p = 0.7, 0.9, 1,
+  // 1.2): each is held to 0.1 of p - 1, and its difference from p = 1's, which the bias leaves, to 0.03.
+  const double at_1 = wall_slope(1.0);
+  EXPECT_NEAR(at_1, 0.0, 0.1);
+  for (double p : {0.7, 0.9, 1.2}) {
+    const double slope = wall_slope(p);
+    EXPECT_NEAR(slope, p - 1, 0.1) << "p = " << p;
+    EXPECT_NEAR(slope - at_1, p - 1, 0.03) << "p = " << p;
+  }
 }
 
 TEST(River, FlowPastACylinderNearPotentialFlow) {
@@ -299,21 +308,21 @@ TEST(River, FlowPastACylinderNearPotentialFlow) {
   river.channels.push_back(c);
   river.obstacles.push_back({circle({0, 0}, a, 128), {}});
   river.search_radius = 2 * H;
+  const double radii[] = {1.2 * a, 1.6 * a, 2.2 * a, 3 * a};
   std::vector<Point2> points;
   for (int k = 0; k < 64; ++k)
-    for (double r : {1.2 * a, 1.6 * a, 2.2 * a, 3 * a}) {
+    for (double r : radii) {
       const double t = 2 * std::numbers::pi * (k + 0.5) / 64;
       points.push_back({r * std::cos(t), r * std::sin(t)});
     }
   const std::vector<RiverSample> s = river_engine().sample(river, points, "river");
-  std::vector<double> angle_error;
-  double worst_speed_error = 0;
+  std::vector<double> angle_error, speed_ratio[4];  // |u| / |u_potential| on each circle
   for (size_t k = 0; k < points.size(); ++k) {
     const double x = points[k].x, y = points[k].y, r2 = x * x + y * y, a2 = a * a;
     const double ux = 1 - a2 * (x * x - y * y) / (r2 * r2), uy = -2 * a2 * x * y / (r2 * r2);
     const double dot = s[k].u * ux + s[k].v * uy, cross = s[k].u * uy - s[k].v * ux;
     angle_error.push_back(std::abs(std::atan2(cross, dot)) * 180 / std::numbers::pi);
-    worst_speed_error = std::max(worst_speed_error, std::abs(std::hypot(s[k].u, s[k].v) / std::hypot(ux, uy) - 1));
+    speed_ratio[k % 4].push_back(std::hypot(s[k].u, s[k].v) / std::hypot(ux, uy));
   }
   std::sort(angle_error.begin(), angle_error.end());
   EXPECT_LT(angle_error[angle_error.size() / 2], 10.0) << "median angle error, degrees";
@@ -322,10 +331,18 @@ TEST(River, FlowPastACylinderNearPotentialFlow) {
   EXPECT_NEAR(river_engine().bake(river, {2, 2, -1, -1, 1, 1}, "river").obstacle_psi[0], H, 1e-3 * H);
   RecordProperty("angle_error_median_max_deg",
                  std::to_string(angle_error[angle_error.size() / 2]) + " " + std::to_string(angle_error.back()));
-  // The speed is the model's weak point (measured up to 77% off, at the cylinder's shoulders, where
-  // potential flow reaches 2 U): RIV09 interpolates psi, it does not solve Laplace's equation.
-  EXPECT_LT(worst_speed_error, 0.9);
-  RecordProperty("worst_speed_error", std::to_string(worst_speed_error));
+  // The speed is the model's weak point: RIV09 interpolates psi, it does not solve Laplace's equation, and
+  // near the cylinder the flow is slower than potential flow's. The median ratio on each circle, measured
+  // 0.284, 0.483, 0.734 and 0.992 at 1.2, 1.6, 2.2 and 3 a, rises to 1 away from the cylinder.
+  double previous = 0;
+  for (int c = 0; c < 4; ++c) {
+    std::sort(speed_ratio[c].begin(), speed_ratio[c].end());
+    const double median = speed_ratio[c][speed_ratio[c].size() / 2];
+    std::printf("r = %.1f a: median speed ratio %.3f\n", radii[c] / a, median);
+    EXPECT_GT(median, previous + 0.1) << "r = " << radii[c] / a << " a";
+    previous = median;
+  }
+  EXPECT_NEAR(previous, 1.0, 0.1) << "at 3 a";
 }
 
 TEST(River, UndefinedWhereNoBoundaryIsNear) {
