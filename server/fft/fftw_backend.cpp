@@ -126,7 +126,9 @@ class WisdomFile {
   void load() const {  // under planner_mutex()
     if (path_.empty() || !std::filesystem::exists(path_)) return;
     F::init_threads();
-    if (!F::import_wisdom(path_))
+    if (F::import_wisdom(path_))
+      log(LogLevel::Info, "fftw: loaded the wisdom in ", path_);
+    else
       log(LogLevel::Warn, "fftw: ignored the wisdom in ", path_, ", which FFTW cannot read");
   }
 

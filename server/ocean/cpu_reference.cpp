@@ -286,15 +286,7 @@ cplx evolved(const LayerSpec& L, const LayerSpectrum& s, int64_t n, int64_t m, d
   cplx h = s.h0[at] * std::polar(1.0, -w * t) + std::conj(s.h0[minus]) * std::polar(1.0, w * t);  // eq 43
   return h * std::polar(1.0, -(kx * L.drift_x + ky * L.drift_y) * t);                             // eq 1
 }
-}  // namespace
 
-void CpuReference::mode(const TileSpec& spec, size_t layer, int64_t n, int64_t m, double t, double* re, double* im) {
-  cplx h = evolved(spec.layers[layer], impl_->spectrum(spec, layer), n, m, t);
-  *re = h.real();
-  *im = h.imag();
-}
-
-namespace {
 // Eq 96 (sign fixed) by a 2D quadrature in (ln k, theta) of k^2 (P(k) + P(-k)).
 double slope_variance(const TileSpec& spec, double R) {
   double k_lo = kPi / R, k_hi = spec.slope_k_max, total = 0;

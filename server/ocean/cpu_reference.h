@@ -23,10 +23,6 @@ class CpuReference {
   // The h0 spectra are cached per layer like the engine's, so a stream of frames costs eq 43 + FFTs.
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr);
 
-  // The complex amplitude h~(k, t) of layer `layer` at mode (n, m) (-nx/2 < n < nx/2), B(k) included:
-  // what the inverse DFT of that layer sums. For the tests' per-mode checks.
-  void mode(const TileSpec& spec, size_t layer, int64_t n, int64_t m, double t, double* re, double* im);
-
   // P(k) of a layer at wave vector (kx, ky), m^4 (eq 3, or Phillips), in double precision.
   static double spectrum(const LayerSpec& layer, double kx, double ky);
 

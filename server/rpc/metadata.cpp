@@ -22,8 +22,9 @@ void announce_session(grpc::ServerContext& context, const std::string& session_i
   context.AddInitialMetadata(kSessionKey, session_id);
 }
 
-std::string client_address(const grpc::ServerContext& context) {
-  const std::string peer = context.peer();
+std::string client_address(const grpc::ServerContext& context) { return client_of_peer(context.peer()); }
+
+std::string client_of_peer(const std::string& peer) {
   const size_t colon = peer.rfind(':');
   const bool has_port = colon != std::string::npos && colon > peer.find(':') && peer.back() != ']';
   return has_port ? peer.substr(0, colon) : peer;

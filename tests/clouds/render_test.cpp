@@ -123,19 +123,28 @@ std::pair<double, double> slab_errors(
   return {std::abs(got - want) / want, worst};
 }
 
-TEST(Render, DirectShadowsOfASlabMatchTheClosedFormForAnyShadowStep) {
-  const double dx = 0.5, L = 20 * dx, rho = 0.6, kappa = 0.25;
-  CloudRenderer renderer(test::runtime());
-  DeviceVolume dv = upload_volume(test::runtime(), slab(dx, 20, float(rho), false));
-  RenderSettings s = slab_camera(0.01 * L);
-  s.extinction = {kappa};
+// The slab of the tests below, 20 voxels of 0.5 m, density 0.6, and the settings that light it: extinction 0.25,
+// albedo 0.8 (as slab_errors expects), one directional light of 1000 from `toward_light`, direct shadows, steps
+// of a hundredth of the slab.
+constexpr double kSlabDx = 0.5, kSlabL = 20 * kSlabDx, kSlabRho = 0.6, kSlabKappa = 0.25;
+RenderSettings lit_slab(const Vec3d& toward_light, PhaseKind phase) {
+  RenderSettings s = slab_camera(0.01 * kSlabL);
+  s.extinction = {kSlabKappa};
   s.albedo = {0.8};
-  s.phase.kind = PhaseKind::Uniform;
+  s.phase.kind = phase;
   Light sun;
-  sun.direction = {0.3, 0.1, -1};  // from the scene toward the light: below the slab
+  sun.direction = toward_light;
   sun.intensity = {1000};
   s.lights = {sun};
   s.shadow = ShadowMode::Direct;
+  return s;
+}
+
+TEST(Render, DirectShadowsOfASlabMatchTheClosedFormForAnyShadowStep) {
+  const double dx = kSlabDx, L = kSlabL, rho = kSlabRho, kappa = kSlabKappa;
+  CloudRenderer renderer(test::runtime());
+  DeviceVolume dv = upload_volume(test::runtime(), slab(dx, 20, float(rho), false));
+  RenderSettings s = lit_slab({0.3, 0.1, -1}, PhaseKind::Uniform);  // below the slab
   const double mu_l = 1 / std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1);
   for (double shadow_step : {0.01 * L, 0.0 /* 3 steps */, 0.7 * L, 4 * L}) {
     s.shadow_step = shadow_step;
@@ -160,22 +169,14 @@ TEST(Render, DirectShadowsOfASlabMatchTheClosedFormForAnyShadowStep) {
 // Theta with cos Theta = -mu_c between the light's travel and the camera's, where p is about 700 times weaker
 // than at -Theta.
 TEST(Render, ALightBehindTheCameraIsSeenByBackscatter) {
-  const double dx = 0.5, L = 20 * dx, rho = 0.6, kappa = 0.25, g = 0.8;
+  const double g = 0.8;
   CloudRenderer renderer(test::runtime());
-  DeviceVolume dv = upload_volume(test::runtime(), slab(dx, 20, float(rho), false));
-  RenderSettings s = slab_camera(0.01 * L);
-  s.extinction = {kappa};
-  s.albedo = {0.8};
-  s.phase.kind = PhaseKind::HenyeyGreenstein;
+  DeviceVolume dv = upload_volume(test::runtime(), slab(kSlabDx, 20, float(kSlabRho), false));
+  RenderSettings s = lit_slab({0, 0, -1}, PhaseKind::HenyeyGreenstein);
   s.phase.g1 = g;
-  Light sun;
-  sun.direction = {0, 0, -1};
-  sun.intensity = {1000};
-  s.lights = {sun};
-  s.shadow = ShadowMode::Direct;
   auto hg = [&](double mu) { return (1 - g * g) / (4 * kPi * std::pow(1 + g * g - 2 * g * mu, 1.5)); };
   const auto [mean, worst] =
-      slab_errors(renderer.render(dv, s), s, kappa * rho * L, 1, [&](double mu_c) { return hg(-mu_c); });
+      slab_errors(renderer.render(dv, s), s, kSlabKappa * kSlabRho * kSlabL, 1, [&](double mu_c) { return hg(-mu_c); });
   std::printf("slab lit from behind the camera, g = %.1f: mean radiance error %.2e, worst pixel %.2e\n", g, mean,
               worst);
   EXPECT_LT(mean, 1e-3);

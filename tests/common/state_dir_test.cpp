@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "common/session_store.h"
@@ -52,15 +53,26 @@ std::vector<std::string> files(const std::string& dir) {
   return names;
 }
 
+// Writes `bytes` to the file at `path`.
+void put(const std::string& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
+
 TEST(StateDir, WritesWholeFilesNamedByIdAndExpiresOldOnes) {
-  const std::string dir = test::temp_dir("state-dir");
+  const std::string root = test::temp_dir("state-dir"), dir = root + "/state";
+  fs::create_directories(dir);
   StateDir state(dir, "--state-dir");
   state.write(kId, "first");
   state.write(kId, "second");
   EXPECT_EQ(state.read(kId).value(), "second");
   EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".session"}) << "no temporary file is left behind";
+  // Ids that are no file names of the directory's own read nothing, though their files exist, and write
+  // nothing.
+  put(root + "/" + kId + ".session", "outside");
+  put(dir + "/C-UPPER.session", "upper");
   EXPECT_FALSE(state.read("../" + kId)) << "an id that is no file name reads nothing";
   EXPECT_FALSE(state.read("C-UPPER"));
+  expect_error(Code::Internal, "cannot name a file", [&] { state.write("../x", "bytes"); });
+  EXPECT_FALSE(fs::exists(root + "/x.session"));
+  fs::remove(dir + "/C-UPPER.session");
   EXPECT_EQ(state.expire(1h), 0u);
   std::this_thread::sleep_for(20ms);
   EXPECT_EQ(state.expire(10ms), 1u);

@@ -476,16 +476,18 @@ TEST(Daemon, SigtermWithALongRenderInFlightExitsByTheGracePeriodAndBound) {
 TEST(Daemon, SigtermWithAStuckCallExitsFourByTheGracePeriodAndBound) {
   Daemon d({"--fft", "vkfft", "--grace-period", "1", "--drain-wait", "0", "--shutdown-bound", "1"});
   std::atomic<bool> sampled{false};
+  int sample_code = -1;
+  std::string sample_out;
   std::thread sample([&] {
-    std::string out;
-    test::run({kSquall, "--address", d.address(), "--timeout", "120", "ocean", "sample", "--grid", "4096", "--seed",
-               "77", "--point", "1,2"},
-              &out, 120);
+    sample_code = test::run({kSquall, "--address", d.address(), "--timeout", "120", "ocean", "sample", "--grid", "4096",
+                             "--seed", "77", "--point", "1,2"},
+                            &sample_out, 120);
     sampled = true;
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the spectrum's kernel runs
   if (sampled) {
     sample.join();
+    ASSERT_EQ(sample_code, 0) << "the call ended within 1.5 s, but not with its sample: " << sample_out;
     GTEST_SKIP() << "this device built the 4096^2 spectrum in 1.5 s: no call stays stuck long enough";
   }
   const auto start = std::chrono::steady_clock::now();
@@ -516,7 +518,7 @@ TEST(Daemon, ProfileModeLogsTheDeviceTimeOfEachKernelAtShutdown) {
 }
 
 // --fft-wisdom: the plans a call's transforms measured are in that directory when it returns, and the
-// next daemon on it loads them (a file FFTW cannot read would be logged as ignored).
+// next daemon on it loads them (and says so; a file FFTW cannot read would be logged as ignored).
 TEST(Daemon, FftwWisdomIsKeptInTheFftWisdomDirectoryForTheNextStart) {
   std::string info;
   ASSERT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &info), 0) << info;
@@ -532,7 +534,11 @@ TEST(Daemon, FftwWisdomIsKeptInTheFftWisdomDirectoryForTheNextStart) {
         << out;
     d.process().signal(SIGTERM);
     EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
-    EXPECT_EQ(d.process().log().find("wisdom"), std::string::npos) << "round " << round << ": " << d.process().log();
+    const std::string log = d.process().log();
+    EXPECT_EQ(log.find("ignored the wisdom"), std::string::npos) << "round " << round << ": " << log;
+    EXPECT_EQ(log.find("cannot write wisdom"), std::string::npos) << "round " << round << ": " << log;
+    EXPECT_EQ(log.find("fftw: loaded the wisdom in " + dir.string()) != std::string::npos, round == 2)
+        << "round " << round << ": " << log;
   };
   sample(1);
   std::vector<std::string> files;
@@ -557,9 +563,12 @@ TEST(Daemon, DrainingTurnsNotServingForWatchersAndEndsTheirStreams) {
   d.process().signal(SIGTERM);
   ASSERT_TRUE(watch->Read(&update));
   EXPECT_EQ(update.status(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
-  while (watch->Read(&update)) {  // the server ends the stream by the end of the grace period
+  while (watch->Read(&update)) {  // the server ends it after the drain wait, min(--drain-wait 2, grace / 2) = 1 s
   }
-  watch->Finish();
+  const double ended = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const grpc::Status finished = watch->Finish();  // CANCELLED if the grace period's end had cut it
+  EXPECT_TRUE(finished.ok()) << finished.error_code() << ": " << finished.error_message();
+  EXPECT_LT(ended, 1.9) << "the watch ended at the end of the grace period, not after the drain wait";
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
   double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_LT(seconds, 2 + 5) << "shutdown took longer than --grace-period allows";

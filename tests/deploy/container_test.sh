@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The container image, built and run as a user would: hadolint passes the Containerfile; the image builds
-# from the local Debian base (deploy/container/build-image.sh); two containers run read-only as uid 10001
-# (host networking, each on its own 127.0.0.1 port) behind Envoy; health turns SERVING through the proxy;
-# a GetTile through the proxy is bit for bit the host build's answer. Prints the image size and a cold
-# start (empty kernel cache) to SERVING. Containers and processes are stopped by id / PID at exit.
+# from the local Debian base (deploy/container/build-image.sh); two containers run read-only as the image's
+# user, uid 10001 (host networking, each on its own 127.0.0.1 port) behind Envoy; health turns SERVING
+# through the proxy; a GetTile through the proxy is bit for bit the host build's answer. Prints the image
+# size and a cold start (empty kernel cache) to SERVING. Containers and processes are stopped by id / PID at
+# exit.
 # Usage: container_test.sh SOURCE_DIR SQUALLD SQUALL TOOLS_VENV WORK_DIR
 set -euo pipefail
 source_dir=$1 squalld=$2 squall=$3 tools=$4 work=$5
@@ -26,32 +27,34 @@ wait_serving() {  # ADDRESS SECONDS
   done
 }
 
+"$tools/bin/hadolint" --failure-threshold error "$source_dir/deploy/container/Containerfile"
+echo "hadolint: OK"
+
 if ! podman info >/dev/null 2>&1; then
   echo "SKIPPED: podman cannot run here: $(podman info 2>&1 | tail -1)"
   exit 77
 fi
 
-"$tools/bin/hadolint" --failure-threshold error "$source_dir/deploy/container/Containerfile"
-echo "hadolint: OK"
-
 start=$SECONDS
 "$source_dir/deploy/container/build-image.sh" "$image" > "$work/build.log" 2>&1 || { tail -50 "$work/build.log"; exit 1; }
 echo "image built in $((SECONDS - start)) s: $(podman image inspect --format '{{.Size}}' "$image") bytes"
 
-# Two replicas, read-only root, uid 10001, PoCL's cache on a tmpfs: the first one's start is cold.
+# Two replicas, read-only root, as the image's user (no --user), PoCL's cache on a tmpfs: the first one's
+# start is cold.
 addresses=()
 for name in c0 c1; do
   port=$(free_port)
   started=$(date +%s.%N)
-  containers+=("$(podman run -d --read-only --tmpfs /tmp --user 10001 --network host --name "squall-test-$name-$$" \
+  containers+=("$(podman run -d --read-only --tmpfs /tmp --network host --name "squall-test-$name-$$" \
     "$image" --listen "127.0.0.1:$port" --metrics-listen 127.0.0.1:0 --replica-id "$name" --fft vkfft)")
   wait_serving "127.0.0.1:$port" 300
   echo "$name: SERVING $(python3 -c "import time; print(round(time.time() - $started, 2))") s after podman run (empty kernel cache)"
   addresses+=("127.0.0.1:$port")
 done
 user=$(podman exec "${containers[0]}" id -u)
-[ "$user" = 10001 ] || { echo "container runs as uid $user, not 10001" >&2; exit 1; }
-if podman exec "${containers[0]}" touch /usr/local/bin/x 2>/dev/null; then
+[ "$user" = 10001 ] || { echo "the image runs as uid $user, not 10001" >&2; exit 1; }
+# read-only even for root, so that a write is refused by the file system, not by a permission
+if podman exec --user 0 "${containers[0]}" touch /x 2>/dev/null; then
   echo "the root file system is writable" >&2; exit 1
 fi
 

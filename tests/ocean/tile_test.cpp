@@ -249,7 +249,7 @@ TEST(OceanTile, ChoppyNormalsAndJacobianAreThoseOfTheDisplacedSurface) {
   std::printf("displaced surface: worst |n.t| %.2e, worst |J - det| %.2e, smallest J %.3f\n", worst_dot, worst_j,
               fold_free);
   EXPECT_GT(fold_free, 0.0);
-  EXPECT_LT(worst_dot, 5e-4);  // 4.6e-5 measured; eq 90's normal (lambda left out) is off by about 1e-2
+  EXPECT_LT(worst_dot, 5e-4);  // 4.6e-5 measured; eq 90's normal (lambda left out): about 1e-2 (estimated)
   EXPECT_LT(worst_j, 5e-4);    // 6.2e-5 measured
 }
 

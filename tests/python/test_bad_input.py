@@ -773,9 +773,9 @@ CASES += [
 
 R = "Ocean.StreamTiles"
 CASES += [
-    bad(R, "dt_zero", put("dt", 0.0), "dt"),
-    bad(R, "dt_nan", put("dt", NAN), "dt"),
-    bad(R, "dt_negative", put("dt", -0.25), "dt"),
+    bad(R, "dt_zero", put("dt", 0.0), "dt = "),
+    bad(R, "dt_nan", put("dt", NAN), "dt = "),
+    bad(R, "dt_negative", put("dt", -0.25), "dt = "),
     bad(R, "t0_inf", put("t0.seconds", INF), "t0.seconds"),
     bad(
         R,

@@ -4,9 +4,9 @@ The one memory budget (--memory-budget): a flood of eWave sessions, and one of o
 clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before squalld's resident
 memory passes it (measured above its level when idle); what the flood held is given back when it ends,
 and squalld then serves as before; while 90% of the budget is reserved, health says NOT_SERVING (new
-work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client cannot take more stream slots
-than that while others still find free ones. Stored cloud volumes count as sessions (--max-sessions),
-and their bytes leave the metrics when they are released."""
+work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client (its
+address, whatever its connections) cannot take more stream slots than that. Stored cloud volumes count
+as sessions (--max-sessions), and their bytes leave the metrics when they are released."""
 
 from __future__ import annotations
 
@@ -97,6 +97,14 @@ def test_one_client_cannot_take_more_streams_than_its_share() -> None:
                 next(client.ocean.stream(small, dt=0.1))
             assert refused.value.code == grpc.StatusCode.RESOURCE_EXHAUSTED
             assert "--max-streams-per-client = 2" in refused.value.message, refused.value
+            # a client is its address, not its connection: a second connection of this process is
+            # the same client (another address finds its own share: limits_test.cpp)
+            separate = [("grpc.use_local_subchannel_pool", 1)]
+            with squall.Client(daemon.address, timeout=60, options=separate) as other:
+                with pytest.raises(squall.SquallError) as refused:
+                    next(other.ocean.stream(small, dt=0.1))
+                assert refused.value.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+                assert "streams of ipv4:127.0.0.1:" in refused.value.message, refused.value
             first.cancel()
             # the slot comes back once the server notices the cancel (at its next frame)
             wait_for(lambda: opens(client, small), 10, "a third stream after a cancel")
