@@ -64,8 +64,8 @@ TEST(StateDir, WritesWholeFilesNamedByIdAndExpiresOldOnes) {
   state.write(kId, "second");
   EXPECT_EQ(state.read(kId).value(), "second");
   EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".session"}) << "no temporary file is left behind";
-  // Ids that are no file names of the directory's own read nothing, though their files exist, and write
-  // nothing.
+  // An id that cannot name a file of the directory (a path, capitals) reads nothing, even where such a
+  // file exists, and writes nothing.
   put(root + "/" + kId + ".session", "outside");
   put(dir + "/C-UPPER.session", "upper");
   EXPECT_FALSE(state.read("../" + kId)) << "an id that is no file name reads nothing";
