@@ -34,10 +34,11 @@ inline void print_gpu_goal(const char* what, double measured, double goal, const
 // For a client process that shares the cores with squalld, so should cost little. With glibc's defaults
 // the memory of each large reply (from a few hundred KB up) goes back to the kernel when the reply is
 // freed, and the next reply faults it in again, zeroed: at 8 load_client threads 100 000 page faults a
-// second, half of the process's CPU time. This keeps freed memory in the process, up to 256 MB.
+// second, half of the process's CPU time. Here blocks of up to 32 MB (the most glibc documents for
+// M_MMAP_THRESHOLD) come from the heap, and the heap keeps up to 256 MB of freed memory.
 inline void keep_freed_memory() {
-  mallopt(M_MMAP_THRESHOLD, 64 << 20);
-  mallopt(M_TRIM_THRESHOLD, 256 << 20);
+  if (!mallopt(M_MMAP_THRESHOLD, 32 << 20) || !mallopt(M_TRIM_THRESHOLD, 256 << 20))
+    std::fprintf(stderr, "mallopt refused a threshold: freed memory goes back to the kernel\n");
 }
 
 }  // namespace squall::bench

@@ -145,33 +145,37 @@ TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
   }
 }
 
-// Displacement and normals of h = A cos(k0 x): with the ocean's sign (D = sum i k/|k| h~ e^{ik.x}, eq 47's
-// opposite) D_x = -A cos(omega dt) sin(k0 x), which moves points toward the crests for lambda > 0, and the
-// normal of the displaced surface (eq 94) is the cross product of its tangents,
-//   (1 + lambda dDx/dx, 0, dh/dx) x (0, 1, 0) = (-dh/dx, 0, 1 + lambda dDx/dx).
+// Displacement and normals of the oblique plane wave h = A cos(k.x): with the ocean's sign
+// (D = sum i k/|k| h~ e^{ik.x}, eq 47's opposite) D = -a (k/|k|) sin(k.x) with a = A cos(omega dt) after a
+// step from rest, which moves points toward the crests for lambda > 0, and the normal of the displaced
+// surface P = (x + lambda D_x, y + lambda D_y, h) is the cross product of its tangents dP/dx, dP/dy (eq 94).
 TEST(EWavePhysics, APlaneWavesDisplacementSharpensItsCrestsAsTheOceansDoes) {
   EWaveConfig c = plain_config(96, 40);
-  const double k0 = 2 * M_PI * 5 / c.length_x(), A = 0.002, lambda = 4, dt = 1e-3;
+  const double kx = 2 * M_PI * 5 / c.length_x(), ky = 2 * M_PI * 2 / c.length_y(), k = std::hypot(kx, ky);
+  const double A = 0.002, lambda = 4, dt = 1e-3;
   c.displacement_scale = lambda;
-  c.initial_height = field(c, [&](double x, double) { return A * std::cos(k0 * x); });
+  c.initial_height = field(c, [&](double x, double y) { return A * std::cos(kx * x + ky * y); });
   EWaveSession s = make_session(c);
   StepInputs in = plain_step(dt);
   in.outputs.displacement = in.outputs.normals = true;
   const Frame f = s.step(in);
-  const double a = A * std::cos(reference_omega(k0, c) * dt);  // h = a cos(k0 x) after the step (phi was 0)
+  const double a = A * std::cos(reference_omega(k, c) * dt);  // h = a cos(k.x) after the step (phi was 0)
   double worst_d = 0, worst_n = 0;
   for (int64_t j = 0; j < c.ny; ++j)
     for (int64_t i = 0; i < c.nx; ++i) {
       const size_t cell = size_t(i + c.nx * j);
-      const double x = (i + 0.5) * c.dx;
-      const double dh_dx = -a * k0 * std::sin(k0 * x), dDx_dx = -a * k0 * std::cos(k0 * x);
-      const double n[3] = {-dh_dx, 0, 1 + lambda * dDx_dx}, norm = std::hypot(n[0], n[2]);
-      worst_d = std::max({worst_d, std::abs(f.displacement_x[cell] + lambda * a * std::sin(k0 * x)),
-                          std::abs(double(f.displacement_y[cell]))});
+      const double phase = kx * (i + 0.5) * c.dx + ky * (j + 0.5) * c.dy, sn = std::sin(phase), cs = std::cos(phase);
+      worst_d = std::max({worst_d, std::abs(f.displacement_x[cell] + lambda * a * kx / k * sn),
+                          std::abs(f.displacement_y[cell] + lambda * a * ky / k * sn)});
+      // dP/dx and dP/dy, with dD_i/dx_j = -a k_i k_j / k cos(k.x) and dh/dx_j = -a k_j sin(k.x)
+      const double tx[3] = {1 - lambda * a * kx * kx / k * cs, -lambda * a * kx * ky / k * cs, -a * kx * sn};
+      const double ty[3] = {-lambda * a * kx * ky / k * cs, 1 - lambda * a * ky * ky / k * cs, -a * ky * sn};
+      const double n[3] = {tx[1] * ty[2] - tx[2] * ty[1], tx[2] * ty[0] - tx[0] * ty[2], tx[0] * ty[1] - tx[1] * ty[0]};
+      const double norm = std::hypot(n[0], n[1], n[2]);
       for (int q = 0; q < 3; ++q) worst_n = std::max(worst_n, std::abs(f.normals[3 * cell + q] - n[q] / norm));
     }
-  EXPECT_LT(worst_d, 1e-4 * lambda * A);  // the other sign is off by 2 lambda A
-  EXPECT_LT(worst_n, 1e-5);               // lambda a k0 = 0.26: the other sign tilts them by up to 0.02
+  EXPECT_LT(worst_d, 1e-4 * lambda * A);  // the other sign is off by up to 2 lambda A k_i / k
+  EXPECT_LT(worst_n, 1e-5);               // lambda a k = 0.36: the other sign tilts them by up to about 0.02
 }
 
 // Cauchy-Poisson: h0 = A exp(-r^2/(2 s^2)), phi = 0, deep water. Centre height
