@@ -101,8 +101,8 @@ int main(int argc, char** argv) {
   configure_kernel_cache();
   Runtime runtime(options);
   runtime.build_programs();
-  std::string why = "--fft " + backend;  // auto: the fastest at 512^2, measured here as squalld does
-  if (backend == "auto") backend = fft::fastest_backend(runtime, 512, 512, &why);
+  std::string why;
+  backend = fft::chosen_backend(runtime, backend, &why);  // as squalld chooses it
   fft::Fft fft(fft::make_backend(runtime, backend));
   rpc::ServingState serving{Limits{}};
   rpc::EngineContext engines(runtime, fft, serving.gate(), SessionPolicy{});

@@ -67,11 +67,9 @@ std::vector<std::unique_ptr<Capability>> capabilities(ServingState& serving) {
 void start_engines(DaemonState& daemon, const DaemonOptions& options, const std::string& cache,
                    const std::vector<std::unique_ptr<Capability>>& capabilities) {
   daemon.runtime.build_programs();
-  std::string backend = options.fft;
-  daemon.fft_selection = "flag --fft " + options.fft;
   fft::FftwOptions fftw = options.fftw;
   fftw.wisdom_dir = options.fft_wisdom.empty() ? cache : options.fft_wisdom == "none" ? "" : options.fft_wisdom;
-  if (backend == "auto") backend = fft::fastest_backend(daemon.runtime, 512, 512, &daemon.fft_selection, fftw);
+  const std::string backend = fft::chosen_backend(daemon.runtime, options.fft, &daemon.fft_selection, fftw);
   daemon.fft = std::make_unique<fft::Fft>(fft::make_backend(daemon.runtime, backend, fftw));
   log(LogLevel::Info, "FFT backend ", backend, " (", daemon.fft_selection, ")");
   SessionPolicy sessions;

@@ -108,4 +108,10 @@ std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string*
   return best;
 }
 
+std::string chosen_backend(Runtime& runtime, const std::string& flag, std::string* why, const FftwOptions& fftw) {
+  if (flag == "auto") return fastest_backend(runtime, 512, 512, why, fftw);
+  if (why) *why = "flag --fft " + flag;
+  return flag;
+}
+
 }  // namespace squall::fft

@@ -126,4 +126,8 @@ class Fft {
 // few runs) and returns the name of the fastest, with a line explaining the choice in *why.
 std::string fastest_backend(Runtime& runtime, size_t nx, size_t ny, std::string* why, const FftwOptions& fftw = {});
 
+// The backend a --fft flag names: "auto" is the fastest at 512 x 512 (fastest_backend), any other name
+// itself. *why says how it was chosen.
+std::string chosen_backend(Runtime& runtime, const std::string& flag, std::string* why, const FftwOptions& fftw = {});
+
 }  // namespace squall::fft

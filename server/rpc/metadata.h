@@ -30,10 +30,10 @@ std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::stri
 // The id a session-creating call proposes in x-squall-session (empty: squalld picks one).
 std::string proposed_session(const grpc::ServerContext& context);
 
-// Who is calling, for per-client limits: the peer's address without its port ("ipv4:10.0.0.7",
+// Who is calling, for per-client limits: the peer's address without its port ("ipv4:127.0.0.1",
 // "ipv6:[::1]"). Behind a proxy every client is the proxy: limit per client there.
 std::string client_address(const grpc::ServerContext& context);
-// The same from gRPC's peer string: "ipv4:10.0.0.7:5000" -> "ipv4:10.0.0.7", "ipv6:[::1]:5000" -> "ipv6:[::1]";
+// The same from gRPC's peer string: "ipv4:127.0.0.1:5000" -> "ipv4:127.0.0.1", "ipv6:[::1]:5000" -> "ipv6:[::1]";
 // one with no port ("unix:/run/squalld.sock") is returned as it is.
 std::string client_of_peer(const std::string& peer);
 

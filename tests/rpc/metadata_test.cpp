@@ -7,7 +7,7 @@ namespace squall::rpc {
 namespace {
 
 TEST(ClientOfPeer, IsThePeersAddressWithoutItsPort) {
-  EXPECT_EQ(client_of_peer("ipv4:10.0.0.7:5000"), "ipv4:10.0.0.7");
+  EXPECT_EQ(client_of_peer("ipv4:127.0.0.1:5000"), "ipv4:127.0.0.1");
   EXPECT_EQ(client_of_peer("ipv4:127.0.0.1:41234"), client_of_peer("ipv4:127.0.0.1:41235"));
   EXPECT_EQ(client_of_peer("ipv6:[::1]:5000"), "ipv6:[::1]");
   EXPECT_EQ(client_of_peer("ipv6:[fe80::1%25eth0]:443"), "ipv6:[fe80::1%25eth0]");

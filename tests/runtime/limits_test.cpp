@@ -54,14 +54,14 @@ TEST(Limits, StreamsAndSessionsAreCountedAndReleased) {
 
 TEST(Limits, EachClientHasItsOwnShareOfStreams) {
   LimitGate gate(Limits{.max_streams = 16, .max_streams_per_client = 2});
-  Slot a = gate.acquire_client_stream("ipv4:10.0.0.1");
-  Slot b = gate.acquire_client_stream("ipv4:10.0.0.1");
-  EXPECT_EQ(message_of([&] { gate.acquire_client_stream("ipv4:10.0.0.1"); }, Code::ResourceExhausted),
-            "streams of ipv4:10.0.0.1: 2 already open, the limit is --max-streams-per-client = 2");
-  Slot other = gate.acquire_client_stream("ipv4:10.0.0.2");  // another client still finds its share
-  Slot again = gate.acquire_client_stream("ipv4:10.0.0.2");
+  Slot a = gate.acquire_client_stream("ipv4:127.0.0.1");
+  Slot b = gate.acquire_client_stream("ipv4:127.0.0.1");
+  EXPECT_EQ(message_of([&] { gate.acquire_client_stream("ipv4:127.0.0.1"); }, Code::ResourceExhausted),
+            "streams of ipv4:127.0.0.1: 2 already open, the limit is --max-streams-per-client = 2");
+  Slot other = gate.acquire_client_stream("ipv6:[::1]");  // another client still finds its share
+  Slot again = gate.acquire_client_stream("ipv6:[::1]");
   a.release();
-  EXPECT_NO_THROW(gate.acquire_client_stream("ipv4:10.0.0.1"));  // a released slot comes back
+  EXPECT_NO_THROW(gate.acquire_client_stream("ipv4:127.0.0.1"));  // a released slot comes back
   EXPECT_NO_THROW(LimitGate(Limits{.max_streams_per_client = 0}).acquire_client_stream("any"));  // 0: no limit
 }
 
