@@ -9,6 +9,8 @@
 #include <functional>
 #include <vector>
 
+#include "absl/synchronization/mutex.h"
+
 namespace squall::bench {
 
 // Runs f once to warm up, then `runs` times; returns the median wall time in seconds.
@@ -40,5 +42,10 @@ inline void keep_freed_memory() {
   if (!mallopt(M_MMAP_THRESHOLD, 32 << 20) || !mallopt(M_TRIM_THRESHOLD, 256 << 20))
     std::fprintf(stderr, "mallopt refused a threshold: freed memory goes back to the kernel\n");
 }
+
+// gRPC's Abseil mutexes, built without NDEBUG as Debian's are, check every lock for lock-order cycles:
+// about 0.7% of the two cores at 8 load_client threads. The benchmark clients turn the check off, as
+// squalld does.
+inline void skip_lock_order_checks() { absl::SetMutexDeadlockDetectionMode(absl::OnDeadlockCycle::kIgnore); }
 
 }  // namespace squall::bench

@@ -61,6 +61,7 @@ double stream_rate(squall::client::Client& client, const v1::StreamTilesRequest&
 
 int main(int argc, char** argv) {
   squall::bench::keep_freed_memory();  // a frame's memory is not faulted in anew for each frame
+  squall::bench::skip_lock_order_checks();
   squall::client::ClientOptions options;
   options.timeout_seconds = 600;
   int n = 512, frames = 40, fields = 9;

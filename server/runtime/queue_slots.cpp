@@ -49,9 +49,15 @@ void QueueLease::unlock() {
   slots_ = nullptr;
 }
 
+// At most count, and about half of it from 4 queues on: 1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4.
+size_t long_limit_of(size_t count) { return std::max(std::min<size_t>(count, 2), count - count / 2); }
+
 QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, size_t count,
                        cl_command_queue_properties properties, std::function<void(size_t)> on_settled)
-    : on_settled_(std::move(on_settled)), busy_(std::clamp<size_t>(count, 1, 16), false) {
+    : on_settled_(std::move(on_settled)),
+      long_limit_(long_limit_of(std::clamp<size_t>(count, 1, 16))),
+      busy_(std::clamp<size_t>(count, 1, 16), false),
+      holders_(busy_.size()) {
   for (size_t i = 0; i < busy_.size(); ++i) queues_.emplace_back(context, device, properties);
 }
 
@@ -61,14 +67,19 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   std::unique_lock<std::mutex> lock(mutex_);
   const int k = kind_index(key);
   const char* site = kind.site ? kind.site : "";
+  const double hold = expected(k);
+  const bool short_work = is_short(hold);
   int slot = -1;
+  // A free queue with callers waiting is one that none of them may take (release() hands queues to the
+  // first that may): a caller takes it only if it may, and so passes nobody who could.
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
-  if (waiting_.empty() && free_slot != busy_.end()) {
+  if (free_slot != busy_.end() && may_take_queue(short_work) && (waiting_.empty() || short_work)) {
     slot = int(free_slot - busy_.begin());
-    busy_[size_t(slot)] = true;
+    occupy(size_t(slot), hold, short_work);
   } else {  // in line behind the callers that came first (or most of them); release() hands it its slot
     Waiter self;
-    self.expected = k < 0 ? 0 : holds_[size_t(k)];
+    self.expected = hold;
+    self.short_work = short_work;
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
@@ -85,28 +96,60 @@ double QueueSlots::expected_hold(const WorkKind& kind) {
   const std::string key = kind_key(kind);
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = kinds_.find(key);
-  return it == kinds_.end() ? 0 : holds_[size_t(it->second)];
+  return it == kinds_.end() ? 0 : expected(it->second);
 }
 
-void QueueSlots::record_hold(const WorkKind& kind, double seconds) {
+void QueueSlots::record_hold(const WorkKind& kind, double seconds, bool alone) {
   const std::string key = kind_key(kind);
   std::lock_guard<std::mutex> lock(mutex_);
-  learn(kind_index(key), seconds);
+  learn(kind_index(key), seconds, alone);
 }
 
 int QueueSlots::kind_index(const std::string& key) {
   if (key.empty()) return -1;
   const auto [it, added] = kinds_.emplace(key, int(holds_.size()));
-  if (added) holds_.push_back(0);
+  if (added) holds_.push_back({});
   return it->second;
 }
 
-// An exponential moving average of the kind's holds with weight 1/8 for the newest, the first hold its
-// start: it follows a change of load within some 10 leases.
-void QueueSlots::learn(int kind, double seconds) {
+// Exponential moving averages of the kind's holds, alone and beside others, with weight 1/8 for the
+// newest, the first hold their start: each follows a change within some 10 leases.
+void QueueSlots::learn(int kind, double seconds, bool alone) {
   if (kind < 0) return;
-  double& hold = holds_[size_t(kind)];
+  double& hold = alone ? holds_[size_t(kind)].alone : holds_[size_t(kind)].beside_others;
   hold = hold > 0 ? hold + (seconds - hold) / 8 : seconds;
+}
+
+// A hold beside other leases overstates the kind's own work (its commands wait behind theirs), and a hold
+// alone may include one-off costs (a first plan): the smaller mean is expected, either if only one is known.
+double QueueSlots::expected(int kind) const {
+  if (kind < 0) return 0;
+  const Learned& l = holds_[size_t(kind)];
+  if (l.alone > 0 && l.beside_others > 0) return std::min(l.alone, l.beside_others);
+  return std::max(l.alone, l.beside_others);
+}
+
+// At most 1 / kPassRatio of the longest expected hold among the leases held and the callers waiting.
+bool QueueSlots::is_short(double expected) const {
+  if (expected <= 0) return false;
+  double longest = 0;
+  for (size_t i = 0; i < busy_.size(); ++i)
+    if (busy_[i]) longest = std::max(longest, holders_[i].expected);
+  for (const Waiter* w : waiting_) longest = std::max(longest, w->expected);
+  return kPassRatio * expected <= longest;
+}
+
+bool QueueSlots::may_take_queue(bool short_work) const { return short_work || long_held_ < long_limit_; }
+
+// Marks `slot` busy with a lease of that expected hold. The leases held beside it no longer have the device
+// to themselves, and it has the device to itself only if none is held.
+void QueueSlots::occupy(size_t slot, double expected, bool short_work) {
+  bool alone = true;
+  for (size_t i = 0; i < busy_.size(); ++i)
+    if (busy_[i] && i != slot) alone = holders_[i].alone = false;
+  busy_[slot] = true;
+  holders_[slot] = {expected, short_work, alone};
+  if (!short_work) ++long_held_;
 }
 
 // Behind the last waiter that the caller may not pass: one expected to take less than kPassRatio times
@@ -154,18 +197,22 @@ void QueueSlots::release(const QueueLease& lease) {
   if (on_settled_) on_settled_(slot);
   const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - lease.since_).count();
   std::lock_guard<std::mutex> lock(mutex_);
-  learn(lease.kind_, held);
+  const Holder& holder = holders_[slot];
+  learn(lease.kind_, held, holder.alone);
+  if (!holder.short_work) --long_held_;
+  busy_[slot] = false;
   SiteTimes& times = site_times_[lease.site_];
   ++times.leases;
   times.hold_seconds += held;
-  if (waiting_.empty()) {
-    busy_[slot] = false;
-    return;
-  }
-  Waiter* next = waiting_.front();  // the slot goes straight to the first in line: no caller overtakes it
-  waiting_.pop_front();
-  next->slot = int(slot);
-  next->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
+  // The slot goes straight to the first in line that may take it: no caller overtakes it.
+  const auto next =
+      std::find_if(waiting_.begin(), waiting_.end(), [&](const Waiter* w) { return may_take_queue(w->short_work); });
+  if (next == waiting_.end()) return;
+  Waiter* waiter = *next;
+  waiting_.erase(next);
+  occupy(slot, waiter->expected, waiter->short_work);
+  waiter->slot = int(slot);
+  waiter->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
 }
 
 }  // namespace squall

@@ -6,11 +6,19 @@
 // queue) and the FFT plans (one per queue) use it. When the lease ends it waits for its queue (clFinish),
 // so no work of a request is still running when the buffers it handed back go to another queue.
 //
-// Callers wait in line for a queue, first come, first served, with one exception: a request expected to
-// hold its queue for much less time than those waiting at the end of the line goes ahead of them (shortest
-// job first: L. Kleinrock, "Queueing Systems, Volume 2: Computer Applications", 1976, ch. 3), so a small
-// render does not wait behind a row of large tiles. Expectations are learned: the pool keeps, per kind of
-// work (WorkKind), a running mean of how long its leases held their queue.
+// Callers wait in line for a queue, first come, first served, with two exceptions for short work:
+// - A request expected to hold its queue for much less time than those waiting at the end of the line goes
+//   ahead of them (shortest job first: L. Kleinrock, "Queueing Systems, Volume 2: Computer Applications",
+//   1976, ch. 3), so a small render does not wait behind a row of large tiles.
+// - Requests that are not much shorter than the longest work on the device or in line hold at most about
+//   half the queues at once (long_limit()); the other queues are kept for the much shorter ones. A request
+//   shares the device with the others holding queues (on a CPU device, PoCL's worker threads run the
+//   commands of all queues in one line), so every long request added stretches every request running
+//   beside it, and a short one would wait for a long one's whole hold. Queues kept for short jobs:
+//   M. Harchol-Balter, "Performance Modeling and Design of Computer Systems", 2013, ch. 24 (task
+//   assignment by size in server farms).
+// Expectations are learned: the pool keeps, per kind of work (WorkKind), running means of how long its
+// leases held their queue alone on the device and beside others, and expects the smaller of the two.
 #pragma once
 
 #include <atomic>
@@ -88,16 +96,23 @@ class QueueSlots {
   static constexpr int kMaxPassed = 4;
   static constexpr double kPassRatio = 2;
 
+  // Long leases held at once: at most count(), and at most about half of it from 4 queues on
+  // (1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4, 16 -> 8). A lease is short when its kind's expected hold is
+  // at most 1 / kPassRatio of the longest expected hold among the leases held and the callers waiting.
+  size_t long_limit() const { return long_limit_; }
+
   // Waits for a free queue (the wait is counted) and leases it to the calling thread, which must not
   // hold one already. Waiting callers get queues in the order they asked, but for the shorter requests
-  // that may pass them (see above); a caller of no kind, or of a kind not learned yet, neither passes nor
-  // is passed.
+  // that may pass them and take the queues kept for them (see above); a caller of no kind, or of a kind
+  // not learned yet, neither passes nor is passed, and counts as long.
   QueueLease acquire(const WorkKind& kind = {});
 
-  // The learned hold of `kind`, s (0 before its first lease ends).
+  // The expected hold of `kind`, s: the smaller of its running means alone and beside other leases (0
+  // before its first lease ends).
   double expected_hold(const WorkKind& kind);
-  // Learns one hold of `kind`, s, as the end of each of its leases does (tests, warm-up).
-  void record_hold(const WorkKind& kind, double seconds);
+  // Learns one hold of `kind`, s, alone on the device or beside other leases, as the end of each of its
+  // leases does (tests, warm-up).
+  void record_hold(const WorkKind& kind, double seconds, bool alone = true);
 
   uint64_t acquisitions() const { return acquisitions_; }
   size_t waiting();                      // callers waiting for a queue now
@@ -117,22 +132,41 @@ class QueueSlots {
   struct Waiter;
   void release(const QueueLease& lease);
   int kind_index(const std::string& key);                        // under mutex_; -1 for the empty key (no kind)
-  void learn(int kind, double seconds);                          // under mutex_
+  void learn(int kind, double seconds, bool alone);              // under mutex_
+  double expected(int kind) const;                               // under mutex_
+  bool is_short(double expected) const;                          // under mutex_
+  bool may_take_queue(bool short_work) const;                    // under mutex_
+  void occupy(size_t slot, double expected, bool short_work);    // under mutex_
   std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
 
   std::vector<cl::CommandQueue> queues_;
   std::function<void(size_t)> on_settled_;
   struct Waiter {
     std::condition_variable handed;
-    int slot = -1;        // the slot release() handed it
-    double expected = 0;  // its kind's learned hold, s; 0: not known
-    int passed = 0;       // by how many callers that came after it
+    int slot = -1;            // the slot release() handed it
+    double expected = 0;      // its kind's expected hold, s; 0: not known
+    bool short_work = false;  // is_short(expected) when it came
+    int passed = 0;           // by how many callers that came after it
   };
+  // A held slot's lease: what it is expected to hold, whether it counts as long, whether it has had the
+  // device to itself so far.
+  struct Holder {
+    double expected = 0;
+    bool short_work = false;
+    bool alone = false;
+  };
+  // Running means of a kind's holds, s (0: none yet).
+  struct Learned {
+    double alone = 0, beside_others = 0;
+  };
+  const size_t long_limit_;
   std::mutex mutex_;
   std::vector<bool> busy_;
+  std::vector<Holder> holders_;                  // per slot, while busy
+  size_t long_held_ = 0;                         // busy slots whose lease is not short
   std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in the order served
   std::unordered_map<std::string, int> kinds_;   // "site/log2 size" -> index in holds_
-  std::vector<double> holds_;                    // learned hold per kind, s
+  std::vector<Learned> holds_;                   // per kind
   std::atomic<uint64_t> acquisitions_{0};        // statistics, read without mutex_
   std::atomic<size_t> held_{0};                  // leases from acquire() to the end of release()
   std::map<std::string, SiteTimes> site_times_;  // under mutex_

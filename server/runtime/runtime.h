@@ -32,7 +32,7 @@ struct RuntimeOptions {
   // --device-queues: in-order command queues on the device, each serving one request at a time (1..16;
   // 1 serializes requests). Even a 2-core CPU device gains from 4: one request's host work (FFTW, copies)
   // overlaps another's kernels (bench/load_bench.py: a quarter more calls/s at 8 clients, the p99 of a
-  // small render halved).
+  // small render halved). From 4 on, QueueSlots keeps about half of them for much shorter work.
   size_t queues = 4;
 };
 

@@ -2,7 +2,9 @@
 // one kernel object launched from two queues at once keeps each launch's arguments; a buffer handed back
 // under one queue goes to another only after that queue's lease has ended (its work finished); one
 // queue serializes as the single in-order queue did; a freed queue goes to the request that waited longest,
-// unless a much shorter kind of work asks meanwhile, which goes first a bounded number of times.
+// unless a much shorter kind of work asks meanwhile, which goes first a bounded number of times; long work
+// holds about half the queues at most, and the rest are kept for much shorter work; holds alone and beside
+// others are learned apart.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -163,18 +165,21 @@ TEST(DeviceQueues, AFreedQueueGoesToTheRequestWaitingNotToOneAskingLater) {
   EXPECT_EQ(rt.device_wait().waiting, 0u);
 }
 
-// One queue of the runtime's device, and the order in which callers that wait for it get it.
-struct OneQueue {
-  QueueSlots slots{two_queue_runtime().context(), two_queue_runtime().device(), 1, 0, nullptr};
+// Queues of the runtime's device (one unless told), and the order in which callers that wait get one.
+struct QueuesInLine {
+  explicit QueuesInLine(size_t count = 1)
+      : slots(two_queue_runtime().context(), two_queue_runtime().device(), count, 0, nullptr) {}
+  QueueSlots slots;
   std::mutex mutex;
   std::vector<std::string> order;
   std::vector<std::thread> callers;
 
-  ~OneQueue() {
+  ~QueuesInLine() {
     for (auto& c : callers)
       if (c.joinable()) c.join();
   }
-  // A caller of `kind` that waits in line and records `name` when it gets the queue.
+  // A caller of `kind` that waits in line (up to 2 s, then the test's expectations fail) and records
+  // `name` when it gets the queue.
   void ask(const WorkKind& kind, const std::string& name) {
     const size_t before = slots.waiting();
     callers.emplace_back([this, kind, name] {
@@ -182,7 +187,9 @@ struct OneQueue {
       std::lock_guard<std::mutex> lock(mutex);
       order.push_back(name);
     });
-    while (slots.waiting() == before) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (slots.waiting() == before && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   std::vector<std::string> served() {
     for (auto& c : callers) c.join();
@@ -192,10 +199,83 @@ struct OneQueue {
 
 constexpr WorkKind kTile{"test.tile", 1 << 20}, kStep{"test.step", 1 << 16}, kRender{"test.render", 4096};
 
+// Holds alone on the device and beside other leases are learned apart, and the smaller mean is expected:
+// a kind's hold beside others is stretched by their work, and its first hold alone may carry one-off costs.
+TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
+  QueuesInLine q(2);
+  q.slots.record_hold(kStep, 0.040, /*alone=*/false);
+  EXPECT_DOUBLE_EQ(q.slots.expected_hold(kStep), 0.040) << "the only mean known";
+  q.slots.record_hold(kStep, 0.010, /*alone=*/true);
+  EXPECT_DOUBLE_EQ(q.slots.expected_hold(kStep), 0.010);
+  q.slots.record_hold(kTile, 0.500, /*alone=*/true);  // a first tile that made its plans
+  q.slots.record_hold(kTile, 0.030, /*alone=*/false);
+  EXPECT_DOUBLE_EQ(q.slots.expected_hold(kTile), 0.030);
+
+  // A lease that never shares the device is learned as alone; two that overlap are learned as beside others.
+  const WorkKind alone{"test.alone", 1}, shared{"test.shared", 1};
+  {
+    auto lease = q.slots.acquire(alone);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  {
+    auto first = q.slots.acquire(shared);
+    std::thread([&] { auto second = q.slots.acquire(shared); }).join();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  q.slots.record_hold(alone, 0.001, /*alone=*/false);   // below the 20 ms learned alone: expected now
+  q.slots.record_hold(shared, 0.001, /*alone=*/false);  // moves the mean beside others by an eighth
+  EXPECT_DOUBLE_EQ(q.slots.expected_hold(alone), 0.001);
+  EXPECT_GT(q.slots.expected_hold(shared), 0.001) << "the shared leases were learned as beside others";
+}
+
+TEST(DeviceQueues, LongWorkHoldsAboutHalfTheQueuesAtMost) {
+  const std::vector<std::pair<size_t, size_t>> limits{{1, 1}, {2, 2}, {3, 2}, {4, 2}, {5, 3}, {8, 4}, {16, 8}};
+  for (const auto& [count, limit] : limits) EXPECT_EQ(QueuesInLine(count).slots.long_limit(), limit) << count;
+}
+
+// Of four queues, two 60 ms tiles hold two. A third tile and then a caller of no kind (long, as its hold
+// is unknown) wait although two queues are free, while two 1 ms renders take those at once. A render's
+// queue, once freed, stays free; a tile's goes to the first in line.
+TEST(DeviceQueues, QueuesBeyondTheLongLimitAreKeptForMuchShorterWork) {
+  QueuesInLine q(4);
+  q.slots.record_hold(kTile, 0.060);
+  q.slots.record_hold(kRender, 0.001);
+  std::promise<void> end_tile, end_renders;
+  std::shared_future<void> tile_ends = end_tile.get_future().share(), renders_end = end_renders.get_future().share();
+  std::vector<std::thread> holders;
+  auto hold = [&](const WorkKind& kind, std::shared_future<void> until) {
+    const size_t before = q.slots.held();
+    holders.emplace_back([&q, kind, until] {
+      auto lease = q.slots.acquire(kind);
+      until.wait();
+    });
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (q.slots.held() == before && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  };
+  hold(kTile, tile_ends);
+  auto tile = q.slots.acquire(kTile);
+  q.ask(kTile, "tile");
+  q.ask({}, "no kind");
+  EXPECT_EQ(q.slots.held(), 2u) << "a third long lease was let in";
+  hold(kRender, renders_end);
+  hold(kRender, renders_end);
+  EXPECT_EQ(q.slots.held(), 4u) << "a render waited with queues free";
+  EXPECT_EQ(q.slots.waiting(), 2u);
+  end_renders.set_value();
+  while (q.slots.held() > 2) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(q.slots.waiting(), 2u) << "a render's queue went to long work beyond the limit";
+  end_tile.set_value();
+  tile.unlock();
+  for (auto& h : holders) h.join();
+  EXPECT_EQ(q.served(), (std::vector<std::string>{"tile", "no kind"}));
+}
+
 // A lease's hold is learned when it ends; later holds move the mean by an eighth of their difference;
 // a size in another power of two is another kind.
 TEST(DeviceQueues, TheQueuesLearnHowLongEachKindOfWorkHoldsOne) {
-  OneQueue q;
+  QueuesInLine q;
   {
     auto lease = q.slots.acquire(kTile);
     std::this_thread::sleep_for(std::chrono::milliseconds(30));
@@ -211,7 +291,7 @@ TEST(DeviceQueues, TheQueuesLearnHowLongEachKindOfWorkHoldsOne) {
 // Each call site's leases, waits and holds are summed: a tile holds the queue 40 ms while a render
 // waits for it; a lease of no kind is counted under "".
 TEST(DeviceQueues, EachCallSitesWaitsAndHoldsAreSummed) {
-  OneQueue q;
+  QueuesInLine q;
   {
     auto tile = q.slots.acquire(kTile);
     q.ask(kRender, "render");
@@ -235,7 +315,7 @@ TEST(DeviceQueues, EachCallSitesWaitsAndHoldsAreSummed) {
 // A render expected to take 1 ms goes ahead of a 60 ms tile waiting, but not of a caller of no kind
 // (which may be short); a render of a size not learned yet waits in turn.
 TEST(DeviceQueues, AMuchShorterKindOfWorkGoesAheadOfLongerWorkWaiting) {
-  OneQueue q;
+  QueuesInLine q;
   q.slots.record_hold(kTile, 0.060);
   q.slots.record_hold(kRender, 0.001);
   {
@@ -250,7 +330,7 @@ TEST(DeviceQueues, AMuchShorterKindOfWorkGoesAheadOfLongerWorkWaiting) {
 
 // A 50 ms step keeps its turn behind a 60 ms tile, and a waiter is passed at most kMaxPassed times.
 TEST(DeviceQueues, WorkOfAboutTheSameHoldKeepsItsTurnAndAWaiterIsPassedABoundedNumberOfTimes) {
-  OneQueue q;
+  QueuesInLine q;
   q.slots.record_hold(kTile, 0.060);
   q.slots.record_hold(kStep, 0.050);
   q.slots.record_hold(kRender, 0.001);
