@@ -17,6 +17,9 @@ std::string kind_key(const WorkKind& kind) {
   return kind.site ? std::string(kind.site) + "/" + std::to_string(std::bit_width(kind.size)) : std::string();
 }
 
+// At most count, and about half of it from 4 queues on: 1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4.
+size_t long_limit_of(size_t count) { return std::max(std::min<size_t>(count, 2), count - count / 2); }
+
 }  // namespace
 
 int held_queue_slot() { return t_slot; }
@@ -49,9 +52,6 @@ void QueueLease::unlock() {
   slots_ = nullptr;
 }
 
-// At most count, and about half of it from 4 queues on: 1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4.
-size_t long_limit_of(size_t count) { return std::max(std::min<size_t>(count, 2), count - count / 2); }
-
 QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, size_t count,
                        cl_command_queue_properties properties, std::function<void(size_t)> on_settled)
     : on_settled_(std::move(on_settled)),
@@ -68,18 +68,19 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   const int k = kind_index(key);
   const char* site = kind.site ? kind.site : "";
   const double hold = expected(k);
-  const bool short_work = is_short(hold);
+  const bool limited = is_limited(hold);
+  if (k >= 0) holds_[size_t(k)].asked = std::chrono::steady_clock::now();
   int slot = -1;
   // A free queue with callers waiting is one that none of them may take (release() hands queues to the
-  // first that may): a caller takes it only if it may, and so passes nobody who could.
+  // first that may): a caller that may take it passes nobody who could.
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
-  if (free_slot != busy_.end() && may_take_queue(short_work) && (waiting_.empty() || short_work)) {
+  if (free_slot != busy_.end() && may_take_queue(limited)) {
     slot = int(free_slot - busy_.begin());
-    occupy(size_t(slot), hold, short_work);
+    occupy(size_t(slot), limited);
   } else {  // in line behind the callers that came first (or most of them); release() hands it its slot
     Waiter self;
     self.expected = hold;
-    self.short_work = short_work;
+    self.limited = limited;
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
@@ -102,7 +103,9 @@ double QueueSlots::expected_hold(const WorkKind& kind) {
 void QueueSlots::record_hold(const WorkKind& kind, double seconds, bool alone) {
   const std::string key = kind_key(kind);
   std::lock_guard<std::mutex> lock(mutex_);
-  learn(kind_index(key), seconds, alone);
+  const int k = kind_index(key);
+  learn(k, seconds, alone);
+  if (k >= 0) holds_[size_t(k)].asked = std::chrono::steady_clock::now();
 }
 
 int QueueSlots::kind_index(const std::string& key) {
@@ -129,27 +132,33 @@ double QueueSlots::expected(int kind) const {
   return std::max(l.alone, l.beside_others);
 }
 
-// At most 1 / kPassRatio of the longest expected hold among the leases held and the callers waiting.
-bool QueueSlots::is_short(double expected) const {
+// Among the kinds that asked for a queue in the last kShortWorkWindow, those expected to hold it at most
+// 1 / kPassRatio as long as the longest are short; while there are any, the others are limited. Work of
+// no kind, or of a kind not learned yet, is not limited.
+bool QueueSlots::is_limited(double expected) const {
   if (expected <= 0) return false;
-  double longest = 0;
-  for (size_t i = 0; i < busy_.size(); ++i)
-    if (busy_[i]) longest = std::max(longest, holders_[i].expected);
-  for (const Waiter* w : waiting_) longest = std::max(longest, w->expected);
-  return kPassRatio * expected <= longest;
+  const auto since = std::chrono::steady_clock::now() - kShortWorkWindow;
+  double longest = expected, shortest = expected;
+  for (size_t k = 0; k < holds_.size(); ++k) {
+    const double other = this->expected(int(k));
+    if (other <= 0 || holds_[k].asked < since) continue;
+    longest = std::max(longest, other);
+    shortest = std::min(shortest, other);
+  }
+  return kPassRatio * shortest <= longest && kPassRatio * expected > longest;
 }
 
-bool QueueSlots::may_take_queue(bool short_work) const { return short_work || long_held_ < long_limit_; }
+bool QueueSlots::may_take_queue(bool limited) const { return !limited || long_held_ < long_limit_; }
 
-// Marks `slot` busy with a lease of that expected hold. The leases held beside it no longer have the device
-// to themselves, and it has the device to itself only if none is held.
-void QueueSlots::occupy(size_t slot, double expected, bool short_work) {
+// Marks `slot` busy. The leases held beside it no longer have the device to themselves, and it has the
+// device to itself only if none is held.
+void QueueSlots::occupy(size_t slot, bool limited) {
   bool alone = true;
   for (size_t i = 0; i < busy_.size(); ++i)
     if (busy_[i] && i != slot) alone = holders_[i].alone = false;
   busy_[slot] = true;
-  holders_[slot] = {expected, short_work, alone};
-  if (!short_work) ++long_held_;
+  holders_[slot] = {limited, alone};
+  if (limited) ++long_held_;
 }
 
 // Behind the last waiter that the caller may not pass: one expected to take less than kPassRatio times
@@ -199,18 +208,18 @@ void QueueSlots::release(const QueueLease& lease) {
   std::lock_guard<std::mutex> lock(mutex_);
   const Holder& holder = holders_[slot];
   learn(lease.kind_, held, holder.alone);
-  if (!holder.short_work) --long_held_;
+  if (holder.limited) --long_held_;
   busy_[slot] = false;
   SiteTimes& times = site_times_[lease.site_];
   ++times.leases;
   times.hold_seconds += held;
   // The slot goes straight to the first in line that may take it: no caller overtakes it.
   const auto next =
-      std::find_if(waiting_.begin(), waiting_.end(), [&](const Waiter* w) { return may_take_queue(w->short_work); });
+      std::find_if(waiting_.begin(), waiting_.end(), [&](const Waiter* w) { return may_take_queue(w->limited); });
   if (next == waiting_.end()) return;
   Waiter* waiter = *next;
   waiting_.erase(next);
-  occupy(slot, waiter->expected, waiter->short_work);
+  occupy(slot, waiter->limited);
   waiter->slot = int(slot);
   waiter->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
 }

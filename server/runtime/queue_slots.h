@@ -10,13 +10,15 @@
 // - A request expected to hold its queue for much less time than those waiting at the end of the line goes
 //   ahead of them (shortest job first: L. Kleinrock, "Queueing Systems, Volume 2: Computer Applications",
 //   1976, ch. 3), so a small render does not wait behind a row of large tiles.
-// - Requests that are not much shorter than the longest work on the device or in line hold at most about
-//   half the queues at once (long_limit()); the other queues are kept for the much shorter ones. A request
-//   shares the device with the others holding queues (on a CPU device, PoCL's worker threads run the
-//   commands of all queues in one line), so every long request added stretches every request running
-//   beside it, and a short one would wait for a long one's whole hold. Queues kept for short jobs:
-//   M. Harchol-Balter, "Performance Modeling and Design of Computer Systems", 2013, ch. 24 (task
-//   assignment by size in server farms).
+// - While much shorter work is about (of the kinds of work that asked for a queue in the last second,
+//   some are expected to hold it at most 1 / kPassRatio as long as the longest), the other kinds hold at
+//   most about half the queues at once (long_limit()), and the rest are kept for the shorter work. A
+//   request shares the device with the others holding queues (on a CPU device, PoCL's worker threads run
+//   the commands of all queues in one line), so each long request added stretches every request beside
+//   it, and a short one that finds every queue taken waits for a long one's whole hold. Queues kept for
+//   short jobs: M. Harchol-Balter, "Performance Modeling and Design of Computer Systems", 2013, ch. 24
+//   (task assignment by size in server farms). With no much shorter work about, or for work of no kind,
+//   every queue may be taken.
 // Expectations are learned: the pool keeps, per kind of work (WorkKind), running means of how long its
 // leases held their queue alone on the device and beside others, and expects the smaller of the two.
 #pragma once
@@ -41,7 +43,7 @@ class QueueSlots;
 
 // What a lease is for: the call site (a string literal, e.g. "ocean.tile") and the size of its work in the
 // site's own unit (cells, pixels). Sizes within a factor of two share one learned hold time. No site:
-// nothing is learned, and the caller waits in turn and is never passed.
+// nothing is learned, the caller neither passes nor is passed in line, and no queue is kept from it.
 struct WorkKind {
   const char* site = nullptr;
   size_t size = 0;
@@ -92,26 +94,28 @@ class QueueSlots {
 
   // A caller in line is passed by at most this many shorter requests, each expected to hold its queue at
   // most 1 / kPassRatio as long as the caller: it waits at most kMaxPassed / kPassRatio of its own hold
-  // longer than in turn.
+  // longer than in turn, but for the time that it may not take a queue (long_limit()), during which any
+  // caller that may take one does.
   static constexpr int kMaxPassed = 4;
   static constexpr double kPassRatio = 2;
+  // How recently a much shorter kind of work must have asked for a queue for queues to be kept for it.
+  static constexpr std::chrono::milliseconds kShortWorkWindow{1000};
 
-  // Long leases held at once: at most count(), and at most about half of it from 4 queues on
-  // (1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4, 16 -> 8). A lease is short when its kind's expected hold is
-  // at most 1 / kPassRatio of the longest expected hold among the leases held and the callers waiting.
+  // Leases of limited kinds (much shorter work about) held at once: at most count(), and at most about
+  // half of it from 4 queues on: 1 -> 1, 2 -> 2, 3 -> 2, 4 -> 2, 8 -> 4, 16 -> 8.
   size_t long_limit() const { return long_limit_; }
 
   // Waits for a free queue (the wait is counted) and leases it to the calling thread, which must not
   // hold one already. Waiting callers get queues in the order they asked, but for the shorter requests
-  // that may pass them and take the queues kept for them (see above); a caller of no kind, or of a kind
-  // not learned yet, neither passes nor is passed, and counts as long.
+  // that may pass them and those that may take the queues kept for them (see above); a caller of no kind,
+  // or of a kind not learned yet, neither passes nor is passed, and is not limited.
   QueueLease acquire(const WorkKind& kind = {});
 
   // The expected hold of `kind`, s: the smaller of its running means alone and beside other leases (0
   // before its first lease ends).
   double expected_hold(const WorkKind& kind);
   // Learns one hold of `kind`, s, alone on the device or beside other leases, as the end of each of its
-  // leases does (tests, warm-up).
+  // leases does, and notes that the kind asked for a queue now (tests, warm-up).
   void record_hold(const WorkKind& kind, double seconds, bool alone = true);
 
   uint64_t acquisitions() const { return acquisitions_; }
@@ -134,36 +138,36 @@ class QueueSlots {
   int kind_index(const std::string& key);                        // under mutex_; -1 for the empty key (no kind)
   void learn(int kind, double seconds, bool alone);              // under mutex_
   double expected(int kind) const;                               // under mutex_
-  bool is_short(double expected) const;                          // under mutex_
-  bool may_take_queue(bool short_work) const;                    // under mutex_
-  void occupy(size_t slot, double expected, bool short_work);    // under mutex_
+  bool is_limited(double expected) const;                        // under mutex_
+  bool may_take_queue(bool limited) const;                       // under mutex_
+  void occupy(size_t slot, bool limited);                        // under mutex_
   std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
 
   std::vector<cl::CommandQueue> queues_;
   std::function<void(size_t)> on_settled_;
   struct Waiter {
     std::condition_variable handed;
-    int slot = -1;            // the slot release() handed it
-    double expected = 0;      // its kind's expected hold, s; 0: not known
-    bool short_work = false;  // is_short(expected) when it came
-    int passed = 0;           // by how many callers that came after it
+    int slot = -1;         // the slot release() handed it
+    double expected = 0;   // its kind's expected hold, s; 0: not known
+    bool limited = false;  // is_limited(expected) when it came
+    int passed = 0;        // by how many callers that came after it
   };
-  // A held slot's lease: what it is expected to hold, whether it counts as long, whether it has had the
-  // device to itself so far.
+  // A held slot's lease: whether it counts toward long_limit(), whether it has had the device to itself
+  // so far.
   struct Holder {
-    double expected = 0;
-    bool short_work = false;
+    bool limited = false;
     bool alone = false;
   };
-  // Running means of a kind's holds, s (0: none yet).
+  // Running means of a kind's holds, s (0: none yet), and when it last asked for a queue.
   struct Learned {
     double alone = 0, beside_others = 0;
+    std::chrono::steady_clock::time_point asked;
   };
   const size_t long_limit_;
   std::mutex mutex_;
   std::vector<bool> busy_;
   std::vector<Holder> holders_;                  // per slot, while busy
-  size_t long_held_ = 0;                         // busy slots whose lease is not short
+  size_t long_held_ = 0;                         // busy slots whose lease is limited
   std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in the order served
   std::unordered_map<std::string, int> kinds_;   // "site/log2 size" -> index in holds_
   std::vector<Learned> holds_;                   // per kind

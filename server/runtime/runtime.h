@@ -32,7 +32,8 @@ struct RuntimeOptions {
   // --device-queues: in-order command queues on the device, each serving one request at a time (1..16;
   // 1 serializes requests). Even a 2-core CPU device gains from 4: one request's host work (FFTW, copies)
   // overlaps another's kernels (bench/load_bench.py: a quarter more calls/s at 8 clients, the p99 of a
-  // small render halved). From 4 on, QueueSlots keeps about half of them for much shorter work.
+  // small render halved). From 4 on, QueueSlots keeps about half of them for much shorter work while
+  // such work is about.
   size_t queues = 4;
 };
 
@@ -86,9 +87,10 @@ class Runtime {
 
   // Device work of one request runs under a lease of one of the device's queues: the thread's queue()
   // until the lease ends, which waits for the queue's work. With one queue, requests take turns; with
-  // more, that many run at once (their kernel objects and FFT plans are per queue, and a buffer handed
-  // back goes to another queue only once its queue has finished). The waits are counted (device_wait()).
-  // `kind` lets a request much shorter than those waiting go first (QueueSlots).
+  // more, up to that many run at once (their kernel objects and FFT plans are per queue, and a buffer
+  // handed back goes to another queue only once its queue has finished). The waits are counted
+  // (device_wait()). `kind` lets a request much shorter than those waiting go first, and keeps queues
+  // for it from longer kinds of work (QueueSlots).
   QueueLease exclusive(const WorkKind& kind = {}) { return queues_->acquire(kind); }
 
   // How often the lock was taken, and the seconds callers waited for it, since start-up: the queueing

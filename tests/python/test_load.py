@@ -124,7 +124,7 @@ def load(address: str, reference: Dict[str, Any], seconds: float) -> Dict[str, L
 
 @pytest.fixture(scope="module")
 def concurrent_daemon() -> Iterator[Daemon]:
-    """A squalld whose device runs four requests at once, each on its own queue."""
+    """A squalld whose device runs up to four requests at once, each on its own queue."""
     yield from _start(["--device-queues", "4"], "queues")
 
 

@@ -3,12 +3,13 @@
 // under one queue goes to another only after that queue's lease has ended (its work finished); one
 // queue serializes as the single in-order queue did; a freed queue goes to the request that waited longest,
 // unless a much shorter kind of work asks meanwhile, which goes first a bounded number of times; long work
-// holds about half the queues at most, and the rest are kept for much shorter work; holds alone and beside
-// others are learned apart.
+// holds about half the queues at most while much shorter work is about, and the rest are kept for it; holds
+// alone and beside others are learned apart.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <future>
 #include <mutex>
 #include <string>
@@ -228,48 +229,88 @@ TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
   EXPECT_GT(q.slots.expected_hold(shared), 0.001) << "the shared leases were learned as beside others";
 }
 
-TEST(DeviceQueues, LongWorkHoldsAboutHalfTheQueuesAtMost) {
-  const std::vector<std::pair<size_t, size_t>> limits{{1, 1}, {2, 2}, {3, 2}, {4, 2}, {5, 3}, {8, 4}, {16, 8}};
-  for (const auto& [count, limit] : limits) EXPECT_EQ(QueuesInLine(count).slots.long_limit(), limit) << count;
-}
-
-// Of four queues, two 60 ms tiles hold two. A third tile and then a caller of no kind (long, as its hold
-// is unknown) wait although two queues are free, while two 1 ms renders take those at once. A render's
-// queue, once freed, stays free; a tile's goes to the first in line.
-TEST(DeviceQueues, QueuesBeyondTheLongLimitAreKeptForMuchShorterWork) {
-  QueuesInLine q(4);
-  q.slots.record_hold(kTile, 0.060);
-  q.slots.record_hold(kRender, 0.001);
-  std::promise<void> end_tile, end_renders;
-  std::shared_future<void> tile_ends = end_tile.get_future().share(), renders_end = end_renders.get_future().share();
-  std::vector<std::thread> holders;
-  auto hold = [&](const WorkKind& kind, std::shared_future<void> until) {
+// Leases of `kind`, each held on a thread of its own until `until` is ready: hold() returns once the lease
+// is held (or after 2 s, and the test's expectations fail).
+struct Holders {
+  QueuesInLine& q;
+  std::vector<std::thread> threads;
+  ~Holders() {
+    for (auto& t : threads) t.join();
+  }
+  void hold(const WorkKind& kind, std::shared_future<void> until) {
     const size_t before = q.slots.held();
-    holders.emplace_back([&q, kind, until] {
+    threads.emplace_back([this, kind, until] {
       auto lease = q.slots.acquire(kind);
       until.wait();
     });
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
     while (q.slots.held() == before && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  };
-  hold(kTile, tile_ends);
-  auto tile = q.slots.acquire(kTile);
-  q.ask(kTile, "tile");
-  q.ask({}, "no kind");
-  EXPECT_EQ(q.slots.held(), 2u) << "a third long lease was let in";
-  hold(kRender, renders_end);
-  hold(kRender, renders_end);
-  EXPECT_EQ(q.slots.held(), 4u) << "a render waited with queues free";
-  EXPECT_EQ(q.slots.waiting(), 2u);
-  end_renders.set_value();
-  while (q.slots.held() > 2) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_EQ(q.slots.waiting(), 2u) << "a render's queue went to long work beyond the limit";
-  end_tile.set_value();
-  tile.unlock();
-  for (auto& h : holders) h.join();
-  EXPECT_EQ(q.served(), (std::vector<std::string>{"tile", "no kind"}));
+  }
+};
+
+// Waits up to 2 s for `done`.
+void wait_for(const std::function<bool()>& done) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (!done() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+// With 1 ms renders about, 60 ms tiles hold two of four queues at most: a third tile waits although two
+// are free, while a caller of no kind and a render take them. A freed queue then goes to the first in line
+// that may take it: the render's to a caller of no kind behind the tile, a tile's to the tile.
+TEST(DeviceQueues, WhileMuchShorterWorkIsAboutLongWorkHoldsHalfTheQueues) {
+  QueuesInLine q(4);
+  q.slots.record_hold(kTile, 0.060);
+  q.slots.record_hold(kRender, 0.001);
+  std::promise<void> end_tiles, end_render;
+  std::shared_future<void> tiles_end = end_tiles.get_future().share(), render_ends = end_render.get_future().share();
+  {
+    Holders holders{q};
+    holders.hold(kTile, tiles_end);
+    holders.hold(kTile, tiles_end);
+    q.ask(kTile, "tile");
+    EXPECT_EQ(q.slots.held(), 2u) << "a third tile was let in";
+    holders.hold({}, tiles_end);
+    holders.hold(kRender, render_ends);
+    EXPECT_EQ(q.slots.held(), 4u) << "work of no kind or a render waited with queues free";
+    q.ask({}, "no kind, later");
+    end_render.set_value();
+    wait_for([&] { return q.slots.waiting() < 2; });
+    EXPECT_EQ(q.slots.waiting(), 1u) << "the render's queue went to neither waiter";
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(q.slots.waiting(), 1u) << "the tile took a queue beyond the limit";
+    end_tiles.set_value();
+  }
+  EXPECT_EQ(q.served(), (std::vector<std::string>{"no kind, later", "tile"}));
+}
+
+// Without much shorter work about, a kind takes every queue: tiles alone, and tiles after renders that
+// last asked more than kShortWorkWindow ago.
+TEST(DeviceQueues, WithNoMuchShorterWorkAboutEveryQueueMayBeTaken) {
+  QueuesInLine q(4);
+  q.slots.record_hold(kTile, 0.060);
+  std::promise<void> end;
+  std::shared_future<void> ends = end.get_future().share();
+  {
+    Holders holders{q};
+    for (int i = 0; i < 4; ++i) holders.hold(kTile, ends);
+    EXPECT_EQ(q.slots.held(), 4u);
+    end.set_value();
+  }
+  q.slots.record_hold(kRender, 0.001);
+  std::this_thread::sleep_for(QueueSlots::kShortWorkWindow + std::chrono::milliseconds(100));
+  std::promise<void> end_again;
+  std::shared_future<void> ends_again = end_again.get_future().share();
+  Holders holders{q};
+  for (int i = 0; i < 4; ++i) holders.hold(kTile, ends_again);
+  EXPECT_EQ(q.slots.held(), 4u) << "queues were kept for renders that have gone";
+  end_again.set_value();
+}
+
+TEST(DeviceQueues, LongWorkHoldsAboutHalfTheQueuesAtMost) {
+  const std::vector<std::pair<size_t, size_t>> limits{{1, 1}, {2, 2}, {3, 2}, {4, 2}, {5, 3}, {8, 4}, {16, 8}};
+  for (const auto& [count, limit] : limits) EXPECT_EQ(QueuesInLine(count).slots.long_limit(), limit) << count;
 }
 
 // A lease's hold is learned when it ends; later holds move the mean by an eighth of their difference;
