@@ -68,11 +68,12 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   const int k = kind_index(key);
   const char* site = kind.site ? kind.site : "";
   const double hold = expected(k);
-  const bool limited = is_limited(hold);
   if (k >= 0) holds_[size_t(k)].asked = std::chrono::steady_clock::now();
+  serve_line();  // a waiter whose kind is no longer limited may take a free queue before this caller
+  const bool limited = is_limited(hold);
   int slot = -1;
-  // A free queue with callers waiting is one that none of them may take (release() hands queues to the
-  // first that may): a caller that may take it passes nobody who could.
+  // A free queue with callers waiting is now one that none of them may take: a caller that may take it
+  // passes nobody who could.
   const auto free_slot = std::find(busy_.begin(), busy_.end(), false);
   if (free_slot != busy_.end() && may_take_queue(limited)) {
     slot = int(free_slot - busy_.begin());
@@ -80,7 +81,6 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   } else {  // in line behind the callers that came first (or most of them); release() hands it its slot
     Waiter self;
     self.expected = hold;
-    self.limited = limited;
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
     self.handed.wait(lock, [&] { return self.slot >= 0; });
@@ -213,15 +213,24 @@ void QueueSlots::release(const QueueLease& lease) {
   SiteTimes& times = site_times_[lease.site_];
   ++times.leases;
   times.hold_seconds += held;
-  // The slot goes straight to the first in line that may take it: no caller overtakes it.
-  const auto next =
-      std::find_if(waiting_.begin(), waiting_.end(), [&](const Waiter* w) { return may_take_queue(w->limited); });
-  if (next == waiting_.end()) return;
-  Waiter* waiter = *next;
-  waiting_.erase(next);
-  occupy(slot, waiter->limited);
-  waiter->slot = int(slot);
-  waiter->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
+  serve_line();  // the slot goes straight to the first in line that may take it: no caller overtakes it
+}
+
+// Hands free queues to the first callers in line that may take one, by the limits as they stand now (a
+// kind's class changes as shorter work comes and goes).
+void QueueSlots::serve_line() {
+  for (auto free_slot = std::find(busy_.begin(), busy_.end(), false); free_slot != busy_.end();
+       free_slot = std::find(busy_.begin(), busy_.end(), false)) {
+    const auto next = std::find_if(waiting_.begin(), waiting_.end(),
+                                   [&](const Waiter* w) { return may_take_queue(is_limited(w->expected)); });
+    if (next == waiting_.end()) return;
+    Waiter* waiter = *next;
+    waiting_.erase(next);
+    const size_t slot = size_t(free_slot - busy_.begin());
+    occupy(slot, is_limited(waiter->expected));
+    waiter->slot = int(slot);
+    waiter->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
+  }
 }
 
 }  // namespace squall

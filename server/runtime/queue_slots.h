@@ -12,7 +12,8 @@
 //   1976, ch. 3), so a small render does not wait behind a row of large tiles.
 // - While much shorter work is about (of the kinds of work that asked for a queue in the last second,
 //   some are expected to hold it at most 1 / kPassRatio as long as the longest), the other kinds hold at
-//   most about half the queues at once (long_limit()), and the rest are kept for the shorter work. A
+//   most about half the queues at once (long_limit(); leases taken while no shorter work was about do not
+//   count), and the rest are kept for the shorter work. A
 //   request shares the device with the others holding queues (on a CPU device, PoCL's worker threads run
 //   the commands of all queues in one line), so each long request added stretches every request beside
 //   it, and a short one that finds every queue taken waits for a long one's whole hold. Queues kept for
@@ -141,16 +142,16 @@ class QueueSlots {
   bool is_limited(double expected) const;                        // under mutex_
   bool may_take_queue(bool limited) const;                       // under mutex_
   void occupy(size_t slot, bool limited);                        // under mutex_
+  void serve_line();                                             // under mutex_
   std::deque<Waiter*>::iterator place_in_line(double expected);  // under mutex_; counts the passed
 
   std::vector<cl::CommandQueue> queues_;
   std::function<void(size_t)> on_settled_;
   struct Waiter {
     std::condition_variable handed;
-    int slot = -1;         // the slot release() handed it
-    double expected = 0;   // its kind's expected hold, s; 0: not known
-    bool limited = false;  // is_limited(expected) when it came
-    int passed = 0;        // by how many callers that came after it
+    int slot = -1;        // the slot serve_line() handed it
+    double expected = 0;  // its kind's expected hold, s; 0: not known
+    int passed = 0;       // by how many callers that came after it
   };
   // A held slot's lease: whether it counts toward long_limit(), whether it has had the device to itself
   // so far.
@@ -168,7 +169,7 @@ class QueueSlots {
   std::vector<bool> busy_;
   std::vector<Holder> holders_;                  // per slot, while busy
   size_t long_held_ = 0;                         // busy slots whose lease is limited
-  std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in the order served
+  std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in line order
   std::unordered_map<std::string, int> kinds_;   // "site/log2 size" -> index in holds_
   std::vector<Learned> holds_;                   // per kind
   std::atomic<uint64_t> acquisitions_{0};        // statistics, read without mutex_

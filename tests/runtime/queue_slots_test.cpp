@@ -179,8 +179,8 @@ struct QueuesInLine {
     for (auto& c : callers)
       if (c.joinable()) c.join();
   }
-  // A caller of `kind` that waits in line (up to 2 s, then the test's expectations fail) and records
-  // `name` when it gets the queue.
+  // A caller of `kind` that waits in line and records `name` when it gets a queue. Returns once it is in
+  // line, or after 2 s (the test's expectations then fail; a caller never served hangs the test).
   void ask(const WorkKind& kind, const std::string& name) {
     const size_t before = slots.waiting();
     callers.emplace_back([this, kind, name] {
@@ -216,7 +216,10 @@ TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
   // others. An 80 ms lease alone gives 80 ms; beside a second, short lease, the mean beside others is that
   // lease's hold, then moved an eighth of the way to 80 ms: about 10 ms. Learned as alone, the 80 ms
   // lease would leave the short one's hold expected.
+  // Each kind starts with a 500 ms mean of the other sort, which the smaller mean must then be chosen over.
   const WorkKind alone{"test.alone", 1}, shared{"test.shared", 1};
+  q.slots.record_hold(alone, 0.500, /*alone=*/false);
+  q.slots.record_hold(shared, 0.500, /*alone=*/true);
   {
     auto lease = q.slots.acquire(alone);
     std::this_thread::sleep_for(std::chrono::milliseconds(80));
@@ -227,12 +230,13 @@ TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
     std::this_thread::sleep_for(std::chrono::milliseconds(80));
   }
   EXPECT_GE(q.slots.expected_hold(alone), 0.080);  // a sleep lasts at least its time
+  EXPECT_LT(q.slots.expected_hold(alone), 0.200) << "the lease alone was learned beside others";
   EXPECT_GT(q.slots.expected_hold(shared), 0.008) << "the first lease was learned as alone";
-  EXPECT_LT(q.slots.expected_hold(shared), 0.040) << "the second lease was not learned beside others";
+  EXPECT_LT(q.slots.expected_hold(shared), 0.040) << "the overlapping leases were learned as alone";
 }
 
 // Leases of `kind`, each held on a thread of its own until `until` is ready: hold() returns once the lease
-// is held (or after 2 s, and the test's expectations fail).
+// is held, or after 2 s (the test's expectations then fail; a lease never granted hangs the test).
 struct Holders {
   QueuesInLine& q;
   std::vector<std::thread> threads;
@@ -278,7 +282,7 @@ TEST(DeviceQueues, WhileMuchShorterWorkIsAboutLongWorkHoldsHalfTheQueues) {
     EXPECT_EQ(q.slots.held(), 4u) << "work of no kind or a render waited with queues free";
     q.ask({}, "no kind, later");
     end_render.set_value();
-    wait_for([&] { return q.slots.waiting() < 2; });
+    wait_for([&] { return q.slots.waiting() < 2 && q.slots.held() == 3; });  // the later caller came and went
     EXPECT_EQ(q.slots.waiting(), 1u) << "the render's queue went to neither waiter";
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     EXPECT_EQ(q.slots.waiting(), 1u) << "the tile took a queue beyond the limit";
@@ -300,14 +304,39 @@ TEST(DeviceQueues, WithNoMuchShorterWorkAboutEveryQueueMayBeTaken) {
     EXPECT_EQ(q.slots.held(), 4u);
     end.set_value();
   }
-  q.slots.record_hold(kRender, 0.001);
+  QueuesInLine later(4);  // holds of 60 ms and 1 ms again (the tiles above have taught q shorter ones)
+  later.slots.record_hold(kTile, 0.060);
+  later.slots.record_hold(kRender, 0.001);
   std::this_thread::sleep_for(QueueSlots::kShortWorkWindow + std::chrono::milliseconds(100));
   std::promise<void> end_again;
   std::shared_future<void> ends_again = end_again.get_future().share();
-  Holders holders{q};
+  Holders holders{later};
   for (int i = 0; i < 4; ++i) holders.hold(kTile, ends_again);
-  EXPECT_EQ(q.slots.held(), 4u) << "queues were kept for renders that have gone";
+  EXPECT_EQ(later.slots.held(), 4u) << "queues were kept for renders that have gone";
   end_again.set_value();
+}
+
+// A tile waits at the limit while renders are about; once they have gone, the next call to the pool (here
+// a caller of no kind) lets it take a free queue first.
+TEST(DeviceQueues, AWaiterWhoseKindIsNoLongerLimitedTakesAFreeQueue) {
+  QueuesInLine q(4);
+  q.slots.record_hold(kTile, 0.060);
+  q.slots.record_hold(kRender, 0.001);
+  std::promise<void> end;
+  std::shared_future<void> ends = end.get_future().share();
+  Holders holders{q};
+  holders.hold(kTile, ends);
+  holders.hold(kTile, ends);
+  q.ask(kTile, "tile");
+  std::this_thread::sleep_for(QueueSlots::kShortWorkWindow + std::chrono::milliseconds(100));
+  EXPECT_EQ(q.slots.waiting(), 1u) << "nothing called the pool meanwhile";
+  {
+    auto other = q.slots.acquire();
+    wait_for([&] { return q.slots.waiting() == 0; });
+    EXPECT_EQ(q.slots.waiting(), 0u) << "the tile still waits with two queues free";
+  }
+  end.set_value();
+  EXPECT_EQ(q.served(), (std::vector<std::string>{"tile"}));
 }
 
 TEST(DeviceQueues, LongWorkHoldsAboutHalfTheQueuesAtMost) {
