@@ -55,9 +55,9 @@ void QueueLease::unlock() {
 QueueSlots::QueueSlots(const cl::Context& context, const cl::Device& device, size_t count,
                        cl_command_queue_properties properties, std::function<void(size_t)> on_settled)
     : on_settled_(std::move(on_settled)),
-      long_limit_(long_limit_of(std::clamp<size_t>(count, 1, 16))),
       busy_(std::clamp<size_t>(count, 1, 16), false),
-      holders_(busy_.size()) {
+      holders_(busy_.size()),
+      long_limit_(long_limit_of(busy_.size())) {
   for (size_t i = 0; i < busy_.size(); ++i) queues_.emplace_back(context, device, properties);
 }
 
@@ -78,7 +78,7 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   if (free_slot != busy_.end() && may_take_queue(limited)) {
     slot = int(free_slot - busy_.begin());
     occupy(size_t(slot), limited);
-  } else {  // in line behind the callers that came first (or most of them); release() hands it its slot
+  } else {  // in line behind the callers that came first (or most of them); serve_line() hands it a slot
     Waiter self;
     self.expected = hold;
     waiting_.insert(place_in_line(self.expected), &self);
@@ -218,18 +218,22 @@ void QueueSlots::release(const QueueLease& lease) {
 
 // Hands free queues to the first callers in line that may take one, by the limits as they stand now (a
 // kind's class changes as shorter work comes and goes).
+// One pass suffices: a queue handed on only raises the count of limited leases, so a waiter passed over
+// stays one that may not take a queue.
 void QueueSlots::serve_line() {
-  for (auto free_slot = std::find(busy_.begin(), busy_.end(), false); free_slot != busy_.end();
-       free_slot = std::find(busy_.begin(), busy_.end(), false)) {
-    const auto next = std::find_if(waiting_.begin(), waiting_.end(),
-                                   [&](const Waiter* w) { return may_take_queue(is_limited(w->expected)); });
-    if (next == waiting_.end()) return;
-    Waiter* waiter = *next;
-    waiting_.erase(next);
-    const size_t slot = size_t(free_slot - busy_.begin());
-    occupy(slot, is_limited(waiter->expected));
-    waiter->slot = int(slot);
+  auto free_slot = std::find(busy_.begin(), busy_.end(), false);
+  for (auto it = waiting_.begin(); free_slot != busy_.end() && it != waiting_.end();) {
+    const bool limited = is_limited((*it)->expected);
+    if (!may_take_queue(limited)) {
+      ++it;
+      continue;
+    }
+    Waiter* waiter = *it;
+    it = waiting_.erase(it);
+    occupy(size_t(free_slot - busy_.begin()), limited);
+    waiter->slot = int(free_slot - busy_.begin());
     waiter->handed.notify_one();  // under mutex_: the waiter (on its own stack) cannot leave before this ends
+    free_slot = std::find(busy_.begin(), busy_.end(), false);
   }
 }
 

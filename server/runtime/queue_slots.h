@@ -164,10 +164,10 @@ class QueueSlots {
     double alone = 0, beside_others = 0;
     std::chrono::steady_clock::time_point asked;
   };
-  const size_t long_limit_;
   std::mutex mutex_;
   std::vector<bool> busy_;
-  std::vector<Holder> holders_;                  // per slot, while busy
+  std::vector<Holder> holders_;  // per slot, while busy
+  const size_t long_limit_;
   size_t long_held_ = 0;                         // busy slots whose lease is limited
   std::deque<Waiter*> waiting_;                  // callers of acquire() waiting for a slot, in line order
   std::unordered_map<std::string, int> kinds_;   // "site/log2 size" -> index in holds_
