@@ -7,25 +7,46 @@
 
 namespace squall::ewave {
 
-const cl::Buffer& CoefficientCache::get(Runtime& runtime, const EWaveConfig& config, double dt) {
-  ++uses_;
-  auto found = entries_.find(dt);
-  if (found == entries_.end()) {
-    if (entries_.size() >= capacity_) evict_oldest();
-    std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
-    found = entries_.emplace(dt, Entry{}).first;
-    found->second.buffer = runtime.buffers().acquire(table.size());
-    runtime.queue().enqueueWriteBuffer(found->second.buffer.buffer(), CL_TRUE, 0, table.size(), table.data());
-  }
-  found->second.last_use = uses_;
-  return found->second.buffer.buffer();
+CoefficientCache::Key CoefficientCache::key_of(const EWaveConfig& c, double dt) {
+  Key k;
+  k.nx = c.nx, k.ny = c.ny;
+  k.length_x = c.length_x(), k.length_y = c.length_y();
+  k.gravity = c.gravity, k.depth = c.depth, k.capillary_length = c.capillary_length;
+  k.dt = dt;
+  k.dispersion = int(c.dispersion);
+  k.double_precision = c.double_precision;
+  return k;
 }
 
-void CoefficientCache::evict_oldest() {
-  auto oldest = entries_.begin();
+cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& config, double dt) {
+  const Key key = key_of(config, dt);
+  // Under the lock throughout: sessions that miss the same table at once compute it once.
+  std::lock_guard<std::mutex> guard(mutex_);
   for (auto it = entries_.begin(); it != entries_.end(); ++it)
-    if (it->second.last_use < oldest->second.last_use) oldest = it;
-  entries_.erase(oldest);
+    if (it->key == key) {
+      entries_.splice(entries_.begin(), entries_, it);
+      return it->buffer;
+    }
+  std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
+  cl::Buffer buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
+  ++computed_;
+  while (!entries_.empty() && bytes_ + table.size() > max_bytes_) {
+    bytes_ -= entries_.back().bytes;
+    entries_.pop_back();
+  }
+  entries_.push_front(Entry{key, buffer, table.size()});
+  bytes_ += table.size();
+  return buffer;
+}
+
+uint64_t CoefficientCache::computed() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return computed_;
+}
+
+size_t CoefficientCache::bytes() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return bytes_;
 }
 
 }  // namespace squall::ewave

@@ -1,11 +1,13 @@
-// The propagator tables of an eWave session on the device (propagator_coefficients, in the state's type),
-// kept by dt for the few most recent dt (least recently used evicted): a session stepping with a
-// constant dt uploads its table once.
+// The propagator tables of eWave steps on the device (propagator_coefficients, in the state's type), shared
+// by every session of one grid, dispersion and dt: sessions stepping with the same config and a constant dt
+// (a fleet of hulls, a client's sessions one after another) compute and upload one table between them, and
+// a new session's first step finds it made. The least recently used tables are evicted past a byte budget.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
-#include <map>
+#include <list>
+#include <mutex>
 
 #include "ewave/ewave_config.h"
 #include "runtime/runtime.h"
@@ -14,22 +16,43 @@ namespace squall::ewave {
 
 class CoefficientCache {
  public:
-  explicit CoefficientCache(size_t capacity = 4) : capacity_(capacity) {}
+  // 64 MiB: 64 tables of a 256^2 single-precision grid, 3 of 1024^2 in double precision.
+  static constexpr size_t kDefaultMaxBytes = size_t(64) << 20;
+  // Tables beyond `max_bytes` evict the least recently used; the newest is kept whatever its size.
+  explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes) : max_bytes_(max_bytes) {}
+  CoefficientCache(const CoefficientCache&) = delete;
+  CoefficientCache& operator=(const CoefficientCache&) = delete;
 
-  // The table of (config, dt), computed and uploaded (blocking) on a miss. Under runtime.exclusive().
-  const cl::Buffer& get(Runtime& runtime, const EWaveConfig& config, double dt);
-  void clear() { entries_.clear(); }  // after the config changed (restore)
+  // The table of (config, dt), computed on a miss into a buffer whose contents are complete when it is
+  // returned (no command: any queue may read it). Thread-safe; no device queue is needed. A buffer
+  // evicted while a caller holds it (or a command reads it) lives on until both are done (OpenCL's
+  // reference counts).
+  cl::Buffer get(const Runtime& runtime, const EWaveConfig& config, double dt);
+
+  uint64_t computed() const;  // tables computed so far
+  size_t bytes() const;       // held now
 
  private:
-  struct Entry {
-    BufferLease buffer;
-    uint64_t last_use = 0;
+  // What propagator_coefficients() and the state's type depend on.
+  struct Key {
+    int64_t nx = 0, ny = 0;
+    double length_x = 0, length_y = 0, gravity = 0, depth = 0, capillary_length = 0, dt = 0;
+    int dispersion = 0;
+    bool double_precision = false;
+    bool operator==(const Key&) const = default;
   };
-  void evict_oldest();
+  struct Entry {
+    Key key;
+    cl::Buffer buffer;
+    size_t bytes = 0;
+  };
+  static Key key_of(const EWaveConfig& config, double dt);
 
-  size_t capacity_;
-  std::map<double, Entry> entries_;
-  uint64_t uses_ = 0;
+  const size_t max_bytes_;
+  mutable std::mutex mutex_;
+  std::list<Entry> entries_;  // most recently used first
+  size_t bytes_ = 0;
+  uint64_t computed_ = 0;
 };
 
 }  // namespace squall::ewave

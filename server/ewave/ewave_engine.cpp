@@ -72,7 +72,8 @@ uint64_t session_bytes(const EWaveConfig& config) {
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config) {
   validate(config, &gate_);
   auto reservation = sessions_.reserve(session_bytes(config));
-  return {std::move(reservation), std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_)};
+  return {std::move(reservation),
+          std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_, &coefficients_)};
 }
 
 std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed) {

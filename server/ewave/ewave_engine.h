@@ -48,6 +48,8 @@ class EWaveEngine {
 
   size_t evict_idle();  // closes sessions idle past the TTL; returns how many
   size_t size() const { return sessions_.size(); }
+  // The propagator tables its sessions share (one per grid, dispersion and dt).
+  const CoefficientCache& coefficients() const { return coefficients_; }
 
  private:
   // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`,
@@ -60,6 +62,7 @@ class EWaveEngine {
   fft::Fft& fft_;
   LimitGate& gate_;
   ocean::OceanEngine* ocean_;
+  CoefficientCache coefficients_;  // before sessions_: outlives every session
   SessionStore<EWaveSession> sessions_;
 };
 

@@ -10,8 +10,14 @@
 namespace squall::ewave {
 
 EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean,
-                           const LimitGate* gate)
-    : runtime_(runtime), fft_(fft), ocean_(ocean), gate_(gate), config_(config) {
+                           const LimitGate* gate, CoefficientCache* coefficients)
+    : runtime_(runtime),
+      fft_(fft),
+      ocean_(ocean),
+      gate_(gate),
+      config_(config),
+      own_coefficients_(coefficients ? nullptr : std::make_unique<CoefficientCache>()),
+      coefficients_(coefficients ? coefficients : own_coefficients_.get()) {
   validate(config_, gate_);
   if (config_.initial_ocean) ocean_engine("config.initial_ocean");
   if (config_.ambient_ocean) ocean_engine("config.ambient_ocean");
@@ -122,7 +128,6 @@ void EWaveSession::restore(const std::string& bytes) {
   EWaveConfig restored = config_of(h);
   restored.ambient_ocean = config_.ambient_ocean;  // the session's own (config_from_state() gives the bytes')
   config_ = std::move(restored);
-  coefficients_.clear();  // the dispersion may differ
   auto lock = runtime_.exclusive();
   upload_trim();
   runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,9 +32,10 @@ class EWaveSession {
   // `ocean` evaluates the config's and the steps' ocean specs (initial_ocean, ambient_ocean); without it
   // such specs give Error(FailedPrecondition). It must outlive the session and share the runtime.
   // `gate` holds the daemon's limits (--max-grid-cells) that the ocean specs' layers are checked against;
-  // null: the default limits. It must outlive the session.
+  // null: the default limits. `coefficients` holds the propagator tables the session shares with others;
+  // null: a cache of the session's own. Both must outlive the session.
   EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean = nullptr,
-               const LimitGate* gate = nullptr);
+               const LimitGate* gate = nullptr, CoefficientCache* coefficients = nullptr);
 
   const EWaveConfig& config() const { return config_; }
   uint64_t step_index() const { return step_; }
@@ -72,7 +74,7 @@ class EWaveSession {
   // in the cells the last reset covered (shape_map_cells_).
   void rasterize(const std::vector<Shape>& shapes, bool reset);
   void prepare(const StepInputs& inputs, bool has_obstruction);
-  void propagate(double dt, int fields);
+  void propagate(int fields);  // with coefficient_table_, the step's dt's
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
   void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours
@@ -101,7 +103,9 @@ class EWaveSession {
   CellBox shape_map_cells_;
   std::vector<EWaveShape> shape_staging_;  // the host side of the shapes' and vertices' last uploads
   std::vector<float> vertex_staging_;
-  CoefficientCache coefficients_;
+  std::unique_ptr<CoefficientCache> own_coefficients_;  // when the session was given none
+  CoefficientCache* coefficients_;
+  cl::Buffer coefficient_table_;  // the last step's, held until the next (its commands have run by then)
 };
 
 }  // namespace squall::ewave

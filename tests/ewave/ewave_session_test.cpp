@@ -6,6 +6,7 @@
 #include "common/error.h"
 #include "common/limits.h"
 #include "ewave/ewave_engine.h"
+#include "ewave/propagator.h"
 #include "ewave_support.h"
 #include "support/expect_error.h"
 #include "support/fftw_wisdom.h"
@@ -161,6 +162,59 @@ TEST(EWaveSession, AStepPastTheTimeRangeIsRefused) {
   EXPECT_EQ(s.step_index(), 1u);
 }
 
+// The host's table of (config, dt), in the state's type, as bytes.
+std::vector<char> host_table(const EWaveConfig& config, double dt) {
+  return to_state_type(propagator_coefficients(config, dt), config.double_precision);
+}
+
+void expect_table(const cl::Buffer& table, const EWaveConfig& config, double dt) {
+  const std::vector<char> expected = host_table(config, dt);
+  EXPECT_EQ(squall::test::read<char>(table, expected.size()), expected);
+}
+
+// One table per grid, dispersion and dt, equal to the host's: a second request of the same is the same
+// buffer, and another dt, gravity or precision makes one of its own.
+TEST(CoefficientCache, OneTablePerGridDispersionAndDt) {
+  Runtime& runtime = squall::test::runtime();
+  CoefficientCache cache;
+  const EWaveConfig a = plain_config(32, 24);
+  const cl::Buffer table = cache.get(runtime, a, 0.01);
+  expect_table(table, a, 0.01);
+  EXPECT_EQ(cache.get(runtime, a, 0.01)(), table());
+  EXPECT_EQ(cache.computed(), 1u);
+  expect_table(cache.get(runtime, a, 0.02), a, 0.02);
+  EWaveConfig b = a;
+  b.gravity = 9.7;
+  expect_table(cache.get(runtime, b, 0.01), b, 0.01);
+  EXPECT_EQ(cache.computed(), 3u);
+  if (runtime.device_info().double_precision) {
+    EWaveConfig c = a;
+    c.double_precision = true;
+    expect_table(cache.get(runtime, c, 0.01), c, 0.01);
+    EXPECT_EQ(cache.computed(), 4u);
+  }
+}
+
+// Past the byte budget the least recently used table goes; one held by a caller (or read by a command)
+// when it is evicted keeps its values.
+TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
+  Runtime& runtime = squall::test::runtime();
+  const EWaveConfig config = plain_config(32, 24);
+  CoefficientCache cache(2 * host_table(config, 0.01).size());
+  const cl::Buffer first = cache.get(runtime, config, 0.01);
+  cache.get(runtime, config, 0.02);
+  cache.get(runtime, config, 0.01);  // now the most recently used
+  cache.get(runtime, config, 0.03);  // evicts 0.02
+  EXPECT_EQ(cache.computed(), 3u);
+  EXPECT_EQ(cache.bytes(), 2 * host_table(config, 0.01).size());
+  cache.get(runtime, config, 0.01);
+  EXPECT_EQ(cache.computed(), 3u);
+  cache.get(runtime, config, 0.02);  // evicts 0.03
+  cache.get(runtime, config, 0.03);  // evicts 0.01, still held here
+  EXPECT_EQ(cache.computed(), 5u);
+  expect_table(first, config, 0.01);
+}
+
 class EngineTest : public testing::Test {
  protected:
   EngineTest() : gate_(limits()) {}
@@ -231,6 +285,25 @@ TEST_F(EngineTest, CheckpointRestoresTheSessionUnderItsIdBitIdentically) {
   expect_bit_identical(second.step(id, busy_step(5)), expected);
   expect_error(Code::FailedPrecondition, "already a live eWave session", [&] { second.restore_checkpoint(saved); });
   expect_error(Code::InvalidArgument, "checkpoint", [&] { second.restore_checkpoint(second.state(id)); });
+}
+
+// Sessions of one engine share their propagator tables: two sessions of one grid stepping with one dt
+// compute one, and a later session finds it made after the first two have gone. Their steps are those
+// of a session with a table of its own, bit for bit.
+TEST_F(EngineTest, SessionsOfOneGridAndDtShareAPropagatorTable) {
+  EWaveEngine e = engine();
+  std::string a = e.create(busy_config()), b = e.create(busy_config());
+  e.step(a, busy_step(0));
+  e.step(b, busy_step(0));
+  EXPECT_EQ(e.coefficients().computed(), 1u);
+  e.step(a, plain_step(0.02));
+  EXPECT_EQ(e.coefficients().computed(), 2u);
+  e.close(a);
+  e.close(b);
+  std::string c = e.create(busy_config());
+  EWaveSession alone(squall::test::runtime(), squall::test::fft(), busy_config());  // the engine's FFT
+  for (int n = 0; n < 3; ++n) expect_bit_identical(e.step(c, busy_step(n)), alone.step(busy_step(n)));
+  EXPECT_EQ(e.coefficients().computed(), 2u);
 }
 
 TEST_F(EngineTest, StateMovesASessionToAnotherEngine) {
