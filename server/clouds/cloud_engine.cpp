@@ -13,7 +13,7 @@ std::string save(const StoredVolume& volume) { return write_vdb(volume.volume); 
 CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options)
     : runtime_(runtime),
       options_(options),
-      renderer_(runtime),
+      renderer_(runtime, &gate),
       stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {
   stored_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
 }
@@ -50,6 +50,7 @@ void CloudEngine::validate(CloudModel model, const std::string& field) const {
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {
   auto reservation = stored_.reserve(volume->bytes);
   volume->id = id;
+  volume->device.kept_shadow_map = std::make_shared<KeptShadowMap>();  // its renders share their map
   return stored_.add(id, std::move(reservation), volume);
 }
 

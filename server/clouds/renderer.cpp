@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 
 #include "clouds/nanovdb_volume.h"
@@ -240,8 +241,9 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
   return d;
 }
 
-CloudRenderer::CloudRenderer(Runtime& runtime)
+CloudRenderer::CloudRenderer(Runtime& runtime, LimitGate* gate)
     : runtime_(runtime),
+      gate_(gate),
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
       render_(runtime, "clouds/render.cl", "cloud_render") {}
 
@@ -257,6 +259,32 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
   e.total = e.per_pixel * s.camera.width * s.camera.height + e.per_map_node * e.map_nodes;
   return e;
 }
+
+namespace {
+
+// The parameters a deep shadow map depends on: all of a render's but the camera's.
+CloudRenderParams without_camera(CloudRenderParams p) {
+  std::fill(p.eye, p.eye + 3, 0.0f), std::fill(p.forward, p.forward + 3, 0.0f);
+  std::fill(p.right, p.right + 3, 0.0f), std::fill(p.up, p.up + 3, 0.0f);
+  p.tan_half_fov_y = 0, p.width = p.height = 0;
+  return p;
+}
+
+// CloudRenderParams holds 4-byte fields only (render_params.h): no padding, so bytes compare as values.
+bool same_params(const CloudRenderParams& a, const CloudRenderParams& b) { return !std::memcmp(&a, &b, sizeof a); }
+
+}  // namespace
+
+// The map of a render, with what must outlive the render's commands: the mask its nodes read, and the
+// pool's buffer when the map is not kept.
+struct CloudRenderer::ShadowMap {
+  cl::Buffer buffer;
+  BufferLease pooled;
+  std::vector<cl_uchar> needed;
+  BufferLease mask;
+  bool to_keep = false;  // made now, to be kept once the render has waited for its queue
+  CloudRenderParams made_with{};
+};
 
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field,
                             const Cancellation& cancel) {
@@ -275,54 +303,95 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   const size_t pixels = size_t(p.width) * p.height;
   image.data.resize(pixels * image.channels.size());
 
-  const SampleEstimate cost = estimate_samples(volume, settings);
-  size_t dsm_floats = 1;
-  if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0)
-    dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
-  auto dsm = runtime_.buffers().acquire(dsm_floats * sizeof(float));
   auto out = runtime_.buffers().acquire(image.data.size() * sizeof(float));
   // Slices of 8x8 tiles in row order (a slice is up to three rectangles: a row's end, whole rows, a row's
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
   const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
-  std::vector<cl_uchar> needed;  // the map's mask, uploaded without a wait: it outlives the lease's work
-  BufferLease mask;
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
+  const ShadowMap map = shadow_map(volume, settings, p, lease, cancel, field);
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
-  // much larger work waiting for a queue. A deep shadow map is a kind of its own, by its map's size.
+  // much larger work waiting for a queue.
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
-  const WorkKind map_kind{"clouds.shadow_map", dsm_floats};
-  if (settings.shadow == ShadowMode::DeepShadowMap && p.n_lights > 0) {
-    needed = shadow_map_mask(volume, p);
-    mask = runtime_.buffers().acquire(needed.size());
-    lease = runtime_.exclusive(map_kind);
-    runtime_.queue().enqueueWriteBuffer(mask.buffer(), CL_FALSE, 0, needed.size(), needed.data());
-    // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
-    // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
-    // nodes after them do not reach, and their slice would overrun.
-    constexpr double kSkippedNodeSamples = 0.1;
-    auto node_cost = [&](size_t g) {
-      double c = 0;
-      for (size_t id = 64 * g; id < std::min(64 * (g + 1), dsm_floats); ++id)
-        c += needed[id % needed.size()] ? cost.per_map_node : kSkippedNodeSamples;
-      return std::max(c, 1.0);
-    };
-    const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, map_kind};
-    run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
-      shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
-                                mask.buffer(), dsm.buffer());
-    });
-    // Its last slice is not waited for: the render's first slice, timed with it, may size the second
-    // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.
-  }
   SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, kFirstSliceSamples, kind};
   run_sliced(runtime_, lease, plan, cancel, field + ": the render", [&](size_t first, size_t count) {
     for (const auto& r : tiles.rectangles(first, count))
       render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
-                            volume.density, volume.temperature, dsm.buffer(), p, out.buffer());
+                            volume.density, volume.temperature, map.buffer, p, out.buffer());
   });
   read_back(runtime_, out.buffer(), image.data.size() * sizeof(float), image.data.data());
+  if (map.to_keep) keep(volume, map);
   return image;
+}
+
+CloudRenderer::ShadowMap CloudRenderer::shadow_map(const DeviceVolume& volume, const RenderSettings& settings,
+                                                   const CloudRenderParams& p, QueueLease& lease,
+                                                   const Cancellation& cancel, const std::string& field) {
+  ShadowMap map;
+  if (settings.shadow != ShadowMode::DeepShadowMap || p.n_lights == 0) {
+    map.pooled = runtime_.buffers().acquire(sizeof(float));
+    map.buffer = map.pooled.buffer();
+    return map;
+  }
+  map.made_with = without_camera(p);
+  if (KeptShadowMap* kept = volume.kept_shadow_map.get()) {
+    std::lock_guard<std::mutex> guard(kept->mutex);
+    if (kept->map() && same_params(kept->made_with, map.made_with)) {
+      map.buffer = kept->map;
+      return map;
+    }
+    ++kept->made;
+  }
+  const size_t dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
+  map.to_keep = volume.kept_shadow_map && dsm_floats * sizeof(float) <= kMaxKeptShadowMapBytes;
+  if (map.to_keep) {
+    map.buffer = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, dsm_floats * sizeof(float));  // not the pool's
+  } else {
+    map.pooled = runtime_.buffers().acquire(dsm_floats * sizeof(float));
+    map.buffer = map.pooled.buffer();
+  }
+  map.needed = shadow_map_mask(volume, p);
+  map.mask = runtime_.buffers().acquire(map.needed.size());
+  // A deep shadow map is a kind of work of its own, by its map's size.
+  const WorkKind map_kind{"clouds.shadow_map", dsm_floats};
+  lease = runtime_.exclusive(map_kind);
+  runtime_.queue().enqueueWriteBuffer(map.mask.buffer(), CL_FALSE, 0, map.needed.size(), map.needed.data());
+  // A needed node marches toward its light; a skipped one reads its mask byte and writes 1, priced at a
+  // tenth of a density sample: priced higher, a run of skipped nodes would promise a rate the needed
+  // nodes after them do not reach, and their slice would overrun.
+  constexpr double kSkippedNodeSamples = 0.1;
+  const double per_node = estimate_samples(volume, settings).per_map_node;
+  auto node_cost = [&](size_t g) {
+    double c = 0;
+    for (size_t id = 64 * g; id < std::min(64 * (g + 1), dsm_floats); ++id)
+      c += map.needed[id % map.needed.size()] ? per_node : kSkippedNodeSamples;
+    return std::max(c, 1.0);
+  };
+  const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, map_kind};
+  run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
+    shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
+                              map.mask.buffer(), map.buffer);
+  });
+  // Its last slice is not waited for: the render's first slice, timed with it, may size the second
+  // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.
+  return map;
+}
+
+void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
+  const size_t bytes = map.buffer.getInfo<CL_MEM_SIZE>();
+  Slot memory;
+  if (gate_) {
+    try {
+      memory = gate_->acquire_memory("a deep shadow map kept for the volume's next render", bytes);
+    } catch (const Error&) {
+      return;  // past the memory budget: the next render makes its own
+    }
+  }
+  KeptShadowMap& kept = *volume.kept_shadow_map;
+  std::lock_guard<std::mutex> guard(kept.mutex);
+  kept.made_with = map.made_with;
+  kept.map = map.buffer;
+  kept.memory = std::move(memory);
 }
 
 }  // namespace squall::clouds

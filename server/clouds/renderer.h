@@ -3,6 +3,8 @@
 #pragma once
 
 #include <array>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -10,6 +12,7 @@
 #include "clouds/render_params.h"
 #include "clouds/volume.h"
 #include "common/cancel.h"
+#include "common/limits.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
 #include "runtime/slices.h"
@@ -70,6 +73,21 @@ struct Image {
   float at(int channel, int x, int y) const { return data[(size_t(channel) * height + y) * width + x]; }
 };
 
+// The last deep shadow map made for a volume, kept for its next render with the same settings but the
+// camera's: the map holds the column density toward each light at nodes over the volume's box, which does
+// not depend on the camera, so a camera moving about a stored volume, or several cameras on one, make it
+// once. Held in the daemon's memory budget while kept.
+struct KeptShadowMap {
+  std::mutex mutex;
+  CloudRenderParams made_with{};  // the parameters of the render that made it, the camera's cleared
+  cl::Buffer map;                 // none before the first
+  Slot memory;                    // its bytes in the memory budget
+  uint64_t made = 0;              // maps made for the volume, kept or not
+};
+
+// Maps of at most this many bytes are kept: 16 MiB, a 128^3 map of two lights.
+inline constexpr size_t kMaxKeptShadowMapBytes = size_t(16) << 20;
+
 // A volume on the device: the NanoVDB buffers of its grids, byte for byte.
 struct DeviceVolume {
   cl::Buffer density, temperature;
@@ -80,6 +98,8 @@ struct DeviceVolume {
   std::vector<std::array<double, 6>> occupied;
   CoarseOccupancy coarse;  // `occupied` on a coarse grid over the box: what a ray's march will cost
   uint64_t device_bytes = 0;
+  // A stored volume's; none for a volume rendered once (a model in the request, an evolution's frame).
+  std::shared_ptr<KeptShadowMap> kept_shadow_map;
 };
 
 DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
@@ -103,15 +123,27 @@ void validate(const RenderSettings& settings, const std::string& prefix = "rende
 
 class CloudRenderer {
  public:
-  // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/".
-  explicit CloudRenderer(Runtime& runtime);
+  // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/". The
+  // shadow maps kept for volumes hold their bytes in `gate`'s memory budget (none: not counted).
+  explicit CloudRenderer(Runtime& runtime, LimitGate* gate = nullptr);
   // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
   // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
+  // A deep shadow map is made, or taken from the volume's KeptShadowMap, and kept for its next render when
+  // at most kMaxKeptShadowMapBytes and within the memory budget.
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
                const Cancellation& cancel = {});
 
  private:
+  struct ShadowMap;
+  // The map a render of `p` reads: the volume's kept one, else one made now on `lease`'s queue (left
+  // running), else (no deep shadow map) one float the render does not read.
+  ShadowMap shadow_map(const DeviceVolume& volume, const RenderSettings& settings, const CloudRenderParams& p,
+                       QueueLease& lease, const Cancellation& cancel, const std::string& field);
+  // Keeps a map made for a render, once the render has waited for its queue.
+  void keep(const DeviceVolume& volume, const ShadowMap& map);
+
   Runtime& runtime_;
+  LimitGate* gate_;
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
   Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
       render_;  // density, temperature, dsm, p, out

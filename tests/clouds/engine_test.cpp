@@ -74,6 +74,31 @@ TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
   EXPECT_NE(msg.find("cap"), std::string::npos) << msg;
 }
 
+// A kept volume's renders from two cameras make one deep shadow map, held in the memory budget until the
+// volume is released; a volume rendered without being kept keeps none.
+TEST(Engine, AKeptVolumeKeepsItsShadowMapUntilReleased) {
+  TestStore store;
+  CloudEngine& engine = *store.engine;
+  RenderSettings s;
+  Light sun;
+  sun.intensity = {1000};
+  s.lights = {sun};
+  s.shadow_map_size = {32, 32, 32};
+  const auto once = engine.build(small_sphere());
+  engine.render(*once, s);
+  EXPECT_FALSE(once->device.kept_shadow_map);
+  const uint64_t before = store.gate.memory_bytes();
+  std::string id = engine.keep(engine.build(small_sphere()));
+  const uint64_t stored = store.gate.memory_bytes();
+  engine.render(*engine.find(id), s);
+  s.camera.eye = {10, -25, 4};
+  engine.render(*engine.find(id), s);
+  EXPECT_EQ(engine.find(id)->device.kept_shadow_map->made, 1u);
+  EXPECT_EQ(store.gate.memory_bytes(), stored + 32 * 32 * 32 * sizeof(float));
+  engine.release(id);
+  EXPECT_EQ(store.gate.memory_bytes(), before);
+}
+
 TEST(Engine, CheckpointRestoresTheVolumeUnderItsIdAsVdb) {
   TestStore store;
   CloudEngine& engine = *store.engine;

@@ -6,10 +6,12 @@
 
 #include <cmath>
 #include <functional>
+#include <memory>
 
 #include "clouds/render_params.h"
 #include "clouds/renderer.h"
 #include "clouds/volume.h"
+#include "common/limits.h"
 #include "support/test_runtime.h"
 #include <openvdb/tools/Interpolation.h>
 
@@ -334,6 +336,76 @@ TEST(Render, DeepShadowMapMatchesDirectShadowRays) {
               trilinear, fine);
   EXPECT_NEAR(d / trilinear, 1.0, 0.01);
   EXPECT_NEAR(trilinear / fine, 1.0, 0.01);
+}
+
+// A sun and a deep shadow map of 48^3 nodes (442 368 bytes) over the soft sphere, seen by sphere_camera.
+RenderSettings sunlit_sphere() {
+  RenderSettings s = sphere_camera(0.1);
+  Light sun;
+  sun.direction = {1, 0.3, 0.5};
+  sun.intensity = {1000};
+  s.lights = {sun};
+  s.shadow = ShadowMode::DeepShadowMap;
+  s.shadow_map_size = {48, 48, 48};
+  return s;
+}
+
+DeviceVolume stored_sphere() {
+  DeviceVolume v = upload_volume(test::runtime(), soft_sphere());
+  v.kept_shadow_map = std::make_shared<KeptShadowMap>();
+  return v;
+}
+
+// A deep shadow map depends on the volume, the lights and the marches, not on the camera: renders of a
+// stored volume from other cameras read the map of its first render and give the images of a volume that
+// makes its own, bit for bit; another light or seed makes a new map.
+TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
+  CloudRenderer renderer(test::runtime());
+  const DeviceVolume kept = stored_sphere(), fresh = upload_volume(test::runtime(), soft_sphere());
+  RenderSettings s = sunlit_sphere();
+  renderer.render(kept, s);
+  auto expect_as_fresh = [&] { EXPECT_EQ(renderer.render(kept, s).data, renderer.render(fresh, s).data); };
+  s.camera.eye = {-18, -14, 6};
+  s.camera.width = 40;
+  expect_as_fresh();
+  EXPECT_EQ(kept.kept_shadow_map->made, 1u);
+  s.lights[0].direction = {-1, 0.2, 0.6};
+  expect_as_fresh();
+  EXPECT_EQ(kept.kept_shadow_map->made, 2u);
+  s.seed = 7;
+  expect_as_fresh();
+  EXPECT_EQ(kept.kept_shadow_map->made, 3u);
+}
+
+// A kept map holds its bytes in the memory budget until its volume goes. Past the budget, or past
+// kMaxKeptShadowMapBytes, none is kept: each render makes its own.
+TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
+  Limits limits;
+  limits.memory_budget = 1 << 20;
+  LimitGate gate(limits);
+  CloudRenderer renderer(test::runtime(), &gate);
+  RenderSettings s = sunlit_sphere();
+  const uint64_t map_bytes = 48 * 48 * 48 * sizeof(float);
+  {
+    const DeviceVolume v = stored_sphere();
+    renderer.render(v, s);
+    renderer.render(v, s);
+    EXPECT_EQ(v.kept_shadow_map->made, 1u);
+    EXPECT_EQ(gate.memory_bytes(), map_bytes);
+    s.shadow_map_size = {72, 72, 72};  // 1.49 MB: past the budget
+    renderer.render(v, s);
+    renderer.render(v, s);
+    EXPECT_EQ(v.kept_shadow_map->made, 3u);
+    EXPECT_EQ(gate.memory_bytes(), map_bytes);  // the first map is still kept
+  }
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+  CloudRenderer unbounded(test::runtime());
+  const DeviceVolume v = stored_sphere();
+  s.shadow_map_size = {170, 170, 170};  // 19.6 MB: past kMaxKeptShadowMapBytes
+  unbounded.render(v, s);
+  unbounded.render(v, s);
+  EXPECT_EQ(v.kept_shadow_map->made, 2u);
+  EXPECT_FALSE(v.kept_shadow_map->map());
 }
 
 // Empty-space skipping: two slabs 144 m apart (the gap spans whole internal nodes of the tree), each
