@@ -308,8 +308,9 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
   const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
+  ShadowMap map;     // before the lease: its mask's host bytes outlive the lease's wait for the queue
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
-  const ShadowMap map = shadow_map(volume, settings, p, lease, cancel, field);
+  make_shadow_map(map, volume, settings, p, lease, cancel, field);
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
   // much larger work waiting for a queue.
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
@@ -324,21 +325,20 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   return image;
 }
 
-CloudRenderer::ShadowMap CloudRenderer::shadow_map(const DeviceVolume& volume, const RenderSettings& settings,
-                                                   const CloudRenderParams& p, QueueLease& lease,
-                                                   const Cancellation& cancel, const std::string& field) {
-  ShadowMap map;
+void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
+                                    const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
+                                    const std::string& field) {
   if (settings.shadow != ShadowMode::DeepShadowMap || p.n_lights == 0) {
     map.pooled = runtime_.buffers().acquire(sizeof(float));
     map.buffer = map.pooled.buffer();
-    return map;
+    return;
   }
   map.made_with = without_camera(p);
   if (KeptShadowMap* kept = volume.kept_shadow_map.get()) {
     std::lock_guard<std::mutex> guard(kept->mutex);
     if (kept->map() && same_params(kept->made_with, map.made_with)) {
       map.buffer = kept->map;
-      return map;
+      return;
     }
     ++kept->made;
   }
@@ -374,7 +374,6 @@ CloudRenderer::ShadowMap CloudRenderer::shadow_map(const DeviceVolume& volume, c
   });
   // Its last slice is not waited for: the render's first slice, timed with it, may size the second
   // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.
-  return map;
 }
 
 void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {

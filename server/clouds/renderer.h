@@ -135,10 +135,11 @@ class CloudRenderer {
 
  private:
   struct ShadowMap;
-  // The map a render of `p` reads: the volume's kept one, else one made now on `lease`'s queue (left
-  // running), else (no deep shadow map) one float the render does not read.
-  ShadowMap shadow_map(const DeviceVolume& volume, const RenderSettings& settings, const CloudRenderParams& p,
-                       QueueLease& lease, const Cancellation& cancel, const std::string& field);
+  // Sets `map` to what a render of `p` reads: the volume's kept map, else one made now on `lease`'s queue
+  // (left running), else (no deep shadow map) one float the render does not read.
+  void make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
+                       const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
+                       const std::string& field);
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, const ShadowMap& map);
 
