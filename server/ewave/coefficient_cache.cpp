@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "common/error.h"
 #include "ewave/ewave_state_format.h"
 #include "ewave/propagator.h"
 
@@ -34,7 +35,15 @@ cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& conf
     bytes_ -= entries_.back().bytes;
     entries_.pop_back();
   }
-  entries_.push_front(Entry{key, buffer, table.size()});
+  Slot memory;
+  if (gate_) {
+    try {
+      memory = gate_->acquire_memory("an eWave propagator table kept for the next steps", table.size());
+    } catch (const Error&) {
+      return buffer;  // past the memory budget: used by this step alone
+    }
+  }
+  entries_.push_front(Entry{key, buffer, table.size(), std::move(memory)});
   bytes_ += table.size();
   return buffer;
 }

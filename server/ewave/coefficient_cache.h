@@ -1,7 +1,8 @@
 // The propagator tables of eWave steps on the device (propagator_coefficients, in the state's type), shared
 // by every session of one grid, dispersion and dt: sessions stepping with the same config and a constant dt
 // (a fleet of hulls, a client's sessions one after another) compute and upload one table between them, and
-// a new session's first step finds it made. The least recently used tables are evicted past a byte budget.
+// a new session's first step finds it made. The least recently used tables are evicted past a byte budget,
+// and the tables held count in the daemon's memory budget.
 #pragma once
 
 #include <cstddef>
@@ -9,6 +10,7 @@
 #include <list>
 #include <mutex>
 
+#include "common/limits.h"
 #include "ewave/ewave_config.h"
 #include "runtime/runtime.h"
 
@@ -18,8 +20,11 @@ class CoefficientCache {
  public:
   // 64 MiB: 64 tables of a 256^2 single-precision grid, 3 of 1024^2 in double precision.
   static constexpr size_t kDefaultMaxBytes = size_t(64) << 20;
-  // Tables beyond `max_bytes` evict the least recently used; the newest is kept whatever its size.
-  explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes) : max_bytes_(max_bytes) {}
+  // Tables beyond `max_bytes` evict the least recently used; the newest is kept whatever its size. Each
+  // table kept holds its bytes in `gate`'s memory budget (none: not counted); one past the budget is
+  // returned but not kept.
+  explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes, LimitGate* gate = nullptr)
+      : max_bytes_(max_bytes), gate_(gate) {}
   CoefficientCache(const CoefficientCache&) = delete;
   CoefficientCache& operator=(const CoefficientCache&) = delete;
 
@@ -45,10 +50,12 @@ class CoefficientCache {
     Key key;
     cl::Buffer buffer;
     size_t bytes = 0;
+    Slot memory;  // its bytes in the memory budget
   };
   static Key key_of(const EWaveConfig& config, double dt);
 
   const size_t max_bytes_;
+  LimitGate* gate_;
   mutable std::mutex mutex_;
   std::list<Entry> entries_;  // most recently used first
   size_t bytes_ = 0;

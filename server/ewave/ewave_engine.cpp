@@ -52,6 +52,7 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
       fft_(fft),
       gate_(gate),
       ocean_(options.ocean),
+      coefficients_(CoefficientCache::kDefaultMaxBytes, &gate),
       sessions_(gate, std::move(options.sessions), "eWave session", "session_id") {
   sessions_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
   // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.

@@ -215,6 +215,27 @@ TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
   expect_table(first, config, 0.01);
 }
 
+// Kept tables hold their bytes in the memory budget until evicted or the cache goes; one past the budget
+// is returned, equal to the host's, but not kept.
+TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
+  Runtime& runtime = squall::test::runtime();
+  const EWaveConfig config = plain_config(32, 24);
+  const uint64_t table = host_table(config, 0.01).size();
+  Limits limits;
+  limits.memory_budget = table + table / 2;
+  LimitGate gate(limits);
+  {
+    CoefficientCache cache(CoefficientCache::kDefaultMaxBytes, &gate);
+    cache.get(runtime, config, 0.01);
+    EXPECT_EQ(gate.memory_bytes(), table);
+    expect_table(cache.get(runtime, config, 0.02), config, 0.02);  // past the budget
+    cache.get(runtime, config, 0.02);
+    EXPECT_EQ(cache.computed(), 3u);
+    EXPECT_EQ(cache.bytes(), table);
+  }
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+}
+
 class EngineTest : public testing::Test {
  protected:
   EngineTest() : gate_(limits()) {}
