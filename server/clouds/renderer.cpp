@@ -241,9 +241,18 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
   return d;
 }
 
-CloudRenderer::CloudRenderer(Runtime& runtime, LimitGate* gate)
+namespace {
+Limits kept_maps_limits(size_t max_bytes) {
+  Limits l;
+  l.memory_budget = max_bytes;
+  return l;
+}
+}  // namespace
+
+CloudRenderer::CloudRenderer(Runtime& runtime, LimitGate* gate, size_t max_kept_maps_bytes)
     : runtime_(runtime),
       gate_(gate),
+      kept_maps_(kept_maps_limits(max_kept_maps_bytes)),
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
       render_(runtime, "clouds/render.cl", "cloud_render") {}
 
@@ -378,19 +387,19 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
 
 void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
   const size_t bytes = map.buffer.getInfo<CL_MEM_SIZE>();
-  Slot memory;
-  if (gate_) {
-    try {
-      memory = gate_->acquire_memory("a deep shadow map kept for the volume's next render", bytes);
-    } catch (const Error&) {
-      return;  // past the memory budget: the next render makes its own
-    }
-  }
   KeptShadowMap& kept = *volume.kept_shadow_map;
   std::lock_guard<std::mutex> guard(kept.mutex);
+  kept.map = cl::Buffer();  // the map it replaces gives its budgets back first
+  kept.memory = Slot(), kept.share = Slot();
+  try {
+    Slot share = kept_maps_.acquire_memory("the deep shadow maps kept", bytes);
+    if (gate_) kept.memory = gate_->acquire_memory("a deep shadow map kept for the volume's next render", bytes);
+    kept.share = std::move(share);
+  } catch (const Error&) {
+    return;  // past a budget: the next render makes its own
+  }
   kept.made_with = map.made_with;
   kept.map = map.buffer;
-  kept.memory = std::move(memory);
 }
 
 }  // namespace squall::clouds

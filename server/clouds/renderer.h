@@ -75,18 +75,21 @@ struct Image {
 
 // The last deep shadow map made for a volume, kept for its next render with the same settings but the
 // camera's: the map holds the column density toward each light at nodes over the volume's box, which does
-// not depend on the camera, so a camera moving about a stored volume, or several cameras on one, make it
-// once. Held in the daemon's memory budget while kept.
+// not depend on the camera, so the renders of a camera moving about a stored volume, or of several cameras
+// on one, read the map of the first. Held in the daemon's memory budget while kept.
 struct KeptShadowMap {
   std::mutex mutex;
   CloudRenderParams made_with{};  // the parameters of the render that made it, the camera's cleared
   cl::Buffer map;                 // none before the first
-  Slot memory;                    // its bytes in the memory budget
+  Slot memory, share;             // its bytes in the memory budget and in the kept maps' own
   uint64_t made = 0;              // maps made for the volume, kept or not
 };
 
-// Maps of at most this many bytes are kept: 16 MiB, a 128^3 map of two lights.
+// A map of at most this many bytes is kept: 16 MiB, a 128^3 map of two lights.
 inline constexpr size_t kMaxKeptShadowMapBytes = size_t(16) << 20;
+// The maps kept for all volumes together hold at most this many bytes (by default 64 MiB): no more of the
+// memory budget than that is kept from calls.
+inline constexpr size_t kMaxKeptShadowMapsBytes = size_t(64) << 20;
 
 // A volume on the device: the NanoVDB buffers of its grids, byte for byte.
 struct DeviceVolume {
@@ -124,12 +127,14 @@ void validate(const RenderSettings& settings, const std::string& prefix = "rende
 class CloudRenderer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/". The
-  // shadow maps kept for volumes hold their bytes in `gate`'s memory budget (none: not counted).
-  explicit CloudRenderer(Runtime& runtime, LimitGate* gate = nullptr);
+  // shadow maps kept for volumes hold their bytes in `gate`'s memory budget (none: not counted), and at
+  // most `max_kept_maps_bytes` together.
+  explicit CloudRenderer(Runtime& runtime, LimitGate* gate = nullptr,
+                         size_t max_kept_maps_bytes = kMaxKeptShadowMapsBytes);
   // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
   // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
   // A deep shadow map is made, or taken from the volume's KeptShadowMap, and kept for its next render when
-  // at most kMaxKeptShadowMapBytes and within the memory budget.
+  // at most kMaxKeptShadowMapBytes and within both budgets (else the next render makes its own).
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
                const Cancellation& cancel = {});
 
@@ -145,6 +150,7 @@ class CloudRenderer {
 
   Runtime& runtime_;
   LimitGate* gate_;
+  LimitGate kept_maps_;  // its memory budget: the kept maps' bytes, all volumes together
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
   Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
       render_;  // density, temperature, dsm, p, out

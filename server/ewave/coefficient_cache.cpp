@@ -21,31 +21,47 @@ CoefficientCache::Key CoefficientCache::key_of(const EWaveConfig& c, double dt) 
 
 cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& config, double dt) {
   const Key key = key_of(config, dt);
-  // Under the lock throughout: sessions that miss the same table at once compute it once.
+  if (cl::Buffer found = find(key); found()) return found;
+  // Made with no lock held, so that other sessions' steps do not wait for it: sessions missing the same
+  // table at once may each make it, and the first to finish keeps it.
+  std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
+  cl::Buffer buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
+  std::lock_guard<std::mutex> guard(mutex_);
+  ++computed_;
+  for (const Entry& e : entries_)
+    if (e.key == key) return e.buffer;
+  if (table.size() <= max_bytes_) keep(key, buffer, table.size());
+  return buffer;
+}
+
+cl::Buffer CoefficientCache::find(const Key& key) {
   std::lock_guard<std::mutex> guard(mutex_);
   for (auto it = entries_.begin(); it != entries_.end(); ++it)
     if (it->key == key) {
       entries_.splice(entries_.begin(), entries_, it);
       return it->buffer;
     }
-  std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
-  cl::Buffer buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
-  ++computed_;
-  while (!entries_.empty() && bytes_ + table.size() > max_bytes_) {
+  return cl::Buffer();
+}
+
+void CoefficientCache::keep(const Key& key, const cl::Buffer& buffer, size_t bytes) {
+  auto evict_oldest = [this] {
     bytes_ -= entries_.back().bytes;
     entries_.pop_back();
-  }
+  };
+  while (!entries_.empty() && bytes_ + bytes > max_bytes_) evict_oldest();
   Slot memory;
-  if (gate_) {
+  for (bool counted = !gate_; !counted;) {
     try {
-      memory = gate_->acquire_memory("an eWave propagator table kept for the next steps", table.size());
+      memory = gate_->acquire_memory("an eWave propagator table kept for the next steps", bytes);
+      counted = true;
     } catch (const Error&) {
-      return buffer;  // past the memory budget: used by this step alone
+      if (entries_.empty()) return;  // past the memory budget: it serves this step alone
+      evict_oldest();                // the budget the older tables hold goes to the newest
     }
   }
-  entries_.push_front(Entry{key, buffer, table.size(), std::move(memory)});
-  bytes_ += table.size();
-  return buffer;
+  entries_.push_front(Entry{key, buffer, bytes, std::move(memory)});
+  bytes_ += bytes;
 }
 
 uint64_t CoefficientCache::computed() const {

@@ -18,11 +18,11 @@ namespace squall::ewave {
 
 class CoefficientCache {
  public:
-  // 64 MiB: 64 tables of a 256^2 single-precision grid, 3 of 1024^2 in double precision.
+  // 64 MiB: 127 tables of a 256^2 single-precision grid, 3 of 1024^2 in double precision.
   static constexpr size_t kDefaultMaxBytes = size_t(64) << 20;
-  // Tables beyond `max_bytes` evict the least recently used; the newest is kept whatever its size. Each
-  // table kept holds its bytes in `gate`'s memory budget (none: not counted); one past the budget is
-  // returned but not kept.
+  // Tables beyond `max_bytes` evict the least recently used; one larger than `max_bytes` is returned but
+  // not kept. Each table kept holds its bytes in `gate`'s memory budget (none: not counted): where the
+  // budget has no room for a new one, the older ones give theirs, and with none left it is not kept.
   explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes, LimitGate* gate = nullptr)
       : max_bytes_(max_bytes), gate_(gate) {}
   CoefficientCache(const CoefficientCache&) = delete;
@@ -53,6 +53,8 @@ class CoefficientCache {
     Slot memory;  // its bytes in the memory budget
   };
   static Key key_of(const EWaveConfig& config, double dt);
+  cl::Buffer find(const Key& key);                                    // none on a miss
+  void keep(const Key& key, const cl::Buffer& buffer, size_t bytes);  // under mutex_
 
   const size_t max_bytes_;
   LimitGate* gate_;

@@ -377,8 +377,8 @@ TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
   EXPECT_EQ(kept.kept_shadow_map->made, 3u);
 }
 
-// A kept map holds its bytes in the memory budget until its volume goes. Past the budget, or past
-// kMaxKeptShadowMapBytes, none is kept: each render makes its own.
+// A kept map holds its bytes in the memory budget until it is replaced or its volume goes. Past the
+// budget, or past kMaxKeptShadowMapBytes, none is kept: each render makes its own.
 TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   Limits limits;
   limits.memory_budget = 1 << 20;
@@ -396,7 +396,8 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
     renderer.render(v, s);
     renderer.render(v, s);
     EXPECT_EQ(v.kept_shadow_map->made, 3u);
-    EXPECT_EQ(gate.memory_bytes(), map_bytes);  // the first map is still kept
+    EXPECT_EQ(gate.memory_bytes(), 0u);  // the first map gave its bytes back for the larger, which did not fit
+    EXPECT_FALSE(v.kept_shadow_map->map());
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);
   CloudRenderer unbounded(test::runtime());
@@ -406,6 +407,26 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   unbounded.render(v, s);
   EXPECT_EQ(v.kept_shadow_map->made, 2u);
   EXPECT_FALSE(v.kept_shadow_map->map());
+}
+
+// The maps kept for all volumes together stay within the renderer's own budget: a second volume's map
+// that would pass it is not kept until the first volume has gone.
+TEST(Render, KeptShadowMapsTogetherStayWithinTheirBudget) {
+  const size_t map_bytes = 48 * 48 * 48 * sizeof(float);
+  CloudRenderer renderer(test::runtime(), nullptr, map_bytes + map_bytes / 2);
+  const RenderSettings s = sunlit_sphere();
+  const DeviceVolume second = stored_sphere();
+  {
+    const DeviceVolume first = stored_sphere();
+    renderer.render(first, s);
+    renderer.render(second, s);
+    renderer.render(second, s);
+    EXPECT_EQ(second.kept_shadow_map->made, 2u);
+    EXPECT_FALSE(second.kept_shadow_map->map());
+  }
+  renderer.render(second, s);
+  renderer.render(second, s);
+  EXPECT_EQ(second.kept_shadow_map->made, 3u);
 }
 
 // Empty-space skipping: two slabs 144 m apart (the gap spans whole internal nodes of the tree), each

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "common/error.h"
 #include "common/limits.h"
@@ -183,25 +184,27 @@ TEST(CoefficientCache, OneTablePerGridDispersionAndDt) {
   EXPECT_EQ(cache.get(runtime, a, 0.01)(), table());
   EXPECT_EQ(cache.computed(), 1u);
   expect_table(cache.get(runtime, a, 0.02), a, 0.02);
-  EWaveConfig b = a;
-  b.gravity = 9.7;
-  expect_table(cache.get(runtime, b, 0.01), b, 0.01);
-  EXPECT_EQ(cache.computed(), 3u);
-  if (runtime.device_info().double_precision) {
-    EWaveConfig c = a;
-    c.double_precision = true;
-    expect_table(cache.get(runtime, c, 0.01), c, 0.01);
-    EXPECT_EQ(cache.computed(), 4u);
-  }
+  uint64_t made = 2;
+  auto expect_own_table = [&](const std::function<void(EWaveConfig&)>& change) {
+    EWaveConfig b = a;
+    change(b);
+    expect_table(cache.get(runtime, b, 0.01), b, 0.01);
+    EXPECT_EQ(cache.computed(), ++made);
+  };
+  expect_own_table([](EWaveConfig& c) { c.gravity = 9.7; });
+  expect_own_table([](EWaveConfig& c) { c.dx = 0.012; });
+  expect_own_table([](EWaveConfig& c) { c.dispersion = DispersionKind::Shallow, c.depth = 0.05; });
+  expect_own_table([](EWaveConfig& c) { c.dispersion = DispersionKind::Shallow, c.depth = 0.08; });
+  expect_own_table([](EWaveConfig& c) { c.dispersion = DispersionKind::Capillary, c.capillary_length = 0.003; });
+  if (runtime.device_info().double_precision) expect_own_table([](EWaveConfig& c) { c.double_precision = true; });
 }
 
-// Past the byte budget the least recently used table goes; one held by a caller (or read by a command)
-// when it is evicted keeps its values.
+// Past the byte budget the least recently used table goes; a table larger than the budget is not kept.
 TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
   Runtime& runtime = squall::test::runtime();
   const EWaveConfig config = plain_config(32, 24);
   CoefficientCache cache(2 * host_table(config, 0.01).size());
-  const cl::Buffer first = cache.get(runtime, config, 0.01);
+  cache.get(runtime, config, 0.01);
   cache.get(runtime, config, 0.02);
   cache.get(runtime, config, 0.01);  // now the most recently used
   cache.get(runtime, config, 0.03);  // evicts 0.02
@@ -210,16 +213,22 @@ TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
   cache.get(runtime, config, 0.01);
   EXPECT_EQ(cache.computed(), 3u);
   cache.get(runtime, config, 0.02);  // evicts 0.03
-  cache.get(runtime, config, 0.03);  // evicts 0.01, still held here
-  EXPECT_EQ(cache.computed(), 5u);
-  expect_table(first, config, 0.01);
+  cache.get(runtime, config, 0.03);  // evicts 0.01
+  cache.get(runtime, config, 0.01);
+  EXPECT_EQ(cache.computed(), 6u);
+  const EWaveConfig larger = plain_config(64, 48);
+  cache.get(runtime, larger, 0.01);
+  cache.get(runtime, larger, 0.01);
+  EXPECT_EQ(cache.computed(), 8u);
+  EXPECT_EQ(cache.bytes(), 2 * host_table(config, 0.01).size());
 }
 
-// Kept tables hold their bytes in the memory budget until evicted or the cache goes; one past the budget
-// is returned, equal to the host's, but not kept.
+// Kept tables hold their bytes in the memory budget until evicted or the cache goes. Where the budget has
+// no room for a new table the older ones give theirs; where even that is too little, the table serves its
+// caller, equal to the host's, and is not kept.
 TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
   Runtime& runtime = squall::test::runtime();
-  const EWaveConfig config = plain_config(32, 24);
+  const EWaveConfig config = plain_config(32, 24), larger = plain_config(64, 24);  // a table of 1.9x
   const uint64_t table = host_table(config, 0.01).size();
   Limits limits;
   limits.memory_budget = table + table / 2;
@@ -228,10 +237,15 @@ TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
     CoefficientCache cache(CoefficientCache::kDefaultMaxBytes, &gate);
     cache.get(runtime, config, 0.01);
     EXPECT_EQ(gate.memory_bytes(), table);
-    expect_table(cache.get(runtime, config, 0.02), config, 0.02);  // past the budget
+    cache.get(runtime, config, 0.02);  // 0.01 gives its budget to it
     cache.get(runtime, config, 0.02);
-    EXPECT_EQ(cache.computed(), 3u);
-    EXPECT_EQ(cache.bytes(), table);
+    EXPECT_EQ(cache.computed(), 2u);
+    EXPECT_EQ(gate.memory_bytes(), table);
+    expect_table(cache.get(runtime, larger, 0.01), larger, 0.01);  // past the budget even alone
+    cache.get(runtime, larger, 0.01);
+    EXPECT_EQ(cache.computed(), 4u);
+    EXPECT_EQ(cache.bytes(), 0u);
+    EXPECT_EQ(gate.memory_bytes(), 0u);
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);
 }
