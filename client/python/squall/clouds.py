@@ -397,7 +397,8 @@ class Clouds:
         Args:
             cloud: the model (``model(...)``, a CloudModel or a mapping of its fields).
             keep: store it on the server: ``Volume.id`` then names it for ``render`` (dropped after
-                --session-ttl idle, or by ``release``).
+                --session-ttl idle, or by ``release``). A stored volume keeps the deep shadow map of
+                its last render, which the next renders that differ only in the camera reuse.
             return_vdb: return the grids ("density", "temperature") as .vdb bytes (``Volume.vdb``).
             path: write the .vdb file there (implies return_vdb).
 
