@@ -227,8 +227,10 @@ def report_goals(levels: Dict[int, Level], counts: List[int]) -> None:
     rates = [levels[c].rate() for c in counts]
     never_falls = all(b >= 0.95 * a for a, b in zip(rates, rates[1:]))  # 5%: the machine's noise
     print(f"throughput never falls as clients are added (within 5%): {never_falls}")
-    measured = [levels[c] for c in (1, 8) if c in levels]  # every method with calls at both levels
-    if len(measured) == 2 and all(level.latencies[m] for level in measured for m in METHODS):
+    measured = [levels[c] for c in (1, 8) if c in levels]
+    if len(measured) == 2 and all(
+        level.latencies[m] for level in measured for m in METHODS
+    ):  # calls
         for m in METHODS:
             p50_1 = statistics.median(levels[1].latencies[m])
             p99_8 = quantile(levels[8].latencies[m], 0.99)

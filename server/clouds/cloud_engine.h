@@ -68,7 +68,7 @@ class CloudEngine {
 
   Runtime& runtime_;
   CloudEngineOptions options_;
-  CloudRenderer renderer_;
+  CloudRenderer renderer_;  // before stored_: the stored volumes' kept maps give their share back to it
   SessionStore<StoredVolume> stored_;
 };
 

@@ -85,10 +85,13 @@ struct KeptShadowMap {
   uint64_t made = 0;              // maps made for the volume, kept or not
 };
 
-// A map of at most this many bytes is kept: 16 MiB, a 128^3 map of two lights.
+// A map of at most this many bytes is kept: 16 MiB, a 128^3 map of two lights. A larger one leaves the
+// volume's kept map as it was.
 inline constexpr size_t kMaxKeptShadowMapBytes = size_t(16) << 20;
 // The maps kept for all volumes together hold at most this many bytes (by default 64 MiB): no more of the
-// memory budget than that is kept from calls.
+// memory budget than that is kept from calls. The volumes that keep maps keep them, first come, until they
+// replace them or go; a map that finds no room in this share or in the memory budget replaces the
+// volume's kept map with none.
 inline constexpr size_t kMaxKeptShadowMapsBytes = size_t(64) << 20;
 
 // A volume on the device: the NanoVDB buffers of its grids, byte for byte.
@@ -150,7 +153,9 @@ class CloudRenderer {
 
   Runtime& runtime_;
   LimitGate* gate_;
-  LimitGate kept_maps_;  // its memory budget: the kept maps' bytes, all volumes together
+  // Its memory budget: the kept maps' bytes, all volumes together. A KeptShadowMap gives its share back to
+  // it, so the volumes that keep maps must not outlive the renderer.
+  LimitGate kept_maps_;
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
   Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
       render_;  // density, temperature, dsm, p, out

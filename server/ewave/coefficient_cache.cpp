@@ -1,5 +1,6 @@
 #include "ewave/coefficient_cache.h"
 
+#include <algorithm>
 #include <vector>
 
 #include "common/error.h"
@@ -21,21 +22,34 @@ CoefficientCache::Key CoefficientCache::key_of(const EWaveConfig& c, double dt) 
 
 cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& config, double dt) {
   const Key key = key_of(config, dt);
-  if (cl::Buffer found = find(key); found()) return found;
-  // Made with no lock held, so that other sessions' steps do not wait for it: sessions missing the same
-  // table at once may each make it, and the first to finish keeps it.
-  std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
-  cl::Buffer buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
-  std::lock_guard<std::mutex> guard(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    if (cl::Buffer found = find(key); found()) return found;
+    if (!computing(key)) break;
+    computed_one_.wait(lock);
+  }
+  computing_.push_back(key);
+  lock.unlock();
+  cl::Buffer buffer;
+  try {
+    std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
+    buffer = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
+  } catch (...) {
+    lock.lock();
+    std::erase(computing_, key);
+    computed_one_.notify_all();
+    throw;
+  }
+  lock.lock();
+  std::erase(computing_, key);
   ++computed_;
-  for (const Entry& e : entries_)
-    if (e.key == key) return e.buffer;
-  if (table.size() <= max_bytes_) keep(key, buffer, table.size());
+  const size_t bytes = buffer.getInfo<CL_MEM_SIZE>();
+  if (bytes <= max_bytes_) keep(key, buffer, bytes);
+  computed_one_.notify_all();
   return buffer;
 }
 
 cl::Buffer CoefficientCache::find(const Key& key) {
-  std::lock_guard<std::mutex> guard(mutex_);
   for (auto it = entries_.begin(); it != entries_.end(); ++it)
     if (it->key == key) {
       entries_.splice(entries_.begin(), entries_, it);
@@ -44,7 +58,20 @@ cl::Buffer CoefficientCache::find(const Key& key) {
   return cl::Buffer();
 }
 
+bool CoefficientCache::computing(const Key& key) const {
+  return std::find(computing_.begin(), computing_.end(), key) != computing_.end();
+}
+
+// Whether evicting tables could make room for `bytes` more in the memory budget: the budget less what the
+// other holders hold.
+bool CoefficientCache::room_for(size_t bytes) const {
+  if (!gate_) return true;
+  const uint64_t budget = gate_->limits().memory_budget, others = gate_->memory_bytes() - bytes_;
+  return others <= budget && bytes <= budget - others;
+}
+
 void CoefficientCache::keep(const Key& key, const cl::Buffer& buffer, size_t bytes) {
+  if (!room_for(bytes)) return;  // it serves its caller alone; the tables kept stay
   auto evict_oldest = [this] {
     bytes_ -= entries_.back().bytes;
     entries_.pop_back();
@@ -56,8 +83,8 @@ void CoefficientCache::keep(const Key& key, const cl::Buffer& buffer, size_t byt
       memory = gate_->acquire_memory("an eWave propagator table kept for the next steps", bytes);
       counted = true;
     } catch (const Error&) {
-      if (entries_.empty()) return;  // past the memory budget: it serves this step alone
-      evict_oldest();                // the budget the older tables hold goes to the newest
+      if (entries_.empty()) return;  // the others' holdings grew meanwhile
+      evict_oldest();                // the budget the least recently used tables hold goes to the newest
     }
   }
   entries_.push_front(Entry{key, buffer, bytes, std::move(memory)});

@@ -5,10 +5,12 @@
 // and the tables held count in the daemon's memory budget.
 #pragma once
 
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <list>
 #include <mutex>
+#include <vector>
 
 #include "common/limits.h"
 #include "ewave/ewave_config.h"
@@ -22,16 +24,16 @@ class CoefficientCache {
   static constexpr size_t kDefaultMaxBytes = size_t(64) << 20;
   // Tables beyond `max_bytes` evict the least recently used; one larger than `max_bytes` is returned but
   // not kept. Each table kept holds its bytes in `gate`'s memory budget (none: not counted): where the
-  // budget has no room for a new one, the older ones give theirs, and with none left it is not kept.
+  // budget has no room for a new one, the least recently used give theirs, and where even all of theirs
+  // would not make room it is returned but not kept (the others stay).
   explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes, LimitGate* gate = nullptr)
       : max_bytes_(max_bytes), gate_(gate) {}
   CoefficientCache(const CoefficientCache&) = delete;
   CoefficientCache& operator=(const CoefficientCache&) = delete;
 
   // The table of (config, dt), computed on a miss into a buffer whose contents are complete when it is
-  // returned (no command: any queue may read it). Thread-safe; no device queue is needed. A buffer
-  // evicted while a caller holds it (or a command reads it) lives on until both are done (OpenCL's
-  // reference counts).
+  // returned (no command: any queue may read it). Thread-safe, and no device queue is needed: a miss is
+  // computed with no lock held, and callers missing the same table meanwhile wait for it, not for others.
   cl::Buffer get(const Runtime& runtime, const EWaveConfig& config, double dt);
 
   uint64_t computed() const;  // tables computed so far
@@ -53,13 +55,17 @@ class CoefficientCache {
     Slot memory;  // its bytes in the memory budget
   };
   static Key key_of(const EWaveConfig& config, double dt);
-  cl::Buffer find(const Key& key);                                    // none on a miss
+  cl::Buffer find(const Key& key);                                    // under mutex_; none on a miss
+  bool computing(const Key& key) const;                               // under mutex_
   void keep(const Key& key, const cl::Buffer& buffer, size_t bytes);  // under mutex_
+  bool room_for(size_t bytes) const;                                  // under mutex_
 
   const size_t max_bytes_;
   LimitGate* gate_;
   mutable std::mutex mutex_;
-  std::list<Entry> entries_;  // most recently used first
+  std::condition_variable computed_one_;
+  std::list<Entry> entries_;    // most recently used first
+  std::vector<Key> computing_;  // misses being computed now
   size_t bytes_ = 0;
   uint64_t computed_ = 0;
 };

@@ -74,7 +74,7 @@ class EWaveSession {
   // in the cells the last reset covered (shape_map_cells_).
   void rasterize(const std::vector<Shape>& shapes, bool reset);
   void prepare(const StepInputs& inputs, bool has_obstruction);
-  void propagate(int fields);  // with coefficient_table_, the step's dt's
+  void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
   void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours
@@ -105,7 +105,6 @@ class EWaveSession {
   std::vector<float> vertex_staging_;
   std::unique_ptr<CoefficientCache> own_coefficients_;  // when the session was given none
   CoefficientCache* coefficients_;
-  cl::Buffer coefficient_table_;  // the last step's, held until the next (its commands have run by then)
 };
 
 }  // namespace squall::ewave

@@ -55,14 +55,14 @@ Frame EWaveSession::step(const StepInputs& in) {
                                     validate::number(time_) + " s past " + validate::number(kMaxTime) + " s");
   const int fields = wants_outputs(in.outputs) ? kOutputFields : kStateFields;
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
-  coefficient_table_ = coefficients_->get(runtime_, config_, in.dt);  // computed on a miss, with no queue held
+  const cl::Buffer coefficients = coefficients_->get(runtime_, config_, in.dt);  // on a miss with no queue held
   auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});
   upload_maps(in);
   bool has_obstruction = build_obstruction(in);
   prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
   fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})
       .enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
-  propagate(fields);                                                                             // eq 64-65
+  propagate(coefficients, fields);                                                               // eq 64-65
   fft_.plan({nx, ny, size_t(fields), fft::Transform::C2R, precision()})
       .enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());  // eq 66-67
   finish(in, fields, has_obstruction);   // eq 68-69, §3.7 steps 5-7
@@ -154,8 +154,7 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
       kernels_);
 }
 
-void EWaveSession::propagate(int fields) {
-  const cl::Buffer& coefficients = coefficient_table_;
+void EWaveSession::propagate(const cl::Buffer& coefficients, int fields) {
   const cl::NDRange modes = row_groups(size_t(config_.nx) / 2 + 1, size_t(config_.ny));
   std::visit(
       [&](auto& k) {

@@ -377,36 +377,46 @@ TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
   EXPECT_EQ(kept.kept_shadow_map->made, 3u);
 }
 
-// A kept map holds its bytes in the memory budget until it is replaced or its volume goes. Past the
-// budget, or past kMaxKeptShadowMapBytes, none is kept: each render makes its own.
+// A kept map holds its bytes in the memory budget until it is replaced or its volume goes. A map past the
+// budget replaces the kept one with none (which gave its bytes back first); past kMaxKeptShadowMapBytes,
+// the kept one stays. Either way each such render makes its own.
 TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   Limits limits;
   limits.memory_budget = 1 << 20;
   LimitGate gate(limits);
   CloudRenderer renderer(test::runtime(), &gate);
   RenderSettings s = sunlit_sphere();
-  const uint64_t map_bytes = 48 * 48 * 48 * sizeof(float);
+  auto bytes_of = [](int n) { return uint64_t(n) * n * n * sizeof(float); };
   {
     const DeviceVolume v = stored_sphere();
     renderer.render(v, s);
     renderer.render(v, s);
     EXPECT_EQ(v.kept_shadow_map->made, 1u);
-    EXPECT_EQ(gate.memory_bytes(), map_bytes);
+    EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
+    s.shadow_map_size = {40, 40, 40};  // replaces it
+    renderer.render(v, s);
+    EXPECT_EQ(gate.memory_bytes(), bytes_of(40));
     s.shadow_map_size = {72, 72, 72};  // 1.49 MB: past the budget
     renderer.render(v, s);
     renderer.render(v, s);
-    EXPECT_EQ(v.kept_shadow_map->made, 3u);
-    EXPECT_EQ(gate.memory_bytes(), 0u);  // the first map gave its bytes back for the larger, which did not fit
+    EXPECT_EQ(v.kept_shadow_map->made, 4u);
+    EXPECT_EQ(gate.memory_bytes(), 0u);
     EXPECT_FALSE(v.kept_shadow_map->map());
+    s.shadow_map_size = {48, 48, 48};
+    renderer.render(v, s);
+    EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
   }
-  EXPECT_EQ(gate.memory_bytes(), 0u);
+  EXPECT_EQ(gate.memory_bytes(), 0u);  // given back with the volume
   CloudRenderer unbounded(test::runtime());
   const DeviceVolume v = stored_sphere();
+  unbounded.render(v, s);               // 48^3, kept
   s.shadow_map_size = {170, 170, 170};  // 19.6 MB: past kMaxKeptShadowMapBytes
   unbounded.render(v, s);
   unbounded.render(v, s);
-  EXPECT_EQ(v.kept_shadow_map->made, 2u);
-  EXPECT_FALSE(v.kept_shadow_map->map());
+  EXPECT_EQ(v.kept_shadow_map->made, 3u);
+  s.shadow_map_size = {48, 48, 48};
+  unbounded.render(v, s);
+  EXPECT_EQ(v.kept_shadow_map->made, 3u);
 }
 
 // The maps kept for all volumes together stay within the renderer's own budget: a second volume's map

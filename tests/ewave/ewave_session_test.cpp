@@ -3,6 +3,9 @@
 
 #include <cmath>
 #include <functional>
+#include <latch>
+#include <thread>
+#include <vector>
 
 #include "common/error.h"
 #include "common/limits.h"
@@ -174,7 +177,8 @@ void expect_table(const cl::Buffer& table, const EWaveConfig& config, double dt)
 }
 
 // One table per grid, dispersion and dt, equal to the host's: a second request of the same is the same
-// buffer, and another dt, gravity or precision makes one of its own.
+// buffer, and another dt, gravity, cell size, dispersion, depth, capillary length or precision makes one
+// of its own.
 TEST(CoefficientCache, OneTablePerGridDispersionAndDt) {
   Runtime& runtime = squall::test::runtime();
   CoefficientCache cache;
@@ -224,8 +228,8 @@ TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
 }
 
 // Kept tables hold their bytes in the memory budget until evicted or the cache goes. Where the budget has
-// no room for a new table the older ones give theirs; where even that is too little, the table serves its
-// caller, equal to the host's, and is not kept.
+// no room for a new table the least recently used give theirs; where even all of theirs would be too
+// little, the table serves its caller, equal to the host's, is not kept, and the others stay.
 TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
   Runtime& runtime = squall::test::runtime();
   const EWaveConfig config = plain_config(32, 24), larger = plain_config(64, 24);  // a table of 1.9x
@@ -244,10 +248,29 @@ TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
     expect_table(cache.get(runtime, larger, 0.01), larger, 0.01);  // past the budget even alone
     cache.get(runtime, larger, 0.01);
     EXPECT_EQ(cache.computed(), 4u);
-    EXPECT_EQ(cache.bytes(), 0u);
-    EXPECT_EQ(gate.memory_bytes(), 0u);
+    EXPECT_EQ(cache.bytes(), table);  // 0.02 stays
+    cache.get(runtime, config, 0.02);
+    EXPECT_EQ(cache.computed(), 4u);
+    EXPECT_EQ(gate.memory_bytes(), table);
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);
+}
+
+// Sessions missing one table at once compute it once: the others wait for it.
+TEST(CoefficientCache, SessionsMissingOneTableAtOnceComputeItOnce) {
+  CoefficientCache cache;
+  const EWaveConfig config = plain_config(256, 256);  // a table of about a millisecond's work
+  std::latch start(8);
+  std::vector<cl_mem> got(8);
+  std::vector<std::thread> sessions;
+  for (size_t i = 0; i < got.size(); ++i)
+    sessions.emplace_back([&, i] {
+      start.arrive_and_wait();
+      got[i] = cache.get(squall::test::runtime(), config, 0.01)();
+    });
+  for (auto& t : sessions) t.join();
+  EXPECT_EQ(cache.computed(), 1u);
+  for (cl_mem m : got) EXPECT_EQ(m, got.front());
 }
 
 class EngineTest : public testing::Test {
