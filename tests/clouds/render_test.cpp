@@ -4,9 +4,13 @@
 // notes 2010/2011).
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <functional>
+#include <latch>
 #include <memory>
+#include <thread>
+#include <vector>
 
 #include "clouds/render_params.h"
 #include "clouds/renderer.h"
@@ -417,6 +421,36 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   s.shadow_map_size = {48, 48, 48};
   unbounded.render(v, s);
   EXPECT_EQ(v.kept_shadow_map->made, 3u);
+}
+
+// Renders of one stored volume from four threads at once (the device's queues), each from cameras of its
+// own, the later threads starting while the first one's map is being made: every image equals that of a
+// volume making its own map, bit for bit, whichever render made the map the others read.
+TEST(Render, ConcurrentRendersOfAStoredVolumeAgreeWithFreshOnes) {
+  CloudRenderer renderer(test::runtime());
+  const DeviceVolume kept = stored_sphere(), fresh = upload_volume(test::runtime(), soft_sphere());
+  auto camera = [](int thread, int frame) {
+    RenderSettings s = sunlit_sphere();
+    s.shadow_map_size = {96, 96, 96};  // 3.5 MB, made in tens of milliseconds
+    s.camera.eye = {-12.0 + 6 * thread, -24, 1.0 + frame};
+    return s;
+  };
+  constexpr int kThreads = 4, kFrames = 2;
+  std::vector<std::vector<float>> expected(kThreads * kFrames), got(kThreads * kFrames);
+  for (int t = 0; t < kThreads; ++t)
+    for (int f = 0; f < kFrames; ++f) expected[t * kFrames + f] = renderer.render(fresh, camera(t, f)).data;
+  std::latch start(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      start.arrive_and_wait();
+      std::this_thread::sleep_for(std::chrono::milliseconds(8 * t));  // while the first map is being made
+      for (int f = 0; f < kFrames; ++f) got[t * kFrames + f] = renderer.render(kept, camera(t, f)).data;
+    });
+  for (auto& thread : threads) thread.join();
+  for (size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i], expected[i]) << "render " << i;
+  EXPECT_GE(kept.kept_shadow_map->made, 1u);
+  EXPECT_LE(kept.kept_shadow_map->made, uint64_t(kThreads));
 }
 
 // The maps kept for all volumes together stay within the renderer's own budget: a second volume's map
