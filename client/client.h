@@ -1,8 +1,8 @@
 // squall's C++ client library: a channel to squalld (TLS, token, retries) and the contexts of its calls
 // (deadline, request id, session routing). The server's own RPCs are methods here (info, health).
-// A capability's RPCs go through the stub that gRPC generates for its service, made on this client's
-// channel; every call takes a context() of this client. The Clouds stub, for one, is
-// v1::Clouds::NewStub(channel()).
+// The capabilities' RPCs are called through the client classes that gRPC generates for their services
+// (v1::Ocean, v1::EWave, v1::Clouds, v1::Textures), made on this client's channel() with NewStub, and
+// each call takes a context() of this client.
 // check() turns the call's failed status into the RpcError that the methods here throw.
 // client/cloud_cli.cpp calls Clouds.BuildVolume and Clouds.Render in this way.
 #pragma once

@@ -343,6 +343,7 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
     return;
   }
   map.made_with = without_camera(p);
+  const size_t dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
   if (KeptShadowMap* kept = volume.kept_shadow_map.get()) {
     std::lock_guard<std::mutex> guard(kept->mutex);
     if (kept->map() && same_params(kept->made_with, map.made_with)) {
@@ -350,9 +351,8 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
       return;
     }
     ++kept->made;
+    map.to_keep = may_keep(*kept, dsm_floats * sizeof(float));
   }
-  const size_t dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
-  map.to_keep = volume.kept_shadow_map && dsm_floats * sizeof(float) <= kMaxKeptShadowMapBytes;
   if (map.to_keep) {
     map.buffer = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, dsm_floats * sizeof(float));  // not the pool's
   } else {
@@ -383,6 +383,15 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
   });
   // Its last slice is not waited for: the render's first slice, timed with it, may size the second
   // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.
+}
+
+// Whether a map of `bytes` could replace the volume's kept one: at most kMaxKeptShadowMapBytes, with room
+// in the kept maps' share and in the memory budget once the kept one's bytes go back. A map that could not
+// is made in the pool's buffers, as a volume that keeps none makes its maps.
+bool CloudRenderer::may_keep(const KeptShadowMap& kept, size_t bytes) const {
+  const size_t held = kept.map() ? kept.map.getInfo<CL_MEM_SIZE>() : 0;
+  return bytes <= kMaxKeptShadowMapBytes && kept_maps_.memory_room(bytes, held) &&
+         (!gate_ || gate_->memory_room(bytes, held));
 }
 
 void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {

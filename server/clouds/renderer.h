@@ -90,8 +90,8 @@ struct KeptShadowMap {
 inline constexpr size_t kMaxKeptShadowMapBytes = size_t(16) << 20;
 // The maps kept for all volumes together hold at most this many bytes (by default 64 MiB): no more of the
 // memory budget than that is kept from calls. The volumes that keep maps keep them, first come, until they
-// replace them or go; a map that finds no room in this share or in the memory budget replaces the
-// volume's kept map with none.
+// replace them or go; a map that would find no room in this share or in the memory budget is made for its
+// render alone, and the volume's kept map stays.
 inline constexpr size_t kMaxKeptShadowMapsBytes = size_t(64) << 20;
 
 // A volume on the device: the NanoVDB buffers of its grids, byte for byte.
@@ -148,6 +148,7 @@ class CloudRenderer {
   void make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                        const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
                        const std::string& field);
+  bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, const ShadowMap& map);
 

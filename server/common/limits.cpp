@@ -1,5 +1,6 @@
 #include "common/limits.h"
 
+#include <algorithm>
 #include <functional>
 
 #include "common/error.h"
@@ -88,6 +89,11 @@ Slot LimitGate::acquire_session_bytes(const std::string& what, uint64_t bytes) {
   return take(session_bytes_, bytes, limits_.max_session_bytes,
               what + " (" + std::to_string(bytes) + " bytes) would pass the session memory cap", "--max-session-bytes",
               "bytes already held");
+}
+
+bool LimitGate::memory_room(uint64_t bytes, uint64_t given_back) const {
+  const uint64_t others = memory_bytes_.load() - std::min(given_back, memory_bytes_.load());
+  return others <= limits_.memory_budget && bytes <= limits_.memory_budget - others;
 }
 
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {

@@ -80,6 +80,9 @@ class LimitGate {
   // while it runs); RESOURCE_EXHAUSTED naming `what` and --memory-budget past memory_budget. Taken before
   // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer.
   Slot acquire_memory(const std::string& what, uint64_t bytes);
+  // Whether acquire_memory(bytes) would find room once `given_back` of the bytes held now are given back
+  // (a cache's own, which it would drop for them). Other holders may take the room meanwhile.
+  bool memory_room(uint64_t bytes, uint64_t given_back = 0) const;
 
   uint32_t open_streams() const { return uint32_t(streams_.load()); }
   uint32_t live_sessions() const { return uint32_t(sessions_.load()); }

@@ -31,9 +31,11 @@ cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& conf
   computing_.push_back(key);
   lock.unlock();
   cl::Buffer buffer;
+  size_t bytes = 0;
   try {
     std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);
-    buffer = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, table.size(), table.data());
+    bytes = table.size();
+    buffer = cl::Buffer(runtime.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, table.data());
   } catch (...) {
     lock.lock();
     std::erase(computing_, key);
@@ -43,7 +45,6 @@ cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& conf
   lock.lock();
   std::erase(computing_, key);
   ++computed_;
-  const size_t bytes = buffer.getInfo<CL_MEM_SIZE>();
   if (bytes <= max_bytes_) keep(key, buffer, bytes);
   computed_one_.notify_all();
   return buffer;
@@ -62,16 +63,8 @@ bool CoefficientCache::computing(const Key& key) const {
   return std::find(computing_.begin(), computing_.end(), key) != computing_.end();
 }
 
-// Whether evicting tables could make room for `bytes` more in the memory budget: the budget less what the
-// other holders hold.
-bool CoefficientCache::room_for(size_t bytes) const {
-  if (!gate_) return true;
-  const uint64_t budget = gate_->limits().memory_budget, others = gate_->memory_bytes() - bytes_;
-  return others <= budget && bytes <= budget - others;
-}
-
 void CoefficientCache::keep(const Key& key, const cl::Buffer& buffer, size_t bytes) {
-  if (!room_for(bytes)) return;  // it serves its caller alone; the tables kept stay
+  if (gate_ && !gate_->memory_room(bytes, bytes_)) return;  // it serves its caller alone; the kept stay
   auto evict_oldest = [this] {
     bytes_ -= entries_.back().bytes;
     entries_.pop_back();

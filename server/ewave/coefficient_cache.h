@@ -58,7 +58,6 @@ class CoefficientCache {
   cl::Buffer find(const Key& key);                                    // under mutex_; none on a miss
   bool computing(const Key& key) const;                               // under mutex_
   void keep(const Key& key, const cl::Buffer& buffer, size_t bytes);  // under mutex_
-  bool room_for(size_t bytes) const;                                  // under mutex_
 
   const size_t max_bytes_;
   LimitGate* gate_;

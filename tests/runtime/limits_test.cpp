@@ -72,5 +72,19 @@ TEST(Limits, MessageBytes) {
             "frame needs 101 bytes, more than --max-message-bytes = 100");
 }
 
+// memory_room says whether acquire_memory would succeed, counting what a holder would give back for it.
+TEST(Limits, MemoryRoomMatchesWhatAcquireMemoryTakes) {
+  Limits limits;
+  limits.memory_budget = 100;
+  LimitGate gate(limits);
+  Slot held = gate.acquire_memory("held", 60);
+  EXPECT_TRUE(gate.memory_room(40));
+  EXPECT_FALSE(gate.memory_room(41));
+  EXPECT_TRUE(gate.memory_room(100, 60));
+  EXPECT_FALSE(gate.memory_room(101, 60));
+  EXPECT_NO_THROW(gate.acquire_memory("fits", 40));
+  squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("past", 41); });
+}
+
 }  // namespace
 }  // namespace squall
