@@ -37,8 +37,9 @@ void LimitGate::check_grid(const std::string& field, int64_t nx, int64_t ny, int
   double cells_f = double(nx) * double(ny) * double(nz > 0 ? nz : 1);
   if (cells_f > double(limits_.max_grid_cells)) {
     std::string product = field + ".nx * " + field + ".ny" + (nz > 0 ? " * " + field + ".nz" : "");
-    fail(Code::ResourceExhausted, product + " = " + std::to_string(uint64_t(cells_f)) +
-                                      " cells exceeds --max-grid-cells = " + std::to_string(limits_.max_grid_cells));
+    const std::string cells = cells_f < 0x1p64 ? std::to_string(uint64_t(cells_f)) : validate::number(cells_f);
+    fail(Code::ResourceExhausted,
+         product + " = " + cells + " cells exceeds --max-grid-cells = " + std::to_string(limits_.max_grid_cells));
   }
 }
 
@@ -63,7 +64,7 @@ Slot LimitGate::take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t l
                      const char* flag, const char* held_as) {
   uint64_t held = counter.load();
   do {
-    if (held + amount > limit)
+    if (amount > limit || held > limit - amount)
       fail(Code::ResourceExhausted, what + ": " + std::to_string(held) + " " + held_as + ", the limit is " + flag +
                                         " = " + std::to_string(limit));
   } while (!counter.compare_exchange_weak(held, held + amount));
@@ -92,7 +93,8 @@ Slot LimitGate::acquire_session_bytes(const std::string& what, uint64_t bytes) {
 }
 
 bool LimitGate::memory_room(uint64_t bytes, uint64_t given_back) const {
-  const uint64_t others = memory_bytes_.load() - std::min(given_back, memory_bytes_.load());
+  const uint64_t held = memory_bytes_.load();
+  const uint64_t others = held - std::min(given_back, held);
   return others <= limits_.memory_budget && bytes <= limits_.memory_budget - others;
 }
 

@@ -283,10 +283,19 @@ class FftwPlan : public Plan {
 
   typename F::PlanT make(Direction direction, bool in_place, bool unaligned, int threads) {
     const PlanKey& k = key();
+    // FFTW's advanced interface counts in int: one transform's elements, and the batch.
+    if (k.nx * k.ny > size_t(std::numeric_limits<int>::max()) || k.batch > size_t(std::numeric_limits<int>::max()))
+      fail(Code::InvalidArgument, "fftw cannot plan " + describe(k) + ": more elements than FFTW counts");
     const int n[2] = {int(k.ny), int(k.nx)};  // row-major, x fastest: FFTW's last dimension
     const int real = int(k.nx * k.ny), complex = int((k.transform == Transform::C2C ? k.nx : k.nx / 2 + 1) * k.ny);
-    void* a = F::alloc(std::max(k.real_bytes(), k.complex_bytes()));
-    void* b = in_place ? a : F::alloc(std::max(k.real_bytes(), k.complex_bytes()));
+    const size_t scratch = std::max(k.real_bytes(), k.complex_bytes());
+    void* a = F::alloc(scratch);
+    void* b = in_place ? a : F::alloc(scratch);
+    if (!a || !b) {  // the measuring planner writes its scratch arrays
+      if (b && b != a) F::free(b);
+      if (a) F::free(a);
+      fail(Code::ResourceExhausted, "fftw: no memory for the scratch arrays of " + describe(k));
+    }
     F::threads(threads);
     const unsigned flags = planner_ | (unaligned ? FFTW_UNALIGNED : 0);
     typename F::PlanT p;

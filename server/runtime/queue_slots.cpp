@@ -83,7 +83,9 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
     self.expected = hold;
     waiting_.insert(place_in_line(self.expected), &self);
     const auto start = std::chrono::steady_clock::now();
-    self.handed.wait(lock, [&] { return self.slot >= 0; });
+    // Shorter work that stops asking stops limiting the others with no call to the pool: a waiter looks
+    // again now and then, so that it does not wait for a queue left free.
+    while (!self.handed.wait_for(lock, kShortWorkWindow / 8, [&] { return self.slot >= 0; })) serve_line();
     site_times_[site].wait_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     slot = self.slot;
   }
@@ -106,6 +108,7 @@ void QueueSlots::record_hold(const WorkKind& kind, double seconds, bool alone) {
   const int k = kind_index(key);
   learn(k, seconds, alone);
   if (k >= 0) holds_[size_t(k)].asked = std::chrono::steady_clock::now();
+  serve_line();  // what is limited may have changed
 }
 
 int QueueSlots::kind_index(const std::string& key) {

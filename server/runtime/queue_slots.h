@@ -13,7 +13,8 @@
 // - While much shorter work is about (of the kinds of work that asked for a queue in the last second,
 //   some are expected to hold it at most 1 / kPassRatio as long as the longest), the other kinds hold at
 //   most about half the queues at once (long_limit(); leases taken while no shorter work was about do not
-//   count), and the rest are kept for the shorter work. A
+//   count), and the rest are kept for the shorter work; a caller waiting at that limit takes a free queue
+//   within kShortWorkWindow / 8 of the shorter work's going. A
 //   request shares the device with the others holding queues (on a CPU device, PoCL's worker threads run
 //   the commands of all queues in one line), so each long request added stretches every request beside
 //   it, and a short one that finds every queue taken waits for a long one's whole hold. Queues kept for

@@ -316,8 +316,9 @@ TEST(DeviceQueues, WithNoMuchShorterWorkAboutEveryQueueMayBeTaken) {
   end_again.set_value();
 }
 
-// A tile waits at the limit while renders are about; once they have gone, the next call to the pool (here
-// a caller of no kind) lets it take a free queue first.
+// A tile waits at the limit while renders are about; once they have gone (no render asked for a queue in
+// kShortWorkWindow), it takes one of the free queues by itself, with no other call to the pool, while the
+// two tiles before it still hold theirs.
 TEST(DeviceQueues, AWaiterWhoseKindIsNoLongerLimitedTakesAFreeQueue) {
   QueuesInLine q(4);
   q.slots.record_hold(kTile, 0.060);
@@ -327,14 +328,15 @@ TEST(DeviceQueues, AWaiterWhoseKindIsNoLongerLimitedTakesAFreeQueue) {
   Holders holders{q};
   holders.hold(kTile, ends);
   holders.hold(kTile, ends);
+  const auto asked = std::chrono::steady_clock::now();
   q.ask(kTile, "tile");
-  std::this_thread::sleep_for(QueueSlots::kShortWorkWindow + std::chrono::milliseconds(100));
-  EXPECT_EQ(q.slots.waiting(), 1u) << "nothing called the pool meanwhile";
-  {
-    auto other = q.slots.acquire();
-    wait_for([&] { return q.slots.waiting() == 0; });
-    EXPECT_EQ(q.slots.waiting(), 0u) << "the tile still waits with two queues free";
-  }
+  std::this_thread::sleep_for(QueueSlots::kShortWorkWindow / 2);
+  EXPECT_EQ(q.slots.waiting(), 1u) << "the tile took a queue beyond the limit while renders were about";
+  wait_for([&] { return q.slots.waiting() == 0; });
+  const auto waited = std::chrono::steady_clock::now() - asked;
+  EXPECT_EQ(q.slots.waiting(), 0u) << "the tile still waits with two queues free";
+  EXPECT_LT(waited, QueueSlots::kShortWorkWindow + QueueSlots::kShortWorkWindow / 4);
+  EXPECT_GE(q.slots.held(), 2u) << "the tiles before it still hold their queues";
   end.set_value();
   EXPECT_EQ(q.served(), (std::vector<std::string>{"tile"}));
 }
