@@ -15,8 +15,10 @@ using namespace squall::clouds;
 namespace req = squall::clouds::rpc;
 
 // Memory a render holds while it runs, an estimate taken against --memory-budget: the image on the
-// device, on the host and in the reply.
-uint64_t render_working_bytes(const RenderSettings& settings) { return 3 * req::image_bytes(settings); }
+// device, on the host and in the reply, and the deep shadow map it may make.
+uint64_t render_working_bytes(const RenderSettings& settings) {
+  return 3 * req::image_bytes(settings) + clouds::shadow_map_bytes(settings);
+}
 
 // The times, the request's model, then the frames' models at the earliest and the latest time, before the
 // stream takes a slot or sends a frame. Every parameter of model_at() is linear in t or clamped linear
@@ -75,6 +77,16 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
                                       validate::number(estimate.per_pixel) + " density samples per pixel, more than " +
                                       validate::number(clouds::kMaxSamplesPerPixel) +
                                       " (a pixel's march cannot be cancelled midway; a larger step costs less)");
+  if (estimate.per_map_node > clouds::kMaxSamplesPerPixel) {
+    const bool own = settings.shadow_step > 0;  // else 3 steps
+    fail(Code::ResourceExhausted, std::string(own ? "settings.shadow_step = " : "settings.step = ") +
+                                      validate::number(own ? settings.shadow_step : settings.step) +
+                                      " makes an estimated " + validate::number(estimate.per_map_node) +
+                                      " density samples per deep shadow map node, more than " +
+                                      validate::number(clouds::kMaxSamplesPerPixel) +
+                                      " (a node's march cannot be cancelled midway; a larger step costs less)");
+  }
+  clouds::check_march_resolution(volume, settings, "settings");
 }
 
 grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::RenderRequest* request,
@@ -86,7 +98,8 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     clouds::validate(settings, "settings");
     serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
                                         req::image_bytes(settings));
-    Slot memory = serving_.gate().acquire_memory("Render's image", render_working_bytes(settings)), model_memory;
+    Slot memory = serving_.gate().acquire_memory("Render's image and shadow map", render_working_bytes(settings)),
+         model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
       volume = clouds.build(req::model(request->model()), "model", cancel);

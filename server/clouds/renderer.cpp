@@ -269,6 +269,37 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
   return e;
 }
 
+void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s, const std::string& prefix) {
+  const Vec3d& eye = s.camera.eye;
+  double far = 0;  // the eye's distance to the box's farthest corner
+  for (int corner = 0; corner < 8; ++corner) {
+    Vec3d at;
+    for (int a = 0; a < 3; ++a) at[a] = corner & (1 << a) ? volume.world_max[a] : volume.world_min[a];
+    far = std::max(far, norm(sub(at, eye)));
+  }
+  auto check = [&](const char* field, double step, double distance, const std::string& where) {
+    const double least = kMinStepOfDistance * distance;
+    if (step < least)
+      fail(Code::InvalidArgument,
+           prefix + field + " = " + validate::number(step) + " is below the float resolution of a march " + where +
+               " (" + validate::number(distance) + " m): it must be at least " + validate::number(least));
+  };
+  const std::string eye_text =
+      "(" + validate::number(eye[0]) + ", " + validate::number(eye[1]) + ", " + validate::number(eye[2]) + ")";
+  check(".step", s.step, far, "from " + prefix + ".camera.eye = " + eye_text + " to the far side of the volume");
+  const bool shadows = s.shadow != ShadowMode::None && !s.lights.empty();
+  if (shadows)
+    check(s.shadow_step > 0 ? ".shadow_step" : ".step", shadow_step(s), norm(sub(volume.world_max, volume.world_min)),
+          "across the volume toward a light");
+}
+
+uint64_t shadow_map_bytes(const RenderSettings& s) {
+  if (s.shadow != ShadowMode::DeepShadowMap || s.lights.empty()) return 0;
+  const uint64_t nodes =
+      uint64_t(s.shadow_map_size[0]) * uint64_t(s.shadow_map_size[1]) * uint64_t(s.shadow_map_size[2]);
+  return nodes * s.lights.size() * sizeof(float) + 2 * nodes;
+}
+
 namespace {
 
 // The parameters a deep shadow map depends on: all of a render's but the camera's.

@@ -127,6 +127,17 @@ inline constexpr double kMaxSamplesPerPixel = 1e7;
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
 
+// The kernels march in float: a step below kMinStepOfDistance of the distance it is taken at rounds
+// back to where it started, and the march would never end. A march of `volume` reaches the eye's distance
+// to the far corner of its box (s.step) or the box's diagonal (the shadow step toward a light). Throws
+// squall::Error(InvalidArgument) naming prefix + ".step" or prefix + ".shadow_step" and the least step.
+inline constexpr double kMinStepOfDistance = 0x1p-20;  // 8 float ulps
+void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s, const std::string& prefix);
+
+// Bytes a render's deep shadow map takes while the render runs, 0 for a render with none: a float per
+// map node and light, and the mask of needed nodes (a byte per node) on the host and on the device.
+uint64_t shadow_map_bytes(const RenderSettings& s);
+
 class CloudRenderer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/". The

@@ -45,8 +45,8 @@ cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& conf
   lock.lock();
   std::erase(computing_, key);
   ++computed_;
+  computed_one_.notify_all();  // the waiters run once the lock is free: after keep(), or after its throw
   if (bytes <= max_bytes_) keep(key, buffer, bytes);
-  computed_one_.notify_all();
   return buffer;
 }
 

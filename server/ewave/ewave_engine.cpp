@@ -5,6 +5,7 @@
 
 #include "common/byte_codec.h"
 #include "common/error.h"
+#include "ewave/ewave_state_format.h"
 #include "ewave/step_kernels.h"
 #include "ocean/tile_spec_bytes.h"
 
@@ -65,9 +66,12 @@ uint64_t session_bytes(const EWaveConfig& config) {
   const uint64_t cells = uint64_t(config.nx) * config.ny;
   const uint64_t modes = uint64_t(config.nx / 2 + 1) * config.ny;
   const uint64_t real = config.double_precision ? 8 : 4;
-  const uint64_t state = 2 * cells * real, spectrum = 2 * modes * 2 * real;
-  const uint64_t work = 2 * cells * real + 9 * cells * 4;  // work + output, 9 float maps (inputs, zeros)
-  return state + spectrum + work;
+  const uint64_t state = kStateFields * cells * real;
+  const uint64_t spectrum = kOutputFields * modes * 2 * real, work = kOutputFields * cells * real;
+  // Float maps: 5 output planes, the zeros of an absent input, and the inputs a step may upload
+  // (obstruction, ambient h and phi, source h and phi, drift x and y); the trim profiles.
+  const uint64_t maps = (5 + 1 + 7) * cells * 4, trims = (uint64_t(config.nx) + config.ny) * 4;
+  return state + spectrum + work + maps + trims;
 }
 
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config) {

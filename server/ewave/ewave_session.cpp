@@ -98,6 +98,14 @@ void EWaveSession::upload_trim() {
   runtime_.queue().finish();
 }
 
+uint64_t EWaveSession::device_bytes() const {
+  uint64_t bytes = 0;
+  for (const BufferLease* lease : {&state_, &spectrum_, &work_, &out_, &trim_x_, &trim_y_, &absent_map_, &obstruction_,
+                                   &ambient_, &source_h_, &source_phi_, &drift_x_, &drift_y_})
+    bytes += lease->bytes();
+  return bytes;
+}
+
 std::string EWaveSession::state() const {
   std::string bytes = new_state(config_, step_, time_);
   auto lock = runtime_.exclusive();

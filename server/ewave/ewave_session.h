@@ -53,6 +53,10 @@ class EWaveSession {
   // The bytes' step, time, h, phi and config, into a session of the same grid, which keeps the ambient
   // ocean it was made with (an ocean engine evaluates it).
   void restore(const std::string& bytes);
+  // Bytes of the device buffers the session holds now: its state, spectra, work and output planes, trim
+  // profiles, and the maps its steps have uploaded (the shapes' small arrays aside). session_bytes() of
+  // its config budgets for them all.
+  uint64_t device_bytes() const;
   // A config from state bytes (for a new session), with their ambient ocean validated against `gate`;
   // throws InvalidArgument when the bytes are not a state (naming "state.ambient_ocean..." for its spec).
   static EWaveConfig config_from_state(const std::string& bytes, const LimitGate& gate);

@@ -57,14 +57,18 @@ Frame EWaveSession::step(const StepInputs& in) {
   const size_t nx = size_t(config_.nx), ny = size_t(config_.ny);
   const cl::Buffer coefficients = coefficients_->get(runtime_, config_, in.dt);  // on a miss with no queue held
   auto lock = runtime_.exclusive({"ewave.step", nx * ny * size_t(fields)});
+  // The transforms' plans for this queue before the first command rewrites the state: a plan that cannot
+  // be made (memory) leaves the session as it was.
+  fft::Plan& forward =
+      fft_.prepare({nx, ny, kStateFields, fft::Transform::R2C, precision()}, fft::Direction::Forward, false);
+  fft::Plan& inverse =
+      fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
   upload_maps(in);
   bool has_obstruction = build_obstruction(in);
   prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
-  fft_.plan({nx, ny, kStateFields, fft::Transform::R2C, precision()})
-      .enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
-  propagate(coefficients, fields);                                                               // eq 64-65
-  fft_.plan({nx, ny, size_t(fields), fft::Transform::C2R, precision()})
-      .enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());  // eq 66-67
+  forward.enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
+  propagate(coefficients, fields);                                                                  // eq 64-65
+  inverse.enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());   // eq 66-67
   finish(in, fields, has_obstruction);   // eq 68-69, §3.7 steps 5-7
   Frame frame = read_frame(in.outputs);  // waits for the queue: the host vectors of the inputs are free after it
   ++step_;

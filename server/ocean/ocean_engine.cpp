@@ -381,6 +381,29 @@ void sample_channels(const std::vector<float>& fields, const LayerSpec& L, doubl
 }
 }  // namespace
 
+namespace {
+constexpr uint64_t kLayerBytesPerCell = 4 * 2 * sizeof(float);  // at most 4 complex channel pairs (ocean.cl)
+
+uint64_t largest_layer_cells(const TileSpec& spec) {
+  uint64_t cells = 0;
+  for (const LayerSpec& L : spec.layers) cells = std::max(cells, uint64_t(L.nx) * uint64_t(L.ny));
+  return cells;
+}
+}  // namespace
+
+uint64_t tile_device_bytes(const TileSpec& spec) {
+  const OutputGrid grid = output_grid(spec);
+  const uint64_t cells = uint64_t(grid.nx) * uint64_t(grid.ny);
+  const uint64_t sums = 2 * 4 * sizeof(float);  // ocean_accumulate's planes, 4 pairs at most
+  return cells * (kOutputPlanes * sizeof(float) + sums) + largest_layer_cells(spec) * kLayerBytesPerCell;
+}
+
+uint64_t sample_bytes(const TileSpec& spec) {
+  uint64_t host = 0;
+  for (const LayerSpec& L : spec.layers) host += uint64_t(L.nx) * uint64_t(L.ny) * kLayerBytesPerCell;
+  return host + largest_layer_cells(spec) * kLayerBytesPerCell;
+}
+
 std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                                bool invert_displacement) {
   validate(spec);

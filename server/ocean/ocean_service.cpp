@@ -31,11 +31,11 @@ struct TileJob {
   uint64_t row_bytes() const { return uint64_t(nx) * squall::field::bytes_per_value(dtype); }
   uint64_t frame_bytes() const { return outputs.size() * (row_bytes() * ny + 128) + 256; }
   // Memory a call holds while it runs, an estimate taken against --memory-budget: per frame the engine's
-  // float fields, their device buffers (complex spectra) and the reply, twice that for a stream (it
-  // computes the next frame while writing one).
+  // float fields, the reply and the engine's device buffers (ocean::tile_device_bytes), twice that for a
+  // stream (it computes the next frame while writing one).
   uint64_t working_bytes(int frames) const {
     const uint64_t floats = outputs.size() * uint64_t(nx) * uint64_t(ny) * 4;
-    return uint64_t(frames) * (3 * floats + frame_bytes());
+    return uint64_t(frames) * (floats + frame_bytes() + ocean::tile_device_bytes(spec));
   }
 };
 
@@ -163,6 +163,7 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
       points[i].x = validate::finite(at + ".x", request->points(i).x());
       points[i].y = validate::finite(at + ".y", request->points(i).y());
     }
+    Slot memory = serving_.gate().acquire_memory("SampleSurface's layers", ocean::sample_bytes(spec));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "SampleSurface cancelled");
     const bool invert = request->invert_displacement();
     std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert);

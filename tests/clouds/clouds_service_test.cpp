@@ -408,6 +408,62 @@ TEST(CloudsService, ARenderWhosePixelsAreTooCostlyIsRefused) {
   EXPECT_NE(status.error_message().find("samples per pixel"), std::string::npos) << status.error_message();
 }
 
+// The kernels march in float: a step that rounds back to where it started would never end its march and
+// hold a device queue for good. Refused with the least step: the eye 1e7 m away with a 0.5 m step, and
+// a shadow step of 1e-5 m across the sphere's box (about 24 m); a shadow step so fine that one map node's
+// march could not be cancelled in time is refused first, as a pixel's is.
+TEST(CloudsService, ARenderWhoseStepsFloatCannotResolveIsRefused) {
+  v1::RenderRequest request;
+  request.set_volume_id(kept_sphere());
+  *request.mutable_settings() = small_render();
+  for (int a = 0; a < 3; ++a) request.mutable_settings()->add_shadow_map_size(2);
+  auto refused = [&](grpc::StatusCode code, const std::string& needle) {
+    auto c = call();
+    expire_in(*c.context, 30);
+    v1::RenderResponse response;
+    const grpc::Status status = c.render(request, &response);
+    EXPECT_EQ(status.error_code(), code) << status.error_message();
+    EXPECT_NE(status.error_message().find(needle), std::string::npos) << status.error_message();
+  };
+  request.mutable_settings()->mutable_camera()->mutable_eye()->set_y(-1e7);
+  request.mutable_settings()->set_step(0.5);
+  refused(grpc::StatusCode::INVALID_ARGUMENT,
+          "settings.step = 0.5 is below the float resolution of a march from settings.camera.eye = (0, -10000000, 0) "
+          "to the far side of the volume");
+  request.mutable_settings()->mutable_camera()->mutable_eye()->set_y(-30);
+  request.mutable_settings()->set_shadow_step(1e-5);
+  refused(grpc::StatusCode::INVALID_ARGUMENT,
+          "settings.shadow_step = 1e-05 is below the float resolution of a march across the volume toward a light");
+  request.mutable_settings()->set_shadow_step(1e-6);
+  refused(grpc::StatusCode::RESOURCE_EXHAUSTED, "density samples per deep shadow map node");
+  request.mutable_settings()->set_shadow_step(0.05);
+  EXPECT_LT(timed_render(request), 5.0);
+}
+
+// A render's deep shadow map counts in --memory-budget beside its image: 512^3 nodes for 4 lights is 2 GiB
+// of map (and 256 MiB of masks), refused under a budget of 1 GiB before anything is allocated, while the
+// same render with a 64^3 map runs.
+TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(1ull << 30)});
+  client::Client client({d.address(), 120, ""});
+  auto stub = v1::Clouds::NewStub(client.channel());
+  v1::RenderRequest request;
+  *request.mutable_model() = sphere_model();
+  *request.mutable_settings() = small_render();
+  for (int light = 1; light < 4; ++light) *request.mutable_settings()->add_lights() = request.settings().lights(0);
+  for (int a = 0; a < 3; ++a) request.mutable_settings()->add_shadow_map_size(512);
+  v1::RenderResponse response;
+  grpc::Status status = stub->Render(client.context().get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(
+      status.error_message().find("Render's image and shadow map (2415942144 bytes) would pass the memory budget"),
+      std::string::npos)
+      << status.error_message();
+  for (int a = 0; a < 3; ++a) request.mutable_settings()->set_shadow_map_size(a, 64);
+  status = stub->Render(client.context().get(), request, &response);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
 // A sphere of 5 m in 5 cm voxels (about 7e6) advected in 256 MacCormack substeps: 4e9 velocity samples,
 // past --max-advection-samples = 1e9: refused before the build starts, naming the substeps.
 TEST(CloudsService, ABuildWhoseAdvectionIsTooCostlyIsRefused) {

@@ -56,6 +56,30 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
 }
 
+// What --max-session-bytes and the memory budget count for a session covers the device buffers it holds
+// once a step has uploaded every input map (obstruction, ambient height, sources, drift field), in float
+// and in double: all but the second plane of an ambient ocean, which a map of heights does not fill.
+TEST(EWaveSession, ItsBudgetCoversTheBuffersItHolds) {
+  for (bool double_precision : {false, true}) {
+    if (double_precision && !squall::test::runtime().device_info().double_precision) continue;
+    EWaveConfig c = plain_config(48, 40);
+    c.double_precision = double_precision;
+    EWaveSession session = make_session(c);
+    const size_t cells = 48 * 40;
+    StepInputs in = busy_step(0);
+    in.obstruction.assign(cells, 1.0f);
+    in.ambient_height.assign(cells, 0.0f);
+    in.source_height.assign(cells, 0.0f);
+    in.source_phi.assign(cells, 0.0f);
+    in.drift_field_x.assign(cells, 0.0f);
+    in.drift_field_y.assign(cells, 0.0f);
+    session.step(in);
+    const uint64_t budget = session_bytes(c), held = session.device_bytes();
+    EXPECT_LE(held, budget) << "double " << double_precision;
+    EXPECT_EQ(held + cells * sizeof(float), budget) << "double " << double_precision;
+  }
+}
+
 // A hull alone rewrites only its cells and those of the hull before (the map is filled with 1 once); the
 // same steps with an explicit map of ones (the map uploaded, the hull multiplied in) give the same frames
 // bit for bit, also when the hull jumps clear of where it was (a cell the last hull left at 0 must be 1).

@@ -6,13 +6,14 @@ memory passes it (measured above its level when idle); what the flood held is gi
 and squalld then serves as before; while 90% of the budget is reserved, health says NOT_SERVING (new
 work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client (its
 address, whatever its connections) cannot take more stream slots than that. Stored cloud volumes count
-as sessions (--max-sessions), and their bytes leave the metrics when they are released."""
+as sessions (--max-sessions), and their bytes leave the metrics when they are released. A small tile or
+sample of large layers counts the layers' memory."""
 
 from __future__ import annotations
 
 import contextlib
 import re
-from typing import Any, Iterator, List, Tuple
+from typing import Any, Callable, Iterator, List, Optional, Tuple, TypeVar
 
 import grpc
 import pytest
@@ -22,6 +23,8 @@ from conftest import Daemon, _start
 from exposition import http_get, samples, value
 from processes import wait_for
 from test_load import resident_bytes
+
+T = TypeVar("T")
 
 BUDGET = 1 << 30
 ALL_OUTPUTS = [
@@ -80,10 +83,46 @@ def test_a_flood_of_unread_streams_is_refused_within_the_budget(budget_daemon: D
             f"{len(streams)} unread streams of 12 fields at 1024^2, then refused; RSS +{grown >> 20} MiB"
         )
     with squall.Client(budget_daemon.address, timeout=120) as client:
-        tile = client.ocean.tile(
-            spec, time=1.0, outputs=ALL_OUTPUTS
-        )  # the streams' memory came back
+        # the streams' memory comes back as squalld notices each cancel (at its next frame's write)
+        tile = wait_for(
+            lambda: admitted(lambda: client.ocean.tile(spec, time=1.0, outputs=ALL_OUTPUTS)),
+            10,
+            "a tile after the streams ended",
+        )
         assert len(tile) == len(ALL_OUTPUTS)
+
+
+def admitted(call: Callable[[], T]) -> Optional[T]:
+    """call()'s result, or None when the memory budget refused it."""
+    try:
+        return call()
+    except squall.SquallError as error:
+        assert refused_by_the_budget(error), error
+        return None
+
+
+def test_a_small_tile_or_sample_of_large_layers_counts_their_memory() -> None:
+    """An 8 x 8 output of one 1024^2 layer: the tile's device buffers (34 MB, mostly the layer's complex
+    channels) and the sample's copies of the layer (67 MB) pass a 30 MB budget, which the same calls
+    on a 64^2 layer fit."""
+
+    def spec(n: int) -> Any:
+        return squall.ocean.tile_spec(
+            [squall.ocean.layer(extent=500, n=n, wind_speed=12)], output=(8, 8)
+        )
+
+    for daemon in _start(["--memory-budget", str(30_000_000)], "layers"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            with pytest.raises(squall.SquallError) as refused:
+                client.ocean.tile(spec(1024), time=1.0)
+            assert refused_by_the_budget(refused.value), refused.value
+            assert "GetTile's tile" in refused.value.message, refused.value
+            with pytest.raises(squall.SquallError) as refused:
+                client.ocean.sample(spec(1024), [(1.0, 2.0)], time=1.0)
+            assert refused_by_the_budget(refused.value), refused.value
+            assert "SampleSurface's layers" in refused.value.message, refused.value
+            assert len(client.ocean.tile(spec(64), time=1.0)) == 1
+            client.ocean.sample(spec(64), [(1.0, 2.0)], time=1.0)
 
 
 def test_one_client_cannot_take_more_streams_than_its_share() -> None:
@@ -121,11 +160,11 @@ def opens(client: squall.Client, spec: Any) -> bool:
 
 
 def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
-    """One unread StreamTiles of 12 fields at 256^2 reserves about 25 MB (two frames: the engine's
-    fields, their device buffers, the reply) of a 27 MB budget: health turns NOT_SERVING within a
+    """One unread StreamTiles of 12 fields at 256^2 reserves about 27.8 MB (two frames: the engine's
+    fields, its device buffers, the reply) of a 30 MB budget: health turns NOT_SERVING within a
     second, and SERVING again once the stream is cancelled."""
     spec = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=256, wind_speed=12)])
-    for daemon in _start(["--memory-budget", str(27_000_000)], "admission"):
+    for daemon in _start(["--memory-budget", str(30_000_000)], "admission"):
         with squall.Client(daemon.address, timeout=60) as client:
             assert client.health() == "SERVING"
             stream = client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS)
