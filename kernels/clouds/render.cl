@@ -103,8 +103,11 @@ static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, flo
 }
 
 // The node containing the cell at ray parameter t, from one tree query. Returns whether it can hold
-// density (a leaf, or a tile of nonzero value).
+// density (a leaf, or a tile of nonzero value). The cell is looked up `nudge` past t, and at least 4 float
+// ulps of t past it: far from the ray's origin a fixed nudge rounds away, the lookup lands back in the
+// node the ray is leaving, and a march whose next t is that node's exit would never move on.
 static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, VdbNode* node) {
+  nudge = fmax(nudge, t * 0x1p-21f);
   float3 c = o + (t + nudge) * d;
   pnanovdb_coord_t ijk = {(int)floor(c.x), (int)floor(c.y), (int)floor(c.z)};
   pnanovdb_uint32_t level = 0;

@@ -127,11 +127,12 @@ inline constexpr double kMaxSamplesPerPixel = 1e7;
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".camera.width", ...).
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
 
-// The kernels march in float: a step below kMinStepOfDistance of the distance it is taken at rounds
-// back to where it started, and the march would never end. A march of `volume` reaches the eye's distance
-// to the far corner of its box (s.step) or the box's diagonal (the shadow step toward a light). Throws
+// The kernels march in float: a step below about 2^-24 of the distance it is taken at rounds back to
+// where it started, and the march would never end. Steps are refused below kMinStepOfDistance of the
+// farthest distance a march of `volume` reaches (8 float ulps, a margin over that): the eye's distance to
+// the far corner of its box (s.step) or the box's diagonal (the shadow step toward a light). Throws
 // squall::Error(InvalidArgument) naming prefix + ".step" or prefix + ".shadow_step" and the least step.
-inline constexpr double kMinStepOfDistance = 0x1p-20;  // 8 float ulps
+inline constexpr double kMinStepOfDistance = 0x1p-20;
 void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s, const std::string& prefix);
 
 // Bytes a render's deep shadow map takes while the render runs, 0 for a render with none: a float per

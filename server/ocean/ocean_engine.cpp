@@ -382,7 +382,7 @@ void sample_channels(const std::vector<float>& fields, const LayerSpec& L, doubl
 }  // namespace
 
 namespace {
-constexpr uint64_t kLayerBytesPerCell = 4 * 2 * sizeof(float);  // at most 4 complex channel pairs (ocean.cl)
+constexpr uint64_t kLayerBytesPerCell = 4 * 2 * sizeof(float);  // sample(): 4 complex channel pairs
 
 uint64_t largest_layer_cells(const TileSpec& spec) {
   uint64_t cells = 0;
@@ -391,11 +391,13 @@ uint64_t largest_layer_cells(const TileSpec& spec) {
 }
 }  // namespace
 
-uint64_t tile_device_bytes(const TileSpec& spec) {
+uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs) {
   const OutputGrid grid = output_grid(spec);
   const uint64_t cells = uint64_t(grid.nx) * uint64_t(grid.ny);
-  const uint64_t sums = 2 * 4 * sizeof(float);  // ocean_accumulate's planes, 4 pairs at most
-  return cells * (kOutputPlanes * sizeof(float) + sums) + largest_layer_cells(spec) * kLayerBytesPerCell;
+  const uint64_t pair_bytes = uint64_t(channel_layout(outputs).pairs) * 2 * sizeof(float);
+  const uint64_t planes = (kOutputPlanes + 1) * sizeof(float);  // the output planes and the whitecaps
+  // On the output grid its planes and ocean_accumulate's sums (2 floats a pair); a layer's pairs.
+  return cells * (planes + pair_bytes) + largest_layer_cells(spec) * pair_bytes;
 }
 
 uint64_t sample_bytes(const TileSpec& spec) {

@@ -35,7 +35,7 @@ struct TileJob {
   // stream (it computes the next frame while writing one).
   uint64_t working_bytes(int frames) const {
     const uint64_t floats = outputs.size() * uint64_t(nx) * uint64_t(ny) * 4;
-    return uint64_t(frames) * (floats + frame_bytes() + ocean::tile_device_bytes(spec));
+    return uint64_t(frames) * (floats + frame_bytes() + ocean::tile_device_bytes(spec, flags));
   }
 };
 

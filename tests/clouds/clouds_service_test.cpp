@@ -440,6 +440,31 @@ TEST(CloudsService, ARenderWhoseStepsFloatCannotResolveIsRefused) {
   EXPECT_LT(timed_render(request), 5.0);
 }
 
+// The same sphere seen from 2 km and from 20 km, where a node's 1e-4 voxel nudge is below a float ulp of
+// the ray's distance: each render ends, and the cloud covers some pixels.
+TEST(CloudsService, ARenderFromFarAwayEnds) {
+  v1::RenderRequest request;
+  request.set_volume_id(kept_sphere());
+  *request.mutable_settings() = small_render();
+  request.mutable_settings()->set_step(0.5);
+  for (double distance : {2e3, 2e4}) {
+    request.mutable_settings()->mutable_camera()->mutable_eye()->set_y(-distance);
+    request.mutable_settings()->mutable_camera()->set_vertical_fov_deg(1000 / distance);  // the sphere: most of the 16 rows
+    auto c = call();
+    expire_in(*c.context, 30);
+    v1::RenderResponse response;
+    const grpc::Status status = c.render(request, &response);
+    ASSERT_TRUE(status.ok()) << distance << " m: " << status.error_message();
+    const auto& image = response.image();
+    const size_t pixels = size_t(image.width()) * image.height();
+    std::vector<float> values(image.data().size() / sizeof(float));
+    std::memcpy(values.data(), image.data().data(), values.size() * sizeof(float));
+    size_t covered = 0;  // the first wavelength's transmittance plane follows the 2 radiance planes
+    for (size_t p = 0; p < pixels; ++p) covered += values.at(2 * pixels + p) < 0.99f;
+    EXPECT_GT(covered, 0u) << distance << " m";
+  }
+}
+
 // A render's deep shadow map counts in --memory-budget beside its image: 512^3 nodes for 4 lights is 2 GiB
 // of map (and 256 MiB of masks), refused under a budget of 1 GiB before anything is allocated, while the
 // same render with a 64^3 map runs.
