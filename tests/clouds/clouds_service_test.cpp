@@ -449,7 +449,8 @@ TEST(CloudsService, ARenderFromFarAwayEnds) {
   request.mutable_settings()->set_step(0.5);
   for (double distance : {2e3, 2e4}) {
     request.mutable_settings()->mutable_camera()->mutable_eye()->set_y(-distance);
-    request.mutable_settings()->mutable_camera()->set_vertical_fov_deg(1000 / distance);  // the sphere: most of the 16 rows
+    // The sphere fills most of the 16 rows.
+    request.mutable_settings()->mutable_camera()->set_vertical_fov_deg(1000 / distance);
     auto c = call();
     expire_in(*c.context, 30);
     v1::RenderResponse response;
