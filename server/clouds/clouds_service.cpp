@@ -72,20 +72,19 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
   const std::string value = validate::number(by_shadow_step ? settings.shadow_step : settings.step);
   const clouds::SampleEstimate estimate = clouds::estimate_samples(volume, settings);
   serving_.gate().check_render_samples(field, value, estimate.total);
-  if (estimate.per_pixel > clouds::kMaxSamplesPerPixel)
-    fail(Code::ResourceExhausted, field + " = " + value + " makes an estimated " +
-                                      validate::number(estimate.per_pixel) + " density samples per pixel, more than " +
-                                      validate::number(clouds::kMaxSamplesPerPixel) +
-                                      " (a pixel's march cannot be cancelled midway; a larger step costs less)");
-  if (estimate.per_map_node > clouds::kMaxSamplesPerPixel) {
-    const bool own = settings.shadow_step > 0;  // else 3 steps
-    fail(Code::ResourceExhausted, std::string(own ? "settings.shadow_step = " : "settings.step = ") +
-                                      validate::number(own ? settings.shadow_step : settings.step) +
-                                      " makes an estimated " + validate::number(estimate.per_map_node) +
-                                      " density samples per deep shadow map node, more than " +
-                                      validate::number(clouds::kMaxSamplesPerPixel) +
-                                      " (a node's march cannot be cancelled midway; a larger step costs less)");
-  }
+  // A pixel's march, and a deep shadow map node's, runs to its end once started.
+  auto check_one_march = [](const std::string& step, const std::string& step_value, double samples, const char* what) {
+    if (samples > clouds::kMaxSamplesPerPixel)
+      fail(Code::ResourceExhausted, step + " = " + step_value + " makes an estimated " + validate::number(samples) +
+                                        " density samples per " + what + ", more than " +
+                                        validate::number(clouds::kMaxSamplesPerPixel) + " (a " + what +
+                                        "'s march cannot be cancelled midway; a larger step costs less)");
+  };
+  check_one_march(field, value, estimate.per_pixel, "pixel");
+  const bool own_shadow_step = settings.shadow_step > 0;  // else 3 steps
+  check_one_march(own_shadow_step ? "settings.shadow_step" : "settings.step",
+                  validate::number(own_shadow_step ? settings.shadow_step : settings.step), estimate.per_map_node,
+                  "deep shadow map node");
   clouds::check_march_resolution(volume, settings, "settings");
 }
 

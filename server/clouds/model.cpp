@@ -33,8 +33,7 @@ void check_reach(const std::string& path, const Vec3d& center, double reach, dou
   const double limit = std::ldexp(voxel_size, 30);
   for (int a = 0; a < 3; ++a)
     if (!(std::abs(center[a]) + reach <= limit))
-      fail(Code::InvalidArgument, path + " = (" + validate::number(center[0]) + ", " + validate::number(center[1]) +
-                                      ", " + validate::number(center[2]) + ") plus " + validate::number(reach) +
+      fail(Code::InvalidArgument, path + " = " + validate::xyz(center) + " plus " + validate::number(reach) +
                                       " m of shape must stay within 2^30 voxels (" + validate::number(limit) +
                                       " m) of the origin");
 }

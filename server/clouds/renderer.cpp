@@ -284,9 +284,8 @@ void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s,
            prefix + field + " = " + validate::number(step) + " is below the float resolution of a march " + where +
                " (" + validate::number(distance) + " m): it must be at least " + validate::number(least));
   };
-  const std::string eye_text =
-      "(" + validate::number(eye[0]) + ", " + validate::number(eye[1]) + ", " + validate::number(eye[2]) + ")";
-  check(".step", s.step, far, "from " + prefix + ".camera.eye = " + eye_text + " to the far side of the volume");
+  check(".step", s.step, far,
+        "from " + prefix + ".camera.eye = " + validate::xyz(eye) + " to the far side of the volume");
   const bool shadows = s.shadow != ShadowMode::None && !s.lights.empty();
   if (shadows)
     check(s.shadow_step > 0 ? ".shadow_step" : ".step", shadow_step(s), norm(sub(volume.world_max, volume.world_min)),

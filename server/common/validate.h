@@ -16,6 +16,13 @@ namespace squall::validate {
 
 // A number as messages print it: up to 9 significant digits, "nan", "inf", "-inf".
 std::string number(double v);
+// A 3-vector as messages print it: "(1e+300, 0, 0)".
+template <typename Vec3>
+std::string xyz(const Vec3& v) {
+  std::string text = "(";  // appended: GCC 12 warns falsely (-Wrestrict) on "(" + std::string
+  text.append(number(v[0])).append(", ").append(number(v[1])).append(", ").append(number(v[2]));
+  return text + ")";
+}
 
 // Throws Error(InvalidArgument, path + " = " + value + " must be " + rule).
 [[noreturn]] void reject(const std::string& path, const std::string& value, const std::string& rule);

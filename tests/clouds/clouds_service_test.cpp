@@ -47,9 +47,10 @@ struct Call {
   }
 };
 
-Call call() {
+// A call to `address`: the shared daemon's unless another is named.
+Call call(const std::string& address = daemon().address()) {
   Call c;
-  c.client = std::make_unique<client::Client>(client::ClientOptions{daemon().address(), 120, ""});
+  c.client = std::make_unique<client::Client>(client::ClientOptions{address, 120, ""});
   c.stub = v1::Clouds::NewStub(c.client->channel());
   c.context = c.client->context();
   return c;
@@ -471,22 +472,20 @@ TEST(CloudsService, ARenderFromFarAwayEnds) {
 // same render with a 64^3 map runs.
 TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
   test::Daemon d({"--memory-budget", std::to_string(1ull << 30)});
-  client::Client client({d.address(), 120, ""});
-  auto stub = v1::Clouds::NewStub(client.channel());
   v1::RenderRequest request;
   *request.mutable_model() = sphere_model();
   *request.mutable_settings() = small_render();
   for (int light = 1; light < 4; ++light) *request.mutable_settings()->add_lights() = request.settings().lights(0);
   for (int a = 0; a < 3; ++a) request.mutable_settings()->add_shadow_map_size(512);
   v1::RenderResponse response;
-  grpc::Status status = stub->Render(client.context().get(), request, &response);
+  grpc::Status status = call(d.address()).render(request, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_NE(
       status.error_message().find("Render's image and shadow map (2415942144 bytes) would pass the memory budget"),
       std::string::npos)
       << status.error_message();
   for (int a = 0; a < 3; ++a) request.mutable_settings()->set_shadow_map_size(a, 64);
-  status = stub->Render(client.context().get(), request, &response);
+  status = call(d.address()).render(request, &response);
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
