@@ -254,7 +254,13 @@ CloudRenderer::CloudRenderer(Runtime& runtime, LimitGate* gate, size_t max_kept_
       gate_(gate),
       kept_maps_(kept_maps_limits(max_kept_maps_bytes)),
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
-      render_(runtime, "clouds/render.cl", "cloud_render") {}
+      render_(runtime, "clouds/render.cl", "cloud_render") {
+  if (gate_) gate_->add_reclaimer(this);
+}
+
+CloudRenderer::~CloudRenderer() {
+  if (gate_) gate_->remove_reclaimer(this);
+}
 
 SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s) {
   const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
@@ -378,6 +384,7 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
     std::lock_guard<std::mutex> guard(kept->mutex);
     if (kept->map() && same_params(kept->made_with, map.made_with)) {
       map.buffer = kept->map;
+      kept->used = ++uses_;
       return;
     }
     ++kept->made;
@@ -432,13 +439,45 @@ void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
   kept.memory = Slot(), kept.share = Slot();
   try {
     Slot share = kept_maps_.acquire_memory("the deep shadow maps kept", bytes);
-    if (gate_) kept.memory = gate_->acquire_memory("a deep shadow map kept for the volume's next render", bytes);
+    if (gate_) kept.memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
     kept.share = std::move(share);
   } catch (const Error&) {
     return;  // past a budget: the next render makes its own
   }
   kept.made_with = map.made_with;
   kept.map = map.buffer;
+  kept.used = ++uses_;
+  std::lock_guard<std::mutex> list(kept_mutex_);
+  std::erase_if(kept_, [](const std::weak_ptr<KeptShadowMap>& m) { return m.expired(); });
+  const auto listed = std::find_if(kept_.begin(), kept_.end(), [&](const std::weak_ptr<KeptShadowMap>& m) {
+    return m.lock() == volume.kept_shadow_map;
+  });
+  if (listed == kept_.end()) kept_.push_back(volume.kept_shadow_map);
+}
+
+std::vector<std::shared_ptr<KeptShadowMap>> CloudRenderer::kept_maps() {
+  std::vector<std::pair<uint64_t, std::shared_ptr<KeptShadowMap>>> by_use;  // `used` read once: renders move it
+  {
+    std::lock_guard<std::mutex> list(kept_mutex_);
+    for (const auto& m : kept_)
+      if (auto held = m.lock()) by_use.emplace_back(held->used.load(), std::move(held));
+  }
+  std::sort(by_use.begin(), by_use.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::shared_ptr<KeptShadowMap>> maps;
+  for (auto& [used, map] : by_use) maps.push_back(std::move(map));
+  return maps;
+}
+
+void CloudRenderer::reclaim(uint64_t bytes) {
+  uint64_t freed = 0;
+  for (const auto& kept : kept_maps()) {
+    if (freed >= bytes) return;
+    std::lock_guard<std::mutex> guard(kept->mutex);
+    if (!kept->map()) continue;
+    freed += kept->map.getInfo<CL_MEM_SIZE>();
+    kept->map = cl::Buffer();
+    kept->memory = Slot(), kept->share = Slot();
+  }
 }
 
 }  // namespace squall::clouds

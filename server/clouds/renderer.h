@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -83,6 +84,7 @@ struct KeptShadowMap {
   cl::Buffer map;                 // none before the first
   Slot memory, share;             // its bytes in the memory budget and in the kept maps' own
   uint64_t made = 0;              // maps made for the volume, kept or not
+  std::atomic<uint64_t> used{0};  // when a render last kept or read it, in its renderer's count
 };
 
 // A map of at most this many bytes is kept: 16 MiB, a 128^3 map of two lights. A larger one leaves the
@@ -139,19 +141,25 @@ void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s,
 // map node and light, and the mask of needed nodes (a byte per node) on the host and on the device.
 uint64_t shadow_map_bytes(const RenderSettings& s);
 
-class CloudRenderer {
+class CloudRenderer : public MemoryReclaimer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/". The
-  // shadow maps kept for volumes hold their bytes in `gate`'s memory budget (none: not counted), and at
-  // most `max_kept_maps_bytes` together.
+  // shadow maps kept for volumes hold their bytes in `gate`'s memory budget (none: not counted) as cached
+  // memory, which a call that needs the room takes back, and at most `max_kept_maps_bytes` together.
   explicit CloudRenderer(Runtime& runtime, LimitGate* gate = nullptr,
                          size_t max_kept_maps_bytes = kMaxKeptShadowMapsBytes);
+  ~CloudRenderer() override;
+  CloudRenderer(const CloudRenderer&) = delete;
+  CloudRenderer& operator=(const CloudRenderer&) = delete;
   // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
   // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
   // A deep shadow map is made, or taken from the volume's KeptShadowMap, and kept for its next render when
   // at most kMaxKeptShadowMapBytes and within both budgets (else the next render makes its own).
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
                const Cancellation& cancel = {});
+  // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
+  // make them again.
+  void reclaim(uint64_t bytes) override;
 
  private:
   struct ShadowMap;
@@ -163,12 +171,16 @@ class CloudRenderer {
   bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, const ShadowMap& map);
+  std::vector<std::shared_ptr<KeptShadowMap>> kept_maps();  // the maps kept now, least recently used first
 
   Runtime& runtime_;
   LimitGate* gate_;
   // Its memory budget: the kept maps' bytes, all volumes together. A KeptShadowMap gives its share back to
   // it, so the volumes that keep maps must not outlive the renderer.
   LimitGate kept_maps_;
+  std::mutex kept_mutex_;                           // guards kept_; no map's mutex is taken under it
+  std::vector<std::weak_ptr<KeptShadowMap>> kept_;  // the volumes' maps that keep() has kept
+  std::atomic<uint64_t> uses_{0};                   // KeptShadowMap::used
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
   Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
       render_;  // density, temperature, dsm, p, out

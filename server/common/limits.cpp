@@ -12,6 +12,7 @@ Slot& Slot::operator=(Slot&& other) noexcept {
   if (this != &other) {
     release();
     counter_ = other.counter_;
+    also_ = other.also_;
     amount_ = other.amount_;
     other.counter_ = nullptr;
   }
@@ -20,6 +21,7 @@ Slot& Slot::operator=(Slot&& other) noexcept {
 
 void Slot::release() {
   if (counter_) counter_->fetch_sub(amount_);
+  if (counter_ && also_) also_->fetch_sub(amount_);
   counter_ = nullptr;
 }
 
@@ -98,10 +100,39 @@ bool LimitGate::memory_room(uint64_t bytes, uint64_t given_back) const {
   return others <= limits_.memory_budget && bytes <= limits_.memory_budget - others;
 }
 
-Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
+Slot LimitGate::take_memory(const std::string& what, uint64_t bytes) {
   return take(memory_bytes_, bytes, limits_.memory_budget,
               what + " (" + std::to_string(bytes) + " bytes) would pass the memory budget", "--memory-budget",
               "bytes already in use");
+}
+
+Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
+  if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
+    std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+    for (MemoryReclaimer* cache : reclaimers_) {
+      const uint64_t held = memory_bytes_.load();
+      if (held <= limits_.memory_budget - bytes) break;
+      cache->reclaim(held - (limits_.memory_budget - bytes));
+    }
+  }
+  return take_memory(what, bytes);
+}
+
+Slot LimitGate::acquire_cache_memory(const std::string& what, uint64_t bytes) {
+  Slot slot = take_memory(what, bytes);
+  cached_bytes_ += bytes;
+  slot.also_ = &cached_bytes_;
+  return slot;
+}
+
+void LimitGate::add_reclaimer(MemoryReclaimer* cache) {
+  std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+  reclaimers_.push_back(cache);
+}
+
+void LimitGate::remove_reclaimer(MemoryReclaimer* cache) {
+  std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+  std::erase(reclaimers_, cache);
 }
 
 }  // namespace squall

@@ -6,7 +6,9 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <vector>
 
 namespace squall {
 
@@ -34,7 +36,9 @@ class LimitGate;
 class Slot {
  public:
   Slot() = default;
-  Slot(Slot&& other) noexcept : counter_(other.counter_), amount_(other.amount_) { other.counter_ = nullptr; }
+  Slot(Slot&& other) noexcept : counter_(other.counter_), also_(other.also_), amount_(other.amount_) {
+    other.counter_ = nullptr;
+  }
   Slot& operator=(Slot&& other) noexcept;
   Slot(const Slot&) = delete;
   Slot& operator=(const Slot&) = delete;
@@ -43,9 +47,21 @@ class Slot {
 
  private:
   friend class LimitGate;
-  Slot(std::atomic<uint64_t>* counter, uint64_t amount) : counter_(counter), amount_(amount) {}
+  Slot(std::atomic<uint64_t>* counter, uint64_t amount, std::atomic<uint64_t>* also = nullptr)
+      : counter_(counter), also_(also), amount_(amount) {}
   std::atomic<uint64_t>* counter_ = nullptr;
+  std::atomic<uint64_t>* also_ = nullptr;  // a second count the amount is held in, or none
   uint64_t amount_ = 0;
+};
+
+// A cache of what the next calls would compute again, whose bytes count in the memory budget as cached
+// memory: a call that finds no room in the budget takes it back (LimitGate::acquire_memory).
+class MemoryReclaimer {
+ public:
+  virtual ~MemoryReclaimer() = default;
+  // Drops what it keeps, least recently used first, until `bytes` of its memory are given back or it keeps
+  // nothing. Called with no lock of the caller's held.
+  virtual void reclaim(uint64_t bytes) = 0;
 };
 
 class LimitGate {
@@ -78,8 +94,16 @@ class LimitGate {
 
   // `bytes` more of the one memory budget (a session's or stored volume's bytes, a call's working memory
   // while it runs); RESOURCE_EXHAUSTED naming `what` and --memory-budget past memory_budget. Taken before
-  // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer.
+  // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer. Where
+  // the budget has no room, the caches (add_reclaimer) first give back what they keep.
   Slot acquire_memory(const std::string& what, uint64_t bytes);
+  // acquire_memory for what a cache keeps: only room that no one holds (no cache gives its memory to
+  // another), counted as cached memory until the Slot goes.
+  Slot acquire_cache_memory(const std::string& what, uint64_t bytes);
+  // The caches acquire_memory takes memory back from, in the order added. A cache removes itself before it
+  // goes.
+  void add_reclaimer(MemoryReclaimer* cache);
+  void remove_reclaimer(MemoryReclaimer* cache);
   // Whether acquire_memory(bytes) would find room once `given_back` of the bytes held now are given back
   // (a cache's own, which it would drop for them). Other holders may take the room meanwhile.
   bool memory_room(uint64_t bytes, uint64_t given_back = 0) const;
@@ -88,16 +112,21 @@ class LimitGate {
   uint32_t live_sessions() const { return uint32_t(sessions_.load()); }
   uint64_t session_bytes() const { return session_bytes_.load(); }
   uint64_t memory_bytes() const { return memory_bytes_.load(); }
+  uint64_t cached_memory_bytes() const { return cached_bytes_.load(); }  // of memory_bytes(), the caches'
 
  private:
   static Slot take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,
                    const char* flag, const char* held_as);
+  Slot take_memory(const std::string& what, uint64_t bytes);  // of the memory budget, taking back nothing
 
   Limits limits_;
   std::atomic<uint64_t> streams_{0};
   std::atomic<uint64_t> sessions_{0};
   std::atomic<uint64_t> session_bytes_{0};
   std::atomic<uint64_t> memory_bytes_{0};
+  std::atomic<uint64_t> cached_bytes_{0};
+  std::mutex reclaimers_mutex_;  // held while a cache gives memory back: one call takes it back at a time
+  std::vector<MemoryReclaimer*> reclaimers_;
   static constexpr size_t kClientBuckets = 4096;
   std::array<std::atomic<uint64_t>, kClientBuckets> client_streams_{};
 };

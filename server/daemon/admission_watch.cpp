@@ -1,5 +1,7 @@
 #include "daemon/admission_watch.h"
 
+#include <algorithm>
+
 #include "common/log.h"
 
 namespace squall::rpc {
@@ -8,7 +10,9 @@ AdmissionWatch::AdmissionWatch(const LimitGate& gate, grpc::HealthCheckServiceIn
     : gate_(gate), health_(health), beat_(std::chrono::milliseconds(250), [this] { tick(); }) {}
 
 void AdmissionWatch::tick() {
-  const double share = double(gate_.memory_bytes()) / double(gate_.limits().memory_budget);
+  // What the caches keep is given back to the calls that need it: not counted as reserved.
+  const uint64_t held = gate_.memory_bytes(), cached = std::min(gate_.cached_memory_bytes(), held);
+  const double share = double(held - cached) / double(gate_.limits().memory_budget);
   const bool next = admitting_ ? share < kFullShare : share < kFreeShare;
   if (next == admitting_) return;
   admitting_ = next;

@@ -1,5 +1,6 @@
 // AdmissionWatch: while squalld serves, four times a second, turns gRPC health NOT_SERVING when the memory
-// budget is nearly spent (at least kFullShare of --memory-budget reserved: new work would be refused
+// budget is nearly spent (at least kFullShare of --memory-budget reserved, what caches keep for the next
+// calls not counted as it is given back to calls that need it: new work would be refused
 // RESOURCE_EXHAUSTED, so balancers should send it elsewhere) and SERVING again once the reservations fall
 // below kFreeShare (the gap keeps it from flapping). Stopped before the daemon drains, which turns health
 // NOT_SERVING for good.

@@ -5,15 +5,12 @@
 // and the tables held count in the daemon's memory budget.
 #pragma once
 
-#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
-#include <list>
-#include <mutex>
-#include <vector>
 
 #include "common/limits.h"
 #include "ewave/ewave_config.h"
+#include "runtime/device_cache.h"
 #include "runtime/runtime.h"
 
 namespace squall::ewave {
@@ -27,17 +24,15 @@ class CoefficientCache {
   // budget has no room for a new one, the least recently used give theirs, and where even all of theirs
   // would not make room it is returned but not kept (the others stay).
   explicit CoefficientCache(size_t max_bytes = kDefaultMaxBytes, LimitGate* gate = nullptr)
-      : max_bytes_(max_bytes), gate_(gate) {}
-  CoefficientCache(const CoefficientCache&) = delete;
-  CoefficientCache& operator=(const CoefficientCache&) = delete;
+      : tables_(max_bytes, gate, "an eWave propagator table kept for the next steps") {}
 
   // The table of (config, dt), computed on a miss into a buffer whose contents are complete when it is
   // returned (no command: any queue may read it). Thread-safe, and no device queue is needed: a miss is
   // computed with no lock held, and callers missing the same table meanwhile wait for it, not for others.
   cl::Buffer get(const Runtime& runtime, const EWaveConfig& config, double dt);
 
-  uint64_t computed() const;  // tables computed so far
-  size_t bytes() const;       // held now
+  uint64_t computed() const { return tables_.computed(); }  // tables computed so far
+  size_t bytes() const { return tables_.bytes(); }          // held now
 
  private:
   // What propagator_coefficients() and the state's type depend on.
@@ -48,25 +43,9 @@ class CoefficientCache {
     bool double_precision = false;
     bool operator==(const Key&) const = default;
   };
-  struct Entry {
-    Key key;
-    cl::Buffer buffer;
-    size_t bytes = 0;
-    Slot memory;  // its bytes in the memory budget
-  };
   static Key key_of(const EWaveConfig& config, double dt);
-  cl::Buffer find(const Key& key);                                    // under mutex_; none on a miss
-  bool computing(const Key& key) const;                               // under mutex_
-  void keep(const Key& key, const cl::Buffer& buffer, size_t bytes);  // under mutex_
 
-  const size_t max_bytes_;
-  LimitGate* gate_;
-  mutable std::mutex mutex_;
-  std::condition_variable computed_one_;
-  std::list<Entry> entries_;    // most recently used first
-  std::vector<Key> computing_;  // misses being computed now
-  size_t bytes_ = 0;
-  uint64_t computed_ = 0;
+  DeviceCache<Key> tables_;
 };
 
 }  // namespace squall::ewave

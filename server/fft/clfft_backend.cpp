@@ -46,6 +46,13 @@ std::shared_ptr<Library> library() {
   return held;
 }
 
+// clFFT shares one cl_kernel between the plans of one size (its FFTRepo) and sets its arguments at each
+// enqueue: plans of two device queues must not enqueue at once, nor one be destroyed while another enqueues.
+std::mutex& repo_mutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
 class ClfftPlan : public Plan {
  public:
   ClfftPlan(Runtime& runtime, const PlanKey& key) : Plan(key), runtime_(runtime), library_(library()) {
@@ -58,6 +65,7 @@ class ClfftPlan : public Plan {
   }
 
   ~ClfftPlan() override {
+    std::lock_guard<std::mutex> lock(repo_mutex());
     for (int i = 0; i < 2; ++i)
       if (baked_[i]) clfftDestroyPlan(&handles_[i]);
   }
@@ -76,10 +84,7 @@ class ClfftPlan : public Plan {
     clfftPlanHandle plan = handle(in_place);
     cl_command_queue q = queue();
     cl_mem input = in(), output = out();
-    // clFFT shares one cl_kernel between the plans of one size (its FFTRepo) and sets its arguments at
-    // each enqueue: plans of two device queues must not enqueue at once.
-    static std::mutex enqueue_mutex;
-    std::lock_guard<std::mutex> lock(enqueue_mutex);
+    std::lock_guard<std::mutex> lock(repo_mutex());
     check(clfftEnqueueTransform(plan, direction == Direction::Forward ? CLFFT_FORWARD : CLFFT_BACKWARD, 1, &q, 0,
                                 nullptr, nullptr, &input, in_place ? nullptr : &output, nullptr),
           "clfftEnqueueTransform " + describe(key()));

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <iterator>
 #include <sstream>
 #include <vector>
 
@@ -51,24 +52,83 @@ std::vector<std::string> available_backends(const Runtime& runtime) {
   return names;
 }
 
-Plan& Fft::plan(const PlanKey& key) {
-  if (key.nx < 1 || key.ny < 1 || key.batch < 1) fail(Code::InvalidArgument, "fft: empty transform " + describe(key));
-  const std::pair<size_t, PlanKey> slot_key{current_queue_slot(), key};
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = plans_.find(slot_key);
-  if (it == plans_.end()) it = plans_.emplace(slot_key, backend_->bake(key)).first;
-  return *it->second;
-}
+Plan& Fft::plan(const PlanKey& key) { return take({current_queue_slot(), key}, false); }
 
 Plan& Fft::prepare(const PlanKey& key, Direction direction, bool in_place) {
-  Plan& p = plan(key);
-  p.prepare(direction, in_place);
+  const SlotKey slot_key{current_queue_slot(), key};
+  const bool pin = held_queue_slot() < 0;  // under a lease the plan is kept while the lease lasts
+  Plan& p = take(slot_key, pin);
+  try {
+    p.prepare(direction, in_place);
+  } catch (...) {
+    if (pin) unpin(slot_key);
+    throw;
+  }
+  if (pin) unpin(slot_key);
   return p;
 }
 
 size_t Fft::cached_plans() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return plans_.size();
+}
+
+Plan& Fft::take(const SlotKey& key, bool pin) {
+  const PlanKey& k = key.second;
+  if (k.nx < 1 || k.ny < 1 || k.batch < 1) fail(Code::InvalidArgument, "fft: empty transform " + describe(k));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = plans_.find(key); it != plans_.end()) return use(it->second, pin);
+  }
+  std::unique_ptr<Plan> baked;
+  {
+    std::lock_guard<std::mutex> bake(bake_mutex_);  // compiling kernels may take seconds on PoCL
+    baked = backend_->bake(k);
+  }
+  std::vector<std::unique_ptr<Plan>> freed;
+  Plan* plan = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto [it, added] = plans_.try_emplace(key);
+    if (added) it->second.plan = std::move(baked);
+    plan = &use(it->second, pin);  // a plan this lease took is not freed
+    if (held_queue_slot() >= 0) freed = evict_past_limit(key.first);
+    if (baked) freed.push_back(std::move(baked));  // one made meanwhile (queue 0, outside a lease) is kept
+  }
+  if (!freed.empty()) {  // freed as they are made, one at a time, and with no lookup waiting for FFTW's planner
+    std::lock_guard<std::mutex> bake(bake_mutex_);
+    freed.clear();
+  }
+  return *plan;
+}
+
+Plan& Fft::use(Cached& cached, bool pin) {
+  if (const uint64_t lease = held_lease_serial()) cached.lease = lease;  // outside a lease: pinned or a test
+  cached.used = ++lookups_;
+  if (pin) ++cached.pins;
+  return *cached.plan;
+}
+
+// Only the lease holding `slot` calls it, so none of the slot's earlier leases has commands left.
+std::vector<std::unique_ptr<Plan>> Fft::evict_past_limit(size_t slot) {
+  std::vector<std::unique_ptr<Plan>> evicted;
+  for (;;) {
+    const auto first = plans_.lower_bound({slot, PlanKey{}}), end = plans_.lower_bound({slot + 1, PlanKey{}});
+    if (size_t(std::distance(first, end)) <= kMaxPlansPerQueue) return evicted;
+    auto oldest = end;
+    for (auto it = first; it != end; ++it)
+      if (it->second.lease != held_lease_serial() && it->second.pins == 0 &&
+          (oldest == end || it->second.used < oldest->second.used))
+        oldest = it;
+    if (oldest == end) return evicted;  // all in use: a later lease frees them
+    evicted.push_back(std::move(oldest->second.plan));
+    plans_.erase(oldest);
+  }
+}
+
+void Fft::unpin(const SlotKey& key) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (auto it = plans_.find(key); it != plans_.end()) --it->second.pins;
 }
 
 namespace {

@@ -8,7 +8,7 @@
 //   inverse(forward(a)) = nx * ny * a.
 // - R2C (forward only) maps nx * ny reals to (nx / 2 + 1) * ny complex values; C2R (inverse only) maps
 //   them back and may overwrite its input, as FFTW's c2r does.
-// - A plan is baked once per key and cached; executing it allocates nothing.
+// - A plan is baked per key and device queue and cached (Fft); executing it allocates nothing.
 #pragma once
 
 #include <compare>
@@ -104,11 +104,19 @@ std::vector<std::string> available_backends(const Runtime& runtime);
 // static destructor): clFFT frees its plans through statics of its own that exit handlers destroy first.
 class Fft {
  public:
+  // Plans kept per device queue. Past it, taking a plan under a lease frees the least recently used of its
+  // queue's plans that neither this lease took nor a prepare() outside a lease is making, so that requests
+  // of ever new grid sizes do not add plans (and device memory) for good. Those plans' commands have run:
+  // the queue was finished when their lease ended.
+  static constexpr size_t kMaxPlansPerQueue = 32;
+
   explicit Fft(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {}
   const std::string name() const { return backend_->name(); }
 
   // The cached plan for key on the calling thread's device queue, baked on first use (a plan's scratch
-  // memory serves one queue). Thread-safe; the plan lives as long as this object.
+  // memory serves one queue). Thread-safe; other lookups go on while a plan is baked. Under a lease
+  // (Runtime::exclusive()) the plan stays until the lease ends; outside one (start-up, tests), until a
+  // lease of queue 0 takes kMaxPlansPerQueue others.
   Plan& plan(const PlanKey& key);
   // plan(key), prepared to run `direction` in place or not: what a session does when it is created, so
   // that its first step measures nothing. FFTW keeps what its planner measured (its wisdom), so the same
@@ -117,9 +125,23 @@ class Fft {
   size_t cached_plans() const;  // over all queues
 
  private:
+  using SlotKey = std::pair<size_t, PlanKey>;  // queue slot, key
+  struct Cached {
+    std::unique_ptr<Plan> plan;
+    uint64_t lease = 0;  // held_lease_serial() of the last lease that took it; 0: none (only outside leases)
+    uint64_t used = 0;   // when it was last taken, in lookups_
+    int pins = 0;        // prepare() calls outside a lease making it now
+  };
+  Plan& take(const SlotKey& key, bool pin);                          // bakes on a miss
+  Plan& use(Cached& cached, bool pin);                               // under mutex_
+  std::vector<std::unique_ptr<Plan>> evict_past_limit(size_t slot);  // under mutex_; the plans to free
+  void unpin(const SlotKey& key);
+
   std::unique_ptr<Backend> backend_;
+  std::mutex bake_mutex_;  // plans are made and freed one at a time
   mutable std::mutex mutex_;
-  std::map<std::pair<size_t, PlanKey>, std::unique_ptr<Plan>> plans_;  // by queue slot and key
+  std::map<SlotKey, Cached> plans_;
+  uint64_t lookups_ = 0;
 };
 
 // Times one complex nx x ny transform of each available backend on the runtime's device (median of a

@@ -219,7 +219,7 @@ class FftwPlan : public Plan {
     void* out;         // the output's host storage, or null: *output, or the input in place
     void** output;     // out of place on buffers of unknown storage: the output's address, noted by note_output
     bool in_place;     // the same buffer in and out (as enqueued: not two buffers over one memory)
-    FftwPlan* self;    // cached by the Fft for its lifetime, which outlasts its queues' commands
+    FftwPlan* self;    // kept by the Fft until its queue has run the commands of the lease that took it
     Direction direction;
   };
 

@@ -4,12 +4,12 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <list>
 #include <map>
 
 #include "common/error.h"
 #include "common/validate.h"
 #include "ocean/spectrum_setup.h"
+#include "runtime/device_cache.h"
 #include "runtime/host_transfer.h"
 #include "runtime/kernel.h"
 
@@ -67,7 +67,6 @@ struct OceanEngine::Impl {
   Runtime& runtime;
   fft::Fft& fft;
   LimitGate gate;  // the grid limit of tile() and sample()
-  size_t max_cached_bytes;
   H0Kernel h0_kernel;
   H0MirrorKernel h0_mirror;
   std::array<EvolveKernel, 4> evolve;              // displaced layout, [pairs - 1]
@@ -76,22 +75,14 @@ struct OceanEngine::Impl {
   FinalizeKernel finalize, finalize_direct;
   PotentialKernel evolve_potential, evolve_current;
 
-  struct Entry {
-    std::string key;
-    cl::Buffer h0;  // kH0Planes planes of nx * ny floats (H0_* of ocean.cl)
-    size_t bytes;
-  };
-  std::list<Entry> cache;  // most recently used first
-  size_t cached_bytes = 0;
-  size_t built = 0;
+  DeviceCache<std::string> spectra;               // h0 per layer (h0_key)
   std::map<std::string, double> slope_variances;  // eq 96 per spec (bounded)
-  mutable std::mutex cache_mutex;                 // guards the counters read by cached_spectra() / spectra_built()
+  std::mutex slope_mutex;                         // guards slope_variances
 
-  Impl(Runtime& r, fft::Fft& f, const Limits& limits, size_t max_bytes)
+  Impl(Runtime& r, fft::Fft& f, const Limits& limits, size_t max_cached_bytes, LimitGate* budget)
       : runtime(r),
         fft(f),
         gate(limits),
-        max_cached_bytes(max_bytes),
         h0_kernel(r, kProgram, "ocean_h0"),
         h0_mirror(r, kProgram, "ocean_h0_mirror"),
         evolve{EvolveKernel(r, kProgram, "ocean_evolve1"), EvolveKernel(r, kProgram, "ocean_evolve2"),
@@ -102,40 +93,29 @@ struct OceanEngine::Impl {
         finalize(r, kProgram, "ocean_finalize"),
         finalize_direct(r, kProgram, "ocean_finalize_direct"),
         evolve_potential(r, kProgram, "ocean_evolve_potential"),
-        evolve_current(r, kProgram, "ocean_evolve_current") {}
+        evolve_current(r, kProgram, "ocean_evolve_current"),
+        spectra(max_cached_bytes, budget, "an ocean layer's spectrum kept for the next tiles") {}
 
   // h0 of layer `index`, computed on a miss (and finished before it is cached: other queues may read it
   // at once). Runs under runtime.exclusive(). A handle, not a reference: another request may evict it.
   cl::Buffer spectrum(const TileSpec& spec, size_t index) {
-    std::string key = h0_key(spec, index);
-    std::lock_guard<std::mutex> guard(cache_mutex);
-    for (auto it = cache.begin(); it != cache.end(); ++it)
-      if (it->key == key) {
-        cache.splice(cache.begin(), cache, it);
-        return cache.front().h0;
-      }
-    const LayerSpec& L = spec.layers[index];
-    size_t cells = size_t(L.nx) * size_t(L.ny), bytes = cells * kH0Planes * sizeof(float);
-    while (!cache.empty() && cached_bytes + bytes > max_cached_bytes) {
-      cached_bytes -= cache.back().bytes;
-      cache.pop_back();
-    }
-    OceanLayer params = device_layer(L, int(index));
-    auto bands = layer_bands(spec);
-    const cl::Context& context = runtime.context();
-    cl::Buffer layer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(params), &params);
-    std::array<float, 4> none{};
-    cl::Buffer band_buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                           std::max<size_t>(1, bands.size()) * sizeof(none),
-                           bands.empty() ? none.data() : bands.front().data());
-    cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
-    h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
-    h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
-    runtime.queue().finish();  // the parameter buffers go out of scope
-    cache.push_front(Entry{key, h0, bytes});
-    cached_bytes += bytes;
-    ++built;
-    return cache.front().h0;
+    return spectra.get(h0_key(spec, index), [&] {
+      const LayerSpec& L = spec.layers[index];
+      const size_t bytes = size_t(L.nx) * size_t(L.ny) * kH0Planes * sizeof(float);
+      OceanLayer params = device_layer(L, int(index));
+      auto bands = layer_bands(spec);
+      const cl::Context& context = runtime.context();
+      cl::Buffer layer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(params), &params);
+      std::array<float, 4> none{};
+      cl::Buffer band_buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                             std::max<size_t>(1, bands.size()) * sizeof(none),
+                             bands.empty() ? none.data() : bands.front().data());
+      cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
+      h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
+      h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
+      runtime.queue().finish();  // the parameter buffers go out of scope
+      return DeviceCache<std::string>::Made{h0, bytes};
+    });
   }
 
   double slope_variance(const TileSpec& spec) {
@@ -144,12 +124,12 @@ struct OceanEngine::Impl {
     for (double v : {spec.pixel_scale, spec.slope_k_max, spec.lx, spec.ly, double(spec.nx), double(spec.ny)})
       append(key, v);
     {
-      std::lock_guard<std::mutex> guard(cache_mutex);
+      std::lock_guard<std::mutex> guard(slope_mutex);
       auto it = slope_variances.find(key);
       if (it != slope_variances.end()) return it->second;
     }
     double value = unresolved_slope_variance(spec);
-    std::lock_guard<std::mutex> guard(cache_mutex);
+    std::lock_guard<std::mutex> guard(slope_mutex);
     if (slope_variances.size() >= 256) slope_variances.clear();
     slope_variances[key] = value;
     return value;
@@ -194,8 +174,9 @@ struct OceanEngine::Impl {
   }
 };
 
-OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits, size_t max_cached_bytes)
-    : impl_(std::make_unique<Impl>(runtime, fft, limits, max_cached_bytes)) {}
+OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits, size_t max_cached_bytes,
+                         LimitGate* budget)
+    : impl_(std::make_unique<Impl>(runtime, fft, limits, max_cached_bytes, budget)) {}
 OceanEngine::~OceanEngine() = default;
 
 void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { validate_tile(spec, gate); }
@@ -257,14 +238,9 @@ SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
   return current;
 }
 
-size_t OceanEngine::cached_spectra() const {
-  std::lock_guard<std::mutex> guard(impl_->cache_mutex);
-  return impl_->cache.size();
-}
-size_t OceanEngine::spectra_built() const {
-  std::lock_guard<std::mutex> guard(impl_->cache_mutex);
-  return impl_->built;
-}
+size_t OceanEngine::cached_spectra() const { return impl_->spectra.entries(); }
+size_t OceanEngine::spectra_built() const { return size_t(impl_->spectra.computed()); }
+size_t OceanEngine::cached_spectrum_bytes() const { return impl_->spectra.bytes(); }
 
 namespace {
 

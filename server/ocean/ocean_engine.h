@@ -33,9 +33,14 @@ using PlaneDestination = std::function<float*(int plane, size_t cells)>;
 
 class OceanEngine {
  public:
-  // The runtime must have built the "ocean/" programs. max_cached_bytes bounds the h0 cache. `limits`
-  // (the daemon's) bound the grids tile() and sample() accept.
-  OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits = {}, size_t max_cached_bytes = 256ull << 20);
+  static constexpr size_t kDefaultMaxCachedBytes = size_t(256) << 20;
+
+  // The runtime must have built the "ocean/" programs. `limits` (the daemon's) bound the grids tile() and
+  // sample() accept. max_cached_bytes bounds the h0 cache (a layer's spectrum larger than it serves its
+  // tile and is not kept), and the spectra kept hold their bytes in `budget`'s memory budget (none: not
+  // counted); where the budget has no room, the least recently used give theirs or the new one is not kept.
+  OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits = {},
+              size_t max_cached_bytes = kDefaultMaxCachedBytes, LimitGate* budget = nullptr);
   ~OceanEngine();
 
   // Throws squall::Error(InvalidArgument) naming the field ("layers[0].wind_speed = nan must be finite
@@ -75,8 +80,9 @@ class OceanEngine {
   // U_D the layers share. The spec must pass validate_current().
   SurfaceCurrent surface_current(const TileSpec& spec, double t);
 
-  size_t cached_spectra() const;  // h0 entries on the device now
-  size_t spectra_built() const;   // h0 computations so far (cache misses)
+  size_t cached_spectra() const;         // h0 entries on the device now
+  size_t spectra_built() const;          // h0 computations so far (cache misses)
+  size_t cached_spectrum_bytes() const;  // held by the h0 entries now
 
  private:
   struct Impl;

@@ -10,8 +10,10 @@
 namespace squall::ocean {
 
 inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
-  return context.shared<OceanEngine>(
-      [&] { return std::make_unique<OceanEngine>(context.runtime, context.fft, context.gate.limits()); });
+  return context.shared<OceanEngine>([&] {
+    return std::make_unique<OceanEngine>(context.runtime, context.fft, context.gate.limits(),
+                                         OceanEngine::kDefaultMaxCachedBytes, &context.gate);
+  });
 }
 
 }  // namespace squall::ocean

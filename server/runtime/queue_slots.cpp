@@ -10,7 +10,9 @@
 namespace squall {
 namespace {
 
-thread_local int t_slot = -1;  // the slot of the lease this thread holds
+thread_local int t_slot = -1;        // the slot of the lease this thread holds
+thread_local uint64_t t_serial = 0;  // that lease's serial
+std::atomic<uint64_t> g_serials{0};  // leases taken in the process
 
 // A kind's key in the learned holds: its site and its size's power of two; empty for no kind.
 std::string kind_key(const WorkKind& kind) {
@@ -24,6 +26,7 @@ size_t long_limit_of(size_t count) { return std::max(std::min<size_t>(count, 2),
 
 int held_queue_slot() { return t_slot; }
 size_t current_queue_slot() { return t_slot < 0 ? 0 : size_t(t_slot); }
+uint64_t held_lease_serial() { return t_serial; }
 
 QueueLease::QueueLease(QueueSlots* slots, size_t slot, int kind, const char* site)
     : slots_(slots), slot_(slot), kind_(kind), site_(site), since_(std::chrono::steady_clock::now()) {}
@@ -92,6 +95,7 @@ QueueLease QueueSlots::acquire(const WorkKind& kind) {
   ++acquisitions_;
   ++held_;
   t_slot = slot;
+  t_serial = ++g_serials;
   return QueueLease(this, size_t(slot), k, site);
 }
 
@@ -204,7 +208,7 @@ void QueueSlots::release(const QueueLease& lease) {
   } catch (const cl::Error& e) {  // the device failed: the next call on it reports it
     log(LogLevel::Error, "finishing device queue ", slot, ": ", e.what(), " (", e.err(), ")");
   }
-  if (t_slot == int(slot)) t_slot = -1;
+  if (t_slot == int(slot)) t_slot = -1, t_serial = 0;
   --held_;
   if (on_settled_) on_settled_(slot);
   const double held = std::chrono::duration<double>(std::chrono::steady_clock::now() - lease.since_).count();

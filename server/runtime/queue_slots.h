@@ -55,6 +55,10 @@ struct WorkKind {
 int held_queue_slot();
 // held_queue_slot(), or 0 outside any lease: the queue (and kernel object, plan) to use.
 size_t current_queue_slot();
+// A number of the calling thread's lease, distinct from every other lease's in the process, or 0 outside any
+// lease. What a lease enqueued has run once another lease holds its slot (the pool finishes a queue before
+// handing it on), so whatever a slot's earlier leases used may then be freed.
+uint64_t held_lease_serial();
 
 // Exclusive use of one queue by the calling thread, until unlock() or destruction. Movable, but only
 // within that thread: the slot is the thread's (a thread_local), and it is that thread's release that

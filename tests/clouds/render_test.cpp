@@ -381,8 +381,9 @@ TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
   EXPECT_EQ(kept.kept_shadow_map->made, 3u);
 }
 
-// A kept map holds its bytes in the memory budget until it is replaced or its volume goes. A map that
-// would pass the budget, or kMaxKeptShadowMapBytes, is made for its render alone: the kept one stays.
+// A kept map holds its bytes in the memory budget until it is replaced, its volume goes, or a call takes its
+// room back. A map that would pass the budget, or kMaxKeptShadowMapBytes, is made for its render alone: the
+// kept one stays.
 TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   Limits limits;
   limits.memory_budget = 1 << 20;
@@ -409,6 +410,15 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
     EXPECT_EQ(v.kept_shadow_map->made, 4u);
     s.shadow_map_size = {48, 48, 48};
     renderer.render(v, s);
+    EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
+    EXPECT_EQ(gate.cached_memory_bytes(), bytes_of(48));
+    {
+      Slot call = gate.acquire_memory("a call", limits.memory_budget);  // takes the kept map's budget back
+      EXPECT_EQ(gate.cached_memory_bytes(), 0u);
+    }
+    renderer.render(v, s);
+    renderer.render(v, s);
+    EXPECT_EQ(v.kept_shadow_map->made, 6u);
     EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);  // given back with the volume

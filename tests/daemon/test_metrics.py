@@ -91,6 +91,7 @@ def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
     assert value(text, "squall_streams_limit") == 16
     assert value(text, "process_resident_memory_bytes") > 10e6
     assert value(text, "squall_memory_bytes") == 0  # nothing held between calls
+    assert value(text, "squall_memory_cached_bytes") == 0
     assert value(text, "squall_memory_budget_bytes") > 100e6  # 3/4 of the machine's memory
 
 
@@ -116,6 +117,15 @@ def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:
     assert unnamed(text, "squall_device_queue_leases_total") > leases_before
     assert unnamed(text, "squall_device_queue_hold_seconds_total") > 0
     assert 0 <= unnamed(text, "squall_device_queue_wait_seconds_total") < 60
+
+
+def test_what_caches_keep_is_counted_as_cached_memory(daemon: Squalld) -> None:
+    """Between calls the memory budget holds only what the caches keep (here an ocean layer's
+    spectrum), and all of it is counted as cached: a call that needs the room takes it back."""
+    assert daemon.cli("ocean", "sample", "--grid", "48", "--point", "3,4").returncode == 0
+    text = http_get(f"http://{daemon.metrics}/metrics")
+    assert value(text, "squall_memory_cached_bytes") > 0
+    assert value(text, "squall_memory_bytes") == value(text, "squall_memory_cached_bytes")
 
 
 def test_a_client_killed_mid_stream_is_reclaimed_and_counted(

@@ -276,6 +276,13 @@ TEST(CoefficientCache, KeptTablesHoldTheirBytesInTheMemoryBudget) {
     cache.get(runtime, config, 0.02);
     EXPECT_EQ(cache.computed(), 4u);
     EXPECT_EQ(gate.memory_bytes(), table);
+    EXPECT_EQ(gate.cached_memory_bytes(), table);
+    {
+      Slot call = gate.acquire_memory("a call", table);  // takes the kept table's budget back
+      EXPECT_EQ(cache.bytes(), 0u);
+    }
+    cache.get(runtime, config, 0.02);
+    EXPECT_EQ(cache.computed(), 5u);
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);
 }

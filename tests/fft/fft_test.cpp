@@ -252,6 +252,82 @@ TEST(FftPlans, AreBakedOncePerKey) {
   EXPECT_EQ(f.cached_plans(), before + 2);
 }
 
+// The backend that the plan-cache tests bake with, counting its bakes: fftw on a CPU device (its plans are
+// measured when first run), vkfft elsewhere.
+class CountedBakes : public fft::Backend {
+ public:
+  explicit CountedBakes(int& bakes)
+      : inner_(fft::make_backend(
+            test::runtime(), fft::runs_native_kernels(test::runtime()) && test::runtime().device_info().type == "cpu"
+                                 ? "fftw"
+                                 : "vkfft")),
+        bakes_(bakes) {}
+  std::string name() const override { return inner_->name(); }
+  std::unique_ptr<fft::Plan> bake(const PlanKey& key) override {
+    ++bakes_;
+    return inner_->bake(key);
+  }
+
+ private:
+  std::unique_ptr<fft::Backend> inner_;
+  int& bakes_;
+};
+
+PlanKey cache_test_key(size_t i) { return PlanKey{8, 2 * (i + 1), 1, Transform::C2C, Precision::F32}; }
+
+// Transforms random data with `plan` on the calling thread's queue: its relative L2 error against FFTW.
+double forward_error(fft::Plan& plan) {
+  const PlanKey& key = plan.key();
+  const auto values = random_floats(2 * key.nx * key.ny, 12);
+  cl::Buffer data = test::upload(values);
+  plan.enqueue(test::runtime().queue(), Direction::Forward, data, data);
+  return relative_l2(test::read<float>(data, values.size()), reference_c2c(values, key.nx, key.ny, FFTW_FORWARD));
+}
+
+// Requests of ever new grid sizes do not keep plans for good: past its limit, a queue keeps the plans
+// taken most recently, and a plan freed is baked again, and right, when it is next asked for.
+TEST(FftPlanCache, AQueueKeepsItsMostRecentlyUsedPlansUpToTheLimit) {
+  int bakes = 0;
+  fft::Fft f(std::make_unique<CountedBakes>(bakes));
+  const size_t limit = fft::Fft::kMaxPlansPerQueue, extra = 4;
+  auto take = [&](size_t i) {
+    auto lease = test::runtime().exclusive();
+    EXPECT_EQ(lease.slot(), 0u) << "alone, a lease takes the first queue";
+    return forward_error(f.plan(cache_test_key(i)));
+  };
+  for (size_t i = 0; i < limit + extra; ++i) EXPECT_LE(take(i), kTolerance) << describe(cache_test_key(i));
+  EXPECT_EQ(bakes, int(limit + extra));
+  EXPECT_EQ(f.cached_plans(), limit);
+  take(extra);  // the oldest plan kept, now the most recently used
+  EXPECT_EQ(bakes, int(limit + extra)) << "a plan among the most recently used was freed";
+  EXPECT_LE(take(0), kTolerance);  // baked again: frees the least recently used, extra + 1
+  EXPECT_EQ(bakes, int(limit + extra) + 1);
+  take(extra);
+  EXPECT_EQ(bakes, int(limit + extra) + 1) << "the oldest plan was freed, not the least recently used";
+  take(extra + 1);
+  EXPECT_EQ(bakes, int(limit + extra) + 2) << "the least recently used plan was kept";
+  EXPECT_EQ(f.cached_plans(), limit);
+}
+
+// A lease's plans stay while it lasts, however many it takes, and the queue's next lease frees the extra.
+TEST(FftPlanCache, PlansTakenByTheLeaseHoldingTheQueueAreNotFreed) {
+  int bakes = 0;
+  fft::Fft f(std::make_unique<CountedBakes>(bakes));
+  const size_t limit = fft::Fft::kMaxPlansPerQueue, extra = 4;
+  {
+    auto lease = test::runtime().exclusive();
+    fft::Plan& first = f.plan(cache_test_key(0));
+    for (size_t i = 1; i <= limit + extra; ++i) f.plan(cache_test_key(i));
+    EXPECT_EQ(f.cached_plans(), limit + extra + 1);
+    EXPECT_LE(forward_error(first), kTolerance);
+    EXPECT_EQ(&f.plan(cache_test_key(0)), &first);
+  }
+  auto lease = test::runtime().exclusive();
+  f.plan(cache_test_key(limit + extra + 1));
+  EXPECT_EQ(f.cached_plans(), limit);
+  EXPECT_EQ(bakes, int(limit + extra) + 2);
+}
+
 TEST(FftPlans, UnsupportedSizeIsAClearError) {
   // clFFT cannot factor 1031 (a prime)
   test::expect_error(Code::InvalidArgument, "1031", [] {

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <latch>
 #include <map>
+#include <thread>
 
 #include "ocean/cpu_reference.h"
 #include "ocean_test_util.h"
@@ -314,6 +316,79 @@ TEST(OceanTile, SpectrumCachedAcrossFrames) {
   spec.layers[0].seed = 4243;
   engine().tile(spec, 0.0, Height);
   EXPECT_EQ(engine().spectra_built(), built + 1);
+}
+
+// A layer's spectrum larger than the cache serves its tile and is not kept; the spectra kept hold their bytes
+// in the memory budget, where it has no room for a new one the least recently used give theirs, and a call
+// that needs their room takes it back.
+TEST(OceanTile, KeptSpectraStayWithinTheCacheAndHoldTheirBytesInTheMemoryBudget) {
+  const TileSpec a = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 32, 90, 1),
+                 b = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 32, 90, 2),
+                 large = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 64, 90, 3);
+  const uint64_t spectrum = 32 * 32 * 5 * sizeof(float);  // five planes of a 32^2 layer; a 64^2 one's is 4x
+  Limits limits;
+  limits.memory_budget = spectrum + spectrum / 2;
+  LimitGate gate(limits);
+  {
+    OceanEngine cached(squall::test::runtime(), squall::test::fft(), {}, 3 * spectrum, &gate);
+    cached.tile(a, 0.0, Height);
+    EXPECT_EQ(cached.cached_spectrum_bytes(), spectrum);
+    EXPECT_EQ(gate.memory_bytes(), spectrum);
+    cached.tile(b, 0.0, Height);  // a gives its budget to b
+    EXPECT_EQ(cached.cached_spectra(), 1u);
+    EXPECT_EQ(gate.memory_bytes(), spectrum);
+    EXPECT_EQ(cached.tile(large, 0.5, Height).height, engine().tile(large, 0.5, Height).height);
+    cached.tile(large, 0.5, Height);
+    EXPECT_EQ(cached.spectra_built(), 4u) << "a spectrum larger than the cache was kept";
+    EXPECT_EQ(cached.cached_spectrum_bytes(), spectrum);
+    cached.tile(b, 1.0, Height);
+    EXPECT_EQ(cached.spectra_built(), 4u) << "b was evicted by a spectrum that was not kept";
+    EXPECT_EQ(gate.cached_memory_bytes(), spectrum);
+    {
+      Slot call = gate.acquire_memory("a call", spectrum);  // takes the kept spectrum's budget back
+      EXPECT_EQ(cached.cached_spectra(), 0u);
+    }
+    cached.tile(b, 1.5, Height);
+    EXPECT_EQ(cached.spectra_built(), 5u);
+  }
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+}
+
+// Tiles missing one spectrum at once compute it once: the others wait for it.
+TEST(OceanTile, TilesMissingOneSpectrumAtOnceComputeItOnce) {
+  OceanEngine fresh(squall::test::runtime(), squall::test::fft());
+  const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 128, 200, 77);
+  std::vector<std::vector<float>> heights(4);
+  std::latch start(int(heights.size()));
+  std::vector<std::thread> tiles;
+  for (auto& height : heights)
+    tiles.emplace_back([&] {
+      start.arrive_and_wait();
+      height = fresh.tile(spec, 2.0, Height).height;
+    });
+  for (auto& t : tiles) t.join();
+  EXPECT_EQ(fresh.spectra_built(), 1u);
+  for (const auto& height : heights) EXPECT_EQ(height, heights.front());
+}
+
+// Tiles of ever new grid sizes do not keep an FFT plan per size for good: each queue keeps its most
+// recently used plans up to the limit.
+TEST(OceanTile, TilesOfEverNewGridSizesKeepABoundedNumberOfPlans) {
+  Runtime& runtime = squall::test::runtime();
+  fft::FftwOptions estimate;  // on a CPU device, FFTW's plans made in no time (not measured)
+  estimate.measure = false;
+  const bool fftw = runtime.device_info().type == "cpu" && fft::runs_native_kernels(runtime);
+  fft::Fft fft(fft::make_backend(runtime, fftw ? "fftw" : squall::test::engine_fft_backend(), estimate));
+  OceanEngine sizes(runtime, fft);
+  const size_t count = fft::Fft::kMaxPlansPerQueue + 8;
+  for (size_t i = 0; i < count; ++i) {
+    TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 8, 90, 5);
+    spec.layers[0].ny = int64_t(2 * (i + 1));
+    spec.layers[0].ly = 90.0 * double(spec.layers[0].ny) / 8;
+    EXPECT_GT(test::rms(sizes.tile(spec, 1.0, Height).height), 0.0);
+  }
+  EXPECT_EQ(sizes.spectra_built(), count);
+  EXPECT_EQ(fft.cached_plans(), fft::Fft::kMaxPlansPerQueue) << "one tile at a time: each on the first queue";
 }
 
 // Relative rms of every output against the FFTW double reference.

@@ -1,6 +1,8 @@
 // The limit gate: each check names the request field and the daemon flag.
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "common/error.h"
 #include "common/limits.h"
 
@@ -84,6 +86,49 @@ TEST(Limits, MemoryRoomMatchesWhatAcquireMemoryTakes) {
   EXPECT_FALSE(gate.memory_room(101, 60));
   EXPECT_NO_THROW(gate.acquire_memory("fits", 40));
   squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("past", 41); });
+}
+
+// A cache of pieces of 30 bytes, given back oldest first: the smallest cache there can be.
+class PieceCache : public MemoryReclaimer {
+ public:
+  explicit PieceCache(LimitGate& gate) : gate_(gate) { gate_.add_reclaimer(this); }
+  ~PieceCache() override { gate_.remove_reclaimer(this); }
+  void keep() { pieces_.push_back(gate_.acquire_cache_memory("a piece", 30)); }
+  size_t pieces() const { return pieces_.size(); }
+  void reclaim(uint64_t bytes) override {
+    for (uint64_t freed = 0; freed < bytes && !pieces_.empty(); freed += 30) pieces_.erase(pieces_.begin());
+  }
+
+ private:
+  LimitGate& gate_;
+  std::vector<Slot> pieces_;
+};
+
+// What caches keep counts in the budget as cached memory, and a call that finds no room takes back what it
+// needs of it, no more; a cache takes nothing from another, nor a call for which all they keep is too little.
+TEST(Limits, ACallTakesBackWhatCachesKeepAndOnlyWhatItNeeds) {
+  Limits limits;
+  limits.memory_budget = 100;
+  LimitGate gate(limits);
+  PieceCache cache(gate), other(gate);
+  for (int i = 0; i < 3; ++i) cache.keep();
+  EXPECT_EQ(gate.memory_bytes(), 90u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 90u);
+  squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { other.keep(); });
+  EXPECT_EQ(cache.pieces(), 3u);
+  squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("huge", 101); });
+  EXPECT_EQ(cache.pieces(), 3u);
+  {
+    Slot call = gate.acquire_memory("a call", 50);  // 40 bytes more than are free: two pieces
+    EXPECT_EQ(cache.pieces(), 1u);
+    EXPECT_EQ(gate.memory_bytes(), 80u);
+    EXPECT_EQ(gate.cached_memory_bytes(), 30u);
+  }
+  Slot sessions = gate.acquire_memory("sessions", 70);
+  squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("past", 31); });
+  EXPECT_EQ(cache.pieces(), 1u) << "the cache gave back what could not make room";
+  EXPECT_NO_THROW(gate.acquire_memory("fits once the cache gives back", 30));
+  EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
 }  // namespace

@@ -1,0 +1,144 @@
+// Device buffers that the next calls would compute again (a layer's wave spectrum, a propagator table), kept
+// by key: the least recently used are evicted past a byte limit, and the buffers kept hold their bytes in
+// the daemon's memory budget. A miss is computed with no lock held; callers missing the same key meanwhile
+// wait for it, not for the others.
+#pragma once
+
+#include <algorithm>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "common/error.h"
+#include "common/limits.h"
+#include "runtime/opencl.h"
+
+namespace squall {
+
+template <typename Key>  // compared with ==
+class DeviceCache : public MemoryReclaimer {
+ public:
+  // What a miss computes: a buffer whose contents are complete (any queue may read it at once), its bytes.
+  struct Made {
+    cl::Buffer buffer;
+    size_t bytes = 0;
+  };
+
+  // A buffer larger than `max_bytes` is returned but not kept. Each buffer kept holds its bytes in `gate`'s
+  // memory budget (none: not counted) as cached memory, as `what`: where the budget has no room for a new
+  // one, the least recently used give theirs, and where even all of theirs would not make room it is
+  // returned but not kept (the others stay); a call that needs the room takes it back.
+  DeviceCache(size_t max_bytes, LimitGate* gate, std::string what)
+      : max_bytes_(max_bytes), gate_(gate), what_(std::move(what)) {
+    if (gate_) gate_->add_reclaimer(this);
+  }
+  ~DeviceCache() override {
+    if (gate_) gate_->remove_reclaimer(this);
+  }
+  DeviceCache(const DeviceCache&) = delete;
+  DeviceCache& operator=(const DeviceCache&) = delete;
+
+  // The buffer of `key`, from compute() on a miss. Thread-safe; compute() runs with no lock held.
+  cl::Buffer get(const Key& key, const std::function<Made()>& compute) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      if (cl::Buffer found = find(key); found()) return found;
+      if (std::find(computing_.begin(), computing_.end(), key) == computing_.end()) break;
+      computed_one_.wait(lock);
+    }
+    computing_.push_back(key);
+    lock.unlock();
+    Made made;
+    try {
+      made = compute();
+    } catch (...) {
+      lock.lock();
+      std::erase(computing_, key);
+      computed_one_.notify_all();
+      throw;
+    }
+    lock.lock();
+    std::erase(computing_, key);
+    ++computed_;
+    computed_one_.notify_all();  // the waiters run once the lock is free: after keep(), or after its throw
+    if (made.bytes <= max_bytes_) keep(key, made);
+    return made.buffer;
+  }
+
+  void reclaim(uint64_t bytes) override {
+    std::lock_guard<std::mutex> guard(mutex_);
+    for (uint64_t freed = 0; freed < bytes && !entries_.empty();) {
+      freed += entries_.back().bytes;
+      evict_oldest();
+    }
+  }
+
+  uint64_t computed() const {  // misses computed so far
+    std::lock_guard<std::mutex> guard(mutex_);
+    return computed_;
+  }
+  size_t bytes() const {  // held now
+    std::lock_guard<std::mutex> guard(mutex_);
+    return bytes_;
+  }
+  size_t entries() const {  // buffers kept now
+    std::lock_guard<std::mutex> guard(mutex_);
+    return entries_.size();
+  }
+
+ private:
+  struct Entry {
+    Key key;
+    cl::Buffer buffer;
+    size_t bytes = 0;
+    Slot memory;  // its bytes in the memory budget
+  };
+
+  cl::Buffer find(const Key& key) {  // under mutex_; none on a miss
+    for (auto it = entries_.begin(); it != entries_.end(); ++it)
+      if (it->key == key) {
+        entries_.splice(entries_.begin(), entries_, it);
+        return it->buffer;
+      }
+    return cl::Buffer();
+  }
+
+  void keep(const Key& key, const Made& made) {                    // under mutex_
+    if (gate_ && !gate_->memory_room(made.bytes, bytes_)) return;  // it serves its caller alone; the kept stay
+    while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
+    Slot memory;
+    for (bool counted = !gate_; !counted;) {
+      try {
+        memory = gate_->acquire_cache_memory(what_, made.bytes);
+        counted = true;
+      } catch (const Error&) {
+        if (entries_.empty()) return;  // the others' holdings grew meanwhile
+        evict_oldest();                // the budget the least recently used hold goes to the newest
+      }
+    }
+    entries_.push_front(Entry{key, made.buffer, made.bytes, std::move(memory)});
+    bytes_ += made.bytes;
+  }
+
+  void evict_oldest() {  // under mutex_
+    bytes_ -= entries_.back().bytes;
+    entries_.pop_back();
+  }
+
+  const size_t max_bytes_;
+  LimitGate* gate_;
+  const std::string what_;
+  mutable std::mutex mutex_;
+  std::condition_variable computed_one_;
+  std::list<Entry> entries_;    // most recently used first
+  std::vector<Key> computing_;  // misses being computed now
+  size_t bytes_ = 0;
+  uint64_t computed_ = 0;
+};
+
+}  // namespace squall
