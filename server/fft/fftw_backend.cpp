@@ -10,11 +10,14 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 
 #include "common/error.h"
 #include "common/log.h"
@@ -70,7 +73,8 @@ struct Fftw<Precision::F32> {
   static int alignment(void* p) { return fftwf_alignment_of((Real*)p); }
   static constexpr const char* kWisdomSuffix = ".f32";
   static bool import_wisdom(const std::string& path) { return fftwf_import_wisdom_from_filename(path.c_str()); }
-  static bool export_wisdom(const std::string& path) { return fftwf_export_wisdom_to_filename(path.c_str()); }
+  static char* export_wisdom() { return fftwf_export_wisdom_to_string(); }  // free() it
+  static void forget_wisdom() { fftwf_forget_wisdom(); }
 };
 
 template <>
@@ -108,18 +112,28 @@ struct Fftw<Precision::F64> {
   static int alignment(void* p) { return fftw_alignment_of((Real*)p); }
   static constexpr const char* kWisdomSuffix = ".f64";
   static bool import_wisdom(const std::string& path) { return fftw_import_wisdom_from_filename(path.c_str()); }
-  static bool export_wisdom(const std::string& path) { return fftw_export_wisdom_to_filename(path.c_str()); }
+  static char* export_wisdom() { return fftw_export_wisdom_to_string(); }  // free() it
+  static void forget_wisdom() { fftw_forget_wisdom(); }
+};
+
+// Where FFTW's wisdom is kept: the stem of its files ("" for none), and the most bytes of it kept.
+struct WisdomPlace {
+  std::string stem;
+  size_t max_bytes = 0;
 };
 
 // FFTW's wisdom of one precision in a file, "<stem>.f32" or "<stem>.f64": loaded when the backend is
 // made, written after each measured plan. A write goes to a file of its own, then is renamed over the
 // old one, so that another process (a second daemon on the same cache) reads a whole file or none.
+// Wisdom grows with each new transform: past max_bytes FFTW forgets it (the plans made stay) and the file
+// is left as it was, so that clients asking for ever new sizes fill neither memory nor disk.
 template <Precision P>
 class WisdomFile {
   using F = Fftw<P>;
 
  public:
-  explicit WisdomFile(const std::string& stem) : path_(stem.empty() ? "" : stem + F::kWisdomSuffix) {}
+  explicit WisdomFile(const WisdomPlace& place)
+      : path_(place.stem.empty() ? "" : place.stem + F::kWisdomSuffix), max_bytes_(place.max_bytes) {}
 
   // Wisdom names the solvers it used, and the threaded ones exist once FFTW's threads are initialized:
   // wisdom written after that is read only after it too.
@@ -133,11 +147,24 @@ class WisdomFile {
   }
 
   void save() const {  // under planner_mutex()
-    if (path_.empty()) return;
+    const std::unique_ptr<char, decltype(&std::free)> text(F::export_wisdom(), &std::free);
+    const std::string_view wisdom = text ? std::string_view(text.get()) : std::string_view();
+    if (wisdom.size() > max_bytes_) {
+      F::forget_wisdom();
+      log(LogLevel::Warn, "fftw: its wisdom reached ", wisdom.size(), " bytes, past ", max_bytes_,
+          ": forgotten, and plans of new sizes are measured anew", path_.empty() ? "" : "; " + path_ + " kept");
+      return;
+    }
+    if (path_.empty() || wisdom.empty()) return;
     const std::string part = path_ + ".part" + std::to_string(getpid());
     std::error_code ec;
-    if (F::export_wisdom(part)) std::filesystem::rename(part, path_, ec);
-    if (!std::filesystem::exists(path_) || ec) {
+    {
+      std::ofstream out(part, std::ios::binary | std::ios::trunc);
+      out << wisdom;
+      if (!out.flush()) ec = std::make_error_code(std::errc::io_error);
+    }
+    if (!ec) std::filesystem::rename(part, path_, ec);
+    if (ec) {
       std::filesystem::remove(part, ec);
       log(LogLevel::Warn, "fftw: cannot write wisdom to ", path_, "; plans are measured again by the next process");
     }
@@ -145,6 +172,7 @@ class WisdomFile {
 
  private:
   std::string path_;
+  size_t max_bytes_;
 };
 
 // A cached transform: one FFTW plan per direction, placement (in place or not), alignment and thread
@@ -162,7 +190,7 @@ class FftwPlan : public Plan {
   using F = Fftw<P>;
 
  public:
-  FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner, const std::string& wisdom)
+  FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner, const WisdomPlace& wisdom)
       : Plan(key), runtime_(runtime), threads_(threads), planner_(planner), wisdom_(wisdom) {}
 
   ~FftwPlan() override {
@@ -322,7 +350,7 @@ class FftwPlan : public Plan {
 
 class FftwBackend : public Backend {
  public:
-  FftwBackend(const Runtime& runtime, int threads, unsigned planner, const std::string& wisdom)
+  FftwBackend(const Runtime& runtime, int threads, unsigned planner, const WisdomPlace& wisdom)
       : runtime_(runtime), threads_(threads), planner_(planner), wisdom_(wisdom) {
     std::lock_guard<std::mutex> lock(planner_mutex());
     WisdomFile<Precision::F32>(wisdom_).load();
@@ -341,7 +369,7 @@ class FftwBackend : public Backend {
   const Runtime& runtime_;
   int threads_;
   unsigned planner_;
-  std::string wisdom_;  // the stem of the wisdom files, "" for none
+  WisdomPlace wisdom_;
 };
 
 // "<dir>/fftw-wisdom-<device name>", the name reduced to [A-Za-z0-9._-]: plans measured on one CPU are
@@ -373,8 +401,9 @@ std::unique_ptr<Backend> make_fftw(Runtime& runtime, const FftwOptions& options)
   int threads = options.threads > 0 ? options.threads : int(std::max(1u, device.compute_units));
   std::error_code ec;  // a directory that cannot be made: its writes fail, and each is logged
   if (!options.wisdom_dir.empty()) std::filesystem::create_directories(options.wisdom_dir, ec);
-  return std::make_unique<FftwBackend>(runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE,
-                                       wisdom_stem(options.wisdom_dir, device.name));
+  return std::make_unique<FftwBackend>(
+      runtime, threads, options.measure ? FFTW_MEASURE : FFTW_ESTIMATE,
+      WisdomPlace{wisdom_stem(options.wisdom_dir, device.name), options.max_wisdom_bytes});
 }
 
 }  // namespace squall::fft
