@@ -47,8 +47,7 @@ class Slot {
 
  private:
   friend class LimitGate;
-  Slot(std::atomic<uint64_t>* counter, uint64_t amount, std::atomic<uint64_t>* also = nullptr)
-      : counter_(counter), also_(also), amount_(amount) {}
+  Slot(std::atomic<uint64_t>* counter, uint64_t amount) : counter_(counter), amount_(amount) {}
   std::atomic<uint64_t>* counter_ = nullptr;
   std::atomic<uint64_t>* also_ = nullptr;  // a second count the amount is held in, or none
   uint64_t amount_ = 0;

@@ -87,8 +87,8 @@ struct FftwOptions {
   // there made on a device of the same name, and writes them again after each plan it measures, so a
   // transform is measured once per machine rather than once per process. The daemon uses its kernel cache.
   std::string wisdom_dir;
-  // Wisdom past this many bytes (of one precision; 1-2 KB per transform size measured) is forgotten and not
-  // written, so clients asking for ever new sizes fill neither memory nor disk.
+  // Wisdom past this many bytes (of one precision; 1-2 KB per transform size measured) is forgotten but for
+  // the file, which is not written again, so clients asking for ever new sizes fill neither memory nor disk.
   size_t max_wisdom_bytes = size_t(4) << 20;
 };
 

@@ -18,6 +18,7 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include "common/error.h"
 #include "common/log.h"
@@ -125,8 +126,9 @@ struct WisdomPlace {
 // FFTW's wisdom of one precision in a file, "<stem>.f32" or "<stem>.f64": loaded when the backend is
 // made, written after each measured plan. A write goes to a file of its own, then is renamed over the
 // old one, so that another process (a second daemon on the same cache) reads a whole file or none.
-// Wisdom grows with each new transform: past max_bytes FFTW forgets it (the plans made stay) and the file
-// is left as it was, so that clients asking for ever new sizes fill neither memory nor disk.
+// Wisdom grows with each new transform: past max_bytes FFTW forgets it (the plans made stay) and reloads
+// the file, which is left as it was, so that clients asking for ever new sizes fill neither memory nor
+// disk, and the transforms in the file are still planned without measuring.
 template <Precision P>
 class WisdomFile {
   using F = Fftw<P>;
@@ -151,8 +153,11 @@ class WisdomFile {
     const std::string_view wisdom = text ? std::string_view(text.get()) : std::string_view();
     if (wisdom.size() > max_bytes_) {
       F::forget_wisdom();
-      log(LogLevel::Warn, "fftw: its wisdom reached ", wisdom.size(), " bytes, past ", max_bytes_,
-          ": forgotten, and plans of new sizes are measured anew", path_.empty() ? "" : "; " + path_ + " kept");
+      if (!path_.empty() && std::filesystem::exists(path_)) F::import_wisdom(path_);  // written under the cap
+      static bool warned = false;  // under planner_mutex(); once per precision
+      if (!std::exchange(warned, true))
+        log(LogLevel::Warn, "fftw: its wisdom reached ", wisdom.size(), " bytes, past ", max_bytes_,
+            ": forgotten but for ", path_.empty() ? "none" : path_ + ", kept as it was", " (logged once)");
       return;
     }
     if (path_.empty() || wisdom.empty()) return;

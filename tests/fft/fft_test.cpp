@@ -428,34 +428,32 @@ TEST(FftPlans, FftwWisdomFilesSpareTheNextProcessItsMeasurements) {
   std::filesystem::remove_all(dir);
 }
 
-// Wisdom grows with each transform measured: past its cap FFTW forgets it and the file is not written, so
-// the wisdom kept, in memory and on disk, stays within the cap however many sizes clients ask for.
+// Wisdom grows with each transform measured: past its cap FFTW forgets it but for the file, which is not
+// written again, so the wisdom kept, in memory and on disk, stays within the cap however many sizes
+// clients ask for, and the file never loses what it held.
 TEST(FftPlans, FftwWisdomStaysWithinItsCap) {
   if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
   const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-fftw-wisdom-cap";
   std::filesystem::remove_all(dir);
   fft::FftwOptions options;
   options.wisdom_dir = dir.string();
-  options.max_wisdom_bytes = 8 << 10;  // about 1.4 KB a size here: forgotten after five or six
+  options.max_wisdom_bytes = 8 << 10;  // about 1.4 KB a size here: reached after five or six
   fftwf_forget_wisdom();
   fft::Fft fft(fft::make_fftw(test::runtime(), options));
-  size_t largest = 0, forgotten = 0, previous = 0;
+  size_t file = 0;
   for (size_t ny = 20; ny < 60; ny += 4) {  // sizes no other test plans
     {
       auto lock = test::runtime().exclusive();
       fft.prepare(PlanKey{36, ny, 1, Transform::C2C, Precision::F32}, Direction::Forward, false);
     }
-    const size_t held = test::fftwf_wisdom().size();
-    EXPECT_LE(held, options.max_wisdom_bytes);
-    forgotten += held < previous;
-    previous = held;
+    EXPECT_LE(test::fftwf_wisdom().size(), options.max_wisdom_bytes) << "36x" << ny;
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
       EXPECT_LE(entry.file_size(), options.max_wisdom_bytes) << entry.path();
-      largest = std::max<size_t>(largest, entry.file_size());
+      EXPECT_GE(entry.file_size(), file) << "the file lost wisdom it held, at 36x" << ny;
+      file = entry.file_size();
     }
   }
-  EXPECT_GT(forgotten, 0u) << "ten sizes stayed under the cap: the test shows nothing";
-  EXPECT_GT(largest, options.max_wisdom_bytes / 4) << "the wisdom was not written";
+  EXPECT_GT(file, options.max_wisdom_bytes / 2) << "the sizes planned never neared the cap: the test shows nothing";
   std::filesystem::remove_all(dir);
 }
 
