@@ -93,6 +93,14 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
                       "Seconds a device queue was held (the work's time on the device), by call site", sites,
                       [](const QueueSlots::SiteTimes& t) { return t.hold_seconds; }),
   };
+  if (!fft.empty()) {
+    families.push_back(gauge("squall_fft_plans", "FFT plans kept, all device queues together (32 a queue at most)",
+                             double(daemon_.fft->cached_plans())));
+    families.push_back(counter("squall_fft_plans_baked_total",
+                               "FFT plans baked: rising while squall_fft_plans stays, calls' sizes cycle past the "
+                               "plans kept",
+                               double(daemon_.fft->baked())));
+  }
   for (const auto& capability : capabilities_)
     for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));
   return families;

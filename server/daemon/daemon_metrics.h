@@ -7,6 +7,7 @@
 //   squall_sessions_active, squall_sessions_limit         (--max-sessions)
 //   squall_session_bytes, squall_session_bytes_budget     (--max-session-bytes)
 //   squall_device_global_memory_bytes
+//   squall_fft_plans, squall_fft_plans_baked_total          (once started)
 //   process_resident_memory_bytes             squalld's RSS (/proc/self/statm)
 //   and each capability's own gauges (Capability::gauges(), e.g. squall_stored_volume_bytes)
 #pragma once

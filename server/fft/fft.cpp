@@ -73,6 +73,11 @@ size_t Fft::cached_plans() const {
   return plans_.size();
 }
 
+uint64_t Fft::baked() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return baked_;
+}
+
 Plan& Fft::take(const SlotKey& key, bool pin) {
   const PlanKey& k = key.second;
   if (k.nx < 1 || k.ny < 1 || k.batch < 1) fail(Code::InvalidArgument, "fft: empty transform " + describe(k));
@@ -89,6 +94,7 @@ Plan& Fft::take(const SlotKey& key, bool pin) {
   Plan* plan = nullptr;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    ++baked_;
     auto [it, added] = plans_.try_emplace(key);
     if (added) it->second.plan = std::move(baked);
     plan = &use(it->second, pin);  // a plan this lease took is not freed

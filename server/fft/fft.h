@@ -126,6 +126,7 @@ class Fft {
   // transform prepared for one queue is planned for another from that wisdom, without measuring.
   Plan& prepare(const PlanKey& key, Direction direction, bool in_place);
   size_t cached_plans() const;  // over all queues
+  uint64_t baked() const;       // plans baked so far: rising while cached_plans() stays, they are freed too soon
 
  private:
   using SlotKey = std::pair<size_t, PlanKey>;  // queue slot, key
@@ -145,6 +146,7 @@ class Fft {
   mutable std::mutex mutex_;
   std::map<SlotKey, Cached> plans_;
   uint64_t lookups_ = 0;
+  uint64_t baked_ = 0;
 };
 
 // Times one complex nx x ny transform of each available backend on the runtime's device (median of a

@@ -126,6 +126,9 @@ def test_what_caches_keep_is_counted_as_cached_memory(daemon: Squalld) -> None:
     text = http_get(f"http://{daemon.metrics}/metrics")
     assert value(text, "squall_memory_cached_bytes") > 0
     assert value(text, "squall_memory_bytes") == value(text, "squall_memory_cached_bytes")
+    # and the sample's FFT plan is kept: baked once (the start-up's FFT choice bakes outside the cache)
+    assert value(text, "squall_fft_plans") >= 1
+    assert value(text, "squall_fft_plans_baked_total") == value(text, "squall_fft_plans")
 
 
 def test_a_client_killed_mid_stream_is_reclaimed_and_counted(

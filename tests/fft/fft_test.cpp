@@ -307,6 +307,7 @@ TEST(FftPlanCache, AQueueKeepsItsMostRecentlyUsedPlansUpToTheLimit) {
   take(extra + 1);
   EXPECT_EQ(bakes, int(limit + extra) + 2) << "the least recently used plan was kept";
   EXPECT_EQ(f.cached_plans(), limit);
+  EXPECT_EQ(f.baked(), uint64_t(bakes));
 }
 
 // A lease's plans stay while it lasts, however many it takes, and the queue's next lease frees the extra.
