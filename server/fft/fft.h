@@ -80,8 +80,8 @@ class Backend {
 };
 
 struct FftwOptions {
-  int threads = 0;      // FFTW's threads per transform of a request alone on the device (one beside others);
-                        // 0: the device's compute units
+  int threads = 0;      // FFTW's threads per transform of 512^2 cells or more (smaller ones run on one, under
+                        // any load); 0: the device's compute units
   bool measure = true;  // FFTW_MEASURE (plans take longer to make, run faster); false: FFTW_ESTIMATE
   // A directory for FFTW's wisdom (what its planner measured), or "": none. The backend loads the files
   // there made on a device of the same name, and writes them again after each plan it measures, so a

@@ -186,10 +186,11 @@ class WisdomFile {
 // made when the transform is prepared or first enqueued (a planning error reaches the caller); any other
 // address runs a plan made with FFTW_UNALIGNED when it first meets one.
 //
-// Threads: a transform runs on `threads` threads when its request is the only one holding a device
-// queue, and on one thread when others run beside it. A second thread shortens a small transform by
-// little and costs more CPU time in all (bench/fft_bench prints both); while other requests keep the
-// cores busy, that time is theirs.
+// Threads: a transform of at least kThreadedCells cells runs on `threads` threads, a smaller one on one,
+// whatever runs beside it: FFTW's plans for different thread counts round differently, and a result must
+// not depend on the load. bench/fft_bench (the EPYC container, 2 cores): two threads take 0.53 of one
+// thread's time from 512^2 on (6% more CPU time in all), but 0.89 at 256^2 (1.8 times the CPU time, which
+// other requests would have used).
 template <Precision P>
 class FftwPlan : public Plan {
   using F = Fftw<P>;
@@ -204,13 +205,14 @@ class FftwPlan : public Plan {
       if (p.load()) F::destroy(p.load());
   }
 
-  // The aligned plans, on one thread and on threads_: a planning error reaches the caller.
+  static constexpr size_t kThreadedCells = size_t(512) * 512;
+
+  // The aligned plan: a planning error reaches the caller.
   void prepare(Direction direction, bool in_place) override {
     check_direction(direction);
     if (in_place && key().transform != Transform::C2C)
       fail(Code::Internal, "fftw: " + describe(key()) + " needs two buffers");
-    plan(direction, in_place, false, true);
-    plan(direction, in_place, false, false);
+    plan(direction, in_place, false);
   }
 
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
@@ -279,9 +281,8 @@ class FftwPlan : public Plan {
     void* in = c.in ? c.in : c.buffers[0];
     void* out = c.in_place ? in : c.out ? c.out : *output;
     const bool unaligned = F::alignment(in) != 0 || F::alignment(out) != 0;
-    const bool alone = c.self->runtime_.queues_held() <= 1;
     try {
-      F::execute(c.self->plan(c.direction, c.in_place, unaligned, alone), c.self->key().transform, in, out);
+      F::execute(c.self->plan(c.direction, c.in_place, unaligned), c.self->key().transform, in, out);
     } catch (const std::exception& e) {  // not thrown across the OpenCL runtime
       c.self->failed(e.what(), out);
     }
@@ -299,12 +300,12 @@ class FftwPlan : public Plan {
     failure_ = what;
   }
 
-  // threaded: on threads_ threads (if more than one), else on one. A plan made is read without the
+  // On threads_ threads from kThreadedCells cells on, else on one. A plan made is read without the
   // planner's lock, which a worker thread running a transform would otherwise wait for while another
   // thread plans.
-  typename F::PlanT plan(Direction direction, bool in_place, bool unaligned, bool threaded) {
-    const int threads = threaded ? threads_ : 1;
-    auto& slot = plans_[8 * int(threads > 1) + 4 * int(unaligned) + 2 * int(direction) + int(in_place)];
+  typename F::PlanT plan(Direction direction, bool in_place, bool unaligned) {
+    const int threads = key().nx * key().ny >= kThreadedCells ? threads_ : 1;
+    auto& slot = plans_[4 * int(unaligned) + 2 * int(direction) + int(in_place)];
     if (typename F::PlanT made = slot.load(std::memory_order_acquire)) return made;
     std::lock_guard<std::mutex> lock(planner_mutex());
     if (!slot.load()) {
@@ -349,8 +350,8 @@ class FftwPlan : public Plan {
   unsigned planner_;
   WisdomFile<P> wisdom_;
   std::mutex failure_mutex_;
-  std::string failure_;                            // why a transform did not run; empty while all ran
-  std::atomic<typename F::PlanT> plans_[16] = {};  // [8 * (threads > 1) + 4 * unaligned + 2 * direction + in_place]
+  std::string failure_;                           // why a transform did not run; empty while all ran
+  std::atomic<typename F::PlanT> plans_[8] = {};  // [4 * unaligned + 2 * direction + in_place]
 };
 
 class FftwBackend : public Backend {

@@ -354,7 +354,8 @@ TEST(OceanTile, KeptSpectraStayWithinTheCacheAndHoldTheirBytesInTheMemoryBudget)
   EXPECT_EQ(gate.memory_bytes(), 0u);
 }
 
-// Tiles missing one spectrum at once compute it once: the others wait for it.
+// Tiles missing one spectrum at once compute it once: the others wait for it. The tiles are equal bit for
+// bit, whichever ran alone (the fftw backend's plans do not depend on the load).
 TEST(OceanTile, TilesMissingOneSpectrumAtOnceComputeItOnce) {
   OceanEngine fresh(squall::test::runtime(), squall::test::fft());
   const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 128, 200, 77);
