@@ -1,6 +1,7 @@
 #include "clouds/renderer.h"
 
 #include <algorithm>
+#include <utility>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
@@ -447,12 +448,10 @@ void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
   kept.made_with = map.made_with;
   kept.map = map.buffer;
   kept.used = ++uses_;
+  if (std::exchange(kept.listed, true)) return;
   std::lock_guard<std::mutex> list(kept_mutex_);
   std::erase_if(kept_, [](const std::weak_ptr<KeptShadowMap>& m) { return m.expired(); });
-  const auto listed = std::find_if(kept_.begin(), kept_.end(), [&](const std::weak_ptr<KeptShadowMap>& m) {
-    return m.lock() == volume.kept_shadow_map;
-  });
-  if (listed == kept_.end()) kept_.push_back(volume.kept_shadow_map);
+  kept_.push_back(volume.kept_shadow_map);
 }
 
 std::vector<std::shared_ptr<KeptShadowMap>> CloudRenderer::kept_maps() {

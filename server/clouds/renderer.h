@@ -85,6 +85,7 @@ struct KeptShadowMap {
   Slot memory, share;             // its bytes in the memory budget and in the kept maps' own
   uint64_t made = 0;              // maps made for the volume, kept or not
   std::atomic<uint64_t> used{0};  // when a render last kept or read it, in its renderer's count
+  bool listed = false;            // in its renderer's list of kept maps (reclaim())
 };
 
 // A map of at most this many bytes is kept: 16 MiB, a 128^3 map of two lights. A larger one leaves the

@@ -196,16 +196,20 @@ class FftwPlan : public Plan {
   using F = Fftw<P>;
 
  public:
+  static constexpr size_t kThreadedCells = size_t(512) * 512;
+
   FftwPlan(const PlanKey& key, const Runtime& runtime, int threads, unsigned planner, const WisdomPlace& wisdom)
-      : Plan(key), runtime_(runtime), threads_(threads), planner_(planner), wisdom_(wisdom) {}
+      : Plan(key),
+        runtime_(runtime),
+        threads_(key.nx * key.ny >= kThreadedCells ? threads : 1),
+        planner_(planner),
+        wisdom_(wisdom) {}
 
   ~FftwPlan() override {
     std::lock_guard<std::mutex> lock(planner_mutex());
     for (auto& p : plans_)
       if (p.load()) F::destroy(p.load());
   }
-
-  static constexpr size_t kThreadedCells = size_t(512) * 512;
 
   // The aligned plan: a planning error reaches the caller.
   void prepare(Direction direction, bool in_place) override {
@@ -300,22 +304,20 @@ class FftwPlan : public Plan {
     failure_ = what;
   }
 
-  // On threads_ threads from kThreadedCells cells on, else on one. A plan made is read without the
-  // planner's lock, which a worker thread running a transform would otherwise wait for while another
-  // thread plans.
+  // A plan made is read without the planner's lock, which a worker thread running a transform would
+  // otherwise wait for while another thread plans.
   typename F::PlanT plan(Direction direction, bool in_place, bool unaligned) {
-    const int threads = key().nx * key().ny >= kThreadedCells ? threads_ : 1;
     auto& slot = plans_[4 * int(unaligned) + 2 * int(direction) + int(in_place)];
     if (typename F::PlanT made = slot.load(std::memory_order_acquire)) return made;
     std::lock_guard<std::mutex> lock(planner_mutex());
     if (!slot.load()) {
-      slot.store(make(direction, in_place, unaligned, threads), std::memory_order_release);
+      slot.store(make(direction, in_place, unaligned), std::memory_order_release);
       if (!(planner_ & FFTW_ESTIMATE)) wisdom_.save();  // FFTW_MEASURE is 0: not a bit to test
     }
     return slot.load();
   }
 
-  typename F::PlanT make(Direction direction, bool in_place, bool unaligned, int threads) {
+  typename F::PlanT make(Direction direction, bool in_place, bool unaligned) {
     const PlanKey& k = key();
     // FFTW's advanced interface counts in int: one transform's elements, and the batch.
     if (k.nx * k.ny > size_t(std::numeric_limits<int>::max()) || k.batch > size_t(std::numeric_limits<int>::max()))
@@ -330,7 +332,7 @@ class FftwPlan : public Plan {
       if (a) F::free(a);
       fail(Code::ResourceExhausted, "fftw: no memory for the scratch arrays of " + describe(k));
     }
-    F::threads(threads);
+    F::threads(threads_);
     const unsigned flags = planner_ | (unaligned ? FFTW_UNALIGNED : 0);
     typename F::PlanT p;
     if (k.transform == Transform::C2C)
@@ -346,7 +348,7 @@ class FftwPlan : public Plan {
   }
 
   const Runtime& runtime_;
-  int threads_;
+  const int threads_;  // FFTW's threads for this transform's size
   unsigned planner_;
   WisdomFile<P> wisdom_;
   std::mutex failure_mutex_;

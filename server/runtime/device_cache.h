@@ -8,7 +8,6 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <list>
 #include <mutex>
 #include <string>
@@ -43,8 +42,10 @@ class DeviceCache : public MemoryReclaimer {
   DeviceCache(const DeviceCache&) = delete;
   DeviceCache& operator=(const DeviceCache&) = delete;
 
-  // The buffer of `key`, from compute() on a miss. Thread-safe; compute() runs with no lock held.
-  cl::Buffer get(const Key& key, const std::function<Made()>& compute) {
+  // The buffer of `key`, from compute() (returning a Made) on a miss. Thread-safe; compute() runs with no
+  // lock held.
+  template <typename Compute>
+  cl::Buffer get(const Key& key, Compute&& compute) {
     std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
       if (cl::Buffer found = find(key); found()) return found;
