@@ -6,6 +6,7 @@ tile, sample and render bit-identical to the same request made alone before the 
 requests do not mix their kernel arguments or buffers), the daemon SERVING afterwards, its resident
 memory after the run at most 64 MiB above what it was after a warm-up with the same load (no leak per
 call), and hardly any thread started during the run (the threads of the warm-up serve its calls).
+Runs once with each FFT backend of the CPU device, fftw (its default) and vkfft; the soak with fftw.
 Prints the calls made and the p50 / p99 latency per kind."""
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import os
 import statistics
 import threading
 import time
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Set
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Set, Tuple
 
 import numpy as np
 import pytest
@@ -122,16 +123,21 @@ def load(address: str, reference: Dict[str, Any], seconds: float) -> Dict[str, L
     return latencies
 
 
-@pytest.fixture(scope="module")
-def concurrent_daemon() -> Iterator[Daemon]:
-    """A squalld whose device runs up to four requests at once, each on its own queue."""
-    yield from _start(["--device-queues", "4"], "queues")
+@pytest.fixture(scope="module", params=["vkfft", "fftw"])
+def concurrent_daemon(request: pytest.FixtureRequest) -> Iterator[Tuple[Daemon, str]]:
+    """A squalld whose device runs up to four requests at once, each on its own queue, with each FFT
+    backend of the CPU device: fftw, the default there, threads its transforms and shares its plans
+    between queues, vkfft runs them as device kernels."""
+    fft = request.param
+    for daemon in _start(["--device-queues", "4", "--fft", fft], f"queues-{fft}"):
+        yield daemon, fft
 
 
-def test_eight_clients_mixed_calls(concurrent_daemon: Daemon) -> None:
-    daemon = concurrent_daemon
+def test_eight_clients_mixed_calls(concurrent_daemon: Tuple[Daemon, str]) -> None:
+    daemon, fft = concurrent_daemon
     with squall.Client(daemon.address) as probe:
-        assert probe.info().device_queues == 4
+        info = probe.info()
+        assert (info.device_queues, info.fft_backend) == (4, fft)
     reference = references(daemon.address)
     # Warm-up: the same load for a while, so that every thread's allocator arena, gRPC's thread pool
     # and the plan caches reach their working size before memory is compared.
