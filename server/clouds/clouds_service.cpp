@@ -109,7 +109,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
       volume = clouds.find(request->volume_id());
     }
     check_work(volume->device, settings);
-    req::fill_image(clouds.render(*volume, settings, "settings", cancel), response->mutable_image());
+    req::fill_image(clouds.render(*volume, settings, "settings", cancel, &memory), response->mutable_image());
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });

@@ -330,10 +330,11 @@ struct CloudRenderer::ShadowMap {
   BufferLease mask;
   bool to_keep = false;  // made now, to be kept once the render has waited for its queue
   CloudRenderParams made_with{};
+  Slot* working = nullptr;  // the call's working memory, which a kept map takes its bytes from
 };
 
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field,
-                            const Cancellation& cancel) {
+                            const Cancellation& cancel, Slot* working) {
   validate(settings, field);
   CloudRenderParams p = device_params(settings);
   p.has_temperature = volume.has_temperature ? 1 : 0;
@@ -354,7 +355,8 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
   const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
-  ShadowMap map;     // before the lease: its mask's host bytes outlive the lease's wait for the queue
+  ShadowMap map;  // before the lease: its mask's host bytes outlive the lease's wait for the queue
+  map.working = working;
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
   make_shadow_map(map, volume, settings, p, lease, cancel, field);
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
@@ -389,7 +391,7 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
       return;
     }
     ++kept->made;
-    map.to_keep = may_keep(*kept, dsm_floats * sizeof(float));
+    map.to_keep = may_keep(*kept, map, dsm_floats * sizeof(float));
   }
   if (map.to_keep) {
     map.buffer = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, dsm_floats * sizeof(float));  // not the pool's
@@ -424,12 +426,14 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
 }
 
 // Whether a map of `bytes` could replace the volume's kept one: at most kMaxKeptShadowMapBytes, with room
-// in the kept maps' share and in the memory budget once the kept one's bytes go back. A map that could not
-// is made in the pool's buffers, as a volume that keeps none makes its maps.
-bool CloudRenderer::may_keep(const KeptShadowMap& kept, size_t bytes) const {
+// in the kept maps' share and in the memory budget once the kept one's bytes go back, or in the call's
+// working memory. A map that could not is made in the pool's buffers, as a volume that keeps none makes
+// its maps.
+bool CloudRenderer::may_keep(const KeptShadowMap& kept, const ShadowMap& map, size_t bytes) const {
   const size_t held = kept.map() ? kept.map.getInfo<CL_MEM_SIZE>() : 0;
+  const bool in_working_memory = map.working && map.working->amount() >= bytes;
   return bytes <= kMaxKeptShadowMapBytes && kept_maps_.memory_room(bytes, held) &&
-         (!gate_ || gate_->memory_room(bytes, held));
+         (!gate_ || in_working_memory || gate_->memory_room(bytes, held));
 }
 
 void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
@@ -440,7 +444,9 @@ void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
   kept.memory = Slot(), kept.share = Slot();
   try {
     Slot share = kept_maps_.acquire_memory("the deep shadow maps kept", bytes);
-    if (gate_) kept.memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
+    if (gate_ && map.working) kept.memory = gate_->cache_from(*map.working, bytes);
+    if (gate_ && !kept.memory.amount())
+      kept.memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
     kept.share = std::move(share);
   } catch (const Error&) {
     return;  // past a budget: the next render makes its own

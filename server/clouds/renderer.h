@@ -155,9 +155,11 @@ class CloudRenderer : public MemoryReclaimer {
   // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
   // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
   // A deep shadow map is made, or taken from the volume's KeptShadowMap, and kept for its next render when
-  // at most kMaxKeptShadowMapBytes and within both budgets (else the next render makes its own).
+  // at most kMaxKeptShadowMapBytes and within both budgets (else the next render makes its own). A kept map
+  // takes its bytes from `working`, the call's working memory in the budget (shadow_map_bytes() of it),
+  // where it holds them: else the budget must have room for the map beside the call's.
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
-               const Cancellation& cancel = {});
+               const Cancellation& cancel = {}, Slot* working = nullptr);
   // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
   // make them again.
   void reclaim(uint64_t bytes) override;
@@ -169,7 +171,7 @@ class CloudRenderer : public MemoryReclaimer {
   void make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                        const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
                        const std::string& field);
-  bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
+  bool may_keep(const KeptShadowMap& kept, const ShadowMap& map, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, const ShadowMap& map);
   std::vector<std::shared_ptr<KeptShadowMap>> kept_maps();  // the maps kept now, least recently used first

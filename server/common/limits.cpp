@@ -125,6 +125,15 @@ Slot LimitGate::acquire_cache_memory(const std::string& what, uint64_t bytes) {
   return slot;
 }
 
+Slot LimitGate::cache_from(Slot& held, uint64_t bytes) {
+  if (held.counter_ != &memory_bytes_ || held.also_ || held.amount_ < bytes) return Slot();
+  held.amount_ -= bytes;
+  Slot slot(&memory_bytes_, bytes);
+  cached_bytes_ += bytes;
+  slot.also_ = &cached_bytes_;
+  return slot;
+}
+
 void LimitGate::add_reclaimer(MemoryReclaimer* cache) {
   std::lock_guard<std::mutex> lock(reclaimers_mutex_);
   reclaimers_.push_back(cache);

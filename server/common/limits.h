@@ -44,6 +44,7 @@ class Slot {
   Slot& operator=(const Slot&) = delete;
   ~Slot() { release(); }
   void release();
+  uint64_t amount() const { return counter_ ? amount_ : 0; }
 
  private:
   friend class LimitGate;
@@ -99,6 +100,11 @@ class LimitGate {
   // acquire_memory for what a cache keeps: only room that no one holds (no cache gives its memory to
   // another), counted as cached memory until the Slot goes.
   Slot acquire_cache_memory(const std::string& what, uint64_t bytes);
+  // Moves `bytes` of `held`, memory of this budget that a call holds (acquire_memory), to a cache: the same
+  // bytes, counted once, now as cached memory (what a call made and a cache keeps after it, e.g. a render's
+  // shadow map). `held` keeps the rest. An empty Slot, and `held` unchanged, where `held` is not this
+  // budget's call memory or holds fewer bytes.
+  Slot cache_from(Slot& held, uint64_t bytes);
   // The caches acquire_memory takes memory back from, in the order added. A cache removes itself before it
   // goes.
   void add_reclaimer(MemoryReclaimer* cache);

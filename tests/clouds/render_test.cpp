@@ -434,6 +434,34 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   EXPECT_EQ(v.kept_shadow_map->made, 3u);
 }
 
+// A map made for a render takes its bytes from the render's working memory when kept: with the budget just
+// the call's, the map is kept, the budget holds its bytes alone after the call, and the next render reads it.
+// It fails when the kept map is counted beside the call's memory, which leaves no room to keep it.
+TEST(Render, AKeptShadowMapTakesItsBytesFromTheRendersWorkingMemory) {
+  const RenderSettings s = sunlit_sphere();  // a 48^3 map
+  const uint64_t map_bytes = uint64_t(48 * 48 * 48) * s.lights.size() * sizeof(float), working = shadow_map_bytes(s);
+  Limits limits;
+  limits.memory_budget = working;
+  LimitGate gate(limits);
+  CloudRenderer renderer(test::runtime(), &gate);
+  const DeviceVolume v = stored_sphere();
+  {
+    Slot call = gate.acquire_memory("the render", working);
+    renderer.render(v, s, "render", {}, &call);
+    EXPECT_EQ(call.amount(), working - map_bytes);
+    EXPECT_EQ(gate.memory_bytes(), working);
+  }
+  EXPECT_EQ(gate.memory_bytes(), map_bytes);
+  EXPECT_EQ(gate.cached_memory_bytes(), map_bytes);
+  {
+    Slot call = gate.acquire_memory("the next render", working - map_bytes);
+    renderer.render(v, s, "render", {}, &call);
+    EXPECT_EQ(call.amount(), working - map_bytes) << "a kept map read, none made";
+  }
+  EXPECT_EQ(v.kept_shadow_map->made, 1u);
+  EXPECT_EQ(gate.memory_bytes(), map_bytes);
+}
+
 // Renders of one stored volume from four threads at once (the device's queues), each from cameras of its
 // own, the later threads starting while the first one's map is being made: every image equals that of a
 // volume making its own map, bit for bit, whichever render made the map the others read.

@@ -131,5 +131,35 @@ TEST(Limits, ACallTakesBackWhatCachesKeepAndOnlyWhatItNeeds) {
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
+// What a call made and a cache keeps moves from the call's memory to the cache's, counted once: with the
+// budget full, the cache keeps it, the budget holds it as cached memory after the call, and a later call
+// takes it back. Only this budget's call memory moves, and no more than the call holds.
+TEST(Limits, ACacheTakesWhatACallMadeFromTheCallsMemory) {
+  Limits limits;
+  limits.memory_budget = 100;
+  LimitGate gate(limits), other(limits);
+  PieceCache cache(gate);
+  Slot kept;
+  {
+    Slot call = gate.acquire_memory("a call", 100);
+    EXPECT_FALSE(gate.memory_room(30));
+    kept = gate.cache_from(call, 30);
+    EXPECT_EQ(kept.amount(), 30u);
+    EXPECT_EQ(call.amount(), 70u);
+    EXPECT_EQ(gate.memory_bytes(), 100u);
+    EXPECT_EQ(gate.cached_memory_bytes(), 30u);
+    EXPECT_EQ(gate.cache_from(call, 71).amount(), 0u) << "more than the call holds";
+    Slot elsewhere = other.acquire_memory("another budget's call", 50);
+    EXPECT_EQ(gate.cache_from(elsewhere, 10).amount(), 0u) << "another budget's memory";
+    EXPECT_EQ(gate.cache_from(kept, 10).amount(), 0u) << "memory a cache holds already";
+    EXPECT_EQ(call.amount(), 70u);
+  }
+  EXPECT_EQ(gate.memory_bytes(), 30u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 30u);
+  kept = Slot();
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 0u);
+}
+
 }  // namespace
 }  // namespace squall
