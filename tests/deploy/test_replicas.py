@@ -6,7 +6,12 @@
 - SIGTERM on a replica holding sessions, mid-run: its sessions move through the shared --state-dir
   and continue on other replicas; every step succeeds (the client's retry policy, and Envoy's);
   every frame is bit-identical to an uninterrupted reference run; the terminated squalld exits 0
-  within its grace period.
+  within its grace period. While the proxy's hash ring stays the same, the other sessions stay on
+  their replicas and a session moves at most once, never back: a replica asked for a session that
+  another live replica holds asks for a handover and answers UNAVAILABLE, so the proxy's retry goes
+  to the holder, until the handover is done. Envoy's ring changes once its health check takes the
+  replica out (each survivor gets more points on the ring, which may move a session between them),
+  so with Envoy the steps are checked before and after that, each ring on its own.
 
 Every process is started detached with its PID recorded and stopped by PID. Paths come from ctest's
 environment (tests/deploy/lb.cmake).
@@ -19,6 +24,7 @@ import signal
 import subprocess
 import sys
 import time
+import urllib.request
 from collections import Counter
 from pathlib import Path
 from typing import Dict, Iterator, List, Tuple
@@ -56,11 +62,13 @@ class Replica(Process):
         super().__init__([SQUALLD, *flags], directory / f"{name}.log", cache)
 
 
-def start_proxy(kind: str, listen: str, upstreams: List[str], directory: Path) -> Process:
+def start_proxy(
+    kind: str, listen: str, upstreams: List[str], directory: Path, admin: str
+) -> Process:
     generator = [sys.executable, str(SOURCE_DIR / "deploy/lb/proxy-config.py"), kind]
     generator += ["--listen", listen] + [a for u in upstreams for a in ("--upstream", u)]
     if kind == "envoy":
-        generator += ["--admin", f"127.0.0.1:{free_port()}"]
+        generator += ["--admin", admin]
         config = directory / "envoy.yaml"
         config.write_text(subprocess.check_output(generator, text=True))
         argv = [str(TOOLS / "bin/envoy"), "-c", str(config), "--log-level", "warn"]
@@ -95,7 +103,9 @@ class Cluster:
         for r in self.replicas:
             wait_for(lambda: serving(r.address), 300, f"{r.name} SERVING")
         self.address = f"127.0.0.1:{free_port()}"
-        proxy = start_proxy(self.kind, self.address, [r.address for r in self.replicas], directory)
+        self.admin = f"127.0.0.1:{free_port()}"  # Envoy's admin interface
+        upstreams = [r.address for r in self.replicas]
+        proxy = start_proxy(self.kind, self.address, upstreams, directory, self.admin)
         self.started.append(proxy)
         wait_for(lambda: serving(self.address), 60, f"{self.kind} forwarding to a SERVING replica")
         # Envoy: every replica has passed an active health check (1 s interval) before traffic counts.
@@ -104,6 +114,19 @@ class Cluster:
         self.channel = grpc.insecure_channel(self.address, options=options)
         self.ocean = ocean_pb2_grpc.OceanStub(self.channel)
         self.ewave = ewave_pb2_grpc.EWaveStub(self.channel)
+
+    def ring_without(self, replica: Replica) -> bool:
+        """Whether the proxy's hash ring has left `replica` out: Envoy's once its active health check
+        has failed (its admin interface's /clusters); nginx's never (its consistent hash walks past a
+        failed server)."""
+        if self.kind != "envoy":
+            return False
+        with urllib.request.urlopen(f"http://{self.admin}/clusters", timeout=5) as page:
+            flags = f"squalld::{replica.address}::health_flags::"
+            return any(
+                line.startswith(flags) and "failed_active_hc" in line
+                for line in page.read().decode().splitlines()
+            )
 
     def stop(self) -> None:
         if hasattr(self, "channel"):
@@ -219,16 +242,33 @@ def test_sessions_stick_and_move_bit_for_bit_on_sigterm(
     # nginx only fails over once the draining replica's port closes (--drain-wait 2 s); the
     # channel's own retries may run out before that, so the test calls again for that long.
     patience = 0 if cluster.kind == "envoy" else 15
-    moved: Dict[str, str] = {}
+    # The replicas that served each session other than the victim, in turn, per state of the proxy's
+    # ring (with the victim, without it).
+    served: Dict[Tuple[bool, str], List[str]] = {}
     for n in range(DRAIN_AT, STEPS):
+        if n == DRAIN_AT + 1 and cluster.kind == "envoy":  # the later steps on Envoy's new ring
+            wait_for(lambda: cluster.ring_without(victim), 30, "Envoy's ring without the victim")
         for session_id in ids:
+            ring = cluster.ring_without(victim)
             height, replica, again = step(cluster, session_id, n, patience)
             assert height == reference[n], f"{session_id} step {n} differs from the reference"
-            if homes[session_id] == busiest and replica != busiest:
-                # served by the victim until its drain wrote the session, elsewhere from then on
-                assert moved.setdefault(session_id, replica) == replica, "a moved session sticks"
-            else:
-                assert session_id not in moved and replica == homes[session_id]
+            if ring != cluster.ring_without(victim):
+                continue  # the ring changed during the call
+            if replica == busiest:
+                # the victim serves its sessions until its drain wrote them, none from then on
+                assert homes[session_id] == busiest and not ring
+                assert (ring, session_id) not in served, "a moved session went back to the victim"
+                continue
+            if homes[session_id] != busiest and not ring:
+                assert replica == homes[session_id], "the other sessions stay where they were"
+            served.setdefault((ring, session_id), []).append(replica)
+    # While the ring stays, a session moves at most once: to the replica the ring picks, once the
+    # replica that served it first (a retry's pick, or its home before the ring changed) has handed
+    # it over; never back.
+    for (ring, session_id), replicas in served.items():
+        runs = [r for i, r in enumerate(replicas) if i == 0 or replicas[i - 1] != r]
+        assert len(runs) <= 2, f"{session_id} moved more than once on one ring: {replicas}"
     assert victim.popen.wait(GRACE + 5) == 0, victim.log.read_text()[-3000:]
     assert time.monotonic() - signalled < GRACE + 5
+    moved = {i for _, i in served if homes[i] == busiest}
     assert len(moved) == Counter(homes.values())[busiest] >= 1, "every session of the victim moved"
