@@ -63,8 +63,8 @@ std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return 
 void CloudEngine::release(const std::string& id) { stored_.close(id); }
 
 Image CloudEngine::render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field,
-                          const Cancellation& cancel, Slot* working) {
-  return renderer_.render(volume.device, settings, field, cancel, working);
+                          const Cancellation& cancel, const Slot* map_memory) {
+  return renderer_.render(volume.device, settings, field, cancel, map_memory);
 }
 
 std::string CloudEngine::checkpoint(const std::string& id) { return stored_.checkpoint(id, kCheckpointVersion, save); }

@@ -50,9 +50,9 @@ class CloudEngine {
   std::shared_ptr<StoredVolume> find(const std::string& id);
   // Drops a stored volume; NOT_FOUND naming volume_id (the id escaped and cut) when there is none.
   void release(const std::string& id);
-  // CloudRenderer::render: `working` is the call's working memory in the budget.
+  // CloudRenderer::render.
   Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings",
-               const Cancellation& cancel = {}, Slot* working = nullptr);
+               const Cancellation& cancel = {}, const Slot* map_memory = nullptr);
 
   // A stored volume as versioned bytes, and back under its id.
   std::string checkpoint(const std::string& id);

@@ -14,10 +14,18 @@ namespace v1 = squall::v1;
 using namespace squall::clouds;
 namespace req = squall::clouds::rpc;
 
-// Memory a render holds while it runs, an estimate taken against --memory-budget: the image on the
-// device, on the host and in the reply, and the deep shadow map it may make.
-uint64_t render_working_bytes(const RenderSettings& settings) {
-  return 3 * req::image_bytes(settings) + clouds::shadow_map_bytes(settings);
+// Memory a render's image holds while it runs, an estimate taken against --memory-budget: on the device,
+// on the host and in the reply. A deep shadow map the render makes holds its own (CloudRenderer::render).
+uint64_t image_working_bytes(const RenderSettings& settings) { return 3 * req::image_bytes(settings); }
+
+// RESOURCE_EXHAUSTED, before anything is built, for a render whose image and deep shadow map together
+// could never fit in --memory-budget.
+void check_render_fits(const LimitGate& gate, const RenderSettings& settings) {
+  const uint64_t bytes = image_working_bytes(settings) + clouds::shadow_map_bytes(settings);
+  if (bytes > gate.limits().memory_budget)
+    fail(Code::ResourceExhausted, "Render's image and shadow map (" + std::to_string(bytes) +
+                                      " bytes) would pass the memory budget (--memory-budget = " +
+                                      std::to_string(gate.limits().memory_budget) + " bytes)");
 }
 
 // The times, the request's model, then the frames' models at the earliest and the latest time, before the
@@ -97,8 +105,8 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     clouds::validate(settings, "settings");
     serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
                                         req::image_bytes(settings));
-    Slot memory = serving_.gate().acquire_memory("Render's image and shadow map", render_working_bytes(settings)),
-         model_memory;
+    check_render_fits(serving_.gate(), settings);
+    Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
       volume = clouds.build(req::model(request->model()), "model", cancel);
@@ -109,7 +117,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
       volume = clouds.find(request->volume_id());
     }
     check_work(volume->device, settings);
-    req::fill_image(clouds.render(*volume, settings, "settings", cancel, &memory), response->mutable_image());
+    req::fill_image(clouds.render(*volume, settings, "settings", cancel), response->mutable_image());
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });
@@ -132,7 +140,9 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
     validate_frames(*engine_, s.base, s.evolution, request->times());
-    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
+    // The frames' images and deep shadow maps, held for the whole stream.
+    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames",
+                                              image_working_bytes(s.settings) + clouds::shadow_map_bytes(s.settings));
     return s;
   };
   return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {
@@ -144,7 +154,8 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);
-      req::fill_image(engine_->render(*volume, settings, "settings", call.cancellation()), frame.mutable_image());
+      req::fill_image(engine_->render(*volume, settings, "settings", call.cancellation(), &memory),
+                      frame.mutable_image());
       req::fill_summary(*volume, frame.mutable_summary());
       if (request->include_vdb()) {
         std::string vdb = write_vdb(volume->volume);

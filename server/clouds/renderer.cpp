@@ -324,17 +324,17 @@ bool same_params(const CloudRenderParams& a, const CloudRenderParams& b) { retur
 // The map of a render, with what must outlive the render's commands: the mask its nodes read, and the
 // pool's buffer when the map is not kept.
 struct CloudRenderer::ShadowMap {
+  Slot memory;  // its bytes in the memory budget while it is made and read (first: released last)
   cl::Buffer buffer;
   BufferLease pooled;
   std::vector<cl_uchar> needed;
   BufferLease mask;
   bool to_keep = false;  // made now, to be kept once the render has waited for its queue
   CloudRenderParams made_with{};
-  Slot* working = nullptr;  // the call's working memory, which a kept map takes its bytes from
 };
 
 Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field,
-                            const Cancellation& cancel, Slot* working) {
+                            const Cancellation& cancel, const Slot* map_memory) {
   validate(settings, field);
   CloudRenderParams p = device_params(settings);
   p.has_temperature = volume.has_temperature ? 1 : 0;
@@ -355,10 +355,9 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   // start), so that even a costly pixel's tile can be a slice of its own.
   const TileGrid tiles{round_up(size_t(p.width), 8) / 8, round_up(size_t(p.height), 8) / 8};
   const std::vector<double> costs = tile_costs(volume, settings, p, tiles);
-  ShadowMap map;  // before the lease: its mask's host bytes outlive the lease's wait for the queue
-  map.working = working;
+  ShadowMap map;     // before the lease: its mask's host bytes outlive the lease's wait for the queue
   QueueLease lease;  // one device queue from the first slice to the read-back, but for long renders
-  make_shadow_map(map, volume, settings, p, lease, cancel, field);
+  make_shadow_map(map, volume, settings, p, lease, cancel, field, map_memory);
   // Renders of about the same estimated number of samples take about as long: a small one goes ahead of
   // much larger work waiting for a queue.
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
@@ -375,7 +374,7 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
 
 void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                                     const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
-                                    const std::string& field) {
+                                    const std::string& field, const Slot* map_memory) {
   if (settings.shadow != ShadowMode::DeepShadowMap || p.n_lights == 0) {
     map.pooled = runtime_.buffers().acquire(sizeof(float));
     map.buffer = map.pooled.buffer();
@@ -383,15 +382,25 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
   }
   map.made_with = without_camera(p);
   const size_t dsm_floats = size_t(p.dsm_n[0]) * p.dsm_n[1] * p.dsm_n[2] * p.n_lights;
-  if (KeptShadowMap* kept = volume.kept_shadow_map.get()) {
+  KeptShadowMap* kept = volume.kept_shadow_map.get();
+  if (kept) {
     std::lock_guard<std::mutex> guard(kept->mutex);
     if (kept->map() && same_params(kept->made_with, map.made_with)) {
       map.buffer = kept->map;
       kept->used = ++uses_;
       return;
     }
+  }
+  // A map made now holds its bytes (and its mask's) in the budget from here, unless the caller holds them;
+  // a kept one takes them over. Taken with no map's lock held: where the budget has no room, kept maps give
+  // theirs back (reclaim()).
+  const uint64_t map_bytes = shadow_map_bytes(settings);
+  if (gate_ && !(map_memory && map_memory->amount() >= map_bytes))
+    map.memory = gate_->acquire_memory("Render's deep shadow map", map_bytes);
+  if (kept) {
+    std::lock_guard<std::mutex> guard(kept->mutex);
     ++kept->made;
-    map.to_keep = may_keep(*kept, map, dsm_floats * sizeof(float));
+    map.to_keep = may_keep(*kept, dsm_floats * sizeof(float));
   }
   if (map.to_keep) {
     map.buffer = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, dsm_floats * sizeof(float));  // not the pool's
@@ -426,17 +435,15 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
 }
 
 // Whether a map of `bytes` could replace the volume's kept one: at most kMaxKeptShadowMapBytes, with room
-// in the kept maps' share and in the memory budget once the kept one's bytes go back, or in the call's
-// working memory. A map that could not is made in the pool's buffers, as a volume that keeps none makes
-// its maps.
-bool CloudRenderer::may_keep(const KeptShadowMap& kept, const ShadowMap& map, size_t bytes) const {
+// in the kept maps' share once the kept one's bytes go back (in the memory budget the map's own bytes are
+// held already). A map that could not is made in the pool's buffers, as a volume that keeps none makes its
+// maps.
+bool CloudRenderer::may_keep(const KeptShadowMap& kept, size_t bytes) const {
   const size_t held = kept.map() ? kept.map.getInfo<CL_MEM_SIZE>() : 0;
-  const bool in_working_memory = map.working && map.working->amount() >= bytes;
-  return bytes <= kMaxKeptShadowMapBytes && kept_maps_.memory_room(bytes, held) &&
-         (!gate_ || in_working_memory || gate_->memory_room(bytes, held));
+  return bytes <= kMaxKeptShadowMapBytes && kept_maps_.memory_room(bytes, held);
 }
 
-void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
+void CloudRenderer::keep(const DeviceVolume& volume, ShadowMap& map) {
   const size_t bytes = map.buffer.getInfo<CL_MEM_SIZE>();
   KeptShadowMap& kept = *volume.kept_shadow_map;
   std::lock_guard<std::mutex> guard(kept.mutex);
@@ -444,8 +451,8 @@ void CloudRenderer::keep(const DeviceVolume& volume, const ShadowMap& map) {
   kept.memory = Slot(), kept.share = Slot();
   try {
     Slot share = kept_maps_.acquire_memory("the deep shadow maps kept", bytes);
-    if (gate_ && map.working) kept.memory = gate_->cache_from(*map.working, bytes);
-    if (gate_ && !kept.memory.amount())
+    if (gate_) kept.memory = gate_->cache_from(map.memory, bytes);  // the map's bytes, now cached memory
+    if (gate_ && !kept.memory.amount())                             // the caller's memory held them: not taken from it
       kept.memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
     kept.share = std::move(share);
   } catch (const Error&) {

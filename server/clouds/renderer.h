@@ -155,11 +155,12 @@ class CloudRenderer : public MemoryReclaimer {
   // Renders in slices of 8x8 tiles (the shadow map in slices of nodes) sized by their estimated cost,
   // checking `cancel` between them: a cancelled render frees the device within a slice (Error(Cancelled)).
   // A deep shadow map is made, or taken from the volume's KeptShadowMap, and kept for its next render when
-  // at most kMaxKeptShadowMapBytes and within both budgets (else the next render makes its own). A kept map
-  // takes its bytes from `working`, the call's working memory in the budget (shadow_map_bytes() of it),
-  // where it holds them: else the budget must have room for the map beside the call's.
+  // at most kMaxKeptShadowMapBytes and within the kept maps' share (else the next render makes its own). A
+  // map made holds shadow_map_bytes() in `gate`'s memory budget while the render runs (RESOURCE_EXHAUSTED
+  // where there is no room), unless `map_memory`, the caller's, holds that much (a stream's, for all its
+  // frames); a kept one holds its own bytes from then on, as cached memory: counted once.
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
-               const Cancellation& cancel = {}, Slot* working = nullptr);
+               const Cancellation& cancel = {}, const Slot* map_memory = nullptr);
   // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
   // make them again.
   void reclaim(uint64_t bytes) override;
@@ -170,10 +171,10 @@ class CloudRenderer : public MemoryReclaimer {
   // (left running), else (no deep shadow map) one float the render does not read.
   void make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                        const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
-                       const std::string& field);
-  bool may_keep(const KeptShadowMap& kept, const ShadowMap& map, size_t bytes) const;  // under kept.mutex
+                       const std::string& field, const Slot* map_memory);
+  bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
-  void keep(const DeviceVolume& volume, const ShadowMap& map);
+  void keep(const DeviceVolume& volume, ShadowMap& map);
   std::vector<std::shared_ptr<KeptShadowMap>> kept_maps();  // the maps kept now, least recently used first
 
   Runtime& runtime_;

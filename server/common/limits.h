@@ -97,12 +97,12 @@ class LimitGate {
   // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer. Where
   // the budget has no room, the caches (add_reclaimer) first give back what they keep.
   Slot acquire_memory(const std::string& what, uint64_t bytes);
-  // acquire_memory for what a cache keeps: only room that no one holds (no cache gives its memory to
-  // another), counted as cached memory until the Slot goes.
+  // acquire_memory for what a cache keeps: only room that no one holds (it takes back no cache's memory),
+  // counted as cached memory until the Slot goes.
   Slot acquire_cache_memory(const std::string& what, uint64_t bytes);
-  // Moves `bytes` of `held`, memory of this budget that a call holds (acquire_memory), to a cache: the same
-  // bytes, counted once, now as cached memory (what a call made and a cache keeps after it, e.g. a render's
-  // shadow map). `held` keeps the rest. An empty Slot, and `held` unchanged, where `held` is not this
+  // Moves `bytes` of `held`, memory of this budget that a call holds (acquire_memory, which may have taken
+  // it back from caches), to a cache: the same bytes, counted once, now as cached memory (what a call made
+  // and a cache keeps after it, e.g. a render's shadow map). `held` keeps the rest. An empty Slot, and `held` unchanged, where `held` is not this
   // budget's call memory or holds fewer bytes.
   Slot cache_from(Slot& held, uint64_t bytes);
   // The caches acquire_memory takes memory back from, in the order added. A cache removes itself before it

@@ -16,11 +16,14 @@
 #include "clouds/renderer.h"
 #include "clouds/volume.h"
 #include "common/limits.h"
+#include "support/expect_error.h"
 #include "support/test_runtime.h"
 #include <openvdb/tools/Interpolation.h>
 
 namespace squall::clouds {
 namespace {
+
+using test::expect_error;
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -382,8 +385,8 @@ TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
 }
 
 // A kept map holds its bytes in the memory budget until it is replaced, its volume goes, or a call takes its
-// room back. A map that would pass the budget, or kMaxKeptShadowMapBytes, is made for its render alone: the
-// kept one stays.
+// room back. A render whose map would pass the budget is refused, and one past kMaxKeptShadowMapBytes is
+// made for its render alone: the kept one stays.
 TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   Limits limits;
   limits.memory_budget = 1 << 20;
@@ -401,13 +404,12 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
     renderer.render(v, s);
     EXPECT_EQ(gate.memory_bytes(), bytes_of(40));
     s.shadow_map_size = {72, 72, 72};  // 1.49 MB: past the budget
-    renderer.render(v, s);
-    renderer.render(v, s);
-    EXPECT_EQ(v.kept_shadow_map->made, 4u);
+    expect_error(Code::ResourceExhausted, "Render's deep shadow map", [&] { renderer.render(v, s); });
+    EXPECT_EQ(v.kept_shadow_map->made, 2u);
     EXPECT_EQ(gate.memory_bytes(), bytes_of(40));
     s.shadow_map_size = {40, 40, 40};  // still kept
     renderer.render(v, s);
-    EXPECT_EQ(v.kept_shadow_map->made, 4u);
+    EXPECT_EQ(v.kept_shadow_map->made, 2u);
     s.shadow_map_size = {48, 48, 48};
     renderer.render(v, s);
     EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
@@ -418,7 +420,7 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
     }
     renderer.render(v, s);
     renderer.render(v, s);
-    EXPECT_EQ(v.kept_shadow_map->made, 6u);
+    EXPECT_EQ(v.kept_shadow_map->made, 4u);
     EXPECT_EQ(gate.memory_bytes(), bytes_of(48));
   }
   EXPECT_EQ(gate.memory_bytes(), 0u);  // given back with the volume
@@ -434,32 +436,38 @@ TEST(Render, KeptShadowMapsHoldTheirBytesInTheMemoryBudget) {
   EXPECT_EQ(v.kept_shadow_map->made, 3u);
 }
 
-// A map made for a render takes its bytes from the render's working memory when kept: with the budget just
-// the call's, the map is kept, the budget holds its bytes alone after the call, and the next render reads it.
-// It fails when the kept map is counted beside the call's memory, which leaves no room to keep it.
-TEST(Render, AKeptShadowMapTakesItsBytesFromTheRendersWorkingMemory) {
-  const RenderSettings s = sunlit_sphere();  // a 48^3 map
-  const uint64_t map_bytes = uint64_t(48 * 48 * 48) * s.lights.size() * sizeof(float), working = shadow_map_bytes(s);
+// A map made for a render holds its bytes (and its mask's) in the budget while the render runs, and a kept
+// map its own bytes from then on, counted once: with a budget of just one render's map, the map is kept, the
+// next render of the volume reads it with no bytes of its own, and a render that needs another map takes the
+// kept one's bytes back. It fails when a kept map is counted beside the render that made it (no room to
+// keep it) or when a render that reads a kept map reserves a map's bytes again (the kept one is reclaimed).
+TEST(Render, AKeptShadowMapIsCountedOnceInTheMemoryBudget) {
+  RenderSettings s = sunlit_sphere();  // a 48^3 map of one light
+  const uint64_t map_bytes = uint64_t(48 * 48 * 48) * s.lights.size() * sizeof(float);
   Limits limits;
-  limits.memory_budget = working;
+  limits.memory_budget = shadow_map_bytes(s);
   LimitGate gate(limits);
   CloudRenderer renderer(test::runtime(), &gate);
   const DeviceVolume v = stored_sphere();
-  {
-    Slot call = gate.acquire_memory("the render", working);
-    renderer.render(v, s, "render", {}, &call);
-    EXPECT_EQ(call.amount(), working - map_bytes);
-    EXPECT_EQ(gate.memory_bytes(), working);
-  }
+  renderer.render(v, s);
   EXPECT_EQ(gate.memory_bytes(), map_bytes);
   EXPECT_EQ(gate.cached_memory_bytes(), map_bytes);
-  {
-    Slot call = gate.acquire_memory("the next render", working - map_bytes);
-    renderer.render(v, s, "render", {}, &call);
-    EXPECT_EQ(call.amount(), working - map_bytes) << "a kept map read, none made";
-  }
+  s.camera.eye = {-12, -24, 2};
+  renderer.render(v, s);
   EXPECT_EQ(v.kept_shadow_map->made, 1u);
   EXPECT_EQ(gate.memory_bytes(), map_bytes);
+  s.seed += 1;  // another map: the kept one gives its bytes back for it, and the new one is kept
+  renderer.render(v, s);
+  EXPECT_EQ(v.kept_shadow_map->made, 2u);
+  EXPECT_EQ(gate.memory_bytes(), map_bytes);
+  {
+    const Slot stream = gate.acquire_memory("a stream's frames", shadow_map_bytes(s));  // reclaims the kept map
+    CloudRenderer frames(test::runtime(), &gate);
+    const DeviceVolume frame = upload_volume(test::runtime(), soft_sphere());
+    EXPECT_NO_THROW(frames.render(frame, s, "render", {}, &stream)) << "its map's bytes are the stream's";
+    expect_error(Code::ResourceExhausted, "--memory-budget", [&] { frames.render(frame, s); });
+  }
+  EXPECT_EQ(gate.memory_bytes(), 0u);
 }
 
 // Renders of one stored volume from four threads at once (the device's queues), each from cameras of its
