@@ -10,17 +10,22 @@
 // than `owner_timeout`): it asks the owner to hand the session over and answers UNAVAILABLE, and the
 // owner's next tick writes the session and lets it go, so the client's retry resumes the current state.
 // An owner whose heartbeat stopped (killed, node lost) is presumed dead and its sessions resume from
-// their last checkpoint.
+// their last checkpoint. The heartbeat has a thread of its own (the daemon's CheckpointLoop), so that a
+// replica busy writing checkpoints is not taken for dead. A replica that starts holds no session, so
+// ownership left from its previous life under the same name (killed and restarted) is cleared first:
+// --replica-id names one live process at a time.
 #pragma once
 
 #include <atomic>
 #include <chrono>
+#include <exception>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 
+#include "common/log.h"
 #include "common/state_dir.h"
 
 namespace squall {
@@ -29,7 +34,10 @@ class SessionRegistry {
  public:
   explicit SessionRegistry(std::unique_ptr<StateDir> state_dir = nullptr, std::string replica = "replica",
                            std::chrono::milliseconds owner_timeout = std::chrono::seconds(5))
-      : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {}
+      : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {
+    if (!state_dir_) return;
+    for (const std::string& id : state_dir_->owned_by(replica_)) state_dir_->clear_owner(id);
+  }
 
   const StateDir* state_dir() const { return state_dir_.get(); }
   const std::string& replica() const { return replica_; }
@@ -71,24 +79,43 @@ class SessionRegistry {
     return written;
   }
 
-  // One beat of the daemon's loop: this replica's heartbeat, then the handover requests for sessions it
-  // holds (other replicas' requests are theirs to answer). Returns how many sessions were handed over.
+  // "Alive now": this replica's heartbeat (none without a state directory).
+  void heartbeat() const {
+    if (state_dir_) state_dir_->heartbeat(replica_);
+  }
+
+  // One beat of the daemon's loop: the handover requests for sessions this replica holds (other
+  // replicas' requests are theirs to answer). A request for a session this replica owns in the directory
+  // but holds in no store is answered by clearing that ownership. A handover that fails is logged and
+  // tried again at the next beat; the others go on. Returns how many sessions were handed over.
   size_t tick() {
     if (!state_dir_) return 0;
-    state_dir_->heartbeat(replica_);
     size_t handed = 0;
     std::lock_guard<std::mutex> lock(mutex_);
-    for (const std::string& id : state_dir_->handover_requests())
-      for (auto& [token, store] : stores_)
-        if (store.hand_over(id)) {
-          state_dir_->clear_handover(id);
-          ++handed;
-          break;
-        }
+    for (const std::string& id : state_dir_->handover_requests()) {
+      try {
+        if (hand_over(id)) ++handed;
+      } catch (const std::exception& e) {
+        log(LogLevel::Error, "handing session ", id, " over: ", e.what());
+      }
+    }
     return handed;
   }
 
  private:
+  bool hand_over(const std::string& id) {  // under mutex_
+    for (auto& [token, store] : stores_)
+      if (store.hand_over(id)) {
+        state_dir_->clear_handover(id);
+        return true;
+      }
+    if (state_dir_->owner(id) == replica_) {
+      state_dir_->clear_owner(id);
+      state_dir_->clear_handover(id);
+    }
+    return false;
+  }
+
   std::unique_ptr<StateDir> state_dir_;
   const std::string replica_;
   const std::chrono::milliseconds owner_timeout_;

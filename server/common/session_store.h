@@ -126,14 +126,19 @@ class SessionStore {
     entry->value = std::move(value);
     entry->held = std::move(reservation);
     entry->last_use = policy_.clock();
-    if (policy_.registry && policy_.registry->draining())
-      fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
     {
+      // Checked under the map's lock, which a drain's checkpoint_all(true) takes after begin_drain(): a
+      // session added here is either refused or among those the drain writes and releases.
       std::lock_guard<std::mutex> lock(mutex_);
+      if (policy_.registry && policy_.registry->draining())
+        fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
       if (!entries_.emplace(id, std::move(entry)).second)
         fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
     }
-    if (persistent()) state_dir()->set_owner(id, policy_.registry->replica());
+    if (persistent()) {
+      state_dir()->set_owner(id, policy_.registry->replica());
+      state_dir()->clear_handover(id);  // a request to its former owner, answered
+    }
     return id;
   }
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
@@ -174,8 +179,9 @@ class SessionStore {
     if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
   }
   bool erase(const std::string& id) {
-    if (!take(id)) return false;
-    if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
+    std::shared_ptr<Entry> entry = take(id);
+    if (!entry) return false;
+    remove_files(*entry);
     return true;
   }
 
@@ -204,22 +210,23 @@ class SessionStore {
     return written;
   }
 
-  // Removes entries idle longer than the TTL; returns how many.
+  // Removes entries idle longer than the TTL, and their files; returns how many.
   size_t evict_idle() {
     std::vector<std::shared_ptr<Entry>> evicted;  // destroyed outside the map's lock
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto now = policy_.clock();
-    for (auto it = entries_.begin(); it != entries_.end();) {
-      if (now - it->second->last_use > policy_.ttl) {
-        evicted.push_back(std::move(it->second));
-        it = entries_.erase(it);
-      } else {
-        ++it;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto now = policy_.clock();
+      for (auto it = entries_.begin(); it != entries_.end();) {
+        if (now - it->second->last_use > policy_.ttl) {
+          evicted.push_back(std::move(it->second));
+          it = entries_.erase(it);
+        } else {
+          ++it;
+        }
       }
     }
     if (!evicted.empty()) log(LogLevel::Info, kind_, ": evicted ", evicted.size(), " idle past the TTL");
-    if (const StateDir* dir = persistent() ? state_dir() : nullptr)
-      for (const auto& entry : evicted) dir->remove(entry->id);
+    for (const auto& entry : evicted) remove_files(*entry);
     return evicted.size();
   }
 
@@ -308,6 +315,15 @@ class SessionStore {
 
   const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
   bool persistent() const { return resume_ && state_dir(); }
+
+  // The files of an entry taken out of the map. Not those of one a drain released: they are the state
+  // another replica resumes, and holds by now.
+  void remove_files(Entry& entry) {
+    const StateDir* dir = persistent() ? state_dir() : nullptr;
+    if (!dir) return;
+    std::lock_guard<std::mutex> lock(entry.mutex);  // waits for a call in flight on the session
+    if (!entry.released) dir->remove(entry.id);
+  }
 
   std::shared_ptr<Entry> find(const std::string& id) {
     evict_idle();

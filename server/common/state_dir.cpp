@@ -142,6 +142,19 @@ void StateDir::clear_owner(const std::string& id) const {
   if (auto file = file_of(id, kOwner)) std::remove(file->c_str());
 }
 
+std::vector<std::string> StateDir::owned_by(const std::string& replica) const {
+  std::vector<std::string> ids;
+  std::error_code error;
+  const std::string suffix = kOwner;
+  for (const auto& entry : fs::directory_iterator(path_, error)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() <= suffix.size() || !name.ends_with(suffix)) continue;
+    std::string id = name.substr(0, name.size() - suffix.size());
+    if (owner(id) == replica) ids.push_back(std::move(id));
+  }
+  return ids;
+}
+
 void StateDir::heartbeat(const std::string& replica) const {
   const std::string file = replica_file(replica);
   std::error_code error;

@@ -32,6 +32,7 @@ class StateDir {
   void set_owner(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;
   void clear_owner(const std::string& id) const;
+  std::vector<std::string> owned_by(const std::string& replica) const;  // the ids whose owner is `replica`
 
   void heartbeat(const std::string& replica) const;  // "alive now"
   void retire(const std::string& replica) const;     // "gone": removes the heartbeat

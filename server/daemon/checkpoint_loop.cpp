@@ -13,24 +13,43 @@ CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseco
       ttl_(ttl),
       last_checkpoint_(std::chrono::steady_clock::now()),
       last_expiry_(last_checkpoint_) {
-  if (registry_.state_dir()) beat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { tick(); });
+  if (!registry_.state_dir()) return;
+  heartbeat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { heartbeat(); });
+  beat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { tick(); });
+}
+
+void CheckpointLoop::heartbeat() {
+  try {
+    registry_.heartbeat();
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "state directory: heartbeat: ", e.what());
+  }
+}
+
+// Runs `part`, logging what it throws: one part's failure does not keep the others from running.
+template <typename Part>
+void logged(const char* what, Part&& part) {
+  try {
+    part();
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "state directory: ", what, ": ", e.what());
+  }
 }
 
 void CheckpointLoop::tick() {
   constexpr auto kExpiry = std::chrono::minutes(1);
-  try {
-    registry_.tick();
-    const auto now = std::chrono::steady_clock::now();
-    if (interval_.count() > 0 && now - last_checkpoint_ >= interval_) {
-      last_checkpoint_ = now;
+  logged("handovers", [&] { registry_.tick(); });
+  const auto now = std::chrono::steady_clock::now();
+  if (interval_.count() > 0 && now - last_checkpoint_ >= interval_) {
+    last_checkpoint_ = now;
+    logged("checkpoints", [&] {
       log(LogLevel::Debug, "state directory: ", registry_.checkpoint_all(false), " sessions checkpointed");
-    }
-    if (now - last_expiry_ >= kExpiry) {
-      last_expiry_ = now;
-      log(LogLevel::Debug, "state directory: ", registry_.state_dir()->expire(ttl_), " files expired");
-    }
-  } catch (const std::exception& e) {
-    log(LogLevel::Error, "state directory: ", e.what());
+    });
+  }
+  if (now - last_expiry_ >= kExpiry) {
+    last_expiry_ = now;
+    logged("expiry",
+           [&] { log(LogLevel::Debug, "state directory: ", registry_.state_dir()->expire(ttl_), " files expired"); });
   }
 }
 

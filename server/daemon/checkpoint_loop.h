@@ -1,8 +1,10 @@
-// CheckpointLoop: with a state directory, a thread that beats four times a second (this replica's
-// heartbeat, and handing over the sessions other replicas ask for: SessionRegistry::tick), writes every
-// live session to the directory every --checkpoint-interval seconds (what a replica killed without
-// SIGTERM loses is at most that much) and, once a minute, expires files older than the session TTL.
-// Stopped (and joined) before the daemon drains.
+// CheckpointLoop: with a state directory, this replica's heartbeat four times a second on a thread of its
+// own (waiting for no session and no write, so that a replica busy writing is not taken for dead), and a
+// thread that beats four times a second: hands over the sessions other replicas ask for
+// (SessionRegistry::tick), writes every live session to the directory every --checkpoint-interval seconds
+// (what a replica killed without SIGTERM loses is at most that much) and, once a minute, expires files
+// older than the session TTL; a failure of one of these is logged and does not keep the others from
+// running. Stopped (and joined) before the daemon drains.
 #pragma once
 
 #include <chrono>
@@ -19,15 +21,17 @@ class CheckpointLoop {
   CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval, std::chrono::milliseconds ttl);
   void stop() {
     if (beat_) beat_->stop();
+    if (heartbeat_) heartbeat_->stop();
   }
 
  private:
+  void heartbeat();
   void tick();
 
   SessionRegistry& registry_;
   const std::chrono::milliseconds interval_, ttl_;
   std::chrono::steady_clock::time_point last_checkpoint_, last_expiry_;  // the beat's thread only
-  std::unique_ptr<Beat> beat_;  // last: it starts ticking once the members above exist
+  std::unique_ptr<Beat> heartbeat_, beat_;  // last: they start once the members above exist
 };
 
 }  // namespace squall::rpc

@@ -27,13 +27,19 @@ const std::string kId = "c-0123456789abcdef0123456789abcdef";
 
 // One replica's view: its registry over the shared directory, and a persistent store of Counters whose
 // checkpoint payload is the value as text.
+// A Counter of a negative value cannot be written (its save throws).
 struct Replica {
-  explicit Replica(const std::string& dir, const std::string& name = "replica")
+  explicit Replica(
+      const std::string& dir, const std::string& name = "replica",
+      SteadyClock clock = [] { return std::chrono::steady_clock::now(); })
       : registry(std::make_unique<StateDir>(dir, "--state-dir"), name),
-        store(gate, SessionPolicy{1h, [] { return std::chrono::steady_clock::now(); }, &registry}, "counter",
-              "counter_id", "c-") {
+        store(gate, SessionPolicy{1h, std::move(clock), &registry}, "counter", "counter_id", "c-") {
     store.persist(
-        1, [](const Counter& c) { return std::to_string(c.value); },
+        1,
+        [](const Counter& c) {
+          if (c.value < 0) throw std::runtime_error("a negative counter cannot be written");
+          return std::to_string(c.value);
+        },
         [this](const std::string& bytes) {
           CheckpointHeader header;
           std::string payload = store.open_checkpoint(bytes, "checkpoint", 1, &header);
@@ -114,7 +120,8 @@ TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
   std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
   a.registry.checkpoint_all(false);                   // a periodic checkpoint: value 0
   a.store.with(id, [](Counter& c) { c.value = 5; });  // the current state, on a only
-  EXPECT_EQ(a.registry.tick(), 0u);                   // a's heartbeat; no request yet
+  a.registry.heartbeat();
+  EXPECT_EQ(a.registry.tick(), 0u);  // no request yet
   expect_error(Code::Unavailable, "is live on replica a, which is asked to hand it over", [&] { b.store.get(id); });
   EXPECT_EQ(b.registry.tick(), 0u) << "b holds nothing to hand over";
   EXPECT_EQ(a.registry.tick(), 1u) << "a answers the request";
@@ -132,11 +139,73 @@ TEST(StateDir, ASessionOfADeadOwnerResumesFromItsLastCheckpoint) {
     id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
     a.store.with(id, [](Counter& c) { c.value = 3; });
     a.registry.checkpoint_all(false);
-    a.registry.tick();
+    a.registry.heartbeat();
     a.registry.state_dir()->retire("a");  // a is killed: its heartbeat stops
   }
   Replica b(dir, "b");
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 3);
+}
+
+// A replica killed and started again under the same name holds none of its former sessions, while its
+// heartbeat says it is alive: it clears its former ownership when it starts, so another replica resumes
+// them from their last checkpoint at once rather than asking it for a handover it cannot answer.
+TEST(StateDir, ARestartedReplicaClaimsNoneOfItsFormerSessions) {
+  const std::string dir = test::temp_dir("state-restart");
+  std::string id;
+  {
+    Replica a(dir, "a");
+    id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+    a.store.with(id, [](Counter& c) { c.value = 4; });
+    a.registry.checkpoint_all(false);
+    a.registry.heartbeat();
+  }  // killed: no drain, its ownership and heartbeat stay
+  Replica b(dir, "b");
+  expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
+  Replica restarted(dir, "a");
+  restarted.registry.heartbeat();
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 4);
+  EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
+  EXPECT_TRUE(b.registry.state_dir()->handover_requests().empty()) << "b's request to a, answered";
+}
+
+// A request for a session its owner no longer holds (gone from its stores, the ownership file left) is
+// answered by clearing that ownership; a handover that fails (the session cannot be written) is logged and
+// stays requested, and the other requests are answered.
+TEST(StateDir, AHandoverThatFailsDoesNotKeepTheOthersFromBeingAnswered) {
+  const std::string dir = test::temp_dir("state-handover-fails");
+  Replica a(dir, "a"), b(dir, "b");
+  const std::string failing = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  const std::string fine = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  const std::string lost = "c-00000000000000000000000000000002";
+  a.registry.state_dir()->set_owner(lost, "a");
+  a.registry.state_dir()->write(lost, encode_checkpoint({"counter", 1, lost}, "9"));
+  a.store.with(failing, [](Counter& c) { c.value = -1; });
+  a.store.with(fine, [](Counter& c) { c.value = 2; });
+  a.registry.heartbeat();
+  for (const std::string& id : {failing, fine, lost})
+    expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
+  EXPECT_EQ(a.registry.tick(), 1u) << "the session that can be written is handed over";
+  EXPECT_EQ(b.store.with(fine, [](Counter& c) { return c.value; }), 2);
+  EXPECT_EQ(b.store.with(lost, [](Counter& c) { return c.value; }), 9) << "its stale ownership was cleared";
+  EXPECT_EQ(a.store.with(failing, [](Counter& c) { return c.value; }), -1) << "still live on a";
+  EXPECT_EQ(a.registry.state_dir()->handover_requests(), std::vector<std::string>{failing});
+}
+
+// A drained replica's sessions are the state another replica resumes: evicting them there as idle (the
+// drain's calls still run evictions) leaves the new owner's checkpoint and ownership alone.
+TEST(StateDir, ADrainedReplicaEvictingItsReleasedSessionsLeavesTheNewOwnersFiles) {
+  const std::string dir = test::temp_dir("state-drain-evict");
+  auto now = std::chrono::steady_clock::now();
+  Replica a(dir, "a", [&] { return now; }), b(dir, "b");
+  const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  a.registry.begin_drain();
+  EXPECT_EQ(a.registry.checkpoint_all(true), 1u);
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return ++c.value; }), 1);
+  b.registry.checkpoint_all(false);
+  now += 2h;
+  EXPECT_EQ(a.store.evict_idle(), 1u);
+  EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
+  EXPECT_TRUE(b.registry.state_dir()->read(id));
 }
 
 TEST(StateDir, ADrainingReplicaSendsCallsForCheckpointedIdsElsewhere) {
