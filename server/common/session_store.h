@@ -125,19 +125,22 @@ class SessionStore {
     entry->id = id;
     entry->value = std::move(value);
     entry->held = std::move(reservation);
-    entry->last_use = policy_.clock();
+    entry->last_use = entry->owner_checked = policy_.clock();
+    // Owned here before it is live here, so that a checkpoint never finds it owned by another replica.
+    if (persistent()) {
+      state_dir()->set_owner(id, policy_.registry->replica());
+      state_dir()->clear_handover(id);  // a request to its former owner, answered
+    }
     {
       // Checked under the map's lock, which a drain's checkpoint_all(true) takes after begin_drain(): a
       // session added here is either refused or among those the drain writes and releases.
       std::lock_guard<std::mutex> lock(mutex_);
-      if (policy_.registry && policy_.registry->draining())
+      if (policy_.registry && policy_.registry->draining()) {
+        if (persistent()) state_dir()->clear_owner(id);
         fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
+      }
       if (!entries_.emplace(id, std::move(entry)).second)
         fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
-    }
-    if (persistent()) {
-      state_dir()->set_owner(id, policy_.registry->replica());
-      state_dir()->clear_handover(id);  // a request to its former owner, answered
     }
     return id;
   }
@@ -150,7 +153,7 @@ class SessionStore {
   auto with(const std::string& id, F&& f) {
     std::shared_ptr<Entry> entry = find(id);
     std::lock_guard<std::mutex> lock(entry->mutex);
-    if (entry->released) fail(Code::Unavailable, released(id));
+    require_held(entry);
     return f(*entry->value);
   }
 
@@ -158,7 +161,7 @@ class SessionStore {
   std::shared_ptr<T> get(const std::string& id) {
     std::shared_ptr<Entry> entry = find(id);
     std::lock_guard<std::mutex> lock(entry->mutex);
-    if (entry->released) fail(Code::Unavailable, released(id));
+    require_held(entry);
     return entry->value;
   }
 
@@ -174,8 +177,8 @@ class SessionStore {
       if (!entry) return close_checkpoint(id);
     }
     std::lock_guard<std::mutex> wait(entry->mutex);
-    // Released by a drain: another replica may hold it by now, and closes it when asked.
-    if (entry->released) fail(Code::Unavailable, released(id));
+    // Released by a drain, or taken over: another replica may hold it by now, and closes it when asked.
+    if (entry->released || let_go_if_taken_over(*entry)) fail(Code::Unavailable, released(id));
     if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
   }
   bool erase(const std::string& id) {
@@ -187,7 +190,8 @@ class SessionStore {
 
   // Writes every live session to the state directory; with `release`, each written session then answers
   // UNAVAILABLE (the daemon is draining: another replica resumes it). Returns how many were written; a
-  // session that cannot be written is logged and skipped.
+  // session that cannot be written is logged and skipped, and one that another replica owns now is let go
+  // unwritten (let_go_if_taken_over).
   size_t checkpoint_all(bool release) {
     std::vector<std::pair<std::string, std::shared_ptr<Entry>>> live;
     {
@@ -198,6 +202,10 @@ class SessionStore {
     for (auto& [id, entry] : live) {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (entry->released) continue;
+      if (let_go_if_taken_over(*entry)) {
+        forget(entry);
+        continue;
+      }
       try {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
         if (release) state_dir()->clear_owner(id);
@@ -277,14 +285,13 @@ class SessionStore {
     if (!entry) return false;
     {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
-      if (!entry->released) {
+      if (!entry->released && !let_go_if_taken_over(*entry)) {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
         state_dir()->clear_owner(id);
         entry->released = true;  // a call already waiting for this entry answers UNAVAILABLE
       }
     }
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (auto it = entries_.find(id); it != entries_.end() && it->second == entry) entries_.erase(it);
+    forget(entry);
     log(LogLevel::Info, kind_, " ", id, " handed over to the replica that asked for it");
     return true;
   }
@@ -300,7 +307,22 @@ class SessionStore {
     std::shared_ptr<T> value;
     Reservation held;
     std::chrono::steady_clock::time_point last_use;
+    std::chrono::steady_clock::time_point owner_checked;  // when its ownership was last read (require_held)
   };
+
+  // How often a call reads its session's ownership in the state directory: a replica taken for dead
+  // stops serving a session another one resumed within about this long.
+  static constexpr std::chrono::seconds kOwnerCheckInterval{1};
+
+  // Under entry->mutex: UNAVAILABLE for a session released, or found taken over by another replica at a
+  // read of its ownership (at most one per kOwnerCheckInterval; then it leaves the store).
+  void require_held(const std::shared_ptr<Entry>& entry) {
+    if (!entry->released && persistent() && policy_.clock() - entry->owner_checked >= kOwnerCheckInterval) {
+      entry->owner_checked = policy_.clock();
+      if (let_go_if_taken_over(*entry)) forget(entry);
+    }
+    if (entry->released) fail(Code::Unavailable, released(entry->id));
+  }
 
   std::string not_found(const std::string& id) const {
     return id_field_ + " = \"" + validate::printable(id) + "\" is not a live " + kind_ +
@@ -316,13 +338,31 @@ class SessionStore {
   const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
   bool persistent() const { return resume_ && state_dir(); }
 
-  // The files of an entry taken out of the map. Not those of one a drain released: they are the state
-  // another replica resumes, and holds by now.
+  // The files of an entry taken out of the map. Not those of one released or taken over: they are the
+  // state another replica resumes, and holds by now.
   void remove_files(Entry& entry) {
     const StateDir* dir = persistent() ? state_dir() : nullptr;
     if (!dir) return;
     std::lock_guard<std::mutex> lock(entry.mutex);  // waits for a call in flight on the session
-    if (!entry.released) dir->remove(entry.id);
+    if (!entry.released && !let_go_if_taken_over(entry)) dir->remove(entry.id);
+  }
+
+  // Under entry.mutex: whether another replica owns the entry's session in the state directory now (this
+  // replica was presumed dead, its heartbeat late, and that one resumed the session), in which case the
+  // entry is released, so that its calls answer UNAVAILABLE and its state, older than the new owner's,
+  // is never written over the new owner's files.
+  bool let_go_if_taken_over(Entry& entry) {
+    if (!persistent()) return false;
+    const std::optional<std::string> owner = state_dir()->owner(entry.id);
+    if (!owner || *owner == policy_.registry->replica()) return false;
+    log(LogLevel::Warn, kind_, " ", entry.id, " was taken over by replica ", *owner, ": let go here");
+    entry.released = true;
+    return true;
+  }
+
+  void forget(const std::shared_ptr<Entry>& entry) {  // out of the map, if it is still there
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = entries_.find(entry->id); it != entries_.end() && it->second == entry) entries_.erase(it);
   }
 
   std::shared_ptr<Entry> find(const std::string& id) {

@@ -208,6 +208,35 @@ TEST(StateDir, ADrainedReplicaEvictingItsReleasedSessionsLeavesTheNewOwnersFiles
   EXPECT_TRUE(b.registry.state_dir()->read(id));
 }
 
+// A replica taken for dead while it still runs (its heartbeat late) finds its sessions owned by the replica
+// that resumed them: a call reads the ownership (within a second) and a checkpoint does too, and the session
+// is let go there, the new owner's checkpoint and ownership untouched. It fails when the old replica serves
+// on, or writes its older state over the new owner's.
+TEST(StateDir, AReplicaTakenForDeadLetsGoOfTheSessionsAnotherResumed) {
+  const std::string dir = test::temp_dir("state-taken-over");
+  auto now = std::chrono::steady_clock::now();
+  Replica a(dir, "a", [&] { return now; }), b(dir, "b");
+  const std::string called = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  const std::string written = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  a.registry.checkpoint_all(false);  // both at 0
+  a.store.with(written, [](Counter& c) { c.value = 1; });
+  a.registry.state_dir()->retire("a");  // its heartbeat late: presumed dead
+  b.registry.heartbeat();
+  for (const std::string& id : {called, written}) b.store.with(id, [](Counter& c) { c.value = 5; });
+  b.registry.checkpoint_all(false);
+  const auto state = [&](const std::string& id) { return b.registry.state_dir()->read(id).value(); };
+  const std::string five_called = state(called), five_written = state(written);
+  a.store.with(called, [](Counter&) {});  // its ownership read less than a second ago
+  now += 2s;
+  expect_error(Code::Unavailable, "moved to the state directory", [&] { a.store.with(called, [](Counter&) {}); });
+  EXPECT_EQ(a.store.size(), 1u);
+  EXPECT_EQ(a.registry.checkpoint_all(false), 0u) << "nothing written over b's";
+  EXPECT_EQ(a.store.size(), 0u);
+  EXPECT_EQ(state(called), five_called);
+  EXPECT_EQ(state(written), five_written);
+  for (const std::string& id : {called, written}) EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
+}
+
 TEST(StateDir, ADrainingReplicaSendsCallsForCheckpointedIdsElsewhere) {
   const std::string dir = test::temp_dir("state-drain");
   Replica a(dir, "a"), b(dir, "b");
