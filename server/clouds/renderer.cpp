@@ -324,7 +324,8 @@ bool same_params(const CloudRenderParams& a, const CloudRenderParams& b) { retur
 // The map of a render, with what must outlive the render's commands: the mask its nodes read, and the
 // pool's buffer when the map is not kept.
 struct CloudRenderer::ShadowMap {
-  Slot memory;  // its bytes in the memory budget while it is made and read (first: released last)
+  Slot memory;                        // its bytes in the memory budget while it is made and read (first: released last)
+  std::shared_ptr<Slot> kept_memory;  // a kept map's bytes in the budget, while this render reads it
   cl::Buffer buffer;
   BufferLease pooled;
   std::vector<cl_uchar> needed;
@@ -387,6 +388,7 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
     std::lock_guard<std::mutex> guard(kept->mutex);
     if (kept->map() && same_params(kept->made_with, map.made_with)) {
       map.buffer = kept->map;
+      map.kept_memory = kept->memory;
       kept->used = ++uses_;
       return;
     }
@@ -448,12 +450,13 @@ void CloudRenderer::keep(const DeviceVolume& volume, ShadowMap& map) {
   KeptShadowMap& kept = *volume.kept_shadow_map;
   std::lock_guard<std::mutex> guard(kept.mutex);
   kept.map = cl::Buffer();  // the map it replaces gives its budgets back first
-  kept.memory = Slot(), kept.share = Slot();
+  kept.memory.reset(), kept.share = Slot();
   try {
     Slot share = kept_maps_.acquire_memory("the deep shadow maps kept", bytes);
-    if (gate_) kept.memory = gate_->cache_from(map.memory, bytes);  // the map's bytes, now cached memory
-    if (gate_ && !kept.memory.amount())                             // the caller's memory held them: not taken from it
-      kept.memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
+    Slot memory = gate_ ? gate_->cache_from(map.memory, bytes) : Slot();  // the map's bytes, now cached memory
+    if (gate_ && !memory.amount())  // the caller's memory held them: not taken from it
+      memory = gate_->acquire_cache_memory("a deep shadow map kept for the volume's next render", bytes);
+    kept.memory = std::make_shared<Slot>(std::move(memory));
     kept.share = std::move(share);
   } catch (const Error&) {
     return;  // past a budget: the next render makes its own
@@ -488,7 +491,7 @@ void CloudRenderer::reclaim(uint64_t bytes) {
     if (!kept->map()) continue;
     freed += kept->map.getInfo<CL_MEM_SIZE>();
     kept->map = cl::Buffer();
-    kept->memory = Slot(), kept->share = Slot();
+    kept->memory.reset(), kept->share = Slot();
   }
 }
 

@@ -82,7 +82,10 @@ struct KeptShadowMap {
   std::mutex mutex;
   CloudRenderParams made_with{};  // the parameters of the render that made it, the camera's cleared
   cl::Buffer map;                 // none before the first
-  Slot memory, share;             // its bytes in the memory budget and in the kept maps' own
+  // Its bytes in the memory budget, shared with the renders reading it (so that they stay counted until
+  // the last reader is done, though the map is replaced or reclaimed meanwhile), and in the kept maps' own.
+  std::shared_ptr<Slot> memory;
+  Slot share;
   uint64_t made = 0;              // maps made for the volume, kept or not
   std::atomic<uint64_t> used{0};  // when a render last kept or read it, in its renderer's count
   bool listed = false;            // in its renderer's list of kept maps (reclaim())

@@ -11,9 +11,9 @@
 // owner's next tick writes the session and lets it go, so the client's retry resumes the current state.
 // An owner whose heartbeat stopped (killed, node lost) is presumed dead and its sessions resume from
 // their last checkpoint. The heartbeat has a thread of its own (the daemon's CheckpointLoop), so that a
-// replica busy writing checkpoints is not taken for dead. A replica that starts holds no session, so
-// ownership left from its previous life under the same name (killed and restarted) is cleared first:
-// --replica-id names one live process at a time.
+// replica busy writing checkpoints is not taken for dead. A replica that starts holds no session: begin()
+// clears the ownership left under its name by its previous life (killed and restarted), once that one's
+// heartbeat has stopped; --replica-id names one live process at a time.
 #pragma once
 
 #include <atomic>
@@ -23,7 +23,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "common/log.h"
 #include "common/state_dir.h"
@@ -34,9 +36,22 @@ class SessionRegistry {
  public:
   explicit SessionRegistry(std::unique_ptr<StateDir> state_dir = nullptr, std::string replica = "replica",
                            std::chrono::milliseconds owner_timeout = std::chrono::seconds(5))
-      : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {
+      : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {}
+
+  // Before this replica takes calls: waits (up to twice the owner timeout) for the heartbeat of a former
+  // process under its name to stop, then clears the ownership that process left and beats. Throws
+  // std::runtime_error when that heartbeat goes on: another live squalld has this --replica-id.
+  void begin() {
     if (!state_dir_) return;
-    for (const std::string& id : state_dir_->owned_by(replica_)) state_dir_->clear_owner(id);
+    const auto deadline = std::chrono::steady_clock::now() + 2 * owner_timeout_;
+    while (state_dir_->alive(replica_, owner_timeout_)) {
+      if (std::chrono::steady_clock::now() > deadline)
+        throw std::runtime_error("another live squalld beats as replica \"" + replica_ + "\" in " + state_dir_->path() +
+                                 ": give each replica its own --replica-id");
+      std::this_thread::sleep_for(owner_timeout_ / 20);
+    }
+    for (const std::string& id : state_dir_->owned_by(replica_)) state_dir_->clear_owner_if(id, replica_);
+    heartbeat();
   }
 
   const StateDir* state_dir() const { return state_dir_.get(); }
@@ -85,9 +100,8 @@ class SessionRegistry {
   }
 
   // One beat of the daemon's loop: the handover requests for sessions this replica holds (other
-  // replicas' requests are theirs to answer). A request for a session this replica owns in the directory
-  // but holds in no store is answered by clearing that ownership. A handover that fails is logged and
-  // tried again at the next beat; the others go on. Returns how many sessions were handed over.
+  // replicas' requests are theirs to answer). A handover that fails is logged and tried again at the next
+  // beat; the others go on. Returns how many sessions were handed over.
   size_t tick() {
     if (!state_dir_) return 0;
     size_t handed = 0;
@@ -109,10 +123,6 @@ class SessionRegistry {
         state_dir_->clear_handover(id);
         return true;
       }
-    if (state_dir_->owner(id) == replica_) {
-      state_dir_->clear_owner(id);
-      state_dir_->clear_handover(id);
-    }
     return false;
   }
 

@@ -279,21 +279,23 @@ class SessionStore {
   }
 
   // Writes session `id` to the state directory and lets it go (another replica asked for it: a proxy
-  // routes it there now); false when this store does not hold it.
+  // routes it there now); false when this store does not hold it, or no more (released, or taken over by
+  // another replica since: the request is that one's to answer).
   bool hand_over(const std::string& id) {
     std::shared_ptr<Entry> entry = lookup(id);
     if (!entry) return false;
+    bool handed = false;  // not a session taken over since: the request is for its new owner
     {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (!entry->released && !let_go_if_taken_over(*entry)) {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
         state_dir()->clear_owner(id);
-        entry->released = true;  // a call already waiting for this entry answers UNAVAILABLE
+        entry->released = handed = true;  // a call already waiting for this entry answers UNAVAILABLE
       }
     }
     forget(entry);
-    log(LogLevel::Info, kind_, " ", id, " handed over to the replica that asked for it");
-    return true;
+    if (handed) log(LogLevel::Info, kind_, " ", id, " handed over to the replica that asked for it");
+    return handed;
   }
 
   const std::string& kind() const { return kind_; }
@@ -351,11 +353,15 @@ class SessionStore {
   // replica was presumed dead, its heartbeat late, and that one resumed the session), in which case the
   // entry is released, so that its calls answer UNAVAILABLE and its state, older than the new owner's,
   // is never written over the new owner's files.
+  // An entry live here has its ownership written (add()) and given up only when it is released here, so
+  // no owner file at all means another replica took it over and gave it up since (an owner file that
+  // cannot be read counts as this replica's: a glitch of a network file system drops no session).
   bool let_go_if_taken_over(Entry& entry) {
     if (!persistent()) return false;
     const std::optional<std::string> owner = state_dir()->owner(entry.id);
-    if (!owner || *owner == policy_.registry->replica()) return false;
-    log(LogLevel::Warn, kind_, " ", entry.id, " was taken over by replica ", *owner, ": let go here");
+    if (owner ? *owner == policy_.registry->replica() : !state_dir()->owner_missing(entry.id)) return false;
+    log(LogLevel::Warn, kind_, " ", entry.id, " was taken over by ", owner ? "replica " + *owner : "another replica",
+        ": let go here");
     entry.released = true;
     return true;
   }

@@ -142,6 +142,16 @@ void StateDir::clear_owner(const std::string& id) const {
   if (auto file = file_of(id, kOwner)) std::remove(file->c_str());
 }
 
+void StateDir::clear_owner_if(const std::string& id, const std::string& replica) const {
+  if (owner(id) == replica) clear_owner(id);
+}
+
+bool StateDir::owner_missing(const std::string& id) const {
+  auto file = file_of(id, kOwner);
+  std::error_code error;
+  return file && !fs::exists(*file, error) && !error;
+}
+
 std::vector<std::string> StateDir::owned_by(const std::string& replica) const {
   std::vector<std::string> ids;
   std::error_code error;

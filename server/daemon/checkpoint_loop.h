@@ -19,8 +19,14 @@ class CheckpointLoop {
  public:
   // Does nothing without a state directory; a zero interval: no periodic checkpoints.
   CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval, std::chrono::milliseconds ttl);
-  void stop() {
+  // Stops the handovers, checkpoints and expiry; the heartbeat goes on (a draining replica writing its
+  // sessions must not be taken for dead meanwhile).
+  void stop_work() {
     if (beat_) beat_->stop();
+  }
+  // Stops everything, the heartbeat too.
+  void stop() {
+    stop_work();
     if (heartbeat_) heartbeat_->stop();
   }
 

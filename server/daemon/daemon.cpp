@@ -209,7 +209,7 @@ void drain(DaemonState& daemon, grpc::Server& server, HealthService& health, Che
   health.SetServingStatus(false);
   daemon.serving.set_phase(ServingState::Phase::Draining);
   daemon.sessions.begin_drain();
-  checkpoints.stop();
+  checkpoints.stop_work();
   if (daemon.sessions.state_dir())
     log(LogLevel::Info, "checkpointed ", daemon.sessions.checkpoint_all(true), " sessions to ",
         daemon.sessions.state_dir()->path());
@@ -217,6 +217,7 @@ void drain(DaemonState& daemon, grpc::Server& server, HealthService& health, Che
   health.Shutdown();  // watches end: the server closes
   server.Shutdown(deadline);
   server.Wait();
+  checkpoints.stop();
   if (daemon.sessions.state_dir()) daemon.sessions.state_dir()->retire(daemon.sessions.replica());
 }
 
@@ -323,6 +324,7 @@ int run_daemon(const DaemonOptions& options) {
     credentials = server_credentials(options);
     std::vector<std::string> tokens = read_tokens(options.auth_tokens);
     daemon = std::make_unique<DaemonState>(options.runtime, options.limits, state_dir(options), replica);
+    daemon->sessions.begin();
     daemon->serving.set_tokens(std::move(tokens));
     daemon->serving.set_replica_id(replica);
   } catch (const std::exception& e) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -25,15 +26,16 @@ struct Counter {
 
 const std::string kId = "c-0123456789abcdef0123456789abcdef";
 
-// One replica's view: its registry over the shared directory, and a persistent store of Counters whose
-// checkpoint payload is the value as text.
-// A Counter of a negative value cannot be written (its save throws).
+// One replica's view: its registry over the shared directory, begun as squalld begins it, and a persistent
+// store of Counters whose checkpoint payload is the value as text (a negative value cannot be written: its
+// save throws).
 struct Replica {
   explicit Replica(
       const std::string& dir, const std::string& name = "replica",
-      SteadyClock clock = [] { return std::chrono::steady_clock::now(); })
-      : registry(std::make_unique<StateDir>(dir, "--state-dir"), name),
+      SteadyClock clock = [] { return std::chrono::steady_clock::now(); }, std::chrono::milliseconds owner_timeout = 5s)
+      : registry(std::make_unique<StateDir>(dir, "--state-dir"), name, owner_timeout),
         store(gate, SessionPolicy{1h, std::move(clock), &registry}, "counter", "counter_id", "c-") {
+    registry.begin();
     store.persist(
         1,
         [](const Counter& c) {
@@ -147,46 +149,50 @@ TEST(StateDir, ASessionOfADeadOwnerResumesFromItsLastCheckpoint) {
 }
 
 // A replica killed and started again under the same name holds none of its former sessions, while its
-// heartbeat says it is alive: it clears its former ownership when it starts, so another replica resumes
-// them from their last checkpoint at once rather than asking it for a handover it cannot answer.
+// heartbeat says it is alive: once the former heartbeat has stopped, it clears its former ownership as it
+// starts, so another replica resumes them from their last checkpoint at once rather than asking it for a
+// handover it cannot answer. A second live process beating under the name is refused.
 TEST(StateDir, ARestartedReplicaClaimsNoneOfItsFormerSessions) {
   const std::string dir = test::temp_dir("state-restart");
+  const auto now = [] { return std::chrono::steady_clock::now(); };
   std::string id;
   {
-    Replica a(dir, "a");
+    Replica a(dir, "a", now, 1s);
     id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
     a.store.with(id, [](Counter& c) { c.value = 4; });
     a.registry.checkpoint_all(false);
     a.registry.heartbeat();
   }  // killed: no drain, its ownership and heartbeat stay
-  Replica b(dir, "b");
+  Replica b(dir, "b", now, 1s);
+  b.registry.heartbeat();
   expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
-  Replica restarted(dir, "a");
-  restarted.registry.heartbeat();
+  Replica restarted(dir, "a", now, 1s);  // waits for the former heartbeat to stop
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 4);
   EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
   EXPECT_TRUE(b.registry.state_dir()->handover_requests().empty()) << "b's request to a, answered";
+  std::atomic<bool> beating = true;
+  std::thread other([&] {
+    while (beating) restarted.registry.heartbeat(), std::this_thread::sleep_for(20ms);
+  });
+  EXPECT_THROW(Replica(dir, "a", now, 1s), std::runtime_error) << "a second process as replica a";
+  beating = false;
+  other.join();
 }
 
-// A request for a session its owner no longer holds (gone from its stores, the ownership file left) is
-// answered by clearing that ownership; a handover that fails (the session cannot be written) is logged and
-// stays requested, and the other requests are answered.
+// A handover that fails (the session cannot be written) is logged and stays requested, and the other
+// requests are answered.
 TEST(StateDir, AHandoverThatFailsDoesNotKeepTheOthersFromBeingAnswered) {
   const std::string dir = test::temp_dir("state-handover-fails");
   Replica a(dir, "a"), b(dir, "b");
   const std::string failing = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
   const std::string fine = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
-  const std::string lost = "c-00000000000000000000000000000002";
-  a.registry.state_dir()->set_owner(lost, "a");
-  a.registry.state_dir()->write(lost, encode_checkpoint({"counter", 1, lost}, "9"));
   a.store.with(failing, [](Counter& c) { c.value = -1; });
   a.store.with(fine, [](Counter& c) { c.value = 2; });
   a.registry.heartbeat();
-  for (const std::string& id : {failing, fine, lost})
+  for (const std::string& id : {failing, fine})
     expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
   EXPECT_EQ(a.registry.tick(), 1u) << "the session that can be written is handed over";
   EXPECT_EQ(b.store.with(fine, [](Counter& c) { return c.value; }), 2);
-  EXPECT_EQ(b.store.with(lost, [](Counter& c) { return c.value; }), 9) << "its stale ownership was cleared";
   EXPECT_EQ(a.store.with(failing, [](Counter& c) { return c.value; }), -1) << "still live on a";
   EXPECT_EQ(a.registry.state_dir()->handover_requests(), std::vector<std::string>{failing});
 }
@@ -209,32 +215,36 @@ TEST(StateDir, ADrainedReplicaEvictingItsReleasedSessionsLeavesTheNewOwnersFiles
 }
 
 // A replica taken for dead while it still runs (its heartbeat late) finds its sessions owned by the replica
-// that resumed them: a call reads the ownership (within a second) and a checkpoint does too, and the session
-// is let go there, the new owner's checkpoint and ownership untouched. It fails when the old replica serves
-// on, or writes its older state over the new owner's.
+// that resumed them, or by none once that one closed them: a call reads the ownership (within a second) and
+// a checkpoint does too, and the session is let go there, the new owner's files untouched. It fails when the
+// old replica serves on, writes its older state over the new owner's, or brings a closed session back.
 TEST(StateDir, AReplicaTakenForDeadLetsGoOfTheSessionsAnotherResumed) {
   const std::string dir = test::temp_dir("state-taken-over");
   auto now = std::chrono::steady_clock::now();
   Replica a(dir, "a", [&] { return now; }), b(dir, "b");
   const std::string called = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
   const std::string written = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
-  a.registry.checkpoint_all(false);  // both at 0
+  const std::string closed = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  a.registry.checkpoint_all(false);  // all at 0
   a.store.with(written, [](Counter& c) { c.value = 1; });
   a.registry.state_dir()->retire("a");  // its heartbeat late: presumed dead
   b.registry.heartbeat();
-  for (const std::string& id : {called, written}) b.store.with(id, [](Counter& c) { c.value = 5; });
+  for (const std::string& id : {called, written, closed}) b.store.with(id, [](Counter& c) { c.value = 5; });
+  b.store.close(closed);
   b.registry.checkpoint_all(false);
   const auto state = [&](const std::string& id) { return b.registry.state_dir()->read(id).value(); };
   const std::string five_called = state(called), five_written = state(written);
   a.store.with(called, [](Counter&) {});  // its ownership read less than a second ago
   now += 2s;
   expect_error(Code::Unavailable, "moved to the state directory", [&] { a.store.with(called, [](Counter&) {}); });
-  EXPECT_EQ(a.store.size(), 1u);
+  EXPECT_EQ(a.store.size(), 2u);
   EXPECT_EQ(a.registry.checkpoint_all(false), 0u) << "nothing written over b's";
   EXPECT_EQ(a.store.size(), 0u);
   EXPECT_EQ(state(called), five_called);
   EXPECT_EQ(state(written), five_written);
   for (const std::string& id : {called, written}) EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
+  EXPECT_FALSE(b.registry.state_dir()->read(closed)) << "closed on b, not brought back";
+  EXPECT_FALSE(b.registry.state_dir()->owner(closed));
 }
 
 TEST(StateDir, ADrainingReplicaSendsCallsForCheckpointedIdsElsewhere) {
