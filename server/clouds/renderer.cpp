@@ -488,7 +488,8 @@ void CloudRenderer::reclaim(uint64_t bytes) {
   for (const auto& kept : kept_maps()) {
     if (freed >= bytes) return;
     std::lock_guard<std::mutex> guard(kept->mutex);
-    if (!kept->map()) continue;
+    // A map a render is reading gives nothing back until that render is done: left kept.
+    if (!kept->map() || kept->memory.use_count() > 1) continue;
     freed += kept->map.getInfo<CL_MEM_SIZE>();
     kept->map = cl::Buffer();
     kept->memory.reset(), kept->share = Slot();

@@ -165,7 +165,7 @@ class CloudRenderer : public MemoryReclaimer {
   Image render(const DeviceVolume& volume, const RenderSettings& settings, const std::string& field = "render",
                const Cancellation& cancel = {}, const Slot* map_memory = nullptr);
   // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
-  // make them again.
+  // make them again. A map a render is reading now is left kept (its bytes go back only after that render).
   void reclaim(uint64_t bytes) override;
 
  private:

@@ -212,7 +212,12 @@ class SessionStore {
         entry->released = release;
         ++written;
       } catch (const std::exception& e) {
-        log(LogLevel::Error, kind_, " ", id, " not checkpointed: ", e.what());
+        log(LogLevel::Error, kind_, " ", id, " not checkpointed: ", e.what(),
+            release ? "; released: it resumes elsewhere from its last checkpoint" : "");
+        if (release) {  // let go all the same: another replica resumes it at once, not once this one exits
+          state_dir()->clear_owner(id);
+          entry->released = true;
+        }
       }
     }
     return written;

@@ -337,6 +337,10 @@ int run_daemon(const DaemonOptions& options) {
       " bytes (--max-sessions, --max-session-bytes), ", limits.max_streams, " streams, ", limits.max_grid_cells,
       " cells per field, ", limits.memory_budget, " bytes of memory in all (--memory-budget)");
   ServerService server_service(*daemon);
+  // The heartbeat from begin() on, through the kernel build: a second process under this --replica-id
+  // meanwhile finds it beating and refuses to start.
+  CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
+                             milliseconds(options.session_ttl_seconds));
   const auto served = capabilities(daemon->serving);
   grpc::EnableDefaultHealthCheckService(false);  // squall's own: it can ask for a token
   HealthService health(daemon->serving, options.auth_exempt_health);
@@ -384,8 +388,6 @@ int run_daemon(const DaemonOptions& options) {
   daemon->serving.set_phase(ServingState::Phase::Serving);
   health.SetServingStatus(true);
   log(LogLevel::Info, "SERVING");
-  CheckpointLoop checkpoints(daemon->sessions, milliseconds(options.checkpoint_interval_seconds),
-                             milliseconds(options.session_ttl_seconds));
   AdmissionWatch admission(daemon->serving.gate(), health);
   Beat sweeper(std::chrono::seconds(1), [&served] { evict_idle_sessions(served); });
 
