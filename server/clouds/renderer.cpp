@@ -324,7 +324,7 @@ bool same_params(const CloudRenderParams& a, const CloudRenderParams& b) { retur
 // The map of a render, with what must outlive the render's commands: the mask its nodes read, and the
 // pool's buffer when the map is not kept.
 struct CloudRenderer::ShadowMap {
-  Slot memory;                        // its bytes in the memory budget while it is made and read (first: released last)
+  Slot memory;                        // its bytes in the budget while made and read (first: released last)
   std::shared_ptr<Slot> kept_memory;  // a kept map's bytes in the budget, while this render reads it
   cl::Buffer buffer;
   BufferLease pooled;

@@ -102,8 +102,8 @@ class LimitGate {
   Slot acquire_cache_memory(const std::string& what, uint64_t bytes);
   // Moves `bytes` of `held`, memory of this budget that a call holds (acquire_memory, which may have taken
   // it back from caches), to a cache: the same bytes, counted once, now as cached memory (what a call made
-  // and a cache keeps after it, e.g. a render's shadow map). `held` keeps the rest. An empty Slot, and `held` unchanged, where `held` is not this
-  // budget's call memory or holds fewer bytes.
+  // and a cache keeps after it, e.g. a render's shadow map). `held` keeps the rest. An empty Slot, and
+  // `held` unchanged, where `held` is not this budget's call memory or holds fewer bytes.
   Slot cache_from(Slot& held, uint64_t bytes);
   // The caches acquire_memory takes memory back from, in the order added. A cache removes itself before it
   // goes.

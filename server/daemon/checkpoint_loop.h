@@ -4,7 +4,7 @@
 // (SessionRegistry::tick), writes every live session to the directory every --checkpoint-interval seconds
 // (what a replica killed without SIGTERM loses is at most that much) and, once a minute, expires files
 // older than the session TTL; a failure of one of these is logged and does not keep the others from
-// running. Stopped (and joined) before the daemon drains.
+// running. The daemon's drain stops the work first and the heartbeat once its sessions are written.
 #pragma once
 
 #include <chrono>

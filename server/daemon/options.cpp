@@ -304,7 +304,7 @@ std::string usage() {
          "  --session-ttl SECONDS     evict stateful sessions (eWave sessions, stored cloud volumes) idle this long\n"
          "                            (default 600)\n"
          "  --replica-id NAME         this replica's name, sent back on every call as x-squall-replica and logged\n"
-         "                            (default hostname:port)\n"
+         "                            (default hostname:port); with --state-dir, one live process per name\n"
          "  --state-dir DIR           a directory shared by the replicas: live sessions are checkpointed there\n"
          "                            (periodically and on SIGTERM), and an unknown session id is resumed from it\n"
          "  --checkpoint-interval SECONDS  how often live sessions are written to --state-dir; what a replica\n"
