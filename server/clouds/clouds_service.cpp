@@ -18,14 +18,9 @@ namespace req = squall::clouds::rpc;
 // on the host and in the reply. A deep shadow map the render makes holds its own (CloudRenderer::render).
 uint64_t image_working_bytes(const RenderSettings& settings) { return 3 * req::image_bytes(settings); }
 
-// RESOURCE_EXHAUSTED, before anything is built, for a render whose image and deep shadow map together
-// could never fit in --memory-budget.
-void check_render_fits(const LimitGate& gate, const RenderSettings& settings) {
-  const uint64_t bytes = image_working_bytes(settings) + clouds::shadow_map_bytes(settings);
-  if (bytes > gate.limits().memory_budget)
-    fail(Code::ResourceExhausted, "Render's image and shadow map (" + std::to_string(bytes) +
-                                      " bytes) would pass the memory budget (--memory-budget = " +
-                                      std::to_string(gate.limits().memory_budget) + " bytes)");
+// The image's and the deep shadow map's together.
+uint64_t render_working_bytes(const RenderSettings& settings) {
+  return image_working_bytes(settings) + clouds::shadow_map_bytes(settings);
 }
 
 // The times, the request's model, then the frames' models at the earliest and the latest time, before the
@@ -105,7 +100,7 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     clouds::validate(settings, "settings");
     serving_.gate().check_message_bytes("RenderResponse.image (ask for fewer pixels or wavelengths)",
                                         req::image_bytes(settings));
-    check_render_fits(serving_.gate(), settings);
+    serving_.gate().check_memory("Render's image and shadow map", render_working_bytes(settings));
     Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
@@ -141,8 +136,7 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
     validate_frames(*engine_, s.base, s.evolution, request->times());
     // The frames' images and deep shadow maps, held for the whole stream.
-    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames",
-                                              image_working_bytes(s.settings) + clouds::shadow_map_bytes(s.settings));
+    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
     return s;
   };
   return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {

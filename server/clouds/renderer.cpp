@@ -1,11 +1,11 @@
 #include "clouds/renderer.h"
 
 #include <algorithm>
-#include <utility>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <utility>
 
 #include "clouds/nanovdb_volume.h"
 #include "clouds/occupancy.h"

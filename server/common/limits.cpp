@@ -100,10 +100,21 @@ bool LimitGate::memory_room(uint64_t bytes, uint64_t given_back) const {
   return others <= limits_.memory_budget && bytes <= limits_.memory_budget - others;
 }
 
+namespace {
+std::string past_the_budget(const std::string& what, uint64_t bytes) {
+  return what + " (" + std::to_string(bytes) + " bytes) would pass the memory budget";
+}
+}  // namespace
+
 Slot LimitGate::take_memory(const std::string& what, uint64_t bytes) {
-  return take(memory_bytes_, bytes, limits_.memory_budget,
-              what + " (" + std::to_string(bytes) + " bytes) would pass the memory budget", "--memory-budget",
+  return take(memory_bytes_, bytes, limits_.memory_budget, past_the_budget(what, bytes), "--memory-budget",
               "bytes already in use");
+}
+
+void LimitGate::check_memory(const std::string& what, uint64_t bytes) const {
+  if (bytes > limits_.memory_budget)
+    fail(Code::ResourceExhausted, past_the_budget(what, bytes) + " on its own, the limit is --memory-budget = " +
+                                      std::to_string(limits_.memory_budget));
 }
 
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {

@@ -97,6 +97,9 @@ class LimitGate {
   // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer. Where
   // the budget has no room, the caches (add_reclaimer) first give back what they keep.
   Slot acquire_memory(const std::string& what, uint64_t bytes);
+  // RESOURCE_EXHAUSTED, worded as acquire_memory's, where `bytes` would pass the memory budget even with
+  // nothing else held: work that could never run, refused before any of it is done.
+  void check_memory(const std::string& what, uint64_t bytes) const;
   // acquire_memory for what a cache keeps: only room that no one holds (it takes back no cache's memory),
   // counted as cached memory until the Slot goes.
   Slot acquire_cache_memory(const std::string& what, uint64_t bytes);

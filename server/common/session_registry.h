@@ -50,7 +50,7 @@ class SessionRegistry {
                                  ": give each replica its own --replica-id");
       std::this_thread::sleep_for(owner_timeout_ / 20);
     }
-    for (const std::string& id : state_dir_->owned_by(replica_)) state_dir_->clear_owner_if(id, replica_);
+    state_dir_->clear_ownership_of(replica_);
     heartbeat();
   }
 

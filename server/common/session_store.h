@@ -356,11 +356,11 @@ class SessionStore {
 
   // Under entry.mutex: whether another replica owns the entry's session in the state directory now (this
   // replica was presumed dead, its heartbeat late, and that one resumed the session), in which case the
-  // entry is released, so that its calls answer UNAVAILABLE and its state, older than the new owner's,
-  // is never written over the new owner's files.
-  // An entry live here has its ownership written (add()) and given up only when it is released here, so
-  // no owner file at all means another replica took it over and gave it up since (an owner file that
-  // cannot be read counts as this replica's: a glitch of a network file system drops no session).
+  // entry is released, so that its calls answer UNAVAILABLE and its state, older than the new owner's, is
+  // never written over the new owner's files. An entry live here has its ownership written (add()) and
+  // given up only when it is released here, so no owner file at all means another replica took it over
+  // and gave it up since; an owner file that cannot be read counts as this replica's (a glitch of a
+  // network file system drops no session).
   bool let_go_if_taken_over(Entry& entry) {
     if (!persistent()) return false;
     const std::optional<std::string> owner = state_dir()->owner(entry.id);

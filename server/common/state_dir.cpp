@@ -142,27 +142,20 @@ void StateDir::clear_owner(const std::string& id) const {
   if (auto file = file_of(id, kOwner)) std::remove(file->c_str());
 }
 
-void StateDir::clear_owner_if(const std::string& id, const std::string& replica) const {
-  if (owner(id) == replica) clear_owner(id);
-}
-
 bool StateDir::owner_missing(const std::string& id) const {
   auto file = file_of(id, kOwner);
   std::error_code error;
   return file && !fs::exists(*file, error) && !error;
 }
 
-std::vector<std::string> StateDir::owned_by(const std::string& replica) const {
-  std::vector<std::string> ids;
+void StateDir::clear_ownership_of(const std::string& replica) const {
   std::error_code error;
   const std::string suffix = kOwner;
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
     if (name.size() <= suffix.size() || !name.ends_with(suffix)) continue;
-    std::string id = name.substr(0, name.size() - suffix.size());
-    if (owner(id) == replica) ids.push_back(std::move(id));
+    if (read_whole(entry.path().string()) == replica) std::remove(entry.path().c_str());
   }
-  return ids;
 }
 
 void StateDir::heartbeat(const std::string& replica) const {

@@ -32,9 +32,8 @@ class StateDir {
   void set_owner(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;
   void clear_owner(const std::string& id) const;
-  std::vector<std::string> owned_by(const std::string& replica) const;           // the ids whose owner is `replica`
-  void clear_owner_if(const std::string& id, const std::string& replica) const;  // if the owner is `replica`
-  bool owner_missing(const std::string& id) const;  // no owner file (false where it cannot be told)
+  void clear_ownership_of(const std::string& replica) const;  // every owner file naming `replica`
+  bool owner_missing(const std::string& id) const;            // no owner file (false where it cannot be told)
 
   void heartbeat(const std::string& replica) const;  // "alive now"
   void retire(const std::string& replica) const;     // "gone": removes the heartbeat

@@ -5,26 +5,7 @@
 #include "common/log.h"
 
 namespace squall::rpc {
-
-CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval,
-                               std::chrono::milliseconds ttl)
-    : registry_(registry),
-      interval_(interval),
-      ttl_(ttl),
-      last_checkpoint_(std::chrono::steady_clock::now()),
-      last_expiry_(last_checkpoint_) {
-  if (!registry_.state_dir()) return;
-  heartbeat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { heartbeat(); });
-  beat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { tick(); });
-}
-
-void CheckpointLoop::heartbeat() {
-  try {
-    registry_.heartbeat();
-  } catch (const std::exception& e) {
-    log(LogLevel::Error, "state directory: heartbeat: ", e.what());
-  }
-}
+namespace {
 
 // Runs `part`, logging what it throws: one part's failure does not keep the others from running.
 template <typename Part>
@@ -34,6 +15,21 @@ void logged(const char* what, Part&& part) {
   } catch (const std::exception& e) {
     log(LogLevel::Error, "state directory: ", what, ": ", e.what());
   }
+}
+
+}  // namespace
+
+CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseconds interval,
+                               std::chrono::milliseconds ttl)
+    : registry_(registry),
+      interval_(interval),
+      ttl_(ttl),
+      last_checkpoint_(std::chrono::steady_clock::now()),
+      last_expiry_(last_checkpoint_) {
+  if (!registry_.state_dir()) return;
+  heartbeat_ = std::make_unique<Beat>(std::chrono::milliseconds(250),
+                                      [this] { logged("heartbeat", [&] { registry_.heartbeat(); }); });
+  beat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { tick(); });
 }
 
 void CheckpointLoop::tick() {

@@ -31,7 +31,6 @@ class CheckpointLoop {
   }
 
  private:
-  void heartbeat();
   void tick();
 
   SessionRegistry& registry_;

@@ -131,6 +131,19 @@ TEST(Limits, ACallTakesBackWhatCachesKeepAndOnlyWhatItNeeds) {
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
+// Work that could never fit is refused up front, whatever is held now; work that fits an empty budget is
+// not, however full the budget is.
+TEST(Limits, WorkPastTheWholeBudgetIsRefusedUpFront) {
+  Limits limits;
+  limits.memory_budget = 100;
+  LimitGate gate(limits);
+  const Slot held = gate.acquire_memory("held", 100);
+  squall::test::expect_error(Code::ResourceExhausted, "huge (101 bytes) would pass the memory budget on its own",
+                             [&] { gate.check_memory("huge", 101); });
+  EXPECT_NO_THROW(gate.check_memory("fits", 100));
+  EXPECT_EQ(gate.memory_bytes(), 100u) << "a check holds nothing";
+}
+
 // What a call made and a cache keeps moves from the call's memory to the cache's, counted once: with the
 // budget full, the cache keeps it, the budget holds it as cached memory after the call, and a later call
 // takes it back. Only this budget's call memory moves, and no more than the call holds.
