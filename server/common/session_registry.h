@@ -23,6 +23,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -39,7 +40,8 @@ class SessionRegistry {
       : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {}
 
   // Before this replica takes calls: waits (up to twice the owner timeout) for the heartbeat of a former
-  // process under its name to stop, then clears the ownership that process left and beats. Throws
+  // process under its name to stop, then clears the ownership that process left (files that another
+  // replica has claimed since are left to it) and beats. Throws
   // std::runtime_error when that heartbeat goes on: another live squalld has this --replica-id.
   void begin() {
     if (!state_dir_) return;
@@ -60,6 +62,23 @@ class SessionRegistry {
   // From now on stores refuse new sessions and resumes (UNAVAILABLE): the daemon is shutting down.
   void begin_drain() { draining_ = true; }
   bool draining() const { return draining_; }
+
+  // Makes this replica the owner of session `id` unless another live replica owns it (false). Of
+  // replicas claiming it at once, one gets it: the owner file is created only where there is none, and a
+  // dead owner's is removed only while it still names that owner (StateDir).
+  bool claim(const std::string& id) const {
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      if (state_dir_->create_owner(id, replica_)) return true;
+      const std::optional<std::string> owner = state_dir_->owner(id);
+      if (!owner) continue;  // given up since
+      if (*owner == replica_) return true;
+      if (state_dir_->alive(*owner, owner_timeout_)) return false;
+      state_dir_->remove_owner_if(id, *owner);
+    }
+    return false;  // claimed by others as fast as it was freed: one of them has it
+  }
+  // Gives up this replica's ownership of `id`, and only its own.
+  void release(const std::string& id) const { state_dir_->remove_owner_if(id, replica_); }
 
   // The live replica other than this one that owns session `id`, if any.
   std::optional<std::string> owned_elsewhere(const std::string& id) const {

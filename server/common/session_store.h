@@ -114,12 +114,13 @@ class SessionStore {
       fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ +
                                       " id: " + (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
-    if (const StateDir* dir = state_dir(); dir && (dir->read(proposed) || dir->owner(proposed)))
+    if (const StateDir* dir = state_dir(); dir && (dir->checkpointed(proposed) || dir->owner(proposed)))
       fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
     return proposed;
   }
 
-  // Stores `value` under `id` (new_id(), or a checkpoint's); FAILED_PRECONDITION when `id` is live.
+  // Stores `value` under `id` (new_id(), or a checkpoint's); FAILED_PRECONDITION when `id` is live, and
+  // UNAVAILABLE when another live replica claimed it first.
   std::string add(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
     auto entry = std::make_shared<Entry>();
     entry->id = id;
@@ -128,7 +129,8 @@ class SessionStore {
     entry->last_use = entry->owner_checked = policy_.clock();
     // Owned here before it is live here, so that a checkpoint never finds it owned by another replica.
     if (persistent()) {
-      state_dir()->set_owner(id, policy_.registry->replica());
+      if (!policy_.registry->claim(id))
+        fail(Code::Unavailable, kind_ + " " + id + " was claimed by another replica first; retry in a moment");
       state_dir()->clear_handover(id);  // a request to its former owner, answered
     }
     {
@@ -136,7 +138,7 @@ class SessionStore {
       // session added here is either refused or among those the drain writes and releases.
       std::lock_guard<std::mutex> lock(mutex_);
       if (policy_.registry && policy_.registry->draining()) {
-        if (persistent()) state_dir()->clear_owner(id);
+        if (persistent()) policy_.registry->release(id);
         fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
       }
       if (!entries_.emplace(id, std::move(entry)).second)
@@ -208,14 +210,14 @@ class SessionStore {
       }
       try {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
-        if (release) state_dir()->clear_owner(id);
+        if (release) policy_.registry->release(id);
         entry->released = release;
         ++written;
       } catch (const std::exception& e) {
         log(LogLevel::Error, kind_, " ", id, " not checkpointed: ", e.what(),
             release ? "; released: it resumes elsewhere from its last checkpoint" : "");
         if (release) {  // let go all the same: another replica resumes it at once, not once this one exits
-          state_dir()->clear_owner(id);
+          policy_.registry->release(id);
           entry->released = true;
         }
       }
@@ -294,7 +296,7 @@ class SessionStore {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (!entry->released && !let_go_if_taken_over(*entry)) {
         state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
-        state_dir()->clear_owner(id);
+        policy_.registry->release(id);
         entry->released = handed = true;  // a call already waiting for this entry answers UNAVAILABLE
       }
     }
@@ -406,29 +408,43 @@ class SessionStore {
   void close_checkpoint(const std::string& id) {
     if (persistent() && is_our_id(id)) {
       require_not_owned_elsewhere(id);
-      if (state_dir()->read(id)) return state_dir()->remove(id);
+      if (state_dir()->checkpointed(id)) return state_dir()->remove(id);
     }
     fail(Code::NotFound, not_found(id));
   }
 
   // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there
-  // is one (while draining: UNAVAILABLE, so that the client retries on another replica).
+  // is one (while draining: UNAVAILABLE, so that the client retries on another replica). The session is
+  // claimed before its checkpoint is read: of replicas resuming it at once one gets it, and a replica that
+  // handed it over since wrote it before giving it up.
   void resume(const std::string& id) {
     if (!persistent() || !is_our_id(id)) return;
     std::lock_guard<std::mutex> moving(moving_);
     if (lookup(id)) return;  // resumed by a call that held moving_ before this one
     require_not_owned_elsewhere(id);
-    const StateDir* dir = state_dir();
-    std::optional<std::string> checkpoint = dir->read(id);
-    if (!checkpoint) return;
+    if (!state_dir()->checkpointed(id)) return;
     if (policy_.registry->draining())
       fail(Code::Unavailable,
            kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
+    if (!policy_.registry->claim(id)) {
+      require_not_owned_elsewhere(id);
+      fail(Code::Unavailable, kind_ + " " + id + " is being resumed by another replica; retry in a moment");
+    }
     try {
+      std::optional<std::string> checkpoint = state_dir()->read(id);
+      if (!checkpoint) {  // closed since
+        policy_.registry->release(id);
+        return;
+      }
       resume_(*checkpoint);
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (const Error& e) {
-      if (e.code() != Code::FailedPrecondition) throw;  // FAILED_PRECONDITION: its id is live here already
+      if (e.code() == Code::FailedPrecondition) return;  // its id is live here already, and owned
+      policy_.registry->release(id);
+      throw;
+    } catch (...) {
+      policy_.registry->release(id);
+      throw;
     }
   }
 

@@ -66,10 +66,15 @@ void sync_directory(const std::string& path) {
   ::close(fd);
 }
 
+// A name beside `file` unique to this process and call, which expire() removes when left behind.
+std::string temporary(const std::string& file, const char* what) {
+  static std::atomic<uint64_t> serial{0};
+  return file + ".tmp-" + what + std::to_string(::getpid()) + "-" + std::to_string(serial++);
+}
+
 // Replaces `file` (in `directory`) with `bytes` at once.
 void write_atomically(const std::string& file, const std::string& directory, const std::string& bytes) {
-  static std::atomic<uint64_t> serial{0};  // temporaries unique per process and per write
-  const std::string tmp = file + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
+  const std::string tmp = temporary(file, "");
   write_synced(tmp, bytes);
   if (std::rename(tmp.c_str(), file.c_str()) != 0) {
     std::remove(tmp.c_str());
@@ -93,6 +98,14 @@ std::string unwritable_directory(const std::string& path) {
 StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(path)) {
   if (std::string why = unwritable_directory(path_); !why.empty())
     throw std::runtime_error(flag + " " + path_ + ": " + why);
+  // Ownership is claimed by link(2) (create_owner): a file system without hard links cannot hold it.
+  const std::string probe = temporary(path_ + "/.squalld-link-test", "");
+  write_synced(probe, "");
+  const bool links = ::link(probe.c_str(), (probe + "-link").c_str()) == 0;
+  const std::string why = std::strerror(errno);
+  std::remove((probe + "-link").c_str());
+  std::remove(probe.c_str());
+  if (!links) throw std::runtime_error(flag + " " + path_ + ": cannot make a hard link in the directory: " + why);
 }
 
 std::optional<std::string> StateDir::file_of(const std::string& id, const char* suffix) const {
@@ -124,22 +137,49 @@ std::optional<std::string> StateDir::read(const std::string& id) const {
   return file ? read_whole(*file) : std::nullopt;
 }
 
+bool StateDir::checkpointed(const std::string& id) const {
+  auto file = file_of(id, kSession);
+  std::error_code error;
+  return file && fs::exists(*file, error);
+}
+
 void StateDir::remove(const std::string& id) const {
   for (const char* suffix : {kSession, kOwner, kHandover})
     if (auto file = file_of(id, suffix)) std::remove(file->c_str());
 }
 
-void StateDir::set_owner(const std::string& id, const std::string& replica) const {
-  if (auto file = file_of(id, kOwner)) write_atomically(*file, path_, replica);
+bool StateDir::create_owner(const std::string& id, const std::string& replica) const {
+  auto file = file_of(id, kOwner);
+  if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
+  const std::string tmp = temporary(*file, "");
+  write_synced(tmp, replica);
+  const bool created = ::link(tmp.c_str(), file->c_str()) == 0;
+  const int error = errno;
+  std::remove(tmp.c_str());
+  if (!created && error != EEXIST) {
+    errno = error;
+    fail_io("link into place", *file);
+  }
+  if (created) sync_directory(path_);
+  return created;
+}
+
+bool StateDir::remove_owner_if(const std::string& id, const std::string& replica) const {
+  auto file = file_of(id, kOwner);
+  if (!file) return false;
+  const std::string aside = temporary(*file, "aside-");
+  if (std::rename(file->c_str(), aside.c_str()) != 0) return false;  // none (or another took it aside)
+  const bool named = read_whole(aside) == replica;
+  // Another's ownership, set between the caller's read and the rename: put back unless a claim came since.
+  if (!named && ::link(aside.c_str(), file->c_str()) != 0 && errno != EEXIST) fail_io("put back", *file);
+  std::remove(aside.c_str());
+  sync_directory(path_);
+  return named;
 }
 
 std::optional<std::string> StateDir::owner(const std::string& id) const {
   auto file = file_of(id, kOwner);
   return file ? read_whole(*file) : std::nullopt;
-}
-
-void StateDir::clear_owner(const std::string& id) const {
-  if (auto file = file_of(id, kOwner)) std::remove(file->c_str());
 }
 
 bool StateDir::owner_missing(const std::string& id) const {
@@ -154,7 +194,8 @@ void StateDir::clear_ownership_of(const std::string& replica) const {
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
     if (name.size() <= suffix.size() || !name.ends_with(suffix)) continue;
-    if (read_whole(entry.path().string()) == replica) std::remove(entry.path().c_str());
+    if (read_whole(entry.path().string()) == replica)
+      remove_owner_if(name.substr(0, name.size() - suffix.size()), replica);
   }
 }
 

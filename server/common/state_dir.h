@@ -6,7 +6,9 @@
 //   <id>.handover  another replica's request that the owner release it (a proxy now routes it there)
 // and per replica, replicas/<name>: a heartbeat whose age tells whether an owner is still alive.
 // Writes are atomic (a temporary file, fsync, rename, fsync of the directory), so a reader on another
-// replica sees the previous file or the new one, never half of one. Ids name files only when they are
+// replica sees the previous file or the new one, never half of one; an owner file is created by link(2)
+// of a written temporary, which fails where the name exists, and removed by rename(2) out of the way,
+// which only one replica can do, so that ownership is claimed and given up as compare-and-swap. Ids name files only when they are
 // made of [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
 #pragma once
 
@@ -27,11 +29,16 @@ class StateDir {
 
   void write(const std::string& id, const std::string& bytes) const;
   std::optional<std::string> read(const std::string& id) const;  // nullopt: no such file (or no such id)
+  bool checkpointed(const std::string& id) const;                // whether read() finds a file
   void remove(const std::string& id) const;                      // the session's files, all of them
 
-  void set_owner(const std::string& id, const std::string& replica) const;
+  // Ownership changes atomically, so that of replicas claiming a session at once one gets it:
+  // create_owner() makes `replica` the owner of `id` only where there is no owner file (false where there
+  // is one), and remove_owner_if() removes the owner file only while it names `replica` (false, and the
+  // file left as it is, where it names another or there is none).
+  bool create_owner(const std::string& id, const std::string& replica) const;
+  bool remove_owner_if(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;
-  void clear_owner(const std::string& id) const;
   void clear_ownership_of(const std::string& replica) const;  // every owner file naming `replica`
   bool owner_missing(const std::string& id) const;            // no owner file (false where it cannot be told)
 

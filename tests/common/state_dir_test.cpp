@@ -148,6 +148,61 @@ TEST(StateDir, ASessionOfADeadOwnerResumesFromItsLastCheckpoint) {
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 3);
 }
 
+// Ownership as compare-and-swap: an owner file is created only where there is none and removed only by
+// the replica it names, and neither leaves a temporary behind.
+TEST(StateDir, OwnershipIsClaimedOnlyWhereThereIsNoneAndGivenUpOnlyByItsOwner) {
+  const std::string dir = test::temp_dir("state-owner-cas");
+  StateDir state(dir, "--state-dir");
+  EXPECT_TRUE(state.create_owner(kId, "a"));
+  EXPECT_FALSE(state.create_owner(kId, "b"));
+  EXPECT_EQ(state.owner(kId).value(), "a");
+  EXPECT_FALSE(state.remove_owner_if(kId, "b"));
+  EXPECT_EQ(state.owner(kId).value(), "a");
+  EXPECT_TRUE(state.remove_owner_if(kId, "a"));
+  EXPECT_FALSE(state.owner(kId));
+  EXPECT_FALSE(state.remove_owner_if(kId, "a"));
+  EXPECT_TRUE(state.create_owner(kId, "b"));
+  EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".owner"});
+}
+
+// Replicas that receive calls for one session at once (a proxy's ring changing while a client's calls are
+// in flight), its owner dead: one of them resumes it and the others answer UNAVAILABLE, so that no step is
+// served by a replica that then finds the session taken and lets it go. It fails when ownership is set
+// unconditionally: two replicas resume it, both answer, and one of them loses what it served.
+TEST(StateDir, ReplicasResumingOneSessionAtOnceLeaveItToOne) {
+  const std::string dir = test::temp_dir("state-resume-race");
+  std::vector<std::unique_ptr<Replica>> replicas;
+  for (const char* name : {"b", "c", "d", "e"}) replicas.push_back(std::make_unique<Replica>(dir, name));
+  for (int round = 0; round < 20; ++round) {
+    std::string id;
+    {
+      Replica a(dir, "a");
+      id = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+      a.registry.checkpoint_all(false);
+      a.registry.state_dir()->retire("a");  // a is killed: its heartbeat stops
+    }
+    for (auto& r : replicas) r->registry.heartbeat();
+    std::atomic<int> ready = 0, served = 0;
+    std::vector<std::thread> calls;
+    for (auto& r : replicas)
+      calls.emplace_back([&, replica = r.get()] {
+        for (++ready; ready < int(replicas.size());) std::this_thread::yield();
+        try {
+          replica->store.with(id, [](Counter& c) { ++c.value; });
+          ++served;
+        } catch (const Error& e) {
+          EXPECT_EQ(e.code(), Code::Unavailable) << e.what();
+        }
+      });
+    for (auto& t : calls) t.join();
+    ASSERT_EQ(served, 1) << "round " << round;
+    const std::string owner = replicas[0]->registry.state_dir()->owner(id).value();
+    for (auto& r : replicas)
+      EXPECT_EQ(r->store.size(), r->registry.replica() == owner ? 1u : 0u) << r->registry.replica();
+    for (auto& r : replicas) r->store.erase(id);
+  }
+}
+
 // A replica killed and started again under the same name holds none of its former sessions, while its
 // heartbeat says it is alive: once the former heartbeat has stopped, it clears its former ownership as it
 // starts, so another replica resumes them from their last checkpoint at once rather than asking it for a
@@ -274,7 +329,7 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
   a.registry.state_dir()->write(kId, "anything");
   expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(kId, "metadata x"); });
   const std::string owned = "c-00000000000000000000000000000001";
-  a.registry.state_dir()->set_owner(owned, "elsewhere");
+  a.registry.state_dir()->create_owner(owned, "elsewhere");
   expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(owned, "metadata x"); });
 }
 
