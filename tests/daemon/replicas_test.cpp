@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <atomic>
 #include <thread>
+#include <vector>
 
 #include "client/client.h"
 #include "squall/v1/clouds.grpc.pb.h"
@@ -153,6 +155,40 @@ TEST(Replicas, ASessionCheckpointedByADrainedReplicaClosesOnAnother) {
   EXPECT_EQ(step(b, id, 1, &height).error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(b.ewave->CloseSession(b.client.context(id).get(), close, &closed).error_code(),
             grpc::StatusCode::NOT_FOUND);
+}
+
+// Calls for one drained session reach two replicas at once (a proxy's ring changing while they are in
+// flight): one resumes it and serves the step, the other answers UNAVAILABLE naming it, so that no step is
+// served by a replica that would then let the session go. It fails when both resume it.
+TEST(Replicas, TwoReplicasAskedForOneSessionAtOnceLeaveItToOne) {
+  const std::string state = test::temp_dir("replicas-race");
+  const std::string id = client::propose_session_id();
+  {
+    Replica a("replica-a", state);
+    v1::EWaveSessionResponse created;
+    ASSERT_TRUE(a.ewave->CreateSession(a.client.context(id).get(), create_request(), &created).ok());
+    a.daemon.process().signal(SIGTERM);
+    EXPECT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
+  }
+  Replica b("replica-b", state), c("replica-c", state);
+  grpc::Status status[2];
+  std::string height[2], replica[2];
+  std::atomic<int> ready = 0;
+  std::vector<std::thread> calls;
+  for (int i = 0; i < 2; ++i)
+    calls.emplace_back([&, i] {
+      for (++ready; ready < 2;) std::this_thread::yield();
+      status[i] = step(i == 0 ? b : c, id, 0, &height[i], &replica[i]);
+    });
+  for (auto& t : calls) t.join();
+  ASSERT_NE(status[0].ok(), status[1].ok()) << status[0].error_message() << " / " << status[1].error_message();
+  const int served = status[0].ok() ? 0 : 1;
+  EXPECT_EQ(status[1 - served].error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_NE(status[1 - served].error_message().find(replica[served]), std::string::npos)
+      << status[1 - served].error_message();
+  Replica& owner = served == 0 ? b : c;
+  std::string next;
+  ASSERT_TRUE(step(owner, id, 1, &next).ok()) << "the session stays with the replica that served it";
 }
 
 v1::BuildVolumeRequest keep_a_sphere() {
