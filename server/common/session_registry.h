@@ -77,8 +77,15 @@ class SessionRegistry {
     }
     return false;  // claimed by others as fast as it was freed: one of them has it
   }
-  // Gives up this replica's ownership of `id`, and only its own.
-  void release(const std::string& id) const { state_dir_->remove_owner_if(id, replica_); }
+  // Gives up this replica's ownership of `id`, and only its own. A failure is logged: the drain that
+  // releases its sessions goes on with the others.
+  void release(const std::string& id) const {
+    try {
+      state_dir_->remove_owner_if(id, replica_);
+    } catch (const std::exception& e) {
+      log(LogLevel::Error, "giving up the ownership of ", id, ": ", e.what());
+    }
+  }
 
   // The live replica other than this one that owns session `id`, if any.
   std::optional<std::string> owned_elsewhere(const std::string& id) const {
@@ -136,13 +143,19 @@ class SessionRegistry {
   }
 
  private:
+  // A request for a session that no store holds while this replica owns it (a claim left by a resume that
+  // failed) is answered by giving the ownership up, so that the session resumes where it was asked for.
   bool hand_over(const std::string& id) {  // under mutex_
     for (auto& [token, store] : stores_)
       if (store.hand_over(id)) {
         state_dir_->clear_handover(id);
         return true;
       }
-    return false;
+    if (state_dir_->owner(id) != replica_) return false;
+    log(LogLevel::Warn, "session ", id, " owned here but not live: ownership given up for the replica that asked");
+    release(id);
+    state_dir_->clear_handover(id);
+    return true;
   }
 
   std::unique_ptr<StateDir> state_dir_;

@@ -129,8 +129,7 @@ class SessionStore {
     entry->last_use = entry->owner_checked = policy_.clock();
     // Owned here before it is live here, so that a checkpoint never finds it owned by another replica.
     if (persistent()) {
-      if (!policy_.registry->claim(id))
-        fail(Code::Unavailable, kind_ + " " + id + " was claimed by another replica first; retry in a moment");
+      claim_or_fail(id);
       state_dir()->clear_handover(id);  // a request to its former owner, answered
     }
     {
@@ -181,7 +180,7 @@ class SessionStore {
     std::lock_guard<std::mutex> wait(entry->mutex);
     // Released by a drain, or taken over: another replica may hold it by now, and closes it when asked.
     if (entry->released || let_go_if_taken_over(*entry)) fail(Code::Unavailable, released(id));
-    if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id);
+    if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id, policy_.registry->replica());
   }
   bool erase(const std::string& id) {
     std::shared_ptr<Entry> entry = take(id);
@@ -353,7 +352,7 @@ class SessionStore {
     const StateDir* dir = persistent() ? state_dir() : nullptr;
     if (!dir) return;
     std::lock_guard<std::mutex> lock(entry.mutex);  // waits for a call in flight on the session
-    if (!entry.released && !let_go_if_taken_over(entry)) dir->remove(entry.id);
+    if (!entry.released && !let_go_if_taken_over(entry)) dir->remove(entry.id, policy_.registry->replica());
   }
 
   // Under entry.mutex: whether another replica owns the entry's session in the state directory now (this
@@ -404,13 +403,24 @@ class SessionStore {
     }
   }
 
-  // close() of an id this store does not hold, under moving_: its checkpoint removed, else NOT_FOUND.
+  // close() of an id this store does not hold, under moving_: its checkpoint removed, else NOT_FOUND. It
+  // is claimed first, so that no other replica resumes it meanwhile.
   void close_checkpoint(const std::string& id) {
     if (persistent() && is_our_id(id)) {
       require_not_owned_elsewhere(id);
-      if (state_dir()->checkpointed(id)) return state_dir()->remove(id);
+      if (state_dir()->checkpointed(id)) {
+        claim_or_fail(id);
+        return state_dir()->remove(id, policy_.registry->replica());
+      }
     }
     fail(Code::NotFound, not_found(id));
+  }
+
+  // UNAVAILABLE when another replica claimed `id` first (it resumed the session just now).
+  void claim_or_fail(const std::string& id) {
+    if (policy_.registry->claim(id)) return;
+    const std::string owner = state_dir()->owner(id).value_or("another replica");
+    fail(Code::Unavailable, kind_ + " " + id + " was just resumed by replica " + owner + "; retry in a moment");
   }
 
   // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there
@@ -426,11 +436,8 @@ class SessionStore {
     if (policy_.registry->draining())
       fail(Code::Unavailable,
            kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
-    if (!policy_.registry->claim(id)) {
-      require_not_owned_elsewhere(id);
-      fail(Code::Unavailable, kind_ + " " + id + " is being resumed by another replica; retry in a moment");
-    }
     try {
+      claim_or_fail(id);
       std::optional<std::string> checkpoint = state_dir()->read(id);
       if (!checkpoint) {  // closed since
         policy_.registry->release(id);
@@ -438,11 +445,8 @@ class SessionStore {
       }
       resume_(*checkpoint);
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
-    } catch (const Error& e) {
-      if (e.code() == Code::FailedPrecondition) return;  // its id is live here already, and owned
-      policy_.registry->release(id);
-      throw;
     } catch (...) {
+      if (lookup(id)) return;  // live here already (a session created under its id), and owned
       policy_.registry->release(id);
       throw;
     }

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <stdexcept>
 
 #include "common/error.h"
@@ -28,9 +29,9 @@ void fail_io(const std::string& what, const std::string& path) {
   fail(Code::Internal, "state directory: cannot " + what + " " + path + ": " + std::strerror(errno));
 }
 
-// Writes all of `bytes` to `path` and flushes them to the device.
+// Writes all of `bytes` to a new file `path` (one that exists is an error) and flushes them to the device.
 void write_synced(const std::string& path, const std::string& bytes) {
-  int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) fail_io("create", path);
   size_t done = 0;
   while (done < bytes.size()) {
@@ -59,17 +60,27 @@ std::optional<fs::file_time_type::duration> age(const std::string& path) {
   return fs::file_time_type::clock::now() - written;
 }
 
+// Makes a rename or link in `path` durable, where the file system can: some refuse fsync on directories,
+// which is harmless, and so is a directory that cannot be opened for it.
 void sync_directory(const std::string& path) {
   int fd = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) fail_io("open", path);
-  ::fsync(fd);  // makes the rename durable; some file systems refuse fsync on directories, which is harmless
+  if (fd < 0) return;
+  ::fsync(fd);
   ::close(fd);
 }
 
-// A name beside `file` unique to this process and call, which expire() removes when left behind.
+// A name beside `file` unique to this call among all replicas, which expire() removes when left behind:
+// process ids alone repeat across containers (squalld is process 1 in each), so 64 random bits drawn once
+// per process come with them.
 std::string temporary(const std::string& file, const char* what) {
+  static const std::string process = [] {
+    std::random_device random;
+    char hex[17];
+    std::snprintf(hex, sizeof(hex), "%08x%08x", random(), random());
+    return std::to_string(::getpid()) + "-" + hex;
+  }();
   static std::atomic<uint64_t> serial{0};
-  return file + ".tmp-" + what + std::to_string(::getpid()) + "-" + std::to_string(serial++);
+  return file + ".tmp-" + what + process + "-" + std::to_string(serial++);
 }
 
 // Replaces `file` (in `directory`) with `bytes` at once.
@@ -99,13 +110,15 @@ StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(
   if (std::string why = unwritable_directory(path_); !why.empty())
     throw std::runtime_error(flag + " " + path_ + ": " + why);
   // Ownership is claimed by link(2) (create_owner): a file system without hard links cannot hold it.
-  const std::string probe = temporary(path_ + "/.squalld-link-test", "");
-  write_synced(probe, "");
-  const bool links = ::link(probe.c_str(), (probe + "-link").c_str()) == 0;
+  const std::string probe = temporary(path_ + "/.squalld-link-test", ""), linked = probe + "-link";
+  std::ofstream(probe).put('\n');
+  const bool links = ::link(probe.c_str(), linked.c_str()) == 0;
   const std::string why = std::strerror(errno);
-  std::remove((probe + "-link").c_str());
+  std::remove(linked.c_str());
   std::remove(probe.c_str());
-  if (!links) throw std::runtime_error(flag + " " + path_ + ": cannot make a hard link in the directory: " + why);
+  if (!links)
+    throw std::runtime_error(flag + " " + path_ + ": cannot make a hard link in the directory (" + why +
+                             "): session ownership is claimed by link(2)");
 }
 
 std::optional<std::string> StateDir::file_of(const std::string& id, const char* suffix) const {
@@ -143,9 +156,10 @@ bool StateDir::checkpointed(const std::string& id) const {
   return file && fs::exists(*file, error);
 }
 
-void StateDir::remove(const std::string& id) const {
-  for (const char* suffix : {kSession, kOwner, kHandover})
+void StateDir::remove(const std::string& id, const std::string& owner) const {
+  for (const char* suffix : {kSession, kHandover})
     if (auto file = file_of(id, suffix)) std::remove(file->c_str());
+  remove_owner_if(id, owner);
 }
 
 bool StateDir::create_owner(const std::string& id, const std::string& replica) const {
@@ -166,11 +180,11 @@ bool StateDir::create_owner(const std::string& id, const std::string& replica) c
 
 bool StateDir::remove_owner_if(const std::string& id, const std::string& replica) const {
   auto file = file_of(id, kOwner);
-  if (!file) return false;
+  if (!file || read_whole(*file) != replica) return false;
   const std::string aside = temporary(*file, "aside-");
-  if (std::rename(file->c_str(), aside.c_str()) != 0) return false;  // none (or another took it aside)
+  if (std::rename(file->c_str(), aside.c_str()) != 0) return false;  // gone since (another moved it aside)
   const bool named = read_whole(aside) == replica;
-  // Another's ownership, set between the caller's read and the rename: put back unless a claim came since.
+  // Another's ownership, set between the read and the rename: put back unless a claim came since.
   if (!named && ::link(aside.c_str(), file->c_str()) != 0 && errno != EEXIST) fail_io("put back", *file);
   std::remove(aside.c_str());
   sync_directory(path_);
@@ -194,8 +208,7 @@ void StateDir::clear_ownership_of(const std::string& replica) const {
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
     if (name.size() <= suffix.size() || !name.ends_with(suffix)) continue;
-    if (read_whole(entry.path().string()) == replica)
-      remove_owner_if(name.substr(0, name.size() - suffix.size()), replica);
+    remove_owner_if(name.substr(0, name.size() - suffix.size()), replica);
   }
 }
 

@@ -6,10 +6,11 @@
 //   <id>.handover  another replica's request that the owner release it (a proxy now routes it there)
 // and per replica, replicas/<name>: a heartbeat whose age tells whether an owner is still alive.
 // Writes are atomic (a temporary file, fsync, rename, fsync of the directory), so a reader on another
-// replica sees the previous file or the new one, never half of one; an owner file is created by link(2)
+// replica sees the previous file or the new one, never half of one. An owner file is created by link(2)
 // of a written temporary, which fails where the name exists, and removed by rename(2) out of the way,
-// which only one replica can do, so that ownership is claimed and given up as compare-and-swap. Ids name files only when they are
-// made of [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
+// which only one replica can do, then a check of the name it moved: ownership is claimed and given up as
+// a compare-and-swap. Ids name files only when they are made of [a-z0-9-] (every id squalld makes or
+// accepts is), so no id reaches outside the directory.
 #pragma once
 
 #include <chrono>
@@ -24,18 +25,20 @@ std::string unwritable_directory(const std::string& path);
 
 class StateDir {
  public:
-  // Creates `path` if needed; std::runtime_error naming `flag` when it cannot be created or written.
+  // Creates `path` if needed; std::runtime_error naming `flag` when it cannot be created or written, or
+  // makes no hard links (ownership is claimed by link(2)).
   StateDir(std::string path, const std::string& flag);
 
   void write(const std::string& id, const std::string& bytes) const;
   std::optional<std::string> read(const std::string& id) const;  // nullopt: no such file (or no such id)
   bool checkpointed(const std::string& id) const;                // whether read() finds a file
-  void remove(const std::string& id) const;                      // the session's files, all of them
+  // The session's checkpoint and handover request, and its owner file if it names `owner`.
+  void remove(const std::string& id, const std::string& owner) const;
 
   // Ownership changes atomically, so that of replicas claiming a session at once one gets it:
   // create_owner() makes `replica` the owner of `id` only where there is no owner file (false where there
-  // is one), and remove_owner_if() removes the owner file only while it names `replica` (false, and the
-  // file left as it is, where it names another or there is none).
+  // is one), and remove_owner_if() removes the owner file only while it names `replica` (false where it
+  // names another or there is none).
   bool create_owner(const std::string& id, const std::string& replica) const;
   bool remove_owner_if(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;

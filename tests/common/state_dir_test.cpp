@@ -203,6 +203,26 @@ TEST(StateDir, ReplicasResumingOneSessionAtOnceLeaveItToOne) {
   }
 }
 
+// A claim left behind (a resume that failed after claiming, on a file system that then failed) would keep
+// every other replica answering UNAVAILABLE while its owner lives: the owner answers a handover request for
+// a session it does not hold by giving the ownership up, and the session resumes where it was asked for.
+TEST(StateDir, AReplicaAskedForASessionItOwnsButDoesNotHoldGivesTheOwnershipUp) {
+  const std::string dir = test::temp_dir("state-stray-claim");
+  Replica a(dir, "a"), b(dir, "b");
+  const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{7}));
+  const std::string bytes = a.store.checkpoint(id, 1, [](const Counter& c) { return std::to_string(c.value); });
+  a.store.erase(id);
+  a.registry.state_dir()->write(id, bytes);
+  ASSERT_TRUE(a.registry.state_dir()->create_owner(id, "a"));  // owned by a, live nowhere
+  a.registry.heartbeat();
+  expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
+  EXPECT_EQ(a.registry.tick(), 1u);
+  EXPECT_FALSE(a.registry.state_dir()->owner(id));
+  EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 7);
+  EXPECT_EQ(a.registry.state_dir()->owner(id).value(), "b");
+  EXPECT_EQ(a.registry.tick(), 0u) << "b's request, answered";
+}
+
 // A replica killed and started again under the same name holds none of its former sessions, while its
 // heartbeat says it is alive: once the former heartbeat has stopped, it clears its former ownership as it
 // starts, so another replica resumes them from their last checkpoint at once rather than asking it for a
