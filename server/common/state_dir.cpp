@@ -52,12 +52,17 @@ std::optional<std::string> read_whole(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// Age of a file, or nullopt when it does not exist.
-std::optional<fs::file_time_type::duration> age(const std::string& path) {
+// When `path` was last written, by the file system's clock, or nullopt when it does not exist. The file is
+// opened first: an NFS client revalidates a file's attributes when it opens it (close-to-open consistency),
+// where a bare stat may answer from its attribute cache, up to a minute old.
+std::optional<fs::file_time_type> written(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
   std::error_code error;
-  auto written = fs::last_write_time(path, error);
+  const fs::file_time_type time = fs::last_write_time(path, error);
+  ::close(fd);
   if (error) return std::nullopt;
-  return fs::file_time_type::clock::now() - written;
+  return time;
 }
 
 // Makes a rename or link in `path` durable, where the file system can: some refuse fsync on directories,
@@ -217,13 +222,34 @@ void StateDir::heartbeat(const std::string& replica) const {
   std::error_code error;
   fs::create_directories(path_ + "/replicas", error);
   std::ofstream(file, std::ios::trunc) << replica << "\n";  // rewriting it moves its time forward
+  std::lock_guard<std::mutex> lock(beat_mutex_);
+  beat_ = {file, std::chrono::steady_clock::now()};
 }
 
 void StateDir::retire(const std::string& replica) const { std::remove(replica_file(replica).c_str()); }
 
 bool StateDir::alive(const std::string& replica, std::chrono::milliseconds timeout) const {
-  auto since = age(replica_file(replica));
-  return since && *since <= timeout;
+  const std::optional<fs::file_time_type> beat = written(replica_file(replica));
+  return beat && file_system_now() - *beat <= timeout;
+}
+
+// The time of this process's last heartbeat on the file system plus the time since by this machine's
+// steady clock; before the first (or once it is retired), the time a probe file is written at.
+fs::file_time_type StateDir::file_system_now() const {
+  std::pair<std::string, std::chrono::steady_clock::time_point> beat;
+  {
+    std::lock_guard<std::mutex> lock(beat_mutex_);
+    beat = beat_;
+  }
+  if (!beat.first.empty())
+    if (std::optional<fs::file_time_type> time = written(beat.first))
+      return *time +
+             std::chrono::duration_cast<fs::file_time_type::duration>(std::chrono::steady_clock::now() - beat.second);
+  const std::string probe = temporary(path_ + "/.squalld-clock", "");
+  std::ofstream(probe).put('\n');
+  const std::optional<fs::file_time_type> time = written(probe);
+  std::remove(probe.c_str());
+  return time.value_or(fs::file_time_type::clock::now());
 }
 
 void StateDir::request_handover(const std::string& id) const {
@@ -249,7 +275,7 @@ void StateDir::clear_handover(const std::string& id) const {
 size_t StateDir::expire(std::chrono::milliseconds ttl) const {
   size_t removed = 0;
   std::error_code error;
-  const auto now = fs::file_time_type::clock::now();
+  const auto now = file_system_now();  // the clock the files are stamped by
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
     const bool expiring =

@@ -14,6 +14,9 @@
 #pragma once
 
 #include <chrono>
+#include <filesystem>
+#include <mutex>
+#include <utility>
 #include <optional>
 #include <string>
 #include <vector>
@@ -45,8 +48,12 @@ class StateDir {
   void clear_ownership_of(const std::string& replica) const;  // every owner file naming `replica`
   bool owner_missing(const std::string& id) const;            // no owner file (false where it cannot be told)
 
-  void heartbeat(const std::string& replica) const;  // "alive now"
-  void retire(const std::string& replica) const;     // "gone": removes the heartbeat
+  // Heartbeats: a replica rewrites its file ("alive now") and removes it when it exits ("gone"). It is
+  // alive while its file was written within `timeout` of now, both times by the file system's clock (an
+  // NFS server's: the time of this process's own last heartbeat there, plus the time since), so that the
+  // replicas' clocks need not agree with the server's or each other's.
+  void heartbeat(const std::string& replica) const;
+  void retire(const std::string& replica) const;
   bool alive(const std::string& replica, std::chrono::milliseconds timeout) const;
 
   void request_handover(const std::string& id) const;
@@ -61,7 +68,10 @@ class StateDir {
  private:
   std::optional<std::string> file_of(const std::string& id, const char* suffix) const;
   std::string replica_file(const std::string& replica) const;
+  std::filesystem::file_time_type file_system_now() const;
   std::string path_;
+  mutable std::mutex beat_mutex_;
+  mutable std::pair<std::string, std::chrono::steady_clock::time_point> beat_;  // this process's last heartbeat
 };
 
 }  // namespace squall

@@ -203,6 +203,26 @@ TEST(StateDir, ReplicasResumingOneSessionAtOnceLeaveItToOne) {
   }
 }
 
+// A heartbeat's age is the file system's time now (this replica's own last heartbeat there, plus the time
+// since) less the time the file system stamped on it, so that a file server whose clock is off from the
+// replicas' (here a minute behind: every file it stamps looks a minute old to them) takes no live replica
+// for dead, and a heartbeat that stopped is still seen to stop.
+TEST(StateDir, HeartbeatsAreJudgedByTheFileSystemsClockNotTheReaders) {
+  const std::string dir = test::temp_dir("state-clock");
+  StateDir a(dir, "--state-dir"), b(dir, "--state-dir");
+  a.heartbeat("a");
+  b.heartbeat("b");
+  for (const char* name : {"a", "b"}) {
+    const std::string file = dir + "/replicas/" + name;
+    fs::last_write_time(file, fs::last_write_time(file) - 60s);
+  }
+  EXPECT_TRUE(b.alive("a", 5s));
+  const std::string a_file = dir + "/replicas/a";
+  fs::last_write_time(a_file, fs::last_write_time(a_file) - 10s);  // a stopped beating 10 s before b's last
+  EXPECT_FALSE(b.alive("a", 5s));
+  EXPECT_FALSE(b.alive("c", 5s)) << "no heartbeat at all";
+}
+
 // A claim left behind (a resume that failed after claiming, on a file system that then failed) would keep
 // every other replica answering UNAVAILABLE while its owner lives: the owner answers a handover request for
 // a session it does not hold by giving the ownership up, and the session resumes where it was asked for.
