@@ -24,6 +24,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -63,28 +64,38 @@ class SessionRegistry {
   void begin_drain() { draining_ = true; }
   bool draining() const { return draining_; }
 
-  // Makes this replica the owner of session `id` unless another live replica owns it (false). Of
-  // replicas claiming it at once, one gets it: the owner file is created only where there is none, and a
-  // dead owner's is removed only while it still names that owner (StateDir).
-  bool claim(const std::string& id) const {
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      if (state_dir_->create_owner(id, replica_)) return true;
-      const std::optional<std::string> owner = state_dir_->owner(id);
-      if (!owner) continue;  // given up since
-      if (*owner == replica_) return true;
-      if (state_dir_->alive(*owner, owner_timeout_)) return false;
-      state_dir_->remove_owner_if(id, *owner);
+  // Makes this replica the owner of session `id` unless another live replica owns it: false then, with
+  // that replica in *holder. Of replicas claiming it at once, one gets it (StateDir::claim_owner). The
+  // claim is pending until the store settle()s it (the session is live here) or release()s it.
+  bool claim(const std::string& id, std::string* holder = nullptr) {
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      pending_.insert(id);
     }
-    return false;  // claimed by others as fast as it was freed: one of them has it
+    bool claimed = false;
+    try {
+      claimed = state_dir_->claim_owner(
+          id, replica_, [&](const std::string& owner) { return !state_dir_->alive(owner, owner_timeout_); }, holder);
+    } catch (...) {
+      settle(id);
+      throw;
+    }
+    if (!claimed) settle(id);
+    return claimed;
+  }
+  void settle(const std::string& id) {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending_.erase(id);
   }
   // Gives up this replica's ownership of `id`, and only its own. A failure is logged: the drain that
   // releases its sessions goes on with the others.
-  void release(const std::string& id) const {
+  void release(const std::string& id) {
     try {
       state_dir_->remove_owner_if(id, replica_);
     } catch (const std::exception& e) {
       log(LogLevel::Error, "giving up the ownership of ", id, ": ", e.what());
     }
+    settle(id);
   }
 
   // The live replica other than this one that owns session `id`, if any.
@@ -96,10 +107,11 @@ class SessionRegistry {
 
   // An enrolled store: checkpoint(release) writes its live sessions and returns how many (with release,
   // each written session then answers UNAVAILABLE); hand_over(id) writes and lets go of session `id`,
-  // false when the store does not hold it.
+  // false when the store does not hold it; holds(id): whether it holds session `id`.
   struct Store {
     std::function<size_t(bool release)> checkpoint;
     std::function<bool(const std::string& id)> hand_over;
+    std::function<bool(const std::string& id)> holds;
   };
   size_t enroll(Store store) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -143,17 +155,26 @@ class SessionRegistry {
   }
 
  private:
-  // A request for a session that no store holds while this replica owns it (a claim left by a resume that
-  // failed) is answered by giving the ownership up, so that the session resumes where it was asked for.
   bool hand_over(const std::string& id) {  // under mutex_
     for (auto& [token, store] : stores_)
       if (store.hand_over(id)) {
         state_dir_->clear_handover(id);
         return true;
       }
-    if (state_dir_->owner(id) != replica_) return false;
+    return give_up_stray_claim(id);
+  }
+
+  // A request for a session that this replica owns while no store holds it and no claim of it is pending (a
+  // claim left behind by a resume whose file system failed it) is answered by giving the ownership up, so
+  // that the session resumes where it was asked for. Under pending_mutex_ throughout: a claim that starts
+  // meanwhile waits, and a claim settled since is a live session that holds() sees.
+  bool give_up_stray_claim(const std::string& id) {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    if (pending_.count(id) || state_dir_->owner(id) != replica_) return false;
+    for (auto& [token, store] : stores_)
+      if (store.holds(id)) return false;
     log(LogLevel::Warn, "session ", id, " owned here but not live: ownership given up for the replica that asked");
-    release(id);
+    state_dir_->remove_owner_if(id, replica_);
     state_dir_->clear_handover(id);
     return true;
   }
@@ -165,6 +186,8 @@ class SessionRegistry {
   std::mutex mutex_;
   std::map<size_t, Store> stores_;
   size_t next_ = 0;
+  std::mutex pending_mutex_;
+  std::set<std::string> pending_;  // ids claimed here whose sessions are not live here yet
 };
 
 }  // namespace squall

@@ -75,7 +75,8 @@ class SessionStore {
     save_ = std::move(save);
     resume_ = std::move(resume);
     enrolled_ = policy_.registry->enroll({[this](bool release) { return checkpoint_all(release); },
-                                          [this](const std::string& id) { return hand_over(id); }});
+                                          [this](const std::string& id) { return hand_over(id); },
+                                          [this](const std::string& id) { return holds(id); }});
   }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
@@ -132,17 +133,23 @@ class SessionStore {
       claim_or_fail(id);
       state_dir()->clear_handover(id);  // a request to its former owner, answered
     }
+    bool draining = false, added = false;
     {
       // Checked under the map's lock, which a drain's checkpoint_all(true) takes after begin_drain(): a
       // session added here is either refused or among those the drain writes and releases.
       std::lock_guard<std::mutex> lock(mutex_);
-      if (policy_.registry && policy_.registry->draining()) {
-        if (persistent()) policy_.registry->release(id);
-        fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
-      }
-      if (!entries_.emplace(id, std::move(entry)).second)
-        fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+      draining = policy_.registry && policy_.registry->draining();
+      if (!draining) added = entries_.emplace(id, std::move(entry)).second;
     }
+    if (persistent()) {  // the claim is a live session's now (or one already live here), or given up
+      if (draining)
+        policy_.registry->release(id);
+      else
+        policy_.registry->settle(id);
+    }
+    if (draining)
+      fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
+    if (!added) fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
     return id;
   }
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
@@ -410,17 +417,31 @@ class SessionStore {
       require_not_owned_elsewhere(id);
       if (state_dir()->checkpointed(id)) {
         claim_or_fail(id);
-        return state_dir()->remove(id, policy_.registry->replica());
+        try {
+          state_dir()->remove(id, policy_.registry->replica());
+        } catch (...) {
+          policy_.registry->release(id);
+          throw;
+        }
+        policy_.registry->settle(id);
+        return;
       }
     }
     fail(Code::NotFound, not_found(id));
   }
 
-  // UNAVAILABLE when another replica claimed `id` first (it resumed the session just now).
+  // UNAVAILABLE when another live replica claimed `id` first (it resumed, created or closed the session
+  // just now).
   void claim_or_fail(const std::string& id) {
-    if (policy_.registry->claim(id)) return;
-    const std::string owner = state_dir()->owner(id).value_or("another replica");
-    fail(Code::Unavailable, kind_ + " " + id + " was just resumed by replica " + owner + "; retry in a moment");
+    std::string holder;
+    if (policy_.registry->claim(id, &holder)) return;
+    fail(Code::Unavailable,
+         kind_ + " " + id + " was claimed first by replica " + holder + ", which holds it now; retry in a moment");
+  }
+
+  bool holds(const std::string& id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return entries_.count(id) > 0;
   }
 
   // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there

@@ -13,6 +13,7 @@
 #include <iterator>
 #include <random>
 #include <stdexcept>
+#include <thread>
 
 #include "common/error.h"
 
@@ -24,6 +25,9 @@ namespace {
 constexpr const char* kSession = ".session";
 constexpr const char* kOwner = ".owner";
 constexpr const char* kHandover = ".handover";
+constexpr const char* kLock = ".lock";
+constexpr auto kStaleLock = std::chrono::seconds(10);  // a lock held this long was left by a holder that died
+constexpr auto kLockWait = std::chrono::seconds(2);    // how long a change of ownership waits for the lock
 
 void fail_io(const std::string& what, const std::string& path) {
   fail(Code::Internal, "state directory: cannot " + what + " " + path + ": " + std::strerror(errno));
@@ -168,32 +172,93 @@ void StateDir::remove(const std::string& id, const std::string& owner) const {
 }
 
 bool StateDir::create_owner(const std::string& id, const std::string& replica) const {
+  return claim_owner(id, replica, [](const std::string&) { return false; });
+}
+
+bool StateDir::claim_owner(const std::string& id, const std::string& replica,
+                           const std::function<bool(const std::string& owner)>& may_take, std::string* holder) const {
   auto file = file_of(id, kOwner);
   if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
-  const std::string tmp = temporary(*file, "");
-  write_synced(tmp, replica);
-  const bool created = ::link(tmp.c_str(), file->c_str()) == 0;
-  const int error = errno;
-  std::remove(tmp.c_str());
-  if (!created && error != EEXIST) {
-    errno = error;
-    fail_io("link into place", *file);
+  const std::string mine = temporary(*file, "");
+  write_synced(mine, replica);  // before the lock, which is then held for a read and a link
+  bool claimed = false;
+  try {
+    with_owner_lock(id, [&] {
+      const std::optional<std::string> owner = read_whole(*file);
+      if (owner && *owner != replica && !may_take(*owner)) {
+        if (holder) *holder = *owner;
+        return;
+      }
+      if (owner && *owner != replica) {
+        if (std::remove(file->c_str()) != 0) fail_io("remove the former owner", *file);
+      }
+      if (!owner || *owner != replica) {
+        if (::link(mine.c_str(), file->c_str()) != 0) fail_io("link into place", *file);
+      }
+      claimed = true;
+    });
+  } catch (...) {
+    std::remove(mine.c_str());
+    throw;
   }
-  if (created) sync_directory(path_);
-  return created;
+  std::remove(mine.c_str());
+  if (claimed) sync_directory(path_);
+  return claimed;
 }
 
 bool StateDir::remove_owner_if(const std::string& id, const std::string& replica) const {
   auto file = file_of(id, kOwner);
-  if (!file || read_whole(*file) != replica) return false;
-  const std::string aside = temporary(*file, "aside-");
-  if (std::rename(file->c_str(), aside.c_str()) != 0) return false;  // gone since (another moved it aside)
-  const bool named = read_whole(aside) == replica;
-  // Another's ownership, set between the read and the rename: put back unless a claim came since.
-  if (!named && ::link(aside.c_str(), file->c_str()) != 0 && errno != EEXIST) fail_io("put back", *file);
-  std::remove(aside.c_str());
+  if (!file || read_whole(*file) != replica) return false;  // most files another's: no lock for them
+  bool removed = false;
+  with_owner_lock(id, [&] {
+    if (read_whole(*file) != replica) return;
+    if (std::remove(file->c_str()) != 0) fail_io("remove", *file);
+    removed = true;
+  });
   sync_directory(path_);
-  return named;
+  return removed;
+}
+
+// The lock is a file <id>.lock made by link(2) of a temporary holding its own unique name, which tells this
+// holder's lock from a later one. It is held for a few file operations; one older than kStaleLock was left
+// by a holder that died holding it, and is broken.
+void StateDir::with_owner_lock(const std::string& id, const std::function<void()>& f) const {
+  const std::string lock = *file_of(id, kLock);
+  const std::string token = temporary(lock, "");
+  write_synced(token, token);
+  const auto deadline = std::chrono::steady_clock::now() + kLockWait;
+  while (::link(token.c_str(), lock.c_str()) != 0) {
+    const int error = errno;
+    if (error == EEXIST) break_if_stale(lock);
+    if (error != EEXIST || std::chrono::steady_clock::now() > deadline) {
+      std::remove(token.c_str());
+      errno = error;
+      if (error != EEXIST) fail_io("lock", lock);
+      fail(Code::Unavailable, "the ownership of " + id + " is being changed by another replica; retry in a moment");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::remove(token.c_str());  // the lock keeps the bytes: a hard link of the same file
+  const auto unlock = [&] {
+    if (read_whole(lock) == token) std::remove(lock.c_str());  // not a lock broken as stale and taken since
+  };
+  try {
+    f();
+  } catch (...) {
+    unlock();
+    throw;
+  }
+  unlock();
+}
+
+void StateDir::break_if_stale(const std::string& lock) const {
+  const std::optional<fs::file_time_type> taken = written(lock);
+  if (!taken || file_system_now() - *taken <= kStaleLock) return;
+  const std::optional<std::string> holder = read_whole(lock);
+  const std::string aside = temporary(lock, "stale-");
+  if (std::rename(lock.c_str(), aside.c_str()) != 0) return;                   // broken by another
+  if (read_whole(aside) != holder) (void)::link(aside.c_str(), lock.c_str());  // a fresh lock: put it back
+  std::remove(aside.c_str());
 }
 
 std::optional<std::string> StateDir::owner(const std::string& id) const {
@@ -278,8 +343,8 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
   const auto now = file_system_now();  // the clock the files are stamped by
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
-    const bool expiring =
-        name.ends_with(kSession) || name.ends_with(kHandover) || name.find(".tmp-") != std::string::npos;
+    const bool expiring = name.ends_with(kSession) || name.ends_with(kHandover) || name.ends_with(kLock) ||
+                          name.find(".tmp-") != std::string::npos;
     if (!expiring) continue;
     auto written = entry.last_write_time(error);
     if (error || now - written <= ttl) continue;

@@ -4,17 +4,18 @@
 //   <id>.owner     the replica that holds it live (written when a replica creates or resumes it, removed
 //                  when it releases, closes or evicts it)
 //   <id>.handover  another replica's request that the owner release it (a proxy now routes it there)
+//   <id>.lock      held by a replica while it changes the session's owner (milliseconds)
 // and per replica, replicas/<name>: a heartbeat whose age tells whether an owner is still alive.
 // Writes are atomic (a temporary file, fsync, rename, fsync of the directory), so a reader on another
-// replica sees the previous file or the new one, never half of one. An owner file is created by link(2)
-// of a written temporary, which fails where the name exists, and removed by rename(2) out of the way,
-// which only one replica can do, then a check of the name it moved: ownership is claimed and given up as
-// a compare-and-swap. Ids name files only when they are made of [a-z0-9-] (every id squalld makes or
-// accepts is), so no id reaches outside the directory.
+// replica sees the previous file or the new one, never half of one. Ownership changes only under
+// <id>.lock, a file made by link(2) of a written temporary, which fails where the name exists: one replica
+// at a time reads, removes and links a session's owner file. Ids name files only when they are made of
+// [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
 #pragma once
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <utility>
 #include <optional>
@@ -38,10 +39,14 @@ class StateDir {
   // The session's checkpoint and handover request, and its owner file if it names `owner`.
   void remove(const std::string& id, const std::string& owner) const;
 
-  // Ownership changes atomically, so that of replicas claiming a session at once one gets it:
-  // create_owner() makes `replica` the owner of `id` only where there is no owner file (false where there
-  // is one), and remove_owner_if() removes the owner file only while it names `replica` (false where it
-  // names another or there is none).
+  // Ownership changes under a lock of the session's own, so that of replicas claiming it at once one gets
+  // it. claim_owner() makes `replica` the owner of `id` where it has none, or one that `may_take` says may
+  // be replaced (a dead replica); true too where `replica` owns it already; false, with the owner in
+  // *holder, where another keeps it. create_owner() claims only an id with no owner. remove_owner_if()
+  // removes the owner file only while it names `replica` (false where it names another or there is none).
+  // UNAVAILABLE when the lock stays taken for seconds.
+  bool claim_owner(const std::string& id, const std::string& replica,
+                   const std::function<bool(const std::string& owner)>& may_take, std::string* holder = nullptr) const;
   bool create_owner(const std::string& id, const std::string& replica) const;
   bool remove_owner_if(const std::string& id, const std::string& replica) const;
   std::optional<std::string> owner(const std::string& id) const;
@@ -69,6 +74,8 @@ class StateDir {
   std::optional<std::string> file_of(const std::string& id, const char* suffix) const;
   std::string replica_file(const std::string& replica) const;
   std::filesystem::file_time_type file_system_now() const;
+  void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
+  void break_if_stale(const std::string& lock) const;
   std::string path_;
   mutable std::mutex beat_mutex_;
   mutable std::pair<std::string, std::chrono::steady_clock::time_point> beat_;  // this process's last heartbeat

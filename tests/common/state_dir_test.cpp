@@ -148,8 +148,8 @@ TEST(StateDir, ASessionOfADeadOwnerResumesFromItsLastCheckpoint) {
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 3);
 }
 
-// Ownership as compare-and-swap: an owner file is created only where there is none and removed only by
-// the replica it names, and neither leaves a temporary behind.
+// Ownership changes under the session's lock: an owner file is claimed only where there is none or
+// `may_take` lets its owner go, and removed only by the replica it names, and nothing is left behind.
 TEST(StateDir, OwnershipIsClaimedOnlyWhereThereIsNoneAndGivenUpOnlyByItsOwner) {
   const std::string dir = test::temp_dir("state-owner-cas");
   StateDir state(dir, "--state-dir");
@@ -162,6 +162,28 @@ TEST(StateDir, OwnershipIsClaimedOnlyWhereThereIsNoneAndGivenUpOnlyByItsOwner) {
   EXPECT_FALSE(state.owner(kId));
   EXPECT_FALSE(state.remove_owner_if(kId, "a"));
   EXPECT_TRUE(state.create_owner(kId, "b"));
+  std::string holder;
+  EXPECT_FALSE(state.claim_owner(
+      kId, "c", [](const std::string&) { return false; }, &holder));
+  EXPECT_EQ(holder, "b");
+  EXPECT_TRUE(state.claim_owner(kId, "c", [](const std::string& owner) { return owner == "b"; }));
+  EXPECT_EQ(state.owner(kId).value(), "c");
+  EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".owner"});
+}
+
+// A lock held by a replica that is changing the session's owner makes another wait, and answer
+// UNAVAILABLE after a few seconds; one left by a replica that died holding it (older than seconds) is broken.
+TEST(StateDir, AnOwnershipLockLeftBehindIsBrokenAndALiveOneWaitedFor) {
+  const std::string dir = test::temp_dir("state-owner-lock");
+  StateDir state(dir, "--state-dir");
+  const std::string lock = dir + "/" + kId + ".lock";
+  put(lock, "held");
+  const auto start = std::chrono::steady_clock::now();
+  expect_error(Code::Unavailable, "is being changed by another replica", [&] { state.create_owner(kId, "a"); });
+  EXPECT_GE(std::chrono::steady_clock::now() - start, 1s);
+  EXPECT_FALSE(state.owner(kId));
+  fs::last_write_time(lock, fs::last_write_time(lock) - 60s);  // its holder died a minute ago
+  EXPECT_TRUE(state.create_owner(kId, "a"));
   EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".owner"});
 }
 
@@ -241,6 +263,15 @@ TEST(StateDir, AReplicaAskedForASessionItOwnsButDoesNotHoldGivesTheOwnershipUp) 
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 7);
   EXPECT_EQ(a.registry.state_dir()->owner(id).value(), "b");
   EXPECT_EQ(a.registry.tick(), 0u) << "b's request, answered";
+
+  // A claim of a's that is pending (a resume between its claim and its session's going live) is not stray.
+  const std::string resuming = "c-00000000000000000000000000000002";
+  ASSERT_TRUE(a.registry.claim(resuming));
+  a.registry.state_dir()->request_handover(resuming);
+  EXPECT_EQ(a.registry.tick(), 0u);
+  EXPECT_EQ(a.registry.state_dir()->owner(resuming).value(), "a");
+  a.registry.release(resuming);
+  EXPECT_FALSE(a.registry.state_dir()->owner(resuming));
 }
 
 // A replica killed and started again under the same name holds none of its former sessions, while its

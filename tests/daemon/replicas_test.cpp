@@ -186,9 +186,6 @@ TEST(Replicas, TwoReplicasAskedForOneSessionAtOnceLeaveItToOne) {
   EXPECT_EQ(status[1 - served].error_code(), grpc::StatusCode::UNAVAILABLE);
   EXPECT_NE(status[1 - served].error_message().find(replica[served]), std::string::npos)
       << status[1 - served].error_message();
-  Replica& owner = served == 0 ? b : c;
-  std::string next;
-  ASSERT_TRUE(step(owner, id, 1, &next).ok()) << "the session stays with the replica that served it";
 }
 
 v1::BuildVolumeRequest keep_a_sphere() {
