@@ -169,10 +169,15 @@ class SessionRegistry {
   // that the session resumes where it was asked for. Under pending_mutex_ throughout: a claim that starts
   // meanwhile waits, and a claim settled since is a live session that holds() sees.
   bool give_up_stray_claim(const std::string& id) {
+    const auto stray = [&] {
+      if (state_dir_->owner(id) != replica_) return false;
+      for (auto& [token, store] : stores_)
+        if (store.holds(id)) return false;
+      return true;
+    };
+    if (!stray()) return false;  // most requests: another replica's session, or one live here
     std::lock_guard<std::mutex> lock(pending_mutex_);
-    if (pending_.count(id) || state_dir_->owner(id) != replica_) return false;
-    for (auto& [token, store] : stores_)
-      if (store.holds(id)) return false;
+    if (pending_.count(id) || !stray()) return false;
     log(LogLevel::Warn, "session ", id, " owned here but not live: ownership given up for the replica that asked");
     state_dir_->remove_owner_if(id, replica_);
     state_dir_->clear_handover(id);

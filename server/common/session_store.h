@@ -465,6 +465,7 @@ class SessionStore {
         return;
       }
       resume_(*checkpoint);
+      if (!lookup(id)) fail(Code::Internal, kind_ + " checkpoint " + id + " holds another session's id");
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (...) {
       if (lookup(id)) return;  // live here already (a session created under its id), and owned

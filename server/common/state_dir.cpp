@@ -1,6 +1,7 @@
 #include "common/state_dir.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -16,6 +17,7 @@
 #include <thread>
 
 #include "common/error.h"
+#include "common/log.h"
 
 namespace fs = std::filesystem;
 
@@ -56,17 +58,37 @@ std::optional<std::string> read_whole(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// When `path` was last written, by the file system's clock, or nullopt when it does not exist. The file is
-// opened first: an NFS client revalidates a file's attributes when it opens it (close-to-open consistency),
-// where a bare stat may answer from its attribute cache, up to a minute old.
-std::optional<fs::file_time_type> written(const std::string& path) {
+// Whether `from` is now also `to`: link(2) succeeded, or failed with EEXIST although it had made the link (a
+// retransmitted NFS request whose first try was done: `from` then has two links).
+bool linked(const std::string& from, const std::string& to) {
+  if (::link(from.c_str(), to.c_str()) == 0) return true;
+  const int error = errno;
+  struct stat st;
+  const bool made = error == EEXIST && ::stat(from.c_str(), &st) == 0 && st.st_nlink >= 2;
+  errno = error;
+  return made;
+}
+
+// The file an open descriptor names: its inode and when it was last written, by the file system's clock.
+struct Stamp {
+  ino_t inode = 0;
+  FileTime written{};
+};
+std::optional<Stamp> stamp_of(int fd) {
+  struct stat st;
+  if (::fstat(fd, &st) != 0) return std::nullopt;
+  return Stamp{st.st_ino, std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)};
+}
+
+// The stamp of the file at `path`, or nullopt when it does not exist. The file is opened first: an NFS client
+// revalidates a file's attributes when it opens it (close-to-open consistency), where a bare stat may answer
+// from its attribute cache, up to a minute old.
+std::optional<Stamp> stamp(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
-  std::error_code error;
-  const fs::file_time_type time = fs::last_write_time(path, error);
+  std::optional<Stamp> s = stamp_of(fd);
   ::close(fd);
-  if (error) return std::nullopt;
-  return time;
+  return s;
 }
 
 // Makes a rename or link in `path` durable, where the file system can: some refuse fsync on directories,
@@ -168,7 +190,17 @@ bool StateDir::checkpointed(const std::string& id) const {
 void StateDir::remove(const std::string& id, const std::string& owner) const {
   for (const char* suffix : {kSession, kHandover})
     if (auto file = file_of(id, suffix)) std::remove(file->c_str());
-  remove_owner_if(id, owner);
+  give_up(id, owner);
+}
+
+// remove_owner_if(), a failure logged: a session given up or removed goes on being so, and a later handover
+// request (a claim left behind) or the owner's next start clears the file.
+void StateDir::give_up(const std::string& id, const std::string& owner) const {
+  try {
+    remove_owner_if(id, owner);
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "state directory: giving up the ownership of ", id, ": ", e.what());
+  }
 }
 
 bool StateDir::create_owner(const std::string& id, const std::string& replica) const {
@@ -193,7 +225,7 @@ bool StateDir::claim_owner(const std::string& id, const std::string& replica,
         if (std::remove(file->c_str()) != 0) fail_io("remove the former owner", *file);
       }
       if (!owner || *owner != replica) {
-        if (::link(mine.c_str(), file->c_str()) != 0) fail_io("link into place", *file);
+        if (!linked(mine, *file)) fail_io("link into place", *file);
       }
       claimed = true;
     });
@@ -219,15 +251,16 @@ bool StateDir::remove_owner_if(const std::string& id, const std::string& replica
   return removed;
 }
 
-// The lock is a file <id>.lock made by link(2) of a temporary holding its own unique name, which tells this
-// holder's lock from a later one. It is held for a few file operations; one older than kStaleLock was left
-// by a holder that died holding it, and is broken.
+// The lock is a file <id>.lock made by link(2) of a temporary, so that one replica at a time holds it, and
+// told from a later lock by its inode. It is held for a few file operations. One older than kStaleLock was
+// left by a holder that died (or stalled that long) holding it, and is broken.
 void StateDir::with_owner_lock(const std::string& id, const std::function<void()>& f) const {
   const std::string lock = *file_of(id, kLock);
   const std::string token = temporary(lock, "");
-  write_synced(token, token);
+  write_synced(token, "");
   const auto deadline = std::chrono::steady_clock::now() + kLockWait;
-  while (::link(token.c_str(), lock.c_str()) != 0) {
+  auto pause = std::chrono::milliseconds(1);
+  while (!linked(token, lock)) {
     const int error = errno;
     if (error == EEXIST) break_if_stale(lock);
     if (error != EEXIST || std::chrono::steady_clock::now() > deadline) {
@@ -236,11 +269,14 @@ void StateDir::with_owner_lock(const std::string& id, const std::function<void()
       if (error != EEXIST) fail_io("lock", lock);
       fail(Code::Unavailable, "the ownership of " + id + " is being changed by another replica; retry in a moment");
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(pause);
+    pause = std::min(2 * pause, std::chrono::milliseconds(32));
   }
-  std::remove(token.c_str());  // the lock keeps the bytes: a hard link of the same file
-  const auto unlock = [&] {
-    if (read_whole(lock) == token) std::remove(lock.c_str());  // not a lock broken as stale and taken since
+  const std::optional<Stamp> mine = stamp(token);
+  std::remove(token.c_str());  // the lock is the same file, by its other name
+  const auto unlock = [&] {    // not a lock broken as stale and taken since
+    if (const std::optional<Stamp> now = stamp(lock); now && mine && now->inode == mine->inode)
+      std::remove(lock.c_str());
   };
   try {
     f();
@@ -252,12 +288,12 @@ void StateDir::with_owner_lock(const std::string& id, const std::function<void()
 }
 
 void StateDir::break_if_stale(const std::string& lock) const {
-  const std::optional<fs::file_time_type> taken = written(lock);
-  if (!taken || file_system_now() - *taken <= kStaleLock) return;
-  const std::optional<std::string> holder = read_whole(lock);
+  const std::optional<Stamp> stale = stamp(lock);
+  if (!stale || file_system_now() - stale->written <= kStaleLock) return;
   const std::string aside = temporary(lock, "stale-");
-  if (std::rename(lock.c_str(), aside.c_str()) != 0) return;                   // broken by another
-  if (read_whole(aside) != holder) (void)::link(aside.c_str(), lock.c_str());  // a fresh lock: put it back
+  if (std::rename(lock.c_str(), aside.c_str()) != 0) return;  // broken by another
+  const std::optional<Stamp> moved = stamp(aside);
+  if (!moved || moved->inode != stale->inode) (void)::link(aside.c_str(), lock.c_str());  // a fresh one: put back
   std::remove(aside.c_str());
 }
 
@@ -278,7 +314,7 @@ void StateDir::clear_ownership_of(const std::string& replica) const {
   for (const auto& entry : fs::directory_iterator(path_, error)) {
     const std::string name = entry.path().filename().string();
     if (name.size() <= suffix.size() || !name.ends_with(suffix)) continue;
-    remove_owner_if(name.substr(0, name.size() - suffix.size()), replica);
+    give_up(name.substr(0, name.size() - suffix.size()), replica);
   }
 }
 
@@ -286,7 +322,12 @@ void StateDir::heartbeat(const std::string& replica) const {
   const std::string file = replica_file(replica);
   std::error_code error;
   fs::create_directories(path_ + "/replicas", error);
-  std::ofstream(file, std::ios::trunc) << replica << "\n";  // rewriting it moves its time forward
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return;                       // no beat: this replica looks older to the others, as it should
+  const std::string line = replica + "\n";  // rewriting it moves its time forward
+  const bool wrote = ::write(fd, line.data(), line.size()) == ssize_t(line.size());
+  ::close(fd);
+  if (!wrote) return;
   std::lock_guard<std::mutex> lock(beat_mutex_);
   beat_ = {file, std::chrono::steady_clock::now()};
 }
@@ -294,27 +335,28 @@ void StateDir::heartbeat(const std::string& replica) const {
 void StateDir::retire(const std::string& replica) const { std::remove(replica_file(replica).c_str()); }
 
 bool StateDir::alive(const std::string& replica, std::chrono::milliseconds timeout) const {
-  const std::optional<fs::file_time_type> beat = written(replica_file(replica));
-  return beat && file_system_now() - *beat <= timeout;
+  const std::optional<Stamp> beat = stamp(replica_file(replica));
+  return beat && file_system_now() - beat->written <= timeout;
 }
 
-// The time of this process's last heartbeat on the file system plus the time since by this machine's
-// steady clock; before the first (or once it is retired), the time a probe file is written at.
-fs::file_time_type StateDir::file_system_now() const {
+// The time stamped on this process's last heartbeat plus the time since by this machine's steady clock (read
+// while the next beat is written, up to one beat late); before the first, or once it is retired, the time
+// stamped on a probe file (this machine's clock if none can be written).
+FileTime StateDir::file_system_now() const {
   std::pair<std::string, std::chrono::steady_clock::time_point> beat;
   {
     std::lock_guard<std::mutex> lock(beat_mutex_);
     beat = beat_;
   }
   if (!beat.first.empty())
-    if (std::optional<fs::file_time_type> time = written(beat.first))
-      return *time +
-             std::chrono::duration_cast<fs::file_time_type::duration>(std::chrono::steady_clock::now() - beat.second);
+    if (const std::optional<Stamp> own = stamp(beat.first))
+      return own->written + (std::chrono::steady_clock::now() - beat.second);
   const std::string probe = temporary(path_ + "/.squalld-clock", "");
-  std::ofstream(probe).put('\n');
-  const std::optional<fs::file_time_type> time = written(probe);
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  const std::optional<Stamp> written = fd >= 0 && ::write(fd, "\n", 1) == 1 ? stamp_of(fd) : std::nullopt;
+  if (fd >= 0) ::close(fd);
   std::remove(probe.c_str());
-  return time.value_or(fs::file_time_type::clock::now());
+  return written ? written->written : std::chrono::system_clock::now().time_since_epoch();
 }
 
 void StateDir::request_handover(const std::string& id) const {
@@ -346,8 +388,8 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
     const bool expiring = name.ends_with(kSession) || name.ends_with(kHandover) || name.ends_with(kLock) ||
                           name.find(".tmp-") != std::string::npos;
     if (!expiring) continue;
-    auto written = entry.last_write_time(error);
-    if (error || now - written <= ttl) continue;
+    const std::optional<Stamp> written = stamp(entry.path().string());
+    if (!written || now - written->written <= ttl) continue;
     removed += fs::remove(entry.path(), error) ? 1 : 0;
   }
   return removed;

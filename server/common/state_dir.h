@@ -14,7 +14,6 @@
 #pragma once
 
 #include <chrono>
-#include <filesystem>
 #include <functional>
 #include <mutex>
 #include <utility>
@@ -23,6 +22,9 @@
 #include <vector>
 
 namespace squall {
+
+// A time stamped by the file system (an NFS server's clock, not this machine's), since the Unix epoch.
+using FileTime = std::chrono::nanoseconds;
 
 // Creates `path` if needed and checks that a file can be written in it: "" when it can, else why not.
 std::string unwritable_directory(const std::string& path);
@@ -65,7 +67,8 @@ class StateDir {
   std::vector<std::string> handover_requests() const;  // the ids of the pending requests
   void clear_handover(const std::string& id) const;
 
-  // Removes the checkpoints and handover requests last written more than `ttl` ago; returns how many.
+  // Removes the checkpoints, handover requests, locks and temporaries last written more than `ttl` ago (by
+  // the file system's clock); returns how many.
   size_t expire(std::chrono::milliseconds ttl) const;
 
   const std::string& path() const { return path_; }
@@ -73,7 +76,8 @@ class StateDir {
  private:
   std::optional<std::string> file_of(const std::string& id, const char* suffix) const;
   std::string replica_file(const std::string& replica) const;
-  std::filesystem::file_time_type file_system_now() const;
+  FileTime file_system_now() const;
+  void give_up(const std::string& id, const std::string& owner) const;
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
   std::string path_;

@@ -182,6 +182,14 @@ TEST(StateDir, AnOwnershipLockLeftBehindIsBrokenAndALiveOneWaitedFor) {
   expect_error(Code::Unavailable, "is being changed by another replica", [&] { state.create_owner(kId, "a"); });
   EXPECT_GE(std::chrono::steady_clock::now() - start, 1s);
   EXPECT_FALSE(state.owner(kId));
+  std::thread holder([&] {  // its holder is done in 300 ms
+    std::this_thread::sleep_for(300ms);
+    fs::remove(lock);
+  });
+  EXPECT_TRUE(state.create_owner(kId, "a"));
+  holder.join();
+  EXPECT_TRUE(state.remove_owner_if(kId, "a"));
+  put(lock, "held");
   fs::last_write_time(lock, fs::last_write_time(lock) - 60s);  // its holder died a minute ago
   EXPECT_TRUE(state.create_owner(kId, "a"));
   EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".owner"});
