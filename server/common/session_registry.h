@@ -13,7 +13,9 @@
 // their last checkpoint. The heartbeat has a thread of its own (the daemon's CheckpointLoop), so that a
 // replica busy writing checkpoints is not taken for dead. A replica that starts holds no session: begin()
 // clears the ownership left under its name by its previous life (killed and restarted), once that one's
-// heartbeat has stopped; --replica-id names one live process at a time.
+// heartbeat has stopped; --replica-id names one live process at a time. Ownership is claimed under the
+// session's lock in the state directory (StateDir::claim_owner), so that of replicas resuming, creating
+// or closing one session at once, one does and the others answer UNAVAILABLE.
 #pragma once
 
 #include <atomic>
@@ -42,8 +44,8 @@ class SessionRegistry {
 
   // Before this replica takes calls: waits (up to twice the owner timeout) for the heartbeat of a former
   // process under its name to stop, then clears the ownership that process left (files that another
-  // replica has claimed since are left to it) and beats. Throws
-  // std::runtime_error when that heartbeat goes on: another live squalld has this --replica-id.
+  // replica has claimed since are left to it) and beats. Throws std::runtime_error when that heartbeat goes
+  // on: another live squalld has this --replica-id.
   void begin() {
     if (!state_dir_) return;
     const auto deadline = std::chrono::steady_clock::now() + 2 * owner_timeout_;
@@ -166,8 +168,8 @@ class SessionRegistry {
 
   // A request for a session that this replica owns while no store holds it and no claim of it is pending (a
   // claim left behind by a resume whose file system failed it) is answered by giving the ownership up, so
-  // that the session resumes where it was asked for. Under pending_mutex_ throughout: a claim that starts
-  // meanwhile waits, and a claim settled since is a live session that holds() sees.
+  // that the session resumes where it was asked for. Checked again, and given up, under pending_mutex_: a
+  // claim that starts meanwhile waits, and a claim settled since is a live session that holds() sees.
   bool give_up_stray_claim(const std::string& id) {
     const auto stray = [&] {
       if (state_dir_->owner(id) != replica_) return false;

@@ -49,7 +49,8 @@ void write_synced(const std::string& path, const std::string& bytes) {
     }
     done += size_t(n);
   }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) fail_io("sync", path);
+  const bool synced = ::fsync(fd) == 0;
+  if (::close(fd) != 0 || !synced) fail_io("sync", path);
 }
 
 std::optional<std::string> read_whole(const std::string& path) {
@@ -78,6 +79,20 @@ std::optional<Stamp> stamp_of(int fd) {
   struct stat st;
   if (::fstat(fd, &st) != 0) return std::nullopt;
   return Stamp{st.st_ino, std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)};
+}
+
+// Whether two stamps are of one file: the same inode, written at the same time (a freed inode number is
+// soon given to a new file; link(2) and rename(2) leave the time alone).
+bool same_file(const Stamp& a, const Stamp& b) { return a.inode == b.inode && a.written == b.written; }
+
+// Creates the empty file `path` (one that exists is an error) and returns its stamp.
+Stamp new_token(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) fail_io("create", path);
+  const std::optional<Stamp> s = stamp_of(fd);
+  ::close(fd);
+  if (!s) fail_io("stat", path);
+  return *s;
 }
 
 // The stamp of the file at `path`, or nullopt when it does not exist. The file is opened first: an NFS client
@@ -257,7 +272,7 @@ bool StateDir::remove_owner_if(const std::string& id, const std::string& replica
 void StateDir::with_owner_lock(const std::string& id, const std::function<void()>& f) const {
   const std::string lock = *file_of(id, kLock);
   const std::string token = temporary(lock, "");
-  write_synced(token, "");
+  const Stamp mine = new_token(token);
   const auto deadline = std::chrono::steady_clock::now() + kLockWait;
   auto pause = std::chrono::milliseconds(1);
   while (!linked(token, lock)) {
@@ -272,11 +287,9 @@ void StateDir::with_owner_lock(const std::string& id, const std::function<void()
     std::this_thread::sleep_for(pause);
     pause = std::min(2 * pause, std::chrono::milliseconds(32));
   }
-  const std::optional<Stamp> mine = stamp(token);
   std::remove(token.c_str());  // the lock is the same file, by its other name
   const auto unlock = [&] {    // not a lock broken as stale and taken since
-    if (const std::optional<Stamp> now = stamp(lock); now && mine && now->inode == mine->inode)
-      std::remove(lock.c_str());
+    if (const std::optional<Stamp> now = stamp(lock); now && same_file(*now, mine)) std::remove(lock.c_str());
   };
   try {
     f();
@@ -293,7 +306,7 @@ void StateDir::break_if_stale(const std::string& lock) const {
   const std::string aside = temporary(lock, "stale-");
   if (std::rename(lock.c_str(), aside.c_str()) != 0) return;  // broken by another
   const std::optional<Stamp> moved = stamp(aside);
-  if (!moved || moved->inode != stale->inode) (void)::link(aside.c_str(), lock.c_str());  // a fresh one: put back
+  if (!moved || !same_file(*moved, *stale)) (void)::link(aside.c_str(), lock.c_str());  // a fresh one: put back
   std::remove(aside.c_str());
 }
 
@@ -322,8 +335,10 @@ void StateDir::heartbeat(const std::string& replica) const {
   const std::string file = replica_file(replica);
   std::error_code error;
   fs::create_directories(path_ + "/replicas", error);
-  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return;                       // no beat: this replica looks older to the others, as it should
+  // Rewritten in place, not truncated: a beat whose write fails leaves the file's time as it was, and this
+  // replica looks older to the others, as it should.
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return;
   const std::string line = replica + "\n";  // rewriting it moves its time forward
   const bool wrote = ::write(fd, line.data(), line.size()) == ssize_t(line.size());
   ::close(fd);

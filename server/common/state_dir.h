@@ -8,7 +8,7 @@
 // and per replica, replicas/<name>: a heartbeat whose age tells whether an owner is still alive.
 // Writes are atomic (a temporary file, fsync, rename, fsync of the directory), so a reader on another
 // replica sees the previous file or the new one, never half of one. Ownership changes only under
-// <id>.lock, a file made by link(2) of a written temporary, which fails where the name exists: one replica
+// <id>.lock, a file made by link(2) of an empty temporary, which fails where the name exists: one replica
 // at a time reads, removes and links a session's owner file. Ids name files only when they are made of
 // [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
 #pragma once
@@ -23,7 +23,7 @@
 
 namespace squall {
 
-// A time stamped by the file system (an NFS server's clock, not this machine's), since the Unix epoch.
+// A time stamped on a file by the file system (an NFS server stamps by its own clock), since the Unix epoch.
 using FileTime = std::chrono::nanoseconds;
 
 // Creates `path` if needed and checks that a file can be written in it: "" when it can, else why not.
