@@ -267,7 +267,7 @@ bool StateDir::remove_owner_if(const std::string& id, const std::string& replica
 }
 
 // The lock is a file <id>.lock made by link(2) of a temporary, so that one replica at a time holds it, and
-// told from a later lock by its inode. It is held for a few file operations. One older than kStaleLock was
+// told from a later lock by its inode and time (same_file). It is held for a few file operations. One older than kStaleLock was
 // left by a holder that died (or stalled that long) holding it, and is broken.
 void StateDir::with_owner_lock(const std::string& id, const std::function<void()>& f) const {
   const std::string lock = *file_of(id, kLock);
