@@ -92,11 +92,7 @@ class SessionRegistry {
   // Gives up this replica's ownership of `id`, and only its own. A failure is logged: the drain that
   // releases its sessions goes on with the others.
   void release(const std::string& id) {
-    try {
-      state_dir_->remove_owner_if(id, replica_);
-    } catch (const std::exception& e) {
-      log(LogLevel::Error, "giving up the ownership of ", id, ": ", e.what());
-    }
+    state_dir_->give_up(id, replica_);
     settle(id);
   }
 

@@ -417,12 +417,7 @@ class SessionStore {
       require_not_owned_elsewhere(id);
       if (state_dir()->checkpointed(id)) {
         claim_or_fail(id);
-        try {
-          state_dir()->remove(id, policy_.registry->replica());
-        } catch (...) {
-          policy_.registry->release(id);
-          throw;
-        }
+        state_dir()->remove(id, policy_.registry->replica());  // the ownership just claimed too
         policy_.registry->settle(id);
         return;
       }

@@ -155,12 +155,12 @@ std::string unwritable_directory(const std::string& path) {
 StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(path)) {
   if (std::string why = unwritable_directory(path_); !why.empty())
     throw std::runtime_error(flag + " " + path_ + ": " + why);
-  // Ownership is claimed by link(2) (create_owner): a file system without hard links cannot hold it.
-  const std::string probe = temporary(path_ + "/.squalld-link-test", ""), linked = probe + "-link";
-  std::ofstream(probe).put('\n');
-  const bool links = ::link(probe.c_str(), linked.c_str()) == 0;
+  // Ownership is claimed by link(2) (claim_owner): a file system without hard links cannot hold it.
+  const std::string probe = temporary(path_ + "/.squalld-link-test", ""), second_name = probe + "-link";
+  new_token(probe);
+  const bool links = ::link(probe.c_str(), second_name.c_str()) == 0;
   const std::string why = std::strerror(errno);
-  std::remove(linked.c_str());
+  std::remove(second_name.c_str());
   std::remove(probe.c_str());
   if (!links)
     throw std::runtime_error(flag + " " + path_ + ": cannot make a hard link in the directory (" + why +
@@ -208,8 +208,6 @@ void StateDir::remove(const std::string& id, const std::string& owner) const {
   give_up(id, owner);
 }
 
-// remove_owner_if(), a failure logged: a session given up or removed goes on being so, and a later handover
-// request (a claim left behind) or the owner's next start clears the file.
 void StateDir::give_up(const std::string& id, const std::string& owner) const {
   try {
     remove_owner_if(id, owner);
@@ -232,16 +230,16 @@ bool StateDir::claim_owner(const std::string& id, const std::string& replica,
   try {
     with_owner_lock(id, [&] {
       const std::optional<std::string> owner = read_whole(*file);
-      if (owner && *owner != replica && !may_take(*owner)) {
+      if (owner == replica) {
+        claimed = true;
+        return;
+      }
+      if (owner && !may_take(*owner)) {
         if (holder) *holder = *owner;
         return;
       }
-      if (owner && *owner != replica) {
-        if (std::remove(file->c_str()) != 0) fail_io("remove the former owner", *file);
-      }
-      if (!owner || *owner != replica) {
-        if (!linked(mine, *file)) fail_io("link into place", *file);
-      }
+      if (owner && std::remove(file->c_str()) != 0) fail_io("remove the former owner", *file);
+      if (!linked(mine, *file)) fail_io("link into place", *file);
       claimed = true;
     });
   } catch (...) {
@@ -267,8 +265,8 @@ bool StateDir::remove_owner_if(const std::string& id, const std::string& replica
 }
 
 // The lock is a file <id>.lock made by link(2) of a temporary, so that one replica at a time holds it, and
-// told from a later lock by its inode and time (same_file). It is held for a few file operations. One older than kStaleLock was
-// left by a holder that died (or stalled that long) holding it, and is broken.
+// told from a later lock by its inode and time (same_file). It is held for a few file operations. One older
+// than kStaleLock was left by a holder that died (or stalled that long) holding it, and is broken.
 void StateDir::with_owner_lock(const std::string& id, const std::function<void()>& f) const {
   const std::string lock = *file_of(id, kLock);
   const std::string token = temporary(lock, "");
@@ -367,11 +365,13 @@ FileTime StateDir::file_system_now() const {
     if (const std::optional<Stamp> own = stamp(beat.first))
       return own->written + (std::chrono::steady_clock::now() - beat.second);
   const std::string probe = temporary(path_ + "/.squalld-clock", "");
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-  const std::optional<Stamp> written = fd >= 0 && ::write(fd, "\n", 1) == 1 ? stamp_of(fd) : std::nullopt;
-  if (fd >= 0) ::close(fd);
-  std::remove(probe.c_str());
-  return written ? written->written : std::chrono::system_clock::now().time_since_epoch();
+  try {
+    const Stamp created = new_token(probe);
+    std::remove(probe.c_str());
+    return created.written;
+  } catch (const Error&) {
+    return std::chrono::system_clock::now().time_since_epoch();
+  }
 }
 
 void StateDir::request_handover(const std::string& id) const {

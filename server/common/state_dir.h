@@ -16,9 +16,9 @@
 #include <chrono>
 #include <functional>
 #include <mutex>
-#include <utility>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace squall {
@@ -51,14 +51,17 @@ class StateDir {
                    const std::function<bool(const std::string& owner)>& may_take, std::string* holder = nullptr) const;
   bool create_owner(const std::string& id, const std::string& replica) const;
   bool remove_owner_if(const std::string& id, const std::string& replica) const;
+  // remove_owner_if(), a failure logged rather than thrown: a session given up or removed goes on being so,
+  // and a later handover request (a claim left behind) or the owner's next start clears the file.
+  void give_up(const std::string& id, const std::string& owner) const;
   std::optional<std::string> owner(const std::string& id) const;
   void clear_ownership_of(const std::string& replica) const;  // every owner file naming `replica`
   bool owner_missing(const std::string& id) const;            // no owner file (false where it cannot be told)
 
   // Heartbeats: a replica rewrites its file ("alive now") and removes it when it exits ("gone"). It is
-  // alive while its file was written within `timeout` of now, both times by the file system's clock (an
-  // NFS server's: the time of this process's own last heartbeat there, plus the time since), so that the
-  // replicas' clocks need not agree with the server's or each other's.
+  // alive while its file was written within `timeout` of now, both times as the file system stamps them
+  // (now: this process's own last heartbeat, plus the time since), so that where the file server stamps
+  // them (NFS) the replicas' clocks need not agree with it or each other.
   void heartbeat(const std::string& replica) const;
   void retire(const std::string& replica) const;
   bool alive(const std::string& replica, std::chrono::milliseconds timeout) const;
@@ -77,7 +80,6 @@ class StateDir {
   std::optional<std::string> file_of(const std::string& id, const char* suffix) const;
   std::string replica_file(const std::string& replica) const;
   FileTime file_system_now() const;
-  void give_up(const std::string& id, const std::string& owner) const;
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
   std::string path_;
