@@ -205,12 +205,12 @@ const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstructi
 
 Frame EWaveSession::read_frame(const OutputSelection& o) const {
   Frame f;
-  ReadBack back(runtime_);
+  std::vector<double> height, phi;  // a double-precision state, converted after the wait
+  ReadBack back(runtime_);          // after what it reads into: on a throw it waits before they go
   auto read = [&](const cl::Buffer& buffer, size_t offset, size_t count, std::vector<float>& into) {
     into.resize(count);
     back.add(buffer, offset * sizeof(float), count * sizeof(float), into.data());
   };
-  std::vector<double> height, phi;  // a double-precision state, converted after the wait
   auto read_state = [&](size_t offset, std::vector<float>& into, std::vector<double>& values) {
     if (!config_.double_precision) return read(state_.buffer(), offset, cells_, into);
     values.resize(cells_);
