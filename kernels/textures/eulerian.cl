@@ -9,7 +9,6 @@
 #include "textures/texture.clh"
 #include "textures/velocity.clh"
 
-#define SQUALL_MAX_SLOTS 12
 #define SQUALL_DEFORMATION_WEIGHTED 0
 #define SQUALL_DEFORMATION_PAPER 1
 #define SQUALL_EULERIAN_OCTAVE 0
@@ -160,8 +159,8 @@ __kernel void eulerian_render(__global float* out, OutputGrid frame, __global co
                       ((float)py + 0.5f) * (float)(ny - 1) / (float)frame.height);
   size_t plane = (size_t)frame.width * (size_t)frame.height, pixel = (size_t)px + (size_t)frame.width * (size_t)py;
 
-  float4 q[SQUALL_MAX_SLOTS];
-  float deformation[SQUALL_MAX_SLOTS / 2], layer_weight[SQUALL_MAX_SLOTS / 2];
+  float4 q[SQUALL_EULERIAN_MAX_SLOTS];
+  float deformation[SQUALL_EULERIAN_MAX_LAYERS], layer_weight[SQUALL_EULERIAN_MAX_LAYERS];
   for (int i = 0; i < layers; ++i) {
     deformation[i] = 0.0f;
     for (int j = 0; j < phases; ++j) {

@@ -77,6 +77,11 @@ typedef struct VelocityField {
 #define SQUALL_LUT_MAX_CHANNELS 4 /* output channels of the LUT (RGBA) */
 #define SQUALL_LUT_MAX_ENTRIES 4096
 
+/* Eulerian multi-layer advection (eulerian.cl): layers of 2 or 3 phases each, every (layer, phase) a slot. */
+#define SQUALL_EULERIAN_MAX_LAYERS 6
+#define SQUALL_EULERIAN_MAX_PHASES 3
+#define SQUALL_EULERIAN_MAX_SLOTS (SQUALL_EULERIAN_MAX_LAYERS * SQUALL_EULERIAN_MAX_PHASES)
+
 /* Layout (128 bytes, every member 4 bytes, no padding):
  *   offset  0  int   kind            SQUALL_TEXTURE_*
  *   offset  4  int   channels        image channels, or noise bands; 1..SQUALL_TEXTURE_MAX_CHANNELS

@@ -8,7 +8,7 @@
  *   segment_boundary  int per segment: the boundary it belongs to (banks joined through junctions are one
  *                     boundary; each obstacle is one)
  *   bin_start         int per bin + 1: bin b holds bin_items[bin_start[b] .. bin_start[b + 1] - 1]
- *   bin_items         int: segment indices (a segment is in every bin its bounding box touches)
+ *   bin_items         int: segment indices (a segment is in every bin it passes through)
  *   boundary_psi      float per boundary: psi on it, du^2/s
  *   boundary_s        float per boundary: its search radius s, du
  *   polygon_start     int per polygon + 1: polygon k is polygon_points[polygon_start[k] .. polygon_start[k + 1] - 1]

@@ -11,7 +11,7 @@ Tensor2 product(const Tensor2& a, const Tensor2& b) {
 }
 
 Tensor2 inverse(const Tensor2& a) {
-  const double det = a.xx * a.yy - a.xy * a.yx;  // > 0 (validated)
+  const double det = a.determinant();  // > 0 (validated)
   return {a.yy / det, -a.xy / det, -a.yx / det, a.xx / det};
 }
 
@@ -26,15 +26,14 @@ bool tensor_kind(DeformControlKind kind) {
 ControlState::ControlState(const DeformSpec& spec)
     : control_(spec.control), frames_(spec.frames), dt_(spec.dt), g_before_(spec.control.deformation_start) {}
 
-// G at frame `index`: deformation_start at frame 0 to deformation_end at frame frames - 1, held after.
-Tensor2 ControlState::ramp(int index) const {
-  const Tensor2 &a = control_.deformation_start, &b = control_.deformation_end;
-  const double f = frames_ > 1 ? std::min(1.0, double(index) / (frames_ - 1)) : 0.0;
+Tensor2 deformation_ramp(const Tensor2& a, const Tensor2& b, int frames, int index) {
+  const double f = frames > 1 ? std::min(1.0, double(index) / (frames - 1)) : 0.0;
   return {a.xx + f * (b.xx - a.xx), a.xy + f * (b.xy - a.xy), a.yx + f * (b.yx - a.yx), a.yy + f * (b.yy - a.yy)};
 }
 
 StepControl ControlState::advance(int index) {
-  const Tensor2 g_now = held_ ? held_g_ : ramp(index);
+  const Tensor2 g_now =
+      held_ ? held_g_ : deformation_ramp(control_.deformation_start, control_.deformation_end, frames_, index);
   const Tensor2 t = product(g_now, inverse(g_before_));  // T = G_now G_before^-1
   const Tensor2 a_now = product(t, a_);                  // A accumulated from the identity
   StepControl out;

@@ -15,6 +15,9 @@ struct StepControl {
   Tensor2 t_minus_identity;  // anisotropic: T - I
 };
 
+// G at frame `index` of a ramp from `start` at frame 0 to `end` at frame frames - 1, held after.
+Tensor2 deformation_ramp(const Tensor2& start, const Tensor2& end, int frames, int index);
+
 class ControlState {
  public:
   explicit ControlState(const DeformSpec& spec);
@@ -26,8 +29,6 @@ class ControlState {
   const DeformControl& control() const { return control_; }
 
  private:
-  Tensor2 ramp(int index) const;
-
   DeformControl control_;
   int frames_;
   double dt_;

@@ -20,6 +20,8 @@ enum class DeformControlKind {
 // A 2x2 matrix [[xx, xy], [yx, yy]] (a deformation gradient G, det > 0).
 struct Tensor2 {
   double xx = 1, xy = 0, yx = 0, yy = 1;
+
+  double determinant() const { return xx * yy - xy * yx; }
 };
 
 // d mu = strength exp(-|u - c|^2 / (2 radius^2)) at texel u (texels).

@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "common/validate.h"
+#include "textures/deform_control.h"
 
 namespace squall::textures {
 namespace {
@@ -25,8 +26,19 @@ void tensor(const Tensor2& g, const std::string& path) {
   finite(path + ".xy", g.xy);
   finite(path + ".yx", g.yx);
   finite(path + ".yy", g.yy);
-  const double det = g.xx * g.yy - g.xy * g.yx;
+  const double det = g.determinant();
   if (!(det > 0)) reject(path + " determinant", det, "> 0 (a deformation gradient)");
+}
+
+// Each frame's G on the ramp between two deformation gradients is one too: the straight line between them
+// may pass through a singular G (from G to -G, say), which T = G_now G_before^-1 would divide by.
+void ramp(const Tensor2& start, const Tensor2& end, int frames, const std::string& path) {
+  for (int k = 1; k + 1 < frames; ++k) {
+    const double det = deformation_ramp(start, end, frames, k).determinant();
+    if (!(det > 0))
+      reject(path + ": the determinant of the ramp's G at frame " + std::to_string(k), det,
+             "> 0 (the line from deformation_start passes a singular gradient)");
+  }
 }
 
 void stroke(const BrushStroke& s, const std::string& path) {
@@ -72,6 +84,7 @@ void validate_deform(const DeformSpec& spec, const LimitGate& gate, const std::s
   validate_control(spec.control, spec.width, spec.height, path + ".", "deformation_start");
   tensor(spec.control.deformation_end, path + ".deformation_end");
   in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
+  ramp(spec.control.deformation_start, spec.control.deformation_end, spec.frames, path + ".deformation_end");
   in(path + ".dt", spec.dt, open_closed(0, kMaxDt));
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxSubsteps);
   in(path + ".stack_levels", int64_t(spec.stack_levels), 0, kMaxLevels);

@@ -54,6 +54,7 @@ class Lagrangian final : public Advection {
         time_(spec.t0) {
     const double d = params_.d;
     region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d, {}};
+    held_limit_ = size_t(2 * std::ceil((region_.x1 - region_.x0) * (region_.y1 - region_.y0) / (d * d)));
     sample_fluid_of_inputs();
     if (!state.empty()) restore(state);
   }
@@ -219,14 +220,36 @@ class Lagrangian final : public Advection {
     }
   }
 
-  // Deletes particles faded out and those whose grid left the sampled region, keeping the order.
+  // Deletes particles faded out and those whose grid left the sampled region.
   void erase_finished(ParticleStats& stats) {
+    erase_where(stats, [&](size_t k) {
+      const Particle& p = particles_[k];
+      return (p.fading() && time_ - p.kill >= params_.fade_tau) || !overlaps_region(k);
+    });
+  }
+
+  // Deletes the FADING particles killed first until `more` particles fit in held_limit_: with kills in every
+  // frame and a long fade_tau the fading ones would otherwise pile up without bound.
+  void make_room(size_t more, ParticleStats& stats) {
+    if (particles_.size() + more <= held_limit_) return;
+    std::vector<size_t> fading;
+    for (size_t k = 0; k < particles_.size(); ++k)
+      if (particles_[k].fading()) fading.push_back(k);
+    std::stable_sort(fading.begin(), fading.end(),
+                     [&](size_t a, size_t b) { return particles_[a].kill < particles_[b].kill; });
+    fading.resize(std::min(fading.size(), particles_.size() + more - held_limit_));
+    std::vector<bool> doomed(particles_.size(), false);
+    for (size_t k : fading) doomed[k] = true;
+    erase_where(stats, [&](size_t k) { return doomed[k]; });
+  }
+
+  // Deletes the particles for which erase(k) holds, keeping the others' order.
+  template <typename Predicate>
+  void erase_where(ParticleStats& stats, Predicate erase) {
     size_t kept = 0;
     for (size_t k = 0; k < particles_.size(); ++k) {
       const Particle& p = particles_[k];
-      bool faded = p.fading() && time_ - p.kill >= params_.fade_tau;
-      bool gone = !overlaps_region(k);
-      if (faded || gone) {
+      if (erase(k)) {
         ++stats.deleted;
         continue;
       }
@@ -323,7 +346,9 @@ class Lagrangian final : public Advection {
     std::vector<Vec2> alive;
     for (size_t k = 0; k < particles_.size(); ++k)
       if (!particles_[k].fading()) alive.push_back(centre(k));
-    for (Vec2 p : poisson_fill(alive, region_, params_.d, angle_rng_, counter_)) {
+    const std::vector<Vec2> born = poisson_fill(alive, region_, params_.d, angle_rng_, counter_);
+    make_room(born.size(), stats);
+    for (Vec2 p : born) {
       add_particle(p, birth);
       ++stats.born;
     }
@@ -430,6 +455,7 @@ class Lagrangian final : public Advection {
   int substeps_;
   std::shared_ptr<const DeviceInputs> inputs_;
   PoissonRegion region_;
+  size_t held_limit_;  // particles held at most, ALIVE and FADING: twice the region's area / d^2
   CounterRng angle_rng_, patch_rng_;
   // The state a checkpoint holds:
   bool started_ = false;

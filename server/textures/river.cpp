@@ -16,7 +16,7 @@ constexpr int kMaxChannels = 256, kMaxJunctions = 256, kMaxObstacles = 256;
 constexpr int kMaxPoints = 4096;     // per polyline
 constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
 constexpr int64_t kMaxBins = int64_t(1) << 20;
-constexpr double kMaxCoordinate = 1e7;  // m: the device works in float32
+constexpr int64_t kMaxBinItems = int64_t(1) << 24;  // segment entries over all bins: 64 MiB
 
 void polyline(const std::vector<Point2>& points, int min_points, const std::string& path) {
   in(path + ".points size", int64_t(points.size()), min_points, kMaxPoints);
@@ -106,10 +106,10 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
   in(p + "nx", int64_t(grid.nx), 2, 4096);
   in(p + "ny", int64_t(grid.ny), 2, 4096);
   gate.check_grid(path, grid.nx, grid.ny);
-  finite(p + "region.x0", grid.x0);
-  finite(p + "region.y0", grid.y0);
-  in(p + "region.x1", grid.x1, above(grid.x0));
-  in(p + "region.y1", grid.y1, above(grid.y0));
+  in(p + "region.x0", grid.x0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(p + "region.y0", grid.y0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(p + "region.x1", grid.x1, open_closed(grid.x0, kMaxCoordinate));
+  in(p + "region.y1", grid.y1, open_closed(grid.y0, kMaxCoordinate));
 }
 
 namespace {
@@ -150,9 +150,31 @@ std::vector<Point2> channel_polygon(const RiverChannelSpec& c) {
   return polygon;
 }
 
+// The bins segment `s` passes through, column by column: in each column of bins it crosses, the rows its
+// stretch over that column's x interval spans (every bin the segment touches, and no other: a point within
+// the search radius of the segment lies in the bins around one of them).
+template <typename F>
+void for_each_bin_crossed(const cl_float4& s, const RiverGeometry& geo, F&& visit) {
+  const double ax = s.s[0], ay = s.s[1], bx = s.s[2], by = s.s[3];
+  auto column = [&](double x) { return std::clamp(int((x - geo.bin_x0) / geo.bin_size), 0, geo.bins_x - 1); };
+  auto row = [&](double y) { return std::clamp(int((y - geo.bin_y0) / geo.bin_size), 0, geo.bins_y - 1); };
+  auto y_at = [&](double x) { return ax == bx ? ay : ay + (by - ay) * (x - ax) / (bx - ax); };
+  const double x_lo = std::min(ax, bx), x_hi = std::max(ax, bx);
+  for (int c = column(x_lo), c1 = column(x_hi); c <= c1; ++c) {
+    const double left = std::max(x_lo, geo.bin_x0 + double(c) * geo.bin_size);
+    const double right = std::min(x_hi, geo.bin_x0 + double(c + 1) * geo.bin_size);
+    double y0 = ax == bx ? std::min(ay, by) : y_at(left), y1 = ax == bx ? std::max(ay, by) : y_at(right);
+    if (y0 > y1) std::swap(y0, y1);
+    y0 -= 1e-4 * geo.bin_size, y1 += 1e-4 * geo.bin_size;  // a segment through a bin's corner: both rows
+    for (int r = row(y0), r1 = row(y1); r <= r1; ++r) visit(size_t(r) * size_t(geo.bins_x) + size_t(c));
+  }
+}
+
 // Bins of about s_max / 2 over the segments' bounding box (fewer, larger bins past kMaxBins), each listing
-// the segments whose bounding box touches it (CSR).
-void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& start, std::vector<cl_int>& items) {
+// the segments that pass through it (CSR). RESOURCE_EXHAUSTED, naming `path`, past kMaxBinItems entries:
+// walls that cross the region many times over.
+void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& start, std::vector<cl_int>& items,
+                  const std::string& path) {
   float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
   for (const cl_float4& s : walls.segments) {
     x0 = std::min({x0, s.s[0], s.s[2]});
@@ -168,19 +190,20 @@ void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& s
   geo.bin_y0 = y0;
   geo.bins_x = int((x1 - x0) / geo.bin_size) + 1;
   geo.bins_y = int((y1 - y0) / geo.bin_size) + 1;
-  auto bin_range = [&](const cl_float4& s, int axis, int bins, float origin) {
-    const float lo = std::min(s.s[axis], s.s[axis + 2]), hi = std::max(s.s[axis], s.s[axis + 2]);
-    return std::pair{std::clamp(int((lo - origin) / geo.bin_size), 0, bins - 1),
-                     std::clamp(int((hi - origin) / geo.bin_size), 0, bins - 1)};
-  };
   std::vector<std::vector<cl_int>> bins(size_t(geo.bins_x) * geo.bins_y);
+  int64_t entries = 0;
   for (size_t k = 0; k < walls.segments.size(); ++k) {
-    const auto [bx0, bx1] = bin_range(walls.segments[k], 0, geo.bins_x, geo.bin_x0);
-    const auto [by0, by1] = bin_range(walls.segments[k], 1, geo.bins_y, geo.bin_y0);
-    for (int by = by0; by <= by1; ++by)
-      for (int bx = bx0; bx <= bx1; ++bx) bins[size_t(by) * geo.bins_x + bx].push_back(cl_int(k));
+    for_each_bin_crossed(walls.segments[k], geo, [&](size_t bin) {
+      if (++entries > kMaxBinItems)
+        fail(Code::ResourceExhausted, path + ": its walls cross more than " + std::to_string(kMaxBinItems) +
+                                          " bins of " + number(geo.bin_size) +
+                                          " du (the search radius / 2): fewer or shorter segments, or a smaller "
+                                          "search_radius");
+      bins[bin].push_back(cl_int(k));
+    });
   }
   start.assign(1, 0);
+  items.reserve(size_t(entries));
   for (const auto& bin : bins) {
     items.insert(items.end(), bin.begin(), bin.end());
     start.push_back(cl_int(items.size()));
@@ -228,7 +251,7 @@ RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::str
   g.geo.p = float(river.p);
   g.geo.s_max = *std::max_element(g.boundary_s.begin(), g.boundary_s.end());
   std::vector<cl_int> bin_start, bin_items;
-  bin_segments(walls, g.geo, bin_start, bin_items);
+  bin_segments(walls, g.geo, bin_start, bin_items, path);
   g.segments = squall::upload(runtime_, walls.segments);
   g.segment_boundary = squall::upload(runtime_, walls.boundary);
   g.bin_start = squall::upload(runtime_, bin_start);

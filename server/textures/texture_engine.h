@@ -19,6 +19,8 @@ constexpr double kMaxParticles = 200000;
 
 // TextureEngine::validate without an engine: the same checks against `gate`.
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path);
+// Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times.
+void validate_clock(const AdvectSpec& spec, const std::string& path);
 
 class TextureEngine {
  public:

@@ -24,6 +24,8 @@ constexpr int kMaxTextureSubsteps = 64;    // integration steps per frame
 // Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
 // those a field divides by at least kMinVelocityDivisor.
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;
+// Output region and velocity grid coordinates within +-kMaxCoordinate (du: float32 on the device).
+constexpr double kMaxCoordinate = 1e7;
 
 enum class Extrapolation { Clamp, Zero, PushPull };  // a velocity grid outside its nodes or its fluid
 

@@ -11,7 +11,6 @@ namespace {
 using namespace squall::validate;
 
 constexpr int kMaxVelocityFrames = 4096;
-constexpr int kMaxLayers = 6;  // slots = layers * phases <= 12 (eulerian.cl)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
 
@@ -33,11 +32,12 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   in(path + ".ny", int64_t(v.ny), 2, 1 << 20);
   in(path + ".frames size", int64_t(v.frames.size()), 1, kMaxVelocityFrames);
   gate.check_grid(path, v.nx, v.ny);  // the frames' bytes are bounded by the request's size
-  finite(path + ".origin_x", v.origin_x);
-  finite(path + ".origin_y", v.origin_y);
+  in(path + ".origin_x", v.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".origin_y", v.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
   positive(path + ".hx", v.hx);
   positive(path + ".hy", v.hy);
   const size_t nodes = size_t(v.nx) * v.ny;
+  const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
     const std::string frame = at(path + ".frames", f);
     finite(frame + ".time", v.frames[f].time);
@@ -45,8 +45,8 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
       reject(frame + ".time", v.frames[f].time, "greater than the previous frame's time");
     count(frame + ".u", v.frames[f].u.size(), nodes, "nx * ny");
     count(frame + ".v", v.frames[f].v.size(), nodes, "nx * ny");
-    each(frame + ".u", v.frames[f].u.data(), nodes);
-    each(frame + ".v", v.frames[f].v.data(), nodes);
+    each(frame + ".u", v.frames[f].u.data(), nodes, speed);
+    each(frame + ".v", v.frames[f].v.data(), nodes, speed);
   }
   if (!v.mask.empty()) count(path + ".mask", v.mask.size(), nodes, "nx * ny");
 }
@@ -105,10 +105,10 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
 
 void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
   gate.check_grid(path, o.width, o.height);
-  finite(path + ".x0", o.x0);
-  finite(path + ".y0", o.y0);
-  in(path + ".x1", o.x1, above(o.x0));
-  in(path + ".y1", o.y1, above(o.y0));
+  in(path + ".x0", o.x0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".x1", o.x1, open_closed(o.x0, kMaxCoordinate));
+  in(path + ".y1", o.y1, open_closed(o.y0, kMaxCoordinate));
 }
 
 void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {
@@ -129,14 +129,15 @@ void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, con
   in(path + ".grid_ny", int64_t(p.grid_ny), 2, 4096);
   gate.check_grid(path + ".grid", p.grid_nx, p.grid_ny);
   if (method == Method::Naive) return;  // never regenerated: no latency
-  in(path + ".latencies size", int64_t(p.latencies.size()), 1, method == Method::EulerianMultilayer ? kMaxLayers : 1);
+  in(path + ".latencies size", int64_t(p.latencies.size()), 1,
+     method == Method::EulerianMultilayer ? SQUALL_EULERIAN_MAX_LAYERS : 1);
   for (size_t i = 0; i < p.latencies.size(); ++i) {
     positive(at(path + ".latencies", i), p.latencies[i], 1e6);
     if (i > 0 && p.latencies[i] <= p.latencies[i - 1])
       reject(at(path + ".latencies", i), p.latencies[i], "greater than the previous layer's latency");
   }
   if (method != Method::EulerianMultilayer) return;
-  in(path + ".phases", int64_t(p.phases), 2, 3);
+  in(path + ".phases", int64_t(p.phases), 2, SQUALL_EULERIAN_MAX_PHASES);
   if (p.weight == PhaseWeight::Triangle && p.phases != 2)
     reject(path + ".phases", p.phases, "2 with triangle phase weights (they sum to 1 for two phases only)");
   positive(path + ".d_star", p.d_star, 1e6);
@@ -157,6 +158,13 @@ void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) co
   validate_advect(spec, gate_, path);
 }
 
+void validate_clock(const AdvectSpec& spec, const std::string& path) {
+  finite(path + ".t0", spec.t0);
+  positive(path + ".dt", spec.dt, kMaxTextureDt);
+  in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
+  in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
+}
+
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path) {
   known(path + ".method", int(spec.method), kMethods, "method");
   const std::string velocity = path + ".velocity";
@@ -167,10 +175,7 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
     analytic(spec.velocity, velocity);
   texture(spec.texture, gate, path + ".texture");
   output(spec.output, gate, path + ".output");
-  finite(path + ".t0", spec.t0);
-  positive(path + ".dt", spec.dt, kMaxTextureDt);
-  in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
-  in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
+  validate_clock(spec, path);
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else

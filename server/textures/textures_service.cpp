@@ -105,6 +105,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.spec = req::spec(*request, serving_.gate());
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
+    validate_clock(s.spec, "request");
     follow(s, s.spec.t0);
     bake_river(request->velocity(), s, "request.velocity");
     engine_->validate(s.spec, "request");
@@ -150,8 +151,9 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   }
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
+  validate_clock(s.spec, n == 0 ? path + ".start" : path);
   follow(s, advection ? advection->time() : s.spec.t0);
-  if (n == 0) bake_river(control.start().velocity(), s, path + ".start.velocity");
+  if (n == 0 && !control.has_velocity()) bake_river(control.start().velocity(), s, path + ".start.velocity");
   if (control.has_velocity()) bake_river(control.velocity(), s, path + ".velocity");
   engine_->validate(s.spec, n == 0 ? path + ".start" : path);
   if (n == 0) {

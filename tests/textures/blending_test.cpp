@@ -4,8 +4,10 @@
 // weights are a partition of unity (F. Neyret, "Advected Textures", SCA 2003, sec. 2.2).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "textures/textures_support.h"
 
@@ -58,13 +60,44 @@ TEST(TexturesBlending, GridsCoverEveryFluidPixelNearASinkAndAlongWalls) {
   expect_covered(noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_CYLINDER, {0.3, 0.5, 0.5, 0.15}), 60, "cylinder");
 }
 
-TEST(TexturesBlending, EulerianWeightsArePartitionsOfUnity) {
-  for (Method method : {Method::EulerianMultilayer, Method::TwoPhaseFlowMap}) {
-    for (const TextureFrame& frame : run(noise_spec(method, SQUALL_VELOCITY_VORTEX, {0.5, 0.5, 0.5, 0.1}), 90)) {
-      for (int k = 0; k < frame.width * frame.height; ++k)
-        ASSERT_NEAR(frame.weight_sum()[k], 1.0, 1e-5) << "method " << int(method) << " frame " << frame.index;
-    }
+void expect_partitions_of_unity(const AdvectSpec& spec, int frames, const char* what) {
+  for (const TextureFrame& frame : run(spec, frames)) {
+    for (int k = 0; k < frame.width * frame.height; ++k)
+      ASSERT_NEAR(frame.weight_sum()[k], 1.0, 1e-5) << what << ", frame " << frame.index;
   }
+}
+
+TEST(TexturesBlending, EulerianWeightsArePartitionsOfUnity) {
+  const std::vector<double> vortex{0.5, 0.5, 0.5, 0.1};
+  expect_partitions_of_unity(noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_VORTEX, vortex), 90, "multilayer");
+  expect_partitions_of_unity(noise_spec(Method::TwoPhaseFlowMap, SQUALL_VELOCITY_VORTEX, vortex), 90, "flow map");
+  // The most slots a request may ask for: 6 layers of 3 phases, and of 2.
+  AdvectSpec most = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_VORTEX, vortex);
+  most.eulerian.latencies = {0.1, 0.2, 0.4, 0.8, 1.6, 3.2};
+  for (int phases : {SQUALL_EULERIAN_MAX_PHASES, 2}) {
+    most.eulerian.phases = phases;
+    expect_partitions_of_unity(most, 40, phases == 2 ? "6 layers of 2 phases" : "6 layers of 3 phases");
+  }
+}
+
+// Grids killed in every frame fade out over fade_tau (LTA11 eq. 6); with a long fade_tau the fading ones
+// would pile up frame after frame. At most twice the region's area / d^2 particles are held, the fading ones
+// killed first giving way to the newborn.
+TEST(TexturesBlending, FadingGridsKilledInEveryFrameAreHeldToABound) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_TAYLOR_GREEN, {2.0, 0.25});
+  spec.lagrangian.fade_tau = 1e6;
+  const double d = spec.lagrangian.d, side = 1 + 2 * d;  // the output region, d wider on every side
+  const int limit = int(2 * std::ceil(side * side / (d * d)));
+  int most = 0, killed = 0;
+  for (const TextureFrame& frame : run(spec, 40)) {
+    const ParticleStats& p = frame.stats.particles;
+    killed += p.killed_coverage + p.killed_quality + p.killed_fold + p.killed_density;
+    most = std::max(most, p.alive + p.fading);
+    ASSERT_LE(p.alive + p.fading, limit) << "frame " << frame.index;
+  }
+  std::printf("%d grids killed in 40 frames; at most %d held (bound %d)\n", killed, most, limit);
+  EXPECT_GT(killed, limit);         // more kills than the bound: without it the fading grids would pass it
+  EXPECT_GE(most, limit * 9 / 10);  // the bound was reached
 }
 
 // With zero velocity the flow map's phases reset to the same window coordinates, so every frame is the

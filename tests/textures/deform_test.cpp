@@ -502,6 +502,12 @@ TEST(Deform, BadSpecsNameTheirField) {
     s.control.d_mu_map.assign(10, 0);
   });
   expect("spec.deformation_end", [](DeformSpec& s) { s.control.deformation_end = diag(-1, 1); });
+  // Both ends are gradients, but the ramp from I to -I passes G = 0 at frame 1 of 3.
+  expect("spec.deformation_end: the determinant of the ramp's G at frame 1 = 0", [](DeformSpec& s) {
+    s.control.kind = DeformControlKind::Isotropic;
+    s.control.deformation_end = diag(-1, -1);
+    s.frames = 3;
+  });
   expect("spec.substeps", [](DeformSpec& s) { s.substeps = 0; });
   deform_engine().validate(good, "spec");
 

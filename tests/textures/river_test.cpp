@@ -377,6 +377,18 @@ TEST(River, BadRiversNameTheField) {
   expect_error(Code::InvalidArgument, "river.obstacles[0]: no bank", [&] {
     e.bake(river, {2, 2, 0, 0, 1, 1}, "river");
   });
+  // A bank and four obstacles that zigzag across 2e7 du 4095 times each, with a search radius of 1 du: each
+  // segment crosses some 2000 of the million bins, 40 million entries in all, past the bound.
+  river = straight(1, 4, 1, 1);
+  river.search_radius = 1;
+  std::vector<Point2> zigzag;
+  for (int k = 0; k < 4096; ++k) zigzag.push_back(k % 2 ? Point2{1e7, 1e7 - k} : Point2{-1e7, -1e7 + k});
+  river.channels[0].left = zigzag;
+  for (int o = 0; o < 4; ++o) river.obstacles.push_back({zigzag, {}});
+  e.validate(river, "river");
+  expect_error(Code::ResourceExhausted, "river: its walls cross more than 16777216 bins", [&] {
+    e.bake(river, {2, 2, 0, 0, 1, 1}, "river");
+  });
   Limits small;
   small.max_grid_cells = 1000;
   const LimitGate gate(small);
