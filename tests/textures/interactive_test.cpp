@@ -201,6 +201,13 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
   bad.mutable_velocity()->mutable_ocean()->mutable_layers(1)->set_drift_x(0.5);
   test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[1].drift_x = 0.5 must be equal",
                      [&] { advect_or_throw(bad); });
+  // The times are checked before the current is computed at them, and named as the client sent them.
+  bad = r;
+  bad.set_dt(-1);
+  test::expect_error(Code::InvalidArgument, "request.dt = -1", [&] { advect_or_throw(bad); });
+  bad = r;
+  bad.set_t0(NAN);
+  test::expect_error(Code::InvalidArgument, "request.t0 = nan", [&] { advect_or_throw(bad); });
 }
 
 // A stream resumed from a checkpoint reads the ocean's current for the checkpoint's time (not t0): its
