@@ -223,9 +223,10 @@ class FftwPlan : public Plan {
                const cl::Buffer& out) override {
     const PlanKey& k = key();
     const bool in_place = in() == out();
-    {
+    {  // reported once: the plan is made again at the next transform that needs it
       std::lock_guard<std::mutex> lock(failure_mutex_);
-      if (!failure_.empty()) fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + failure_);
+      if (std::string what = std::exchange(failure_, {}); !what.empty())
+        fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + what);
     }
     prepare(direction, in_place);
     // PoCL 3.1 hands a native kernel the addresses of its buffers in the order they were created
@@ -293,7 +294,7 @@ class FftwPlan : public Plan {
   }
 
   // A transform that could not run (an unaligned plan that FFTW would not make) leaves NaN in its
-  // output, is logged, and fails the next enqueue.
+  // output, is logged, and fails the next enqueue of this plan (once).
   void failed(const std::string& what, void* out) {
     using Real = typename F::Real;
     const PlanKey& k = key();
