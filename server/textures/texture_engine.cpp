@@ -32,6 +32,24 @@ std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, const st
   return make_eulerian(runtime_, kernels_, spec, inputs, resume_state);
 }
 
+uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
+  if (spec.method == Method::LagrangianGrids) {
+    const LagrangianParams& p = spec.lagrangian;
+    const double grids = 2 * std::ceil((spec.output.x1 - spec.output.x0 + 2 * p.d) *
+                                       (spec.output.y1 - spec.output.y0 + 2 * p.d) / (p.d * p.d));
+    constexpr uint64_t kBytesPerVertex = 40;  // host: position, u, weight; device: position, u, weight
+    return uint64_t(grids) * uint64_t(p.grid_res) * uint64_t(p.grid_res) * kBytesPerVertex;
+  }
+  const EulerianParams& e = spec.eulerian;
+  const uint64_t nodes = uint64_t(e.grid_nx) * uint64_t(e.grid_ny);
+  const uint64_t slots = spec.method == Method::Naive             ? 1
+                         : spec.method == Method::TwoPhaseFlowMap ? 2
+                                                                  : uint64_t(e.latencies.size()) * uint64_t(e.phases);
+  const uint64_t bands =
+      spec.method == Method::EulerianMultilayer && e.cascade.c_w > 0 ? uint64_t(spec.texture.bands) : 0;
+  return 3 * nodes * (slots * 4 + bands * 2) * sizeof(float);  // float4 per slot, float2 per band
+}
+
 void TextureEngine::steer(Advection& advection, const AdvectSpec& spec) {
   advection.steer(advection.inputs().steered(runtime_, spec), spec.dt, spec.substeps);
 }

@@ -30,6 +30,12 @@ class TextureEngine {
   // within --max-grid-cells (RESOURCE_EXHAUSTED).
   void validate(const AdvectSpec& spec, const std::string& path) const;
 
+  // Bytes the advection of a validated spec holds besides its frames, at most: the Eulerian slots' node
+  // state and the cascade's (twice on the device, state and scratch, and once on the host as it starts or
+  // checkpoints), or the Lagrangian grids at their bound (positions, coordinates and weights, on the host
+  // and on the device).
+  static uint64_t state_bytes(const AdvectSpec& spec);
+
   // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
   // continues it bit-identically.
   std::unique_ptr<Advection> start(const AdvectSpec& spec, const std::string& resume_state = "");

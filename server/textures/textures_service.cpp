@@ -47,8 +47,10 @@ struct TexturesService::Stream {
 namespace {
 
 // Memory an advection stream holds, an estimate: a frame's planes on the device, on the host, in the
-// message and serialized.
-uint64_t advection_working_bytes(uint64_t frame_bytes) { return 4 * frame_bytes; }
+// message and serialized, and the advection's state.
+uint64_t working_bytes(uint64_t frame_bytes, const AdvectSpec& spec) {
+  return 4 * frame_bytes + TextureEngine::state_bytes(spec);
+}
 
 }  // namespace
 
@@ -111,7 +113,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames", advection_working_bytes(s.frame_bytes));
+    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
     return s;
   };
   return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {
@@ -159,7 +161,8 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-    s.memory = serving_.gate().acquire_memory("AdvectInteractive's frames", advection_working_bytes(s.frame_bytes));
+    s.memory =
+        serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
     advection = engine_->start(s.spec);
   } else if (changed || s.current.any()) {
     engine_->steer(*advection, s.spec);

@@ -362,6 +362,32 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
   expect_well_formed(s, good);
 }
 
+// An advection's state counts in --memory-budget beside its frames: 6 layers of 3 phases on 2048 x 2048 nodes
+// hold 3.6 GB (float4 per slot and node, on the device twice and once on the host), refused under 1 GiB before
+// anything is allocated, while the same request on 64 x 64 nodes runs.
+TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(1ull << 30)});
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.set_method(v1::TEXTURE_METHOD_EULERIAN_MULTILAYER);
+  for (double latency : {0.1, 0.2, 0.4, 0.8, 1.6, 3.2}) r.mutable_eulerian()->add_latencies(latency);
+  auto run = [&](uint32_t nodes) {
+    r.mutable_eulerian()->set_grid_nx(nodes);
+    r.mutable_eulerian()->set_grid_ny(nodes);
+    client::Client client({d.address(), 300, ""});
+    auto context = client.context();
+    auto reader = v1::Textures::NewStub(client.channel())->AdvectTexture(context.get(), r);
+    for (v1::TextureFrame frame; reader->Read(&frame);) {
+    }
+    return reader->Finish();
+  };
+  const grpc::Status refused = run(2048);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("AdvectTexture's frames and state"), std::string::npos)
+      << refused.error_message();
+  const grpc::Status ran = run(64);
+  EXPECT_TRUE(ran.ok()) << ran.error_message();
+}
+
 // FINAL_FUNCTION_LUT (LTA11 sec. 3.2): a 3-channel table and a 3 x 2 scalar field give planes final_0..2
 // equal to the engine's; a NaN entry, a LUT band shaping and a mis-sized field name their fields.
 TEST(TexturesService, LookupFinalFunctionMatchesTheEngine) {
