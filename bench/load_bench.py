@@ -86,31 +86,37 @@ def requests(volume: str) -> Dict[str, Message]:
 
 
 def python_client(address: str, calls: Dict[str, Message], seconds: float, level: Level) -> None:
-    with squall.Client(address, timeout=600) as client:
-        with client.ewave.session(calls["session"].config) as session:
-            methods: Dict[str, Callable[[], object]] = {
-                "GetTile": lambda: client.ocean.tile(request=calls["tile"]),
-                "Step": lambda: session.step(inputs=calls["step"].inputs),
-                "Render": lambda: client.clouds.render(request=calls["render"]),
-            }
-            deadline = time.monotonic() + seconds
-            n = 0
-            while time.monotonic() < deadline:
-                method = METHODS[n % len(METHODS)]
-                n += 1
-                start = time.perf_counter()
-                try:
-                    methods[method]()
-                except squall.SquallError as error:
+    """One client: its own connection (as load_client's), its own eWave session. A failure outside
+    the timed calls (the connection, the session) is counted as an error too."""
+    try:
+        with squall.Client(address, timeout=600, own_connection=True) as client:
+            with client.ewave.session(calls["session"].config) as session:
+                methods: Dict[str, Callable[[], object]] = {
+                    "GetTile": lambda: client.ocean.tile(request=calls["tile"]),
+                    "Step": lambda: session.step(inputs=calls["step"].inputs),
+                    "Render": lambda: client.clouds.render(request=calls["render"]),
+                }
+                deadline = time.monotonic() + seconds
+                n = 0
+                while time.monotonic() < deadline:
+                    method = METHODS[n % len(METHODS)]
+                    n += 1
+                    start = time.perf_counter()
+                    try:
+                        methods[method]()
+                    except squall.SquallError as error:
+                        with level.lock:
+                            level.errors.append(f"{method}: {error}")
+                        continue
                     with level.lock:
-                        level.errors.append(f"{method}: {error}")
-                    continue
-                with level.lock:
-                    level.latencies[method].append(time.perf_counter() - start)
+                        level.latencies[method].append(time.perf_counter() - start)
+    except Exception as error:  # the thread would end silently, its calls missing
+        with level.lock:
+            level.errors.append(f"client: {error!r}")
 
 
 def python_level(address: str, calls: Dict[str, Message], clients: int, seconds: float) -> Level:
-    """`clients` threads of this process, each with its own squall.Client."""
+    """`clients` threads of this process, each with its own squall.Client and connection."""
     level = Level()
     threads = [
         threading.Thread(target=python_client, args=(address, calls, seconds, level))

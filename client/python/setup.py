@@ -13,7 +13,7 @@ imports `from squall.v1 import common_pb2`: generated into the build tree next t
 sys.path changes.
 
 Where the protos are found, first match wins:
-  1. $SQUALL_PROTO_DIR (a directory holding squall/v1/*.proto);
+  1. $SQUALL_PROTO_DIR (a directory holding squall/v1/*.proto and grpc/health/v1/health.proto);
   2. ./proto next to this file (an sdist: `sdist` copies them there);
   3. ../../proto (a squall checkout: client/python/ -> proto/).
 Tools: $PROTOC, else `protoc` on PATH; $SQUALL_GRPC_PYTHON_PLUGIN, else `grpc_python_plugin` on
@@ -57,13 +57,19 @@ matching *_pb2_grpc modules.
 
 
 def proto_root() -> Path:
-    """The directory holding squall/v1/*.proto (see the module docstring for the search order)."""
+    """The directory holding squall/v1/*.proto and grpc/health/v1/health.proto (see the module
+    docstring for the search order)."""
     candidates = []
     if os.environ.get("SQUALL_PROTO_DIR"):
         candidates.append(Path(os.environ["SQUALL_PROTO_DIR"]))
     candidates += [HERE / "proto", HERE.parent.parent / "proto"]
     for root in candidates:
         if (root / PROTO_PACKAGE / "common.proto").is_file():
+            if not (root / HEALTH_PROTO).is_file():
+                raise SystemExit(
+                    f"squall: {root} holds {PROTO_PACKAGE / 'common.proto'} but not "
+                    f"{HEALTH_PROTO}: a proto root (SQUALL_PROTO_DIR) needs both"
+                )
             return root.resolve()
     raise SystemExit(
         "squall: cannot find squall/v1/common.proto under "

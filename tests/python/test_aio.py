@@ -84,6 +84,49 @@ def test_ewave_session(client: squall.Client, daemon) -> None:
         assert a["height"].tobytes() == b["height"].tobytes()
 
 
+def test_run_reads_at_most_two_items_ahead_of_the_frames_taken(daemon) -> None:
+    """As the synchronous client's: leaving the loop after frame n leaves at most n + 2 steps
+    applied by the stream."""
+    taken, ahead = 5, 2
+    pulled = []
+
+    def endless():
+        while True:
+            pulled.append(len(pulled))
+            yield 0.02
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            async with aclient.ewave.session(**config()) as session:
+                async with session.run(endless()) as frames:
+                    async for frame in frames:
+                        if frame.step == taken:
+                            break
+                    await asyncio.sleep(0.5)  # room for a request task that runs ahead to do so
+                    assert taken <= len(pulled) <= taken + ahead
+                return (await session.step(0.02)).step
+
+    assert taken + 1 <= run(main()) <= taken + 1 + ahead
+
+
+def test_closing_a_session_already_gone_is_quiet_and_hides_no_error(daemon) -> None:
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            async with aclient.ewave.session(**config()) as session:
+                await aclient.ewave.attach(session.id).close()  # closed elsewhere: NOT_FOUND
+            assert session.closed
+            # a close that fails (here: no session id) while the block's error propagates
+            with pytest.raises(KeyError, match="the body's"):
+                async with aclient.ewave.attach(""):
+                    raise KeyError("the body's")
+            with pytest.raises(squall.SquallError) as error:
+                async with aclient.ewave.attach(""):
+                    pass
+            assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+
+    run(main())
+
+
 def small_texture_stream() -> dict:
     """The arguments of a small texture stream (advect, interactive)."""
     return dict(
@@ -147,6 +190,40 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
             assert (await endless.__anext__()).frame_index == 0
             endless.cancel()
             assert [f async for f in endless] == []
+            deadline = time.monotonic() + 10
+            while True:
+                try:
+                    return [
+                        f.frame_index
+                        async for f in aclient.ocean.stream(
+                            spec, dt=0.1, frames=2, outputs="height"
+                        )
+                    ]
+                except squall.SquallError as e:
+                    assert (
+                        e.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+                        and time.monotonic() < deadline
+                    ), e
+                    await asyncio.sleep(0.05)
+
+    assert run(main()) == [0, 1]
+
+
+def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> None:
+    """As the synchronous client's: the call is cancelled, its --max-streams slot given back."""
+    spec = small_tile()
+
+    def unreadable(chunk):
+        raise ValueError("cannot read this chunk")
+
+    async def main():
+        async with squall.aio.Client(tight_daemon.address) as aclient:
+            request = squall.ocean.stream_request(spec, 0.1, 0, 0.0, "height", "float32", None)
+            endless = aclient._connection.stream(
+                "Ocean.StreamTiles", aclient.ocean._rpc.StreamTiles, request, unreadable
+            )
+            with pytest.raises(ValueError, match="cannot read"):
+                await endless.__anext__()
             deadline = time.monotonic() + 10
             while True:
                 try:

@@ -141,3 +141,15 @@ def test_render_settings_take_the_shadow_march_options() -> None:
     s = squall.clouds.render_settings(shadow_step=0.75, shadow_trilinear=True)
     assert s.shadow_step == 0.75 and s.shadow_trilinear
     assert squall.clouds.render_settings().shadow_step == 0.0
+
+
+def test_a_mesh_is_obj_text_or_an_existing_file(tmp_path) -> None:
+    obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+    path = tmp_path / "hull.obj"
+    path.write_text(obj)
+    for mesh in (obj, str(path), path):
+        assert squall.clouds.model(meshes=[mesh]).meshes[0].obj == obj.encode()
+    # a mistyped path, not OBJ text to send
+    for missing in (str(tmp_path / "hul.obj"), "hull.OBJ", tmp_path / "hul.obj"):
+        with pytest.raises(FileNotFoundError):
+            squall.clouds.model(meshes=[missing])

@@ -2,11 +2,20 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import time
+from typing import Iterator
+
 import grpc
 import numpy as np
 import pytest
 
 import squall
+from squall.v1 import ewave_pb2
+
+from conftest import _start
+from processes import wait_for
 
 NX, NY, DX = 48, 32, 0.01
 
@@ -118,3 +127,68 @@ def test_an_attached_session_knows_its_shape_only_from_a_config(client: squall.C
         client.ewave.attach("0" * 32).shape
     config = squall.ewave.config(nx=32, ny=16, dx=0.1)
     assert client.ewave.attach("0" * 32, config).shape == (16, 32)
+
+
+def test_run_reads_at_most_two_items_ahead_of_the_frames_taken(client: squall.Client) -> None:
+    """gRPC asks for the next request as soon as the last is written; the feeder holds it back, so
+    a caller that leaves the loop after frame n has had at most n + 2 steps applied by the
+    stream."""
+    taken, ahead = 5, 2
+    pulled = []
+
+    def endless() -> Iterator[float]:
+        while True:
+            pulled.append(len(pulled))
+            yield 0.02
+
+    with client.ewave.session(**config()) as session:
+        with session.run(endless()) as frames:
+            for frame in frames:
+                if frame.step == taken:
+                    break
+            time.sleep(0.5)  # room for a request thread that runs ahead to do so
+            assert taken <= len(pulled) <= taken + ahead
+        assert taken + 1 <= session.step(0.02).step <= taken + 1 + ahead
+
+
+def test_run_refuses_a_request_of_another_session(client: squall.Client) -> None:
+    """The stream is routed by this session's id: a request naming another session could reach the
+    wrong replica behind a session-affine proxy, so it is refused before it is sent."""
+    with client.ewave.session(**config()) as session, client.ewave.session(**config()) as other:
+        items = [
+            0.02,
+            ewave_pb2.EWaveStepRequest(session_id=session.id, inputs=dict(dt=0.02)),
+            ewave_pb2.EWaveStepRequest(session_id=other.id, inputs=dict(dt=0.02)),
+        ]
+        received = []
+        with pytest.raises(ValueError, match="run item 2"):
+            for frame in session.run(items):
+                received.append(frame.step)
+        assert received == [1, 2]
+        assert other.step(0.02).step == 1  # never stepped by the stream
+
+
+def test_close_of_a_session_already_gone_is_quiet(client: squall.Client) -> None:
+    with client.ewave.session(**config()) as session:
+        client.ewave.attach(session.id).close()  # closed elsewhere (or expired): NOT_FOUND
+    assert session.closed
+    session.close()
+
+
+def test_a_failing_close_does_not_hide_the_error_that_ended_the_block() -> None:
+    """squalld gone mid-block: the step fails, and so does the close at the end of the block; the
+    step's error is the one raised."""
+    for daemon in _start([], "gone"):
+        with squall.Client(daemon.address, timeout=30, retries=1) as client:
+            with pytest.raises(squall.SquallError) as error:
+                with client.ewave.session(**config()) as session:
+                    session.step(0.02)
+                    os.kill(daemon.pid, signal.SIGKILL)
+                    wait_for(lambda: not daemon.running(), 10, "squalld gone")
+                    session.step(0.02)
+            assert error.value.method == "EWave.Step", error.value
+            assert error.value.code == grpc.StatusCode.UNAVAILABLE, error.value
+            assert not session.closed
+            with pytest.raises(squall.SquallError) as error:
+                session.close()  # outside a failing block nothing hides its error
+            assert error.value.method == "EWave.CloseSession", error.value

@@ -10,6 +10,7 @@ import math
 import struct
 import subprocess
 import time
+from typing import List
 
 import grpc
 import numpy as np
@@ -175,6 +176,19 @@ def test_nan_wind_speed_names_the_field(client: squall.Client) -> None:
         client.ocean.tile(spec, outputs=("heigth",))
 
 
+def wait_for_the_slot(client: squall.Client, spec: ocean_pb2.TileSpec) -> List[int]:
+    """The frame indices of a 2-frame stream, once the only --max-streams slot is free (within
+    10 s: the server notices a cancellation at its next frame)."""
+    deadline = time.monotonic() + 10
+    while True:
+        try:
+            frames = list(client.ocean.stream(spec, dt=0.1, frames=2, outputs="height"))
+            return [f.frame_index for f in frames]
+        except squall.SquallError as e:
+            assert e.code == grpc.StatusCode.RESOURCE_EXHAUSTED and time.monotonic() < deadline, e
+            time.sleep(0.05)
+
+
 def test_a_cancelled_stream_releases_its_slot(tight_client: squall.Client) -> None:
     spec = small_tile()
     first = tight_client.ocean.stream(spec, dt=0.1, frames=0, outputs="height")  # endless
@@ -189,16 +203,25 @@ def test_a_cancelled_stream_releases_its_slot(tight_client: squall.Client) -> No
     )
     first.cancel()
     assert list(first) == []  # a cancelled stream just stops
-    # the server notices the cancellation at its next frame and frees the slot
-    deadline = time.monotonic() + 10
-    while True:
-        try:
-            frames = list(tight_client.ocean.stream(spec, dt=0.1, frames=2, outputs="height"))
-            break
-        except squall.SquallError as e:
-            assert e.code == grpc.StatusCode.RESOURCE_EXHAUSTED and time.monotonic() < deadline, e
-            time.sleep(0.05)
-    assert [f.frame_index for f in frames] == [0, 1]
+    assert wait_for_the_slot(tight_client, spec) == [0, 1]
+
+
+def test_a_message_that_fails_to_convert_ends_its_stream(tight_client: squall.Client) -> None:
+    """A reply the client cannot read raises, and the call is cancelled: the server stops streaming
+    and gives its --max-streams slot back."""
+
+    def unreadable(chunk: ocean_pb2.TileChunk) -> None:
+        raise ValueError("cannot read this chunk")
+
+    spec = small_tile()
+    request = squall.ocean.stream_request(spec, 0.1, 0, 0.0, "height", "float32", None)  # endless
+    endless = tight_client._connection.stream(
+        "Ocean.StreamTiles", tight_client.ocean._rpc.StreamTiles, request, unreadable
+    )
+    with pytest.raises(ValueError, match="cannot read"):
+        next(endless)
+    assert wait_for_the_slot(tight_client, spec) == [0, 1]
+    assert list(endless) == []  # cancelled: it just stops
 
 
 def test_an_expired_tile_frees_the_device_within_a_layer() -> None:

@@ -3,7 +3,11 @@ StreamTiles frame assembler and the hand-encoded health messages."""
 
 from __future__ import annotations
 
+import os
+import shutil
 import struct
+import subprocess
+import sys
 from pathlib import Path
 
 import grpc
@@ -17,6 +21,7 @@ from squall.ocean import TileAssembler
 from squall.v1 import common_pb2, ewave_pb2, ocean_pb2, textures_pb2
 
 PROTO_DIR = Path(__file__).resolve().parents[2] / "proto" / "squall" / "v1"
+SETUP = Path(__file__).resolve().parents[2] / "client" / "python" / "setup.py"
 
 
 def test_grpc_modules_are_generated_into_the_installed_package() -> None:
@@ -174,3 +179,24 @@ def test_error_text() -> None:
     error = squall.SquallError(grpc.StatusCode.NOT_FOUND, "no such session", "EWave.Step")
     assert str(error) == "EWave.Step: NOT_FOUND: no such session"
     assert error.code_name == "NOT_FOUND" and error.message == "no such session"
+
+
+def test_a_proto_root_without_the_health_proto_is_refused_naming_it(tmp_path: Path) -> None:
+    """SQUALL_PROTO_DIR must hold grpc/health/v1/health.proto next to squall/v1: one without it is
+    refused before anything is generated, naming the missing file."""
+    root = tmp_path / "protos"
+    (root / "squall" / "v1").mkdir(parents=True)
+    shutil.copy2(PROTO_DIR / "common.proto", root / "squall" / "v1")
+    build = tmp_path / "client"  # setup.py alone: no ./proto, no ../../proto
+    build.mkdir()
+    shutil.copy2(SETUP, build)
+    result = subprocess.run(
+        [sys.executable, "setup.py", "build_protos"],
+        cwd=build,
+        env=dict(os.environ, SQUALL_PROTO_DIR=str(root)),
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode != 0
+    assert "not grpc/health/v1/health.proto" in result.stderr, result.stderr
+    assert not (build / "squall").exists()  # nothing generated

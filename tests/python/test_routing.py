@@ -6,6 +6,7 @@ several replicas behind a real proxy: tests/deploy/test_replicas.py."""
 from __future__ import annotations
 
 import json
+import os
 import re
 from typing import Any, Dict, List, Tuple
 
@@ -59,7 +60,9 @@ def test_the_retry_policy_retries_unavailable_only() -> None:
     assert config["retryPolicy"]["retryableStatusCodes"] == ["UNAVAILABLE"]
     assert config["retryPolicy"]["maxAttempts"] == 5
     assert {"service": "squall.v1.EWave"} in config["name"]
-    assert dict(retry_options(1)) == {"grpc.enable_retries": 0}
+    # one attempt: no retry policy, as the C++ client; gRPC's transparent retries (of calls that
+    # never reached a server) stay on
+    assert retry_options(1) == []
 
 
 def test_a_texture_that_follows_an_ewave_session_names_it(
@@ -75,3 +78,40 @@ def test_a_texture_that_follows_an_ewave_session_names_it(
     log = daemon.log()
     assert ("OK", session.id) in created_ids(log, "Textures/AdvectTexture")
     assert ("OK", session.id) in created_ids(log, "Textures/AdvectInteractive")
+
+
+def connections_to(port: int) -> int:
+    """This process's established TCP connections to 127.0.0.1:`port`: its sockets (by inode) in
+    /proc/net/tcp and tcp6 (gRPC's are IPv6 with the IPv4-mapped address), addresses in hex."""
+    inodes = set()
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            target = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[len("socket:[") : -1])
+    remotes = {f"0100007F:{port:04X}", f"0000000000000000FFFF00000100007F:{port:04X}"}
+    count = 0
+    for table in ("/proc/self/net/tcp", "/proc/self/net/tcp6"):
+        with open(table) as lines:
+            for line in list(lines)[1:]:
+                fields = line.split()  # sl, local, remote, state (01: ESTABLISHED), ..., inode
+                count += fields[2] in remotes and fields[3] == "01" and fields[9] in inodes
+    return count
+
+
+def test_clients_share_a_connection_unless_asked_for_their_own(daemon: Daemon) -> None:
+    """As the C++ client's own_connection: a load generator's clients each have their own
+    connection (a balancer in front spreads connections, not calls)."""
+    before = connections_to(daemon.port)
+    options = [("squall.test.pair", 1)]  # shares no connection with the other tests' clients
+    shared = [squall.Client(daemon.address, options=options) for _ in range(2)]
+    own = [squall.Client(daemon.address, options=options, own_connection=True) for _ in range(2)]
+    try:
+        for c in shared + own:
+            assert c.health() == "SERVING"
+        assert connections_to(daemon.port) - before == 1 + 2
+    finally:
+        for c in shared + own:
+            c.close()

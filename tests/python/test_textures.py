@@ -4,13 +4,19 @@ errors.
 
 from __future__ import annotations
 
+import gc
 import math
+import sys
+from types import FrameType
+from typing import Optional
 
 import grpc
 import numpy as np
 import pytest
 
 import squall
+
+from processes import wait_for
 
 SIZE = (32, 24)  # width, height
 
@@ -56,6 +62,15 @@ def test_numpy_inputs(client: squall.Client) -> None:
         for name in fa:
             np.testing.assert_allclose(fa[name], fb[name], atol=1e-6, err_msg=name)
 
+    # uint16 pixels are value / 65535 (not sent as their integers); other integers are refused
+    wide = pixels.astype(np.uint16) * np.uint16(257)  # v / 255 == 257 v / 65535
+    c = list(client.textures.advect(texture=squall.textures.image(wide, scale=1.0), **common))
+    for fc, fb in zip(c, b):
+        for name in fc:
+            np.testing.assert_allclose(fc[name], fb[name], atol=1e-6, err_msg=name)
+    with pytest.raises(TypeError, match="int32"):
+        squall.textures.image(pixels.astype(np.int32))
+
     u = np.full((5, 5), 0.2, dtype=np.float32)
     v = np.full((5, 5), -0.1, dtype=np.float32)
     common = dict(
@@ -100,6 +115,46 @@ def test_interactive(client: squall.Client) -> None:
         error.value.code == grpc.StatusCode.INVALID_ARGUMENT
         and "control[0]" in error.value.message
     )
+
+
+def small_interactive() -> dict:
+    return dict(texture=squall.textures.noise(bands=2), size=(16, 16), dt=0.1)
+
+
+def test_a_cancelled_interactive_stream_refuses_to_send(client: squall.Client) -> None:
+    """As in squall.aio: a send after cancel() raises SquallError, not the request queue's
+    RuntimeError."""
+    with client.textures.interactive(**small_interactive()) as run:
+        assert len(run.send(frames=1)) == 1
+        run.cancel()
+        with pytest.raises(squall.SquallError) as error:
+            run.send(frames=1)
+        assert error.value.code == grpc.StatusCode.FAILED_PRECONDITION
+
+
+def request_threads() -> int:
+    """gRPC's threads feeding a stream's requests (one per open bidirectional call), told by the
+    function they run."""
+
+    def feeds_requests(frame: Optional[FrameType]) -> bool:
+        while frame is not None:
+            if frame.f_code.co_name == "consume_request_iterator":
+                return True
+            frame = frame.f_back
+        return False
+
+    return sum(feeds_requests(frame) for frame in sys._current_frames().values())
+
+
+def test_an_interactive_stream_dropped_unclosed_ends_its_request_thread(
+    client: squall.Client,
+) -> None:
+    before = request_threads()
+    run = client.textures.interactive(**small_interactive())
+    assert len(run.send(frames=1)) == 1 and request_threads() == before + 1
+    del run  # neither closed nor left in a with block
+    gc.collect()
+    wait_for(lambda: request_threads() == before, 10, "the request thread to end")
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

@@ -4,6 +4,7 @@ Debian's openssl for the test."""
 
 from __future__ import annotations
 
+import asyncio
 import subprocess
 from pathlib import Path
 from typing import Dict, Iterator
@@ -12,6 +13,7 @@ import grpc
 import pytest
 
 import squall
+import squall.aio
 from conftest import Daemon, _start
 
 KEY = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
@@ -118,3 +120,36 @@ def test_the_token_comes_from_a_file_or_squall_token_as_in_the_cli(
     empty.write_text("\n")
     with pytest.raises(ValueError, match="no token"):
         squall.Client(token_daemon.address, token_file=str(empty))
+
+
+def test_a_token_file_that_fails_opens_no_channel(token_daemon, tmp_path, monkeypatch):
+    """The token is read before the channel is made: a missing or empty file leaks no channel."""
+    opened = []
+
+    def recording(real):
+        def channel(*args, **kwargs):
+            opened.append(real(*args, **kwargs))
+            return opened[-1]
+
+        return channel
+
+    monkeypatch.setattr(grpc, "insecure_channel", recording(grpc.insecure_channel))
+    monkeypatch.setattr(grpc.aio, "insecure_channel", recording(grpc.aio.insecure_channel))
+    empty = tmp_path / "empty"
+    empty.write_text("\n")
+
+    async def aio_client(token_file: str) -> None:
+        squall.aio.Client(token_daemon.address, token_file=token_file)
+
+    for make in (
+        lambda f: squall.Client(token_daemon.address, token_file=f),
+        lambda f: asyncio.run(aio_client(f)),
+    ):
+        with pytest.raises(ValueError, match="no token"):
+            make(str(empty))
+        with pytest.raises(FileNotFoundError):
+            make(str(tmp_path / "missing"))
+    assert opened == []
+    with squall.Client(token_daemon.address, token="python-s3cret") as c:  # the recording works
+        assert c.info().version
+    assert len(opened) == 1

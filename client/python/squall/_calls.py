@@ -24,6 +24,11 @@ CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
     ("grpc.max_send_message_length", -1),
 ]
 
+# A channel with a connection of its own (GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, as the C++
+# client's own_connection): by default the channels of one process to one address with the same
+# options share one connection.
+OWN_CONNECTION_OPTIONS: List[Tuple[str, Any]] = [("grpc.use_local_subchannel_pool", 1)]
+
 # Metadata keys (server/rpc/metadata.h).
 REQUEST_ID_KEY = "x-request-id"
 SESSION_KEY = "x-squall-session"
@@ -32,17 +37,25 @@ AUTHORIZATION_KEY = "authorization"
 
 SERVICES = ("Server", "Ocean", "EWave", "Clouds", "Textures")
 
+# Requests of a bidirectional call fed from an iterable that may be read ahead of the replies the
+# caller has taken (RequestFeeder): one to keep the server busy while the caller handles a reply,
+# one in transit. A caller that stops reading after reply n has had at most n + RUN_AHEAD requests
+# sent, so an eWave Run stream it leaves has applied at most RUN_AHEAD steps beyond its last frame.
+RUN_AHEAD = 2
+
 
 def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     """Channel options that retry calls answered UNAVAILABLE (squalld starting or draining, a
     replica gone behind a proxy, a session being handed over) up to `attempts` times in all, with
-    exponential backoff from 0.1 s to 2 s; none for attempts <= 1.
+    exponential backoff from 0.1 s to 2 s; none for attempts <= 1 (no retry policy).
 
     gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
     it touches a session, so a retried eWave step is never applied twice.
     """
     if attempts <= 1:
-        return [("grpc.enable_retries", 0)]
+        # No retry policy, as the C++ client; gRPC's transparent retries (of calls that never
+        # reached the server) stay on.
+        return []
     policy = {
         "maxAttempts": min(attempts, 5),
         "initialBackoff": "0.1s",
@@ -193,20 +206,30 @@ class Stream(Iterator[T], Generic[T]):
             try:
                 message = next(self._call)
             except StopIteration:
-                self._raise_feeder_error()
+                self._end_feeder()
                 raise
             except grpc.RpcError as error:
-                self._raise_feeder_error()
+                self._end_feeder()
                 code = error.code()  # type: ignore[attr-defined]
                 if self._cancelled and code == grpc.StatusCode.CANCELLED:
                     raise StopIteration from None
                 raise SquallError.from_rpc(error, self._method) from None
-            item = self._convert(message)
+            try:
+                item = self._convert(message)
+            except BaseException:
+                self.cancel()  # the server would stream on, holding its --max-streams slot
+                raise
             if item is not None:  # None: a partial message (a chunk of a frame)
+                if self._feeder is not None:
+                    self._feeder.taken()
                 return item
 
-    def _raise_feeder_error(self) -> None:
-        if self._feeder is not None and self._feeder.error is not None:
+    def _end_feeder(self) -> None:
+        """The call has ended: the feeder stops waiting; its error, if any, is raised."""
+        if self._feeder is None:
+            return
+        self._feeder.close()
+        if self._feeder.error is not None:
             error, self._feeder.error = self._feeder.error, None
             raise error
 
@@ -214,6 +237,8 @@ class Stream(Iterator[T], Generic[T]):
         """Ends the call now (no-op when it already ended); iteration then stops."""
         self._cancelled = True
         self._call.cancel()
+        if self._feeder is not None:
+            self._feeder.close()
 
     close = cancel
 
@@ -230,6 +255,8 @@ class Stream(Iterator[T], Generic[T]):
     def __del__(self) -> None:
         try:
             self._call.cancel()
+            if self._feeder is not None:
+                self._feeder.close()
         except Exception:
             pass
 
@@ -268,22 +295,38 @@ class RequestFeeder(Iterator[Any]):
     """The request side of a bidirectional call from an iterable, each item converted with its
     index.
 
-    gRPC reads it on its own thread; an exception raised by the iterable or the conversion ends the
-    request side (the call finishes what it was sent) and is raised again by the Stream reading the
-    replies, instead of surfacing as a bare CANCELLED.
+    gRPC reads it on its own thread, as soon as the previous request is written; the feeder makes
+    that thread wait until the Stream reading the replies has returned one more (``taken``), so at
+    most `ahead` items are read beyond the replies taken. An exception raised by the iterable or
+    the conversion ends the request side (the call finishes what it was sent) and is raised again
+    by the Stream, instead of surfacing as a bare CANCELLED.
     """
 
-    def __init__(self, items: Iterable[Any], convert: Callable[[Any, int], Any]) -> None:
+    def __init__(
+        self, items: Iterable[Any], convert: Callable[[Any, int], Any], ahead: int = RUN_AHEAD
+    ) -> None:
         self._items = iter(items)
         self._convert = convert
         self._index = 0
+        self._window = threading.Semaphore(ahead)
+        self._closed = False
         self.error: Optional[BaseException] = None
+
+    def taken(self) -> None:
+        """The caller took one reply: one more item may be read."""
+        self._window.release()
+
+    def close(self) -> None:
+        """The call has ended: no more items are read, and gRPC's thread stops waiting."""
+        self._closed = True
+        self._window.release()
 
     def __iter__(self) -> "RequestFeeder":
         return self
 
     def __next__(self) -> Any:
-        if self.error is not None:
+        self._window.acquire()
+        if self._closed or self.error is not None:
             raise StopIteration
         try:
             item = next(self._items)

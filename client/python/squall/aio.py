@@ -31,6 +31,7 @@ from typing import (
     Generator,
     Generic,
     Iterable,
+    Iterator,
     List,
     Mapping,
     Optional,
@@ -50,6 +51,8 @@ from squall import textures as _textures
 from squall._calls import (
     CHANNEL_OPTIONS,
     DEFAULT_ADDRESS,
+    OWN_CONNECTION_OPTIONS,
+    RUN_AHEAD,
     Settings,
     propose_session_id,
     resolve_token,
@@ -150,8 +153,12 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
     def __aiter__(self) -> "AsyncStream[T]":
         return self
 
-    def _raise_feeder_error(self) -> None:
-        if self._feeder is not None and self._feeder.error is not None:
+    def _end_feeder(self) -> None:
+        """The call has ended: the feeder stops waiting; its error, if any, is raised."""
+        if self._feeder is None:
+            return
+        self._feeder.close()
+        if self._feeder.error is not None:
             error, self._feeder.error = self._feeder.error, None
             raise error
 
@@ -160,26 +167,34 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
             try:
                 message = await self._iterator.__anext__()
             except StopAsyncIteration:
-                self._raise_feeder_error()
+                self._end_feeder()
                 raise
             except asyncio.CancelledError:
                 if self._cancelled:
                     raise StopAsyncIteration from None
                 raise
             except grpc.RpcError as error:
-                self._raise_feeder_error()
+                self._end_feeder()
                 code = error.code()  # type: ignore[attr-defined]
                 if self._cancelled and code == grpc.StatusCode.CANCELLED:
                     raise StopAsyncIteration from None
                 raise SquallError.from_rpc(error, self._method) from None
-            item = self._convert(message)
+            try:
+                item = self._convert(message)
+            except BaseException:
+                self.cancel()  # the server would stream on, holding its --max-streams slot
+                raise
             if item is not None:
+                if self._feeder is not None:
+                    self._feeder.taken()
                 return item
 
     def cancel(self) -> None:
         """Ends the call now (no-op when it already ended); iteration then stops."""
         self._cancelled = True
         self._call.cancel()
+        if self._feeder is not None:
+            self._feeder.close()
 
     close = cancel
 
@@ -190,27 +205,61 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
         self.cancel()
 
 
+def _awaitable_next(items: Iterator[Any]) -> Callable[[], Awaitable[Any]]:
+    """next(items) as a coroutine function, StopAsyncIteration at the end (as __anext__)."""
+
+    async def pull() -> Any:
+        try:
+            return next(items)
+        except StopIteration:
+            raise StopAsyncIteration from None
+
+    return pull
+
+
 class _AsyncFeeder:
-    """The request side of a bidirectional call from a (sync or async) iterable: RequestFeeder."""
+    """The request side of a bidirectional call from a (sync or async) iterable: RequestFeeder,
+    at most `ahead` items read beyond the replies the AsyncStream has returned."""
 
     def __init__(
-        self, items: Union[Iterable[Any], AsyncIterable[Any]], convert: Callable[[Any, int], Any]
+        self,
+        items: Union[Iterable[Any], AsyncIterable[Any]],
+        convert: Callable[[Any, int], Any],
+        ahead: int = RUN_AHEAD,
     ) -> None:
         self._items = items
         self._convert = convert
+        self._window = asyncio.Semaphore(ahead)  # created in the loop that runs the call
+        self._closed = False
         self.error: Optional[BaseException] = None
 
+    def taken(self) -> None:
+        """The caller took one reply: one more item may be read."""
+        self._window.release()
+
+    def close(self) -> None:
+        """The call has ended: no more items are read, and the request task stops waiting."""
+        self._closed = True
+        self._window.release()
+
     async def __aiter__(self) -> AsyncIterator[Any]:
+        pull: Callable[[], Awaitable[Any]]
+        if hasattr(self._items, "__aiter__"):
+            pull = self._items.__aiter__().__anext__  # type: ignore[union-attr]
+        else:
+            pull = _awaitable_next(iter(self._items))  # type: ignore[arg-type]
         index = 0
         try:
-            if hasattr(self._items, "__aiter__"):
-                async for item in self._items:  # type: ignore[union-attr]
-                    yield self._convert(item, index)
-                    index += 1
-            else:
-                for item in self._items:  # type: ignore[union-attr]
-                    yield self._convert(item, index)
-                    index += 1
+            while True:
+                await self._window.acquire()
+                if self._closed:
+                    return
+                try:
+                    item = await pull()
+                except StopAsyncIteration:
+                    return
+                yield self._convert(item, index)
+                index += 1
         except Exception as error:  # handed to the reading side
             self.error = error
 
@@ -314,7 +363,9 @@ class EWaveSession:
         self, items: Union[Iterable[Any], AsyncIterable[Any]], *, timeout: Optional[float] = None
     ) -> AsyncStream[EWaveFrame]:
         """Steps over the Run stream: one frame per item (a sync or async iterable of EWaveInputs,
-        mappings of squall.ewave.inputs' arguments, dt values or EWaveStepRequests)."""
+        mappings of squall.ewave.inputs' arguments, dt values or EWaveStepRequests of this
+        session), items read at most 2 ahead of the frames taken: a caller that stops after its
+        n-th frame has had at most n + 2 steps applied by the stream."""
         feeder = _AsyncFeeder(items, lambda item, i: _ewave.step_request(self.id, item, i))
         conn = self._service._connection
         return conn.stream(
@@ -342,21 +393,38 @@ class EWaveSession:
         return await self._service.restore(state, timeout=timeout)
 
     async def close(self, *, timeout: Optional[float] = None) -> None:
-        """Ends the session on the server. Idempotent."""
+        """Ends the session on the server. Idempotent: a session already gone counts as
+        closed."""
         if self.closed:
             return
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
-        await conn.unary(
-            "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
-        )
+        try:
+            await conn.unary(
+                "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
+            )
+        except SquallError as error:
+            if error.code != grpc.StatusCode.NOT_FOUND:
+                raise
         self.closed = True
 
     async def __aenter__(self) -> "EWaveSession":
         return self
 
-    async def __aexit__(self, *exc: Any) -> None:
-        await self.close()
+    async def __aexit__(self, exc_type: Any, *exc: Any) -> None:
+        await _close_quietly(self, exc_type)
+
+
+async def _close_quietly(session: EWaveSession, exc_type: Any) -> None:
+    """squall.ewave.close_quietly, awaited: while a block's exception propagates, a SquallError of
+    the close would hide it and is dropped."""
+    if exc_type is None:
+        await session.close()
+        return
+    try:
+        await session.close()
+    except SquallError:
+        pass
 
 
 class _PendingSession:
@@ -373,9 +441,9 @@ class _PendingSession:
         self._session = await self._create()
         return self._session
 
-    async def __aexit__(self, *exc: Any) -> None:
+    async def __aexit__(self, exc_type: Any, *exc: Any) -> None:
         if self._session is not None:
-            await self._session.close()
+            await _close_quietly(self._session, exc_type)
 
 
 class EWave:
@@ -853,17 +921,19 @@ class Client:
         options: Sequence[Tuple[str, Any]] = (),
         retries: int = 5,
         token_file: Optional[str] = None,
+        own_connection: bool = False,
     ) -> None:
         self.address = address
-        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
+        settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
+        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries)
+        if own_connection:
+            channel_options += OWN_CONNECTION_OPTIONS
+        channel_options += list(options)
         if credentials is None:
             channel = grpc.aio.insecure_channel(address, options=channel_options)
         else:
             channel = grpc.aio.secure_channel(address, credentials, options=channel_options)
-        self._connection = Connection(
-            channel,
-            Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id),
-        )
+        self._connection = Connection(channel, settings)
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(
             HEALTH_CHECK,

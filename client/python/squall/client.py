@@ -10,6 +10,7 @@ import grpc
 from squall._calls import (
     CHANNEL_OPTIONS,
     DEFAULT_ADDRESS,
+    OWN_CONNECTION_OPTIONS,
     Connection,
     Settings,
     resolve_token,
@@ -83,6 +84,9 @@ class Client:
             gRPC retries only calls the server has not begun to answer, and squalld answers
             UNAVAILABLE before it touches a session, so a retried step is never applied twice.
         token_file: a file whose first word is the token, read once here (see `token`).
+        own_connection: a TCP connection of its own. By default the Clients of one process to one
+            address (with the same options) share one connection, which is what one program
+            wants; a load generator wants each of its clients to have its own.
 
     Attributes:
         ocean: Ocean tiles, streams and samples (squall.ocean.Ocean).
@@ -107,17 +111,19 @@ class Client:
         options: Sequence[Tuple[str, Any]] = (),
         retries: int = 5,
         token_file: Optional[str] = None,
+        own_connection: bool = False,
     ) -> None:
         self.address = address
-        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries) + list(options)
+        settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
+        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries)
+        if own_connection:
+            channel_options += OWN_CONNECTION_OPTIONS
+        channel_options += list(options)
         if credentials is None:
             channel = grpc.insecure_channel(address, options=channel_options)
         else:
             channel = grpc.secure_channel(address, credentials, options=channel_options)
-        self._connection = Connection(
-            channel,
-            Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id),
-        )
+        self._connection = Connection(channel, settings)
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(
             HEALTH_CHECK,

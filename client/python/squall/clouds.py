@@ -47,15 +47,19 @@ __all__ = [
 
 
 def _mesh(value: Any, path: str) -> clouds_pb2.MeshSpec:
-    """A MeshSpec from OBJ text / bytes, a path to an .obj file, (vertices (n, 3), triangles
-    (m, 3)), a MeshSpec or a mapping of its fields."""
+    """A MeshSpec from OBJ text / bytes, a path to an .obj file (FileNotFoundError for a missing
+    one), (vertices (n, 3), triangles (m, 3)), a MeshSpec or a mapping of its fields."""
     if isinstance(value, (clouds_pb2.MeshSpec, Mapping)):
         return to_message(clouds_pb2.MeshSpec, value, path)
     if isinstance(value, bytes):
         return clouds_pb2.MeshSpec(obj=value)
     if isinstance(value, (str, os.PathLike)):
         text = str(value)
-        if "\n" in text or not os.path.exists(text):
+        is_path = isinstance(value, os.PathLike) or "\n" not in text and os.path.exists(text)
+        if not is_path and "\n" not in text and text.strip().lower().endswith(".obj"):
+            # one line naming an .obj file: a path mistyped, not OBJ text
+            raise FileNotFoundError(f"{path}: no such file: {text}")
+        if not is_path:
             return clouds_pb2.MeshSpec(obj=text.encode())
         with open(text, "rb") as f:
             return clouds_pb2.MeshSpec(obj=f.read())

@@ -17,8 +17,9 @@ Example::
 from __future__ import annotations
 
 import inspect
-from typing import Any, Iterable, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
+import grpc
 import numpy as np
 
 from squall._calls import Connection, RequestFeeder, Stream, propose_session_id
@@ -32,6 +33,7 @@ from squall._convert import (
     to_message,
     vec3,
 )
+from squall._errors import SquallError
 from squall._pb import ewave_pb2, ewave_pb2_grpc
 from squall._results import EWaveFrame
 from squall.ocean import TileLike, as_tile_spec
@@ -287,16 +289,39 @@ def as_inputs(
 
 
 def step_request(session_id: str, item: InputsLike, index: int = 0) -> ewave_pb2.EWaveStepRequest:
-    """The EWaveStepRequest of one item of ``run``: an EWaveStepRequest (its own session_id, else
-    this session's), EWaveInputs, a mapping of ``inputs``' keyword arguments, or a dt in s."""
+    """The EWaveStepRequest of one item of ``run``: an EWaveStepRequest (of this session: its
+    session_id empty or this session's), EWaveInputs, a mapping of ``inputs``' keyword arguments,
+    or a dt in s.
+
+    A request naming another session is refused (ValueError naming the item): the stream is routed
+    by this session's id (x-squall-session), and behind a session-affine proxy the other session
+    may live on another replica.
+    """
     if isinstance(item, ewave_pb2.EWaveStepRequest):
-        if item.session_id:
+        if item.session_id == session_id:
             return item
+        if item.session_id:
+            raise ValueError(
+                f"run item {index}: an EWaveStepRequest of another session (step it through that "
+                "session's own run or step)"
+            )
         request = ewave_pb2.EWaveStepRequest()
         request.CopyFrom(item)
         request.session_id = session_id
         return request
     return ewave_pb2.EWaveStepRequest(session_id=session_id, inputs=as_inputs(item))
+
+
+def close_quietly(close: Callable[[], None], exc_type: Any) -> None:
+    """``close()`` at the end of a ``with`` block: while the block's exception propagates, a
+    SquallError of the close (squalld gone, the deadline passed) would hide it and is dropped."""
+    if exc_type is None:
+        close()
+        return
+    try:
+        close()
+    except SquallError:
+        pass
 
 
 def session_shape(config: ewave_pb2.EWaveConfig) -> Tuple[int, int]:
@@ -360,9 +385,11 @@ class EWaveSession:
         """Steps over the bidirectional Run stream: one frame per item, in order.
 
         Args:
-            items: an iterable (may be a generator, read as frames are consumed: back-pressure) of
-                EWaveInputs, mappings of ``inputs``' keyword arguments, dt values (s), or
-                EWaveStepRequests (which may name another session).
+            items: an iterable (may be a generator) of EWaveInputs, mappings of ``inputs``' keyword
+                arguments, dt values (s), or EWaveStepRequests of this session (one naming another
+                session raises ValueError naming the item). Items are read as frames are taken,
+                at most 2 ahead of them: a caller that stops after its n-th frame (leaves the loop,
+                cancels) has had at most n + 2 steps applied by the stream.
 
         Returns:
             An iterator of EWaveFrames; it holds one --max-streams slot until it ends or is
@@ -390,21 +417,26 @@ class EWaveSession:
         return self._service.restore(state, timeout=timeout)
 
     def close(self, *, timeout: Optional[float] = None) -> None:
-        """Ends the session on the server (its id is NOT_FOUND afterwards). Idempotent."""
+        """Ends the session on the server (its id is NOT_FOUND afterwards). Idempotent: a session
+        already gone (closed elsewhere, expired) counts as closed."""
         if self.closed:
             return
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
-        conn.unary(
-            "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
-        )
+        try:
+            conn.unary(
+                "EWave.CloseSession", self._service._rpc.CloseSession, request, timeout, self.id
+            )
+        except SquallError as error:
+            if error.code != grpc.StatusCode.NOT_FOUND:
+                raise
         self.closed = True
 
     def __enter__(self) -> "EWaveSession":
         return self
 
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
+    def __exit__(self, exc_type: Any, *exc: Any) -> None:
+        close_quietly(self.close, exc_type)
 
     def __repr__(self) -> str:
         return f"EWaveSession({self.id[:8]}..., {self.config.nx} x {self.config.ny})"

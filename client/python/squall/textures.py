@@ -253,6 +253,13 @@ def image_texture(
                 f"{path}: want (height, width) or (height, width, channels), " f"got {array.shape}"
             )
         height, width, channels = array.shape
+        if array.dtype.kind in "iu" and array.dtype not in (np.uint8, np.uint16):
+            raise TypeError(
+                f"{path}: integer pixels of {array.dtype}: want uint8 (value / 255), uint16 "
+                "(value / 65535) or floats"
+            )
+        if array.dtype == np.uint16:
+            array = array.astype(np.float32) / np.float32(65535)
         if array.dtype == np.uint8:
             texture = textures_pb2.ImageTexture(
                 pixels8=textures_pb2.Pixels8(
@@ -288,7 +295,8 @@ def image(
     Args:
         pixels: an array of shape (height, width) or (height, width, channels) with 1..8 channels:
             float values (dimensionless) are sent as one float32 (float16 stays float16) Field per
-            channel; uint8 values as 8-bit pixels (value / 255). Or the bytes of a PNG file.
+            channel; uint8 values as 8-bit pixels (value / 255), uint16 values as float32 Fields
+            (value / 65535); other integer types raise TypeError. Or the bytes of a PNG file.
         tileable: whether the edges match (the image is sampled with wrap either way).
         scale, final, final_scale, lut: as for ``noise``.
     """
@@ -719,7 +727,8 @@ def deform_texture(
     value: DeformImageLike, path: str = "request.texture"
 ) -> textures_pb2.ImageTexture:
     """The ImageTexture deformed: from an (H, W) or (H, W, C) array (float: one Field per channel;
-    uint8: 8-bit pixels), PNG bytes, an ImageTexture, or a TextureSource holding an image."""
+    uint8: 8-bit pixels; uint16: Fields of value / 65535), PNG bytes, an ImageTexture, or a
+    TextureSource holding an image."""
     if isinstance(value, textures_pb2.ImageTexture):
         return value
     if isinstance(value, textures_pb2.TextureSource):
@@ -933,7 +942,9 @@ class Steering(Generic[F]):
                 raise SquallError.from_rpc(error, self.METHOD) from None
 
     def cancel(self) -> None:
-        """Ends the call now."""
+        """Ends the call now; ``send`` then raises SquallError (FAILED_PRECONDITION) and ``close``
+        nothing."""
+        self._ended = True
         self._requests.close()
         self._call.cancel()
 
@@ -945,6 +956,15 @@ class Steering(Generic[F]):
             self.close()
         else:
             self.cancel()
+
+    def __del__(self) -> None:
+        # Neither closed nor left in a with block: gRPC's request thread would wait in the queue
+        # forever.
+        try:
+            self._requests.close()
+            self._call.cancel()
+        except Exception:  # __init__ failed before the call was opened
+            pass
 
 
 class Interactive(Steering[TextureFrame]):
@@ -989,7 +1009,8 @@ class Interactive(Steering[TextureFrame]):
         Args:
             frames: frames to produce after applying this message, 0..1024.
             velocity: a new velocity field (as ``advect``'s), e.g. a new ``velocity_grid`` frame
-                set.
+                set. The stream stays routed by the velocity it was opened with: behind a
+                session-affine proxy, open it on an eWave session to follow that session later.
             dt: s between frames from now on, (0, 1e4].
             substeps: integration steps per frame from now on, 1..64.
             spin: rad/s, flow-noise rotation of band 0 (noise textures).
@@ -1240,8 +1261,8 @@ class Textures:
 
         Args:
             image: the texture, W x H texels (W, H >= 4): an (H, W) or (H, W, C) array (float:
-                one Field per channel, 1..8 channels; uint8: 8-bit pixels / 255), PNG bytes, an
-                ImageTexture, or ``squall.textures.image(...)``.
+                one Field per channel, 1..8 channels; uint8: 8-bit pixels / 255; uint16: value /
+                65535), PNG bytes, an ImageTexture, or ``squall.textures.image(...)``.
             rigidity: R, an (H, W) array in [-1, 1]: 1 rigid (kept), -1 stretchable.
             control: "constant" (d mu = d_mu), "map" (kappa d_mu_map), "isotropic",
                 "anisotropic" (the deformation gradient, from deformation_start to
