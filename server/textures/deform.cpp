@@ -52,10 +52,10 @@ void DeformEngine::validate(const DeformSpec& spec, const std::string& path) con
   validate_deform(spec, impl_->gate, path);
 }
 
-std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec) {
+std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec, const Cancellation& cancel) {
   std::shared_ptr<const FlowField> flow = impl_->flows.find(spec);
   if (!flow) {
-    flow = solve_flow(impl_->runtime, *impl_->kernels, spec);
+    flow = solve_flow(impl_->runtime, *impl_->kernels, spec, cancel);
     impl_->flows.keep(spec, flow);
   }
   return make_deformation(impl_->runtime, impl_->kernels, std::move(flow), spec);

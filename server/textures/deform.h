@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "runtime/runtime.h"
 #include "textures/deform_spec.h"
@@ -58,8 +59,9 @@ class DeformEngine {
   // the stack's levels) within --max-grid-cells (RESOURCE_EXHAUSTED).
   void validate(const DeformSpec& spec, const std::string& path) const;
   // A validated spec's deformation. The flow field is solved here (or reused: the last few solves are
-  // kept, keyed by the rigidity, chart, size, tolerance and iterations).
-  std::unique_ptr<Deformation> start(const DeformSpec& spec);
+  // kept, keyed by the rigidity, chart, size, tolerance and iterations); the solve asks `cancel` between
+  // its iterations (Error(Cancelled)).
+  std::unique_ptr<Deformation> start(const DeformSpec& spec, const Cancellation& cancel = {});
 
  private:
   struct Impl;

@@ -11,6 +11,8 @@
 namespace squall::textures {
 namespace {
 
+constexpr int kCancelEvery = 16;  // CGLS iterations between two looks at the call's cancellation
+
 // 64-bit FNV-1a.
 uint64_t hash_bytes(uint64_t h, const void* data, size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
@@ -60,8 +62,9 @@ class Cgls {
     partial_t_ = buffer(chunks(w_) * h_);
   }
 
-  // x from 0 until |D^T r| <= tolerance |D^T b| or max_iterations; then the true residual of x.
-  FlowSolve run(double tolerance, int max_iterations) {
+  // x from 0 until |D^T r| <= tolerance |D^T b| or max_iterations; then the true residual of x. Asks
+  // `cancel` every kCancelEvery iterations.
+  FlowSolve run(double tolerance, int max_iterations, const Cancellation& cancel) {
     FlowSolve out;
     zero(x_, 2 * texels_);
     write_b();
@@ -70,6 +73,7 @@ class Cgls {
     if (gamma0 == 0) return out;  // D^T b = 0: v = 0 solves the normal equations
     copy(s_, p_, 2 * texels_);
     while (out.iterations < max_iterations) {
+      if (out.iterations % kCancelEvery == 0) cancel.check("the deformation's flow solve");
       const double qq = apply_d(p_);  // q = D p
       if (qq == 0) break;
       const double alpha = gamma / qq;
@@ -221,13 +225,14 @@ std::vector<double> dual_rigidity(int width, int height, const std::vector<float
   return out;
 }
 
-std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec) {
+std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec,
+                                            const Cancellation& cancel) {
   auto flow = std::make_shared<FlowField>();
   flow->width = spec.width;
   flow->height = spec.height;
   flow->buffer = cl::Buffer(runtime.context(), CL_MEM_READ_WRITE, flow->bytes());
   Cgls cgls(runtime, kernels, spec);
-  flow->solve = cgls.run(spec.tolerance, spec.max_iterations);
+  flow->solve = cgls.run(spec.tolerance, spec.max_iterations, cancel);
   cgls.store(flow->buffer);
   flow->v.resize(size_t(spec.width) * spec.height * 2);
   auto lock = runtime.exclusive();

@@ -30,7 +30,8 @@ std::vector<uint8_t> free_texels(int width, int height, const std::vector<uint8_
 std::vector<double> dual_rigidity(int width, int height, const std::vector<float>& rigidity);
 
 // Solves eq. 6 for a validated spec on the device.
-std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec);
+std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec,
+                                            const Cancellation& cancel = {});
 
 // The last few solves, keyed by rigidity, chart, size, tolerance and iterations (compared in full).
 class FlowCache {

@@ -6,18 +6,15 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <sstream>
 #include <string>
-#include <vector>
 #include <thread>
+#include <vector>
 
-#include <unistd.h>
-
-#include "client/client.h"
 #include <openvdb/io/Stream.h>
 
+#include "client/client.h"
 #include "clouds/volume.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "support/daemon.h"
@@ -269,18 +266,6 @@ double timed_render(const v1::RenderRequest& request) {
   return seconds_since(start);
 }
 
-// squalld's CPU time (user + system), s, from /proc/PID/stat.
-double cpu_seconds(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::istringstream fields(text.substr(text.rfind(')') + 2));  // after "pid (comm) "
-  std::string field;
-  double ticks = 0;
-  for (int i = 3; i <= 15 && fields >> field; ++i)
-    if (i >= 14) ticks += std::stod(field);  // utime, stime
-  return ticks / double(sysconf(_SC_CLK_TCK));
-}
-
 // The sphere model kept as a volume: the renders below time the render alone, not the build.
 std::string kept_sphere() {
   auto c = call();
@@ -384,10 +369,9 @@ TEST(CloudsService, AnExpiredBuildStopsUsingTheCores) {
   const grpc::Status expired = c.build(advected_build(sphere_model(), 0.25), &built);
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   std::this_thread::sleep_for(std::chrono::seconds(1));
-  const pid_t pid = daemon().process().pid();
-  const double before = cpu_seconds(pid);
+  const double before = daemon().process().cpu_seconds();
   std::this_thread::sleep_for(std::chrono::seconds(2));
-  EXPECT_LT(cpu_seconds(pid) - before, 0.5) << "squalld kept computing the expired build";
+  EXPECT_LT(daemon().process().cpu_seconds() - before, 0.5) << "squalld kept computing the expired build";
 }
 
 // 64 pixels at a 0.1 mm step with direct shadows every cm: 2.6e10 samples in all (admitted by

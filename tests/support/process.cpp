@@ -14,6 +14,17 @@
 
 namespace squall::test {
 
+double Process::cpu_seconds() const {
+  std::ifstream in("/proc/" + std::to_string(pid_) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(text.substr(text.rfind(')') + 2));  // after "pid (comm) "
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i)
+    if (i >= 14) ticks += std::stod(field);  // utime, stime
+  return ticks / double(sysconf(_SC_CLK_TCK));
+}
+
 Process::Process(const std::vector<std::string>& argv, const std::string& log_path) : log_path_(log_path) {
   pid_ = fork();
   if (pid_ < 0) throw std::runtime_error("fork failed");

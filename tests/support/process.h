@@ -17,6 +17,8 @@ class Process {
   Process& operator=(const Process&) = delete;
 
   pid_t pid() const { return pid_; }
+  // The CPU time the child has used so far (user + system, all its threads), s, from /proc/PID/stat.
+  double cpu_seconds() const;
   void signal(int sig) const;
   // Waits up to `seconds`; returns the exit code, or -1 on timeout, or -(128 + signal) if killed.
   int wait(double seconds);

@@ -4,8 +4,10 @@
 // get INVALID_ARGUMENT naming the field; `squall texture deform` writes EXR and PNG frames.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <thread>
 
 #include "common/field_codec.h"
 #include "service_support.h"
@@ -169,6 +171,37 @@ TEST(TexturesDeform, TensorControlFollowsTheGradientSentEachMessage) {
   }
   ASSERT_TRUE(call.finish().ok());
   EXPECT_LT(last, 0.1) << "the isotropic control is reversible (eq. 7)";
+}
+
+// A flow solve of 100000 CGLS iterations on 1024 x 1024 texels (minutes of the two cores) under a 1 s
+// deadline: squalld stops solving within a second of the deadline, between two iterations.
+TEST(TexturesDeform, AnExpiredFlowSolveStopsUsingTheCores) {
+  constexpr uint32_t n = 1024;
+  v1::DeformTextureRequest r;
+  std::vector<float> texture(n * n), rigidity(n * n);
+  for (uint32_t k = 0; k < n * n; ++k) {
+    texture[k] = float(k % 7) / 7;
+    rigidity[k] = (k * 2654435761u) >> 31 ? 1.0f : -1.0f;  // rigid and elastic texels mixed at random
+  }
+  *r.mutable_texture()->add_channels() = float_field("a", n, n, texture);
+  *r.mutable_rigidity() = float_field("R", n, n, rigidity);
+  r.set_control(v1::DEFORM_CONTROL_CONSTANT);
+  r.set_d_mu(0.5);
+  r.set_frames(1);
+  r.set_tolerance(1e-12);
+  r.set_max_iterations(100000);
+  r.add_planes(v1::DEFORM_PLANE_FLOW);
+  client::Client client({daemon().address(), 1, ""});
+  auto context = client.context();
+  auto reader = v1::Textures::NewStub(client.channel())->DeformTexture(context.get(), r);
+  for (v1::DeformFrame frame; reader->Read(&frame);) {
+  }
+  const grpc::Status expired = reader->Finish();
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const double before = daemon().process().cpu_seconds();
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  EXPECT_LT(daemon().process().cpu_seconds() - before, 0.5) << "squalld kept solving the expired flow";
 }
 
 TEST(TexturesDeform, BadRequestsNameTheField) {
