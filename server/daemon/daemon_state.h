@@ -41,7 +41,10 @@ struct DaemonState {
               const std::string& replica)
       : runtime(runtime_options),
         serving(with_memory_budgets(limits, runtime)),
-        sessions(std::move(state_dir), replica) {}
+        sessions(std::move(state_dir), replica) {
+    runtime.buffers().attach(&serving.gate());  // idle device buffers count in --memory-budget
+  }
+  ~DaemonState() { runtime.buffers().attach(nullptr); }  // before the gate goes
 
   Runtime runtime;
   ServingState serving;

@@ -1,6 +1,8 @@
 #include "runtime/buffer_pool.h"
 
 #include <cstdlib>
+#include <iterator>
+#include <utility>
 
 #include "common/error.h"
 #include "runtime/kernel.h"
@@ -79,8 +81,46 @@ void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {
   const int slot = held_slot_();
   std::lock_guard<std::mutex> lock(mutex_);
   if (idle_bytes_ + bytes > max_idle_bytes_) return;  // dropped: released by cl::Buffer
-  idle_.emplace(bytes, Idle{std::move(buffer), slot});
+  Slot budget;
+  if (gate_) {
+    if (!gate_->memory_room(bytes)) return;  // dropped: the budget's room is the calls'
+    try {
+      budget = gate_->acquire_cache_memory("an idle device buffer", bytes);
+    } catch (const Error&) {  // taken meanwhile
+      return;
+    }
+  }
+  idle_.emplace(bytes, Idle{std::move(buffer), slot, std::move(budget)});
   idle_bytes_ += bytes;
+}
+
+// The gate's reclaimer list is changed outside mutex_: a call taking memory back holds the gate's lock and
+// then takes mutex_ (reclaim()).
+void BufferPool::attach(LimitGate* gate) {
+  LimitGate* old = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    old = std::exchange(gate_, nullptr);
+  }
+  if (old) old->remove_reclaimer(this);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    idle_.clear();  // what was counted in the old gate goes with it; nothing idle is counted in the new one
+    idle_bytes_ = 0;
+    gate_ = gate;
+  }
+  if (gate) gate->add_reclaimer(this);
+}
+
+void BufferPool::reclaim(uint64_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  uint64_t freed = 0;
+  while (freed < bytes && !idle_.empty()) {
+    auto largest = std::prev(idle_.end());
+    freed += largest->first;
+    idle_bytes_ -= largest->first;
+    idle_.erase(largest);  // released by cl::Buffer (after the commands that use it), its budget given back
+  }
 }
 
 void BufferPool::settle(int slot) {

@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 
+#include "common/limits.h"
 #include "runtime/opencl.h"
 
 namespace squall {
@@ -47,7 +48,7 @@ class BufferLease {
   size_t bytes_ = 0;
 };
 
-class BufferPool {
+class BufferPool : public MemoryReclaimer {
  public:
   // Buffers handed back are kept while the idle ones total at most max_idle_bytes. host_memory: the
   // device is a CPU, which computes in host memory; each buffer is made over host memory of its own
@@ -57,6 +58,14 @@ class BufferPool {
   BufferPool(
       const cl::Context& context, size_t max_idle_bytes, bool host_memory = false,
       std::function<int()> held_slot = [] { return -1; });
+
+  ~BufferPool() override { attach(nullptr); }
+
+  // From now on the idle buffers count in `gate`'s memory budget as cached memory (a call that needs the
+  // room takes them back, reclaim()), and a buffer handed back that finds no room there is released. null:
+  // no longer; a pool attached is detached before its gate goes.
+  void attach(LimitGate* gate);
+  void reclaim(uint64_t bytes) override;  // releases idle buffers, the largest first
 
   BufferLease acquire(size_t bytes);  // bytes > 0
 
@@ -77,7 +86,8 @@ class BufferPool {
   bool host_memory_;
   struct Idle {
     cl::Buffer buffer;
-    int slot;  // the queue whose work may still use it, -1 for none
+    int slot;     // the queue whose work may still use it, -1 for none
+    Slot budget;  // its bytes in the attached gate's memory budget, as cached memory
   };
 
   std::function<int()> held_slot_;
@@ -85,6 +95,7 @@ class BufferPool {
   std::multimap<size_t, Idle> idle_;
   size_t idle_bytes_ = 0;
   size_t allocations_ = 0;
+  LimitGate* gate_ = nullptr;
 };
 
 }  // namespace squall

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "common/error.h"
+#include "common/limits.h"
 #include "runtime/buffer_pool.h"
 #include "runtime/host_transfer.h"
 #include "runtime/kernel.h"
@@ -204,6 +205,31 @@ TEST(BufferPool, ReusesBuffersOfTheSameSize) {
   auto big = pool.acquire(2 << 20);  // larger than the idle cap: not kept when handed back
   big = BufferLease();
   EXPECT_EQ(pool.idle_bytes(), 4096u * 2 + 8192u);
+}
+
+// Attached to a memory budget, the idle buffers count in it as cached memory: a call that needs the room
+// takes them back, and a buffer handed back that finds no room is released rather than kept.
+TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
+  Limits limits;
+  limits.memory_budget = 1 << 20;
+  LimitGate gate(limits);
+  BufferPool pool(test::runtime().context(), 1 << 20);
+  pool.attach(&gate);
+  pool.acquire(256 << 10);
+  pool.acquire(128 << 10);
+  EXPECT_EQ(pool.idle_bytes(), 384u << 10);
+  EXPECT_EQ(gate.cached_memory_bytes(), 384u << 10);
+  EXPECT_EQ(gate.memory_bytes(), 384u << 10);
+  {
+    Slot call = gate.acquire_memory("a call", 768 << 10);  // room for it: the larger idle buffer goes
+    EXPECT_EQ(pool.idle_bytes(), 128u << 10);
+    EXPECT_EQ(gate.memory_bytes(), 896u << 10);
+    pool.acquire(256 << 10);  // handed back with 128 KiB of room left: released
+    EXPECT_EQ(pool.idle_bytes(), 128u << 10);
+  }
+  pool.attach(nullptr);  // detached: the gate holds nothing of the pool's
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
 // On a CPU device each pool buffer is made over host memory of its own, aligned, in which the device
