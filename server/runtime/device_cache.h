@@ -29,9 +29,10 @@ class DeviceCache : public MemoryReclaimer {
   };
 
   // A buffer larger than `max_bytes` is returned but not kept. Each buffer kept holds its bytes in `gate`'s
-  // memory budget (none: not counted) as cached memory, as `what`: where the budget has no room for a new
-  // one, the least recently used give theirs, and where even all of theirs would not make room it is
-  // returned but not kept (the others stay); a call that needs the room takes it back.
+  // memory budget (none: not counted) as cached memory, as `what`, until it is released by the cache and by
+  // every call that got it (an evicted buffer still in use still holds its memory): where the budget has no
+  // room for a new one, the least recently used are evicted, and where even all of theirs would not make room
+  // it is returned but not kept (the others stay); a call that needs the room takes it back.
   DeviceCache(size_t max_bytes, LimitGate* gate, std::string what)
       : max_bytes_(max_bytes), gate_(gate), what_(std::move(what)) {
     if (gate_) gate_->add_reclaimer(this);
@@ -97,8 +98,18 @@ class DeviceCache : public MemoryReclaimer {
     Key key;
     cl::Buffer buffer;
     size_t bytes = 0;
-    Slot memory;  // its bytes in the memory budget
   };
+
+  // `memory` is released with the buffer's last reference (its destructor callback), not with the cache's.
+  static void hold_until_released(cl::Buffer& buffer, Slot memory) {
+    auto* held = new Slot(std::move(memory));
+    try {
+      buffer.setDestructorCallback([](cl_mem, void* slot) { delete static_cast<Slot*>(slot); }, held);
+    } catch (...) {
+      delete held;
+      throw;
+    }
+  }
 
   cl::Buffer find(const Key& key) {  // under mutex_; none on a miss
     for (auto it = entries_.begin(); it != entries_.end(); ++it)
@@ -109,7 +120,7 @@ class DeviceCache : public MemoryReclaimer {
     return cl::Buffer();
   }
 
-  void keep(const Key& key, const Made& made) {                    // under mutex_
+  void keep(const Key& key, Made& made) {                          // under mutex_
     if (gate_ && !gate_->memory_room(made.bytes, bytes_)) return;  // it serves its caller alone; the kept stay
     while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
     Slot memory;
@@ -122,7 +133,8 @@ class DeviceCache : public MemoryReclaimer {
         evict_oldest();                // the budget the least recently used hold goes to the newest
       }
     }
-    entries_.push_front(Entry{key, made.buffer, made.bytes, std::move(memory)});
+    if (gate_) hold_until_released(made.buffer, std::move(memory));
+    entries_.push_front(Entry{key, made.buffer, made.bytes});
     bytes_ += made.bytes;
   }
 

@@ -13,6 +13,7 @@
 #include "common/error.h"
 #include "common/limits.h"
 #include "runtime/buffer_pool.h"
+#include "runtime/device_cache.h"
 #include "runtime/host_transfer.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
@@ -230,6 +231,28 @@ TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
   pool.attach(nullptr);  // detached: the gate holds nothing of the pool's
   EXPECT_EQ(gate.memory_bytes(), 0u);
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
+}
+
+// A buffer the cache keeps holds its bytes in the budget until the cache and every call that got it have
+// released it: evicted for a call that needs the room while another call still uses it, it still counts,
+// and the call is refused; once that use ends, the room is there.
+TEST(DeviceCache, AnEvictedBufferStillInUseStillCountsInTheMemoryBudget) {
+  Limits limits;
+  limits.memory_budget = 1 << 20;
+  LimitGate gate(limits);
+  DeviceCache<int> cache(1 << 20, &gate, "a test buffer");
+  auto make = [] {
+    return DeviceCache<int>::Made{cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, 512 << 10), 512 << 10};
+  };
+  cl::Buffer in_use = cache.get(1, make);
+  EXPECT_EQ(gate.cached_memory_bytes(), 512u << 10);
+  test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("a call", 768 << 10); });
+  EXPECT_EQ(cache.entries(), 0u);  // evicted for the call all the same
+  EXPECT_EQ(gate.memory_bytes(), 512u << 10);
+  in_use = cl::Buffer();  // the last use ends: its memory goes
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+  Slot call = gate.acquire_memory("a call", 768 << 10);
+  EXPECT_EQ(gate.memory_bytes(), 768u << 10);
 }
 
 // On a CPU device each pool buffer is made over host memory of its own, aligned, in which the device
