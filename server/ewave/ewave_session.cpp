@@ -106,7 +106,15 @@ uint64_t EWaveSession::device_bytes() const {
   return bytes;
 }
 
+void EWaveSession::check_whole() const {
+  if (!broken_.empty())
+    fail(Code::FailedPrecondition, "the session's " + broken_ +
+                                       "; its fields are undefined: restore it from a state or checkpoint taken "
+                                       "before, or close it");
+}
+
 std::string EWaveSession::state() const {
+  check_whole();
   std::string bytes = new_state(config_, step_, time_);
   auto lock = runtime_.exclusive();
   runtime_.queue().enqueueReadBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,
@@ -142,6 +150,7 @@ void EWaveSession::restore(const std::string& bytes) {
                                       state_fields(bytes));
   step_ = h.step;
   time_ = h.time;
+  broken_.clear();
 }
 
 }  // namespace squall::ewave

@@ -41,7 +41,9 @@ class EWaveSession {
   uint64_t step_index() const { return step_; }
   double time() const { return time_; }
 
-  // One step of inputs.dt (validated first; the session is unchanged when they are rejected).
+  // One step of inputs.dt (validated first; the session is unchanged when they are rejected). A step that
+  // fails once it has begun to change the fields leaves the session broken: this and state() then answer
+  // FAILED_PRECONDITION until restore().
   Frame step(const StepInputs& inputs);
   // The surface current u = grad phi at the session time on the cells (nodes at ((i + 0.5) dx, (j + 0.5)
   // dy)), by central differences, periodic like the FFT propagation.
@@ -77,11 +79,13 @@ class EWaveSession {
   // O *= the uncovered fraction of `shapes` around them; reset: O = that fraction there, and 1 again
   // in the cells the last reset covered (shape_map_cells_).
   void rasterize(const std::vector<Shape>& shapes, bool reset);
-  void prepare(const StepInputs& inputs, bool has_obstruction);
+  // The first command of a step that changes the fields; ambient_height: ambient()'s.
+  void prepare(const StepInputs& inputs, bool has_obstruction, const cl::Buffer* ambient_height);
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
   void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours
+  void check_whole() const;                               // FailedPrecondition once broken_
   fft::Precision precision() const { return config_.double_precision ? fft::Precision::F64 : fft::Precision::F32; }
 
   Runtime& runtime_;
@@ -93,6 +97,10 @@ class EWaveSession {
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
   uint64_t step_ = 0;
   double time_ = 0;
+  // Why a step failed after it began to change the fields (a device error, no memory for the frame); empty
+  // while they are whole. The fields are then neither the step's nor the one before: the session answers
+  // FAILED_PRECONDITION until restore() (check_whole()).
+  std::string broken_;
   AnyStepKernels kernels_;  // of the state's precision
   RasterizeKernel rasterize_;
   BufferLease state_, spectrum_, work_, out_, trim_x_, trim_y_;

@@ -49,6 +49,7 @@ using RealOf = typename std::decay_t<K>::RealType;
 }  // namespace
 
 Frame EWaveSession::step(const StepInputs& in) {
+  check_whole();
   validate(in, config_, gate_);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
@@ -64,13 +65,20 @@ Frame EWaveSession::step(const StepInputs& in) {
   fft::Plan& inverse =
       fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
   upload_maps(in);
-  bool has_obstruction = build_obstruction(in);
-  prepare(in, has_obstruction);  // §3.7 steps 1-3 and the sources of step 4
-  forward.enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
-  propagate(coefficients, fields);                                                                  // eq 64-65
-  inverse.enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());   // eq 66-67
-  finish(in, fields, has_obstruction);   // eq 68-69, §3.7 steps 5-7
-  Frame frame = read_frame(in.outputs);  // waits for the queue: the host vectors of the inputs are free after it
+  const bool has_obstruction = build_obstruction(in);
+  const cl::Buffer* ambient_height = ambient(in, has_obstruction);  // may refuse its ocean: the fields are whole
+  Frame frame;
+  try {
+    prepare(in, has_obstruction, ambient_height);  // §3.7 steps 1-3 and the sources of step 4
+    forward.enqueue(runtime_.queue(), fft::Direction::Forward, state_.buffer(), spectrum_.buffer());  // eq 62-63
+    propagate(coefficients, fields);                                                                  // eq 64-65
+    inverse.enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());   // eq 66-67
+    finish(in, fields, has_obstruction);  // eq 68-69, §3.7 steps 5-7
+    frame = read_frame(in.outputs);       // waits for the queue: the host vectors of the inputs are free after it
+  } catch (const std::exception& e) {
+    broken_ = "step " + std::to_string(step_ + 1) + " failed partway: " + e.what();
+    throw;
+  }
   ++step_;
   time_ += in.dt;
   frame.step = step_;
@@ -132,7 +140,7 @@ void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
   if (reset) shape_map_cells_ = cells;
 }
 
-void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
+void EWaveSession::prepare(const StepInputs& in, bool has_obstruction, const cl::Buffer* ambient_height) {
   const cl::Buffer& none = absent_map_.buffer();
   auto optional = [&](const BufferLease& lease, const std::vector<float>& values) -> const cl::Buffer& {
     return values.empty() ? none : lease.buffer();  // upload_maps() has uploaded it
@@ -143,7 +151,6 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction) {
     gain = -config_.friction_time * std::expm1(-in.dt / config_.friction_time);
   }
   const cl::Buffer& obstruction = has_obstruction ? obstruction_.buffer() : none;
-  const cl::Buffer* ambient_height = ambient(in, has_obstruction);
   const cl::Buffer& source_h = optional(source_h_, in.source_height);
   const cl::Buffer& source_phi = optional(source_phi_, in.source_phi);
   std::visit(
@@ -230,6 +237,7 @@ Frame EWaveSession::read_frame(const OutputSelection& o) const {
 }
 
 SurfaceCurrent EWaveSession::surface_current() const {
+  check_whole();
   Frame potential;
   {
     auto lock = runtime_.exclusive();
