@@ -33,6 +33,7 @@
 /* VelocityField.extrapolation: a grid sampled outside its nodes. */
 #define SQUALL_EXTRAPOLATE_CLAMP 0 /* clamp to the edge nodes */
 #define SQUALL_EXTRAPOLATE_ZERO 1  /* zero velocity outside the grid */
+#define SQUALL_EXTRAPOLATE_WRAP 2  /* periodic: node nx is node 0 again, node ny node 0 */
 
 #define SQUALL_VELOCITY_PARAMS 8
 

@@ -34,7 +34,9 @@ VelocityField field_of(const VelocitySpec& v) {
   if (v.kind != SQUALL_VELOCITY_GRID) return f;
   f.nx = v.nx;
   f.ny = v.ny;
-  f.extrapolation = v.extrapolation == Extrapolation::Zero ? SQUALL_EXTRAPOLATE_ZERO : SQUALL_EXTRAPOLATE_CLAMP;
+  f.extrapolation = v.extrapolation == Extrapolation::Zero   ? SQUALL_EXTRAPOLATE_ZERO
+                    : v.extrapolation == Extrapolation::Wrap ? SQUALL_EXTRAPOLATE_WRAP
+                                                             : SQUALL_EXTRAPOLATE_CLAMP;
   f.origin_x = float(v.origin_x);
   f.origin_y = float(v.origin_y);
   f.hx = float(v.hx);

@@ -27,7 +27,9 @@ constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;
 // Output region and velocity grid coordinates within +-kMaxCoordinate (du: float32 on the device).
 constexpr double kMaxCoordinate = 1e7;
 
-enum class Extrapolation { Clamp, Zero, PushPull };  // a velocity grid outside its nodes or its fluid
+// A velocity grid outside its nodes or its fluid: held at the edge nodes, zero, push-pull filled (then held),
+// or periodic (node nx is node 0 again: an ocean tile's current).
+enum class Extrapolation { Clamp, Zero, PushPull, Wrap };
 
 struct VelocityFrame {
   double time = 0;          // s

@@ -1,10 +1,14 @@
 #include "textures/textures_service.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "common/error.h"
 #include "common/field_codec.h"
 #include "common/validate.h"
 #include "ewave/shared_engine.h"
 #include "ocean/shared_engine.h"
+#include "ocean/spectrum_setup.h"
 #include "rpc/streaming.h"
 #include "textures/river_request.h"
 #include "textures/textures_request.h"
@@ -16,8 +20,9 @@ namespace v1 = squall::v1;
 using namespace squall::textures;
 namespace req = squall::textures::rpc;
 
-// A velocity grid of surface currents on the same nodes (du = m), one frame per current.
-VelocitySpec current_grid(std::vector<SurfaceCurrent> currents) {
+// A velocity grid of surface currents on the same nodes (du = m), one frame per current, extrapolated as
+// `outside`.
+VelocitySpec current_grid(std::vector<SurfaceCurrent> currents, Extrapolation outside) {
   const SurfaceCurrent& first = currents.front();
   VelocitySpec v;
   v.kind = SQUALL_VELOCITY_GRID;
@@ -28,8 +33,20 @@ VelocitySpec current_grid(std::vector<SurfaceCurrent> currents) {
   v.hx = first.dx;
   v.hy = first.dy;
   for (SurfaceCurrent& c : currents) v.frames.push_back({c.time, std::move(c.u), std::move(c.v)});
-  v.extrapolation = Extrapolation::Clamp;
+  v.extrapolation = outside;
   return v;
+}
+
+// Whether an ocean tile's current repeats past its output grid's edges: its extent a whole number of every
+// layer's patches (each layer periodic over its patch, J. Tessendorf, "Simulating Ocean Water", sec. 4.3).
+bool repeats(const ocean::TileSpec& spec) {
+  const ocean::OutputGrid grid = ocean::output_grid(spec);
+  auto whole = [](double extent, double patch) {
+    const double n = extent / patch;
+    return n >= 0.5 && std::abs(n - std::round(n)) <= 1e-9 * n;
+  };
+  return std::all_of(spec.layers.begin(), spec.layers.end(),
+                     [&](const ocean::LayerSpec& L) { return whole(grid.lx, L.lx) && whole(grid.ly, L.ly); });
 }
 
 }  // namespace
@@ -66,7 +83,8 @@ void TexturesService::follow(Stream& s, double from) {
   const req::FollowedCurrent& followed = s.current;
   if (followed.ocean) {
     s.spec.velocity = current_grid(
-        {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)});
+        {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)},
+        repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
     return;
   }
   if (followed.ewave_session.empty()) return;
@@ -80,7 +98,7 @@ void TexturesService::follow(Stream& s, double from) {
   if (current.nx < 2 || current.ny < 2)
     fail(Code::InvalidArgument, followed.path + " is a session of " + std::to_string(current.nx) + " x " +
                                     std::to_string(current.ny) + " cells: a followed current needs 2 x 2 or more");
-  s.spec.velocity = current_grid({std::move(current)});
+  s.spec.velocity = current_grid({std::move(current)}, Extrapolation::Clamp);
 }
 
 void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) {

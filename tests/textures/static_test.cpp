@@ -77,5 +77,33 @@ TEST(TexturesUv, NaiveCoordinatesAreTheWindowCarriedByTheFlow) {
   EXPECT_LT(worst, 1e-4);
 }
 
+// A periodic velocity grid (an ocean tile's current) wraps past its edges: the flow over the next period,
+// [1, 2] x [0, 1], is the flow over [0, 1]^2 moved by one period, so the coordinates carried there are
+// those of [0, 1]^2 plus S. Held at the edge nodes instead (clamp), they are off by about 0.1.
+TEST(TexturesUv, APeriodicVelocityGridWrapsPastItsEdges) {
+  constexpr int n = 16;  // nodes at (i, j) / n: node n is node 0 again
+  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_GRID, {}, 64);
+  VelocitySpec& v = spec.velocity;
+  v.nx = v.ny = n;
+  v.hx = v.hy = 1.0 / n;
+  v.extrapolation = Extrapolation::Wrap;
+  VelocityFrame frame;
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      frame.u.push_back(float(0.2 + 0.1 * std::sin(2 * M_PI * j / n)));
+      frame.v.push_back(float(0.1 * std::cos(2 * M_PI * i / n)));
+    }
+  }
+  v.frames = {frame};
+  const TextureFrame here = run(spec, 11).back();
+  spec.output.x0 = 1, spec.output.x1 = 2;
+  const TextureFrame next = run(spec, 11).back();
+  double worst = 0;
+  for (int k = 0; k < here.width * here.height; ++k)
+    worst = std::max({worst, std::abs(double(next.uv_x()[k]) - here.uv_x()[k] - spec.texture.scale),
+                      std::abs(double(next.uv_y()[k]) - here.uv_y()[k])});
+  EXPECT_LT(worst, 1e-3);
+}
+
 }  // namespace
 }  // namespace squall::test
