@@ -109,8 +109,8 @@ uint64_t EWaveSession::device_bytes() const {
 void EWaveSession::check_whole() const {
   if (!broken_.empty())
     fail(Code::FailedPrecondition, "the session's " + broken_ +
-                                       "; its fields are undefined: restore it from a state or checkpoint taken "
-                                       "before, or close it");
+                                       "; its fields are undefined: close it, and Restore a state taken before as a "
+                                       "new session");
 }
 
 std::string EWaveSession::state() const {

@@ -99,7 +99,7 @@ class EWaveSession {
   double time_ = 0;
   // Why a step failed after it began to change the fields (a device error, no memory for the frame); empty
   // while they are whole. The fields are then neither the step's nor the one before: the session answers
-  // FAILED_PRECONDITION until restore() (check_whole()).
+  // FAILED_PRECONDITION (check_whole()) until restore() gives it whole fields again.
   std::string broken_;
   AnyStepKernels kernels_;  // of the state's precision
   RasterizeKernel rasterize_;

@@ -289,22 +289,11 @@ def as_inputs(
 
 
 def step_request(session_id: str, item: InputsLike, index: int = 0) -> ewave_pb2.EWaveStepRequest:
-    """The EWaveStepRequest of one item of ``run``: an EWaveStepRequest (of this session: its
-    session_id empty or this session's), EWaveInputs, a mapping of ``inputs``' keyword arguments,
-    or a dt in s.
-
-    A request naming another session is refused (ValueError naming the item): the stream is routed
-    by this session's id (x-squall-session), and behind a session-affine proxy the other session
-    may live on another replica.
-    """
+    """The EWaveStepRequest of one item of ``run``: an EWaveStepRequest (its own session_id, else
+    this session's), EWaveInputs, a mapping of ``inputs``' keyword arguments, or a dt in s."""
     if isinstance(item, ewave_pb2.EWaveStepRequest):
-        if item.session_id == session_id:
-            return item
         if item.session_id:
-            raise ValueError(
-                f"run item {index}: an EWaveStepRequest of another session (step it through that "
-                "session's own run or step)"
-            )
+            return item
         request = ewave_pb2.EWaveStepRequest()
         request.CopyFrom(item)
         request.session_id = session_id
@@ -386,10 +375,11 @@ class EWaveSession:
 
         Args:
             items: an iterable (may be a generator) of EWaveInputs, mappings of ``inputs``' keyword
-                arguments, dt values (s), or EWaveStepRequests of this session (one naming another
-                session raises ValueError naming the item). Items are read as frames are taken,
-                at most 2 ahead of them: a caller that stops after its n-th frame (leaves the loop,
-                cancels) has had at most n + 2 steps applied by the stream.
+                arguments, dt values (s), or EWaveStepRequests (which may name another session: the
+                stream is routed by this session's id, so behind a session-affine proxy in front of
+                several replicas only this session's are sure to be found). Items are read as
+                frames are taken, at most 2 ahead of them: a caller that stops after its n-th frame
+                (leaves the loop, cancels) has had at most n + 2 steps applied by the stream.
 
         Returns:
             An iterator of EWaveFrames; it holds one --max-streams slot until it ends or is
