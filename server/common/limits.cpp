@@ -117,16 +117,25 @@ void LimitGate::check_memory(const std::string& what, uint64_t bytes) const {
                                       std::to_string(limits_.memory_budget));
 }
 
+// The room the caches give back may be taken by another holder before this call takes it (a buffer handed
+// back to the pool): the caches are asked again, a few times, while they could still make room.
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
-  if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
-    std::lock_guard<std::mutex> lock(reclaimers_mutex_);
-    for (MemoryReclaimer* cache : reclaimers_) {
-      const uint64_t held = memory_bytes_.load();
-      if (held <= limits_.memory_budget - bytes) break;
-      cache->reclaim(held - (limits_.memory_budget - bytes));
+  constexpr int kAttempts = 3;
+  for (int attempt = 1;; ++attempt) {
+    if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
+      std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+      for (MemoryReclaimer* cache : reclaimers_) {
+        const uint64_t held = memory_bytes_.load();
+        if (held <= limits_.memory_budget - bytes) break;
+        cache->reclaim(held - (limits_.memory_budget - bytes));
+      }
+    }
+    try {
+      return take_memory(what, bytes);
+    } catch (const Error&) {
+      if (attempt == kAttempts || !memory_room(bytes, cached_bytes_.load())) throw;
     }
   }
-  return take_memory(what, bytes);
 }
 
 Slot LimitGate::acquire_cache_memory(const std::string& what, uint64_t bytes) {
@@ -143,6 +152,12 @@ Slot LimitGate::cache_from(Slot& held, uint64_t bytes) {
   cached_bytes_ += bytes;
   slot.also_ = &cached_bytes_;
   return slot;
+}
+
+void LimitGate::uncache(Slot& cached) {
+  if (!cached.counter_ || cached.also_ != &cached_bytes_) return;
+  cached_bytes_ -= cached.amount_;
+  cached.also_ = nullptr;
 }
 
 void LimitGate::add_reclaimer(MemoryReclaimer* cache) {

@@ -108,6 +108,9 @@ class LimitGate {
   // and a cache keeps after it, e.g. a render's shadow map). `held` keeps the rest. An empty Slot, and
   // `held` unchanged, where `held` is not this budget's call memory or holds fewer bytes.
   Slot cache_from(Slot& held, uint64_t bytes);
+  // The reverse, for what a cache lets go while calls still use it: `cached` (acquire_cache_memory's) holds
+  // its bytes on as memory that no cache can give back. No-op for any other Slot.
+  void uncache(Slot& cached);
   // The caches acquire_memory takes memory back from, in the order added. A cache removes itself before it
   // goes.
   void add_reclaimer(MemoryReclaimer* cache);

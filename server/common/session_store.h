@@ -301,7 +301,12 @@ class SessionStore {
     {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (!entry->released && !let_go_if_taken_over(*entry)) {
-        state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        try {
+          state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        } catch (const Error& e) {  // a session with no state to save (broken) goes at its last checkpoint
+          if (e.code() != Code::FailedPrecondition) throw;  // the writing failed: asked again at the next tick
+          log(LogLevel::Error, kind_, " ", id, " not written (", e.what(), "): handed over at its last checkpoint");
+        }
         policy_.registry->release(id);
         entry->released = handed = true;  // a call already waiting for this entry answers UNAVAILABLE
       }

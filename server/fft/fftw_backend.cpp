@@ -212,7 +212,14 @@ class FftwPlan : public Plan {
   }
 
   // The aligned plan: a planning error reaches the caller.
+  // Also reports, once, a transform of this plan that did not run: to the next caller preparing it, before
+  // that caller's own commands change anything.
   void prepare(Direction direction, bool in_place) override {
+    {
+      std::lock_guard<std::mutex> lock(failure_mutex_);
+      if (std::string what = std::exchange(failure_, {}); !what.empty())
+        fail(Code::Internal, "fftw: an earlier " + describe(key()) + " did not run: " + what);
+    }
     check_direction(direction);
     if (in_place && key().transform != Transform::C2C)
       fail(Code::Internal, "fftw: " + describe(key()) + " needs two buffers");
@@ -221,14 +228,8 @@ class FftwPlan : public Plan {
 
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                const cl::Buffer& out) override {
-    const PlanKey& k = key();
     const bool in_place = in() == out();
-    {  // reported once: the plan is made again at the next transform that needs it
-      std::lock_guard<std::mutex> lock(failure_mutex_);
-      if (std::string what = std::exchange(failure_, {}); !what.empty())
-        fail(Code::Internal, "fftw: an earlier " + describe(k) + " did not run: " + what);
-    }
-    prepare(direction, in_place);
+    prepare(direction, in_place);  // the plan made again where it was not
     // PoCL 3.1 hands a native kernel the addresses of its buffers in the order they were created
     // (pocl_create_command_full sorts them), not in the order of mem_list: a kernel of two buffers cannot
     // tell input from output by them. A pool buffer on a device that computes in its host storage (the

@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <list>
 #include <mutex>
 #include <string>
@@ -72,11 +73,14 @@ class DeviceCache : public MemoryReclaimer {
     return made.buffer;
   }
 
+  // Evicts the least recently used buffers that no call holds now (evicting one in use frees nothing).
   void reclaim(uint64_t bytes) override {
     std::lock_guard<std::mutex> guard(mutex_);
-    for (uint64_t freed = 0; freed < bytes && !entries_.empty();) {
-      freed += entries_.back().bytes;
-      evict_oldest();
+    for (uint64_t freed = 0; freed < bytes;) {
+      auto unused = oldest_unused();
+      if (unused == entries_.end()) break;
+      freed += unused->bytes;
+      evict(unused);
     }
   }
 
@@ -98,10 +102,12 @@ class DeviceCache : public MemoryReclaimer {
     Key key;
     cl::Buffer buffer;
     size_t bytes = 0;
+    Slot* memory = nullptr;  // its bytes in the budget, owned by the buffer's destructor callback; none: no gate
   };
 
-  // `memory` is released with the buffer's last reference (its destructor callback), not with the cache's.
-  static void hold_until_released(cl::Buffer& buffer, Slot memory) {
+  // `memory` is released with the buffer's last reference (its destructor callback), not with the cache's;
+  // the Slot it is moved into, which stays valid while the cache holds a reference.
+  static Slot* hold_until_released(cl::Buffer& buffer, Slot memory) {
     auto* held = new Slot(std::move(memory));
     try {
       buffer.setDestructorCallback([](cl_mem, void* slot) { delete static_cast<Slot*>(slot); }, held);
@@ -109,6 +115,26 @@ class DeviceCache : public MemoryReclaimer {
       delete held;
       throw;
     }
+    return held;
+  }
+
+  using Entries = std::list<Entry>;
+
+  // The least recently used entry whose buffer only the cache holds (an OpenCL reference count of 1: no
+  // call, and no command queued); end() if none.
+  typename Entries::iterator oldest_unused() {
+    for (auto it = entries_.end(); it != entries_.begin();) {
+      --it;
+      if (it->buffer.template getInfo<CL_MEM_REFERENCE_COUNT>() == 1) return it;
+    }
+    return entries_.end();
+  }
+
+  // Lets go of an entry; a buffer that calls still use keeps its bytes in the budget, as call memory.
+  void evict(typename Entries::iterator it) {  // under mutex_
+    if (it->memory) gate_->uncache(*it->memory);
+    bytes_ -= it->bytes;
+    entries_.erase(it);
   }
 
   cl::Buffer find(const Key& key) {  // under mutex_; none on a miss
@@ -129,26 +155,24 @@ class DeviceCache : public MemoryReclaimer {
         memory = gate_->acquire_cache_memory(what_, made.bytes);
         counted = true;
       } catch (const Error&) {
-        if (entries_.empty()) return;  // the others' holdings grew meanwhile
-        evict_oldest();                // the budget the least recently used hold goes to the newest
+        auto unused = oldest_unused();
+        if (unused == entries_.end()) return;  // the others' holdings grew meanwhile, or are in use
+        evict(unused);                         // the budget the least recently used hold goes to the newest
       }
     }
-    if (gate_) hold_until_released(made.buffer, std::move(memory));
-    entries_.push_front(Entry{key, made.buffer, made.bytes});
+    Slot* held = gate_ ? hold_until_released(made.buffer, std::move(memory)) : nullptr;
+    entries_.push_front(Entry{key, made.buffer, made.bytes, held});
     bytes_ += made.bytes;
   }
 
-  void evict_oldest() {  // under mutex_
-    bytes_ -= entries_.back().bytes;
-    entries_.pop_back();
-  }
+  void evict_oldest() { evict(std::prev(entries_.end())); }  // under mutex_, with entries
 
   const size_t max_bytes_;
   LimitGate* gate_;
   const std::string what_;
   mutable std::mutex mutex_;
   std::condition_variable computed_one_;
-  std::list<Entry> entries_;    // most recently used first
+  Entries entries_;             // most recently used first
   std::vector<Key> computing_;  // misses being computed now
   size_t bytes_ = 0;
   uint64_t computed_ = 0;

@@ -11,8 +11,6 @@
 namespace squall::textures {
 namespace {
 
-constexpr int kCancelEvery = 16;  // CGLS iterations between two looks at the call's cancellation
-
 // 64-bit FNV-1a.
 uint64_t hash_bytes(uint64_t h, const void* data, size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
@@ -63,7 +61,7 @@ class Cgls {
   }
 
   // x from 0 until |D^T r| <= tolerance |D^T b| or max_iterations; then the true residual of x. Asks
-  // `cancel` every kCancelEvery iterations.
+  // `cancel` before each iteration.
   FlowSolve run(double tolerance, int max_iterations, const Cancellation& cancel) {
     FlowSolve out;
     zero(x_, 2 * texels_);
@@ -73,7 +71,7 @@ class Cgls {
     if (gamma0 == 0) return out;  // D^T b = 0: v = 0 solves the normal equations
     copy(s_, p_, 2 * texels_);
     while (out.iterations < max_iterations) {
-      if (out.iterations % kCancelEvery == 0) cancel.check("the deformation's flow solve");
+      cancel.check("the deformation's flow solve");
       const double qq = apply_d(p_);  // q = D p
       if (qq == 0) break;
       const double alpha = gamma / qq;

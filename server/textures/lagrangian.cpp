@@ -346,8 +346,9 @@ class Lagrangian final : public Advection {
     std::vector<Vec2> alive;
     for (size_t k = 0; k < particles_.size(); ++k)
       if (!particles_[k].fading()) alive.push_back(centre(k));
-    const std::vector<Vec2> born = poisson_fill(alive, region_, params_.d, angle_rng_, counter_);
+    std::vector<Vec2> born = poisson_fill(alive, region_, params_.d, angle_rng_, counter_);
     make_room(born.size(), stats);
+    born.resize(std::min(born.size(), held_limit_ - std::min(held_limit_, particles_.size())));  // the ALIVE fill it
     for (Vec2 p : born) {
       add_particle(p, birth);
       ++stats.born;

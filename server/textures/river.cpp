@@ -160,9 +160,10 @@ void for_each_bin_crossed(const cl_float4& s, const RiverGeometry& geo, F&& visi
   auto row = [&](double y) { return std::clamp(int((y - geo.bin_y0) / geo.bin_size), 0, geo.bins_y - 1); };
   auto y_at = [&](double x) { return ax == bx ? ay : ay + (by - ay) * (x - ax) / (bx - ax); };
   const double x_lo = std::min(ax, bx), x_hi = std::max(ax, bx);
-  for (int c = column(x_lo), c1 = column(x_hi); c <= c1; ++c) {
-    const double left = std::max(x_lo, geo.bin_x0 + double(c) * geo.bin_size);
-    const double right = std::min(x_hi, geo.bin_x0 + double(c + 1) * geo.bin_size);
+  const int c0 = column(x_lo), c1 = column(x_hi);
+  for (int c = c0; c <= c1; ++c) {  // the end columns to the segment's ends: a clamped column holds them
+    const double left = c == c0 ? x_lo : std::max(x_lo, geo.bin_x0 + double(c) * geo.bin_size);
+    const double right = c == c1 ? x_hi : std::min(x_hi, geo.bin_x0 + double(c + 1) * geo.bin_size);
     double y0 = ax == bx ? std::min(ay, by) : y_at(left), y1 = ax == bx ? std::max(ay, by) : y_at(right);
     if (y0 > y1) std::swap(y0, y1);
     y0 -= 1e-4 * geo.bin_size, y1 += 1e-4 * geo.bin_size;  // a segment through a bin's corner: both rows

@@ -234,25 +234,36 @@ TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
 }
 
 // A buffer the cache keeps holds its bytes in the budget until the cache and every call that got it have
-// released it: evicted for a call that needs the room while another call still uses it, it still counts,
-// and the call is refused; once that use ends, the room is there.
-TEST(DeviceCache, AnEvictedBufferStillInUseStillCountsInTheMemoryBudget) {
+// released it. A call that needs the room takes back only buffers no other call uses (evicting one in use
+// would free nothing); one evicted while in use (past the cache's own limit) holds its bytes on as call
+// memory, which no cache can give back, until its last use ends.
+TEST(DeviceCache, ABufferStillInUseStillCountsInTheMemoryBudget) {
+  constexpr size_t kBytes = 512 << 10;
+  auto make = [] {
+    return DeviceCache<int>::Made{cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, kBytes), kBytes};
+  };
   Limits limits;
   limits.memory_budget = 1 << 20;
   LimitGate gate(limits);
-  DeviceCache<int> cache(1 << 20, &gate, "a test buffer");
-  auto make = [] {
-    return DeviceCache<int>::Made{cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, 512 << 10), 512 << 10};
-  };
-  cl::Buffer in_use = cache.get(1, make);
-  EXPECT_EQ(gate.cached_memory_bytes(), 512u << 10);
-  test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("a call", 768 << 10); });
-  EXPECT_EQ(cache.entries(), 0u);  // evicted for the call all the same
-  EXPECT_EQ(gate.memory_bytes(), 512u << 10);
-  in_use = cl::Buffer();  // the last use ends: its memory goes
-  EXPECT_EQ(gate.memory_bytes(), 0u);
-  Slot call = gate.acquire_memory("a call", 768 << 10);
-  EXPECT_EQ(gate.memory_bytes(), 768u << 10);
+  {
+    DeviceCache<int> cache(1 << 20, &gate, "a test buffer");
+    cl::Buffer in_use = cache.get(1, make);
+    EXPECT_EQ(gate.cached_memory_bytes(), kBytes);
+    test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("a call", 768 << 10); });
+    EXPECT_EQ(cache.entries(), 1u);  // in use: kept
+    in_use = cl::Buffer();           // its last use ends: the cache gives it back for the next call
+    Slot call = gate.acquire_memory("a call", 768 << 10);
+    EXPECT_EQ(cache.entries(), 0u);
+    EXPECT_EQ(gate.memory_bytes(), 768u << 10);
+  }
+  DeviceCache<int> small(kBytes + 1, &gate, "a test buffer");
+  cl::Buffer in_use = small.get(1, make);
+  small.get(2, make);  // past the cache's limit: buffer 1 is evicted while in use
+  EXPECT_EQ(small.entries(), 1u);
+  EXPECT_EQ(gate.cached_memory_bytes(), kBytes);  // buffer 2's
+  EXPECT_EQ(gate.memory_bytes(), 2 * kBytes);     // and buffer 1's, as call memory
+  in_use = cl::Buffer();
+  EXPECT_EQ(gate.memory_bytes(), kBytes);
 }
 
 // On a CPU device each pool buffer is made over host memory of its own, aligned, in which the device
