@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import re
 import time
+from typing import Any, List
 
 import grpc
 import pytest
@@ -181,6 +182,21 @@ def test_a_cancelled_steering_stream_ends_quietly_as_in_the_sync_client(daemon) 
             steer.cancel()
 
 
+async def two_frames_once_the_slot_is_back(aclient: "squall.aio.Client", spec: Any) -> List[int]:
+    """The frame indices of a two-frame stream, opened as soon as the one-stream daemon's slot is free
+    again (RESOURCE_EXHAUSTED until squalld notices the last stream's end), within 10 s."""
+    deadline = time.monotonic() + 10
+    while True:
+        try:
+            return [
+                f.frame_index
+                async for f in aclient.ocean.stream(spec, dt=0.1, frames=2, outputs="height")
+            ]
+        except squall.SquallError as e:
+            assert e.code == grpc.StatusCode.RESOURCE_EXHAUSTED and time.monotonic() < deadline, e
+            await asyncio.sleep(0.05)
+
+
 def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
     spec = small_tile()
 
@@ -190,21 +206,7 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
             assert (await endless.__anext__()).frame_index == 0
             endless.cancel()
             assert [f async for f in endless] == []
-            deadline = time.monotonic() + 10
-            while True:
-                try:
-                    return [
-                        f.frame_index
-                        async for f in aclient.ocean.stream(
-                            spec, dt=0.1, frames=2, outputs="height"
-                        )
-                    ]
-                except squall.SquallError as e:
-                    assert (
-                        e.code == grpc.StatusCode.RESOURCE_EXHAUSTED
-                        and time.monotonic() < deadline
-                    ), e
-                    await asyncio.sleep(0.05)
+            return await two_frames_once_the_slot_is_back(aclient, spec)
 
     assert run(main()) == [0, 1]
 
@@ -224,21 +226,7 @@ def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> 
             )
             with pytest.raises(ValueError, match="cannot read"):
                 await endless.__anext__()
-            deadline = time.monotonic() + 10
-            while True:
-                try:
-                    return [
-                        f.frame_index
-                        async for f in aclient.ocean.stream(
-                            spec, dt=0.1, frames=2, outputs="height"
-                        )
-                    ]
-                except squall.SquallError as e:
-                    assert (
-                        e.code == grpc.StatusCode.RESOURCE_EXHAUSTED
-                        and time.monotonic() < deadline
-                    ), e
-                    await asyncio.sleep(0.05)
+            return await two_frames_once_the_slot_is_back(aclient, spec)
 
     assert run(main()) == [0, 1]
 
