@@ -75,6 +75,8 @@ Frame EWaveSession::step(const StepInputs& in) {
     inverse.enqueue(runtime_.queue(), fft::Direction::Inverse, spectrum_.buffer(), work_.buffer());   // eq 66-67
     finish(in, fields, has_obstruction);  // eq 68-69, §3.7 steps 5-7
     frame = read_frame(in.outputs);       // waits for the queue: the host vectors of the inputs are free after it
+    forward.check_ran();
+    inverse.check_ran();
   } catch (const std::exception& e) {
     broken_ = "step " + std::to_string(step_ + 1) + " failed partway: " + e.what();
     throw;

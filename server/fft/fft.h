@@ -64,6 +64,11 @@ class Plan {
   // plan. VkFFT's plan is complete when baked.
   virtual void prepare(Direction direction, bool /*in_place*/) { check_direction(direction); }
 
+  // After the queue has run the transforms enqueued under one lease: Error(Internal) if one of them did not
+  // run (its output is then NaN), reported to that caller, once. The other backends run in the device's own
+  // commands, whose failures the queue's wait reports.
+  virtual void check_ran() {}
+
  protected:
   void check_direction(Direction direction) const;  // R2C must be Forward, C2R Inverse
 

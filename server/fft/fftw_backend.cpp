@@ -212,19 +212,17 @@ class FftwPlan : public Plan {
   }
 
   // The aligned plan: a planning error reaches the caller.
-  // Also reports, once, a transform of this plan that did not run: to the next caller preparing it, before
-  // that caller's own commands change anything.
+  // Also reports, once, a transform of this plan that did not run and that its caller did not check
+  // (check_ran()): to the next caller preparing it, before that caller's own commands change anything.
   void prepare(Direction direction, bool in_place) override {
-    {
-      std::lock_guard<std::mutex> lock(failure_mutex_);
-      if (std::string what = std::exchange(failure_, {}); !what.empty())
-        fail(Code::Internal, "fftw: an earlier " + describe(key()) + " did not run: " + what);
-    }
+    report_failure("an earlier ");
     check_direction(direction);
     if (in_place && key().transform != Transform::C2C)
       fail(Code::Internal, "fftw: " + describe(key()) + " needs two buffers");
     plan(direction, in_place, false);
   }
+
+  void check_ran() override { report_failure(""); }
 
   void enqueue(const cl::CommandQueue& queue, Direction direction, const cl::Buffer& in,
                const cl::Buffer& out) override {
@@ -294,8 +292,15 @@ class FftwPlan : public Plan {
     }
   }
 
+  // Error(Internal) for a transform that did not run, once.
+  void report_failure(const std::string& which) {
+    std::lock_guard<std::mutex> lock(failure_mutex_);
+    if (std::string what = std::exchange(failure_, {}); !what.empty())
+      fail(Code::Internal, "fftw: " + which + describe(key()) + " did not run: " + what);
+  }
+
   // A transform that could not run (an unaligned plan that FFTW would not make) leaves NaN in its
-  // output, is logged, and fails the next enqueue of this plan (once).
+  // output, is logged, and is reported by check_ran() or the next prepare() of this plan (once).
   void failed(const std::string& what, void* out) {
     using Real = typename F::Real;
     const PlanKey& k = key();

@@ -39,7 +39,10 @@ class DeviceCache : public MemoryReclaimer {
     if (gate_) gate_->add_reclaimer(this);
   }
   ~DeviceCache() override {
-    if (gate_) gate_->remove_reclaimer(this);
+    if (!gate_) return;
+    gate_->remove_reclaimer(this);
+    std::lock_guard<std::mutex> guard(mutex_);
+    for (Entry& e : entries_) gate_->uncache(*e.memory);  // what calls still hold is no cache's now
   }
   DeviceCache(const DeviceCache&) = delete;
   DeviceCache& operator=(const DeviceCache&) = delete;
