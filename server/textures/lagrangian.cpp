@@ -54,7 +54,7 @@ class Lagrangian final : public Advection {
         time_(spec.t0) {
     const double d = params_.d;
     region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d, {}};
-    held_limit_ = size_t(2 * std::ceil((region_.x1 - region_.x0) * (region_.y1 - region_.y0) / (d * d)));
+    held_limit_ = lagrangian_grid_bound(spec);
     sample_fluid_of_inputs();
     if (!state.empty()) restore(state);
   }
@@ -468,6 +468,12 @@ class Lagrangian final : public Advection {
 };
 
 }  // namespace
+
+size_t lagrangian_grid_bound(const AdvectSpec& spec) {
+  const double d = spec.lagrangian.d;
+  return size_t(
+      2 * std::ceil((spec.output.x1 - spec.output.x0 + 2 * d) * (spec.output.y1 - spec.output.y0 + 2 * d) / (d * d)));
+}
 
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
                                            std::shared_ptr<const DeviceInputs> inputs, const std::string& state) {

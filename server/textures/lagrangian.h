@@ -6,6 +6,7 @@
 // the vertices (eqs. 5-8); the device rebuilds each frame directly (sec. 3.5.1) with eq. 4 or eq. 3.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 
 #include "textures/advection.h"
@@ -13,6 +14,10 @@
 #include "textures/texture_kernels.h"
 
 namespace squall::textures {
+
+// The most grids an advection of `spec` holds, ALIVE and FADING: twice the area of the output region grown
+// by d on each side over d^2.
+size_t lagrangian_grid_bound(const AdvectSpec& spec);
 
 // `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,

@@ -34,11 +34,9 @@ std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, const st
 
 uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
   if (spec.method == Method::LagrangianGrids) {
-    const LagrangianParams& p = spec.lagrangian;
-    const double grids = 2 * std::ceil((spec.output.x1 - spec.output.x0 + 2 * p.d) *
-                                       (spec.output.y1 - spec.output.y0 + 2 * p.d) / (p.d * p.d));
+    const uint64_t vertices = uint64_t(spec.lagrangian.grid_res) * uint64_t(spec.lagrangian.grid_res);
     constexpr uint64_t kBytesPerVertex = 40;  // host: position, u, weight; device: position, u, weight
-    return uint64_t(grids) * uint64_t(p.grid_res) * uint64_t(p.grid_res) * kBytesPerVertex;
+    return uint64_t(lagrangian_grid_bound(spec)) * vertices * kBytesPerVertex;
   }
   const EulerianParams& e = spec.eulerian;
   const uint64_t nodes = uint64_t(e.grid_nx) * uint64_t(e.grid_ny);

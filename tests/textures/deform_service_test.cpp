@@ -191,12 +191,10 @@ TEST(TexturesDeform, AnExpiredFlowSolveStopsUsingTheCores) {
   r.set_tolerance(1e-12);
   r.set_max_iterations(100000);
   r.add_planes(v1::DEFORM_PLANE_FLOW);
-  client::Client client({daemon().address(), 1, ""});
-  auto context = client.context();
-  auto reader = v1::Textures::NewStub(client.channel())->DeformTexture(context.get(), r);
-  for (v1::DeformFrame frame; reader->Read(&frame);) {
-  }
-  const grpc::Status expired = reader->Finish();
+  const grpc::Status expired =
+      read_stream<v1::DeformFrame>([&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformTexture(c, r); },
+                                   daemon().address(), 1)
+          .status;
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   std::this_thread::sleep_for(std::chrono::seconds(1));
   const double before = daemon().process().cpu_seconds();

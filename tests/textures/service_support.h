@@ -31,11 +31,11 @@ struct StreamedOf {
 };
 using Streamed = StreamedOf<v1::TextureFrame>;
 
-// Opens a server stream on a fresh client of the daemon (open(service, context) makes the call) and reads
-// it to its end.
+// Opens a server stream on a fresh client of the daemon at `address` (by default the binary's) with a
+// deadline of `timeout` s (open(service, context) makes the call) and reads it to its end.
 template <typename Frame, typename Open>
-StreamedOf<Frame> read_stream(const Open& open) {
-  client::Client client({daemon().address(), 300, ""});
+StreamedOf<Frame> read_stream(const Open& open, const std::string& address = daemon().address(), double timeout = 300) {
+  client::Client client({address, timeout, ""});
   auto service = v1::Textures::NewStub(client.channel());
   auto context = client.context();
   auto reader = open(*service, context.get());

@@ -373,12 +373,9 @@ TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
   auto run = [&](uint32_t nodes) {
     r.mutable_eulerian()->set_grid_nx(nodes);
     r.mutable_eulerian()->set_grid_ny(nodes);
-    client::Client client({d.address(), 300, ""});
-    auto context = client.context();
-    auto reader = v1::Textures::NewStub(client.channel())->AdvectTexture(context.get(), r);
-    for (v1::TextureFrame frame; reader->Read(&frame);) {
-    }
-    return reader->Finish();
+    return read_stream<v1::TextureFrame>(
+               [&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectTexture(c, r); }, d.address())
+        .status;
   };
   const grpc::Status refused = run(2048);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
