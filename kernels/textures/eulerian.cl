@@ -42,21 +42,21 @@ static float2 backtrace(const VelocityField* f, __global const float2* grid, flo
   return x - dt * velocity_at(f, grid, mid, t + 0.5f * dt);
 }
 
-/* One step [t, t + dt]: backtrace each node along the flow (RK2 midpoint), take every slot's state from
- * there (fresh coordinates where the backtrace leaves the region), add |e| dt to the deformation, and
- * regenerate the slots whose bit is set in reset_mask. */
+/* One step [0, dt] (times from the step's start, as the velocity's): backtrace each node along the flow (RK2
+ * midpoint), take every slot's state from there (fresh coordinates where the backtrace leaves the region),
+ * add |e| dt to the deformation, and regenerate the slots whose bit is set in reset_mask. */
 __kernel void eulerian_advect(__global const float4* state_in, __global float4* state_out, int nx, int ny,
-                              OutputGrid frame, int slots, VelocityField velocity, __global const float2* grid, float t,
+                              OutputGrid frame, int slots, VelocityField velocity, __global const float2* grid,
                               float dt, float scale, int reset_mask, __global const float2* offsets) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
   float hy = frame.pixel_y * (float)frame.height / (float)(ny - 1);
   float2 x = (float2)(frame.x0 + (float)i * hx, frame.y0 + (float)j * hy);
-  float2 back = backtrace(&velocity, grid, x, t, dt);
+  float2 back = backtrace(&velocity, grid, x, 0.0f, dt);
   float2 g = (float2)((back.x - frame.x0) / hx, (back.y - frame.y0) / hy);
   bool inside = g.x >= 0.0f && g.y >= 0.0f && g.x <= (float)(nx - 1) && g.y <= (float)(ny - 1);
-  float strain = strain_rate_norm(&velocity, grid, x, t + dt, 0.5f * min(hx, hy));
+  float strain = strain_rate_norm(&velocity, grid, x, dt, 0.5f * min(hx, hy));
   size_t node = (size_t)i + (size_t)nx * (size_t)j, plane = (size_t)nx * (size_t)ny;
   /* Inflow (a backtrace that leaves the grid) continues the map of the nearest edge point with the
    * window's gradient S: u(back) = u(edge) + S (back - edge), exact for a uniform flow. */
@@ -90,21 +90,21 @@ static float2 cascade_at(__global const float2* cascade, int nx, int ny, int k, 
   return mix(bottom, top, r);
 }
 
-/* One step [t, t + dt] of the vorticity cascade (ADV03 sec. 4): every band's (w_k, theta_k) taken from the
+/* One step [0, dt] (times from the step's start) of the vorticity cascade (ADV03 sec. 4): every band's (w_k, theta_k) taken from the
  * node's backtrace, then w_0 = c_w |omega| and, in increasing k with the previous step's w_(k-1),
  * w_k := beta_k w_k + (1 - beta_k) w_(k-1), beta_k = 2^(-dt / tau_k), tau_k = tau tau_ratio^(k-1); and
  * theta_k += w_k dt with the updated w_k. */
 __kernel void eulerian_cascade(__global const float2* cascade_in, __global float2* cascade_out, int nx, int ny,
                                OutputGrid frame, int bands, float c_w, float tau, float tau_ratio,
-                               VelocityField velocity, __global const float2* grid, float t, float dt) {
+                               VelocityField velocity, __global const float2* grid, float dt) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= nx || j >= ny) return;
   float hx = frame.pixel_x * (float)frame.width / (float)(nx - 1);
   float hy = frame.pixel_y * (float)frame.height / (float)(ny - 1);
   float2 x = (float2)(frame.x0 + (float)i * hx, frame.y0 + (float)j * hy);
-  float2 back = backtrace(&velocity, grid, x, t, dt);
+  float2 back = backtrace(&velocity, grid, x, 0.0f, dt);
   float2 g = (float2)((back.x - frame.x0) / hx, (back.y - frame.y0) / hy);
-  float w_0 = c_w * fabs(vorticity_at(&velocity, grid, x, t + dt, 0.5f * min(hx, hy)));
+  float w_0 = c_w * fabs(vorticity_at(&velocity, grid, x, dt, 0.5f * min(hx, hy)));
   float w_coarser = 0.0f; /* w_(k-1) of the previous step */
   for (int k = 0; k < bands; ++k) {
     float2 q = cascade_at(cascade_in, nx, ny, k, g);

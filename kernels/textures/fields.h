@@ -43,7 +43,9 @@
  *   offset 12  int   extrapolation   SQUALL_EXTRAPOLATE_* (grid only)
  *   offset 16  float origin_x, origin_y   position of node (0, 0), du
  *   offset 24  float hx, hy          node spacing, du
- *   offset 32  float time_a, time_b  times of the two frames interpolated (time_b == time_a: one frame)
+ *   offset 32  float time_a, time_b  times of the two frames interpolated (time_b == time_a: one frame), s after
+ *                                    the start of the step the field is passed for: kernels take times from
+ *                                    that start, so that float32 keeps them exact at any session time
  *   offset 40  int   frame_a, frame_b     offsets of those frames in the grid array, in nodes
  *   offset 48  int   has_mask        1: the mask array marks fluid nodes (nearest node decides)
  *   offset 52  int   reserved[3]
@@ -83,27 +85,27 @@ typedef struct VelocityField {
 #define SQUALL_EULERIAN_MAX_PHASES 3
 #define SQUALL_EULERIAN_MAX_SLOTS (SQUALL_EULERIAN_MAX_LAYERS * SQUALL_EULERIAN_MAX_PHASES)
 
-/* Layout (128 bytes, every member 4 bytes, no padding):
+/* Layout (144 bytes, every member 4 bytes, no padding):
  *   offset  0  int   kind            SQUALL_TEXTURE_*
  *   offset  4  int   channels        image channels, or noise bands; 1..SQUALL_TEXTURE_MAX_CHANNELS
  *   offset  8  int   width, height   image pixels per period (image only)
  *   offset 16  uint  seed            noise gradients
  *   offset 20  float base_cells      noise lattice cells per period in band 0 (band j: base_cells 2^j)
- *   offset 24  float spin            flow noise: gradient rotation rate of band 0, rad/s (band j: spin 2^(2j/3))
- *   offset 28  float time            s, the time the flow noise is evaluated at
- *   offset 32  float mean[8]         Rhat per channel (sec. 3.4, eq. 4)
- *   offset 64  int   final_function  SQUALL_FINAL_*
- *   offset 68  float final_scale     scale of F
+ *   offset 24  float mean[8]         Rhat per channel (sec. 3.4, eq. 4)
+ *   offset 56  float turn[8]         flow noise: the angle band c's gradients have turned by at the frame's time,
+ *                                    rad in [0, 2 pi): spin 2^(2c/3) t, reduced on the host in double
+ *   offset 88  int   final_function  SQUALL_FINAL_*
+ *   offset 92  float final_scale     scale of F
  * SQUALL_FINAL_LUT only (Q. Yu, F. Neyret, E. Bruneton, N. Holzschuch, "Lagrangian Texture Advection",
  * IEEE TVCG 2011, sec. 3.2, the fire example: T = LUT(s(x) + final_scale sum_j 2^-j g(a_j))):
- *   offset 72  int   lut_entries     N, 2..SQUALL_LUT_MAX_ENTRIES
- *   offset 76  int   lut_channels    C, 1..SQUALL_LUT_MAX_CHANNELS: the final planes
- *   offset 80  float lut_min, lut_max     the input range of the table: entry k at lut_min + k (max - min) / (N - 1)
- *   offset 88  int   lut_band_shape  g: SQUALL_FINAL_SUM_BANDS (a), _TURBULENCE (|2a - 1|) or _RIDGED (1 - |2a - 1|)
- *   offset 92  int   scalar_nx, scalar_ny       nodes of the scalar field s (0: no field, s = 0)
- *   offset 100 float scalar_origin_x, scalar_origin_y   position of node (0, 0), du
- *   offset 108 float scalar_hx, scalar_hy       node spacing, du
- *   offset 116 int   reserved[3]
+ *   offset 96  int   lut_entries     N, 2..SQUALL_LUT_MAX_ENTRIES
+ *   offset 100 int   lut_channels    C, 1..SQUALL_LUT_MAX_CHANNELS: the final planes
+ *   offset 104 float lut_min, lut_max     the input range of the table: entry k at lut_min + k (max - min) / (N - 1)
+ *   offset 112 int   lut_band_shape  g: SQUALL_FINAL_SUM_BANDS (a), _TURBULENCE (|2a - 1|) or _RIDGED (1 - |2a - 1|)
+ *   offset 116 int   scalar_nx, scalar_ny       nodes of the scalar field s (0: no field, s = 0)
+ *   offset 124 float scalar_origin_x, scalar_origin_y   position of node (0, 0), du
+ *   offset 132 float scalar_hx, scalar_hy       node spacing, du
+ *   offset 140 int   reserved
  * The image array holds `channels` planes of width x height floats, x fastest. The LUT array holds N
  * entries of C floats (entry after entry); the scalar array nx * ny floats, x fastest, bilinear and
  * clamped to its edge nodes. */
@@ -113,9 +115,8 @@ typedef struct TextureSource {
   int width, height;
   unsigned int seed;
   float base_cells;
-  float spin;
-  float time;
   float mean[SQUALL_TEXTURE_MAX_CHANNELS];
+  float turn[SQUALL_TEXTURE_MAX_CHANNELS];
   int final_function;
   float final_scale;
   int lut_entries, lut_channels;
@@ -124,7 +125,7 @@ typedef struct TextureSource {
   int scalar_nx, scalar_ny;
   float scalar_origin_x, scalar_origin_y;
   float scalar_hx, scalar_hy;
-  int reserved[3];
+  int reserved;
 } TextureSource;
 
 /* The output pixels: width x height over a region whose lower-left corner is (x0, y0); pixel (px, py)
@@ -192,30 +193,29 @@ SQUALL_ASSERT_OFFSET(OutputGrid, pixel_x, 16);
 SQUALL_ASSERT_OFFSET(OutputGrid, pixel_y, 20);
 SQUALL_ASSERT_OFFSET(OutputGrid, tile, 24);
 SQUALL_ASSERT_OFFSET(OutputGrid, tiles_x, 28);
-SQUALL_ASSERT_SIZE(TextureSource, 128);
+SQUALL_ASSERT_SIZE(TextureSource, 144);
 SQUALL_ASSERT_OFFSET(TextureSource, kind, 0);
 SQUALL_ASSERT_OFFSET(TextureSource, channels, 4);
 SQUALL_ASSERT_OFFSET(TextureSource, width, 8);
 SQUALL_ASSERT_OFFSET(TextureSource, height, 12);
 SQUALL_ASSERT_OFFSET(TextureSource, seed, 16);
 SQUALL_ASSERT_OFFSET(TextureSource, base_cells, 20);
-SQUALL_ASSERT_OFFSET(TextureSource, spin, 24);
-SQUALL_ASSERT_OFFSET(TextureSource, time, 28);
-SQUALL_ASSERT_OFFSET(TextureSource, mean, 32);
-SQUALL_ASSERT_OFFSET(TextureSource, final_function, 64);
-SQUALL_ASSERT_OFFSET(TextureSource, final_scale, 68);
-SQUALL_ASSERT_OFFSET(TextureSource, lut_entries, 72);
-SQUALL_ASSERT_OFFSET(TextureSource, lut_channels, 76);
-SQUALL_ASSERT_OFFSET(TextureSource, lut_min, 80);
-SQUALL_ASSERT_OFFSET(TextureSource, lut_max, 84);
-SQUALL_ASSERT_OFFSET(TextureSource, lut_band_shape, 88);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_nx, 92);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_ny, 96);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_x, 100);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_y, 104);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_hx, 108);
-SQUALL_ASSERT_OFFSET(TextureSource, scalar_hy, 112);
-SQUALL_ASSERT_OFFSET(TextureSource, reserved, 116);
+SQUALL_ASSERT_OFFSET(TextureSource, mean, 24);
+SQUALL_ASSERT_OFFSET(TextureSource, turn, 56);
+SQUALL_ASSERT_OFFSET(TextureSource, final_function, 88);
+SQUALL_ASSERT_OFFSET(TextureSource, final_scale, 92);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_entries, 96);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_channels, 100);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_min, 104);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_max, 108);
+SQUALL_ASSERT_OFFSET(TextureSource, lut_band_shape, 112);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_nx, 116);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_ny, 120);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_x, 124);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_origin_y, 128);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_hx, 132);
+SQUALL_ASSERT_OFFSET(TextureSource, scalar_hy, 136);
+SQUALL_ASSERT_OFFSET(TextureSource, reserved, 140);
 #endif
 
 #endif

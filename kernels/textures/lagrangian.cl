@@ -9,14 +9,15 @@
 #define SQUALL_BLEND_VARIANCE_PRESERVING 0
 #define SQUALL_BLEND_NORMALIZED 1
 
-/* Carries every grid vertex over [t, t + dt] in `substeps` RK4 steps. */
+/* Carries every grid vertex over the step [0, dt] (times from the step's start, as the velocity's) in
+ * `substeps` RK4 steps. */
 __kernel void lagrangian_advect(__global float2* positions, int count, VelocityField velocity,
-                                __global const float2* grid, float t, float dt, int substeps) {
+                                __global const float2* grid, float dt, int substeps) {
   int i = get_global_id(0);
   if (i >= count) return;
   float2 x = positions[i];
   float h = dt / (float)substeps;
-  for (int s = 0; s < substeps; ++s) x = rk4_step(&velocity, grid, x, t + (float)s * h, h);
+  for (int s = 0; s < substeps; ++s) x = rk4_step(&velocity, grid, x, (float)s * h, h);
   positions[i] = x;
 }
 

@@ -1,6 +1,7 @@
 #include "textures/device_inputs.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "runtime/upload.h"
 #include "textures/push_pull.h"
@@ -69,7 +70,6 @@ TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
   s.height = t.height;
   s.seed = t.seed;
   s.base_cells = float(t.base_cells);
-  s.spin = float(t.spin);
   for (int c = 0; c < s.channels && c < int(stats.mean.size()); ++c) s.mean[c] = float(stats.mean[c]);
   s.final_function = t.final_function;
   s.final_scale = float(t.final_scale);
@@ -81,6 +81,7 @@ TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
 
 DeviceInputs::DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats)
     : texture_(source_of(spec.texture, stats)),
+      spin_(spec.texture.spin),
       output_(spec.output),
       stats_(stats),
       image_(upload(runtime, spec.texture.kind == SQUALL_TEXTURE_IMAGE ? spec.texture.pixels : std::vector<float>{})),
@@ -101,7 +102,7 @@ void DeviceInputs::set_velocity(Runtime& runtime, const VelocitySpec& velocity) 
 std::shared_ptr<const DeviceInputs> DeviceInputs::steered(Runtime& runtime, const AdvectSpec& spec) const {
   auto next = std::make_shared<DeviceInputs>(*this);
   next->set_velocity(runtime, spec.velocity);
-  next->texture_.spin = float(spec.texture.spin);
+  next->spin_ = spec.texture.spin;
   next->texture_.final_scale = float(spec.texture.final_scale);
   return next;
 }
@@ -112,8 +113,8 @@ VelocityField DeviceInputs::velocity(double t0) const {
   size_t a = 0;
   while (a + 1 < times_.size() && times_[a + 1] <= t0) ++a;
   size_t b = std::min(a + 1, times_.size() - 1);
-  f.time_a = float(times_[a]);
-  f.time_b = float(times_[b]);
+  f.time_a = float(times_[a] - t0);  // from the step's start: exact in float32 at any t0
+  f.time_b = float(times_[b] - t0);
   f.frame_a = int(a * size_t(f.nx) * f.ny);
   f.frame_b = int(b * size_t(f.nx) * f.ny);
   return f;
@@ -121,7 +122,11 @@ VelocityField DeviceInputs::velocity(double t0) const {
 
 TextureSource DeviceInputs::texture(double time) const {
   TextureSource t = texture_;
-  t.time = float(time);
+  if (spin_ == 0) return t;
+  for (int c = 0; c < t.channels; ++c) {  // spin 2^(2c/3) t, reduced in double (float32: radians off at 1e8 s)
+    const double turn = std::fmod(spin_ * std::exp2(2.0 * c / 3.0) * time, 2 * M_PI);
+    t.turn[c] = float(turn < 0 ? turn + 2 * M_PI : turn);
+  }
   return t;
 }
 

@@ -27,7 +27,8 @@ class DeviceInputs {
   // texture's uploads and statistics are shared, not copied (steering a running advection).
   std::shared_ptr<const DeviceInputs> steered(Runtime& runtime, const AdvectSpec& spec) const;
 
-  // The field for a step starting at t0: the two grid frames around t0 (or the one frame).
+  // The field for a step starting at t0: the two grid frames around t0 (or the one frame), their times
+  // counted from t0, as the kernels count a step's times.
   VelocityField velocity(double t0) const;
   // The texture as evaluated at time `time` (flow noise turns with time).
   TextureSource texture(double time) const;
@@ -48,6 +49,7 @@ class DeviceInputs {
 
   VelocityField field_{};
   TextureSource texture_{};
+  double spin_ = 0;  // flow noise: rad/s of band 0 (TextureSource::turn holds the angles at a time)
   OutputSpec output_;
   std::vector<double> times_;
   std::vector<uint8_t> mask_host_;

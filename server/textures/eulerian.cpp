@@ -222,7 +222,7 @@ class Eulerian final : public Advection {
     auto lock = runtime_.exclusive();
     kernels_.eulerian_advect.launch(cl::NDRange(nx_, ny_), cl::NullRange, state_, scratch_, cl_int(nx_), cl_int(ny_),
                                     inputs_->output(1), cl_int(slots()), inputs_->velocity(t), inputs_->grid(),
-                                    cl_float(t), cl_float(h), cl_float(scale_), reset, offsets_);
+                                    cl_float(h), cl_float(scale_), reset, offsets_);
     std::swap(state_, scratch_);
     if (cascade_bands_ > 0) advance_cascade(t, h);
   }
@@ -233,7 +233,7 @@ class Eulerian final : public Advection {
     kernels_.eulerian_cascade.launch(cl::NDRange(nx_, ny_), cl::NullRange, cascade_, cascade_scratch_, cl_int(nx_),
                                      cl_int(ny_), inputs_->output(1), cl_int(cascade_bands_), cl_float(c.c_w),
                                      cl_float(c.tau), cl_float(c.tau_ratio), inputs_->velocity(t), inputs_->grid(),
-                                     cl_float(t), cl_float(h));
+                                     cl_float(h));
     std::swap(cascade_, cascade_scratch_);
   }
 

@@ -174,8 +174,7 @@ class Lagrangian final : public Advection {
     // kernel again for each new count (about 0.2 s on the CPU).
     const size_t count = positions_.size() / 2, group = 64;
     kernels_.lagrangian_advect.launch(cl::NDRange(round_up(count, group)), cl::NDRange(group), buffer, cl_int(count),
-                                      inputs_->velocity(time_), inputs_->grid(), cl_float(time_), cl_float(dt_),
-                                      cl_int(substeps_));
+                                      inputs_->velocity(time_), inputs_->grid(), cl_float(dt_), cl_int(substeps_));
     runtime_.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, positions_.data());
   }
 

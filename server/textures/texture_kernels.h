@@ -13,20 +13,20 @@ SQUALL_KERNEL_STRUCT(OutputGrid)
 namespace squall::textures {
 
 struct TextureKernels {
-  // positions, count, velocity, grid, t, dt, substeps
-  Kernel<cl::Buffer, cl_int, VelocityField, cl::Buffer, cl_float, cl_float, cl_int> lagrangian_advect;
+  // positions, count, velocity, grid, dt, substeps
+  Kernel<cl::Buffer, cl_int, VelocityField, cl::Buffer, cl_float, cl_int> lagrangian_advect;
   // out, frame, tile_offsets, tile_grids, grid_boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
   // grid_res, blend, texture, image, scalar, lut, velocity, mask
   Kernel<cl::Buffer, OutputGrid, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer,
          cl::Buffer, cl_int, cl_int, TextureSource, cl::Buffer, cl::Buffer, cl::Buffer, VelocityField, cl::Buffer>
       lagrangian_reconstruct;
-  // state_in, state_out, nx, ny, frame, slots, velocity, grid, t, dt, scale, reset_mask, offsets
+  // state_in, state_out, nx, ny, frame, slots, velocity, grid, dt, scale, reset_mask, offsets
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, VelocityField, cl::Buffer, cl_float, cl_float,
-         cl_float, cl_int, cl::Buffer>
+         cl_int, cl::Buffer>
       eulerian_advect;
-  // cascade_in, cascade_out, nx, ny, frame, bands, c_w, tau, tau_ratio, velocity, grid, t, dt
+  // cascade_in, cascade_out, nx, ny, frame, bands, c_w, tau, tau_ratio, velocity, grid, dt
   Kernel<cl::Buffer, cl::Buffer, cl_int, cl_int, OutputGrid, cl_int, cl_float, cl_float, cl_float, VelocityField,
-         cl::Buffer, cl_float, cl_float>
+         cl::Buffer, cl_float>
       eulerian_cascade;
   // out, frame, state, nx, ny, layers, phases, alpha, deformation_mode, d_star, blend, texture, image,
   // scalar, lut, velocity, mask, cascade, cascade_bands

@@ -21,6 +21,7 @@ constexpr int kMethods = 4;
 constexpr int kMaxTextureFrames = 100000;  // frames of one AdvectTexture stream
 constexpr double kMaxTextureDt = 1e4;      // s between frames
 constexpr int kMaxTextureSubsteps = 64;    // integration steps per frame
+constexpr double kMaxTextureTime = 1e9;    // s: t0 and the velocity grid's frame times within +-1e9 (a SimTime's)
 // Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
 // those a field divides by at least kMinVelocityDivisor.
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;

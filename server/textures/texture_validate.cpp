@@ -40,7 +40,7 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
     const std::string frame = at(path + ".frames", f);
-    finite(frame + ".time", v.frames[f].time);
+    in(frame + ".time", v.frames[f].time, closed(-kMaxTextureTime, kMaxTextureTime));
     if (f > 0 && v.frames[f].time <= v.frames[f - 1].time)
       reject(frame + ".time", v.frames[f].time, "greater than the previous frame's time");
     count(frame + ".u", v.frames[f].u.size(), nodes, "nx * ny");
@@ -159,7 +159,7 @@ void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) co
 }
 
 void validate_clock(const AdvectSpec& spec, const std::string& path) {
-  finite(path + ".t0", spec.t0);
+  in(path + ".t0", spec.t0, closed(-kMaxTextureTime, kMaxTextureTime));
   positive(path + ".dt", spec.dt, kMaxTextureDt);
   in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);

@@ -1,0 +1,59 @@
+// Far from time zero: a texture at t0 = 1e8 s advects and turns as it does at t0 = 0. The kernels work in
+// float32, whose spacing at 1e8 is 8 s, so the times they see are counted from the step's start and the
+// flow noise's turns are reduced on the host in double.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "textures/textures_support.h"
+
+namespace squall::test {
+namespace {
+
+using namespace squall::textures;
+
+// A uniform velocity grid whose speed ramps from 0.1 du/s at t0 to 0.3 du/s at t0 + 1 s (two frames): over
+// tau seconds naive advection carries the window by 0.1 tau + 0.1 tau^2, so u(x) = S (x - that).
+double worst_ramp_error(double t0) {
+  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_GRID, {}, 64);
+  spec.t0 = t0;
+  VelocitySpec& v = spec.velocity;
+  v.nx = v.ny = 2;
+  v.hx = v.hy = 1;
+  for (double speed : {0.1, 0.3})
+    v.frames.push_back({t0 + (speed - 0.1) / 0.2, std::vector<float>(4, float(speed)), std::vector<float>(4, 0)});
+  const TextureFrame last = run(spec, 11).back();
+  const double tau = last.time - t0, shift = 0.1 * tau + 0.1 * tau * tau, S = spec.texture.scale;
+  double worst = 0;
+  for (int py = 0; py < last.height; ++py) {
+    for (int px = 0; px < last.width; ++px) {
+      const double x = (px + 0.5) / last.width, y = (py + 0.5) / last.height;
+      const size_t k = size_t(px) + size_t(last.width) * py;
+      worst = std::max({worst, std::abs(last.uv_x()[k] - S * (x - shift)), std::abs(last.uv_y()[k] - S * y)});
+    }
+  }
+  return worst;
+}
+
+TEST(TexturesClock, GridFramesAreBlendedInTimeAtAnyClock) {
+  EXPECT_LT(worst_ramp_error(0), 1e-4);
+  EXPECT_LT(worst_ramp_error(1e8), 1e-4);  // as one frame (float32 times): off by 0.1 tau^2 S = 0.02
+}
+
+// Flow noise of one band at spin 2 pi rad/s turns by a whole number of turns in 1e8 s: the window at
+// 1e8 + 0.25 s is the window at 0.25 s.
+TEST(TexturesClock, FlowNoiseTurnsAtAnyClock) {
+  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  spec.texture.spin = 2 * M_PI;
+  auto window_at = [&](double t0) {
+    spec.t0 = t0;
+    return texture_engine().window(spec);
+  };
+  const TextureFrame quarter = window_at(0.25);
+  EXPECT_GT(max_abs_difference(quarter, window_at(0.5), 0), 0.1);  // the noise turns: the test can tell
+  EXPECT_LT(max_abs_difference(quarter, window_at(1e8 + 0.25), 0), 1e-4);
+}
+
+}  // namespace
+}  // namespace squall::test
