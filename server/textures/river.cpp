@@ -5,6 +5,7 @@
 
 #include "common/error.h"
 #include "common/validate.h"
+#include "runtime/slices.h"
 #include "runtime/upload.h"
 
 namespace squall::textures {
@@ -17,6 +18,7 @@ constexpr int kMaxPoints = 4096;     // per polyline
 constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
 constexpr int64_t kMaxBins = int64_t(1) << 20;
 constexpr int64_t kMaxBinItems = int64_t(1) << 24;  // segment entries over all bins: 64 MiB
+constexpr double kFirstSliceTiles = 4;  // a bake's first slice (8 x 8 nodes a tile), before its rate is known
 
 void polyline(const std::vector<Point2>& points, int min_points, const std::string& path) {
   in(path + ".points size", int64_t(points.size()), min_points, kMaxPoints);
@@ -306,19 +308,27 @@ std::vector<RiverSample> RiverEngine::sample(const RiverSpec& river, const std::
   return run_points(g, points, g.geo.boundaries);
 }
 
-RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path) {
+RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path,
+                            const Cancellation& cancel) {
   Geometry g = upload(river, path);
   const size_t nodes = size_t(grid.nx) * grid.ny;
   std::vector<cl_float4> out(nodes);
   cl::Buffer result(runtime_.context(), CL_MEM_WRITE_ONLY, nodes * sizeof(cl_float4));
   const float hx = float((grid.x1 - grid.x0) / (grid.nx - 1)), hy = float((grid.y1 - grid.y0) / (grid.ny - 1));
-  {
-    auto lock = runtime_.exclusive();
-    bake_.launch(cl::NDRange(round_up(grid.nx, 8), round_up(grid.ny, 8)), cl::NDRange(8, 8), result, cl_int(grid.nx),
-                 cl_int(grid.ny), float(grid.x0), float(grid.y0), hx, hy, g.geo, g.segments, g.segment_boundary,
-                 g.bin_start, g.bin_items, g.psi, g.s, g.polygon_start, g.polygon_points);
-    runtime_.queue().enqueueReadBuffer(result, CL_TRUE, 0, nodes * sizeof(cl_float4), out.data());
-  }
+  // A node's cost grows with the walls and polygon points near it, up to millions: the bake runs in slices
+  // of 8 x 8 tiles, each slice timed, so that a cancelled call stops within about one slice.
+  const TileGrid tiles{round_up(grid.nx, 8) / 8, round_up(grid.ny, 8) / 8};
+  const SlicePlan plan{tiles.x * tiles.y, 1, [](size_t) { return 1.0; }, kFirstSliceTiles, WorkKind{}};
+  QueueLease lease;
+  run_sliced(runtime_, lease, plan, cancel, path + ": the bake", [&](size_t first, size_t count) {
+    for (const auto& r : tiles.rectangles(first, count))
+      bake_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
+                          result, cl_int(grid.nx), cl_int(grid.ny), float(grid.x0), float(grid.y0), hx, hy, g.geo,
+                          g.segments, g.segment_boundary, g.bin_start, g.bin_items, g.psi, g.s, g.polygon_start,
+                          g.polygon_points);
+  });
+  runtime_.queue().enqueueReadBuffer(result, CL_TRUE, 0, nodes * sizeof(cl_float4), out.data());
+  lease.unlock();
   RiverBake b;
   b.grid = grid;
   for (const cl_float4& o : out) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
@@ -54,8 +55,10 @@ class RiverEngine {
   void validate(const BakeGrid& grid, const std::string& path, const std::string& prefix = "") const;
 
   // A validated river on a validated grid. The network and the obstacles' psi may still fail
-  // (INVALID_ARGUMENT naming the field under `path`).
-  RiverBake bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path);
+  // (INVALID_ARGUMENT naming the field under `path`). Runs in slices; CANCELLED between them once `cancel`
+  // is requested.
+  RiverBake bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path,
+                 const Cancellation& cancel = {});
   // The river at each point.
   std::vector<RiverSample> sample(const RiverSpec& river, const std::vector<Point2>& points, const std::string& path);
 

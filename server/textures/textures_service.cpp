@@ -58,7 +58,8 @@ struct TexturesService::Stream {
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
-  Slot memory;  // the stream's working memory, against --memory-budget
+  Slot memory;          // the stream's working memory, against --memory-budget
+  Cancellation cancel;  // whether its client still wants it: ends a river's bake early
 };
 
 namespace {
@@ -107,7 +108,7 @@ void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, co
   const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
   rivers_->validate(river, path + ".river");
   rivers_->validate(grid, path + ".river", "bake_");
-  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river"));
+  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel));
 }
 
 TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {
@@ -122,6 +123,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
                                             grpc::ServerWriter<v1::TextureFrame>* writer) {
   auto prepare = [&] {
     Stream s;
+    s.cancel = cancellation(*context);
     s.spec = req::spec(*request, serving_.gate());
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
@@ -191,6 +193,7 @@ grpc::Status TexturesService::AdvectInteractive(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::TextureFrame, v1::TextureControl>* stream) {
   return serve_stream(*context, serving_, "AdvectInteractive", [&](StreamCall& call) {
     Stream s;
+    s.cancel = call.cancellation();
     std::unique_ptr<Advection> advection;
     v1::TextureControl control;
     for (size_t n = 0; call.live() && stream->Read(&control); ++n) {
@@ -217,7 +220,7 @@ grpc::Status TexturesService::BakeVelocity(grpc::ServerContext* context, const v
     serving_.gate().check_message_bytes(
         "BakeVelocityReply (ask for fewer nodes)",
         planes * uint64_t(grid.nx) * uint64_t(grid.ny) * field::bytes_per_value(request->dtype(), "request.dtype"));
-    req::fill_bake(rivers_->bake(river, grid, "request.river"), *request, reply);
+    req::fill_bake(rivers_->bake(river, grid, "request.river", cancellation(*context)), *request, reply);
     return grpc::Status::OK;
   });
 }

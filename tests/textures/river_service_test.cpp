@@ -1,7 +1,7 @@
 // Procedural rivers through a real squalld: BakeVelocity returns the engine's bake bit for bit; a river with
 // a junction and an island drives AdvectTexture end to end (the texture coordinates move with the baked
 // flow); an obstacle moved between messages of AdvectInteractive takes effect at the next frame without a
-// restart; bad rivers get INVALID_ARGUMENT naming the field.
+// restart; bad rivers get INVALID_ARGUMENT naming the field; a bake whose call expired stops using the cores.
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -9,9 +9,11 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "common/field_codec.h"
 #include "service_support.h"
@@ -242,6 +244,41 @@ TEST(TexturesRiver, BadRiversNameTheField) {
   advect_request.mutable_velocity()->mutable_river()->mutable_junctions(0)->add_downstream(9);
   test::expect_error(Code::InvalidArgument, "request.velocity.river.junctions[0].downstream[2] = 9",
                      [&] { advect_or_throw(advect_request); });
+}
+
+// A channel whose banks ripple through 4096 points each, baked on 2048 x 2048 nodes (every node tests the
+// 8192 edges of its channel and the walls within its search radius: tens of seconds of the two cores)
+// under a 1 s deadline: squalld stops baking within a second of the deadline, between two slices.
+TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
+  v1::AdvectTextureRequest r = river_request(1);
+  v1::RiverVelocity& river = *r.mutable_velocity()->mutable_river();
+  river = v1::RiverVelocity();
+  v1::RiverChannel* channel = river.add_channels();
+  std::vector<std::pair<double, double>> left, right;
+  for (int k = 0; k < 4096; ++k) {
+    const double x = 10.0 * k / 4095, ripple = 0.01 * std::sin(0.37 * k);
+    left.push_back({x, 1 + ripple});
+    right.push_back({x, ripple});
+  }
+  polyline(channel->mutable_left_bank(), left);
+  polyline(channel->mutable_right_bank(), right);
+  channel->set_flow_rate(1);
+  river.set_bake_nx(2048);
+  river.set_bake_ny(2048);
+  auto* region = r.mutable_output()->mutable_region();
+  region->set_x0(0);
+  region->set_y0(0);
+  region->set_x1(10);
+  region->set_y1(1);
+  const grpc::Status expired =
+      read_stream<v1::TextureFrame>(
+          [&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectTexture(c, r); }, daemon().address(), 1)
+          .status;
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const double before = daemon().process().cpu_seconds();
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  EXPECT_LT(daemon().process().cpu_seconds() - before, 0.5) << "squalld kept baking the expired river";
 }
 
 // `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;
