@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "common/error.h"
 #include "common/validate.h"
 #include "runtime/slices.h"
+#include "textures/bake_costs.h"
 #include "runtime/upload.h"
 
 namespace squall::textures {
@@ -18,7 +20,6 @@ constexpr int kMaxPoints = 4096;     // per polyline
 constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
 constexpr int64_t kMaxBins = int64_t(1) << 20;
 constexpr int64_t kMaxBinItems = int64_t(1) << 24;  // segment entries over all bins: 64 MiB
-constexpr double kFirstSliceTiles = 4;  // a bake's first slice (8 x 8 nodes a tile), before its rate is known
 
 void polyline(const std::vector<Point2>& points, int min_points, const std::string& path) {
   in(path + ".points size", int64_t(points.size()), min_points, kMaxPoints);
@@ -60,6 +61,8 @@ struct RiverEngine::Geometry {
   RiverNetwork network;
   std::vector<double> obstacle_psi;
   std::vector<float> boundary_psi, boundary_s;
+  std::vector<cl_int> bin_offsets;        // bin_start on the host, for bake_tile_costs
+  std::vector<PolygonBox> polygon_boxes;  // the channels' and obstacles' polygons, likewise
   cl::Buffer segments, segment_boundary, bin_start, bin_items, psi, s, polygon_start, polygon_points;
 };
 
@@ -143,6 +146,18 @@ void add_polygon(Walls& walls, const std::vector<Point2>& points) {
   walls.polygon_points.push_back(hi);
   for (const Point2& p : points) walls.polygon_points.push_back({{float(p.x), float(p.y)}});
   walls.polygon_start.push_back(cl_int(walls.polygon_points.size()));
+}
+
+// The box and point count of each polygon of `walls` (its first two points are its box: add_polygon).
+std::vector<PolygonBox> polygon_boxes(const Walls& walls) {
+  std::vector<PolygonBox> boxes;
+  for (size_t k = 0; k + 1 < walls.polygon_start.size(); ++k) {
+    const cl_float2 &lo = walls.polygon_points[size_t(walls.polygon_start[k])],
+                    &hi = walls.polygon_points[size_t(walls.polygon_start[k]) + 1];
+    boxes.push_back(
+        {lo.s[0], lo.s[1], hi.s[0], hi.s[1], double(walls.polygon_start[k + 1] - walls.polygon_start[k] - 2)});
+  }
+  return boxes;
 }
 
 // The water of a channel: its left bank, then its right bank backwards.
@@ -253,11 +268,12 @@ RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::str
   g.geo.obstacle_polygons = cl_int(river.obstacles.size());
   g.geo.p = float(river.p);
   g.geo.s_max = *std::max_element(g.boundary_s.begin(), g.boundary_s.end());
-  std::vector<cl_int> bin_start, bin_items;
-  bin_segments(walls, g.geo, bin_start, bin_items, path);
+  std::vector<cl_int> bin_items;
+  bin_segments(walls, g.geo, g.bin_offsets, bin_items, path);
+  g.polygon_boxes = polygon_boxes(walls);
   g.segments = squall::upload(runtime_, walls.segments);
   g.segment_boundary = squall::upload(runtime_, walls.boundary);
-  g.bin_start = squall::upload(runtime_, bin_start);
+  g.bin_start = squall::upload(runtime_, g.bin_offsets);
   g.bin_items = squall::upload(runtime_, bin_items);
   g.s = squall::upload(runtime_, g.boundary_s);
   g.polygon_start = squall::upload(runtime_, walls.polygon_start);
@@ -318,7 +334,10 @@ RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const 
   // A node's cost grows with the walls and polygon points near it, up to millions: the bake runs in slices
   // of 8 x 8 tiles, each slice timed, so that a cancelled call stops within about one slice.
   const TileGrid tiles{round_up(grid.nx, 8) / 8, round_up(grid.ny, 8) / 8};
-  const SlicePlan plan{tiles.x * tiles.y, 1, [](size_t) { return 1.0; }, kFirstSliceTiles, WorkKind{}};
+  const std::vector<double> costs = bake_tile_costs(g.geo, g.bin_offsets, g.polygon_boxes, grid, tiles);
+  const double first = std::accumulate(costs.begin(), costs.begin() + std::min<size_t>(costs.size(), 4), 0.0);
+  const WorkKind kind{"textures.river_bake", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
+  const SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, first, kind};
   QueueLease lease;
   run_sliced(runtime_, lease, plan, cancel, path + ": the bake", [&](size_t first, size_t count) {
     for (const auto& r : tiles.rectangles(first, count))
