@@ -99,9 +99,11 @@ void DeviceInputs::set_velocity(Runtime& runtime, const VelocitySpec& velocity) 
   mask_ = upload(runtime, velocity.mask);
 }
 
-std::shared_ptr<const DeviceInputs> DeviceInputs::steered(Runtime& runtime, const AdvectSpec& spec) const {
+std::shared_ptr<const DeviceInputs> DeviceInputs::steered(Runtime& runtime, const AdvectSpec& spec, double time) const {
   auto next = std::make_shared<DeviceInputs>(*this);
   next->set_velocity(runtime, spec.velocity);
+  next->turned_ = turned(time);  // the bands turn on from where they are, at the new rate
+  next->turned_since_ = time;
   next->spin_ = spec.texture.spin;
   next->texture_.final_scale = float(spec.texture.final_scale);
   return next;
@@ -120,11 +122,14 @@ VelocityField DeviceInputs::velocity(double t0) const {
   return f;
 }
 
+double DeviceInputs::turned(double time) const { return turned_ + spin_ * (time - turned_since_); }
+
 TextureSource DeviceInputs::texture(double time) const {
   TextureSource t = texture_;
-  if (spin_ == 0) return t;
-  for (int c = 0; c < t.channels; ++c) {  // spin 2^(2c/3) t, reduced in double (float32: radians off at 1e8 s)
-    const double turn = std::fmod(spin_ * std::exp2(2.0 * c / 3.0) * time, 2 * M_PI);
+  const double band0 = turned(time);
+  if (band0 == 0) return t;
+  for (int c = 0; c < t.channels; ++c) {  // 2^(2c/3) band 0's, reduced in double (float32: radians off at 1e8 s)
+    const double turn = std::fmod(std::exp2(2.0 * c / 3.0) * band0, 2 * M_PI);
     t.turn[c] = float(turn < 0 ? turn + 2 * M_PI : turn);
   }
   return t;

@@ -23,9 +23,9 @@ class DeviceInputs {
   // Uploads the grid frames (push-pull extrapolated where the spec asks), the image planes, and the LUT's
   // table and scalar field.
   DeviceInputs(Runtime& runtime, const AdvectSpec& spec, const ReferenceStats& stats);
-  // These inputs with the velocity of `spec` (uploaded) and its texture's spin and final_scale; the
-  // texture's uploads and statistics are shared, not copied (steering a running advection).
-  std::shared_ptr<const DeviceInputs> steered(Runtime& runtime, const AdvectSpec& spec) const;
+  // These inputs with the velocity of `spec` (uploaded) and its texture's spin and final_scale from `time`
+  // (s) on; the texture's uploads and statistics are shared, not copied (steering a running advection).
+  std::shared_ptr<const DeviceInputs> steered(Runtime& runtime, const AdvectSpec& spec, double time) const;
 
   // The field for a step starting at t0: the two grid frames around t0 (or the one frame), their times
   // counted from t0, as the kernels count a step's times.
@@ -49,7 +49,10 @@ class DeviceInputs {
 
   VelocityField field_{};
   TextureSource texture_{};
-  double spin_ = 0;  // flow noise: rad/s of band 0 (TextureSource::turn holds the angles at a time)
+  // Flow noise: band 0 turns at spin_ rad/s from turned_ rad at turned_since_ s (the last change of spin).
+  // TextureSource::turn holds the bands' angles at a time.
+  double spin_ = 0, turned_ = 0, turned_since_ = 0;
+  double turned(double time) const;  // band 0's angle at `time`, rad
   OutputSpec output_;
   std::vector<double> times_;
   std::vector<uint8_t> mask_host_;

@@ -49,7 +49,7 @@ uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
 }
 
 void TextureEngine::steer(Advection& advection, const AdvectSpec& spec) {
-  advection.steer(advection.inputs().steered(runtime_, spec), spec.dt, spec.substeps);
+  advection.steer(advection.inputs().steered(runtime_, spec, advection.time()), spec.dt, spec.substeps);
 }
 
 TextureFrame TextureEngine::window(const AdvectSpec& spec) { return window(spec, reference_stats(spec.texture)); }

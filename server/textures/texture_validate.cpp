@@ -40,7 +40,7 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
     const std::string frame = at(path + ".frames", f);
-    in(frame + ".time", v.frames[f].time, closed(-kMaxTextureTime, kMaxTextureTime));
+    in(frame + ".time", v.frames[f].time, closed(-kMaxFrameTime, kMaxFrameTime));
     if (f > 0 && v.frames[f].time <= v.frames[f - 1].time)
       reject(frame + ".time", v.frames[f].time, "greater than the previous frame's time");
     count(frame + ".u", v.frames[f].u.size(), nodes, "nx * ny");
@@ -95,7 +95,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
     in(path + ".noise.bands", int64_t(t.bands), 1, SQUALL_TEXTURE_MAX_CHANNELS);
     in(path + ".noise.base_cells", int64_t(t.base_cells), 1, 64);
     if (t.base_cells != std::floor(t.base_cells)) reject(path + ".noise.base_cells", t.base_cells, "an integer");
-    finite(path + ".noise.spin", t.spin);
+    in(path + ".noise.spin", t.spin, closed(-kMaxSpin, kMaxSpin));
   }
   positive(path + ".scale", t.scale, 1e6);
   known(path + ".final_function", t.final_function, SQUALL_FINAL_FUNCTIONS, "final function");

@@ -485,7 +485,7 @@ bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& 
   if (control.has_spin()) {
     if (s.texture.kind != SQUALL_TEXTURE_NOISE)
       validate::reject(path + ".spin", control.spin(), "unset: the texture is an image, not flow noise");
-    s.texture.spin = validate::finite(path + ".spin", control.spin());
+    s.texture.spin = validate::in(path + ".spin", control.spin(), validate::closed(-kMaxSpin, kMaxSpin));
   }
   return control.has_velocity() || control.has_dt() || control.has_substeps() || control.has_final_scale() ||
          control.has_spin();

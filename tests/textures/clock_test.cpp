@@ -5,7 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
+#include "support/expect_error.h"
+#include "support/test_runtime.h"
+#include "textures/device_inputs.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -53,6 +57,38 @@ TEST(TexturesClock, FlowNoiseTurnsAtAnyClock) {
   const TextureFrame quarter = window_at(0.25);
   EXPECT_GT(max_abs_difference(quarter, window_at(0.5), 0), 0.1);  // the noise turns: the test can tell
   EXPECT_LT(max_abs_difference(quarter, window_at(1e8 + 0.25), 0), 1e-4);
+}
+
+// Steering the spin at t = 10 s turns the bands on from where they are, at the new rate: no jump of
+// (new - old spin) t, which at t = 1e8 s would be any angle at all.
+TEST(TexturesClock, ASteeredSpinTurnsOnFromWhereTheBandsAre) {
+  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  spec.texture.bands = 2;
+  spec.texture.spin = 0.5;
+  const DeviceInputs inputs(runtime(), spec, ReferenceStats{});
+  spec.texture.spin = 2;
+  const std::shared_ptr<const DeviceInputs> steered = inputs.steered(runtime(), spec, 10);
+  for (int c = 0; c < 2; ++c) {
+    const double rate = std::exp2(2.0 * c / 3);
+    EXPECT_NEAR(steered->texture(10).turn[c], std::fmod(rate * 0.5 * 10, 2 * M_PI), 1e-5);
+    EXPECT_NEAR(steered->texture(11).turn[c], std::fmod(rate * (0.5 * 10 + 2 * 1), 2 * M_PI), 1e-5);
+  }
+}
+
+TEST(TexturesClock, TimesAndSpinsPastTheirRangeAreRefusedNamingTheField) {
+  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  spec.frames = 1;
+  spec.t0 = -2e9;
+  expect_error(Code::InvalidArgument, "spec.t0 = -2e+09", [&] { texture_engine().validate(spec, "spec"); });
+  spec.t0 = 1e9;
+  spec.texture.spin = 2e6;
+  expect_error(Code::InvalidArgument, "spec.texture.noise.spin", [&] { texture_engine().validate(spec, "spec"); });
+  spec.texture.spin = 0;
+  spec.velocity.kind = SQUALL_VELOCITY_GRID;
+  spec.velocity.nx = spec.velocity.ny = 2;
+  spec.velocity.hx = spec.velocity.hy = 1;
+  for (double time : {0.0, 2e10}) spec.velocity.frames.push_back({time, std::vector<float>(4), std::vector<float>(4)});
+  expect_error(Code::InvalidArgument, ".frames[1].time", [&] { texture_engine().validate(spec, "spec"); });
 }
 
 }  // namespace
