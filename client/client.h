@@ -34,8 +34,9 @@ struct ClientOptions {
   std::string token;  // sent as "authorization: Bearer <token>" (squalld --auth-tokens); empty: none
   // Attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica gone behind a proxy),
   // with exponential backoff from 0.1 s to 2 s; 1: no retries. gRPC retries only calls the server has not
-  // begun to answer, and squalld answers UNAVAILABLE before it touches a session, so a retried step is
-  // never applied twice.
+  // begun to answer, and squalld answers UNAVAILABLE before it touches a session; a step whose reply was
+  // lost (a broken connection, a proxy's retry on another replica) is made twice unless its request has a
+  // retry_key (EWaveStepRequest), which the caller sets.
   int attempts = 5;
   // A TCP connection of its own. By default, Clients of one address in a process share one connection,
   // which is what one program wants; a load generator wants each of its clients to have its own.

@@ -8,6 +8,7 @@ const char* code_name(Code code) {
     case Code::NotFound: return "NOT_FOUND";
     case Code::ResourceExhausted: return "RESOURCE_EXHAUSTED";
     case Code::FailedPrecondition: return "FAILED_PRECONDITION";
+    case Code::Aborted: return "ABORTED";
     case Code::Unavailable: return "UNAVAILABLE";
     case Code::Unauthenticated: return "UNAUTHENTICATED";
     case Code::Cancelled: return "CANCELLED";

@@ -13,6 +13,7 @@ enum class Code {
   NotFound,            // an id that does not exist (or belongs to someone else)
   ResourceExhausted,   // a limit in force is exceeded (cells, streams, sessions, memory)
   FailedPrecondition,  // the request is valid but the daemon is not in a state to run it
+  Aborted,             // a sequencer check failed (a step's expected count): retry from a fresh read
   Unavailable,         // the daemon is starting up or draining
   Unauthenticated,     // no valid credentials (--auth-tokens)
   Cancelled,           // the caller gave up (gone, deadline passed) or squalld shut down mid-work

@@ -102,6 +102,13 @@ struct StepInputs {
   OutputSelection outputs;
 };
 
+// What makes a step safe to send again (EWaveStepRequest.retry_key and after_step).
+struct StepGuard {
+  std::string retry_key;               // the caller's key for this step, at most kMaxRetryKeyBytes; empty: none
+  std::optional<uint64_t> after_step;  // the step count the session must be at; none: no check
+};
+constexpr size_t kMaxRetryKeyBytes = 64;
+
 // Throws Error(InvalidArgument) naming the field (e.g. "inputs.obstruction has 10 values, want 4096"); an
 // ambient ocean's layers are checked against `gate`'s --max-grid-cells (RESOURCE_EXHAUSTED), or the
 // default limits without one.

@@ -12,36 +12,45 @@
 namespace squall::ewave {
 namespace {
 
-// A checkpoint's payload, version 2 (common/byte_codec.h's layout: little-endian):
-//   offset  size  field
-//   0       8     u64 state length S
-//   8       S     the session's state bytes of version 1 (ewave_state_format.h)
-//   8+S     8     u64 ambient ocean length A; 0: the config has no ambient_ocean
-//   16+S    A     config.ambient_ocean (ocean/tile_spec_bytes.h), and nothing after it
-// Version 1, the state bytes alone (no ambient ocean), is still read.
+// A checkpoint's payload, version 3 (common/byte_codec.h's layout: little-endian):
+//   offset    size  field
+//   0         8     u64 state length S
+//   8         S     the session's state bytes of version 1 (ewave_state_format.h)
+//   8+S       8     u64 ambient ocean length A; 0: the config has no ambient_ocean
+//   16+S      A     config.ambient_ocean (ocean/tile_spec_bytes.h)
+//   16+S+A    8     u64 retry key length K, at most kMaxRetryKeyBytes; 0: the last step had none
+//   24+S+A    K     the last step's retry_key, and nothing after it
+// Version 2 (no retry key) and version 1 (the state bytes alone, no ambient ocean) are still read.
 std::string save(const EWaveSession& session) {
   const std::optional<ocean::TileSpec>& ambient = session.config().ambient_ocean;
   ByteWriter out;
   out.put_counted(without_ambient_ocean(session.state()));
   out.put_counted(ambient ? ocean::encode_tile_spec(*ambient) : std::string());
+  out.put_counted(session.retry_key());
   return out.take();
 }
 
 struct Saved {
   std::string state;
   std::optional<ocean::TileSpec> ambient_ocean;
+  std::string retry_key;
 };
 
 // A payload of `version` back; InvalidArgument naming "checkpoint" (its ambient ocean: naming
 // "checkpoint.ambient_ocean") when it is none.
 Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
-  if (version == 1) return {std::move(payload), std::nullopt};
-  if (version != 2) fail(Code::InvalidArgument, "checkpoint has payload version " + std::to_string(version));
+  if (version == 1) return {std::move(payload), std::nullopt, ""};
+  if (version != 2 && version != 3)
+    fail(Code::InvalidArgument, "checkpoint has payload version " + std::to_string(version));
   ByteReader in(payload, "checkpoint", "an eWave session payload");
   Saved saved;
   saved.state = std::string(in.get_counted("the state"));
   const std::string_view spec = in.get_counted("the ambient ocean");
-  in.finish("the ambient ocean");
+  if (version == 3) saved.retry_key = std::string(in.get_counted("the retry key"));
+  in.finish(version == 3 ? "the retry key" : "the ambient ocean");
+  if (saved.retry_key.size() > kMaxRetryKeyBytes)
+    fail(Code::InvalidArgument, "checkpoint holds a retry key of " + std::to_string(saved.retry_key.size()) +
+                                    " bytes, more than " + std::to_string(kMaxRetryKeyBytes));
   if (!spec.empty()) saved.ambient_ocean = ocean::decode_tile_spec(spec, gate, "checkpoint.ambient_ocean");
   return saved;
 }
@@ -102,8 +111,12 @@ std::string EWaveEngine::create_from_state(const std::string& bytes, const std::
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
-Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs) {
-  return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs); });
+Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs, const StepGuard& guard) {
+  return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs, guard); });
+}
+
+uint64_t EWaveEngine::steps(const std::string& id) {
+  return sessions_.with(id, [](EWaveSession& s) { return s.step_index(); });
 }
 
 std::string EWaveEngine::state(const std::string& id) {
@@ -130,6 +143,7 @@ std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
       sessions_.open_checkpoint(bytes, "checkpoint", kOldestCheckpointVersion, kCheckpointVersion, &header);
   Saved saved = load(std::move(payload), header.version, gate_);
   auto [reservation, session] = from_state(saved.state, std::move(saved.ambient_ocean));
+  session->set_retry_key(std::move(saved.retry_key));  // a retry of its last step finds it here too
   return sessions_.add(header.id, std::move(reservation), std::move(session));
 }
 

@@ -23,9 +23,10 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
-  // Version of the checkpoint payload (ewave_engine.cpp): 2, the session's state bytes and its config's
-  // ambient_ocean; version 1, the state bytes alone (no ambient ocean), is still read.
-  static constexpr uint32_t kCheckpointVersion = 2;
+  // Version of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes, its config's
+  // ambient_ocean and its last step's retry key; versions 2 (no retry key) and 1 (the state bytes alone, no
+  // ambient ocean) are still read.
+  static constexpr uint32_t kCheckpointVersion = 3;
   static constexpr uint32_t kOldestCheckpointVersion = 1;
 
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
@@ -34,7 +35,8 @@ class EWaveEngine {
   // saved state; under the client's `proposed` id when one is given (SessionStore::id_for).
   std::string create(const EWaveConfig& config, const std::string& proposed = "");
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
-  Frame step(const std::string& id, const StepInputs& inputs);
+  Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {});  // EWaveSession::step
+  uint64_t steps(const std::string& id);  // steps the session has made
   std::string state(const std::string& id);
   void close(const std::string& id);
   EWaveConfig config(const std::string& id);

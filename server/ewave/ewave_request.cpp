@@ -231,6 +231,15 @@ uint64_t frame_bytes(const EWaveConfig& c, size_t outputs, v1::DType d) {
   return outputs * (c.cells() * squall::field::bytes_per_value(d) + 128) + 256;
 }
 
+StepGuard guard(const v1::EWaveStepRequest& request) {
+  if (request.retry_key().size() > kMaxRetryKeyBytes)
+    fail(Code::InvalidArgument, "retry_key has " + std::to_string(request.retry_key().size()) + " bytes, at most " +
+                                    std::to_string(kMaxRetryKeyBytes));
+  StepGuard guard{request.retry_key(), std::nullopt};
+  if (request.has_after_step()) guard.after_step = request.after_step();
+  return guard;
+}
+
 void fill_frame(const Frame& f, const EWaveConfig& c, const std::vector<v1::EWaveOutput>& outputs, v1::DType d,
                 v1::EWaveFrame* reply) {
   reply->set_step(f.step);

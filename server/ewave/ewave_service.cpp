@@ -20,6 +20,7 @@ const std::string& session_id(const std::string& id) {
 void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveSessionResponse* response) {
   response->set_session_id(id);
   fill_config(engine.config(id), response->mutable_config());
+  response->set_step(engine.steps(id));
 }
 
 }  // namespace
@@ -35,7 +36,7 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
   // Refused before the step, so that a frame too large to send does not advance the session.
   serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)",
                                       frame_bytes(config, outputs.size(), type));
-  ewave::Frame result = ewave.step(id, inputs(request.inputs(), config, serving_.gate()));
+  ewave::Frame result = ewave.step(id, inputs(request.inputs(), config, serving_.gate()), guard(request));
   frame->set_session_id(id);
   fill_frame(result, config, outputs, type, frame);
 }

@@ -150,6 +150,7 @@ void EWaveSession::restore(const std::string& bytes) {
                                       state_fields(bytes));
   step_ = h.step;
   time_ = h.time;
+  outputs_step_ = 0;  // the state holds no step's displacement or normals
   broken_.clear();
 }
 

@@ -44,7 +44,13 @@ class EWaveSession {
   // One step of inputs.dt (validated first; the session is unchanged when they are rejected). A step that
   // fails once it has begun to change the fields leaves the session broken: this and state() then answer
   // FAILED_PRECONDITION until restore().
-  Frame step(const StepInputs& inputs);
+  // A guard whose retry_key is the last step's returns that step's frame again and steps nothing; one whose
+  // after_step is not the step count gives Error(Aborted) naming "after_step".
+  Frame step(const StepInputs& inputs, const StepGuard& guard = {});
+  // The retry_key the last step was made with (empty: none), kept in checkpoints so that a retry finds it
+  // on the replica the session moves to.
+  const std::string& retry_key() const { return retry_key_; }
+  void set_retry_key(std::string key) { retry_key_ = std::move(key); }
   // The surface current u = grad phi at the session time on the cells (nodes at ((i + 0.5) dx, (j + 0.5)
   // dy)), by central differences, periodic like the FFT propagation.
   SurfaceCurrent surface_current() const;
@@ -84,6 +90,9 @@ class EWaveSession {
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
+  // The frame of the last step read again (a retry of it): Error(Aborted) when it asks for the
+  // displacement or normals and out_ no longer holds that step's.
+  Frame replay(const OutputSelection& outputs) const;
   void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours
   void check_whole() const;                               // FailedPrecondition once broken_
   fft::Precision precision() const { return config_.double_precision ? fft::Precision::F64 : fft::Precision::F32; }
@@ -97,6 +106,8 @@ class EWaveSession {
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
   uint64_t step_ = 0;
   double time_ = 0;
+  uint64_t outputs_step_ = 0;  // the step whose displacement and normals out_ holds; 0: none
+  std::string retry_key_;      // the last step's StepGuard::retry_key
   // Why a step failed after it began to change the fields (a device error, no memory for the frame); empty
   // while they are whole. The fields are then neither the step's nor the one before: the session answers
   // FAILED_PRECONDITION (check_whole()) until restore() gives it whole fields again.

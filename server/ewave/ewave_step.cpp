@@ -48,8 +48,12 @@ using RealOf = typename std::decay_t<K>::RealType;
 
 }  // namespace
 
-Frame EWaveSession::step(const StepInputs& in) {
+Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
   check_whole();
+  if (!guard.retry_key.empty() && guard.retry_key == retry_key_) return replay(in.outputs);
+  if (guard.after_step && *guard.after_step != step_)
+    fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
+                            std::to_string(step_) + " steps (another caller stepped it)");
   validate(in, config_, gate_);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
@@ -83,6 +87,8 @@ Frame EWaveSession::step(const StepInputs& in) {
   }
   ++step_;
   time_ += in.dt;
+  if (fields == kOutputFields) outputs_step_ = step_;
+  retry_key_ = guard.retry_key;
   frame.step = step_;
   frame.time = time_;
   return frame;
@@ -236,6 +242,21 @@ Frame EWaveSession::read_frame(const OutputSelection& o) const {
   if (!height.empty()) f.height.assign(height.begin(), height.end());
   if (!phi.empty()) f.phi.assign(phi.begin(), phi.end());
   return f;
+}
+
+Frame EWaveSession::replay(const OutputSelection& outputs) const {
+  if (wants_outputs(outputs) && outputs_step_ != step_)
+    fail(Code::Aborted, "retry_key is that of step " + std::to_string(step_) +
+                            ", made already (its reply was lost), whose displacement and normals the session no "
+                            "longer holds: ask for height and phi alone, or step on with a new key");
+  Frame frame;
+  {
+    auto lock = runtime_.exclusive();
+    frame = read_frame(outputs);
+  }
+  frame.step = step_;
+  frame.time = time_;
+  return frame;
 }
 
 SurfaceCurrent EWaveSession::surface_current() const {

@@ -109,10 +109,12 @@ class Session {
     v1::EWaveCloseResponse reply;
     return stub_.CloseSession(context().get(), request, &reply);
   }
-  grpc::Status step(const v1::EWaveInputs& inputs, v1::EWaveFrame* frame) {
+  grpc::Status step(const v1::EWaveInputs& inputs, v1::EWaveFrame* frame, const ewave::StepGuard& guard = {}) {
     v1::EWaveStepRequest request;
     request.set_session_id(id_);
     *request.mutable_inputs() = inputs;
+    request.set_retry_key(guard.retry_key);
+    if (guard.after_step) request.set_after_step(*guard.after_step);
     return stub_.Step(context().get(), request, frame);
   }
   const std::string& id() const { return id_; }
@@ -334,6 +336,36 @@ TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
   EXPECT_EQ(fa.fields(0).data(), fb.fields(0).data()) << "height differs after restore";
   EXPECT_EQ(fa.fields(1).data(), fb.fields(1).data()) << "phi differs after restore";
   EXPECT_GT(ewave::test::max_abs(values(fa.fields(0))), 1e-4);
+}
+
+// A step sent twice with one retry key is made once: the second answer is the first frame again. A count
+// the session is not at is ABORTED; a key past 64 bytes is refused by name; a restored session reports its
+// count.
+TEST(EWaveService, AStepRetriedWithItsKeyIsMadeOnce) {
+  Session a(first().stub(), proto_config(engine_config()));
+  v1::EWaveFrame made, again;
+  ASSERT_TRUE(a.step(plain_inputs(0.01), &made, {"step 1", std::nullopt}).ok());
+  ASSERT_TRUE(a.step(plain_inputs(0.01), &again, {"step 1", std::nullopt}).ok());
+  EXPECT_EQ(made.SerializeAsString(), again.SerializeAsString());
+  const grpc::Status stale = a.step(plain_inputs(0.01), &again, {"step 2", 4});
+  EXPECT_EQ(stale.error_code(), grpc::StatusCode::ABORTED);
+  EXPECT_NE(stale.error_message().find("after_step = 4, but the session has made 1 steps"), std::string::npos)
+      << stale.error_message();
+  const grpc::Status long_key = a.step(plain_inputs(0.01), &again, {std::string(65, 'k'), std::nullopt});
+  EXPECT_EQ(long_key.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(long_key.error_message().find("retry_key has 65 bytes"), std::string::npos) << long_key.error_message();
+  ASSERT_TRUE(a.step(plain_inputs(0.01), &made, {"step 2", 1}).ok());
+  EXPECT_EQ(made.step(), 2u);
+
+  v1::EWaveSessionRequest get;
+  get.set_session_id(a.id());
+  v1::EWaveStateResponse state;
+  ASSERT_TRUE(first().stub().GetState(context().get(), get, &state).ok());
+  v1::EWaveRestoreRequest restore;
+  restore.set_state(state.state());
+  v1::EWaveSessionResponse restored;
+  ASSERT_TRUE(second().stub().Restore(context().get(), restore, &restored).ok());
+  EXPECT_EQ(restored.step(), 2u);
 }
 
 TEST(EWaveService, ClosedUnknownAndEmptyIdsAreRefused) {

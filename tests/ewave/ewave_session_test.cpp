@@ -56,6 +56,39 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
 }
 
+// A step sent again with its retry key (a retry whose first attempt was made and its reply lost) is not
+// made again: the frame of that step comes back, bit for bit. A new key steps on; a count the session is
+// not at is refused. A session restored from a checkpoint keeps the key but not the step's displacement, so a
+// retry asking for it is refused rather than stepped twice.
+TEST(EWaveSession, AStepRetriedWithItsKeyIsMadeOnce) {
+  EWaveSession a = make_session(busy_config()), reference = make_session(busy_config());
+  const Frame first = a.step(busy_step(0), {"key 1", 0});
+  expect_bit_identical(first, reference.step(busy_step(0)));
+  expect_bit_identical(a.step(busy_step(0), {"key 1", 0}), first);
+  EXPECT_EQ(a.step_index(), 1u);
+  squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps",
+                             [&] { a.step(busy_step(1), {"key 2", 0}); });
+  const Frame second = a.step(busy_step(1), {"key 2", 1});
+  expect_bit_identical(second, reference.step(busy_step(1)));
+  expect_bit_identical(a.step(busy_step(1), {"key 2", std::nullopt}), second);
+  EXPECT_EQ(a.step_index(), 2u);
+  EXPECT_EQ(a.time(), reference.time());
+
+  const std::string saved = a.state();
+  EWaveSession b = make_session(EWaveSession::config_from_state(saved, LimitGate{Limits{}}));
+  b.restore(saved);
+  b.set_retry_key(a.retry_key());  // as a checkpoint carries it
+  squall::test::expect_error(Code::Aborted, "whose displacement and normals the session no longer holds",
+                             [&] { b.step(busy_step(1), {"key 2", std::nullopt}); });
+  StepInputs height_only = busy_step(1);
+  height_only.outputs = OutputSelection{};
+  const Frame again = b.step(height_only, {"key 2", std::nullopt});
+  EXPECT_EQ(again.step, 2u);
+  EXPECT_EQ(again.height, second.height);
+  expect_bit_identical(b.step(busy_step(2), {"key 3", 2}), reference.step(busy_step(2)));
+  expect_bit_identical(b.step(busy_step(3)), reference.step(busy_step(3)));  // no key: always a new step
+}
+
 // What --max-session-bytes and the memory budget count for a session covers the device buffers it holds
 // once a step has uploaded every input map (obstruction, ambient height, sources, drift field), in float
 // and in double: all but the second plane of an ambient ocean, which a map of heights does not fill.
@@ -374,6 +407,26 @@ TEST_F(EngineTest, CheckpointRestoresTheSessionUnderItsIdBitIdentically) {
   expect_bit_identical(second.step(id, busy_step(5)), expected);
   expect_error(Code::FailedPrecondition, "already a live eWave session", [&] { second.restore_checkpoint(saved); });
   expect_error(Code::InvalidArgument, "checkpoint", [&] { second.restore_checkpoint(second.state(id)); });
+}
+
+// A session moved to another daemon by its checkpoint takes its last step's retry key along: the retry of
+// that step sent to the new daemon gets the step's frame, and the session is not stepped twice.
+TEST_F(EngineTest, ACheckpointCarriesTheLastStepsRetryKey) {
+  StepInputs heights = busy_step(0);
+  heights.outputs = OutputSelection{};
+  std::string id, saved;
+  Frame made;
+  {
+    EWaveEngine first = engine();
+    id = first.create(plain_config(32, 32));
+    made = first.step(id, heights, {"the only step", std::nullopt});
+    saved = first.checkpoint(id);
+  }
+  EWaveEngine second = engine();
+  second.restore_checkpoint(saved);
+  expect_bit_identical(second.step(id, heights, {"the only step", std::nullopt}), made);
+  EXPECT_EQ(second.steps(id), 1u);
+  EXPECT_EQ(second.step(id, heights, {"another step", std::nullopt}).step, 2u);
 }
 
 // Sessions of one engine share their propagator tables: two sessions of one grid stepping with one dt

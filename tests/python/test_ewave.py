@@ -83,6 +83,25 @@ def test_state_and_restore_continue_bit_identically(client: squall.Client) -> No
                 assert a[name].tobytes() == b[name].tobytes(), name
 
 
+def test_a_step_sent_again_with_its_key_is_made_once(client: squall.Client) -> None:
+    """A request sent twice (as gRPC's retries send it, with its retry key) makes one step, and
+    after_step refuses a step that another caller has overtaken."""
+    stub = client.ewave._rpc
+    with client.ewave.session(**config()) as session:
+        session.step(**hull_inputs(0))
+        request = squall.ewave.unary_step_request(
+            session.id, squall.ewave.as_inputs(hull_inputs(1)), None
+        )
+        assert len(request.retry_key) == 16
+        made, again = stub.Step(request), stub.Step(request)
+        assert made.step == again.step == 2 and made == again
+        with pytest.raises(squall.SquallError) as error:
+            session.step(0.02, after_step=1)
+        assert error.value.code == grpc.StatusCode.ABORTED
+        assert "after_step = 1, but the session has made 2 steps" in error.value.message
+        assert session.step(0.02, after_step=2).step == 3
+
+
 def test_errors_name_the_field(client: squall.Client) -> None:
     with client.ewave.session(**config()) as session:
         with pytest.raises(squall.SquallError) as error:

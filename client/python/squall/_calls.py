@@ -50,7 +50,9 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     exponential backoff from 0.1 s to 2 s; none for attempts <= 1 (no retry policy).
 
     gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
-    it touches a session, so a retried eWave step is never applied twice.
+    it touches a session, and an eWave step's retry key makes a step whose reply was lost (a
+    broken connection, a proxy's retry on another replica) once, so a retried step is never
+    applied twice.
     """
     if attempts <= 1:
         # No retry policy, as the C++ client; gRPC's transparent retries (of calls that never

@@ -347,12 +347,15 @@ class EWaveSession:
         dt: Optional[float] = None,
         *,
         inputs: Optional[Union[ewave_pb2.EWaveInputs, Mapping[str, Any]]] = None,
+        after_step: Optional[int] = None,
         timeout: Optional[float] = None,
         **kwargs: Any,
     ) -> EWaveFrame:
-        """One step of dt seconds (keywords of squall.ewave.inputs): the fields after it."""
-        request = ewave_pb2.EWaveStepRequest(
-            session_id=self.id, inputs=_ewave.as_inputs(inputs, dt, **kwargs)
+        """One step of dt seconds (keywords of squall.ewave.inputs): the fields after it. As
+        squall.ewave.EWaveSession.step: made once however often it is retried; after_step
+        checked."""
+        request = _ewave.unary_step_request(
+            self.id, _ewave.as_inputs(inputs, dt, **kwargs), after_step
         )
         conn = self._service._connection
         return EWaveFrame(

@@ -81,8 +81,9 @@ class Client:
         options: extra gRPC channel options, added to squall's (no client-side message size limit).
         retries: attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica
             gone behind a proxy), with backoff from 0.1 s to 2 s (at most 5; 1: no retries).
-            gRPC retries only calls the server has not begun to answer, and squalld answers
-            UNAVAILABLE before it touches a session, so a retried step is never applied twice.
+            gRPC retries only calls the server has not begun to answer, squalld answers
+            UNAVAILABLE before it touches a session, and an eWave step carries a retry key that
+            squalld answers once, so a retried step is never applied twice.
         token_file: a file whose first word is the token, read once here (see `token`).
         own_connection: a TCP connection of its own. By default the Clients of one process to one
             address (with the same options) share one connection, which is what one program

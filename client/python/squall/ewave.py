@@ -17,6 +17,7 @@ Example::
 from __future__ import annotations
 
 import inspect
+import os
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
@@ -301,6 +302,16 @@ def step_request(session_id: str, item: InputsLike, index: int = 0) -> ewave_pb2
     return ewave_pb2.EWaveStepRequest(session_id=session_id, inputs=as_inputs(item))
 
 
+def unary_step_request(
+    session_id: str, inputs: ewave_pb2.EWaveInputs, after_step: Optional[int]
+) -> ewave_pb2.EWaveStepRequest:
+    """The EWaveStepRequest of ``step``: a fresh retry_key (16 random bytes), which gRPC's retries
+    of the call send again, so that a step whose reply was lost is made once; after_step if given."""
+    return ewave_pb2.EWaveStepRequest(
+        session_id=session_id, inputs=inputs, retry_key=os.urandom(16), after_step=after_step
+    )
+
+
 def close_quietly(close: Callable[[], None], exc_type: Any) -> None:
     """``close()`` at the end of a ``with`` block: while the block's exception propagates, a
     SquallError of the close (squalld gone, the deadline passed) would hide it and is dropped."""
@@ -349,19 +360,22 @@ class EWaveSession:
         dt: Optional[float] = None,
         *,
         inputs: Optional[Union[ewave_pb2.EWaveInputs, Mapping[str, Any]]] = None,
+        after_step: Optional[int] = None,
         timeout: Optional[float] = None,
         **kwargs: Any,
     ) -> EWaveFrame:
-        """Advances the session by one step and returns the fields after it (EWave.Step).
+        """Advances the session by one step and returns the fields after it (EWave.Step). The
+        request carries a fresh retry key, so the client's retries of it make one step.
 
         Args:
             dt: time step, s; the other keyword arguments are those of ``squall.ewave.inputs``
                 (obstruction, shapes, source_height, ..., outputs, dtype).
             inputs: instead of dt and keywords: EWaveInputs (or a mapping of its fields).
+            after_step: the step count the session must be at (the ``step`` of the last frame
+                this caller saw): SquallError ABORTED, the session unchanged, when another
+                caller has stepped it since. None: no check.
         """
-        request = ewave_pb2.EWaveStepRequest(
-            session_id=self.id, inputs=as_inputs(inputs, dt, **kwargs)
-        )
+        request = unary_step_request(self.id, as_inputs(inputs, dt, **kwargs), after_step)
         conn = self._service._connection
         frame = conn.unary(
             "EWave.Step", self._service._rpc.Step, request, timeout, session=self.id
