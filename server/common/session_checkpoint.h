@@ -21,6 +21,13 @@ struct CheckpointHeader {
 
 std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload);
 
+// A session's payload and the format version it is written in: a store may write an older version when the
+// session needs nothing newer, so that the daemons of a rolling update or a rollback read it.
+struct VersionedPayload {
+  uint32_t version = 0;
+  std::string bytes;
+};
+
 // The payload of `data`; INVALID_ARGUMENT naming `field` when data is no checkpoint of `kind`.
 std::string decode_checkpoint(const std::string& data, const std::string& kind, const std::string& field,
                               CheckpointHeader* header);

@@ -66,12 +66,20 @@ class SessionStore {
   SessionStore& operator=(const SessionStore&) = delete;
 
   // Makes the store's sessions persistent in the registry's state directory (if it has one): `save`
-  // writes a session's payload of format `version`, `resume` rebuilds a session from a whole checkpoint
-  // (open_checkpoint, reserve, add under the checkpoint's id).
-  void persist(uint32_t version, std::function<std::string(const T&)> save,
-               std::function<void(const std::string& checkpoint)> resume) {
+  // writes a session's payload and names its format version, `resume` rebuilds a session from a whole
+  // checkpoint (open_checkpoint, reserve, add under the checkpoint's id).
+  using Save = std::function<VersionedPayload(const T&)>;
+  using Resume = std::function<void(const std::string& checkpoint)>;
+  // The same for payloads of one format `version`.
+  void persist(uint32_t version, std::function<std::string(const T&)> save, Resume resume) {
+    persist(
+        [version, save = std::move(save)](const T& value) {
+          return VersionedPayload{version, save(value)};
+        },
+        std::move(resume));
+  }
+  void persist(Save save, Resume resume) {
     if (!policy_.registry || !policy_.registry->state_dir()) return;
-    version_ = version;
     save_ = std::move(save);
     resume_ = std::move(resume);
     enrolled_ = policy_.registry->enroll({[this](bool release) { return checkpoint_all(release); },
@@ -215,7 +223,7 @@ class SessionStore {
         continue;
       }
       try {
-        state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+        state_dir()->write(id, encoded(id, *entry->value, save_));
         if (release) policy_.registry->release(id);
         entry->released = release;
         ++written;
@@ -266,6 +274,10 @@ class SessionStore {
   std::string checkpoint(const std::string& id, uint32_t version, const std::function<std::string(const T&)>& save) {
     return with(id, [&](T& value) { return encode_checkpoint({kind_, version, id}, save(value)); });
   }
+  // The same, the payload's version named by `save`.
+  std::string checkpoint(const std::string& id, const Save& save) {
+    return with(id, [&](T& value) { return encoded(id, value, save); });
+  }
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
   // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint,
@@ -302,7 +314,7 @@ class SessionStore {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (!entry->released && !let_go_if_taken_over(*entry)) {
         try {
-          state_dir()->write(id, encode_checkpoint({kind_, version_, id}, save_(*entry->value)));
+          state_dir()->write(id, encoded(id, *entry->value, save_));
         } catch (const Error& e) {  // a session with no state to save (broken) goes at its last checkpoint
           if (e.code() != Code::FailedPrecondition) throw;  // the writing failed: asked again at the next tick
           log(LogLevel::Error, kind_, " ", id, " not written (", e.what(), "): handed over at its last checkpoint");
@@ -474,6 +486,11 @@ class SessionStore {
     }
   }
 
+  std::string encoded(const std::string& id, const T& value, const Save& save) const {
+    VersionedPayload payload = save(value);
+    return encode_checkpoint({kind_, payload.version, id}, payload.bytes);
+  }
+
   std::shared_ptr<Entry> take(const std::string& id) {
     evict_idle();  // an expired id is NOT_FOUND here too
     std::lock_guard<std::mutex> lock(mutex_);
@@ -491,8 +508,7 @@ class SessionStore {
   std::mutex moving_;  // a checkpoint resumed or closed from the state directory, one id at a time
   std::map<std::string, std::shared_ptr<Entry>> entries_;
   // persist(): the payload format and its writer and reader, and the registry's token for this store.
-  uint32_t version_ = 0;
-  std::function<std::string(const T&)> save_;
+  Save save_;
   std::function<void(const std::string&)> resume_;
   std::optional<size_t> enrolled_;
 };

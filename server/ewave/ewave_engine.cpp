@@ -18,16 +18,18 @@ namespace {
 //   8         S     the session's state bytes of version 1 (ewave_state_format.h)
 //   8+S       8     u64 ambient ocean length A; 0: the config has no ambient_ocean
 //   16+S      A     config.ambient_ocean (ocean/tile_spec_bytes.h)
-//   16+S+A    8     u64 retry key length K, at most kMaxRetryKeyBytes; 0: the last step had none
+//   16+S+A    8     u64 retry key length K, 1..kMaxRetryKeyBytes
 //   24+S+A    K     the last step's retry_key, and nothing after it
-// Version 2 (no retry key) and version 1 (the state bytes alone, no ambient ocean) are still read.
-std::string save(const EWaveSession& session) {
+// A session whose last step had no key writes version 2, the same without the key, which daemons before
+// version 3 read; version 1 (the state bytes alone, no ambient ocean) is still read.
+VersionedPayload save(const EWaveSession& session) {
   const std::optional<ocean::TileSpec>& ambient = session.config().ambient_ocean;
   ByteWriter out;
   out.put_counted(without_ambient_ocean(session.state()));
   out.put_counted(ambient ? ocean::encode_tile_spec(*ambient) : std::string());
+  if (session.retry_key().empty()) return {2, out.take()};
   out.put_counted(session.retry_key());
-  return out.take();
+  return {3, out.take()};
 }
 
 struct Saved {
@@ -48,9 +50,9 @@ Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
   const std::string_view spec = in.get_counted("the ambient ocean");
   if (version == 3) saved.retry_key = std::string(in.get_counted("the retry key"));
   in.finish(version == 3 ? "the retry key" : "the ambient ocean");
-  if (saved.retry_key.size() > kMaxRetryKeyBytes)
+  if (version == 3 && (saved.retry_key.empty() || saved.retry_key.size() > kMaxRetryKeyBytes))
     fail(Code::InvalidArgument, "checkpoint holds a retry key of " + std::to_string(saved.retry_key.size()) +
-                                    " bytes, more than " + std::to_string(kMaxRetryKeyBytes));
+                                    " bytes, want 1 to " + std::to_string(kMaxRetryKeyBytes));
   if (!spec.empty()) saved.ambient_ocean = ocean::decode_tile_spec(spec, gate, "checkpoint.ambient_ocean");
   return saved;
 }
@@ -64,7 +66,7 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
       ocean_(options.ocean),
       coefficients_(CoefficientCache::kDefaultMaxBytes, &gate),
       sessions_(gate, std::move(options.sessions), "eWave session", "session_id") {
-  sessions_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
+  sessions_.persist(save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
   // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.
   StepKernels<cl_float> single_precision(runtime);
   make_rasterize_kernel(runtime);
@@ -133,9 +135,7 @@ SurfaceCurrent EWaveEngine::surface_current(const std::string& id) {
 
 void EWaveEngine::close(const std::string& id) { sessions_.close(id); }
 
-std::string EWaveEngine::checkpoint(const std::string& id) {
-  return sessions_.checkpoint(id, kCheckpointVersion, save);
-}
+std::string EWaveEngine::checkpoint(const std::string& id) { return sessions_.checkpoint(id, save); }
 
 std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;

@@ -23,9 +23,9 @@ struct EWaveEngineOptions {
 
 class EWaveEngine {
  public:
-  // Version of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes, its config's
-  // ambient_ocean and its last step's retry key; versions 2 (no retry key) and 1 (the state bytes alone, no
-  // ambient ocean) are still read.
+  // Versions of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes, its config's
+  // ambient_ocean and its last step's retry key; 2 the same with no key (written when the last step had
+  // none); 1 (the state bytes alone, no ambient ocean) still read.
   static constexpr uint32_t kCheckpointVersion = 3;
   static constexpr uint32_t kOldestCheckpointVersion = 1;
 

@@ -150,7 +150,8 @@ void EWaveSession::restore(const std::string& bytes) {
                                       state_fields(bytes));
   step_ = h.step;
   time_ = h.time;
-  outputs_step_ = 0;  // the state holds no step's displacement or normals
+  outputs_step_.reset();  // the state holds no step's displacement or normals
+  retry_key_.clear();     // a checkpoint's is set by its caller
   broken_.clear();
 }
 

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -106,8 +107,8 @@ class EWaveSession {
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
   uint64_t step_ = 0;
   double time_ = 0;
-  uint64_t outputs_step_ = 0;  // the step whose displacement and normals out_ holds; 0: none
-  std::string retry_key_;      // the last step's StepGuard::retry_key
+  std::optional<uint64_t> outputs_step_;  // the step whose displacement and normals out_ holds
+  std::string retry_key_;                 // the last step's StepGuard::retry_key
   // Why a step failed after it began to change the fields (a device error, no memory for the frame); empty
   // while they are whole. The fields are then neither the step's nor the one before: the session answers
   // FAILED_PRECONDITION (check_whole()) until restore() gives it whole fields again.

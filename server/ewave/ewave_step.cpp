@@ -246,9 +246,10 @@ Frame EWaveSession::read_frame(const OutputSelection& o) const {
 
 Frame EWaveSession::replay(const OutputSelection& outputs) const {
   if (wants_outputs(outputs) && outputs_step_ != step_)
-    fail(Code::Aborted, "retry_key is that of step " + std::to_string(step_) +
-                            ", made already (its reply was lost), whose displacement and normals the session no "
-                            "longer holds: ask for height and phi alone, or step on with a new key");
+    fail(Code::FailedPrecondition,
+         "retry_key is that of step " + std::to_string(step_) +
+             ", made already (its reply was lost), whose displacement and normals the session no "
+             "longer holds: ask for height and phi alone, or step on with a new key");
   Frame frame;
   {
     auto lock = runtime_.exclusive();

@@ -7,6 +7,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/byte_codec.h"
 #include "common/error.h"
 #include "common/limits.h"
 #include "ewave/ewave_engine.h"
@@ -66,8 +67,9 @@ TEST(EWaveSession, AStepRetriedWithItsKeyIsMadeOnce) {
   expect_bit_identical(first, reference.step(busy_step(0)));
   expect_bit_identical(a.step(busy_step(0), {"key 1", 0}), first);
   EXPECT_EQ(a.step_index(), 1u);
-  squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps",
-                             [&] { a.step(busy_step(1), {"key 2", 0}); });
+  squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps", [&] {
+    a.step(busy_step(1), {"key 2", 0});
+  });
   const Frame second = a.step(busy_step(1), {"key 2", 1});
   expect_bit_identical(second, reference.step(busy_step(1)));
   expect_bit_identical(a.step(busy_step(1), {"key 2", std::nullopt}), second);
@@ -78,8 +80,10 @@ TEST(EWaveSession, AStepRetriedWithItsKeyIsMadeOnce) {
   EWaveSession b = make_session(EWaveSession::config_from_state(saved, LimitGate{Limits{}}));
   b.restore(saved);
   b.set_retry_key(a.retry_key());  // as a checkpoint carries it
-  squall::test::expect_error(Code::Aborted, "whose displacement and normals the session no longer holds",
-                             [&] { b.step(busy_step(1), {"key 2", std::nullopt}); });
+  squall::test::expect_error(Code::FailedPrecondition, "whose displacement and normals the session no longer holds",
+                             [&] {
+                               b.step(busy_step(1), {"key 2", std::nullopt});
+                             });
   StepInputs height_only = busy_step(1);
   height_only.outputs = OutputSelection{};
   const Frame again = b.step(height_only, {"key 2", std::nullopt});
@@ -410,23 +414,37 @@ TEST_F(EngineTest, CheckpointRestoresTheSessionUnderItsIdBitIdentically) {
 }
 
 // A session moved to another daemon by its checkpoint takes its last step's retry key along: the retry of
-// that step sent to the new daemon gets the step's frame, and the session is not stepped twice.
+// that step sent to the new daemon gets the step's frame, and the session is not stepped twice. Only a
+// session with a key writes payload version 3; without one it writes version 2, which older daemons read.
+// A key of more than 64 bytes in a checkpoint is refused by name.
 TEST_F(EngineTest, ACheckpointCarriesTheLastStepsRetryKey) {
   StepInputs heights = busy_step(0);
   heights.outputs = OutputSelection{};
-  std::string id, saved;
+  std::string id, saved, keyless;
   Frame made;
   {
     EWaveEngine first = engine();
     id = first.create(plain_config(32, 32));
+    keyless = first.checkpoint(id);
     made = first.step(id, heights, {"the only step", std::nullopt});
     saved = first.checkpoint(id);
   }
+  CheckpointHeader header;
+  const std::string keyless_payload = decode_checkpoint(keyless, "eWave session", "checkpoint", &header);
+  EXPECT_EQ(header.version, 2u);
+  decode_checkpoint(saved, "eWave session", "checkpoint", &header);
+  EXPECT_EQ(header.version, 3u);
   EWaveEngine second = engine();
   second.restore_checkpoint(saved);
   expect_bit_identical(second.step(id, heights, {"the only step", std::nullopt}), made);
   EXPECT_EQ(second.steps(id), 1u);
   EXPECT_EQ(second.step(id, heights, {"another step", std::nullopt}).step, 2u);
+
+  ByteWriter long_key(keyless_payload);
+  long_key.put_counted(std::string(65, 'k'));
+  expect_error(Code::InvalidArgument, "checkpoint holds a retry key of 65 bytes", [&] {
+    second.restore_checkpoint(encode_checkpoint({"eWave session", 3, std::string(32, 'a')}, long_key.take()));
+  });
 }
 
 // Sessions of one engine share their propagator tables: two sessions of one grid stepping with one dt

@@ -100,6 +100,10 @@ def test_a_step_sent_again_with_its_key_is_made_once(client: squall.Client) -> N
         assert error.value.code == grpc.StatusCode.ABORTED
         assert "after_step = 1, but the session has made 2 steps" in error.value.message
         assert session.step(0.02, after_step=2).step == 3
+        tried = session.step(0.02, retry_key=b"a step tried twice")
+        again = session.step(0.02, retry_key=b"a step tried twice")
+        assert tried.step == again.step == 4
+        assert tried["height"].tobytes() == again["height"].tobytes()
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

@@ -51,8 +51,8 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
 
     gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
     it touches a session, and an eWave step's retry key makes a step whose reply was lost (a
-    broken connection, a proxy's retry on another replica) once, so a retried step is never
-    applied twice.
+    broken connection, a proxy's retry on another replica) once, unless another caller steps the
+    session in between.
     """
     if attempts <= 1:
         # No retry policy, as the C++ client; gRPC's transparent retries (of calls that never

@@ -348,14 +348,15 @@ class EWaveSession:
         *,
         inputs: Optional[Union[ewave_pb2.EWaveInputs, Mapping[str, Any]]] = None,
         after_step: Optional[int] = None,
+        retry_key: Optional[bytes] = None,
         timeout: Optional[float] = None,
         **kwargs: Any,
     ) -> EWaveFrame:
         """One step of dt seconds (keywords of squall.ewave.inputs): the fields after it. As
-        squall.ewave.EWaveSession.step: made once however often it is retried; after_step
-        checked."""
+        squall.ewave.EWaveSession.step: made once however often it is retried with its key;
+        after_step checked."""
         request = _ewave.unary_step_request(
-            self.id, _ewave.as_inputs(inputs, dt, **kwargs), after_step
+            self.id, _ewave.as_inputs(inputs, dt, **kwargs), after_step, retry_key
         )
         conn = self._service._connection
         return EWaveFrame(

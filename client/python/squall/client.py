@@ -83,7 +83,8 @@ class Client:
             gone behind a proxy), with backoff from 0.1 s to 2 s (at most 5; 1: no retries).
             gRPC retries only calls the server has not begun to answer, squalld answers
             UNAVAILABLE before it touches a session, and an eWave step carries a retry key that
-            squalld answers once, so a retried step is never applied twice.
+            squalld answers once: these retries of a step make it once (unless another caller
+            steps the session in between; see EWaveSession.step's after_step).
         token_file: a file whose first word is the token, read once here (see `token`).
         own_connection: a TCP connection of its own. By default the Clients of one process to one
             address (with the same options) share one connection, which is what one program

@@ -303,12 +303,19 @@ def step_request(session_id: str, item: InputsLike, index: int = 0) -> ewave_pb2
 
 
 def unary_step_request(
-    session_id: str, inputs: ewave_pb2.EWaveInputs, after_step: Optional[int]
+    session_id: str,
+    inputs: ewave_pb2.EWaveInputs,
+    after_step: Optional[int] = None,
+    retry_key: Optional[bytes] = None,
 ) -> ewave_pb2.EWaveStepRequest:
-    """The EWaveStepRequest of ``step``: a fresh retry_key (16 random bytes), which gRPC's retries
-    of the call send again, so that a step whose reply was lost is made once; after_step if given."""
+    """The EWaveStepRequest of ``step``: its retry_key (None: a fresh one, 16 random bytes), which
+    gRPC's retries of the call send again, so that a step whose reply was lost is made once; and
+    after_step if given."""
     return ewave_pb2.EWaveStepRequest(
-        session_id=session_id, inputs=inputs, retry_key=os.urandom(16), after_step=after_step
+        session_id=session_id,
+        inputs=inputs,
+        retry_key=os.urandom(16) if retry_key is None else retry_key,
+        after_step=after_step,
     )
 
 
@@ -361,11 +368,12 @@ class EWaveSession:
         *,
         inputs: Optional[Union[ewave_pb2.EWaveInputs, Mapping[str, Any]]] = None,
         after_step: Optional[int] = None,
+        retry_key: Optional[bytes] = None,
         timeout: Optional[float] = None,
         **kwargs: Any,
     ) -> EWaveFrame:
         """Advances the session by one step and returns the fields after it (EWave.Step). The
-        request carries a fresh retry key, so the client's retries of it make one step.
+        request carries a retry key, so the client's own retries of it make one step.
 
         Args:
             dt: time step, s; the other keyword arguments are those of ``squall.ewave.inputs``
@@ -374,8 +382,13 @@ class EWaveSession:
             after_step: the step count the session must be at (the ``step`` of the last frame
                 this caller saw): SquallError ABORTED, the session unchanged, when another
                 caller has stepped it since. None: no check.
+            retry_key: up to 64 bytes naming this step; None: a fresh random key. To try again a
+                step() that raised (DEADLINE_EXCEEDED, UNAVAILABLE after the retries), pass the
+                key of the first try: the step is made once.
         """
-        request = unary_step_request(self.id, as_inputs(inputs, dt, **kwargs), after_step)
+        request = unary_step_request(
+            self.id, as_inputs(inputs, dt, **kwargs), after_step, retry_key
+        )
         conn = self._service._connection
         frame = conn.unary(
             "EWave.Step", self._service._rpc.Step, request, timeout, session=self.id
