@@ -342,13 +342,19 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
 }
 
 namespace {
+// A coordinate of a grid of n cells over a period of `extent`, in [0, n): reduced by whole periods first
+// (fmod is exact), so that a point however far from the origin lands in the grid.
+double periodic_cell(double x, double extent, int n) {
+  double r = std::fmod(x, extent);
+  if (r < 0) r += extent;
+  return std::clamp(r / (extent / n), 0.0, std::nextafter(double(n), 0.0));
+}
+
 // Bilinear periodic sample of the 8 real channels of one layer (host copy of its complex pairs).
 void sample_channels(const std::vector<float>& fields, const LayerSpec& L, double x, double y, double out[8]) {
   const size_t nx = size_t(L.nx), ny = size_t(L.ny), cells = nx * ny;
-  double u = x / (L.lx / L.nx), v = y / (L.ly / L.ny);
-  u -= L.nx * std::floor(u / L.nx);
-  v -= L.ny * std::floor(v / L.ny);
-  size_t i0 = std::min(size_t(u), nx - 1), j0 = std::min(size_t(v), ny - 1);
+  const double u = periodic_cell(x, L.lx, L.nx), v = periodic_cell(y, L.ly, L.ny);
+  size_t i0 = size_t(u), j0 = size_t(v);
   double fu = u - i0, fv = v - j0;
   size_t i1 = (i0 + 1) % nx, j1 = (j0 + 1) % ny;
   for (int c = 0; c < 8; ++c) {

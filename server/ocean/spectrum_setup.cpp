@@ -21,6 +21,12 @@ bool spreading_needs_wind(SpreadingModel s) {
   return s == SpreadingModel::Mitsuyasu || s == SpreadingModel::Jonswap || s == SpreadingModel::VonMises;
 }
 
+// The scale of a partial's shape: its m0 = scale w_p integral(shape dr) = (Hs / 4)^2.
+double partial_scale(const PartialSpectrum& q) {
+  const double m0 = 0.0625 * q.significant_wave_height * q.significant_wave_height;
+  return m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m));
+}
+
 void validate_partials(const std::string& f, const LayerSpec& L) {
   if (L.partials.empty() || L.partials.size() > size_t(kMaxPartialSpectra))
     fail(Code::InvalidArgument, f + ".partials has " + std::to_string(L.partials.size()) +
@@ -36,6 +42,14 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     positive(g + ".n", p.n, 100);
     positive(g + ".m", p.m, 100);
     if (p.a + p.c <= 0) fail(Code::InvalidArgument, g + ".a and " + g + ".c are both 0: the partial has no energy");
+    // The device holds the shape's parameters and scale in float32: an a or c that rounds to 0 there, or a
+    // scale past 1e30 (its product with the shape would overflow), would leave the sea flat or NaN.
+    for (const auto& [name, value] : {std::pair{".a", p.a}, std::pair{".c", p.c}})
+      if (value > 0 && value < 1e-30) validate::reject(g + name, value, "0 or at least 1e-30 (float32 on the device)");
+    const double scale = partial_scale(p);
+    if (!(scale <= 1e30))
+      fail(Code::InvalidArgument, g + ": its shape's scale (Hs / 4)^2 / (w_p integral) is " + validate::number(scale) +
+                                      ", past 1e30 (float32 on the device): raise a or c");
   }
 }
 
@@ -122,7 +136,7 @@ SpectrumParams derive_spectrum(const LayerSpec& L) {
   p.sigma_a = L.sigma_a;
   p.sigma_b = L.sigma_b;
   p.depth = L.depth;
-  p.theta0 = L.wind_direction;
+  p.theta0 = std::remainder(L.wind_direction, 2 * SQUALL_PI);  // within +-pi: exact in double, then in float
   p.phillips_amplitude = L.phillips_amplitude;
   // L = V^2 / g under eq 40 of J. Tessendorf, "Simulating Ocean Water" (App. A of his "Gilligan" report, 2017)
   p.phillips_length = L.wind_speed * L.wind_speed / L.gravity;
@@ -150,9 +164,7 @@ SpectrumParams derive_spectrum(const LayerSpec& L) {
         p.partial_c[i] = q.c;
         p.partial_n[i] = q.n;
         p.partial_m[i] = q.m;
-        // m0 of the partial = scale * w_p * integral(shape dr) = (Hs / 4)^2
-        double m0 = 0.0625 * q.significant_wave_height * q.significant_wave_height;
-        p.partial_scale[i] = m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m));
+        p.partial_scale[i] = partial_scale(q);
         if (q.significant_wave_height > largest) {
           largest = q.significant_wave_height;
           p.omega_p = q.peak_frequency;  // the spreading models follow the dominant partial

@@ -60,8 +60,9 @@ class StreamCall {
   std::string method_;
   const ServingState& serving_;
   const bool names_session_;  // x-squall-session: a session stream, which ends with its session's move
-  bool ended_ = false;
-  // live() said no because squalld drains; atomic: engines ask live() from their worker threads
+  // A write failed; live() said no because squalld drains. Atomic: engines ask live() from their worker
+  // threads (a stream's next frame is computed while the handler writes the last).
+  std::atomic<bool> ended_{false};
   mutable std::atomic<bool> stopped_by_drain_{false};
 };
 

@@ -123,6 +123,19 @@ TEST(OceanTile, DriftCurrentTranslatesTheField) {
   EXPECT_LT(worst, 1e-4 * test::rms(a));
 }
 
+// A wind direction 1e5 turns away is the same direction: reduced in double before the device's float32
+// (whose spacing at 6e5 rad is 0.06 rad) sees it.
+TEST(OceanTile, WindDirectionsWholeTurnsApartGiveOneSea) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  spec.layers[0].wind_direction = 0.3;
+  TileSpec turned = spec;
+  turned.layers[0].wind_direction = 0.3 + 2 * M_PI * 1e5;
+  auto a = engine().tile(spec, 2.0, Height).height, b = engine().tile(turned, 2.0, Height).height;
+  double worst = 0;
+  for (size_t k = 0; k < a.size(); ++k) worst = std::max(worst, double(std::abs(a[k] - b[k])));
+  EXPECT_LT(worst, 1e-5 * test::rms(a));
+}
+
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
   auto h = engine().tile(spec, 1.0, Height).height;
@@ -141,6 +154,13 @@ TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   EXPECT_LT(mean_step(63), most);
   auto s = engine().sample(spec, 1.0, {{13.3, 71.9}, {13.3 + 100, 71.9 - 300}}, false);
   EXPECT_NEAR(s[0].height, s[1].height, 1e-6 * test::rms(h));
+  // A point however far away is the point its whole periods away in the patch: finite, and bit for bit.
+  const double lx = spec.layers[0].lx, ly = spec.layers[0].ly;
+  auto far = engine().sample(spec, 1.0, {{1e300, -3e299}}, false)[0];
+  auto near = engine().sample(spec, 1.0, {{std::fmod(1e300, lx), std::fmod(-3e299, ly) + ly}}, false)[0];
+  EXPECT_TRUE(std::isfinite(far.height) && std::isfinite(far.normal_z)) << far.height;
+  EXPECT_EQ(far.height, near.height);
+  EXPECT_EQ(far.normal_z, near.normal_z);
 }
 
 TEST(OceanTile, BitIdenticalRepeatAndLargeWavesKeptAcrossResolutions) {

@@ -92,5 +92,20 @@ TEST(OceanValidation, TileRejectsBadOutputsTimeAndBackwardsStream) {
   EXPECT_EQ(test::engine().tile(spec, 1, Height).height.size(), 32u * 32u);
 }
 
+// The device holds a partial's shape and scale in float32: a c that rounds to 0 there, or a scale past its
+// range (Hs 100 m carried by c = 1e-29 alone: about 4.6e32), is refused naming the partial, not turned into a
+// flat or NaN sea.
+TEST(OceanValidation, MultipeakPartialsPastFloat32AreRefusedByName) {
+  TileSpec spec = test::single(SpectrumModel::Multipeak, SpreadingModel::VonMises, 32, 100);
+  spec.layers[0].partials = {{1.0, 100.0, 0.0, 22.2222, 1e-29, 5, 8}};
+  squall::test::expect_error(Code::InvalidArgument, "layers[0].partials[0]: its shape's scale",
+                             [&] { test::engine().validate(spec, LimitGate{Limits{}}); });
+  spec.layers[0].partials[0].c = 1e-35;
+  squall::test::expect_error(Code::InvalidArgument, "layers[0].partials[0].c = 1e-35",
+                             [&] { test::engine().validate(spec, LimitGate{Limits{}}); });
+  spec.layers[0].partials[0].c = 1e-3;
+  test::engine().validate(spec, LimitGate{Limits{}});
+}
+
 }  // namespace
 }  // namespace squall::ocean
