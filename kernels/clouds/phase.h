@@ -9,8 +9,10 @@
 
 #define SQUALL_INV_4PI 0.0795774715459477f
 
-static inline float phase_hg(float mu, float g) {  // eq A.8
-  float d = 1.0f + g * g - 2.0f * g * mu;
+// eq A.8, its denominator 1 + g^2 - 2 g mu written as (1 - g)^2 + 4 g s2: never negative, and accurate near
+// forward scattering, where 1 - mu is not
+static inline float phase_hg(float s2, float g) {
+  float d = (1.0f - g) * (1.0f - g) + 4.0f * g * s2;
   return SQUALL_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
 }
 
@@ -32,9 +34,9 @@ static inline float phase_fournier_forand(float mu, float s2, float n, float mu_
 }
 
 static inline float phase_function(__private const CloudRenderParams* p, float mu, float s2) {
-  if (p->phase == SQUALL_PHASE_HG) return phase_hg(mu, p->g1);
+  if (p->phase == SQUALL_PHASE_HG) return phase_hg(s2, p->g1);
   if (p->phase == SQUALL_PHASE_DOUBLE_HG)
-    return p->weight * phase_hg(mu, p->g1) + (1.0f - p->weight) * phase_hg(mu, p->g2);
+    return p->weight * phase_hg(s2, p->g1) + (1.0f - p->weight) * phase_hg(s2, p->g2);
   if (p->phase == SQUALL_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
   return SQUALL_INV_4PI;
 }

@@ -161,13 +161,20 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
   return costs;
 }
 
+// The kernels work in float32: a point or direction of the scene has components within +-kMaxWorld (m).
+constexpr double kMaxWorld = 1e7;
+
+void world_xyz(const std::string& path, const Vec3d& v) {
+  validate::in_xyz(path, v, validate::closed(-kMaxWorld, kMaxWorld));
+}
+
 }  // namespace
 
 void validate(const RenderSettings& s, const std::string& f) {
   const Camera& c = s.camera;
-  validate::finite_xyz(f + ".camera.eye", c.eye);
-  validate::finite_xyz(f + ".camera.look_at", c.look_at);
-  validate::finite_xyz(f + ".camera.up", c.up);
+  world_xyz(f + ".camera.eye", c.eye);
+  world_xyz(f + ".camera.look_at", c.look_at);
+  world_xyz(f + ".camera.up", c.up);
   Vec3d view = sub(c.look_at, c.eye);
   if (!(norm(view) > 0)) fail(Code::InvalidArgument, f + ".camera.look_at equals " + f + ".camera.eye");
   if (!(norm(cross(unit(view), c.up)) > 1e-6))
@@ -180,10 +187,11 @@ void validate(const RenderSettings& s, const std::string& f) {
   validate::in(f + ".min_transmittance", s.min_transmittance, validate::closed_open(0, 1));
   validate::non_negative(f + ".shadow_step", s.shadow_step);
   const Phase& ph = s.phase;
-  validate::in(f + ".phase.g1", ph.g1, validate::open(-1, 1));
-  validate::in(f + ".phase.g2", ph.g2, validate::open(-1, 1));
+  // |g| and n - 1 at least 1e-4 from their poles in float32 (g = 0.99999999 is 1.0f: 0/0 at mu = 1)
+  validate::in(f + ".phase.g1", ph.g1, validate::closed(-0.9999, 0.9999));
+  validate::in(f + ".phase.g2", ph.g2, validate::closed(-0.9999, 0.9999));
   validate::in(f + ".phase.weight", ph.weight, validate::closed(0, 1));
-  validate::in(f + ".phase.ff_n", ph.ff_n, validate::open_closed(1, 2));
+  validate::in(f + ".phase.ff_n", ph.ff_n, validate::closed(1.0001, 2));
   validate::in(f + ".phase.ff_mu", ph.ff_mu, validate::closed(3.5, 5));  // the Junge slope
   size_t nw = s.wavelengths.size();
   if (nw < 1 || nw > SQUALL_CLOUD_MAX_WAVELENGTHS)
@@ -193,8 +201,8 @@ void validate(const RenderSettings& s, const std::string& f) {
     fail(Code::InvalidArgument,
          f + ".extinction and " + f + ".albedo need one entry per wavelength (" + std::to_string(nw) + ")");
   for (size_t w = 0; w < nw; ++w) {
-    validate::positive(validate::at(f + ".wavelengths", w), s.wavelengths[w], 1e-3);  // m
-    validate::non_negative(validate::at(f + ".extinction", w), s.extinction[w]);      // 1/m
+    validate::in(validate::at(f + ".wavelengths", w), s.wavelengths[w], validate::closed(1e-8, 1e-3));  // m
+    validate::non_negative(validate::at(f + ".extinction", w), s.extinction[w], 1e6);                   // 1/m
     validate::in(validate::at(f + ".albedo", w), s.albedo[w], validate::closed(0, 1));
   }
   if (s.lights.size() > SQUALL_CLOUD_MAX_LIGHTS)
@@ -202,13 +210,14 @@ void validate(const RenderSettings& s, const std::string& f) {
                                     std::to_string(SQUALL_CLOUD_MAX_LIGHTS));
   for (size_t i = 0; i < s.lights.size(); ++i) {
     std::string l = validate::at(f + ".lights", i);
-    validate::finite_xyz(l + ".position", s.lights[i].position);
-    validate::finite_xyz(l + ".direction", s.lights[i].direction);
+    world_xyz(l + ".position", s.lights[i].position);
+    world_xyz(l + ".direction", s.lights[i].direction);
     if (s.lights[i].kind == LightKind::Directional && !(norm(s.lights[i].direction) > 0))
       fail(Code::InvalidArgument, l + ".direction must not be zero");
     if (s.lights[i].intensity.size() != nw)
       fail(Code::InvalidArgument, l + ".intensity needs one entry per wavelength (" + std::to_string(nw) + ")");
-    for (size_t w = 0; w < nw; ++w) validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w]);
+    for (size_t w = 0; w < nw; ++w)
+      validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w], 1e20);
   }
   for (size_t a = 0; a < 3; ++a)
     validate::in(validate::at(f + ".shadow_map_size", a), int64_t(s.shadow_map_size[a]), 2, 512);

@@ -55,12 +55,17 @@ inline double positive(const std::string& path, double v, double max) { return i
 inline double non_negative(const std::string& path, double v) { return in(path, v, at_least(0)); }
 inline double non_negative(const std::string& path, double v, double max) { return in(path, v, closed(0, max)); }
 
-// The three components of a 3-vector finite: "<path>.y = nan must be finite".
+// The three components of a 3-vector in `interval`: "<path>.y = nan must be in [-1e7, 1e7]".
+template <typename Vec3>
+void in_xyz(const std::string& path, const Vec3& v, const Interval& interval) {
+  in(path + ".x", v[0], interval);
+  in(path + ".y", v[1], interval);
+  in(path + ".z", v[2], interval);
+}
+// ... and finite: "<path>.y = nan must be finite".
 template <typename Vec3>
 void finite_xyz(const std::string& path, const Vec3& v) {
-  finite(path + ".x", v[0]);
-  finite(path + ".y", v[1]);
-  finite(path + ".z", v[2]);
+  in_xyz(path, v, any());
 }
 
 // Integers: "<path> = 17 must be in [1, 16]".

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "clouds/renderer.h"
@@ -72,6 +73,36 @@ TEST(Errors, RenderSettingsNameTheirFields) {
   s = RenderSettings{};
   s.camera.look_at = s.camera.eye;
   expect_error([&] { validate(s); }, Code::InvalidArgument, "render.camera.look_at");
+}
+
+// Finite values that float32 on the device would turn into inf (and the image into NaN), or an asymmetry
+// that rounds to g = 1 (0/0 at mu = 1), are refused naming the field.
+TEST(Errors, RenderSettingsPastFloat32AreRefusedByName) {
+  auto refused = [](const std::function<void(RenderSettings&)>& change, const std::string& field) {
+    RenderSettings s;
+    change(s);
+    expect_error([&] { validate(s); }, Code::InvalidArgument, field);
+  };
+  refused([](RenderSettings& s) { s.extinction[0] = 1e39; }, "render.extinction[0] = 1e+39");
+  refused([](RenderSettings& s) { s.wavelengths[0] = 1e-50; }, "render.wavelengths[0]");
+  refused([](RenderSettings& s) { s.phase.g1 = 0.99999999; }, "render.phase.g1");
+  refused([](RenderSettings& s) { s.phase.ff_n = 1 + 1e-8; }, "render.phase.ff_n");
+  refused([](RenderSettings& s) { s.camera.eye[0] = 1e39; }, "render.camera.eye.x");
+  refused(
+      [](RenderSettings& s) {
+        Light light;
+        light.kind = LightKind::Point;
+        light.position = {1e39, 0, 0};
+        light.intensity = {1};
+        s.lights.push_back(light);
+      },
+      "render.lights[0].position.x");
+  refused(
+      [](RenderSettings& s) {
+        s.lights.push_back(Light{});
+        s.lights[0].intensity = {1e39};
+      },
+      "render.lights[0].intensity[0]");
 }
 
 }  // namespace

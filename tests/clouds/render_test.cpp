@@ -636,6 +636,21 @@ TEST(Render, PhaseFunctionsIntegrateToOneAndHenyeyGreensteinMeanCosineIsG) {
   }
 }
 
+// Near the largest asymmetry allowed, Henyey-Greenstein's forward peak is as eq A.8 gives it in double: its
+// denominator 1 + g^2 - 2 g mu, some 1e-8 there, is not left to float32's cancellation.
+TEST(Render, HenyeyGreensteinAtG09999KeepsItsForwardPeak) {
+  RenderSettings s;
+  s.phase.kind = PhaseKind::HenyeyGreenstein;
+  s.phase.g1 = 0.9999;
+  const std::vector<float> theta{0.0f, 3e-5f, 1e-4f, 1e-3f, 1e-2f};
+  const std::vector<float> P = device_phase(s, theta);
+  const double g = double(float(s.phase.g1));
+  for (size_t i = 0; i < theta.size(); ++i) {
+    const double d = 1 + g * g - 2 * g * std::cos(double(theta[i]));
+    EXPECT_NEAR(P[i] / ((1 - g * g) / (4 * kPi * d * std::sqrt(d))), 1.0, 1e-3) << "theta " << theta[i];
+  }
+}
+
 TEST(Render, DeviceBlackbodyMatchesPlanckInDouble) {
   Runtime& rt = test::runtime();
   std::vector<float> lambda, temp;
