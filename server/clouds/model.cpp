@@ -90,7 +90,8 @@ void validate(const CloudModel& m, const std::string& prefix) {
   if (a.substeps < 1 || a.substeps > 256)
     fail(Code::InvalidArgument, f + ".advection.substeps = " + std::to_string(a.substeps) + " must be in [1, 256]");
   check_noise(f + ".advection.noise", a.noise);
-  double grow = pyroclastic_bound(p) + band + std::sqrt(3.0) * a.speed * a.time;
+  // The advection's dilation: advection_reach of the field's top speed sqrt(3) speed, along the diagonals too.
+  double grow = pyroclastic_bound(p) + band + std::sqrt(3.0) * advection_reach(std::sqrt(3.0) * a.speed, a.time);
   // Estimated active voxels: shape volumes grown by the displacement band (interior tiles included).
   double volume = 0;
   // A sphere or ellipsoid finer than half a voxel is not resolved (and OpenVDB refuses to build it).
@@ -140,7 +141,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
   if (m.spheres.empty() && m.ellipsoids.empty() && m.meshes.empty() && m.particles.empty())
     fail(Code::InvalidArgument, f + " has no spheres, ellipsoids, meshes or particles");
   double voxels = volume / std::pow(m.voxel_size, 3);
-  if (voxels > static_cast<double>(m.max_active_voxels))
+  if (!(voxels <= static_cast<double>(m.max_active_voxels)))  // NaN too (a voxel_size of 1e200)
     fail(Code::ResourceExhausted, f + ": an estimated " + validate::number(voxels) + " active voxels exceed " + f +
                                       ".max_active_voxels = " + std::to_string(m.max_active_voxels));
   if (a.speed > 0 && a.time > 0) {  // each voxel maps its point back through every substep (eqs 115-117)

@@ -84,6 +84,11 @@ struct CloudModel {
   double max_advection_samples = 1e9;        // budget: estimated active voxels x substeps (x2 for MacCormack)
 };
 
+// How far (m) advect_density() grows the active region of a density carried at up to max_speed (m/s) for
+// `time` (s): a modified MacCormack step moves a point by at most twice the semi-Lagrangian one. The region
+// grows by that many voxels along each axis (a cube about each voxel: up to sqrt(3) times it diagonally).
+inline double advection_reach(double max_speed, double time) { return 2 * max_speed * time; }
+
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
 // non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
 // voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples.

@@ -52,10 +52,9 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const Advection& advecti
 FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, double max_speed, double time,
                               int substeps, AdvectionScheme scheme, const Cancellation& cancel) {
   const double dx = density.transform().voxelSize()[0];
-  const double reach = 2 * max_speed * time;  // MM moves a point by at most twice the SL step
   FloatGrid::Ptr out = density.deepCopy();
   out->tree().voxelizeActiveTiles();
-  int dilation = int(std::ceil(reach / dx)) + 1;
+  int dilation = int(std::ceil(advection_reach(max_speed, time) / dx)) + 1;
   openvdb::tools::dilateActiveValues(out->tree(), dilation, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                      openvdb::tools::EXPAND_TILES);
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());

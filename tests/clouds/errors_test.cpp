@@ -52,6 +52,19 @@ TEST(Errors, DegenerateMeshIsRejected) {
   expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.meshes[0].triangles[4] = 9 is out of range");
 }
 
+// The advection dilates the density by twice the field's top speed (sqrt(3) speed) times the time, along
+// each axis: a 1 m sphere carried at 100 m/s for 1 s becomes a working grid some 690 voxels across
+// (3e8 voxels), which the estimate refuses up front rather than after building it (it counted 2.4e7).
+TEST(Errors, TheAdvectionsDilationCountsInTheVoxelEstimate) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 1;
+  m.spheres.push_back({{0, 0, 0}, 1});
+  m.advection.speed = 100;
+  m.advection.time = 1;
+  expect_error([&] { validate(m); }, Code::ResourceExhausted, "model.max_active_voxels");
+}
+
 TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
