@@ -9,6 +9,7 @@
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "clouds/volume.h"
@@ -66,13 +67,30 @@ openvdb::Vec3d world(const openvdb::math::Transform& xform, const openvdb::Coord
   return xform.indexToWorld(ijk);
 }
 
+// Eqs 113-114 for one particle over the voxels of `box` (max blend).
+void stamp_box(FloatGrid::Accessor& acc, const openvdb::math::Transform& xform, const Particle& p, double skin,
+               const openvdb::CoordBBox& box) {
+  const openvdb::Vec3d c(p.center[0], p.center[1], p.center[2]);
+  for (auto ijk = box.begin(); ijk; ++ijk) {
+    openvdb::Vec3d x = world(xform, *ijk);
+    double l = p.radius - (x - c).length();
+    if (l <= 0) continue;
+    double rho_base = std::clamp(l / skin, 0.0, 1.0);  // eq 103
+    double N = p.amplitude * (p.bias + fractal_noise(p.noise, {x[0], x[1], x[2]}));
+    double v = std::max(0.0, N * std::pow(rho_base, p.fade));  // eq 113
+    if (v > acc.getValue(*ijk)) acc.setValue(*ijk, float(v));  // eq 114 (max blend)
+  }
+}
+
 }  // namespace
 
-FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double interior) {
+FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double interior, const Cancellation& cancel,
+                              const std::string& what) {
   auto xform = openvdb::math::Transform::createLinearTransform(model.voxel_size);
   float half_width = float(std::max(exterior, interior) / model.voxel_size + 2);
   FloatGrid::Ptr sdf;
   auto add = [&](FloatGrid::Ptr g) {
+    cancel.check(what);  // before the next shape: a union of many takes long
     if (!sdf) {
       sdf = g;
     } else {
@@ -96,7 +114,8 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
   return sdf;
 }
 
-FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclastic& pyro) {
+FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclastic& pyro, const Cancellation& cancel,
+                                    const std::string& what) {
   FloatGrid::Ptr current = level_set.deepCopy();
   const auto& xform = level_set.transform();
   const double dx = xform.voxelSize()[0];
@@ -106,7 +125,12 @@ FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclasti
     const double scale = std::pow(pyro.noise.roughness, n);
     FloatGrid::Ptr next = current->deepCopy();
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(next->tree());
+    std::atomic<bool> cancelled{false};
     leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+      if (cancelled || cancel.requested()) {  // a leaf (512 voxels) is the slice
+        cancelled = true;
+        return;
+      }
       auto in = current->getConstAccessor();
       for (auto it = leaf.beginValueOn(); it; ++it) {
         const openvdb::Coord ijk = it.getCoord();
@@ -120,6 +144,7 @@ FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclasti
         it.setValue(float(l + pyro.amplitude * std::pow(std::abs(N), pyro.gamma)));  // eqs 106, 109, 112
       }
     });
+    cancel.check(what);
     current = next;
   }
   return current;
@@ -140,22 +165,17 @@ FloatGrid::Ptr density_from_level_set(const FloatGrid& level_set, double skin) {
   return density;
 }
 
-void stamp_particles(FloatGrid& density, const std::vector<Particle>& particles, double skin) {
+void stamp_particles(FloatGrid& density, const std::vector<Particle>& particles, double skin,
+                     const Cancellation& cancel, const std::string& what) {
   const auto& xform = density.transform();
   auto acc = density.getAccessor();
   for (const auto& p : particles) {
     openvdb::Vec3d c(p.center[0], p.center[1], p.center[2]);
-    openvdb::Vec3d lo = xform.worldToIndex(c - openvdb::Vec3d(p.radius)),
-                   hi = xform.worldToIndex(c + openvdb::Vec3d(p.radius));
-    openvdb::CoordBBox box(openvdb::Coord::floor(lo), openvdb::Coord::ceil(hi));
-    for (auto ijk = box.begin(); ijk; ++ijk) {
-      openvdb::Vec3d x = world(xform, *ijk);
-      double l = p.radius - (x - c).length();
-      if (l <= 0) continue;
-      double rho_base = std::clamp(l / skin, 0.0, 1.0);  // eq 103
-      double N = p.amplitude * (p.bias + fractal_noise(p.noise, {x[0], x[1], x[2]}));
-      double v = std::max(0.0, N * std::pow(rho_base, p.fade));  // eq 113
-      if (v > acc.getValue(*ijk)) acc.setValue(*ijk, float(v));  // eq 114 (max blend)
+    const openvdb::Coord lo = openvdb::Coord::floor(xform.worldToIndex(c - openvdb::Vec3d(p.radius))),
+                         hi = openvdb::Coord::ceil(xform.worldToIndex(c + openvdb::Vec3d(p.radius)));
+    for (int i = lo.x(); i <= hi.x(); ++i) {
+      cancel.check(what);  // a slab of one particle's box: its noise is the costly part of a build
+      stamp_box(acc, xform, p, skin, {openvdb::Coord(i, lo.y(), lo.z()), openvdb::Coord(i, hi.y(), hi.z())});
     }
   }
   openvdb::tools::prune(density.tree());

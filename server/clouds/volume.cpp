@@ -162,10 +162,10 @@ CloudVolume build_cloud(const CloudModel& model, const std::string& field, const
   validate(model, field);
   const double dx = model.voxel_size;
   FloatGrid::Ptr density;
-  if (auto ls = base_level_set(model, pyroclastic_bound(model.pyroclastic) + 3 * dx, model.skin + 3 * dx)) {
-    cancel.check(field + ": the base shapes");
-    if (model.pyroclastic.layers > 0) ls = pyroclastic_displace(*ls, model.pyroclastic);
-    cancel.check(field + ": the pyroclastic displacement");
+  const double exterior = pyroclastic_bound(model.pyroclastic) + 3 * dx, interior = model.skin + 3 * dx;
+  if (auto ls = base_level_set(model, exterior, interior, cancel, field + ": the base shapes")) {
+    if (model.pyroclastic.layers > 0)
+      ls = pyroclastic_displace(*ls, model.pyroclastic, cancel, field + ": the pyroclastic displacement");
     density = density_from_level_set(*ls, model.skin);
   } else {
     density = FloatGrid::create(0.0f);
@@ -174,7 +174,7 @@ CloudVolume build_cloud(const CloudModel& model, const std::string& field, const
     density->setGridClass(openvdb::GRID_FOG_VOLUME);
   }
   check_budget(*density, model, field, "the base shapes");
-  stamp_particles(*density, model.particles, model.skin);
+  stamp_particles(*density, model.particles, model.skin, cancel, field + ": the particles");
   check_budget(*density, model, field, "stamping");
   if (model.advection.speed > 0 && model.advection.time > 0) {
     density = advect_density(*density, model.advection, cancel);

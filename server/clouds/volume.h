@@ -36,21 +36,27 @@ struct CloudVolume {
 void initialize_openvdb();
 
 // Validates and builds the model (throws squall::Error naming the field; ResourceExhausted when the
-// active voxels exceed model.max_active_voxels). `cancel` is checked between the stages and, while
-// advecting, between leaves: Error(Cancelled) then.
+// active voxels exceed model.max_active_voxels). `cancel` is checked before each shape, between leaves of
+// the displacement and the advection, and before each slab of a particle: Error(Cancelled) then.
 CloudVolume build_cloud(const CloudModel& model, const std::string& field = "model", const Cancellation& cancel = {});
 
 // The base level set (l > 0 inside, the convention of sec. 6.2.2) of the union of the model's spheres,
 // ellipsoids and meshes, valid within at least `exterior` m outside and `interior` m inside the surface;
 // beyond its band it holds -w outside and +w inside (w = the band's half width, >= both). Null when the
-// model has no such shapes.
-openvdb::FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double interior);
-// Eqs 105-112 applied to a level set (l > 0 inside); returns the displaced level set.
-openvdb::FloatGrid::Ptr pyroclastic_displace(const openvdb::FloatGrid& level_set, const Pyroclastic& pyro);
+// model has no such shapes. `cancel` is asked before each shape (Error(Cancelled) naming `what`).
+openvdb::FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double interior,
+                                       const Cancellation& cancel = {}, const std::string& what = "the base shapes");
+// Eqs 105-112 applied to a level set (l > 0 inside); returns the displaced level set. `cancel` is asked
+// between leaves.
+openvdb::FloatGrid::Ptr pyroclastic_displace(const openvdb::FloatGrid& level_set, const Pyroclastic& pyro,
+                                             const Cancellation& cancel = {},
+                                             const std::string& what = "the pyroclastic displacement");
 // Eq 103: rho = clamp(l / skin, 0, 1), active where rho > 0 (interior tiles stay tiles).
 openvdb::FloatGrid::Ptr density_from_level_set(const openvdb::FloatGrid& level_set, double skin);
-// Eqs 113-114: the particles stamped into `density` (max blend).
-void stamp_particles(openvdb::FloatGrid& density, const std::vector<Particle>& particles, double skin);
+// Eqs 113-114: the particles stamped into `density` (max blend). `cancel` is asked before each slab of a
+// particle's box (one voxel thick along x).
+void stamp_particles(openvdb::FloatGrid& density, const std::vector<Particle>& particles, double skin,
+                     const Cancellation& cancel = {}, const std::string& what = "the particles");
 // Eqs 115-117 / App E: density(x) <- density(X(x)) with trilinear sampling, over the active set dilated by
 // the largest displacement.
 openvdb::FloatGrid::Ptr advect_density(const openvdb::FloatGrid& density, const Advection& advection,

@@ -65,6 +65,25 @@ TEST(Errors, TheAdvectionsDilationCountsInTheVoxelEstimate) {
   expect_error([&] { validate(m); }, Code::ResourceExhausted, "model.max_active_voxels");
 }
 
+// A build asks its Cancellation within each stage: before each base shape and each slab of a particle, not
+// only when the stage is done. Cancelled after its first answers, a build of five spheres stops among
+// them, and one of a particle 100 voxels across within the particle.
+TEST(Errors, ABuildStopsWithinTheStageItWasCancelledIn) {
+  CloudModel m = sphere_model();
+  for (int k = 1; k < 5; ++k) m.spheres.push_back({{3.0 * k, 0, 0}, 4});
+  int asked = 0;
+  const Cancellation after_two([&] { return ++asked > 2; });
+  expect_error([&] { build_cloud(m, "model", after_two); }, Code::Cancelled, "model: the base shapes cancelled");
+  m = sphere_model();
+  m.spheres.clear();
+  Particle p;
+  p.center = {0, 0, 0};
+  p.radius = 25;  // 100 voxels across
+  m.particles.push_back(p);
+  asked = 0;
+  expect_error([&] { build_cloud(m, "model", after_two); }, Code::Cancelled, "model: the particles cancelled");
+}
+
 TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
