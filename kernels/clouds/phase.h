@@ -2,17 +2,18 @@
 // course notes 2010/2011), reproduced as App. D of J. Tessendorf, "Gilligan: A Prototype Framework for
 // Simulating and Rendering Maritime Environments" (2017); Gilligan sec. 7.2.1), normalized to 1 over the
 // sphere. mu = cos(Theta) of the scattering angle between the view direction and the direction to the
-// light; s2 = sin^2(Theta/2) = (1 - mu)/2, passed separately because it is accurate near forward
-// scattering where 1 - mu is not.
+// light; s2 = sin^2(Theta/2) = (1 - mu)/2 and c2 = cos^2(Theta/2) = (1 + mu)/2, passed separately because they
+// are accurate near forward and backward scattering, where 1 - mu and 1 + mu are not.
 #ifndef SQUALL_CLOUDS_PHASE_H
 #define SQUALL_CLOUDS_PHASE_H
 
 #define SQUALL_INV_4PI 0.0795774715459477f
 
-// eq A.8, its denominator 1 + g^2 - 2 g mu written as (1 - g)^2 + 4 g s2: never negative, and accurate near
-// forward scattering, where 1 - mu is not
-static inline float phase_hg(float s2, float g) {
-  float d = (1.0f - g) * (1.0f - g) + 4.0f * g * s2;
+// eq A.8, its denominator 1 + g^2 - 2 g mu written as (1 - g)^2 + 4 g s2 for g >= 0 and as (1 + g)^2 - 4 g c2
+// for g < 0: sums of terms >= 0, accurate at the peak (forward for g > 0, backward for g < 0), where
+// 1 - g^2 and 1 -+ mu would cancel
+static inline float phase_hg(float s2, float c2, float g) {
+  float d = g >= 0.0f ? (1.0f - g) * (1.0f - g) + 4.0f * g * s2 : (1.0f + g) * (1.0f + g) - 4.0f * g * c2;
   return SQUALL_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
 }
 
@@ -33,10 +34,10 @@ static inline float phase_fournier_forand(float mu, float s2, float n, float mu_
   return first + second;
 }
 
-static inline float phase_function(__private const CloudRenderParams* p, float mu, float s2) {
-  if (p->phase == SQUALL_PHASE_HG) return phase_hg(s2, p->g1);
+static inline float phase_function(__private const CloudRenderParams* p, float mu, float s2, float c2) {
+  if (p->phase == SQUALL_PHASE_HG) return phase_hg(s2, c2, p->g1);
   if (p->phase == SQUALL_PHASE_DOUBLE_HG)
-    return p->weight * phase_hg(s2, p->g1) + (1.0f - p->weight) * phase_hg(s2, p->g2);
+    return p->weight * phase_hg(s2, c2, p->g1) + (1.0f - p->weight) * phase_hg(s2, c2, p->g2);
   if (p->phase == SQUALL_PHASE_FOURNIER_FORAND) return phase_fournier_forand(mu, s2, p->ff_n, p->ff_mu);
   return SQUALL_INV_4PI;
 }

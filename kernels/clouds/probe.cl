@@ -18,8 +18,8 @@ __kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk,
 __kernel void phase_eval(CloudRenderParams p, __global const float* theta, const int n, __global float* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
-  float s = sin(0.5f * theta[i]);
-  out[i] = phase_function(&p, cos(theta[i]), s * s);
+  float s = sin(0.5f * theta[i]), c = cos(0.5f * theta[i]);
+  out[i] = phase_function(&p, cos(theta[i]), s * s, c * c);
 }
 
 // out[i] = B_lambda(T) at wavelength lambda[i] (m) and temperature T[i] (K).

@@ -327,8 +327,8 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         for (int i = 0; i < p.n_lights; ++i) {
           float dist;
           float3 nl = sq_to_light(&p.lights[i], x, &dist, &irr[i]);
-          float3 diff = dir - nl;
-          phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff));
+          float3 diff = dir - nl, sum = dir + nl;
+          phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff), 0.25f * dot(sum, sum));
           column[i] = p.shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)
                       : p.shadow == SQUALL_SHADOW_DIRECT ? sq_column_density(&v, x, nl, dist, &p, &rng)
                                                          : 0.0f;

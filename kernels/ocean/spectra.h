@@ -288,9 +288,9 @@ static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real 
 
 #ifndef __OPENCL_VERSION__
 /* ---- host only: quadratures for the derived parameters ---- */
-/* integral over r in (0, inf) of the multipeak shape (log-spaced trapezoid) */
-static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m) {
-  const int steps = 40000;
+/* integral over r in (0, inf) of the multipeak shape (log-spaced trapezoid of `steps` steps) */
+static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m,
+                                                 int steps = 40000) {
   double u0 = log(0.02), u1 = log(2000.0), du = (u1 - u0) / steps, sum = 0;
   for (int i = 0; i <= steps; ++i) {
     double r = exp(u0 + i * du);

@@ -109,7 +109,8 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
     add(mesh_sdf(*xform, to_points(m.vertices), triangles, half_width));
   }
   if (!sdf) return nullptr;
-  negate(*sdf);  // Gilligan's convention (sec. 6.2.2): l > 0 inside
+  cancel.check(what);  // the last shape's union done
+  negate(*sdf);        // Gilligan's convention (sec. 6.2.2): l > 0 inside
   sdf->setName("level_set");
   return sdf;
 }
@@ -144,7 +145,7 @@ FloatGrid::Ptr pyroclastic_displace(const FloatGrid& level_set, const Pyroclasti
         it.setValue(float(l + pyro.amplitude * std::pow(std::abs(N), pyro.gamma)));  // eqs 106, 109, 112
       }
     });
-    cancel.check(what);
+    if (cancelled) Cancellation::stopped(what);
     current = next;
   }
   return current;

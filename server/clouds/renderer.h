@@ -27,7 +27,7 @@ enum class LightKind { Point = 0, Directional = 1 };
 enum class ShadowMode { None = 0, Direct = 1, DeepShadowMap = 2 };
 
 struct Camera {
-  Vec3d eye{0, -30, 0};          // m
+  Vec3d eye{0, -30, 0};          // m; components of every point and direction within +-1e7
   Vec3d look_at{0, 0, 0};        // m, != eye
   Vec3d up{0, 0, 1};             // not parallel to the view direction
   double vertical_fov_deg = 40;  // (0, 170)
@@ -38,13 +38,13 @@ struct Light {
   LightKind kind = LightKind::Directional;
   Vec3d position{0, 0, 100};      // point light, m
   Vec3d direction{0, 0, 1};       // directional: toward the light (normalized here)
-  std::vector<double> intensity;  // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; >= 0
+  std::vector<double> intensity;  // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; [0, 1e20]
 };
 
 struct Phase {
   PhaseKind kind = PhaseKind::HenyeyGreenstein;
-  double g1 = 0.8, g2 = -0.3, weight = 0.9;  // g in (-1, 1), weight in [0, 1]
-  double ff_n = 1.05, ff_mu = 4.0;           // FF: n in (1, 2], Junge slope mu in [3.5, 5]
+  double g1 = 0.8, g2 = -0.3, weight = 0.9;  // g in [-0.9999, 0.9999], weight in [0, 1]
+  double ff_n = 1.05, ff_mu = 4.0;           // FF: n in [1.0001, 2], Junge slope mu in [3.5, 5]
 };
 
 struct RenderSettings {
@@ -57,8 +57,8 @@ struct RenderSettings {
   double shadow_step = 0;           // m, >= 0: the step toward the lights; 0: 3 steps (vdb_render's 3 voxels)
   bool shadow_trilinear = false;    // trilinear density on the marches toward the lights (false: nearest voxel)
   Phase phase;
-  std::vector<double> wavelengths{550e-9};  // m, (0, 1e-3]; 1..8 channels
-  std::vector<double> extinction{1.0};      // kappa per unit density, 1/m, >= 0; one per wavelength
+  std::vector<double> wavelengths{550e-9};  // m, [1e-8, 1e-3]; 1..8 channels
+  std::vector<double> extinction{1.0};      // kappa per unit density, 1/m, [0, 1e6]; one per wavelength
   std::vector<double> albedo{0.9};          // [0, 1]; one per wavelength
   std::vector<Light> lights;                // 0..4
   ShadowMode shadow = ShadowMode::DeepShadowMap;

@@ -72,7 +72,7 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
       it.setValue(sampler.wsSample(openvdb::Vec3d(X[0], X[1], X[2])));  // eq 116: rho(X(x))
     }
   });
-  cancel.check("advection");
+  if (cancelled) Cancellation::stopped("advection");
   tidy_density(*out);
   return out;
 }

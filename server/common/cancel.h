@@ -21,7 +21,11 @@ class Cancellation {
 
   // Throws Error(Cancelled) "<what> cancelled ..." once requested().
   void check(const std::string& what) const {
-    if (requested()) fail(Code::Cancelled, what + " cancelled (client gone, deadline passed or squalld shutting down)");
+    if (requested()) stopped(what);
+  }
+  // The same, for work that saw requested() earlier (in a worker thread) and stopped then.
+  [[noreturn]] static void stopped(const std::string& what) {
+    fail(Code::Cancelled, what + " cancelled (client gone, deadline passed or squalld shutting down)");
   }
 
  private:

@@ -21,10 +21,11 @@ bool spreading_needs_wind(SpreadingModel s) {
   return s == SpreadingModel::Mitsuyasu || s == SpreadingModel::Jonswap || s == SpreadingModel::VonMises;
 }
 
-// The scale of a partial's shape: its m0 = scale w_p integral(shape dr) = (Hs / 4)^2.
-double partial_scale(const PartialSpectrum& q) {
+// The scale of a partial's shape: its m0 = scale w_p integral(shape dr) = (Hs / 4)^2; the integral by a
+// trapezoid of `steps` steps (validation's order of magnitude needs a hundredth of the spectrum's).
+double partial_scale(const PartialSpectrum& q, int steps = 40000) {
   const double m0 = 0.0625 * q.significant_wave_height * q.significant_wave_height;
-  return m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m));
+  return m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m, steps));
 }
 
 void validate_partials(const std::string& f, const LayerSpec& L) {
@@ -46,7 +47,7 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     // scale past 1e30 (its product with the shape would overflow), would leave the sea flat or NaN.
     for (const auto& [name, value] : {std::pair{".a", p.a}, std::pair{".c", p.c}})
       if (value > 0 && value < 1e-30) validate::reject(g + name, value, "0 or at least 1e-30 (float32 on the device)");
-    const double scale = partial_scale(p);
+    const double scale = partial_scale(p, 400);
     if (!(scale <= 1e30))
       fail(Code::InvalidArgument, g + ": its shape's scale (Hs / 4)^2 / (w_p integral) is " + validate::number(scale) +
                                       ", past 1e30 (float32 on the device): raise a or c");

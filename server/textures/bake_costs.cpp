@@ -8,11 +8,10 @@ namespace {
 
 // The cells [lo, hi] of width `size` from `origin` (n of them) that meet [a, b]; false when none do.
 bool cells_meeting(double a, double b, double origin, double size, long n, long& lo, long& hi) {
-  lo = long(std::floor((a - origin) / size));
-  hi = long(std::floor((b - origin) / size));
-  if (hi < 0 || lo >= n) return false;
-  lo = std::max(lo, 0L);
-  hi = std::min(hi, n - 1);
+  const double first = std::floor((a - origin) / size), last = std::floor((b - origin) / size);
+  if (!(last >= 0 && first < double(n))) return false;  // none, or no number (a size that underflowed)
+  lo = long(std::max(first, 0.0));
+  hi = long(std::min(last, double(n - 1)));
   return true;
 }
 

@@ -636,18 +636,22 @@ TEST(Render, PhaseFunctionsIntegrateToOneAndHenyeyGreensteinMeanCosineIsG) {
   }
 }
 
-// Near the largest asymmetry allowed, Henyey-Greenstein's forward peak is as eq A.8 gives it in double: its
-// denominator 1 + g^2 - 2 g mu, some 1e-8 there, is not left to float32's cancellation.
-TEST(Render, HenyeyGreensteinAtG09999KeepsItsForwardPeak) {
+// At the largest asymmetries allowed, Henyey-Greenstein's peak (forward for g = 0.9999, backward for
+// g = -0.9999) is as eq A.8 gives it in double: its denominator 1 + g^2 - 2 g mu, some 1e-8 there, is not left
+// to float32's cancellation.
+TEST(Render, HenyeyGreensteinAtG09999KeepsItsPeak) {
   RenderSettings s;
   s.phase.kind = PhaseKind::HenyeyGreenstein;
-  s.phase.g1 = 0.9999;
-  const std::vector<float> theta{0.0f, 3e-5f, 1e-4f, 1e-3f, 1e-2f};
-  const std::vector<float> P = device_phase(s, theta);
-  const double g = double(float(s.phase.g1));
-  for (size_t i = 0; i < theta.size(); ++i) {
-    const double d = 1 + g * g - 2 * g * std::cos(double(theta[i]));
-    EXPECT_NEAR(P[i] / ((1 - g * g) / (4 * kPi * d * std::sqrt(d))), 1.0, 1e-3) << "theta " << theta[i];
+  for (double g1 : {0.9999, -0.9999}) {
+    s.phase.g1 = g1;
+    std::vector<float> theta;
+    for (double off : {0.0, 3e-5, 1e-4, 1e-3, 1e-2}) theta.push_back(float(g1 > 0 ? off : kPi - off));
+    const std::vector<float> P = device_phase(s, theta);
+    const double g = double(float(g1));
+    for (size_t i = 0; i < theta.size(); ++i) {
+      const double d = 1 + g * g - 2 * g * std::cos(double(theta[i]));
+      EXPECT_NEAR(P[i] / ((1 - g * g) / (4 * kPi * d * std::sqrt(d))), 1.0, 1e-3) << "g " << g << " theta " << theta[i];
+    }
   }
 }
 

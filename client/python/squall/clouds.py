@@ -220,8 +220,9 @@ def render_settings(
     Args:
         camera: ``camera(...)``; None: its defaults (256 x 256 from (0, -100, 0)).
         step: ray-march step, m, > 0.
-        wavelengths: m, (0, 1e-3], 1 to 8.
-        extinction: 1/m per unit density, one number for every wavelength or one per wavelength.
+        wavelengths: m, [1e-8, 1e-3], 1 to 8.
+        extinction: 1/m per unit density, [0, 1e6], one number for every wavelength or one per
+            wavelength.
         albedo: [0, 1], one number for every wavelength or one per wavelength.
         lights: 0..4 ``sun`` / ``point_light``; a single intensity is repeated for every
             wavelength.
