@@ -1,7 +1,13 @@
 #include "service_support.h"
 
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
 #include "client/client.h"
 #include "common/field_codec.h"
+#include "support/process.h"
 #include "support/test_runtime.h"
 
 namespace squall::textures_test {
@@ -20,6 +26,13 @@ textures::TextureEngine& engine() {
 Streamed advect(const v1::AdvectTextureRequest& request) {
   return read_stream<v1::TextureFrame>(
       [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.AdvectTexture(c, request); });
+}
+
+void expect_daemon_stops(const std::string& what) {
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const double before = daemon().process().cpu_seconds();
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  EXPECT_LT(daemon().process().cpu_seconds() - before, 0.5) << "squalld kept " << what;
 }
 
 Code code_of(grpc::StatusCode code) {

@@ -48,6 +48,10 @@ StreamedOf<Frame> read_stream(const Open& open, const std::string& address = dae
 // AdvectTexture read to its end.
 Streamed advect(const v1::AdvectTextureRequest& request);
 // The engine's code for a gRPC status code.
+// After a call that expired: squalld, given a second to notice, spends under 0.5 s of CPU in the next
+// two (it stopped `what`, the expired call's work).
+void expect_daemon_stops(const std::string& what);
+
 Code code_of(grpc::StatusCode code);
 // A failed stream's status as the engine error it carries, for test::expect_error.
 void throw_status(const grpc::Status& status);
