@@ -390,10 +390,11 @@ uint64_t sample_bytes(const TileSpec& spec) {
 }
 
 std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
-                                               bool invert_displacement) {
+                                               bool invert_displacement, const Cancellation& cancel) {
   validate(spec);
   validate::finite("t", t);
   for (size_t i = 0; i < points.size(); ++i) {
+    if (std::isfinite(points[i].x) && std::isfinite(points[i].y)) continue;  // names a point only when refusing it
     validate::finite(validate::at("points", i) + ".x", points[i].x);
     validate::finite(validate::at("points", i) + ".y", points[i].y);
   }
@@ -401,6 +402,7 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
   {
     auto lock = impl_->runtime.exclusive();
     for (size_t a = 0; a < spec.layers.size(); ++a) {  // a layer's buffer goes back before the next is taken
+      cancel.check("sample: before layer " + std::to_string(a));
       const LayerSpec& L = spec.layers[a];
       BufferLease fields = impl_->layer_fields(spec, a, t, {4, true});  // every channel, as sample_channels reads
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
@@ -418,6 +420,7 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
   };
   std::vector<SurfaceSample> samples(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
+    if (i % kSamplesPerCheck == 0) cancel.check("sample: at points[" + std::to_string(i) + "]");
     double x0 = points[i].x, y0 = points[i].y, c[8];
     channels_at(x0, y0, c);
     if (invert_displacement)  // x0 + lambda D(x0) = x by fixed-point iteration

@@ -61,9 +61,11 @@ class OceanEngine {
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
   // that of the source point x0 whose displaced position x0 + lambda D(x0) lands on the query point
-  // (fixed-point iteration; exact where the map does not fold, J > 0).
+  // (fixed-point iteration; exact where the map does not fold, J > 0). `cancel` is asked before each layer
+  // and each kSamplesPerCheck points: Error(Cancelled) then.
+  static constexpr size_t kSamplesPerCheck = 4096;
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
-                                    bool invert_displacement);
+                                    bool invert_displacement, const Cancellation& cancel = {});
 
   // For the eWave engine (server/ewave): the height h (m) and the linear-theory velocity potential at
   // z = 0, phi (m^2/s), at time t on the spec's output grid, left on the device in `out` (2 planes of

@@ -157,16 +157,11 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
       fail(Code::InvalidArgument,
            "points has " + std::to_string(n) + " entries: must be 1 to " + std::to_string(kMaxSamplePoints));
     serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
-    std::vector<ocean::Vec2> points(n);
-    for (int i = 0; i < n; ++i) {
-      const std::string at = validate::at("points", i);
-      points[i].x = validate::finite(at + ".x", request->points(i).x());
-      points[i].y = validate::finite(at + ".y", request->points(i).y());
-    }
+    std::vector<ocean::Vec2> points(n);  // each checked finite by sample(), naming "points[i].x"
+    for (int i = 0; i < n; ++i) points[i] = {request->points(i).x(), request->points(i).y()};
     Slot memory = serving_.gate().acquire_memory("SampleSurface's layers", ocean::sample_bytes(spec));
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "SampleSurface cancelled");
     const bool invert = request->invert_displacement();
-    std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert);
+    std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert, cancellation(*context));
     for (int i = 0; i < n; ++i) {
       const auto& s = samples[i];
       response->add_height(s.height);

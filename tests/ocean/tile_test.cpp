@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "ocean/cpu_reference.h"
+#include "support/expect_error.h"
 #include "ocean_test_util.h"
 
 namespace squall::ocean {
@@ -134,6 +135,18 @@ TEST(OceanTile, WindDirectionsWholeTurnsApartGiveOneSea) {
   double worst = 0;
   for (size_t k = 0; k < a.size(); ++k) worst = std::max(worst, double(std::abs(a[k] - b[k])));
   EXPECT_LT(worst, 1e-5 * test::rms(a));
+}
+
+// Sampling asks its Cancellation before each layer and each 4096 points: cancelled after its first two
+// answers, a sample of 5000 points stops at point 4096.
+TEST(OceanTile, ACancelledSampleStopsAmongItsPoints) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 32, 64);
+  int asked = 0;
+  const Cancellation after_two([&] { return ++asked > 2; });
+  const std::vector<Vec2> points(5000, Vec2{1.5, 2.5});
+  squall::test::expect_error(Code::Cancelled, "sample: at points[4096] cancelled",
+                             [&] { engine().sample(spec, 1.0, points, false, after_two); });
+  EXPECT_EQ(engine().sample(spec, 1.0, points, false).size(), 5000u);
 }
 
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
