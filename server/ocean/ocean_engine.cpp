@@ -54,9 +54,14 @@ std::string h0_key(const TileSpec& spec, size_t index) {
   for (int64_t v : {L.nx, L.ny, int64_t(L.spectrum), int64_t(L.spreading), int64_t(L.dispersion), int64_t(index)})
     append(key, v);
   append(key, L.seed);
+  // The lists with their lengths: without, the partials of one spec and the bands of another could spell
+  // the same bytes, and one client's spectrum be served for another's spec.
+  append(key, int64_t(L.partials.size()));
   for (const PartialSpectrum& q : L.partials)
     for (double v : {q.peak_frequency, q.significant_wave_height, q.a, q.b, q.c, q.n, q.m}) append(key, v);
-  for (const auto& band : layer_bands(spec)) append(key, band);
+  const auto bands = layer_bands(spec);
+  append(key, int64_t(bands.size()));
+  for (const auto& band : bands) append(key, band);
   return key;
 }
 
