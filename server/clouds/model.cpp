@@ -38,7 +38,12 @@ void check_reach(const std::string& path, const Vec3d& center, double reach, dou
                                       " m) of the origin");
 }
 
-double check_mesh(const std::string& f, const TriangleMesh& m) {
+// A closed mesh's enclosed volume |V| (m^3) and surface area (m^2).
+struct MeshSize {
+  double volume, area;
+};
+
+MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument,
          f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
@@ -62,7 +67,18 @@ double check_mesh(const std::string& f, const TriangleMesh& m) {
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
     fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) +
                                     " m^2, volume " + validate::number(volume) + " m^3)");
-  return std::abs(volume);
+  return {std::abs(volume), area};
+}
+
+// Voxels' volume (m^3) a mesh's level set and density can take: its inside, and a band of `grow` about its
+// surface on both sides (the level set's narrow band), at most its bounding box grown by `grow`.
+double mesh_volume_estimate(const TriangleMesh& m, const MeshSize& size, double grow) {
+  Vec3d lo = m.vertices.front(), hi = lo;
+  for (const Vec3d& v : m.vertices)
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], v[a]), hi[a] = std::max(hi[a], v[a]);
+  double box = 1;
+  for (int a = 0; a < 3; ++a) box *= hi[a] - lo[a] + 2 * grow;
+  return std::min(size.volume + 2 * grow * size.area, box);
 }
 
 }  // namespace
@@ -115,10 +131,10 @@ void validate(const CloudModel& m, const std::string& prefix) {
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
     std::string s = validate::at(f + ".meshes", i);
-    double v = check_mesh(s, m.meshes[i]);
+    const MeshSize size = check_mesh(s, m.meshes[i]);
     for (size_t k = 0; k < m.meshes[i].vertices.size(); ++k)
       check_reach(validate::at(s + ".vertices", k), m.meshes[i].vertices[k], grow, m.voxel_size);
-    volume += v + 4.83598 * std::pow(v, 2.0 / 3) * grow;  // + sphere-equivalent area * grow
+    volume += mesh_volume_estimate(m.meshes[i], size, grow + 2 * m.voxel_size);  // the band's 2 more voxels
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {
     std::string s = validate::at(f + ".particles", i);

@@ -84,6 +84,19 @@ TEST(Errors, ABuildStopsWithinTheStageItWasCancelledIn) {
   expect_error([&] { build_cloud(m, "model", after_two); }, Code::Cancelled, "model: the particles cancelled");
 }
 
+// A mesh's estimate counts its surface: a tetrahedron 10 km wide and 1 cm high encloses 1.7e5 m^3, but its
+// level set's band covers its 1e8 m^2 on both sides (some 7e8 voxels at 1 m), refused up front.
+TEST(Errors, AThinMeshsSurfaceCountsInTheVoxelEstimate) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 1;
+  TriangleMesh sliver;
+  sliver.vertices = {{0, 0, 0}, {1e4, 0, 0}, {0, 1e4, 0}, {0, 0, 0.01}};
+  sliver.triangles = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  m.meshes.push_back(sliver);
+  expect_error([&] { validate(m); }, Code::ResourceExhausted, "model.max_active_voxels");
+}
+
 TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
