@@ -26,19 +26,20 @@ Vec3d cross(const Vec3d& a, const Vec3d& b) {
 }
 double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-// Returns the enclosed volume (divergence theorem); throws on a degenerate mesh.
-// OpenVDB's voxel coordinates are int32: a shape, grown by `reach` (m), must stay within 2^30 voxels of
-// the origin along each axis, or its coordinates overflow (an empty volume with inverted bounds).
+// The ray march works in float32 index coordinates, which resolve 1/8 of a voxel up to 2^20 voxels from the
+// origin (and OpenVDB's int32 coordinates overflow at 2^31): a shape, grown by `reach` (m), must stay within
+// 2^20 voxels of the origin along each axis.
 void check_reach(const std::string& path, const Vec3d& center, double reach, double voxel_size) {
-  const double limit = std::ldexp(voxel_size, 30);
+  const double limit = std::ldexp(voxel_size, 20);
   for (int a = 0; a < 3; ++a)
     if (!(std::abs(center[a]) + reach <= limit))
       fail(Code::InvalidArgument, path + " = " + validate::xyz(center) + " plus " + validate::number(reach) +
-                                      " m of shape must stay within 2^30 voxels (" + validate::number(limit) +
-                                      " m) of the origin");
+                                      " m of shape must stay within 2^20 voxels (" + validate::number(limit) +
+                                      " m) of the origin (float32 on the device): move the model nearer");
 }
 
-// A closed mesh's enclosed volume |V| (m^3) and surface area (m^2).
+// A closed mesh's enclosed volume |V| (divergence theorem, m^3) and surface area (m^2); throws on a
+// degenerate mesh.
 struct MeshSize {
   double volume, area;
 };

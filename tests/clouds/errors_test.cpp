@@ -97,6 +97,16 @@ TEST(Errors, AThinMeshsSurfaceCountsInTheVoxelEstimate) {
   expect_error([&] { validate(m); }, Code::ResourceExhausted, "model.max_active_voxels");
 }
 
+// The march's float32 index coordinates resolve an eighth of a voxel up to 2^20 voxels from the origin: a
+// shape farther out is refused by name.
+TEST(Errors, AShapeFarFromTheOriginIsRefusedByName) {
+  CloudModel m = sphere_model();  // 0.5 m voxels: 2^20 of them are 524288 m
+  m.spheres[0].center[0] = 6e5;
+  expect_error([&] { validate(m); }, Code::InvalidArgument, "model.spheres[0].center = ");
+  m.spheres[0].center[0] = 5e5;
+  validate(m);
+}
+
 TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
