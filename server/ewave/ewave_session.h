@@ -91,7 +91,7 @@ class EWaveSession {
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt
   void finish(const StepInputs& inputs, int fields, bool has_obstruction);
   Frame read_frame(const OutputSelection& outputs) const;
-  // The frame of the last step read again (a retry of it): Error(Aborted) when it asks for the
+  // The frame of the last step read again (a retry of it): Error(FailedPrecondition) when it asks for the
   // displacement or normals and out_ no longer holds that step's.
   Frame replay(const OutputSelection& outputs) const;
   void check_same_grid(const StateHeader& header) const;  // restore(): InvalidArgument unless it is ours

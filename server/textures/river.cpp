@@ -7,8 +7,8 @@
 #include "common/error.h"
 #include "common/validate.h"
 #include "runtime/slices.h"
-#include "textures/bake_costs.h"
 #include "runtime/upload.h"
+#include "textures/bake_costs.h"
 
 namespace squall::textures {
 namespace {
