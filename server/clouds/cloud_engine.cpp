@@ -43,8 +43,8 @@ std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::st
   return upload(build_cloud(budgeted(std::move(model), options_), field, cancel));
 }
 
-void CloudEngine::validate(CloudModel model, const std::string& field) const {
-  clouds::validate(budgeted(std::move(model), options_), field);
+uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const {
+  return uint64_t(kBuildBytesPerVoxel * clouds::validate(budgeted(std::move(model), options_), field));
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {

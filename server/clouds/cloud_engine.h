@@ -41,8 +41,9 @@ class CloudEngine {
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model",
                                       const Cancellation& cancel = {});
   // What build() checks before building anything: the model with the engine's budgets, validated
-  // (Error(InvalidArgument) naming `field`).
-  void validate(CloudModel model, const std::string& field = "model") const;
+  // (Error(InvalidArgument) naming `field`). Returns the bytes its build holds at most (kBuildBytesPerVoxel
+  // times the estimated active voxels), for the caller to reserve in the memory budget first.
+  uint64_t validate(CloudModel model, const std::string& field = "model") const;
   // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
   // Stores `volume` under a new id, or the client's `proposed` one (SessionStore::id_for).
   std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");

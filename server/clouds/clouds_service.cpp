@@ -55,7 +55,9 @@ std::vector<CapabilityGauge> CloudsService::gauges() const {
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
-    auto volume = engine_->build(req::model(request->model()), "model", cancellation(*context));
+    const CloudModel model = req::model(request->model());
+    const Slot memory = serving_.gate().acquire_memory("BuildVolume's build", engine_->validate(model, "model"));
+    auto volume = engine_->build(model, "model", cancellation(*context));
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
@@ -104,8 +106,9 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
-      volume = clouds.build(req::model(request->model()), "model", cancel);
-      model_memory = serving_.gate().acquire_memory("Render's model, built", volume->bytes);
+      const CloudModel model = req::model(request->model());
+      model_memory = serving_.gate().acquire_memory("Render's model, built", clouds.validate(model, "model"));
+      volume = clouds.build(model, "model", cancel);
     } else {
       if (request->volume_id().empty())
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
@@ -143,8 +146,10 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     const auto& [base, evolution, settings, memory] = s;
     for (double t : request->times()) {
       if (!call.live()) return;
-      auto volume = engine_->build(model_at(base, evolution, t), "model", call.cancellation());
-      Slot volume_memory = serving_.gate().acquire_memory("StreamEvolution's volume, built", volume->bytes);
+      const CloudModel model = model_at(base, evolution, t);
+      Slot volume_memory =
+          serving_.gate().acquire_memory("StreamEvolution's volume, built", engine_->validate(model, "model"));
+      auto volume = engine_->build(model, "model", call.cancellation());
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);

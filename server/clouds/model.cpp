@@ -90,7 +90,7 @@ double pyroclastic_bound(const Pyroclastic& p) {
   return bound;
 }
 
-void validate(const CloudModel& m, const std::string& prefix) {
+double validate(const CloudModel& m, const std::string& prefix) {
   const std::string& f = prefix;
   positive(f + ".voxel_size", m.voxel_size);
   positive(f + ".skin", m.skin);
@@ -170,6 +170,7 @@ void validate(const CloudModel& m, const std::string& prefix) {
                                         "--max-advection-samples = " +
                                         validate::number(m.max_advection_samples));
   }
+  return voxels;
 }
 
 }  // namespace squall::clouds

@@ -91,8 +91,14 @@ inline double advection_reach(double max_speed, double time) { return 2 * max_sp
 
 // Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
 // non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
-// voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples.
-void validate(const CloudModel& model, const std::string& prefix = "model");
+// voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples. Returns
+// that estimate: an upper bound of the active voxels of every grid the build makes.
+double validate(const CloudModel& model, const std::string& prefix = "model");
+
+// Bytes a build holds at its peak per estimated active voxel: the host grid (4 bytes a value and its
+// tree's masks), a working copy while displacing or advecting, and the device's NanoVDB copy, with a
+// temperature grid as much again.
+constexpr double kBuildBytesPerVoxel = 16;
 
 // Largest displacement the pyroclastic layers can add, m (sum over layers of amplitude (r^n)^gamma).
 double pyroclastic_bound(const Pyroclastic& p);

@@ -473,6 +473,27 @@ TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
+// A build counts in --memory-budget before it starts: a 22 m sphere in 10 cm voxels (an estimated 5e7 active
+// voxels, 16 bytes each at the build's peak) is refused under a budget of 512 MiB at once, and a 5 m one
+// (4e6 voxels) is built.
+TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
+  test::Daemon d({"--memory-budget", std::to_string(512ull << 20)});
+  v1::BuildVolumeRequest request;
+  v1::CloudModel& model = *request.mutable_model();
+  model.set_voxel_size(0.1);
+  model.set_skin(0.2);
+  model.add_spheres()->set_radius(22);
+  v1::BuildVolumeResponse built;
+  const auto start = std::chrono::steady_clock::now();
+  grpc::Status status = call(d.address()).build(request, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("BuildVolume's build"), std::string::npos) << status.error_message();
+  EXPECT_LT(seconds_since(start), 1.0);
+  model.mutable_spheres(0)->set_radius(5);
+  status = call(d.address()).build(request, &built);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
 // A sphere of 5 m in 5 cm voxels (about 7e6) advected in 256 MacCormack substeps: 4e9 velocity samples,
 // past --max-advection-samples = 1e9: refused before the build starts, naming the substeps.
 TEST(CloudsService, ABuildWhoseAdvectionIsTooCostlyIsRefused) {
