@@ -382,9 +382,9 @@ class EWaveSession:
             after_step: the step count the session must be at (the ``step`` of the last frame
                 this caller saw): SquallError ABORTED, the session unchanged, when another
                 caller has stepped it since. None: no check.
-            retry_key: up to 64 bytes naming this step; None: a fresh random key. To try again a
-                step() that raised (DEADLINE_EXCEEDED, UNAVAILABLE after the retries), pass the
-                key of the first try: the step is made once.
+            retry_key: up to 64 bytes naming this step; None: a fresh random key. A caller that
+                may try a step() again after it raised (DEADLINE_EXCEEDED, UNAVAILABLE after the
+                retries) passes a key of its own, and the same key again: the step is made once.
         """
         request = unary_step_request(
             self.id, as_inputs(inputs, dt, **kwargs), after_step, retry_key
