@@ -84,26 +84,23 @@ def test_state_and_restore_continue_bit_identically(client: squall.Client) -> No
 
 
 def test_a_step_sent_again_with_its_key_is_made_once(client: squall.Client) -> None:
-    """A request sent twice (as gRPC's retries send it, with its retry key) makes one step, and
-    after_step refuses a step that another caller has overtaken."""
-    stub = client.ewave._rpc
+    """Each step() draws a fresh 16-byte retry key; a step sent again with its key (as gRPC's
+    retries send it) is made once, and after_step refuses a step another caller has overtaken."""
+    inputs = ewave_pb2.EWaveInputs(dt=0.02)
+    keys = {squall.ewave.unary_step_request("id", inputs).retry_key for _ in range(2)}
+    assert len(keys) == 2 and all(len(key) == 16 for key in keys)
     with client.ewave.session(**config()) as session:
         session.step(**hull_inputs(0))
-        request = squall.ewave.unary_step_request(
-            session.id, squall.ewave.as_inputs(hull_inputs(1)), None
-        )
-        assert len(request.retry_key) == 16
-        made, again = stub.Step(request), stub.Step(request)
-        assert made.step == again.step == 2 and made == again
+        made = session.step(**hull_inputs(1), retry_key=b"a step sent twice")
+        again = session.step(**hull_inputs(1), retry_key=b"a step sent twice")
+        assert made.step == again.step == 2
+        for name in made:
+            assert made[name].tobytes() == again[name].tobytes(), name
         with pytest.raises(squall.SquallError) as error:
             session.step(0.02, after_step=1)
         assert error.value.code == grpc.StatusCode.ABORTED
         assert "after_step = 1, but the session has made 2 steps" in error.value.message
         assert session.step(0.02, after_step=2).step == 3
-        tried = session.step(0.02, retry_key=b"a step tried twice")
-        again = session.step(0.02, retry_key=b"a step tried twice")
-        assert tried.step == again.step == 4
-        assert tried["height"].tobytes() == again["height"].tobytes()
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

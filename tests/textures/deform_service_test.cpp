@@ -73,9 +73,11 @@ v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames)
 
 using DeformStreamed = StreamedOf<v1::DeformFrame>;
 
-DeformStreamed deform(const v1::DeformTextureRequest& r) {
+// DeformTexture read to its end, under a deadline of `timeout` s.
+DeformStreamed deform(const v1::DeformTextureRequest& r, double timeout = 300) {
   return read_stream<v1::DeformFrame>(
-      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); });
+      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); },
+      daemon().address(), timeout);
 }
 
 void deform_or_throw(const v1::DeformTextureRequest& r) { throw_status(deform(r).status); }
@@ -189,10 +191,7 @@ TEST(TexturesDeform, AnExpiredFlowSolveStopsUsingTheCores) {
   r.set_tolerance(1e-12);
   r.set_max_iterations(100000);
   r.add_planes(v1::DEFORM_PLANE_FLOW);
-  const grpc::Status expired =
-      read_stream<v1::DeformFrame>([&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformTexture(c, r); },
-                                   daemon().address(), 1)
-          .status;
+  const grpc::Status expired = deform(r, 1).status;
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   expect_daemon_stops("solving the expired flow");
 }

@@ -271,10 +271,7 @@ TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
   region->set_y0(-9);
   region->set_x1(10);
   region->set_y1(1);
-  const grpc::Status expired =
-      read_stream<v1::TextureFrame>(
-          [&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectTexture(c, r); }, daemon().address(), 1)
-          .status;
+  const grpc::Status expired = advect(r, daemon().address(), 1).status;
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   expect_daemon_stops("baking the expired river");
 }

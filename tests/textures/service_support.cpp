@@ -23,9 +23,10 @@ textures::TextureEngine& engine() {
   return e;
 }
 
-Streamed advect(const v1::AdvectTextureRequest& request) {
+Streamed advect(const v1::AdvectTextureRequest& request, const std::string& address, double timeout) {
   return read_stream<v1::TextureFrame>(
-      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.AdvectTexture(c, request); });
+      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.AdvectTexture(c, request); }, address,
+      timeout);
 }
 
 void expect_daemon_stops(const std::string& what) {

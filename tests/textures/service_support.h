@@ -45,8 +45,9 @@ StreamedOf<Frame> read_stream(const Open& open, const std::string& address = dae
   return s;
 }
 
-// AdvectTexture read to its end.
-Streamed advect(const v1::AdvectTextureRequest& request);
+// AdvectTexture read to its end (on the daemon at `address`, under a deadline of `timeout` s).
+Streamed advect(const v1::AdvectTextureRequest& request, const std::string& address = daemon().address(),
+                double timeout = 300);
 // The engine's code for a gRPC status code.
 // After a call that expired: squalld, given a second to notice, spends under 0.5 s of CPU in the next
 // two (it stopped `what`, the expired call's work).

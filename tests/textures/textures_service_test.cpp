@@ -373,9 +373,7 @@ TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
   auto run = [&](uint32_t nodes) {
     r.mutable_eulerian()->set_grid_nx(nodes);
     r.mutable_eulerian()->set_grid_ny(nodes);
-    return read_stream<v1::TextureFrame>(
-               [&](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectTexture(c, r); }, d.address())
-        .status;
+    return advect(r, d.address()).status;
   };
   const grpc::Status refused = run(2048);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
