@@ -1,13 +1,14 @@
-/* sin and cos of a phase w t, with the time t = t_hi + t_lo given as two floats, in float arithmetic
- * with no calls: a work-group loop around it vectorizes. PoCL's sin, cos and sincos call a scalar
- * argument reduction for large arguments, and that call keeps the whole loop scalar on a CPU device.
+/* sin and cos of a phase given in turns, 2 pi x, in float arithmetic with no calls: a work-group loop around
+ * them vectorizes. PoCL's sin, cos and sincos call a scalar argument reduction for large arguments, and that
+ * call keeps the whole loop scalar on a CPU device.
  *
- * Two reductions (W. J. Cody and W. Waite, "Software Manual for the Elementary Functions", 1980, ch. 8):
- *   by whole turns, n = rint(w t / 2 pi): w t = p + e split exactly with an fma, 2 pi = C1 + C2 + C3 with
- *   C1 of 8 significant bits and C2 of 12, so that n C1 and n C2 are exact below 2^16 and 2^12 turns;
- *   then by quarter turns to |y| <= pi/4, where the minimax polynomials of Cephes' sinf and cosf
- *   (S. L. Moshier, "Methods and Programs for Mathematical Functions", 1989) are within 1e-7.
- * Past 2^12 turns the phase's error grows as |w t| 2^-24: that of rounding w t to one float.
+ * A phase counted in turns drops its whole turns exactly: x - rint(x) is exact for every float x. So the
+ * phase f t of a frequency f = f_hi + f_lo (turns per second) at a time t = t_hi + t_lo (two floats each) is
+ * reduced with no loss however large f t is: each product is split exactly with an fma (f t_hi = p + e;
+ * T. J. Dekker, "A floating-point technique for extending the available precision", Numer. Math. 18 (1971)),
+ * each part loses its whole turns exactly, and the fractions are added with a rounding of 2^-25 turn each. The
+ * quarter turn and the octant follow, where the minimax polynomials of Cephes' sinf and cosf (S. L.
+ * Moshier, "Methods and Programs for Mathematical Functions", 1989) are within 1e-7.
  * Shared by OpenCL C and host C++ (the tests run it on the host; <math.h> provides fabs, copysign and fma).
  */
 #ifndef SQUALL_COMMON_SINCOS_H
@@ -32,20 +33,36 @@ static inline void sq_sincos_octant(float y, float* s, float* c) {
   *c = 1.0f - 0.5f * z + z * z * (4.166664568298827e-2f + z * (-1.388731625493765e-3f + z * 2.443315711809948e-5f));
 }
 
-/* sin and cos of w (t_hi + t_lo). */
-static inline void sq_sincos_phase(float w, float t_hi, float t_lo, float* s, float* c) {
-  float p = w * t_hi;
-  float e = fma(w, t_hi, -p) + w * t_lo; /* w t = p + e */
-  float n = sq_rint(p * 0.15915493667125702f);
-  float r = ((p - n * 6.28125f) - n * 1.9350051879882812e-3f) - n * 3.019916050561733e-07f + e; /* |r| <~ pi */
-  float q = sq_rint(r * 0.6366197466850281f);
-  float y = (r - q * 1.5707963705062866f) - q * -4.371138828673793e-08f; /* r = y + q pi/2 */
+/* x - rint(x): the fraction of a turn, in [-1/2, 1/2], exact. */
+static inline float sq_turn_fraction(float x) { return x - sq_rint(x); }
+
+/* The fraction of the turns a b (of two floats) to within a rounding of 2^-25 turn: a b = p + e exactly,
+ * and below 2^23 |e| <= 1/2, while from 2^23 on p is whole and its fraction 0. */
+static inline float sq_product_turns(float a, float b) {
+  float p = a * b;
+  float e = fma(a, b, -p);
+  return sq_turn_fraction(sq_turn_fraction(p) + e);
+}
+
+/* sin and cos of 2 pi x for a phase x in turns. */
+static inline void sq_sincos_turn(float x, float* s, float* c) {
+  float r = sq_turn_fraction(x);                     /* |r| <= 1/2 */
+  float q = sq_rint(4.0f * r);                       /* -2 .. 2 quarter turns */
+  float y = (r - 0.25f * q) * 6.2831853071795865f;   /* exact difference (Sterbenz), |y| <= pi/4 */
   float sy, cy;
   sq_sincos_octant(y, &sy, &cy);
-  int quadrant = (int)q; /* -2 .. 2; & 3 is the quadrant mod 4 in two's complement */
+  int quadrant = (int)q; /* & 3 is the quadrant mod 4 in two's complement */
   float sr = (quadrant & 1) ? cy : sy, cr = (quadrant & 1) ? sy : cy;
   *s = (quadrant & 2) ? -sr : sr;
   *c = ((quadrant + 1) & 2) ? -cr : cr;
+}
+
+/* sin and cos of 2 pi f t for a frequency f = f_hi + f_lo in turns per second at the time t = t_hi + t_lo
+ * (two floats each, |f_lo| <= ulp(f_hi) / 2 and |t_lo| <= ulp(t_hi) / 2). The cross terms f_hi t_lo + f_lo t_hi
+ * are below f t 2^-23 and are rounded once, by at most f t 2^-47 turn; f_lo t_lo is left out. */
+static inline void sq_sincos_turns(float f_hi, float f_lo, float t_hi, float t_lo, float* s, float* c) {
+  float cross = fma(f_lo, t_hi, f_hi * t_lo);
+  sq_sincos_turn(sq_product_turns(f_hi, t_hi) + sq_turn_fraction(cross), s, c);
 }
 
 #endif

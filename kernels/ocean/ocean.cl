@@ -90,13 +90,14 @@ inline float band_count(float kx, float ky, __global const float4* bands, int nb
 // the mode of -k at a mirrored index, would be an AVX-512 gather on a CPU device).
 #define H0_RE 0        // Re h0(k)
 #define H0_IM 1        // Im h0(k)
-#define H0_OMEGA 2     // omega(k)
-#define H0_MINUS_RE 3  // Re h0(-k)
-#define H0_MINUS_IM 4  // Im h0(-k)
-#define H0_PLANES 5
+#define H0_FREQUENCY_HI 2  // f(k) = omega(k) / 2 pi = hi + lo, turns per second, from the host in double
+#define H0_FREQUENCY_LO 3  // (mode_frequencies in server/ocean/spectrum_setup.h)
+#define H0_MINUS_RE 4      // Re h0(-k)
+#define H0_MINUS_IM 5      // Im h0(-k)
+#define H0_PLANES 6
 
-// h0(k) of App A eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57), and w(k):
-// planes H0_RE, H0_IM and H0_OMEGA (ocean_h0_mirror fills the other two).
+// h0(k) of App A eq 42, with the discrete normalization sqrt(P dkx dky / 2) and B(k)^-1/2 (eq 57): planes H0_RE
+// and H0_IM (ocean_h0_mirror fills H0_MINUS_RE and H0_MINUS_IM, the host the frequency planes).
 __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* bands, const int nbands,
                        __global float* h0) {
   int i = get_global_id(0), j = get_global_id(1);
@@ -121,7 +122,6 @@ __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* 
   size_t at = i + (size_t)nx * j, cells = (size_t)nx * ny;
   h0[H0_RE * cells + at] = xi.x * amplitude;
   h0[H0_IM * cells + at] = xi.y * amplitude;
-  h0[H0_OMEGA * cells + at] = w;
 }
 
 // Planes H0_MINUS_RE and H0_MINUS_IM: h0 of the mode of -k, stored at k.
@@ -143,25 +143,30 @@ inline void store_pack(__global float* out, size_t at, float a_re, float a_im, f
 
 // The two halves of mode (i, j) of eq 1 / 43 at time t = t_hi + t_lo, shifted by the drift U_D:
 // plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im); w =
-// omega(k) (plane H0_OMEGA). Complex values are pairs of floats, read and written as floats: PoCL
-// vectorizes a kernel across work-items only when it computes with no OpenCL vector (float2, float4)
-// values, which LLVM's loop vectorizer cannot widen (nor a struct of two floats, passed as a float2).
+// 2 pi f(k). The phases are counted in turns (common/sincos.h): f t with f = f_hi + f_lo and t = t_hi + t_lo,
+// two floats each, and k.U_D t / 2 pi = n s.x + m s.y for the mode numbers (n, m) and the shift
+// s = U_D t / (Lx, Ly) in periods of the layer, reduced to [0, 1) on the host. Complex values are pairs of
+// floats, read and written as floats: PoCL vectorizes a kernel across work-items only when it computes with
+// no OpenCL vector (float2, float4) values, which LLVM's loop vectorizer cannot widen (nor a struct of two
+// floats, passed as a float2).
 __attribute__((always_inline)) static void evolve_halves(__global const float* h0, int i, int j, int nx, int ny,
-                                                         float kx, float ky, float t_hi, float t_lo, float2 drift,
-                                                         float* plus_re, float* plus_im, float* minus_re,
-                                                         float* minus_im, float* w) {
+                                                         float t_hi, float t_lo, float2 shift, float* plus_re,
+                                                         float* plus_im, float* minus_re, float* minus_im, float* w) {
   size_t at = i + (size_t)nx * j, cells = (size_t)nx * ny;
   float a_re = h0[H0_RE * cells + at], a_im = h0[H0_IM * cells + at];
   float b_re = h0[H0_MINUS_RE * cells + at], b_im = h0[H0_MINUS_IM * cells + at];
-  *w = h0[H0_OMEGA * cells + at];
+  float f_hi = h0[H0_FREQUENCY_HI * cells + at], f_lo = h0[H0_FREQUENCY_LO * cells + at];
+  *w = f_hi * (2.0f * M_PI_F);
   float c, s;
-  sq_sincos_phase(*w, t_hi, t_lo, &s, &c);
+  sq_sincos_turns(f_hi, f_lo, t_hi, t_lo, &s, &c);
   *plus_re = a_re * c + a_im * s, *plus_im = a_im * c - a_re * s;     // (a_re + i a_im)(c - i s)
   *minus_re = b_re * c + b_im * s, *minus_im = b_re * s - b_im * c;   // (b_re - i b_im)(c + i s)
-  const float drift_x = drift.x, drift_y = drift.y;
-  if (drift_x != 0.0f || drift_y != 0.0f) {  // the same for every work-item: most layers have no drift
+  const float shift_x = shift.x, shift_y = shift.y;
+  if (shift_x != 0.0f || shift_y != 0.0f) {  // the same for every work-item: most layers have no drift
     float shift_c, shift_s;
-    sq_sincos_phase(-(kx * drift_x + ky * drift_y), t_hi, t_lo, &shift_s, &shift_c);  // -k.U_D t
+    float turns = sq_product_turns((float)mode_number(i, nx), shift_x) +  // k.U_D t / 2 pi
+                  sq_product_turns((float)mode_number(j, ny), shift_y);
+    sq_sincos_turn(-turns, &shift_s, &shift_c);  // -k.U_D t
     float re = *plus_re * shift_c - *plus_im * shift_s;
     *plus_im = *plus_re * shift_s + *plus_im * shift_c, *plus_re = re;
     re = *minus_re * shift_c - *minus_im * shift_s;
@@ -175,12 +180,12 @@ __attribute__((always_inline)) static void evolve_halves(__global const float* h
 // `pairs` and `displaced` constants, launched over exactly nx x ny work-items: with no store under a
 // condition, the packed stores vectorize as wide stores, not as scatters.
 __attribute__((always_inline)) static void evolve_pairs(__global const float* h0, int nx, int ny, float dkx, float dky,
-                                                        float t_hi, float t_lo, float2 drift, const int pairs,
+                                                        float t_hi, float t_lo, float2 shift, const int pairs,
                                                         const int displaced, __global float* outf) {
   int i = get_global_id(0), j = get_global_id(1);
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
-  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
+  evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
   float h_re = plus_re + minus_re, h_im = plus_im + minus_im;
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
@@ -201,31 +206,31 @@ __attribute__((always_inline)) static void evolve_pairs(__global const float* h0
 }
 
 __kernel void ocean_evolve1(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
-                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 1, 1, out);
+                            const float t_hi, const float t_lo, const float2 shift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 1, 1, out);
 }
 __kernel void ocean_evolve2(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
-                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, 1, out);
+                            const float t_hi, const float t_lo, const float2 shift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 2, 1, out);
 }
 __kernel void ocean_evolve3(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
-                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, 1, out);
+                            const float t_hi, const float t_lo, const float2 shift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 3, 1, out);
 }
 __kernel void ocean_evolve4(__global const float* h0, const int nx, const int ny, const float dkx, const float dky,
-                            const float t_hi, const float t_lo, const float2 drift, __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 4, 1, out);
+                            const float t_hi, const float t_lo, const float2 shift, __global float* out) {
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 4, 1, out);
 }
 
 __kernel void ocean_evolve_undisplaced2(__global const float* h0, const int nx, const int ny, const float dkx,
-                                         const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                         const float dky, const float t_hi, const float t_lo, const float2 shift,
                                          __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 2, 0, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 2, 0, out);
 }
 __kernel void ocean_evolve_undisplaced3(__global const float* h0, const int nx, const int ny, const float dkx,
-                                         const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                         const float dky, const float t_hi, const float t_lo, const float2 shift,
                                          __global float* out) {
-  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, drift, 3, 0, out);
+  evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 3, 0, out);
 }
 
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
@@ -233,12 +238,12 @@ __kernel void ocean_evolve_undisplaced3(__global const float* h0, const int nx, 
 // phi~ = -i (g/w) (plus - minus) (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e.
 // eWave's exact propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
 __kernel void ocean_evolve_potential(__global const float* h0, const int nx, const int ny, const float dkx,
-                                     const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                     const float dky, const float t_hi, const float t_lo, const float2 shift,
                                      const float g, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
-  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
+  evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
   float g_over_w = w > 0.0f ? g / w : 0.0f;
   float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);
   // phi~ = -i (d_re + i d_im) = (d_im, -d_re)
@@ -249,12 +254,12 @@ __kernel void ocean_evolve_potential(__global const float* h0, const int nx, con
 // for the textures that follow the waves (server/textures): u~ = i kx phi~ = kx (g/w) (plus - minus), and
 // ky for v~ (exact spectral derivatives; the drift U_D is added by the host).
 __kernel void ocean_evolve_current(__global const float* h0, const int nx, const int ny, const float dkx,
-                                   const float dky, const float t_hi, const float t_lo, const float2 drift,
+                                   const float dky, const float t_hi, const float t_lo, const float2 shift,
                                    const float g, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
-  evolve_halves(h0, i, j, nx, ny, kx, ky, t_hi, t_lo, drift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
+  evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
   float g_over_w = w > 0.0f ? g / w : 0.0f;
   float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);  // phi~ = -i d
   store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);

@@ -24,11 +24,13 @@ constexpr int kWhitecapPlane = 11;  // OUT_WHITECAP
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
 using H0MirrorKernel = Kernel<cl::Buffer, cl_int, cl_int>;            // h0, nx, ny
-constexpr size_t kH0Planes = 5;                                       // H0_PLANES of ocean.cl
-// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, out (ocean_evolve1 to 4 and ocean_evolve_undisplaced2 and 3, one per
+constexpr size_t kH0Planes = 6;                                       // H0_PLANES of ocean.cl
+constexpr size_t kH0FrequencyPlane = 2;                               // H0_FREQUENCY_HI, then H0_FREQUENCY_LO
+constexpr size_t kFrequencyBlockModes = size_t(1) << 16;              // modes per write of the frequencies
+// h0, nx, ny, dkx, dky, t_hi, t_lo, shift, out (ocean_evolve1 to 4 and ocean_evolve_undisplaced2 and 3, one per
 // channel layout and count of pairs)
 using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl::Buffer>;
-// h0, nx, ny, dkx, dky, t_hi, t_lo, drift, g, out
+// h0, nx, ny, dkx, dky, t_hi, t_lo, shift, g, out
 using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
 // fields, nx, ny, pairs, scale, onx, ony, first, accum
@@ -66,6 +68,22 @@ std::string h0_key(const TileSpec& spec, size_t index) {
 }
 
 std::string describe_outputs(unsigned outputs) { return std::to_string(outputs); }
+
+// The time t as two floats, t_hi + t_lo, for the kernels' phases in turns (common/sincos.h).
+cl_float2 two_float_time(double t) {
+  const float t_hi = float(t);
+  return {{t_hi, float(t - double(t_hi))}};
+}
+
+// The drift's shift U_D t in periods of the layer's extent, reduced to [0, 1) in double: the kernels' phase
+// of mode (n, m) is then n s.x + m s.y turns at any t (a rate k.U_D in float would lose it at large t).
+cl_float2 drift_shift(const LayerSpec& L, double t) {
+  auto periods = [t](double drift, double extent) {
+    const double s = drift * t / extent;
+    return float(s - std::floor(s));
+  };
+  return {{periods(L.drift_x, L.lx), periods(L.drift_y, L.ly)}};
+}
 
 }  // namespace
 
@@ -117,11 +135,29 @@ struct OceanEngine::Impl {
                              std::max<size_t>(1, bands.size()) * sizeof(none),
                              bands.empty() ? none.data() : bands.front().data());
       cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
+      write_frequencies(L, h0);
       h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
       h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
       runtime.queue().finish();  // the parameter buffers go out of scope
       return DeviceCache<std::string>::Made{h0, bytes};
     });
+  }
+
+  // The planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl) from the host's double-precision dispersion, a
+  // block of rows at a time.
+  void write_frequencies(const LayerSpec& L, const cl::Buffer& h0) {
+    const size_t nx = size_t(L.nx), cells = nx * size_t(L.ny);
+    const int64_t rows = std::max<int64_t>(1, int64_t(kFrequencyBlockModes / nx));
+    std::vector<float> hi(size_t(rows) * nx), lo(hi.size());
+    for (int64_t j0 = 0; j0 < L.ny; j0 += rows) {
+      const int64_t j1 = std::min(L.ny, j0 + rows);
+      const size_t offset = size_t(j0) * nx * sizeof(float), count = size_t(j1 - j0) * nx * sizeof(float);
+      mode_frequencies(L, j0, j1, hi.data(), lo.data());
+      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, kH0FrequencyPlane * cells * sizeof(float) + offset, count,
+                                         hi.data());
+      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, (kH0FrequencyPlane + 1) * cells * sizeof(float) + offset, count,
+                                         lo.data());
+    }
   }
 
   double slope_variance(const TileSpec& spec) {
@@ -148,10 +184,10 @@ struct OceanEngine::Impl {
     const cl::Buffer& h0 = spectrum(spec, index);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
-    float t_hi = float(t), t_lo = float(t - double(t_hi));
+    const cl_float2 time = two_float_time(t);
     kernel.launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
-                       cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
-                       cl_float(L.gravity), fields.buffer());
+                       cl_float(2 * SQUALL_PI / L.ly), time.s[0], time.s[1], drift_shift(L, t), cl_float(L.gravity),
+                       fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }
@@ -170,11 +206,10 @@ struct OceanEngine::Impl {
     const cl::Buffer& h0 = spectrum(spec, index);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(layout.pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
-    float t_hi = float(t), t_lo = float(t - double(t_hi));
+    const cl_float2 time = two_float_time(t);
     EvolveKernel& kernel = layout.displaced ? evolve.at(layout.pairs - 1) : evolve_undisplaced.at(layout.pairs - 2);
     kernel.launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
-                       cl_float(2 * SQUALL_PI / L.ly), t_hi, t_lo, cl_float2{{float(L.drift_x), float(L.drift_y)}},
-                       fields.buffer());
+                       cl_float(2 * SQUALL_PI / L.ly), time.s[0], time.s[1], drift_shift(L, t), fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;
   }

@@ -270,4 +270,31 @@ double unresolved_slope_variance(const TileSpec& spec) {
   return spec.b_correction ? total / double(spec.layers.size()) : total;
 }
 
+namespace {
+// omega(k) / 2 pi of Table 1 in double precision, turns per second.
+double mode_frequency(const LayerSpec& L, double k) {
+  const bool finite_depth = L.dispersion == DispersionKind::Shallow || L.dispersion == DispersionKind::Combined;
+  const bool capillary = L.dispersion == DispersionKind::Capillary || L.dispersion == DispersionKind::Combined;
+  const double depth_factor = finite_depth ? std::tanh(k * L.depth) : 1.0;
+  const double kl = capillary ? k * L.capillary_length : 0.0;
+  return std::sqrt(L.gravity * k * depth_factor * (1 + kl * kl)) / (2 * SQUALL_PI);
+}
+
+// The mode number of index i of n (kernels/ocean/ocean.cl, mode_number).
+int64_t mode_number(int64_t i, int64_t n) { return i < n / 2 ? i : i - n; }
+}  // namespace
+
+void mode_frequencies(const LayerSpec& L, int64_t j0, int64_t j1, float* hi, float* lo) {
+  for (int64_t j = j0; j < j1; ++j) {
+    const double ky = double(mode_number(j, L.ny)) * 2 * SQUALL_PI / L.ly;
+    for (int64_t i = 0; i < L.nx; ++i) {
+      const double kx = double(mode_number(i, L.nx)) * 2 * SQUALL_PI / L.lx;
+      const double f = mode_frequency(L, std::sqrt(kx * kx + ky * ky));
+      const size_t at = size_t(i + L.nx * (j - j0));
+      hi[at] = float(f);
+      lo[at] = float(f - double(hi[at]));
+    }
+  }
+}
+
 }  // namespace squall::ocean

@@ -174,19 +174,20 @@ TEST(Dispersion, GroupVelocityMatchesFiniteDifferenceAndLimits) {
   EXPECT_EQ(dispersion_omega(3.0f, capillary), dispersion_omega(3.0f, deep));
 }
 
-// The largest error of sq_sincos_phase(w, t_hi, t_lo) against sin and cos of w (t_hi + t_lo) in double, over
-// n random w in [0, w_max] and t in [0, t_max].
-double sincos_phase_error(double w_max, double t_max, int n) {
+// The largest error of sq_sincos_turns(f_hi, f_lo, t_hi, t_lo) against sin and cos of 2 pi f t, f and t in
+// double split into two floats each as the host splits them, over n random f in [0, f_max] turns per second
+// and t in [-t_max, t_max]; the reference phase f t reduced to whole turns in long double.
+double sincos_turns_error(double f_max, double t_max, int n) {
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> w_of(0, w_max), t_of(0, t_max);
+  std::uniform_real_distribution<double> f_of(0, f_max), t_of(-t_max, t_max);
   double worst = 0;
   for (int i = 0; i < n; ++i) {
-    const float w = float(w_of(rng));
-    const double t = t_of(rng);
-    const float t_hi = float(t), t_lo = float(t - t_hi);
+    const double f = f_of(rng), t = t_of(rng);
+    const float f_hi = float(f), f_lo = float(f - f_hi), t_hi = float(t), t_lo = float(t - t_hi);
     float s, c;
-    sq_sincos_phase(w, t_hi, t_lo, &s, &c);
-    const double phase = double(w) * (double(t_hi) + double(t_lo));
+    sq_sincos_turns(f_hi, f_lo, t_hi, t_lo, &s, &c);
+    const long double turns = (long double)f * (long double)t;
+    const double phase = double(2 * M_PIl * (turns - std::floor(turns)));
     worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
   }
   return worst;
@@ -208,20 +209,38 @@ TEST(SinCosPhase, RoundsToTheNearestIntegerTiesToEvenAsRintDoes) {
 
 TEST(SinCosPhase, EveryQuadrantOfOneTurnToAFewUlps) {
   double worst = 0;
-  for (int i = -40000; i <= 40000; ++i) {  // -2 pi .. 2 pi, through every quadrant's edges
-    const float x = float(i * 2 * M_PI / 40000);
+  for (int i = -40000; i <= 40000; ++i) {  // -1 .. 1 turn, through every quadrant's edges
+    const float x = float(i / 40000.0);
     float s, c;
-    sq_sincos_phase(1.0f, x, 0.0f, &s, &c);
-    worst = std::max({worst, std::abs(s - std::sin(double(x))), std::abs(c - std::cos(double(x)))});
+    sq_sincos_turn(x, &s, &c);
+    const double phase = 2 * M_PI * double(x);
+    worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
   }
   EXPECT_LT(worst, 3e-7);
 }
 
-TEST(SinCosPhase, LongTimesKeepThePhaseOfTheTwoFloatTime) {
-  // omega up to 40 rad/s (a 4 cm wave), t up to 600 s: below 2^12 turns, where the reduction is exact.
-  EXPECT_LT(sincos_phase_error(40, 600, 200000), 5e-7);
-  // t up to 1e4 s (4e5 rad, 2^16 turns): n C2 rounds, still far below the 0.03 rad of w t in one float.
-  EXPECT_LT(sincos_phase_error(40, 1e4, 200000), 1e-5);
+// A phase f t in turns keeps its fraction however many whole turns it holds: f up to 10 turns per second
+// (w = 63 rad/s, a 2.5 cm capillary wave) within 1e-6 up to t = 1e6 s, and through SimTime's whole range
+// (1e9 s) within 1e-3: the cross terms' rounding, f t 2^-47 turn, is 4.5e-4 rad there. In one float, f t past
+// 2^24 turns has no fraction left.
+TEST(SinCosPhase, APhaseInTurnsKeepsItsFractionAtAnyTime) {
+  EXPECT_LT(sincos_turns_error(10, 600, 200000), 1e-6);
+  EXPECT_LT(sincos_turns_error(10, 1e6, 200000), 1e-6);
+  EXPECT_LT(sincos_turns_error(10, 1e9, 200000), 1e-3);
+}
+
+TEST(SinCosPhase, TheFractionOfAProductOfTwoFloatsIsExactToARounding) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> a_of(-100, 100), b_of(-1e9f, 1e9f);
+  double worst = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const float a = a_of(rng), b = b_of(rng);
+    const long double turns = (long double)a * (long double)b;  // exact: 48 bits
+    const double fraction = double(turns - std::nearbyint(turns));
+    const double off = std::abs(sq_product_turns(a, b) - fraction);
+    worst = std::max(worst, std::min(off, 1 - off));  // a fraction of +-1/2 may come out as the other
+  }
+  EXPECT_LT(worst, std::ldexp(1.0, -24));
 }
 
 }  // namespace
