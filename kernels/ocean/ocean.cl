@@ -145,7 +145,7 @@ inline void store_pack(__global float* out, size_t at, float a_re, float a_im, f
 // plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im); w =
 // 2 pi f(k). The phases are counted in turns (common/sincos.h): f t with f = f_hi + f_lo and t = t_hi + t_lo,
 // two floats each, and k.U_D t / 2 pi = n s.x + m s.y for the mode numbers (n, m) and the shift
-// s = U_D t / (Lx, Ly) in periods of the layer, reduced to [0, 1) on the host. Complex values are pairs of
+// s = U_D t / (Lx, Ly) in periods of the layer, reduced to [0, 1] on the host. Complex values are pairs of
 // floats, read and written as floats: PoCL vectorizes a kernel across work-items only when it computes with
 // no OpenCL vector (float2, float4) values, which LLVM's loop vectorizer cannot widen (nor a struct of two
 // floats, passed as a float2).

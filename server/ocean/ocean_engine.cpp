@@ -75,8 +75,9 @@ cl_float2 two_float_time(double t) {
   return {{t_hi, float(t - double(t_hi))}};
 }
 
-// The drift's shift U_D t in periods of the layer's extent, reduced to [0, 1) in double: the kernels' phase
-// of mode (n, m) is then n s.x + m s.y turns at any t (a rate k.U_D in float would lose it at large t).
+// The drift's shift U_D t in periods of the layer's extent, reduced to [0, 1] in double (1 when float
+// rounds it up): the kernels' phase of mode (n, m) is then n s.x + m s.y turns at any t (a rate k.U_D in
+// float would lose it at large t).
 cl_float2 drift_shift(const LayerSpec& L, double t) {
   auto periods = [t](double drift, double extent) {
     const double s = drift * t / extent;
@@ -144,19 +145,17 @@ struct OceanEngine::Impl {
   }
 
   // The planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl) from the host's double-precision dispersion, a
-  // block of rows at a time.
+  // block of modes at a time.
   void write_frequencies(const LayerSpec& L, const cl::Buffer& h0) {
-    const size_t nx = size_t(L.nx), cells = nx * size_t(L.ny);
-    const int64_t rows = std::max<int64_t>(1, int64_t(kFrequencyBlockModes / nx));
-    std::vector<float> hi(size_t(rows) * nx), lo(hi.size());
-    for (int64_t j0 = 0; j0 < L.ny; j0 += rows) {
-      const int64_t j1 = std::min(L.ny, j0 + rows);
-      const size_t offset = size_t(j0) * nx * sizeof(float), count = size_t(j1 - j0) * nx * sizeof(float);
-      mode_frequencies(L, j0, j1, hi.data(), lo.data());
-      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, kH0FrequencyPlane * cells * sizeof(float) + offset, count,
+    const size_t cells = size_t(L.nx) * size_t(L.ny), plane_bytes = cells * sizeof(float);
+    std::vector<float> hi(std::min(cells, kFrequencyBlockModes)), lo(hi.size());
+    for (size_t first = 0; first < cells; first += hi.size()) {
+      const size_t count = std::min(hi.size(), cells - first), offset = first * sizeof(float);
+      mode_frequencies(L, first, count, hi.data(), lo.data());
+      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, kH0FrequencyPlane * plane_bytes + offset, count * sizeof(float),
                                          hi.data());
-      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, (kH0FrequencyPlane + 1) * cells * sizeof(float) + offset, count,
-                                         lo.data());
+      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, (kH0FrequencyPlane + 1) * plane_bytes + offset,
+                                         count * sizeof(float), lo.data());
     }
   }
 

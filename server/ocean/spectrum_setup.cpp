@@ -284,16 +284,15 @@ double mode_frequency(const LayerSpec& L, double k) {
 int64_t mode_number(int64_t i, int64_t n) { return i < n / 2 ? i : i - n; }
 }  // namespace
 
-void mode_frequencies(const LayerSpec& L, int64_t j0, int64_t j1, float* hi, float* lo) {
-  for (int64_t j = j0; j < j1; ++j) {
-    const double ky = double(mode_number(j, L.ny)) * 2 * SQUALL_PI / L.ly;
-    for (int64_t i = 0; i < L.nx; ++i) {
-      const double kx = double(mode_number(i, L.nx)) * 2 * SQUALL_PI / L.lx;
-      const double f = mode_frequency(L, std::sqrt(kx * kx + ky * ky));
-      const size_t at = size_t(i + L.nx * (j - j0));
-      hi[at] = float(f);
-      lo[at] = float(f - double(hi[at]));
-    }
+void mode_frequencies(const LayerSpec& L, size_t first, size_t count, float* hi, float* lo) {
+  const size_t nx = size_t(L.nx);
+  for (size_t n = 0; n < count; ++n) {
+    const size_t i = (first + n) % nx, j = (first + n) / nx;
+    const double kx = double(mode_number(int64_t(i), L.nx)) * 2 * SQUALL_PI / L.lx;
+    const double ky = double(mode_number(int64_t(j), L.ny)) * 2 * SQUALL_PI / L.ly;
+    const double f = mode_frequency(L, std::sqrt(kx * kx + ky * ky));
+    hi[n] = float(f);
+    lo[n] = float(f - double(hi[n]));
   }
 }
 

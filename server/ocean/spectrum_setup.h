@@ -34,11 +34,11 @@ SpectrumParams derive_spectrum(const LayerSpec& layer);
 // The device block of layer `index` (params.h).
 OceanLayer device_layer(const LayerSpec& layer, int index);
 
-// f(k) = omega(k) / 2 pi of the modes (i, j) of rows j0 <= j < j1 of a layer (mode numbers as in ocean.cl),
-// turns per second, in double precision and stored as two floats f = hi + lo, mode (i, j) at
-// i + nx (j - j0) of each. The device's phases f t then follow the double-precision dispersion at any t
-// and on every device alike (kernels/common/sincos.h).
-void mode_frequencies(const LayerSpec& layer, int64_t j0, int64_t j1, float* hi, float* lo);
+// f(k) = omega(k) / 2 pi of `count` modes of a layer from mode (i, j) at i + nx j = first on (mode numbers as
+// in ocean.cl), turns per second, in double precision and stored as two floats f = hi + lo. The device's
+// phases f t then follow the double-precision dispersion at any t and on every device alike
+// (kernels/common/sincos.h).
+void mode_frequencies(const LayerSpec& layer, size_t first, size_t count, float* hi, float* lo);
 
 // (kx_min, ky_min, kx_max, ky_max) of each layer's band (eq 56 and TileSpec::b_correction).
 std::vector<std::array<float, 4>> layer_bands(const TileSpec& spec);

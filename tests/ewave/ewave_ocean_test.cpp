@@ -76,8 +76,8 @@ class OceanStart : public ::testing::TestWithParam<DispersionKind> {};
 
 // h and phi = -i (g/w)[h0 e^{-iwt} - conj(h0(-k)) e^{iwt}] at t0 = 12.3 s, then 50 free steps of 0.1 s (T = 5 s,
 // ~1.4 peak periods; the ocean's phase w t reaches ~90 rad at the highest modes). The error budget is float round-off:
-// the ocean's phase w t in float (ulp ~8e-6 rad at 90 rad), float omega (~1e-7 relative) and 100 float FFTs
-// (~1e-6 each); together a few 1e-6, so 1e-4 holds a 10x margin and still fails for any wrong sign or factor
+// the ocean's phase (within 1e-6 rad), eWave's float omega (~1e-7 relative) and 100 float FFTs (~1e-6 each);
+// together a few 1e-6, so 1e-4 holds a 10x margin and still fails for any wrong sign or factor
 // of phi, which errs by O(1). Control: the same h with phi = 0 splits into two opposite waves (O(1) error).
 TEST_P(OceanStart, ReproducesTheOceanTileAtT0PlusT) {
   EWaveConfig c = sea_config(GetParam());
