@@ -12,12 +12,13 @@ namespace {
 using validate::finite;
 using validate::positive;
 
+// A noise's frequencies and offset keep its lattice coordinates finite for every shape the model allows.
 void check_noise(const std::string& f, const NoiseParams& n) {
-  positive(f + ".frequency", n.frequency);
+  positive(f + ".frequency", n.frequency, kMaxNoiseFrequency);
   validate::in(f + ".octaves", int64_t(n.octaves), 1, 16);
   validate::in(f + ".roughness", n.roughness, validate::closed(1e-6, 1));
   validate::in(f + ".frequency_jump", n.frequency_jump, validate::closed(1, 8));
-  validate::finite_xyz(f + ".offset", n.offset);
+  validate::in_xyz(f + ".offset", n.offset, validate::closed(-kMaxNoiseOffset, kMaxNoiseOffset));
 }
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -92,7 +93,7 @@ double pyroclastic_bound(const Pyroclastic& p) {
 
 double validate(const CloudModel& m, const std::string& prefix) {
   const std::string& f = prefix;
-  positive(f + ".voxel_size", m.voxel_size);
+  validate::in(f + ".voxel_size", m.voxel_size, validate::closed(kMinVoxelSize, kMaxVoxelSize));
   positive(f + ".skin", m.skin);
   double band = m.skin + 3 * m.voxel_size;
   const auto& p = m.pyroclastic;

@@ -35,7 +35,10 @@ double grad(int hash, double x, double y, double z) {
 
 double perlin(const Vec3d& p) {
   double fx = std::floor(p[0]), fy = std::floor(p[1]), fz = std::floor(p[2]);
-  int X = static_cast<int>(fx) & 255, Y = static_cast<int>(fy) & 255, Z = static_cast<int>(fz) & 255;
+  // The lattice repeats every 256 cells: the cell reduced in double first (exact), so that a cell past
+  // int's range is not converted.
+  auto cell = [](double f) { return static_cast<int>(f - 256 * std::floor(f / 256)) & 255; };
+  int X = cell(fx), Y = cell(fy), Z = cell(fz);
   double x = p[0] - fx, y = p[1] - fy, z = p[2] - fz;
   double u = fade(x), v = fade(y), w = fade(z);
   int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;

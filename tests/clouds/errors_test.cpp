@@ -41,6 +41,32 @@ TEST(Errors, NanNoiseAndCentreNameTheirFields) {
   expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.spheres[0].center.z = nan");
 }
 
+// Voxel sizes from 1e-4 m (OpenVDB refuses a transform whose voxel volume is within 1e-15 of 0: a 1e-40 m
+// voxel was INTERNAL) to 1e6 m (a 1e300 m voxel estimated "nan active voxels"); noise frequencies up to 1e9
+// per m and offsets within 1e9 m, whose lattice coordinates stay finite.
+TEST(Errors, VoxelSizesAndNoisesPastTheirRangesAreRefusedByName) {
+  CloudModel m = sphere_model();
+  for (double voxel : {1e-40, 9e-5, 1.1e6, 1e300}) {
+    m.voxel_size = voxel;
+    expect_error([&] { validate(m); }, Code::InvalidArgument, "model.voxel_size = ");
+  }
+  m = sphere_model();
+  m.pyroclastic.noise.frequency = 2e9;
+  expect_error([&] { validate(m); }, Code::InvalidArgument, "model.pyroclastic.noise.frequency = ");
+  m = sphere_model();
+  m.advection.noise.offset[1] = -2e9;
+  expect_error([&] { validate(m); }, Code::InvalidArgument, "model.advection.noise.offset.y = ");
+  m = sphere_model();  // the ends of the ranges are built
+  m.voxel_size = 1e-4;
+  m.skin = 2e-4;
+  m.spheres[0].radius = 1e-3;
+  m.pyroclastic.layers = 2;
+  m.pyroclastic.amplitude = 1e-4;
+  m.pyroclastic.noise.frequency = 1e9;
+  m.pyroclastic.noise.offset = {1e9, -1e9, 1e9};
+  EXPECT_GT(build_cloud(m).stats.active_voxels, 1000u);
+}
+
 TEST(Errors, DegenerateMeshIsRejected) {
   CloudModel m = sphere_model();
   TriangleMesh flat;  // four triangles, all in the plane z = 0: no volume

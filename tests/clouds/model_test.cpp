@@ -9,6 +9,7 @@
 #include <random>
 
 #include "clouds/advection.h"
+#include "clouds/noise.h"
 #include "clouds/volume.h"
 #include "common/error.h"
 
@@ -25,6 +26,20 @@ Particle particle(const Vec3d& center, double radius) {
 double radius_of(const openvdb::FloatGrid& g, const openvdb::Coord& ijk, const Vec3d& c) {
   openvdb::Vec3d x = g.transform().indexToWorld(ijk);
   return (x - openvdb::Vec3d(c[0], c[1], c[2])).length();
+}
+
+// Perlin's permutation repeats every 256 lattice cells, so the noise does: at any distance, also past int's
+// range, where the cell was converted to int before it was reduced (2.6e12 cells became INT_MIN's cell).
+TEST(Noise, PerlinRepeatsEvery256CellsAtAnyDistance) {
+  const Vec3d p{3.375, -7.25, 0.625};
+  const double here = perlin(p);
+  EXPECT_GT(std::abs(here), 1e-3);
+  for (double periods : {1.0, -3.0, 1e6, 1e10, -1e10, 1e12})
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3d q = p;
+      q[axis] += 256 * periods;
+      EXPECT_EQ(perlin(q), here) << periods << " periods along axis " << axis;
+    }
 }
 
 TEST(Model, PyroclasticSphereStaysInsideTheRadialBandItsAmplitudeAllows) {

@@ -86,7 +86,7 @@ def model(
     """A cloud model (Gilligan sec. 6). None leaves an optional field at the server's default.
 
     Args:
-        voxel_size: m, > 0 (default 1, as ``squall cloud``).
+        voxel_size: m, in [1e-4, 1e6] (default 1, as ``squall cloud``).
         spheres: base spheres, unioned: (x, y, z, radius) in m, or SphereSpec / mappings.
         ellipsoids: base ellipsoids: (x, y, z, rx, ry, rz) in m, or EllipsoidSpec / mappings.
         meshes: closed triangle meshes: OBJ text or bytes, a path to an .obj file, or
