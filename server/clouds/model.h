@@ -89,8 +89,9 @@ struct CloudModel {
 // grows by that many voxels along each axis (a cube about each voxel: up to sqrt(3) times it diagonally).
 inline double advection_reach(double max_speed, double time) { return 2 * max_speed * time; }
 
-// Voxel sizes, m: OpenVDB refuses a transform whose determinant, the voxel's volume, is within 1e-15 of 0,
-// and past 1e6 m the float32 march's world coordinates (2^20 voxels either way) would pass 1e12 m.
+// Voxel sizes, m: OpenVDB refuses a transform whose determinant, the voxel's volume, is below 3e-15 m^3 (a
+// voxel under 1.5e-5 m), and past 1e6 m the float32 march's world coordinates (2^20 voxels either way)
+// would pass 1e12 m.
 constexpr double kMinVoxelSize = 1e-4, kMaxVoxelSize = 1e6;
 // A noise's base frequency, 1/m, and its offset, m: with the shapes within 2^20 voxels of the origin, the
 // lattice coordinates (x + offset) f f_jump^i stay finite in double.

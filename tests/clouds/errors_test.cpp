@@ -41,7 +41,7 @@ TEST(Errors, NanNoiseAndCentreNameTheirFields) {
   expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.spheres[0].center.z = nan");
 }
 
-// Voxel sizes from 1e-4 m (OpenVDB refuses a transform whose voxel volume is within 1e-15 of 0: a 1e-40 m
+// Voxel sizes from 1e-4 m (OpenVDB refuses a transform whose voxel volume is below 3e-15 m^3: a 1e-40 m
 // voxel was INTERNAL) to 1e6 m (a 1e300 m voxel estimated "nan active voxels"); noise frequencies up to 1e9
 // per m and offsets within 1e9 m, whose lattice coordinates stay finite.
 TEST(Errors, VoxelSizesAndNoisesPastTheirRangesAreRefusedByName) {
