@@ -6,6 +6,7 @@
 #include "common/error.h"
 #include "common/limits.h"
 #include "common/validate.h"
+#include "ewave/propagator.h"
 #include "ocean/spectrum_setup.h"
 
 namespace squall::ewave {
@@ -108,6 +109,12 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
 
 void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
   positive("inputs.dt", in.dt, 1e4);
+  if (c.trim && in.dt > shortest_wave_period(c))
+    fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) +
+                                    " s is longer than the period of the grid's shortest wave, " +
+                                    validate::number(shortest_wave_period(c)) +
+                                    " s: with config.trim on, longer steps grow without bound; take shorter steps "
+                                    "or turn the trim off");
   size_t cells = c.cells();
   check_map("inputs.obstruction", in.obstruction, cells, validate::closed(0, 1));
   check_map("inputs.ambient_height", in.ambient_height, cells);

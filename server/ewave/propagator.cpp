@@ -40,6 +40,11 @@ std::vector<double> propagator_coefficients(const EWaveConfig& c, double dt) {
   return out;
 }
 
+double shortest_wave_period(const EWaveConfig& c) {
+  const double k = std::hypot(std::numbers::pi / c.dx, std::numbers::pi / c.dy);
+  return 2 * std::numbers::pi / dispersion_omega(float(k), dispersion_of(c));
+}
+
 std::vector<float> trim_profile(size_t n, double d, double width, double alpha) {
   std::vector<float> t(n, 1.0f);
   const double length = double(n) * d;

@@ -25,6 +25,11 @@ double wavenumber(const EWaveConfig& config, size_t i, size_t j);
 // c^2 + (g k/omega^2) s^2 and loses energy unless omega^2 = g k. (omega/g) s equals k/omega in deep water).
 std::vector<double> propagator_coefficients(const EWaveConfig& config, double dt);
 
+// The period 2 pi / omega of the grid's shortest wave, at its corner mode (pi/dx, pi/dy), s. With the trim
+// on, steps longer than it feed energy in: the taper multiplies phi as well as h (eqs 78-79), and the
+// gradient it gives phi is turned into waves by the next step's full rotation of the shortest modes.
+double shortest_wave_period(const EWaveConfig& config);
+
 // The 1D trim of eq 82 at the n cell centres x = (i + 0.5) d of a side of length n d, taper width L:
 // (x/L)^alpha near 0, ((n d - x)/L)^alpha near n d, 1 elsewhere.
 std::vector<float> trim_profile(size_t n, double d, double width, double alpha);

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "ewave/propagator.h"
 #include "ewave_support.h"
+#include "support/expect_error.h"
 
 namespace squall::ewave::test {
 namespace {
@@ -138,6 +140,25 @@ TEST(EWaveTrim, PowerLawTaperLetsFarLessEnergyWrapThanLinear) {
   EXPECT_LT(power.wrapped, 0.01 * linear.wrapped);
   EXPECT_LT(power.reflected, 0.01 * linear.reflected)
       << "Gilligan sec. 3.6 claims alpha = 0.05 also suppresses reflections";
+}
+
+// The trim multiplies phi as well as h (eqs 78-79). A step longer than the period of the grid's shortest wave
+// (its corner mode) turns the gradient that gives phi into waves, and the energy grew without bound: on 32^2
+// cells of 1 m (period 0.95 s), a pulse's energy fell 1e4-fold over 400 steps of 0.9 s and grew 4e9-fold over
+// 300 steps of 1.5 s. Such steps are refused by name; steps of the period itself still drain it.
+TEST(EWaveTrim, StepsLongerThanTheShortestWavesPeriodAreRefused) {
+  EWaveConfig c = plain_config(32, 32, 1.0);
+  c.trim = true;
+  c.initial_height =
+      field(c, [](double x, double y) { return std::exp(-(std::pow(x - 16, 2) + std::pow(y - 16, 2))); });
+  const double period = 2 * M_PI / reference_omega(std::hypot(M_PI, M_PI), c);
+  EXPECT_NEAR(shortest_wave_period(c), period, 1e-6 * period);
+  EWaveSession s = make_session(c);
+  squall::test::expect_error(Code::InvalidArgument, "inputs.dt = ", [&] { s.step(plain_step(1.05 * period)); });
+  const double e0 = spectral_energy(c.initial_height, std::vector<float>(c.cells()), c);
+  Frame f;
+  for (int n = 0; n < 400; ++n) f = s.step(plain_step(shortest_wave_period(c)));
+  EXPECT_LT(spectral_energy(f.height, f.phi, c), 1e-2 * e0);
 }
 
 // A hull moving at constant speed V over deep water leaves a Kelvin wake: the cusp lines, where the wave

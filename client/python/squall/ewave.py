@@ -204,7 +204,8 @@ def inputs(
     float16.
 
     Args:
-        dt: time step, s, > 0 (any dt: the propagator is exact).
+        dt: time step, s, in (0, 1e4] (the propagator is exact; with the trim on, at most the
+            period of the grid's shortest wave).
         obstruction: O per cell: 1 open water, 0 solid, between: partial; unset: 1.
         shapes: obstruction shapes rasterized into O (``circle``, ``ellipse``, ``box``,
             ``polygon``), at most 1024.
