@@ -2,6 +2,23 @@
 
 namespace squall::rpc {
 
+grpc::Status to_status(const cl::Error& error) {
+  const std::string call = std::string("OpenCL call ") + error.what() + " failed with " + std::to_string(error.err());
+  switch (error.err()) {
+    case CL_INVALID_BUFFER_SIZE:
+      return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                          "the request needs a device buffer larger than the device's largest allocation (" + call +
+                              ", CL_INVALID_BUFFER_SIZE): ask for a smaller grid");
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE:
+    case CL_OUT_OF_RESOURCES:
+    case CL_OUT_OF_HOST_MEMORY:
+      return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                          "the device has too little memory left for the request (" + call + ")");
+    default:
+      return grpc::Status(grpc::StatusCode::INTERNAL, call);
+  }
+}
+
 grpc::Status to_status(const Error& error) {
   grpc::StatusCode code = grpc::StatusCode::INTERNAL;
   switch (error.code()) {

@@ -12,8 +12,12 @@ namespace squall::rpc {
 
 grpc::Status to_status(const Error& error);
 
+// An OpenCL failure: RESOURCE_EXHAUSTED where the device had too little memory for the request (a buffer past
+// its largest allocation, or no memory or resources left), INTERNAL otherwise.
+grpc::Status to_status(const cl::Error& error);
+
 // Runs one handler body and turns what it throws into the status the gRPC docs prescribe:
-// squall::Error keeps its code, an OpenCL failure is INTERNAL, anything else INTERNAL too.
+// squall::Error keeps its code, an OpenCL failure is to_status's, anything else INTERNAL.
 // The daemon never lets an exception escape a handler.
 template <typename Body>
 grpc::Status guarded(Body&& body) {
@@ -22,8 +26,7 @@ grpc::Status guarded(Body&& body) {
   } catch (const Error& e) {
     return to_status(e);
   } catch (const cl::Error& e) {
-    return grpc::Status(grpc::StatusCode::INTERNAL,
-                        std::string("OpenCL call ") + e.what() + " failed with " + std::to_string(e.err()));
+    return to_status(e);
   } catch (const std::bad_alloc&) {
     return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, "host memory exhausted");
   } catch (const std::exception& e) {
