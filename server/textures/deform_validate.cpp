@@ -18,14 +18,16 @@ constexpr int kMaxFrames = 100000;
 constexpr int kMaxSubsteps = 100;
 constexpr int kMaxLevels = 16;
 constexpr int kMaxIterations = 100000;
-constexpr double kMaxKappa = 1e6, kMaxDmu = 100, kMaxRadius = 1e6, kMaxDt = 1e4;
+constexpr double kMaxKappa = 1e6, kMaxDmu = 100, kMaxRadius = 1e6, kMaxDt = 1e4, kMaxGradient = 1e6;
 
-// Finite components and det > 0 (a deformation gradient).
+// Components within +-kMaxGradient and det > 0 (a deformation gradient; 1e300 components made an infinite
+// determinant, which passed, and infinite reference coordinates).
 void tensor(const Tensor2& g, const std::string& path) {
-  finite(path + ".xx", g.xx);
-  finite(path + ".xy", g.xy);
-  finite(path + ".yx", g.yx);
-  finite(path + ".yy", g.yy);
+  const Interval components = closed(-kMaxGradient, kMaxGradient);
+  in(path + ".xx", g.xx, components);
+  in(path + ".xy", g.xy, components);
+  in(path + ".yx", g.yx, components);
+  in(path + ".yy", g.yy, components);
   const double det = g.determinant();
   if (!(det > 0)) reject(path + " determinant", det, "> 0 (a deformation gradient)");
 }

@@ -16,6 +16,9 @@ namespace {
 using namespace squall::validate;
 
 constexpr int kMaxChannels = 256, kMaxJunctions = 256, kMaxObstacles = 256;
+// Q, du^2/s: psi and the velocities (Q over distances down to the grid's) stay finite in float32 (3e38 made
+// them infinite).
+constexpr double kMaxFlowRate = 1e9;
 constexpr int kMaxPoints = 4096;     // per polyline
 constexpr int kMaxJunctionSide = 8;  // channels on one side of a junction
 constexpr int64_t kMaxBins = int64_t(1) << 20;
@@ -87,9 +90,9 @@ void validate_river(const RiverSpec& river, const std::string& path) {
     const std::string cpath = at(path + ".channels", c);
     polyline(channel.left, 2, cpath + ".left_bank");
     polyline(channel.right, 2, cpath + ".right_bank");
-    if (channel.flow_rate) positive(cpath + ".flow_rate", *channel.flow_rate);
+    if (channel.flow_rate) positive(cpath + ".flow_rate", *channel.flow_rate, kMaxFlowRate);
     if (channel.cross_section)
-      positive(cpath + ".cross_section", *channel.cross_section);
+      positive(cpath + ".cross_section", *channel.cross_section, kMaxCoordinate);
     else if (!(cross_section(channel) > 0))
       fail(Code::InvalidArgument, cpath + ": the banks start at the same point; give cross_section");
   }
@@ -99,10 +102,11 @@ void validate_river(const RiverSpec& river, const std::string& path) {
   for (size_t o = 0; o < river.obstacles.size(); ++o) {
     const std::string opath = at(path + ".obstacles", o);
     polyline(river.obstacles[o].outline, 3, opath + ".outline");
-    if (river.obstacles[o].search_radius) positive(opath + ".search_radius", *river.obstacles[o].search_radius);
+    if (river.obstacles[o].search_radius)
+      positive(opath + ".search_radius", *river.obstacles[o].search_radius, kMaxCoordinate);
   }
   in(path + ".p", river.p, open_closed(0, 8));
-  if (river.search_radius) positive(path + ".search_radius", *river.search_radius);
+  if (river.search_radius) positive(path + ".search_radius", *river.search_radius, kMaxCoordinate);
 }
 
 void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,

@@ -29,6 +29,12 @@ constexpr double kMaxSpin = 1e6;           // rad/s: flow noise's band-0 turn ra
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;
 // Output region and velocity grid coordinates within +-kMaxCoordinate (du: float32 on the device).
 constexpr double kMaxCoordinate = 1e7;
+// Texture values (image pixels, LUT entries and inputs) within +-kMaxTextureValue, and the final function's
+// scale within +-kMaxFinalScale: a bilinear blend or a LUT's slope of such values stays finite in float32
+// (3e38 entries made infinities and NaN).
+constexpr double kMaxTextureValue = 1e30, kMaxFinalScale = 1e6;
+// Layer latencies, s: a regeneration far faster than any frame (1e-310 s) divided by zero.
+constexpr double kMinLatency = 1e-3;
 
 // A velocity grid outside its nodes or its fluid: held at the edge nodes, zero, push-pull filled (then held),
 // or periodic (node nx is node 0 again: an ocean tile's current).

@@ -74,9 +74,12 @@ void lookup(const FinalLookupSpec& l, const LimitGate& gate, const std::string& 
   if (size % size_t(channels) != 0)
     reject(path + ".table size", double(size), "a multiple of channels = " + std::to_string(channels));
   in(path + ".table size / channels", int64_t(size / size_t(channels)), 2, SQUALL_LUT_MAX_ENTRIES);
-  each(path + ".table", l.table.data(), size);
-  finite(path + ".lut_min", l.lut_min);
-  in(path + ".lut_max", l.lut_max, above(l.lut_min));
+  const Interval values = closed(-kMaxTextureValue, kMaxTextureValue);
+  each(path + ".table", l.table.data(), size, values);
+  in(path + ".lut_min", l.lut_min, values);
+  in(path + ".lut_max", l.lut_max, open_closed(l.lut_min, kMaxTextureValue));
+  if (!(float(l.lut_max) > float(l.lut_min)))
+    reject(path + ".lut_max", l.lut_max, "apart from lut_min = " + number(l.lut_min) + " in float32");
   if (l.band_shape != SQUALL_FINAL_SUM_BANDS && l.band_shape != SQUALL_FINAL_TURBULENCE &&
       l.band_shape != SQUALL_FINAL_RIDGED)
     reject(path + ".band_shape", double(l.band_shape), "sum of bands, turbulence or ridged");
@@ -90,7 +93,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
     in(path + ".image.channels", int64_t(t.channels), 1, SQUALL_TEXTURE_MAX_CHANNELS);
     const size_t n = size_t(t.width) * t.height * t.channels;
     count(path + ".image.pixels", t.pixels.size(), n, "width * height * channels");
-    each(path + ".image.pixels", t.pixels.data(), n);
+    each(path + ".image.pixels", t.pixels.data(), n, closed(-kMaxTextureValue, kMaxTextureValue));
   } else {
     in(path + ".noise.bands", int64_t(t.bands), 1, SQUALL_TEXTURE_MAX_CHANNELS);
     in(path + ".noise.base_cells", int64_t(t.base_cells), 1, 64);
@@ -99,7 +102,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
   }
   positive(path + ".scale", t.scale, 1e6);
   known(path + ".final_function", t.final_function, SQUALL_FINAL_FUNCTIONS, "final function");
-  finite(path + ".final_scale", t.final_scale);
+  in(path + ".final_scale", t.final_scale, closed(-kMaxFinalScale, kMaxFinalScale));
   if (t.final_function == SQUALL_FINAL_LUT) lookup(t.lut, gate, path + ".lut");
 }
 
@@ -132,7 +135,7 @@ void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, con
   in(path + ".latencies size", int64_t(p.latencies.size()), 1,
      method == Method::EulerianMultilayer ? SQUALL_EULERIAN_MAX_LAYERS : 1);
   for (size_t i = 0; i < p.latencies.size(); ++i) {
-    positive(at(path + ".latencies", i), p.latencies[i], 1e6);
+    in(at(path + ".latencies", i), p.latencies[i], closed(kMinLatency, 1e6));
     if (i > 0 && p.latencies[i] <= p.latencies[i - 1])
       reject(at(path + ".latencies", i), p.latencies[i], "greater than the previous layer's latency");
   }

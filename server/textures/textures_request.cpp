@@ -481,7 +481,9 @@ bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& 
   if (control.has_dt()) s.dt = validate::positive(path + ".dt", control.dt(), kMaxTextureDt);
   if (control.has_substeps())
     s.substeps = int(validate::in(path + ".substeps", int64_t(control.substeps()), 1, kMaxTextureSubsteps));
-  if (control.has_final_scale()) s.texture.final_scale = validate::finite(path + ".final_scale", control.final_scale());
+  if (control.has_final_scale())
+    s.texture.final_scale =
+        validate::in(path + ".final_scale", control.final_scale(), validate::closed(-kMaxFinalScale, kMaxFinalScale));
   if (control.has_spin()) {
     if (s.texture.kind != SQUALL_TEXTURE_NOISE)
       validate::reject(path + ".spin", control.spin(), "unset: the texture is an image, not flow noise");

@@ -91,5 +91,35 @@ TEST(TexturesClock, TimesAndSpinsPastTheirRangeAreRefusedNamingTheField) {
   expect_error(Code::InvalidArgument, ".frames[1].time", [&] { texture_engine().validate(spec, "spec"); });
 }
 
+// Values whose blends overflow float32 on the device, and a latency that divides by zero, are refused by
+// name: a final scale of 1e308 or LUT entries of +-3e38 made every plane infinite, image pixels of +-3e38 NaN,
+// a latency of 1e-310 s NaN.
+TEST(TexturesValidation, ValuesThatOverflowFloat32AreRefusedNamingTheField) {
+  const AdvectSpec good = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  auto expect = [&](const char* field, auto change) {
+    AdvectSpec spec = good;
+    change(spec);
+    expect_error(Code::InvalidArgument, field, [&] { texture_engine().validate(spec, "spec"); });
+  };
+  expect("spec.texture.final_scale = 1e+308", [](AdvectSpec& s) { s.texture.final_scale = 1e308; });
+  expect("spec.eulerian.latencies[0] = 1e-310", [](AdvectSpec& s) { s.eulerian.latencies[0] = 1e-310; });
+  expect("spec.texture.lut.table", [](AdvectSpec& s) {
+    s.texture.final_function = SQUALL_FINAL_LUT;
+    s.texture.lut.table = {-3e38f, 3e38f};
+  });
+  expect("spec.texture.lut.lut_max", [](AdvectSpec& s) {
+    s.texture.final_function = SQUALL_FINAL_LUT;
+    s.texture.lut.table = {0, 1};
+    s.texture.lut.lut_min = 1;
+    s.texture.lut.lut_max = 1 + 1e-12;  // the same float
+  });
+  expect("spec.texture.image.pixels", [](AdvectSpec& s) {
+    s.texture.kind = SQUALL_TEXTURE_IMAGE;
+    s.texture.width = s.texture.height = s.texture.channels = 1;
+    s.texture.pixels = {3e38f};
+  });
+  texture_engine().validate(good, "spec");
+}
+
 }  // namespace
 }  // namespace squall::test

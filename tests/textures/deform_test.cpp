@@ -509,6 +509,8 @@ TEST(Deform, BadSpecsNameTheirField) {
     s.frames = 3;
   });
   expect("spec.substeps", [](DeformSpec& s) { s.substeps = 0; });
+  // 1e300 components: the determinant is infinite, which passed as > 0, and the references were infinite.
+  expect("spec.deformation_end.xx = 1e+300", [](DeformSpec& s) { s.control.deformation_end = diag(1e300, 1e300); });
   deform_engine().validate(good, "spec");
 
   Limits small;

@@ -364,6 +364,11 @@ TEST(River, BadRiversNameTheField) {
   expect_error(Code::InvalidArgument, "river.p = 0", [&] { e.validate(river, "river"); });
   river = straight(1, 4, -1, 1);
   expect_error(Code::InvalidArgument, "river.channels[0].flow_rate", [&] { e.validate(river, "river"); });
+  river = straight(1, 4, 3e38, 1);  // psi and the velocities were infinite
+  expect_error(Code::InvalidArgument, "river.channels[0].flow_rate = 3e+38", [&] { e.validate(river, "river"); });
+  river = straight(1, 4, 1, 1);
+  river.search_radius = 1e39;  // past float32: every node was undefined
+  expect_error(Code::InvalidArgument, "river.search_radius = 1e+39", [&] { e.validate(river, "river"); });
   river = y_junction(3);
   river.junctions[0].downstream = {1, 7};
   expect_error(Code::InvalidArgument, "river.junctions[0].downstream[1] = 7", [&] { e.validate(river, "river"); });
