@@ -157,8 +157,8 @@ class Lagrangian final : public Advection {
       p.birth = in.get<double>("a particle's birth time");
       p.kill = in.get<double>("a particle's kill time");
     }
-    positions_ = in.get_vector<float>("the positions");
-    uvs_ = in.get_vector<float>("the uvs");
+    positions_ = in.get_finite_vector<float>("the positions");
+    uvs_ = in.get_finite_vector<float>("the uvs");
     if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
       fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
     time_ = t0_ + index_ * dt_;

@@ -3,6 +3,7 @@
 // checkpoint is INVALID_ARGUMENT "resume_state is not a texture checkpoint: ...".
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -29,6 +30,17 @@ class StateReader : public ByteReader {
   template <typename T>
   std::vector<T> get_vector(const std::string& member) {
     return get_array<T>(get<uint64_t>(member + " count"), member);
+  }
+  // A vector of values that are finite in every checkpoint: a damaged one is refused here rather than
+  // computing planes of NaN.
+  template <typename T>
+  std::vector<T> get_finite_vector(const std::string& member) {
+    std::vector<T> values = get_vector<T>(member);
+    for (size_t i = 0; i < values.size(); ++i)
+      if (!std::isfinite(values[i]))
+        fail(Code::InvalidArgument, "resume_state holds " + member + " with a non-finite value at " +
+                                        std::to_string(i) + ": not a checkpoint of this server");
+    return values;
   }
   // A frame index: InvalidArgument naming resume_state unless it is in [0, max].
   int frame_index(int64_t max) {

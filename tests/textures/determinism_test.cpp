@@ -2,7 +2,11 @@
 // checkpoint continues exactly as the uninterrupted one.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
+
 #include "common/error.h"
+#include "support/expect_error.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -56,6 +60,20 @@ TEST(TexturesDeterminism, ACheckpointOfAnotherShapeIsRefused) {
   spec.lagrangian.grid_res = 6;
   EXPECT_THROW(texture_engine().start(spec, state), squall::Error);
   EXPECT_THROW(texture_engine().start(spec, "garbage"), squall::Error);
+}
+
+// A checkpoint's last value (the Lagrangian vertices' uvs, the Eulerian nodes' state) made NaN: refused by
+// name rather than resumed into planes of NaN.
+TEST(TexturesDeterminism, ACheckpointHoldingANonFiniteValueIsRefused) {
+  for (Method method : {Method::LagrangianGrids, Method::EulerianMultilayer}) {
+    AdvectSpec spec = noise_spec(method, SQUALL_VELOCITY_UNIFORM);
+    auto advection = texture_engine().start(spec);
+    advection->next();
+    std::string state = advection->checkpoint();
+    const float nan = std::nanf("");
+    std::memcpy(&state[state.size() - sizeof(float)], &nan, sizeof(float));
+    expect_error(Code::InvalidArgument, "resume_state holds the ", [&] { texture_engine().start(spec, state); });
+  }
 }
 
 }  // namespace
