@@ -27,8 +27,9 @@ constexpr double kMaxSpin = 1e6;           // rad/s: flow noise's band-0 turn ra
 // Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
 // those a field divides by at least kMinVelocityDivisor.
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;
-// Output region and velocity grid coordinates within +-kMaxCoordinate (du: float32 on the device).
-constexpr double kMaxCoordinate = 1e7;
+// Output region and velocity grid coordinates within +-kMaxCoordinate (du: float32 on the device), and an
+// output pixel at least 2^-19 of the region's largest coordinate (16 or more of float32's steps there).
+constexpr double kMaxCoordinate = 1e7, kMinPixelPerCoordinate = 0x1p-19;
 // Texture values (image pixels, LUT entries and inputs) within +-kMaxTextureValue, and the final function's
 // scale within +-kMaxFinalScale: a bilinear blend or a LUT's slope of such values stays finite in float32
 // (3e38 entries made infinities and NaN).

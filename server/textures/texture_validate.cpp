@@ -1,4 +1,5 @@
 // TextureEngine::validate: every field of an AdvectSpec, under the caller's path.
+#include <algorithm>
 #include <cmath>
 
 #include "common/error.h"
@@ -32,10 +33,10 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   in(path + ".ny", int64_t(v.ny), 2, 1 << 20);
   in(path + ".frames size", int64_t(v.frames.size()), 1, kMaxVelocityFrames);
   gate.check_grid(path, v.nx, v.ny);  // the frames' bytes are bounded by the request's size
-  in(path + ".origin_x", v.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".origin_y", v.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
-  positive(path + ".hx", v.hx);
-  positive(path + ".hy", v.hy);
+  in(path + ".origin.x", v.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".origin.y", v.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
+  positive(path + ".spacing.x", v.hx);
+  positive(path + ".spacing.y", v.hy);
   const size_t nodes = size_t(v.nx) * v.ny;
   const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
@@ -57,10 +58,10 @@ void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::stri
   in(path + ".nx", int64_t(g.nx), 2, 1 << 20);
   in(path + ".ny", int64_t(g.ny), 2, 1 << 20);
   gate.check_grid(path, g.nx, g.ny);
-  finite(path + ".origin_x", g.origin_x);
-  finite(path + ".origin_y", g.origin_y);
-  positive(path + ".hx", g.hx);
-  positive(path + ".hy", g.hy);
+  finite(path + ".origin.x", g.origin_x);
+  finite(path + ".origin.y", g.origin_y);
+  positive(path + ".spacing.x", g.hx);
+  positive(path + ".spacing.y", g.hy);
   const size_t nodes = size_t(g.nx) * g.ny;
   count(path + ".values", g.values.size(), nodes, "nx * ny");
   each(path + ".values", g.values.data(), nodes);
@@ -108,10 +109,19 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
 
 void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
   gate.check_grid(path, o.width, o.height);
-  in(path + ".x0", o.x0, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".x1", o.x1, open_closed(o.x0, kMaxCoordinate));
-  in(path + ".y1", o.y1, open_closed(o.y0, kMaxCoordinate));
+  in(path + ".region.x0", o.x0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".region.y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".region.x1", o.x1, open_closed(o.x0, kMaxCoordinate));
+  in(path + ".region.y1", o.y1, open_closed(o.y0, kMaxCoordinate));
+  // The device places pixels in float32: a pixel must span many of float32's steps at the region's
+  // coordinates (a 1 du region at x = 1e6 came out flat).
+  const double farthest = std::max({std::abs(o.x0), std::abs(o.x1), std::abs(o.y0), std::abs(o.y1)});
+  const double pixel = std::min((o.x1 - o.x0) / o.width, (o.y1 - o.y0) / o.height);
+  if (pixel < farthest * kMinPixelPerCoordinate)
+    fail(Code::InvalidArgument, path + ": pixels of " + number(pixel) + " du at coordinates up to " + number(farthest) +
+                                    " du are finer than float32 places them there (at least " +
+                                    number(farthest * kMinPixelPerCoordinate) +
+                                    " du): move the region nearer the origin or use fewer pixels");
 }
 
 void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {

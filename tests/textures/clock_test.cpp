@@ -121,5 +121,17 @@ TEST(TexturesValidation, ValuesThatOverflowFloat32AreRefusedNamingTheField) {
   texture_engine().validate(good, "spec");
 }
 
+// Pixels finer than float32 places at the region's coordinates: a 1 du region of 64 pixels at x = 1e6
+// came out flat. The same region at x = 1e3 is accepted.
+TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
+  AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  spec.output.x0 = 1e6;
+  spec.output.x1 = 1e6 + 1;
+  expect_error(Code::InvalidArgument, "spec.output: pixels of ", [&] { texture_engine().validate(spec, "spec"); });
+  spec.output.x0 = 1e3;
+  spec.output.x1 = 1e3 + 1;
+  texture_engine().validate(spec, "spec");
+}
+
 }  // namespace
 }  // namespace squall::test

@@ -226,7 +226,7 @@ TEST(TexturesFinalLut, BadLookupsAreRejectedNamingTheField) {
       {[](FinalLookupSpec& l) { l.field.values.pop_back(); },
        "spec.texture.lut.field.values has 19 values, want nx * ny"},
       {[](FinalLookupSpec& l) { l.field.nx = 1; }, "spec.texture.lut.field.nx = 1 must be in [2, 1048576]"},
-      {[](FinalLookupSpec& l) { l.field.hy = 0; }, "spec.texture.lut.field.hy = 0 must be finite and > 0"},
+      {[](FinalLookupSpec& l) { l.field.hy = 0; }, "spec.texture.lut.field.spacing.y = 0 must be finite and > 0"},
       {[](FinalLookupSpec& l) { l.field.values[7] = NAN; }, "spec.texture.lut.field.values[7] = nan must be finite"},
   };
   for (const Case& k : cases) {
