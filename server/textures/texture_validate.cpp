@@ -12,6 +12,7 @@ namespace {
 using namespace squall::validate;
 
 constexpr int kMaxVelocityFrames = 4096;
+constexpr double kMaxSubstepTurn = 2;  // rad: RK4's stability limit on rotations is 2 sqrt(2)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
 
@@ -26,6 +27,36 @@ void analytic(const VelocitySpec& v, const std::string& path) {
   if (v.kind == SQUALL_VELOCITY_TAYLOR_GREEN) divisor = 1;  // period
   if (v.kind == SQUALL_VELOCITY_CHANNEL) divisor = 2;       // half width
   if (divisor >= 0) in(param(path, divisor), v.params[divisor], closed(kMinVelocityDivisor, kMaxVelocityParam));
+}
+
+// The largest rate of an analytic field's velocity gradient, 1/s (fields.h): the turn rate of a rotation,
+// the shear of a shear, what the centre or the walls of the others reach.
+double gradient_rate(const VelocitySpec& v) {
+  const auto& p = v.params;
+  switch (v.kind) {
+    case SQUALL_VELOCITY_ROTATION:
+    case SQUALL_VELOCITY_SHEAR: return std::abs(p[0]);
+    case SQUALL_VELOCITY_SINK: return std::abs(p[0]) / p[3];                        // at the centre
+    case SQUALL_VELOCITY_VORTEX: return std::abs(p[0]) / (2 * M_PI * p[3] * p[3]);  // solid within the core
+    case SQUALL_VELOCITY_TAYLOR_GREEN: return std::abs(p[0]) * 2 * M_PI / p[1];
+    case SQUALL_VELOCITY_CHANNEL: return 2 * std::abs(p[0]) / p[2];   // at the walls
+    case SQUALL_VELOCITY_CYLINDER: return 2 * std::abs(p[0]) / p[3];  // at the cylinder
+    default: return 0;
+  }
+}
+
+// Each substep is one classical Runge-Kutta step, whose stability region reaches 2 sqrt(2) along the
+// imaginary axis (E. Hairer, G. Wanner, "Solving Ordinary Differential Equations II", sec. IV.2): a field
+// that turns a texel by more per substep grows its error every step (a rotation of 1e5 rad/s at 1/30 s
+// carried the Lagrangian grids to infinity, then NaN). kMaxSubstepTurn keeps a margin below that.
+void substeps_resolve(const AdvectSpec& spec, const std::string& path) {
+  const double turn = gradient_rate(spec.velocity) * spec.dt / spec.substeps;
+  if (turn > kMaxSubstepTurn)
+    fail(Code::InvalidArgument,
+         path + ".substeps = " + std::to_string(spec.substeps) + ": the velocity field turns by " + number(turn) +
+             " rad per substep (its largest gradient times dt / substeps), more than " + number(kMaxSubstepTurn) +
+             " that the integration keeps stable; raise substeps (at most " + std::to_string(kMaxTextureSubsteps) +
+             ") or lower dt");
 }
 
 void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::string& path) {
@@ -189,6 +220,7 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
   texture(spec.texture, gate, path + ".texture");
   output(spec.output, gate, path + ".output");
   validate_clock(spec, path);
+  substeps_resolve(spec, path);
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else

@@ -121,6 +121,19 @@ TEST(TexturesValidation, ValuesThatOverflowFloat32AreRefusedNamingTheField) {
   texture_engine().validate(good, "spec");
 }
 
+// A substep that turns the field by more than RK4 keeps stable is refused naming substeps: a rotation of
+// 1e5 rad/s in one substep of 1/30 s carried the Lagrangian grids to infinity and the planes to NaN.
+TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_ROTATION, {1e5, 0.5, 0.5}, 32);
+  spec.dt = 1.0 / 30;
+  spec.substeps = 64;  // 52 rad per substep
+  expect_error(Code::InvalidArgument, "spec.substeps = 64: the velocity field turns by ",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.velocity.params[0] = 50;  // 1.7 rad at 1 substep
+  spec.substeps = 1;
+  texture_engine().validate(spec, "spec");
+}
+
 // Pixels finer than float32 places at the region's coordinates: a 1 du region of 64 pixels at x = 1e6
 // came out flat. The same region at x = 1e3 is accepted.
 TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
