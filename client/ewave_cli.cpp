@@ -1,5 +1,6 @@
 #include "client/ewave_cli.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -37,7 +38,8 @@ attributes) and DIR/frame_NNNNN.png (the height, 8-bit grey).
   --steps N             steps (frames) to run, >= 1 (default 200)
   --grid NXxNY          session grid (default 256x128)
   --spacing D           cell size, m (default 0.01)
-  --dt S                time step, s (default: spacing / speed, one cell per step)
+  --dt S                time step, s (default: spacing / speed, one cell per step, at most the
+                        session's longest step: the period of its shortest wave)
   --source-scale S0     m/s (default 1)
   --dispersion NAME     deep | shallow | capillary | combined (default deep)
   --depth H             m (shallow/combined)   --capillary-length L  m (capillary/combined)
@@ -133,7 +135,6 @@ Wake parse(const std::vector<std::string>& args) {
   }
   if (w.out.empty()) throw UsageError("-o DIR is required");
   if (!(w.speed > 0)) throw UsageError("--speed must be > 0");
-  if (w.dt == 0) w.dt = w.config.dx() / w.speed;
   return w;
 }
 
@@ -227,9 +228,11 @@ int wake(client::Client& client, const Wake& w) {
   const std::string id = client::propose_session_id();
   grpc::Status status = stub->CreateSession(client.context(id).get(), create, &session);
   client::check(status, "EWave.CreateSession");
+  Wake run = w;  // default dt: one cell per step, within the session's longest step
+  if (run.dt == 0) run.dt = std::min(run.config.dx() / run.speed, session.max_dt());
   int rc = kOk;
   try {
-    rc = stream(client, w, session.session_id(), *stub);
+    rc = stream(client, run, session.session_id(), *stub);
   } catch (...) {
     v1::EWaveSessionRequest close;
     close.set_session_id(session.session_id());

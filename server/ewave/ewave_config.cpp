@@ -107,12 +107,14 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
   ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
+double max_dt(const EWaveConfig& c) { return c.trim ? shortest_wave_period(c) : kMaxDt; }
+
 void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
-  positive("inputs.dt", in.dt, 1e4);
-  if (c.trim && in.dt > shortest_wave_period(c))
+  positive("inputs.dt", in.dt, kMaxDt);
+  if (in.dt > max_dt(c))
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) +
                                     " s is longer than the period of the grid's shortest wave, " +
-                                    validate::number(shortest_wave_period(c)) +
+                                    validate::number(max_dt(c)) +
                                     " s: with config.trim on, longer steps grow without bound; take shorter steps "
                                     "or turn the trim off");
   size_t cells = c.cells();

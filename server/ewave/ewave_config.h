@@ -109,6 +109,11 @@ struct StepGuard {
 };
 constexpr size_t kMaxRetryKeyBytes = 64;
 
+// The longest step, s: kMaxDt, or with the trim on the period of the grid's shortest wave
+// (shortest_wave_period in propagator.h: longer trimmed steps grow without bound).
+constexpr double kMaxDt = 1e4;
+double max_dt(const EWaveConfig& config);
+
 // Throws Error(InvalidArgument) naming the field (e.g. "inputs.obstruction has 10 values, want 4096"); an
 // ambient ocean's layers are checked against `gate`'s --max-grid-cells (RESOURCE_EXHAUSTED), or the
 // default limits without one.

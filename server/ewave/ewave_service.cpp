@@ -21,6 +21,7 @@ void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveS
   response->set_session_id(id);
   fill_config(engine.config(id), response->mutable_config());
   response->set_step(engine.steps(id));
+  response->set_max_dt(ewave::max_dt(engine.config(id)));
 }
 
 }  // namespace

@@ -26,7 +26,7 @@ double wavenumber(const EWaveConfig& config, size_t i, size_t j);
 std::vector<double> propagator_coefficients(const EWaveConfig& config, double dt);
 
 // The period 2 pi / omega of the grid's shortest wave, at its corner mode (pi/dx, pi/dy), s. With the trim
-// on, steps longer than it feed energy in: the taper multiplies phi as well as h (eqs 78-79), and the
+// on, steps longer than it feed energy in: the taper multiplies phi as well as h (eqs 78-80), and the
 // gradient it gives phi is turned into waves by the next step's full rotation of the shortest modes.
 double shortest_wave_period(const EWaveConfig& config);
 

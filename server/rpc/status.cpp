@@ -9,13 +9,12 @@ grpc::Status to_status(const cl::Error& error) {
       return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                           "the request needs a device buffer larger than the device's largest allocation (" + call +
                               ", CL_INVALID_BUFFER_SIZE): ask for a smaller grid");
+    // Not CL_OUT_OF_RESOURCES, which NVIDIA's driver also returns for a kernel's faults: INTERNAL.
     case CL_MEM_OBJECT_ALLOCATION_FAILURE:
-    case CL_OUT_OF_RESOURCES:
     case CL_OUT_OF_HOST_MEMORY:
       return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                           "the device has too little memory left for the request (" + call + ")");
-    default:
-      return grpc::Status(grpc::StatusCode::INTERNAL, call);
+    default: return grpc::Status(grpc::StatusCode::INTERNAL, call);
   }
 }
 

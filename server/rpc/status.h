@@ -13,7 +13,7 @@ namespace squall::rpc {
 grpc::Status to_status(const Error& error);
 
 // An OpenCL failure: RESOURCE_EXHAUSTED where the device had too little memory for the request (a buffer past
-// its largest allocation, or no memory or resources left), INTERNAL otherwise.
+// its largest allocation, or no memory left), INTERNAL otherwise.
 grpc::Status to_status(const cl::Error& error);
 
 // Runs one handler body and turns what it throws into the status the gRPC docs prescribe:

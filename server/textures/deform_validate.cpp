@@ -19,9 +19,11 @@ constexpr int kMaxSubsteps = 100;
 constexpr int kMaxLevels = 16;
 constexpr int kMaxIterations = 100000;
 constexpr double kMaxKappa = 1e6, kMaxDmu = 100, kMaxRadius = 1e6, kMaxDt = 1e4, kMaxGradient = 1e6;
+constexpr double kMinDeterminant = 1e-12;
 
-// Components within +-kMaxGradient and det > 0 (a deformation gradient; 1e300 components made an infinite
-// determinant, which passed, and infinite reference coordinates).
+// Components within +-kMaxGradient and det at least kMinDeterminant: a deformation gradient whose inverse is
+// finite in float32 (1e300 components made an infinite determinant, which passed as > 0, and infinite
+// reference coordinates).
 void tensor(const Tensor2& g, const std::string& path) {
   const Interval components = closed(-kMaxGradient, kMaxGradient);
   in(path + ".xx", g.xx, components);
@@ -29,7 +31,8 @@ void tensor(const Tensor2& g, const std::string& path) {
   in(path + ".yx", g.yx, components);
   in(path + ".yy", g.yy, components);
   const double det = g.determinant();
-  if (!(det > 0)) reject(path + " determinant", det, "> 0 (a deformation gradient)");
+  if (!(det >= kMinDeterminant))
+    reject(path + " determinant", det, "at least 1e-12 (a deformation gradient whose inverse stays finite)");
 }
 
 // Each frame's G on the ramp between two deformation gradients is one too: the straight line between them
@@ -37,9 +40,9 @@ void tensor(const Tensor2& g, const std::string& path) {
 void ramp(const Tensor2& start, const Tensor2& end, int frames, const std::string& path) {
   for (int k = 1; k + 1 < frames; ++k) {
     const double det = deformation_ramp(start, end, frames, k).determinant();
-    if (!(det > 0))
+    if (!(det >= kMinDeterminant))
       reject(path + ": the determinant of the ramp's G at frame " + std::to_string(k), det,
-             "> 0 (the line from deformation_start passes a singular gradient)");
+             "at least 1e-12 (the line from deformation_start passes a singular gradient)");
   }
 }
 

@@ -192,6 +192,10 @@ class Eulerian final : public Advection {
     if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()) ||
         cascade.size() != cascade_floats())
       fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases, grid or cascade");
+    for (int s = 0; s < slots(); ++s)  // a slot that regenerates has a finite last regeneration
+      if (std::isfinite(latency(s)) && !std::isfinite(phase_start_[s]))
+        fail(Code::InvalidArgument, "resume_state holds a non-finite regeneration time for slot " + std::to_string(s) +
+                                        ": not a checkpoint of this server");
     upload_state(values);
     upload_cascade(cascade);
   }

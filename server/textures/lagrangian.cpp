@@ -156,6 +156,10 @@ class Lagrangian final : public Advection {
       p.id = in.get<uint64_t>("a particle's id");
       p.birth = in.get<double>("a particle's birth time");
       p.kill = in.get<double>("a particle's kill time");
+      if (!std::isfinite(p.birth) || !(std::isfinite(p.kill) || p.kill == kAlive))
+        fail(Code::InvalidArgument, "resume_state holds a particle born at " + std::to_string(p.birth) +
+                                        " and killed at " + std::to_string(p.kill) +
+                                        ": not a checkpoint of this server");
     }
     positions_ = in.get_finite_vector<float>("the positions");
     uvs_ = in.get_finite_vector<float>("the uvs");

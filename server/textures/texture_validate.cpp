@@ -66,8 +66,9 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   gate.check_grid(path, v.nx, v.ny);  // the frames' bytes are bounded by the request's size
   in(path + ".origin.x", v.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".origin.y", v.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
-  positive(path + ".spacing.x", v.hx);
-  positive(path + ".spacing.y", v.hy);
+  const Interval spacing = closed(kMinVelocityDivisor, kMaxCoordinate);  // in float32, not 0 nor inf
+  in(path + ".spacing.x", v.hx, spacing);
+  in(path + ".spacing.y", v.hy, spacing);
   const size_t nodes = size_t(v.nx) * v.ny;
   const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
@@ -89,10 +90,10 @@ void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::stri
   in(path + ".nx", int64_t(g.nx), 2, 1 << 20);
   in(path + ".ny", int64_t(g.ny), 2, 1 << 20);
   gate.check_grid(path, g.nx, g.ny);
-  finite(path + ".origin.x", g.origin_x);
-  finite(path + ".origin.y", g.origin_y);
-  positive(path + ".spacing.x", g.hx);
-  positive(path + ".spacing.y", g.hy);
+  in(path + ".origin.x", g.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".origin.y", g.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".spacing.x", g.hx, closed(kMinVelocityDivisor, kMaxCoordinate));
+  in(path + ".spacing.y", g.hy, closed(kMinVelocityDivisor, kMaxCoordinate));
   const size_t nodes = size_t(g.nx) * g.ny;
   count(path + ".values", g.values.size(), nodes, "nx * ny");
   each(path + ".values", g.values.data(), nodes);
@@ -144,15 +145,18 @@ void output(const OutputSpec& o, const LimitGate& gate, const std::string& path)
   in(path + ".region.y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".region.x1", o.x1, open_closed(o.x0, kMaxCoordinate));
   in(path + ".region.y1", o.y1, open_closed(o.y0, kMaxCoordinate));
-  // The device places pixels in float32: a pixel must span many of float32's steps at the region's
-  // coordinates (a 1 du region at x = 1e6 came out flat).
-  const double farthest = std::max({std::abs(o.x0), std::abs(o.x1), std::abs(o.y0), std::abs(o.y1)});
-  const double pixel = std::min((o.x1 - o.x0) / o.width, (o.y1 - o.y0) / o.height);
-  if (pixel < farthest * kMinPixelPerCoordinate)
-    fail(Code::InvalidArgument, path + ": pixels of " + number(pixel) + " du at coordinates up to " + number(farthest) +
-                                    " du are finer than float32 places them there (at least " +
-                                    number(farthest * kMinPixelPerCoordinate) +
-                                    " du): move the region nearer the origin or use fewer pixels");
+  // The device places pixels in float32: along each axis a pixel must span many of float32's steps at the
+  // region's coordinates (a 1 du region at x = 1e6 came out flat).
+  auto resolved = [&](const char* axis, double lo, double hi, int pixels) {
+    const double farthest = std::max(std::abs(lo), std::abs(hi)), pixel = (hi - lo) / pixels;
+    if (pixel < farthest * kMinPixelPerCoordinate)
+      fail(Code::InvalidArgument,
+           path + ": pixels of " + number(pixel) + " du along " + axis + " at coordinates up to " + number(farthest) +
+               " du are finer than float32 places them there (at least " + number(farthest * kMinPixelPerCoordinate) +
+               " du): move the region nearer the origin or use fewer pixels");
+  };
+  resolved("x", o.x0, o.x1, o.width);
+  resolved("y", o.y0, o.y1, o.height);
 }
 
 void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {

@@ -246,7 +246,7 @@ void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string&
   for (int c = 0; c < im.channels_size(); ++c) {
     const std::string cpath = at(path + ".channels", size_t(c));
     std::vector<float> values = plane(im.channels(c), cpath, nx, ny, "channels[0]");
-    validate::each(cpath, values.data(), values.size());
+    validate::each(cpath, values.data(), values.size(), validate::closed(-kMaxTextureValue, kMaxTextureValue));
     out.pixels.insert(out.pixels.end(), values.begin(), values.end());
   }
 }

@@ -481,6 +481,33 @@ TEST(EWaveService, CreatedSessionsAreAnnouncedForSessionAffineProxies) {
   Session(*stub, reply.session_id()).close();
 }
 
+// A session tells its longest step: with the trim on, the period of the grid's shortest wave (2 pi /
+// omega at k = pi sqrt(2) / dx, 0.0952 s for 1 cm cells in deep water), which the next step may take and
+// not pass; untrimmed, 1e4 s.
+TEST(EWaveService, ASessionTellsItsLongestStep) {
+  test::InProcess<rpc::EWaveService> server;
+  auto stub = v1::EWave::NewStub(server.channel());
+  for (bool trim : {true, false}) {
+    v1::EWaveCreateSessionRequest request;
+    *request.mutable_config() = proto_config(engine_config());
+    request.mutable_config()->set_trim(trim);
+    request.mutable_config()->set_dx(0.01), request.mutable_config()->set_dy(0.01);
+    v1::EWaveSessionResponse reply;
+    ASSERT_TRUE(stub->CreateSession(context().get(), request, &reply).ok());
+    const double period = 2 * M_PI / std::sqrt(9.81 * M_PI * std::sqrt(2.0) / 0.01);
+    EXPECT_NEAR(reply.max_dt(), trim ? period : 1e4, trim ? 1e-6 : 0) << "trim " << trim;
+    Session session(*stub, reply.session_id());
+    v1::EWaveFrame f;
+    EXPECT_TRUE(session.step(plain_inputs(reply.max_dt()), &f).ok());
+    if (trim) {
+      const grpc::Status status = session.step(plain_inputs(1.01 * reply.max_dt()), &f);
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+      EXPECT_NE(status.error_message().find("inputs.dt = "), std::string::npos) << status.error_message();
+    }
+    session.close();
+  }
+}
+
 TEST(EWaveService, DrainingRefusesNewCallsAsUnavailable) {
   test::InProcess<rpc::EWaveService> server;
   auto stub = v1::EWave::NewStub(server.channel());
@@ -537,6 +564,18 @@ TEST(EWaveService, ACancelledRunReleasesItsStreamSlot) {
   EXPECT_TRUE(reopened) << "the cancelled stream's slot was not released";
   b.call->WritesDone();
   EXPECT_TRUE(b.call->Finish().ok());
+}
+
+// The default step is one cell per step, within the session's longest step: at 5 cm/s over 1 cm cells that
+// is 0.2 s, past the trimmed grid's 0.095 s, and the wake was refused at its first step.
+TEST(EWaveCli, ASlowWakeStepsWithinTheSessionsLongestStep) {
+  std::string out;
+  const int rc = test::run(
+      {kSquall, "--address", first().address(), "ewave", "wake", "--speed", "0.05", "--steps", "2", "--every", "2",
+       "--grid", "64x32", "--spacing", "0.01", "--outputs", "height", "-o", test::temp_dir("ewave-slow-wake")},
+      &out, 120);
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
 }
 
 TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {

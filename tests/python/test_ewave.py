@@ -40,6 +40,8 @@ def test_session_steps_and_closes(client: squall.Client) -> None:
     with client.ewave.session(**config()) as session:
         assert len(session.id) == 32 and session.shape == (NY, NX)
         assert session.config.HasField("gravity")  # the config in force, defaults filled in
+        # trimmed: the period of the shortest wave, 2 pi / omega(pi sqrt(2) / dx) in deep water
+        assert session.max_dt == pytest.approx(2 * np.pi / np.sqrt(9.81 * np.pi * np.sqrt(2) / DX))
         for n in range(3):
             frame = session.step(**hull_inputs(n))
         assert frame.step == 3 and frame.time == pytest.approx(0.06)

@@ -144,6 +144,15 @@ TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   spec.output.x0 = 1e3;
   spec.output.x1 = 1e3 + 1;
   texture_engine().validate(spec, "spec");
+  spec.output = {1024, 64, 0, 0, 1, 1e4};  // each axis against its own coordinates: fine pixels near x = 0
+  texture_engine().validate(spec, "spec");
+  spec.velocity.kind = SQUALL_VELOCITY_GRID;  // a spacing that float32 rounds to 0
+  spec.velocity.nx = spec.velocity.ny = 2;
+  spec.velocity.hx = 1e-50;
+  spec.velocity.hy = 1;
+  spec.velocity.frames = {{0.0, std::vector<float>(4), std::vector<float>(4)}};
+  expect_error(Code::InvalidArgument, "spec.velocity.grid.spacing.x = 1e-50",
+               [&] { texture_engine().validate(spec, "spec"); });
 }
 
 }  // namespace

@@ -511,6 +511,8 @@ TEST(Deform, BadSpecsNameTheirField) {
   expect("spec.substeps", [](DeformSpec& s) { s.substeps = 0; });
   // 1e300 components: the determinant is infinite, which passed as > 0, and the references were infinite.
   expect("spec.deformation_end.xx = 1e+300", [](DeformSpec& s) { s.control.deformation_end = diag(1e300, 1e300); });
+  // A near-singular G: det 1e-300 > 0, but its inverse 1e150 is infinite in float32.
+  expect("spec.deformation_end determinant", [](DeformSpec& s) { s.control.deformation_end = diag(1e-150, 1e-150); });
   deform_engine().validate(good, "spec");
 
   Limits small;

@@ -220,13 +220,14 @@ TEST(TexturesFinalLut, BadLookupsAreRejectedNamingTheField) {
       {[](FinalLookupSpec& l) { l.table.pop_back(); }, "spec.texture.lut.table size = 14 must be a multiple of"},
       {[](FinalLookupSpec& l) { l.table[4] = NAN; }, "spec.texture.lut.table[4] = nan must be finite"},
       {[](FinalLookupSpec& l) { l.channels = 5; }, "spec.texture.lut.channels = 5 must be in [1, 4]"},
-      {[](FinalLookupSpec& l) { l.lut_max = l.lut_min; }, "spec.texture.lut.lut_max = -0.5 must be finite and in (-0.5, 1e+30]"},
+      {[](FinalLookupSpec& l) { l.lut_max = l.lut_min; },
+       "spec.texture.lut.lut_max = -0.5 must be finite and in (-0.5, 1e+30]"},
       {[](FinalLookupSpec& l) { l.lut_min = INFINITY; }, "spec.texture.lut.lut_min = inf must be finite"},
       {[](FinalLookupSpec& l) { l.band_shape = SQUALL_FINAL_IDENTITY; }, "spec.texture.lut.band_shape = 0"},
       {[](FinalLookupSpec& l) { l.field.values.pop_back(); },
        "spec.texture.lut.field.values has 19 values, want nx * ny"},
       {[](FinalLookupSpec& l) { l.field.nx = 1; }, "spec.texture.lut.field.nx = 1 must be in [2, 1048576]"},
-      {[](FinalLookupSpec& l) { l.field.hy = 0; }, "spec.texture.lut.field.spacing.y = 0 must be finite and > 0"},
+      {[](FinalLookupSpec& l) { l.field.hy = 0; }, "spec.texture.lut.field.spacing.y = 0 must be finite and in [1e-06, 10000000]"},
       {[](FinalLookupSpec& l) { l.field.values[7] = NAN; }, "spec.texture.lut.field.values[7] = nan must be finite"},
   };
   for (const Case& k : cases) {

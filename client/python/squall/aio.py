@@ -335,6 +335,7 @@ class EWaveSession:
         self._service = service
         self.id: str = response.session_id
         self.config: ewave_pb2.EWaveConfig = response.config
+        self.max_dt: float = response.max_dt
         self.closed = False
 
     @property

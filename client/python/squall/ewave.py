@@ -349,12 +349,15 @@ class EWaveSession:
             session.
         config: the EWaveConfig in force (defaults filled in); for a session from ``attach``,
             the config given to it (empty when none was).
+        max_dt: the longest step, s: with the trim on, the period of the grid's shortest wave
+            (longer trimmed steps grow without bound); 0 for a session from ``attach`` (unknown).
     """
 
     def __init__(self, service: "EWave", response: ewave_pb2.EWaveSessionResponse) -> None:
         self._service = service
         self.id: str = response.session_id
         self.config: ewave_pb2.EWaveConfig = response.config
+        self.max_dt: float = response.max_dt
         self.closed = False
 
     @property
