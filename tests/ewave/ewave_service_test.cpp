@@ -482,8 +482,8 @@ TEST(EWaveService, CreatedSessionsAreAnnouncedForSessionAffineProxies) {
 }
 
 // A session tells its longest step: with the trim on, the period of the grid's shortest wave (2 pi /
-// omega at k = pi sqrt(2) / dx, 0.0952 s for 1 cm cells in deep water), which the next step may take and
-// not pass; untrimmed, 1e4 s.
+// omega at k = pi sqrt(2) / dx, 0.0952 s for 1 cm cells in deep water): a step that long is taken, a longer
+// one refused; untrimmed, 1e4 s.
 TEST(EWaveService, ASessionTellsItsLongestStep) {
   test::InProcess<rpc::EWaveService> server;
   auto stub = v1::EWave::NewStub(server.channel());
