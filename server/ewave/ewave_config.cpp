@@ -111,10 +111,11 @@ double max_dt(const EWaveConfig& c) { return c.trim ? shortest_wave_period(c) : 
 
 void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
   positive("inputs.dt", in.dt, kMaxDt);
-  if (in.dt > max_dt(c))
+  const double longest = max_dt(c);
+  if (in.dt > longest)
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) +
                                     " s is longer than the period of the grid's shortest wave, " +
-                                    validate::number(max_dt(c)) +
+                                    validate::number(longest) +
                                     " s: with config.trim on, longer steps grow without bound; take shorter steps "
                                     "or turn the trim off");
   size_t cells = c.cells();

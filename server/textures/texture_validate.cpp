@@ -59,16 +59,21 @@ void substeps_resolve(const AdvectSpec& spec, const std::string& path) {
              ") or lower dt");
 }
 
+// A grid's node (0, 0) within +-kMaxCoordinate and its spacings in [kMinVelocityDivisor, kMaxCoordinate]:
+// in float32 on the device, neither 0 nor infinite.
+void grid_placement(double origin_x, double origin_y, double hx, double hy, const std::string& path) {
+  in(path + ".origin.x", origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".origin.y", origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
+  in(path + ".spacing.x", hx, closed(kMinVelocityDivisor, kMaxCoordinate));
+  in(path + ".spacing.y", hy, closed(kMinVelocityDivisor, kMaxCoordinate));
+}
+
 void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::string& path) {
   in(path + ".nx", int64_t(v.nx), 2, 1 << 20);
   in(path + ".ny", int64_t(v.ny), 2, 1 << 20);
   in(path + ".frames size", int64_t(v.frames.size()), 1, kMaxVelocityFrames);
   gate.check_grid(path, v.nx, v.ny);  // the frames' bytes are bounded by the request's size
-  in(path + ".origin.x", v.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".origin.y", v.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
-  const Interval spacing = closed(kMinVelocityDivisor, kMaxCoordinate);  // in float32, not 0 nor inf
-  in(path + ".spacing.x", v.hx, spacing);
-  in(path + ".spacing.y", v.hy, spacing);
+  grid_placement(v.origin_x, v.origin_y, v.hx, v.hy, path);
   const size_t nodes = size_t(v.nx) * v.ny;
   const Interval speed = closed(-kMaxVelocityParam, kMaxVelocityParam);
   for (size_t f = 0; f < v.frames.size(); ++f) {
@@ -90,10 +95,7 @@ void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::stri
   in(path + ".nx", int64_t(g.nx), 2, 1 << 20);
   in(path + ".ny", int64_t(g.ny), 2, 1 << 20);
   gate.check_grid(path, g.nx, g.ny);
-  in(path + ".origin.x", g.origin_x, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".origin.y", g.origin_y, closed(-kMaxCoordinate, kMaxCoordinate));
-  in(path + ".spacing.x", g.hx, closed(kMinVelocityDivisor, kMaxCoordinate));
-  in(path + ".spacing.y", g.hy, closed(kMinVelocityDivisor, kMaxCoordinate));
+  grid_placement(g.origin_x, g.origin_y, g.hx, g.hy, path);
   const size_t nodes = size_t(g.nx) * g.ny;
   count(path + ".values", g.values.size(), nodes, "nx * ny");
   each(path + ".values", g.values.data(), nodes);
