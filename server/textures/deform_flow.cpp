@@ -8,23 +8,18 @@
 #include <cstring>
 #include <limits>
 
+#include "common/fnv1a.h"
+
 namespace squall::textures {
 namespace {
 
-// 64-bit FNV-1a.
-uint64_t hash_bytes(uint64_t h, const void* data, size_t bytes) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;
-  return h;
-}
-
 uint64_t key_hash(const DeformSpec& s) {
-  uint64_t h = 14695981039346656037ull;
+  uint64_t h = kFnv1aOffsetBasis;
   const int sizes[] = {s.width, s.height, s.max_iterations};
-  h = hash_bytes(h, sizes, sizeof(sizes));
-  h = hash_bytes(h, &s.tolerance, sizeof(s.tolerance));
-  h = hash_bytes(h, s.rigidity.data(), s.rigidity.size() * sizeof(float));
-  return hash_bytes(h, s.chart.data(), s.chart.size());
+  h = fnv1a(h, sizes, sizeof(sizes));
+  h = fnv1a(h, &s.tolerance, sizeof(s.tolerance));
+  h = fnv1a(h, s.rigidity.data(), s.rigidity.size() * sizeof(float));
+  return fnv1a(h, s.chart.data(), s.chart.size());
 }
 
 // A double split in two floats, hi + lo, so that a float kernel argument carries it to a double kernel.

@@ -41,7 +41,7 @@ int cascade_bands_of(const AdvectSpec& spec) {
 class Eulerian final : public Advection {
  public:
   Eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-           std::shared_ptr<const DeviceInputs> inputs, const std::string& state)
+           std::shared_ptr<const DeviceInputs> inputs, std::string_view state)
       : runtime_(runtime),
         kernels_(kernels),
         params_(spec.eulerian),
@@ -180,7 +180,7 @@ class Eulerian final : public Advection {
     return values;
   }
 
-  void restore(const std::string& state) {
+  void restore(std::string_view state) {
     StateReader in(state);
     if (in.get<uint32_t>("the version") != kStateVersion)
       fail(Code::InvalidArgument, "resume_state has an unknown version");
@@ -288,7 +288,7 @@ class Eulerian final : public Advection {
 }  // namespace
 
 std::unique_ptr<Advection> make_eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                         std::shared_ptr<const DeviceInputs> inputs, const std::string& state) {
+                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state) {
   return std::make_unique<Eulerian>(runtime, kernels, spec, std::move(inputs), state);
 }
 

@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "textures/advection.h"
 #include "textures/device_inputs.h"
@@ -17,6 +18,6 @@ namespace squall::textures {
 
 // `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
 std::unique_ptr<Advection> make_eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                         std::shared_ptr<const DeviceInputs> inputs, const std::string& state);
+                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state);
 
 }  // namespace squall::textures

@@ -40,7 +40,7 @@ struct Reconstruction {
 class Lagrangian final : public Advection {
  public:
   Lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-             std::shared_ptr<const DeviceInputs> inputs, const std::string& state)
+             std::shared_ptr<const DeviceInputs> inputs, std::string_view state)
       : runtime_(runtime),
         kernels_(kernels),
         params_(spec.lagrangian),
@@ -141,7 +141,7 @@ class Lagrangian final : public Advection {
     return flags;
   }
 
-  void restore(const std::string& state) {
+  void restore(std::string_view state) {
     StateReader in(state);
     if (in.get<uint32_t>("the version") != kStateVersion)
       fail(Code::InvalidArgument, "resume_state has an unknown version");
@@ -479,7 +479,7 @@ size_t lagrangian_grid_bound(const AdvectSpec& spec) {
 }
 
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                           std::shared_ptr<const DeviceInputs> inputs, const std::string& state) {
+                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state) {
   return std::make_unique<Lagrangian>(runtime, kernels, spec, std::move(inputs), state);
 }
 

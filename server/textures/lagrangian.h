@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <string_view>
 
 #include "textures/advection.h"
 #include "textures/device_inputs.h"
@@ -21,6 +22,6 @@ size_t lagrangian_grid_bound(const AdvectSpec& spec);
 
 // `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                           std::shared_ptr<const DeviceInputs> inputs, const std::string& state);
+                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state);
 
 }  // namespace squall::textures

@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "common/limits.h"
 #include "runtime/runtime.h"
@@ -38,7 +39,7 @@ class TextureEngine {
 
   // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
   // continues it bit-identically.
-  std::unique_ptr<Advection> start(const AdvectSpec& spec, const std::string& resume_state = "");
+  std::unique_ptr<Advection> start(const AdvectSpec& spec, std::string_view resume_state = {});
 
   // Changes a running advection from its next frame on: `spec` is the spec it was started with, where only
   // the velocity, dt, substeps and the texture's spin and final_scale may differ (validated by the caller).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string_view>
 
 #include "common/error.h"
 #include "common/field_codec.h"
@@ -10,6 +11,7 @@
 #include "ocean/shared_engine.h"
 #include "ocean/spectrum_setup.h"
 #include "rpc/streaming.h"
+#include "textures/request_checkpoint.h"
 #include "textures/river_request.h"
 #include "textures/textures_request.h"
 
@@ -58,8 +60,10 @@ struct TexturesService::Stream {
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
-  Slot memory;          // the stream's working memory, against --memory-budget
-  Cancellation cancel;  // whether its client still wants it: ends a river's bake early
+  Slot memory;               // the stream's working memory, against --memory-budget
+  Cancellation cancel;       // whether its client still wants it: ends a river's bake early
+  uint64_t fingerprint = 0;  // of the request, which its checkpoints carry (AdvectTexture)
+  std::string_view resume;   // the advection state it resumes from (AdvectTexture; empty: from frame 0)
 };
 
 namespace {
@@ -134,10 +138,12 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
+    s.fingerprint = req::request_fingerprint(*request);
+    s.resume = req::bound_state(request->resume_state(), s.fingerprint, "request.resume_state");
     return s;
   };
   return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {
-    std::unique_ptr<Advection> advection = engine_->start(s.spec, request->resume_state());
+    std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume);
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {
       // Frame 0 takes no step, but a resumed stream's first frame does: read the current each time.
@@ -152,7 +158,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
       v1::TextureFrame out;
       req::fill_frame(frame, s.spec, s.planes, &out);
       if (every > 0 && frame.index % every == 0) {
-        std::string state = advection->checkpoint();
+        std::string state = req::bind_checkpoint(s.fingerprint, advection->checkpoint());
         serving_.gate().check_message_bytes("TextureFrame.checkpoint with the planes", state.size() + s.frame_bytes);
         out.set_checkpoint(std::move(state));
       }

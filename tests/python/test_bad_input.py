@@ -199,15 +199,23 @@ def patch(offset: int, fmt: str, *values: Any) -> Change:
     return change
 
 
+def resumed_with_another_dt(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
+    """Resumes the frame-2 checkpoint of checkpointed_request() in that request with another dt."""
+    assert env is not None
+    request.CopyFrom(checkpointed_request())
+    request.dt = 2 * request.dt if request.HasField("dt") else 0.1
+    request.resume_state = env.checkpoint
+
+
 def forged_checkpoint(index: int) -> Change:
     """Resumes checkpointed_request() from its frame-2 checkpoint with the frame index in it (an
-    int64 after the uint32 version and the uint8 "started" flag, as restore() of eulerian.cpp and
-    lagrangian.cpp read it) forged."""
+    int64 after the request's uint64 fingerprint, the uint32 version and the uint8 "started" flag,
+    as request_checkpoint.cpp, then restore() of eulerian.cpp and lagrangian.cpp read it) forged."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None
         state = bytearray(env.checkpoint)
-        struct.pack_into("<q", state, 5, index)
+        struct.pack_into("<q", state, 8 + 5, index)
         request.CopyFrom(checkpointed_request())
         request.resume_state = bytes(state)
 
@@ -1663,13 +1671,19 @@ CASES += [
         R,
         "resume_state_index_negative",
         forged_checkpoint(-2),
-        "resume_state",
+        "resume_state holds frame index",
     ),
     bad(
         R,
         "resume_state_index_2e32",
         forged_checkpoint(1 << 32),
-        "resume_state",
+        "resume_state holds frame index",
+    ),
+    bad(
+        R,
+        "resume_state_of_another_dt",
+        resumed_with_another_dt,
+        "request.resume_state is the checkpoint of another request",
     ),
 ]
 

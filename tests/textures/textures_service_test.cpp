@@ -173,10 +173,12 @@ TEST(TexturesService, CheckpointResumesBitIdentically) {
     ASSERT_EQ(first.frames.size(), 5u);
     for (size_t i = 0; i < 5; ++i) EXPECT_EQ(first.frames[i].checkpoint().empty(), i % 2 == 1) << "frame " << i;
     r.set_checkpoint_every(0);
+    r.set_frames(6);  // the same request but for its length: frames 3 and 4 as before, then one more
     r.set_resume_state(first.frames[2].checkpoint());
     Streamed resumed = advect(r);
     ASSERT_TRUE(resumed.status.ok()) << resumed.status.error_message();
-    ASSERT_EQ(resumed.frames.size(), 2u);
+    ASSERT_EQ(resumed.frames.size(), 3u);
+    EXPECT_EQ(resumed.frames[2].index(), 5);
     for (size_t k = 0; k < 2; ++k) {
       const v1::TextureFrame &a = resumed.frames[k], &b = first.frames[3 + k];
       EXPECT_EQ(a.index(), b.index());
@@ -184,9 +186,39 @@ TEST(TexturesService, CheckpointResumesBitIdentically) {
       ASSERT_EQ(a.planes_size(), b.planes_size());
       for (int p = 0; p < a.planes_size(); ++p) EXPECT_EQ(a.planes(p).data(), b.planes(p).data()) << a.planes(p).name();
     }
+    r.set_frames(5);
     r.set_resume_state(first.frames[4].checkpoint());  // the last frame: nothing left to send
     test::expect_error(Code::InvalidArgument, "request.resume_state", [&] { advect_or_throw(r); });
   }
+}
+
+// A checkpoint continues only the request that made it: resumed with another dt, seed or texture it is
+// refused, not continued as if it were theirs.
+TEST(TexturesService, CheckpointOfAnotherRequestIsRefused) {
+  v1::AdvectTextureRequest r = noise_request(3);
+  r.set_method(v1::TEXTURE_METHOD_EULERIAN_MULTILAYER);
+  r.set_checkpoint_every(1);
+  Streamed first = advect(r);
+  ASSERT_TRUE(first.status.ok()) << first.status.error_message();
+  ASSERT_EQ(first.frames.size(), 3u);
+  r.set_checkpoint_every(0);
+  r.set_resume_state(first.frames[1].checkpoint());
+  const std::vector<std::function<void(v1::AdvectTextureRequest&)>> changes = {
+      [](v1::AdvectTextureRequest& q) { q.set_dt(2 * q.dt()); },
+      [](v1::AdvectTextureRequest& q) { q.set_seed(q.seed() + 1); },
+      [](v1::AdvectTextureRequest& q) { q.set_method(v1::TEXTURE_METHOD_TWO_PHASE_FLOW_MAP); },
+  };
+  for (size_t c = 0; c < changes.size(); ++c) {
+    SCOPED_TRACE("change " + std::to_string(c));
+    v1::AdvectTextureRequest other = r;
+    changes[c](other);
+    test::expect_error(Code::InvalidArgument, "request.resume_state is the checkpoint of another request",
+                       [&] { advect_or_throw(other); });
+  }
+  Streamed same = advect(r);
+  ASSERT_TRUE(same.status.ok()) << same.status.error_message();
+  ASSERT_EQ(same.frames.size(), 1u);
+  EXPECT_EQ(same.frames[0].planes(0).data(), first.frames[2].planes(0).data());
 }
 
 // A 5 x 5 two-frame velocity grid with a solid node (push-pull), and a PNG image: float16 planes.

@@ -1125,8 +1125,8 @@ class Textures:
             lagrangian: LagrangianParams (or a mapping: d, alpha, beta, grid_res, ...).
             eulerian: EulerianParams (or a mapping: latencies, phases, grid_nx, ...).
             checkpoint_every: k >= 1: every k-th frame carries ``checkpoint`` bytes; 0: none.
-            resume_state: the checkpoint of frame k of this same request: the stream continues
-                bit-identically with frames k + 1 ...
+            resume_state: the checkpoint of frame k of this same request (but for frames and
+                checkpoint_every): the stream continues bit-identically with frames k + 1 ...
             request: a ready-made AdvectTextureRequest instead of all the above.
 
         Returns:

@@ -1,0 +1,44 @@
+#include "textures/request_checkpoint.h"
+
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+
+#include "common/byte_codec.h"
+#include "common/error.h"
+#include "common/fnv1a.h"
+
+namespace squall::textures::rpc {
+
+uint64_t request_fingerprint(const squall::v1::AdvectTextureRequest& request) {
+  squall::v1::AdvectTextureRequest shaping = request;
+  shaping.clear_frames();
+  shaping.clear_checkpoint_every();
+  shaping.clear_resume_state();
+  std::string bytes;
+  {
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::io::CodedOutputStream out(&stream);
+    out.SetSerializationDeterministic(true);  // the same fields, the same bytes
+    shaping.SerializeToCodedStream(&out);
+  }
+  return fnv1a(kFnv1aOffsetBasis, bytes.data(), bytes.size());
+}
+
+std::string bind_checkpoint(uint64_t fingerprint, std::string_view state) {
+  ByteWriter out;
+  out.put(fingerprint);
+  out.put_bytes(state);
+  return out.take();
+}
+
+std::string_view bound_state(std::string_view resume_state, uint64_t fingerprint, const std::string& path) {
+  if (resume_state.empty()) return {};
+  ByteReader in(resume_state, path, "a texture checkpoint");
+  if (in.get<uint64_t>("the request's fingerprint") != fingerprint)
+    fail(Code::InvalidArgument, path +
+                                    " is the checkpoint of another request: every field but frames, "
+                                    "checkpoint_every and resume_state must be as in the request that made it");
+  return in.get_bytes(in.left(), "the advection's state");
+}
+
+}  // namespace squall::textures::rpc
