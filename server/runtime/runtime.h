@@ -30,11 +30,13 @@ struct RuntimeOptions {
   // device time to kernel_timings(). Off: launches do not wait. SQUALL_PROFILE_KERNELS=1 also turns it on.
   bool profile_kernels = false;
   // --device-queues: in-order command queues on the device, each serving one request at a time (1..16;
-  // 1 serializes requests). Even a 2-core CPU device gains from 4: one request's host work (FFTW, copies)
-  // overlaps another's kernels (bench/load_bench.py: a quarter more calls/s at 8 clients, the p99 of a
-  // small render halved). From 4 on, QueueSlots keeps about half of them for much shorter work while
-  // such work is about.
-  size_t queues = 4;
+  // 1 serializes requests). Even a 2-core CPU device gains from more than one: one request's host work
+  // (FFTW, copies) overlaps another's kernels (bench/load_bench.py: a quarter more calls/s at 8 clients
+  // than one queue). From 3 on, QueueSlots keeps all but about half of them (QueueSlots::long_limit())
+  // for much shorter work while such work is about. Three, not four: on a 2-core CPU device two long
+  // requests at once (one per PoCL worker) and a queue for short work gave long requests a lower p99
+  // at 8 clients than a second queue for short work did (docs/performance.md).
+  size_t queues = 3;
 };
 
 // Device time of one kernel in profile mode, summed over its launches.
