@@ -32,10 +32,10 @@ struct RuntimeOptions {
   // --device-queues: in-order command queues on the device, each serving one request at a time (1..16;
   // 1 serializes requests). Even a 2-core CPU device gains from more than one: one request's host work
   // (FFTW, copies) overlaps another's kernels (bench/load_bench.py: a quarter more calls/s at 8 clients
-  // than one queue). From 3 on, QueueSlots keeps all but about half of them (QueueSlots::long_limit())
-  // for much shorter work while such work is about. Three, not four: on a 2-core CPU device two long
-  // requests at once (one per PoCL worker) and a queue for short work gave long requests a lower p99
-  // at 8 clients than a second queue for short work did (docs/performance.md).
+  // than one queue). From 3 on, while much shorter work is about, longer work holds long_limit() of them
+  // at most (about half: 2 of 3 or 4) and the rest are kept for the shorter. Three, not four: on a
+  // 2-core CPU device, two long requests at once (one per PoCL worker) and one queue for short work gave
+  // the long requests a lower p99 at 8 clients than two queues for short work did (docs/performance.md).
   size_t queues = 3;
 };
 

@@ -187,7 +187,7 @@ class Eulerian final : public Advection {
     started_ = in.get<bool>("started");
     index_ = in.frame_index(kMaxTextureFrames);
     phase_start_ = in.get_vector<double>("the phase starts");
-    std::vector<float> values = in.get_finite_vector<float>("the node state");
+    std::vector<float> values = in.get_finite_vector<float>("the node state", kMaxStateValue);
     std::vector<float> cascade = cascade_bands_ > 0 ? in.get_finite_vector<float>("the cascade") : std::vector<float>();
     if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()) ||
         cascade.size() != cascade_floats())

@@ -161,8 +161,8 @@ class Lagrangian final : public Advection {
                                         " and killed at " + std::to_string(p.kill) +
                                         ": not a checkpoint of this server");
     }
-    positions_ = in.get_finite_vector<float>("the positions");
-    uvs_ = in.get_finite_vector<float>("the uvs");
+    positions_ = in.get_finite_vector<float>("the positions", kMaxStateValue);
+    uvs_ = in.get_finite_vector<float>("the uvs", kMaxStateValue);
     if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
       fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
     time_ = t0_ + index_ * dt_;

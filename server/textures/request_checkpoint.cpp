@@ -9,6 +9,7 @@
 
 namespace squall::textures::rpc {
 
+// A copy of the request (images and grids included), made once per stream that checkpoints or resumes.
 uint64_t request_fingerprint(const squall::v1::AdvectTextureRequest& request) {
   squall::v1::AdvectTextureRequest shaping = request;
   shaping.clear_frames();
@@ -26,18 +27,22 @@ uint64_t request_fingerprint(const squall::v1::AdvectTextureRequest& request) {
 
 std::string bind_checkpoint(uint64_t fingerprint, std::string_view state) {
   ByteWriter out;
+  out.put(kCheckpointMagic);
+  out.put(kCheckpointFormat);
   out.put(fingerprint);
   out.put_bytes(state);
   return out.take();
 }
 
 std::string_view bound_state(std::string_view resume_state, uint64_t fingerprint, const std::string& path) {
-  if (resume_state.empty()) return {};
   ByteReader in(resume_state, path, "a texture checkpoint");
+  if (in.get<uint32_t>("the magic number") != kCheckpointMagic || in.get<uint32_t>("the format") != kCheckpointFormat)
+    in.reject("not a checkpoint of this server's AdvectTexture (format " + std::to_string(kCheckpointFormat) + ")");
   if (in.get<uint64_t>("the request's fingerprint") != fingerprint)
     fail(Code::InvalidArgument, path +
                                     " is the checkpoint of another request: every field but frames, "
                                     "checkpoint_every and resume_state must be as in the request that made it");
+  if (in.left() == 0) in.reject("it holds no advection state");
   return in.get_bytes(in.left(), "the advection's state");
 }
 

@@ -5,12 +5,14 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "common/byte_codec.h"
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::textures {
 
@@ -31,15 +33,16 @@ class StateReader : public ByteReader {
   std::vector<T> get_vector(const std::string& member) {
     return get_array<T>(get<uint64_t>(member + " count"), member);
   }
-  // A vector of values that are finite in every checkpoint: a damaged one is refused here rather than
-  // computing planes of NaN.
+  // A vector of values that are finite, and within +-bound, in every checkpoint: a damaged one is refused
+  // here rather than computing planes of NaN.
   template <typename T>
-  std::vector<T> get_finite_vector(const std::string& member) {
+  std::vector<T> get_finite_vector(const std::string& member, double bound = std::numeric_limits<double>::infinity()) {
     std::vector<T> values = get_vector<T>(member);
     for (size_t i = 0; i < values.size(); ++i)
-      if (!std::isfinite(values[i]))
-        fail(Code::InvalidArgument, "resume_state holds " + member + " with a non-finite value at " +
-                                        std::to_string(i) + ": not a checkpoint of this server");
+      if (!(std::abs(double(values[i])) <= bound))  // NaN, +-inf and values past the bound
+        fail(Code::InvalidArgument, "resume_state holds " + member + " with " + validate::number(values[i]) + " at " +
+                                        std::to_string(i) +
+                                        ", past what a stream reaches: not a checkpoint of this server");
     return values;
   }
   // A frame index: InvalidArgument naming resume_state unless it is in [0, max].

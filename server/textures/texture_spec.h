@@ -34,6 +34,11 @@ constexpr double kMaxCoordinate = 1e7, kMinPixelPerCoordinate = 0x1p-19;
 // scale within +-kMaxFinalScale: a bilinear blend or a LUT's slope of such values stays finite in float32
 // (3e38 entries made infinities and NaN).
 constexpr double kMaxTextureValue = 1e30, kMaxFinalScale = 1e6;
+// Coordinates a stream's state can reach (texture coordinates, the Lagrangian grids' vertices and
+// deformations): the region's kMaxCoordinate and kMaxVelocityParam du/s over the longest stream
+// (kMaxTextureFrames x kMaxTextureDt) make 1e18. A checkpoint holding a value past +-kMaxStateValue is
+// none of this server's (3e38 made planes of NaN: a noise band scales coordinates by up to 64 x 2^7).
+constexpr double kMaxStateValue = 1e20;
 // Layer latencies, s: a regeneration far faster than any frame (1e-310 s) divided by zero.
 constexpr double kMinLatency = 1e-3;
 

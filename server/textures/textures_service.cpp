@@ -62,7 +62,7 @@ struct TexturesService::Stream {
   req::FollowedCurrent current;
   Slot memory;               // the stream's working memory, against --memory-budget
   Cancellation cancel;       // whether its client still wants it: ends a river's bake early
-  uint64_t fingerprint = 0;  // of the request, which its checkpoints carry (AdvectTexture)
+  uint64_t fingerprint = 0;  // of the request, which its checkpoints carry (AdvectTexture, with checkpoints)
   std::string_view resume;   // the advection state it resumes from (AdvectTexture; empty: from frame 0)
 };
 
@@ -129,6 +129,11 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     Stream s;
     s.cancel = cancellation(*context);
     s.spec = req::spec(*request, serving_.gate());
+    if (request->checkpoint_every() > 0 || !request->resume_state().empty()) {
+      s.fingerprint = req::request_fingerprint(*request);
+      if (!request->resume_state().empty())
+        s.resume = req::bound_state(request->resume_state(), s.fingerprint, "request.resume_state");
+    }
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
@@ -138,8 +143,6 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
-    s.fingerprint = req::request_fingerprint(*request);
-    s.resume = req::bound_state(request->resume_state(), s.fingerprint, "request.resume_state");
     return s;
   };
   return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {

@@ -470,9 +470,10 @@ TEST(Render, AKeptShadowMapIsCountedOnceInTheMemoryBudget) {
   EXPECT_EQ(gate.memory_bytes(), 0u);
 }
 
-// Renders of one stored volume from four threads at once (the device's queues), each from cameras of its
-// own, the later threads starting while the first one's map is being made: every image equals that of a
-// volume making its own map, bit for bit, whichever render made the map the others read.
+// Renders of one stored volume from four threads at once (as many as the device has queues, the others
+// waiting for one), each from cameras of its own, the later threads starting while the first one's map is
+// being made: every image equals that of a volume making its own map, bit for bit, whichever render made
+// the map the others read.
 TEST(Render, ConcurrentRendersOfAStoredVolumeAgreeWithFreshOnes) {
   CloudRenderer renderer(test::runtime());
   const DeviceVolume kept = stored_sphere(), fresh = upload_volume(test::runtime(), soft_sphere());

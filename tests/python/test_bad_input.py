@@ -207,15 +207,28 @@ def resumed_with_another_dt(request: textures_pb2.AdvectTextureRequest, env: Opt
     request.resume_state = env.checkpoint
 
 
+def checkpoint_state_replaced(state: bytes) -> Change:
+    """Resumes checkpointed_request() from its frame-2 checkpoint with the advection state after its
+    16-byte header (magic, format, fingerprint) replaced by `state`."""
+
+    def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
+        assert env is not None
+        request.CopyFrom(checkpointed_request())
+        request.resume_state = env.checkpoint[:16] + state
+
+    return change
+
+
 def forged_checkpoint(index: int) -> Change:
     """Resumes checkpointed_request() from its frame-2 checkpoint with the frame index in it (an
-    int64 after the request's uint64 fingerprint, the uint32 version and the uint8 "started" flag,
-    as request_checkpoint.cpp, then restore() of eulerian.cpp and lagrangian.cpp read it) forged."""
+    int64 after the 16 bytes of request_checkpoint.h (magic, format, the request's fingerprint), the
+    uint32 version and the uint8 "started" flag, as restore() of eulerian.cpp and lagrangian.cpp read
+    it) forged."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None
         state = bytearray(env.checkpoint)
-        struct.pack_into("<q", state, 8 + 5, index)
+        struct.pack_into("<q", state, 16 + 5, index)
         request.CopyFrom(checkpointed_request())
         request.resume_state = bytes(state)
 
@@ -1666,7 +1679,24 @@ CASES += [
         EXHAUSTED,
     ),
     bad(R, "eulerian_blend_unknown_enum", put("eulerian.blend", 9), "request.eulerian.blend"),
-    bad(R, "resume_state_garbage", put("resume_state", b"\x01garbage"), "resume_state"),
+    bad(
+        R,
+        "resume_state_garbage",
+        put("resume_state", b"\x01ga"),
+        "request.resume_state is not a texture checkpoint",
+    ),
+    bad(
+        R,
+        "resume_state_header_then_garbage",
+        checkpoint_state_replaced(b"garbage"),
+        "resume_state has an unknown version",
+    ),
+    bad(
+        R,
+        "resume_state_header_only",
+        checkpoint_state_replaced(b""),
+        "it holds no advection state",
+    ),
     bad(
         R,
         "resume_state_index_negative",

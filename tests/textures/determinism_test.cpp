@@ -62,17 +62,24 @@ TEST(TexturesDeterminism, ACheckpointOfAnotherShapeIsRefused) {
   EXPECT_THROW(texture_engine().start(spec, "garbage"), squall::Error);
 }
 
-// A checkpoint's last value (the Lagrangian vertices' uvs, the Eulerian nodes' state) made NaN: refused by
-// name rather than resumed into planes of NaN.
-TEST(TexturesDeterminism, ACheckpointHoldingANonFiniteValueIsRefused) {
+// A checkpoint's last value (the Lagrangian vertices' uvs, the Eulerian nodes' state) made NaN, or past
+// what a stream reaches (kMaxStateValue): refused by name rather than resumed into planes of NaN; within
+// it, resumed.
+TEST(TexturesDeterminism, ACheckpointHoldingAValueNoStreamReachesIsRefused) {
   for (Method method : {Method::LagrangianGrids, Method::EulerianMultilayer}) {
     AdvectSpec spec = noise_spec(method, SQUALL_VELOCITY_UNIFORM);
     auto advection = texture_engine().start(spec);
     advection->next();
-    std::string state = advection->checkpoint();
-    const float nan = std::nanf("");
-    std::memcpy(&state[state.size() - sizeof(float)], &nan, sizeof(float));
-    expect_error(Code::InvalidArgument, "resume_state holds the ", [&] { texture_engine().start(spec, state); });
+    const std::string state = advection->checkpoint();
+    auto with_last = [&](float value) {
+      std::string forged = state;
+      std::memcpy(&forged[forged.size() - sizeof(float)], &value, sizeof(float));
+      return forged;
+    };
+    for (float bad : {std::nanf(""), 3e38f, -1e21f})
+      expect_error(Code::InvalidArgument, "resume_state holds the ",
+                   [&] { texture_engine().start(spec, with_last(bad)); });
+    EXPECT_NO_THROW(texture_engine().start(spec, with_last(1e19f)));
   }
 }
 

@@ -188,12 +188,12 @@ TEST(TexturesService, CheckpointResumesBitIdentically) {
     }
     r.set_frames(5);
     r.set_resume_state(first.frames[4].checkpoint());  // the last frame: nothing left to send
-    test::expect_error(Code::InvalidArgument, "request.resume_state", [&] { advect_or_throw(r); });
+    test::expect_error(Code::InvalidArgument, "leaves no frame after it", [&] { advect_or_throw(r); });
   }
 }
 
-// A checkpoint continues only the request that made it: resumed with another dt, seed or texture it is
-// refused, not continued as if it were theirs.
+// A checkpoint continues only the request that made it: resumed with another dt, seed or method it is
+// refused, not continued as if it were theirs; cut short, even to its fingerprint, it is no checkpoint.
 TEST(TexturesService, CheckpointOfAnotherRequestIsRefused) {
   v1::AdvectTextureRequest r = noise_request(3);
   r.set_method(v1::TEXTURE_METHOD_EULERIAN_MULTILAYER);
@@ -214,6 +214,13 @@ TEST(TexturesService, CheckpointOfAnotherRequestIsRefused) {
     changes[c](other);
     test::expect_error(Code::InvalidArgument, "request.resume_state is the checkpoint of another request",
                        [&] { advect_or_throw(other); });
+  }
+  const std::string& checkpoint = first.frames[1].checkpoint();
+  for (size_t cut : {size_t(3), size_t(16)}) {  // inside the fingerprint; all of it and no state
+    v1::AdvectTextureRequest truncated = r;
+    truncated.set_resume_state(checkpoint.substr(0, cut));
+    test::expect_error(Code::InvalidArgument, "request.resume_state is not a texture checkpoint",
+                       [&] { advect_or_throw(truncated); });
   }
   Streamed same = advect(r);
   ASSERT_TRUE(same.status.ok()) << same.status.error_message();
