@@ -15,7 +15,7 @@ file(REMOVE_RECURSE ${stage} ${venv})
 file(COPY ${SOURCE_DIR}/client/python DESTINATION ${stage}/client
      REGEX "/squall/v1$" EXCLUDE PATTERN "build" EXCLUDE PATTERN "*.egg-info" EXCLUDE PATTERN "__pycache__" EXCLUDE
      PATTERN "proto" EXCLUDE)
-file(COPY ${SOURCE_DIR}/proto/squall ${SOURCE_DIR}/proto/grpc DESTINATION ${stage}/proto)
+file(COPY ${SOURCE_DIR}/proto/squall DESTINATION ${stage}/proto)
 
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE status)
@@ -27,4 +27,4 @@ endfunction()
 run(${PYTHON} -m venv --system-site-packages ${venv})
 run(${CMAKE_COMMAND} -E env PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_INPUT=1
     ${venv}/bin/python -m pip install --no-build-isolation --no-deps --no-index ${stage}/client/python)
-run(${venv}/bin/python -c "import squall, squall.aio, squall.v1.ocean_pb2_grpc, squall._health_pb2; print('squall', squall.__version__, 'from', squall.__file__)")
+run(${venv}/bin/python -c "import squall, squall.aio, squall.v1.ocean_pb2_grpc; print('squall', squall.__version__, 'from', squall.__file__)")

@@ -65,9 +65,11 @@ def test_ewave_session(client: squall.Client, daemon) -> None:
         async with squall.aio.Client(daemon.address) as aclient:
             async with aclient.ewave.session(**config()) as session:
                 first = await session.step(**hull_inputs(0))
+                assert session.steps == 1
                 state = await session.state()
                 rest = [f async for f in session.run(hull_inputs(n) for n in range(1, 3))]
                 copy = await aclient.ewave.restore(state)
+                assert copy.steps == 1
                 replay = [f async for f in copy.run(inputs())]
                 await copy.close()
                 with pytest.raises(squall.SquallError) as error:
@@ -152,6 +154,8 @@ def test_clouds_and_textures(client: squall.Client, daemon) -> None:
             frames = [f async for f in aclient.textures.advect(frames=2, **start)]
             async with aclient.textures.interactive(**start) as steer:
                 steered = await steer.send(frames=2)
+            with pytest.raises(TypeError, match="frames"):
+                aclient.textures.interactive(**start, frames=2)
             return image, volume, evolution, frames, steered
 
     image, volume, evolution, frames, steered = run(main())

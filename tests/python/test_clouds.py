@@ -71,6 +71,12 @@ def test_render_stored_and_inline_are_equal(client: squall.Client) -> None:
             stored["depth"][0, 0] == -1.0 and stored["depth"][H // 2, W // 2] > 40
         )  # metres from the eye
         assert np.asarray(stored).shape == (H, W, 3)
+        assert np.asarray(stored, dtype=np.float64).dtype == np.float64
+        copied = np.array(stored, copy=True)
+        assert not np.shares_memory(copied, stored.pixels) and np.array_equal(copied, stored.pixels)
+        with pytest.raises(KeyError, match="radiance_0, transmittance_0, depth"):
+            stored["radiance"]
+        assert stored != inline and stored == stored  # images compare by identity
     finally:
         client.clouds.release(volume)
     with pytest.raises(squall.SquallError) as error:

@@ -73,12 +73,14 @@ def test_run_stream_equals_unary_steps(client: squall.Client) -> None:
 
 def test_state_and_restore_continue_bit_identically(client: squall.Client) -> None:
     with client.ewave.session(**config()) as session:
+        assert session.steps == 0
         for n in range(3):
             session.step(**hull_inputs(n))
         state = session.state()
         assert isinstance(state, bytes) and len(state) > 2 * NX * NY * 4
         with client.ewave.restore(state) as copy:
             assert copy.id != session.id and copy.config.nx == NX
+            assert session.steps == copy.steps == 3  # the saved state's: after_step of its next step
             a, b = session.step(**hull_inputs(3)), copy.step(**hull_inputs(3))
             assert a.step == b.step == 4
             for name in a:
@@ -102,7 +104,7 @@ def test_a_step_sent_again_with_its_key_is_made_once(client: squall.Client) -> N
             session.step(0.02, after_step=1)
         assert error.value.code == grpc.StatusCode.ABORTED
         assert "after_step = 1, but the session has made 2 steps" in error.value.message
-        assert session.step(0.02, after_step=2).step == 3
+        assert session.step(0.02, after_step=session.steps).step == session.steps == 3
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

@@ -3,8 +3,7 @@ StreamTiles frame assembler and the hand-encoded health messages."""
 
 from __future__ import annotations
 
-import os
-import shutil
+import pickle
 import struct
 import subprocess
 import sys
@@ -21,7 +20,6 @@ from squall.ocean import TileAssembler
 from squall.v1 import common_pb2, ewave_pb2, ocean_pb2, textures_pb2
 
 PROTO_DIR = Path(__file__).resolve().parents[2] / "proto" / "squall" / "v1"
-SETUP = Path(__file__).resolve().parents[2] / "client" / "python" / "setup.py"
 
 
 def test_grpc_modules_are_generated_into_the_installed_package() -> None:
@@ -181,22 +179,46 @@ def test_error_text() -> None:
     assert error.code_name == "NOT_FOUND" and error.message == "no such session"
 
 
-def test_a_proto_root_without_the_health_proto_is_refused_naming_it(tmp_path: Path) -> None:
-    """SQUALL_PROTO_DIR must hold grpc/health/v1/health.proto next to squall/v1: one without it is
-    refused before anything is generated, naming the missing file."""
-    root = tmp_path / "protos"
-    (root / "squall" / "v1").mkdir(parents=True)
-    shutil.copy2(PROTO_DIR / "common.proto", root / "squall" / "v1")
-    build = tmp_path / "client"  # setup.py alone: no ./proto, no ../../proto
-    build.mkdir()
-    shutil.copy2(SETUP, build)
-    result = subprocess.run(
-        [sys.executable, "setup.py", "build_protos"],
-        cwd=build,
-        env=dict(os.environ, SQUALL_PROTO_DIR=str(root)),
-        capture_output=True,
-        text=True,
+def test_an_error_pickles_with_its_code_method_and_replica() -> None:
+    """Errors cross process pools (concurrent.futures, multiprocessing) as pickles."""
+    metadata = (("x-squall-replica", "host:pid7"), ("x-request-id", "r1"))
+    error = squall.SquallError(grpc.StatusCode.NOT_FOUND, "no such session", "EWave.Step", metadata)
+    copy = pickle.loads(pickle.dumps(error))
+    assert (copy.code, copy.message, copy.method, copy.metadata) == (
+        grpc.StatusCode.NOT_FOUND,
+        "no such session",
+        "EWave.Step",
+        metadata,
     )
-    assert result.returncode != 0
-    assert "not grpc/health/v1/health.proto" in result.stderr, result.stderr
-    assert not (build / "squall").exists()  # nothing generated
+    assert str(copy) == str(error) and copy.replica == "host:pid7"
+    assert squall.SquallError(grpc.StatusCode.INTERNAL, "x").replica == ""
+
+
+# What grpcio-health-checking's grpc_health/v1/health_pb2.py registers: grpc.health.v1's messages, from
+# a file of another name than proto/grpc/health/v1/health.proto.
+OTHER_HEALTH_MODULE = """
+from google.protobuf import descriptor_pb2, descriptor_pool
+
+f = descriptor_pb2.FileDescriptorProto(
+    name="grpc_health/v1/health.proto", package="grpc.health.v1", syntax="proto3"
+)
+request = f.message_type.add(name="HealthCheckRequest")
+request.field.add(name="service", number=1, type=9, label=1)  # string
+f.message_type.add(name="HealthCheckResponse")
+descriptor_pool.Default().AddSerializedFile(f.SerializeToString())
+"""
+
+
+def test_squall_imports_beside_another_module_of_the_health_messages() -> None:
+    """A process that has grpcio-health-checking's health messages imports squall and checks
+    health: squall registers no grpc.health.v1 messages of its own (a generated module of them
+    failed this import with a conflict in protobuf's default pool)."""
+    script = OTHER_HEALTH_MODULE + """
+import squall
+from squall.client import decode_health_response, encode_health_request
+assert encode_health_request("squall.v1.Ocean") == b"\\x0a\\x0fsquall.v1.Ocean"
+assert decode_health_response(b"\\x08\\x01") == "SERVING"
+print("imported")
+"""
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert result.returncode == 0 and "imported" in result.stdout, result.stderr

@@ -11,6 +11,9 @@ import os
 import re
 from typing import Any, Dict, List, Tuple
 
+import grpc
+import pytest
+
 import squall
 from squall._calls import REPLICA_KEY, retry_options
 from squall.v1 import server_pb2, server_pb2_grpc
@@ -52,6 +55,10 @@ def test_every_response_names_its_replica(daemon: Daemon) -> None:
         info, call = stub.GetInfo.with_call(server_pb2.GetInfoRequest())
     replica = dict(call.initial_metadata())[REPLICA_KEY]
     assert replica and replica == info.replica_id  # default "hostname:pid<N>" for --listen port 0
+    with squall.Client(daemon.address) as client:
+        with pytest.raises(squall.SquallError) as error:  # a refusal names it in its trailers
+            client.ewave.attach("0" * 32).step(0.02)
+    assert error.value.code == grpc.StatusCode.NOT_FOUND and error.value.replica == replica
 
 
 def test_the_retry_policy_retries_unavailable_only() -> None:

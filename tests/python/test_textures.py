@@ -115,6 +115,10 @@ def test_interactive(client: squall.Client) -> None:
         error.value.code == grpc.StatusCode.INVALID_ARGUMENT
         and "control[0]" in error.value.message
     )
+    # what the server refuses in a start is refused before the stream opens
+    for refused in (dict(frames=2), dict(checkpoint_every=1), dict(resume_state=b"\x01")):
+        with pytest.raises(TypeError, match=next(iter(refused))):
+            client.textures.interactive(**start, **refused)
 
 
 def small_interactive() -> dict:

@@ -12,7 +12,7 @@ from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, T
 
 import grpc
 
-from squall._errors import SquallError
+from squall._errors import REPLICA_KEY, SquallError
 
 T = TypeVar("T")
 
@@ -32,7 +32,6 @@ OWN_CONNECTION_OPTIONS: List[Tuple[str, Any]] = [("grpc.use_local_subchannel_poo
 # Metadata keys (server/rpc/metadata.h).
 REQUEST_ID_KEY = "x-request-id"
 SESSION_KEY = "x-squall-session"
-REPLICA_KEY = "x-squall-replica"
 AUTHORIZATION_KEY = "authorization"
 
 SERVICES = ("Server", "Ocean", "EWave", "Clouds", "Textures")

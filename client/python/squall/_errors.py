@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, Optional, Tuple
 
 import grpc
+
+# The response metadata key that names the squalld replica that answered (server/rpc/metadata.h).
+REPLICA_KEY = "x-squall-replica"
 
 
 class SquallError(Exception):
@@ -16,18 +19,36 @@ class SquallError(Exception):
         message: the server's message; for bad input it names the field path and the allowed range,
             e.g. ``"tile.layers[0].wind_speed = nan must be finite and in (0, 100]"``.
         method: the RPC, e.g. ``"Ocean.GetTile"`` (empty when not known).
+        metadata: the failed call's trailing metadata, ``(key, value)`` pairs (``x-squall-replica``
+            among them when a squalld answered).
 
     ``str(error)`` reads ``"Ocean.GetTile: INVALID_ARGUMENT: tile.layers[0].wind_speed = nan
     ..."``. Mistakes caught before anything is sent (an unknown enum name, an array of the wrong
     rank) raise ``ValueError`` or ``TypeError`` instead.
     """
 
-    def __init__(self, code: grpc.StatusCode, message: str, method: str = "") -> None:
+    def __init__(
+        self,
+        code: grpc.StatusCode,
+        message: str,
+        method: str = "",
+        metadata: Tuple[Tuple[str, Any], ...] = (),
+    ) -> None:
         self.code = code
         self.message = message
         self.method = method
+        self.metadata = tuple(metadata)
         prefix = f"{method}: " if method else ""
         super().__init__(f"{prefix}{code.name}: {message}")
+
+    def __reduce__(self) -> Tuple[Any, ...]:
+        """Pickles with every attribute (errors cross process pools as the server sent them)."""
+        return (type(self), (self.code, self.message, self.method, self.metadata))
+
+    @property
+    def replica(self) -> str:
+        """The squalld replica that refused the call (``x-squall-replica``), or ``""``."""
+        return next((str(v) for k, v in self.metadata if k == REPLICA_KEY), "")
 
     @property
     def code_name(self) -> str:
@@ -39,9 +60,12 @@ class SquallError(Exception):
         """The SquallError of a failed gRPC call (sync or asyncio)."""
         code: Optional[grpc.StatusCode] = None
         details: Optional[str] = None
+        metadata: Tuple[Tuple[str, Any], ...] = ()
         try:
             code = error.code()  # type: ignore[attr-defined]
             details = error.details()  # type: ignore[attr-defined]
+            trailers = error.trailing_metadata()  # type: ignore[attr-defined]
+            metadata = tuple((m[0], m[1]) for m in trailers or ())
         except Exception:  # an RpcError that is not a Call
             pass
-        return cls(code or grpc.StatusCode.UNKNOWN, details or str(error), method)
+        return cls(code or grpc.StatusCode.UNKNOWN, details or str(error), method, metadata)

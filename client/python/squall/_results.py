@@ -222,7 +222,7 @@ class Samples(Dict[str, np.ndarray]):
         )
 
 
-@dataclass
+@dataclass(eq=False)  # compared by identity: == on numpy pixels has no single truth value
 class Image:
     """A ray-marched cloud image.
 
@@ -255,11 +255,21 @@ class Image:
         return cls(pixels, tuple(image.channels), summary)
 
     def __getitem__(self, channel: str) -> np.ndarray:
-        """One channel by name, shape (height, width)."""
+        """One channel by name, shape (height, width); KeyError for a name it does not have."""
+        if channel not in self.channels:
+            raise KeyError(f"{channel!r}: the image's channels are {', '.join(self.channels)}")
         return self.pixels[:, :, self.channels.index(channel)]
 
-    def __array__(self, dtype: Optional[np.dtype] = None) -> np.ndarray:
-        return self.pixels if dtype is None else self.pixels.astype(dtype)
+    def __array__(
+        self, dtype: Optional[np.dtype] = None, copy: Optional[bool] = None
+    ) -> np.ndarray:
+        """The pixels, for np.asarray (NumPy 2's copy: True always copies, False never)."""
+        converts = dtype is not None and np.dtype(dtype) != self.pixels.dtype
+        if copy is False and converts:
+            raise ValueError(f"the pixels are {self.pixels.dtype}: {dtype} needs a copy")
+        if converts:
+            return self.pixels.astype(dtype)
+        return self.pixels.copy() if copy else self.pixels
 
     @property
     def shape(self) -> Tuple[int, ...]:

@@ -336,6 +336,7 @@ class EWaveSession:
         self.id: str = response.session_id
         self.config: ewave_pb2.EWaveConfig = response.config
         self.max_dt: float = response.max_dt
+        self.steps: int = response.step  # as squall.ewave.EWaveSession.steps
         self.closed = False
 
     @property
@@ -360,9 +361,11 @@ class EWaveSession:
             self.id, _ewave.as_inputs(inputs, dt, **kwargs), after_step, retry_key
         )
         conn = self._service._connection
-        return EWaveFrame(
+        frame = EWaveFrame(
             await conn.unary("EWave.Step", self._service._rpc.Step, request, timeout, self.id)
         )
+        self.steps = frame.step
+        return frame
 
     def run(
         self, items: Union[Iterable[Any], AsyncIterable[Any]], *, timeout: Optional[float] = None
@@ -792,14 +795,7 @@ class Textures:
         **kwargs: Any,
     ) -> Interactive:
         """Starts an AdvectInteractive stream steered by ``await Interactive.send(...)``."""
-        if start is not None:
-            if kwargs:
-                raise TypeError(
-                    "interactive: pass either start or advect's keyword arguments, not both"
-                )
-            request = to_message(textures_pb2.AdvectTextureRequest, start, "start")
-        else:
-            request = _textures.advect_request(**kwargs)
+        request = _textures.interactive_start(start, kwargs)
         settings = self._connection.settings
         call = self._rpc.AdvectInteractive(
             timeout=settings.deadline(timeout, stream=True),

@@ -17,27 +17,66 @@ from squall._calls import (
     retry_options,
 )
 from squall._errors import SquallError
-from squall import _health_pb2
 from squall._pb import server_pb2, server_pb2_grpc
 from squall.clouds import Clouds
 from squall.ewave import EWave
 from squall.ocean import Ocean
 from squall.textures import Textures
 
-# grpc.health.v1.Health/Check; its messages are generated at build time as squall._health_pb2 (see
-# setup.py: under grpc/health/v1/ the module would shadow the grpc package).
+# grpc.health.v1.Health/Check (proto/grpc/health/v1/health.proto). Its two one-field messages are
+# written in protobuf's wire format here, not generated: a generated module registers
+# grpc.health.v1.* in protobuf's default descriptor pool, where grpcio-health-checking's
+# grpc_health.v1.health_pb2 registers the same names from a file of another name, and a process that
+# imports both fails at the second import.
 HEALTH_CHECK = "/grpc.health.v1.Health/Check"
+SERVING_STATUS = ("UNKNOWN", "SERVING", "NOT_SERVING", "SERVICE_UNKNOWN")
+
+
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while True:
+        out.append((value & 0x7F) | (0x80 if value > 0x7F else 0))
+        value >>= 7
+        if not value:
+            return bytes(out)
+
+
+def _read_varint(data: bytes, at: int) -> Tuple[int, int]:
+    """The varint at data[at:] and the offset after it; ValueError when data ends inside it."""
+    value, shift = 0, 0
+    while True:
+        if at >= len(data):
+            raise ValueError("a health response ends inside a varint")
+        value |= (data[at] & 0x7F) << shift
+        at, shift = at + 1, shift + 7
+        if not data[at - 1] & 0x80:
+            return value, at
 
 
 def encode_health_request(service: str) -> bytes:
-    """HealthCheckRequest(service) as bytes."""
-    return _health_pb2.HealthCheckRequest(service=service).SerializeToString()
+    """HealthCheckRequest { string service = 1; } as bytes."""
+    data = service.encode()
+    return b"\x0a" + _varint(len(data)) + data if data else b""
 
 
 def decode_health_response(data: bytes) -> str:
-    """HealthCheckResponse bytes -> "SERVING", "NOT_SERVING", "UNKNOWN", "SERVICE_UNKNOWN"."""
-    response = _health_pb2.HealthCheckResponse.FromString(data)
-    return _health_pb2.HealthCheckResponse.ServingStatus.Name(response.status)
+    """HealthCheckResponse { ServingStatus status = 1; } bytes -> "SERVING", "NOT_SERVING",
+    "UNKNOWN", "SERVICE_UNKNOWN" (fields of other numbers skipped, as protobuf does)."""
+    status, at = 0, 0
+    while at < len(data):
+        key, at = _read_varint(data, at)
+        wire_type = key & 7
+        if wire_type == 0:
+            value, at = _read_varint(data, at)
+            status = value if key >> 3 == 1 else status
+        elif wire_type == 2:
+            length, at = _read_varint(data, at)
+            at += length
+        elif wire_type in (1, 5):
+            at += 8 if wire_type == 1 else 4
+        else:
+            raise ValueError(f"a health response holds wire type {wire_type}")
+    return SERVING_STATUS[status] if status < len(SERVING_STATUS) else "UNKNOWN"
 
 
 def tls_credentials(

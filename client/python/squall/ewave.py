@@ -85,11 +85,12 @@ def config(
 
     Args:
         nx, ny: grid cells along x and y, each >= 2 (any size); nx * ny at most --max-grid-cells.
-        dx, dy: cell size, m, > 0; dy None: dx.
+        dx, dy: cell size, m, in [1e-6, 1e6]; dy None: dx.
         dispersion: "deep" (default), "shallow", "capillary", "combined".
-        gravity: g, m/s^2, > 0; unset: 9.81.
-        depth: water depth (shallow / combined), m.
-        capillary_length: capillary / combined dispersion, m, >= 0 (water: about 2.7e-3).
+        gravity: g, m/s^2, in (0, 1000]; unset: 9.81.
+        depth: water depth, m, at most 1e5: > 0 with shallow or combined dispersion (the default
+            0 suits deep and capillary only).
+        capillary_length: capillary / combined dispersion, m, in [0, 1] (water: about 2.7e-3).
         trim: the power-law taper at the edges (eq 82); unset: True.
         trim_width: taper width L, m; 0: 8% of the shorter side.
         trim_alpha: taper exponent, (0, 10]; unset: 0.05.
@@ -351,6 +352,10 @@ class EWaveSession:
             the config given to it (empty when none was).
         max_dt: the longest step, s: with the trim on, the period of the grid's shortest wave
             (longer trimmed steps grow without bound); 0 for a session from ``attach`` (unknown).
+        steps: the steps the session had made when this object last heard: 0 after ``create``,
+            the saved state's after ``restore``, then each ``step()``'s frame's; a ``step(...,
+            after_step=session.steps)`` fails when another caller has stepped it since. 0 for a
+            session from ``attach``; frames of ``run`` carry their own ``step``.
     """
 
     def __init__(self, service: "EWave", response: ewave_pb2.EWaveSessionResponse) -> None:
@@ -358,6 +363,7 @@ class EWaveSession:
         self.id: str = response.session_id
         self.config: ewave_pb2.EWaveConfig = response.config
         self.max_dt: float = response.max_dt
+        self.steps: int = response.step
         self.closed = False
 
     @property
@@ -394,10 +400,11 @@ class EWaveSession:
             self.id, as_inputs(inputs, dt, **kwargs), after_step, retry_key
         )
         conn = self._service._connection
-        frame = conn.unary(
-            "EWave.Step", self._service._rpc.Step, request, timeout, session=self.id
+        frame = EWaveFrame(
+            conn.unary("EWave.Step", self._service._rpc.Step, request, timeout, session=self.id)
         )
-        return EWaveFrame(frame)
+        self.steps = frame.step
+        return frame
 
     def run(
         self, items: Iterable[InputsLike], *, timeout: Optional[float] = None

@@ -85,7 +85,7 @@ def layer(
     field unset: the server then takes the model's published default, given below.
 
     Args:
-        extent: patch size Lx (or (Lx, Ly)), m; finite, > 0, at most 1e6.
+        extent: patch size Lx (or (Lx, Ly)), m; in [0.001, 1e6].
         n: FFT grid nx (or (nx, ny)); each even and >= 2.
         spectrum: "phillips", "pierson_moskowitz", "jonswap", "modified_jonswap", "tma",
             "multipeak".
@@ -95,8 +95,8 @@ def layer(
         wind_speed: U at 10 m, m/s; in (0, 100] (Multipeak: [0, 100]).
         wind_direction: direction the wind blows towards, rad.
         fetch: JONSWAP / modified JONSWAP / TMA fetch, m; in (0, 1e8].
-        depth: water depth (shallow / combined dispersion, TMA), m; > 0.
-        capillary_length: capillary / combined dispersion, m; >= 0 (water: about 2.7e-3).
+        depth: water depth (shallow / combined dispersion, TMA), m; in (0, 1e5].
+        capillary_length: capillary / combined dispersion, m; in [0, 1] (water: about 2.7e-3).
         peak_enhancement: JONSWAP / TMA gamma, [1, 100]; unset: 3.3.
         sigma_below_peak, sigma_above_peak: JONSWAP / TMA peak widths, (0, 10]; unset: 0.07, 0.09.
         phillips_amplitude: Phillips A, m^2; unset: 1e-3.

@@ -1056,7 +1056,7 @@ class DeformInteractive(Steering[DeformFrame]):
             frames: frames to produce after applying this message, 0..1024.
             d_mu: control "constant": the new d mu per frame (|d_mu| <= 100).
             d_mu_map: control "map": the new (H, W) map of d mu.
-            deformation: tensor controls: G now (a 2x2 array-like, det > 0), reached at this
+            deformation: tensor controls: G now (a 2x2 array-like, det >= 1e-12), reached at this
                 message's first frame and held after it.
             strokes: control "brush": the strokes of the next frames, each (cx, cy, radius,
                 strength), replacing the previous ones.
@@ -1068,6 +1068,30 @@ class DeformInteractive(Steering[DeformFrame]):
         )
         self._take_start()
         return self._exchange(message, frames)
+
+
+def interactive_start(
+    start: Optional[Union[textures_pb2.AdvectTextureRequest, Mapping[str, Any]]],
+    kwargs: Mapping[str, Any],
+) -> textures_pb2.AdvectTextureRequest:
+    """The advection an ``interactive`` stream starts (sync and asyncio): ``start``, or
+    ``advect``'s keyword arguments. TypeError for both, and for frames, checkpoint_every or
+    resume_state, which the server refuses in a start (each send() asks for its frames; the
+    stream neither checkpoints nor resumes)."""
+    if start is not None and kwargs:
+        raise TypeError("interactive: pass either start or advect's keyword arguments, not both")
+    request = (
+        advect_request(**kwargs)
+        if start is None
+        else to_message(textures_pb2.AdvectTextureRequest, start, "start")
+    )
+    refused = [f for f in ("frames", "checkpoint_every", "resume_state") if getattr(request, f)]
+    if refused:
+        raise TypeError(
+            f"interactive: {', '.join(refused)} set: each send() asks for its frames, and an "
+            "interactive stream neither checkpoints nor resumes"
+        )
+    return request
 
 
 class Textures:
@@ -1183,15 +1207,7 @@ class Textures:
                 turn = squall.textures.analytic("rotation", angular_velocity=1.0)
                 later = run.send(velocity=turn)  # frame 2, turning
         """
-        if start is not None:
-            if kwargs:
-                raise TypeError(
-                    "interactive: pass either start or advect's keyword arguments, not both"
-                )
-            request = to_message(textures_pb2.AdvectTextureRequest, start, "start")
-        else:
-            request = advect_request(**kwargs)
-        return Interactive(self._connection, self._rpc, request, timeout)
+        return Interactive(self._connection, self._rpc, interactive_start(start, kwargs), timeout)
 
     def bake_velocity(
         self,
@@ -1271,7 +1287,7 @@ class Textures:
             d_mu_map: "map": an (H, W) array, |value| <= 100.
             kappa: the scale of d mu ("map", tensor controls), |kappa| <= 1e6; None: 1.
             deformation_start, deformation_end: G at frame 0 and at the last frame (2x2
-                array-likes [[xx, xy], [yx, yy]], det > 0); None: identity.
+                array-likes [[xx, xy], [yx, yy]], det >= 1e-12); None: identity.
             strokes: "brush": 0..256 strokes (cx, cy, radius, strength) in texels, texels and d mu
                 at the centre per frame (> 0 shrinks the pattern there, < 0 widens it).
             paper_dt_factor: tensor controls multiply d mu by dt (as the paper's eqs. 7-8).
