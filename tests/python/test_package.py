@@ -171,6 +171,13 @@ def test_health_messages() -> None:
     assert decode_health_response(b"\x08\x01") == "SERVING"
     assert decode_health_response(b"\x08\x02") == "NOT_SERVING"
     assert decode_health_response(b"") == "UNKNOWN"
+    name = "s" * 200  # a length of two varint bytes
+    assert encode_health_request(name) == b"\x0a\xc8\x01" + name.encode()
+    unknown_first = b"\x12\x03abc" + b"\x19" + bytes(8) + b"\x08\x02"  # fields 2 and 3, then 1
+    assert decode_health_response(unknown_first) == "NOT_SERVING"
+    for truncated in (b"\x08", b"\x12\x05ab", b"\x19\x00"):
+        with pytest.raises(ValueError):
+            decode_health_response(truncated)
 
 
 def test_error_text() -> None:

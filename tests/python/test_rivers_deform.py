@@ -196,6 +196,12 @@ def test_deform_interactive(client: squall.Client) -> None:
             run.send(strokes=[(24, 24, -1.0, 1.0)])  # radius must be > 0
     assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
     assert "control[0]" in error.value.message
+    # frames, which the server refuses in a start, are refused before the stream opens
+    with pytest.raises(TypeError, match="frames"):
+        client.textures.deform_interactive(image, rigidity, frames=2)
+    start = squall.textures.deform_request(image, rigidity, frames=2)
+    with pytest.raises(TypeError, match="frames"):
+        client.textures.deform_interactive(start=start)
 
 
 # ---- asyncio

@@ -59,6 +59,11 @@ def test_every_response_names_its_replica(daemon: Daemon) -> None:
         with pytest.raises(squall.SquallError) as error:  # a refusal names it in its trailers
             client.ewave.attach("0" * 32).step(0.02)
     assert error.value.code == grpc.StatusCode.NOT_FOUND and error.value.replica == replica
+    with squall.Client(daemon.address) as client:
+        with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+            with pytest.raises(squall.SquallError) as error:  # after a frame: the initial metadata
+                list(session.run([0.02, -1.0]))
+    assert "message 1" in error.value.message and error.value.replica == replica
 
 
 def test_the_retry_policy_retries_unavailable_only() -> None:

@@ -19,8 +19,9 @@ class SquallError(Exception):
         message: the server's message; for bad input it names the field path and the allowed range,
             e.g. ``"tile.layers[0].wind_speed = nan must be finite and in (0, 100]"``.
         method: the RPC, e.g. ``"Ocean.GetTile"`` (empty when not known).
-        metadata: the failed call's trailing metadata, ``(key, value)`` pairs (``x-squall-replica``
-            among them when a squalld answered).
+        metadata: the failed call's response metadata, initial then trailing, ``(key, value)``
+            pairs (``x-squall-replica`` among them when a squalld answered: in the trailers of a
+            call refused at once, in the initial metadata of a stream that failed after frames).
 
     ``str(error)`` reads ``"Ocean.GetTile: INVALID_ARGUMENT: tile.layers[0].wind_speed = nan
     ..."``. Mistakes caught before anything is sent (an unknown enum name, an array of the wrong
@@ -43,7 +44,7 @@ class SquallError(Exception):
 
     def __reduce__(self) -> Tuple[Any, ...]:
         """Pickles with every attribute (errors cross process pools as the server sent them)."""
-        return (type(self), (self.code, self.message, self.method, self.metadata))
+        return (type(self), (self.code, self.message, self.method, self.metadata), self.__dict__)
 
     @property
     def replica(self) -> str:
@@ -64,8 +65,9 @@ class SquallError(Exception):
         try:
             code = error.code()  # type: ignore[attr-defined]
             details = error.details()  # type: ignore[attr-defined]
+            initial = error.initial_metadata()  # type: ignore[attr-defined]
             trailers = error.trailing_metadata()  # type: ignore[attr-defined]
-            metadata = tuple((m[0], m[1]) for m in trailers or ())
+            metadata = tuple((m[0], m[1]) for m in [*(initial or ()), *(trailers or ())])
         except Exception:  # an RpcError that is not a Call
             pass
         return cls(code or grpc.StatusCode.UNKNOWN, details or str(error), method, metadata)

@@ -58,7 +58,6 @@ from squall._calls import (
     resolve_token,
     retry_options,
 )
-from squall._convert import to_message
 from squall._errors import SquallError
 from squall._pb import (
     clouds_pb2,
@@ -635,7 +634,9 @@ class Steering(Generic[T]):
     async def _raise_status(self) -> None:
         code = await self._call.code()
         if code != grpc.StatusCode.OK:
-            raise SquallError(code, await self._call.details(), self.METHOD)
+            metadata = tuple(await self._call.initial_metadata() or ())
+            metadata += tuple(await self._call.trailing_metadata() or ())
+            raise SquallError(code, await self._call.details(), self.METHOD, metadata)
 
     async def close(self) -> None:
         """Ends the request side and waits for the call's status (raised unless send raised it)."""
@@ -889,16 +890,7 @@ class Textures:
         **kwargs: Any,
     ) -> DeformInteractive:
         """Starts a DeformInteractive stream steered by ``await DeformInteractive.send(...)``."""
-        if start is not None:
-            if kwargs or image is not None or rigidity is not None:
-                raise TypeError(
-                    "deform_interactive: pass either start or deform's arguments, not both"
-                )
-            request = to_message(textures_pb2.DeformTextureRequest, start, "start")
-        else:
-            if "frames" in kwargs:
-                raise TypeError("deform_interactive: each send() asks for its frames")
-            request = _textures.deform_request(image, rigidity, **kwargs)
+        request = _textures.deform_interactive_start(start, image, rigidity, kwargs)
         settings = self._connection.settings
         call = self._rpc.DeformInteractive(
             timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()

@@ -76,6 +76,8 @@ def decode_health_response(data: bytes) -> str:
             at += 8 if wire_type == 1 else 4
         else:
             raise ValueError(f"a health response holds wire type {wire_type}")
+        if at > len(data):
+            raise ValueError("a health response ends inside a field")
     return SERVING_STATUS[status] if status < len(SERVING_STATUS) else "UNKNOWN"
 
 

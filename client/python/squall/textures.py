@@ -1094,6 +1094,26 @@ def interactive_start(
     return request
 
 
+def deform_interactive_start(
+    start: Optional[Union[textures_pb2.DeformTextureRequest, Mapping[str, Any]]],
+    image: Any,
+    rigidity: Any,
+    kwargs: Mapping[str, Any],
+) -> textures_pb2.DeformTextureRequest:
+    """The deformation a ``deform_interactive`` stream starts (sync and asyncio): ``start``, or
+    ``deform``'s arguments. TypeError for both, and for frames (each send() asks for its frames)."""
+    if start is not None and (kwargs or image is not None or rigidity is not None):
+        raise TypeError("deform_interactive: pass either start or deform's arguments, not both")
+    request = (
+        deform_request(image, rigidity, **kwargs)
+        if start is None
+        else to_message(textures_pb2.DeformTextureRequest, start, "start")
+    )
+    if request.frames:
+        raise TypeError("deform_interactive: frames set: each send() asks for its frames")
+    return request
+
+
 class Textures:
     """``client.textures``: the Textures service (AdvectTexture, AdvectInteractive, BakeVelocity,
     DeformTexture, DeformInteractive)."""
@@ -1357,14 +1377,5 @@ class Textures:
                 pushed = run.send(frames=3, strokes=[(24, 24, 6, 1.0)])
                 held = run.send(frames=2, clear_strokes=True)    # the warp stays where it is
         """
-        if start is not None:
-            if kwargs or image is not None or rigidity is not None:
-                raise TypeError(
-                    "deform_interactive: pass either start or deform's arguments, not both"
-                )
-            request = to_message(textures_pb2.DeformTextureRequest, start, "start")
-        else:
-            if "frames" in kwargs:
-                raise TypeError("deform_interactive: each send() asks for its frames")
-            request = deform_request(image, rigidity, **kwargs)
+        request = deform_interactive_start(start, image, rigidity, kwargs)
         return DeformInteractive(self._connection, self._rpc, request, timeout)
