@@ -199,7 +199,9 @@ def patch(offset: int, fmt: str, *values: Any) -> Change:
     return change
 
 
-def resumed_with_another_dt(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
+def resumed_with_another_dt(
+    request: textures_pb2.AdvectTextureRequest, env: Optional[Env]
+) -> None:
     """Resumes the frame-2 checkpoint of checkpointed_request() in that request with another dt."""
     assert env is not None
     request.CopyFrom(checkpointed_request())
@@ -208,8 +210,8 @@ def resumed_with_another_dt(request: textures_pb2.AdvectTextureRequest, env: Opt
 
 
 def checkpoint_state_replaced(state: bytes) -> Change:
-    """Resumes checkpointed_request() from its frame-2 checkpoint with the advection state after its
-    16-byte header (magic, format, fingerprint) replaced by `state`."""
+    """Resumes checkpointed_request() from its frame-2 checkpoint with the advection state after
+    its 16-byte header (magic, format, fingerprint) replaced by `state`."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None
@@ -221,9 +223,9 @@ def checkpoint_state_replaced(state: bytes) -> Change:
 
 def forged_checkpoint(index: int) -> Change:
     """Resumes checkpointed_request() from its frame-2 checkpoint with the frame index in it (an
-    int64 after the 16 bytes of request_checkpoint.h (magic, format, the request's fingerprint), the
-    uint32 version and the uint8 "started" flag, as restore() of eulerian.cpp and lagrangian.cpp read
-    it) forged."""
+    int64 after the 16 bytes of request_checkpoint.h (magic, format, the request's fingerprint),
+    the uint32 version and the uint8 "started" flag, as restore() of eulerian.cpp and
+    lagrangian.cpp read it) forged."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None

@@ -80,7 +80,7 @@ def test_state_and_restore_continue_bit_identically(client: squall.Client) -> No
         assert isinstance(state, bytes) and len(state) > 2 * NX * NY * 4
         with client.ewave.restore(state) as copy:
             assert copy.id != session.id and copy.config.nx == NX
-            assert session.steps == copy.steps == 3  # the saved state's: after_step of its next step
+            assert session.steps == copy.steps == 3  # the saved state's: its next after_step
             a, b = session.step(**hull_inputs(3)), copy.step(**hull_inputs(3))
             assert a.step == b.step == 4
             for name in a:

@@ -189,7 +189,9 @@ def test_error_text() -> None:
 def test_an_error_pickles_with_its_code_method_and_replica() -> None:
     """Errors cross process pools (concurrent.futures, multiprocessing) as pickles."""
     metadata = (("x-squall-replica", "host:pid7"), ("x-request-id", "r1"))
-    error = squall.SquallError(grpc.StatusCode.NOT_FOUND, "no such session", "EWave.Step", metadata)
+    error = squall.SquallError(
+        grpc.StatusCode.NOT_FOUND, "no such session", "EWave.Step", metadata
+    )
     copy = pickle.loads(pickle.dumps(error))
     assert (copy.code, copy.message, copy.method, copy.metadata) == (
         grpc.StatusCode.NOT_FOUND,
@@ -201,8 +203,8 @@ def test_an_error_pickles_with_its_code_method_and_replica() -> None:
     assert squall.SquallError(grpc.StatusCode.INTERNAL, "x").replica == ""
 
 
-# What grpcio-health-checking's grpc_health/v1/health_pb2.py registers: grpc.health.v1's messages, from
-# a file of another name than proto/grpc/health/v1/health.proto.
+# What grpcio-health-checking's grpc_health/v1/health_pb2.py registers: grpc.health.v1's
+# messages, from a file of another name than proto/grpc/health/v1/health.proto.
 OTHER_HEALTH_MODULE = """
 from google.protobuf import descriptor_pb2, descriptor_pool
 

@@ -26,8 +26,8 @@ from squall.textures import Textures
 # grpc.health.v1.Health/Check (proto/grpc/health/v1/health.proto). Its two one-field messages are
 # written in protobuf's wire format here, not generated: a generated module registers
 # grpc.health.v1.* in protobuf's default descriptor pool, where grpcio-health-checking's
-# grpc_health.v1.health_pb2 registers the same names from a file of another name, and a process that
-# imports both fails at the second import.
+# grpc_health.v1.health_pb2 registers the same names from a file of another name, and a process
+# that imports both fails at the second import.
 HEALTH_CHECK = "/grpc.health.v1.Health/Check"
 SERVING_STATUS = ("UNKNOWN", "SERVING", "NOT_SERVING", "SERVICE_UNKNOWN")
 
