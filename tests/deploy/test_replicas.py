@@ -33,7 +33,8 @@ import grpc
 import pytest
 
 import squall
-from squall._calls import REPLICA_KEY, SESSION_KEY, propose_session_id, retry_options
+from squall._calls import SESSION_KEY, propose_session_id, retry_options
+from squall._errors import REPLICA_KEY
 from squall.v1 import ewave_pb2, ewave_pb2_grpc, ocean_pb2, ocean_pb2_grpc
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))

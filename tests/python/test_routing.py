@@ -15,7 +15,8 @@ import grpc
 import pytest
 
 import squall
-from squall._calls import REPLICA_KEY, retry_options
+from squall._calls import retry_options
+from squall._errors import REPLICA_KEY
 from squall.v1 import server_pb2, server_pb2_grpc
 
 from conftest import Daemon

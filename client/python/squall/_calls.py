@@ -12,7 +12,7 @@ from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, T
 
 import grpc
 
-from squall._errors import REPLICA_KEY, SquallError
+from squall._errors import SquallError
 
 T = TypeVar("T")
 
@@ -29,7 +29,7 @@ CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
 # options share one connection.
 OWN_CONNECTION_OPTIONS: List[Tuple[str, Any]] = [("grpc.use_local_subchannel_pool", 1)]
 
-# Metadata keys (server/rpc/metadata.h).
+# Metadata keys (server/rpc/metadata.h; x-squall-replica: squall._errors.REPLICA_KEY).
 REQUEST_ID_KEY = "x-request-id"
 SESSION_KEY = "x-squall-session"
 AUTHORIZATION_KEY = "authorization"
