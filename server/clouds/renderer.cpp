@@ -243,10 +243,11 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
   for (auto leaf = volume.density->tree().cbeginLeaf(); leaf; ++leaf) box(leaf->getNodeBoundingBox());
   for (auto it = volume.density->tree().cbeginValueOn(); it; ++it)
     if (!it.isVoxelValue()) box(it.getBoundingBox());
-  for (int a = 0; a < 3; ++a) {
-    d.world_min[a] = (b.min()[a] - 0.5) * dx;
-    d.world_max[a] = (b.max()[a] + 0.5) * dx;
-  }
+  if (!b.empty())  // an empty tree's box runs from INT_MAX to INT_MIN; its volume is the point at the origin
+    for (int a = 0; a < 3; ++a) {
+      d.world_min[a] = (b.min()[a] - 0.5) * dx;
+      d.world_max[a] = (b.max()[a] + 0.5) * dx;
+    }
   d.coarse = CoarseOccupancy::of(d.world_min, d.world_max, d.occupied);
   return d;
 }

@@ -104,7 +104,7 @@ inline constexpr size_t kMaxKeptShadowMapsBytes = size_t(64) << 20;
 struct DeviceVolume {
   cl::Buffer density, temperature;
   bool has_temperature = false;
-  Vec3d world_min{0, 0, 0}, world_max{0, 0, 0};  // the active voxels' cells, m
+  Vec3d world_min{0, 0, 0}, world_max{0, 0, 0};  // the active voxels' cells, m; both 0 when none is
   // World boxes (min x, y, z, max x, y, z; m) of the density's active leaves and tiles grown by a voxel:
   // where the deep shadow map is needed (its nodes farther than one map cell from all are skipped).
   std::vector<std::array<double, 6>> occupied;

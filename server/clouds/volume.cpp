@@ -9,13 +9,16 @@
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <numeric>
 #include <sstream>
 
 #include "clouds/advection.h"
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::clouds {
 
@@ -77,22 +80,32 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
   return out;
 }
 
-FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t) {
+FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t, const std::string& field) {
   FloatGrid::Ptr out = FloatGrid::create(0.0f);
   out->setTransform(density.transform().copy());
   out->tree().topologyUnion(density.tree());
   out->tree().voxelizeActiveTiles();
   out->setName("temperature");
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
-  leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+  std::vector<float> lowest(leaves.leafCount(), INFINITY), highest(leaves.leafCount(), -INFINITY);
+  leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t n) {
     for (auto it = leaf.beginValueOn(); it; ++it) {
       openvdb::Vec3d x = out->transform().indexToWorld(it.getCoord());
       double T = t.surface - t.lapse_rate * (x[2] - t.base_altitude);  // hydrostatic lapse (§6.3)
       if (t.fluctuation > 0) T += t.fluctuation * fractal_noise(t.noise, {x[0], x[1], x[2]});
       it.setValue(float(T));
+      lowest[n] = std::fmin(lowest[n], float(T)), highest[n] = std::fmax(highest[n], float(T));
     }
   });
-  return out;
+  const float T_min =
+      std::reduce(lowest.begin(), lowest.end(), float(INFINITY), [](float a, float b) { return std::fmin(a, b); });
+  const float T_max =
+      std::reduce(highest.begin(), highest.end(), -float(INFINITY), [](float a, float b) { return std::fmax(a, b); });
+  if (T_min > 0 && T_max <= kMaxTemperature) return out;  // no voxel: +inf and -inf
+  fail(Code::InvalidArgument, field + ".temperature makes temperatures from " + validate::number(T_min) + " K to " +
+                                  validate::number(T_max) + " K over the volume; they must lie in (0, " +
+                                  validate::number(kMaxTemperature) +
+                                  "] K: mind surface, base_altitude, lapse_rate and fluctuation");
 }
 
 CloudVolume combine_max(const CloudVolume& a, const CloudVolume& b) {
@@ -183,7 +196,7 @@ CloudVolume build_cloud(const CloudModel& model, const std::string& field, const
   CloudVolume volume;
   volume.density = density;
   cancel.check(field + ": the build");
-  if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature);
+  if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature, field);
   volume.stats = volume_stats(*density);
   return volume;
 }

@@ -146,6 +146,51 @@ TEST(CloudsService, BuildKeepRenderRelease) {
   EXPECT_NE(status.error_message().find("volume_id"), std::string::npos) << status.error_message();
 }
 
+// A model inside every range whose density is zero everywhere (a particle biased to -1) builds a volume
+// with no active voxel: its bounds are the origin's point, not OpenVDB's empty box (INT_MAX to INT_MIN, 1e9 m
+// across, which made every render's step "too costly" or "below the float resolution"), and it renders as
+// empty space: transmittance 1, no radiance, no depth.
+TEST(CloudsService, AVolumeWithNoActiveVoxelRendersAsEmptySpace) {
+  v1::BuildVolumeRequest build;
+  build.mutable_model()->set_voxel_size(0.5);
+  auto* particle = build.mutable_model()->add_particles();
+  particle->set_radius(3);
+  particle->set_bias(-1);
+  build.set_keep(true);
+  v1::BuildVolumeResponse built;
+  auto c = call();
+  auto status = c.build(build, &built);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const auto& s = built.summary();
+  EXPECT_EQ(s.active_voxels(), 0u);
+  for (const auto* corner : {&s.bounds_min(), &s.bounds_max()}) {
+    EXPECT_EQ(corner->x(), 0.0);
+    EXPECT_EQ(corner->y(), 0.0);
+    EXPECT_EQ(corner->z(), 0.0);
+  }
+  v1::RenderRequest render;
+  render.set_volume_id(s.volume_id());
+  *render.mutable_settings() = small_render();
+  for (auto shadow : {v1::SHADOW_MODE_DIRECT, v1::SHADOW_MODE_DEEP_SHADOW_MAP}) {
+    render.mutable_settings()->set_shadow(shadow);
+    v1::RenderResponse image;
+    auto r = call();
+    status = r.render(render, &image);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    std::vector<float> px(24 * 16 * 5);
+    ASSERT_EQ(image.image().data().size(), px.size() * sizeof(float));
+    std::memcpy(px.data(), image.image().data().data(), image.image().data().size());
+    const size_t plane = 24 * 16;
+    for (size_t i = 0; i < plane; ++i) {
+      ASSERT_EQ(px[i], 0.0f) << i;               // radiance_0
+      ASSERT_EQ(px[plane + i], 0.0f) << i;       // radiance_1
+      ASSERT_EQ(px[2 * plane + i], 1.0f) << i;   // transmittance_0
+      ASSERT_EQ(px[3 * plane + i], 1.0f) << i;   // transmittance_1
+      ASSERT_EQ(px[4 * plane + i], -1.0f) << i;  // depth
+    }
+  }
+}
+
 // A StreamEvolution of sphere_model() (and `edit`'s changes) at `times`, small_render() frames: the frames
 // it sent, and its status.
 std::vector<v1::EvolutionFrame> evolve(const std::vector<double>& times,

@@ -133,6 +133,27 @@ TEST(Errors, AShapeFarFromTheOriginIsRefusedByName) {
   validate(m);
 }
 
+// Inputs each inside its range can still make a temperature field that no gas has: +-inf (a base altitude of
+// 1e300 m), below 0 K (a lapse over a cloud 5 km above its base, or a fluctuation larger than the surface
+// temperature) or past kMaxTemperature (an inversion). Each is refused; a cold cloud above 0 K is not.
+TEST(Errors, ATemperatureFieldOutsideZeroToTheCapIsRefused) {
+  auto with = [](double z, double surface, double base_altitude, double lapse_rate, double fluctuation) {
+    CloudModel m = sphere_model();
+    m.spheres[0].center[2] = z;
+    m.temperature = {true, surface, base_altitude, lapse_rate, fluctuation, {}};
+    return m;
+  };
+  const std::string needle = "model.temperature makes temperatures from ";
+  expect_error([&] { build_cloud(with(0, 288.15, 1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "inf K");
+  expect_error([&] { build_cloud(with(0, 288.15, -1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "-inf K");
+  expect_error([&] { build_cloud(with(5000, 288.15, 0, 0.1, 0)); }, Code::InvalidArgument, needle + "-2");
+  expect_error([&] { build_cloud(with(0, 1e-3, 0, 0, 1000)); }, Code::InvalidArgument, needle + "-");
+  expect_error([&] { build_cloud(with(0, 1e4, -1e6, -0.1, 0)); }, Code::InvalidArgument, "] K: mind surface");
+  const CloudVolume cold = build_cloud(with(2800, 288.15, 0, 0.1, 0));  // 288.15 - 0.1 (2800 +- 4.5) K
+  auto T = cold.temperature->getConstAccessor();
+  EXPECT_NEAR(T.getValue(openvdb::Coord(0, 0, 5600)), 8.15, 1e-3);
+}
+
 TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
