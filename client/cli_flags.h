@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "client/cli.h"
@@ -14,7 +15,10 @@
 namespace squall::cli {
 
 double number(const std::string& flag, const std::string& text, const char* unit);
-uint64_t integer(const std::string& flag, const std::string& text, uint64_t min = 0);
+// A decimal integer in [min, max], nothing before or after it (no sign, no space).
+uint64_t integer(const std::string& flag, const std::string& text, uint64_t min = 0, uint64_t max = UINT64_MAX);
+// "WxH": two integers in [min, 2^32 - 1] and nothing else.
+std::pair<uint32_t, uint32_t> extent(const std::string& flag, const std::string& text, uint32_t min);
 
 template <typename Enum>
 Enum named(const std::string& flag, const std::string& text, const std::map<std::string, Enum>& names) {

@@ -69,6 +69,14 @@ std::vector<double> numbers(const std::string& flag, const std::string& text, si
   return out;
 }
 
+// A count given among a flag's numbers (--pyro's layers, --advect's substeps): a whole number in [0, 2^32 - 1].
+uint32_t count(const std::string& flag, const std::string& text, double v) {
+  if (!(v >= 0 && v <= UINT32_MAX && v == std::floor(v)))
+    throw UsageError(flag + " " + text + ": " + (std::ostringstream() << v).str() +
+                     " is no count (a whole number >= 0)");
+  return uint32_t(v);
+}
+
 void vec(const std::vector<double>& v, size_t at, v1::Vec3* out) {
   out->set_x(v[at]);
   out->set_y(v[at + 1]);
@@ -111,7 +119,7 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
   else if (flag == "--pyro") {
     auto v = numbers(flag, value, 3, 4);
     auto* p = m.mutable_pyroclastic();
-    p->set_layers(uint32_t(v[0]));
+    p->set_layers(count(flag, value, v[0]));
     p->set_amplitude(v[1]);
     p->mutable_noise()->set_frequency(v[2]);
     if (v.size() == 4) p->set_gamma(v[3]);
@@ -132,7 +140,7 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
     auto* a = m.mutable_advection();
     a->set_speed(v[0]);
     a->set_time(v[1]);
-    if (v.size() == 3) a->set_substeps(uint32_t(v[2]));
+    if (v.size() == 3) a->set_substeps(count(flag, value, v[2]));
     a->set_scheme(scheme == "sl" ? v1::ADVECTION_SCHEME_SEMI_LAGRANGIAN : v1::ADVECTION_SCHEME_MODIFIED_MACCORMACK);
   } else if (flag == "--temperature") {
     auto v = numbers(flag, value, 2, 2);
@@ -141,7 +149,7 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
     t->set_surface(v[0]);
     t->set_lapse_rate(v[1]);
   } else if (flag == "--max-voxels")
-    m.set_max_active_voxels(uint64_t(numbers(flag, value, 1, 1)[0]));
+    m.set_max_active_voxels(integer(flag, value, 1));
   else
     return false;
   if (flag == "--sphere" || flag == "--ellipsoid" || flag == "--mesh" || flag == "--particle") r.has_shape = true;
@@ -160,11 +168,9 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
   else if (flag == "--fov")
     c->set_vertical_fov_deg(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--size") {
-    int w = 0, h = 0;
-    if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1)
-      throw UsageError("--size " + value + ": WxH");
-    c->set_width(uint32_t(w));
-    c->set_height(uint32_t(h));
+    const auto [w, h] = extent(flag, value, 1);
+    c->set_width(w);
+    c->set_height(h);
   } else if (flag == "--step")
     s.set_step(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--shadow-step")
@@ -186,6 +192,8 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     auto* p = s.mutable_phase();
     auto colon = value.find(':');
     std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
+    const std::string usage = "--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU";
+    if (kind != "uniform" && args.empty()) throw UsageError(usage);
     if (kind == "uniform")
       p->set_kind(v1::PHASE_KIND_UNIFORM);
     else if (kind == "hg") {
@@ -203,7 +211,7 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
       p->set_ff_n(v[0]);
       p->set_ff_mu(v[1]);
     } else
-      throw UsageError("--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU");
+      throw UsageError(usage);
   } else if (flag == "--shadow") {
     if (value == "none")
       s.set_shadow(v1::SHADOW_MODE_NONE);
@@ -335,16 +343,15 @@ int render(client::Client& client, const Request& r) {
 
 int run(client::Client& client, const std::vector<std::string>& args) {
   return run_verb("cloud", kHelp, args, [&] {
+    if (args[0] != "build" && args[0] != "render")
+      throw UsageError("unknown cloud verb " + args[0] + " (build or render)");
     Request r = parse(args);
     if (args[0] == "build") {
       if (!r.has_shape) throw UsageError("build needs at least one --sphere, --ellipsoid, --mesh or --particle");
       return build(client, r);
     }
-    if (args[0] == "render") {
-      if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
-      return render(client, r);
-    }
-    throw UsageError("unknown cloud verb " + args[0] + " (build or render)");
+    if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
+    return render(client, r);
   });
 }
 

@@ -72,8 +72,8 @@ struct Wake {
 void grid_flag(const std::string& value, v1::EWaveConfig& c) {
   size_t x = value.find_first_of("x,");
   if (x == std::string::npos) throw UsageError("--grid " + value + ": must be NXxNY");
-  c.set_nx(uint32_t(integer("--grid", value.substr(0, x), 1)));
-  c.set_ny(uint32_t(integer("--grid", value.substr(x + 1), 1)));
+  c.set_nx(uint32_t(integer("--grid", value.substr(0, x), 1, UINT32_MAX)));
+  c.set_ny(uint32_t(integer("--grid", value.substr(x + 1), 1, UINT32_MAX)));
 }
 
 void apply(const std::string& flag, const std::string& value, Wake& w) {

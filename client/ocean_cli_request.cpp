@@ -116,8 +116,8 @@ bool layer_flag(const std::string& flag, const std::string& value, v1::LayerSpec
     l.set_extent_y(number(flag, y, "m"));
   } else if (flag == "--grid") {
     auto [x, y] = pair_of(value);
-    l.set_nx(uint32_t(integer(flag, x)));
-    l.set_ny(uint32_t(integer(flag, y)));
+    l.set_nx(uint32_t(integer(flag, x, 0, UINT32_MAX)));
+    l.set_ny(uint32_t(integer(flag, y, 0, UINT32_MAX)));
   } else if (flag == "--spectrum") {
     l.set_spectrum(named(flag, value, kSpectra));
   } else if (flag == "--spreading") {
@@ -177,8 +177,8 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
     t.set_b_correction(on_off(flag, value));
   } else if (flag == "--output-grid") {
     auto [x, y] = pair_of(value);
-    t.mutable_output()->set_nx(uint32_t(integer(flag, x)));
-    t.mutable_output()->set_ny(uint32_t(integer(flag, y)));
+    t.mutable_output()->set_nx(uint32_t(integer(flag, x, 0, UINT32_MAX)));
+    t.mutable_output()->set_ny(uint32_t(integer(flag, y, 0, UINT32_MAX)));
   } else if (flag == "--output-extent") {
     auto [x, y] = pair_of(value);
     t.mutable_output()->set_extent_x(number(flag, x, "m"));

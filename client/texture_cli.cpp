@@ -142,16 +142,15 @@ void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
 void noise_flag(const std::string& value, v1::NoiseTexture* n) {
   auto v = items(value);
   if (v.empty() || v.size() > 3) throw UsageError("--noise " + value + ": BANDS[,CELLS[,SEED]]");
-  n->set_bands(uint32_t(integer("--noise", v[0], 1)));
-  if (v.size() > 1) n->set_base_cells(uint32_t(integer("--noise", v[1], 1)));
-  if (v.size() > 2) n->set_seed(uint32_t(integer("--noise", v[2])));
+  n->set_bands(uint32_t(integer("--noise", v[0], 1, UINT32_MAX)));
+  if (v.size() > 1) n->set_base_cells(uint32_t(integer("--noise", v[1], 1, UINT32_MAX)));
+  if (v.size() > 2) n->set_seed(uint32_t(integer("--noise", v[2], 0, UINT32_MAX)));
 }
 
 void size_flag(const std::string& value, v1::TextureOutput* o) {
-  int w = 0, h = 0;
-  if (std::sscanf(value.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1) throw UsageError("--size " + value + ": WxH");
-  o->set_width(uint32_t(w));
-  o->set_height(uint32_t(h));
+  const auto [w, h] = extent("--size", value, 1);
+  o->set_width(w);
+  o->set_height(h);
 }
 
 bool texture_flag(const std::string& flag, const std::string& value, v1::AdvectTextureRequest& r) {
@@ -199,7 +198,7 @@ void apply(const std::string& flag, const std::string& value, Advect& a) {
   else if (flag == "--velocity")
     velocity_flag(value, r.mutable_velocity()->mutable_named());
   else if (flag == "--frames")
-    r.set_frames(uint32_t(std::min<uint64_t>(integer(flag, value, 1), UINT32_MAX)));
+    r.set_frames(uint32_t(integer(flag, value, 1, UINT32_MAX)));
   else if (flag == "--dt")
     r.set_dt(number(flag, value, "s"));
   else if (flag == "--d")

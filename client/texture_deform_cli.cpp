@@ -109,13 +109,13 @@ void apply(const std::string& flag, const std::string& value, Deform& d) {
   else if (flag == "--kappa")
     r.set_kappa(number(flag, value, ""));
   else if (flag == "--frames")
-    r.set_frames(uint32_t(std::min<uint64_t>(integer(flag, value, 1), UINT32_MAX)));
+    r.set_frames(uint32_t(integer(flag, value, 1, UINT32_MAX)));
   else if (flag == "--dt")
     r.set_dt(number(flag, value, "s"));
   else if (flag == "--substeps")
-    r.set_substeps(uint32_t(std::min<uint64_t>(integer(flag, value, 1), 1000)));
+    r.set_substeps(uint32_t(integer(flag, value, 1, UINT32_MAX)));
   else if (flag == "--stack")
-    r.set_stack_levels(uint32_t(std::min<uint64_t>(integer(flag, value), 1000)));
+    r.set_stack_levels(uint32_t(integer(flag, value, 0, UINT32_MAX)));
   else if (flag == "--planes") {
     r.clear_planes();
     for (const std::string& name : items(value)) r.add_planes(named(flag, name, kPlanes));

@@ -67,10 +67,8 @@ River parse(const std::vector<std::string>& args) {
     if (flag == "--river") {
       *r.request.mutable_river() = river_file(flag, value), has_river = true;
     } else if (flag == "--size") {
-      int nx = 0, ny = 0;
-      if (std::sscanf(value.c_str(), "%dx%d", &nx, &ny) != 2 || nx < 2 || ny < 2)
-        throw UsageError("--size " + value + ": NXxNY, 2 or more each");
-      r.request.set_nx(uint32_t(nx)), r.request.set_ny(uint32_t(ny));
+      const auto [nx, ny] = extent(flag, value, 2);
+      r.request.set_nx(nx), r.request.set_ny(ny);
     } else if (flag == "--region") {
       const std::vector<double> v = numbers(flag, value, {4});
       auto* region = r.request.mutable_region();

@@ -45,11 +45,23 @@ struct MeshSize {
   double volume, area;
 };
 
+// Vertex k of mesh `f` as the request names it: the OBJ text's (k + 1)th vertex, or the flat list's x, y, z at
+// vertices[3k], [3k + 1] and [3k + 2].
+std::string vertex_path(const std::string& f, const TriangleMesh& m, size_t k) {
+  if (m.from_obj) return f + ".obj vertex " + std::to_string(k + 1);
+  return f + ".vertices[" + std::to_string(3 * k) + ".." + std::to_string(3 * k + 2) + "]";
+}
+
 MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument,
          f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
-  for (size_t i = 0; i < m.vertices.size(); ++i) validate::finite_xyz(validate::at(f + ".vertices", i), m.vertices[i]);
+  for (size_t i = 0; i < m.vertices.size(); ++i)
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(m.vertices[i][a]))
+        validate::finite(
+            m.from_obj ? vertex_path(f, m, i) + " " + "xyz"[a] : validate::at(f + ".vertices", 3 * i + size_t(a)),
+            m.vertices[i][a]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
                                     " indices; it needs a multiple of 3 and at least 4 triangles");
@@ -135,7 +147,7 @@ double validate(const CloudModel& m, const std::string& prefix) {
     std::string s = validate::at(f + ".meshes", i);
     const MeshSize size = check_mesh(s, m.meshes[i]);
     for (size_t k = 0; k < m.meshes[i].vertices.size(); ++k)
-      check_reach(validate::at(s + ".vertices", k), m.meshes[i].vertices[k], grow, m.voxel_size);
+      check_reach(vertex_path(s, m.meshes[i], k), m.meshes[i].vertices[k], grow, m.voxel_size);
     volume += mesh_volume_estimate(m.meshes[i], size, grow + 2 * m.voxel_size);  // the band's 2 more voxels
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {

@@ -25,6 +25,7 @@ struct Ellipsoid {
 struct TriangleMesh {
   std::vector<Vec3d> vertices;      // m, finite, >= 4
   std::vector<uint32_t> triangles;  // 3 vertex indices per triangle, counter-clockwise seen from outside
+  bool from_obj = false;            // errors name vertex k as the OBJ text's (k + 1)th, else as vertices[3k..3k+2]
 };
 
 // Cumulo pyroclastic displacement (eqs 105-112): layer n adds amplitude * |N_n(X)|^gamma to l, with

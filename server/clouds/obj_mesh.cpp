@@ -8,6 +8,7 @@ namespace squall::clouds {
 
 TriangleMesh parse_obj(const std::string& text, const std::string& field) {
   TriangleMesh mesh;
+  mesh.from_obj = true;
   std::istringstream lines(text);
   std::string line;
   int number = 0;

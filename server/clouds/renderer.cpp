@@ -25,7 +25,7 @@ Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[
 Vec3d cross(const Vec3d& a, const Vec3d& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-double norm(const Vec3d& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+double norm(const Vec3d& a) { return std::hypot(a[0], a[1], a[2]); }  // neither underflows nor overflows
 Vec3d unit(const Vec3d& a) {
   double n = norm(a);
   return {a[0] / n, a[1] / n, a[2] / n};

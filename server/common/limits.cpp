@@ -26,22 +26,26 @@ void Slot::release() {
 }
 
 void LimitGate::check_grid(const std::string& field, int64_t nx, int64_t ny, int64_t nz) const {
-  const struct {
-    const char* axis;
-    int64_t n;
-  } extents[] = {{"nx", nx}, {"ny", ny}, {"nz", nz}};
-  for (const auto& e : extents) {
-    bool is_optional_z = e.axis[1] == 'z' && e.n == 0;
-    if (e.n < 1 && !is_optional_z)
-      fail(Code::InvalidArgument, field + "." + e.axis + " = " + std::to_string(e.n) + " must be >= 1");
+  if (nz == 0) return check_grid(field + ".nx", field + ".ny", nx, ny);
+  check_extents({field + ".nx", field + ".ny", field + ".nz"}, {nx, ny, nz});
+}
+
+void LimitGate::check_grid(const std::string& x_field, const std::string& y_field, int64_t nx, int64_t ny) const {
+  check_extents({x_field, y_field}, {nx, ny});
+}
+
+void LimitGate::check_extents(const std::vector<std::string>& fields, const std::vector<int64_t>& extents) const {
+  double cells = 1;  // in floating point, so that huge extents cannot overflow the product
+  std::string product;
+  for (size_t a = 0; a < fields.size(); ++a) {
+    if (extents[a] < 1) fail(Code::InvalidArgument, fields[a] + " = " + std::to_string(extents[a]) + " must be >= 1");
+    cells *= double(extents[a]);
+    product += (a ? " * " : "") + fields[a];
   }
-  // Compare in floating point first so that huge extents cannot overflow the product.
-  double cells_f = double(nx) * double(ny) * double(nz > 0 ? nz : 1);
-  if (cells_f > double(limits_.max_grid_cells)) {
-    std::string product = field + ".nx * " + field + ".ny" + (nz > 0 ? " * " + field + ".nz" : "");
-    const std::string cells = cells_f < 0x1p64 ? std::to_string(uint64_t(cells_f)) : validate::number(cells_f);
+  if (cells > double(limits_.max_grid_cells)) {
+    const std::string count = cells < 0x1p64 ? std::to_string(uint64_t(cells)) : validate::number(cells);
     fail(Code::ResourceExhausted,
-         product + " = " + cells + " cells exceeds --max-grid-cells = " + std::to_string(limits_.max_grid_cells));
+         product + " = " + count + " cells exceeds --max-grid-cells = " + std::to_string(limits_.max_grid_cells));
   }
 }
 

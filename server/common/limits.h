@@ -73,6 +73,8 @@ class LimitGate {
   // field.nx / .ny / .nz) and the product at most max_grid_cells (RESOURCE_EXHAUSTED).
   // nz = 0 means a 2D grid. Sizes are signed so a negative request value is caught, not wrapped.
   void check_grid(const std::string& field, int64_t nx, int64_t ny, int64_t nz = 0) const;
+  // The same for a 2D grid whose extents have fields of other names (a texture's width and height).
+  void check_grid(const std::string& x_field, const std::string& y_field, int64_t nx, int64_t ny) const;
 
   // Bytes a reply would carry; RESOURCE_EXHAUSTED beyond max_message_bytes.
   void check_message_bytes(const std::string& what, uint64_t bytes) const;
@@ -129,6 +131,8 @@ class LimitGate {
   static Slot take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,
                    const char* flag, const char* held_as);
   Slot take_memory(const std::string& what, uint64_t bytes);  // of the memory budget, taking back nothing
+  // Each extent >= 1 (INVALID_ARGUMENT naming its field), their product at most max_grid_cells.
+  void check_extents(const std::vector<std::string>& fields, const std::vector<int64_t>& extents) const;
 
   Limits limits_;
   std::atomic<uint64_t> streams_{0};

@@ -125,6 +125,8 @@ class SessionStore {
                                       "32 lowercase hex digits (128 random bits)");
     if (const StateDir* dir = state_dir(); dir && (dir->checkpointed(proposed) || dir->owner(proposed)))
       fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
+    if (std::lock_guard<std::mutex> lock(mutex_); entries_.count(proposed))  // add() checks again, as it stores
+      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" is already a live " + kind_);
     return proposed;
   }
 

@@ -1,5 +1,6 @@
 #include "common/validate.h"
 
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 
@@ -53,8 +54,13 @@ void count(const std::string& path, size_t have, size_t want, const std::string&
 }
 
 void each(const std::string& path, const float* values, size_t n, const Interval& interval) {
+  // float32 values against bounds stated in decimal: each bound as its nearest float, so that 1e30, which
+  // arrives as 1.00000002e30, is within [-1e30, 1e30].
+  auto nearest_float = [](double b) { return std::abs(b) <= FLT_MAX ? double(float(b)) : b; };
+  Interval nearest = interval;
+  nearest.lo = nearest_float(interval.lo), nearest.hi = nearest_float(interval.hi);
   for (size_t i = 0; i < n; ++i)
-    if (!interval.contains(values[i])) reject(at(path, i), values[i], interval.rule());
+    if (!nearest.contains(values[i])) reject(at(path, i), values[i], interval.rule());
 }
 
 int known(const std::string& path, int value, int count, const std::string& type) {

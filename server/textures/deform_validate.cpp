@@ -56,7 +56,7 @@ void stroke(const BrushStroke& s, const std::string& path) {
 void texture(const DeformSpec& spec, const LimitGate& gate, const std::string& path) {
   in(path + ".width", int64_t(spec.width), 4, kMaxSide);
   in(path + ".height", int64_t(spec.height), 4, kMaxSide);
-  gate.check_grid(path, spec.width, spec.height);
+  gate.check_grid(path + ".width", path + ".height", spec.width, spec.height);
   in(path + ".channels size", int64_t(spec.channels), 1, kMaxChannels);
   const size_t n = size_t(spec.width) * spec.height * spec.channels;
   count(path + ".channels", spec.pixels.size(), n, "width * height * channels");

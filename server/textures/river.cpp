@@ -114,7 +114,7 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
   const std::string p = path + "." + prefix;
   in(p + "nx", int64_t(grid.nx), 2, 4096);
   in(p + "ny", int64_t(grid.ny), 2, 4096);
-  gate.check_grid(path, grid.nx, grid.ny);
+  gate.check_grid(p + "nx", p + "ny", grid.nx, grid.ny);
   in(p + "region.x0", grid.x0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(p + "region.y0", grid.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(p + "region.x1", grid.x1, open_closed(grid.x0, kMaxCoordinate));

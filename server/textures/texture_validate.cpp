@@ -124,7 +124,7 @@ void lookup(const FinalLookupSpec& l, const LimitGate& gate, const std::string& 
 void texture(const TextureSpec& t, const LimitGate& gate, const std::string& path) {
   known(path + ".kind", t.kind, 2, "texture kind");
   if (t.kind == SQUALL_TEXTURE_IMAGE) {
-    gate.check_grid(path + ".image", t.width, t.height);
+    gate.check_grid(at(path + ".image.channels", 0), t.width, t.height);  // a png or pixels8 was checked as read
     in(path + ".image.channels", int64_t(t.channels), 1, SQUALL_TEXTURE_MAX_CHANNELS);
     const size_t n = size_t(t.width) * t.height * t.channels;
     count(path + ".image.pixels", t.pixels.size(), n, "width * height * channels");
@@ -142,7 +142,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
 }
 
 void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
-  gate.check_grid(path, o.width, o.height);
+  gate.check_grid(path + ".width", path + ".height", o.width, o.height);
   in(path + ".region.x0", o.x0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".region.y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".region.x1", o.x1, open_closed(o.x0, kMaxCoordinate));
@@ -177,7 +177,7 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
 void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, const std::string& path) {
   in(path + ".grid_nx", int64_t(p.grid_nx), 2, 4096);
   in(path + ".grid_ny", int64_t(p.grid_ny), 2, 4096);
-  gate.check_grid(path + ".grid", p.grid_nx, p.grid_ny);
+  gate.check_grid(path + ".grid_nx", path + ".grid_ny", p.grid_nx, p.grid_ny);
   if (method == Method::Naive) return;  // never regenerated: no latency
   in(path + ".latencies size", int64_t(p.latencies.size()), 1,
      method == Method::EulerianMultilayer ? SQUALL_EULERIAN_MAX_LAYERS : 1);

@@ -196,7 +196,7 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
   png_set_read_fn(reader.png, &source, png_read_bytes);
   PngHeader h;
   if (!png_header(reader.png, reader.info, &h)) fail(Code::InvalidArgument, path + " is not a readable PNG file");
-  gate.check_grid(path, int64_t(h.width), int64_t(h.height));
+  gate.check_grid(path + " width", path + " height", int64_t(h.width), int64_t(h.height));
   const size_t row_bytes = size_t(h.width) * h.channels * (h.depth / 8);
   std::vector<png_byte> pixels(row_bytes * h.height);
   std::vector<png_bytep> rows(h.height);
@@ -219,7 +219,7 @@ void pixels8_image(const v1::Pixels8& p, const LimitGate& gate, const std::strin
   validate::in(path + ".width", int64_t(p.width()), 1, int64_t(1) << 30);
   validate::in(path + ".height", int64_t(p.height()), 1, int64_t(1) << 30);
   validate::in(path + ".channels", int64_t(p.channels()), 1, SQUALL_TEXTURE_MAX_CHANNELS);
-  gate.check_grid(path, int64_t(p.width()), int64_t(p.height()));
+  gate.check_grid(path + ".width", path + ".height", int64_t(p.width()), int64_t(p.height()));
   const size_t pixels = size_t(p.width()) * p.height();
   validate::count(path + ".data", p.data().size(), pixels * p.channels(), "width x height x channels bytes");
   out.width = int(p.width());

@@ -586,5 +586,31 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
 }
 
+// Flags whose values are not what they say exit 2 naming the value, before any call: a count that is
+// negative, fractional or past its type (they wrapped or were cut), a size with more after WxH (8x8x8 rendered
+// 8x8), a phase with no parameters, an unknown verb (it asked for -o first).
+TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
+  const std::string dir = test::temp_dir("clouds-cli-flags");
+  const std::vector<std::string> model = {"--voxel-size", "0.5", "--sphere", "0,0,0,4", "-o", dir + "/x.exr"};
+  const std::pair<std::vector<std::string>, std::string> cases[] = {
+      {{"build", "--max-voxels", "-5"}, "--max-voxels -5: must be an integer >= 1"},
+      {{"build", "--max-voxels", "99999999999999999999999"}, "--max-voxels 99999999999999999999999: must be"},
+      {{"build", "--pyro", "-1,1,0.3"}, "--pyro -1,1,0.3: -1 is no count"},
+      {{"build", "--advect", "1,2,2.5"}, "--advect 1,2,2.5: 2.5 is no count"},
+      {{"render", "--size", "8x8x8"}, "--size 8x8x8: must be WxH, two integers >= 1"},
+      {{"render", "--size", "8x4294967296"}, "--size 8x4294967296: must be WxH"},
+      {{"render", "--phase", "hg"}, "--phase hg: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
+      {{"frobnicate"}, "unknown cloud verb frobnicate (build or render)"},
+  };
+  for (const auto& [flags, message] : cases) {
+    std::vector<std::string> args = {kSquall, "--address", "127.0.0.1:1", "cloud"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    args.insert(args.end(), model.begin(), model.end());
+    std::string out;
+    EXPECT_EQ(test::run(args, &out), 2) << flags.back() << ": " << out;
+    EXPECT_NE(out.find(message), std::string::npos) << out;
+  }
+}
+
 }  // namespace
 }  // namespace squall

@@ -59,6 +59,17 @@ TEST_F(SessionStoreTest, IdsAreDistinctAndCallsReachTheirSession) {
   expect_error(Code::NotFound, "counter_id = \"nope\"", [&] { s.get("nope"); });
 }
 
+// A client may propose a new session's id (in metadata, for a proxy to route on): one of a live session is
+// refused naming where it came from, before anything is built under it.
+TEST_F(SessionStoreTest, AProposedIdOfALiveSessionIsRefusedNamingTheProposal) {
+  auto s = store();
+  const std::string id = s.add(s.reserve(8), std::make_shared<Counter>());
+  expect_error(Code::FailedPrecondition, "metadata x-squall-session = \"" + id + "\" is already a live counter",
+               [&] { s.id_for(id, "metadata x-squall-session"); });
+  const std::string other = "c-" + std::string(32, 'a');
+  EXPECT_EQ(s.id_for(other, "metadata x-squall-session"), other);
+}
+
 TEST_F(SessionStoreTest, IdleSessionsAreEvictedAfterTheTtlOnTheInjectedClock) {
   auto s = store({}, 100ms);
   std::string kept = s.add(s.reserve(0), std::make_shared<Counter>());

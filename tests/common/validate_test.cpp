@@ -38,6 +38,12 @@ TEST(Validate, MapsHaveTheirShapeAndEveryValueIsChecked) {
   expect_error(Code::InvalidArgument, "obstruction[3] = 2 must be finite and in [0, 1]",
                [&] { validate::each("obstruction", map, 4, validate::closed(0, 1)); });
   validate::each("obstruction", map, 3, validate::closed(0, 1));
+  // float32 values against a decimal bound: 1e30 arrives as 1.00000002e30, and is within [-1e30, 1e30]; the
+  // next float up is not.
+  const float huge[] = {-1e30f, 1e30f, std::nextafter(1e30f, INFINITY)};
+  validate::each("table", huge, 2, validate::closed(-1e30, 1e30));
+  expect_error(Code::InvalidArgument, "table[2] = 1.00000009e+30 must be finite and in [-1e+30, 1e+30]",
+               [&] { validate::each("table", huge, 3, validate::closed(-1e30, 1e30)); });
   expect_error(Code::InvalidArgument, "eye.z = nan must be finite", [] {
     validate::finite_xyz("eye", std::array<double, 3>{1, 2, NAN});
   });

@@ -697,6 +697,13 @@ def bad(
     return Case(rpc, name, change, code, field, **options)
 
 
+def tetrahedron(y2: float) -> clouds_pb2.MeshSpec:
+    """A closed mesh of four vertices, the third at (0, y2, 0)."""
+    return clouds_pb2.MeshSpec(
+        vertices=[0, 0, 0, 4, 0, 0, 0, y2, 0, 0, 0, 4], triangles=[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+    )
+
+
 def nothing(request: Any, env: Optional[Env]) -> None:
     """No change: the request is valid, the case breaks its metadata."""
 
@@ -1199,6 +1206,19 @@ CASES += [
         ),
         "model.meshes[0].triangles[11]",
     ),
+    # vertices is a flat list of x, y, z: the y of the third vertex is vertices[7].
+    bad(
+        R,
+        "mesh_vertex_nan",
+        put("model.meshes", [tetrahedron(y2=NAN)]),
+        "model.meshes[0].vertices[7] = nan",
+    ),
+    bad(
+        R,
+        "mesh_vertex_far",
+        put("model.meshes", [tetrahedron(y2=4e9)]),
+        "model.meshes[0].vertices[6..8] = (0, 4e+09, 0)",
+    ),
     bad(
         R,
         "mesh_obj_garbage",
@@ -1434,7 +1454,7 @@ CASES += [
         R,
         "output_oversize",
         also(put("output.width", 512), put("output.height", 512)),
-        "request.output.nx * request.output.ny",
+        "request.output.width * request.output.height",
         EXHAUSTED,
     ),
     bad(
@@ -1596,7 +1616,7 @@ CASES += [
                 )
             ),
         ),
-        "request.texture.image.pixels8",
+        "request.texture.image.pixels8.width * request.texture.image.pixels8.height",
         EXHAUSTED,
     ),
     bad(
@@ -1677,7 +1697,7 @@ CASES += [
         R,
         "eulerian_grid_oversize",
         also(put("eulerian.grid_nx", 4096), put("eulerian.grid_ny", 4096)),
-        "request.eulerian.grid",
+        "request.eulerian.grid_nx * request.eulerian.grid_ny",
         EXHAUSTED,
     ),
     bad(R, "eulerian_blend_unknown_enum", put("eulerian.blend", 9), "request.eulerian.blend"),
@@ -1899,7 +1919,7 @@ CASES += [
                 pixels8=textures_pb2.Pixels8(width=70000, height=70000, channels=1)
             ),
         ),
-        "request.texture.pixels8",
+        "request.texture.pixels8.width * request.texture.pixels8.height",
         EXHAUSTED,
     ),
     bad(R, "chart_wrong_ny", put("chart", grid_field(DEFORM_N, 4, 1.0)), "request.chart.ny"),
