@@ -55,6 +55,27 @@ void print_usage() {
   std::cerr << "exit codes: 0 ok, 1 not serving, 2 usage, 3 unreachable, 4 refused by the server, 5 local error\n";
 }
 
+// A metadata value as gRPC sends it: printable ASCII (RFC 7230 field content; gRPC aborts the process on
+// anything else). Empty when it is one, else why not.
+std::string header_problem(const std::string& value) {
+  for (unsigned char c : value)
+    if (c < 0x20 || c > 0x7e) {
+      char code[8];
+      std::snprintf(code, sizeof code, "\\x%02x", c);
+      return std::string("holds the byte ") + code + ": a metadata value is printable ASCII";
+    }
+  return "";
+}
+
+// The options' request id and token, sent as metadata: kUsage, with the message, when one cannot be.
+int check_metadata(const client::ClientOptions& options) {
+  for (const auto& [what, value] : {std::pair<const char*, std::string>{"--request-id", options.request_id},
+                                    {"the token (--token-file or $SQUALL_TOKEN)", options.token}})
+    if (std::string problem = header_problem(value); !problem.empty())
+      return std::cerr << "squall: " << what << " " << problem << "\n", kUsage;
+  return kOk;
+}
+
 }  // namespace
 
 std::map<std::string, Verb>& verbs() {
@@ -103,6 +124,7 @@ int main(int argc, char** argv) {
     }
   }
   if (i >= argc) return print_usage(), kUsage;
+  if (int status = check_metadata(options); status != kOk) return status;
   auto it = verbs().find(argv[i]);
   if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
   std::vector<std::string> args(argv + i + 1, argv + argc);

@@ -1,9 +1,7 @@
 // eWave obstruction map from shapes (J. Tessendorf, "Gilligan: A Prototype Framework for Simulating and
 // Rendering Maritime Environments" (2017), sec. 3.3, eq 74): O = 0 inside a shape, 1 outside, and the covered
-// fraction of each edge cell in between, estimated from SUBSAMPLES x SUBSAMPLES points per cell.
+// fraction of each edge cell in between, estimated from SQUALL_EWAVE_SUBSAMPLES^2 points per cell.
 #include "ewave/shapes.h"
-
-#define SUBSAMPLES 8
 
 static bool inside_polygon(float px, float py, __global const float* vertices, int first, int count) {
   bool inside = false;
@@ -44,15 +42,15 @@ __kernel void ewave_rasterize(__global float* obstruction, __global const EWaveS
     return;
   }
   int covered = 0;
-  for (int sy = 0; sy < SUBSAMPLES; ++sy) {
-    float py = y0 + (sy + 0.5f) * dy / SUBSAMPLES;
-    for (int sx = 0; sx < SUBSAMPLES; ++sx) {
-      float px = x0 + (sx + 0.5f) * dx / SUBSAMPLES;
+  for (int sy = 0; sy < SQUALL_EWAVE_SUBSAMPLES; ++sy) {
+    float py = y0 + (sy + 0.5f) * dy / SQUALL_EWAVE_SUBSAMPLES;
+    for (int sx = 0; sx < SQUALL_EWAVE_SUBSAMPLES; ++sx) {
+      float px = x0 + (sx + 0.5f) * dx / SQUALL_EWAVE_SUBSAMPLES;
       bool hit = false;
       for (int s = 0; s < shape_count && !hit; ++s) hit = inside_shape(shapes[s], px, py, vertices);
       covered += hit ? 1 : 0;
     }
   }
   float base = reset ? 1.0f : obstruction[i + nx * j];
-  obstruction[i + nx * j] = base * (1.0f - (float)covered / (SUBSAMPLES * SUBSAMPLES));
+  obstruction[i + nx * j] = base * (1.0f - (float)covered / (SQUALL_EWAVE_SUBSAMPLES * SQUALL_EWAVE_SUBSAMPLES));
 }

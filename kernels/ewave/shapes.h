@@ -19,6 +19,9 @@
 #define SQUALL_EWAVE_SHAPE_BOX 2
 #define SQUALL_EWAVE_SHAPE_POLYGON 3
 
+// ewave_rasterize estimates a cell's covered fraction from SUBSAMPLES x SUBSAMPLES points.
+#define SQUALL_EWAVE_SUBSAMPLES 8
+
 typedef struct {
   int kind;
   int first_vertex;

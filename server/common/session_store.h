@@ -468,6 +468,7 @@ class SessionStore {
     if (lookup(id)) return;  // resumed by a call that held moving_ before this one
     require_not_owned_elsewhere(id);
     if (!state_dir()->checkpointed(id)) return;
+    if (state_dir()->expired(id, policy_.ttl)) return;  // idle past the TTL: evicted, as it would be if live
     if (policy_.registry->draining())
       fail(Code::Unavailable,
            kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");

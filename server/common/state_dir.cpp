@@ -394,6 +394,12 @@ void StateDir::clear_handover(const std::string& id) const {
   if (auto file = file_of(id, kHandover)) std::remove(file->c_str());
 }
 
+bool StateDir::expired(const std::string& id, std::chrono::milliseconds ttl) const {
+  const std::optional<std::string> file = file_of(id, kSession);
+  const std::optional<Stamp> written = file ? stamp(*file) : std::nullopt;
+  return written && file_system_now() - written->written > ttl;
+}
+
 size_t StateDir::expire(std::chrono::milliseconds ttl) const {
   size_t removed = 0;
   std::error_code error;

@@ -73,6 +73,8 @@ class StateDir {
   // Removes the checkpoints, handover requests, locks and temporaries last written more than `ttl` ago (by
   // the file system's clock); returns how many.
   size_t expire(std::chrono::milliseconds ttl) const;
+  // Whether id's checkpoint was last written more than `ttl` ago: what expire() removes at its next pass.
+  bool expired(const std::string& id, std::chrono::milliseconds ttl) const;
 
   const std::string& path() const { return path_; }
 

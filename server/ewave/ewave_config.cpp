@@ -107,7 +107,8 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
   ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
-double max_dt(const EWaveConfig& c) { return c.trim ? shortest_wave_period(c) : kMaxDt; }
+// fmin: a period past kMaxDt (weak gravity) or infinite (a depth of 1e-300 in shallow water) is kMaxDt.
+double max_dt(const EWaveConfig& c) { return c.trim ? std::fmin(shortest_wave_period(c), kMaxDt) : kMaxDt; }
 
 void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
   positive("inputs.dt", in.dt, kMaxDt);

@@ -129,5 +129,8 @@ struct Frame {
 constexpr double kMaxTime = 1e9;
 constexpr size_t kMaxShapes = 1024;
 constexpr size_t kMaxShapeVertices = 65536;
+// Point-in-shape tests one step's rasterization may make (ewave_rasterize runs to its end once started): about
+// 0.8 s on two CPU cores. A coastline of many vertices over a large grid belongs in inputs.obstruction.
+constexpr double kMaxRasterizeTests = 4e9;
 
 }  // namespace squall::ewave

@@ -25,6 +25,7 @@ namespace squall::ewave {
 struct CellBox {
   long i0 = 0, j0 = 0, i1 = 0, j1 = 0;
   bool empty() const { return i1 <= i0 || j1 <= j0; }
+  double cells() const { return empty() ? 0 : double(i1 - i0) * double(j1 - j0); }
 };
 
 class EWaveSession {
@@ -86,6 +87,8 @@ class EWaveSession {
   // O *= the uncovered fraction of `shapes` around them; reset: O = that fraction there, and 1 again
   // in the cells the last reset covered (shape_map_cells_).
   void rasterize(const std::vector<Shape>& shapes, bool reset);
+  // RESOURCE_EXHAUSTED naming inputs.shapes when rasterizing them would pass kMaxRasterizeTests.
+  void check_rasterize_work(const std::vector<Shape>& shapes) const;
   // The first command of a step that changes the fields; ambient_height: ambient()'s.
   void prepare(const StepInputs& inputs, bool has_obstruction, const cl::Buffer* ambient_height);
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt

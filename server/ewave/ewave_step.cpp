@@ -42,6 +42,16 @@ CellBox cover(const CellBox& a, const CellBox& b) {
   return {std::min(a.i0, b.i0), std::min(a.j0, b.j0), std::max(a.i1, b.i1), std::max(a.j1, b.j1)};
 }
 
+// ewave_rasterize's point-in-shape tests, an upper bound: each cell of its region (the shapes' box and the
+// `previous` one it resets) tests every shape's box, and each point of a cell in a shape's box every shape, a
+// polygon edge by edge.
+double rasterize_tests(const std::vector<EWaveShape>& shapes, const EWaveConfig& c, const CellBox& previous) {
+  const double n = double(shapes.size()), points = SQUALL_EWAVE_SUBSAMPLES * SQUALL_EWAVE_SUBSAMPLES;
+  double tests = cover(shape_cells(shapes, c), previous).cells() * n;
+  for (const EWaveShape& s : shapes) tests += shape_cells({s}, c).cells() * points * (n + s.vertex_count);
+  return tests;
+}
+
 // The state's type of the step kernels `k` (a StepKernels<Real>).
 template <typename K>
 using RealOf = typename std::decay_t<K>::RealType;
@@ -55,6 +65,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
                             std::to_string(step_) + " steps (another caller stepped it)");
   validate(in, config_, gate_);
+  check_rasterize_work(in.shapes);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
                                     validate::number(time_) + " s past " + validate::number(kMaxTime) + " s");
@@ -92,6 +103,21 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
   frame.step = step_;
   frame.time = time_;
   return frame;
+}
+
+// A step whose shapes would hold the device too long is refused before anything of it is done.
+void EWaveSession::check_rasterize_work(const std::vector<Shape>& shapes) const {
+  if (shapes.empty()) return;
+  std::vector<float> vertices;
+  const double tests =
+      rasterize_tests(device_shapes(shapes, &vertices), config_, shape_map_ ? shape_map_cells_ : CellBox{});
+  if (tests > kMaxRasterizeTests)
+    fail(Code::ResourceExhausted,
+         "inputs.shapes make an estimated " + validate::number(tests) +
+             " point-in-shape tests (the cells of their boxes x " +
+             std::to_string(SQUALL_EWAVE_SUBSAMPLES * SQUALL_EWAVE_SUBSAMPLES) +
+             " points x the shapes and polygon vertices), more than the " + validate::number(kMaxRasterizeTests) +
+             " one step may make: send fewer polygon vertices, or the obstruction as inputs.obstruction");
 }
 
 // The step's maps, before its first command: on a CPU device they are copied into their buffers' host

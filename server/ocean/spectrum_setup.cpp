@@ -256,6 +256,9 @@ double layer_slope_variance(const LayerSpec& L, double k_lo, double k_hi) {
       double w = dispersion_omega(float(k), d), vg = dispersion_group_velocity(float(k), d);
       angular = sq_frequency_spectrum(p, w) * vg / (2 * k);  // each D integrates to 1
     }
+    // No energy where the float dispersion or spectrum vanishes (a depth of 1e-300 m is 0 in float, so are the
+    // tile's modes): 0 times an infinite group velocity or peak term is NaN here.
+    if (!(angular > 0)) continue;
     sum += (i == 0 || i == steps ? 0.5 : 1.0) * 2 * k * k * k * angular * k;  // dk = k du
   }
   return sum * du;

@@ -32,9 +32,10 @@ const std::string kId = "c-0123456789abcdef0123456789abcdef";
 struct Replica {
   explicit Replica(
       const std::string& dir, const std::string& name = "replica",
-      SteadyClock clock = [] { return std::chrono::steady_clock::now(); }, std::chrono::milliseconds owner_timeout = 5s)
+      SteadyClock clock = [] { return std::chrono::steady_clock::now(); }, std::chrono::milliseconds owner_timeout = 5s,
+      std::chrono::milliseconds ttl = 1h)
       : registry(std::make_unique<StateDir>(dir, "--state-dir"), name, owner_timeout),
-        store(gate, SessionPolicy{1h, std::move(clock), &registry}, "counter", "counter_id", "c-") {
+        store(gate, SessionPolicy{ttl, std::move(clock), &registry}, "counter", "counter_id", "c-") {
     registry.begin();
     store.persist(
         1,
@@ -114,6 +115,25 @@ TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
   EXPECT_FALSE(b.registry.state_dir()->read(id)) << "closing removes the checkpoint";
   Replica c(dir);
   expect_error(Code::NotFound, "counter_id", [&] { c.store.get(id); });
+}
+
+// A session idle longer than --session-ttl is evicted; written by a drain and not resumed within the TTL, it is
+// as gone for the replica that is asked for it (it came back after a restart), while a replica of a longer TTL
+// still resumes it.
+TEST(StateDir, ACheckpointIdleLongerThanTheTtlIsNotResumed) {
+  const std::string dir = test::temp_dir("state-ttl");
+  const auto steady = [] { return std::chrono::steady_clock::now(); };
+  {
+    Replica a(dir, "a");
+    a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>(Counter{5}));
+    a.registry.begin_drain();
+    ASSERT_EQ(a.registry.checkpoint_all(true), 1u);
+  }
+  std::this_thread::sleep_for(700ms);
+  Replica b(dir, "b", steady, 5s, 500ms);
+  expect_error(Code::NotFound, "counter_id", [&] { b.store.get(kId); });
+  Replica c(dir, "c", steady, 5s, 1h);
+  EXPECT_EQ(c.store.with(kId, [](Counter& n) { return n.value; }), 5);
 }
 
 TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {

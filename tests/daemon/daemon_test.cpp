@@ -397,6 +397,11 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_EQ(test::run({kSquall, "frobnicate"}, &out), 2) << out;
   EXPECT_NE(out.find("unknown verb frobnicate"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--timeout", "-1", "info"}, &out), 2) << out;
+  // gRPC aborts the process on a metadata value that is not printable ASCII: refused first, naming it.
+  EXPECT_EQ(test::run({kSquall, "--request-id", "caf\xc3\xa9", "info"}, &out), 2) << out;
+  EXPECT_NE(out.find("--request-id holds the byte \\xc3"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--request-id", "a\nb", "info"}, &out), 2) << out;
+  EXPECT_NE(out.find("--request-id holds the byte \\x0a"), std::string::npos) << out;
   // The server answers NOT_FOUND for a service it does not know: refused, not unreachable.
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health", "no.such.Service"}, &out), 4) << out;
 }

@@ -82,6 +82,33 @@ TEST(EWaveObstruction, ShapesCoverTheirArea) {
 // step so short that propagation leaves h1 unchanged to float precision, the step gives h = -h_A (1 - O) O
 // (ambient subtracted, then the step-6 mask): before that mask the composite h_A + h is 0 where O = 0 (the
 // read of eq 77 as an overwrite would give 2 h_A there).
+// A polygon of n vertices on a circle about the grid's centre whose box covers the whole 64 x 64 grid.
+Shape ring(const EWaveConfig& c, int n) {
+  Shape ring{ShapeKind::Polygon, 0, 0, 0, 0, 0, {}};
+  for (int v = 0; v < n; ++v) {
+    const double a = 2 * M_PI * v / n;
+    ring.vertices.push_back({c.length_x() * (0.5 + 0.5 * std::cos(a)), c.length_y() * (0.5 + 0.5 * std::sin(a))});
+  }
+  return ring;
+}
+
+// ewave_rasterize tests each of a cell's 64 points against a polygon edge by edge and cannot be cancelled once
+// started: 65536 vertices over a 256 x 256 grid held the device for 52 s. A step whose shapes make more than
+// kMaxRasterizeTests tests is refused before it changes anything; one under the bound is made.
+TEST(EWaveObstruction, AStepWhoseShapesWouldHoldTheDeviceTooLongIsRefusedAndChangesNothing) {
+  EWaveConfig c = wavy_config();
+  EWaveSession s = make_session(c);
+  StepInputs in = plain_step(0.01);
+  in.shapes = {ring(c, 4096)};  // 64^2 cells x 64 points x 4097 tests: 1.1e9
+  s.step(in);
+  const std::string before = s.state();
+  in.shapes = {ring(c, 65536)};  // 1.7e10
+  squall::test::expect_error(Code::ResourceExhausted, "inputs.shapes make an estimated 1.71", [&] { s.step(in); });
+  EXPECT_EQ(s.state(), before);
+  in.shapes = {ring(c, 4096)};
+  s.step(in);
+}
+
 TEST(EWaveAmbient, AmbientIsSubtractedInsideTheObstruction) {
   EWaveConfig c = plain_config(64, 64);
   EWaveSession s = make_session(c);
@@ -167,6 +194,16 @@ TEST(EWaveTrim, StepsLongerThanTheShortestWavesPeriodAreRefused) {
     Frame f;
     for (int n = 0; n < 400; ++n) f = s.step(plain_step(shortest_wave_period(c)));
     EXPECT_LT(spectral_energy(f.height, f.phi, c), 1e-2 * e0);
+  }
+  // The longest step a session takes is one inputs.dt accepts: at most kMaxDt, where the shortest wave's period
+  // is longer (weak gravity) or infinite (a vanishing depth in shallow water).
+  EWaveConfig weak = deep, vanishing = shallow;
+  weak.trim = vanishing.trim = true;
+  weak.gravity = 1e-9;
+  vanishing.depth = 1e-300;
+  for (const EWaveConfig& c : {weak, vanishing}) {
+    EXPECT_GT(shortest_wave_period(c), kMaxDt);
+    EXPECT_EQ(max_dt(c), kMaxDt);
   }
 }
 

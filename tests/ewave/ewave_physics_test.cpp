@@ -178,6 +178,24 @@ TEST(EWavePhysics, APlaneWavesDisplacementSharpensItsCrestsAsTheOceansDoes) {
   EXPECT_LT(worst_n, 1e-5);               // lambda a k = 0.36: the other sign tilts them by up to about 0.02
 }
 
+// Normals are unit vectors however steep the displaced surface: two crossing waves with lambda a k near 3e10
+// make z = (1 + lambda dDx/dx)(1 + lambda dDy/dy) near 1e21, whose square overflows float (the normals came
+// back as zero vectors).
+TEST(EWavePhysics, NormalsOfAVerySteepDisplacedSurfaceAreUnitVectors) {
+  EWaveConfig c = plain_config(96, 40);
+  const double kx = 2 * M_PI * 5 / c.length_x(), ky = 2 * M_PI * 2 / c.length_y();
+  c.displacement_scale = 1e6;
+  c.initial_height = field(c, [&](double x, double y) { return 1000 * (std::cos(kx * x) + std::cos(ky * y)); });
+  EWaveSession s = make_session(c);
+  StepInputs in = plain_step(1e-3);
+  in.outputs.normals = true;
+  const Frame f = s.step(in);
+  for (size_t cell = 0; cell < c.cells(); ++cell) {
+    const float* n = &f.normals[3 * cell];
+    ASSERT_NEAR(std::hypot(n[0], n[1], n[2]), 1.0, 1e-5) << "cell " << cell;
+  }
+}
+
 // Cauchy-Poisson: h0 = A exp(-r^2/(2 s^2)), phi = 0, deep water. Centre height
 // h(0, t) = A s^2 int_0^inf k exp(-k^2 s^2/2) cos(sqrt(g k) t) dk (the Hankel-transform solution of the
 // linear deep-water equations, App B eqs 1-2), by quadrature in q = sqrt(k).

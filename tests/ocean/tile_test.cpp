@@ -652,6 +652,28 @@ TEST(OceanSlopeVariance, UnresolvedSlopeVarianceGrowsWithPixelScale) {
   EXPECT_NEAR(measured / sigma_u, 1.0, 0.06);
 }
 
+// Layers inside every range whose float dispersion or spectrum vanishes (a depth of 1e-300 m, a wind of
+// 1e-300 m/s) make tiles of zeros; their unresolved slope variance is 0 too, not NaN.
+TEST(OceanSlopeVariance, ALayerWithNoEnergyHasNone) {
+  struct Case {
+    SpectrumModel spectrum;
+    DispersionKind dispersion;
+    double depth, wind_speed;
+  } cases[] = {{SpectrumModel::Tma, DispersionKind::Shallow, 1e-300, 12},
+               {SpectrumModel::Jonswap, DispersionKind::Shallow, 1e-300, 12},
+               {SpectrumModel::PiersonMoskowitz, DispersionKind::Combined, 1e-300, 12},
+               {SpectrumModel::ModifiedJonswap, DispersionKind::Deep, 100, 1e-300}};
+  for (const Case& c : cases) {
+    TileSpec spec = test::single(c.spectrum, SpreadingModel::Mitsuyasu, 32, 200);
+    spec.layers[0].dispersion = c.dispersion;
+    spec.layers[0].depth = c.depth;
+    spec.layers[0].wind_speed = c.wind_speed;
+    spec.pixel_scale = 4;
+    const TileFields f = engine().tile(spec, 0, Height);
+    EXPECT_EQ(f.unresolved_slope_variance, 0.0) << int(c.spectrum) << " " << int(c.dispersion);
+  }
+}
+
 // Each inverse FFT transforms two real fields packed as one complex one (re, im): h with D_x when a tile
 // asks for height alone, h with eps_x when it asks for slopes and no displacement, eps_x with D_y when it
 // asks for everything (the layouts of kernels/ocean/ocean.cl). The packing is exact only if each field's
