@@ -1,5 +1,6 @@
 #include "client/cli.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -67,6 +68,17 @@ std::string header_problem(const std::string& value) {
   return "";
 }
 
+// HOST:PORT needs a port in 1..65535 (gRPC dials 99999 as 34463); other targets (unix:, dns:///) go as given.
+bool bad_port(const std::string& address) {
+  if (address.find(':') == std::string::npos || address.back() == ']' || address.find("://") != std::string::npos ||
+      address.rfind("unix:", 0) == 0)
+    return false;
+  const std::string port = address.substr(address.rfind(':') + 1);
+  char* end = nullptr;
+  const long n = std::strtol(port.c_str(), &end, 10);
+  return port.empty() || *end || !std::isdigit(static_cast<unsigned char>(port[0])) || n < 1 || n > 65535;
+}
+
 // The options' request id and token, sent as metadata: kUsage, with the message, when one cannot be.
 int check_metadata(const client::ClientOptions& options) {
   for (const auto& [what, value] : {std::pair<const char*, std::string>{"--request-id", options.request_id},
@@ -125,6 +137,8 @@ int main(int argc, char** argv) {
   }
   if (i >= argc) return print_usage(), kUsage;
   if (int status = check_metadata(options); status != kOk) return status;
+  if (bad_port(options.address))
+    return std::cerr << "squall: --address " << options.address << ": the port must be in 1..65535\n", kUsage;
   auto it = verbs().find(argv[i]);
   if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
   std::vector<std::string> args(argv + i + 1, argv + argc);

@@ -229,6 +229,7 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
   } else if (flag == "--preview") {
     r.preview = value;
   } else if (flag == "--point") {
+    if (value.find(',') == std::string::npos) throw UsageError(flag + " " + value + ": must be X,Y (m)");
     auto [x, y] = pair_of(value);
     r.points.emplace_back(number(flag, x, "m"), number(flag, y, "m"));
   } else if (flag == "--points-file") {

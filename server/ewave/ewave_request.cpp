@@ -181,8 +181,7 @@ void fill_config(const EWaveConfig& c, v1::EWaveConfig* p) {
   p->set_source_scale(c.source_scale);
   p->set_mask_phi(c.mask_phi);
   p->set_double_precision(c.double_precision);
-  p->set_displacement_scale(c.displacement_scale);
-  p->mutable_start_time()->set_seconds(c.start_time);
+  p->set_displacement_scale(c.displacement_scale);  // start_time omitted, as the initial fields: not in force now
 }
 
 std::vector<v1::EWaveOutput> outputs(const v1::EWaveInputs& p) {

@@ -18,6 +18,10 @@ constexpr size_t kLengthBytes = sizeof(uint64_t);  // the ambient ocean's length
 
 bool is_version1(const StateHeader& h) { return std::memcmp(h.magic, kMagicVersion1, sizeof(kMagicVersion1)) == 0; }
 
+// The most steps a state may have made: exact in a double (a JSON client's after_step); a million steps a
+// second take 285 years to get there.
+constexpr uint64_t kMaxStep = uint64_t(1) << 53;
+
 size_t ambient_ocean_offset(const StateHeader& h) {
   return sizeof(StateHeader) + state_field_bytes(h.nx, h.ny, h.double_precision != 0);
 }
@@ -108,6 +112,12 @@ EWaveConfig config_of(const StateHeader& header) {
               [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
   validate(c);
   validate::in("state.time", header.time, validate::closed(-kMaxTime, kMaxTime));
+  for (const auto& [field, flag] : {std::pair<const char*, int64_t>{"state.trim", header.trim},
+                                    {"state.mask_phi", header.mask_phi},
+                                    {"state.double_precision", header.double_precision}})
+    if (flag != 0 && flag != 1) validate::reject(field, std::to_string(flag), "0 or 1");
+  if (header.step > kMaxStep)  // a forged 2^64 - 1 wrapped to step 0 at the next step
+    validate::reject("state.step", std::to_string(header.step), "at most 2^53");
   return c;
 }
 

@@ -1120,6 +1120,7 @@ for R in ("EWave.GetState", "EWave.CloseSession"):
 # The header of an eWave state (ewave_state_format.h): magic, then 8-byte members; after the fields, the
 # u64 length of the ambient ocean and its bytes.
 STATE_NX, STATE_NY, STATE_DX, STATE_DISPERSION, STATE_TIME, STATE_FIELDS = 8, 16, 24, 40, 144, 152
+STATE_TRIM, STATE_MASK_PHI, STATE_STEP = 72, 112, 136
 
 
 def resized_state(nx: int, ny: int) -> Change:
@@ -1147,6 +1148,10 @@ CASES += [
     bad(R, "state_time_nan", patch(STATE_TIME, "<d", NAN), "state.time"),
     bad(R, "state_time_out_of_range", patch(STATE_TIME, "<d", 1e10), "state.time"),
     bad(R, "state_dispersion_unknown_enum", patch(STATE_DISPERSION, "<q", 9), "dispersion"),
+    bad(R, "state_trim_2", patch(STATE_TRIM, "<q", 2), "state.trim = 2 must be 0 or 1"),
+    bad(R, "state_mask_phi_minus_1", patch(STATE_MASK_PHI, "<q", -1), "state.mask_phi = -1"),
+    # A forged step count of 2^64 - 1 wrapped to 0 at the next step, where after_step = 0 was taken.
+    bad(R, "state_step_wraps", patch(STATE_STEP, "<Q", 2**64 - 1), "state.step = 18446744073709551615"),
     bad(R, "state_grid_oversize", resized_state(512, 512), "config.grid", EXHAUSTED),
     bad(
         R,
