@@ -479,7 +479,12 @@ class SessionStore {
         policy_.registry->release(id);
         return;
       }
-      resume_(*checkpoint);
+      try {
+        resume_(*checkpoint);
+      } catch (const Error& e) {  // the file's fault, not the request's: squalld wrote it, or the disk changed it
+        if (e.code() != Code::InvalidArgument) throw;
+        fail(Code::Internal, kind_ + " " + id + "'s checkpoint in the state directory is damaged: " + e.what());
+      }
       if (!lookup(id)) fail(Code::Internal, kind_ + " checkpoint " + id + " holds another session's id");
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (...) {

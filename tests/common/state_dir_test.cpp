@@ -136,6 +136,16 @@ TEST(StateDir, ACheckpointIdleLongerThanTheTtlIsNotResumed) {
   EXPECT_EQ(c.store.with(kId, [](Counter& n) { return n.value; }), 5);
 }
 
+// A checkpoint the state directory holds damaged is no fault of the call naming its id: INTERNAL, naming the
+// file's session (it was INVALID_ARGUMENT).
+TEST(StateDir, ADamagedCheckpointIsAnInternalError) {
+  const std::string dir = test::temp_dir("state-damaged");
+  put(dir + "/" + kId + ".session", "not a checkpoint");
+  Replica a(dir, "a");
+  expect_error(Code::Internal, "counter " + kId + "'s checkpoint in the state directory is damaged: ",
+               [&] { a.store.get(kId); });
+}
+
 TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
   const std::string dir = test::temp_dir("state-handover");
   Replica a(dir, "a"), b(dir, "b");
