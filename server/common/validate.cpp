@@ -37,8 +37,17 @@ std::string Interval::rule() const {
   return std::string("finite and in ") + (lo_open ? "(" : "[") + number(lo) + ", " + number(hi) + (hi_open ? ")" : "]");
 }
 
+std::string number_apart(double v, double other) {
+  const std::string text = number(v);
+  if (v == other || text != number(other)) return text;
+  char exact[32];
+  std::snprintf(exact, sizeof exact, "%.17g", v);
+  return exact;
+}
+
 double in(const std::string& path, double v, const Interval& interval) {
-  if (!interval.contains(v)) reject(path, v, interval.rule());
+  if (!interval.contains(v))
+    reject(path, number_apart(v, v < interval.lo ? interval.lo : interval.hi), interval.rule());
   return v;
 }
 
@@ -60,7 +69,9 @@ void each(const std::string& path, const float* values, size_t n, const Interval
   Interval nearest = interval;
   nearest.lo = nearest_float(interval.lo), nearest.hi = nearest_float(interval.hi);
   for (size_t i = 0; i < n; ++i)
-    if (!nearest.contains(values[i])) reject(at(path, i), values[i], interval.rule());
+    if (!nearest.contains(values[i]))
+      reject(at(path, i), number_apart(values[i], values[i] < interval.lo ? interval.lo : interval.hi),
+             interval.rule());
 }
 
 int known(const std::string& path, int value, int count, const std::string& type) {

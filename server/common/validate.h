@@ -16,6 +16,9 @@ namespace squall::validate {
 
 // A number as messages print it: up to 9 significant digits, "nan", "inf", "-inf".
 std::string number(double v);
+// number(v), or v with 17 digits where 9 would print it as `other` ("1e+09 must be in [-1e+09, 1e+09]" for one
+// ulp past 1e9).
+std::string number_apart(double v, double other);
 // A 3-vector as messages print it: "(1e+300, 0, 0)".
 template <typename Vec3>
 std::string xyz(const Vec3& v) {

@@ -114,7 +114,7 @@ void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate)
   positive("inputs.dt", in.dt, kMaxDt);
   const double longest = max_dt(c);
   if (in.dt > longest)
-    fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) +
+    fail(Code::InvalidArgument, "inputs.dt = " + validate::number_apart(in.dt, longest) +
                                     " s is longer than the period of the grid's shortest wave, " +
                                     validate::number(longest) +
                                     " s: with config.trim on, longer steps grow without bound; take shorter steps "

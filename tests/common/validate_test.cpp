@@ -29,6 +29,13 @@ TEST(Validate, MessagesNameThePathTheValueAndTheRule) {
                [] { validate::known("m", 9, 6, "model"); });
   EXPECT_EQ(validate::number(0.1), "0.1");
   EXPECT_EQ(validate::number(1e-12), "1e-12");
+  // A value just past a bound is not printed as the bound: "1e+09 must be ... in [-1e+09, 1e+09]" said nothing.
+  const double past = std::nextafter(1e9, 2e9);
+  EXPECT_EQ(validate::number_apart(past, 1e9), "1000000000.0000001");
+  EXPECT_EQ(validate::number_apart(1e9, 1e9), "1e+09");
+  EXPECT_EQ(validate::number_apart(2e9, 1e9), "2e+09");
+  expect_error(Code::InvalidArgument, "t = 1000000000.0000001 must be finite and in [-1e+09, 1e+09]",
+               [&] { validate::in("t", past, validate::closed(-1e9, 1e9)); });
 }
 
 TEST(Validate, MapsHaveTheirShapeAndEveryValueIsChecked) {
