@@ -68,12 +68,24 @@ std::string header_problem(const std::string& value) {
   return "";
 }
 
-// HOST:PORT needs a port in 1..65535 (gRPC dials 99999 as 34463); other targets (unix:, dns:///) go as given.
+// A HOST:PORT target's port must be in 1..65535: gRPC dials it modulo 65536. Targets with a scheme gRPC resolves
+// (dns:, unix:, ipv4:, ...) and bare IPv6 addresses go as given.
 bool bad_port(const std::string& address) {
-  if (address.find(':') == std::string::npos || address.back() == ']' || address.find("://") != std::string::npos ||
-      address.rfind("unix:", 0) == 0)
-    return false;
-  const std::string port = address.substr(address.rfind(':') + 1);
+  static const char* const kSchemes[] = {"dns:", "unix:", "unix-abstract:", "ipv4:", "ipv6:", "vsock:", "xds:"};
+  if (address.empty()) return false;
+  for (const char* scheme : kSchemes)
+    if (address.rfind(scheme, 0) == 0) return false;
+  size_t colon;
+  if (address.front() == '[') {  // [IPv6]:PORT
+    const size_t close = address.find(']');
+    if (close == std::string::npos || close + 1 == address.size()) return false;
+    colon = close + 1;
+  } else {
+    colon = address.find(':');
+    if (colon == std::string::npos || address.find(':', colon + 1) != std::string::npos) return false;
+  }
+  if (address[colon] != ':') return false;
+  const std::string port = address.substr(colon + 1);
   char* end = nullptr;
   const long n = std::strtol(port.c_str(), &end, 10);
   return port.empty() || *end || !std::isdigit(static_cast<unsigned char>(port[0])) || n < 1 || n > 65535;

@@ -223,7 +223,7 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
   } else if (flag == "--dt") {
     r.dt = number(flag, value, "s"), r.have_dt = true;
   } else if (flag == "--frames") {
-    r.frames = integer(flag, value), r.have_frames = true;
+    r.frames = integer(flag, value, 0, UINT32_MAX), r.have_frames = true;
   } else if (flag == "-o" || flag == "--output") {
     r.out = value;
   } else if (flag == "--preview") {

@@ -54,8 +54,8 @@ std::string vertex_path(const std::string& f, const TriangleMesh& m, size_t k) {
 
 MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
   if (m.vertices.size() < 4)
-    fail(Code::InvalidArgument,
-         f + ".vertices has " + std::to_string(m.vertices.size()) + " vertices; a closed mesh needs at least 4");
+    fail(Code::InvalidArgument, f + (m.from_obj ? ".obj" : ".vertices") + " has " + std::to_string(m.vertices.size()) +
+                                    " vertices; a closed mesh needs at least 4");
   for (size_t i = 0; i < m.vertices.size(); ++i)
     for (int a = 0; a < 3; ++a)
       if (!std::isfinite(m.vertices[i][a]))
@@ -63,8 +63,10 @@ MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
             m.from_obj ? vertex_path(f, m, i) + " " + "xyz"[a] : validate::at(f + ".vertices", 3 * i + size_t(a)),
             m.vertices[i][a]);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
-    fail(Code::InvalidArgument, f + ".triangles has " + std::to_string(m.triangles.size()) +
-                                    " indices; it needs a multiple of 3 and at least 4 triangles");
+    fail(Code::InvalidArgument, m.from_obj ? f + ".obj has " + std::to_string(m.triangles.size() / 3) +
+                                                 " triangles (its faces fanned); a " + "closed mesh needs at least 4"
+                                           : f + ".triangles has " + std::to_string(m.triangles.size()) +
+                                                 " indices; it needs a multiple of 3 and at least 4 triangles");
   double volume = 0, area = 0;
   for (size_t t = 0; t < m.triangles.size(); t += 3) {
     for (size_t k = t; k < t + 3; ++k)

@@ -60,11 +60,11 @@ struct Advection {
   NoiseParams noise;
 };
 
-// Temperature (§6.3): T = surface - lapse_rate (z - base_altitude) + fluctuation FS_norm(x), on the
-// density's active voxels.
 // The hottest a volume's temperature field may be, K: ten times the surface's cap.
 inline constexpr double kMaxTemperature = 1e5;
 
+// Temperature (§6.3): T = surface - lapse_rate (z - base_altitude) + fluctuation FS_norm(x), on the
+// density's active voxels.
 struct Temperature {
   bool enabled = false;
   double surface = 288.15;     // K at base_altitude, (0, 10000]

@@ -13,7 +13,6 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
-#include <numeric>
 #include <sstream>
 
 #include "clouds/advection.h"
@@ -87,21 +86,20 @@ FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t,
   out->tree().voxelizeActiveTiles();
   out->setName("temperature");
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
-  std::vector<float> lowest(leaves.leafCount(), INFINITY), highest(leaves.leafCount(), -INFINITY);
+  std::vector<double> lowest(leaves.leafCount(), INFINITY), highest(leaves.leafCount(), -INFINITY);
   leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t n) {
     for (auto it = leaf.beginValueOn(); it; ++it) {
       openvdb::Vec3d x = out->transform().indexToWorld(it.getCoord());
       double T = t.surface - t.lapse_rate * (x[2] - t.base_altitude);  // hydrostatic lapse (§6.3)
       if (t.fluctuation > 0) T += t.fluctuation * fractal_noise(t.noise, {x[0], x[1], x[2]});
-      it.setValue(float(T));
-      lowest[n] = std::fmin(lowest[n], float(T)), highest[n] = std::fmax(highest[n], float(T));
+      lowest[n] = std::min(lowest[n], T), highest[n] = std::max(highest[n], T);
+      it.setValue(float(std::clamp(T, 0.0, kMaxTemperature)));  // as it is wherever the field is kept
     }
   });
-  const float T_min =
-      std::reduce(lowest.begin(), lowest.end(), float(INFINITY), [](float a, float b) { return std::fmin(a, b); });
-  const float T_max =
-      std::reduce(highest.begin(), highest.end(), -float(INFINITY), [](float a, float b) { return std::fmax(a, b); });
-  if (T_min > 0 && T_max <= kMaxTemperature) return out;  // no voxel: +inf and -inf
+  if (lowest.empty()) return out;  // no voxel (voxelized, every active value is in a leaf)
+  const double T_min = *std::min_element(lowest.begin(), lowest.end());
+  const double T_max = *std::max_element(highest.begin(), highest.end());
+  if (T_min > 0 && T_max <= kMaxTemperature) return out;
   fail(Code::InvalidArgument, field + ".temperature makes temperatures from " + validate::number(T_min) + " K to " +
                                   validate::number(T_max) + " K over the volume; they must lie in (0, " +
                                   validate::number(kMaxTemperature) +

@@ -123,10 +123,10 @@ class SessionStore {
       fail(Code::InvalidArgument, field + " = \"" + validate::printable(proposed) + "\" is no " + kind_ +
                                       " id: " + (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
-    if (const StateDir* dir = state_dir(); dir && (dir->checkpointed(proposed) || dir->owner(proposed)))
-      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
     if (std::lock_guard<std::mutex> lock(mutex_); entries_.count(proposed))  // add() checks again, as it stores
       fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" is already a live " + kind_);
+    if (const StateDir* dir = state_dir(); dir && (dir->checkpointed(proposed) || dir->owner(proposed)))
+      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
     return proposed;
   }
 
@@ -481,9 +481,10 @@ class SessionStore {
       }
       try {
         resume_(*checkpoint);
-      } catch (const Error& e) {  // the file's fault, not the request's: squalld wrote it, or the disk changed it
+      } catch (const Error& e) {  // the file's fault, or this squalld's, never the request's
         if (e.code() != Code::InvalidArgument) throw;
-        fail(Code::Internal, kind_ + " " + id + "'s checkpoint in the state directory is damaged: " + e.what());
+        fail(Code::Internal,
+             kind_ + " " + id + "'s checkpoint in the state directory cannot be read by this squalld: " + e.what());
       }
       if (!lookup(id)) fail(Code::Internal, kind_ + " checkpoint " + id + " holds another session's id");
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");

@@ -109,7 +109,7 @@ struct StepGuard {
 };
 constexpr size_t kMaxRetryKeyBytes = 64;
 
-// The longest step, s: kMaxDt, or with the trim on the period of the grid's shortest wave
+// The longest step, s: kMaxDt, or with the trim on the period of the grid's shortest wave when shorter
 // (shortest_wave_period in propagator.h: longer trimmed steps grow without bound).
 constexpr double kMaxDt = 1e4;
 double max_dt(const EWaveConfig& config);

@@ -88,7 +88,7 @@ class EWaveSession {
   // in the cells the last reset covered (shape_map_cells_).
   void rasterize(const std::vector<Shape>& shapes, bool reset);
   // RESOURCE_EXHAUSTED naming inputs.shapes when rasterizing them would pass kMaxRasterizeTests.
-  void check_rasterize_work(const std::vector<Shape>& shapes) const;
+  void check_rasterize_work(const StepInputs& in) const;
   // The first command of a step that changes the fields; ambient_height: ambient()'s.
   void prepare(const StepInputs& inputs, bool has_obstruction, const cl::Buffer* ambient_height);
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt

@@ -116,7 +116,7 @@ EWaveConfig config_of(const StateHeader& header) {
                                     {"state.mask_phi", header.mask_phi},
                                     {"state.double_precision", header.double_precision}})
     if (flag != 0 && flag != 1) validate::reject(field, std::to_string(flag), "0 or 1");
-  if (header.step > kMaxStep)  // a forged 2^64 - 1 wrapped to step 0 at the next step
+  if (header.step > kMaxStep)  // a count that never wraps
     validate::reject("state.step", std::to_string(header.step), "at most 2^53");
   return c;
 }

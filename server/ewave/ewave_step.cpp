@@ -42,14 +42,19 @@ CellBox cover(const CellBox& a, const CellBox& b) {
   return {std::min(a.i0, b.i0), std::min(a.j0, b.j0), std::max(a.i1, b.i1), std::max(a.j1, b.j1)};
 }
 
-// ewave_rasterize's point-in-shape tests, an upper bound: each cell of its region (the shapes' box and the
-// `previous` one it resets) tests every shape's box, and each point of a cell in a shape's box every shape, a
-// polygon edge by edge.
+// ewave_rasterize's tests, an upper bound: each cell of its region (the shapes' box and the `previous` one it
+// resets) tests every shape's box; each point of a cell near a shape (in some shape's box) tests every shape's
+// box again, and a polygon whose box holds it edge by edge.
 double rasterize_tests(const std::vector<EWaveShape>& shapes, const EWaveConfig& c, const CellBox& previous) {
   const double n = double(shapes.size()), points = SQUALL_EWAVE_SUBSAMPLES * SQUALL_EWAVE_SUBSAMPLES;
-  double tests = cover(shape_cells(shapes, c), previous).cells() * n;
-  for (const EWaveShape& s : shapes) tests += shape_cells({s}, c).cells() * points * (n + s.vertex_count);
-  return tests;
+  const CellBox region = cover(shape_cells(shapes, c), previous);
+  double near = 0, edges = 0;
+  for (const EWaveShape& s : shapes) {
+    const double cells = shape_cells({s}, c).cells();
+    near += cells;
+    edges += cells * points * s.vertex_count;
+  }
+  return region.cells() * n + std::min(near, region.cells()) * points * n + edges;
 }
 
 // The state's type of the step kernels `k` (a StepKernels<Real>).
@@ -65,7 +70,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
                             std::to_string(step_) + " steps (another caller stepped it)");
   validate(in, config_, gate_);
-  check_rasterize_work(in.shapes);
+  check_rasterize_work(in);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
                                     validate::number(time_) + " s past " + validate::number(kMaxTime) + " s");
@@ -106,11 +111,12 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
 }
 
 // A step whose shapes would hold the device too long is refused before anything of it is done.
-void EWaveSession::check_rasterize_work(const std::vector<Shape>& shapes) const {
-  if (shapes.empty()) return;
+void EWaveSession::check_rasterize_work(const StepInputs& in) const {
+  if (in.shapes.empty()) return;
   std::vector<float> vertices;
+  const bool resets = in.obstruction.empty() && shape_map_;  // build_obstruction()'s rasterize(shapes, true)
   const double tests =
-      rasterize_tests(device_shapes(shapes, &vertices), config_, shape_map_ ? shape_map_cells_ : CellBox{});
+      rasterize_tests(device_shapes(in.shapes, &vertices), config_, resets ? shape_map_cells_ : CellBox{});
   if (tests > kMaxRasterizeTests)
     fail(Code::ResourceExhausted,
          "inputs.shapes make an estimated " + validate::number(tests) +

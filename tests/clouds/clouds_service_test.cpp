@@ -147,9 +147,8 @@ TEST(CloudsService, BuildKeepRenderRelease) {
 }
 
 // A model inside every range whose density is zero everywhere (a particle biased to -1) builds a volume
-// with no active voxel: its bounds are the origin's point, not OpenVDB's empty box (INT_MAX to INT_MIN, 1e9 m
-// across, which made every render's step "too costly" or "below the float resolution"), and it renders as
-// empty space: transmittance 1, no radiance, no depth.
+// with no active voxel: its bounds are the origin's point, not OpenVDB's empty box (INT_MAX to INT_MIN), and
+// it renders as empty space: transmittance 1, no radiance, no depth.
 TEST(CloudsService, AVolumeWithNoActiveVoxelRendersAsEmptySpace) {
   v1::BuildVolumeRequest build;
   build.mutable_model()->set_voxel_size(0.5);
@@ -586,9 +585,8 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
 }
 
-// Flags whose values are not what they say exit 2 naming the value, before any call: a count that is
-// negative, fractional or past its type (they wrapped or were cut), a size with more after WxH (8x8x8 rendered
-// 8x8), a phase with no parameters, an unknown verb (it asked for -o first).
+// Flag values that are not what they say exit 2 naming the value, before any call: a count that is negative,
+// fractional or past its type, a size with more after WxH, a phase with no parameters, an unknown verb.
 TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
   const std::string dir = test::temp_dir("clouds-cli-flags");
   const std::vector<std::string> model = {"--voxel-size", "0.5", "--sphere", "0,0,0,4", "-o", dir + "/x.exr"};

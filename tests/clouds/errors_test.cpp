@@ -133,8 +133,8 @@ TEST(Errors, AShapeFarFromTheOriginIsRefusedByName) {
   validate(m);
 }
 
-// Inputs each inside its range can still make a temperature field that no gas has: +-inf (a base altitude of
-// 1e300 m), below 0 K (a lapse over a cloud 5 km above its base, or a fluctuation larger than the surface
+// Inputs each inside its range can still make a temperature field that no gas has: +-6.5e297 K (a base altitude
+// of 1e300 m), below 0 K (a lapse over a cloud 5 km above its base, or a fluctuation larger than the surface
 // temperature) or past kMaxTemperature (an inversion). Each is refused; a cold cloud above 0 K is not.
 TEST(Errors, ATemperatureFieldOutsideZeroToTheCapIsRefused) {
   auto with = [](double z, double surface, double base_altitude, double lapse_rate, double fluctuation) {
@@ -144,8 +144,8 @@ TEST(Errors, ATemperatureFieldOutsideZeroToTheCapIsRefused) {
     return m;
   };
   const std::string needle = "model.temperature makes temperatures from ";
-  expect_error([&] { build_cloud(with(0, 288.15, 1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "inf K");
-  expect_error([&] { build_cloud(with(0, 288.15, -1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "-inf K");
+  expect_error([&] { build_cloud(with(0, 288.15, 1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "6.5e+297 K");
+  expect_error([&] { build_cloud(with(0, 288.15, -1e300, 0.0065, 0)); }, Code::InvalidArgument, needle + "-6.5e+297 K");
   expect_error([&] { build_cloud(with(5000, 288.15, 0, 0.1, 0)); }, Code::InvalidArgument, needle + "-2");
   expect_error([&] { build_cloud(with(0, 1e-3, 0, 0, 1000)); }, Code::InvalidArgument, needle + "-");
   expect_error([&] { build_cloud(with(0, 1e4, -1e6, -0.1, 0)); }, Code::InvalidArgument, "] K: mind surface");

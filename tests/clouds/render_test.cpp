@@ -173,17 +173,16 @@ TEST(Render, DirectShadowsOfASlabMatchTheClosedFormForAnyShadowStep) {
   std::printf("thick slab, min_transmittance 1e-2: mean radiance error %.2e, worst pixel %.2e\n", mean, worst);
 }
 
-// A light's direction is only a direction: scaled down to 1e-30 (zero in float) or 1e-300 (whose squared norm
-// underflows in double) it lights the slab exactly as at unit scale.
+// A light's direction is only a direction: scaled down to 1e-300 (whose squared norm underflows in double) it
+// lights the slab exactly as at unit scale.
 TEST(Render, ALightsDirectionCountsAtAnyScale) {
   CloudRenderer renderer(test::runtime());
   DeviceVolume dv = upload_volume(test::runtime(), slab(kSlabDx, 20, float(kSlabRho), false));
   const std::vector<float> unit = renderer.render(dv, lit_slab({0.3, 0.1, -1}, PhaseKind::Uniform)).data;
-  for (double scale : {1e-30, 1e-300}) {
-    const RenderSettings s = lit_slab({0.3 * scale, 0.1 * scale, -scale}, PhaseKind::Uniform);
-    validate(s, "settings");
-    EXPECT_EQ(renderer.render(dv, s).data, unit) << "scale " << scale;
-  }
+  const double scale = 1e-300;
+  const RenderSettings s = lit_slab({0.3 * scale, 0.1 * scale, -scale}, PhaseKind::Uniform);
+  validate(s, "settings");
+  EXPECT_EQ(renderer.render(dv, s).data, unit);
 }
 
 // The slab lit from straight below, behind the camera, with a strongly forward-scattering phase

@@ -118,8 +118,7 @@ TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
 }
 
 // A session idle longer than --session-ttl is evicted; written by a drain and not resumed within the TTL, it is
-// as gone for the replica that is asked for it (it came back after a restart), while a replica of a longer TTL
-// still resumes it.
+// as gone for the replica that is asked for it, while a replica of a longer TTL still resumes it.
 TEST(StateDir, ACheckpointIdleLongerThanTheTtlIsNotResumed) {
   const std::string dir = test::temp_dir("state-ttl");
   const auto steady = [] { return std::chrono::steady_clock::now(); };
@@ -136,14 +135,16 @@ TEST(StateDir, ACheckpointIdleLongerThanTheTtlIsNotResumed) {
   EXPECT_EQ(c.store.with(kId, [](Counter& n) { return n.value; }), 5);
 }
 
-// A checkpoint the state directory holds damaged is no fault of the call naming its id: INTERNAL, naming the
-// file's session (it was INVALID_ARGUMENT).
-TEST(StateDir, ADamagedCheckpointIsAnInternalError) {
+// A checkpoint this squalld cannot read (damaged, or of a format it does not know) is no fault of the call
+// naming its id: INTERNAL, naming the file's session.
+TEST(StateDir, AnUnreadableCheckpointIsAnInternalError) {
   const std::string dir = test::temp_dir("state-damaged");
   put(dir + "/" + kId + ".session", "not a checkpoint");
   Replica a(dir, "a");
-  expect_error(Code::Internal, "counter " + kId + "'s checkpoint in the state directory is damaged: ",
-               [&] { a.store.get(kId); });
+  expect_error(Code::Internal,
+               "counter " + kId + "'s checkpoint in the state directory cannot be read by this squalld: ", [&] {
+                 a.store.get(kId);
+               });
 }
 
 TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
@@ -440,6 +441,10 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
   const std::string owned = "c-00000000000000000000000000000001";
   a.registry.state_dir()->create_owner(owned, "elsewhere");
   expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(owned, "metadata x"); });
+  // A session live here is owned here too: its id is named as live, not as checkpointed.
+  const std::string live = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
+  expect_error(Code::FailedPrecondition, "metadata x = \"" + live + "\" is already a live counter",
+               [&] { a.store.id_for(live, "metadata x"); });
 }
 
 TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {

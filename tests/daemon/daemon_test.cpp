@@ -402,8 +402,10 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_NE(out.find("--request-id holds the byte \\xc3"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--request-id", "a\nb", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--request-id holds the byte \\x0a"), std::string::npos) << out;
-  EXPECT_EQ(test::run({kSquall, "--address", "127.0.0.1:99999", "info"}, &out), 2) << out;  // gRPC dialed 34463
+  EXPECT_EQ(test::run({kSquall, "--address", "127.0.0.1:99999", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--address 127.0.0.1:99999: the port must be in 1..65535"), std::string::npos) << out;
+  for (const char* target : {"[::1]:1", "dns:127.0.0.1:1", "ipv4:127.0.0.1:1"})  // dialed: nothing listens there
+    EXPECT_EQ(test::run({kSquall, "--address", target, "--timeout", "1", "info"}, &out), 3) << target << ": " << out;
   // The server answers NOT_FOUND for a service it does not know: refused, not unreachable.
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health", "no.such.Service"}, &out), 4) << out;
 }

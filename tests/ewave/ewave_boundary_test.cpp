@@ -78,10 +78,6 @@ TEST(EWaveObstruction, ShapesCoverTheirArea) {
   }
 }
 
-// Eq 77 read as h <- h - h_A (1 - O) (sec. 3.4 adds -h_A (1 - O) to the eWave height). With h = 0 and a
-// step so short that propagation leaves h1 unchanged to float precision, the step gives h = -h_A (1 - O) O
-// (ambient subtracted, then the step-6 mask): before that mask the composite h_A + h is 0 where O = 0 (the
-// read of eq 77 as an overwrite would give 2 h_A there).
 // A polygon of n vertices on a circle about the grid's centre whose box covers the whole 64 x 64 grid.
 Shape ring(const EWaveConfig& c, int n) {
   Shape ring{ShapeKind::Polygon, 0, 0, 0, 0, 0, {}};
@@ -93,8 +89,8 @@ Shape ring(const EWaveConfig& c, int n) {
 }
 
 // ewave_rasterize tests each of a cell's 64 points against a polygon edge by edge and cannot be cancelled once
-// started: 65536 vertices over a 256 x 256 grid held the device for 52 s. A step whose shapes make more than
-// kMaxRasterizeTests tests is refused before it changes anything; one under the bound is made.
+// started, so a step whose shapes make more than kMaxRasterizeTests tests is refused before it changes
+// anything; one under the bound is made.
 TEST(EWaveObstruction, AStepWhoseShapesWouldHoldTheDeviceTooLongIsRefusedAndChangesNothing) {
   EWaveConfig c = wavy_config();
   EWaveSession s = make_session(c);
@@ -109,6 +105,10 @@ TEST(EWaveObstruction, AStepWhoseShapesWouldHoldTheDeviceTooLongIsRefusedAndChan
   s.step(in);
 }
 
+// Eq 77 read as h <- h - h_A (1 - O) (sec. 3.4 adds -h_A (1 - O) to the eWave height). With h = 0 and a
+// step so short that propagation leaves h1 unchanged to float precision, the step gives h = -h_A (1 - O) O
+// (ambient subtracted, then the step-6 mask): before that mask the composite h_A + h is 0 where O = 0 (the
+// read of eq 77 as an overwrite would give 2 h_A there).
 TEST(EWaveAmbient, AmbientIsSubtractedInsideTheObstruction) {
   EWaveConfig c = plain_config(64, 64);
   EWaveSession s = make_session(c);

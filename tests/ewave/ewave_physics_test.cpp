@@ -179,8 +179,7 @@ TEST(EWavePhysics, APlaneWavesDisplacementSharpensItsCrestsAsTheOceansDoes) {
 }
 
 // Normals are unit vectors however steep the displaced surface: two crossing waves with lambda a k near 3e10
-// make z = (1 + lambda dDx/dx)(1 + lambda dDy/dy) near 1e21, whose square overflows float (the normals came
-// back as zero vectors).
+// make z = (1 + lambda dDx/dx)(1 + lambda dDy/dy) near 1e21, whose square overflows float.
 TEST(EWavePhysics, NormalsOfAVerySteepDisplacedSurfaceAreUnitVectors) {
   EWaveConfig c = plain_config(96, 40);
   const double kx = 2 * M_PI * 5 / c.length_x(), ky = 2 * M_PI * 2 / c.length_y();

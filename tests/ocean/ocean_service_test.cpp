@@ -569,7 +569,7 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find("--wind-speed fast: must be a finite number (m/s)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"tile", "--spectrum", "nope", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("must be one of"), std::string::npos) << out;
-  EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // it was taken as (1, 1)
+  EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // one number is no point
   EXPECT_NE(out.find("--point 1: must be X,Y (m)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"stream", "--frames", "2", "-o", "d"}), &out), 2) << out;
   EXPECT_NE(out.find("--dt"), std::string::npos) << out;

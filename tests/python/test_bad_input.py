@@ -1150,7 +1150,7 @@ CASES += [
     bad(R, "state_dispersion_unknown_enum", patch(STATE_DISPERSION, "<q", 9), "dispersion"),
     bad(R, "state_trim_2", patch(STATE_TRIM, "<q", 2), "state.trim = 2 must be 0 or 1"),
     bad(R, "state_mask_phi_minus_1", patch(STATE_MASK_PHI, "<q", -1), "state.mask_phi = -1"),
-    # A forged step count of 2^64 - 1 wrapped to 0 at the next step, where after_step = 0 was taken.
+    # A step count must never wrap: after_step compares against it.
     bad(R, "state_step_wraps", patch(STATE_STEP, "<Q", 2**64 - 1), "state.step = 18446744073709551615"),
     bad(R, "state_grid_oversize", resized_state(512, 512), "config.grid", EXHAUSTED),
     bad(
@@ -1229,6 +1229,35 @@ CASES += [
         "mesh_obj_garbage",
         put("model.meshes", [clouds_pb2.MeshSpec(obj=b"v 1 2\nf 1 2 x\n")]),
         "model.meshes[0].obj",
+    ),
+    # An OBJ mesh is named by its text, not by the flat fields it was not sent in.
+    bad(
+        R,
+        "mesh_obj_three_vertices",
+        put("model.meshes", [clouds_pb2.MeshSpec(obj=b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")]),
+        "model.meshes[0].obj has 3 vertices",
+    ),
+    bad(
+        R,
+        "mesh_obj_one_face",
+        put(
+            "model.meshes",
+            [clouds_pb2.MeshSpec(obj=b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n")],
+        ),
+        "model.meshes[0].obj has 1 triangles (its faces fanned)",
+    ),
+    bad(
+        R,
+        "mesh_obj_vertex_far",
+        put(
+            "model.meshes",
+            [
+                clouds_pb2.MeshSpec(
+                    obj=b"v 0 0 0\nv 4 0 0\nv 0 4e9 0\nv 0 0 4\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+                )
+            ],
+        ),
+        "model.meshes[0].obj vertex 3 = (0, 4e+09, 0)",
     ),
     bad(R, "max_active_voxels_zero", put("model.max_active_voxels", 0), "max_active_voxels"),
     bad(
