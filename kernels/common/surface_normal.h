@@ -9,17 +9,20 @@
 #define SQUALL_COMMON_SURFACE_NORMAL_H
 
 #ifndef __OPENCL_VERSION__
+#include <float.h>
 #include <math.h>
 #endif
 
 static inline void sq_surface_normal(float jxx, float jyy, float jxy, float eps_x, float eps_y, float* n_x, float* n_y,
                                      float* n_z) {
   float x = jxy * eps_y - eps_x * jyy, y = eps_x * jxy - jxx * eps_y, z = jxx * jyy - jxy * jxy;
-  // Divided by its largest component first: squared, a component past 1.8e19 (steep slopes times a large
-  // displacement scale) overflows float, and one below 1e-19 underflows.
+  // Scaled by its largest component first: squared, a component past 1.8e19 (steep slopes times a large
+  // displacement scale) overflows float, and one below 1e-19 underflows. Where 1 / largest is not finite
+  // (largest denormal or infinite) the vector is left as it is.
   const float largest = fmax(fmax(fabs(x), fabs(y)), fabs(z));
-  if (largest > 0.0f && largest < INFINITY) x /= largest, y /= largest, z /= largest;
-  const float length = sqrt(x * x + y * y + z * z);  // in [1, sqrt(3)], or 0
+  const float scale = largest >= FLT_MIN && largest < INFINITY ? 1.0f / largest : 1.0f;
+  x *= scale, y *= scale, z *= scale;
+  const float length = sqrt(x * x + y * y + z * z);  // in [1, sqrt(3)] when scaled
   const float inverse = length > 0.0f ? 1.0f / length : 0.0f;
   *n_x = x * inverse;
   *n_y = y * inverse;

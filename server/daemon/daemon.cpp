@@ -223,11 +223,15 @@ void drain(DaemonState& daemon, grpc::Server& server, HealthService& health, Che
 
 // Prometheus's text format at http://--metrics-listen/metrics: the calls' metrics and the daemon's
 // gauges. The exposer holds its collectables by weak pointer: the endpoint owns the daemon's (and is
-// destroyed after the exposer stops).
+// destroyed after the exposer stops). A connection holds one of its threads until its request is read or the
+// read times out, so a few idle connections (a port scan, a client that connects early) must not starve a
+// scrape: several threads, and a read timeout well under Prometheus's 10 s scrape timeout.
 struct MetricsEndpoint {
   MetricsEndpoint(const std::string& address, const Metrics& metrics, const DaemonState& daemon,
                   const std::vector<std::unique_ptr<Capability>>& capabilities)
-      : gauges(std::make_shared<DaemonMetrics>(daemon, capabilities)), exposer(address, 1) {
+      : gauges(std::make_shared<DaemonMetrics>(daemon, capabilities)),
+        exposer(
+            std::vector<std::string>{"listening_ports", address, "num_threads", "4", "request_timeout_ms", "3000"}) {
     exposer.RegisterCollectable(metrics.registry());
     exposer.RegisterCollectable(gauges);
     const auto ports = exposer.GetListeningPorts();

@@ -55,6 +55,13 @@ grpc::Status HealthService::Watch(grpc::ServerContext* context, const grpc::heal
                                   grpc::ServerWriter<Response>* writer) {
   return guarded([&] {
     if (!exempt_) serving_.require_token(*context);
+    struct Held {
+      std::atomic<int>& count;
+      ~Held() { --count; }
+    } held{watches_};
+    if (++watches_ > kMaxWatches)
+      fail(Code::ResourceExhausted, "health Watch: " + std::to_string(kMaxWatches) +
+                                        " streams are open, the most squalld keeps; poll with Check instead");
     std::unique_lock<std::mutex> lock(mutex_);
     Response::ServingStatus sent = Response::UNKNOWN;
     while (!context->IsCancelled()) {

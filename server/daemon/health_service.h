@@ -12,6 +12,7 @@
 
 #include <grpcpp/health_check_service_interface.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <map>
 #include <mutex>
@@ -30,6 +31,9 @@ class HealthService final : public grpc::health::v1::Health::Service, public grp
   HealthService(const ServingState& serving, bool exempt) : serving_(serving), exempt_(exempt) {}
 
   static constexpr const char* kLiveness = "liveness";
+  // Watch streams open at once: each holds a server thread, and with health exempt from the token anyone
+  // may open them; a balancer or kubelet needs a few. RESOURCE_EXHAUSTED past it.
+  static constexpr int kMaxWatches = 64;
 
   void SetServingStatus(const std::string& service_name, bool serving) override;
   void SetServingStatus(bool serving) override;  // every readiness name's (all but kLiveness)
@@ -38,7 +42,7 @@ class HealthService final : public grpc::health::v1::Health::Service, public grp
 
   grpc::Status Check(grpc::ServerContext* context, const grpc::health::v1::HealthCheckRequest* request,
                      Response* response) override;
-  // Writes the status, then each change, until the client goes or Shutdown().
+  // Writes the status, then each change, until the client goes or Shutdown(); at most kMaxWatches at once.
   grpc::Status Watch(grpc::ServerContext* context, const grpc::health::v1::HealthCheckRequest* request,
                      grpc::ServerWriter<Response>* writer) override;
 
@@ -51,6 +55,7 @@ class HealthService final : public grpc::health::v1::Health::Service, public grp
   std::condition_variable changed_;
   std::map<std::string, bool> serving_by_name_{{"", false}};
   bool shut_down_ = false;
+  std::atomic<int> watches_{0};
 };
 
 }  // namespace squall::rpc

@@ -11,6 +11,8 @@
 #include <vector>
 #include <stdexcept>
 
+#include "common/validate.h"
+
 namespace squall::rpc {
 namespace {
 
@@ -32,10 +34,15 @@ double positive_count(const std::string& text) {
   return v;
 }
 
+// The longest duration a flag takes, s (31 years): a deadline that far ahead still fits the clocks' 64-bit
+// nanoseconds.
+constexpr double kMaxSeconds = 1e9;
+
 double seconds_or_zero(const std::string& text) {
   size_t used = 0;
   double v = std::stod(text, &used);
-  if (used != text.size() || !std::isfinite(v) || v < 0) throw std::invalid_argument("must be a number >= 0");
+  if (used != text.size() || !(v >= 0 && v <= kMaxSeconds))
+    throw std::invalid_argument("must be a number of seconds in [0, 1e9]");
   return v;
 }
 
@@ -45,10 +52,11 @@ bool on_or_off(const std::string& v) {
   throw std::invalid_argument("must be on or off");
 }
 
-double positive_seconds(const std::string& text) {
+double positive_seconds(const std::string& text, double max = kMaxSeconds) {
   size_t used = 0;
   double v = std::stod(text, &used);
-  if (used != text.size() || !std::isfinite(v) || v <= 0) throw std::invalid_argument("must be a number > 0");
+  if (used != text.size() || !(v > 0 && v <= max))
+    throw std::invalid_argument("must be a number of seconds in (0, " + validate::number(max) + "]");
   return v;
 }
 
@@ -87,7 +95,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
-      {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v); }},
+      {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v, 1e6); }},  // int ms
       {"rpc-threads",
        [o](const std::string& v) {
          const uint64_t n = positive_integer(v);
@@ -114,6 +122,10 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"replica-id",
        [o](const std::string& v) {
          if (v.empty() || v.size() > 128) throw std::invalid_argument("must be 1 to 128 characters");
+         // Sent as the x-squall-replica metadata value on every call, which gRPC takes as printable ASCII only
+         // (anything else aborts the process), and logged word by word.
+         for (unsigned char c : v)
+           if (c <= 0x20 || c > 0x7e) throw std::invalid_argument("must be printable ASCII, with no spaces");
          o->replica_id = v;
        }},
       {"state-dir", [o](const std::string& v) { o->state_dir = v; }},

@@ -75,14 +75,22 @@ class RequestLog : public grpc::experimental::Interceptor {
     metrics_->record_sent(method_, static_cast<const google::protobuf::Message*>(message)->ByteSizeLong());
   }
 
+  // Client text as one word of the log line: escaped, and its spaces too.
+  static std::string word(const std::string& text) {
+    std::string out;
+    for (char c : validate::printable(text, kMaxMetadataValue)) out += c == ' ' ? "\\x20" : std::string(1, c);
+    return out;
+  }
+
   void write(const char* status, const std::string& message) {
     logged_ = true;
     double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
     if (metrics_) metrics_->record_call(method_, status, ms / 1000);
-    // Client strings (the ids, and the error, which may quote the request) escaped: one call, one line.
-    log(LogLevel::Info, "request id=", id_.empty() ? "-" : validate::printable(id_, kMaxMetadataValue),
-        " method=", method_, " status=", status, " duration_ms=", ms, " replica=", replica_.empty() ? "-" : replica_,
-        session_.empty() ? "" : " session=" + validate::printable(session_, kMaxMetadataValue),
+    // Client strings (the ids, and the error, which may quote the request) escaped: one call, one line, and
+    // the unquoted ids one word each, so that no id can add fields of its own.
+    log(LogLevel::Info, "request id=", id_.empty() ? "-" : word(id_), " method=", method_, " status=", status,
+        " duration_ms=", ms, " replica=", replica_.empty() ? "-" : replica_,
+        session_.empty() ? "" : " session=" + word(session_),
         message.empty() ? "" : " error=\"" + validate::printable(message, 1024) + "\"");
   }
 

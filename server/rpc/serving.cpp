@@ -1,6 +1,7 @@
 #include "rpc/serving.h"
 
 #include <algorithm>
+#include <cctype>
 #include <string_view>
 
 #include "common/error.h"
@@ -38,11 +39,17 @@ void ServingState::require_token(const grpc::ServerContext& context) const {
     tokens = tokens_;
   }
   if (tokens->empty()) return;
-  constexpr std::string_view kBearer = "Bearer ";
+  constexpr std::string_view kBearer = "bearer ";  // the scheme's case does not matter (RFC 7235 sec. 2.1)
+  auto is_bearer = [&](std::string_view value) {
+    if (value.size() < kBearer.size()) return false;
+    for (size_t i = 0; i < kBearer.size(); ++i)
+      if (std::tolower(static_cast<unsigned char>(value[i])) != kBearer[i]) return false;
+    return true;
+  };
   bool accepted = false;
   for (const auto& [key, ref] : context.client_metadata()) {
     std::string_view value(ref.data(), ref.size());
-    if (key != "authorization" || value.substr(0, kBearer.size()) != kBearer) continue;
+    if (key != "authorization" || !is_bearer(value)) continue;
     std::string_view token = value.substr(kBearer.size());
     for (const auto& t : *tokens) accepted |= same_in_constant_time(token, t);  // every token, always
   }

@@ -62,6 +62,49 @@ TEST(Daemon, HealthIsServing) {
   EXPECT_NE(out.find("SERVING"), std::string::npos) << out;
 }
 
+// Each health Watch holds a server thread and needs no token by default: at most 64 are open at once, and a
+// closed one makes room for the next.
+TEST(Daemon, HealthWatchStreamsAreBounded) {
+  client::Client c({shared_daemon().address(), 10, ""});
+  auto health = grpc::health::v1::Health::NewStub(c.channel());
+  struct Watcher {
+    std::unique_ptr<grpc::ClientContext> context = std::make_unique<grpc::ClientContext>();
+    std::unique_ptr<grpc::ClientReader<grpc::health::v1::HealthCheckResponse>> reader;
+  };
+  auto open = [&] {
+    Watcher w;
+    w.reader = health->Watch(w.context.get(), grpc::health::v1::HealthCheckRequest());
+    return w;
+  };
+  grpc::health::v1::HealthCheckResponse update;
+  std::vector<Watcher> watchers;
+  for (int i = 0; i < 64; ++i) {
+    watchers.push_back(open());
+    ASSERT_TRUE(watchers.back().reader->Read(&update)) << "watch " << i;
+  }
+  Watcher refused = open();
+  EXPECT_FALSE(refused.reader->Read(&update));
+  const grpc::Status status = refused.reader->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("health Watch: 64 streams are open"), std::string::npos);
+  watchers.back().context->TryCancel();
+  watchers.back().reader->Finish();
+  watchers.pop_back();
+  bool reopened = false;
+  for (int attempt = 0; attempt < 50 && !reopened; ++attempt) {  // the server sees the cancel within 200 ms
+    Watcher again = open();
+    reopened = again.reader->Read(&update);
+    again.context->TryCancel();
+    again.reader->Finish();
+    if (!reopened) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_TRUE(reopened);
+  for (Watcher& w : watchers) {
+    w.context->TryCancel();
+    w.reader->Finish();
+  }
+}
+
 TEST(Daemon, LogsOneLinePerRequestWithIdMethodStatusAndDuration) {
   client::Client c({shared_daemon().address(), 10, "log-test-42"});
   c.info();
@@ -92,7 +135,9 @@ TEST(Daemon, ClientTextInTheLogIsEscapedAndCut) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     log = shared_daemon().process().log();
   }
-  EXPECT_NE(log.find("request id=log-test-44\\x0a2026-01-01T00:00:00Z INFO  request id=forged"), std::string::npos)
+  // Unquoted, the id is one word: its spaces escaped too, so that it adds no fields of its own.
+  EXPECT_NE(log.find("request id=log-test-44\\x0a2026-01-01T00:00:00Z\\x20INFO\\x20\\x20request\\x20id=forged"),
+            std::string::npos)
       << log;
   EXPECT_EQ(log.find("\n2026-01-01T00:00:00Z INFO  request id=forged"), std::string::npos) << log;
   EXPECT_EQ(log.find(std::string(200, 'y')), std::string::npos) << "cut to the metadata limit";
@@ -342,6 +387,16 @@ TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
   while (reader->Read(&chunk)) {
   }
   EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+
+  // The scheme's case does not matter (RFC 7235 sec. 2.1); the token's does.
+  auto server = squall::v1::Server::NewStub(client::Client(options).channel());
+  for (const char* header : {"bearer s3cret-alice", "BEARER s3cret-alice", "Bearer S3CRET-alice"}) {
+    grpc::ClientContext call;
+    call.AddMetadata("authorization", header);
+    squall::v1::GetInfoResponse info;
+    const bool same_token = std::string(header).ends_with("s3cret-alice");
+    EXPECT_EQ(server->GetInfo(&call, squall::v1::GetInfoRequest(), &info).ok(), same_token) << header;
+  }
 }
 
 // SIGHUP re-reads --auth-tokens: a token taken out is refused from then on, a new one accepted; a file
@@ -611,6 +666,16 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
       << out;
   EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "1.5"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-render-samples 1.5: must be a whole number >= 1"), std::string::npos) << out;
+  // Durations within 1e9 s: a deadline that far ahead still fits the clocks.
+  for (const char* flag : {"--grace-period", "--session-ttl", "--checkpoint-interval", "--drain-wait"}) {
+    EXPECT_EQ(test::run({kSqualld, flag, "1e10"}, &out), 2) << out;
+    EXPECT_NE(out.find(std::string(flag) + " 1e10: must be a number of seconds in "), std::string::npos) << out;
+  }
+  EXPECT_EQ(test::run({kSqualld, "--keepalive", "2e6"}, &out), 2) << out;  // its milliseconds are an int
+  EXPECT_NE(out.find("--keepalive 2e6: must be a number of seconds in (0, 1000000]"), std::string::npos) << out;
+  // The replica id is every reply's metadata value: printable ASCII only.
+  EXPECT_EQ(test::run({kSqualld, "--replica-id", "r\xc3\xa9plica"}, &out), 2) << out;
+  EXPECT_NE(out.find("must be printable ASCII, with no spaces"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--listen", "127.0.0.1:0", "--device", "no-such-device"}, &out), 2) << out;
   EXPECT_NE(out.find("--device no-such-device matches no OpenCL device"), std::string::npos) << out;
   // a non-loopback address without TLS or tokens is refused before anything listens

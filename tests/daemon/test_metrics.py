@@ -13,8 +13,10 @@ import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
+import time
 import urllib.parse
 import urllib.request
 from pathlib import Path
@@ -93,6 +95,22 @@ def test_the_exposition_counts_the_calls_made(daemon: Squalld) -> None:
     assert value(text, "squall_memory_bytes") == 0  # nothing held between calls
     assert value(text, "squall_memory_cached_bytes") == 0
     assert value(text, "squall_memory_budget_bytes") > 100e6  # 3/4 of the machine's memory
+
+
+def test_idle_connections_do_not_starve_a_scrape(daemon: Squalld) -> None:
+    """Connections that send nothing, or half a request, each hold one of the endpoint's threads
+    until its read times out; a scrape beside five of them answers within Prometheus's 10 s."""
+    host, port = daemon.metrics.split(":")
+    idle = [socket.create_connection((host, int(port)), timeout=10) for _ in range(5)]
+    try:
+        idle[0].sendall(b"GET /metrics HTTP/1.1\r\n")  # a request that never ends
+        started = time.monotonic()
+        text = http_get(f"http://{daemon.metrics}/metrics")
+        assert time.monotonic() - started < 8
+        assert value(text, "squall_ready") == 1
+    finally:
+        for connection in idle:
+            connection.close()
 
 
 def test_device_work_and_its_queueing_are_counted(daemon: Squalld) -> None:

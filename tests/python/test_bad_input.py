@@ -700,7 +700,8 @@ def bad(
 def tetrahedron(y2: float) -> clouds_pb2.MeshSpec:
     """A closed mesh of four vertices, the third at (0, y2, 0)."""
     return clouds_pb2.MeshSpec(
-        vertices=[0, 0, 0, 4, 0, 0, 0, y2, 0, 0, 0, 4], triangles=[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+        vertices=[0, 0, 0, 4, 0, 0, 0, y2, 0, 0, 0, 4],
+        triangles=[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
     )
 
 
@@ -1151,7 +1152,12 @@ CASES += [
     bad(R, "state_trim_2", patch(STATE_TRIM, "<q", 2), "state.trim = 2 must be 0 or 1"),
     bad(R, "state_mask_phi_minus_1", patch(STATE_MASK_PHI, "<q", -1), "state.mask_phi = -1"),
     # A step count must never wrap: after_step compares against it.
-    bad(R, "state_step_wraps", patch(STATE_STEP, "<Q", 2**64 - 1), "state.step = 18446744073709551615"),
+    bad(
+        R,
+        "state_step_wraps",
+        patch(STATE_STEP, "<Q", 2**64 - 1),
+        "state.step = 18446744073709551615",
+    ),
     bad(R, "state_grid_oversize", resized_state(512, 512), "config.grid", EXHAUSTED),
     bad(
         R,
@@ -1253,7 +1259,8 @@ CASES += [
             "model.meshes",
             [
                 clouds_pb2.MeshSpec(
-                    obj=b"v 0 0 0\nv 4 0 0\nv 0 4e9 0\nv 0 0 4\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+                    obj=b"v 0 0 0\nv 4 0 0\nv 0 4e9 0\nv 0 0 4\n"
+                    b"f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
                 )
             ],
         ),

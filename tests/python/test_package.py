@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import squall
+import squall.aio
 from squall import _convert
 from squall.client import decode_health_response, encode_health_request
 from squall.ocean import TileAssembler
@@ -203,6 +204,54 @@ def test_an_error_pickles_with_its_code_method_and_replica() -> None:
     assert squall.SquallError(grpc.StatusCode.INTERNAL, "x").replica == ""
 
 
+NOTHING_LISTENS = "127.0.0.1:1"
+
+
+@pytest.mark.parametrize("timeout", [float("nan"), -1.0, 0.0])
+def test_a_deadline_that_expires_at_once_is_refused_naming_it(timeout: float) -> None:
+    with pytest.raises(ValueError, match=r"^timeout = .*: a number of seconds > 0, inf or None"):
+        squall.Client(NOTHING_LISTENS, timeout=timeout)
+    with pytest.raises(ValueError, match=r"^stream_timeout = "):
+        squall.Client(NOTHING_LISTENS, stream_timeout=timeout)
+    with squall.Client(NOTHING_LISTENS) as client, pytest.raises(ValueError, match=r"^timeout = "):
+        client.info(timeout=timeout)
+
+
+def test_a_token_gRPC_cannot_send_is_refused_without_quoting_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """gRPC refuses a metadata value that is not printable ASCII; squall says so first."""
+    for token in ("s3cret\n", "s3crét"):
+        with pytest.raises(ValueError) as refused:
+            squall.Client(NOTHING_LISTENS, token=token)
+        assert "s3cr" not in str(refused.value) and "the token" in str(refused.value)
+    with pytest.raises(ValueError, match="request_id holds a character"):
+        squall.Client(NOTHING_LISTENS, request_id="a\tb")
+    monkeypatch.setenv("SQUALL_TOKEN", "s3cret\n")
+    with pytest.raises(ValueError, match="the token holds a character"):
+        squall.Client(NOTHING_LISTENS)
+
+
+def test_a_closed_client_says_so() -> None:
+    client = squall.Client(NOTHING_LISTENS)
+    client.close()
+    with pytest.raises(RuntimeError, match="this squall client is closed"):
+        client.info()
+
+
+async def _closed_aio_client() -> None:
+    client = squall.aio.Client(NOTHING_LISTENS)
+    await client.close()
+    await client.info()
+
+
+def test_a_closed_asyncio_client_says_so() -> None:
+    import asyncio
+
+    with pytest.raises(RuntimeError, match="this squall client is closed"):
+        asyncio.run(_closed_aio_client())
+
+
 # What grpcio-health-checking's grpc_health/v1/health_pb2.py registers: grpc.health.v1's
 # messages, from a file of another name than proto/grpc/health/v1/health.proto.
 OTHER_HEALTH_MODULE = """
@@ -224,6 +273,7 @@ def test_squall_imports_beside_another_module_of_the_health_messages() -> None:
     failed this import with a conflict in protobuf's default pool)."""
     script = OTHER_HEALTH_MODULE + """
 import squall
+import squall.aio
 from squall.client import decode_health_response, encode_health_request
 assert encode_health_request("squall.v1.Ocean") == b"\\x0a\\x0fsquall.v1.Ocean"
 assert decode_health_response(b"\\x08\\x01") == "SERVING"

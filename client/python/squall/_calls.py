@@ -96,8 +96,25 @@ def resolve_token(token: Optional[str], token_file: Optional[str]) -> Optional[s
     return os.environ.get(TOKEN_VARIABLE) or None
 
 
+def seconds(name: str, value: Optional[float]) -> Optional[float]:
+    """A deadline as given: None, or seconds > 0 (``inf``: none); ValueError naming `name` else
+    (NaN or a negative one expired at once)."""
+    if value is not None and not value > 0:
+        raise ValueError(f"{name} = {value}: a number of seconds > 0, inf or None")
+    return value
+
+
+def metadata_value(name: str, value: Optional[str]) -> Optional[str]:
+    """`value` as gRPC sends metadata, printable ASCII; ValueError naming `name`, never quoting the
+    value (a token), else."""
+    if value is not None and not all(" " <= c <= "~" for c in value):
+        raise ValueError(f"{name} holds a character that is not printable ASCII, as metadata is")
+    return value
+
+
 class Settings:
-    """What every call of one client carries: deadlines, the bearer token, the request id."""
+    """What every call of one client carries: deadlines, the bearer token, the request id; and
+    whether the client is closed."""
 
     def __init__(
         self,
@@ -106,13 +123,17 @@ class Settings:
         token: Optional[str],
         request_id: Optional[str],
     ) -> None:
-        self.timeout = timeout
-        self.stream_timeout = stream_timeout
-        self.token = token
-        self.request_id = request_id
+        self.timeout = seconds("timeout", timeout)
+        self.stream_timeout = seconds("stream_timeout", stream_timeout)
+        self.token = metadata_value("the token", token)
+        self.request_id = metadata_value("request_id", request_id)
+        self.closed = False
 
     def metadata(self, session: Optional[str] = None) -> Metadata:
-        """authorization: Bearer <token>, x-request-id and x-squall-session, those that are set."""
+        """authorization: Bearer <token>, x-request-id and x-squall-session, those that are set.
+        Every call asks for them first: a closed client's raises RuntimeError here."""
+        if self.closed:
+            raise RuntimeError("this squall client is closed: make a new one")
         items = []
         if self.token:
             items.append((AUTHORIZATION_KEY, f"Bearer {self.token}"))
@@ -126,6 +147,8 @@ class Settings:
         """Seconds for one call: `timeout`, else the client's default (unary calls or streams)."""
         if timeout is None:
             timeout = self.stream_timeout if stream else self.timeout
+        else:
+            seconds("timeout", timeout)
         if timeout is None or math.isinf(timeout):
             return None
         return float(timeout)

@@ -972,6 +972,8 @@ class Client:
             await asyncio.sleep(0.1)
 
     async def close(self) -> None:
+        """Closes the channel (running streams are cancelled); later calls raise RuntimeError."""
+        self._connection.settings.closed = True
         await self._connection.channel.close()
 
     async def __aenter__(self) -> "Client":

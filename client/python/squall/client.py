@@ -109,7 +109,7 @@ class Client:
 
     Args:
         address: "host:port" of squalld (default 127.0.0.1:50051).
-        timeout: deadline of each unary call, s (default 30); None: no deadline.
+        timeout: deadline of each unary call, s > 0 (default 30); None or inf: no deadline.
         token: sent on every call as the metadata "authorization: Bearer <token>": a token of
             squalld's --auth-tokens file (or of a gateway in front of it). None: the first word of
             `token_file` if given, else $SQUALL_TOKEN if set, else none is sent (as the squall CLI's
@@ -212,7 +212,8 @@ class Client:
             time.sleep(0.1)
 
     def close(self) -> None:
-        """Closes the channel (running streams are cancelled)."""
+        """Closes the channel (running streams are cancelled); later calls raise RuntimeError."""
+        self._connection.settings.closed = True
         self._connection.channel.close()
 
     def __enter__(self) -> "Client":
