@@ -9,6 +9,7 @@
 //
 //   build/bench/ewave_bench [--device auto|cpu|gpu|NAME] [--fft auto|vkfft|clfft|fftw] [--address HOST:PORT] [--seconds S]
 //                     [--grid NXxNY (one grid instead of the four)]
+//                     [--kernel-dir DIR (kernels from DIR, e.g. another commit's, not the embedded ones)]
 #include <fftw3.h>
 #include <grpcpp/grpcpp.h>
 
@@ -178,6 +179,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--fft")) backend = argv[i + 1];
     if (!std::strcmp(argv[i], "--address")) address = argv[i + 1];
     if (!std::strcmp(argv[i], "--seconds")) budget = std::stod(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--kernel-dir")) options.kernel_dir = argv[i + 1];  // other kernels, same host code
     size_t nx = 0, ny = 0;
     if (!std::strcmp(argv[i], "--grid") && std::sscanf(argv[i + 1], "%zux%zu", &nx, &ny) == 2) sizes = {{nx, ny}};
   }
