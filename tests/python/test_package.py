@@ -232,6 +232,14 @@ def test_a_token_gRPC_cannot_send_is_refused_without_quoting_it(
         squall.Client(NOTHING_LISTENS)
 
 
+def test_a_restore_takes_the_bytes_of_a_state() -> None:
+    """bytes(5) is five zero bytes: a number is refused, not sent."""
+    assert squall.ewave.restore_request(b"\x01\x02").state == b"\x01\x02"
+    assert squall.ewave.restore_request(memoryview(b"ab")).state == b"ab"
+    with pytest.raises(TypeError, match="state must be the bytes of a state"):
+        squall.ewave.restore_request(5)
+
+
 def test_a_closed_client_says_so() -> None:
     client = squall.Client(NOTHING_LISTENS)
     client.close()

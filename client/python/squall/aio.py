@@ -482,7 +482,7 @@ class EWave:
 
     async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session continuing a state snapshot."""
-        request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
+        request = _ewave.restore_request(state)
         return EWaveSession(
             self,
             await self._connection.unary(

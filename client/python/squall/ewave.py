@@ -321,6 +321,14 @@ def unary_step_request(
     )
 
 
+def restore_request(state: Any) -> ewave_pb2.EWaveRestoreRequest:
+    """The Restore of `state`, the bytes of a ``state()`` snapshot (a number would make that many zero
+    bytes: TypeError)."""
+    if not isinstance(state, (bytes, bytearray, memoryview)):
+        raise TypeError(f"state must be the bytes of a state() snapshot, not {type(state).__name__}")
+    return ewave_pb2.EWaveRestoreRequest(state=bytes(state))
+
+
 def close_quietly(close: Callable[[], None], exc_type: Any) -> None:
     """``close()`` at the end of a ``with`` block: while the block's exception propagates, a
     SquallError of the close (squalld gone, the deadline passed) would hide it and is dropped."""
@@ -498,7 +506,7 @@ class EWave:
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session (new id) continuing a ``state()`` snapshot bit-identically (Restore)."""
-        request = ewave_pb2.EWaveRestoreRequest(state=bytes(state))
+        request = restore_request(state)
         response = self._connection.unary(
             "EWave.Restore", self._rpc.Restore, request, timeout, session=propose_session_id()
         )
