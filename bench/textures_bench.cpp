@@ -9,6 +9,7 @@
 // spent in host maintenance (particle kill/insert and vertex weights).
 //
 //   build/bench/textures_bench [--device auto|cpu|gpu|NAME] [--address HOST:PORT] [--seconds S]
+//                              [--kernel-dir DIR (kernels from DIR, e.g. another commit's)]
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>
@@ -121,6 +122,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--device")) options.device = argv[i + 1];
     if (!std::strcmp(argv[i], "--address")) address = argv[i + 1];
     if (!std::strcmp(argv[i], "--seconds")) budget = std::stod(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--kernel-dir")) options.kernel_dir = argv[i + 1];  // other kernels, same host code
   }
   configure_kernel_cache();
   Runtime runtime(options);
