@@ -16,14 +16,15 @@
 static inline void sq_surface_normal(float jxx, float jyy, float jxy, float eps_x, float eps_y, float* n_x, float* n_y,
                                      float* n_z) {
   float x = jxy * eps_y - eps_x * jyy, y = eps_x * jxy - jxx * eps_y, z = jxx * jyy - jxy * jxy;
-  // Scaled by its largest component first: squared, a component past 1.8e19 (steep slopes times a large
-  // displacement scale) overflows float, and one below 1e-19 underflows. Where 1 / largest is not finite
-  // (largest denormal or infinite) the vector is left as it is. Magnitudes by comparison: with fabs (and fmax)
-  // here PoCL 3.1 left the tile's finishing kernel unvectorized, 6x slower.
+  // Divided by its largest component first: squared, a component past 1.8e19 (steep slopes times a large
+  // displacement scale) overflows float, and one below 1e-19 underflows. A division, not a reciprocal, which
+  // is denormal past 2^126 (and zero where a device flushes denormals); a largest component that is itself
+  // denormal or infinite leaves the vector as it is. Magnitudes by comparison, not fabs: PoCL 3.1 then
+  // vectorizes the tile's finishing kernel (docs/performance.md, "Normals scaled before squaring").
   const float ax = x < 0.0f ? -x : x, ay = y < 0.0f ? -y : y, az = z < 0.0f ? -z : z;
   const float largest = ax > ay ? (ax > az ? ax : az) : (ay > az ? ay : az);
-  const float scale = largest >= FLT_MIN && largest < INFINITY ? 1.0f / largest : 1.0f;
-  x *= scale, y *= scale, z *= scale;
+  const float divisor = largest >= FLT_MIN && largest < INFINITY ? largest : 1.0f;
+  x /= divisor, y /= divisor, z /= divisor;
   const float length = sqrt(x * x + y * y + z * z);  // in [1, sqrt(3)] when scaled
   const float inverse = length > 0.0f ? 1.0f / length : 0.0f;
   *n_x = x * inverse;

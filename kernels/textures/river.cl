@@ -87,11 +87,20 @@ static float4 stream_sample(const RiverNear* near, float p, __global const float
   }
   if (near->n == 0) return (float4)(0.0f, 0.0f, 0.0f, (float)SQUALL_RIVER_UNDEFINED);
   if (d_min <= 0.0f) return (float4)(0.0f, 0.0f, boundary_psi[near->id[nearest]], 0.0f);
+  /* Each distance is taken at no less than 2^-20 of its boundary's search radius: for p < 1 the speed grows
+   * as d^(p - 1) toward a wall (Yu et al., fig. 8), and within float's reach of one its terms would overflow. */
+  float dk[SQUALL_RIVER_NEAR];
+  d_min = INFINITY;
+  for (int k = 0; k < near->n; ++k) {
+    const float d = near->d[k], least = 0x1p-20f * boundary_s[near->id[k]];
+    dk[k] = d > least ? d : least;
+    d_min = dk[k] < d_min ? dk[k] : d_min;
+  }
   /* The weights are scaled by d_min^p, which cancels in eq. 1 and in its gradient: no overflow near a wall. */
   float sum_w = 0.0f, sum_w_psi = 0.0f;
   float w[SQUALL_RIVER_NEAR], dw[SQUALL_RIVER_NEAR];
   for (int k = 0; k < near->n; ++k) {
-    const float s = boundary_s[near->id[k]], d = near->d[k], t = 1.0f - d / s;
+    const float s = boundary_s[near->id[k]], d = dk[k], t = 1.0f - d / s;
     const float a = pow(d_min / d, p);
     w[k] = a * smoothstep5(t);                                         /* eq. 2 */
     dw[k] = -p * w[k] / d - a * smoothstep5_derivative(t) / s;        /* dw / dd */

@@ -55,13 +55,16 @@ grpc::Status HealthService::Watch(grpc::ServerContext* context, const grpc::heal
                                   grpc::ServerWriter<Response>* writer) {
   return guarded([&] {
     if (!exempt_) serving_.require_token(*context);
+    int open = watches_.load();
+    do {  // counted only when there is room: a refused Watch never holds a place
+      if (open >= kMaxWatches)
+        fail(Code::ResourceExhausted, "health Watch: " + std::to_string(kMaxWatches) +
+                                          " streams are open, the most squalld keeps; poll with Check instead");
+    } while (!watches_.compare_exchange_weak(open, open + 1));
     struct Held {
       std::atomic<int>& count;
       ~Held() { --count; }
     } held{watches_};
-    if (++watches_ > kMaxWatches)
-      fail(Code::ResourceExhausted, "health Watch: " + std::to_string(kMaxWatches) +
-                                        " streams are open, the most squalld keeps; poll with Check instead");
     std::unique_lock<std::mutex> lock(mutex_);
     Response::ServingStatus sent = Response::UNKNOWN;
     while (!context->IsCancelled()) {

@@ -42,7 +42,7 @@ double seconds_or_zero(const std::string& text) {
   size_t used = 0;
   double v = std::stod(text, &used);
   if (used != text.size() || !(v >= 0 && v <= kMaxSeconds))
-    throw std::invalid_argument("must be a number of seconds in [0, 1e9]");
+    throw std::invalid_argument("must be a number of seconds in [0, " + validate::number(kMaxSeconds) + "]");
   return v;
 }
 
@@ -52,11 +52,12 @@ bool on_or_off(const std::string& v) {
   throw std::invalid_argument("must be on or off");
 }
 
-double positive_seconds(const std::string& text, double max = kMaxSeconds) {
+double positive_seconds(const std::string& text, double max = kMaxSeconds, double min = 0) {
   size_t used = 0;
   double v = std::stod(text, &used);
-  if (used != text.size() || !(v > 0 && v <= max))
-    throw std::invalid_argument("must be a number of seconds in (0, " + validate::number(max) + "]");
+  if (used != text.size() || !(v > min && v <= max))
+    throw std::invalid_argument("must be a number of seconds in (" + validate::number(min) + ", " +
+                                validate::number(max) + "]");
   return v;
 }
 
@@ -95,7 +96,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
-      {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v, 1e6); }},  // int ms
+      // gRPC takes the interval in int milliseconds, and a ping every few milliseconds is a flood
+      {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v, 1e6, 0.1); }},
       {"rpc-threads",
        [o](const std::string& v) {
          const uint64_t n = positive_integer(v);

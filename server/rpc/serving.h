@@ -44,8 +44,9 @@ class ServingState {
     std::lock_guard<std::mutex> lock(tokens_mutex_);
     tokens_ = std::move(next);
   }
-  // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" with
-  // one of them, compared in constant time; the message says nothing about which part was wrong.
+  // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" (the
+  // scheme in any case) with one of them, compared in constant time; the message says nothing about which
+  // part was wrong.
   void require_token(const grpc::ServerContext& context) const;
 
   double uptime_seconds() const {

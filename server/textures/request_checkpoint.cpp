@@ -30,6 +30,7 @@ std::string bind_checkpoint(uint64_t fingerprint, std::string_view state) {
   out.put(kCheckpointMagic);
   out.put(kCheckpointFormat);
   out.put(fingerprint);
+  out.put(fnv1a(kFnv1aOffsetBasis, state.data(), state.size()));
   out.put_bytes(state);
   return out.take();
 }
@@ -42,8 +43,12 @@ std::string_view bound_state(std::string_view resume_state, uint64_t fingerprint
     fail(Code::InvalidArgument, path +
                                     " is the checkpoint of another request: every field but frames, "
                                     "checkpoint_every and resume_state must be as in the request that made it");
+  const uint64_t checksum = in.get<uint64_t>("the state's checksum");
   if (in.left() == 0) in.reject("it holds no advection state");
-  return in.get_bytes(in.left(), "the advection's state");
+  const std::string_view state = in.get_bytes(in.left(), "the advection's state");
+  if (fnv1a(kFnv1aOffsetBasis, state.data(), state.size()) != checksum)
+    fail(Code::InvalidArgument, path + " is damaged: its state does not match its checksum");
+  return state;
 }
 
 }  // namespace squall::textures::rpc

@@ -6,7 +6,10 @@
 //
 // Byte layout (common/byte_codec.h): u32 kCheckpointMagic, u32 kCheckpointFormat, u64 fingerprint
 // (64-bit FNV-1a of the request's deterministic serialization with those three fields cleared: fields
-// as sent, so a field left unset and one set to its default differ), then the state's bytes to the end.
+// as sent, so a field left unset and one set to its default differ), u64 the state's 64-bit FNV-1a (a
+// checkpoint damaged on its way back, a bit flipped or a frame index edited, is refused, not continued
+// from a state no stream had), then the state's bytes to the end. A checksum, not a signature: it finds
+// damage, not a forger who recomputes it.
 #pragma once
 
 #include <cstdint>
@@ -18,7 +21,7 @@
 namespace squall::textures::rpc {
 
 constexpr uint32_t kCheckpointMagic = 0x43545153;  // "SQTC", little-endian
-constexpr uint32_t kCheckpointFormat = 1;
+constexpr uint32_t kCheckpointFormat = 2;          // 1: no checksum (refused: its state cannot be checked)
 
 // The fingerprint of the fields of `request` that shape its advection.
 uint64_t request_fingerprint(const squall::v1::AdvectTextureRequest& request);

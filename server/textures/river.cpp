@@ -367,7 +367,14 @@ RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const 
   return b;
 }
 
-VelocitySpec velocity_grid(const RiverBake& bake) {
+VelocitySpec velocity_grid(const RiverBake& bake, const std::string& path) {
+  float fastest = 0;
+  for (const std::vector<float>* plane : {&bake.u, &bake.v})
+    for (float c : *plane) fastest = std::max(fastest, std::isfinite(c) ? std::abs(c) : INFINITY);
+  if (fastest > kMaxVelocityParam)
+    fail(Code::InvalidArgument, path + " bakes speeds up to " + validate::number(fastest) + " du/s, past the " +
+                                    validate::number(kMaxVelocityParam) +
+                                    " an advection takes: a wider channel, a smaller flow_rate or a larger p");
   VelocitySpec v;
   v.kind = SQUALL_VELOCITY_GRID;
   v.nx = bake.grid.nx;

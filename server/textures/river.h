@@ -83,7 +83,8 @@ class RiverEngine {
 };
 
 // The baked river as an advection's velocity: one grid frame, solid nodes filled from the water by
-// push-pull.
-VelocitySpec velocity_grid(const RiverBake& bake);
+// push-pull. A speed past kMaxVelocityParam (a narrow channel of a large flow rate; near a wall when p < 1)
+// is INVALID_ARGUMENT naming `path`, the river's field.
+VelocitySpec velocity_grid(const RiverBake& bake, const std::string& path);
 
 }  // namespace squall::textures

@@ -98,7 +98,7 @@ void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::stri
   grid_placement(g.origin_x, g.origin_y, g.hx, g.hy, path);
   const size_t nodes = size_t(g.nx) * g.ny;
   count(path + ".values", g.values.size(), nodes, "nx * ny");
-  each(path + ".values", g.values.data(), nodes);
+  each(path + ".values", g.values.data(), nodes, closed(-kMaxTextureValue, kMaxTextureValue));  // lerps stay finite
 }
 
 // The LUT final function (LTA11 sec. 3.2): C channels, N in 2..4096 finite entries, lut_max > lut_min,

@@ -112,7 +112,7 @@ void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, co
   const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
   rivers_->validate(river, path + ".river");
   rivers_->validate(grid, path + ".river", "bake_");
-  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel));
+  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
 }
 
 TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {

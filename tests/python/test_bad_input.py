@@ -209,30 +209,58 @@ def resumed_with_another_dt(
     request.resume_state = env.checkpoint
 
 
+CHECKPOINT_HEADER = 24  # request_checkpoint.h: magic, format, the request's fingerprint, the checksum
+
+
+def fnv1a(data: bytes) -> int:
+    """64-bit FNV-1a (common/fnv1a.h), the checksum of a texture checkpoint's state."""
+    h = 0xCBF29CE484222325
+    for byte in data:
+        h = ((h ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def with_state(checkpoint: bytes, state: bytes) -> bytes:
+    """`checkpoint`'s header (its checksum made again) with the advection state `state`."""
+    return checkpoint[:16] + struct.pack("<Q", fnv1a(state)) + state
+
+
 def checkpoint_state_replaced(state: bytes) -> Change:
     """Resumes checkpointed_request() from its frame-2 checkpoint with the advection state after
-    its 16-byte header (magic, format, fingerprint) replaced by `state`."""
+    its header replaced by `state` (and a checksum that matches it)."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None
         request.CopyFrom(checkpointed_request())
-        request.resume_state = env.checkpoint[:16] + state
+        request.resume_state = with_state(env.checkpoint, state)
+
+    return change
+
+
+def flipped_checkpoint(byte: int) -> Change:
+    """Resumes checkpointed_request() from its frame-2 checkpoint with one bit of `byte` flipped."""
+
+    def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
+        assert env is not None
+        damaged = bytearray(env.checkpoint)
+        damaged[byte] ^= 0x04
+        request.CopyFrom(checkpointed_request())
+        request.resume_state = bytes(damaged)
 
     return change
 
 
 def forged_checkpoint(index: int) -> Change:
     """Resumes checkpointed_request() from its frame-2 checkpoint with the frame index in it (an
-    int64 after the 16 bytes of request_checkpoint.h (magic, format, the request's fingerprint),
-    the uint32 version and the uint8 "started" flag, as restore() of eulerian.cpp and
-    lagrangian.cpp read it) forged."""
+    int64 after the header, the uint32 version and the uint8 "started" flag, as restore() of
+    eulerian.cpp and lagrangian.cpp read it) forged, and its checksum made again to match."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None
-        state = bytearray(env.checkpoint)
-        struct.pack_into("<q", state, 16 + 5, index)
+        state = bytearray(env.checkpoint[CHECKPOINT_HEADER:])
+        struct.pack_into("<q", state, 5, index)
         request.CopyFrom(checkpointed_request())
-        request.resume_state = bytes(state)
+        request.resume_state = with_state(env.checkpoint, bytes(state))
 
     return change
 
@@ -1759,6 +1787,12 @@ CASES += [
         "resume_state_header_only",
         checkpoint_state_replaced(b""),
         "it holds no advection state",
+    ),
+    bad(
+        R,
+        "resume_state_one_bit_flipped",
+        flipped_checkpoint(CHECKPOINT_HEADER + 5),  # in the frame index
+        "request.resume_state is damaged: its state does not match its checksum",
     ),
     bad(
         R,

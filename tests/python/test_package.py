@@ -217,6 +217,12 @@ def test_a_deadline_that_expires_at_once_is_refused_naming_it(timeout: float) ->
         client.info(timeout=timeout)
 
 
+@pytest.mark.parametrize("timeout", ["5", True])
+def test_a_deadline_that_is_no_number_is_refused_naming_it(timeout: object) -> None:
+    with pytest.raises(TypeError, match=r"^timeout must be a number of seconds or None"):
+        squall.Client(NOTHING_LISTENS, timeout=timeout)  # type: ignore[arg-type]
+
+
 def test_a_token_gRPC_cannot_send_is_refused_without_quoting_it(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -236,6 +242,7 @@ def test_a_restore_takes_the_bytes_of_a_state() -> None:
     """bytes(5) is five zero bytes: a number is refused, not sent."""
     assert squall.ewave.restore_request(b"\x01\x02").state == b"\x01\x02"
     assert squall.ewave.restore_request(memoryview(b"ab")).state == b"ab"
+    assert squall.ewave.restore_request(np.frombuffer(b"xyz", np.uint8)).state == b"xyz"
     with pytest.raises(TypeError, match="state must be the bytes of a state"):
         squall.ewave.restore_request(5)
 

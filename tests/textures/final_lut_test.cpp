@@ -227,8 +227,11 @@ TEST(TexturesFinalLut, BadLookupsAreRejectedNamingTheField) {
       {[](FinalLookupSpec& l) { l.field.values.pop_back(); },
        "spec.texture.lut.field.values has 19 values, want nx * ny"},
       {[](FinalLookupSpec& l) { l.field.nx = 1; }, "spec.texture.lut.field.nx = 1 must be in [2, 1048576]"},
-      {[](FinalLookupSpec& l) { l.field.hy = 0; }, "spec.texture.lut.field.spacing.y = 0 must be finite and in [1e-06, 10000000]"},
+      {[](FinalLookupSpec& l) { l.field.hy = 0; },
+       "spec.texture.lut.field.spacing.y = 0 must be finite and in [1e-06, 10000000]"},
       {[](FinalLookupSpec& l) { l.field.values[7] = NAN; }, "spec.texture.lut.field.values[7] = nan must be finite"},
+      // a bilinear blend of +-3e38 overflows float
+      {[](FinalLookupSpec& l) { l.field.values[7] = 3e38f; }, "spec.texture.lut.field.values[7] = 3.00000001e+38 must"},
   };
   for (const Case& k : cases) {
     AdvectSpec spec = static_lut_spec(Method::EulerianMultilayer);

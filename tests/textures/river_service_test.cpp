@@ -107,7 +107,7 @@ v1::BakeVelocityReply bake_velocity(const v1::BakeVelocityRequest& request) {
 textures::AdvectSpec in_process_spec(const v1::AdvectTextureRequest& request, const v1::RiverVelocity& river) {
   textures::AdvectSpec spec = textures::rpc::spec(request, LimitGate{Limits{}});
   spec.velocity = textures::velocity_grid(
-      rivers().bake(textures::rpc::river(river), textures::rpc::bake_grid(river, spec.output), "river"));
+      rivers().bake(textures::rpc::river(river), textures::rpc::bake_grid(river, spec.output), "river"), "river");
   engine().validate(spec, "request");
   return spec;
 }
@@ -242,6 +242,39 @@ TEST(TexturesRiver, BadRiversNameTheField) {
   advect_request.mutable_velocity()->mutable_river()->mutable_junctions(0)->add_downstream(9);
   test::expect_error(Code::InvalidArgument, "request.velocity.river.junctions[0].downstream[2] = 9",
                      [&] { advect_or_throw(advect_request); });
+}
+
+// A slip river (p = 0.01: the speed grows as d^(p - 1) toward a wall) of the largest flow rate whose right
+// bank passes 1e-36 below a row of nodes bakes finite speeds everywhere; a texture advected by a river whose
+// speeds pass what an advection takes (1e9 du/s through a channel 0.8 wide) is refused naming the river, as
+// the baked grid is no field of the request.
+TEST(TexturesRiver, ASlipRiverGrazingTheNodesBakesFiniteSpeedsAndTooFastOnesNameTheRiver) {
+  v1::RiverVelocity river;
+  v1::RiverChannel* channel = river.add_channels();
+  polyline(channel->mutable_left_bank(), {{-0.1, 0.8}, {1.1, 0.8}});
+  polyline(channel->mutable_right_bank(), {{-0.1, -1e-36}, {1.1, -1e-36}});
+  channel->set_flow_rate(1e9);
+  river.set_p(0.01);
+  v1::BakeVelocityRequest request;
+  *request.mutable_river() = river;
+  request.set_nx(33);
+  request.set_ny(33);
+  request.mutable_region()->set_y0(-1);
+  request.mutable_region()->set_x1(1);
+  request.mutable_region()->set_y1(1);
+  const v1::BakeVelocityReply reply = bake_velocity(request);
+  for (const auto* plane : {&reply.u(), &reply.v()})
+    for (float c : field::decode(*plane, "u or v")) ASSERT_TRUE(std::isfinite(c));
+
+  v1::AdvectTextureRequest advect = river_request(2);
+  v1::RiverVelocity& fast = *advect.mutable_velocity()->mutable_river();
+  fast.Clear();
+  v1::RiverChannel* straight = fast.add_channels();
+  polyline(straight->mutable_left_bank(), {{-0.1, 0.8}, {5.1, 0.8}});
+  polyline(straight->mutable_right_bank(), {{-0.1, 0}, {5.1, 0}});
+  straight->set_flow_rate(1e9);
+  test::expect_error(Code::InvalidArgument, "request.velocity.river bakes speeds up to ",
+                     [&] { advect_or_throw(advect); });
 }
 
 // A channel whose banks ripple through 4096 points each, baked on 4096 x 2048 nodes over a region whose

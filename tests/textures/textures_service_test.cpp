@@ -216,7 +216,16 @@ TEST(TexturesService, CheckpointOfAnotherRequestIsRefused) {
                        [&] { advect_or_throw(other); });
   }
   const std::string& checkpoint = first.frames[1].checkpoint();
-  for (size_t cut : {size_t(3), size_t(16)}) {  // inside the fingerprint; all of it and no state
+  // Any one bit of the state flipped (here in the frame index, then further in) is found by the checksum.
+  for (size_t byte : {size_t(24 + 5), size_t(24 + 40), checkpoint.size() - 1}) {
+    v1::AdvectTextureRequest flipped = r;
+    std::string damaged = checkpoint;
+    damaged[byte] = char(damaged[byte] ^ 0x04);
+    flipped.set_resume_state(damaged);
+    test::expect_error(Code::InvalidArgument, "request.resume_state is damaged: its state does not match",
+                       [&] { advect_or_throw(flipped); });
+  }
+  for (size_t cut : {size_t(3), size_t(16), size_t(24)}) {  // inside the fingerprint; no checksum; no state
     v1::AdvectTextureRequest truncated = r;
     truncated.set_resume_state(checkpoint.substr(0, cut));
     test::expect_error(Code::InvalidArgument, "request.resume_state is not a texture checkpoint",

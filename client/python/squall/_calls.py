@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 import queue
 import secrets
@@ -97,9 +98,13 @@ def resolve_token(token: Optional[str], token_file: Optional[str]) -> Optional[s
 
 
 def seconds(name: str, value: Optional[float]) -> Optional[float]:
-    """A deadline as given: None, or seconds > 0 (``inf``: none); ValueError naming `name` else
-    (NaN or a negative one expired at once)."""
-    if value is not None and not value > 0:
+    """A deadline as given: None, or seconds > 0 (``inf``: none); TypeError or ValueError naming
+    `name` else (NaN or a negative one expired at once)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number of seconds or None, not {type(value).__name__}")
+    if not value > 0:
         raise ValueError(f"{name} = {value}: a number of seconds > 0, inf or None")
     return value
 

@@ -322,11 +322,14 @@ def unary_step_request(
 
 
 def restore_request(state: Any) -> ewave_pb2.EWaveRestoreRequest:
-    """The Restore of `state`, the bytes of a ``state()`` snapshot (a number would make that many zero
-    bytes: TypeError)."""
-    if not isinstance(state, (bytes, bytearray, memoryview)):
-        raise TypeError(f"state must be the bytes of a state() snapshot, not {type(state).__name__}")
-    return ewave_pb2.EWaveRestoreRequest(state=bytes(state))
+    """The Restore of `state`: the bytes of a ``state()`` snapshot, or any buffer of them (a
+    number, which bytes() makes that many zero bytes, is a TypeError)."""
+    try:
+        view = memoryview(state)
+    except TypeError:
+        kind = type(state).__name__
+        raise TypeError(f"state must be the bytes of a state() snapshot, not {kind}") from None
+    return ewave_pb2.EWaveRestoreRequest(state=bytes(view))
 
 
 def close_quietly(close: Callable[[], None], exc_type: Any) -> None:
