@@ -6,7 +6,9 @@
  *   v      = curl psi = (d psi / dy, -d psi / dx)               (sec. 4)
  * d_i is the distance from P to boundary i (the nearest of its segments). The velocity is psi's exact
  * gradient, grad psi = sum_i (psi_i - psi) w'(d_i) grad d_i / sum_i w(d_i), instead of the paper's finite
- * differences: no step to choose, no stencil across a wall, and v stays tangent to the walls. */
+ * differences: no step to choose, no stencil across a wall, and v stays tangent to the walls. Within 2^-20
+ * of its search radius of a wall d_i is held at that distance (stream_sample): there v is the gradient at
+ * the band's edge, still tangent, and continuous. */
 #include "textures/river_geometry.h"
 
 typedef struct RiverNear {

@@ -52,12 +52,13 @@ bool on_or_off(const std::string& v) {
   throw std::invalid_argument("must be on or off");
 }
 
+// Seconds in (0, max], or in [min, max] when min > 0.
 double positive_seconds(const std::string& text, double max = kMaxSeconds, double min = 0) {
   size_t used = 0;
   double v = std::stod(text, &used);
-  if (used != text.size() || !(v > min && v <= max))
-    throw std::invalid_argument("must be a number of seconds in (" + validate::number(min) + ", " +
-                                validate::number(max) + "]");
+  if (used != text.size() || !(v > 0 && v >= min && v <= max))
+    throw std::invalid_argument("must be a number of seconds in " + std::string(min > 0 ? "[" : "(") +
+                                validate::number(min) + ", " + validate::number(max) + "]");
   return v;
 }
 
@@ -301,7 +302,7 @@ std::string usage() {
          "                            NOT_SERVING first (default 2; at most half the grace period)\n"
          "  --shutdown-bound SECONDS  past the grace period, how long cancelled calls get to stop before a\n"
          "                            watchdog ends squalld with exit code 4 (default 5)\n"
-         "  --keepalive SECONDS       keepalive ping interval on idle connections (default 60)\n"
+         "  --keepalive SECONDS       keepalive ping interval on idle connections, 0.1..1e6 (default 60)\n"
          "  --rpc-threads N           gRPC threads kept waiting for the next call, 1..1024 (default 32); past\n"
          "                            them a call starts a thread of its own, which ends with it\n"
          "  --reflection on|off|auto  gRPC server reflection (default auto: on only when listening on loopback\n"

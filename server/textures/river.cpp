@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -91,10 +92,12 @@ void validate_river(const RiverSpec& river, const std::string& path) {
     polyline(channel.left, 2, cpath + ".left_bank");
     polyline(channel.right, 2, cpath + ".right_bank");
     if (channel.flow_rate) positive(cpath + ".flow_rate", *channel.flow_rate, kMaxFlowRate);
+    // Lengths of at least kMinVelocityDivisor: a river's speeds scale with Q / s, and stay finite in float.
     if (channel.cross_section)
-      positive(cpath + ".cross_section", *channel.cross_section, kMaxCoordinate);
-    else if (!(cross_section(channel) > 0))
-      fail(Code::InvalidArgument, cpath + ": the banks start at the same point; give cross_section");
+      in(cpath + ".cross_section", *channel.cross_section, closed(kMinVelocityDivisor, kMaxCoordinate));
+    else if (!(cross_section(channel) >= kMinVelocityDivisor))
+      fail(Code::InvalidArgument, cpath + ": the banks start less than " + validate::number(kMinVelocityDivisor) +
+                                      " du apart; give cross_section");
   }
   std::vector<int> ends(river.channels.size()), starts(river.channels.size());
   for (size_t j = 0; j < river.junctions.size(); ++j)
@@ -103,10 +106,11 @@ void validate_river(const RiverSpec& river, const std::string& path) {
     const std::string opath = at(path + ".obstacles", o);
     polyline(river.obstacles[o].outline, 3, opath + ".outline");
     if (river.obstacles[o].search_radius)
-      positive(opath + ".search_radius", *river.obstacles[o].search_radius, kMaxCoordinate);
+      in(opath + ".search_radius", *river.obstacles[o].search_radius, closed(kMinVelocityDivisor, kMaxCoordinate));
   }
   in(path + ".p", river.p, open_closed(0, 8));
-  if (river.search_radius) positive(path + ".search_radius", *river.search_radius, kMaxCoordinate);
+  if (river.search_radius)
+    in(path + ".search_radius", *river.search_radius, closed(kMinVelocityDivisor, kMaxCoordinate));
 }
 
 void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
@@ -119,6 +123,13 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
   in(p + "region.y0", grid.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(p + "region.x1", grid.x1, open_closed(grid.x0, kMaxCoordinate));
   in(p + "region.y1", grid.y1, open_closed(grid.y0, kMaxCoordinate));
+  // The baked grid's node spacing is a velocity grid's, at least kMinVelocityDivisor.
+  for (const auto& [axis, extent, nodes] :
+       {std::tuple{"x", grid.x1 - grid.x0, grid.nx}, {"y", grid.y1 - grid.y0, grid.ny}})
+    if (extent / (nodes - 1) < kMinVelocityDivisor)
+      fail(Code::InvalidArgument, p + "region spans " + validate::number(extent) + " du along " + axis + " over " +
+                                      std::to_string(nodes) + " nodes: their spacing must be at least " +
+                                      validate::number(kMinVelocityDivisor) + " du (fewer nodes, or a wider region)");
 }
 
 namespace {

@@ -89,7 +89,8 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
   if (!v.mask.empty()) count(path + ".mask", v.mask.size(), nodes, "nx * ny");
 }
 
-// The LUT's scalar field: absent (no values, nx = ny = 0), or nx x ny finite values on a spaced grid.
+// The LUT's scalar field: absent (no values, nx = ny = 0), or nx x ny values within +-kMaxTextureValue on a
+// spaced grid.
 void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::string& path) {
   if (g.values.empty() && g.nx == 0 && g.ny == 0) return;  // s = 0
   in(path + ".nx", int64_t(g.nx), 2, 1 << 20);

@@ -209,7 +209,8 @@ def resumed_with_another_dt(
     request.resume_state = env.checkpoint
 
 
-CHECKPOINT_HEADER = 24  # request_checkpoint.h: magic, format, the request's fingerprint, the checksum
+# request_checkpoint.h: magic, format, the request's fingerprint (16 bytes), then the checksum
+CHECKPOINT_HEADER = 24
 
 
 def fnv1a(data: bytes) -> int:
@@ -222,7 +223,7 @@ def fnv1a(data: bytes) -> int:
 
 def with_state(checkpoint: bytes, state: bytes) -> bytes:
     """`checkpoint`'s header (its checksum made again) with the advection state `state`."""
-    return checkpoint[:16] + struct.pack("<Q", fnv1a(state)) + state
+    return checkpoint[: CHECKPOINT_HEADER - 8] + struct.pack("<Q", fnv1a(state)) + state
 
 
 def checkpoint_state_replaced(state: bytes) -> Change:
@@ -238,7 +239,7 @@ def checkpoint_state_replaced(state: bytes) -> Change:
 
 
 def flipped_checkpoint(byte: int) -> Change:
-    """Resumes checkpointed_request() from its frame-2 checkpoint with one bit of `byte` flipped."""
+    """Resumes checkpointed_request() from its frame-2 checkpoint, one bit of `byte` flipped."""
 
     def change(request: textures_pb2.AdvectTextureRequest, env: Optional[Env]) -> None:
         assert env is not None

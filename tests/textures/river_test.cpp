@@ -369,6 +369,14 @@ TEST(River, BadRiversNameTheField) {
   river = straight(1, 4, 1, 1);
   river.search_radius = 1e39;  // past float32: every node was undefined
   expect_error(Code::InvalidArgument, "river.search_radius = 1e+39", [&] { e.validate(river, "river"); });
+  // Speeds scale with Q / s: lengths below 1e-6 du are refused, the banks' own distance included.
+  river.search_radius = 1e-7;
+  expect_error(Code::InvalidArgument, "river.search_radius = 1e-07", [&] { e.validate(river, "river"); });
+  river = straight(1e-7, 4, 1, 1);
+  expect_error(Code::InvalidArgument, "river.channels[0]: the banks start less than 1e-06 du apart",
+               [&] { e.validate(river, "river"); });
+  river.channels[0].cross_section = 1e-7;
+  expect_error(Code::InvalidArgument, "river.channels[0].cross_section = 1e-07", [&] { e.validate(river, "river"); });
   river = y_junction(3);
   river.junctions[0].downstream = {1, 7};
   expect_error(Code::InvalidArgument, "river.junctions[0].downstream[1] = 7", [&] { e.validate(river, "river"); });
@@ -400,6 +408,10 @@ TEST(River, BadRiversNameTheField) {
   const RiverEngine limited(runtime(), gate);
   expect_error(Code::ResourceExhausted, "grid", [&] { limited.validate(BakeGrid{40, 40, 0, 0, 1, 1}, "grid"); });
   expect_error(Code::InvalidArgument, "grid.region.x1", [&] { e.validate(BakeGrid{4, 4, 0, 0, 0, 1}, "grid"); });
+  // A baked grid is a velocity grid: its nodes at least 1e-6 du apart.
+  expect_error(Code::InvalidArgument, "grid.bake_region spans 0.0001 du along x over 128 nodes", [&] {
+    e.validate(BakeGrid{128, 4, 0, 0, 1e-4, 1}, "grid", "bake_");
+  });
 }
 
 }  // namespace

@@ -225,7 +225,7 @@ TEST(TexturesService, CheckpointOfAnotherRequestIsRefused) {
     test::expect_error(Code::InvalidArgument, "request.resume_state is damaged: its state does not match",
                        [&] { advect_or_throw(flipped); });
   }
-  for (size_t cut : {size_t(3), size_t(16), size_t(24)}) {  // inside the fingerprint; no checksum; no state
+  for (size_t cut : {size_t(3), size_t(16), size_t(24)}) {  // inside the magic; no checksum; no state
     v1::AdvectTextureRequest truncated = r;
     truncated.set_resume_state(checkpoint.substr(0, cut));
     test::expect_error(Code::InvalidArgument, "request.resume_state is not a texture checkpoint",
