@@ -156,7 +156,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> args(argv + i + 1, argv + argc);
   try {
     client::Client client(options);  // throws when a --tls-* file cannot be read
-    return it->second.run(client, args);
+    const int status = it->second.run(client, args);
+    std::cout.flush();  // what a verb prints (sample's CSV, info) is its output: a full disk is an error
+    if (status == kOk && !std::cout)
+      return std::cerr << "squall: the standard output could not be written\n", kLocalError;
+    return status;
   } catch (const client::RpcError& e) {
     std::cerr << "squall: " << e.what() << " (address " << options.address << ")\n";
     bool unreachable = e.code() == grpc::StatusCode::UNAVAILABLE || e.code() == grpc::StatusCode::DEADLINE_EXCEEDED;

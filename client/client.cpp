@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <random>
 #include <fstream>
@@ -72,10 +73,10 @@ Client::Client(const ClientOptions& options) : options_(options) {
   channel_ = grpc::CreateCustomChannel(options.address, credentials(options), args);
 }
 
-std::unique_ptr<grpc::ClientContext> Client::context(const std::string& session) const {
+std::unique_ptr<grpc::ClientContext> Client::context(const std::string& session, double calls) const {
   auto ctx = std::make_unique<grpc::ClientContext>();
-  ctx->set_deadline(std::chrono::system_clock::now() +
-                    std::chrono::milliseconds(static_cast<long long>(options_.timeout_seconds * 1000)));
+  const double seconds = std::min(options_.timeout_seconds * std::max(calls, 1.0), 1e9);
+  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(std::llround(seconds * 1000)));
   if (!options_.request_id.empty()) ctx->AddMetadata("x-request-id", options_.request_id);
   if (!options_.token.empty()) ctx->AddMetadata("authorization", "Bearer " + options_.token);
   if (!session.empty()) ctx->AddMetadata("x-squall-session", session);

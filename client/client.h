@@ -73,7 +73,9 @@ class Client {
   const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
   // A context with this client's deadline and request id, for services' own stubs; with `session`, the
   // call names that session (or proposes that id) in x-squall-session, which a proxy routes on.
-  std::unique_ptr<grpc::ClientContext> context(const std::string& session = "") const;
+  // A stream of `calls` messages gets `calls` times the timeout; any deadline is at most 1e9 s away (a farther
+  // one overflows the clock's nanoseconds and expires at once).
+  std::unique_ptr<grpc::ClientContext> context(const std::string& session = "", double calls = 1) const;
 
  private:
   ClientOptions options_;

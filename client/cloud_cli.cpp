@@ -298,7 +298,8 @@ int build(client::Client& client, const Request& r) {
   check(stub->BuildVolume(context.get(), request, &response), "Clouds.BuildVolume");
   std::ofstream out(r.output, std::ios::binary);
   out << response.vdb();
-  if (!out) {
+  out.close();  // a full disk shows here, not at the write
+  if (out.fail()) {
     std::cerr << "squall cloud: cannot write " << r.output << "\n";
     return kLocalError;
   }
@@ -329,7 +330,7 @@ int render(client::Client& client, const Request& r) {
         {img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
   try {
     client::write_exr(r.output, image);
-    std::string preview = r.preview.empty() ? r.output.substr(0, r.output.rfind('.')) + ".png" : r.preview;
+    const std::string preview = r.preview.empty() ? client::preview_beside(r.output) : r.preview;
     if (preview != "none") client::write_png_preview(preview, image.nx, image.ny, image.channels[0].values);
   } catch (const std::exception& e) {
     std::cerr << "squall cloud: " << e.what() << "\n";

@@ -180,9 +180,7 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
 // Streams the steps: a writer thread sends the requests (gRPC flow control holds it back when the
 // server falls behind) while this thread reads the frames and writes the files.
 int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWave::Stub& stub) {
-  auto context = client.context(id);
-  const auto now = std::chrono::system_clock::now();
-  context->set_deadline(now + (context->deadline() - now) * int64_t(w.steps));
+  auto context = client.context(id, double(w.steps));
   auto call = stub.Run(context.get());
   std::thread writer([&] {
     v1::EWaveStepRequest request;

@@ -4,12 +4,14 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <ImfStdIO.h>
 #include <ImfStringAttribute.h>
 #include <png.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -32,12 +34,25 @@ void write_exr(const std::string& path, const Image& image) {
     frame.insert(channel.name, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * image.nx));
   }
   try {
-    Imf::OutputFile file(path.c_str(), header);
-    file.setFrameBuffer(frame);
-    file.writePixels(image.ny);
+    std::ofstream stream(path, std::ios::binary | std::ios::trunc);
+    if (!stream) throw std::runtime_error("cannot open it");
+    {
+      Imf::StdOFStream exr(stream, path.c_str());
+      Imf::OutputFile file(exr, header);
+      file.setFrameBuffer(frame);
+      file.writePixels(image.ny);
+    }  // the line offsets are written as the file closes, where OpenEXR reports no error
+    stream.close();
+    if (stream.fail()) throw std::runtime_error("it was not written in full (is the disk full?)");
   } catch (const std::exception& e) {
     throw std::runtime_error("cannot write " + path + ": " + e.what());
   }
+}
+
+std::string preview_beside(const std::string& output) {
+  const std::string exr = ".exr";
+  const bool has_exr = output.size() > exr.size() && output.compare(output.size() - exr.size(), exr.size(), exr) == 0;
+  return (has_exr ? output.substr(0, output.size() - exr.size()) : output) + ".png";
 }
 
 namespace {
@@ -84,7 +99,9 @@ void write_png_preview(const std::string& path, int nx, int ny, const std::vecto
   png_write_info(w.png, w.info);
   for (int j = 0; j < ny; ++j) png_write_row(w.png, grey.data() + static_cast<size_t>(j) * nx);
   png_write_end(w.png, nullptr);
-  if (std::fflush(w.file) != 0) throw std::runtime_error("cannot write " + path);
+  const int flushed = std::fflush(w.file), closed = std::fclose(w.file);
+  w.file = nullptr;
+  if (flushed != 0 || closed != 0) throw std::runtime_error("cannot write " + path);
 }
 
 }  // namespace squall::client

@@ -34,5 +34,8 @@ void write_exr(const std::string& path, const Image& image);
 // Writes values (nx * ny, x fastest) as 8-bit grey, linearly mapped from [min, max] of the finite
 // values to [0, 255] (a constant field is mid-grey, non-finite values black). Throws on failure.
 void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values);
+// The preview written beside an EXR `output`: its ".exr" replaced by ".png", else ".png" appended (an
+// output named x.png keeps its EXR, and one in a dotted folder its own folder).
+std::string preview_beside(const std::string& output);
 
 }  // namespace squall::client

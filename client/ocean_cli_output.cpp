@@ -11,7 +11,7 @@ namespace squall::cli::ocean {
 
 std::string preview_path(const Request& r) {
   if (!r.preview.empty()) return r.preview == "none" ? "" : r.preview;
-  return std::filesystem::path(r.out).replace_extension(".png").string();
+  return client::preview_beside(r.out);
 }
 
 std::string frame_path(const std::string& dir, uint32_t index) {

@@ -202,16 +202,25 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
   return true;
 }
 
+// "X,Y" in metres (not pair_of's shorthand: one number is no point, and an x is no separator here).
+std::pair<double, double> point(const std::string& flag, const std::string& text) {
+  const size_t comma = text.find(',');
+  if (comma == std::string::npos) throw UsageError(flag + " " + text + ": must be X,Y (m)");
+  return {number(flag, text.substr(0, comma), "m"), number(flag, text.substr(comma + 1), "m")};
+}
+
 void read_points_file(const std::string& path, Request& r) {
   std::ifstream in(path);
   if (!in) throw UsageError("--points-file " + path + ": cannot open");
   int line_number = 0;
   for (std::string line; std::getline(in, line);) {
     ++line_number;
-    if (line.empty() || line[0] == '#' || std::isalpha(static_cast<unsigned char>(line[0]))) continue;  // header
-    auto [x, y] = pair_of(line);
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF
+    const bool header = line_number == 1 && std::isalpha(static_cast<unsigned char>(line[0])) &&
+                        line.rfind("nan", 0) != 0 && line.rfind("inf", 0) != 0;
+    if (line.empty() || line[0] == '#' || header) continue;
     std::string where = "--points-file " + path + ":" + std::to_string(line_number);
-    r.points.emplace_back(number(where, x, "m"), number(where, y, "m"));
+    r.points.push_back(point(where, line));
   }
 }
 
@@ -229,9 +238,7 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
   } else if (flag == "--preview") {
     r.preview = value;
   } else if (flag == "--point") {
-    if (value.find(',') == std::string::npos) throw UsageError(flag + " " + value + ": must be X,Y (m)");
-    auto [x, y] = pair_of(value);
-    r.points.emplace_back(number(flag, x, "m"), number(flag, y, "m"));
+    r.points.push_back(point(flag, value));
   } else if (flag == "--points-file") {
     read_points_file(value, r);
   } else if (flag == "--invert-displacement") {

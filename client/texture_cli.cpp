@@ -272,9 +272,7 @@ int advect(client::Client& client, const Advect& a) {
   auto service = v1::Textures::NewStub(client.channel());
   // A texture that follows an eWave session names it (x-squall-session), so that a session-affine proxy
   // routes the stream to the replica holding that session.
-  auto context = client.context(a.request.velocity().ewave_session());
-  const auto now = std::chrono::system_clock::now();
-  context->set_deadline(now + (context->deadline() - now) * int64_t(a.request.frames()));
+  auto context = client.context(a.request.velocity().ewave_session(), double(a.request.frames()));
   auto reader = service->AdvectTexture(context.get(), a.request);
   const std::string request_text = describe(a.request);
   v1::TextureFrame frame;

@@ -183,9 +183,7 @@ int deform(client::Client& client, const std::vector<std::string>& args) {
   const Deform d = parse(args);
   std::filesystem::create_directories(d.out);
   auto service = v1::Textures::NewStub(client.channel());
-  auto context = client.context();
-  const auto now = std::chrono::system_clock::now();
-  context->set_deadline(now + (context->deadline() - now) * int64_t(d.request.frames()));
+  auto context = client.context("", double(d.request.frames()));
   auto reader = service->DeformTexture(context.get(), d.request);
   v1::DeformFrame frame;
   uint32_t written = 0;

@@ -580,6 +580,17 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
       << out;
   EXPECT_TRUE(std::filesystem::exists(dir + "/c.exr"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/c.png"));
+  // The preview goes beside the output whatever its name: "my.dir/cloud" gives my.dir/cloud.png.
+  std::filesystem::create_directories(dir + "/my.dir");
+  ASSERT_EQ(test::run(args({"render", "--voxel-size", "0.5", "--sphere", "0,0,0,4", "--eye", "0,-30,0", "--size", "8x8",
+                            "-o", dir + "/my.dir/cloud"}),
+                      &out),
+            0)
+      << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/my.dir/cloud.png"));
+  if (std::filesystem::exists("/dev/full"))  // written in full or exit 5
+    EXPECT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,1", "-o", "/dev/full"}), &out), 5)
+        << out;
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0", "-o", dir + "/x.exr"}), &out), 2) << out;
   EXPECT_EQ(test::run(args({"render", "--volume", "cloud-404", "-o", dir + "/x.exr"}), &out), 4) << out;
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;

@@ -563,6 +563,23 @@ TEST(OceanCli, StreamWritesANumberedSequenceAndSamplePrintsCsv) {
   EXPECT_EQ(rows, 2) << out;
 }
 
+// The preview goes beside the EXR, never over it: "x.exr" gives x.png, any other name gets ".png" appended.
+// A file that cannot be written in full (a full disk) exits 5, as a file that cannot be opened does.
+TEST(OceanCli, ThePreviewNeverReplacesTheTileAndAFullDiskExitsFive) {
+  const std::string dir = test::temp_dir("ocean-cli-names");
+  std::string out;
+  ASSERT_EQ(test::run(cli_args({"tile", "--grid", "16", "-o", dir + "/t.png"}), &out), 0) << out;
+  std::ifstream exr(dir + "/t.png", std::ios::binary);
+  char magic[4] = {};
+  exr.read(magic, 4);
+  EXPECT_EQ(std::string(magic, 4), std::string("\x76\x2f\x31\x01", 4)) << "t.png holds the EXR";
+  EXPECT_TRUE(std::filesystem::exists(dir + "/t.png.png"));
+  if (std::filesystem::exists("/dev/full")) {
+    EXPECT_EQ(test::run(cli_args({"tile", "--grid", "16", "--preview", "none", "-o", "/dev/full"}), &out), 5) << out;
+    EXPECT_NE(out.find("cannot write /dev/full"), std::string::npos) << out;
+  }
+}
+
 TEST(OceanCli, ReadableErrorsAndExitCodes) {
   std::string out;
   EXPECT_EQ(test::run(cli_args({"tile", "--wind-speed", "fast", "-o", "x.exr"}), &out), 2) << out;
@@ -571,6 +588,10 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find("must be one of"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // one number is no point
   EXPECT_NE(out.find("--point 1: must be X,Y (m)"), std::string::npos) << out;
+  const std::string points = test::temp_dir("ocean-cli-points") + "/points.csv";
+  std::ofstream(points) << "x,y\r\n1,2\r\n5\r\n";  // a line of one number, in a CRLF file
+  EXPECT_EQ(test::run(cli_args({"sample", "--points-file", points}), &out), 2) << out;
+  EXPECT_NE(out.find(":3 5: must be X,Y (m)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"stream", "--frames", "2", "-o", "d"}), &out), 2) << out;
   EXPECT_NE(out.find("--dt"), std::string::npos) << out;
   // The server refuses: exit 4, with the field named.
