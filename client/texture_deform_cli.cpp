@@ -125,7 +125,9 @@ void apply(const std::string& flag, const std::string& value, Deform& d) {
     throw UsageError("unknown flag " + flag);
 }
 
-// The texture's width and height: its first channel's, or the PNG header's.
+// The texture's width and height: its first channel's, or the PNG header's (a PNG signature and its IHDR
+// chunk first, as the PNG specification requires; at most 2^28 texels, past any --max-grid-cells, so that a
+// constant rigidity map of a forged header is refused rather than allocated).
 std::pair<uint32_t, uint32_t> texture_size(const v1::ImageTexture& image) {
   if (image.channels_size() > 0) return {image.channels(0).nx(), image.channels(0).ny()};
   const std::string& png = image.png();
@@ -133,8 +135,14 @@ std::pair<uint32_t, uint32_t> texture_size(const v1::ImageTexture& image) {
     return uint32_t(uint8_t(png[at])) << 24 | uint32_t(uint8_t(png[at + 1])) << 16 |
            uint32_t(uint8_t(png[at + 2])) << 8 | uint32_t(uint8_t(png[at + 3]));
   };
-  if (png.size() < 24) throw UsageError("--image: not a PNG file");
-  return {be32(16), be32(20)};  // IHDR width and height
+  static const char kSignature[] = "\x89PNG\r\n\x1a\n";
+  if (png.size() < 24 || png.compare(0, 8, kSignature, 8) != 0 || png.compare(12, 4, "IHDR") != 0)
+    throw UsageError("--image: not a PNG file (no PNG signature and IHDR chunk)");
+  const uint32_t width = be32(16), height = be32(20);
+  if (width < 1 || height < 1 || double(width) * height > double(1 << 28))
+    throw UsageError("--image: the PNG header says " + std::to_string(width) + " x " + std::to_string(height) +
+                     " pixels, past 2^28");
+  return {width, height};
 }
 
 void rigidity(Deform& d) {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "common/field_codec.h"
 #include "service_support.h"
@@ -256,6 +257,19 @@ TEST(TexturesDeform, CommandLine) {
                       &out),
             2)
       << out;
+  // A constant rigidity takes the texture's size from its PNG header: only a PNG's, and not past 2^28 texels.
+  std::string forged = "\x89PNG\r\n\x1a\n" + std::string("\0\0\0\x0dIHDR\0\0\x9c\x40\0\0\x9c\x40", 16);
+  std::ofstream(dir + "/forged.png", std::ios::binary) << forged << std::string(16, '\0');
+  std::ofstream(dir + "/text.png") << "this is not a png, but long enough to have a header";
+  for (const auto& [file, message] : std::vector<std::pair<std::string, std::string>>{
+           {"forged.png", "the PNG header says 40000 x 40000 pixels, past 2^28"}, {"text.png", "not a PNG file"}}) {
+    EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
+                         dir + "/" + file, "--rigidity", "0.5", "--out", dir + "/y"},
+                        &out),
+              2)
+        << out;
+    EXPECT_NE(out.find(message), std::string::npos) << out;
+  }
 }
 
 }  // namespace
