@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
       options.request_id = value;
     } else if (arg == "--token-file") {
       std::ifstream in(value);
+      if (!in) return std::cerr << "squall: --token-file " << value << ": cannot read\n", kUsage;
       if (!(in >> options.token)) return std::cerr << "squall: --token-file " << value << ": no token in it\n", kUsage;
     } else if (arg == "--tls-ca") {
       options.tls_ca = value;
@@ -148,6 +149,11 @@ int main(int argc, char** argv) {
     }
   }
   if (i >= argc) return print_usage(), kUsage;
+  for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--tls-ca", options.tls_ca},
+                                   {"--tls-cert", options.tls_cert},
+                                   {"--tls-key", options.tls_key}})
+    if (!path.empty() && !std::ifstream(path))  // a bad command line, as an unreadable --token-file
+      return std::cerr << "squall: " << flag << " " << path << ": cannot read\n", kUsage;
   if (int status = check_metadata(options); status != kOk) return status;
   if (bad_port(options.address))
     return std::cerr << "squall: --address " << options.address << ": the port must be in 1..65535\n", kUsage;

@@ -1,9 +1,11 @@
 #include "client/cli_flags.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 
 namespace squall::cli {
@@ -28,16 +30,44 @@ uint64_t integer(const std::string& flag, const std::string& text, uint64_t min,
   return v;
 }
 
+uint32_t integer32(const std::string& flag, const std::string& text, uint32_t min) {
+  return uint32_t(integer(flag, text, min, UINT32_MAX));
+}
+
 std::pair<uint32_t, uint32_t> extent(const std::string& flag, const std::string& text, uint32_t min) {
   const size_t x = text.find('x');
   const std::string usage = flag + " " + text + ": must be WxH, two integers >= " + std::to_string(min);
   if (x == std::string::npos) throw UsageError(usage);
   try {
-    return {uint32_t(integer(flag, text.substr(0, x), min, UINT32_MAX)),
-            uint32_t(integer(flag, text.substr(x + 1), min, UINT32_MAX))};
+    return {integer32(flag, text.substr(0, x), min), integer32(flag, text.substr(x + 1), min)};
   } catch (const UsageError&) {
     throw UsageError(usage);  // "8x8x8" names the whole value
   }
+}
+
+void refuse_unused(const std::string& command, const std::vector<std::string>& given,
+                   const std::set<std::string>& read) {
+  for (const std::string& flag : given)
+    if (!read.count(flag)) throw UsageError(flag + " is not a flag of `squall " + command + "`");
+}
+
+std::string attribute_name(const std::string& prefix, const std::string& flag) {
+  return prefix + "." + flag.substr(std::min(flag.find_first_not_of('-'), flag.size()));
+}
+
+bool global_flag(const std::string& arg) {
+  static const std::set<std::string> flags = {"--address", "--timeout",  "--request-id", "--token-file",
+                                              "--tls-ca",  "--tls-cert", "--tls-key"};
+  return flags.count(arg) > 0;
+}
+
+OutputFolder::OutputFolder(std::string path) : path_(std::move(path)) {
+  made_ = std::filesystem::create_directories(path_);
+}
+
+OutputFolder::~OutputFolder() {
+  std::error_code ignored;  // a folder that cannot be removed is left as it is
+  if (made_ && std::filesystem::is_empty(path_, ignored)) std::filesystem::remove(path_, ignored);
 }
 
 int run_verb(const std::string& name, const char* help, const std::vector<std::string>& args,
@@ -47,6 +77,10 @@ int run_verb(const std::string& name, const char* help, const std::vector<std::s
     return args.empty() ? kUsage : kOk;
   }
   try {
+    for (size_t i = 1; i < args.size(); ++i)
+      if (global_flag(args[i]))
+        throw UsageError(args[i] + " is a flag of squall itself: give it before the verb (squall " + args[i] +
+                         " VALUE " + name + " ...)");
     return body();
   } catch (const UsageError& e) {
     std::cerr << "squall " << name << ": " << e.what() << "\n";

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -17,6 +18,8 @@ namespace squall::cli {
 double number(const std::string& flag, const std::string& text, const char* unit);
 // A decimal integer in [min, max], nothing before or after it (no sign, no space).
 uint64_t integer(const std::string& flag, const std::string& text, uint64_t min = 0, uint64_t max = UINT64_MAX);
+// integer() for a 32-bit field: in [min, 2^32 - 1].
+uint32_t integer32(const std::string& flag, const std::string& text, uint32_t min = 0);
 // "WxH": two integers in [min, 2^32 - 1] and nothing else.
 std::pair<uint32_t, uint32_t> extent(const std::string& flag, const std::string& text, uint32_t min);
 
@@ -29,8 +32,35 @@ Enum named(const std::string& flag, const std::string& text, const std::map<std:
   throw UsageError(flag + " " + text + ": must be one of " + known);
 }
 
+// Throws UsageError naming the first flag of `given` that `command` (e.g. "ocean tile") does not read:
+// a flag given to a verb that would ignore it is refused, not dropped.
+void refuse_unused(const std::string& command, const std::vector<std::string>& given,
+                   const std::set<std::string>& read);
+
+// An EXR attribute's name for a flag as given: "squall.ewave.wake" and "--speed" give
+// "squall.ewave.wake.speed".
+std::string attribute_name(const std::string& prefix, const std::string& flag);
+
+// The flags of `squall` itself (--address, --timeout, ...), which go before the verb.
+bool global_flag(const std::string& arg);
+
+// The folder a verb writes its frames into: made when missing, and removed again when this ends if it was
+// made here and is still empty, so that a call the server refused leaves no empty folder behind.
+class OutputFolder {
+ public:
+  explicit OutputFolder(std::string path);
+  ~OutputFolder();
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
+
+ private:
+  std::string path_;
+  bool made_ = false;
+};
+
 // Runs `squall NAME SUBCOMMAND ...`: no arguments or "help" print `help`; a UsageError thrown by
-// `body` is printed as "squall NAME: ..." and exits kUsage.
+// `body` is printed as "squall NAME: ..." and exits kUsage, as is a flag of squall itself given after the
+// verb.
 int run_verb(const std::string& name, const char* help, const std::vector<std::string>& args,
              const std::function<int()>& body);
 

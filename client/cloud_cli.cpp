@@ -88,6 +88,7 @@ struct Request {
   v1::RenderSettings settings;
   std::string volume_id, output, preview;
   bool keep = false, has_shape = false;
+  std::vector<std::string> model_flags, image_flags;  // as given: the model's, and those only render reads
 };
 
 std::string read_text(const std::string& path) {
@@ -247,23 +248,29 @@ Request parse(const std::vector<std::string>& args) {
         r.settings.set_trilinear(true);
       else
         r.settings.set_shadow_trilinear(true);
+      r.image_flags.push_back(flag);
       continue;
     }
     if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");
     const std::string& value = args[++i];
-    if (flag == "-o")
+    if (flag == "-o") {
       r.output = value;
-    else if (flag == "--preview")
-      r.preview = value;
-    else if (flag == "--volume")
-      r.volume_id = value;
-    else if (!model_flag(flag, value, r) && !render_flag(flag, value, r))
+    } else if (flag == "--preview" || flag == "--volume") {
+      (flag == "--preview" ? r.preview : r.volume_id) = value;
+      r.image_flags.push_back(flag);
+    } else if (model_flag(flag, value, r)) {
+      r.model_flags.push_back(flag);
+    } else if (render_flag(flag, value, r)) {
+      r.image_flags.push_back(flag);
+    } else {
       throw UsageError("unknown flag " + flag);
+    }
   }
   // One extinction, albedo and light intensity for every wavelength.
   auto& s = r.settings;
   int nw = s.wavelengths_size();
-  double k = s.extinction_size() ? s.extinction(0) : 0.1, a = s.albedo_size() ? s.albedo(0) : 0.9;
+  // The last --extinction and --albedo given.
+  double k = s.extinction_size() ? *s.extinction().rbegin() : 0.1, a = s.albedo_size() ? *s.albedo().rbegin() : 0.9;
   s.clear_extinction();
   s.clear_albedo();
   for (int w = 0; w < nw; ++w) {
@@ -348,9 +355,14 @@ int run(client::Client& client, const std::vector<std::string>& args) {
       throw UsageError("unknown cloud verb " + args[0] + " (build or render)");
     Request r = parse(args);
     if (args[0] == "build") {
+      refuse_unused("cloud build", r.image_flags, {});  // it makes no image
       if (!r.has_shape) throw UsageError("build needs at least one --sphere, --ellipsoid, --mesh or --particle");
       return build(client, r);
     }
+    if (r.keep)
+      throw UsageError("--keep is not a flag of `squall cloud render` (`cloud build --keep` stores a volume)");
+    if (!r.volume_id.empty() && !r.model_flags.empty())
+      throw UsageError(r.model_flags.front() + ": `cloud render --volume ID` renders the stored volume, not a model");
     if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
     return render(client, r);
   });

@@ -30,7 +30,7 @@ const char* const kHelp = R"(usage:
 A hull (an obstruction that is also a height source S0 (1 - O); Tessendorf 2017, Gilligan, eq 75)
 moves along +x through the middle of the grid at constant speed, one Run-stream step per frame; each
 written frame is DIR/frame_NNNNN.exr (the requested fields as FLOAT channels, the parameters as
-attributes) and DIR/frame_NNNNN.png (the height, 8-bit grey).
+attributes) and DIR/frame_NNNNN.png (the height, or the first field asked without it, 8-bit grey).
   --speed V             hull speed, m/s (default 0.2)
   --hull NAME           ellipse | box | circle (default ellipse)
   --length L            hull length along the track, m (default 0.24; circle: the diameter)
@@ -72,8 +72,8 @@ struct Wake {
 void grid_flag(const std::string& value, v1::EWaveConfig& c) {
   size_t x = value.find_first_of("x,");
   if (x == std::string::npos) throw UsageError("--grid " + value + ": must be NXxNY");
-  c.set_nx(uint32_t(integer("--grid", value.substr(0, x), 1, UINT32_MAX)));
-  c.set_ny(uint32_t(integer("--grid", value.substr(x + 1), 1, UINT32_MAX)));
+  c.set_nx(integer32("--grid", value.substr(0, x), 1));
+  c.set_ny(integer32("--grid", value.substr(x + 1), 1));
 }
 
 void apply(const std::string& flag, const std::string& value, Wake& w) {
@@ -165,7 +165,8 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
         "squall.field." + f.name(),
         f.unit() + "; spacing " + std::to_string(f.spacing().x()) + " " + std::to_string(f.spacing().y()) + " m");
   }
-  for (const auto& [flag, value] : w.flags) image.attributes.emplace_back("squall.ewave.wake" + flag, value);
+  for (const auto& [flag, value] : w.flags)
+    image.attributes.emplace_back(attribute_name("squall.ewave.wake", flag), value);
   std::ostringstream t;
   t.precision(17);
   t << frame.time().seconds();
@@ -174,7 +175,10 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
   char name[32];
   std::snprintf(name, sizeof name, "/frame_%05llu", static_cast<unsigned long long>(frame.step()));
   client::write_exr(w.out + name + ".exr", image);
-  client::write_png_preview(w.out + name + ".png", image.nx, image.ny, image.channels.front().values);
+  const auto height = std::find_if(image.channels.begin(), image.channels.end(),
+                                   [](const client::Channel& c) { return c.name == "height"; });
+  const auto& preview = height != image.channels.end() ? *height : image.channels.front();
+  client::write_png_preview(w.out + name + ".png", image.nx, image.ny, preview.values);
 }
 
 // Streams the steps: a writer thread sends the requests (gRPC flow control holds it back when the
@@ -218,7 +222,7 @@ int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWa
 }
 
 int wake(client::Client& client, const Wake& w) {
-  std::filesystem::create_directories(w.out);
+  const OutputFolder folder(w.out);
   auto stub = v1::EWave::NewStub(client.channel());
   v1::EWaveCreateSessionRequest create;
   *create.mutable_config() = w.config;

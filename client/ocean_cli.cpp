@@ -12,11 +12,13 @@ const char* const kVerbUsage =
 
 int run(client::Client& client, const std::vector<std::string>& args) {
   return run_verb("ocean", kHelp, args, [&] {
+    const auto read = kVerbFlags.find(args[0]);
+    if (read == kVerbFlags.end()) throw UsageError("unknown ocean verb " + args[0] + " (tile, stream or sample)");
     Request r = parse(args);
+    refuse_unused("ocean " + args[0], r.run_flags, read->second);
     if (args[0] == "tile") return tile(client, r);
     if (args[0] == "stream") return stream(client, r);
-    if (args[0] == "sample") return sample(client, r);
-    throw UsageError("unknown ocean verb " + args[0] + " (tile, stream or sample)");
+    return sample(client, r);
   });
 }
 

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "client/cli_flags.h"
@@ -46,6 +47,7 @@ tile flags:
                             jacobian jacobian_minus jacobian_plus whitecap
                             (default height,displacement_x,displacement_y,normal_x,normal_y,normal_z)
   --dtype float32|float16   transfer type (default float32); files are always 32-bit float
+--outputs and --dtype are for tile and stream. The stream's deadline is --timeout times the number of frames.
 )";
 
 namespace {
@@ -116,8 +118,8 @@ bool layer_flag(const std::string& flag, const std::string& value, v1::LayerSpec
     l.set_extent_y(number(flag, y, "m"));
   } else if (flag == "--grid") {
     auto [x, y] = pair_of(value);
-    l.set_nx(uint32_t(integer(flag, x, 0, UINT32_MAX)));
-    l.set_ny(uint32_t(integer(flag, y, 0, UINT32_MAX)));
+    l.set_nx(integer32(flag, x));
+    l.set_ny(integer32(flag, y));
   } else if (flag == "--spectrum") {
     l.set_spectrum(named(flag, value, kSpectra));
   } else if (flag == "--spreading") {
@@ -177,8 +179,8 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
     t.set_b_correction(on_off(flag, value));
   } else if (flag == "--output-grid") {
     auto [x, y] = pair_of(value);
-    t.mutable_output()->set_nx(uint32_t(integer(flag, x, 0, UINT32_MAX)));
-    t.mutable_output()->set_ny(uint32_t(integer(flag, y, 0, UINT32_MAX)));
+    t.mutable_output()->set_nx(integer32(flag, x));
+    t.mutable_output()->set_ny(integer32(flag, y));
   } else if (flag == "--output-extent") {
     auto [x, y] = pair_of(value);
     t.mutable_output()->set_extent_x(number(flag, x, "m"));
@@ -189,13 +191,6 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
     t.set_whitecap_decay_time(number(flag, value, "s"));
   } else if (flag == "--pixel-scale") {
     t.set_pixel_scale(number(flag, value, "m"));
-  } else if (flag == "--outputs") {
-    r.outputs.clear();
-    std::stringstream list(value);
-    for (std::string name; std::getline(list, name, ',');) r.outputs.push_back(named(flag, name, kOutputs));
-  } else if (flag == "--dtype") {
-    r.dtype = named(flag, value,
-                    std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
   } else {
     return false;
   }
@@ -224,15 +219,23 @@ void read_points_file(const std::string& path, Request& r) {
   }
 }
 
+// The flags of what a verb sends beside the tile and what it writes: each verb reads some of them (kVerbFlags).
 bool run_flag(const std::string& flag, const std::string& value, Request& r) {
-  if (flag == "--time") {
+  if (flag == "--outputs") {
+    r.outputs.clear();
+    std::stringstream list(value);
+    for (std::string name; std::getline(list, name, ',');) r.outputs.push_back(named(flag, name, kOutputs));
+  } else if (flag == "--dtype") {
+    r.dtype = named(flag, value,
+                    std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
+  } else if (flag == "--time") {
     r.time = number(flag, value, "s");
   } else if (flag == "--t0") {
     r.t0 = number(flag, value, "s");
   } else if (flag == "--dt") {
     r.dt = number(flag, value, "s"), r.have_dt = true;
   } else if (flag == "--frames") {
-    r.frames = integer(flag, value, 0, UINT32_MAX), r.have_frames = true;
+    r.frames = integer32(flag, value), r.have_frames = true;
   } else if (flag == "-o" || flag == "--output") {
     r.out = value;
   } else if (flag == "--preview") {
@@ -251,6 +254,11 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
 
 }  // namespace
 
+const std::map<std::string, std::set<std::string>> kVerbFlags = {
+    {"tile", {"--time", "-o", "--output", "--preview", "--outputs", "--dtype"}},
+    {"stream", {"--t0", "--dt", "--frames", "-o", "--output", "--outputs", "--dtype"}},
+    {"sample", {"--time", "--point", "--points-file", "--invert-displacement"}}};
+
 Request parse(const std::vector<std::string>& args) {
   Request r;
   r.tile.set_choppiness(1);
@@ -267,7 +275,9 @@ Request parse(const std::vector<std::string>& args) {
     if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");
     const std::string& value = args[++i];
     v1::LayerSpec& layer = *r.tile.mutable_layers(r.tile.layers_size() - 1);
-    if (!layer_flag(flag, value, layer) && !tile_flag(flag, value, r) && !run_flag(flag, value, r))
+    if (run_flag(flag, value, r))
+      r.run_flags.push_back(flag);
+    else if (!layer_flag(flag, value, layer) && !tile_flag(flag, value, r))
       throw UsageError("unknown flag " + flag);
   }
   return r;

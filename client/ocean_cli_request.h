@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,7 +27,12 @@ struct Request {
   bool have_dt = false, have_frames = false, invert = false;
   std::string out, preview;
   std::vector<std::pair<double, double>> points;
+  std::vector<std::string> run_flags;  // the flags of kVerbFlags given, as typed
 };
+
+// The flags beside the layer and tile flags that each verb reads ("tile", "stream", "sample"); a verb
+// refuses the others.
+extern const std::map<std::string, std::set<std::string>> kVerbFlags;
 
 // The request of `squall ocean VERB FLAGS...` (args[0] is the verb; the flags follow). Defaults: one
 // JONSWAP layer of 1000 m on a 256 x 256 grid, choppiness 1, height, displacement and normals.

@@ -1,9 +1,9 @@
 #include "client/ocean_cli_verbs.h"
 
-#include <filesystem>
 #include <iostream>
 
 #include "client/cli.h"
+#include "client/cli_flags.h"
 #include "client/ocean_cli_output.h"
 #include "client/ocean_frames.h"
 #include "squall/v1/ocean.grpc.pb.h"
@@ -37,7 +37,7 @@ int stream(client::Client& client, const Request& r) {
   if (r.out.empty()) throw UsageError("stream needs -o DIR");
   if (!r.have_dt) throw UsageError("stream needs --dt SECONDS (> 0)");
   if (!r.have_frames || r.frames == 0) throw UsageError("stream needs --frames N (>= 1)");
-  std::filesystem::create_directories(r.out);
+  const OutputFolder folder(r.out);
   v1::StreamTilesRequest request;
   *request.mutable_tile() = r.tile;
   request.mutable_t0()->set_seconds(r.t0);
@@ -46,7 +46,7 @@ int stream(client::Client& client, const Request& r) {
   for (auto o : r.outputs) request.add_outputs(o);
   request.set_dtype(r.dtype);
   auto stub = v1::Ocean::NewStub(client.channel());
-  auto context = client.context();
+  auto context = client.context("", double(r.frames));  // each frame gets --timeout
   auto reader = stub->StreamTiles(context.get(), request);
   client::ocean::FrameAssembler assembler;
   v1::TileChunk chunk;

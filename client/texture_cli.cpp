@@ -142,9 +142,9 @@ void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
 void noise_flag(const std::string& value, v1::NoiseTexture* n) {
   auto v = items(value);
   if (v.empty() || v.size() > 3) throw UsageError("--noise " + value + ": BANDS[,CELLS[,SEED]]");
-  n->set_bands(uint32_t(integer("--noise", v[0], 1, UINT32_MAX)));
-  if (v.size() > 1) n->set_base_cells(uint32_t(integer("--noise", v[1], 1, UINT32_MAX)));
-  if (v.size() > 2) n->set_seed(uint32_t(integer("--noise", v[2], 0, UINT32_MAX)));
+  n->set_bands(integer32("--noise", v[0], 1));
+  if (v.size() > 1) n->set_base_cells(integer32("--noise", v[1], 1));
+  if (v.size() > 2) n->set_seed(integer32("--noise", v[2]));
 }
 
 void size_flag(const std::string& value, v1::TextureOutput* o) {
@@ -198,7 +198,7 @@ void apply(const std::string& flag, const std::string& value, Advect& a) {
   else if (flag == "--velocity")
     velocity_flag(value, r.mutable_velocity()->mutable_named());
   else if (flag == "--frames")
-    r.set_frames(uint32_t(integer(flag, value, 1, UINT32_MAX)));
+    r.set_frames(integer32(flag, value, 1));
   else if (flag == "--dt")
     r.set_dt(number(flag, value, "s"));
   else if (flag == "--d")
@@ -254,7 +254,8 @@ void write_frame(const Advect& a, const std::string& request_text, const v1::Tex
   }
   if (image.channels.empty()) throw std::runtime_error("frame " + std::to_string(frame.index()) + " has no planes");
   image.attributes.emplace_back("squall.request", request_text);
-  for (const auto& [flag, value] : a.flags) image.attributes.emplace_back("squall.texture.advect" + flag, value);
+  for (const auto& [flag, value] : a.flags)
+    image.attributes.emplace_back(attribute_name("squall.texture.advect", flag), value);
   std::ostringstream t;
   t.precision(17);
   t << frame.time();
@@ -268,7 +269,7 @@ void write_frame(const Advect& a, const std::string& request_text, const v1::Tex
 }
 
 int advect(client::Client& client, const Advect& a) {
-  std::filesystem::create_directories(a.out);
+  const OutputFolder folder(a.out);
   auto service = v1::Textures::NewStub(client.channel());
   // A texture that follows an eWave session names it (x-squall-session), so that a session-affine proxy
   // routes the stream to the replica holding that session.

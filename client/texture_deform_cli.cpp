@@ -109,13 +109,13 @@ void apply(const std::string& flag, const std::string& value, Deform& d) {
   else if (flag == "--kappa")
     r.set_kappa(number(flag, value, ""));
   else if (flag == "--frames")
-    r.set_frames(uint32_t(integer(flag, value, 1, UINT32_MAX)));
+    r.set_frames(integer32(flag, value, 1));
   else if (flag == "--dt")
     r.set_dt(number(flag, value, "s"));
   else if (flag == "--substeps")
-    r.set_substeps(uint32_t(integer(flag, value, 1, UINT32_MAX)));
+    r.set_substeps(integer32(flag, value, 1));
   else if (flag == "--stack")
-    r.set_stack_levels(uint32_t(integer(flag, value, 0, UINT32_MAX)));
+    r.set_stack_levels(integer32(flag, value));
   else if (flag == "--planes") {
     r.clear_planes();
     for (const std::string& name : items(value)) r.add_planes(named(flag, name, kPlanes));
@@ -189,7 +189,7 @@ void write_frame(const std::string& out, const v1::DeformFrame& frame) {
 
 int deform(client::Client& client, const std::vector<std::string>& args) {
   const Deform d = parse(args);
-  std::filesystem::create_directories(d.out);
+  const OutputFolder folder(d.out);
   auto service = v1::Textures::NewStub(client.channel());
   auto context = client.context("", double(d.request.frames()));
   auto reader = service->DeformTexture(context.get(), d.request);

@@ -592,6 +592,13 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
     EXPECT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,1", "-o", "/dev/full"}), &out), 5)
         << out;
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0", "-o", dir + "/x.exr"}), &out), 2) << out;
+  // The last --extinction given is the one sent: here a negative one, which the server refuses.
+  EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "--size", "8x8", "--extinction", "0.5", "--extinction",
+                            "-1", "-o", dir + "/x.exr"}),
+                      &out),
+            4)
+      << out;
+  EXPECT_NE(out.find("extinction"), std::string::npos) << out;
   EXPECT_EQ(test::run(args({"render", "--volume", "cloud-404", "-o", dir + "/x.exr"}), &out), 4) << out;
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
 }
@@ -610,6 +617,12 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--size", "8x4294967296"}, "--size 8x4294967296: must be WxH"},
       {{"render", "--phase", "hg"}, "--phase hg: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
       {{"frobnicate"}, "unknown cloud verb frobnicate (build or render)"},
+      // flags the verb would ignore, and squall's own after the verb
+      {{"build", "--eye", "0,1,0"}, "--eye is not a flag of `squall cloud build`"},
+      {{"build", "--preview", "none"}, "--preview is not a flag of `squall cloud build`"},
+      {{"render", "--keep"}, "--keep is not a flag of `squall cloud render`"},
+      {{"render", "--volume", "cloud-1"}, "--voxel-size: `cloud render --volume ID` renders the stored volume"},
+      {{"render", "--address", "127.0.0.1:2"}, "--address is a flag of squall itself"},
   };
   for (const auto& [flags, message] : cases) {
     std::vector<std::string> args = {kSquall, "--address", "127.0.0.1:1", "cloud"};

@@ -457,6 +457,11 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_NE(out.find("--request-id holds the byte \\xc3"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--request-id", "a\nb", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--request-id holds the byte \\x0a"), std::string::npos) << out;
+  // Files named by flags that cannot be read: a bad command line, whichever flag names them.
+  for (const char* flag : {"--token-file", "--tls-ca", "--tls-cert", "--tls-key"}) {
+    EXPECT_EQ(test::run({kSquall, flag, "/nonexistent.pem", "info"}, &out), 2) << flag << ": " << out;
+    EXPECT_NE(out.find(std::string(flag) + " /nonexistent.pem: cannot read"), std::string::npos) << out;
+  }
   EXPECT_EQ(test::run({kSquall, "--address", "127.0.0.1:99999", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--address 127.0.0.1:99999: the port must be in 1..65535"), std::string::npos) << out;
   // A deadline past what the clock holds is held to 1e9 s, not wrapped into one already past.

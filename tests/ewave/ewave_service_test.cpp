@@ -7,6 +7,7 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
 
 #include <cmath>
 #include <cstring>
@@ -15,6 +16,7 @@
 #include <thread>
 
 #include "client/client.h"
+#include "client/image_io.h"
 #include "ewave/ewave_request.h"
 #include "ewave/ewave_session.h"
 #include "ewave_support.h"
@@ -578,6 +580,21 @@ TEST(EWaveCli, ASlowWakeStepsWithinTheSessionsLongestStep) {
   EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
 }
 
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// A wake the server refuses (a grid of one row) exits 4 and leaves no empty folder behind.
+TEST(EWaveCli, ARefusedWakeLeavesNoFolder) {
+  const std::string dir = test::temp_dir("ewave-refused-wake") + "/frames";
+  std::string out;
+  EXPECT_EQ(
+      test::run({kSquall, "--address", first().address(), "ewave", "wake", "--grid", "64x1", "-o", dir}, &out, 120), 4)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(dir)) << out;
+}
+
 TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
   std::string dir = test::temp_dir("ewave-wake");
   std::string out;
@@ -603,7 +620,7 @@ TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
                       "--spacing",
                       "0.01",
                       "--outputs",
-                      "height,normal_x,normal_y,normal_z",
+                      "normal_x,normal_y,normal_z,height",
                       "-o",
                       dir},
                      &out, 120);
@@ -617,7 +634,7 @@ TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
   ASSERT_EQ(window.max.y - window.min.y + 1, 64);
   std::vector<std::vector<float>> channels(4, std::vector<float>(96 * 64));
   Imf::FrameBuffer frame;
-  const char* names[] = {"height", "normal_x", "normal_y", "normal_z"};
+  const char* names[] = {"height", "normal_x", "normal_y", "normal_z"};  // not the order asked
   for (int c = 0; c < 4; ++c) {
     ASSERT_NE(file.header().channels().findChannel(names[c]), nullptr) << names[c];
     frame.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(channels[c].data()), 4, 4 * 96));
@@ -631,6 +648,13 @@ TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
     double x = channels[1][i], y = channels[2][i], z = channels[3][i];
     ASSERT_NEAR(x * x + y * y + z * z, 1.0, 1e-5) << i;
   }
+  // The attributes name the flags without their dashes; the preview is the height, whichever field came first.
+  const auto* speed = file.header().findTypedAttribute<Imf::StringAttribute>("squall.ewave.wake.speed");
+  ASSERT_NE(speed, nullptr);
+  EXPECT_EQ(speed->value(), "0.2");
+  const std::string expected = dir + "/expected.png";
+  client::write_png_preview(expected, 96, 64, channels[0]);
+  EXPECT_EQ(read_bytes(dir + "/frame_00012.png"), read_bytes(expected)) << "the preview is not the height";
   // The session was closed at the end: all three --max-sessions slots are free again.
   std::vector<std::unique_ptr<Session>> live;
   for (int n = 0; n < 3; ++n) {

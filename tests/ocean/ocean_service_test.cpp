@@ -594,11 +594,36 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find(":3 5: must be X,Y (m)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"stream", "--frames", "2", "-o", "d"}), &out), 2) << out;
   EXPECT_NE(out.find("--dt"), std::string::npos) << out;
-  // The server refuses: exit 4, with the field named.
+  // A flag the verb would ignore, or one of squall's own given after the verb, is refused naming it.
+  EXPECT_EQ(test::run(cli_args({"tile", "--frames", "3", "-o", "x.exr"}), &out), 2) << out;
+  EXPECT_NE(out.find("--frames is not a flag of `squall ocean tile`"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"sample", "--outputs", "height", "--point", "1,2"}), &out), 2) << out;
+  EXPECT_NE(out.find("--outputs is not a flag of `squall ocean sample`"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"stream", "--time", "5", "--dt", "1", "--frames", "2", "-o", "d"}), &out), 2) << out;
+  EXPECT_NE(out.find("--time is not a flag of `squall ocean stream`"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"tile", "--timeout", "5", "-o", "x.exr"}), &out), 2) << out;
+  EXPECT_NE(out.find("--timeout is a flag of squall itself: give it before the verb"), std::string::npos) << out;
+  // The server refuses: exit 4, with the field named; a stream's folder made for it is removed again.
   std::string dir = test::temp_dir("ocean-cli-bad");
   EXPECT_EQ(test::run(cli_args({"tile", "--wind-speed", "-1", "-o", dir + "/x.exr"}), &out), 4) << out;
   EXPECT_NE(out.find("INVALID_ARGUMENT"), std::string::npos) << out;
   EXPECT_NE(out.find("tile.layers[0].wind_speed = -1"), std::string::npos) << out;
+  EXPECT_EQ(
+      test::run(cli_args({"stream", "--wind-speed", "-1", "--dt", "1", "--frames", "2", "-o", dir + "/frames"}), &out),
+      4)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/frames")) << out;
+}
+
+// A stream's deadline is --timeout for each frame, not for the whole stream.
+TEST(OceanCli, AStreamHasTheTimeoutForEachFrame) {
+  const std::string dir = test::temp_dir("ocean-cli-stream-deadline");
+  std::vector<std::string> args = {
+      kSquall, "--address", daemon().address(), "--timeout", "0.25", "ocean", "stream", "--grid", "128",
+      "--dt",  "0.1",       "--frames",         "120",       "-o",   dir};
+  std::string out;
+  ASSERT_EQ(test::run(args, &out, 120), 0) << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_00119.exr")) << out;
 }
 
 }  // namespace
