@@ -84,11 +84,14 @@ class EWaveSession {
   // The step pipeline (ewave_step.cpp), in the order of step().
   void upload_maps(const StepInputs& inputs);  // uploads those of the obstruction, ambient, source and drift maps given
   bool build_obstruction(const StepInputs& inputs);
-  // O *= the uncovered fraction of `shapes` around them; reset: O = that fraction there, and 1 again
-  // in the cells the last reset covered (shape_map_cells_).
-  void rasterize(const std::vector<Shape>& shapes, bool reset);
-  // RESOURCE_EXHAUSTED naming inputs.shapes when rasterizing them would pass kMaxRasterizeTests.
+  // The step's shapes in the device's layout, into shape_staging_ and vertex_staging_, before its first
+  // command (the last step's uploads from them have run: its read-back waited for its queue).
+  void stage_shapes(const StepInputs& in);
+  // RESOURCE_EXHAUSTED naming inputs.shapes when rasterizing the staged shapes would pass kMaxRasterizeTests.
   void check_rasterize_work(const StepInputs& in) const;
+  // O *= the uncovered fraction of the staged shapes around them; reset: O = that fraction there, and 1
+  // again in the cells the last reset covered (shape_map_cells_).
+  void rasterize(bool reset);
   // The first command of a step that changes the fields; ambient_height: ambient()'s.
   void prepare(const StepInputs& inputs, bool has_obstruction, const cl::Buffer* ambient_height);
   void propagate(const cl::Buffer& coefficients, int fields);  // the table of the step's dt
@@ -128,7 +131,7 @@ class EWaveSession {
   // next one rewrites those and its own cells, not the grid.
   bool shape_map_ = false;
   CellBox shape_map_cells_;
-  std::vector<EWaveShape> shape_staging_;  // the host side of the shapes' and vertices' last uploads
+  std::vector<EWaveShape> shape_staging_;  // the host side of the shapes' and vertices' uploads (stage_shapes())
   std::vector<float> vertex_staging_;
   std::unique_ptr<CoefficientCache> own_coefficients_;  // when the session was given none
   CoefficientCache* coefficients_;

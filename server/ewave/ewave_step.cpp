@@ -70,6 +70,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
                             std::to_string(step_) + " steps (another caller stepped it)");
   validate(in, config_, gate_);
+  stage_shapes(in);
   check_rasterize_work(in);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number(in.dt) + " takes the session's time " +
@@ -110,13 +111,17 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
   return frame;
 }
 
+void EWaveSession::stage_shapes(const StepInputs& in) {
+  vertex_staging_.clear();
+  shape_staging_ = device_shapes(in.shapes, &vertex_staging_);
+  if (vertex_staging_.empty()) vertex_staging_.assign(2, 0.0f);  // a buffer of no bytes cannot be made
+}
+
 // A step whose shapes would hold the device too long is refused before anything of it is done.
 void EWaveSession::check_rasterize_work(const StepInputs& in) const {
   if (in.shapes.empty()) return;
-  std::vector<float> vertices;
-  const bool resets = in.obstruction.empty() && shape_map_;  // build_obstruction()'s rasterize(shapes, true)
-  const double tests =
-      rasterize_tests(device_shapes(in.shapes, &vertices), config_, resets ? shape_map_cells_ : CellBox{});
+  const bool resets = in.obstruction.empty() && shape_map_;  // build_obstruction()'s rasterize(true)
+  const double tests = rasterize_tests(shape_staging_, config_, resets ? shape_map_cells_ : CellBox{});
   if (tests > kMaxRasterizeTests)
     fail(Code::ResourceExhausted,
          "inputs.shapes make an estimated " + validate::number(tests) +
@@ -143,7 +148,7 @@ bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
   if (!in.obstruction.empty()) {  // upload_maps() has uploaded it
     shape_map_ = false;
-    if (!in.shapes.empty()) rasterize(in.shapes, false);
+    if (!in.shapes.empty()) rasterize(false);
     return true;
   }
   if (obstruction_.bytes() != cells_ * sizeof(float)) {
@@ -154,22 +159,19 @@ bool EWaveSession::build_obstruction(const StepInputs& in) {
     runtime_.queue().enqueueFillBuffer(obstruction_.buffer(), cl_float(1.0f), 0, cells_ * sizeof(float));
     shape_map_cells_ = {};
   }
-  rasterize(in.shapes, true);
+  rasterize(true);
   shape_map_ = true;
   return true;
 }
 
-void EWaveSession::rasterize(const std::vector<Shape>& shapes, bool reset) {
-  // Kept in members until the next step: a write command (on a GPU) is not waited for; the read-back is.
-  std::vector<float>& vertices = vertex_staging_;
-  std::vector<EWaveShape>& device = shape_staging_;
-  vertices.clear();
-  device = device_shapes(shapes, &vertices);
-  if (vertices.empty()) vertices.assign(2, 0.0f);
+void EWaveSession::rasterize(bool reset) {
+  // The staging is kept in members until the next step: a write command (on a GPU) is not waited for; the
+  // read-back is.
+  const std::vector<EWaveShape>& device = shape_staging_;
   size_t shape_bytes = device.size() * sizeof(EWaveShape);
   if (shapes_.bytes() != shape_bytes) shapes_ = runtime_.buffers().acquire(shape_bytes);
   write_buffer(runtime_, shapes_.buffer(), shape_bytes, device.data());
-  upload(vertices_, vertices);
+  upload(vertices_, vertex_staging_);
   const CellBox cells = shape_cells(device, config_);
   const CellBox box = reset ? cover(cells, shape_map_cells_) : cells;
   if (!box.empty())
