@@ -12,6 +12,7 @@ const char* code_name(Code code) {
     case Code::Unavailable: return "UNAVAILABLE";
     case Code::Unauthenticated: return "UNAUTHENTICATED";
     case Code::Cancelled: return "CANCELLED";
+    case Code::DataLoss: return "DATA_LOSS";
     case Code::Internal: return "INTERNAL";
   }
   return "UNKNOWN";

@@ -17,6 +17,7 @@ enum class Code {
   Unavailable,         // the daemon is starting up or draining
   Unauthenticated,     // no valid credentials (--auth-tokens)
   Cancelled,           // the caller gave up (gone, deadline passed) or squalld shut down mid-work
+  DataLoss,            // stored data (a session's checkpoint file) is damaged or unreadable
   Internal,            // a bug or a device failure; never the client's fault
 };
 

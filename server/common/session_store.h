@@ -481,12 +481,12 @@ class SessionStore {
       }
       try {
         resume_(*checkpoint);
-      } catch (const Error& e) {  // the file's fault, or this squalld's, never the request's
+      } catch (const Error& e) {  // the file's fault, never the request's
         if (e.code() != Code::InvalidArgument) throw;
-        fail(Code::Internal,
+        fail(Code::DataLoss,
              kind_ + " " + id + "'s checkpoint in the state directory cannot be read by this squalld: " + e.what());
       }
-      if (!lookup(id)) fail(Code::Internal, kind_ + " checkpoint " + id + " holds another session's id");
+      if (!lookup(id)) fail(Code::DataLoss, kind_ + " checkpoint " + id + " holds another session's id");
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (...) {
       if (lookup(id)) return;  // live here already (a session created under its id), and owned

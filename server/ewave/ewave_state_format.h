@@ -60,7 +60,8 @@ std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader
 // The config a header describes, validated (InvalidArgument naming the field); also checks the header's
 // time (naming state.time).
 EWaveConfig config_of(const StateHeader& header);
-// Throws Error(InvalidArgument) naming the first field value of the state that is not finite.
+// Throws Error(InvalidArgument) naming the first field value of the state that is not finite and within
+// +-1e25.
 void check_fields_finite(const std::string& bytes, const StateHeader& header);
 
 // values converted to host bytes of the state's type (float or double).

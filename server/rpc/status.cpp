@@ -29,6 +29,7 @@ grpc::Status to_status(const Error& error) {
     case Code::Unavailable: code = grpc::StatusCode::UNAVAILABLE; break;
     case Code::Unauthenticated: code = grpc::StatusCode::UNAUTHENTICATED; break;
     case Code::Cancelled: code = grpc::StatusCode::CANCELLED; break;
+    case Code::DataLoss: code = grpc::StatusCode::DATA_LOSS; break;
     case Code::Internal: code = grpc::StatusCode::INTERNAL; break;
   }
   return grpc::Status(code, error.what());

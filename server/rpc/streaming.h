@@ -32,11 +32,13 @@ class StreamCall {
     return !ended_ && !context_.IsCancelled() && !stopped_by_drain_;
   }
 
-  // Writes one message unless the call is no longer live; returns live().
+  // Writes one message, even while squalld drains: what it holds was made (an eWave step is taken, its
+  // session checkpointed with it), so it is sent before the stream ends. Returns live(): false when the
+  // write failed, or the handler is to stop before its next message.
   template <typename Writer, typename Message>
   bool write(Writer& writer, const Message& message) {
-    if (!live() || !writer.Write(message)) ended_ = true;
-    return !ended_;
+    if (ended_ || !writer.Write(message)) ended_ = true;
+    return live();
   }
 
   grpc::ServerContext& context() { return context_; }

@@ -19,6 +19,9 @@ constexpr int kMaxSubsteps = 100;
 constexpr int kMaxLevels = 16;
 constexpr int kMaxIterations = 100000;
 constexpr double kMaxKappa = 1e6, kMaxDmu = 100, kMaxRadius = 1e6, kMaxDt = 1e4, kMaxGradient = 1e6;
+// A brush's Gaussian divides by 2 r^2 in float: from 1e-6 texels it is a normal float, and a narrower brush
+// reaches no texel centre but the one it sits on.
+constexpr double kMinRadius = 1e-6;
 constexpr double kMinDeterminant = 1e-12;
 
 // Components within +-kMaxGradient and det at least kMinDeterminant: a deformation gradient whose inverse is
@@ -49,7 +52,7 @@ void ramp(const Tensor2& start, const Tensor2& end, int frames, const std::strin
 void stroke(const BrushStroke& s, const std::string& path) {
   finite(path + ".center.x", s.center_x);
   finite(path + ".center.y", s.center_y);
-  positive(path + ".radius", s.radius, kMaxRadius);
+  in(path + ".radius", s.radius, closed(kMinRadius, kMaxRadius));
   in(path + ".strength", s.strength, closed(-kMaxDmu, kMaxDmu));
 }
 

@@ -192,10 +192,14 @@ class Eulerian final : public Advection {
     if (!in.done() || values.size() != state_floats() || phase_start_.size() != size_t(slots()) ||
         cascade.size() != cascade_floats())
       fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases, grid or cascade");
-    for (int s = 0; s < slots(); ++s)  // a slot that regenerates has a finite last regeneration
-      if (std::isfinite(latency(s)) && !std::isfinite(phase_start_[s]))
-        fail(Code::InvalidArgument, "resume_state holds a non-finite regeneration time for slot " + std::to_string(s) +
-                                        ": not a checkpoint of this server");
+    // A slot that regenerates did so last within one latency before the frame's time (advance()); two are
+    // allowed for rounding. A time far from it (a forged one) made the phase weights NaN.
+    for (int s = 0; s < slots(); ++s)
+      if (std::isfinite(latency(s)) && !(std::abs(phase_start_[s] - time()) <= 2 * latency(s)))
+        fail(Code::InvalidArgument, "resume_state holds the regeneration time " + validate::number(phase_start_[s]) +
+                                        " s for slot " + std::to_string(s) +
+                                        ", more than two latencies from its frame's time " + validate::number(time()) +
+                                        " s: not a checkpoint of this request");
     upload_state(values);
     upload_cascade(cascade);
   }

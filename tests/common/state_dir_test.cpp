@@ -136,12 +136,12 @@ TEST(StateDir, ACheckpointIdleLongerThanTheTtlIsNotResumed) {
 }
 
 // A checkpoint this squalld cannot read (damaged, or of a format it does not know) is no fault of the call
-// naming its id: INTERNAL, naming the file's session.
-TEST(StateDir, AnUnreadableCheckpointIsAnInternalError) {
+// naming its id: DATA_LOSS (stored data damaged: a retry cannot help), naming the file's session.
+TEST(StateDir, AnUnreadableCheckpointIsDataLoss) {
   const std::string dir = test::temp_dir("state-damaged");
   put(dir + "/" + kId + ".session", "not a checkpoint");
   Replica a(dir, "a");
-  expect_error(Code::Internal,
+  expect_error(Code::DataLoss,
                "counter " + kId + "'s checkpoint in the state directory cannot be read by this squalld: ", [&] {
                  a.store.get(kId);
                });

@@ -9,6 +9,7 @@
 
 #include "common/dispersion.h"
 #include "common/sincos.h"
+#include "common/surface_normal.h"
 #include "ocean/cpu_reference.h"
 #include "ocean/spectra.h"
 
@@ -241,6 +242,22 @@ TEST(SinCosPhase, TheFractionOfAProductOfTwoFloatsIsExactToARounding) {
     worst = std::max(worst, std::min(off, 1 - off));  // a fraction of +-1/2 may come out as the other
   }
   EXPECT_LT(worst, std::ldexp(1.0, -25) * (1 + 1e-6));
+}
+
+// The normal of a displaced surface (Gilligan eq 94) is the unit vector along the tangents' cross product
+// for tangents from 1e-3 to 1e18, where the cross product's components (up to 1e36) overflow float when
+// squared. Past about 1.8e19 the cross product's own terms overflow (left so: docs/performance.md).
+TEST(SurfaceNormal, AUnitVectorAlongTheCrossProductOverEighteenOrdersOfMagnitude) {
+  for (double scale : {1.0, 1e-3, 1e10, 1e18}) {
+    const double jxx = 0.8 * scale, jyy = 1.3 * scale, jxy = -0.2 * scale, ex = 0.5 * scale, ey = -0.7 * scale;
+    float n[3];
+    sq_surface_normal(float(jxx), float(jyy), float(jxy), float(ex), float(ey), &n[0], &n[1], &n[2]);
+    const double x = jxy * ey - ex * jyy, y = ex * jxy - jxx * ey, z = jxx * jyy - jxy * jxy;
+    const double length = std::hypot(x, y, z);
+    EXPECT_NEAR(n[0], x / length, 1e-6) << scale;
+    EXPECT_NEAR(n[1], y / length, 1e-6) << scale;
+    EXPECT_NEAR(n[2], z / length, 1e-6) << scale;
+  }
 }
 
 }  // namespace

@@ -1173,6 +1173,7 @@ CASES += [
     bad(R, "state_bad_magic", patch(0, "<8s", b"SQEWAVE9"), "state"),
     bad(R, "state_truncated", lambda r, env: setattr(r, "state", r.state[:-4]), "state"),
     bad(R, "state_field_nan", patch(STATE_FIELDS, "<f", NAN), "state.fields[0]"),
+    bad(R, "state_field_1e30", patch(STATE_FIELDS + 4, "<f", 1e30), "state.fields[1]"),
     bad(R, "state_grid_zero", patch(STATE_NX, "<q", 0), "state.grid"),
     bad(R, "state_dx_nan", patch(STATE_DX, "<d", NAN), "dx"),
     bad(R, "state_time_nan", patch(STATE_TIME, "<d", NAN), "state.time"),
@@ -2032,6 +2033,15 @@ CASES += [
         R,
         "stroke_radius_zero",
         put("strokes", [textures_pb2.BrushStroke(center=vec2(8, 8), strength=1.0)]),
+        "request.strokes[0].radius",
+    ),
+    bad(
+        R,
+        "stroke_radius_1e-30",  # 2 r^2 underflows float: the texel under it came out NaN
+        put(
+            "strokes",
+            [textures_pb2.BrushStroke(center=vec2(4.5, 4.5), radius=1e-30, strength=1.0)],
+        ),
         "request.strokes[0].radius",
     ),
     bad(

@@ -83,5 +83,22 @@ TEST(TexturesDeterminism, ACheckpointHoldingAValueNoStreamReachesIsRefused) {
   }
 }
 
+// A checkpoint whose last regeneration time of a slot (a double after the version, the started flag, the
+// frame index and the count: byte 21) lies far from its frame's time is refused: a forged one made every
+// phase weight NaN.
+TEST(TexturesDeterminism, ARegenerationTimeFarFromTheFramesTimeIsRefused) {
+  AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM);
+  auto advection = texture_engine().start(spec);
+  for (int i = 0; i < 3; ++i) advection->next();
+  const std::string state = advection->checkpoint();
+  for (double forged : {1.7e308, 1e6, -1e6}) {
+    std::string bad = state;
+    std::memcpy(&bad[21], &forged, sizeof(double));
+    expect_error(Code::InvalidArgument, "resume_state holds the regeneration time",
+                 [&] { texture_engine().start(spec, bad); });
+  }
+  EXPECT_NO_THROW(texture_engine().start(spec, state));
+}
+
 }  // namespace
 }  // namespace squall::test

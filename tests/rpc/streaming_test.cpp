@@ -1,0 +1,52 @@
+// StreamCall, the bookkeeping of the streaming handlers, with a writer that records what it is given.
+#include "rpc/streaming.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace squall::rpc {
+namespace {
+
+struct RecordingWriter {
+  std::vector<std::string> written;
+  bool accepts = true;
+  bool Write(const std::string& message) {
+    if (accepts) written.push_back(message);
+    return accepts;
+  }
+};
+
+// A message made before squalld began to drain (an eWave step already taken and checkpointed) is sent, and
+// the stream then stops with UNAVAILABLE: dropping it lost the step's frame.
+TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
+  ServingState serving{Limits{}};
+  serving.set_phase(ServingState::Phase::Serving);
+  grpc::ServerContext context;
+  StreamCall call(context, "Run", serving);
+  RecordingWriter writer;
+  EXPECT_TRUE(call.write(writer, std::string("frame 1")));
+  serving.set_phase(ServingState::Phase::Draining);
+  EXPECT_FALSE(call.write(writer, std::string("frame 2"))) << "the handler stops before its next message";
+  EXPECT_EQ(writer.written, (std::vector<std::string>{"frame 1", "frame 2"}));
+  EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAVAILABLE);
+}
+
+// A write the transport refuses (the client is gone) ends the call: nothing more is written.
+TEST(StreamCall, AFailedWriteEndsTheCall) {
+  ServingState serving{Limits{}};
+  serving.set_phase(ServingState::Phase::Serving);
+  grpc::ServerContext context;
+  StreamCall call(context, "StreamTiles", serving);
+  RecordingWriter writer;
+  writer.accepts = false;
+  EXPECT_FALSE(call.write(writer, std::string("frame 1")));
+  writer.accepts = true;
+  EXPECT_FALSE(call.write(writer, std::string("frame 2")));
+  EXPECT_TRUE(writer.written.empty());
+  EXPECT_EQ(call.status().error_code(), grpc::StatusCode::CANCELLED);
+}
+
+}  // namespace
+}  // namespace squall::rpc
