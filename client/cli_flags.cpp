@@ -61,13 +61,18 @@ bool global_flag(const std::string& arg) {
   return flags.count(arg) > 0;
 }
 
-OutputFolder::OutputFolder(std::string path) : path_(std::move(path)) {
-  made_ = std::filesystem::create_directories(path_);
+OutputFolder::OutputFolder(const std::string& path) {
+  std::error_code ignored;
+  for (std::filesystem::path p = std::filesystem::absolute(path).lexically_normal();
+       p.has_relative_path() && !std::filesystem::exists(p, ignored); p = p.parent_path())
+    if (!p.filename().empty()) made_.push_back(p);
+  std::filesystem::create_directories(path);
 }
 
 OutputFolder::~OutputFolder() {
   std::error_code ignored;  // a folder that cannot be removed is left as it is
-  if (made_ && std::filesystem::is_empty(path_, ignored)) std::filesystem::remove(path_, ignored);
+  for (const auto& p : made_)
+    if (!std::filesystem::is_empty(p, ignored) || !std::filesystem::remove(p, ignored)) return;
 }
 
 int run_verb(const std::string& name, const char* help, const std::vector<std::string>& args,

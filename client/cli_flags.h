@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <set>
@@ -44,18 +45,18 @@ std::string attribute_name(const std::string& prefix, const std::string& flag);
 // The flags of `squall` itself (--address, --timeout, ...), which go before the verb.
 bool global_flag(const std::string& arg);
 
-// The folder a verb writes its frames into: made when missing, and removed again when this ends if it was
-// made here and is still empty, so that a call the server refused leaves no empty folder behind.
+// The folder a verb writes its frames into: made when missing, with its missing parents, and those made
+// here removed again when this ends while they are empty, so that a call the server refused leaves no
+// empty folder behind.
 class OutputFolder {
  public:
-  explicit OutputFolder(std::string path);
+  explicit OutputFolder(const std::string& path);
   ~OutputFolder();
   OutputFolder(const OutputFolder&) = delete;
   OutputFolder& operator=(const OutputFolder&) = delete;
 
  private:
-  std::string path_;
-  bool made_ = false;
+  std::vector<std::filesystem::path> made_;  // the folders made here, the deepest first
 };
 
 // Runs `squall NAME SUBCOMMAND ...`: no arguments or "help" print `help`; a UsageError thrown by

@@ -603,16 +603,17 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find("--time is not a flag of `squall ocean stream`"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"tile", "--timeout", "5", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("--timeout is a flag of squall itself: give it before the verb"), std::string::npos) << out;
-  // The server refuses: exit 4, with the field named; a stream's folder made for it is removed again.
+  // The server refuses: exit 4, with the field named; the folders made for a stream are removed again.
   std::string dir = test::temp_dir("ocean-cli-bad");
   EXPECT_EQ(test::run(cli_args({"tile", "--wind-speed", "-1", "-o", dir + "/x.exr"}), &out), 4) << out;
   EXPECT_NE(out.find("INVALID_ARGUMENT"), std::string::npos) << out;
   EXPECT_NE(out.find("tile.layers[0].wind_speed = -1"), std::string::npos) << out;
-  EXPECT_EQ(
-      test::run(cli_args({"stream", "--wind-speed", "-1", "--dt", "1", "--frames", "2", "-o", dir + "/frames"}), &out),
-      4)
+  EXPECT_EQ(test::run(cli_args({"stream", "--wind-speed", "-1", "--dt", "1", "--frames", "2", "-o",
+                                dir + "/frames/of/today"}),
+                      &out),
+            4)
       << out;
-  EXPECT_FALSE(std::filesystem::exists(dir + "/frames")) << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/frames")) << out;  // nor the parents made for it
 }
 
 // A stream's deadline is --timeout for each frame, not for the whole stream.
