@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
+#include "client/cli_flags.h"
 #include "client/ewave_cli.h"
 #include "client/cloud_cli.h"
 #include "client/ocean_cli.h"
@@ -15,7 +17,22 @@
 namespace squall::cli {
 namespace {
 
-int info(client::Client& client, const std::vector<std::string>&) {
+// info takes nothing after it, health a service name: anything else is refused, naming it (squall's own flags
+// go before the verb).
+int refuse_arguments(const char* verb, const std::vector<std::string>& args, size_t allowed) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (global_flag(args[i]))
+      return std::cerr << "squall " << verb << ": " << args[i]
+                       << " is a flag of squall itself: give it before the verb\n",
+             kUsage;
+    if (i >= allowed || args[i].rfind("-", 0) == 0)
+      return std::cerr << "squall " << verb << ": unexpected " << args[i] << "\n", kUsage;
+  }
+  return kOk;
+}
+
+int info(client::Client& client, const std::vector<std::string>& args) {
+  if (int status = refuse_arguments("info", args, 0); status != kOk) return status;
   auto r = client.info();
   std::cout << "squalld " << r.version() << (r.ready() ? " (ready)" : " (building kernels)") << ", up "
             << r.uptime_seconds() << " s\n";
@@ -37,6 +54,7 @@ int info(client::Client& client, const std::vector<std::string>&) {
 }
 
 int health(client::Client& client, const std::vector<std::string>& args) {
+  if (int refused = refuse_arguments("health", args, 1); refused != kOk) return refused;
   auto status = client.health(args.empty() ? "" : args[0]);
   std::cout << grpc::health::v1::HealthCheckResponse::ServingStatus_Name(status) << "\n";
   return status == grpc::health::v1::HealthCheckResponse::SERVING ? kOk : kNotServing;
@@ -46,7 +64,7 @@ void print_usage() {
   std::cerr << "usage: squall [--address HOST:PORT] [--timeout SECONDS] [--request-id ID] [--tls-ca PEM]\n"
                "              [--tls-cert PEM --tls-key PEM] [--token-file FILE] VERB [ARGS]\n"
                "  --address     squalld's address (default 127.0.0.1:50051)\n"
-               "  --timeout     deadline of each call in seconds (default 30)\n"
+               "  --timeout     deadline of each call in seconds (default 30; a stream: per frame or step)\n"
                "  --request-id  sent as x-request-id, shown in squalld's log\n"
                "  --tls-ca      connect with TLS, trusting this CA (PEM; squalld's --tls-cert must be signed by it)\n"
                "  --tls-cert, --tls-key  this client's certificate and key for mutual TLS (PEM)\n"
@@ -89,6 +107,21 @@ bool bad_port(const std::string& address) {
   char* end = nullptr;
   const long n = std::strtol(port.c_str(), &end, 10);
   return port.empty() || *end || !std::isdigit(static_cast<unsigned char>(port[0])) || n < 1 || n > 65535;
+}
+
+// The --tls-* files: readable regular files, a certificate with its key. kUsage, with the message, when not
+// (a bad command line, as an unreadable --token-file).
+int check_tls(const client::ClientOptions& options) {
+  for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--tls-ca", options.tls_ca},
+                                   {"--tls-cert", options.tls_cert},
+                                   {"--tls-key", options.tls_key}}) {
+    std::error_code ignored;
+    if (!path.empty() && (!std::ifstream(path) || !std::filesystem::is_regular_file(path, ignored)))
+      return std::cerr << "squall: " << flag << " " << path << ": cannot read\n", kUsage;
+  }
+  if (options.tls_cert.empty() != options.tls_key.empty())
+    return std::cerr << "squall: --tls-cert and --tls-key go together\n", kUsage;
+  return kOk;
 }
 
 // The options' request id and token, sent as metadata: kUsage, with the message, when one cannot be.
@@ -149,19 +182,16 @@ int main(int argc, char** argv) {
     }
   }
   if (i >= argc) return print_usage(), kUsage;
-  for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--tls-ca", options.tls_ca},
-                                   {"--tls-cert", options.tls_cert},
-                                   {"--tls-key", options.tls_key}})
-    if (!path.empty() && !std::ifstream(path))  // a bad command line, as an unreadable --token-file
-      return std::cerr << "squall: " << flag << " " << path << ": cannot read\n", kUsage;
+  if (int status = check_tls(options); status != kOk) return status;
   if (int status = check_metadata(options); status != kOk) return status;
+  if (options.address.empty()) return std::cerr << "squall: --address is empty\n", kUsage;
   if (bad_port(options.address))
     return std::cerr << "squall: --address " << options.address << ": the port must be in 1..65535\n", kUsage;
   auto it = verbs().find(argv[i]);
   if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
   std::vector<std::string> args(argv + i + 1, argv + argc);
   try {
-    client::Client client(options);  // throws when a --tls-* file cannot be read
+    client::Client client(options);
     const int status = it->second.run(client, args);
     std::cout.flush();  // what a verb prints (sample's CSV, info) is its output: a full disk is an error
     if (status == kOk && !std::cout)

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
 namespace squall::cli {
 
@@ -51,6 +53,27 @@ void refuse_unused(const std::string& command, const std::vector<std::string>& g
     if (!read.count(flag)) throw UsageError(flag + " is not a flag of `squall " + command + "`");
 }
 
+std::string read_bytes(const std::string& flag, const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ignored;
+  if (!in || !std::filesystem::is_regular_file(path, ignored)) throw UsageError(flag + " " + path + ": cannot read it");
+  std::stringstream s;
+  s << in.rdbuf();
+  if (s.str().empty()) throw UsageError(flag + " " + path + ": the file is empty");
+  return s.str();
+}
+
+void check_preview(const std::string& output, const std::string& preview) {
+  if (preview.empty()) return;
+  auto resolved = [](const std::string& path) {  // through links where it can, else as written
+    std::error_code error;
+    const std::filesystem::path p = std::filesystem::weakly_canonical(path, error);
+    return error ? std::filesystem::absolute(path).lexically_normal() : p;
+  };
+  if (resolved(output) == resolved(preview))
+    throw UsageError("--preview " + preview + " is the file -o names: the preview would replace the image");
+}
+
 std::string attribute_name(const std::string& prefix, const std::string& flag) {
   return prefix + "." + flag.substr(std::min(flag.find_first_not_of('-'), flag.size()));
 }
@@ -63,13 +86,20 @@ bool global_flag(const std::string& arg) {
 
 OutputFolder::OutputFolder(const std::string& path) {
   std::error_code ignored;
-  for (std::filesystem::path p = std::filesystem::absolute(path).lexically_normal();
+  for (std::filesystem::path p = std::filesystem::absolute(path);
        p.has_relative_path() && !std::filesystem::exists(p, ignored); p = p.parent_path())
-    if (!p.filename().empty()) made_.push_back(p);
-  std::filesystem::create_directories(path);
+    if (const auto name = p.filename(); !name.empty() && name != "." && name != "..") made_.push_back(p);
+  try {
+    std::filesystem::create_directories(path);
+  } catch (...) {
+    remove_empty();  // the parents made before the failure
+    throw;
+  }
 }
 
-OutputFolder::~OutputFolder() {
+OutputFolder::~OutputFolder() { remove_empty(); }
+
+void OutputFolder::remove_empty() const {
   std::error_code ignored;  // a folder that cannot be removed is left as it is
   for (const auto& p : made_)
     if (!std::filesystem::is_empty(p, ignored) || !std::filesystem::remove(p, ignored)) return;
@@ -77,12 +107,15 @@ OutputFolder::~OutputFolder() {
 
 int run_verb(const std::string& name, const char* help, const std::vector<std::string>& args,
              const std::function<int()>& body) {
-  if (args.empty() || args[0] == "help" || args[0] == "--help") {
+  const bool asked =
+      !args.empty() && (args[0] == "help" || std::find(args.begin(), args.end(), "--help") != args.end() ||
+                        (args.size() == 2 && args[1] == "help"));
+  if (args.empty() || asked) {
     std::cerr << help;
     return args.empty() ? kUsage : kOk;
   }
   try {
-    for (size_t i = 1; i < args.size(); ++i)
+    for (size_t i = 0; i < args.size(); ++i)
       if (global_flag(args[i]))
         throw UsageError(args[i] + " is a flag of squall itself: give it before the verb (squall " + args[i] +
                          " VALUE " + name + " ...)");

@@ -38,6 +38,12 @@ Enum named(const std::string& flag, const std::string& text, const std::map<std:
 void refuse_unused(const std::string& command, const std::vector<std::string>& given,
                    const std::set<std::string>& read);
 
+// The whole of a regular, non-empty file named by `flag`; UsageError naming the flag otherwise.
+std::string read_bytes(const std::string& flag, const std::string& path);
+
+// UsageError when --preview names the file -o names: the preview would replace the image.
+void check_preview(const std::string& output, const std::string& preview);
+
 // An EXR attribute's name for a flag as given: "squall.ewave.wake" and "--speed" give
 // "squall.ewave.wake.speed".
 std::string attribute_name(const std::string& prefix, const std::string& flag);
@@ -56,6 +62,8 @@ class OutputFolder {
   OutputFolder& operator=(const OutputFolder&) = delete;
 
  private:
+  void remove_empty() const;  // those of made_ that are empty, the deepest first, up to the first that is not
+
   std::vector<std::filesystem::path> made_;  // the folders made here, the deepest first
 };
 

@@ -91,14 +91,6 @@ struct Request {
   std::vector<std::string> model_flags, image_flags;  // as given: the model's, and those only render reads
 };
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw UsageError("cannot read " + path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 bool model_flag(const std::string& flag, const std::string& value, Request& r) {
   auto& m = r.model;
   if (flag == "--voxel-size")
@@ -116,7 +108,7 @@ bool model_flag(const std::string& flag, const std::string& value, Request& r) {
     vec(v, 0, e->mutable_center());
     vec(v, 3, e->mutable_radii());
   } else if (flag == "--mesh")
-    m.add_meshes()->set_obj(read_text(value));
+    m.add_meshes()->set_obj(read_bytes(flag, value));
   else if (flag == "--pyro") {
     auto v = numbers(flag, value, 3, 4);
     auto* p = m.mutable_pyroclastic();
@@ -307,7 +299,11 @@ int build(client::Client& client, const Request& r) {
   out << response.vdb();
   out.close();  // a full disk shows here, not at the write
   if (out.fail()) {
-    std::cerr << "squall cloud: cannot write " << r.output << "\n";
+    std::cerr << "squall cloud: cannot write " << r.output
+              << (response.summary().volume_id().empty()
+                      ? ""
+                      : " (the volume is kept: volume_id " + response.summary().volume_id() + ")")
+              << "\n";
     return kLocalError;
   }
   print_summary(response.summary());
@@ -364,6 +360,7 @@ int run(client::Client& client, const std::vector<std::string>& args) {
     if (!r.volume_id.empty() && !r.model_flags.empty())
       throw UsageError(r.model_flags.front() + ": `cloud render --volume ID` renders the stored volume, not a model");
     if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
+    check_preview(r.output, r.preview);
     return render(client, r);
   });
 }

@@ -201,12 +201,12 @@ int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWa
     call->WritesDone();
   });
   v1::EWaveFrame frame;
-  uint64_t read = 0;
+  uint64_t read = 0, written = 0;
   int rc = kOk;
   try {
     while (call->Read(&frame)) {
       ++read;
-      if (read % w.every == 0 || read == w.steps) write_frame(w, frame);
+      if (read % w.every == 0 || read == w.steps) write_frame(w, frame), ++written;
     }
   } catch (const std::exception& e) {
     std::cerr << "squall: " << e.what() << "\n";
@@ -217,7 +217,7 @@ int stream(client::Client& client, const Wake& w, const std::string& id, v1::EWa
   grpc::Status status = call->Finish();
   if (rc != kOk) return rc;
   client::check(status, "EWave.Run");
-  std::cout << "wrote " << (read + w.every - 1) / w.every << " frames of " << read << " steps to " << w.out << "\n";
+  std::cout << "wrote " << written << " frames of " << read << " steps to " << w.out << "\n";
   return kOk;
 }
 

@@ -47,7 +47,8 @@ tile flags:
                             jacobian jacobian_minus jacobian_plus whitecap
                             (default height,displacement_x,displacement_y,normal_x,normal_y,normal_z)
   --dtype float32|float16   transfer type (default float32); files are always 32-bit float
---outputs and --dtype are for tile and stream. The stream's deadline is --timeout times the number of frames.
+--outputs, --dtype and the output and whitecap flags are for tile and stream (they do not change samples).
+The stream's deadline is --timeout times the number of frames.
 )";
 
 namespace {
@@ -204,16 +205,25 @@ std::pair<double, double> point(const std::string& flag, const std::string& text
   return {number(flag, text.substr(0, comma), "m"), number(flag, text.substr(comma + 1), "m")};
 }
 
+// A CSV line that names its columns ("x,y"): it starts with a letter, and is no number (nan, inf, infinity).
+bool is_header(const std::string& line) {
+  if (line.empty() || !std::isalpha(static_cast<unsigned char>(line[0]))) return false;
+  std::string word = line.substr(0, line.find(','));
+  for (char& c : word) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return word != "nan" && word != "inf" && word != "infinity";
+}
+
+// X,Y lines; empty lines and # comments skipped, a header allowed before the first point, a UTF-8 byte order
+// mark and CRLF line ends read.
 void read_points_file(const std::string& path, Request& r) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("--points-file " + path + ": cannot open");
+  const std::string text = read_bytes("--points-file", path);
+  std::istringstream in(text.rfind("\xEF\xBB\xBF", 0) == 0 ? text.substr(3) : text);
   int line_number = 0;
+  const size_t before = r.points.size();
   for (std::string line; std::getline(in, line);) {
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF
-    const bool header = line_number == 1 && std::isalpha(static_cast<unsigned char>(line[0])) &&
-                        line.rfind("nan", 0) != 0 && line.rfind("inf", 0) != 0;
-    if (line.empty() || line[0] == '#' || header) continue;
+    if (line.empty() || line[0] == '#' || (r.points.size() == before && is_header(line))) continue;
     std::string where = "--points-file " + path + ":" + std::to_string(line_number);
     r.points.push_back(point(where, line));
   }
@@ -254,9 +264,19 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
 
 }  // namespace
 
+namespace {
+// The tile flags of what a tile holds beside the surface, which do not change samples.
+const std::set<std::string> kTileOutputFlags = {"--output-grid", "--output-extent", "--whitecap-threshold",
+                                                "--whitecap-decay-time", "--pixel-scale"};
+std::set<std::string> with_tile_outputs(std::set<std::string> flags) {
+  flags.insert(kTileOutputFlags.begin(), kTileOutputFlags.end());
+  return flags;
+}
+}  // namespace
+
 const std::map<std::string, std::set<std::string>> kVerbFlags = {
-    {"tile", {"--time", "-o", "--output", "--preview", "--outputs", "--dtype"}},
-    {"stream", {"--t0", "--dt", "--frames", "-o", "--output", "--outputs", "--dtype"}},
+    {"tile", with_tile_outputs({"--time", "-o", "--output", "--preview", "--outputs", "--dtype"})},
+    {"stream", with_tile_outputs({"--t0", "--dt", "--frames", "-o", "--output", "--outputs", "--dtype"})},
     {"sample", {"--time", "--point", "--points-file", "--invert-displacement"}}};
 
 Request parse(const std::vector<std::string>& args) {
@@ -275,7 +295,7 @@ Request parse(const std::vector<std::string>& args) {
     if (i + 1 >= args.size()) throw UsageError(flag + " needs a value (or is unknown)");
     const std::string& value = args[++i];
     v1::LayerSpec& layer = *r.tile.mutable_layers(r.tile.layers_size() - 1);
-    if (run_flag(flag, value, r))
+    if (run_flag(flag, value, r) || (kTileOutputFlags.count(flag) && tile_flag(flag, value, r)))
       r.run_flags.push_back(flag);
     else if (!layer_flag(flag, value, layer) && !tile_flag(flag, value, r))
       throw UsageError("unknown flag " + flag);

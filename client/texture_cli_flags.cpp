@@ -74,15 +74,8 @@ std::vector<double> numbers(const std::string& flag, const std::string& text, st
   return out;
 }
 
-std::string read_bytes(const std::string& flag, const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw UsageError(flag + " " + path + ": cannot read it");
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 void image_flag(const std::string& flag, const std::string& path, v1::ImageTexture* image) {
+  image->Clear();  // the last --image given
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".png" || ext == ".PNG") return image->set_png(read_bytes(flag, path));
   if (ext != ".exr" && ext != ".EXR") throw UsageError(flag + " " + path + ": must be a .exr or .png file");

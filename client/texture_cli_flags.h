@@ -13,8 +13,6 @@ namespace squall::cli::texture {
 std::vector<std::string> items(const std::string& text);
 // A comma-separated list of finite numbers, of one of the allowed lengths.
 std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths);
-// The whole file.
-std::string read_bytes(const std::string& flag, const std::string& path);
 // An image file as a request's image: FILE.exr (its R, G, B, A channels first, at most 8, as float32
 // Fields, scanline j as texture row j) or FILE.png (its bytes, decoded by squalld).
 void image_flag(const std::string& flag, const std::string& path, squall::v1::ImageTexture* image);

@@ -126,8 +126,8 @@ void apply(const std::string& flag, const std::string& value, Deform& d) {
 }
 
 // The texture's width and height: its first channel's, or the PNG header's (a PNG signature and its IHDR
-// chunk first, as the PNG specification requires; at most 2^28 texels, past any --max-grid-cells, so that a
-// constant rigidity map of a forged header is refused rather than allocated).
+// chunk first, as the PNG specification requires; 1 to 2^24 texels, whose constant rigidity map of 64 MiB
+// is squalld's default --max-message-bytes, so that one of a forged header is refused rather than made).
 std::pair<uint32_t, uint32_t> texture_size(const v1::ImageTexture& image) {
   if (image.channels_size() > 0) return {image.channels(0).nx(), image.channels(0).ny()};
   const std::string& png = image.png();
@@ -139,9 +139,9 @@ std::pair<uint32_t, uint32_t> texture_size(const v1::ImageTexture& image) {
   if (png.size() < 24 || png.compare(0, 8, kSignature, 8) != 0 || png.compare(12, 4, "IHDR") != 0)
     throw UsageError("--image: not a PNG file (no PNG signature and IHDR chunk)");
   const uint32_t width = be32(16), height = be32(20);
-  if (width < 1 || height < 1 || double(width) * height > double(1 << 28))
+  if (width < 1 || height < 1 || double(width) * height > double(1 << 24))
     throw UsageError("--image: the PNG header says " + std::to_string(width) + " x " + std::to_string(height) +
-                     " pixels, past 2^28");
+                     " pixels: must be 1 to 2^24");
   return {width, height};
 }
 

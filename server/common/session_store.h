@@ -282,8 +282,8 @@ class SessionStore {
   }
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
-  // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint,
-  // FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it
+  // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint, UNAVAILABLE
+  // for a payload version newer than this squalld reads, FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it
   // under header.id.
   std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t version,
                               CheckpointHeader* header) {
@@ -294,11 +294,15 @@ class SessionStore {
   std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t oldest, uint32_t newest,
                               CheckpointHeader* header) {
     std::string payload = decode_checkpoint(data, kind_, field, header);
-    if (header->version < oldest || header->version > newest)
-      fail(Code::InvalidArgument,
-           field + " holds " + kind_ + " payload version " + std::to_string(header->version) + "; this squalld reads " +
-               (oldest == newest ? "version " + std::to_string(newest)
-                                 : "versions " + std::to_string(oldest) + " to " + std::to_string(newest)));
+    if (header->version < oldest || header->version > newest) {
+      const std::string what =
+          field + " holds " + kind_ + " payload version " + std::to_string(header->version) + "; this squalld reads " +
+          (oldest == newest ? "version " + std::to_string(newest)
+                            : "versions " + std::to_string(oldest) + " to " + std::to_string(newest));
+      // A newer squalld's (a rolling update): a replica that reads it can take the call.
+      if (header->version > newest) fail(Code::Unavailable, what + ": retry on a newer squalld");
+      fail(Code::InvalidArgument, what);
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.count(header->id))
       fail(Code::FailedPrecondition, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);

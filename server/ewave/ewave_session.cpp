@@ -140,7 +140,7 @@ void EWaveSession::check_same_grid(const StateHeader& h) const {
 void EWaveSession::restore(const std::string& bytes) {
   StateHeader h = parse_state_header(bytes);
   check_same_grid(h);
-  check_fields_finite(bytes, h);
+  check_fields_in_range(bytes, h);
   EWaveConfig restored = config_of(h);
   restored.ambient_ocean = config_.ambient_ocean;  // the session's own (config_from_state() gives the bytes')
   config_ = std::move(restored);

@@ -122,10 +122,11 @@ EWaveConfig config_of(const StateHeader& header) {
 }
 
 // Past any state a session reaches (its inputs are held to 1e6), and small enough that a grid's sum of such
-// values in a step's transforms, times its propagator, stays within float.
+// values in a step's transforms, times its propagator, stays within float. (The normals' own limit is
+// lower where slopes pass 1.8e19: sq_surface_normal.)
 constexpr double kMaxStateValue = 1e25;
 
-void check_fields_finite(const std::string& bytes, const StateHeader& h) {
+void check_fields_in_range(const std::string& bytes, const StateHeader& h) {
   const char* fields = state_fields(bytes);
   const size_t count = kStateFields * size_t(h.nx) * size_t(h.ny);
   for (size_t c = 0; c < count; ++c) {

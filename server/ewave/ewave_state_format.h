@@ -62,7 +62,7 @@ std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader
 EWaveConfig config_of(const StateHeader& header);
 // Throws Error(InvalidArgument) naming the first field value of the state that is not finite and within
 // +-1e25.
-void check_fields_finite(const std::string& bytes, const StateHeader& header);
+void check_fields_in_range(const std::string& bytes, const StateHeader& header);
 
 // values converted to host bytes of the state's type (float or double).
 std::vector<char> to_state_type(const std::vector<double>& values, bool double_precision);

@@ -40,6 +40,9 @@ class StreamCall {
     if (ended_ || !writer.Write(message)) ended_ = true;
     return live();
   }
+  // False once a write has failed (the client is gone): the parts of one message split over several
+  // writes (an ocean frame's chunks) are all sent while this holds, whatever live() says.
+  bool writing() const { return !ended_; }
 
   grpc::ServerContext& context() { return context_; }
 

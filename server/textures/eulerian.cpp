@@ -193,7 +193,7 @@ class Eulerian final : public Advection {
         cascade.size() != cascade_floats())
       fail(Code::InvalidArgument, "resume_state does not match this request's layers, phases, grid or cascade");
     // A slot that regenerates did so last within one latency before the frame's time (advance()); two are
-    // allowed for rounding. A time far from it (a forged one) made the phase weights NaN.
+    // allowed for rounding. Far from it, the phase weights would not be finite.
     for (int s = 0; s < slots(); ++s)
       if (std::isfinite(latency(s)) && !(std::abs(phase_start_[s] - time()) <= 2 * latency(s)))
         fail(Code::InvalidArgument, "resume_state holds the regeneration time " + validate::number(phase_start_[s]) +

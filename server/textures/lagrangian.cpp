@@ -147,6 +147,7 @@ class Lagrangian final : public Advection {
       fail(Code::InvalidArgument, "resume_state has an unknown version");
     started_ = in.get<bool>("started");
     index_ = in.frame_index(kMaxTextureFrames);
+    time_ = t0_ + index_ * dt_;
     counter_ = in.get<uint64_t>("the particle counter");
     next_id_ = in.get<uint64_t>("the next particle id");
     // One by one: a count past the end is caught at the first particle missing, before the rest is allocated.
@@ -156,16 +157,18 @@ class Lagrangian final : public Advection {
       p.id = in.get<uint64_t>("a particle's id");
       p.birth = in.get<double>("a particle's birth time");
       p.kill = in.get<double>("a particle's kill time");
-      if (!std::isfinite(p.birth) || !(std::isfinite(p.kill) || p.kill == kAlive))
-        fail(Code::InvalidArgument, "resume_state holds a particle born at " + std::to_string(p.birth) +
-                                        " and killed at " + std::to_string(p.kill) +
-                                        ": not a checkpoint of this server");
+      // Born and killed by the frame's time (insert(), kill_distorted(), kill_crowded()): a later time would
+      // have a negative age and weight.
+      if (!(std::isfinite(p.birth) && p.birth <= time_ &&
+            (p.kill == kAlive || (std::isfinite(p.kill) && p.kill <= time_))))
+        fail(Code::InvalidArgument, "resume_state holds a particle born at " + validate::number(p.birth) +
+                                        " s and killed at " + validate::number(p.kill) + " s, past its frame's time " +
+                                        validate::number(time_) + " s: not a checkpoint of this request");
     }
     positions_ = in.get_finite_vector<float>("the positions", kMaxStateValue);
     uvs_ = in.get_finite_vector<float>("the uvs", kMaxStateValue);
     if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
       fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
-    time_ = t0_ + index_ * dt_;
   }
 
   // Carries every vertex over [time_, time_ + dt] on the device.

@@ -623,6 +623,8 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--keep"}, "--keep is not a flag of `squall cloud render`"},
       {{"render", "--volume", "cloud-1"}, "--voxel-size: `cloud render --volume ID` renders the stored volume"},
       {{"render", "--address", "127.0.0.1:2"}, "--address is a flag of squall itself"},
+      {{"build", "--mesh", "/tmp"}, "--mesh /tmp: cannot read it"},
+      {{"render", "--preview", dir + "/./x.exr"}, "is the file -o names"},
   };
   for (const auto& [flags, message] : cases) {
     std::vector<std::string> args = {kSquall, "--address", "127.0.0.1:1", "cloud"};

@@ -129,6 +129,9 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
                [&] { s.open_checkpoint(saved + "x", "state", 7, &header); });
   expect_error(Code::InvalidArgument, "state holds counter payload version 7; this squalld reads version 8",
                [&] { s.open_checkpoint(saved, "state", 8, &header); });
+  // A newer squalld's checkpoint: another replica (one that reads it) can take the call.
+  expect_error(Code::Unavailable, "payload version 7; this squalld reads versions 5 to 6: retry on a newer squalld",
+               [&] { s.open_checkpoint(saved, "state", 5, 6, &header); });
   LimitGate other_gate{Limits{}};
   SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
   expect_error(Code::InvalidArgument, "holds a counter, not a volume",

@@ -457,11 +457,25 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_NE(out.find("--request-id holds the byte \\xc3"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--request-id", "a\nb", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--request-id holds the byte \\x0a"), std::string::npos) << out;
-  // Files named by flags that cannot be read: a bad command line, whichever flag names them.
+  // Files named by flags that cannot be read (missing, a folder): a bad command line, whichever flag names
+  // them; so are a certificate without its key, an empty address, and arguments info and health do not take.
   for (const char* flag : {"--token-file", "--tls-ca", "--tls-cert", "--tls-key"}) {
     EXPECT_EQ(test::run({kSquall, flag, "/nonexistent.pem", "info"}, &out), 2) << flag << ": " << out;
     EXPECT_NE(out.find(std::string(flag) + " /nonexistent.pem: cannot read"), std::string::npos) << out;
   }
+  EXPECT_EQ(test::run({kSquall, "--tls-ca", "/tmp", "info"}, &out), 2) << out;
+  EXPECT_NE(out.find("--tls-ca /tmp: cannot read"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--tls-cert", "/proc/self/status", "info"}, &out), 2) << out;
+  EXPECT_NE(out.find("--tls-cert and --tls-key go together"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", "", "info"}, &out), 2) << out;
+  EXPECT_EQ(test::run({kSquall, "info", "--address", "127.0.0.1:2"}, &out), 2) << out;
+  EXPECT_NE(out.find("--address is a flag of squall itself"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "health", "a", "b"}, &out), 2) << out;
+  EXPECT_NE(out.find("unexpected b"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "ocean", "--timeout", "5", "tile"}, &out), 2) << out;
+  EXPECT_NE(out.find("--timeout is a flag of squall itself"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "ocean", "tile", "help"}, &out), 0) << out;  // help below the verb too
+  EXPECT_NE(out.find("usage:"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--address", "127.0.0.1:99999", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--address 127.0.0.1:99999: the port must be in 1..65535"), std::string::npos) << out;
   // A deadline past what the clock holds is held to 1e9 s, not wrapped into one already past.

@@ -578,11 +578,14 @@ TEST(EWaveCli, ASlowWakeStepsWithinTheSessionsLongestStep) {
       &out, 120);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
-}
-
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  // Every 2^64 - 1 steps: the last step alone is written, and counted.
+  ASSERT_EQ(test::run({kSquall, "--address", first().address(), "ewave", "wake", "--speed", "0.05", "--steps", "2",
+                       "--every", "18446744073709551615", "--grid", "64x32", "--spacing", "0.01", "-o",
+                       test::temp_dir("ewave-wake-every")},
+                      &out, 120),
+            0)
+      << out;
+  EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
 }
 
 // A wake the server refuses (a grid of one row) exits 4 and leaves no empty folder behind.
@@ -654,7 +657,7 @@ TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {
   EXPECT_EQ(speed->value(), "0.2");
   const std::string expected = dir + "/expected.png";
   client::write_png_preview(expected, 96, 64, channels[0]);
-  EXPECT_EQ(read_bytes(dir + "/frame_00012.png"), read_bytes(expected)) << "the preview is not the height";
+  EXPECT_EQ(test::read_file(dir + "/frame_00012.png"), test::read_file(expected)) << "the preview is not the height";
   // The session was closed at the end: all three --max-sessions slots are free again.
   std::vector<std::unique_ptr<Session>> live;
   for (int n = 0; n < 3; ++n) {

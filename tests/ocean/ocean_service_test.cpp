@@ -592,6 +592,16 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   std::ofstream(points) << "x,y\r\n1,2\r\n5\r\n";  // a line of one number, in a CRLF file
   EXPECT_EQ(test::run(cli_args({"sample", "--points-file", points}), &out), 2) << out;
   EXPECT_NE(out.find(":3 5: must be X,Y (m)"), std::string::npos) << out;
+  // "Infinity" is a number, not a header (and no finite one); a header may follow comments and a byte order
+  // mark.
+  std::ofstream(points, std::ios::trunc) << "Infinity,2\n";
+  EXPECT_EQ(test::run(cli_args({"sample", "--grid", "16", "--points-file", points}), &out), 2) << out;
+  EXPECT_NE(out.find(":1 Infinity: must be a finite number"), std::string::npos) << out;
+  std::ofstream(points, std::ios::trunc) << "\xEF\xBB\xBF# made by hand\nx,y\n1,2\n";
+  EXPECT_EQ(test::run(cli_args({"sample", "--grid", "16", "--points-file", points}), &out), 0) << out;
+  EXPECT_NE(out.find("\n1,2,"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"sample", "--points-file", test::temp_dir("ocean-cli-folder")}), &out), 2) << out;
+  EXPECT_NE(out.find("cannot read it"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"stream", "--frames", "2", "-o", "d"}), &out), 2) << out;
   EXPECT_NE(out.find("--dt"), std::string::npos) << out;
   // A flag the verb would ignore, or one of squall's own given after the verb, is refused naming it.
@@ -614,17 +624,27 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
             4)
       << out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/frames")) << out;  // nor the parents made for it
+  EXPECT_EQ(
+      test::run(cli_args({"stream", "--wind-speed", "-1", "--dt", "1", "--frames", "2", "-o", dir + "/up/../frames"}),
+                &out),
+      4)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/up")) << out;
+  // A preview that would replace the image it previews.
+  EXPECT_EQ(test::run(cli_args({"tile", "-o", dir + "/t.exr", "--preview", dir + "/./t.exr"}), &out), 2) << out;
+  EXPECT_NE(out.find("is the file -o names"), std::string::npos) << out;
 }
 
-// A stream's deadline is --timeout for each frame, not for the whole stream.
+// A stream's deadline is --timeout for each frame, not for the whole stream: 150 frames, each computed by
+// squalld and written as an EXR by the client, take longer than one 0.1 s deadline on any machine.
 TEST(OceanCli, AStreamHasTheTimeoutForEachFrame) {
   const std::string dir = test::temp_dir("ocean-cli-stream-deadline");
   std::vector<std::string> args = {
-      kSquall, "--address", daemon().address(), "--timeout", "0.25", "ocean", "stream", "--grid", "128",
-      "--dt",  "0.1",       "--frames",         "120",       "-o",   dir};
+      kSquall, "--address", daemon().address(), "--timeout", "0.1", "ocean", "stream", "--grid", "128",
+      "--dt",  "0.1",       "--frames",         "150",       "-o",  dir};
   std::string out;
   ASSERT_EQ(test::run(args, &out, 120), 0) << out;
-  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_00119.exr")) << out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_00149.exr")) << out;
 }
 
 }  // namespace

@@ -2037,7 +2037,7 @@ CASES += [
     ),
     bad(
         R,
-        "stroke_radius_1e-30",  # 2 r^2 underflows float: the texel under it came out NaN
+        "stroke_radius_1e-30",  # 2 r^2 underflows float
         put(
             "strokes",
             [textures_pb2.BrushStroke(center=vec2(4.5, 4.5), radius=1e-30, strength=1.0)],

@@ -19,7 +19,7 @@ struct RecordingWriter {
 };
 
 // A message made before squalld began to drain (an eWave step already taken and checkpointed) is sent, and
-// the stream then stops with UNAVAILABLE: dropping it lost the step's frame.
+// the stream then stops with UNAVAILABLE.
 TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
   ServingState serving{Limits{}};
   serving.set_phase(ServingState::Phase::Serving);
@@ -29,6 +29,7 @@ TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
   EXPECT_TRUE(call.write(writer, std::string("frame 1")));
   serving.set_phase(ServingState::Phase::Draining);
   EXPECT_FALSE(call.write(writer, std::string("frame 2"))) << "the handler stops before its next message";
+  EXPECT_TRUE(call.writing()) << "the rest of a message split over several writes is sent";
   EXPECT_EQ(writer.written, (std::vector<std::string>{"frame 1", "frame 2"}));
   EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAVAILABLE);
 }
@@ -42,6 +43,7 @@ TEST(StreamCall, AFailedWriteEndsTheCall) {
   RecordingWriter writer;
   writer.accepts = false;
   EXPECT_FALSE(call.write(writer, std::string("frame 1")));
+  EXPECT_FALSE(call.writing());
   writer.accepts = true;
   EXPECT_FALSE(call.write(writer, std::string("frame 2")));
   EXPECT_TRUE(writer.written.empty());

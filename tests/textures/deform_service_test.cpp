@@ -257,12 +257,17 @@ TEST(TexturesDeform, CommandLine) {
                       &out),
             2)
       << out;
-  // A constant rigidity takes the texture's size from its PNG header: only a PNG's, and not past 2^28 texels.
+  // A constant rigidity takes the texture's size from its PNG header: only a PNG's, and not past 2^24 texels
+  // (a map of 64 MiB, squalld's default message limit).
   std::string forged = "\x89PNG\r\n\x1a\n" + std::string("\0\0\0\x0dIHDR\0\0\x9c\x40\0\0\x9c\x40", 16);
   std::ofstream(dir + "/forged.png", std::ios::binary) << forged << std::string(16, '\0');
+  std::string wide = "\x89PNG\r\n\x1a\n" + std::string("\0\0\0\x0dIHDR\0\0\x13\x88\0\0\x13\x88", 16);
+  std::ofstream(dir + "/wide.png", std::ios::binary) << wide << std::string(16, '\0');
   std::ofstream(dir + "/text.png") << "this is not a png, but long enough to have a header";
   for (const auto& [file, message] : std::vector<std::pair<std::string, std::string>>{
-           {"forged.png", "the PNG header says 40000 x 40000 pixels, past 2^28"}, {"text.png", "not a PNG file"}}) {
+           {"forged.png", "the PNG header says 40000 x 40000 pixels: must be 1 to 2^24"},
+           {"wide.png", "the PNG header says 5000 x 5000 pixels: must be 1 to 2^24"},
+           {"text.png", "not a PNG file"}}) {
     EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
                          dir + "/" + file, "--rigidity", "0.5", "--out", dir + "/y"},
                         &out),

@@ -496,7 +496,7 @@ TEST(Deform, BadSpecsNameTheirField) {
   expect("spec.rigidity[", [](DeformSpec& s) { s.rigidity[5] = 2; });
   expect("spec.d_mu", [](DeformSpec& s) { s.control.d_mu = std::nan(""); });
   expect("spec.strokes[0].radius", [](DeformSpec& s) { s.control.strokes = {{1, 1, 0, 1}}; });
-  // A radius whose 2 r^2 underflows float made the texel under the brush NaN.
+  // A radius whose 2 r^2 underflows float.
   expect("spec.strokes[0].radius", [](DeformSpec& s) { s.control.strokes = {{4.5, 4.5, 1e-30, 1}}; });
   expect("spec.texture.width", [](DeformSpec& s) { s.width = 2; });
   expect("spec.d_mu_map", [](DeformSpec& s) {

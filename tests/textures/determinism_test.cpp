@@ -84,8 +84,8 @@ TEST(TexturesDeterminism, ACheckpointHoldingAValueNoStreamReachesIsRefused) {
 }
 
 // A checkpoint whose last regeneration time of a slot (a double after the version, the started flag, the
-// frame index and the count: byte 21) lies far from its frame's time is refused: a forged one made every
-// phase weight NaN.
+// frame index and the count: byte 21) lies far from its frame's time is refused: its phase weights would not
+// be finite.
 TEST(TexturesDeterminism, ARegenerationTimeFarFromTheFramesTimeIsRefused) {
   AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM);
   auto advection = texture_engine().start(spec);
@@ -95,6 +95,23 @@ TEST(TexturesDeterminism, ARegenerationTimeFarFromTheFramesTimeIsRefused) {
     std::string bad = state;
     std::memcpy(&bad[21], &forged, sizeof(double));
     expect_error(Code::InvalidArgument, "resume_state holds the regeneration time",
+                 [&] { texture_engine().start(spec, bad); });
+  }
+  EXPECT_NO_THROW(texture_engine().start(spec, state));
+}
+
+// A Lagrangian checkpoint's particle born after its frame's time (the first particle's birth: a double
+// after the version, the started flag, the frame index, the counter, the next id, the count and its id, at
+// byte 45) is refused: its age, and so its weight, would be negative.
+TEST(TexturesDeterminism, AParticleBornAfterTheFramesTimeIsRefused) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM);
+  auto advection = texture_engine().start(spec);
+  for (int i = 0; i < 3; ++i) advection->next();
+  const std::string state = advection->checkpoint();
+  for (double forged : {1e308, advection->time() + 1}) {
+    std::string bad = state;
+    std::memcpy(&bad[45], &forged, sizeof(double));
+    expect_error(Code::InvalidArgument, "resume_state holds a particle born at",
                  [&] { texture_engine().start(spec, bad); });
   }
   EXPECT_NO_THROW(texture_engine().start(spec, state));

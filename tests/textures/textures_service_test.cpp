@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 
 #include "client/client.h"
@@ -499,6 +500,29 @@ TEST(TexturesCli, AdvectWritesFrames) {
                       &out),
             2)
       << out;
+}
+
+// The last --image given is the texture: a five-channel image given twice is five channels, not ten (past
+// the eight a texture may have). An image file that is a folder, or empty, exits 2 naming the flag.
+TEST(TexturesCli, TheLastImageGivenIsTheTexture) {
+  const std::string dir = test::temp_dir("textures-cli-image");
+  client::Image image;
+  image.nx = image.ny = 8;
+  for (const char* name : {"R", "G", "B", "A", "mask"}) image.channels.push_back({name, std::vector<float>(64, 0.5f)});
+  client::write_exr(dir + "/five.exr", image);
+  std::string out;
+  auto advect = [&](const std::string& first, const std::string& second) {
+    return test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--frames", "1",
+                      "--size", "8x8", "--image", first, "--image", second, "--out", dir + "/frames"},
+                     &out);
+  };
+  EXPECT_EQ(advect(dir + "/five.exr", dir + "/five.exr"), 0) << out;
+  std::filesystem::create_directories(dir + "/folder.exr");
+  std::ofstream(dir + "/empty.png");
+  EXPECT_EQ(advect(dir + "/five.exr", dir + "/folder.exr"), 2) << out;
+  EXPECT_NE(out.find("--image " + dir + "/folder.exr: cannot read it"), std::string::npos) << out;
+  EXPECT_EQ(advect(dir + "/five.exr", dir + "/empty.png"), 2) << out;
+  EXPECT_NE(out.find("the file is empty"), std::string::npos) << out;
 }
 
 }  // namespace
