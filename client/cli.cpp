@@ -1,7 +1,6 @@
 #include "client/cli.h"
 
 #include <cctype>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -161,9 +160,12 @@ int main(int argc, char** argv) {
     if (arg == "--address") {
       options.address = value;
     } else if (arg == "--timeout") {
-      char* end = nullptr;
-      options.timeout_seconds = std::strtod(value.c_str(), &end);
-      if (*end || !(options.timeout_seconds > 0) || !std::isfinite(options.timeout_seconds))
+      try {
+        options.timeout_seconds = number(arg, value, "s");
+      } catch (const UsageError&) {
+        options.timeout_seconds = 0;
+      }
+      if (!(options.timeout_seconds > 0))
         return std::cerr << "squall: --timeout " << value << ": must be a number of seconds > 0\n", kUsage;
     } else if (arg == "--request-id") {
       options.request_id = value;

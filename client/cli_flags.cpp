@@ -15,9 +15,32 @@ namespace squall::cli {
 double number(const std::string& flag, const std::string& text, const char* unit) {
   char* end = nullptr;
   double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v))
+  if (text.empty() || *end || !std::isfinite(v) || text.find_first_of("xX \t\n") != std::string::npos)
     throw UsageError(flag + " " + text + ": must be a finite number (" + unit + ")");
   return v;
+}
+
+std::vector<std::string> items(const std::string& flag, const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  for (size_t comma = text.find(',');; comma = text.find(',', start)) {
+    out.push_back(text.substr(start, comma - start));
+    if (out.back().empty()) throw UsageError(flag + " " + text + ": an empty item in the list");
+    if (comma == std::string::npos) return out;
+    start = comma + 1;
+  }
+}
+
+std::vector<double> number_list(const std::string& flag, const std::string& text) {
+  std::vector<double> out;
+  for (const std::string& item : items(flag, text)) {
+    try {
+      out.push_back(number(flag, item, ""));
+    } catch (const UsageError&) {
+      throw UsageError(flag + " " + text + ": " + item + " is not a finite number");
+    }
+  }
+  return out;
 }
 
 uint64_t integer(const std::string& flag, const std::string& text, uint64_t min, uint64_t max) {

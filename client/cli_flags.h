@@ -16,7 +16,12 @@
 
 namespace squall::cli {
 
+// A finite decimal number, nothing before or after it (no space, no hexadecimal).
 double number(const std::string& flag, const std::string& text, const char* unit);
+// "a,b,c" -> {"a", "b", "c"}; UsageError naming the flag for an empty item ("a,,b", "a,").
+std::vector<std::string> items(const std::string& flag, const std::string& text);
+// items() each a number(); UsageError naming the flag, the whole list and the item that is not one.
+std::vector<double> number_list(const std::string& flag, const std::string& text);
 // A decimal integer in [min, max], nothing before or after it (no sign, no space).
 uint64_t integer(const std::string& flag, const std::string& text, uint64_t min = 0, uint64_t max = UINT64_MAX);
 // integer() for a 32-bit field: in [min, 2^32 - 1].

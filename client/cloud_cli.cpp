@@ -54,16 +54,7 @@ render flags:
 )";
 
 std::vector<double> numbers(const std::string& flag, const std::string& text, size_t min, size_t max) {
-  std::vector<double> out;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    char* end = nullptr;
-    double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end || !std::isfinite(v))
-      throw UsageError(flag + " " + text + ": not a list of finite numbers");
-    out.push_back(v);
-  }
+  const std::vector<double> out = number_list(flag, text);
   if (out.size() < min || out.size() > max)
     throw UsageError(flag + " " + text + ": needs " + std::to_string(min) + ".." + std::to_string(max) + " numbers");
   return out;

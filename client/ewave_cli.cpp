@@ -116,8 +116,7 @@ void apply(const std::string& flag, const std::string& value, Wake& w) {
                     std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});
   else if (flag == "--outputs") {
     w.outputs.clear();
-    std::stringstream list(value);
-    for (std::string name; std::getline(list, name, ',');) w.outputs.push_back(named(flag, name, kOutputs));
+    for (const std::string& name : items(flag, value)) w.outputs.push_back(named(flag, name, kOutputs));
   } else if (flag == "-o" || flag == "--output")
     w.out = value;
   else

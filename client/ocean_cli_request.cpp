@@ -233,8 +233,7 @@ void read_points_file(const std::string& path, Request& r) {
 bool run_flag(const std::string& flag, const std::string& value, Request& r) {
   if (flag == "--outputs") {
     r.outputs.clear();
-    std::stringstream list(value);
-    for (std::string name; std::getline(list, name, ',');) r.outputs.push_back(named(flag, name, kOutputs));
+    for (const std::string& name : items(flag, value)) r.outputs.push_back(named(flag, name, kOutputs));
   } else if (flag == "--dtype") {
     r.dtype = named(flag, value,
                     std::map<std::string, v1::DType>{{"float32", v1::DTYPE_FLOAT32}, {"float16", v1::DTYPE_FLOAT16}});

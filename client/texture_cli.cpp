@@ -140,7 +140,7 @@ void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
 }
 
 void noise_flag(const std::string& value, v1::NoiseTexture* n) {
-  auto v = items(value);
+  auto v = items("--noise", value);
   if (v.empty() || v.size() > 3) throw UsageError("--noise " + value + ": BANDS[,CELLS[,SEED]]");
   n->set_bands(integer32("--noise", v[0], 1));
   if (v.size() > 1) n->set_base_cells(integer32("--noise", v[1], 1));
@@ -180,7 +180,7 @@ bool output_flag(const std::string& flag, const std::string& value, v1::AdvectTe
     region->set_x0(v[0]), region->set_y0(v[1]), region->set_x1(v[2]), region->set_y1(v[3]);
   } else if (flag == "--planes") {
     o->clear_planes();
-    for (const std::string& name : items(value)) o->add_planes(named(flag, name, kPlanes));
+    for (const std::string& name : items(flag, value)) o->add_planes(named(flag, name, kPlanes));
   } else {
     return false;
   }

@@ -55,17 +55,9 @@ void read_exr(const std::string& path, v1::ImageTexture* image) {
 
 }  // namespace
 
-std::vector<std::string> items(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
-  return out;
-}
-
 // A comma-separated list of one of the allowed lengths.
 std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths) {
-  std::vector<double> out;
-  for (const std::string& item : items(text)) out.push_back(number(flag, item, "a list of finite numbers"));
+  const std::vector<double> out = number_list(flag, text);
   if (std::find(lengths.begin(), lengths.end(), out.size()) == lengths.end()) {
     std::string allowed;
     for (size_t n : lengths) allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);

@@ -9,8 +9,6 @@
 
 namespace squall::cli::texture {
 
-// "a,b,c" -> {"a", "b", "c"}
-std::vector<std::string> items(const std::string& text);
 // A comma-separated list of finite numbers, of one of the allowed lengths.
 std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths);
 // An image file as a request's image: FILE.exr (its R, G, B, A channels first, at most 8, as float32

@@ -118,7 +118,7 @@ void apply(const std::string& flag, const std::string& value, Deform& d) {
     r.set_stack_levels(integer32(flag, value));
   else if (flag == "--planes") {
     r.clear_planes();
-    for (const std::string& name : items(value)) r.add_planes(named(flag, name, kPlanes));
+    for (const std::string& name : items(flag, value)) r.add_planes(named(flag, name, kPlanes));
   } else if (flag == "--out" || flag == "-o")
     d.out = value;
   else

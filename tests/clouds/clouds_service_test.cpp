@@ -624,6 +624,8 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--volume", "cloud-1"}, "--voxel-size: `cloud render --volume ID` renders the stored volume"},
       {{"render", "--address", "127.0.0.1:2"}, "--address is a flag of squall itself"},
       {{"build", "--mesh", "/tmp"}, "--mesh /tmp: cannot read it"},
+      {{"build", "--ellipsoid", "0,0,0,1,1,1,"}, "--ellipsoid 0,0,0,1,1,1,: an empty item in the list"},
+      {{"build", "--ellipsoid", "0,0,0,1,0x1,1"}, "--ellipsoid 0,0,0,1,0x1,1: 0x1 is not a finite number"},
       {{"render", "--preview", dir + "/./x.exr"}, "is the file -o names"},
   };
   for (const auto& [flags, message] : cases) {

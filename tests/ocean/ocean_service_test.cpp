@@ -584,6 +584,10 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   std::string out;
   EXPECT_EQ(test::run(cli_args({"tile", "--wind-speed", "fast", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("--wind-speed fast: must be a finite number (m/s)"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"tile", "--wind-speed", "0x10", "-o", "x.exr"}), &out), 2) << out;  // decimal only
+  EXPECT_NE(out.find("--wind-speed 0x10: must be a finite number (m/s)"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"tile", "--outputs", "height,", "-o", "x.exr"}), &out), 2) << out;
+  EXPECT_NE(out.find("--outputs height,: an empty item in the list"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"tile", "--spectrum", "nope", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("must be one of"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // one number is no point
