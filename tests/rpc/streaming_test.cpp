@@ -18,16 +18,21 @@ struct RecordingWriter {
   }
 };
 
+// A serving squalld's state and a call's context, as a streaming handler has them.
+struct Serving {
+  ServingState state{Limits{}};
+  grpc::ServerContext context;
+  Serving() { state.set_phase(ServingState::Phase::Serving); }
+};
+
 // A message made before squalld began to drain (an eWave step already taken and checkpointed) is sent, and
 // the stream then stops with UNAVAILABLE.
 TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
-  ServingState serving{Limits{}};
-  serving.set_phase(ServingState::Phase::Serving);
-  grpc::ServerContext context;
-  StreamCall call(context, "Run", serving);
+  Serving serving;
+  StreamCall call(serving.context, "Run", serving.state);
   RecordingWriter writer;
   EXPECT_TRUE(call.write(writer, std::string("frame 1")));
-  serving.set_phase(ServingState::Phase::Draining);
+  serving.state.set_phase(ServingState::Phase::Draining);
   EXPECT_FALSE(call.write(writer, std::string("frame 2"))) << "the handler stops before its next message";
   EXPECT_TRUE(call.writing()) << "the rest of a message split over several writes is sent";
   EXPECT_EQ(writer.written, (std::vector<std::string>{"frame 1", "frame 2"}));
@@ -36,10 +41,8 @@ TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
 
 // A write the transport refuses (the client is gone) ends the call: nothing more is written.
 TEST(StreamCall, AFailedWriteEndsTheCall) {
-  ServingState serving{Limits{}};
-  serving.set_phase(ServingState::Phase::Serving);
-  grpc::ServerContext context;
-  StreamCall call(context, "StreamTiles", serving);
+  Serving serving;
+  StreamCall call(serving.context, "StreamTiles", serving.state);
   RecordingWriter writer;
   writer.accepts = false;
   EXPECT_FALSE(call.write(writer, std::string("frame 1")));
