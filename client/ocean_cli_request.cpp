@@ -261,9 +261,6 @@ bool run_flag(const std::string& flag, const std::string& value, Request& r) {
   return true;
 }
 
-}  // namespace
-
-namespace {
 // The tile flags of what a tile holds beside the surface, which do not change samples.
 const std::set<std::string> kTileOutputFlags = {"--output-grid", "--output-extent", "--whitecap-threshold",
                                                 "--whitecap-decay-time", "--pixel-scale"};
@@ -271,6 +268,7 @@ std::set<std::string> with_tile_outputs(std::set<std::string> flags) {
   flags.insert(kTileOutputFlags.begin(), kTileOutputFlags.end());
   return flags;
 }
+
 }  // namespace
 
 const std::map<std::string, std::set<std::string>> kVerbFlags = {

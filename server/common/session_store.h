@@ -283,8 +283,8 @@ class SessionStore {
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
   // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint, UNAVAILABLE
-  // for a payload version newer than this squalld reads, FAILED_PRECONDITION when its id is live. The caller then reserve()s, builds the value and add()s it
-  // under header.id.
+  // for a payload version newer than this squalld reads, FAILED_PRECONDITION when its id is live. The
+  // caller then reserve()s, builds the value and add()s it under header.id.
   std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t version,
                               CheckpointHeader* header) {
     return open_checkpoint(data, field, version, version, header);
