@@ -225,6 +225,12 @@ Advect parse(const std::vector<std::string>& args) {
     apply(args[i], args[i + 1], a);
   }
   if (a.out.empty()) throw UsageError("--out DIR is required");
+  const auto method = a.request.method();
+  if (a.request.has_lagrangian() && method != v1::TEXTURE_METHOD_UNSPECIFIED &&
+      method != v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS)
+    throw UsageError(
+        "--d is the Lagrangian grids' Poisson radius: not a flag of --method " +
+        std::find_if(kMethods.begin(), kMethods.end(), [&](const auto& m) { return m.second == method; })->first);
   return a;
 }
 

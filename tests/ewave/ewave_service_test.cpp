@@ -588,7 +588,8 @@ TEST(EWaveCli, ASlowWakeStepsWithinTheSessionsLongestStep) {
   EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
 }
 
-// A wake the server refuses (a grid of one row) exits 4 and leaves no empty folder behind.
+// A wake the server refuses (a grid of one row) exits 4 and leaves no empty folder behind; a flag its hull
+// does not use exits 2 naming it.
 TEST(EWaveCli, ARefusedWakeLeavesNoFolder) {
   const std::string dir = test::temp_dir("ewave-refused-wake") + "/frames";
   std::string out;
@@ -596,6 +597,12 @@ TEST(EWaveCli, ARefusedWakeLeavesNoFolder) {
       test::run({kSquall, "--address", first().address(), "ewave", "wake", "--grid", "64x1", "-o", dir}, &out, 120), 4)
       << out;
   EXPECT_FALSE(std::filesystem::exists(dir)) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", first().address(), "ewave", "wake", "--hull", "circle", "--beam", "0.1",
+                       "-o", dir},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--beam is not a flag of a circle hull"), std::string::npos) << out;
 }
 
 TEST(EWaveCli, WakeWritesExrFramesThatOpenExrReads) {

@@ -500,6 +500,13 @@ TEST(TexturesCli, AdvectWritesFrames) {
                       &out),
             2)
       << out;
+  EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "advect", "--method",
+                       "eulerian", "--d", "0.2", "--out", dir},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--d is the Lagrangian grids' Poisson radius: not a flag of --method eulerian"), std::string::npos)
+      << out;
 }
 
 // The last --image given is the texture: a five-channel image given twice is five channels, not ten (past
