@@ -3,7 +3,6 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -21,9 +20,7 @@ namespace {
 int refuse_arguments(const char* verb, const std::vector<std::string>& args, size_t allowed) {
   for (size_t i = 0; i < args.size(); ++i) {
     if (global_flag(args[i]))
-      return std::cerr << "squall " << verb << ": " << args[i]
-                       << " is a flag of squall itself: give it before the verb\n",
-             kUsage;
+      return std::cerr << "squall " << verb << ": " << global_flag_after(args[i], verb) << "\n", kUsage;
     if (i >= allowed || args[i].rfind("-", 0) == 0)
       return std::cerr << "squall " << verb << ": unexpected " << args[i] << "\n", kUsage;
   }
@@ -108,21 +105,6 @@ bool bad_port(const std::string& address) {
   return port.empty() || *end || !std::isdigit(static_cast<unsigned char>(port[0])) || n < 1 || n > 65535;
 }
 
-// The --tls-* files: readable regular files, a certificate with its key. kUsage, with the message, when not
-// (a bad command line, as an unreadable --token-file).
-int check_tls(const client::ClientOptions& options) {
-  for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--tls-ca", options.tls_ca},
-                                   {"--tls-cert", options.tls_cert},
-                                   {"--tls-key", options.tls_key}}) {
-    std::error_code ignored;
-    if (!path.empty() && (!std::ifstream(path) || !std::filesystem::is_regular_file(path, ignored)))
-      return std::cerr << "squall: " << flag << " " << path << ": cannot read\n", kUsage;
-  }
-  if (options.tls_cert.empty() != options.tls_key.empty())
-    return std::cerr << "squall: --tls-cert and --tls-key go together\n", kUsage;
-  return kOk;
-}
-
 // The options' request id and token, sent as metadata: kUsage, with the message, when one cannot be.
 int check_metadata(const client::ClientOptions& options) {
   for (const auto& [what, value] : {std::pair<const char*, std::string>{"--request-id", options.request_id},
@@ -184,7 +166,6 @@ int main(int argc, char** argv) {
     }
   }
   if (i >= argc) return print_usage(), kUsage;
-  if (int status = check_tls(options); status != kOk) return status;
   if (int status = check_metadata(options); status != kOk) return status;
   if (options.address.empty()) return std::cerr << "squall: --address is empty\n", kUsage;
   if (bad_port(options.address))
@@ -199,6 +180,9 @@ int main(int argc, char** argv) {
     if (status == kOk && !std::cout)
       return std::cerr << "squall: the standard output could not be written\n", kLocalError;
     return status;
+  } catch (const client::OptionsError& e) {  // a bad command line, as an unreadable --token-file
+    std::cerr << "squall: " << e.what() << "\n";
+    return kUsage;
   } catch (const client::RpcError& e) {
     std::cerr << "squall: " << e.what() << " (address " << options.address << ")\n";
     bool unreachable = e.code() == grpc::StatusCode::UNAVAILABLE || e.code() == grpc::StatusCode::DEADLINE_EXCEEDED;

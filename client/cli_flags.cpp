@@ -107,6 +107,10 @@ bool global_flag(const std::string& arg) {
   return flags.count(arg) > 0;
 }
 
+std::string global_flag_after(const std::string& arg, const std::string& verb) {
+  return arg + " is a flag of squall itself: give it before the verb (squall " + arg + " VALUE " + verb + " ...)";
+}
+
 OutputFolder::OutputFolder(const std::string& path) {
   std::error_code ignored;
   for (std::filesystem::path p = std::filesystem::absolute(path);
@@ -139,9 +143,7 @@ int run_verb(const std::string& name, const char* help, const std::vector<std::s
   }
   try {
     for (size_t i = 0; i < args.size(); ++i)
-      if (global_flag(args[i]))
-        throw UsageError(args[i] + " is a flag of squall itself: give it before the verb (squall " + args[i] +
-                         " VALUE " + name + " ...)");
+      if (global_flag(args[i])) throw UsageError(global_flag_after(args[i], name));
     return body();
   } catch (const UsageError& e) {
     std::cerr << "squall " << name << ": " << e.what() << "\n";

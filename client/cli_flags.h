@@ -55,6 +55,8 @@ std::string attribute_name(const std::string& prefix, const std::string& flag);
 
 // The flags of `squall` itself (--address, --timeout, ...), which go before the verb.
 bool global_flag(const std::string& arg);
+// What to say of one of them given after `verb`.
+std::string global_flag_after(const std::string& arg, const std::string& verb);
 
 // The folder a verb writes its frames into: made when missing, with its missing parents, and those made
 // here removed again when this ends while they are empty, so that a call the server refused leaves no

@@ -4,8 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <random>
+#include <filesystem>
 #include <fstream>
+#include <random>
 #include <iterator>
 #include <thread>
 
@@ -25,19 +26,19 @@ namespace {
 
 std::string read_file(const std::string& path, const char* flag) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
+  std::error_code ignored;
+  if (!in || !std::filesystem::is_regular_file(path, ignored))
+    throw OptionsError(std::string(flag) + " " + path + ": cannot read");
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 std::shared_ptr<grpc::ChannelCredentials> credentials(const ClientOptions& o) {
   if (o.tls_ca.empty() && o.tls_cert.empty() && o.tls_key.empty()) return grpc::InsecureChannelCredentials();
-  if (o.tls_cert.empty() != o.tls_key.empty()) throw std::runtime_error("--tls-cert and --tls-key go together");
-  grpc::SslCredentialsOptions ssl;
+  grpc::SslCredentialsOptions ssl;  // each file named read first, then the pair checked
   if (!o.tls_ca.empty()) ssl.pem_root_certs = read_file(o.tls_ca, "--tls-ca");
-  if (!o.tls_cert.empty()) {
-    ssl.pem_cert_chain = read_file(o.tls_cert, "--tls-cert");
-    ssl.pem_private_key = read_file(o.tls_key, "--tls-key");
-  }
+  if (!o.tls_cert.empty()) ssl.pem_cert_chain = read_file(o.tls_cert, "--tls-cert");
+  if (!o.tls_key.empty()) ssl.pem_private_key = read_file(o.tls_key, "--tls-key");
+  if (o.tls_cert.empty() != o.tls_key.empty()) throw OptionsError("--tls-cert and --tls-key go together");
   return grpc::SslCredentials(ssl);
 }
 

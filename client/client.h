@@ -48,6 +48,12 @@ struct ClientOptions {
 // system's random device ("" for eWave sessions, "cloud-" for stored volumes).
 std::string propose_session_id(const std::string& prefix = "");
 
+// ClientOptions that cannot be used (a --tls-* file that is no readable file, a certificate without its key):
+// the caller's mistake, found before any call.
+struct OptionsError : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
 class RpcError : public std::runtime_error {
  public:
   RpcError(const std::string& method, const grpc::Status& status);
