@@ -22,6 +22,10 @@ constexpr double kMaxParticles = 200000;
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path);
 // Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times.
 void validate_clock(const AdvectSpec& spec, const std::string& path);
+// A current read from what a request follows (an eWave session, an ocean tile), each time it is read:
+// every node's speed within +-kMaxVelocityParam, else FAILED_PRECONDITION naming `path`, the field that
+// follows it (the state followed is out of range, not the request).
+void validate_followed_current(const VelocitySpec& velocity, const std::string& path);
 
 class TextureEngine {
  public:

@@ -216,6 +216,19 @@ void validate_clock(const AdvectSpec& spec, const std::string& path) {
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
 }
 
+void validate_followed_current(const VelocitySpec& velocity, const std::string& path) {
+  const size_t nodes = size_t(velocity.nx) * velocity.ny;
+  for (const VelocityFrame& frame : velocity.frames)
+    for (const std::vector<float>* speeds : {&frame.u, &frame.v})
+      for (size_t n = 0; n < nodes; ++n)
+        if (!(std::abs((*speeds)[n]) <= kMaxVelocityParam))
+          fail(Code::FailedPrecondition, path + ": its current at node (" + std::to_string(n % velocity.nx) + ", " +
+                                             std::to_string(n / velocity.nx) + ") at t = " + number(frame.time) +
+                                             " has " + (speeds == &frame.u ? "u" : "v") + " = " + number((*speeds)[n]) +
+                                             " du/s, past the +-" + number(kMaxVelocityParam) +
+                                             " du/s that advection takes");
+}
+
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path) {
   known(path + ".method", int(spec.method), kMethods, "method");
   const std::string velocity = path + ".velocity";

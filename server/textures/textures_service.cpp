@@ -90,6 +90,7 @@ void TexturesService::follow(Stream& s, double from) {
     s.spec.velocity = current_grid(
         {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)},
         repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
+    validate_followed_current(s.spec.velocity, followed.path);
     return;
   }
   if (followed.ewave_session.empty()) return;
@@ -104,6 +105,7 @@ void TexturesService::follow(Stream& s, double from) {
     fail(Code::InvalidArgument, followed.path + " is a session of " + std::to_string(current.nx) + " x " +
                                     std::to_string(current.ny) + " cells: a followed current needs 2 x 2 or more");
   s.spec.velocity = current_grid({std::move(current)}, Extrapolation::Clamp);
+  validate_followed_current(s.spec.velocity, followed.path);
 }
 
 void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) {

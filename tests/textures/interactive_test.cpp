@@ -269,6 +269,56 @@ TEST(TexturesEWave, UnknownSessionIsNotFound) {
   test::expect_error(Code::NotFound, "control[1].velocity.ewave_session", [&] { throw_status(status); });
 }
 
+// A current followed past the +-1e9 du/s that advection takes is the session's state, not the request's:
+// FAILED_PRECONDITION naming the field that follows the session, when the stream starts and when a frame
+// reads the current again mid-stream. The session: 8 x 8 cells of 1 um, still; one step of dt = 1 s with
+// a potential source of 1e6 sin(2 pi x / 8 um) m^2/s^2 leaves phi of that order, slopes near 1e11 m/s.
+TEST(TexturesEWave, CurrentPastAdvectionsRangeIsTheSessionsStateNamedByItsField) {
+  const uint32_t n = 8;
+  const double dx = 1e-6;
+  v1::EWaveCreateSessionRequest create;
+  create.mutable_config()->set_nx(n);
+  create.mutable_config()->set_ny(n);
+  create.mutable_config()->set_dx(dx);
+  create.mutable_config()->set_dy(dx);
+  create.mutable_config()->set_trim(false);
+  client::Client client({daemon().address(), 60, ""});
+  auto ewave = v1::EWave::NewStub(client.channel());
+  v1::EWaveSessionResponse session;
+  grpc::Status status = ewave->CreateSession(client.context().get(), create, &session);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_NAIVE, 0, 0, n * dx);
+  r.clear_velocity();
+  Interactive s;
+  v1::TextureControl follow = start(r, 1);
+  follow.mutable_start()->mutable_velocity()->set_ewave_session(session.session_id());
+  ASSERT_TRUE(s.send(follow, 1));  // still water: no current
+
+  v1::EWaveStepRequest step;
+  step.set_session_id(session.session_id());
+  step.mutable_inputs()->set_dt(1);
+  std::vector<float> source(n * n);
+  for (uint32_t k = 0; k < n * n; ++k) source[k] = float(1e6 * std::sin(2 * kPi * (k % n + 0.5) / n));
+  field::encode({"source_phi", "m^2/s^2", n, n, 0, v1::DTYPE_FLOAT32}, source,
+                step.mutable_inputs()->mutable_source_phi());
+  v1::EWaveFrame frame;
+  status = ewave->Step(client.context(session.session_id()).get(), step, &frame);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+
+  s.send(more(1), 1);
+  status = s.finish();
+  EXPECT_EQ(s.frames().size(), 1u);
+  const std::string past = "du/s, past the +-1e+09 du/s that advection takes";
+  test::expect_error(Code::FailedPrecondition, "control[0].start.velocity.ewave_session: its current at node (",
+                     [&] { throw_status(status); });
+  test::expect_error(Code::FailedPrecondition, past, [&] { throw_status(status); });
+  r.set_frames(2);
+  r.mutable_velocity()->set_ewave_session(session.session_id());
+  test::expect_error(Code::FailedPrecondition, "request.velocity.ewave_session: its current at node (",
+                     [&] { advect_or_throw(r); });
+}
+
 TEST(TexturesInteractive, BadMessagesGetClearErrors) {
   const v1::AdvectTextureRequest good = still_noise(v1::TEXTURE_METHOD_NAIVE, 0, 0, 1);
   struct Case {
