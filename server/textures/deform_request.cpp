@@ -97,6 +97,9 @@ DeformSpec deform_start(const v1::DeformControl& control, const LimitGate& gate,
     fail(Code::InvalidArgument, path + ".start is unset: the first message starts the deformation");
   if (control.start().frames() != 0)
     validate::reject(path + ".start.frames", control.start().frames(), "0 (each message asks for its frames)");
+  if (control.start().has_deformation_end())
+    fail(Code::InvalidArgument, path + ".start.deformation_end is set: an interactive deformation holds " +
+                                    "deformation_start until a message's deformation steers it");
   DeformSpec s = deform_spec(control.start(), gate, path + ".start");
   s.frames = 1;  // per message (deform_control_frames); the tensor holds its start until steered
   s.control.deformation_end = s.control.deformation_start;

@@ -202,6 +202,10 @@ def test_deform_interactive(client: squall.Client) -> None:
     start = squall.textures.deform_request(image, rigidity, frames=2)
     with pytest.raises(TypeError, match="frames"):
         client.textures.deform_interactive(start=start)
+    # and so is an end tensor, which the server refuses too: send()'s deformation steers G
+    end = ((1.5, 0.0), (0.0, 1.0))
+    with pytest.raises(TypeError, match="deformation_end"):
+        client.textures.deform_interactive(image, rigidity, control="isotropic", deformation_end=end)
 
 
 # ---- asyncio

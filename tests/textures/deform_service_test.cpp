@@ -119,6 +119,7 @@ TEST(TexturesDeform, EveryControlStreamsTheEnginesFrames) {
 TEST(TexturesDeform, InteractiveMessagesSteerFromTheNextFrame) {
   v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_BRUSH, 0);
   r.clear_strokes();  // no brush at first: nothing moves
+  r.clear_deformation_end();
   DeformInteractive call;
   v1::DeformControl first;
   *first.mutable_start() = r;
@@ -221,6 +222,7 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   DeformInteractive call;
   v1::DeformControl first;
   *first.mutable_start() = request(v1::DEFORM_CONTROL_ISOTROPIC, 0);
+  first.mutable_start()->clear_deformation_end();  // messages steer it
   ASSERT_TRUE(call.send(first, 1));
   v1::DeformControl flipped;
   flipped.mutable_deformation()->set_xx(-1);
@@ -233,6 +235,13 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   bad_d_mu.set_d_mu(NAN);
   nan_call.send(bad_d_mu, 0);
   test::expect_error(Code::InvalidArgument, "control[1].d_mu = nan", [&] { throw_status(nan_call.finish()); });
+  // An interactive deformation holds deformation_start until a message steers it: an end tensor in its
+  // start would be dropped unread, so it is refused.
+  v1::DeformControl with_end = first;
+  with_end.mutable_start()->mutable_deformation_end()->set_xx(2);
+  with_end.mutable_start()->mutable_deformation_end()->set_yy(2);
+  test::expect_error(Code::InvalidArgument, "control[0].start.deformation_end is set",
+                     [&] { textures::rpc::deform_start(with_end, LimitGate{Limits{}}, "control[0]"); });
 }
 
 TEST(TexturesDeform, CommandLine) {

@@ -1101,8 +1101,8 @@ def deform_interactive_start(
     kwargs: Mapping[str, Any],
 ) -> textures_pb2.DeformTextureRequest:
     """The deformation a ``deform_interactive`` stream starts (sync and asyncio): ``start``, or
-    ``deform``'s arguments. TypeError for both, and for frames (each send() asks for its
-    frames)."""
+    ``deform``'s arguments. TypeError for both, for frames (each send() asks for its frames) and
+    for deformation_end (send()'s deformation steers G)."""
     if start is not None and (kwargs or image is not None or rigidity is not None):
         raise TypeError("deform_interactive: pass either start or deform's arguments, not both")
     request = (
@@ -1112,6 +1112,8 @@ def deform_interactive_start(
     )
     if request.frames:
         raise TypeError("deform_interactive: frames set: each send() asks for its frames")
+    if request.HasField("deformation_end"):
+        raise TypeError("deform_interactive: deformation_end set: send(deformation=...) steers G")
     return request
 
 
