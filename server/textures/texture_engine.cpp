@@ -38,14 +38,29 @@ uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
     constexpr uint64_t kBytesPerVertex = 40;  // host: position, u, weight; device: position, u, weight
     return uint64_t(lagrangian_grid_bound(spec)) * vertices * kBytesPerVertex;
   }
+  return 3 * (eulerian_slot_bytes(spec) + eulerian_cascade_bytes(spec));
+}
+
+namespace {
+
+uint64_t eulerian_nodes(const AdvectSpec& spec) {
+  if (spec.method == Method::LagrangianGrids) return 0;
+  return uint64_t(spec.eulerian.grid_nx) * uint64_t(spec.eulerian.grid_ny);
+}
+
+}  // namespace
+
+uint64_t TextureEngine::eulerian_slot_bytes(const AdvectSpec& spec) {
   const EulerianParams& e = spec.eulerian;
-  const uint64_t nodes = uint64_t(e.grid_nx) * uint64_t(e.grid_ny);
   const uint64_t slots = spec.method == Method::Naive             ? 1
                          : spec.method == Method::TwoPhaseFlowMap ? 2
                                                                   : uint64_t(e.latencies.size()) * uint64_t(e.phases);
-  const uint64_t bands =
-      spec.method == Method::EulerianMultilayer && e.cascade.c_w > 0 ? uint64_t(spec.texture.bands) : 0;
-  return 3 * nodes * (slots * 4 + bands * 2) * sizeof(float);  // float4 per slot, float2 per band
+  return eulerian_nodes(spec) * slots * 4 * sizeof(float);
+}
+
+uint64_t TextureEngine::eulerian_cascade_bytes(const AdvectSpec& spec) {
+  const bool cascade = spec.method == Method::EulerianMultilayer && spec.eulerian.cascade.c_w > 0;
+  return cascade ? eulerian_nodes(spec) * uint64_t(spec.texture.bands) * 2 * sizeof(float) : 0;
 }
 
 void TextureEngine::steer(Advection& advection, const AdvectSpec& spec) {

@@ -31,8 +31,9 @@ class TextureEngine {
  public:
   TextureEngine(Runtime& runtime, const LimitGate& gate);
 
-  // Every field in range (INVALID_ARGUMENT naming "<path>.<field>") and the output and velocity grids
-  // within --max-grid-cells (RESOURCE_EXHAUSTED).
+  // Every field in range (INVALID_ARGUMENT naming "<path>.<field>"), the output and velocity grids
+  // within --max-grid-cells and an Eulerian grid's buffers within the device's largest allocation
+  // (RESOURCE_EXHAUSTED).
   void validate(const AdvectSpec& spec, const std::string& path) const;
 
   // Bytes the advection of a validated spec holds besides its frames, at most: the Eulerian slots' node
@@ -40,6 +41,10 @@ class TextureEngine {
   // checkpoints), or the Lagrangian grids at their bound (positions, coordinates and weights, on the host
   // and on the device).
   static uint64_t state_bytes(const AdvectSpec& spec);
+  // One copy of an Eulerian advection's slots' node state (float4 per slot and node) and of its cascade's
+  // (float2 per band and node), bytes: each is one device buffer. 0 for Lagrangian grids.
+  static uint64_t eulerian_slot_bytes(const AdvectSpec& spec);
+  static uint64_t eulerian_cascade_bytes(const AdvectSpec& spec);
 
   // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
   // continues it bit-identically.

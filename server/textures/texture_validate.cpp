@@ -207,6 +207,14 @@ void cascade(const VorticityCascade& c, const TextureSpec& t, const std::string&
 
 void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) const {
   validate_advect(spec, gate_, path);
+  const uint64_t largest = runtime_.device_info().max_allocation_bytes;
+  const uint64_t bytes = std::max(eulerian_slot_bytes(spec), eulerian_cascade_bytes(spec));
+  if (bytes > largest)
+    fail(Code::ResourceExhausted, path + ".eulerian.grid_nx x grid_ny = " + std::to_string(spec.eulerian.grid_nx) +
+                                      " x " + std::to_string(spec.eulerian.grid_ny) + " needs a device buffer of " +
+                                      std::to_string(bytes) + " bytes, past the device's largest allocation of " +
+                                      std::to_string(largest) + ": ask for a coarser grid, or fewer latencies, " +
+                                      "phases or cascade bands");
 }
 
 void validate_clock(const AdvectSpec& spec, const std::string& path) {

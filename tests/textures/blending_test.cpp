@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <vector>
 
+#include "support/expect_error.h"
+#include "support/test_runtime.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -78,6 +80,25 @@ TEST(TexturesBlending, EulerianWeightsArePartitionsOfUnity) {
     most.eulerian.phases = phases;
     expect_partitions_of_unity(most, 40, phases == 2 ? "6 layers of 2 phases" : "6 layers of 3 phases");
   }
+}
+
+// Each slot's node state is one device buffer of the Eulerian grid's nodes: 6 layers of 2 phases over 4096 x
+// 4096 nodes (3.2 GB, float4 per slot and node) pass PoCL's largest allocation (2 GiB on a 7 GiB device) and
+// are refused before anything is allocated, naming the grid; the same slots over 512 x 512 nodes are not.
+TEST(TexturesBlending, SlotsPastTheDevicesLargestAllocationNameTheGrid) {
+  AdvectSpec most = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_VORTEX, {0.5, 0.5, 0.5, 0.1});
+  most.eulerian.latencies = {0.1, 0.2, 0.4, 0.8, 1.6, 3.2};
+  most.eulerian.phases = 2;
+  most.eulerian.grid_nx = most.eulerian.grid_ny = 4096;
+  const uint64_t bytes = TextureEngine::eulerian_slot_bytes(most);
+  EXPECT_EQ(bytes, uint64_t(4096) * 4096 * 12 * 16);
+  if (bytes <= runtime().device_info().max_allocation_bytes)
+    GTEST_SKIP() << "this device allocates " << bytes << " bytes in one buffer";
+  expect_error(Code::ResourceExhausted,
+               "request.eulerian.grid_nx x grid_ny = 4096 x 4096 needs a device buffer of 3221225472 bytes",
+               [&] { texture_engine().validate(most, "request"); });
+  most.eulerian.grid_nx = most.eulerian.grid_ny = 512;
+  EXPECT_NO_THROW(texture_engine().validate(most, "request"));
 }
 
 // Grids killed in every frame fade out over fade_tau (LTA11 eq. 6); with a long fade_tau the fading ones
