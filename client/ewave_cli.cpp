@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
-#include <sstream>
 #include <thread>
 
 #include "client/cli.h"
@@ -171,10 +170,7 @@ void write_frame(const Wake& w, const v1::EWaveFrame& frame) {
   }
   for (const auto& [flag, value] : w.flags)
     image.attributes.emplace_back(attribute_name("squall.ewave.wake", flag), value);
-  std::ostringstream t;
-  t.precision(17);
-  t << frame.time().seconds();
-  image.attributes.emplace_back("squall.time_seconds", t.str());
+  client::add_time_attribute(image, frame.time().seconds());
   image.attributes.emplace_back("squall.step", std::to_string(frame.step()));
   char name[32];
   std::snprintf(name, sizeof name, "/frame_%05llu", static_cast<unsigned long long>(frame.step()));

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -17,6 +18,13 @@
 #include <stdexcept>
 
 namespace squall::client {
+
+void add_time_attribute(Image& image, double seconds) {
+  std::ostringstream t;
+  t.precision(17);
+  t << seconds;
+  image.attributes.emplace_back("squall.time_seconds", t.str());
+}
 
 void write_exr(const std::string& path, const Image& image) {
   if (image.nx < 1 || image.ny < 1) throw std::runtime_error(path + ": image has no pixels");

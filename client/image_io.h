@@ -27,6 +27,9 @@ struct Image {
   std::vector<std::pair<std::string, std::string>> attributes;
 };
 
+// Adds "squall.time_seconds": a frame's time, s, with 17 significant digits (read back as the same double).
+void add_time_attribute(Image& image, double seconds);
+
 // Writes a scanline EXR with ZIP compression. Throws std::runtime_error naming the path on failure or
 // when a channel does not hold nx * ny values.
 void write_exr(const std::string& path, const Image& image);

@@ -129,10 +129,7 @@ Image tile_image(const squall::v1::GetTileResponse& tile, const google::protobuf
       << f.origin().y() << " m; sent as " << squall::v1::DType_Name(f.dtype());
     image.attributes.emplace_back("squall.field." + f.name(), s.str());
   }
-  std::ostringstream t;
-  t.precision(17);
-  t << tile.time().seconds();
-  image.attributes.emplace_back("squall.time_seconds", t.str());
+  client::add_time_attribute(image, tile.time().seconds());
   std::ostringstream v;
   v.precision(17);
   v << tile.stats().unresolved_slope_variance();

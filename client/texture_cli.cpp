@@ -12,7 +12,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <sstream>
 
 #include "client/cli.h"
 #include "client/cli_flags.h"
@@ -56,8 +55,8 @@ first final plane, 8-bit grey).
                                   nodes over the output region unless the file says otherwise
   --noise BANDS[,CELLS[,SEED]]  gradient noise: bands 1..8, lattice cells per period 1..64 (default 4,4,1)
   --spin W               flow noise: band 0 turns at W rad/s (default: still noise)
-  --image FILE           an image texture instead: FILE.exr (its R, G, B, A channels first, at most 8) or
-                         FILE.png (decoded by squalld)
+  --image FILE           an image texture instead (no --noise, --spin): FILE.exr (its R, G, B, A
+                         channels first, at most 8) or FILE.png (decoded by squalld)
   --final NAME           identity | sum | turbulence | ridged (default identity)
   --scale S              texture periods per du (default 4)
   --size WxH             output pixels (default 256x256)
@@ -66,7 +65,7 @@ first final plane, 8-bit grey).
   --frames N             frames to stream, >= 1 (default 30)
   --dt S                 seconds between frames (default 1/30)
   --d D                  Lagrangian Poisson radius, du (default 0.1)
-  --seed N               particle placement seed (default 1)
+  --seed N               Lagrangian particle placement seed (default 1)
   --out DIR              output folder (created)
 The stream's deadline is --timeout times the number of frames.
 )";
@@ -225,12 +224,18 @@ Advect parse(const std::vector<std::string>& args) {
     apply(args[i], args[i + 1], a);
   }
   if (a.out.empty()) throw UsageError("--out DIR is required");
+  auto given = [&](const char* flag) {
+    return std::any_of(a.flags.begin(), a.flags.end(), [&](const auto& f) { return f.first == flag; });
+  };
   const auto method = a.request.method();
-  if (a.request.has_lagrangian() && method != v1::TEXTURE_METHOD_UNSPECIFIED &&
-      method != v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS)
-    throw UsageError(
-        "--d is the Lagrangian grids' Poisson radius: not a flag of --method " +
-        std::find_if(kMethods.begin(), kMethods.end(), [&](const auto& m) { return m.second == method; })->first);
+  if (method != v1::TEXTURE_METHOD_UNSPECIFIED && method != v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS) {
+    const std::string name =
+        std::find_if(kMethods.begin(), kMethods.end(), [&](const auto& m) { return m.second == method; })->first;
+    if (given("--d")) throw UsageError("--d is the Lagrangian grids' Poisson radius: not a flag of --method " + name);
+    if (given("--seed")) throw UsageError("--seed places the Lagrangian grids: not a flag of --method " + name);
+  }
+  if (given("--image") && (given("--noise") || given("--spin")))
+    throw UsageError("--image is the texture: --noise and --spin are flags of a noise texture");
   return a;
 }
 
@@ -262,10 +267,7 @@ void write_frame(const Advect& a, const std::string& request_text, const v1::Tex
   image.attributes.emplace_back("squall.request", request_text);
   for (const auto& [flag, value] : a.flags)
     image.attributes.emplace_back(attribute_name("squall.texture.advect", flag), value);
-  std::ostringstream t;
-  t.precision(17);
-  t << frame.time();
-  image.attributes.emplace_back("squall.time_seconds", t.str());
+  client::add_time_attribute(image, frame.time());
   image.attributes.emplace_back("squall.frame", std::to_string(frame.index()));
   char name[32];
   std::snprintf(name, sizeof name, "/frame_%04u", frame.index());

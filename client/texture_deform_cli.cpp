@@ -21,7 +21,7 @@ Content-aware deformation (Guingo, Larue, Sauvage, Lutz, Dischler, Cani, "Conten
 deformation with dynamic control", Computers & Graphics 2020): a flow field v is solved from the rigidity
 map R (div v = R, least squares), then every texel's warp moves along v by its d mu each frame; for d mu > 0
 the pattern shrinks where R > 0 (rigid) and stretches where R < 0. Each frame is DIR/frame_NNNN.exr (every
-returned plane) and DIR/frame_NNNN.png (color_0).
+returned plane, the frame's time as squall.time_seconds) and DIR/frame_NNNN.png (color_0).
   --image FILE           the texture: .exr (R, G, B, A first, at most 8 channels) or .png
   --rigidity FILE|R      R in [-1, 1]: an .exr (its first channel, the texture's size) or one value
   --chart FILE.exr       nonzero inside the chart (first channel); texels outside stay fixed
@@ -32,7 +32,7 @@ returned plane) and DIR/frame_NNNN.png (color_0).
                                       frame 0): d mu = kappa (|A_now| - |A_before|) (eq. 7)
       anisotropic:XX,XY,YX,YY         the same, d mu = kappa log(v^T T v / |v|^2) (eq. 8)
       brush:X,Y,RADIUS,STRENGTH[/...] Gaussian strokes (texels), every frame
-  --kappa K              scale of d mu (default 1)
+  --kappa K              scale of d mu of map, isotropic and anisotropic (default 1)
   --frames N             frames, frame 0 the undeformed texture (default 30)
   --dt S                 seconds between frames (default 1/30)
   --substeps N           Euler sub-steps per frame (default 10)
@@ -166,6 +166,10 @@ Deform parse(const std::vector<std::string>& args) {
   }
   if (!d.request.has_texture()) throw UsageError("--image FILE is required");
   if (d.out.empty()) throw UsageError("--out DIR is required");
+  const auto control = d.request.control();
+  if (d.request.has_kappa() && (control == v1::DEFORM_CONTROL_CONSTANT || control == v1::DEFORM_CONTROL_BRUSH))
+    throw UsageError("--kappa scales the d mu of --control map, isotropic and anisotropic: not a flag of " +
+                     std::string(control == v1::DEFORM_CONTROL_BRUSH ? "brush" : "constant"));
   rigidity(d);
   return d;
 }
@@ -178,6 +182,7 @@ void write_frame(const std::string& out, const v1::DeformFrame& frame) {
   }
   if (image.channels.empty()) throw std::runtime_error("frame " + std::to_string(frame.index()) + " has no planes");
   image.attributes.emplace_back("squall.frame", std::to_string(frame.index()));
+  client::add_time_attribute(image, frame.time());
   image.attributes.emplace_back("squall.deform.solver_residual", std::to_string(frame.solver_residual()));
   char name[32];
   std::snprintf(name, sizeof name, "/frame_%04u", frame.index());

@@ -4,6 +4,10 @@
 // get INVALID_ARGUMENT naming the field; `squall texture deform` writes EXR and PNG frames.
 #include <gtest/gtest.h>
 
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -254,13 +258,27 @@ TEST(TexturesDeform, CommandLine) {
       << out;
   ASSERT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
                        dir + "/source/frame_0000.png", "--rigidity", "0.5", "--control", "brush:16,16,4,1", "--frames",
-                       "3", "--planes", "color,warp", "--out", dir + "/deformed"},
+                       "3", "--dt", "0.25", "--planes", "color,warp", "--out", dir + "/deformed"},
                       &out),
             0)
       << out;
   for (const char* name : {"frame_0000.exr", "frame_0000.png", "frame_0002.exr", "frame_0002.png"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/deformed/" + name)) << name << "\n" << out;
   EXPECT_NE(out.find("wrote 3 frames"), std::string::npos) << out;
+  Imf::InputFile frame2((dir + "/deformed/frame_0002.exr").c_str());
+  const auto* time = frame2.header().findTypedAttribute<Imf::StringAttribute>("squall.time_seconds");
+  ASSERT_NE(time, nullptr);
+  EXPECT_EQ(time->value(), "0.5");  // frame 2 at --dt 0.25
+  // --kappa scales the d mu of maps and tensors only: with a brush it would be sent and unused.
+  EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
+                       dir + "/source/frame_0000.png", "--rigidity", "0.5", "--kappa", "2", "--control",
+                       "brush:16,16,4,1", "--out", dir + "/x"},
+                      &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--kappa scales the d mu of --control map, isotropic and anisotropic: not a flag of brush"),
+            std::string::npos)
+      << out;
   EXPECT_EQ(test::run({test::squall_path(), "--address", daemon().address(), "texture", "deform", "--image",
                        dir + "/source/frame_0000.png", "--out", dir + "/x"},
                       &out),

@@ -507,6 +507,20 @@ TEST(TexturesCli, AdvectWritesFrames) {
       << out;
   EXPECT_NE(out.find("--d is the Lagrangian grids' Poisson radius: not a flag of --method eulerian"), std::string::npos)
       << out;
+  // Flags the request would carry unused exit 2 too: a seed with a method that places no particles, and an
+  // image with noise flags (the last texture flag would have won).
+  const std::string png = dir + "/frame_0000.png";
+  for (const auto& [flags, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--method", "naive", "--seed", "7"}, "--seed places the Lagrangian grids: not a flag of --method naive"},
+           {{"--image", png, "--noise", "2"}, "--image is the texture: --noise and --spin are flags of a noise"},
+           {{"--spin", "3", "--image", png}, "--image is the texture"}}) {
+    std::vector<std::string> bad = {test::squall_path(), "--address", daemon().address(), "texture", "advect"};
+    bad.insert(bad.end(), flags.begin(), flags.end());
+    bad.insert(bad.end(), {"--out", dir + "/unused"});
+    EXPECT_EQ(test::run(bad, &out), 2) << out;
+    EXPECT_NE(out.find(message), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/unused"));
+  }
 }
 
 // The last --image given is the texture: a five-channel image given twice is five channels, not ten (past
