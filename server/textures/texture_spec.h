@@ -24,6 +24,7 @@ constexpr int kMaxTextureSubsteps = 64;    // integration steps per frame
 constexpr double kMaxTextureTime = 1e9;    // s: t0 within +-1e9 (a SimTime's range)
 constexpr double kMaxFrameTime = 1e10;     // s: a velocity grid's frame times (a followed current's: past t0's)
 constexpr double kMaxSpin = 1e6;           // rad/s: flow noise's band-0 turn rate within +-1e6
+constexpr int kMaxGridSide = 1 << 20;      // nodes along a side of a velocity or scalar grid
 // Analytic velocity parameters (du, du/s, s) within +-kMaxVelocityParam (the device works in float32);
 // those a field divides by at least kMinVelocityDivisor.
 constexpr double kMaxVelocityParam = 1e9, kMinVelocityDivisor = 1e-6;

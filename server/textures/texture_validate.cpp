@@ -69,8 +69,8 @@ void grid_placement(double origin_x, double origin_y, double hx, double hy, cons
 }
 
 void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::string& path) {
-  in(path + ".nx", int64_t(v.nx), 2, 1 << 20);
-  in(path + ".ny", int64_t(v.ny), 2, 1 << 20);
+  in(path + ".nx", int64_t(v.nx), 2, kMaxGridSide);
+  in(path + ".ny", int64_t(v.ny), 2, kMaxGridSide);
   in(path + ".frames size", int64_t(v.frames.size()), 1, kMaxVelocityFrames);
   gate.check_grid(path, v.nx, v.ny);  // the frames' bytes are bounded by the request's size
   grid_placement(v.origin_x, v.origin_y, v.hx, v.hy, path);
@@ -93,8 +93,8 @@ void velocity_grid(const VelocitySpec& v, const LimitGate& gate, const std::stri
 // spaced grid.
 void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::string& path) {
   if (g.values.empty() && g.nx == 0 && g.ny == 0) return;  // s = 0
-  in(path + ".nx", int64_t(g.nx), 2, 1 << 20);
-  in(path + ".ny", int64_t(g.ny), 2, 1 << 20);
+  in(path + ".nx", int64_t(g.nx), 2, kMaxGridSide);
+  in(path + ".ny", int64_t(g.ny), 2, kMaxGridSide);
   gate.check_grid(path, g.nx, g.ny);
   grid_placement(g.origin_x, g.origin_y, g.hx, g.hy, path);
   const size_t nodes = size_t(g.nx) * g.ny;

@@ -103,8 +103,9 @@ Extrapolation extrapolation(int e, const std::string& path) {
 VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
   VelocitySpec v;
   v.kind = SQUALL_VELOCITY_GRID;
-  v.nx = clamped(g.nx());
-  v.ny = clamped(g.ny());
+  // Its size first, as sent: the frames' and the mask's fields are checked against it.
+  v.nx = int(validate::in(path + ".nx", int64_t(g.nx()), 2, kMaxGridSide));
+  v.ny = int(validate::in(path + ".ny", int64_t(g.ny()), 2, kMaxGridSide));
   v.origin_x = validate::finite(path + ".origin.x", g.origin().x());
   v.origin_y = validate::finite(path + ".origin.y", g.origin().y());
   v.hx = validate::positive(path + ".spacing.x", g.spacing().x());
@@ -277,8 +278,8 @@ int band_shape(int f, const std::string& path) {
 // The LUT's scalar field: nx x ny node values placed by origin and spacing.
 ScalarGridSpec scalar_grid(const v1::ScalarGrid& g, const std::string& path) {
   ScalarGridSpec out;
-  out.nx = int(validate::in(path + ".nx", int64_t(g.nx()), 2, 1 << 20));
-  out.ny = int(validate::in(path + ".ny", int64_t(g.ny()), 2, 1 << 20));
+  out.nx = int(validate::in(path + ".nx", int64_t(g.nx()), 2, kMaxGridSide));
+  out.ny = int(validate::in(path + ".ny", int64_t(g.ny()), 2, kMaxGridSide));
   out.origin_x = validate::finite(path + ".origin.x", g.origin().x());
   out.origin_y = validate::finite(path + ".origin.y", g.origin().y());
   out.hx = validate::positive(path + ".spacing.x", g.spacing().x());

@@ -383,6 +383,12 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
              float_field("u", 4, 5, std::vector<float>(20));
        },
        Code::InvalidArgument, "request.velocity.grid.frames[1].u.nx = 4"},
+      {[](v1::AdvectTextureRequest& r) {  // the grid's size first, as sent, then its frames against it
+         r.set_method(v1::TEXTURE_METHOD_NAIVE);
+         *r.mutable_velocity()->mutable_grid() = grid_png_request(test::temp_dir("textures-bad")).velocity().grid();
+         r.mutable_velocity()->mutable_grid()->set_nx(4294967295u);
+       },
+       Code::InvalidArgument, "request.velocity.grid.nx = 4294967295 must be in [2, 1048576]"},
       {[](v1::AdvectTextureRequest& r) { r.mutable_output()->set_width(0); }, Code::InvalidArgument,
        "request.output.width = 0"},
       {[](v1::AdvectTextureRequest& r) {
