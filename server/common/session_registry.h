@@ -111,6 +111,13 @@ class SessionRegistry {
     std::function<bool(const std::string& id)> hand_over;
     std::function<bool(const std::string& id)> holds;
   };
+  // Whether an enrolled store holds session `id` now: a call naming it goes on while the daemon drains.
+  bool holds(const std::string& id) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& [token, store] : stores_)
+      if (store.holds(id)) return true;
+    return false;
+  }
   size_t enroll(Store store) {
     std::lock_guard<std::mutex> lock(mutex_);
     stores_.emplace(next_, std::move(store));

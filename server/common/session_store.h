@@ -14,6 +14,7 @@
 // so calls on one session are serialized and calls on different sessions are not.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <map>
@@ -58,7 +59,14 @@ class SessionStore {
         policy_(std::move(policy)),
         kind_(std::move(kind)),
         id_field_(std::move(id_field)),
-        prefix_(std::move(prefix)) {}
+        prefix_(std::move(prefix)) {
+    // Every store enrolls, so that the registry knows the sessions live here (holds); only a persistent one
+    // (persist()) writes checkpoints and hands sessions over.
+    if (policy_.registry)
+      enrolled_ = policy_.registry->enroll({[this](bool release) { return persistent() ? checkpoint_all(release) : 0; },
+                                            [this](const std::string& id) { return persistent() && hand_over(id); },
+                                            [this](const std::string& id) { return holds(id); }});
+  }
   ~SessionStore() {
     if (enrolled_) policy_.registry->withdraw(*enrolled_);
   }
@@ -82,9 +90,7 @@ class SessionStore {
     if (!policy_.registry || !policy_.registry->state_dir()) return;
     save_ = std::move(save);
     resume_ = std::move(resume);
-    enrolled_ = policy_.registry->enroll({[this](bool release) { return checkpoint_all(release); },
-                                          [this](const std::string& id) { return hand_over(id); },
-                                          [this](const std::string& id) { return holds(id); }});
+    persisted_ = true;  // after save_ and resume_, which the registry's thread reads once it sees this
   }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
@@ -95,6 +101,7 @@ class SessionStore {
     uint64_t bytes = 0;
   };
   Reservation reserve(uint64_t bytes) {
+    if (policy_.registry && policy_.registry->draining()) refuse_new();  // before the limits: retried elsewhere
     evict_idle();
     Reservation r;
     r.session = gate_.acquire_session();
@@ -157,8 +164,7 @@ class SessionStore {
       else
         policy_.registry->settle(id);
     }
-    if (draining)
-      fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
+    if (draining) refuse_new();
     if (!added) fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
     return id;
   }
@@ -374,7 +380,11 @@ class SessionStore {
   }
 
   const StateDir* state_dir() const { return policy_.registry ? policy_.registry->state_dir() : nullptr; }
-  bool persistent() const { return resume_ && state_dir(); }
+  bool persistent() const { return persisted_ && state_dir(); }
+
+  [[noreturn]] void refuse_new() const {
+    fail(Code::Unavailable, "squalld is shutting down: it takes no new " + kind_ + "; retry on another replica");
+  }
 
   // The files of an entry taken out of the map. Not those of one released or taken over: they are the
   // state another replica resumes, and holds by now.
@@ -484,13 +494,15 @@ class SessionStore {
         return;
       }
       try {
+        CheckpointHeader header;  // whose it is, before anything is built from it
+        decode_checkpoint(*checkpoint, kind_, "the checkpoint", &header);
+        if (header.id != id) fail(Code::DataLoss, kind_ + " checkpoint " + id + " holds another session's id");
         resume_(*checkpoint);
       } catch (const Error& e) {  // the file's fault, never the request's
         if (e.code() != Code::InvalidArgument) throw;
         fail(Code::DataLoss,
              kind_ + " " + id + "'s checkpoint in the state directory cannot be read by this squalld: " + e.what());
       }
-      if (!lookup(id)) fail(Code::DataLoss, kind_ + " checkpoint " + id + " holds another session's id");
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (...) {
       if (lookup(id)) return;  // live here already (a session created under its id), and owned
@@ -523,6 +535,7 @@ class SessionStore {
   // persist(): the payload format and its writer and reader, and the registry's token for this store.
   Save save_;
   std::function<void(const std::string&)> resume_;
+  std::atomic<bool> persisted_{false};
   std::optional<size_t> enrolled_;
 };
 

@@ -18,6 +18,7 @@
 
 #include "common/error.h"
 #include "common/log.h"
+#include "common/regular_file.h"
 
 namespace fs = std::filesystem;
 
@@ -31,8 +32,12 @@ constexpr const char* kLock = ".lock";
 constexpr auto kStaleLock = std::chrono::seconds(10);  // a lock held this long was left by a holder that died
 constexpr auto kLockWait = std::chrono::seconds(2);    // how long a change of ownership waits for the lock
 
+// The directory's files are named within it, not by their path on this host. UNAVAILABLE: the call may
+// succeed on a replica whose volume works, or here once this one does again.
 void fail_io(const std::string& what, const std::string& path) {
-  fail(Code::Internal, "state directory: cannot " + what + " " + path + ": " + std::strerror(errno));
+  const std::string why = std::strerror(errno);
+  fail(Code::Unavailable,
+       "state directory: cannot " + what + " " + fs::path(path).filename().string() + ": " + why + "; retry later");
 }
 
 // Writes all of `bytes` to a new file `path` (one that exists is an error) and flushes them to the device.
@@ -53,10 +58,10 @@ void write_synced(const std::string& path, const std::string& bytes) {
   if (::close(fd) != 0 || !synced) fail_io("sync", path);
 }
 
+// The bytes of the regular file `path`, nullopt when there is none; DATA_LOSS naming it within the
+// directory when something else is there (a FIFO, a directory) or it cannot be read.
 std::optional<std::string> read_whole(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return read_regular_file(path, "state directory: " + fs::path(path).filename().string());
 }
 
 // Whether `from` is now also `to`: link(2) succeeded, or failed with EEXIST although it had made the link (a
@@ -99,7 +104,7 @@ Stamp new_token(const std::string& path) {
 // revalidates a file's attributes when it opens it (close-to-open consistency), where a bare stat may answer
 // from its attribute cache, up to a minute old.
 std::optional<Stamp> stamp(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);  // a FIFO would block open(2)
   if (fd < 0) return std::nullopt;
   std::optional<Stamp> s = stamp_of(fd);
   ::close(fd);
@@ -153,8 +158,11 @@ std::string unwritable_directory(const std::string& path) {
 }
 
 StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(path)) {
+  std::error_code error;
+  const bool existed = fs::exists(path_, error);
   if (std::string why = unwritable_directory(path_); !why.empty())
     throw std::runtime_error(flag + " " + path_ + ": " + why);
+  if (!existed) fs::permissions(path_, fs::perms::owner_all, fs::perm_options::replace, error);
   // Ownership is claimed by link(2) (claim_owner): a file system without hard links cannot hold it.
   const std::string probe = temporary(path_ + "/.squalld-link-test", ""), second_name = probe + "-link";
   new_token(probe);
@@ -310,13 +318,19 @@ void StateDir::break_if_stale(const std::string& lock) const {
 
 std::optional<std::string> StateDir::owner(const std::string& id) const {
   auto file = file_of(id, kOwner);
-  return file ? read_whole(*file) : std::nullopt;
+  try {
+    return file ? read_whole(*file) : std::nullopt;
+  } catch (const Error& e) {  // something that is no owner record: no owner named, but not missing either
+    log(LogLevel::Error, e.what());
+    return std::nullopt;
+  }
 }
 
 bool StateDir::owner_missing(const std::string& id) const {
   auto file = file_of(id, kOwner);
-  std::error_code error;
-  return file && !fs::exists(*file, error) && !error;
+  struct stat st;
+  if (!file || ::stat(file->c_str(), &st) == 0 || errno != ENOENT) return false;
+  return ::stat(path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode);  // not a directory gone or replaced
 }
 
 void StateDir::clear_ownership_of(const std::string& replica) const {
@@ -331,11 +345,10 @@ void StateDir::clear_ownership_of(const std::string& replica) const {
 
 void StateDir::heartbeat(const std::string& replica) const {
   const std::string file = replica_file(replica);
-  std::error_code error;
-  fs::create_directories(path_ + "/replicas", error);
+  ::mkdir((path_ + "/replicas").c_str(), 0700);  // not the state directory: one removed stays so
   // Rewritten in place, not truncated: a beat whose write fails leaves the file's time as it was, and this
   // replica looks older to the others, as it should.
-  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NONBLOCK, 0600);
   if (fd < 0) return;
   const std::string line = replica + "\n";  // rewriting it moves its time forward
   const bool wrote = ::write(fd, line.data(), line.size()) == ssize_t(line.size());
@@ -375,7 +388,14 @@ FileTime StateDir::file_system_now() const {
 }
 
 void StateDir::request_handover(const std::string& id) const {
-  if (auto file = file_of(id, kHandover)) std::ofstream(*file, std::ios::trunc) << id << "\n";
+  auto file = file_of(id, kHandover);
+  if (!file) return;
+  const int fd = ::open(file->c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NONBLOCK, 0600);
+  if (fd < 0) return;  // asked again at the client's retry
+  const std::string line = id + "\n";
+  if (::write(fd, line.data(), line.size()) != ssize_t(line.size()))
+    log(LogLevel::Warn, "state directory: the handover request of ", id, " was not written whole");
+  ::close(fd);
 }
 
 std::vector<std::string> StateDir::handover_requests() const {
@@ -408,10 +428,42 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
     const std::string name = entry.path().filename().string();
     const bool expiring = name.ends_with(kSession) || name.ends_with(kHandover) || name.ends_with(kLock) ||
                           name.find(".tmp-") != std::string::npos;
+    if (!expiring && name.ends_with(kOwner))
+      removed += expire_owner(name.substr(0, name.size() - std::strlen(kOwner)), ttl, now);
     if (!expiring) continue;
     const std::optional<Stamp> written = stamp(entry.path().string());
     if (!written || now - written->written <= ttl) continue;
     removed += fs::remove(entry.path(), error) ? 1 : 0;
+  }
+  return removed + expire_heartbeats(ttl, now);
+}
+
+// An owner file is left behind when its replica was killed holding the session, and nothing gives it up
+// once the session's checkpoint has expired too: removed under the session's lock when it names a replica
+// that has not beaten for `ttl` (or names none) and no checkpoint has come back since.
+bool StateDir::expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const {
+  const std::optional<std::string> file = file_of(id, kOwner);
+  if (!file || checkpointed(id)) return false;
+  const std::optional<Stamp> written = stamp(*file);
+  if (!written || now - written->written <= ttl) return false;
+  bool removed = false;
+  try {
+    with_owner_lock(id, [&] {
+      const std::optional<std::string> named = owner(id);
+      if (checkpointed(id) || (named && alive(*named, ttl))) return;
+      removed = std::remove(file->c_str()) == 0;
+    });
+  } catch (const Error&) {  // the lock is another replica's now: the next pass
+  }
+  return removed;
+}
+
+size_t StateDir::expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const {
+  size_t removed = 0;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(path_ + "/replicas", error)) {
+    const std::optional<Stamp> beat = stamp(entry.path().string());
+    if (beat && now - beat->written > ttl) removed += fs::remove(entry.path(), error) ? 1 : 0;
   }
   return removed;
 }

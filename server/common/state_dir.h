@@ -10,7 +10,10 @@
 // replica sees the previous file or the new one, never half of one. Ownership changes only under
 // <id>.lock, a file made by link(2) of an empty temporary, which fails where the name exists: one replica
 // at a time reads, removes and links a session's owner file. Ids name files only when they are made of
-// [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory.
+// [a-z0-9-] (every id squalld makes or accepts is), so no id reaches outside the directory. File names are
+// session ids, which are what lets a client use a session: a directory squalld creates is its user's
+// alone (0700), and its files are written 0600. Only regular files are read, without blocking (a FIFO in
+// the directory is damage, not a reader's wait).
 #pragma once
 
 #include <chrono>
@@ -71,7 +74,8 @@ class StateDir {
   void clear_handover(const std::string& id) const;
 
   // Removes the checkpoints, handover requests, locks and temporaries last written more than `ttl` ago (by
-  // the file system's clock); returns how many.
+  // the file system's clock), the owner files of sessions with no checkpoint whose owner has not beaten
+  // for `ttl` (a replica killed holding them), and such replicas' heartbeats; returns how many.
   size_t expire(std::chrono::milliseconds ttl) const;
   // Whether id's checkpoint was last written more than `ttl` ago: what expire() removes at its next pass.
   bool expired(const std::string& id, std::chrono::milliseconds ttl) const;
@@ -84,6 +88,8 @@ class StateDir {
   FileTime file_system_now() const;
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
+  bool expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
+  size_t expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const;
   std::string path_;
   mutable std::mutex beat_mutex_;
   mutable std::pair<std::string, std::chrono::steady_clock::time_point> beat_;  // this process's last heartbeat

@@ -20,10 +20,12 @@
 #include <thread>
 #include <stdexcept>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "clouds/clouds_service.h"
 #include "common/log.h"
+#include "common/regular_file.h"
 #include "common/state_dir.h"
 #include "common/watchdog.h"
 #include "daemon/admission_watch.h"
@@ -116,19 +118,21 @@ class WithoutReflection : public grpc::ServerBuilderOption {
 
 // Fails with a message naming the flag unless `path` is a readable PEM file.
 void check_pem(const std::string& path, const char* flag) {
-  std::ifstream in(path, std::ios::binary);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (!in.good() && !in.eof()) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
-  if (text.find("-----BEGIN ") == std::string::npos)
+  const std::optional<std::string> text = read_regular_file(path, std::string(flag) + " " + path);
+  if (!text) throw std::runtime_error(std::string(flag) + " " + path + ": cannot read the file");
+  if (text->find("-----BEGIN ") == std::string::npos)
     throw std::runtime_error(std::string(flag) + " " + path + ": not a PEM file");
 }
 
 // The tokens of --auth-tokens: the first word of each line, a name may follow; blank lines and lines
-// starting with '#' are skipped. No file: no tokens (no authentication); a file without any: an error.
+// starting with '#' are skipped, and so is a UTF-8 byte order mark at its start. No file: no tokens (no
+// authentication); a file without any: an error.
 std::vector<std::string> read_tokens(const std::string& path) {
   if (path.empty()) return {};
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("--auth-tokens " + path + ": cannot read the file");
+  std::optional<std::string> text = read_regular_file(path, "--auth-tokens " + path);
+  if (!text) throw std::runtime_error("--auth-tokens " + path + ": cannot read the file");
+  if (text->starts_with("\xEF\xBB\xBF")) text->erase(0, 3);
+  std::istringstream in(*text);
   std::vector<std::string> tokens;
   for (std::string line; std::getline(in, line);) {
     std::istringstream words(line);

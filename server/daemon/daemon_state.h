@@ -43,6 +43,7 @@ struct DaemonState {
         serving(with_memory_budgets(limits, runtime)),
         sessions(std::move(state_dir), replica) {
     runtime.buffers().attach(&serving.gate());  // idle device buffers count in --memory-budget
+    serving.set_sessions(&sessions);            // calls naming a live session go on while draining
   }
   ~DaemonState() { runtime.buffers().attach(nullptr); }  // before the gate goes
 

@@ -15,9 +15,14 @@ void ServingState::require_serving(const grpc::ServerContext& context) const {
     case Phase::Starting:
       fail(Code::Unavailable, "squalld is still building its kernels; retry when health is SERVING");
     case Phase::Draining:
-      if (!session_routing_key(context.client_metadata()).empty()) return;
+      if (names_live_session(context)) return;
       fail(Code::Unavailable, "squalld is shutting down; retry on another replica");
   }
+}
+
+bool ServingState::names_live_session(const grpc::ServerContext& context) const {
+  const std::string id = session_routing_key(context.client_metadata());
+  return !id.empty() && sessions_ && sessions_->holds(id);
 }
 
 namespace {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/limits.h"
+#include "common/session_registry.h"
 
 namespace squall::rpc {
 
@@ -29,9 +30,13 @@ class ServingState {
   bool serving() const { return phase_ == Phase::Serving; }
 
   // Every handler calls this first: UNAVAILABLE while kernels are being built, and while draining, except
-  // for calls that name a session (x-squall-session): those go on until their session has been
+  // for calls that name a session live here (x-squall-session): those go on until their session has been
   // checkpointed for another replica (SessionStore answers UNAVAILABLE then, and refuses new sessions).
   void require_serving(const grpc::ServerContext& context) const;
+  // The daemon's sessions (set before serving starts): which ids are live here.
+  void set_sessions(SessionRegistry* sessions) { sessions_ = sessions; }
+  // Whether the call's x-squall-session names a session live here; any other value names none.
+  bool names_live_session(const grpc::ServerContext& context) const;
 
   // This replica's name (squalld --replica-id), sent back on every call as x-squall-replica.
   void set_replica_id(std::string id) { replica_id_ = std::move(id); }
@@ -57,7 +62,8 @@ class ServingState {
   LimitGate gate_;
   mutable std::mutex tokens_mutex_;  // guards the pointer; the vector it points to never changes
   std::shared_ptr<const std::vector<std::string>> tokens_ = std::make_shared<const std::vector<std::string>>();
-  std::string replica_id_;  // set before serving starts, read-only afterwards
+  std::string replica_id_;               // set before serving starts, read-only afterwards
+  SessionRegistry* sessions_ = nullptr;  // likewise
   std::atomic<Phase> phase_{Phase::Starting};
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };

@@ -103,6 +103,24 @@ TEST_F(SessionStoreTest, CountAndBytesAreLimitedThroughTheGate) {
   expect_error(Code::NotFound, "counter_id", [&] { s.close(a); });
 }
 
+// While the daemon drains, a new session is UNAVAILABLE (retry on another replica) before any limit is
+// asked: a full store (whose sessions keep their slots until the process ends) does not answer
+// RESOURCE_EXHAUSTED, which a client would not retry.
+TEST(SessionStoreDrain, ANewSessionIsUnavailableEvenWhenTheStoreIsFull) {
+  Limits limits;
+  limits.max_sessions = 1;
+  LimitGate gate(limits);
+  SessionRegistry registry;
+  SessionStore<Counter> s(gate, SessionPolicy{10min, [] { return std::chrono::steady_clock::now(); }, &registry},
+                          "counter", "counter_id", "c-");
+  const std::string id = s.add(s.reserve(0), std::make_shared<Counter>());
+  EXPECT_TRUE(registry.holds(id)) << "the registry knows the sessions live here";
+  EXPECT_FALSE(registry.holds("c-00000000000000000000000000000000"));
+  registry.begin_drain();
+  expect_error(Code::Unavailable, "squalld is shutting down: it takes no new counter; retry on another replica",
+               [&] { s.add(s.reserve(0), std::make_shared<Counter>()); });
+}
+
 TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   auto s = store();
   std::string id = s.add(s.reserve(8), std::make_shared<Counter>(Counter{41}));

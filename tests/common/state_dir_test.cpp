@@ -3,6 +3,7 @@
 #include "common/state_dir.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <atomic>
 #include <filesystem>
@@ -462,6 +463,107 @@ TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
   now += 200ms;
   EXPECT_EQ(store.evict_idle(), 1u);
   EXPECT_FALSE(registry.state_dir()->read(id)) << "an expired session does not come back from the directory";
+}
+
+// Something other than a regular file in a checkpoint's, an owner's, a heartbeat's or a handover's place
+// (a FIFO, whose open(2) would wait for a writer; a directory) is damage: DATA_LOSS for the call naming the
+// session, at once and naming the file within the directory only; a replica starting beside such an owner
+// file, heartbeats and handover requests do not wait either, and an expiry pass removes stale ones.
+TEST(StateDir, FilesThatAreNotRegularAreDamageNotAWait) {
+  const std::string dir = test::temp_dir("state-fifo");
+  const std::string other = "c-fedcba9876543210fedcba9876543210";
+  ASSERT_EQ(::mkfifo((dir + "/" + kId + ".session").c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo((dir + "/" + other + ".owner").c_str(), 0600), 0);
+  fs::create_directory(dir + "/c-00000000000000000000000000000000.session");
+  Replica a(dir, "a");  // begins beside the FIFO owner file
+  expect_error(Code::DataLoss, "state directory: " + kId + ".session: not a regular file", [&] { a.store.get(kId); });
+  const std::string message = expect_error(Code::DataLoss, "c-00000000000000000000000000000000.session: not a regular",
+                                           [&] { a.store.get("c-00000000000000000000000000000000"); });
+  EXPECT_EQ(message.find(dir), std::string::npos) << "the host's path stays on the host: " << message;
+  ASSERT_EQ(::mkfifo((dir + "/" + other + ".handover").c_str(), 0600), 0);
+  a.registry.state_dir()->request_handover(other);
+  ASSERT_EQ(::mkfifo((dir + "/replicas/fifo").c_str(), 0600), 0);
+  a.registry.state_dir()->heartbeat("fifo");
+  EXPECT_FALSE(a.registry.state_dir()->owner(other)) << "no owner named";
+  std::this_thread::sleep_for(20ms);
+  a.registry.heartbeat();
+  EXPECT_GE(a.registry.state_dir()->expire(10ms), 3u) << "the stale FIFOs: session, owner, handover, heartbeat";
+  EXPECT_FALSE(fs::exists(dir + "/" + kId + ".session"));
+  EXPECT_FALSE(fs::exists(dir + "/" + other + ".owner"));
+}
+
+// A checkpoint file whose header names another session (copied, or renamed by hand) resumes nothing: the
+// session it names stays as it was (closed), and the call gets DATA_LOSS.
+TEST(StateDir, ACheckpointHoldingAnotherSessionsIdResumesNothing) {
+  const std::string dir = test::temp_dir("state-other-id");
+  const std::string copy = "c-fedcba9876543210fedcba9876543210";
+  Replica a(dir, "a");
+  a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>(Counter{4}));
+  ASSERT_EQ(a.registry.checkpoint_all(false), 1u);
+  fs::copy_file(dir + "/" + kId + ".session", dir + "/" + copy + ".session");
+  a.store.close(kId);
+  Replica b(dir, "b");
+  expect_error(Code::DataLoss, "counter checkpoint " + copy + " holds another session's id",
+               [&] { b.store.get(copy); });
+  EXPECT_EQ(b.store.size(), 0u);
+  EXPECT_FALSE(b.registry.state_dir()->owner(kId)) << "the closed session was not brought back";
+  EXPECT_FALSE(b.registry.state_dir()->owner(copy)) << "nor is the copy's id left claimed";
+  expect_error(Code::NotFound, "counter_id", [&] { b.store.get(kId); });
+}
+
+// A state directory moved away, or replaced by a file, is no sign that another replica took the sessions
+// over: they stay live here (their checkpoints fail until it is back), and a heartbeat does not make an
+// empty directory in its place.
+TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
+  const std::string root = test::temp_dir("state-gone"), dir = root + "/state";
+  Replica a(dir, "a");
+  const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{6}));
+  fs::rename(dir, root + "/moved");
+  a.registry.heartbeat();
+  EXPECT_FALSE(fs::exists(dir)) << "the heartbeat made the directory again";
+  EXPECT_EQ(a.registry.checkpoint_all(false), 0u);
+  put(dir, "a file where the directory was");
+  EXPECT_EQ(a.registry.checkpoint_all(false), 0u);
+  EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "the session is still live here";
+  fs::remove(dir);
+  fs::rename(root + "/moved", dir);
+  EXPECT_EQ(a.registry.checkpoint_all(false), 1u) << "written again once the directory is back";
+}
+
+// A replica killed holding a session leaves its owner file, and once the checkpoint has expired too nothing
+// else removes it: an expiry pass does when the owner has not beaten for the TTL, with its heartbeat. A live
+// owner's file stays, and so does a dead one's whose session has a checkpoint.
+TEST(StateDir, OwnerFilesAndHeartbeatsOfAReplicaKilledLongAgoExpire) {
+  const std::string dir = test::temp_dir("state-dead-owner");
+  const std::string live = "c-11111111111111111111111111111111", kept = "c-22222222222222222222222222222222";
+  StateDir state(dir, "--state-dir");
+  state.heartbeat("dead");
+  ASSERT_TRUE(state.create_owner(kId, "dead"));
+  ASSERT_TRUE(state.create_owner(live, "live"));
+  ASSERT_TRUE(state.create_owner(kept, "dead"));
+  std::this_thread::sleep_for(50ms);
+  state.heartbeat("live");
+  state.write(kept, "a checkpoint of its own");
+  EXPECT_EQ(state.expire(30ms), 2u) << "the dead replica's owner file of kId and its heartbeat";
+  EXPECT_FALSE(state.owner(kId));
+  EXPECT_FALSE(fs::exists(dir + "/replicas/dead"));
+  EXPECT_EQ(state.owner(live).value(), "live");
+  EXPECT_EQ(state.owner(kept).value(), "dead");
+}
+
+// A directory squalld makes is its user's alone (file names are session ids); one given keeps its mode.
+TEST(StateDir, ADirectoryItMakesIsItsUsersAlone) {
+  const std::string root = test::temp_dir("state-mode");
+  StateDir made(root + "/made", "--state-dir");
+  made.heartbeat("a");
+  EXPECT_EQ(fs::status(root + "/made").permissions(), fs::perms::owner_all);
+  EXPECT_EQ(fs::status(root + "/made/replicas").permissions(), fs::perms::owner_all);
+  EXPECT_EQ(fs::status(root + "/made/replicas/a").permissions(), fs::perms::owner_read | fs::perms::owner_write);
+  fs::create_directory(root + "/given");
+  fs::permissions(root + "/given", fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec);
+  StateDir given(root + "/given", "--state-dir");
+  EXPECT_EQ(fs::status(root + "/given").permissions(),
+            fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec);
 }
 
 }  // namespace

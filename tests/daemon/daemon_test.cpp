@@ -1,6 +1,7 @@
 // squalld for real: started on a free localhost port, asked through the client library and the CLI,
 // stopped with SIGTERM; and started wrongly, to see it refuse with the documented exit codes.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <signal.h>
 
 #include <atomic>
@@ -432,6 +433,15 @@ TEST(Auth, SighupReloadsTheTokens) {
   std::filesystem::remove(dir + "/tokens");
   reload("the tokens in force stay");
   EXPECT_EQ(info_with("new"), 0) << "an unreadable file keeps the tokens in force";
+  // A FIFO in the file's place is refused at once (its open(2) would wait for a writer, and the signals
+  // with it); a file saved with a UTF-8 byte order mark keeps its first token.
+  ASSERT_EQ(::mkfifo((dir + "/tokens").c_str(), 0600), 0);
+  reload("not a regular file; the tokens in force stay");
+  EXPECT_EQ(info_with("new"), 0);
+  std::filesystem::remove(dir + "/tokens");
+  std::ofstream(dir + "/tokens") << "\xEF\xBB\xBFold-token\n";
+  reload("bearer tokens from");
+  EXPECT_EQ(info_with("old"), 0) << "the byte order mark is no part of the token";
   EXPECT_TRUE(d.running());
 }
 

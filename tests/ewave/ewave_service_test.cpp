@@ -523,6 +523,34 @@ TEST(EWaveService, DrainingRefusesNewCallsAsUnavailable) {
   server.serving().set_phase(rpc::ServingState::Phase::Serving);
 }
 
+// While draining, a call whose x-squall-session names a session live here goes on (until the session has
+// moved to another replica); a header naming no live session, however it looks, lets nothing through.
+TEST(EWaveService, DrainingLetsThroughOnlyCallsNamingALiveSession) {
+  test::InProcess<rpc::EWaveService> server;
+  auto stub = v1::EWave::NewStub(server.channel());
+  Session s(*stub, proto_config(engine_config()));
+  ASSERT_TRUE(s.status().ok());
+  Session closed(*stub, proto_config(engine_config()));
+  ASSERT_TRUE(closed.close().ok());
+  server.serving().set_phase(rpc::ServingState::Phase::Draining);
+  for (const std::string& header : {s.id(), closed.id(), std::string("not-a-session")}) {
+    auto ctx = context();
+    ctx->AddMetadata("x-squall-session", header);
+    v1::EWaveStepRequest request;
+    request.set_session_id(s.id());
+    *request.mutable_inputs() = plain_inputs(0.01);
+    v1::EWaveFrame f;
+    const grpc::Status status = stub->Step(ctx.get(), request, &f);
+    if (header == s.id()) {
+      EXPECT_TRUE(status.ok()) << status.error_message();
+    } else {
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << header << ": " << status.error_message();
+      EXPECT_NE(status.error_message().find("shutting down"), std::string::npos) << status.error_message();
+    }
+  }
+  server.serving().set_phase(rpc::ServingState::Phase::Serving);
+}
+
 // Opens a Run stream and completes one step on it.
 struct OpenRun {
   std::unique_ptr<grpc::ClientContext> ctx = context();

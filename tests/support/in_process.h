@@ -21,8 +21,9 @@ class InProcess {
  public:
   explicit InProcess(Limits limits = {}, std::chrono::milliseconds session_ttl = std::chrono::minutes(10))
       : serving_(limits),
-        engines_(runtime(), fft(), serving_.gate(), SessionPolicy{session_ttl, [this] { return now(); }}),
+        engines_(runtime(), fft(), serving_.gate(), SessionPolicy{session_ttl, [this] { return now(); }, &sessions_}),
         service_(serving_) {
+    serving_.set_sessions(&sessions_);
     service_.start(engines_);
     serving_.set_phase(rpc::ServingState::Phase::Serving);
     grpc::ServerBuilder builder;
@@ -44,6 +45,7 @@ class InProcess {
   }
 
   std::atomic<int64_t> offset_ms_{0};
+  SessionRegistry sessions_;  // no state directory
   rpc::ServingState serving_;
   rpc::EngineContext engines_;
   Service service_;
