@@ -73,7 +73,7 @@ void validate_control(const DeformControl& c, int width, int height, const std::
   known(prefix + "control", int(c.kind), 5, "deform control");
   in(prefix + "kappa", c.kappa, closed(-kMaxKappa, kMaxKappa));
   in(prefix + "d_mu", c.d_mu, closed(-kMaxDmu, kMaxDmu));
-  if (c.kind == DeformControlKind::Map) {
+  if (c.kind == DeformControlKind::Map || !c.d_mu_map.empty()) {  // one sent is checked, used or not
     const size_t n = size_t(width) * height;
     count(prefix + "d_mu_map", c.d_mu_map.size(), n, "width * height");
     each(prefix + "d_mu_map", c.d_mu_map.data(), n, closed(-kMaxDmu, kMaxDmu));

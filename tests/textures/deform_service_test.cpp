@@ -239,6 +239,14 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   bad_d_mu.set_d_mu(NAN);
   nan_call.send(bad_d_mu, 0);
   test::expect_error(Code::InvalidArgument, "control[1].d_mu = nan", [&] { throw_status(nan_call.finish()); });
+  // A map is checked whenever one is sent, also with a control that does not use it.
+  DeformInteractive nan_map_call;
+  ASSERT_TRUE(nan_map_call.send(first, 1));
+  v1::DeformControl nan_map;
+  *nan_map.mutable_d_mu_map() = float_field("map", kSize, kSize, std::vector<float>(kSize * kSize, NAN));
+  nan_map_call.send(nan_map, 0);
+  test::expect_error(Code::InvalidArgument, "control[1].d_mu_map[0] = nan",
+                     [&] { throw_status(nan_map_call.finish()); });
   // An interactive deformation holds deformation_start until a message steers it: an end tensor in its
   // start would be dropped unread, so it is refused.
   v1::DeformControl with_end = first;
