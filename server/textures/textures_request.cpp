@@ -195,6 +195,9 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
   if (reader.png) reader.info = png_create_info_struct(reader.png);
   if (!reader.png || !reader.info) fail(Code::Internal, "libpng could not start reading " + path);
   png_set_read_fn(reader.png, &source, png_read_bytes);
+  // libpng's own limit (a million pixels a side) would call a larger image unreadable: the PNG format's
+  // limit lets the header through, and --max-grid-cells judges it.
+  png_set_user_limits(reader.png, 0x7fffffff, 0x7fffffff);
   PngHeader h;
   if (!png_header(reader.png, reader.info, &h)) fail(Code::InvalidArgument, path + " is not a readable PNG file");
   gate.check_grid(path + " width", path + " height", int64_t(h.width), int64_t(h.height));

@@ -1665,6 +1665,18 @@ CASES += [
     ),
     bad(
         R,
+        "image_png_wider_than_libpngs_default_limit",
+        put(
+            "texture",
+            textures_pb2.TextureSource(
+                image=textures_pb2.ImageTexture(png=png_header(2**31 - 1, 1))
+            ),
+        ),
+        "request.texture.image.png width * request.texture.image.png height = 2147483647 cells",
+        EXHAUSTED,
+    ),
+    bad(
+        R,
         "image_pixels8_short_data",
         put(
             "texture",
