@@ -220,10 +220,10 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
 
 // 8-bit interleaved pixels as planes of byte / 255.
 void pixels8_image(const v1::Pixels8& p, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+  gate.check_grid(path + ".width", path + ".height", int64_t(p.width()), int64_t(p.height()));
   validate::in(path + ".width", int64_t(p.width()), 1, int64_t(1) << 30);
   validate::in(path + ".height", int64_t(p.height()), 1, int64_t(1) << 30);
   validate::in(path + ".channels", int64_t(p.channels()), 1, SQUALL_TEXTURE_MAX_CHANNELS);
-  gate.check_grid(path + ".width", path + ".height", int64_t(p.width()), int64_t(p.height()));
   const size_t pixels = size_t(p.width()) * p.height();
   validate::count(path + ".data", p.data().size(), pixels * p.channels(), "width x height x channels bytes");
   out.width = int(p.width());
@@ -317,8 +317,9 @@ TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std
 
 // ---- Output, methods ----
 
-OutputSpec output(const v1::TextureOutput& o, const std::string& path) {
+OutputSpec output(const v1::TextureOutput& o, const LimitGate& gate, const std::string& path) {
   OutputSpec out;
+  gate.check_grid(path + ".width", path + ".height", int64_t(o.width()), int64_t(o.height()));  // as sent
   out.width = int(validate::in(path + ".width", int64_t(o.width()), 1, 1 << 30));
   out.height = int(validate::in(path + ".height", int64_t(o.height()), 1, 1 << 30));
   if (!o.has_region()) return out;  // the unit square
@@ -431,7 +432,7 @@ AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const 
   s.method = method(r.method(), path + ".method");
   s.velocity = velocity(r.velocity(), path + ".velocity");
   s.texture = texture(r.texture(), gate, path + ".texture");
-  s.output = output(r.output(), path + ".output");
+  s.output = output(r.output(), gate, path + ".output");
   s.t0 = r.t0();
   s.dt = r.has_dt() ? r.dt() : 1.0 / 30;
   s.frames = clamped(r.frames());

@@ -396,6 +396,11 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
          r.mutable_output()->set_height(100000);
        },
        Code::ResourceExhausted, "request.output"},
+      {[](v1::AdvectTextureRequest& r) {  // past an int as well: the cell limit, as sent
+         r.mutable_output()->set_width((1u << 30) + 1);
+         r.mutable_output()->set_height(1);
+       },
+       Code::ResourceExhausted, "request.output.width * request.output.height = 1073741825 cells"},
       {[](v1::AdvectTextureRequest& r) { r.set_resume_state("not a checkpoint at all"); }, Code::InvalidArgument,
        "resume_state"},
       {[](v1::AdvectTextureRequest& r) { r.mutable_texture()->mutable_image()->set_png("\x89PNG\r\n\x1a\n garbage"); },
