@@ -56,7 +56,9 @@ render flags:
 std::vector<double> numbers(const std::string& flag, const std::string& text, size_t min, size_t max) {
   const std::vector<double> out = number_list(flag, text);
   if (out.size() < min || out.size() > max)
-    throw UsageError(flag + " " + text + ": needs " + std::to_string(min) + ".." + std::to_string(max) + " numbers");
+    throw UsageError(flag + " " + text + ": needs " +
+                     (min == max ? std::to_string(min) : std::to_string(min) + ".." + std::to_string(max)) +
+                     (max == 1 ? " number" : " numbers"));
   return out;
 }
 
@@ -177,20 +179,25 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     auto colon = value.find(':');
     std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
     const std::string usage = "--phase " + value + ": uniform, hg:G, dhg:G1,G2,W or ff:N,MU";
-    if (kind != "uniform" && args.empty()) throw UsageError(usage);
+    if (kind == "uniform" ? colon != std::string::npos : args.empty()) throw UsageError(usage);
+    auto parameters = [&](size_t n) {  // checked against the usage, which names the whole value
+      std::vector<double> v = number_list(flag, args);
+      if (v.size() != n) throw UsageError(usage);
+      return v;
+    };
     if (kind == "uniform")
       p->set_kind(v1::PHASE_KIND_UNIFORM);
     else if (kind == "hg") {
       p->set_kind(v1::PHASE_KIND_HENYEY_GREENSTEIN);
-      p->set_g1(numbers(flag, args, 1, 1)[0]);
+      p->set_g1(parameters(1)[0]);
     } else if (kind == "dhg") {
-      auto v = numbers(flag, args, 3, 3);
+      auto v = parameters(3);
       p->set_kind(v1::PHASE_KIND_DOUBLE_HENYEY_GREENSTEIN);
       p->set_g1(v[0]);
       p->set_g2(v[1]);
       p->set_weight(v[2]);
     } else if (kind == "ff") {
-      auto v = numbers(flag, args, 2, 2);
+      auto v = parameters(2);
       p->set_kind(v1::PHASE_KIND_FOURNIER_FORAND);
       p->set_ff_n(v[0]);
       p->set_ff_mu(v[1]);
@@ -266,6 +273,13 @@ Request parse(const std::vector<std::string>& args) {
     for (int w = 0; w < nw; ++w) l.add_intensity(e);
   }
   if (r.output.empty()) throw UsageError("-o FILE is required");
+  auto given = [&](const char* flag) {
+    return std::find(r.image_flags.begin(), r.image_flags.end(), flag) != r.image_flags.end();
+  };
+  if (s.shadow() == v1::SHADOW_MODE_NONE && (given("--shadow-step") || given("--shadow-trilinear")))
+    throw UsageError(
+        "--shadow-step and --shadow-trilinear shape the marches toward the lights: not flags of "
+        "--shadow none");
   return r;
 }
 
@@ -323,9 +337,8 @@ int render(client::Client& client, const Request& r) {
     image.channels.push_back(
         {img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
   try {
-    client::write_exr(r.output, image);
     const std::string preview = r.preview.empty() ? client::preview_beside(r.output) : r.preview;
-    if (preview != "none") client::write_png_preview(preview, image.nx, image.ny, image.channels[0].values);
+    client::write_exr_and_preview(r.output, image, preview == "none" ? "" : preview);
   } catch (const std::exception& e) {
     std::cerr << "squall cloud: " << e.what() << "\n";
     return kLocalError;

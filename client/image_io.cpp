@@ -19,6 +19,17 @@
 
 namespace squall::client {
 
+void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png) {
+  write_exr(exr, image);
+  if (png.empty() || image.channels.empty()) return;
+  try {
+    write_png_preview(png, image.nx, image.ny, image.channels.front().values);
+  } catch (...) {
+    std::remove(exr.c_str());
+    throw;
+  }
+}
+
 void add_time_attribute(Image& image, double seconds) {
   std::ostringstream t;
   t.precision(17);

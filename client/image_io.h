@@ -27,6 +27,10 @@ struct Image {
   std::vector<std::pair<std::string, std::string>> attributes;
 };
 
+// Writes `exr` and, unless `png` is empty, the preview of its first channel to `png`: both or neither (an
+// EXR written before its preview failed is removed). Throws what the failing write threw.
+void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png);
+
 // Adds "squall.time_seconds": a frame's time, s, with 17 significant digits (read back as the same double).
 void add_time_attribute(Image& image, double seconds);
 

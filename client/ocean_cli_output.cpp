@@ -22,10 +22,7 @@ std::string frame_path(const std::string& dir, uint32_t index) {
 
 void write_tile(const squall::v1::GetTileResponse& tile, const google::protobuf::Message& request,
                 const std::string& exr, const std::string& png) {
-  client::Image image = client::ocean::tile_image(tile, request);
-  client::write_exr(exr, image);
-  if (!png.empty() && !image.channels.empty())
-    client::write_png_preview(png, image.nx, image.ny, image.channels.front().values);
+  client::write_exr_and_preview(exr, client::ocean::tile_image(tile, request), png);
 }
 
 void write_samples(std::ostream& out, const Request& r, const squall::v1::SampleSurfaceResponse& s) {

@@ -200,9 +200,13 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
 
 // "X,Y" in metres (not pair_of's shorthand: one number is no point, and an x is no separator here).
 std::pair<double, double> point(const std::string& flag, const std::string& text) {
-  const size_t comma = text.find(',');
-  if (comma == std::string::npos) throw UsageError(flag + " " + text + ": must be X,Y (m)");
-  return {number(flag, text.substr(0, comma), "m"), number(flag, text.substr(comma + 1), "m")};
+  const std::vector<std::string> xy = items(flag, text);
+  if (xy.size() != 2) throw UsageError(flag + " " + text + ": must be X,Y (m)");
+  try {
+    return {number(flag, xy[0], "m"), number(flag, xy[1], "m")};
+  } catch (const UsageError&) {  // named whole
+    throw UsageError(flag + " " + text + ": must be X,Y, two finite numbers (m)");
+  }
 }
 
 // A CSV line that names its columns ("x,y"): it starts with a letter, and is no number (nan, inf, infinity).

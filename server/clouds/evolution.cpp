@@ -22,9 +22,7 @@ void validate(const Evolution& e, const std::string& f) {
   validate::finite_xyz(f + ".drift", e.drift);
   validate::finite_xyz(f + ".noise_drift", e.noise_drift);
   validate::finite(f + ".amplitude_rate", e.amplitude_rate);
-  validate::finite(f + ".advection_rate", e.advection_rate);
-  if (e.advection_rate < 0)
-    fail(Code::InvalidArgument, f + ".advection_rate = " + std::to_string(e.advection_rate) + " must be >= 0");
+  validate::non_negative(f + ".advection_rate", e.advection_rate);
   validate::finite_xyz(f + ".velocity_drift", e.velocity_drift);
 }
 

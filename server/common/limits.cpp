@@ -50,10 +50,10 @@ void LimitGate::check_extents(const std::vector<std::string>& fields, const std:
 }
 
 void LimitGate::check_message_bytes(const std::string& what, uint64_t bytes) const {
-  if (bytes > limits_.max_message_bytes)
-    fail(Code::ResourceExhausted,
-         what + " needs " + std::to_string(bytes) +
-             " bytes, more than --max-message-bytes = " + std::to_string(limits_.max_message_bytes));
+  if (bytes > limits_.max_message_bytes || limits_.max_message_bytes - bytes < kReplyFieldBytes)
+    fail(Code::ResourceExhausted, what + " needs " + std::to_string(bytes) + " bytes and up to " +
+                                      std::to_string(kReplyFieldBytes) + " of other fields, more than " +
+                                      "--max-message-bytes = " + std::to_string(limits_.max_message_bytes));
 }
 
 void LimitGate::check_render_samples(const std::string& field, const std::string& value, double samples) const {

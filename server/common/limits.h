@@ -76,7 +76,10 @@ class LimitGate {
   // The same for a 2D grid whose extents have fields of other names (a texture's width and height).
   void check_grid(const std::string& x_field, const std::string& y_field, int64_t nx, int64_t ny) const;
 
-  // Bytes a reply would carry; RESOURCE_EXHAUSTED beyond max_message_bytes.
+  // A reply of `bytes` of payload (planes, images, checkpoints) and up to kReplyFieldBytes of other fields
+  // (names, units, spacings, statistics, framing); RESOURCE_EXHAUSTED, naming the flag, beyond
+  // max_message_bytes, before the work is done (gRPC would refuse to send it, naming nothing).
+  static constexpr uint64_t kReplyFieldBytes = 4096;
   void check_message_bytes(const std::string& what, uint64_t bytes) const;
 
   // The work a cloud render would do, estimated before it runs (density samples, an upper bound);

@@ -9,8 +9,9 @@
 namespace squall {
 
 // The bytes of the regular file at `path` (symbolic links followed); nullopt when nothing is there (ENOENT,
-// ENOTDIR). Throws Error(Code::DataLoss) naming the file as `name` when something else is there (a FIFO, a
-// directory, a device) or the file cannot be read.
+// ENOTDIR). Throws, naming the file as `name`, Error(Code::DataLoss) when something else is there (a FIFO,
+// a directory, a device), and Error(Code::Unavailable) when the file cannot be opened or read (EIO, ESTALE,
+// EACCES, ...: perhaps for a moment).
 std::optional<std::string> read_regular_file(const std::string& path, const std::string& name);
 
 }  // namespace squall

@@ -112,19 +112,23 @@ class SessionRegistry {
     std::function<bool(const std::string& id)> holds;
   };
   // Whether an enrolled store holds session `id` now: a call naming it goes on while the daemon drains.
+  // Under stores_mutex_ only, so that it never waits for a checkpoint pass or a handover.
   bool holds(const std::string& id) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(stores_mutex_);
     for (auto& [token, store] : stores_)
       if (store.holds(id)) return true;
     return false;
   }
+  // Both under mutex_ too: a pass in progress (which reads stores_ under mutex_) ends first.
   size_t enroll(Store store) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> pass(mutex_);
+    std::lock_guard<std::mutex> lock(stores_mutex_);
     stores_.emplace(next_, std::move(store));
     return next_++;
   }
   void withdraw(size_t token) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> pass(mutex_);
+    std::lock_guard<std::mutex> lock(stores_mutex_);
     stores_.erase(token);
   }
 
@@ -193,7 +197,8 @@ class SessionRegistry {
   const std::string replica_;
   const std::chrono::milliseconds owner_timeout_;
   std::atomic<bool> draining_{false};
-  std::mutex mutex_;
+  std::mutex mutex_;         // one checkpoint pass or handover beat at a time; stores_ changes under it too
+  std::mutex stores_mutex_;  // stores_ for holds(), which takes no other lock of the registry
   std::map<size_t, Store> stores_;
   size_t next_ = 0;
   std::mutex pending_mutex_;

@@ -400,8 +400,9 @@ class SessionStore {
   // entry is released, so that its calls answer UNAVAILABLE and its state, older than the new owner's, is
   // never written over the new owner's files. An entry live here has its ownership written (add()) and
   // given up only when it is released here, so no owner file at all means another replica took it over
-  // and gave it up since; an owner file that cannot be read counts as this replica's (a glitch of a
-  // network file system drops no session).
+  // and gave it up since (or an expiry pass removed it once this replica's heartbeat had stopped for the
+  // TTL); an owner file that cannot be read, or a state directory that is not the one opened, counts as
+  // this replica's (a glitch of a network file system drops no session).
   bool let_go_if_taken_over(Entry& entry) {
     if (!persistent()) return false;
     const std::optional<std::string> owner = state_dir()->owner(entry.id);

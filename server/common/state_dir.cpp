@@ -111,6 +111,12 @@ std::optional<Stamp> stamp(const std::string& path) {
   return s;
 }
 
+// Whether nothing is at `path`, beyond doubt (stat(2) says ENOENT; any other failure is a doubt).
+bool certainly_absent(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) != 0 && errno == ENOENT;
+}
+
 // Makes a rename or link in `path` durable, where the file system can: some refuse fsync on directories,
 // which is harmless, and so is a directory that cannot be opened for it.
 void sync_directory(const std::string& path) {
@@ -163,9 +169,16 @@ StateDir::StateDir(std::string path, const std::string& flag) : path_(std::move(
   if (std::string why = unwritable_directory(path_); !why.empty())
     throw std::runtime_error(flag + " " + path_ + ": " + why);
   if (!existed) fs::permissions(path_, fs::perms::owner_all, fs::perm_options::replace, error);
+  struct stat st;
+  if (::stat(path_.c_str(), &st) != 0) throw std::runtime_error(flag + " " + path_ + ": " + std::strerror(errno));
+  identity_ = {st.st_dev, st.st_ino};
   // Ownership is claimed by link(2) (claim_owner): a file system without hard links cannot hold it.
   const std::string probe = temporary(path_ + "/.squalld-link-test", ""), second_name = probe + "-link";
-  new_token(probe);
+  try {
+    new_token(probe);
+  } catch (const Error& e) {
+    throw std::runtime_error(flag + " " + path_ + ": " + e.what());
+  }
   const bool links = ::link(probe.c_str(), second_name.c_str()) == 0;
   const std::string why = std::strerror(errno);
   std::remove(second_name.c_str());
@@ -193,9 +206,23 @@ std::string StateDir::replica_file(const std::string& replica) const {
   return path_ + "/replicas/" + name;
 }
 
+bool StateDir::same_directory() const {
+  struct stat st;
+  return ::stat(path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode) && st.st_dev == identity_.first &&
+         st.st_ino == identity_.second;
+}
+
+void StateDir::require_same_directory() const {
+  if (!same_directory())
+    fail(Code::Unavailable,
+         "state directory: it is no longer the directory squalld started with (unmounted, moved or replaced); "
+         "retry later");
+}
+
 void StateDir::write(const std::string& id, const std::string& bytes) const {
   auto file = file_of(id, kSession);
   if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
+  require_same_directory();
   write_atomically(*file, path_, bytes);
 }
 
@@ -232,6 +259,7 @@ bool StateDir::claim_owner(const std::string& id, const std::string& replica,
                            const std::function<bool(const std::string& owner)>& may_take, std::string* holder) const {
   auto file = file_of(id, kOwner);
   if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
+  require_same_directory();
   const std::string mine = temporary(*file, "");
   write_synced(mine, replica);  // before the lock, which is then held for a read and a link
   bool claimed = false;
@@ -328,9 +356,7 @@ std::optional<std::string> StateDir::owner(const std::string& id) const {
 
 bool StateDir::owner_missing(const std::string& id) const {
   auto file = file_of(id, kOwner);
-  struct stat st;
-  if (!file || ::stat(file->c_str(), &st) == 0 || errno != ENOENT) return false;
-  return ::stat(path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode);  // not a directory gone or replaced
+  return file && certainly_absent(*file) && same_directory();  // not in a directory gone or replaced
 }
 
 void StateDir::clear_ownership_of(const std::string& replica) const {
@@ -442,20 +468,34 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
 // once the session's checkpoint has expired too: removed under the session's lock when it names a replica
 // that has not beaten for `ttl` (or names none) and no checkpoint has come back since.
 bool StateDir::expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const {
-  const std::optional<std::string> file = file_of(id, kOwner);
-  if (!file || checkpointed(id)) return false;
+  const std::optional<std::string> file = file_of(id, kOwner), checkpoint = file_of(id, kSession);
+  if (!file || !certainly_absent(*checkpoint)) return false;
   const std::optional<Stamp> written = stamp(*file);
   if (!written || now - written->written <= ttl) return false;
   bool removed = false;
   try {
     with_owner_lock(id, [&] {
-      const std::optional<std::string> named = owner(id);
-      if (checkpointed(id) || (named && alive(*named, ttl))) return;
+      std::optional<std::string> named;
+      try {
+        named = read_whole(*file);
+      } catch (const Error& e) {
+        if (e.code() != Code::DataLoss) return;  // unreadable for now: kept; DataLoss: no owner record at all
+      }
+      if (!certainly_absent(*checkpoint) || (named && !silent_for(*named, ttl, now))) return;
       removed = std::remove(file->c_str()) == 0;
     });
-  } catch (const Error&) {  // the lock is another replica's now: the next pass
+  } catch (const Error&) {  // the lock is another replica's now, or the directory failed: the next pass
   }
   return removed;
+}
+
+// Beyond doubt: the heartbeat file is gone, or it was last written more than `ttl` before `now`.
+bool StateDir::silent_for(const std::string& replica, std::chrono::milliseconds ttl, FileTime now) const {
+  const int fd = ::open(replica_file(replica).c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+  if (fd < 0) return errno == ENOENT;
+  const std::optional<Stamp> beat = stamp_of(fd);
+  ::close(fd);
+  return beat && now - beat->written > ttl;
 }
 
 size_t StateDir::expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const {

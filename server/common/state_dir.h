@@ -16,6 +16,8 @@
 // the directory is damage, not a reader's wait).
 #pragma once
 
+#include <sys/types.h>
+
 #include <chrono>
 #include <functional>
 #include <mutex>
@@ -59,7 +61,9 @@ class StateDir {
   void give_up(const std::string& id, const std::string& owner) const;
   std::optional<std::string> owner(const std::string& id) const;
   void clear_ownership_of(const std::string& replica) const;  // every owner file naming `replica`
-  bool owner_missing(const std::string& id) const;            // no owner file (false where it cannot be told)
+  // No owner file, beyond doubt: false where it cannot be told, and in a directory that is no longer the one
+  // opened (an unmounted volume's empty mount point).
+  bool owner_missing(const std::string& id) const;
 
   // Heartbeats: a replica rewrites its file ("alive now") and removes it when it exits ("gone"). It is
   // alive while its file was written within `timeout` of now, both times as the file system stamps them
@@ -89,8 +93,14 @@ class StateDir {
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
   bool expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
+  bool silent_for(const std::string& replica, std::chrono::milliseconds ttl, FileTime now) const;
   size_t expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const;
+  // Whether path_ is still the directory opened at construction (not a mount point's empty directory
+  // after an unmount, nor one moved or replaced); UNAVAILABLE from the require_ form when not.
+  bool same_directory() const;
+  void require_same_directory() const;
   std::string path_;
+  std::pair<dev_t, ino_t> identity_{};  // of path_ at construction
   mutable std::mutex beat_mutex_;
   mutable std::pair<std::string, std::chrono::steady_clock::time_point> beat_;  // this process's last heartbeat
 };

@@ -157,7 +157,7 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
     if (n < 1 || n > kMaxSamplePoints)
       fail(Code::InvalidArgument,
            "points has " + std::to_string(n) + " entries: must be 1 to " + std::to_string(kMaxSamplePoints));
-    serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint + 64);
+    serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint);
     std::vector<ocean::Vec2> points(n);  // each checked finite by sample(), naming "points[i].x"
     for (int i = 0; i < n; ++i) points[i] = {request->points(i).x(), request->points(i).y()};
     Slot memory = serving_.gate().acquire_memory("SampleSurface's layers", ocean::sample_bytes(spec));

@@ -87,8 +87,10 @@ void validate_layer(const std::string& f, const LayerSpec& L, const LimitGate& g
   validate::in(f + ".drift_y", L.drift_y, validate::closed(-100, 100));
   non_negative(f + ".k_min", L.k_min);
   non_negative(f + ".k_max", L.k_max);
-  if (L.k_max > 0 && L.k_max <= L.k_min)
-    validate::reject(f + ".k_max", L.k_max, "0 (no limit) or > " + f + ".k_min = " + validate::number(L.k_min));
+  // Compared in single precision too, as the device reads them: a k_max that rounds to 0 would mean no limit.
+  if (L.k_max > 0 && (L.k_max <= L.k_min || float(L.k_max) <= float(L.k_min)))
+    validate::reject(f + ".k_max", L.k_max,
+                     "0 (no limit) or > " + f + ".k_min = " + validate::number(L.k_min) + " in single precision too");
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // The bookkeeping of every streaming handler, written once: the serving check, a --max-streams slot held
 // for the whole call, cancellation (client gone, deadline passed, server shutting down) checked before
-// each message, and the status the call ends with. When squalld drains, a stream that names no session live
-// here when it opened ends before its next message with UNAVAILABLE (reopen it on another replica); one
+// each message, and the status the call ends with. When squalld drains, a stream whose x-squall-session names
+// no session live here ends before its next message with UNAVAILABLE (reopen it on another replica); one
 // that names such a session goes on until the session is checkpointed for another replica, whose calls then
 // answer UNAVAILABLE.
 #pragma once
@@ -21,12 +21,14 @@ namespace squall::rpc {
 class StreamCall {
  public:
   StreamCall(grpc::ServerContext& context, const char* method, const ServingState& serving)
-      : context_(context), method_(method), serving_(serving), names_session_(serving.names_live_session(context)) {}
+      : context_(context), method_(method), serving_(serving) {}
 
-  // False once the call is cancelled, a write failed, or squalld drains (streams naming no session); the
-  // handler then stops.
+  // False once the call is cancelled, a write failed, or squalld drains (streams naming no session live
+  // here, asked while draining: the stream's own messages may have resumed it); the handler then stops.
   bool live() const {
-    if (!names_session_ && serving_.phase() == ServingState::Phase::Draining) stopped_by_drain_ = true;
+    if (!stopped_by_drain_ && serving_.phase() == ServingState::Phase::Draining &&
+        !serving_.names_live_session(context_))
+      stopped_by_drain_ = true;
     return !ended_ && !context_.IsCancelled() && !stopped_by_drain_;
   }
 
@@ -62,7 +64,6 @@ class StreamCall {
   grpc::ServerContext& context_;
   std::string method_;
   const ServingState& serving_;
-  const bool names_session_;  // x-squall-session of a session live here: ends with its session's move
   // A write failed; live() said no because squalld drains. Atomic: engines ask live() from their worker
   // threads (a stream's next frame is computed while the handler writes the last).
   std::atomic<bool> ended_{false};

@@ -616,6 +616,11 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--size", "8x8x8"}, "--size 8x8x8: must be WxH, two integers >= 1"},
       {{"render", "--size", "8x4294967296"}, "--size 8x4294967296: must be WxH"},
       {{"render", "--phase", "hg"}, "--phase hg: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
+      {{"render", "--phase", "hg:0.5,0.3"}, "--phase hg:0.5,0.3: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
+      {{"render", "--phase", "uniform:anything"}, "--phase uniform:anything: uniform, hg:G"},
+      {{"render", "--step", "1,2"}, "--step 1,2: needs 1 number"},
+      {{"render", "--shadow", "none", "--shadow-step", "5"}, "not flags of --shadow none"},
+      {{"render", "--shadow-trilinear", "--shadow", "none"}, "not flags of --shadow none"},
       {{"frobnicate"}, "unknown cloud verb frobnicate (build or render)"},
       // flags the verb would ignore, and squall's own after the verb
       {{"build", "--eye", "0,1,0"}, "--eye is not a flag of `squall cloud build`"},

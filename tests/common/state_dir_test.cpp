@@ -487,7 +487,7 @@ TEST(StateDir, FilesThatAreNotRegularAreDamageNotAWait) {
   EXPECT_FALSE(a.registry.state_dir()->owner(other)) << "no owner named";
   std::this_thread::sleep_for(20ms);
   a.registry.heartbeat();
-  EXPECT_GE(a.registry.state_dir()->expire(10ms), 3u) << "the stale FIFOs: session, owner, handover, heartbeat";
+  EXPECT_EQ(a.registry.state_dir()->expire(10ms), 5u) << "the stale FIFOs and the empty directory";
   EXPECT_FALSE(fs::exists(dir + "/" + kId + ".session"));
   EXPECT_FALSE(fs::exists(dir + "/" + other + ".owner"));
 }
@@ -511,9 +511,9 @@ TEST(StateDir, ACheckpointHoldingAnotherSessionsIdResumesNothing) {
   expect_error(Code::NotFound, "counter_id", [&] { b.store.get(kId); });
 }
 
-// A state directory moved away, or replaced by a file, is no sign that another replica took the sessions
-// over: they stay live here (their checkpoints fail until it is back), and a heartbeat does not make an
-// empty directory in its place.
+// A state directory moved away, replaced by a file or by an empty directory (a volume unmounted from its
+// mount point) is no sign that another replica took the sessions over: they stay live here (their
+// checkpoints fail until it is back), and a heartbeat does not make an empty directory in its place.
 TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
   const std::string root = test::temp_dir("state-gone"), dir = root + "/state";
   Replica a(dir, "a");
@@ -525,6 +525,13 @@ TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
   put(dir, "a file where the directory was");
   EXPECT_EQ(a.registry.checkpoint_all(false), 0u);
   EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "the session is still live here";
+  fs::remove(dir);
+  fs::create_directory(dir);
+  EXPECT_EQ(a.registry.checkpoint_all(false), 0u) << "not written into an empty mount point";
+  EXPECT_TRUE(fs::is_empty(dir));
+  expect_error(Code::Unavailable, "no longer the directory squalld started with",
+               [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
+  EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6);
   fs::remove(dir);
   fs::rename(root + "/moved", dir);
   EXPECT_EQ(a.registry.checkpoint_all(false), 1u) << "written again once the directory is back";
@@ -541,10 +548,10 @@ TEST(StateDir, OwnerFilesAndHeartbeatsOfAReplicaKilledLongAgoExpire) {
   ASSERT_TRUE(state.create_owner(kId, "dead"));
   ASSERT_TRUE(state.create_owner(live, "live"));
   ASSERT_TRUE(state.create_owner(kept, "dead"));
-  std::this_thread::sleep_for(50ms);
+  std::this_thread::sleep_for(600ms);
   state.heartbeat("live");
   state.write(kept, "a checkpoint of its own");
-  EXPECT_EQ(state.expire(30ms), 2u) << "the dead replica's owner file of kId and its heartbeat";
+  EXPECT_EQ(state.expire(300ms), 2u) << "the dead replica's owner file of kId and its heartbeat";
   EXPECT_FALSE(state.owner(kId));
   EXPECT_FALSE(fs::exists(dir + "/replicas/dead"));
   EXPECT_EQ(state.owner(live).value(), "live");

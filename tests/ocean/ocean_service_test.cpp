@@ -578,6 +578,11 @@ TEST(OceanCli, ThePreviewNeverReplacesTheTileAndAFullDiskExitsFive) {
     EXPECT_EQ(test::run(cli_args({"tile", "--grid", "16", "--preview", "none", "-o", "/dev/full"}), &out), 5) << out;
     EXPECT_NE(out.find("cannot write /dev/full"), std::string::npos) << out;
   }
+  // A preview that cannot be written takes its EXR with it: both files or neither.
+  EXPECT_EQ(test::run(cli_args({"tile", "--grid", "16", "-o", dir + "/u.exr", "--preview", dir + "/no/u.png"}), &out),
+            5)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/u.exr"));
 }
 
 TEST(OceanCli, ReadableErrorsAndExitCodes) {
@@ -592,6 +597,10 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find("must be one of"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // one number is no point
   EXPECT_NE(out.find("--point 1: must be X,Y (m)"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"sample", "--point", "1,2,3"}), &out), 2) << out;  // named whole
+  EXPECT_NE(out.find("--point 1,2,3: must be X,Y (m)"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"sample", "--point", "1,north"}), &out), 2) << out;
+  EXPECT_NE(out.find("--point 1,north: must be X,Y, two finite numbers (m)"), std::string::npos) << out;
   const std::string points = test::temp_dir("ocean-cli-points") + "/points.csv";
   std::ofstream(points) << "x,y\r\n1,2\r\n5\r\n";  // a line of one number, in a CRLF file
   EXPECT_EQ(test::run(cli_args({"sample", "--points-file", points}), &out), 2) << out;
@@ -600,7 +609,7 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   // mark.
   std::ofstream(points, std::ios::trunc) << "Infinity,2\n";
   EXPECT_EQ(test::run(cli_args({"sample", "--grid", "16", "--points-file", points}), &out), 2) << out;
-  EXPECT_NE(out.find(":1 Infinity: must be a finite number"), std::string::npos) << out;
+  EXPECT_NE(out.find(":1 Infinity,2: must be X,Y, two finite numbers (m)"), std::string::npos) << out;
   std::ofstream(points, std::ios::trunc) << "\xEF\xBB\xBF# made by hand\nx,y\n1,2\n";
   EXPECT_EQ(test::run(cli_args({"sample", "--grid", "16", "--points-file", points}), &out), 0) << out;
   EXPECT_NE(out.find("\n1,2,"), std::string::npos) << out;

@@ -802,6 +802,7 @@ CASES += [
     bad(R, "gravity_zero", put(f"{L0}.gravity", 0.0), f"{L0}.gravity"),
     bad(R, "drift_x_too_fast", put(f"{L0}.drift_x", 1000.0), f"{L0}.drift_x"),
     bad(R, "k_max_below_k_min", also(put(f"{L0}.k_min", 2.0), put(f"{L0}.k_max", 1.0)), "k_max"),
+    bad(R, "k_max_zero_in_single_precision", put(f"{L0}.k_max", 1e-300), "k_max = 1e-300"),
     bad(
         R,
         "partials_without_multipeak",
@@ -1453,8 +1454,8 @@ CASES += [
     bad(
         R,
         "advection_rate_negative",
-        put("evolution.advection_rate", -1.0),
-        "evolution.advection_rate",
+        put("evolution.advection_rate", -1e-9),
+        "evolution.advection_rate = -1e-09",
     ),
     bad(
         R,

@@ -67,11 +67,13 @@ TEST(Limits, EachClientHasItsOwnShareOfStreams) {
   EXPECT_NO_THROW(LimitGate(Limits{.max_streams_per_client = 0}).acquire_client_stream("any"));  // 0: no limit
 }
 
+// A reply's payload and room for its other fields (names, statistics) must fit.
 TEST(Limits, MessageBytes) {
-  LimitGate gate(Limits{.max_message_bytes = 100});
-  EXPECT_NO_THROW(gate.check_message_bytes("frame", 100));
-  EXPECT_EQ(message_of([&] { gate.check_message_bytes("frame", 101); }, Code::ResourceExhausted),
-            "frame needs 101 bytes, more than --max-message-bytes = 100");
+  LimitGate gate(Limits{.max_message_bytes = 5096});
+  EXPECT_NO_THROW(gate.check_message_bytes("frame", 1000));
+  EXPECT_EQ(message_of([&] { gate.check_message_bytes("frame", 1001); }, Code::ResourceExhausted),
+            "frame needs 1001 bytes and up to 4096 of other fields, more than --max-message-bytes = 5096");
+  EXPECT_THROW(gate.check_message_bytes("frame", UINT64_MAX), Error);
 }
 
 // memory_room says whether acquire_memory would succeed, counting what a holder would give back for it.
