@@ -1,5 +1,7 @@
 #include "clouds/obj_mesh.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include "common/error.h"
@@ -20,20 +22,28 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
     std::istringstream in(line);
     std::string tag;
     in >> tag;
-    if (tag == "v") {
+    if (tag == "v") {  // x y z, then an optional w (or an exporter's colour), not read
       Vec3d v;
-      if (!(in >> v[0] >> v[1] >> v[2])) bad("a vertex needs three numbers");
+      for (int a = 0; a < 3; ++a) {
+        std::string token;
+        if (!(in >> token)) bad("a vertex needs three numbers");
+        char* end = nullptr;
+        v[a] = std::strtod(token.c_str(), &end);
+        if (*end || !std::isfinite(v[a])) bad("vertex coordinate \"" + token + "\" is not a finite number");
+      }
       mesh.vertices.push_back(v);
     } else if (tag == "f") {
       std::vector<uint32_t> face;
       std::string token;
       while (in >> token) {
         long index = 0;
+        const std::string vertex = token.substr(0, token.find('/'));  // v/vt/vn: the vertex
+        size_t used = 0;
         try {
-          index = std::stol(token.substr(0, token.find('/')));
+          index = std::stol(vertex, &used);
         } catch (const std::exception&) {
-          bad("face index \"" + token + "\" is not a number");
         }
+        if (vertex.empty() || used != vertex.size()) bad("face index \"" + token + "\" is not a whole number");
         long n = long(mesh.vertices.size());
         long resolved = index > 0 ? index - 1 : n + index;
         if (index == 0 || resolved < 0 || resolved >= n) bad("face index " + token + " is out of range");
