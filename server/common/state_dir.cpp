@@ -58,8 +58,8 @@ void write_synced(const std::string& path, const std::string& bytes) {
   if (::close(fd) != 0 || !synced) fail_io("sync", path);
 }
 
-// The bytes of the regular file `path`, nullopt when there is none; DATA_LOSS naming it within the
-// directory when something else is there (a FIFO, a directory) or it cannot be read.
+// The bytes of the regular file `path`, nullopt when there is none, named within the directory in errors:
+// DATA_LOSS when something else is there (a FIFO, a directory), UNAVAILABLE when it cannot be read now.
 std::optional<std::string> read_whole(const std::string& path) {
   return read_regular_file(path, "state directory: " + fs::path(path).filename().string());
 }
@@ -348,7 +348,7 @@ std::optional<std::string> StateDir::owner(const std::string& id) const {
   auto file = file_of(id, kOwner);
   try {
     return file ? read_whole(*file) : std::nullopt;
-  } catch (const Error& e) {  // something that is no owner record: no owner named, but not missing either
+  } catch (const Error& e) {  // no owner record, or none readable now: no owner named, but not missing either
     log(LogLevel::Error, e.what());
     return std::nullopt;
   }
