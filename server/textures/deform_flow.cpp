@@ -15,7 +15,7 @@ namespace {
 
 uint64_t key_hash(const DeformSpec& s) {
   uint64_t h = kFnv1aOffsetBasis;
-  const int sizes[] = {s.width, s.height, s.max_iterations};
+  const int64_t sizes[] = {s.width, s.height, s.max_iterations};
   h = fnv1a(h, sizes, sizeof(sizes));
   h = fnv1a(h, &s.tolerance, sizeof(s.tolerance));
   h = fnv1a(h, s.rigidity.data(), s.rigidity.size() * sizeof(float));

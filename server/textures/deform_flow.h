@@ -42,7 +42,8 @@ class FlowCache {
  private:
   struct Entry {
     uint64_t hash;
-    int width, height, max_iterations;
+    int width, height;
+    int64_t max_iterations;
     double tolerance;
     std::vector<float> rigidity;
     std::vector<uint8_t> chart;

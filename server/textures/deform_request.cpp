@@ -13,8 +13,6 @@ namespace {
 namespace v1 = squall::v1;
 using validate::at;
 
-int clamped(uint32_t v) { return int(std::min<uint32_t>(v, 1u << 30)); }
-
 DeformControlKind control_kind(int kind, const std::string& path) {
   switch (validate::known(path, kind, 6, "DeformControlKind")) {
     case v1::DEFORM_CONTROL_MAP: return DeformControlKind::Map;
@@ -66,12 +64,12 @@ DeformSpec deform_spec(const v1::DeformTextureRequest& r, const LimitGate& gate,
   if (r.has_deformation_end()) c.deformation_end = tensor(r.deformation_end());
   c.strokes = strokes(r.strokes());
   c.paper_dt_factor = r.paper_dt_factor();
-  s.frames = clamped(r.frames());
+  s.frames = r.frames();
   s.dt = r.has_dt() ? r.dt() : 1.0 / 30;
-  s.substeps = r.has_substeps() ? clamped(r.substeps()) : 10;
-  s.stack_levels = clamped(r.stack_levels());
+  s.substeps = r.has_substeps() ? r.substeps() : 10;
+  s.stack_levels = r.stack_levels();
   s.tolerance = r.has_tolerance() ? r.tolerance() : 1e-6;
-  s.max_iterations = r.has_max_iterations() ? clamped(r.max_iterations()) : 4000;
+  s.max_iterations = r.has_max_iterations() ? r.max_iterations() : 4000;
   return s;
 }
 

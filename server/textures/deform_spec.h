@@ -50,12 +50,13 @@ struct DeformSpec {
   std::vector<float> rigidity;  // R, width * height, each in [-1, 1]
   std::vector<uint8_t> chart;   // width * height, nonzero inside the chart; empty: all inside
   DeformControl control;
-  int frames = 1;             // frame 0 is the undeformed texture
-  double dt = 1.0 / 30;       // s between frames
-  int substeps = 10;          // Euler sub-steps per frame
-  int stack_levels = 0;       // L: stack levels h = -L..L; 0: no stack
-  double tolerance = 1e-6;    // flow solve: relative residual of the normal equations
-  int max_iterations = 4000;  // flow solve
+  // Counts as the request sent them (validated against their ranges before use, and named as sent).
+  int64_t frames = 1;             // frame 0 is the undeformed texture
+  double dt = 1.0 / 30;           // s between frames
+  int64_t substeps = 10;          // Euler sub-steps per frame
+  int64_t stack_levels = 0;       // L: stack levels h = -L..L; 0: no stack
+  double tolerance = 1e-6;        // flow solve: relative residual of the normal equations
+  int64_t max_iterations = 4000;  // flow solve
 };
 
 // The planes a frame carries (in this order when set).

@@ -175,8 +175,9 @@ struct AdvectSpec {
   OutputSpec output;
   double t0 = 0;         // s, time of frame 0
   double dt = 1.0 / 30;  // s between frames, > 0
-  int frames = 1;
-  int substeps = 1;  // integration steps per frame
+  // Counts as the request sent them (validated against their ranges before use, and named as sent).
+  int64_t frames = 1;
+  int64_t substeps = 1;  // integration steps per frame
   uint64_t seed = 1;
   LagrangianParams lagrangian;
   EulerianParams eulerian;  // method EulerianMultilayer (TwoPhaseFlowMap and Naive set their own)

@@ -435,8 +435,8 @@ AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const 
   s.output = output(r.output(), gate, path + ".output");
   s.t0 = r.t0();
   s.dt = r.has_dt() ? r.dt() : 1.0 / 30;
-  s.frames = clamped(r.frames());
-  s.substeps = r.has_substeps() ? clamped(r.substeps()) : 1;
+  s.frames = r.frames();
+  s.substeps = r.has_substeps() ? r.substeps() : 1;
   s.seed = r.has_seed() ? r.seed() : 1;
   s.lagrangian = lagrangian(r.lagrangian(), path + ".lagrangian");
   s.eulerian = eulerian(r.eulerian(), s.method, path + ".eulerian");

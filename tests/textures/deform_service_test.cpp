@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 
 #include "common/field_codec.h"
@@ -219,6 +220,15 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
   r.set_d_mu(NAN);
   test::expect_error(Code::InvalidArgument, "request.d_mu", [&] { deform_or_throw(r); });
+  for (const auto& [edit, needle] : std::vector<std::pair<std::function<void(v1::DeformTextureRequest&)>, std::string>>{
+           {[](auto& q) { q.set_frames(4294967295u); }, "request.frames = 4294967295 must be in [1, 100000]"},
+           {[](auto& q) { q.set_substeps(4294967295u); }, "request.substeps = 4294967295 must be in [1, 100]"},
+           {[](auto& q) { q.set_stack_levels(4294967295u); }, "request.stack_levels = 4294967295 must be in [0, 16]"},
+           {[](auto& q) { q.set_max_iterations(4294967295u); }, "request.max_iterations = 4294967295 must be in"}}) {
+    r = request(v1::DEFORM_CONTROL_CONSTANT, 2);  // counts are named as sent, not capped
+    edit(r);
+    test::expect_error(Code::InvalidArgument, needle, [&] { deform_or_throw(r); });
+  }
   r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
   r.set_control(v1::DeformControlKind(17));
   test::expect_error(Code::InvalidArgument, "request.control = 17", [&] { deform_or_throw(r); });

@@ -406,6 +406,10 @@ TEST(TexturesService, BadRequestsGetClearErrors) {
       {[](v1::AdvectTextureRequest& r) { r.mutable_texture()->mutable_image()->set_png("\x89PNG\r\n\x1a\n garbage"); },
        Code::InvalidArgument, "request.texture.image.png"},
       {[](v1::AdvectTextureRequest& r) { r.set_frames(0); }, Code::InvalidArgument, "request.frames = 0"},
+      {[](v1::AdvectTextureRequest& r) { r.set_frames(4294967295u); }, Code::InvalidArgument,
+       "request.frames = 4294967295 must be in [1, 100000]"},  // as sent, not capped
+      {[](v1::AdvectTextureRequest& r) { r.set_substeps(4294967295u); }, Code::InvalidArgument,
+       "request.substeps = 4294967295 must be in [1, 64]"},
       {[](v1::AdvectTextureRequest& r) { r.mutable_output()->mutable_region()->set_x0(2); }, Code::InvalidArgument,
        "request.output.region.x1 = 0 must be finite and > 2"},
       {[](v1::AdvectTextureRequest& r) { r.mutable_output()->set_dtype(v1::DType(9)); }, Code::InvalidArgument,
