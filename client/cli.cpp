@@ -3,14 +3,17 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <iostream>
+#include <optional>
+#include <sstream>
 
 #include "client/cli_flags.h"
-#include "client/ewave_cli.h"
 #include "client/cloud_cli.h"
+#include "client/ewave_cli.h"
 #include "client/ocean_cli.h"
 #include "client/texture_cli.h"
+#include "common/error.h"
+#include "common/regular_file.h"
 
 namespace squall::cli {
 namespace {
@@ -152,9 +155,14 @@ int main(int argc, char** argv) {
     } else if (arg == "--request-id") {
       options.request_id = value;
     } else if (arg == "--token-file") {
-      std::ifstream in(value);
-      if (!in) return std::cerr << "squall: --token-file " << value << ": cannot read\n", kUsage;
-      if (!(in >> options.token)) return std::cerr << "squall: --token-file " << value << ": no token in it\n", kUsage;
+      std::optional<std::string> text;
+      try {
+        text = read_regular_file(value, "--token-file " + value);
+      } catch (const Error&) {  // a FIFO, a directory, a read error: said the same way
+      }
+      if (!text) return std::cerr << "squall: --token-file " << value << ": cannot read\n", kUsage;
+      if (!(std::istringstream(*text) >> options.token))
+        return std::cerr << "squall: --token-file " << value << ": no token in it\n", kUsage;
     } else if (arg == "--tls-ca") {
       options.tls_ca = value;
     } else if (arg == "--tls-cert") {

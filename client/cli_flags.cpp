@@ -6,9 +6,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
-#include <sstream>
+#include <optional>
+
+#include "common/error.h"
+#include "common/regular_file.h"
 
 namespace squall::cli {
 
@@ -77,13 +79,14 @@ void refuse_unused(const std::string& command, const std::vector<std::string>& g
 }
 
 std::string read_bytes(const std::string& flag, const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::error_code ignored;
-  if (!in || !std::filesystem::is_regular_file(path, ignored)) throw UsageError(flag + " " + path + ": cannot read it");
-  std::stringstream s;
-  s << in.rdbuf();
-  if (s.str().empty()) throw UsageError(flag + " " + path + ": the file is empty");
-  return s.str();
+  std::optional<std::string> bytes;
+  try {
+    bytes = read_regular_file(path, flag + " " + path);
+  } catch (const Error&) {  // a FIFO, a directory, a read error: said the same way
+  }
+  if (!bytes) throw UsageError(flag + " " + path + ": cannot read it");
+  if (bytes->empty()) throw UsageError(flag + " " + path + ": the file is empty");
+  return *bytes;
 }
 
 void check_preview(const std::string& output, const std::string& preview) {
@@ -105,6 +108,10 @@ bool global_flag(const std::string& arg) {
   static const std::set<std::string> flags = {"--address", "--timeout",  "--request-id", "--token-file",
                                               "--tls-ca",  "--tls-cert", "--tls-key"};
   return flags.count(arg) > 0;
+}
+
+bool given(const std::vector<std::pair<std::string, std::string>>& flags, const std::string& flag) {
+  return std::any_of(flags.begin(), flags.end(), [&](const auto& f) { return f.first == flag; });
 }
 
 std::string global_flag_after(const std::string& arg, const std::string& verb) {

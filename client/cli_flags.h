@@ -53,6 +53,9 @@ void check_preview(const std::string& output, const std::string& preview);
 // "squall.ewave.wake.speed".
 std::string attribute_name(const std::string& prefix, const std::string& flag);
 
+// Whether `flag` is among the (flag, value) pairs a verb recorded as given.
+bool given(const std::vector<std::pair<std::string, std::string>>& flags, const std::string& flag);
+
 // The flags of `squall` itself (--address, --timeout, ...), which go before the verb.
 bool global_flag(const std::string& arg);
 // What to say of one of them given after `verb`.

@@ -4,12 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
+#include <optional>
 #include <random>
-#include <iterator>
 #include <thread>
 
+#include "common/error.h"
+#include "common/regular_file.h"
 #include "server/common/status_names.h"
 
 namespace squall::client {
@@ -25,11 +25,12 @@ RpcError::RpcError(const std::string& method, const grpc::Status& status)
 namespace {
 
 std::string read_file(const std::string& path, const char* flag) {
-  std::ifstream in(path, std::ios::binary);
-  std::error_code ignored;
-  if (!in || !std::filesystem::is_regular_file(path, ignored))
-    throw OptionsError(std::string(flag) + " " + path + ": cannot read");
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string name = std::string(flag) + " " + path;
+  try {
+    if (std::optional<std::string> bytes = read_regular_file(path, name)) return *bytes;
+  } catch (const Error&) {  // a FIFO, a directory, a read error: said the same way
+  }
+  throw OptionsError(name + ": cannot read");
 }
 
 std::shared_ptr<grpc::ChannelCredentials> credentials(const ClientOptions& o) {

@@ -133,10 +133,7 @@ Wake parse(const std::vector<std::string>& args) {
   }
   if (w.out.empty()) throw UsageError("-o DIR is required");
   if (!(w.speed > 0)) throw UsageError("--speed must be > 0");
-  const auto given = [&](const char* flag) {
-    return std::any_of(w.flags.begin(), w.flags.end(), [&](const auto& f) { return f.first == flag; });
-  };
-  if (w.hull == "circle" && given("--beam"))
+  if (w.hull == "circle" && given(w.flags, "--beam"))
     throw UsageError("--beam is not a flag of a circle hull: its size is --length, the diameter");
   return w;
 }

@@ -10,11 +10,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 
 namespace squall::client {

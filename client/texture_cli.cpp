@@ -224,17 +224,16 @@ Advect parse(const std::vector<std::string>& args) {
     apply(args[i], args[i + 1], a);
   }
   if (a.out.empty()) throw UsageError("--out DIR is required");
-  auto given = [&](const char* flag) {
-    return std::any_of(a.flags.begin(), a.flags.end(), [&](const auto& f) { return f.first == flag; });
-  };
   const auto method = a.request.method();
   if (method != v1::TEXTURE_METHOD_UNSPECIFIED && method != v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS) {
     const std::string name =
         std::find_if(kMethods.begin(), kMethods.end(), [&](const auto& m) { return m.second == method; })->first;
-    if (given("--d")) throw UsageError("--d is the Lagrangian grids' Poisson radius: not a flag of --method " + name);
-    if (given("--seed")) throw UsageError("--seed places the Lagrangian grids: not a flag of --method " + name);
+    if (given(a.flags, "--d"))
+      throw UsageError("--d is the Lagrangian grids' Poisson radius: not a flag of --method " + name);
+    if (given(a.flags, "--seed"))
+      throw UsageError("--seed places the Lagrangian grids: not a flag of --method " + name);
   }
-  if (given("--image") && (given("--noise") || given("--spin")))
+  if (given(a.flags, "--image") && (given(a.flags, "--noise") || given(a.flags, "--spin")))
     throw UsageError("--image is the texture: --noise and --spin are flags of a noise texture");
   return a;
 }

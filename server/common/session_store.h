@@ -533,11 +533,11 @@ class SessionStore {
   mutable std::mutex mutex_;
   std::mutex moving_;  // a checkpoint resumed or closed from the state directory, one id at a time
   std::map<std::string, std::shared_ptr<Entry>> entries_;
-  // persist(): the payload format and its writer and reader, and the registry's token for this store.
+  // persist(): the payload format and its writer and reader, persisted_ once both are set.
   Save save_;
   std::function<void(const std::string&)> resume_;
   std::atomic<bool> persisted_{false};
-  std::optional<size_t> enrolled_;
+  std::optional<size_t> enrolled_;  // the registry's token for this store
 };
 
 }  // namespace squall

@@ -491,11 +491,9 @@ bool StateDir::expire_owner(const std::string& id, std::chrono::milliseconds ttl
 
 // Beyond doubt: the heartbeat file is gone, or it was last written more than `ttl` before `now`.
 bool StateDir::silent_for(const std::string& replica, std::chrono::milliseconds ttl, FileTime now) const {
-  const int fd = ::open(replica_file(replica).c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
-  if (fd < 0) return errno == ENOENT;
-  const std::optional<Stamp> beat = stamp_of(fd);
-  ::close(fd);
-  return beat && now - beat->written > ttl;
+  const std::string beat_file = replica_file(replica);
+  const std::optional<Stamp> beat = stamp(beat_file);
+  return beat ? now - beat->written > ttl : certainly_absent(beat_file);
 }
 
 size_t StateDir::expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const {

@@ -86,14 +86,17 @@ void TexturesService::start(EngineContext& context) {
 
 void TexturesService::follow(Stream& s, double from) {
   const req::FollowedCurrent& followed = s.current;
-  if (followed.ocean) {
+  if (!followed.any()) return;
+  if (followed.ocean)
     s.spec.velocity = current_grid(
         {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)},
         repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
-    validate_followed_current(s.spec.velocity, followed.path);
-    return;
-  }
-  if (followed.ewave_session.empty()) return;
+  else
+    s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
+  validate_followed_current(s.spec.velocity, followed.path);
+}
+
+SurfaceCurrent TexturesService::session_current(const req::FollowedCurrent& followed) const {
   SurfaceCurrent current;
   try {
     current = ewave_->surface_current(followed.ewave_session);
@@ -104,8 +107,7 @@ void TexturesService::follow(Stream& s, double from) {
   if (current.nx < 2 || current.ny < 2)
     fail(Code::InvalidArgument, followed.path + " is a session of " + std::to_string(current.nx) + " x " +
                                     std::to_string(current.ny) + " cells: a followed current needs 2 x 2 or more");
-  s.spec.velocity = current_grid({std::move(current)}, Extrapolation::Clamp);
-  validate_followed_current(s.spec.velocity, followed.path);
+  return current;
 }
 
 void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) {

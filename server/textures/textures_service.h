@@ -16,6 +16,7 @@
 #include "textures/deform.h"
 #include "textures/river.h"
 #include "textures/texture_engine.h"
+#include "textures/textures_request.h"
 
 namespace squall::rpc {
 
@@ -54,8 +55,11 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   struct Stream;  // one advection stream's state (textures_service.cpp)
 
   // The stream's velocity from the current it follows, read now: an eWave session's (NOT_FOUND naming the
-  // field for an unknown id), or an ocean tile's over the step from `from` to from + dt. No-op otherwise.
+  // field for an unknown id), or an ocean tile's over the step from `from` to from + dt, each checked as
+  // read (validate_followed_current). No-op otherwise.
   void follow(Stream& s, double from);
+  // The surface current of the eWave session `followed` names, of 2 x 2 cells or more.
+  SurfaceCurrent session_current(const textures::rpc::FollowedCurrent& followed) const;
   // The river of `velocity` (the request field at `path`), if it is one, validated and baked into the
   // stream's velocity.
   void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path);

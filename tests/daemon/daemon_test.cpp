@@ -475,6 +475,15 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   }
   EXPECT_EQ(test::run({kSquall, "--tls-ca", "/tmp", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--tls-ca /tmp: cannot read"), std::string::npos) << out;
+  // A FIFO, whose open(2) would wait for a writer, is refused at once like a folder.
+  const std::string fifo = test::temp_dir("cli-fifo") + "/fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const char* flag : {"--token-file", "--tls-ca"}) {
+    EXPECT_EQ(test::run({kSquall, flag, fifo, "info"}, &out), 2) << flag << ": " << out;
+    EXPECT_NE(out.find(std::string(flag) + " " + fifo + ": cannot read"), std::string::npos) << out;
+  }
+  EXPECT_EQ(test::run({kSquall, "ocean", "sample", "--points-file", fifo}, &out), 2) << out;
+  EXPECT_NE(out.find("--points-file " + fifo + ": cannot read it"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--tls-cert", "/proc/self/status", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--tls-cert and --tls-key go together"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--address", "", "info"}, &out), 2) << out;
