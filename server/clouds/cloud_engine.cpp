@@ -54,8 +54,12 @@ std::string CloudEngine::store(const std::string& id, const std::shared_ptr<Stor
   return stored_.add(id, std::move(reservation), volume);
 }
 
-std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed) {
-  return store(stored_.id_for(proposed, kProposedIdField), volume);
+std::string CloudEngine::kept_id(const std::string& proposed) const {
+  return stored_.id_for(proposed, kProposedIdField);
+}
+
+std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, const std::string& id) {
+  return store(id, volume);
 }
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return stored_.get(id); }

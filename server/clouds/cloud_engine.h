@@ -44,9 +44,12 @@ class CloudEngine {
   // (Error(InvalidArgument) naming `field`). Returns the bytes its build holds at most (kBuildBytesPerVoxel
   // times the estimated active voxels), for the caller to reserve in the memory budget first.
   uint64_t validate(CloudModel model, const std::string& field = "model") const;
-  // Keeps a volume under a new id; RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
-  // Stores `volume` under a new id, or the client's `proposed` one (SessionStore::id_for).
-  std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& proposed = "");
+  // The id of a volume about to be built and kept: a new one, or the client's `proposed` one
+  // (SessionStore::id_for), checked before the build and again by keep().
+  std::string kept_id(const std::string& proposed = "") const;
+  // Keeps a volume under `id` (kept_id()); RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
+  std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& id);
+  std::string keep(const std::shared_ptr<StoredVolume>& volume) { return keep(volume, kept_id()); }
   // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id);
   // Drops a stored volume; NOT_FOUND naming volume_id (the id escaped and cut) when there is none.

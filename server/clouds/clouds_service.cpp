@@ -56,6 +56,7 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
     const CloudModel model = req::model(request->model());
+    const std::string id = request->keep() ? engine_->kept_id(proposed_session(*context)) : "";
     const Slot memory = serving_.gate().acquire_memory("BuildVolume's build", engine_->validate(model, "model"));
     auto volume = engine_->build(model, "model", cancellation(*context));
     if (request->return_vdb()) {
@@ -63,7 +64,7 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
       response->set_vdb(std::move(vdb));
     }
-    if (request->keep()) announce_session(*context, engine_->keep(volume, proposed_session(*context)));
+    if (request->keep()) announce_session(*context, engine_->keep(volume, id));
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });

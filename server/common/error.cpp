@@ -6,6 +6,7 @@ const char* code_name(Code code) {
   switch (code) {
     case Code::InvalidArgument: return "INVALID_ARGUMENT";
     case Code::NotFound: return "NOT_FOUND";
+    case Code::AlreadyExists: return "ALREADY_EXISTS";
     case Code::ResourceExhausted: return "RESOURCE_EXHAUSTED";
     case Code::FailedPrecondition: return "FAILED_PRECONDITION";
     case Code::Aborted: return "ABORTED";

@@ -11,6 +11,7 @@ namespace squall {
 enum class Code {
   InvalidArgument,     // the request itself is wrong (NaN, negative size, wrong map shape)
   NotFound,            // an id that does not exist (or belongs to someone else)
+  AlreadyExists,       // an id the client proposed for a new session is taken (live or checkpointed)
   ResourceExhausted,   // a limit in force is exceeded (cells, streams, sessions, memory)
   FailedPrecondition,  // the request is valid but the daemon is not in a state to run it
   Aborted,             // a sequencer check failed (a step's expected count): retry from a fresh read

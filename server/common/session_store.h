@@ -123,7 +123,7 @@ class SessionStore {
 
   // The id of a session about to be created: new_id(), or the client's `proposed` one (so that a proxy
   // routes the creating call and the later ones alike), which must look like one of ours: the prefix and
-  // 32 lowercase hex digits; INVALID_ARGUMENT naming `field` otherwise.
+  // 32 lowercase hex digits; INVALID_ARGUMENT naming `field` otherwise, ALREADY_EXISTS when it is taken.
   std::string id_for(const std::string& proposed, const std::string& field) const {
     if (proposed.empty()) return new_id();
     if (!is_our_id(proposed))
@@ -131,13 +131,13 @@ class SessionStore {
                                       " id: " + (prefix_.empty() ? "" : "\"" + prefix_ + "\" and ") +
                                       "32 lowercase hex digits (128 random bits)");
     if (std::lock_guard<std::mutex> lock(mutex_); entries_.count(proposed))  // add() checks again, as it stores
-      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" is already a live " + kind_);
+      fail(Code::AlreadyExists, field + " = \"" + proposed + "\" is already a live " + kind_);
     if (const StateDir* dir = state_dir(); dir && (dir->checkpointed(proposed) || dir->owner(proposed)))
-      fail(Code::FailedPrecondition, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
+      fail(Code::AlreadyExists, field + " = \"" + proposed + "\" names a checkpointed " + kind_);
     return proposed;
   }
 
-  // Stores `value` under `id` (new_id(), or a checkpoint's); FAILED_PRECONDITION when `id` is live, and
+  // Stores `value` under `id` (new_id(), or a checkpoint's); ALREADY_EXISTS when `id` is live, and
   // UNAVAILABLE when another live replica claimed it first.
   std::string add(const std::string& id, Reservation reservation, std::shared_ptr<T> value) {
     auto entry = std::make_shared<Entry>();
@@ -165,7 +165,7 @@ class SessionStore {
         policy_.registry->settle(id);
     }
     if (draining) refuse_new();
-    if (!added) fail(Code::FailedPrecondition, id_field_ + " = \"" + id + "\" is already a live " + kind_);
+    if (!added) fail(Code::AlreadyExists, id_field_ + " = \"" + id + "\" is already a live " + kind_);
     return id;
   }
   std::string add(Reservation reservation, std::shared_ptr<T> value) {
@@ -289,7 +289,7 @@ class SessionStore {
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
   // is built from it; INVALID_ARGUMENT naming `field` for bytes that are no such checkpoint, UNAVAILABLE
-  // for a payload version newer than this squalld reads, FAILED_PRECONDITION when its id is live. The
+  // for a payload version newer than this squalld reads, ALREADY_EXISTS when its id is live. The
   // caller then reserve()s, builds the value and add()s it under header.id.
   std::string open_checkpoint(const std::string& data, const std::string& field, uint32_t version,
                               CheckpointHeader* header) {
@@ -311,7 +311,7 @@ class SessionStore {
     }
     std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.count(header->id))
-      fail(Code::FailedPrecondition, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);
+      fail(Code::AlreadyExists, id_field_ + " = \"" + header->id + "\" is already a live " + kind_);
     return payload;
   }
 

@@ -23,6 +23,7 @@ grpc::Status to_status(const Error& error) {
   switch (error.code()) {
     case Code::InvalidArgument: code = grpc::StatusCode::INVALID_ARGUMENT; break;
     case Code::NotFound: code = grpc::StatusCode::NOT_FOUND; break;
+    case Code::AlreadyExists: code = grpc::StatusCode::ALREADY_EXISTS; break;
     case Code::ResourceExhausted: code = grpc::StatusCode::RESOURCE_EXHAUSTED; break;
     case Code::FailedPrecondition: code = grpc::StatusCode::FAILED_PRECONDITION; break;
     case Code::Aborted: code = grpc::StatusCode::ABORTED; break;

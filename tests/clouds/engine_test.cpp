@@ -113,7 +113,7 @@ TEST(Engine, CheckpointRestoresTheVolumeUnderItsIdAsVdb) {
   EXPECT_EQ(restored->volume.stats.bounds, v->volume.stats.bounds);
   EXPECT_EQ(restored->device.device_bytes, v->device.device_bytes);
   EXPECT_EQ(engine.stored_bytes(), restored->bytes);
-  error_of([&] { engine.restore_checkpoint(saved); }, Code::FailedPrecondition);
+  error_of([&] { engine.restore_checkpoint(saved); }, Code::AlreadyExists);
 }
 
 TEST(Engine, ModelBudgetIsCappedByTheEngine) {

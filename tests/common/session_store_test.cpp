@@ -64,7 +64,7 @@ TEST_F(SessionStoreTest, IdsAreDistinctAndCallsReachTheirSession) {
 TEST_F(SessionStoreTest, AProposedIdOfALiveSessionIsRefusedNamingTheProposal) {
   auto s = store();
   const std::string id = s.add(s.reserve(8), std::make_shared<Counter>());
-  expect_error(Code::FailedPrecondition, "metadata x-squall-session = \"" + id + "\" is already a live counter",
+  expect_error(Code::AlreadyExists, "metadata x-squall-session = \"" + id + "\" is already a live counter",
                [&] { s.id_for(id, "metadata x-squall-session"); });
   const std::string other = "c-" + std::string(32, 'a');
   EXPECT_EQ(s.id_for(other, "metadata x-squall-session"), other);
@@ -131,8 +131,7 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
     EXPECT_EQ(header.version, 7u);
     return s.add(header.id, s.reserve(8), std::make_shared<Counter>(Counter{std::stoi(payload)}));
   };
-  expect_error(Code::FailedPrecondition, "counter_id = \"" + id + "\" is already a live counter",
-               [&] { restore(saved); });
+  expect_error(Code::AlreadyExists, "counter_id = \"" + id + "\" is already a live counter", [&] { restore(saved); });
   s.close(id);
   EXPECT_EQ(restore(saved), id);
   EXPECT_EQ(s.with(id, [](Counter& c) { return c.value; }), 41);

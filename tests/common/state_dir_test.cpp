@@ -438,13 +438,13 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
                                 "c-0123456789abcdef0123456789abcdeg", "c-../../../../etc/passwd/0123456789"})
     expect_error(Code::InvalidArgument, "metadata x = ", [&] { a.store.id_for(bad, "metadata x"); });
   a.registry.state_dir()->write(kId, "anything");
-  expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(kId, "metadata x"); });
+  expect_error(Code::AlreadyExists, "checkpointed counter", [&] { a.store.id_for(kId, "metadata x"); });
   const std::string owned = "c-00000000000000000000000000000001";
   a.registry.state_dir()->create_owner(owned, "elsewhere");
-  expect_error(Code::FailedPrecondition, "checkpointed counter", [&] { a.store.id_for(owned, "metadata x"); });
+  expect_error(Code::AlreadyExists, "checkpointed counter", [&] { a.store.id_for(owned, "metadata x"); });
   // A session live here is owned here too: its id is named as live, not as checkpointed.
   const std::string live = a.store.add(a.store.reserve(0), std::make_shared<Counter>());
-  expect_error(Code::FailedPrecondition, "metadata x = \"" + live + "\" is already a live counter",
+  expect_error(Code::AlreadyExists, "metadata x = \"" + live + "\" is already a live counter",
                [&] { a.store.id_for(live, "metadata x"); });
 }
 

@@ -409,7 +409,7 @@ TEST_F(EngineTest, CheckpointRestoresTheSessionUnderItsIdBitIdentically) {
   EWaveEngine second = engine();  // a restarted daemon
   EXPECT_EQ(second.restore_checkpoint(saved), id);
   expect_bit_identical(second.step(id, busy_step(5)), expected);
-  expect_error(Code::FailedPrecondition, "already a live eWave session", [&] { second.restore_checkpoint(saved); });
+  expect_error(Code::AlreadyExists, "already a live eWave session", [&] { second.restore_checkpoint(saved); });
   expect_error(Code::InvalidArgument, "checkpoint", [&] { second.restore_checkpoint(second.state(id)); });
 }
 

@@ -9,7 +9,7 @@ import gc
 import json
 import os
 import re
-from typing import Any, Dict, List, Tuple
+from typing import Any, Callable, Dict, List, Tuple
 
 import grpc
 import pytest
@@ -17,7 +17,7 @@ import pytest
 import squall
 from squall._calls import retry_options
 from squall._errors import REPLICA_KEY
-from squall.v1 import server_pb2, server_pb2_grpc
+from squall.v1 import clouds_pb2_grpc, ewave_pb2, ewave_pb2_grpc, server_pb2, server_pb2_grpc
 
 from conftest import Daemon
 
@@ -48,6 +48,38 @@ def test_sessions_take_the_ids_the_client_proposes(client: squall.Client, daemon
         r"cloud-[0-9a-f]{32}", volume.id
     )
     assert session.id != restored.id
+
+
+def expect_already_exists(call: Callable[[], Any], message: str) -> None:
+    with pytest.raises(grpc.RpcError) as error:
+        call()
+    assert error.value.code() == grpc.StatusCode.ALREADY_EXISTS
+    assert error.value.details() == message
+
+
+def test_a_proposed_id_that_is_taken_already_exists(client: squall.Client) -> None:
+    """A creating call that proposes the id of a live session or stored volume gets ALREADY_EXISTS
+    naming the metadata, and what lives under that id is left as it was."""
+    ewave = ewave_pb2_grpc.EWaveStub(client.channel)
+    with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+        session.step(0.02)
+        taken = (("x-squall-session", session.id),)
+        message = f'metadata x-squall-session = "{session.id}" is already a live eWave session'
+        create = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(nx=8, ny=8, dx=0.1))
+        expect_already_exists(lambda: ewave.CreateSession(create, metadata=taken), message)
+        restore = squall.ewave.restore_request(session.state())
+        expect_already_exists(lambda: ewave.Restore(restore, metadata=taken), message)
+        assert session.step(0.02).step == 2
+    clouds = clouds_pb2_grpc.CloudsStub(client.channel)
+    volume = client.clouds.build(dict(voxel_size=0.5, spheres=[dict(radius=2)]), keep=True)
+    # A model whose build takes about a second, refused within a deadline of a fifth of that: the id
+    # is checked before the build.
+    large = dict(voxel_size=0.25, spheres=[dict(radius=80)])
+    build = squall.clouds.build_request(large, keep=True, return_vdb=False, request=None)
+    message = f'metadata x-squall-session = "{volume.id}" is already a live stored volume'
+    taken = (("x-squall-session", volume.id),)
+    expect_already_exists(lambda: clouds.BuildVolume(build, metadata=taken, timeout=0.2), message)
+    client.clouds.release(volume.id)
 
 
 def test_every_response_names_its_replica(daemon: Daemon) -> None:
