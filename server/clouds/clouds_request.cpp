@@ -53,7 +53,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   for (const auto& e : m.ellipsoids()) out.ellipsoids.push_back({vec(e.center()), vec(e.radii())});
   for (int i = 0; i < m.meshes_size(); ++i) out.meshes.push_back(mesh(m.meshes(i), validate::at(f + ".meshes", i)));
   const auto& p = m.pyroclastic();
-  out.pyroclastic.layers = int(std::min<uint32_t>(p.layers(), 1000));
+  out.pyroclastic.layers = p.layers();
   out.pyroclastic.amplitude = p.amplitude();
   out.pyroclastic.gamma = p.has_gamma() ? p.gamma() : 1.0;
   out.pyroclastic.noise = noise(p.noise());
@@ -70,7 +70,7 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
   const auto& a = m.advection();
   out.advection.speed = a.speed();
   out.advection.time = a.time();
-  out.advection.substeps = a.has_substeps() ? int(std::min<uint32_t>(a.substeps(), 100000)) : 1;
+  out.advection.substeps = a.has_substeps() ? a.substeps() : 1;
   validate::known(f + ".advection.scheme", a.scheme(), v1::AdvectionScheme_ARRAYSIZE, "AdvectionScheme");
   out.advection.scheme = a.scheme() == v1::ADVECTION_SCHEME_SEMI_LAGRANGIAN ? AdvectionScheme::SemiLagrangian
                                                                             : AdvectionScheme::ModifiedMacCormack;
@@ -98,10 +98,10 @@ RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
   out.camera.look_at = vec(c.look_at());
   out.camera.up = vec(c.up());
   out.camera.vertical_fov_deg = c.has_vertical_fov_deg() ? c.vertical_fov_deg() : 40.0;
-  out.camera.width = int(std::min<uint32_t>(c.width(), 1u << 30));
-  out.camera.height = int(std::min<uint32_t>(c.height(), 1u << 30));
+  out.camera.width = c.width();
+  out.camera.height = c.height();
   out.step = s.step();
-  out.substeps = s.has_substeps() ? int(std::min<uint32_t>(s.substeps(), 1000)) : 1;
+  out.substeps = s.has_substeps() ? s.substeps() : 1;
   out.trilinear = s.trilinear();
   out.seed = s.seed();
   out.min_transmittance = s.has_min_transmittance() ? s.min_transmittance() : 1e-4;
@@ -151,7 +151,7 @@ RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
     if (s.shadow_map_size_size() != 3)
       fail(Code::InvalidArgument, f + ".shadow_map_size has " + std::to_string(s.shadow_map_size_size()) +
                                       " entries; it needs 3 (x, y, z) or none");
-    for (int a = 0; a < 3; ++a) out.shadow_map_size[a] = int(std::min<uint32_t>(s.shadow_map_size(a), 1u << 20));
+    for (int a = 0; a < 3; ++a) out.shadow_map_size[a] = s.shadow_map_size(a);
   }
   return out;
 }

@@ -31,7 +31,7 @@ struct TriangleMesh {
 // Cumulo pyroclastic displacement (eqs 105-112): layer n adds amplitude * |N_n(X)|^gamma to l, with
 // N_n(x) = r^n N_0(x f_jump^n), N_0 = the normalized fractal noise, X = x - l grad l (CPT/PPT).
 struct Pyroclastic {
-  int layers = 0;        // 0 = off, <= 8
+  int64_t layers = 0;    // 0 = off, <= 8 (held as sent, named so in errors)
   double amplitude = 1;  // m, >= 0: the largest displacement of one layer
   double gamma = 1;      // valley sharpness, (0, 16]
   NoiseParams noise;
@@ -53,9 +53,9 @@ enum class AdvectionScheme { SemiLagrangian, ModifiedMacCormack };
 // Advection of the density by a fractal noise velocity u = speed (FS(x), FS(x+d1), FS(x+d2)) (App D eq 3.9),
 // over `time` in `substeps` equal steps of the characteristic map (eqs 115-117, App E eq 13).
 struct Advection {
-  double speed = 0;  // m/s, >= 0 (0 = off)
-  double time = 0;   // s, >= 0
-  int substeps = 1;  // 1..256
+  double speed = 0;      // m/s, >= 0 (0 = off)
+  double time = 0;       // s, >= 0
+  int64_t substeps = 1;  // 1..256 (held as sent, named so in errors)
   AdvectionScheme scheme = AdvectionScheme::ModifiedMacCormack;
   NoiseParams noise;
 };

@@ -180,10 +180,10 @@ void validate(const RenderSettings& s, const std::string& f) {
   if (!(norm(cross(unit(view), c.up)) > 1e-6))
     fail(Code::InvalidArgument, f + ".camera.up is zero or parallel to the view direction");
   validate::in(f + ".camera.vertical_fov_deg", c.vertical_fov_deg, validate::open(0, 170));
-  validate::in(f + ".camera.width", int64_t(c.width), 1, 8192);
-  validate::in(f + ".camera.height", int64_t(c.height), 1, 8192);
+  validate::in(f + ".camera.width", c.width, 1, 8192);
+  validate::in(f + ".camera.height", c.height, 1, 8192);
   validate::positive(f + ".step", s.step);
-  validate::in(f + ".substeps", int64_t(s.substeps), 1, SQUALL_CLOUD_MAX_SUBSTEPS);
+  validate::in(f + ".substeps", s.substeps, 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   validate::in(f + ".min_transmittance", s.min_transmittance, validate::closed_open(0, 1));
   validate::non_negative(f + ".shadow_step", s.shadow_step);
   const Phase& ph = s.phase;
@@ -219,8 +219,7 @@ void validate(const RenderSettings& s, const std::string& f) {
     for (size_t w = 0; w < nw; ++w)
       validate::non_negative(validate::at(l + ".intensity", w), s.lights[i].intensity[w], 1e20);
   }
-  for (size_t a = 0; a < 3; ++a)
-    validate::in(validate::at(f + ".shadow_map_size", a), int64_t(s.shadow_map_size[a]), 2, 512);
+  for (size_t a = 0; a < 3; ++a) validate::in(validate::at(f + ".shadow_map_size", a), s.shadow_map_size[a], 2, 512);
 }
 
 DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {

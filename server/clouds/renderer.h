@@ -27,11 +27,11 @@ enum class LightKind { Point = 0, Directional = 1 };
 enum class ShadowMode { None = 0, Direct = 1, DeepShadowMap = 2 };
 
 struct Camera {
-  Vec3d eye{0, -30, 0};          // m; components of every point and direction within +-1e7
-  Vec3d look_at{0, 0, 0};        // m, != eye
-  Vec3d up{0, 0, 1};             // not parallel to the view direction
-  double vertical_fov_deg = 40;  // (0, 170)
-  int width = 64, height = 64;   // pixels, 1..8192
+  Vec3d eye{0, -30, 0};             // m; components of every point and direction within +-1e7
+  Vec3d look_at{0, 0, 0};           // m, != eye
+  Vec3d up{0, 0, 1};                // not parallel to the view direction
+  double vertical_fov_deg = 40;     // (0, 170)
+  int64_t width = 64, height = 64;  // pixels, 1..8192 (held as sent, named so in errors)
 };
 
 struct Light {
@@ -50,7 +50,7 @@ struct Phase {
 struct RenderSettings {
   Camera camera;
   double step = 0.5;       // Delta s, m, > 0
-  int substeps = 1;        // N_s, 1..8
+  int64_t substeps = 1;    // N_s, 1..8
   bool trilinear = false;  // density interpolation (false: nearest voxel)
   uint32_t seed = 1;
   double min_transmittance = 1e-4;  // early termination of primary and shadow marches, [0, 1)
@@ -62,7 +62,7 @@ struct RenderSettings {
   std::vector<double> albedo{0.9};          // [0, 1]; one per wavelength
   std::vector<Light> lights;                // 0..4
   ShadowMode shadow = ShadowMode::DeepShadowMap;
-  std::array<int, 3> shadow_map_size{64, 64, 64};  // DSM nodes per axis, 2..512
+  std::array<int64_t, 3> shadow_map_size{64, 64, 64};  // DSM nodes per axis, 2..512
 };
 
 // Float image, channel-major planes: radiance per wavelength (W m^-2 sr^-1 m^-1), transmittance per

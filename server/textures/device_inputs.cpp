@@ -48,8 +48,8 @@ VelocityField field_of(const VelocitySpec& v) {
 
 // The LUT final function's description: its table, band shaping and scalar field (fields.h).
 void lookup_of(const FinalLookupSpec& l, TextureSource& s) {
-  s.lut_channels = l.channels;
-  s.lut_entries = int(l.table.size()) / std::max(l.channels, 1);
+  s.lut_channels = int(l.channels);  // validated: 1..SQUALL_LUT_MAX_CHANNELS
+  s.lut_entries = int(l.table.size() / size_t(std::max<int64_t>(l.channels, 1)));
   s.lut_min = float(l.lut_min);
   s.lut_max = float(l.lut_max);
   s.lut_band_shape = l.band_shape;
@@ -65,7 +65,7 @@ void lookup_of(const FinalLookupSpec& l, TextureSource& s) {
 TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
   TextureSource s{};
   s.kind = t.kind;
-  s.channels = t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands;
+  s.channels = int(t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands);  // validated: 1..4
   s.width = t.width;
   s.height = t.height;
   s.seed = t.seed;

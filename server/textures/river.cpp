@@ -44,7 +44,7 @@ void junction(const RiverJunctionSpec& j, size_t channels, std::vector<int>& end
     fail(Code::InvalidArgument, path + " joins " + std::to_string(j.upstream.size()) + " channel to " +
                                     std::to_string(j.downstream.size()) +
                                     ": a junction has 2 or more channels on one side (draw one channel instead)");
-  auto check = [&](const std::vector<int>& side, std::vector<int>& seen, const std::string& name) {
+  auto check = [&](const std::vector<uint32_t>& side, std::vector<int>& seen, const std::string& name) {
     for (size_t k = 0; k < side.size(); ++k) {
       const std::string field = at(path + "." + name, k);
       in(field, int64_t(side[k]), 0, int64_t(channels) - 1);
@@ -116,8 +116,8 @@ void validate_river(const RiverSpec& river, const std::string& path) {
 void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
                         const std::string& prefix) {
   const std::string p = path + "." + prefix;
-  in(p + "nx", int64_t(grid.nx), 2, 4096);
-  in(p + "ny", int64_t(grid.ny), 2, 4096);
+  in(p + "nx", grid.nx, 2, 4096);
+  in(p + "ny", grid.ny, 2, 4096);
   gate.check_grid(p + "nx", p + "ny", grid.nx, grid.ny);
   in(p + "region.x0", grid.x0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(p + "region.y0", grid.y0, closed(-kMaxCoordinate, kMaxCoordinate));

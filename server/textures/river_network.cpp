@@ -23,9 +23,9 @@ struct SideSum {
   int unknown = 0;
 };
 
-SideSum side_sum(const std::vector<int>& channels, const std::vector<std::optional<double>>& q) {
+SideSum side_sum(const std::vector<uint32_t>& channels, const std::vector<std::optional<double>>& q) {
   SideSum s;
-  for (int c : channels) {
+  for (uint32_t c : channels) {
     if (q[c])
       s.known += *q[c];
     else
@@ -47,7 +47,7 @@ bool apply_junction(const RiverJunctionSpec& j, const RiverSpec& river, std::vec
   }
   if (in.unknown > 0 && out.unknown > 0) return false;
   const bool fill_upstream = in.unknown > 0;
-  const std::vector<int>& side = fill_upstream ? j.upstream : j.downstream;
+  const std::vector<uint32_t>& side = fill_upstream ? j.upstream : j.downstream;
   const double missing = fill_upstream ? out.known - in.known : in.known - out.known;
   if (!(missing > 0))
     fail(Code::InvalidArgument, path + ": the given flow rates leave " + number(missing) +
@@ -91,7 +91,7 @@ std::vector<int> join_banks(const RiverSpec& river) {
   for (const RiverJunctionSpec& j : river.junctions) {
     join(left_bank(j.upstream.front()), left_bank(j.downstream.front()));
     join(right_bank(j.upstream.back()), right_bank(j.downstream.back()));
-    for (const std::vector<int>* side : {&j.upstream, &j.downstream})
+    for (const std::vector<uint32_t>* side : {&j.upstream, &j.downstream})
       for (size_t k = 0; k + 1 < side->size(); ++k) join(right_bank((*side)[k]), left_bank((*side)[k + 1]));
   }
   std::vector<int> boundary(parent.size(), -1), of(parent.size());

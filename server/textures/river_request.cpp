@@ -15,8 +15,7 @@ std::vector<Point2> points(const v1::Polyline& line) {
 }
 
 BakeGrid region_grid(uint32_t nx, uint32_t ny, const v1::TextureRegion& r) {
-  auto clamped = [](uint32_t n) { return int(std::min<uint32_t>(n, 1u << 20)); };
-  return {clamped(nx), clamped(ny), r.x0(), r.y0(), r.x1(), r.y1()};
+  return {nx, ny, r.x0(), r.y0(), r.x1(), r.y1()};
 }
 
 }  // namespace
@@ -31,11 +30,7 @@ RiverSpec river(const v1::RiverVelocity& r) {
     if (c.has_cross_section()) channel.cross_section = c.cross_section();
     spec.channels.push_back(std::move(channel));
   }
-  auto indices = [](const auto& repeated) {
-    std::vector<int> out;
-    for (uint32_t i : repeated) out.push_back(int(std::min<uint32_t>(i, 1u << 30)));
-    return out;
-  };
+  auto indices = [](const auto& repeated) { return std::vector<uint32_t>(repeated.begin(), repeated.end()); };
   for (const v1::RiverJunction& j : r.junctions())
     spec.junctions.push_back({indices(j.upstream()), indices(j.downstream())});
   for (const v1::RiverObstacle& o : r.obstacles()) {

@@ -4,6 +4,7 @@
 // Lengths in domain units (du), flow rates in du^2/s.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -22,7 +23,7 @@ struct RiverChannelSpec {
 
 // Channel indices ending (upstream) and starting (downstream) at a junction, each left to right.
 struct RiverJunctionSpec {
-  std::vector<int> upstream, downstream;
+  std::vector<uint32_t> upstream, downstream;  // as sent: an index past the channels is named as given
 };
 
 // A closed polygon (the last point joins the first), an island or a moving obstacle.
@@ -41,7 +42,7 @@ struct RiverSpec {
 
 // Nodes (i, j) at (x0 + i (x1 - x0) / (nx - 1), y0 + j (y1 - y0) / (ny - 1)).
 struct BakeGrid {
-  int nx = 2, ny = 2;
+  int64_t nx = 2, ny = 2;  // 2..4096, held as sent
   double x0 = 0, y0 = 0, x1 = 1, y1 = 1;
 };
 

@@ -76,7 +76,7 @@ struct ScalarGridSpec {
 // sum_j 2^-j g(a_j)), the table linear between its entries and clamped at its ends.
 struct FinalLookupSpec {
   ScalarGridSpec field;
-  int channels = 1;                      // C, output channels per entry (final planes), 1..4
+  int64_t channels = 1;                  // C, output channels per entry (final planes), 1..4
   std::vector<float> table;              // N entries of C values, entry after entry; N in 2..4096
   double lut_min = 0, lut_max = 1;       // input range: entry k at lut_min + k (lut_max - lut_min) / (N - 1)
   int band_shape = SQUALL_FINAL_RIDGED;  // g: SQUALL_FINAL_SUM_BANDS, _TURBULENCE or _RIDGED
@@ -88,7 +88,7 @@ struct TextureSpec {
   int width = 0, height = 0, channels = 1;
   std::vector<float> pixels;
   // Noise: `bands` channels b_j(2^j u).
-  int bands = 4;
+  int64_t bands = 4;
   double base_cells = 4;  // lattice cells per period in band 0, 1..64
   double spin = 0;        // flow noise: rad/s of band 0
   uint32_t seed = 1;
@@ -119,7 +119,7 @@ struct LagrangianParams {
   double d = 0.1;          // Poisson radius (du); blending kernel radius
   double alpha = 0.25;     // particles closer than (1 - alpha) d are culled
   double beta = 0.6;       // grids are (2 + beta) d wide
-  int grid_res = 8;        // G x G vertices per grid, 3..16
+  int64_t grid_res = 8;    // G x G vertices per grid, 3..16
   double delta_max = 2.0;  // eq. 2: distortion at which the quality reaches 0
   double fade_tau = 0.5;   // s, fade-in and fade-out durations (eq. 6)
   Blend blend = Blend::VariancePreserving;
@@ -156,13 +156,13 @@ struct VorticityCascade {
 
 struct EulerianParams {
   std::vector<double> latencies = {0.6, 2.3, 4.0};  // s, one layer each, increasing
-  int phases = 3;                                   // regenerated parameterizations per layer, 2 or 3
+  int64_t phases = 3;                               // regenerated parameterizations per layer, 2 or 3
   PhaseWeight weight = PhaseWeight::Cosine;
   double d_star = 1.0;  // target accumulated deformation (dimensionless, integral of |e| dt)
   DeformationSum deformation = DeformationSum::Weighted;
   EulerianBlend blend = EulerianBlend::Octave;
-  int grid_nx = 64, grid_ny = 64;  // advection nodes over the output region
-  VorticityCascade cascade;        // EulerianMultilayer with a noise texture only
+  int64_t grid_nx = 64, grid_ny = 64;  // advection nodes over the output region
+  VorticityCascade cascade;            // EulerianMultilayer with a noise texture only
   // Each regeneration resets a phase to S x + o, o uniform in [0, 1)^2 periods, drawn per (seed, slot,
   // regeneration): the phases decorrelate (ADV03 resets to S x, o = 0: zero velocity is then static).
   bool random_offset = false;

@@ -105,7 +105,7 @@ void scalar_grid(const ScalarGridSpec& g, const LimitGate& gate, const std::stri
 // The LUT final function (LTA11 sec. 3.2): C channels, N in 2..4096 finite entries, lut_max > lut_min,
 // a band shaping g among SUM_BANDS, TURBULENCE, RIDGED.
 void lookup(const FinalLookupSpec& l, const LimitGate& gate, const std::string& path) {
-  const int64_t channels = in(path + ".channels", int64_t(l.channels), 1, SQUALL_LUT_MAX_CHANNELS);
+  const int64_t channels = in(path + ".channels", l.channels, 1, SQUALL_LUT_MAX_CHANNELS);
   const size_t size = l.table.size();
   if (size % size_t(channels) != 0)
     reject(path + ".table size", double(size), "a multiple of channels = " + std::to_string(channels));
@@ -131,7 +131,7 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
     count(path + ".image.pixels", t.pixels.size(), n, "width * height * channels");
     each(path + ".image.pixels", t.pixels.data(), n, closed(-kMaxTextureValue, kMaxTextureValue));
   } else {
-    in(path + ".noise.bands", int64_t(t.bands), 1, SQUALL_TEXTURE_MAX_CHANNELS);
+    in(path + ".noise.bands", t.bands, 1, SQUALL_TEXTURE_MAX_CHANNELS);
     in(path + ".noise.base_cells", int64_t(t.base_cells), 1, 64);
     if (t.base_cells != std::floor(t.base_cells)) reject(path + ".noise.base_cells", t.base_cells, "an integer");
     in(path + ".noise.spin", t.spin, closed(-kMaxSpin, kMaxSpin));
@@ -170,14 +170,14 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
                                       " particles over the output region; at most " + number(kMaxParticles));
   in(path + ".alpha", p.alpha, open(0, 1));
   in(path + ".beta", p.beta, closed(0, 4));
-  in(path + ".grid_res", int64_t(p.grid_res), 3, 16);
+  in(path + ".grid_res", p.grid_res, 3, 16);
   in(path + ".delta_max", p.delta_max, open_closed(1, 100));
   positive(path + ".fade_tau", p.fade_tau, 1e6);
 }
 
 void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, const std::string& path) {
-  in(path + ".grid_nx", int64_t(p.grid_nx), 2, 4096);
-  in(path + ".grid_ny", int64_t(p.grid_ny), 2, 4096);
+  in(path + ".grid_nx", p.grid_nx, 2, 4096);
+  in(path + ".grid_ny", p.grid_ny, 2, 4096);
   gate.check_grid(path + ".grid_nx", path + ".grid_ny", p.grid_nx, p.grid_ny);
   if (method == Method::Naive) return;  // never regenerated: no latency
   in(path + ".latencies size", int64_t(p.latencies.size()), 1,
@@ -188,7 +188,7 @@ void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, con
       reject(at(path + ".latencies", i), p.latencies[i], "greater than the previous layer's latency");
   }
   if (method != Method::EulerianMultilayer) return;
-  in(path + ".phases", int64_t(p.phases), 2, SQUALL_EULERIAN_MAX_PHASES);
+  in(path + ".phases", p.phases, 2, SQUALL_EULERIAN_MAX_PHASES);
   if (p.weight == PhaseWeight::Triangle && p.phases != 2)
     reject(path + ".phases", p.phases, "2 with triangle phase weights (they sum to 1 for two phases only)");
   positive(path + ".d_star", p.d_star, 1e6);

@@ -257,7 +257,7 @@ void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string&
 
 void noise(const v1::NoiseTexture& n, TextureSpec& out) {
   out.kind = SQUALL_TEXTURE_NOISE;
-  out.bands = n.has_bands() ? int(std::min<uint32_t>(n.bands(), 1000)) : 4;
+  out.bands = n.has_bands() ? n.bands() : 4;
   out.base_cells = n.has_base_cells() ? double(n.base_cells()) : 4.0;
   out.spin = n.time_varying() ? (n.has_spin() ? n.spin() : 1.0) : 0.0;
   out.seed = n.has_seed() ? n.seed() : 1;
@@ -294,7 +294,7 @@ ScalarGridSpec scalar_grid(const v1::ScalarGrid& g, const std::string& path) {
 FinalLookupSpec lookup(const v1::FinalLookup& l, const std::string& path) {
   FinalLookupSpec out;
   if (l.has_field()) out.field = scalar_grid(l.field(), path + ".field");
-  out.channels = l.has_channels() ? int(std::min<uint32_t>(l.channels(), 1000)) : 1;
+  out.channels = l.has_channels() ? l.channels() : 1;
   out.table.assign(l.table().begin(), l.table().end());
   out.lut_min = l.lut_min();
   out.lut_max = l.has_lut_max() ? l.lut_max() : 1.0;
@@ -346,7 +346,7 @@ LagrangianParams lagrangian(const v1::LagrangianParams& p, const std::string& pa
   if (p.has_d()) out.d = p.d();
   if (p.has_alpha()) out.alpha = p.alpha();
   if (p.has_beta()) out.beta = p.beta();
-  if (p.has_grid_res()) out.grid_res = int(std::min<uint32_t>(p.grid_res(), 1000));
+  if (p.has_grid_res()) out.grid_res = p.grid_res();
   if (p.has_delta_max()) out.delta_max = p.delta_max();
   if (p.has_fade_tau()) out.fade_tau = p.fade_tau();
   known(path + ".blend", p.blend(), 3, "LagrangianParams.Blend");
@@ -371,7 +371,7 @@ EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::s
     out.latencies.assign(p.latencies().begin(), p.latencies().end());
   else if (method != Method::EulerianMultilayer)
     out.latencies = {1.0};  // the flow map's one layer
-  if (p.has_phases()) out.phases = int(std::min<uint32_t>(p.phases(), 1000));
+  if (p.has_phases()) out.phases = p.phases();
   known(path + ".weight", p.weight(), 3, "EulerianParams.PhaseWeight");
   if (p.weight() == v1::EulerianParams::PHASE_WEIGHT_TRIANGLE) out.weight = PhaseWeight::Triangle;
   if (p.has_d_star()) out.d_star = p.d_star();
@@ -381,8 +381,8 @@ EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::s
   if (p.blend() == v1::EulerianParams::BLEND_FINAL) out.blend = EulerianBlend::Final;
   if (p.blend() == v1::EulerianParams::BLEND_OCTAVE_VARIANCE_PRESERVING)
     out.blend = EulerianBlend::OctaveVariancePreserving;
-  if (p.has_grid_nx()) out.grid_nx = clamped(p.grid_nx());
-  if (p.has_grid_ny()) out.grid_ny = clamped(p.grid_ny());
+  if (p.has_grid_nx()) out.grid_nx = p.grid_nx();
+  if (p.has_grid_ny()) out.grid_ny = p.grid_ny();
   out.cascade = cascade(p.cascade());
   out.random_offset = p.random_offset();
   return out;
@@ -390,7 +390,7 @@ EulerianParams eulerian(const v1::EulerianParams& p, Method method, const std::s
 
 // ---- Frames ----
 
-int texture_channels(const TextureSpec& t) { return t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands; }
+int64_t texture_channels(const TextureSpec& t) { return t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands; }
 
 void fill_stats(const FrameStats& s, v1::FrameStats* out) {
   for (double m : s.mean) out->add_mean(m);
@@ -518,10 +518,10 @@ PlaneSelection planes(const v1::TextureOutput& o, const std::string& path) {
 }
 
 uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& p) {
-  const uint64_t channels = uint64_t(std::max(0, texture_channels(spec.texture)));
+  const uint64_t channels = uint64_t(std::max<int64_t>(0, texture_channels(spec.texture)));
   const int function = spec.texture.final_function;
   const uint64_t finals = function == SQUALL_FINAL_IDENTITY ? channels
-                          : function == SQUALL_FINAL_LUT    ? uint64_t(std::max(0, spec.texture.lut.channels))
+                          : function == SQUALL_FINAL_LUT    ? uint64_t(std::max<int64_t>(0, spec.texture.lut.channels))
                                                             : 1;
   const uint64_t planes = (p.final_planes ? finals : 0) + (p.raw_planes ? channels : 0) + p.weight_sum +
                           p.weight_sq_sum + p.coverage + p.layer + 2 * p.uv;

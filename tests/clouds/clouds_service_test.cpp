@@ -588,9 +588,10 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
             0)
       << out;
   EXPECT_TRUE(std::filesystem::exists(dir + "/my.dir/cloud.png"));
-  if (std::filesystem::exists("/dev/full"))  // written in full or exit 5
+  if (std::filesystem::exists("/dev/full")) {  // written in full or exit 5
     EXPECT_EQ(test::run(args({"build", "--voxel-size", "0.5", "--sphere", "0,0,0,1", "-o", "/dev/full"}), &out), 5)
         << out;
+  }
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0", "-o", dir + "/x.exr"}), &out), 2) << out;
   // The last --extinction given is the one sent: here a negative one, which the server refuses.
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "--size", "8x8", "--extinction", "0.5", "--extinction",

@@ -73,6 +73,7 @@ INVALID = grpc.StatusCode.INVALID_ARGUMENT
 NOT_FOUND = grpc.StatusCode.NOT_FOUND
 EXHAUSTED = grpc.StatusCode.RESOURCE_EXHAUSTED
 NAN, INF = math.nan, math.inf
+U32 = 4294967295  # the largest uint32: refusals echo it as sent, not as a capped value
 
 BIG_ID = "0123456789abcdef" * (1 << 16)  # 1 MiB of hex digits
 UNKNOWN_ID = "0123456789abcdef" * 2  # well-formed (32 hex digits), never handed out
@@ -1309,6 +1310,18 @@ CASES += [
     bad(R, "pyroclastic_layers_9", put("model.pyroclastic.layers", 9), "pyroclastic.layers"),
     bad(
         R,
+        "pyroclastic_layers_uint32_max",
+        put("model.pyroclastic.layers", U32),
+        f"model.pyroclastic.layers = {U32} ",  # as sent
+    ),
+    bad(
+        R,
+        "advection_substeps_uint32_max",
+        put("model.advection.substeps", U32),
+        f"model.advection.substeps = {U32} ",
+    ),
+    bad(
+        R,
         "noise_octaves_zero",
         put("model.pyroclastic.noise.octaves", 0),
         "model.pyroclastic.noise.octaves",
@@ -1337,6 +1350,8 @@ CAM = "settings.camera"
 CASES += [
     bad(R, "width_zero", put(f"{CAM}.width", 0), f"{CAM}.width"),
     bad(R, "width_8193", put(f"{CAM}.width", 8193), f"{CAM}.width"),
+    bad(R, "width_uint32_max", put(f"{CAM}.width", U32), f"{CAM}.width = {U32} "),  # as sent
+    bad(R, "height_uint32_max", put(f"{CAM}.height", U32), f"{CAM}.height = {U32} "),
     bad(R, "height_zero", put(f"{CAM}.height", 0), f"{CAM}.height"),
     bad(
         R,
@@ -1353,6 +1368,7 @@ CASES += [
     bad(R, "step_nan", put("settings.step", NAN), "settings.step"),
     bad(R, "step_tiny", put("settings.step", 1e-9), "settings.step", EXHAUSTED),
     bad(R, "substeps_9", put("settings.substeps", 9), "settings.substeps"),
+    bad(R, "substeps_uint32_max", put("settings.substeps", U32), f"settings.substeps = {U32} "),
     bad(R, "min_transmittance_1", put("settings.min_transmittance", 1.0), "min_transmittance"),
     bad(R, "shadow_step_negative", put("settings.shadow_step", -1.0), "settings.shadow_step"),
     bad(
@@ -1430,6 +1446,12 @@ CASES += [
         "shadow_map_size_1",
         put("settings.shadow_map_size", [1, 64, 64]),
         "settings.shadow_map_size[0]",
+    ),
+    bad(
+        R,
+        "shadow_map_size_uint32_max",
+        put("settings.shadow_map_size", [64, U32, 64]),
+        f"settings.shadow_map_size[1] = {U32} ",
     ),
     bad(R, "volume_unknown", put("volume_id", "cloud-" + UNKNOWN_ID), "volume_id", NOT_FOUND),
     bad(R, "volume_1MiB", put("volume_id", BIG_ID), "volume_id", NOT_FOUND),
@@ -1538,6 +1560,31 @@ CASES += [
     bad(R, "planes_unknown_enum", put("output.planes", [99]), "request.output.planes[0]"),
     bad(R, "output_dtype_unknown_enum", put("output.dtype", 5), "request.output.dtype"),
     bad(R, "noise_bands_zero", put("texture.noise.bands", 0), "request.texture.noise.bands"),
+    bad(
+        R,
+        "noise_bands_uint32_max",
+        put("texture.noise.bands", U32),
+        f"request.texture.noise.bands = {U32} ",  # as sent
+    ),
+    bad(
+        R,
+        "lut_channels_uint32_max",
+        also(
+            put("texture.final_function", textures_pb2.FINAL_FUNCTION_LUT),
+            put("texture.lut.table", [0.0, 1.0]),
+            put("texture.lut.channels", U32),
+        ),
+        f"request.texture.lut.channels = {U32} ",
+    ),
+    bad(
+        R,
+        "lagrangian_grid_res_uint32_max",
+        also(
+            put("method", textures_pb2.TEXTURE_METHOD_LAGRANGIAN_GRIDS),
+            put("lagrangian.grid_res", U32),
+        ),
+        f"request.lagrangian.grid_res = {U32} ",
+    ),
     bad(R, "noise_base_cells_65", put("texture.noise.base_cells", 65), "noise.base_cells"),
     bad(R, "texture_scale_zero", put("texture.scale", 0.0), "request.texture.scale"),
     bad(R, "final_function_unknown_enum", put("texture.final_function", 9), "final_function"),
@@ -1779,6 +1826,21 @@ CASES += [
     bad(R, "eulerian_grid_nx_1", put("eulerian.grid_nx", 1), "request.eulerian.grid_nx"),
     bad(
         R,
+        "eulerian_grid_ny_uint32_max",
+        put("eulerian.grid_ny", U32),
+        f"request.eulerian.grid_ny = {U32} ",
+    ),
+    bad(
+        R,
+        "eulerian_phases_uint32_max",
+        also(
+            put("method", textures_pb2.TEXTURE_METHOD_EULERIAN_MULTILAYER),
+            put("eulerian.phases", U32),
+        ),
+        f"request.eulerian.phases = {U32} ",
+    ),
+    bad(
+        R,
         "eulerian_grid_oversize",
         also(put("eulerian.grid_nx", 4096), put("eulerian.grid_ny", 4096)),
         "request.eulerian.grid_nx * request.eulerian.grid_ny",
@@ -1910,6 +1972,7 @@ CASES += [
     bad(R, "nx_1", put("nx", 1), "request.nx"),
     bad(R, "ny_zero", put("ny", 0), "request.ny"),
     bad(R, "nx_5000", put("nx", 5000), "request.nx"),
+    bad(R, "ny_uint32_max", put("ny", U32), f"request.ny = {U32} "),  # as sent
     bad(
         R,
         "grid_oversize",
@@ -1950,6 +2013,12 @@ CASES += [
         "junction_index_out_of_range",
         put("river.junctions", [textures_pb2.RiverJunction(upstream=[0], downstream=[7, 8])]),
         "request.river.junctions[0].downstream[0]",
+    ),
+    bad(
+        R,
+        "junction_index_uint32_max",
+        put("river.junctions", [textures_pb2.RiverJunction(upstream=[0], downstream=[U32, 0])]),
+        f"request.river.junctions[0].downstream[0] = {U32} ",
     ),
     bad(
         R,
