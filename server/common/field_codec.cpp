@@ -22,6 +22,13 @@ size_t times(size_t a, size_t b) {
   return __builtin_mul_overflow(a, b, &out) ? std::numeric_limits<size_t>::max() : out;
 }
 
+std::string decimal(unsigned __int128 v) {
+  std::string digits;
+  do digits.insert(digits.begin(), char('0' + int(v % 10)));
+  while (v /= 10);
+  return digits;
+}
+
 }  // namespace
 
 v1::DType dtype(v1::DType d, const std::string& path) {
@@ -84,7 +91,14 @@ std::vector<float> decode_bytes(const std::string& bytes, size_t count, v1::DTyp
 
 std::vector<float> decode(const v1::Field& field, const std::string& path) {
   const v1::DType d = dtype(field.dtype(), path + ".dtype");
-  return decode_bytes(field.data(), value_count(field), d, path + ".data", field.nz() > 1 ? "nx * ny * nz" : "nx * ny");
+  const std::string what = field.nz() > 1 ? "nx * ny * nz" : "nx * ny";
+  const size_t size = bytes_per_value(d);
+  // nx * ny * nz * size in 128 bits (at most 2^98): a grid past 2^64 bytes is named by its exact size.
+  const unsigned __int128 bytes = (unsigned __int128)field.nx() * field.ny() * std::max<uint32_t>(field.nz(), 1) * size;
+  if (bytes > std::numeric_limits<size_t>::max())
+    fail(Code::InvalidArgument, path + ".data has " + std::to_string(field.data().size()) + " bytes, want " + what +
+                                    " * " + std::to_string(size) + " = " + decimal(bytes));
+  return decode_bytes(field.data(), value_count(field), d, path + ".data", what);
 }
 
 }  // namespace squall::field

@@ -75,9 +75,9 @@ void validate_spectrum(const std::string& f, const LayerSpec& L) {
 void validate_layer(const std::string& f, const LayerSpec& L, const LimitGate& gate) {
   validate::in(f + ".lx", L.lx, kExtentRange);
   validate::in(f + ".ly", L.ly, kExtentRange);
-  gate.check_grid(f, L.nx, L.ny);
   if (L.nx < 2 || L.nx % 2) validate::reject(f + ".nx", std::to_string(L.nx), "even and >= 2");
   if (L.ny < 2 || L.ny % 2) validate::reject(f + ".ny", std::to_string(L.ny), "even and >= 2");
+  gate.check_grid(f, L.nx, L.ny);
   validate_spectrum(f, L);
   validate::known(f + ".dispersion", int(L.dispersion), kDispersionKindCount, "dispersion model");
   positive(f + ".depth", L.depth, 1e5);

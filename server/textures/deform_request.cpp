@@ -34,8 +34,9 @@ std::vector<BrushStroke> strokes(const google::protobuf::RepeatedPtrField<v1::Br
 std::vector<uint8_t> chart(const v1::DeformTextureRequest& r, const DeformSpec& s, const std::string& path) {
   std::vector<uint8_t> inside;
   if (!r.has_chart()) return inside;
-  for (float v : image_plane(r.chart(), path + ".chart", uint32_t(s.width), uint32_t(s.height)))
-    inside.push_back(v != 0);
+  const std::vector<float> values = image_plane(r.chart(), path + ".chart", uint32_t(s.width), uint32_t(s.height));
+  validate::each(path + ".chart", values.data(), values.size());  // nonzero = inside: NaN is neither
+  for (float v : values) inside.push_back(v != 0);
   return inside;
 }
 

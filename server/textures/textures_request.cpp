@@ -19,8 +19,6 @@ using validate::known;
 
 namespace {
 
-int clamped(uint32_t v) { return int(std::min<uint32_t>(v, 1u << 30)); }
-
 // ---- Velocity ----
 
 // A named analytic parameter: its proto field, its slot in fields.h's params[], and whether the field
@@ -118,7 +116,9 @@ VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
   }
   v.extrapolation = extrapolation(g.extrapolation(), path + ".extrapolation");
   if (g.has_mask()) {
-    for (float m : plane(g.mask(), path + ".mask", g.nx(), g.ny(), "the grid")) v.mask.push_back(m != 0);
+    const std::vector<float> mask = plane(g.mask(), path + ".mask", g.nx(), g.ny(), "the grid");
+    validate::each(path + ".mask", mask.data(), mask.size());  // nonzero = fluid: NaN is neither
+    for (float m : mask) v.mask.push_back(m != 0);
   }
   return v;
 }
@@ -244,8 +244,9 @@ void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string&
   if (!im.png().empty()) return png_image(im.png(), gate, path + ".png", out);
   if (im.has_pixels8()) return pixels8_image(im.pixels8(), gate, path + ".pixels8", out);
   const uint32_t nx = im.channels(0).nx(), ny = im.channels(0).ny();
-  out.width = clamped(nx);
-  out.height = clamped(ny);
+  gate.check_grid(at(path + ".channels", 0), nx, ny);  // before any plane is decoded
+  out.width = int(nx);
+  out.height = int(ny);
   out.channels = im.channels_size();
   for (int c = 0; c < im.channels_size(); ++c) {
     const std::string cpath = at(path + ".channels", size_t(c));

@@ -293,6 +293,19 @@ TEST(FieldCodec, Float32RoundTripIsExact) {
   });
 }
 
+// A Field whose size passes 2^64 bytes is named by its exact size, not a saturated one.
+TEST(FieldCodec, AGridPastTwoToTheSixtyFourBytesIsNamedExactly) {
+  squall::v1::Field f;
+  f.set_nx(4294967295u), f.set_ny(4294967295u), f.set_nz(4294967295u);
+  // (2^32 - 1)^3 * 4 = 316912649835696421541200789500
+  test::expect_error(Code::InvalidArgument,
+                     "map.data has 0 bytes, want nx * ny * nz * 4 = 316912649835696421541200789500",
+                     [&] { field::decode(f, "map"); });
+  f.set_nz(0);  // (2^32 - 1)^2 * 4 = 73786976260478468100
+  test::expect_error(Code::InvalidArgument, "map.data has 0 bytes, want nx * ny * 4 = 73786976260478468100",
+                     [&] { field::decode(f, "map"); });
+}
+
 // Values that binary16 represents exactly come back exactly (signed zeros, subnormals, the largest
 // half, infinities), at 2 bytes per value.
 TEST(FieldCodec, Float16RoundTripOfRepresentableValuesIsExact) {

@@ -769,6 +769,7 @@ CASES += [
     bad(R, "fetch_negative", put(f"{L0}.fetch", -3.0), f"{L0}.fetch"),
     bad(R, "nx_odd", put(f"{L0}.nx", 15), f"{L0}.nx"),
     bad(R, "nx_zero", put(f"{L0}.nx", 0), f"{L0}.nx"),
+    bad(R, "ny_zero", put(f"{L0}.ny", 0), f"{L0}.ny = 0 must be even and >= 2"),
     bad(
         R,
         "layer_grid_oversize",
@@ -1623,6 +1624,24 @@ CASES += [
     ),
     bad(
         R,
+        "grid_mask_nan",
+        also(put("velocity", grid_velocity()), put("velocity.grid.mask", grid_field(4, 4, NAN))),
+        f"{VG}.mask[0] = nan must be finite",
+    ),
+    bad(
+        R,
+        "image_channels_uint32_max",
+        put(
+            "texture",
+            textures_pb2.TextureSource(
+                image=textures_pb2.ImageTexture(channels=[common_pb2.Field(nx=U32, ny=U32)])
+            ),
+        ),
+        "request.texture.image.channels[0].nx * request.texture.image.channels[0].ny",
+        EXHAUSTED,
+    ),
+    bad(
+        R,
         "grid_times_not_increasing",
         also(
             put("velocity", grid_velocity()),
@@ -2037,6 +2056,19 @@ CASES += [
 
 R = "Textures.DeformTexture"
 CASES += [
+    bad(
+        R,
+        "chart_nan",
+        put("chart", grid_field(DEFORM_N, DEFORM_N, NAN)),
+        "request.chart[0] = nan must be finite",
+    ),
+    bad(
+        R,
+        "image_channels_oversize",
+        put("texture.channels", [common_pb2.Field(nx=5000, ny=5000)]),
+        "request.texture.channels[0].nx * request.texture.channels[0].ny",
+        EXHAUSTED,
+    ),
     bad(
         R,
         "rigidity_2",
