@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import numbers
 import os
 import queue
@@ -13,6 +12,7 @@ from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, T
 
 import grpc
 
+from squall._convert import integer, shown
 from squall._errors import SquallError
 
 T = TypeVar("T")
@@ -43,17 +43,24 @@ SERVICES = ("Server", "Ocean", "EWave", "Clouds", "Textures")
 # sent, so an eWave Run stream it leaves has applied at most RUN_AHEAD steps beyond its last frame.
 RUN_AHEAD = 2
 
+# The longest deadline sent, s (about 3 years). gRPC turns a timeout into an absolute deadline and
+# fails a call whose deadline it cannot represent at once, without sending it (DEADLINE_EXCEEDED
+# for about 1e10 s and more): a longer timeout, like inf, is sent as no deadline.
+MAX_TIMEOUT = 1e8
+
 
 def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     """Channel options that retry calls answered UNAVAILABLE (squalld starting or draining, a
     replica gone behind a proxy, a session being handed over) up to `attempts` times in all, with
-    exponential backoff from 0.1 s to 2 s; none for attempts <= 1 (no retry policy).
+    exponential backoff from 0.1 s to 2 s; none for attempts 0 or 1 (no retry policy). TypeError
+    or ValueError naming ``retries`` for anything but an integer >= 0.
 
     gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
     it touches a session, and an eWave step's retry key makes a step whose reply was lost (a
     broken connection, a proxy's retry on another replica) once, unless another caller steps the
     session in between.
     """
+    attempts = integer(attempts, "retries", 0)
     if attempts <= 1:
         # No retry policy, as the C++ client; gRPC's transparent retries (of calls that never
         # reached the server) stay on.
@@ -97,9 +104,16 @@ def resolve_token(token: Optional[str], token_file: Optional[str]) -> Optional[s
     return os.environ.get(TOKEN_VARIABLE) or None
 
 
+def address_of(address: Any) -> str:
+    """The "host:port" of a squalld (a str); TypeError naming ``address`` else."""
+    if not isinstance(address, str):
+        raise TypeError(f'address = {shown(address)}: want "host:port" (a str)')
+    return address
+
+
 def seconds(name: str, value: Optional[float]) -> Optional[float]:
-    """A deadline as given: None, or seconds > 0 (``inf``: none); TypeError or ValueError naming
-    `name` else (NaN or a negative one expired at once)."""
+    """A deadline as given: None, or seconds > 0 (``inf``, or more than MAX_TIMEOUT: none);
+    TypeError or ValueError naming `name` else (NaN or a negative one expired at once)."""
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -110,8 +124,10 @@ def seconds(name: str, value: Optional[float]) -> Optional[float]:
 
 
 def metadata_value(name: str, value: Optional[str]) -> Optional[str]:
-    """`value` as gRPC sends metadata, printable ASCII; ValueError naming `name`, never quoting the
-    value (a token), else."""
+    """`value` as gRPC sends metadata, a str of printable ASCII; TypeError or ValueError naming
+    `name`, never quoting the value (a token), else."""
+    if value is not None and not isinstance(value, str):
+        raise TypeError(f"{name} must be a str or None, not {type(value).__name__}")
     if value is not None and not all(" " <= c <= "~" for c in value):
         raise ValueError(f"{name} holds a character that is not printable ASCII, as metadata is")
     return value
@@ -149,12 +165,13 @@ class Settings:
         return tuple(items)
 
     def deadline(self, timeout: Optional[float], stream: bool) -> Optional[float]:
-        """Seconds for one call: `timeout`, else the client's default (unary calls or streams)."""
+        """Seconds for one call: `timeout`, else the client's default (unary calls or streams);
+        None (no deadline) for none, inf or more than MAX_TIMEOUT."""
         if timeout is None:
             timeout = self.stream_timeout if stream else self.timeout
         else:
             seconds("timeout", timeout)
-        if timeout is None or math.isinf(timeout):
+        if timeout is None or timeout > MAX_TIMEOUT:
             return None
         return float(timeout)
 

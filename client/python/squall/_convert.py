@@ -8,11 +8,31 @@
   short name ("lagrangian" for TEXTURE_METHOD_LAGRANGIAN_GRIDS), or the number.
 - Messages take the message itself, or a mapping of field name -> value, converted recursively:
   Field from an array, Vec3 / Vec2 from a sequence of numbers, SimTime from a number of seconds.
+- Scalars are checked before anything is sent (``number``, ``integer``, ``flag``, ``byte_string``):
+  a number field takes an int, a float or a numpy number (not a bool or a string); an integer
+  field also a float holding an integer (2.0), within the field's wire range (uint32: [0, 2**32 -
+  1]); a bool field True or False (numpy bools too, not 0 / 1 or strings such as "off"); a bytes
+  field a bytes-like object. Mistakes raise TypeError (the wrong kind of value) or ValueError (the
+  right kind, out of range) naming the argument or field path and what is wanted, e.g.
+  ``layer.nx = 2.5: want an integer``.
 """
 
 from __future__ import annotations
 
-from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Tuple, Type, TypeVar, Union
+import numbers
+from typing import (
+    Any,
+    Dict,
+    Iterable,
+    List,
+    Mapping,
+    Optional,
+    Sequence,
+    Tuple,
+    Type,
+    TypeVar,
+    Union,
+)
 
 import numpy as np
 from google.protobuf import descriptor as _descriptor
@@ -31,6 +51,155 @@ _NUMPY_DTYPE: Dict[int, np.dtype] = {
     common_pb2.DTYPE_FLOAT32: np.dtype("<f4"),
     common_pb2.DTYPE_FLOAT16: np.dtype("<f2"),
 }
+
+UINT32_MAX = 2**32 - 1
+UINT64_MAX = 2**64 - 1
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+_FD = _descriptor.FieldDescriptor
+# The values an integer field's wire type holds.
+_INTEGER_RANGES: Dict[int, Tuple[int, int]] = {
+    _FD.CPPTYPE_INT32: (-(2**31), 2**31 - 1),
+    _FD.CPPTYPE_UINT32: (0, UINT32_MAX),
+    _FD.CPPTYPE_INT64: (-(2**63), 2**63 - 1),
+    _FD.CPPTYPE_UINT64: (0, UINT64_MAX),
+}
+
+
+# -------------------------------------------------------------------------------------------------
+# Arguments: each checked before anything is sent, with a TypeError (the wrong kind of value) or a
+# ValueError (the right kind, out of range) that names the argument or field and what is wanted.
+
+
+def shown(value: Any) -> str:
+    """repr(value) for an error message: on one line, cut to 60 characters (an array's may be
+    long)."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 60 else text[:56] + " ..."
+
+
+def _plain(value: Any) -> Any:
+    """A 0-d numpy array as its Python scalar, anything else as it is."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value.item()
+    return value
+
+
+def is_number(value: Any) -> bool:
+    """Whether `value` is one number (an int, a float, a numpy number or a 0-d array of one)."""
+    value = _plain(value)
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def number(value: Any, path: str) -> float:
+    """`value` as a float: an int, a float or a numpy number; not a bool, a string or None."""
+    value = _plain(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{path} = {shown(value)}: want a number")
+    try:
+        return float(value)
+    except OverflowError:  # an int past float's range
+        raise ValueError(f"{path} = {shown(value)}: want a number in float's range") from None
+
+
+def float32(value: Any, path: str) -> float:
+    """`value` as a float that float32 holds: infinite and NaN ones as given, finite ones of
+    magnitude at most FLOAT32_MAX (larger ones would be sent as inf)."""
+    result = number(value, path)
+    if np.isfinite(result) and abs(result) > FLOAT32_MAX:
+        raise ValueError(f"{path} = {result!r}: beyond float32, want |value| <= {FLOAT32_MAX:g}")
+    return result
+
+
+def integer(value: Any, path: str, low: int, high: Optional[int] = None) -> int:
+    """`value` as an int in [low, high] (high None: no upper bound): an int, a numpy integer or a
+    float holding an integer (2.0); not a bool, a string or None."""
+    value = _plain(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{path} = {shown(value)}: want an integer")
+    if isinstance(value, numbers.Integral):
+        result = int(value)
+    elif float(value).is_integer():
+        result = int(float(value))
+    else:
+        raise ValueError(f"{path} = {value!r}: want an integer")
+    if result < low or (high is not None and result > high):
+        bounds = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{path} = {result}: want an integer {bounds}")
+    return result
+
+
+def flag(value: Any, path: str) -> bool:
+    """`value` as a bool: True or False, or a numpy bool; not a number or a string ("off" is
+    no False)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{path} = {shown(value)}: want True or False")
+
+
+def byte_string(value: Any, path: str) -> bytes:
+    """`value` as bytes: bytes, a bytearray or another buffer (not a number, which bytes() would
+    make that many zero bytes, nor a str)."""
+    try:
+        return bytes(memoryview(value))
+    except TypeError:
+        raise TypeError(f"{path} = {shown(value)}: want bytes") from None
+
+
+def sequence(value: Any, path: str, want: str) -> List[Any]:
+    """The items of a list, a tuple, an array (its rows) or another iterable; TypeError naming
+    `path` and `want` for None, a number, a str, bytes or a mapping."""
+    scalar = isinstance(value, np.ndarray) and value.ndim == 0
+    text = isinstance(value, (str, bytes, bytearray, Mapping))
+    if scalar or text or not isinstance(value, Iterable):
+        raise TypeError(f"{path} = {shown(value)}: want {want}")
+    return list(value)
+
+
+def items_of(value: Any, path: str, counts: Sequence[int], want: str) -> List[Any]:
+    """The items of a sequence (see ``sequence``) of one of the lengths `counts`; ValueError naming
+    `path` and `want` for another length."""
+    items = sequence(value, path, want)
+    if len(items) not in counts:
+        raise ValueError(f"{path} = {shown(value)}: want {want}")
+    return items
+
+
+def floats(
+    value: Any, path: str, want: str, counts: Optional[Sequence[int]] = None
+) -> List[float]:
+    """The numbers of a sequence or an array (raveled), of one of the lengths `counts` (None: any
+    length); item i is checked as ``number`` named "path[i]"."""
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        value = value.ravel().tolist()
+    items = sequence(value, path, want) if counts is None else items_of(value, path, counts, want)
+    return [number(v, f"{path}[{i}]") for i, v in enumerate(items)]
+
+
+def integers(
+    value: Any, path: str, want: str, counts: Sequence[int], low: int, high: Optional[int] = None
+) -> List[int]:
+    """The integers of a sequence of one of the lengths `counts`, each checked as ``integer``."""
+    items = items_of(value, path, counts, want)
+    return [integer(v, f"{path}[{i}]", low, high) for i, v in enumerate(items)]
+
+
+def number_or_floats(value: Any, path: str, want: str) -> List[float]:
+    """[value] for one number, else the numbers of a sequence (see ``floats``)."""
+    if is_number(value):
+        return [number(value, path)]
+    return floats(value, path, want)
+
+
+def float_array(value: Any, path: str, want: str) -> np.ndarray:
+    """`value` as a float64 array; TypeError naming `path` and `want` when it holds no numbers (a
+    str, None, a ragged sequence)."""
+    if isinstance(value, (str, bytes, Mapping)) or value is None:
+        raise TypeError(f"{path} = {shown(value)}: want {want}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{path} = {shown(value)}: want {want}") from None
 
 
 # -------------------------------------------------------------------------------------------------
@@ -168,7 +337,7 @@ def array_to_field(
         field.nz, field.ny, field.nx = array.shape
     else:
         field.ny, field.nx = array.shape
-    field.data = np.ascontiguousarray(array, dtype=_NUMPY_DTYPE[kind]).tobytes()
+    field.data = _cast(array, _NUMPY_DTYPE[kind], path).tobytes()
     if spacing is not None:
         values = np.atleast_1d(np.asarray(spacing, dtype=np.float64))
         s = [float(values[0])] * 3 if values.size == 1 else [float(v) for v in values]
@@ -176,6 +345,24 @@ def array_to_field(
     if origin is not None:
         field.origin.CopyFrom(vec3(origin, f"{path}.origin"))
     return field
+
+
+def _cast(array: np.ndarray, dtype: np.dtype, path: str) -> np.ndarray:
+    """`array` as a contiguous array of `dtype`; ValueError naming `path`, the first value and its
+    index when a finite value is beyond the dtype's range (the cast would send it as inf)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.ascontiguousarray(array, dtype=dtype)
+    if array.dtype == dtype or array.dtype.kind == "b":
+        return out
+    overflow = np.isinf(out) & np.isfinite(array)
+    if overflow.any():
+        index = tuple(int(i) for i in np.argwhere(overflow)[0])
+        value = array[index]
+        limit = float(np.finfo(dtype).max)
+        raise ValueError(
+            f"{path}{list(index)} = {value!r}: beyond {dtype.name}, want |value| <= {limit:g}"
+        )
+    return out
 
 
 def to_field(value: FieldLike, path: str = "field") -> common_pb2.Field:
@@ -195,15 +382,13 @@ def vec3(value: Vec3Like, path: str = "vec3") -> common_pb2.Vec3:
         return value
     if isinstance(value, Mapping):
         return to_message(common_pb2.Vec3, value, path)
-    items = [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]
-    if len(items) not in (2, 3):
-        raise ValueError(f"{path}: want (x, y) or (x, y, z), got {len(items)} numbers")
+    items = floats(value, path, "(x, y) or (x, y, z)", (2, 3))
     return common_pb2.Vec3(x=items[0], y=items[1], z=items[2] if len(items) == 3 else 0.0)
 
 
 def points_to_vec3(points: ArrayLike, path: str = "points") -> Iterable[common_pb2.Vec3]:
     """Vec3 messages from an array of shape (n, 2) or (n, 3)."""
-    array = np.asarray(points, dtype=np.float64)
+    array = float_array(points, path, "an array of shape (n, 2) or (n, 3)")
     if array.ndim == 1 and array.size in (2, 3):
         array = array[None, :]
     if array.ndim != 2 or array.shape[1] not in (2, 3):
@@ -221,31 +406,31 @@ def _special(cls: Type[M], value: Any, path: str) -> Optional[M]:
     if name == "squall.v1.Vec3" and not isinstance(value, Mapping):
         return vec3(value, path)  # type: ignore[return-value]
     if name == "squall.v1.Vec2" and not isinstance(value, Mapping):
-        items = [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]
-        if len(items) != 2:
-            raise ValueError(f"{path}: want (x, y), got {len(items)} numbers")
-        return cls(x=items[0], y=items[1])
-    if name == "squall.v1.SimTime" and isinstance(value, (int, float, np.integer, np.floating)):
-        return cls(seconds=float(value))
+        x, y = floats(value, path, "(x, y)", (2,))
+        return cls(x=x, y=y)
+    if name == "squall.v1.SimTime" and not isinstance(value, (Mapping, Message)):
+        return cls(seconds=number(value, path))
     return None
 
 
 def _scalar(fd: _descriptor.FieldDescriptor, value: Any, path: str) -> Any:
+    """`value` checked for a field of fd's type (see the module docstring)."""
     if fd.enum_type is not None:
         return enum_value(fd.enum_type, value, path)
     if fd.type == fd.TYPE_BYTES:
-        return bytes(value)
+        return byte_string(value, path)
     if fd.type == fd.TYPE_STRING:
         if not isinstance(value, str):
-            raise TypeError(f"{path} = {value!r}: want a string")
+            raise TypeError(f"{path} = {shown(value)}: want a string")
         return value
     if fd.type == fd.TYPE_BOOL:
-        return bool(value)
-    if fd.cpp_type in (fd.CPPTYPE_DOUBLE, fd.CPPTYPE_FLOAT):
-        return float(value)
-    if isinstance(value, (float, np.floating)) and not float(value).is_integer():
-        raise ValueError(f"{path} = {value!r}: want an integer")
-    return int(value)
+        return flag(value, path)
+    if fd.cpp_type == fd.CPPTYPE_DOUBLE:
+        return number(value, path)
+    if fd.cpp_type == fd.CPPTYPE_FLOAT:
+        return float32(value, path)
+    low, high = _INTEGER_RANGES[fd.cpp_type]
+    return integer(value, path, low, high)
 
 
 def set_fields(message: Message, values: Mapping[str, Any], path: str) -> None:
@@ -265,15 +450,14 @@ def set_fields(message: Message, values: Mapping[str, Any], path: str) -> None:
             container = getattr(message, key)
             del container[:]
             if fd.message_type is not None:
-                for i, item in enumerate(value):
+                want = f"a sequence of {fd.message_type.name}"
+                for i, item in enumerate(sequence(value, where, want)):
                     sub = container.add()
                     sub.CopyFrom(to_message(type(sub), item, f"{where}[{i}]"))
             else:
-                items = (
-                    np.asarray(value).ravel().tolist()
-                    if isinstance(value, np.ndarray)
-                    else list(value)
-                )
+                if isinstance(value, np.ndarray) and value.ndim > 0:
+                    value = value.ravel().tolist()
+                items = sequence(value, where, "a sequence")
                 container.extend(
                     _scalar(fd, item, f"{where}[{i}]") for i, item in enumerate(items)
                 )
@@ -315,13 +499,14 @@ def message_from(cls: Type[M], base: Any, path: str, **fields: Any) -> M:
     return message
 
 
-def repeated_per(values: Union[float, Sequence[float], None], count: int) -> Optional[list]:
-    """A scalar repeated `count` times, a sequence as a list, None as None."""
+def repeated_per(
+    values: Union[float, Sequence[float], None], count: int, path: str = "values"
+) -> Optional[List[float]]:
+    """A number repeated `count` times, a sequence of numbers as a list, None as None."""
     if values is None:
         return None
-    if np.isscalar(values):
-        return [float(values)] * count  # type: ignore[arg-type]
-    return [float(v) for v in values]  # type: ignore[union-attr]
+    items = number_or_floats(values, path, "a number or a sequence of numbers")
+    return items * count if is_number(values) else items
 
 
 def fields_dict(fields: Iterable[common_pb2.Field], path: str = "fields") -> Dict[str, np.ndarray]:

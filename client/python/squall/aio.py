@@ -49,14 +49,12 @@ from squall import ewave as _ewave
 from squall import ocean as _ocean
 from squall import textures as _textures
 from squall._calls import (
-    CHANNEL_OPTIONS,
     DEFAULT_ADDRESS,
-    OWN_CONNECTION_OPTIONS,
     RUN_AHEAD,
     Settings,
+    address_of,
     propose_session_id,
     resolve_token,
-    retry_options,
 )
 from squall._errors import SquallError
 from squall._pb import (
@@ -82,7 +80,13 @@ from squall._results import (
     Tile,
     Volume,
 )
-from squall.client import HEALTH_CHECK, decode_health_response, encode_health_request
+from squall.client import (
+    HEALTH_CHECK,
+    channel_options,
+    decode_health_response,
+    encode_health_request,
+    health_service,
+)
 
 T = TypeVar("T")
 S = TypeVar("S", bound="Steering[Any]")
@@ -494,12 +498,7 @@ class EWave:
         self, session_id: str, config: Optional[ewave_pb2.EWaveConfig] = None
     ) -> EWaveSession:
         """A handle on an existing session id; nothing is sent."""
-        return EWaveSession(
-            self,
-            ewave_pb2.EWaveSessionResponse(
-                session_id=session_id, config=config or ewave_pb2.EWaveConfig()
-            ),
-        )
+        return EWaveSession(self, _ewave.attached(session_id, config))
 
 
 class Clouds:
@@ -687,12 +686,21 @@ class Interactive(Steering[TextureFrame]):
         spin: Optional[float] = None,
         final_scale: Optional[float] = None,
     ) -> List[TextureFrame]:
-        """Applies the changes given and returns `frames` more frames."""
+        """Applies the changes given and returns `frames` more frames (see
+        squall.textures.Interactive.send).
+
+        A message that fails validation raises SquallError naming "control[n].<field>", but
+        the server sends no reply to one with ``frames=0``: send() returns [] once the message
+        is written, and that message's error is raised only by the next send() that asks for
+        frames, or by close() (the end of the ``async with`` block); a send(frames=0) in
+        between returns [] too (or raises the error, once the server has ended the call), and
+        cancel() drops it.
+        """
         self._check_open()
         message = _textures.control_message(
             self._start, frames, velocity, dt, substeps, spin, final_scale
         )
-        return await self._exchange(message, frames)
+        return await self._exchange(message, message.frames)
 
 
 class DeformInteractive(Steering[DeformFrame]):
@@ -716,12 +724,20 @@ class DeformInteractive(Steering[DeformFrame]):
         clear_strokes: bool = False,
     ) -> List[DeformFrame]:
         """Applies the changes given and returns `frames` more frames (see
-        squall.textures.DeformInteractive.send)."""
+        squall.textures.DeformInteractive.send).
+
+        A message that fails validation raises SquallError naming "control[n].<field>", but
+        the server sends no reply to one with ``frames=0``: send() returns [] once the message
+        is written, and that message's error is raised only by the next send() that asks for
+        frames, or by close() (the end of the ``async with`` block); a send(frames=0) in
+        between returns [] too (or raises the error, once the server has ended the call), and
+        cancel() drops it.
+        """
         self._check_open()
         message = _textures.deform_control_message(
             self._start, frames, d_mu, d_mu_map, deformation, strokes, clear_strokes
         )
-        return await self._exchange(message, frames)
+        return await self._exchange(message, message.frames)
 
 
 class Textures:
@@ -916,16 +932,13 @@ class Client:
         token_file: Optional[str] = None,
         own_connection: bool = False,
     ) -> None:
-        self.address = address
+        self.address = address_of(address)
         settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
-        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries)
-        if own_connection:
-            channel_options += OWN_CONNECTION_OPTIONS
-        channel_options += list(options)
+        grpc_options = channel_options(retries, own_connection, options)
         if credentials is None:
-            channel = grpc.aio.insecure_channel(address, options=channel_options)
+            channel = grpc.aio.insecure_channel(address, options=grpc_options)
         else:
-            channel = grpc.aio.secure_channel(address, credentials, options=channel_options)
+            channel = grpc.aio.secure_channel(address, credentials, options=grpc_options)
         self._connection = Connection(channel, settings)
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(
@@ -952,7 +965,8 @@ class Client:
 
     async def health(self, service: str = "", *, timeout: Optional[float] = None) -> str:
         """gRPC health: "SERVING", "NOT_SERVING", ..."""
-        status: str = await self._connection.unary("Health.Check", self._health, service, timeout)
+        request = health_service(service)
+        status: str = await self._connection.unary("Health.Check", self._health, request, timeout)
         return status
 
     async def wait_until_serving(self, timeout: float = 60.0) -> bool:

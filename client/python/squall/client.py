@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from typing import Any, Optional, Sequence, Tuple
+from typing import Any, List, Optional, Sequence, Tuple
 
 import grpc
 
@@ -13,9 +13,11 @@ from squall._calls import (
     OWN_CONNECTION_OPTIONS,
     Connection,
     Settings,
+    address_of,
     resolve_token,
     retry_options,
 )
+from squall._convert import flag, shown
 from squall._errors import SquallError
 from squall._pb import server_pb2, server_pb2_grpc
 from squall.clouds import Clouds
@@ -51,6 +53,27 @@ def _read_varint(data: bytes, at: int) -> Tuple[int, int]:
         at, shift = at + 1, shift + 7
         if not data[at - 1] & 0x80:
             return value, at
+
+
+def health_service(service: str) -> str:
+    """The service a health check asks about (a str: "" the whole server, "squall.v1.Ocean", ...);
+    TypeError naming ``service`` else (gRPC would fail to encode it, as INTERNAL)."""
+    if not isinstance(service, str):
+        raise TypeError(
+            f'service = {shown(service)}: want a service name (a str: "" for the whole server, '
+            '"squall.v1.Ocean", ...)'
+        )
+    return service
+
+
+def channel_options(
+    retries: int, own_connection: bool, options: Sequence[Tuple[str, Any]]
+) -> List[Tuple[str, Any]]:
+    """The options of a Client's channel: squall's, the retry policy, `options`."""
+    result = list(CHANNEL_OPTIONS) + retry_options(retries)
+    if flag(own_connection, "own_connection"):
+        result += OWN_CONNECTION_OPTIONS
+    return result + list(options)
 
 
 def encode_health_request(service: str) -> bytes:
@@ -109,19 +132,21 @@ class Client:
 
     Args:
         address: "host:port" of squalld (default 127.0.0.1:50051).
-        timeout: deadline of each unary call, s > 0 (default 30); None or inf: no deadline.
+        timeout: deadline of each unary call, s > 0 (default 30); None, inf or more than 1e8 s
+            (``squall._calls.MAX_TIMEOUT``, about 3 years): no deadline.
         token: sent on every call as the metadata "authorization: Bearer <token>": a token of
             squalld's --auth-tokens file (or of a gateway in front of it). None: the first word of
             `token_file` if given, else $SQUALL_TOKEN if set, else none is sent (as the squall CLI's
             --token-file and $SQUALL_TOKEN).
-        stream_timeout: deadline of each streaming call, s; None (default): none, streams run until
-            they end or are cancelled.
+        stream_timeout: deadline of each streaming call, s > 0; None (default), inf or more than
+            1e8 s: none, streams run until they end or are cancelled.
         request_id: sent as "x-request-id" on every call; squalld shows it in its request log.
         credentials: grpc.ChannelCredentials for a TLS channel (``squall.tls_credentials(ca=...)``
             for a squalld started with --tls-cert, or a gateway's); None: plaintext.
         options: extra gRPC channel options, added to squall's (no client-side message size limit).
         retries: attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica
-            gone behind a proxy), with backoff from 0.1 s to 2 s (at most 5; 1: no retries).
+            gone behind a proxy), with backoff from 0.1 s to 2 s: an integer >= 0, of which at
+            most 5 count (0 or 1: no retries).
             gRPC retries only calls the server has not begun to answer, squalld answers
             UNAVAILABLE before it touches a session, and an eWave step carries a retry key that
             squalld answers once: these retries of a step make it once (unless another caller
@@ -137,7 +162,8 @@ class Client:
         clouds: cloud volumes and images (squall.clouds.Clouds).
         textures: advected textures (squall.textures.Textures).
 
-    Each method takes ``timeout=`` to override the default for one call (``float("inf")``: none).
+    Each method takes ``timeout=`` to override the default for one call (``float("inf")`` or
+    more than 1e8 s: none).
     Failures raise squall.SquallError with the gRPC status code and the server's message. The
     client is a context manager; ``close()`` closes its channel.
     """
@@ -156,16 +182,13 @@ class Client:
         token_file: Optional[str] = None,
         own_connection: bool = False,
     ) -> None:
-        self.address = address
+        self.address = address_of(address)
         settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
-        channel_options = list(CHANNEL_OPTIONS) + retry_options(retries)
-        if own_connection:
-            channel_options += OWN_CONNECTION_OPTIONS
-        channel_options += list(options)
+        grpc_options = channel_options(retries, own_connection, options)
         if credentials is None:
-            channel = grpc.insecure_channel(address, options=channel_options)
+            channel = grpc.insecure_channel(address, options=grpc_options)
         else:
-            channel = grpc.secure_channel(address, credentials, options=channel_options)
+            channel = grpc.secure_channel(address, credentials, options=grpc_options)
         self._connection = Connection(channel, settings)
         self._server = server_pb2_grpc.ServerStub(channel)
         self._health = channel.unary_unary(
@@ -195,7 +218,8 @@ class Client:
 
     def health(self, service: str = "", *, timeout: Optional[float] = None) -> str:
         """gRPC health of `service` ("" = the whole server): "SERVING", "NOT_SERVING", ..."""
-        status: str = self._connection.unary("Health.Check", self._health, service, timeout)
+        request = health_service(service)
+        status: str = self._connection.unary("Health.Check", self._health, request, timeout)
         return status
 
     def wait_until_serving(self, timeout: float = 60.0) -> bool:

@@ -17,12 +17,23 @@ Example::
 from __future__ import annotations
 
 import os
-from typing import Any, Mapping, Optional, Sequence, Union
-
-import numpy as np
+from typing import Any, List, Mapping, Optional, Sequence, Union
 
 from squall._calls import Connection, Stream, propose_session_id
-from squall._convert import enum_value, message_from, repeated_per, to_message, vec3
+from squall._convert import (
+    enum_value,
+    flag,
+    float_array,
+    floats,
+    items_of,
+    message_from,
+    number_or_floats,
+    repeated_per,
+    sequence,
+    shown,
+    to_message,
+    vec3,
+)
 from squall._pb import clouds_pb2, clouds_pb2_grpc
 from squall._results import EvolutionFrame, Image, Volume
 
@@ -46,28 +57,62 @@ __all__ = [
 ]
 
 
+_MESH_WANT = (
+    "OBJ text (a str of several lines) or bytes, the path of an .obj file, (vertices (n, 3), "
+    "triangles (m, 3)), a MeshSpec or a mapping of its fields"
+)
+
+
+def _read_mesh(file: Union[str, bytes], path: str) -> clouds_pb2.MeshSpec:
+    """The MeshSpec of the OBJ file `file`: FileNotFoundError for a missing one, ValueError for a
+    directory, each naming `path`."""
+    if os.path.isdir(file):
+        raise ValueError(f"{path} = {file!r}: a directory, want an .obj file or OBJ text")
+    if not os.path.exists(file):
+        raise FileNotFoundError(
+            f"{path} = {file!r}: no such file (a str without a newline is the path of an .obj "
+            "file; OBJ text has a line per vertex and face)"
+        )
+    with open(file, "rb") as f:
+        return clouds_pb2.MeshSpec(obj=f.read())
+
+
 def _mesh(value: Any, path: str) -> clouds_pb2.MeshSpec:
-    """A MeshSpec from OBJ text / bytes, a path to an .obj file (FileNotFoundError for a missing
-    one), (vertices (n, 3), triangles (m, 3)), a MeshSpec or a mapping of its fields."""
+    """A MeshSpec (see ``model``'s meshes)."""
     if isinstance(value, (clouds_pb2.MeshSpec, Mapping)):
         return to_message(clouds_pb2.MeshSpec, value, path)
     if isinstance(value, bytes):
         return clouds_pb2.MeshSpec(obj=value)
+    if isinstance(value, str) and "\n" in value:
+        return clouds_pb2.MeshSpec(obj=value.encode())
     if isinstance(value, (str, os.PathLike)):
-        text = str(value)
-        is_path = isinstance(value, os.PathLike) or "\n" not in text and os.path.exists(text)
-        if not is_path and "\n" not in text and text.strip().lower().endswith(".obj"):
-            # one line naming an .obj file: a path mistyped, not OBJ text
-            raise FileNotFoundError(f"{path}: no such file: {text}")
-        if not is_path:
-            return clouds_pb2.MeshSpec(obj=text.encode())
-        with open(text, "rb") as f:
-            return clouds_pb2.MeshSpec(obj=f.read())
-    vertices, triangles = value
-    return clouds_pb2.MeshSpec(
-        vertices=np.asarray(vertices, dtype=np.float64).ravel().tolist(),
-        triangles=np.asarray(triangles, dtype=np.int64).ravel().tolist(),
-    )
+        return _read_mesh(os.fspath(value), path)
+    vertices, triangles = items_of(value, path, (2,), _MESH_WANT)
+    fields = {
+        "vertices": float_array(vertices, f"{path}.vertices", "an array (n, 3), m"),
+        "triangles": float_array(triangles, f"{path}.triangles", "an array (m, 3) of indices"),
+    }
+    return to_message(clouds_pb2.MeshSpec, fields, path)  # each value checked as its field
+
+
+def _shape(item: Any, cls: Any, path: str) -> Any:
+    """A `cls` (SphereSpec, EllipsoidSpec, ParticleSpec) from (x, y, z, radius) (an ellipsoid:
+    (x, y, z, rx, ry, rz)), a message or a mapping of its fields."""
+    if isinstance(item, (Mapping, cls)):
+        return to_message(cls, item, path)
+    kind = cls.DESCRIPTOR.name
+    if cls is clouds_pb2.EllipsoidSpec:
+        v = floats(item, path, f"(x, y, z, rx, ry, rz) in m, an {kind} or a mapping", (6,))
+        return cls(center=vec3(v[:3]), radii=vec3(v[3:]))
+    v = floats(item, path, f"(x, y, z, radius) in m, a {kind} or a mapping", (4,))
+    return cls(center=vec3(v[:3]), radius=v[3])
+
+
+def _shapes(items: Any, cls: Any, name: str) -> List[Any]:
+    """The `cls` messages of ``model``'s spheres, ellipsoids or particles."""
+    path = f"model.{name}"
+    values = sequence(items, path, f"a sequence of {name}")
+    return [_shape(item, cls, f"{path}[{i}]") for i, item in enumerate(values)]
 
 
 def model(
@@ -90,7 +135,9 @@ def model(
         spheres: base spheres, unioned: (x, y, z, radius) in m, or SphereSpec / mappings.
         ellipsoids: base ellipsoids: (x, y, z, rx, ry, rz) in m, or EllipsoidSpec / mappings.
         meshes: closed triangle meshes: OBJ text or bytes, a path to an .obj file, or
-            (vertices (n, 3) m, triangles (m, 3) indices).
+            (vertices (n, 3) m, triangles (m, 3) indices). A str holding a newline is OBJ text;
+            one without (or an os.PathLike) is the path of an .obj file, read here:
+            FileNotFoundError when there is none, ValueError for a directory.
         particles: noise-stamped particles (eqs 113-114): (x, y, z, radius) in m, or ParticleSpec /
             mappings (amplitude, bias, fade, noise).
         pyroclastic: PyroclasticSpec or mapping: layers 0..8, amplitude m, gamma, noise (a
@@ -101,39 +148,18 @@ def model(
         skin: skin thickness of the density ramp (eq 103), m; unset: 2 voxel sizes.
         max_active_voxels: active-voxel budget; unset: the server's.
     """
-
-    def shapes(items: Sequence[Any], cls: Any, name: str) -> list:
-        """(x, y, z, r) / (x, y, z, rx, ry, rz) tuples, or messages / mappings."""
-        out = []
-        for i, item in enumerate(items):
-            if not isinstance(item, (Mapping, cls)):
-                v = [float(x) for x in item]
-                if name == "ellipsoids":
-                    if len(v) != 6:
-                        raise ValueError(
-                            f"model.ellipsoids[{i}]: want (x, y, z, rx, ry, rz), got {item!r}"
-                        )
-                    item = {"center": v[:3], "radii": v[3:]}
-                else:
-                    if len(v) != 4:
-                        raise ValueError(
-                            f"model.{name}[{i}]: want (x, y, z, radius), got {item!r}"
-                        )
-                    item = {"center": v[:3], "radius": v[3]}
-            out.append(to_message(cls, item, f"model.{name}[{i}]"))
-        return out
-
+    mesh_items = sequence(meshes, "model.meshes", "a sequence of meshes")
     return message_from(
         clouds_pb2.CloudModel,
         None,
         "model",
         voxel_size=voxel_size,
         skin=skin,
-        spheres=shapes(spheres, clouds_pb2.SphereSpec, "spheres"),
-        ellipsoids=shapes(ellipsoids, clouds_pb2.EllipsoidSpec, "ellipsoids"),
-        meshes=[_mesh(m, f"model.meshes[{i}]") for i, m in enumerate(meshes)],
+        spheres=_shapes(spheres, clouds_pb2.SphereSpec, "spheres"),
+        ellipsoids=_shapes(ellipsoids, clouds_pb2.EllipsoidSpec, "ellipsoids"),
+        meshes=[_mesh(m, f"model.meshes[{i}]") for i, m in enumerate(mesh_items)],
         pyroclastic=pyroclastic,
-        particles=shapes(particles, clouds_pb2.ParticleSpec, "particles"),
+        particles=_shapes(particles, clouds_pb2.ParticleSpec, "particles"),
         advection=advection,
         temperature=temperature,
         max_active_voxels=max_active_voxels,
@@ -161,9 +187,9 @@ def camera(
         clouds_pb2.CameraSpec,
         None,
         "camera",
-        eye=vec3(eye),
-        look_at=vec3(look_at),
-        up=vec3(up),
+        eye=vec3(eye, "camera.eye"),
+        look_at=vec3(look_at, "camera.look_at"),
+        up=vec3(up, "camera.up"),
         width=width,
         height=height,
         vertical_fov_deg=vertical_fov_deg,
@@ -179,9 +205,12 @@ def sun(
     """A directional light: `direction` (non-zero) points from the scene toward the light (z up:
     a sun above the horizon has direction z > 0), irradiance W m^-2 m^-1: one number (repeated
     for every wavelength by ``render_settings``) or one per wavelength."""
-    values = [float(v) for v in np.atleast_1d(np.asarray(irradiance, dtype=float))]
+    want = "a number or one per wavelength, W m^-2 m^-1"
+    values = number_or_floats(irradiance, "sun.irradiance", want)
     return clouds_pb2.LightSpec(
-        kind=clouds_pb2.LIGHT_KIND_DIRECTIONAL, direction=vec3(direction), intensity=values
+        kind=clouds_pb2.LIGHT_KIND_DIRECTIONAL,
+        direction=vec3(direction, "sun.direction"),
+        intensity=values,
     )
 
 
@@ -191,9 +220,12 @@ def point_light(
     """A point light at `position` (m) with intensity W sr^-1 m^-1 (one number, or one per
     wavelength).
     """
-    values = [float(v) for v in np.atleast_1d(np.asarray(intensity, dtype=float))]
+    want = "a number or one per wavelength, W sr^-1 m^-1"
+    values = number_or_floats(intensity, "point_light.intensity", want)
     return clouds_pb2.LightSpec(
-        kind=clouds_pb2.LIGHT_KIND_POINT, position=vec3(position), intensity=values
+        kind=clouds_pb2.LIGHT_KIND_POINT,
+        position=vec3(position, "point_light.position"),
+        intensity=values,
     )
 
 
@@ -239,9 +271,10 @@ def render_settings(
         seed: jitter seed.
         min_transmittance: early termination, [0, 1); unset: 1e-4.
     """
-    count = len(wavelengths)
+    waves = floats(wavelengths, "settings.wavelengths", "a sequence of wavelengths, m")
+    count = len(waves)
     light_messages = []
-    for i, light in enumerate(lights):
+    for i, light in enumerate(sequence(lights, "settings.lights", "a sequence of lights")):
         message = clouds_pb2.LightSpec()
         message.CopyFrom(to_message(clouds_pb2.LightSpec, light, f"settings.lights[{i}]"))
         if len(message.intensity) == 1 and count > 1:
@@ -258,16 +291,20 @@ def render_settings(
         seed=seed,
         min_transmittance=min_transmittance,
         phase=phase,
-        wavelengths=[float(w) for w in wavelengths],
-        extinction=repeated_per(extinction, count),
-        albedo=repeated_per(albedo, count),
+        wavelengths=waves,
+        extinction=repeated_per(extinction, count, "settings.extinction"),
+        albedo=repeated_per(albedo, count, "settings.albedo"),
         lights=light_messages,
         shadow=(
             None
             if shadow is None
             else enum_value(clouds_pb2.ShadowMode.DESCRIPTOR, shadow, "settings.shadow")
         ),
-        shadow_map_size=None if shadow_map_size is None else [int(v) for v in shadow_map_size],
+        shadow_map_size=(
+            None
+            if shadow_map_size is None
+            else items_of(shadow_map_size, "settings.shadow_map_size", (3,), "(nx, ny, nz) nodes")
+        ),
         shadow_step=shadow_step,
         shadow_trilinear=shadow_trilinear,
     )
@@ -306,8 +343,8 @@ def build_request(
         raise TypeError("build: a model is needed (squall.clouds.model(...), or request=...)")
     return clouds_pb2.BuildVolumeRequest(
         model=to_message(clouds_pb2.CloudModel, cloud, "model"),
-        keep=bool(keep),
-        return_vdb=bool(return_vdb),
+        keep=flag(keep, "keep"),
+        return_vdb=flag(return_vdb, "return_vdb"),
     )
 
 
@@ -351,9 +388,9 @@ def evolution_request(
     return clouds_pb2.StreamEvolutionRequest(
         model=to_message(clouds_pb2.CloudModel, cloud, "model"),
         evolution=to_message(clouds_pb2.EvolutionSpec, evolution, "evolution"),
-        times=[float(t) for t in np.asarray(times, dtype=np.float64).ravel()],
+        times=floats(times, "times", "a sequence of frame times, s"),
         settings=as_settings(settings, kwargs),
-        include_vdb=bool(include_vdb),
+        include_vdb=flag(include_vdb, "include_vdb"),
     )
 
 
@@ -373,10 +410,13 @@ def evolution_frame(frame: clouds_pb2.EvolutionFrame) -> EvolutionFrame:
 
 
 def volume_id_of(volume: Union[str, Volume]) -> str:
+    """The id of a stored volume: a Volume built with keep=True, or its id (a str)."""
     if isinstance(volume, Volume):
         if not volume.id:
             raise ValueError("release: the volume was not stored (keep=True)")
         return volume.id
+    if not isinstance(volume, str):
+        raise TypeError(f"volume = {shown(volume)}: want a stored Volume or its volume id (str)")
     return volume
 
 

@@ -18,18 +18,27 @@ from __future__ import annotations
 
 import inspect
 import os
-from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 import numpy as np
 
 from squall._calls import Connection, RequestFeeder, Stream, propose_session_id
 from squall._convert import (
+    UINT64_MAX,
     ArrayLike,
     FieldLike,
+    byte_string,
     dtype_value,
     enum_value,
+    float_array,
+    floats,
+    integer,
+    items_of,
     message_from,
+    number,
+    sequence,
+    shown,
     to_field,
     to_message,
     vec3,
@@ -140,11 +149,15 @@ def config(
     )
 
 
+def _numbers(shape: str, **values: Any) -> Dict[str, float]:
+    """A shape's arguments, each a number (TypeError naming "<shape>.<argument>" else)."""
+    return {name: number(value, f"{shape}.{name}") for name, value in values.items()}
+
+
 def circle(center_x: float, center_y: float, radius: float) -> ewave_pb2.EWaveShape:
     """A circular obstruction: centre (m, grid frame) and radius (m, > 0)."""
-    return ewave_pb2.EWaveShape(
-        circle=ewave_pb2.EWaveCircle(center_x=center_x, center_y=center_y, radius=radius)
-    )
+    values = _numbers("circle", center_x=center_x, center_y=center_y, radius=radius)
+    return ewave_pb2.EWaveShape(circle=ewave_pb2.EWaveCircle(**values))
 
 
 def ellipse(
@@ -152,15 +165,15 @@ def ellipse(
 ) -> ewave_pb2.EWaveShape:
     """An elliptic obstruction (a hull): centre (m), semi-axes along / across the heading (m, > 0),
     heading (rad, counter-clockwise from +x)."""
-    return ewave_pb2.EWaveShape(
-        ellipse=ewave_pb2.EWaveEllipse(
-            center_x=center_x,
-            center_y=center_y,
-            semi_axis_a=semi_axis_a,
-            semi_axis_b=semi_axis_b,
-            heading=heading,
-        )
+    values = _numbers(
+        "ellipse",
+        center_x=center_x,
+        center_y=center_y,
+        semi_axis_a=semi_axis_a,
+        semi_axis_b=semi_axis_b,
+        heading=heading,
     )
+    return ewave_pb2.EWaveShape(ellipse=ewave_pb2.EWaveEllipse(**values))
 
 
 def box(
@@ -168,20 +181,20 @@ def box(
 ) -> ewave_pb2.EWaveShape:
     """A rectangular obstruction: centre (m), half extents along / across the heading (m, > 0),
     heading (rad)."""
-    return ewave_pb2.EWaveShape(
-        box=ewave_pb2.EWaveBox(
-            center_x=center_x,
-            center_y=center_y,
-            half_length=half_length,
-            half_width=half_width,
-            heading=heading,
-        )
+    values = _numbers(
+        "box",
+        center_x=center_x,
+        center_y=center_y,
+        half_length=half_length,
+        half_width=half_width,
+        heading=heading,
     )
+    return ewave_pb2.EWaveShape(box=ewave_pb2.EWaveBox(**values))
 
 
 def polygon(vertices: ArrayLike) -> ewave_pb2.EWaveShape:
     """A polygonal obstruction: vertices (n, 2) in m (grid frame), either winding, n >= 3."""
-    points = np.asarray(vertices, dtype=np.float64)
+    points = float_array(vertices, "polygon.vertices", "vertices of shape (n, 2), m")
     if points.ndim != 2 or points.shape[1] not in (2, 3):
         raise ValueError(f"polygon: want vertices of shape (n, 2), got {points.shape}")
     return ewave_pb2.EWaveShape(polygon=ewave_pb2.EWavePolygon(vertices=[vec3(p) for p in points]))
@@ -222,7 +235,9 @@ def inputs(
     """
     if isinstance(outputs, (str, int)):
         outputs = [outputs]
-    drift_x, drift_y = (float(v) for v in drift)
+    drift_x, drift_y = floats(drift, "inputs.drift", "a pair (U_D,x, U_D,y), m/s", (2,))
+    shape_items = sequence(shapes, "inputs.shapes", "a sequence of shapes")
+    output_items = sequence(outputs, "inputs.outputs", "an output name or a sequence of them")
     message = message_from(
         ewave_pb2.EWaveInputs,
         None,
@@ -231,7 +246,7 @@ def inputs(
         obstruction=None if obstruction is None else to_field(obstruction, "inputs.obstruction"),
         shapes=[
             to_message(ewave_pb2.EWaveShape, s, f"inputs.shapes[{i}]")
-            for i, s in enumerate(shapes)
+            for i, s in enumerate(shape_items)
         ],
         ambient_height=(
             None if ambient_height is None else to_field(ambient_height, "inputs.ambient_height")
@@ -247,12 +262,13 @@ def inputs(
         drift_y=drift_y,
         outputs=[
             enum_value(ewave_pb2.EWaveOutput.DESCRIPTOR, o, f"inputs.outputs[{i}]")
-            for i, o in enumerate(outputs)
+            for i, o in enumerate(output_items)
         ],
         dtype=dtype_value(dtype, "inputs.dtype"),
     )
     if drift_field is not None:
-        u, v = drift_field
+        want = "a pair (u, v) of arrays (ny, nx), m/s"
+        u, v = items_of(drift_field, "inputs.drift_field", (2,), want)
         message.drift_field_x.CopyFrom(to_field(u, "inputs.drift_field_x"))
         message.drift_field_y.CopyFrom(to_field(v, "inputs.drift_field_y"))
     return message
@@ -316,8 +332,10 @@ def unary_step_request(
     return ewave_pb2.EWaveStepRequest(
         session_id=session_id,
         inputs=inputs,
-        retry_key=os.urandom(16) if retry_key is None else retry_key,
-        after_step=after_step,
+        retry_key=os.urandom(16) if retry_key is None else byte_string(retry_key, "retry_key"),
+        after_step=(
+            None if after_step is None else integer(after_step, "after_step", 0, UINT64_MAX)
+        ),
     )
 
 
@@ -342,6 +360,14 @@ def close_quietly(close: Callable[[], None], exc_type: Any) -> None:
         close()
     except SquallError:
         pass
+
+
+def attached(session_id: str, config: Any) -> ewave_pb2.EWaveSessionResponse:
+    """What ``attach`` knows of a session: its id (a str) and the config given, if any."""
+    if not isinstance(session_id, str):
+        raise TypeError(f"session_id = {shown(session_id)}: want a session id (str)")
+    known = to_message(ewave_pb2.EWaveConfig, config, "config")
+    return ewave_pb2.EWaveSessionResponse(session_id=session_id, config=known)
 
 
 def session_shape(config: ewave_pb2.EWaveConfig) -> Tuple[int, int]:
@@ -520,9 +546,4 @@ class EWave:
     ) -> EWaveSession:
         """A handle on an existing session id (e.g. from another process); nothing is sent. No
         RPC returns a live session's config: without `config`, ``shape`` raises ValueError."""
-        return EWaveSession(
-            self,
-            ewave_pb2.EWaveSessionResponse(
-                session_id=session_id, config=config or ewave_pb2.EWaveConfig()
-            ),
-        )
+        return EWaveSession(self, attached(session_id, config))

@@ -19,15 +19,21 @@ from __future__ import annotations
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
-import numpy as np
 
 from squall._calls import Connection, Stream
 from squall._convert import (
+    UINT32_MAX,
     ArrayLike,
     dtype_value,
     enum_value,
+    flag,
+    integer,
+    is_number,
+    items_of,
     message_from,
+    number,
     points_to_vec3,
+    sequence,
     to_message,
 )
 from squall._errors import SquallError
@@ -43,13 +49,25 @@ Outputs = Sequence[Union[str, int]]
 __all__ = ["layer", "tile_spec", "as_tile_spec", "Ocean", "TileAssembler", "Tile", "Samples"]
 
 
-def _pair(value: Union[float, Sequence[float]], name: str) -> Tuple[Any, Any]:
-    if np.isscalar(value):
+def _pair(value: Union[float, Sequence[float]], path: str, want: str) -> Tuple[Any, Any]:
+    """(value, value) for one number, else the items of a pair; their types are checked as the
+    fields they are set to."""
+    if is_number(value):
         return value, value
-    items = list(value)  # type: ignore[arg-type]
-    if len(items) != 2:
-        raise ValueError(f"{name}: want a number or a pair (x, y), got {value!r}")
-    return items[0], items[1]
+    x, y = items_of(value, path, (2,), want)
+    return x, y
+
+
+def _partial(
+    value: Union[Tuple[float, float], Mapping[str, Any], ocean_pb2.PartialSpectrum], path: str
+) -> ocean_pb2.PartialSpectrum:
+    """A PartialSpectrum from a (peak_frequency, Hs) pair, a mapping of its fields or itself."""
+    if isinstance(value, (Mapping, ocean_pb2.PartialSpectrum)):
+        return to_message(ocean_pb2.PartialSpectrum, value, path)
+    want = "a (peak_frequency, Hs) pair (rad/s, m), a PartialSpectrum or a mapping of its fields"
+    frequency, height = items_of(value, path, (2,), want)
+    fields = {"peak_frequency": frequency, "significant_wave_height": height}
+    return to_message(ocean_pb2.PartialSpectrum, fields, path)
 
 
 def layer(
@@ -109,14 +127,11 @@ def layer(
         seed: random seed of the amplitudes (same seed, same sea on every device).
         drift: drift current (U_D,x, U_D,y), m/s, each in [-100, 100].
     """
-    extent_x, extent_y = _pair(extent, "extent")
-    nx, ny = _pair(n, "n")
-    drift_x, drift_y = _pair(drift, "drift")
-    partial_messages = []
-    for i, p in enumerate(partials):
-        if isinstance(p, (tuple, list)):
-            p = {"peak_frequency": p[0], "significant_wave_height": p[1]}
-        partial_messages.append(to_message(ocean_pb2.PartialSpectrum, p, f"layer.partials[{i}]"))
+    extent_x, extent_y = _pair(extent, "layer.extent", "a number or a pair (Lx, Ly), m")
+    nx, ny = _pair(n, "layer.n", "an integer or a pair (nx, ny)")
+    drift_x, drift_y = _pair(drift, "layer.drift", "a pair (U_D,x, U_D,y), m/s")
+    partial_items = sequence(partials, "layer.partials", "a sequence of partial spectra")
+    partial_messages = [_partial(p, f"layer.partials[{i}]") for i, p in enumerate(partial_items)]
     return message_from(
         ocean_pb2.LayerSpec,
         None,
@@ -178,21 +193,18 @@ def tile_spec(
     """
     if isinstance(layers, (ocean_pb2.LayerSpec, Mapping)):
         layers = [layers]
+    items = sequence(layers, "tile.layers", "a layer or a sequence of layers")
     layer_messages = [
-        to_message(ocean_pb2.LayerSpec, l, f"tile.layers[{i}]") for i, l in enumerate(layers)
+        to_message(ocean_pb2.LayerSpec, l, f"tile.layers[{i}]") for i, l in enumerate(items)
     ]
     if not layer_messages:
         layer_messages = [layer()]
     grid: Any = output
     if output is not None and not isinstance(output, (Mapping, ocean_pb2.OutputGrid)):
-        values = list(output)
-        if len(values) not in (2, 4):
-            raise ValueError(
-                f"output: want (nx, ny) or (nx, ny, extent_x, extent_y), got {output!r}"
-            )
-        grid = {"nx": int(values[0]), "ny": int(values[1])}
-        if len(values) == 4:
-            grid.update(extent_x=float(values[2]), extent_y=float(values[3]))
+        want = "(nx, ny) or (nx, ny, extent_x, extent_y), or an OutputGrid"
+        values = items_of(output, "tile.output", (2, 4), want)
+        names = ("nx", "ny", "extent_x", "extent_y")
+        grid = dict(zip(names, values))  # each checked as its field: tile.output.nx, ...
     return message_from(
         ocean_pb2.TileSpec,
         None,
@@ -222,7 +234,8 @@ def as_tile_spec(spec: Optional[TileLike], path: str = "tile") -> ocean_pb2.Tile
         return tile_spec([spec])
     if isinstance(spec, Mapping):
         return to_message(ocean_pb2.TileSpec, spec, path)
-    return tile_spec(list(spec))
+    want = "a TileSpec (squall.ocean.tile_spec(...)), a layer, a sequence of layers or a mapping"
+    return tile_spec(sequence(spec, path, want))
 
 
 def outputs_of(outputs: Union[str, int, Outputs], path: str = "outputs") -> List[Any]:
@@ -231,9 +244,9 @@ def outputs_of(outputs: Union[str, int, Outputs], path: str = "outputs") -> List
     """
     if isinstance(outputs, (str, int)):
         outputs = [outputs]
+    items = sequence(outputs, path, "an output name or a sequence of them")
     return [
-        enum_value(ocean_pb2.TileOutput.DESCRIPTOR, o, f"{path}[{i}]")
-        for i, o in enumerate(outputs)
+        enum_value(ocean_pb2.TileOutput.DESCRIPTOR, o, f"{path}[{i}]") for i, o in enumerate(items)
     ]
 
 
@@ -249,7 +262,7 @@ def tile_request(
         return to_message(ocean_pb2.GetTileRequest, request)
     return ocean_pb2.GetTileRequest(
         tile=as_tile_spec(spec),
-        time=common_pb2.SimTime(seconds=float(time)),
+        time=common_pb2.SimTime(seconds=number(time, "time")),
         outputs=outputs_of(outputs),
         dtype=dtype_value(dtype),
     )
@@ -271,9 +284,9 @@ def stream_request(
         raise TypeError("stream: dt (seconds between frames, > 0) is required")
     return ocean_pb2.StreamTilesRequest(
         tile=as_tile_spec(spec),
-        t0=common_pb2.SimTime(seconds=float(t0)),
-        dt=float(dt),
-        frame_count=int(frames),
+        t0=common_pb2.SimTime(seconds=number(t0, "t0")),
+        dt=number(dt, "dt"),
+        frame_count=integer(frames, "frames", 0, UINT32_MAX),
         outputs=outputs_of(outputs),
         dtype=dtype_value(dtype),
     )
@@ -293,8 +306,8 @@ def sample_request(
         raise TypeError("sample: points (an array of shape (n, 2), m) are required")
     message = ocean_pb2.SampleSurfaceRequest(
         tile=as_tile_spec(spec),
-        time=common_pb2.SimTime(seconds=float(time)),
-        invert_displacement=bool(invert_displacement),
+        time=common_pb2.SimTime(seconds=number(time, "time")),
+        invert_displacement=flag(invert_displacement, "invert_displacement"),
     )
     message.points.extend(points_to_vec3(points))
     return message

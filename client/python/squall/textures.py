@@ -30,12 +30,21 @@ import numpy as np
 
 from squall._calls import Connection, RequestQueue, Stream
 from squall._convert import (
+    UINT32_MAX,
     ArrayLike,
     FieldLike,
     array_to_field,
     dtype_value,
     enum_value,
+    flag,
+    float_array,
+    floats,
+    integer,
+    integers,
+    items_of,
     message_from,
+    number,
+    sequence,
     to_field,
     to_message,
 )
@@ -124,13 +133,14 @@ def velocity_grid(
     count, ny, nx = uu.shape
     if times is None:
         times = [float(i) for i in range(count)]
+    times = floats(times, "velocity_grid.times", "a sequence of frame times, s")
     if len(times) != count:
         raise ValueError(f"velocity_grid: {len(times)} times for {count} frames")
     if spacing is None:
         spacing = (1.0 / max(nx - 1, 1), 1.0 / max(ny - 1, 1))
     frames = [
         textures_pb2.VelocityGridFrame(
-            time=float(t),
+            time=t,
             u=array_to_field(uu[i], path=f"grid.frames[{i}].u"),
             v=array_to_field(vv[i], path=f"grid.frames[{i}].v"),
         )
@@ -185,13 +195,13 @@ def _finish_source(
     lut: Any,
 ) -> textures_pb2.TextureSource:
     if scale is not None:
-        source.scale = float(scale)
+        source.scale = number(scale, "texture.scale")
     if final is not None:
         source.final_function = enum_value(
             textures_pb2.FinalFunction.DESCRIPTOR, final, "texture.final_function"
         )
     if final_scale is not None:
-        source.final_scale = float(final_scale)
+        source.final_scale = number(final_scale, "texture.final_scale")
     if lut is not None:
         source.lut.CopyFrom(to_message(textures_pb2.FinalLookup, lut, "texture.lut"))
     return source
@@ -242,6 +252,7 @@ def image_texture(
     pixels: Union[ArrayLike, bytes], *, tileable: bool = True, path: str = "texture.image"
 ) -> textures_pb2.ImageTexture:
     """The ImageTexture of ``image``'s `pixels` (an (H, W) or (H, W, C) array, or PNG bytes)."""
+    tileable = flag(tileable, f"{path}.tileable")
     if isinstance(pixels, (bytes, bytearray)):
         texture = textures_pb2.ImageTexture(png=bytes(pixels), tileable=tileable)
     else:
@@ -335,10 +346,8 @@ def output(
     """
     if isinstance(planes, (str, int)):
         planes = [planes]
-    region_message = None
-    if region is not None:
-        x0, y0, x1, y1 = (float(v) for v in region)
-        region_message = textures_pb2.TextureRegion(x0=x0, y0=y0, x1=x1, y1=y1)
+    plane_items = sequence(planes, "output.planes", "a plane name or a sequence of them")
+    region_message = None if region is None else texture_region(region, "output.region")
     return message_from(
         textures_pb2.TextureOutput,
         None,
@@ -348,7 +357,7 @@ def output(
         region=region_message,
         planes=[
             enum_value(textures_pb2.TexturePlane.DESCRIPTOR, p, f"output.planes[{i}]")
-            for i, p in enumerate(planes)
+            for i, p in enumerate(plane_items)
         ],
         dtype=dtype_value(dtype, "output.dtype"),
     )
@@ -386,7 +395,8 @@ def advect_request(
     if request is not None:
         return to_message(textures_pb2.AdvectTextureRequest, request)
     if output_spec is None:
-        width, height = (int(v) for v in size)
+        want = "(width, height) in pixels"
+        width, height = integers(size, "size", want, (2,), 0, UINT32_MAX)
         out = output(width, height, region=region, planes=planes, dtype=dtype)
     else:
         out = to_message(textures_pb2.TextureOutput, output_spec, "request.output")
@@ -437,7 +447,7 @@ def polyline(points: PointsLike, path: str = "polyline") -> textures_pb2.Polylin
         return points
     if isinstance(points, Mapping):
         return to_message(textures_pb2.Polyline, points, path)
-    array = np.asarray(points, dtype=np.float64)
+    array = float_array(points, path, "(x, y) points, a sequence of pairs or an array (n, 2)")
     if array.size == 0:
         return textures_pb2.Polyline()
     if array.ndim != 2 or array.shape[1] != 2:
@@ -452,10 +462,7 @@ def texture_region(value: RegionLike, path: str = "region") -> textures_pb2.Text
     """A TextureRegion from (x0, y0, x1, y1) in du, a mapping of its fields, or the message."""
     if isinstance(value, (textures_pb2.TextureRegion, Mapping)):
         return to_message(textures_pb2.TextureRegion, value, path)
-    items = [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]
-    if len(items) != 4:
-        raise ValueError(f"{path}: want (x0, y0, x1, y1), got {len(items)} numbers")
-    x0, y0, x1, y1 = items
+    x0, y0, x1, y1 = floats(value, path, "(x0, y0, x1, y1), du", (4,))
     return textures_pb2.TextureRegion(x0=x0, y0=y0, x1=x1, y1=y1)
 
 
@@ -481,7 +488,7 @@ def river_channel(value: Any, path: str = "river.channels[0]") -> textures_pb2.R
         if name in ("left_bank", "right_bank"):
             getattr(channel, name).CopyFrom(polyline(item, f"{path}.{name}"))
         else:
-            setattr(channel, name, float(item))
+            setattr(channel, name, number(item, f"{path}.{name}"))
     return channel
 
 
@@ -490,10 +497,10 @@ def river_junction(value: Any, path: str = "river.junctions[0]") -> textures_pb2
     (upstream, downstream), or the message. Indices left to right looking downstream."""
     if isinstance(value, (textures_pb2.RiverJunction, Mapping)):
         return to_message(textures_pb2.RiverJunction, value, path)
-    if isinstance(value, (str, bytes)) or len(value) != 2:
-        raise TypeError(f"{path}: want {{'upstream': [...], 'downstream': [...]}}, got {value!r}")
+    want = "{'upstream': [...], 'downstream': [...]} or an (upstream, downstream) pair"
+    upstream, downstream = items_of(value, path, (2,), want)
     return to_message(
-        textures_pb2.RiverJunction, {"upstream": value[0], "downstream": value[1]}, path
+        textures_pb2.RiverJunction, {"upstream": upstream, "downstream": downstream}, path
     )
 
 
@@ -512,9 +519,15 @@ def river_obstacle(value: Any, path: str = "river.obstacles[0]") -> textures_pb2
         if value.get("outline") is not None:
             obstacle.outline.CopyFrom(polyline(value["outline"], f"{path}.outline"))
         if value.get("search_radius") is not None:
-            obstacle.search_radius = float(value["search_radius"])
+            obstacle.search_radius = number(value["search_radius"], f"{path}.search_radius")
         return obstacle
     return textures_pb2.RiverObstacle(outline=polyline(value, f"{path}.outline"))
+
+
+def _each(items: Sequence[Any], name: str) -> List[Tuple[int, Any]]:
+    """(index, item) of a river's channels, junctions or obstacles (TypeError naming
+    "river.<name>" for no sequence)."""
+    return list(enumerate(sequence(items, f"river.{name}", f"a sequence of {name}")))
 
 
 def river_message(
@@ -529,14 +542,20 @@ def river_message(
 ) -> textures_pb2.RiverVelocity:
     """The RiverVelocity of ``river``'s arguments (see there)."""
     message = textures_pb2.RiverVelocity(
-        channels=[river_channel(c, f"river.channels[{i}]") for i, c in enumerate(channels)],
-        junctions=[river_junction(j, f"river.junctions[{i}]") for i, j in enumerate(junctions)],
-        obstacles=[river_obstacle(o, f"river.obstacles[{i}]") for i, o in enumerate(obstacles)],
+        channels=[
+            river_channel(c, f"river.channels[{i}]") for i, c in _each(channels, "channels")
+        ],
+        junctions=[
+            river_junction(j, f"river.junctions[{i}]") for i, j in _each(junctions, "junctions")
+        ],
+        obstacles=[
+            river_obstacle(o, f"river.obstacles[{i}]") for i, o in _each(obstacles, "obstacles")
+        ],
     )
     if p is not None:
-        message.p = float(p)
+        message.p = number(p, "river.p")
     if search_radius is not None:
-        message.search_radius = float(search_radius)
+        message.search_radius = number(search_radius, "river.search_radius")
     if bake is not None:
         nx, ny = _pair(bake, "river.bake")
         message.bake_nx, message.bake_ny = nx, ny
@@ -595,10 +614,8 @@ def river(
 
 
 def _pair(value: Sequence[int], path: str) -> Tuple[int, int]:
-    items = list(value)
-    if len(items) != 2:
-        raise ValueError(f"{path}: want (nx, ny), got {value!r}")
-    return int(items[0]), int(items[1])
+    nx, ny = integers(value, path, "(nx, ny) nodes", (2,), 0, UINT32_MAX)
+    return nx, ny
 
 
 def as_river(value: RiverLike, path: str = "river") -> textures_pb2.RiverVelocity:
@@ -622,9 +639,9 @@ def as_river(value: RiverLike, path: str = "river") -> textures_pb2.RiverVelocit
     except TypeError as error:
         raise TypeError(f"{path}: {error}") from None
     if bake_nx is not None:
-        message.bake_nx = int(bake_nx)
+        message.bake_nx = integer(bake_nx, f"{path}.bake_nx", 0, UINT32_MAX)
     if bake_ny is not None:
-        message.bake_ny = int(bake_ny)
+        message.bake_ny = integer(bake_ny, f"{path}.bake_ny", 0, UINT32_MAX)
     return message
 
 
@@ -665,7 +682,11 @@ def bake_request(
     else:
         area = _river_bounds(message)
     out = textures_pb2.BakeVelocityRequest(
-        river=message, nx=nx, ny=ny, psi=bool(psi), dtype=dtype_value(dtype, "request.dtype")
+        river=message,
+        nx=nx,
+        ny=ny,
+        psi=flag(psi, "psi"),
+        dtype=dtype_value(dtype, "request.dtype"),
     )
     if area is not None:
         out.region.CopyFrom(area)
@@ -690,7 +711,7 @@ def tensor2(value: TensorLike, path: str = "tensor") -> textures_pb2.Tensor2:
     message."""
     if isinstance(value, (textures_pb2.Tensor2, Mapping)):
         return to_message(textures_pb2.Tensor2, value, path)
-    array = np.asarray(value, dtype=np.float64)
+    array = float_array(value, path, "a 2x2 matrix [[xx, xy], [yx, yy]]")
     if array.shape not in ((2, 2), (4,)):
         raise ValueError(
             f"{path}: want a 2x2 matrix [[xx, xy], [yx, yy]], got shape {array.shape}"
@@ -704,10 +725,8 @@ def brush_stroke(value: StrokeLike, path: str = "strokes[0]") -> textures_pb2.Br
     {"center": (cx, cy), "radius": r, "strength": s}, or the message."""
     if isinstance(value, (textures_pb2.BrushStroke, Mapping)):
         return to_message(textures_pb2.BrushStroke, value, path)
-    items = [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]
-    if len(items) != 4:
-        raise ValueError(f"{path}: want (cx, cy, radius, strength), got {len(items)} numbers")
-    cx, cy, radius, strength = items
+    want = "(cx, cy, radius, strength), a mapping or a BrushStroke"
+    cx, cy, radius, strength = floats(value, path, want, (4,))
     return textures_pb2.BrushStroke(
         center=textures_pb2.Vec2(x=cx, y=cy), radius=radius, strength=strength
     )
@@ -716,7 +735,8 @@ def brush_stroke(value: StrokeLike, path: str = "strokes[0]") -> textures_pb2.Br
 def _strokes(values: Optional[Sequence[StrokeLike]], path: str) -> Optional[list]:
     if values is None:
         return None
-    return [brush_stroke(s, f"{path}[{i}]") for i, s in enumerate(values)]
+    items = sequence(values, path, "a sequence of strokes")
+    return [brush_stroke(s, f"{path}[{i}]") for i, s in enumerate(items)]
 
 
 def _field_or_none(value: Optional[FieldLike], path: str) -> Optional[common_pb2.Field]:
@@ -743,9 +763,10 @@ def deform_texture(
 def _deform_planes(planes: PlanesLike, path: str) -> List[int]:
     if isinstance(planes, (str, int)):
         planes = [planes]
+    items = sequence(planes, path, "a plane name or a sequence of them")
     return [
         enum_value(textures_pb2.DeformPlane.DESCRIPTOR, p, f"{path}[{i}]")
-        for i, p in enumerate(planes)
+        for i, p in enumerate(items)
     ]
 
 
@@ -825,12 +846,12 @@ def deform_control_message(
         None,
         "control",
         start=start,
-        frames=int(frames),
+        frames=integer(frames, "frames", 0, UINT32_MAX),
         d_mu=d_mu,
         d_mu_map=_field_or_none(d_mu_map, "control.d_mu_map"),
         deformation=None if deformation is None else tensor2(deformation, "control.deformation"),
         strokes=_strokes(strokes, "control.strokes"),
-        clear_strokes=bool(clear_strokes),
+        clear_strokes=flag(clear_strokes, "clear_strokes"),
     )
 
 
@@ -848,7 +869,7 @@ def control_message(
         None,
         "control",
         start=start,
-        frames=int(frames),
+        frames=integer(frames, "frames", 0, UINT32_MAX),
         velocity=as_velocity(velocity, "control.velocity"),
         dt=dt,
         substeps=substeps,
@@ -1015,11 +1036,17 @@ class Interactive(Steering[TextureFrame]):
             substeps: integration steps per frame from now on, 1..64.
             spin: rad/s, flow-noise rotation of band 0 (noise textures).
             final_scale: the final function's scale (dimensionless).
+
+        A message that fails validation raises SquallError naming "control[n].<field>", but
+        the server sends no reply to one with ``frames=0``: send() returns [] at once, and
+        that message's error is raised only by the next send() that asks for frames, or by
+        close() (the end of the ``with`` block); a send(frames=0) in between returns [] too,
+        and cancel() drops the error.
         """
         self._check_open()
         message = control_message(self._start, frames, velocity, dt, substeps, spin, final_scale)
         self._take_start()
-        return self._exchange(message, frames)
+        return self._exchange(message, message.frames)
 
 
 class DeformInteractive(Steering[DeformFrame]):
@@ -1061,13 +1088,19 @@ class DeformInteractive(Steering[DeformFrame]):
             strokes: control "brush": the strokes of the next frames, each (cx, cy, radius,
                 strength), replacing the previous ones.
             clear_strokes: with no strokes: no brush from now on.
+
+        A message that fails validation raises SquallError naming "control[n].<field>", but
+        the server sends no reply to one with ``frames=0``: send() returns [] at once, and
+        that message's error is raised only by the next send() that asks for frames, or by
+        close() (the end of the ``with`` block); a send(frames=0) in between returns [] too,
+        and cancel() drops the error.
         """
         self._check_open()
         message = deform_control_message(
             self._start, frames, d_mu, d_mu_map, deformation, strokes, clear_strokes
         )
         self._take_start()
-        return self._exchange(message, frames)
+        return self._exchange(message, message.frames)
 
 
 def interactive_start(
