@@ -68,7 +68,9 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
   if (!guard.retry_key.empty() && guard.retry_key == retry_key_) return replay(in.outputs);
   if (guard.after_step && *guard.after_step != step_)
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
-                            std::to_string(step_) + " steps (another caller stepped it)");
+                            std::to_string(step_) + " steps" +
+                            (*guard.after_step < step_ ? " (another caller stepped it)"
+                                                       : " (fewer than after_step: not a step count of this session)"));
   validate(in, config_, gate_);
   stage_shapes(in);
   check_rasterize_work(in);

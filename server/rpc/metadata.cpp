@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "common/error.h"
+
 namespace squall::rpc {
 
 std::string metadata_value(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata, const char* key) {
@@ -15,6 +17,10 @@ std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::stri
 }
 
 std::string proposed_session(const grpc::ServerContext& context) {
+  // A proxy may hash on one value and squalld take another: a creating call names its session once.
+  if (const size_t given = context.client_metadata().count(kSessionKey); given > 1)
+    fail(Code::InvalidArgument, std::string("metadata ") + kSessionKey + " is given " + std::to_string(given) +
+                                    " times; a call that creates a session proposes one id");
   return metadata_value(context.client_metadata(), kSessionKey);
 }
 

@@ -27,7 +27,8 @@ std::string metadata_value(const std::multimap<grpc::string_ref, grpc::string_re
 // on, shown in the request log.
 std::string session_routing_key(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata);
 
-// The id a session-creating call proposes in x-squall-session (empty: squalld picks one).
+// The id a session-creating call proposes in x-squall-session (empty: squalld picks one); INVALID_ARGUMENT
+// when the call gives the key more than once.
 std::string proposed_session(const grpc::ServerContext& context);
 
 // Who is calling, for per-client limits: the peer's address without its port ("ipv4:127.0.0.1",

@@ -89,8 +89,9 @@ struct TextureSpec {
   std::vector<float> pixels;
   // Noise: `bands` channels b_j(2^j u).
   int64_t bands = 4;
-  double base_cells = 4;  // lattice cells per period in band 0, 1..64
-  double spin = 0;        // flow noise: rad/s of band 0
+  double base_cells = 4;      // lattice cells per period in band 0, 1..64
+  bool time_varying = false;  // flow noise: its gradients turn (spin); false: a still texture
+  double spin = 0;            // flow noise: rad/s of band 0; 0 for a still texture
   uint32_t seed = 1;
   double scale = 4;                            // S, texture periods per du
   int final_function = SQUALL_FINAL_IDENTITY;  // SQUALL_FINAL_*

@@ -256,10 +256,13 @@ void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string&
   }
 }
 
-void noise(const v1::NoiseTexture& n, TextureSpec& out) {
+void noise(const v1::NoiseTexture& n, const std::string& path, TextureSpec& out) {
   out.kind = SQUALL_TEXTURE_NOISE;
   out.bands = n.has_bands() ? n.bands() : 4;
   out.base_cells = n.has_base_cells() ? double(n.base_cells()) : 4.0;
+  out.time_varying = n.time_varying();
+  if (n.has_spin() && !n.time_varying())
+    validate::reject(path + ".spin", n.spin(), "unset: time_varying is false (a still texture)");
   out.spin = n.time_varying() ? (n.has_spin() ? n.spin() : 1.0) : 0.0;
   out.seed = n.has_seed() ? n.seed() : 1;
 }
@@ -308,7 +311,7 @@ TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std
   if (t.has_image())
     image(t.image(), gate, path + ".image", out);
   else
-    noise(t.noise(), out);
+    noise(t.noise(), path + ".noise", out);
   out.scale = t.has_scale() ? t.scale() : 4.0;
   out.final_function = final_function(t.final_function(), path + ".final_function");
   out.final_scale = t.has_final_scale() ? t.final_scale() : 1.0;
@@ -493,6 +496,9 @@ bool steer(const v1::TextureControl& control, AdvectSpec& s, const std::string& 
   if (control.has_spin()) {
     if (s.texture.kind != SQUALL_TEXTURE_NOISE)
       validate::reject(path + ".spin", control.spin(), "unset: the texture is an image, not flow noise");
+    if (!s.texture.time_varying)
+      validate::reject(path + ".spin", control.spin(),
+                       "unset: the noise is still (time_varying false), not flow noise");
     s.texture.spin = validate::in(path + ".spin", control.spin(), validate::closed(-kMaxSpin, kMaxSpin));
   }
   return control.has_velocity() || control.has_dt() || control.has_substeps() || control.has_final_scale() ||

@@ -67,8 +67,11 @@ TEST(EWaveSession, AStepRetriedWithItsKeyIsMadeOnce) {
   expect_bit_identical(first, reference.step(busy_step(0)));
   expect_bit_identical(a.step(busy_step(0), {"key 1", 0}), first);
   EXPECT_EQ(a.step_index(), 1u);
-  squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps", [&] {
+  squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps (another caller", [&] {
     a.step(busy_step(1), {"key 2", 0});
+  });
+  squall::test::expect_error(Code::Aborted, "after_step = 7, but the session has made 1 steps (fewer than", [&] {
+    a.step(busy_step(1), {"key 2", 7});
   });
   const Frame second = a.step(busy_step(1), {"key 2", 1});
   expect_bit_identical(second, reference.step(busy_step(1)));

@@ -1563,6 +1563,12 @@ CASES += [
     bad(R, "noise_bands_zero", put("texture.noise.bands", 0), "request.texture.noise.bands"),
     bad(
         R,
+        "noise_spin_of_still_noise",
+        put("texture.noise.spin", 2.0),
+        "request.texture.noise.spin = 2 must be unset: time_varying is false",
+    ),
+    bad(
+        R,
         "noise_bands_uint32_max",
         put("texture.noise.bands", U32),
         f"request.texture.noise.bands = {U32} ",  # as sent
@@ -1963,6 +1969,13 @@ CASES += [
         "spin_with_image",
         also(put("start.texture", image_source()), put("spin", 1.0, at=1)),
         "control[1].spin",
+        frames=1,
+    ),
+    bad(
+        R,
+        "spin_of_still_noise",  # the start's noise has time_varying false
+        put("spin", 1.0, at=1),
+        "control[1].spin = 1 must be unset: the noise is still",
         frames=1,
     ),
     bad(

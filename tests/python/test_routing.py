@@ -82,6 +82,18 @@ def test_a_proposed_id_that_is_taken_already_exists(client: squall.Client) -> No
     client.clouds.release(volume.id)
 
 
+def test_a_creating_call_proposes_one_id(client: squall.Client) -> None:
+    """Two x-squall-session values on a creating call: a proxy may route on one and squalld take the
+    other, so the call is refused by name."""
+    ewave = ewave_pb2_grpc.EWaveStub(client.channel)
+    create = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(nx=8, ny=8, dx=0.1))
+    twice = (("x-squall-session", "1" * 32), ("x-squall-session", "2" * 32))
+    with pytest.raises(grpc.RpcError) as error:
+        ewave.CreateSession(create, metadata=twice)
+    assert error.value.code() == grpc.StatusCode.INVALID_ARGUMENT
+    assert error.value.details().startswith("metadata x-squall-session is given 2 times")
+
+
 def test_every_response_names_its_replica(daemon: Daemon) -> None:
     with squall.Client(daemon.address) as client:
         stub = server_pb2_grpc.ServerStub(client.channel)
