@@ -51,6 +51,15 @@ bool repeats(const ocean::TileSpec& spec) {
                      [&](const ocean::LayerSpec& L) { return whole(grid.lx, L.lx) && whole(grid.ly, L.ly); });
 }
 
+// An ocean surface is evaluated at times within a SimTime's range, as GetTile's are: INVALID_ARGUMENT
+// naming `path` (the followed velocity) and `what` reaches `t` past it.
+void check_ocean_time(const std::string& path, const std::string& what, double t) {
+  if (!(std::abs(t) <= kMaxTextureTime))
+    fail(Code::InvalidArgument, path + " follows an ocean surface, which is evaluated within +-" +
+                                    validate::number(kMaxTextureTime) + " s: " + what +
+                                    " reaches t = " + validate::number_apart(t, kMaxTextureTime) + " s");
+}
+
 }  // namespace
 
 // One advection stream: its spec (as steered so far), the planes it sends and the current its velocity
@@ -87,12 +96,14 @@ void TexturesService::start(EngineContext& context) {
 void TexturesService::follow(Stream& s, double from) {
   const req::FollowedCurrent& followed = s.current;
   if (!followed.any()) return;
-  if (followed.ocean)
+  if (followed.ocean) {
+    check_ocean_time(followed.path, "the texture's clock", from + s.spec.dt);
     s.spec.velocity = current_grid(
         {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)},
         repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
-  else
+  } else {
     s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
+  }
   validate_followed_current(s.spec.velocity, followed.path);
 }
 
@@ -141,6 +152,13 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
+    if (s.current.ocean) {  // refused before any frame is sent: the current is read up to the last frame
+      const int64_t steps = std::max<int64_t>(s.spec.frames - 1, 1);
+      check_ocean_time(s.current.path,
+                       "request.frames = " + std::to_string(s.spec.frames) + " at dt = " + validate::number(s.spec.dt) +
+                           " s from t0 = " + validate::number_apart(s.spec.t0, kMaxTextureTime) + " s",
+                       s.spec.t0 + double(steps) * s.spec.dt);
+    }
     follow(s, s.spec.t0);
     bake_river(request->velocity(), s, "request.velocity");
     engine_->validate(s.spec, "request");

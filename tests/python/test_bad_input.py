@@ -1813,6 +1813,18 @@ CASES += [
     ),
     bad(
         R,
+        "ocean_read_past_sim_time",  # the current of the step to frame 2 is read up to 1e9 + 0.05 s
+        also(
+            put("velocity.ocean", ocean_tile()),
+            put("t0", 1e9 - 0.15),
+            put("frames", 3),
+        ),
+        "request.velocity.ocean follows an ocean surface, which is evaluated within +-1e+09 s: "
+        "request.frames = 3 at dt = 0.1 s from t0 = 999999999.85000002 s reaches t = 1000000000.05",
+        frames=0,
+    ),
+    bad(
+        R,
         "river_bank_nan",
         also(
             put("velocity.river", river()),
@@ -1969,6 +1981,14 @@ CASES += [
         "spin_with_image",
         also(put("start.texture", image_source()), put("spin", 1.0, at=1)),
         "control[1].spin",
+        frames=1,
+    ),
+    bad(
+        R,
+        "ocean_read_past_sim_time",  # message 1's step reads the current past 1e9 s
+        also(put("start.velocity.ocean", ocean_tile()), put("start.t0", 1e9 - 0.15)),
+        "control[0].start.velocity.ocean follows an ocean surface, which is evaluated within "
+        "+-1e+09 s: the texture's clock reaches t = ",
         frames=1,
     ),
     bad(
