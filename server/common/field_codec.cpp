@@ -29,6 +29,17 @@ std::string decimal(unsigned __int128 v) {
   return digits;
 }
 
+// A finite value that float16 would carry as inf is refused, naming the field, the cell and the value.
+void refuse_half_overflow(const Header& header, const float* values, size_t count) {
+  const size_t k = f16::first_overflow(values, count);
+  if (k == count) return;
+  const size_t nx = std::max<size_t>(header.nx, 1), ny = std::max<size_t>(header.ny, 1);
+  std::string cell = std::to_string(k % nx) + ", " + std::to_string(k / nx % ny);
+  if (header.nz > 1) cell += ", " + std::to_string(k / (nx * ny));
+  fail(Code::InvalidArgument, header.name + " = " + validate::number(values[k]) + " at (" + cell +
+                                  ") is past float16's largest finite value, 65504: ask for DTYPE_FLOAT32");
+}
+
 }  // namespace
 
 v1::DType dtype(v1::DType d, const std::string& path) {
@@ -66,6 +77,7 @@ void encode(const Header& header, const float* values, size_t count, v1::Field* 
     fail(Code::Internal, "field " + header.name + ": " + std::to_string(count) + " values for a grid of " +
                              std::to_string(header.nx) + " x " + std::to_string(header.ny) + " x " +
                              std::to_string(std::max<uint32_t>(header.nz, 1)) + " = " + std::to_string(want));
+  if (dtype(header.dtype) == v1::DTYPE_FLOAT16) refuse_half_overflow(header, values, count);
   set_header(header, out);
   std::string* data = out->mutable_data();
   data->clear();

@@ -45,7 +45,9 @@ void set_header(const Header& header, squall::v1::Field* out);
 
 // Sets name, unit, nx, ny, nz, dtype and data of `out` from `values`, which must hold
 // nx * ny * max(nz, 1) values (otherwise Error(Internal): a bug of the caller, not of the request).
-// Spacing and origin are the caller's to set.
+// As DTYPE_FLOAT16, a finite value past half's range (|value| >= 65520, which would round to inf) is
+// Error(InvalidArgument) naming the field, the cell and the value: the request asked for a dtype too
+// narrow for its result. Spacing and origin are the caller's to set.
 void encode(const Header& header, const float* values, size_t count, squall::v1::Field* out);
 inline void encode(const Header& header, const std::vector<float>& values, squall::v1::Field* out) {
   encode(header, values.data(), values.size(), out);

@@ -62,6 +62,18 @@ inline float to_float(uint16_t h) {
   return out;
 }
 
+// The index of the first finite value that rounds past half's largest finite value (65504) to +-inf:
+// |value| >= 65520. n when there is none.
+inline size_t first_overflow(const float* values, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t f;
+    std::memcpy(&f, &values[i], 4);
+    const uint32_t abs = f & 0x7fffffffu;
+    if (abs >= 0x477ff000u && abs < 0x7f800000u) return i;
+  }
+  return n;
+}
+
 // Little-endian byte images, as squall.v1.Field.data carries them.
 inline void append_half_bytes(const float* values, size_t n, std::string* out) {
   size_t at = out->size();

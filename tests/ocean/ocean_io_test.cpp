@@ -337,6 +337,26 @@ TEST(FieldCodec, Float16RoundTripOfRepresentableValuesIsExact) {
   EXPECT_EQ(bits_of(client::ocean::values(f)), bits_of(in));
 }
 
+// A finite value that float16 would carry as inf (|value| >= 65520) is refused, naming the field, the cell
+// and the value; 65519.99, which rounds to 65504, and infinities pass.
+TEST(FieldCodec, Float16RefusesAFiniteValueItWouldCarryAsInf) {
+  std::vector<float> in = {1.0f, std::nextafter(65520.0f, 0.0f), INFINITY, -INFINITY, 2.0f, 3.0f};
+  squall::v1::Field f;
+  field::encode({"height", "m", 3, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
+  EXPECT_EQ(field::decode(f, "f")[1], 65504.0f);
+  in[4] = -65520.0f;
+  test::expect_error(Code::InvalidArgument,
+                     "height = -65520 at (1, 1) is past float16's largest finite value, 65504: ask for DTYPE_FLOAT32",
+                     [&] {
+                       field::encode({"height", "m", 3, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
+                     });
+  in[4] = 2.1e7f;
+  test::expect_error(Code::InvalidArgument, "height = 21000000 at (1, 1)", [&] {
+    field::encode({"height", "m", 3, 2, 0, squall::v1::DTYPE_FLOAT16}, in, &f);
+  });
+  field::encode({"height", "m", 3, 2, 0, squall::v1::DTYPE_FLOAT32}, in, &f);  // float32 holds it
+}
+
 // NaN stays NaN through float16, with its sign.
 TEST(FieldCodec, NanSurvivesFloat16) {
   const float quiet = std::numeric_limits<float>::quiet_NaN();

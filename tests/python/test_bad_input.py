@@ -769,6 +769,20 @@ CASES += [
     bad(R, "fetch_negative", put(f"{L0}.fetch", -3.0), f"{L0}.fetch"),
     bad(R, "nx_odd", put(f"{L0}.nx", 15), f"{L0}.nx"),
     bad(R, "nx_zero", put(f"{L0}.nx", 0), f"{L0}.nx"),
+    bad(
+        R,
+        "float16_too_narrow",  # heights of about 1e7 m: float16 would carry them as inf
+        also(
+            put(f"{L0}.extent_x", 1e6),
+            put(f"{L0}.extent_y", 1e6),
+            put(f"{L0}.spectrum", ocean_pb2.SPECTRUM_MODEL_PHILLIPS),
+            put(f"{L0}.phillips_amplitude", 1000.0),
+            put(f"{L0}.wind_speed", 100.0),
+            put(f"{L0}.gravity", 1e-6),
+            put("dtype", common_pb2.DTYPE_FLOAT16),
+        ),
+        "is past float16's largest finite value, 65504: ask for DTYPE_FLOAT32",
+    ),
     bad(R, "ny_zero", put(f"{L0}.ny", 0), f"{L0}.ny = 0 must be even and >= 2"),
     bad(
         R,
