@@ -39,7 +39,12 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
                                       frame_bytes(config, outputs.size(), type));
   ewave::Frame result = ewave.step(id, inputs(request.inputs(), config, serving_.gate()), guard(request));
   frame->set_session_id(id);
-  fill_frame(result, config, outputs, type, frame);
+  try {
+    fill_frame(result, config, outputs, type, frame);
+  } catch (const Error& e) {  // a value float16 cannot carry: known only now, after the step
+    fail(e.code(), "inputs.dtype: " + std::string(e.what()) + "; the step was made (the session is at step " +
+                       std::to_string(result.step) + "), and its retry_key reads its frame again");
+  }
 }
 
 grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1::EWaveCreateSessionRequest* request,

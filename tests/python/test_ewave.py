@@ -107,6 +107,21 @@ def test_a_step_sent_again_with_its_key_is_made_once(client: squall.Client) -> N
         assert session.step(0.02, after_step=session.steps).step == session.steps == 3
 
 
+def test_a_frame_too_wide_for_float16_is_refused_and_its_step_read_again(
+    client: squall.Client,
+) -> None:
+    """Heights of 1e5 m asked as float16 (largest 65504): refused naming inputs.dtype once the
+    step is made, and the same key reads that step's frame as float32."""
+    with client.ewave.session(nx=16, ny=16, dx=0.1, initial_height=np.full((16, 16), 1e5)) as s:
+        with pytest.raises(squall.SquallError) as error:
+            s.step(0.02, outputs=["height"], dtype="float16", retry_key=b"wide")
+        assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+        assert error.value.message.startswith("inputs.dtype: height = ")
+        assert "the step was made (the session is at step 1)" in error.value.message
+        frame = s.step(0.02, outputs=["height"], retry_key=b"wide")
+        assert frame.step == 1 and np.all(np.abs(frame["height"]) > 65504)
+
+
 def test_errors_name_the_field(client: squall.Client) -> None:
     with client.ewave.session(**config()) as session:
         with pytest.raises(squall.SquallError) as error:
