@@ -48,7 +48,8 @@ int info(client::Client& client, const std::vector<std::string>& args) {
   }
   const auto& l = r.limits();
   std::cout << "limits: max_grid_cells=" << l.max_grid_cells() << " max_streams=" << l.max_streams()
-            << " max_sessions=" << l.max_sessions() << " max_message_bytes=" << l.max_message_bytes() << "\n";
+            << " max_sessions=" << l.max_sessions() << " max_message_bytes=" << l.max_message_bytes()
+            << " stream_idle_timeout_seconds=" << l.stream_idle_timeout_seconds() << "\n";
   return kOk;
 }
 

@@ -17,6 +17,8 @@ struct Limits {
   uint32_t max_streams = 16;                    // --max-streams: concurrent streaming calls
   uint32_t max_streams_per_client = 0;          // --max-streams-per-client: of those, one client's (0: no
                                                 // limit of its own)
+  double stream_idle_seconds = 600;             // --stream-idle-timeout: how long a stream may wait on its
+                                                // client (to send, or to read) before it is cancelled; 0: for ever
   uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions

@@ -89,6 +89,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-streams-per-client",
        [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
+      {"stream-idle-timeout", [o](const std::string& v) { o->limits.stream_idle_seconds = seconds_or_zero(v); }},
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
@@ -281,6 +282,10 @@ std::string usage() {
          ")\n"
          "  --max-streams-per-client N  of those, one client's (its address without the port; default: no\n"
          "                            limit of its own)\n"
+         "  --stream-idle-timeout SECONDS  how long a stream may wait on its client, to send or to read, before\n"
+         "                            it is cancelled and its slot freed (default " +
+         validate::number(d.limits.stream_idle_seconds) +
+         "; 0: for ever)\n"
          "  --max-sessions N          live stateful sessions (default " +
          std::to_string(d.limits.max_sessions) +
          ")\n"

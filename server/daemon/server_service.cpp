@@ -50,6 +50,7 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext* context, const squall::
     l->set_max_streams(limits.max_streams);
     l->set_max_sessions(limits.max_sessions);
     l->set_max_message_bytes(limits.max_message_bytes);
+    l->set_stream_idle_timeout_seconds(limits.stream_idle_seconds);
     response->set_ready(ready);
     response->set_uptime_seconds(daemon_.serving.uptime_seconds());
     response->set_replica_id(daemon_.serving.replica_id());

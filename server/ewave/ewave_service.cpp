@@ -70,7 +70,7 @@ grpc::Status EWaveService::Run(grpc::ServerContext* context,
   return serve_stream(*context, serving_, "Run", [&](StreamCall& call) {
     v1::EWaveStepRequest request;
     v1::EWaveFrame frame;
-    for (uint64_t n = 0; call.live() && stream->Read(&request); ++n) {
+    for (uint64_t n = 0; call.live() && call.read(*stream, &request); ++n) {
       frame.Clear();
       try {
         step(request, &frame);

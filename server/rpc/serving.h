@@ -13,15 +13,18 @@
 
 #include "common/limits.h"
 #include "common/session_registry.h"
+#include "rpc/stream_watch.h"
 
 namespace squall::rpc {
 
 class ServingState {
  public:
-  explicit ServingState(const Limits& limits) : gate_(limits) {}
+  explicit ServingState(const Limits& limits) : gate_(limits), streams_(limits.stream_idle_seconds) {}
 
   LimitGate& gate() { return gate_; }
   const LimitGate& gate() const { return gate_; }
+  // The streaming calls, watched for waiting on their clients past --stream-idle-timeout.
+  StreamWatch& streams() const { return streams_; }
 
   // Starting -> Serving (every capability started) -> Draining (SIGTERM/SIGINT).
   enum class Phase { Starting, Serving, Draining };
@@ -60,6 +63,7 @@ class ServingState {
 
  private:
   LimitGate gate_;
+  mutable StreamWatch streams_;
   mutable std::mutex tokens_mutex_;  // guards the pointer; the vector it points to never changes
   std::shared_ptr<const std::vector<std::string>> tokens_ = std::make_shared<const std::vector<std::string>>();
   std::string replica_id_;               // set before serving starts, read-only afterwards

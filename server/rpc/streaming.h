@@ -21,7 +21,20 @@ namespace squall::rpc {
 class StreamCall {
  public:
   StreamCall(grpc::ServerContext& context, const char* method, const ServingState& serving)
-      : context_(context), method_(method), serving_(serving) {}
+      : context_(context), method_(method), serving_(serving), waiting_(context) {
+    serving_.streams().add(&waiting_);
+  }
+  ~StreamCall() { serving_.streams().remove(&waiting_); }
+  StreamCall(const StreamCall&) = delete;
+  StreamCall& operator=(const StreamCall&) = delete;
+
+  // Reads the client's next message (false at its end, or once the call is cancelled), as time spent
+  // waiting on the client.
+  template <typename Reader, typename Message>
+  bool read(Reader& reader, Message* message) {
+    const Waiting waiting(waiting_);
+    return reader.Read(message);
+  }
 
   // False once the call is cancelled, a write failed, or squalld drains (streams naming no session live
   // here, asked while draining: the stream's own messages may have resumed it); the handler then stops.
@@ -37,7 +50,12 @@ class StreamCall {
   // write failed, or the handler is to stop before its next message.
   template <typename Writer, typename Message>
   bool write(Writer& writer, const Message& message) {
-    if (ended_ || !writer.Write(message)) ended_ = true;
+    bool written = false;
+    if (!ended_) {
+      const Waiting waiting(waiting_);  // a client that reads nothing blocks the write (flow control)
+      written = writer.Write(message);
+    }
+    if (!written) ended_ = true;
     return live();
   }
   // False once a write has failed (the client is gone): the parts of one message split over several
@@ -51,8 +69,13 @@ class StreamCall {
     return Cancellation([this] { return !live(); });
   }
 
-  // OK; UNAVAILABLE when squalld drains; CANCELLED naming the method when the call did not end by itself.
+  // OK; UNAVAILABLE when squalld drains; DEADLINE_EXCEEDED when it waited on its client past
+  // --stream-idle-timeout (for the log: the client sees the cancellation); CANCELLED naming the method when
+  // the call did not end by itself.
   grpc::Status status() const {
+    if (waiting_.idled_out)
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                          method_ + " waited on its client past --stream-idle-timeout and was cancelled");
     if (stopped_by_drain_)
       return grpc::Status(grpc::StatusCode::UNAVAILABLE,
                           method_ + " ended: squalld is shutting down; reopen the stream on another replica");
@@ -61,9 +84,20 @@ class StreamCall {
   }
 
  private:
+  // Marks the stream as waiting on its client for its lifetime (one read or write).
+  class Waiting {
+   public:
+    explicit Waiting(StreamWaiting& w) : w_(w) { w_.since_ns = StreamWatch::now_ns(); }
+    ~Waiting() { w_.since_ns = 0; }
+
+   private:
+    StreamWaiting& w_;
+  };
+
   grpc::ServerContext& context_;
   std::string method_;
   const ServingState& serving_;
+  StreamWaiting waiting_;
   // A write failed; live() said no because squalld drains. Atomic: engines ask live() from their worker
   // threads (a stream's next frame is computed while the handler writes the last).
   std::atomic<bool> ended_{false};

@@ -61,7 +61,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
     DeformStream s;
     std::unique_ptr<Deformation> deformation;
     v1::DeformControl message;
-    for (size_t n = 0; call.live() && stream->Read(&message); ++n) {
+    for (size_t n = 0; call.live() && call.read(*stream, &message); ++n) {
       const std::string path = validate::at("control", n);
       const uint32_t frames = req::deform_control_frames(message, path);
       if (n > 0 && message.has_start())

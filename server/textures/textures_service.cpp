@@ -227,7 +227,7 @@ grpc::Status TexturesService::AdvectInteractive(
     s.cancel = call.cancellation();
     std::unique_ptr<Advection> advection;
     v1::TextureControl control;
-    for (size_t n = 0; call.live() && stream->Read(&control); ++n) {
+    for (size_t n = 0; call.live() && call.read(*stream, &control); ++n) {
       const uint32_t frames = req::control_frames(control, validate::at("control", n));
       apply(control, n, s, advection);
       // The message's own steering (or current) already holds for its first frame's step.

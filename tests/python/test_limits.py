@@ -7,18 +7,22 @@ and squalld then serves as before; while 90% of the budget is reserved, health s
 work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client (its
 address, whatever its connections) cannot take more stream slots than that. Stored cloud volumes count
 as sessions (--max-sessions), and their bytes leave the metrics when they are released. A small tile or
-sample of large layers counts the layers' memory."""
+sample of large layers counts the layers' memory. --stream-idle-timeout: a stream that waits on its
+client that long is cancelled."""
 
 from __future__ import annotations
 
 import contextlib
 import re
+import threading
+import time
 from typing import Any, Callable, Iterator, List, Optional, Tuple, TypeVar
 
 import grpc
 import pytest
 
 import squall
+import squall.v1.textures_pb2_grpc
 from conftest import Daemon, _start
 from exposition import http_get, samples, value
 from processes import wait_for
@@ -150,6 +154,56 @@ def test_one_client_cannot_take_more_streams_than_its_share() -> None:
             # the slot comes back once the server notices the cancel (at its next frame)
             wait_for(lambda: opens(client, small), 10, "a third stream after a cancel")
             second.cancel()
+
+
+def silent(release: threading.Event) -> Iterator[Any]:
+    """A request stream that sends nothing until `release` is set."""
+    release.wait()
+    yield from ()
+
+
+def test_a_stream_that_waits_on_its_client_past_the_idle_timeout_is_cancelled() -> None:
+    """--stream-idle-timeout 0.5: a stream whose client sends nothing, or reads nothing, is cancelled
+    after about half a second of waiting and its slot comes back; a stream whose frames take longer
+    than that to compute, or whose client pauses less each time, goes on however long it runs."""
+    small = squall.ocean.tile_spec([squall.ocean.layer(extent=50, n=16, wind_speed=8)])
+    flags = ["--max-streams", "1", "--stream-idle-timeout", "0.5"]
+    for daemon in _start(flags, "idle"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            release = threading.Event()
+            stub = squall.v1.textures_pb2_grpc.TexturesStub(client.channel)
+            started = time.monotonic()
+            with pytest.raises(grpc.RpcError) as ended:
+                next(stub.AdvectInteractive(silent(release), timeout=30))
+            waited = time.monotonic() - started
+            release.set()
+            assert ended.value.code() == grpc.StatusCode.CANCELLED and 0.5 <= waited < 5, waited
+            assert opens(client, small)  # the one slot is free again
+            assert "waited on its client for 0.5 s (--stream-idle-timeout)" in daemon.log()
+
+            large = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=1024)])
+            unread = client.ocean.stream(large, dt=0.1, outputs=("height", "normal_z"))
+            next(unread)
+            time.sleep(2)  # squalld's writes wait on this client's flow control meanwhile
+            with pytest.raises(squall.SquallError) as ended_unread:
+                list(unread)
+            assert ended_unread.value.code == grpc.StatusCode.CANCELLED, ended_unread.value
+
+            # Frames that take longer than the timeout to compute (about 0.8 s on 2 cores), each
+            # taken at once: no waiting.
+            slow = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=2048)] * 2)
+            started = time.monotonic()
+            with client.ocean.stream(slow, dt=0.1, frames=3, outputs=("height",)) as frames:
+                assert len(list(frames)) == 3
+            print(f"3 frames of two 2048^2 layers in {time.monotonic() - started:.1f} s")
+
+            def paced() -> Iterator[float]:
+                for _ in range(15):  # 1.5 s in all, never 0.5 s without a message
+                    time.sleep(0.1)
+                    yield 0.02
+
+            with client.ewave.session(nx=16, ny=16, dx=0.1) as session:
+                assert [frame.step for frame in session.run(paced())] == list(range(1, 16))
 
 
 def opens(client: squall.Client, spec: Any) -> bool:
