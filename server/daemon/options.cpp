@@ -46,6 +46,15 @@ double seconds_or_zero(const std::string& text) {
   return v;
 }
 
+// 0 (no limit), or at least 0.1 s: the stream watch looks four times per timeout.
+double idle_seconds(const std::string& text) {
+  const double v = seconds_or_zero(text);
+  if (v > 0 && v < 0.1)
+    throw std::invalid_argument("must be 0 (no limit) or a number of seconds in [0.1, " +
+                                validate::number(kMaxSeconds) + "]");
+  return v;
+}
+
 bool on_or_off(const std::string& v) {
   if (v == "on" || v == "true" || v == "1") return true;
   if (v == "off" || v == "false" || v == "0") return false;
@@ -89,7 +98,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-streams-per-client",
        [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(positive_integer(v)); }},
       {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
-      {"stream-idle-timeout", [o](const std::string& v) { o->limits.stream_idle_seconds = seconds_or_zero(v); }},
+      {"stream-idle-timeout", [o](const std::string& v) { o->limits.stream_idle_seconds = idle_seconds(v); }},
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},

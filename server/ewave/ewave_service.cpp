@@ -42,8 +42,11 @@ void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* fra
   try {
     fill_frame(result, config, outputs, type, frame);
   } catch (const Error& e) {  // a value float16 cannot carry: known only now, after the step
+    if (e.code() != Code::InvalidArgument) throw;
+    const std::string again = request.retry_key().empty() ? "it has no retry_key to read its frame again"
+                                                          : "its retry_key reads its frame again";
     fail(e.code(), "inputs.dtype: " + std::string(e.what()) + "; the step was made (the session is at step " +
-                       std::to_string(result.step) + "), and its retry_key reads its frame again");
+                       std::to_string(result.step) + "), and " + again);
   }
 }
 

@@ -70,7 +70,8 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
                             std::to_string(step_) + " steps" +
                             (*guard.after_step < step_ ? " (another caller stepped it)"
-                                                       : " (fewer than after_step: not a step count of this session)"));
+                                                       : " (more than it has made: steps lost when it resumed from a "
+                                                         "checkpoint, or another session's count)"));
   validate(in, config_, gate_);
   stage_shapes(in);
   check_rasterize_work(in);

@@ -40,18 +40,28 @@ int64_t StreamWatch::now_ns() {
 void StreamWatch::run() {
   const auto period = std::chrono::duration<double>(std::min(1.0, idle_seconds_ / 4));
   std::unique_lock<std::mutex> lock(mutex_);
-  while (!wake_.wait_for(lock, period, [this] { return stopping_; })) cancel_idle(now_ns());
+  while (!wake_.wait_for(lock, period, [this] { return stopping_; })) {
+    const std::vector<std::string> cancelled = cancel_idle(now_ns());
+    lock.unlock();
+    for (const std::string& peer : cancelled)
+      log(LogLevel::Warn, "stream from ", peer, " waited on its client for ", validate::number(idle_seconds_),
+          " s (--stream-idle-timeout): cancelled, its stream slot freed");
+    lock.lock();
+  }
 }
 
-void StreamWatch::cancel_idle(int64_t now) {
+// Under mutex_, which keeps each context alive (a call removes its stream before it ends); the log lines
+// are written once it is released.
+std::vector<std::string> StreamWatch::cancel_idle(int64_t now) {
   const auto limit = int64_t(idle_seconds_ * 1e9);
+  std::vector<std::string> peers;
   for (StreamWaiting* stream : streams_) {
     const int64_t since = stream->since_ns.load();
     if (since == 0 || now - since < limit || stream->idled_out.exchange(true)) continue;
-    log(LogLevel::Warn, "stream from ", stream->context.peer(), " waited on its client for ",
-        validate::number(idle_seconds_), " s (--stream-idle-timeout): cancelled, its stream slot freed");
+    peers.push_back(stream->context.peer());
     stream->context.TryCancel();
   }
+  return peers;
 }
 
 }  // namespace squall::rpc

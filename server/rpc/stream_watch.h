@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <mutex>
 #include <set>
+#include <string>
 #include <thread>
+#include <vector>
 
 namespace squall::rpc {
 
@@ -41,7 +43,7 @@ class StreamWatch {
 
  private:
   void run();
-  void cancel_idle(int64_t now);  // under mutex_
+  std::vector<std::string> cancel_idle(int64_t now);  // the peers of the streams it cancels
 
   const double idle_seconds_;
   std::mutex mutex_;

@@ -35,7 +35,7 @@ std::vector<uint8_t> chart(const v1::DeformTextureRequest& r, const DeformSpec& 
   std::vector<uint8_t> inside;
   if (!r.has_chart()) return inside;
   const std::vector<float> values = image_plane(r.chart(), path + ".chart", uint32_t(s.width), uint32_t(s.height));
-  validate::each(path + ".chart", values.data(), values.size());  // nonzero = inside: NaN is neither
+  validate::each(path + ".chart", values.data(), values.size());  // finite; nonzero = inside
   for (float v : values) inside.push_back(v != 0);
   return inside;
 }

@@ -65,7 +65,7 @@ void lookup_of(const FinalLookupSpec& l, TextureSource& s) {
 TextureSource source_of(const TextureSpec& t, const ReferenceStats& stats) {
   TextureSource s{};
   s.kind = t.kind;
-  s.channels = int(t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands);  // validated: 1..4
+  s.channels = int(t.kind == SQUALL_TEXTURE_IMAGE ? t.channels : t.bands);  // validated: 1..SQUALL_TEXTURE_MAX_CHANNELS
   s.width = t.width;
   s.height = t.height;
   s.seed = t.seed;

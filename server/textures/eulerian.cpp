@@ -27,7 +27,7 @@ Schedule schedule_of(const AdvectSpec& spec) {
   switch (spec.method) {
     case Method::TwoPhaseFlowMap: return {{e.latencies.front()}, 2, PhaseWeight::Triangle};
     case Method::Naive: return {{std::numeric_limits<double>::infinity()}, 1, PhaseWeight::Cosine};
-    default: return {e.latencies, e.phases, e.weight};
+    default: return {e.latencies, int(e.phases), e.weight};  // validated: 2..SQUALL_EULERIAN_MAX_PHASES
   }
 }
 

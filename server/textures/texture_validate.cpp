@@ -125,7 +125,8 @@ void lookup(const FinalLookupSpec& l, const LimitGate& gate, const std::string& 
 void texture(const TextureSpec& t, const LimitGate& gate, const std::string& path) {
   known(path + ".kind", t.kind, 2, "texture kind");
   if (t.kind == SQUALL_TEXTURE_IMAGE) {
-    gate.check_grid(at(path + ".image.channels", 0), t.width, t.height);  // a png or pixels8 was checked as read
+    // A request's image is checked as it is read; a spec built in process is checked here.
+    gate.check_grid(at(path + ".image.channels", 0), t.width, t.height);
     in(path + ".image.channels", int64_t(t.channels), 1, SQUALL_TEXTURE_MAX_CHANNELS);
     const size_t n = size_t(t.width) * t.height * t.channels;
     count(path + ".image.pixels", t.pixels.size(), n, "width * height * channels");

@@ -117,7 +117,7 @@ VelocitySpec grid(const v1::VelocityGrid& g, const std::string& path) {
   v.extrapolation = extrapolation(g.extrapolation(), path + ".extrapolation");
   if (g.has_mask()) {
     const std::vector<float> mask = plane(g.mask(), path + ".mask", g.nx(), g.ny(), "the grid");
-    validate::each(path + ".mask", mask.data(), mask.size());  // nonzero = fluid: NaN is neither
+    validate::each(path + ".mask", mask.data(), mask.size());  // finite; nonzero = fluid
     for (float m : mask) v.mask.push_back(m != 0);
   }
   return v;

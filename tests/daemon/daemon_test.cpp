@@ -715,6 +715,12 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--keepalive", "2e6"}, &out), 2) << out;  // its milliseconds are an int
   EXPECT_NE(out.find("--keepalive 2e6: must be a number of seconds in [0.1, 1000000]"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--keepalive", "1e-4"}, &out), 2) << out;
+  // A stream's idle timeout: none (0), or long enough for the watch that looks four times per timeout.
+  EXPECT_EQ(test::run({kSqualld, "--stream-idle-timeout", "1e-9"}, &out), 2) << out;
+  EXPECT_NE(out.find("--stream-idle-timeout 1e-9: must be 0 (no limit) or a number of seconds in [0.1, 1e+09]"),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(test::run({kSqualld, "--stream-idle-timeout", "0", "--help"}, &out), 0) << out;
   // The replica id is every reply's metadata value: printable ASCII only.
   EXPECT_EQ(test::run({kSqualld, "--replica-id", "r\xc3\xa9plica"}, &out), 2) << out;
   EXPECT_NE(out.find("must be printable ASCII, with no spaces"), std::string::npos) << out;

@@ -73,7 +73,7 @@ INVALID = grpc.StatusCode.INVALID_ARGUMENT
 NOT_FOUND = grpc.StatusCode.NOT_FOUND
 EXHAUSTED = grpc.StatusCode.RESOURCE_EXHAUSTED
 NAN, INF = math.nan, math.inf
-U32 = 4294967295  # the largest uint32: refusals echo it as sent, not as a capped value
+U32 = 4294967295  # the largest uint32: refusals echo it as sent
 
 BIG_ID = "0123456789abcdef" * (1 << 16)  # 1 MiB of hex digits
 UNKNOWN_ID = "0123456789abcdef" * 2  # well-formed (32 hex digits), never handed out

@@ -286,7 +286,7 @@ CASES = [
         TypeError,
         r"^retry_key = 'k': want bytes",
     ),
-    # a client-side mistake that reached gRPC as a SquallError
+    # a client-side mistake, refused before gRPC would answer it INTERNAL
     case("health-int", lambda c: c.health(5), TypeError, r"^service = 5: want a service name"),
     case(
         "retries-float",
@@ -415,8 +415,8 @@ def test_a_mistake_is_refused_before_sending_naming_the_argument(
 
 
 def test_what_is_right_is_still_taken() -> None:
-    """The checks take every kind of value they took before that was right: numpy scalars and
-    bools, floats holding an integer, arrays, inf and NaN (which the server refuses by name)."""
+    """The checks take every right kind of value: numpy scalars and bools, floats holding an
+    integer, arrays, inf and NaN (which the server refuses by name)."""
     layer = L(n=np.int64(8), extent=(np.float32(100), 50), seed=np.uint64(7), drift=np.zeros(2))
     assert (layer.nx, layer.ny, layer.extent_y, layer.seed) == (8, 8, 50.0, 7)
     assert L(n=8.0).nx == 8 and L(n=np.array(16)).ny == 16
@@ -437,7 +437,7 @@ def test_what_is_right_is_still_taken() -> None:
 
 def test_a_mesh_str_without_a_newline_is_a_path(tmp_path: Path) -> None:
     """OBJ text has a line per vertex and face: a str without a newline names an .obj file."""
-    missing = str(tmp_path / "no" / "cube")  # no .obj suffix: it was sent as OBJ text
+    missing = str(tmp_path / "no" / "cube")  # no .obj suffix, no newline: a path
     with pytest.raises(FileNotFoundError, match=r"^model\.meshes\[0\] = '.*/no/cube': no such"):
         clouds.model(meshes=[missing])
     with pytest.raises(FileNotFoundError, match=r"^model\.meshes\[1\] = .*: no such file"):

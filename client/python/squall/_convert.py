@@ -103,10 +103,12 @@ def number(value: Any, path: str) -> float:
 
 
 def float32(value: Any, path: str) -> float:
-    """`value` as a float that float32 holds: infinite and NaN ones as given, finite ones of
-    magnitude at most FLOAT32_MAX (larger ones would be sent as inf)."""
+    """`value` as a float that float32 holds: infinite and NaN ones as given, finite ones that
+    round to a finite float32 (to at most FLOAT32_MAX; larger ones would be sent as inf)."""
     result = number(value, path)
-    if np.isfinite(result) and abs(result) > FLOAT32_MAX:
+    with np.errstate(over="ignore"):
+        rounds_to_inf = np.isfinite(result) and np.isinf(np.float32(result))
+    if rounds_to_inf:
         raise ValueError(f"{path} = {result!r}: beyond float32, want |value| <= {FLOAT32_MAX:g}")
     return result
 
@@ -122,7 +124,7 @@ def integer(value: Any, path: str, low: int, high: Optional[int] = None) -> int:
     elif float(value).is_integer():
         result = int(float(value))
     else:
-        raise ValueError(f"{path} = {value!r}: want an integer")
+        raise ValueError(f"{path} = {float(value)!r}: want an integer")
     if result < low or (high is not None and result > high):
         bounds = f">= {low}" if high is None else f"in [{low}, {high}]"
         raise ValueError(f"{path} = {result}: want an integer {bounds}")
@@ -132,6 +134,7 @@ def integer(value: Any, path: str, low: int, high: Optional[int] = None) -> int:
 def flag(value: Any, path: str) -> bool:
     """`value` as a bool: True or False, or a numpy bool; not a number or a string ("off" is
     no False)."""
+    value = _plain(value)
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     raise TypeError(f"{path} = {shown(value)}: want True or False")
@@ -357,7 +360,7 @@ def _cast(array: np.ndarray, dtype: np.dtype, path: str) -> np.ndarray:
     overflow = np.isinf(out) & np.isfinite(array)
     if overflow.any():
         index = tuple(int(i) for i in np.argwhere(overflow)[0])
-        value = array[index]
+        value = array[index].item()
         limit = float(np.finfo(dtype).max)
         raise ValueError(
             f"{path}{list(index)} = {value!r}: beyond {dtype.name}, want |value| <= {limit:g}"

@@ -233,7 +233,7 @@ def inputs(
             "displacement_y" (m), "normal_x", "normal_y", "normal_z" (1), "phi" (m^2/s).
         dtype: "float32" or "float16" for the returned fields.
     """
-    if isinstance(outputs, (str, int)):
+    if isinstance(outputs, (str, int, np.integer)):
         outputs = [outputs]
     drift_x, drift_y = floats(drift, "inputs.drift", "a pair (U_D,x, U_D,y), m/s", (2,))
     shape_items = sequence(shapes, "inputs.shapes", "a sequence of shapes")

@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
+import numpy as np
 
 from squall._calls import Connection, Stream
 from squall._convert import (
@@ -242,7 +243,7 @@ def outputs_of(outputs: Union[str, int, Outputs], path: str = "outputs") -> List
     """TileOutput numbers from names ("height", "displacement_x", "normal_z", "jacobian_minus",
     ...).
     """
-    if isinstance(outputs, (str, int)):
+    if isinstance(outputs, (str, int, np.integer)):
         outputs = [outputs]
     items = sequence(outputs, path, "an output name or a sequence of them")
     return [

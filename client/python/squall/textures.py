@@ -344,7 +344,7 @@ def output(
             the proto's order whatever the order asked.
         dtype: "float32" or "float16".
     """
-    if isinstance(planes, (str, int)):
+    if isinstance(planes, (str, int, np.integer)):
         planes = [planes]
     plane_items = sequence(planes, "output.planes", "a plane name or a sequence of them")
     region_message = None if region is None else texture_region(region, "output.region")
@@ -761,7 +761,7 @@ def deform_texture(
 
 
 def _deform_planes(planes: PlanesLike, path: str) -> List[int]:
-    if isinstance(planes, (str, int)):
+    if isinstance(planes, (str, int, np.integer)):
         planes = [planes]
     items = sequence(planes, path, "a plane name or a sequence of them")
     return [
