@@ -64,7 +64,11 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
       response->set_vdb(std::move(vdb));
     }
-    if (request->keep()) announce_session(*context, engine_->keep(volume, id));
+    if (request->keep()) {
+      if (context->IsCancelled())  // built for a caller that has gone: nobody would hold its id
+        fail(Code::Cancelled, "the volume was built after the call ended (client gone or deadline passed)");
+      announce_session(*context, engine_->keep(volume, id));
+    }
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
   });

@@ -24,6 +24,14 @@ void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveS
   response->set_max_dt(ewave::max_dt(engine.config(id)));
 }
 
+// A session made for a caller that has gone meanwhile (its deadline passed while the session was built)
+// is held by nobody: it is closed at once rather than kept until --session-ttl.
+void refuse_if_gone(const grpc::ServerContext& context, ewave::EWaveEngine& engine, const std::string& id) {
+  if (!context.IsCancelled()) return;
+  engine.close(id);
+  fail(Code::Cancelled, "the session was made after the call ended (client gone or deadline passed): closed");
+}
+
 }  // namespace
 
 void EWaveService::start(EngineContext& context) { engine_ = &ewave::shared_engine(context); }
@@ -54,6 +62,7 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
                                          v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
     const auto created = engine_->create(config(request->config(), serving_.gate()), proposed_session(*context));
+    refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
@@ -98,7 +107,9 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
 grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    session_reply(*engine_, engine_->create_from_state(request->state(), proposed_session(*context)), response);
+    const std::string restored = engine_->create_from_state(request->state(), proposed_session(*context));
+    refuse_if_gone(*context, *engine_, restored);
+    session_reply(*engine_, restored, response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });

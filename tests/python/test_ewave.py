@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import squall
+import squall.v1.ewave_pb2_grpc
 from squall.v1 import ewave_pb2
 
-from conftest import _start
+from conftest import Daemon, _start
 from processes import wait_for
 
 NX, NY, DX = 48, 32, 0.01
@@ -34,6 +35,30 @@ def hull_inputs(n: int) -> dict:
         obstruction=obstruction,
         outputs=("height", "phi", "normal_z"),
     )
+
+
+def test_a_session_made_after_its_caller_gave_up_is_closed(
+    client: squall.Client, daemon: Daemon
+) -> None:
+    """A CreateSession whose 5 ms deadline passes while squalld builds the session (tens of ms for
+    a 1018 x 1022 grid): the caller never learns the id, so squalld closes the session."""
+    stub = squall.v1.ewave_pb2_grpc.EWaveStub(client.channel)
+    proposed = os.urandom(16).hex()
+    create = ewave_pb2.EWaveCreateSessionRequest(
+        config=squall.ewave.config(nx=1018, ny=1022, dx=0.1)
+    )
+    with pytest.raises(grpc.RpcError) as late:
+        stub.CreateSession(create, timeout=0.005, metadata=(("x-squall-session", proposed),))
+    assert late.value.code() == grpc.StatusCode.DEADLINE_EXCEEDED
+    ended = "method=/squall.v1.EWave/CreateSession status=CANCELLED"
+    wait_for(
+        lambda: any(ended in line and proposed in line for line in daemon.log().splitlines()),
+        30,
+        "squalld's log line of the late CreateSession",
+    )
+    with pytest.raises(squall.SquallError) as gone:
+        client.ewave.attach(proposed).state()
+    assert gone.value.code == grpc.StatusCode.NOT_FOUND
 
 
 def test_session_steps_and_closes(client: squall.Client) -> None:

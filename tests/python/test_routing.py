@@ -65,7 +65,9 @@ def test_a_proposed_id_that_is_taken_already_exists(client: squall.Client) -> No
         session.step(0.02)
         taken = (("x-squall-session", session.id),)
         message = f'metadata x-squall-session = "{session.id}" is already a live eWave session'
-        create = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(nx=8, ny=8, dx=0.1))
+        create = ewave_pb2.EWaveCreateSessionRequest(
+            config=squall.ewave.config(nx=8, ny=8, dx=0.1)
+        )
         expect_already_exists(lambda: ewave.CreateSession(create, metadata=taken), message)
         restore = squall.ewave.restore_request(session.state())
         expect_already_exists(lambda: ewave.Restore(restore, metadata=taken), message)
