@@ -7,6 +7,7 @@
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
+#include <openvdb/util/NullInterrupter.h>
 
 #include <algorithm>
 #include <atomic>
@@ -27,14 +28,27 @@ std::vector<Vec3s> to_points(const std::vector<Vec3d>& v) {
   return out;
 }
 
+// OpenVDB's interrupter over a call's Cancellation: its mesh and sphere conversions ask it between their
+// stages and blocks of work, and return early once it says so (the caller then checks the Cancellation).
+class Interrupter : public openvdb::util::NullInterrupter {
+ public:
+  explicit Interrupter(const Cancellation& cancel) : cancel_(cancel) {}
+  bool wasInterrupted(int = -1) override { return cancel_.requested(); }
+
+ private:
+  const Cancellation& cancel_;
+};
+
 // OpenVDB's convention (negative inside) with a symmetric band of `half_width` voxels.
 FloatGrid::Ptr mesh_sdf(const openvdb::math::Transform& xform, const std::vector<Vec3s>& points,
-                        const std::vector<openvdb::Vec3I>& triangles, float half_width) {
+                        const std::vector<openvdb::Vec3I>& triangles, float half_width, Interrupter& interrupter) {
   std::vector<openvdb::Vec4I> quads;
-  return openvdb::tools::meshToSignedDistanceField<FloatGrid>(xform, points, triangles, quads, half_width, half_width);
+  return openvdb::tools::meshToSignedDistanceField<FloatGrid>(interrupter, xform, points, triangles, quads, half_width,
+                                                              half_width);
 }
 
-FloatGrid::Ptr ellipsoid_sdf(const Ellipsoid& e, const openvdb::math::Transform& xform, float half_width) {
+FloatGrid::Ptr ellipsoid_sdf(const Ellipsoid& e, const openvdb::math::Transform& xform, float half_width,
+                             Interrupter& interrupter) {
   const int rings = 48, segments = 96;  // chord error < 0.06% of the largest radius
   std::vector<Vec3s> points;
   std::vector<openvdb::Vec3I> triangles;
@@ -53,7 +67,7 @@ FloatGrid::Ptr ellipsoid_sdf(const Ellipsoid& e, const openvdb::math::Transform&
       triangles.emplace_back(index(i, j), index(i + 1, j), index(i + 1, j + 1));
       triangles.emplace_back(index(i, j), index(i + 1, j + 1), index(i, j + 1));
     }
-  return mesh_sdf(xform, points, triangles, half_width);
+  return mesh_sdf(xform, points, triangles, half_width, interrupter);
 }
 
 void negate(FloatGrid& grid) {
@@ -89,8 +103,9 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
   auto xform = openvdb::math::Transform::createLinearTransform(model.voxel_size);
   float half_width = float(std::max(exterior, interior) / model.voxel_size + 2);
   FloatGrid::Ptr sdf;
+  Interrupter interrupter(cancel);
   auto add = [&](FloatGrid::Ptr g) {
-    cancel.check(what);  // before the next shape: a union of many takes long
+    cancel.check(what);  // a conversion cut short, or before the next shape: a union of many takes long
     if (!sdf) {
       sdf = g;
     } else {
@@ -98,15 +113,15 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
     }
   };
   for (const auto& s : model.spheres)
-    add(openvdb::tools::createLevelSetSphere<FloatGrid>(
+    add(openvdb::tools::createLevelSetSphere<FloatGrid, openvdb::util::NullInterrupter>(
         float(s.radius), Vec3s(float(s.center[0]), float(s.center[1]), float(s.center[2])), float(model.voxel_size),
-        half_width));
-  for (const auto& e : model.ellipsoids) add(ellipsoid_sdf(e, *xform, half_width));
+        half_width, &interrupter));
+  for (const auto& e : model.ellipsoids) add(ellipsoid_sdf(e, *xform, half_width, interrupter));
   for (const auto& m : model.meshes) {
     std::vector<openvdb::Vec3I> triangles;
     for (size_t t = 0; t < m.triangles.size(); t += 3)
       triangles.emplace_back(m.triangles[t], m.triangles[t + 1], m.triangles[t + 2]);
-    add(mesh_sdf(*xform, to_points(m.vertices), triangles, half_width));
+    add(mesh_sdf(*xform, to_points(m.vertices), triangles, half_width, interrupter));
   }
   if (!sdf) return nullptr;
   cancel.check(what);  // the last shape's union done

@@ -5,6 +5,7 @@ release.
 from __future__ import annotations
 
 import math
+import re
 import struct
 
 import grpc
@@ -13,6 +14,9 @@ import pytest
 
 import squall
 from squall.v1 import clouds_pb2, clouds_pb2_grpc
+
+from conftest import Daemon
+from processes import wait_for
 
 W, H = 24, 16
 
@@ -97,6 +101,24 @@ def test_evolution_stream(client: squall.Client) -> None:
     assert frames[1].summary.bounds_min.x == pytest.approx(
         frames[0].summary.bounds_min.x + 4.0, abs=1.0
     )
+
+
+def test_a_mesh_conversion_stops_at_the_deadline(client: squall.Client, daemon: Daemon) -> None:
+    """A needle of an ellipsoid (1 m voxels, 6e4 m long, its estimate within the limits) takes
+    OpenVDB's mesh conversion about 18 s on 2 cores; with a 1 s deadline squalld stops it within a
+    few."""
+    needle = dict(voxel_size=1.0, ellipsoids=[dict(center=(0, 0, 0), radii=(0.5, 3e4, 0.5))])
+    request = squall.clouds.build_request(needle, keep=False, return_vdb=False, request=None)
+    ended = re.compile(
+        r"method=/squall\.v1\.Clouds/BuildVolume status=CANCELLED duration_ms=([0-9.]+)"
+    )
+    before = len(ended.findall(daemon.log()))
+    with pytest.raises(grpc.RpcError) as late:
+        clouds_pb2_grpc.CloudsStub(client.channel).BuildVolume(request, timeout=1.0)
+    assert late.value.code() == grpc.StatusCode.DEADLINE_EXCEEDED
+    wait_for(lambda: len(ended.findall(daemon.log())) > before, 60, "the cancelled build's log")
+    duration_ms = float(ended.findall(daemon.log())[before])
+    assert duration_ms < 6000, duration_ms
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:
