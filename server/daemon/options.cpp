@@ -18,18 +18,28 @@ namespace {
 
 using Setter = std::function<void(const std::string&)>;
 
-uint64_t positive_integer(const std::string& text) {
+// A number as the flags are written: decimal digits, a point and an exponent (1.5, 4e11); no hex, inf,
+// nan or empty text. -0 is 0.
+double decimal(const std::string& text, const std::string& rule) {
+  const bool plain = !text.empty() && text.find_first_not_of("0123456789.eE+-") == std::string::npos;
   size_t used = 0;
-  long long v = std::stoll(text, &used);
-  if (used != text.size() || v < 1) throw std::invalid_argument("must be an integer >= 1");
+  const double v = plain ? std::stod(text, &used) : 0;
+  if (!plain || used != text.size()) throw std::invalid_argument(rule);
+  return v + 0.0;
+}
+
+uint64_t positive_integer(const std::string& text) {
+  const char* rule = "must be an integer >= 1";
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) throw std::invalid_argument(rule);
+  long long v = std::stoll(text);  // std::out_of_range past 2^63 - 1
+  if (v < 1) throw std::invalid_argument(rule);
   return static_cast<uint64_t>(v);
 }
 
 // A count written as an integer or in the exponent notation of the defaults (--max-render-samples 4e11).
 double positive_count(const std::string& text) {
-  size_t used = 0;
-  double v = std::stod(text, &used);
-  if (used != text.size() || !std::isfinite(v) || v < 1 || v != std::floor(v))
+  const double v = decimal(text, "must be a whole number >= 1 (e.g. 4e11)");
+  if (!std::isfinite(v) || v < 1 || v != std::floor(v))
     throw std::invalid_argument("must be a whole number >= 1 (e.g. 4e11)");
   return v;
 }
@@ -39,10 +49,9 @@ double positive_count(const std::string& text) {
 constexpr double kMaxSeconds = 1e9;
 
 double seconds_or_zero(const std::string& text) {
-  size_t used = 0;
-  double v = std::stod(text, &used);
-  if (used != text.size() || !(v >= 0 && v <= kMaxSeconds))
-    throw std::invalid_argument("must be a number of seconds in [0, " + validate::number(kMaxSeconds) + "]");
+  const std::string rule = "must be a number of seconds in [0, " + validate::number(kMaxSeconds) + "]";
+  const double v = decimal(text, rule);
+  if (!(v >= 0 && v <= kMaxSeconds)) throw std::invalid_argument(rule);
   return v;
 }
 
@@ -63,11 +72,10 @@ bool on_or_off(const std::string& v) {
 
 // Seconds in (0, max], or in [min, max] when min > 0.
 double positive_seconds(const std::string& text, double max = kMaxSeconds, double min = 0) {
-  size_t used = 0;
-  double v = std::stod(text, &used);
-  if (used != text.size() || !(v > 0 && v >= min && v <= max))
-    throw std::invalid_argument("must be a number of seconds in " + std::string(min > 0 ? "[" : "(") +
-                                validate::number(min) + ", " + validate::number(max) + "]");
+  const std::string rule = "must be a number of seconds in " + std::string(min > 0 ? "[" : "(") +
+                           validate::number(min) + ", " + validate::number(max) + "]";
+  const double v = decimal(text, rule);
+  if (!(v > 0 && v >= min && v <= max)) throw std::invalid_argument(rule);
   return v;
 }
 

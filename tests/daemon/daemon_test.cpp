@@ -721,6 +721,15 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
             std::string::npos)
       << out;
   EXPECT_EQ(test::run({kSqualld, "--stream-idle-timeout", "0", "--help"}, &out), 0) << out;
+  // Numbers as the flags are written: no hex, no empty text, and a message rather than the parser's name.
+  for (const char* bad : {"0x10", "", "inf", "1e5x"}) {
+    EXPECT_EQ(test::run({kSqualld, "--stream-idle-timeout", bad}, &out), 2) << out;
+    EXPECT_NE(out.find("--stream-idle-timeout " + std::string(bad) + ": must be a number of seconds in [0, 1e+09]"),
+              std::string::npos)
+        << out;
+  }
+  EXPECT_EQ(test::run({kSqualld, "--max-streams", ""}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-streams : must be an integer >= 1"), std::string::npos) << out;
   // The replica id is every reply's metadata value: printable ASCII only.
   EXPECT_EQ(test::run({kSqualld, "--replica-id", "r\xc3\xa9plica"}, &out), 2) << out;
   EXPECT_NE(out.find("must be printable ASCII, with no spaces"), std::string::npos) << out;
