@@ -39,6 +39,7 @@ int info(client::Client& client, const std::vector<std::string>& args) {
     std::cout << (d.selected() ? "* " : "  ") << d.platform() << " / " << d.name() << " (" << d.type() << ", "
               << d.opencl_c_version() << ", " << d.compute_units() << " CUs, " << (d.global_memory_bytes() >> 20)
               << " MiB)\n";
+  std::cout << "replica: " << r.replica_id() << "\n";
   std::cout << "fft: " << r.fft_backend() << " (" << r.fft_selection() << ")\n";
   std::cout << "device queues: " << r.device_queues() << "\n";
   for (const auto& k : r.kernels()) {

@@ -57,10 +57,17 @@ const std::map<std::string, v1::EWaveOutput> kOutputs = {{"height", v1::EWAVE_OU
                                                          {"normal_z", v1::EWAVE_OUTPUT_NORMAL_Z},
                                                          {"phi", v1::EWAVE_OUTPUT_PHI}};
 
+// --dt: seconds > 0 (unset: one cell per step).
+double positive_dt(const std::string& flag, const std::string& value) {
+  const double dt = number(flag, value, "s");
+  if (!(dt > 0)) throw UsageError(flag + " " + value + ": must be > 0 s");
+  return dt;
+}
+
 struct Wake {
   v1::EWaveConfig config;
   std::string hull = "ellipse";
-  double speed = 0.2, length = 0.24, beam = 0.08, dt = 0;
+  double speed = 0.2, length = 0.24, beam = 0.08, dt = 0;  // dt 0: one cell per step (--dt not given)
   uint64_t steps = 200, every = 1;
   std::vector<v1::EWaveOutput> outputs = {v1::EWAVE_OUTPUT_HEIGHT};
   v1::DType dtype = v1::DTYPE_FLOAT32;
@@ -93,7 +100,7 @@ void apply(const std::string& flag, const std::string& value, Wake& w) {
   else if (flag == "--spacing")
     c.set_dx(number(flag, value, "m")), c.set_dy(c.dx());
   else if (flag == "--dt")
-    w.dt = number(flag, value, "s");
+    w.dt = positive_dt(flag, value);
   else if (flag == "--source-scale")
     c.set_source_scale(number(flag, value, "m/s"));
   else if (flag == "--dispersion")

@@ -450,6 +450,8 @@ TEST(Cli, InfoAndHealthExitZero) {
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "info"}, &out), 0) << out;
   EXPECT_NE(out.find("runtime/selftest.cl"), std::string::npos) << out;
   EXPECT_NE(out.find("max_sessions=7"), std::string::npos) << out;
+  EXPECT_NE(out.find("stream_idle_timeout_seconds=600"), std::string::npos) << out;
+  EXPECT_NE(out.find("\nreplica: "), std::string::npos) << out;  // the name x-squall-replica carries
   EXPECT_EQ(test::run({kSquall, "--address", shared_daemon().address(), "health"}, &out), 0) << out;
   EXPECT_EQ(out, "SERVING\n");
 }
