@@ -89,6 +89,14 @@ std::string read_bytes(const std::string& flag, const std::string& path) {
   return *bytes;
 }
 
+void require_extension(const std::string& path, const std::string& ext, const std::string& format) {
+  std::string given = std::filesystem::path(path).extension().string();
+  std::transform(given.begin(), given.end(), given.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (!given.empty() && given != ext)
+    throw UsageError("-o " + path + ": the file is written as " + format + ", so its name ends in " + ext +
+                     " (or has no extension)");
+}
+
 void check_preview(const std::string& output, const std::string& preview) {
   if (preview.empty()) return;
   auto resolved = [](const std::string& path) {  // through links where it can, else as written

@@ -46,6 +46,10 @@ void refuse_unused(const std::string& command, const std::vector<std::string>& g
 // The whole of a regular, non-empty file named by `flag`; UsageError naming the flag otherwise.
 std::string read_bytes(const std::string& flag, const std::string& path);
 
+// UsageError naming -o when `path` has an extension other than `ext` (in any case): the file is written
+// as `format` whatever its name says. A name with no extension is taken as it is.
+void require_extension(const std::string& path, const std::string& ext, const std::string& format);
+
 // UsageError when --preview names the file -o names: the preview would replace the image.
 void check_preview(const std::string& output, const std::string& preview);
 

@@ -357,6 +357,7 @@ int run(client::Client& client, const std::vector<std::string>& args) {
     if (args[0] == "build") {
       refuse_unused("cloud build", r.image_flags, {});  // it makes no image
       if (!r.has_shape) throw UsageError("build needs at least one --sphere, --ellipsoid, --mesh or --particle");
+      require_extension(r.output, ".vdb", "an OpenVDB grid file");
       return build(client, r);
     }
     if (r.keep)
@@ -364,6 +365,7 @@ int run(client::Client& client, const std::vector<std::string>& args) {
     if (!r.volume_id.empty() && !r.model_flags.empty())
       throw UsageError(r.model_flags.front() + ": `cloud render --volume ID` renders the stored volume, not a model");
     if (r.volume_id.empty() && !r.has_shape) throw UsageError("render needs --volume ID or a model (--sphere ...)");
+    require_extension(r.output, ".exr", "OpenEXR (its PNG preview beside it)");
     check_preview(r.output, r.preview);
     return render(client, r);
   });

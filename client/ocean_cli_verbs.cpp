@@ -19,6 +19,7 @@ using client::check;
 
 int tile(client::Client& client, const Request& r) {
   if (r.out.empty()) throw UsageError("tile needs -o FILE.exr");
+  require_extension(r.out, ".exr", "OpenEXR (its PNG preview beside it)");
   check_preview(r.out, r.preview);
   v1::GetTileRequest request;
   *request.mutable_tile() = r.tile;

@@ -593,6 +593,12 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
         << out;
   }
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0", "-o", dir + "/x.exr"}), &out), 2) << out;
+  // The files are EXR and VDB whatever -o says: another extension is refused before anything runs.
+  EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "-o", dir + "/x.png"}), &out), 2) << out;
+  EXPECT_NE(out.find("x.png: the file is written as OpenEXR"), std::string::npos) << out;
+  EXPECT_EQ(test::run(args({"build", "--sphere", "0,0,0,4", "-o", dir + "/z.EXR"}), &out), 2) << out;
+  EXPECT_NE(out.find("z.EXR: the file is written as an OpenVDB grid file, so its name ends in .vdb"), std::string::npos)
+      << out;
   // The last --extinction given is the one sent: here a negative one, which the server refuses.
   EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "--size", "8x8", "--extinction", "0.5", "--extinction",
                             "-1", "-o", dir + "/x.exr"}),

@@ -563,17 +563,23 @@ TEST(OceanCli, StreamWritesANumberedSequenceAndSamplePrintsCsv) {
   EXPECT_EQ(rows, 2) << out;
 }
 
-// The preview goes beside the EXR, never over it: "x.exr" gives x.png, any other name gets ".png" appended.
+// The preview goes beside the EXR, never over it: "x.exr" gives x.png, a name with no extension gets ".png"
+// appended, and a name with another extension is refused (the file would be an EXR whatever it says).
 // A file that cannot be written in full (a full disk) exits 5, as a file that cannot be opened does.
 TEST(OceanCli, ThePreviewNeverReplacesTheTileAndAFullDiskExitsFive) {
   const std::string dir = test::temp_dir("ocean-cli-names");
   std::string out;
-  ASSERT_EQ(test::run(cli_args({"tile", "--grid", "16", "-o", dir + "/t.png"}), &out), 0) << out;
-  std::ifstream exr(dir + "/t.png", std::ios::binary);
+  EXPECT_EQ(test::run(cli_args({"tile", "--grid", "16", "-o", dir + "/t.png"}), &out), 2) << out;
+  EXPECT_NE(out.find("t.png: the file is written as OpenEXR (its PNG preview beside it), so its name ends in .exr"),
+            std::string::npos)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/t.png"));
+  ASSERT_EQ(test::run(cli_args({"tile", "--grid", "16", "-o", dir + "/t"}), &out), 0) << out;
+  std::ifstream exr(dir + "/t", std::ios::binary);
   char magic[4] = {};
   exr.read(magic, 4);
-  EXPECT_EQ(std::string(magic, 4), std::string("\x76\x2f\x31\x01", 4)) << "t.png holds the EXR";
-  EXPECT_TRUE(std::filesystem::exists(dir + "/t.png.png"));
+  EXPECT_EQ(std::string(magic, 4), std::string("\x76\x2f\x31\x01", 4)) << "t holds the EXR";
+  EXPECT_TRUE(std::filesystem::exists(dir + "/t.png"));
   if (std::filesystem::exists("/dev/full")) {
     EXPECT_EQ(test::run(cli_args({"tile", "--grid", "16", "--preview", "none", "-o", "/dev/full"}), &out), 5) << out;
     EXPECT_NE(out.find("cannot write /dev/full"), std::string::npos) << out;
