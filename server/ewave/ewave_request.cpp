@@ -35,6 +35,11 @@ v1::DispersionModel dispersion(DispersionKind kind) {
   return v1::DISPERSION_MODEL_UNSPECIFIED;
 }
 
+// A shape's coordinates and extents, m: within +-1e9 (a shape that large covers any grid), so that the
+// rasterizer's squares of them stay finite in float32.
+const validate::Interval kShapeCoordinate = validate::closed(-1e9, 1e9);
+const validate::Interval kShapeExtent = validate::open_closed(0, 1e9);
+
 // A shape of a step (grid frame, metres), its fields checked under `path` ("inputs.shapes[2]").
 Shape shape(const v1::EWaveShape& proto, const std::string& path) {
   Shape s;
@@ -42,28 +47,28 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
     case v1::EWaveShape::kCircle: {
       const auto& c = proto.circle();
       s.kind = ShapeKind::Circle;
-      s.x = validate::finite(path + ".circle.center_x", c.center_x());
-      s.y = validate::finite(path + ".circle.center_y", c.center_y());
-      s.a = s.b = validate::positive(path + ".circle.radius", c.radius());
+      s.x = validate::in(path + ".circle.center_x", c.center_x(), kShapeCoordinate);
+      s.y = validate::in(path + ".circle.center_y", c.center_y(), kShapeCoordinate);
+      s.a = s.b = validate::in(path + ".circle.radius", c.radius(), kShapeExtent);
       break;
     }
     case v1::EWaveShape::kEllipse: {
       const auto& e = proto.ellipse();
       s.kind = ShapeKind::Ellipse;
-      s.x = validate::finite(path + ".ellipse.center_x", e.center_x());
-      s.y = validate::finite(path + ".ellipse.center_y", e.center_y());
-      s.a = validate::positive(path + ".ellipse.semi_axis_a", e.semi_axis_a());
-      s.b = validate::positive(path + ".ellipse.semi_axis_b", e.semi_axis_b());
+      s.x = validate::in(path + ".ellipse.center_x", e.center_x(), kShapeCoordinate);
+      s.y = validate::in(path + ".ellipse.center_y", e.center_y(), kShapeCoordinate);
+      s.a = validate::in(path + ".ellipse.semi_axis_a", e.semi_axis_a(), kShapeExtent);
+      s.b = validate::in(path + ".ellipse.semi_axis_b", e.semi_axis_b(), kShapeExtent);
       s.heading = validate::finite(path + ".ellipse.heading", e.heading());
       break;
     }
     case v1::EWaveShape::kBox: {
       const auto& b = proto.box();
       s.kind = ShapeKind::Box;
-      s.x = validate::finite(path + ".box.center_x", b.center_x());
-      s.y = validate::finite(path + ".box.center_y", b.center_y());
-      s.a = validate::positive(path + ".box.half_length", b.half_length());
-      s.b = validate::positive(path + ".box.half_width", b.half_width());
+      s.x = validate::in(path + ".box.center_x", b.center_x(), kShapeCoordinate);
+      s.y = validate::in(path + ".box.center_y", b.center_y(), kShapeCoordinate);
+      s.a = validate::in(path + ".box.half_length", b.half_length(), kShapeExtent);
+      s.b = validate::in(path + ".box.half_width", b.half_width(), kShapeExtent);
       s.heading = validate::finite(path + ".box.heading", b.heading());
       break;
     }
@@ -75,8 +80,8 @@ Shape shape(const v1::EWaveShape& proto, const std::string& path) {
              path + ".polygon.vertices has " + std::to_string(p.vertices_size()) + " vertices, want >= 3");
       for (int v = 0; v < p.vertices_size(); ++v) {
         const std::string at = validate::at(path + ".polygon.vertices", v);
-        s.vertices.push_back(
-            {validate::finite(at + ".x", p.vertices(v).x()), validate::finite(at + ".y", p.vertices(v).y())});
+        s.vertices.push_back({validate::in(at + ".x", p.vertices(v).x(), kShapeCoordinate),
+                              validate::in(at + ".y", p.vertices(v).y(), kShapeCoordinate)});
       }
       break;
     }

@@ -1096,6 +1096,30 @@ CASES += [
         ),
         "inputs.shapes[0].polygon.vertices",
     ),
+    bad(
+        R,
+        "ellipse_past_1e9_m",  # its rasterization squares the semi-axes
+        put(
+            "inputs.shapes[0]",
+            ewave_pb2.EWaveShape(
+                ellipse=ewave_pb2.EWaveEllipse(semi_axis_a=1e155, semi_axis_b=0.05)
+            ),
+        ),
+        "inputs.shapes[0].ellipse.semi_axis_a = 1e+155 must be finite and in (0, 1e+09]",
+    ),
+    bad(
+        R,
+        "polygon_vertex_past_1e9_m",
+        put(
+            "inputs.shapes[0]",
+            ewave_pb2.EWaveShape(
+                polygon=ewave_pb2.EWavePolygon(
+                    vertices=[vec3(-3e19, -3e19), vec3(3e19, -3e19), vec3(0, 3e19)]
+                )
+            ),
+        ),
+        "inputs.shapes[0].polygon.vertices[0].x = -3e+19 must be finite and in [-1e+09, 1e+09]",
+    ),
     bad(R, "shape_unset", put("inputs.shapes[0]", ewave_pb2.EWaveShape()), "inputs.shapes[0]"),
     bad(
         R,
