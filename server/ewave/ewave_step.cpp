@@ -70,8 +70,8 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
     fail(Code::Aborted, "after_step = " + std::to_string(*guard.after_step) + ", but the session has made " +
                             std::to_string(step_) + " steps" +
                             (*guard.after_step < step_ ? " (another caller stepped it)"
-                                                       : " (more than it has made: steps lost when it resumed from a "
-                                                         "checkpoint, or another session's count)"));
+                                                       : " (after_step is past them: steps lost when it resumed from "
+                                                         "a checkpoint, or another session's count)"));
   validate(in, config_, gate_);
   stage_shapes(in);
   check_rasterize_work(in);

@@ -70,9 +70,10 @@ TEST(EWaveSession, AStepRetriedWithItsKeyIsMadeOnce) {
   squall::test::expect_error(Code::Aborted, "after_step = 0, but the session has made 1 steps (another caller", [&] {
     a.step(busy_step(1), {"key 2", 0});
   });
-  squall::test::expect_error(Code::Aborted, "after_step = 7, but the session has made 1 steps (fewer than", [&] {
-    a.step(busy_step(1), {"key 2", 7});
-  });
+  squall::test::expect_error(Code::Aborted, "after_step = 7, but the session has made 1 steps (after_step is past them",
+                             [&] {
+                               a.step(busy_step(1), {"key 2", 7});
+                             });
   const Frame second = a.step(busy_step(1), {"key 2", 1});
   expect_bit_identical(second, reference.step(busy_step(1)));
   expect_bit_identical(a.step(busy_step(1), {"key 2", std::nullopt}), second);
