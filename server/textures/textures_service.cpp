@@ -60,6 +60,17 @@ void check_ocean_time(const std::string& path, const std::string& what, double t
                                     " reaches t = " + validate::number_apart(t, kMaxTextureTime) + " s");
 }
 
+// The same for a whole AdvectTexture: its steps read the current up to its last frame (the first step
+// reads t0 .. t0 + dt even for one frame).
+void check_ocean_clock(const req::FollowedCurrent& current, const AdvectSpec& spec) {
+  if (!current.ocean) return;
+  const int64_t steps = std::max<int64_t>(spec.frames - 1, 1);
+  check_ocean_time(current.path,
+                   "request.frames = " + std::to_string(spec.frames) + " at dt = " + validate::number(spec.dt) +
+                       " s from t0 = " + validate::number_apart(spec.t0, kMaxTextureTime) + " s",
+                   spec.t0 + double(steps) * spec.dt);
+}
+
 }  // namespace
 
 // One advection stream: its spec (as steered so far), the planes it sends and the current its velocity
@@ -152,13 +163,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.planes = req::planes(request->output());
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
-    if (s.current.ocean) {  // refused before any frame is sent: the current is read up to the last frame
-      const int64_t steps = std::max<int64_t>(s.spec.frames - 1, 1);
-      check_ocean_time(s.current.path,
-                       "request.frames = " + std::to_string(s.spec.frames) + " at dt = " + validate::number(s.spec.dt) +
-                           " s from t0 = " + validate::number_apart(s.spec.t0, kMaxTextureTime) + " s",
-                       s.spec.t0 + double(steps) * s.spec.dt);
-    }
+    check_ocean_clock(s.current, s.spec);  // before any frame is sent
     follow(s, s.spec.t0);
     bake_river(request->velocity(), s, "request.velocity");
     engine_->validate(s.spec, "request");
