@@ -39,6 +39,9 @@ class Interrupter : public openvdb::util::NullInterrupter {
   const Cancellation& cancel_;
 };
 
+// OpenVDB's createLevelSetSphere leaves a sphere of fewer voxels in radius empty (below the Nyquist limit).
+constexpr double kMinVdbSphereVoxels = 1.5;
+
 // OpenVDB's convention (negative inside) with a symmetric band of `half_width` voxels.
 FloatGrid::Ptr mesh_sdf(const openvdb::math::Transform& xform, const std::vector<Vec3s>& points,
                         const std::vector<openvdb::Vec3I>& triangles, float half_width, Interrupter& interrupter) {
@@ -112,10 +115,15 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
       openvdb::tools::csgUnion(*sdf, *g);
     }
   };
-  for (const auto& s : model.spheres)
+  for (const auto& s : model.spheres) {
+    if (s.radius < kMinVdbSphereVoxels * model.voxel_size) {  // OpenVDB's sphere would be empty: as a mesh
+      add(ellipsoid_sdf({s.center, {s.radius, s.radius, s.radius}}, *xform, half_width, interrupter));
+      continue;
+    }
     add(openvdb::tools::createLevelSetSphere<FloatGrid, openvdb::util::NullInterrupter>(
         float(s.radius), Vec3s(float(s.center[0]), float(s.center[1]), float(s.center[2])), float(model.voxel_size),
         half_width, &interrupter));
+  }
   for (const auto& e : model.ellipsoids) add(ellipsoid_sdf(e, *xform, half_width, interrupter));
   for (const auto& m : model.meshes) {
     std::vector<openvdb::Vec3I> triangles;

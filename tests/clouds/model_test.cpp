@@ -106,6 +106,25 @@ TEST(Model, MeshLevelSetIsPositiveInside) {
   EXPECT_LE(v.stats.active_voxels, 21u * 21 * 21);
 }
 
+// Inside a sphere the level set is the distance to its surface, so the density at its centre is
+// radius / skin (eq 103), and the active voxels are those whose centres lie inside it; also for spheres
+// finer than OpenVDB's sphere resolves (1.5 voxels in radius), down to the half voxel validation allows.
+TEST(Model, SpheresOfAFewVoxelsHaveTheDensityOfTheirRadius) {
+  for (double radius : {0.6, 1.2, 1.3, 1.6, 2.9}) {  // r^2 away from the integers: no centre on the surface
+    CloudModel m;
+    m.voxel_size = 1;
+    m.skin = 4;
+    m.spheres.push_back({{0, 0, 0}, radius});
+    CloudVolume v = build_cloud(m);
+    EXPECT_NEAR(v.density->getConstAccessor().getValue(openvdb::Coord(0, 0, 0)), radius / 4, 0.01) << radius;
+    uint64_t inside = 0;
+    for (int i = -3; i <= 3; ++i)
+      for (int j = -3; j <= 3; ++j)
+        for (int k = -3; k <= 3; ++k) inside += i * i + j * j + k * k < radius * radius;
+    EXPECT_EQ(v.stats.active_voxels, inside) << radius;
+  }
+}
+
 TEST(Model, TemperatureFollowsTheLapseRate) {
   CloudModel m;
   m.voxel_size = 0.5;
