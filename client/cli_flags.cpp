@@ -11,15 +11,14 @@
 
 #include "common/error.h"
 #include "common/regular_file.h"
+#include "common/validate.h"
 
 namespace squall::cli {
 
 double number(const std::string& flag, const std::string& text, const char* unit) {
-  char* end = nullptr;
-  double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v) || text.find_first_of("xX \t\n") != std::string::npos)
-    throw UsageError(flag + " " + text + ": must be a finite number (" + unit + ")");
-  return v;
+  const std::optional<double> v = validate::decimal(text);
+  if (!v) throw UsageError(flag + " " + text + ": must be a finite number (" + unit + ")");
+  return *v;
 }
 
 std::vector<std::string> items(const std::string& flag, const std::string& text) {

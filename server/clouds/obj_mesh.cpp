@@ -1,10 +1,10 @@
 #include "clouds/obj_mesh.h"
 
-#include <cmath>
-#include <cstdlib>
+#include <optional>
 #include <sstream>
 
 #include "common/error.h"
+#include "common/validate.h"
 
 namespace squall::clouds {
 
@@ -27,9 +27,9 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
       for (int a = 0; a < 3; ++a) {
         std::string token;
         if (!(in >> token)) bad("a vertex needs three numbers");
-        char* end = nullptr;
-        v[a] = std::strtod(token.c_str(), &end);
-        if (*end || !std::isfinite(v[a])) bad("vertex coordinate \"" + token + "\" is not a finite number");
+        const std::optional<double> x = validate::decimal(token);
+        if (!x) bad("vertex coordinate \"" + validate::printable(token) + "\" is not a finite decimal number");
+        v[a] = *x;
       }
       mesh.vertices.push_back(v);
     } else if (tag == "f") {

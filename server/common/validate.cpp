@@ -1,6 +1,7 @@
 #include "common/validate.h"
 
 #include <cfloat>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 
@@ -94,6 +95,17 @@ std::string printable(std::string_view text, size_t max_bytes) {
   }
   if (text.size() > max_bytes) out += "... (" + std::to_string(text.size()) + " bytes)";
   return out;
+}
+
+std::optional<double> decimal(std::string_view text) {
+  if (text.starts_with('+')) {  // from_chars reads '-' only
+    text.remove_prefix(1);
+    if (text.starts_with('-')) return {};
+  }
+  double v = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), v, std::chars_format::general);
+  if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(v)) return {};
+  return v;
 }
 
 }  // namespace squall::validate

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -85,6 +86,11 @@ int known(const std::string& path, int value, int count, const std::string& type
 
 // "<path>[i]"
 std::string at(const std::string& path, size_t i);
+
+// A finite decimal number written out whole: an optional sign, digits, a point, an exponent ("-1.5",
+// "+4e11"); no hexadecimal, inf, nan, spaces or empty text, and nothing the C locale would read otherwise.
+// Nothing when `text` is not one, or is past double's range either way (1e999, 1e-999).
+std::optional<double> decimal(std::string_view text);
 
 // Client text as messages and log lines show it: at most `max_bytes` bytes (then "..." and the full
 // size), with control characters, '"', '\\' and bytes >= 0x7f written as \xNN. A client's string never

@@ -21,11 +21,9 @@ using Setter = std::function<void(const std::string&)>;
 // A number as the flags are written: decimal digits, a point and an exponent (1.5, 4e11); no hex, inf,
 // nan or empty text. -0 is 0.
 double decimal(const std::string& text, const std::string& rule) {
-  const bool plain = !text.empty() && text.find_first_not_of("0123456789.eE+-") == std::string::npos;
-  size_t used = 0;
-  const double v = plain ? std::stod(text, &used) : 0;
-  if (!plain || used != text.size()) throw std::invalid_argument(rule);
-  return v + 0.0;
+  const std::optional<double> v = validate::decimal(text);
+  if (!v) throw std::invalid_argument(rule);
+  return *v + 0.0;
 }
 
 uint64_t positive_integer(const std::string& text) {

@@ -143,15 +143,17 @@ TEST(Obj, QuadCubeBuildsTheSameCloudAsItsTriangles) {
   EXPECT_LE(v.stats.active_voxels, 21u * 21 * 21);
   std::string msg = error_of([] { parse_obj("v 0 0 0\nf 1 2 3\n", "model.meshes[1].obj"); }, Code::InvalidArgument);
   EXPECT_NE(msg.find("model.meshes[1].obj line 2"), std::string::npos) << msg;
-  // Numbers are read whole: a fractional index, a coordinate with more after it, or one that is not finite
-  // is refused naming it, not read in part.
+  // Numbers are read whole and in decimal: a fractional index, a coordinate with more after it, one that is
+  // not finite or hexadecimal is refused naming it (escaped), not read in part.
   const std::string triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   for (const auto& [text, needle] : std::vector<std::pair<std::string, std::string>>{
            {triangle + "f 1.9 2 3\n", "line 4: face index \"1.9\" is not a whole number"},
            {triangle + "f 1 2 x\n", "line 4: face index \"x\" is not a whole number"},
-           {"v 0 0 nan\n", "line 1: vertex coordinate \"nan\" is not a finite number"},
-           {"v 0 0 1e999\n", "line 1: vertex coordinate \"1e999\" is not a finite number"},
-           {"v 0 0 1m\n", "line 1: vertex coordinate \"1m\" is not a finite number"},
+           {"v 0 0 nan\n", "line 1: vertex coordinate \"nan\" is not a finite decimal number"},
+           {"v 0 0 1e999\n", "line 1: vertex coordinate \"1e999\" is not a finite decimal number"},
+           {"v 0 0 1m\n", "line 1: vertex coordinate \"1m\" is not a finite decimal number"},
+           {"v 0 0 0x1p3\n", "line 1: vertex coordinate \"0x1p3\" is not a finite decimal number"},
+           {"v 0 0 \x01\n", "line 1: vertex coordinate \"\\x01\" is not a finite decimal number"},
            {"v 0 0\n", "line 1: a vertex needs three numbers"}}) {
     msg = error_of([&] { parse_obj(text, "obj"); }, Code::InvalidArgument);
     EXPECT_NE(msg.find(needle), std::string::npos) << msg;

@@ -5,6 +5,8 @@
 
 #include <array>
 #include <cmath>
+#include <initializer_list>
+#include <utility>
 
 #include "support/expect_error.h"
 
@@ -61,6 +63,17 @@ TEST(Validate, ClientTextIsEscapedAndCut) {
   EXPECT_EQ(validate::printable("a\nb\"c\\d\x7f\xff"), "a\\x0ab\\x22c\\x5cd\\x7f\\xff");
   EXPECT_EQ(validate::printable(std::string(1 << 20, 'x'), 4), "xxxx... (1048576 bytes)");
   EXPECT_EQ(validate::printable(std::string_view("a\0b", 3)), "a\\x00b");
+}
+
+// Numbers in text (flags, OBJ files) are read as written in decimal, whatever the locale and whatever
+// else strtod would take.
+TEST(Validate, DecimalNumbersAreReadWholeAndNothingElse) {
+  for (auto [text, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"1.5", 1.5}, {"-2", -2}, {"+4e11", 4e11}, {".5", 0.5}, {"7.", 7}, {"1E-3", 1e-3}, {"-0", 0}})
+    EXPECT_EQ(validate::decimal(text), value) << text;
+  for (const char* text : {"", " 1", "1 ", "0x10", "0x1p3", "inf", "-inf", "nan", "1e999", "-1e999", "1e-999", "1e",
+                           "++1", "+-1", "-+1", "1,5", "1.5.2", "12abc", "+"})
+    EXPECT_FALSE(validate::decimal(text)) << text;
 }
 
 }  // namespace
