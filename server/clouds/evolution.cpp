@@ -36,11 +36,13 @@ CloudModel model_at(const CloudModel& base, const Evolution& e, double t) {
     move(p.center, e.drift, t);
     move_pattern(p.noise, e.noise_drift, t);
   }
-  move_pattern(m.pyroclastic.noise, e.noise_drift, t);
+  // The patterns of the stages in use only: one left as sent is validated as sent, and an error after a long
+  // drift names a noise that shapes the cloud.
+  if (m.pyroclastic.layers > 0) move_pattern(m.pyroclastic.noise, e.noise_drift, t);
   m.pyroclastic.amplitude = std::max(0.0, m.pyroclastic.amplitude + e.amplitude_rate * t);
-  move_pattern(m.temperature.noise, e.noise_drift, t);
+  if (m.temperature.enabled) move_pattern(m.temperature.noise, e.noise_drift, t);
   m.advection.time = std::max(0.0, m.advection.time + e.advection_rate * t);
-  move_pattern(m.advection.noise, e.velocity_drift, t);
+  if (m.advection.speed > 0) move_pattern(m.advection.noise, e.velocity_drift, t);
   return m;
 }
 

@@ -52,7 +52,9 @@ std::string vertex_path(const std::string& f, const TriangleMesh& m, size_t k) {
   return f + ".vertices[" + std::to_string(3 * k) + ".." + std::to_string(3 * k + 2) + "]";
 }
 
-MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
+// Mesh `f`'s size, once its counts, its vertices (finite, and within reach when grown by `grow`) and its
+// triangles' indices are checked.
+MeshSize check_mesh(const std::string& f, const TriangleMesh& m, double grow, double voxel_size) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument, f + (m.from_obj ? ".obj" : ".vertices") + " has " + std::to_string(m.vertices.size()) +
                                     " vertices; a closed mesh needs at least 4");
@@ -62,12 +64,14 @@ MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
         validate::finite(
             m.from_obj ? vertex_path(f, m, i) + " " + "xyz"[a] : validate::at(f + ".vertices", 3 * i + size_t(a)),
             m.vertices[i][a]);
+  for (size_t k = 0; k < m.vertices.size(); ++k) check_reach(vertex_path(f, m, k), m.vertices[k], grow, voxel_size);
   if (m.triangles.size() < 12 || m.triangles.size() % 3 != 0)
     fail(Code::InvalidArgument, m.from_obj ? f + ".obj has " + std::to_string(m.triangles.size() / 3) +
                                                  " triangles (its faces fanned); a " + "closed mesh needs at least 4"
                                            : f + ".triangles has " + std::to_string(m.triangles.size()) +
                                                  " indices; it needs a multiple of 3 and at least 4 triangles");
   double volume = 0, area = 0;
+  const Vec3d& o = m.vertices.front();  // the apex of the tetrahedra: near the mesh, no cancellation far out
   for (size_t t = 0; t < m.triangles.size(); t += 3) {
     for (size_t k = t; k < t + 3; ++k)
       if (m.triangles[k] >= m.vertices.size())
@@ -77,7 +81,7 @@ MeshSize check_mesh(const std::string& f, const TriangleMesh& m) {
                 &c = m.vertices[m.triangles[t + 2]];
     Vec3d n = cross(sub(b, a), sub(c, a));
     area += std::sqrt(dot(n, n)) / 2;
-    volume += dot(a, cross(b, c)) / 6;
+    volume += dot(sub(a, o), cross(sub(b, o), sub(c, o))) / 6;
   }
   double scale = std::sqrt(area);
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
@@ -147,9 +151,7 @@ double validate(const CloudModel& m, const std::string& prefix) {
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
     std::string s = validate::at(f + ".meshes", i);
-    const MeshSize size = check_mesh(s, m.meshes[i]);
-    for (size_t k = 0; k < m.meshes[i].vertices.size(); ++k)
-      check_reach(vertex_path(s, m.meshes[i], k), m.meshes[i].vertices[k], grow, m.voxel_size);
+    const MeshSize size = check_mesh(s, m.meshes[i], grow, m.voxel_size);
     volume += mesh_volume_estimate(m.meshes[i], size, grow + 2 * m.voxel_size);  // the band's 2 more voxels
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {

@@ -62,5 +62,22 @@ TEST(Evolution, AdvectionTimeGrowsAndBadRatesAreRejected) {
   test::expect_error(Code::InvalidArgument, "evolution.drift.y", [&] { validate(e); });
 }
 
+// A noise drifts only where a stage uses it: after a drift past the noise offsets' bound, the error names
+// the particles' noise, not the pattern of pyroclastic layers the model does not have.
+TEST(Evolution, ADriftPastTheBoundNamesANoiseInUse) {
+  CloudModel m;
+  m.particles.push_back(particle({0, 0, 0}, 4));
+  Evolution e;
+  e.noise_drift = {1e6, 0, 0};
+  const CloudModel later = model_at(m, e, 2000);  // offsets -2e9 m
+  EXPECT_EQ(later.pyroclastic.noise.offset, m.pyroclastic.noise.offset);
+  EXPECT_EQ(later.temperature.noise.offset, m.temperature.noise.offset);
+  test::expect_error(Code::InvalidArgument, "model.particles[0].noise.offset", [&] { validate(later, "model"); });
+  m.pyroclastic.layers = 1;
+  m.temperature.enabled = true;
+  EXPECT_EQ(model_at(m, e, 2000).pyroclastic.noise.offset[0], m.pyroclastic.noise.offset[0] - 2e9);
+  EXPECT_EQ(model_at(m, e, 2000).temperature.noise.offset[0], m.temperature.noise.offset[0] - 2e9);
+}
+
 }  // namespace
 }  // namespace squall::clouds

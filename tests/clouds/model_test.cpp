@@ -13,6 +13,8 @@
 #include "clouds/volume.h"
 #include "common/error.h"
 
+#include "support/expect_error.h"
+
 namespace squall::clouds {
 namespace {
 
@@ -123,6 +125,26 @@ TEST(Model, SpheresOfAFewVoxelsHaveTheDensityOfTheirRadius) {
         for (int k = -3; k <= 3; ++k) inside += i * i + j * j + k * k < radius * radius;
     EXPECT_EQ(v.stats.active_voxels, inside) << radius;
   }
+}
+
+// A mesh's estimated voxels do not depend on where it is (its enclosed volume is summed from one of its
+// vertices, not from the origin, where a mesh far out loses it to cancellation), and a mesh beyond the
+// device's reach is refused for that, not taken for a degenerate one.
+TEST(Model, AMeshIsEstimatedAlikeAnywhereAndRefusedBeyondReach) {
+  auto cube_at = [](double x) {  // 1 m on a side, voxels of 1 m
+    CloudModel m;
+    m.voxel_size = 1;
+    TriangleMesh cube;
+    for (int v = 0; v < 8; ++v) cube.vertices.push_back({x + (v & 1), x + (v >> 1 & 1), x + (v >> 2)});
+    cube.triangles = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                      2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    m.meshes.push_back(cube);
+    return m;
+  };
+  const double near = validate(cube_at(0.3), "model");
+  EXPECT_NEAR(validate(cube_at(9e5 + 0.3), "model"), near, 1e-9 * near);  // from the origin: 166 m^3, not 1
+  test::expect_error(Code::InvalidArgument, "model.meshes[0].vertices[0..2] = (1e+30, 1e+30, 1e+30) plus",
+                     [&] { validate(cube_at(1e30), "model"); });
 }
 
 TEST(Model, TemperatureFollowsTheLapseRate) {
