@@ -39,6 +39,30 @@ void check_reach(const std::string& path, const Vec3d& center, double reach, dou
                                       " m) of the origin (float32 on the device): move the model nearer");
 }
 
+// What grows every shape, m: the skin and the level set's band, the pyroclastic layers' displacement, the
+// advection's reach.
+struct Growth {
+  double band, displaced, advected;
+  double total() const { return band + displaced + advected; }
+};
+
+// The growth alone must stay within check_reach's bound; past it, the field behind its largest part is named
+// (rather than the first shape's centre).
+void check_growth(const std::string& f, const CloudModel& m, const Growth& g) {
+  const double limit = std::ldexp(m.voxel_size, 20);
+  if (g.total() <= limit) return;
+  const double largest = std::max({g.band, g.displaced, g.advected});
+  const std::string field = largest == g.band ? f + ".skin = " + validate::number(m.skin)
+                            : largest == g.displaced
+                                ? f + ".pyroclastic.amplitude = " + validate::number(m.pyroclastic.amplitude)
+                                : f + ".advection.speed = " + validate::number(m.advection.speed);
+  fail(Code::InvalidArgument, field + " grows every shape by " + validate::number(g.total()) + " m (skin and band " +
+                                  validate::number(g.band) + " m, pyroclastic displacement " +
+                                  validate::number(g.displaced) + " m, advection " + validate::number(g.advected) +
+                                  " m): more than the 2^20 voxels (" + validate::number(limit) +
+                                  " m) the device resolves about the origin");
+}
+
 // A closed mesh's enclosed volume |V| (divergence theorem, m^3) and surface area (m^2); throws on a
 // degenerate mesh.
 struct MeshSize {
@@ -127,7 +151,9 @@ double validate(const CloudModel& m, const std::string& prefix) {
     fail(Code::InvalidArgument, f + ".advection.substeps = " + std::to_string(a.substeps) + " must be in [1, 256]");
   check_noise(f + ".advection.noise", a.noise);
   // The advection's dilation: advection_reach of the field's top speed sqrt(3) speed, along the diagonals too.
-  double grow = pyroclastic_bound(p) + band + std::sqrt(3.0) * advection_reach(std::sqrt(3.0) * a.speed, a.time);
+  const Growth growth{band, pyroclastic_bound(p), std::sqrt(3.0) * advection_reach(std::sqrt(3.0) * a.speed, a.time)};
+  check_growth(f, m, growth);
+  const double grow = growth.total();
   // Estimated active voxels: shape volumes grown by the displacement band (interior tiles included).
   double volume = 0;
   // A sphere or ellipsoid finer than half a voxel is not resolved (and OpenVDB refuses to build it).

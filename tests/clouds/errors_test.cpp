@@ -133,6 +133,19 @@ TEST(Errors, AShapeFarFromTheOriginIsRefusedByName) {
   validate(m);
 }
 
+// What grows every shape past that reach is named, not the first shape's centre.
+TEST(Errors, GrowthPastTheReachNamesItsCause) {
+  CloudModel skin = sphere_model(), displaced = sphere_model(), advected = sphere_model();
+  skin.skin = 1e6;
+  displaced.pyroclastic.layers = 1;
+  displaced.pyroclastic.amplitude = 1e6;
+  advected.advection.speed = 1e3;  // reaches sqrt(3) 2 sqrt(3) speed time = 6e6 m
+  advected.advection.time = 1e3;
+  expect_error([&] { validate(skin); }, Code::InvalidArgument, "model.skin = 1000000 grows every shape by 1000001.5 m");
+  expect_error([&] { validate(displaced); }, Code::InvalidArgument, "model.pyroclastic.amplitude = 1000000 grows");
+  expect_error([&] { validate(advected); }, Code::InvalidArgument, "model.advection.speed = 1000 grows");
+}
+
 // Inputs each inside its range can still make a temperature field that no gas has: +-6.5e297 K (a base altitude
 // of 1e300 m), below 0 K (a lapse over a cloud 5 km above its base, or a fluctuation larger than the surface
 // temperature) or past kMaxTemperature (an inversion). Each is refused; a cold cloud above 0 K is not.
