@@ -1,5 +1,6 @@
 #include "clouds/cloud_engine.h"
 
+#include "clouds/build_memory.h"
 #include "common/error.h"
 
 namespace squall::clouds {
@@ -44,7 +45,9 @@ std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::st
 }
 
 uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const {
-  return uint64_t(kBuildBytesPerVoxel * clouds::validate(budgeted(std::move(model), options_), field));
+  model = budgeted(std::move(model), options_);
+  clouds::validate(model, field);
+  return build_bytes(model);
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {

@@ -41,8 +41,8 @@ class CloudEngine {
   std::shared_ptr<StoredVolume> build(CloudModel model, const std::string& field = "model",
                                       const Cancellation& cancel = {});
   // What build() checks before building anything: the model with the engine's budgets, validated
-  // (Error(InvalidArgument) naming `field`). Returns the bytes its build holds at most (kBuildBytesPerVoxel
-  // times the estimated active voxels), for the caller to reserve in the memory budget first.
+  // (Error(InvalidArgument) naming `field`). Returns the bytes its build holds at most (build_bytes), for the
+  // caller to reserve in the memory budget first.
   uint64_t validate(CloudModel model, const std::string& field = "model") const;
   // The id of a volume about to be built and kept: a new one, or the client's `proposed` one
   // (SessionStore::id_for), checked before the build and again by keep().

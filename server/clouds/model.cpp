@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <numeric>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -46,6 +48,12 @@ struct Growth {
   double total() const { return band + displaced + advected; }
 };
 
+Growth growth_of(const CloudModel& m) {
+  // The advection's dilation: advection_reach of the field's top speed sqrt(3) speed, along the diagonals too.
+  return {m.skin + 3 * m.voxel_size, pyroclastic_bound(m.pyroclastic),
+          std::sqrt(3.0) * advection_reach(std::sqrt(3.0) * m.advection.speed, m.advection.time)};
+}
+
 // The growth alone must stay within check_reach's bound; past it, the field behind its largest part is named
 // (rather than the first shape's centre).
 void check_growth(const std::string& f, const CloudModel& m, const Growth& g) {
@@ -63,8 +71,7 @@ void check_growth(const std::string& f, const CloudModel& m, const Growth& g) {
                                   " m) the device resolves about the origin");
 }
 
-// A closed mesh's enclosed volume |V| (divergence theorem, m^3) and surface area (m^2); throws on a
-// degenerate mesh.
+// A closed mesh's enclosed volume (m^3) and surface area (m^2): its pieces' together.
 struct MeshSize {
   double volume, area;
 };
@@ -94,24 +101,17 @@ MeshSize check_mesh(const std::string& f, const TriangleMesh& m, double grow, do
                                                  " triangles (its faces fanned); a " + "closed mesh needs at least 4"
                                            : f + ".triangles has " + std::to_string(m.triangles.size()) +
                                                  " indices; it needs a multiple of 3 and at least 4 triangles");
+  for (size_t k = 0; k < m.triangles.size(); ++k)
+    if (m.triangles[k] >= m.vertices.size())
+      fail(Code::InvalidArgument, f + ".triangles[" + std::to_string(k) + "] = " + std::to_string(m.triangles[k]) +
+                                      " is out of range (" + std::to_string(m.vertices.size()) + " vertices)");
   double volume = 0, area = 0;
-  const Vec3d& o = m.vertices.front();  // the apex of the tetrahedra: near the mesh, no cancellation far out
-  for (size_t t = 0; t < m.triangles.size(); t += 3) {
-    for (size_t k = t; k < t + 3; ++k)
-      if (m.triangles[k] >= m.vertices.size())
-        fail(Code::InvalidArgument, f + ".triangles[" + std::to_string(k) + "] = " + std::to_string(m.triangles[k]) +
-                                        " is out of range (" + std::to_string(m.vertices.size()) + " vertices)");
-    const Vec3d &a = m.vertices[m.triangles[t]], &b = m.vertices[m.triangles[t + 1]],
-                &c = m.vertices[m.triangles[t + 2]];
-    Vec3d n = cross(sub(b, a), sub(c, a));
-    area += std::sqrt(dot(n, n)) / 2;
-    volume += dot(sub(a, o), cross(sub(b, o), sub(c, o))) / 6;
-  }
+  for (const MeshPiece& piece : mesh_pieces(m)) volume += piece.volume, area += piece.area;
   double scale = std::sqrt(area);
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
     fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) +
                                     " m^2, volume " + validate::number(volume) + " m^3)");
-  return {std::abs(volume), area};
+  return {volume, area};
 }
 
 // Voxels' volume (m^3) a mesh's level set and density can take: its inside, and a band of `grow` about its
@@ -133,11 +133,45 @@ double pyroclastic_bound(const Pyroclastic& p) {
   return bound;
 }
 
+double shape_growth(const CloudModel& m) { return growth_of(m).total(); }
+
+std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
+  std::vector<uint32_t> parent(m.vertices.size());  // union-find over the vertices, joined by triangles
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto root = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (size_t t = 0; t < m.triangles.size(); t += 3)
+    for (size_t k = t + 1; k < t + 3; ++k) parent[root(m.triangles[k])] = root(m.triangles[t]);
+  std::vector<MeshPiece> pieces;
+  std::vector<size_t> piece_of(m.vertices.size(), SIZE_MAX);  // of a root
+  std::vector<Vec3d> apex;                                    // of a piece: the tetrahedra's common vertex
+  for (size_t t = 0; t < m.triangles.size(); t += 3) {
+    const Vec3d &a = m.vertices[m.triangles[t]], &b = m.vertices[m.triangles[t + 1]],
+                &c = m.vertices[m.triangles[t + 2]];
+    size_t& i = piece_of[root(m.triangles[t])];
+    if (i == SIZE_MAX) {
+      i = pieces.size();
+      pieces.push_back({0, 0, a, a});
+      apex.push_back(a);
+    }
+    MeshPiece& piece = pieces[i];
+    const Vec3d n = cross(sub(b, a), sub(c, a)), &o = apex[i];
+    piece.area += std::sqrt(dot(n, n)) / 2;
+    piece.volume += dot(sub(a, o), cross(sub(b, o), sub(c, o))) / 6;
+    for (const Vec3d* v : {&a, &b, &c})
+      for (int k = 0; k < 3; ++k)
+        piece.lo[k] = std::min(piece.lo[k], (*v)[k]), piece.hi[k] = std::max(piece.hi[k], (*v)[k]);
+  }
+  for (MeshPiece& piece : pieces) piece.volume = std::abs(piece.volume);
+  return pieces;
+}
+
 double validate(const CloudModel& m, const std::string& prefix) {
   const std::string& f = prefix;
   validate::in(f + ".voxel_size", m.voxel_size, validate::closed(kMinVoxelSize, kMaxVoxelSize));
   positive(f + ".skin", m.skin);
-  double band = m.skin + 3 * m.voxel_size;
   const auto& p = m.pyroclastic;
   if (p.layers < 0 || p.layers > 8)
     fail(Code::InvalidArgument, f + ".pyroclastic.layers = " + std::to_string(p.layers) + " must be in [0, 8]");
@@ -150,8 +184,7 @@ double validate(const CloudModel& m, const std::string& prefix) {
   if (a.substeps < 1 || a.substeps > 256)
     fail(Code::InvalidArgument, f + ".advection.substeps = " + std::to_string(a.substeps) + " must be in [1, 256]");
   check_noise(f + ".advection.noise", a.noise);
-  // The advection's dilation: advection_reach of the field's top speed sqrt(3) speed, along the diagonals too.
-  const Growth growth{band, pyroclastic_bound(p), std::sqrt(3.0) * advection_reach(std::sqrt(3.0) * a.speed, a.time)};
+  const Growth growth = growth_of(m);
   check_growth(f, m, growth);
   const double grow = growth.total();
   // Estimated active voxels: shape volumes grown by the displacement band (interior tiles included).

@@ -107,10 +107,19 @@ constexpr double kMaxNoiseFrequency = 1e9, kMaxNoiseOffset = 1e9;
 // that estimate: an upper bound of the active voxels of every grid the build makes.
 double validate(const CloudModel& model, const std::string& prefix = "model");
 
-// Bytes a build holds at its peak per estimated active voxel: the host grid (4 bytes a value and its
-// tree's masks), a working copy while displacing or advecting, and the device's NanoVDB copy, with a
-// temperature grid as much again.
-constexpr double kBuildBytesPerVoxel = 16;
+// A connected piece of a mesh (triangles that share vertices): its enclosed volume |V| (m^3, by the
+// divergence theorem from one of its vertices: no cancellation far from the origin), surface area (m^2) and
+// bounding box (m).
+struct MeshPiece {
+  double volume = 0, area = 0;
+  Vec3d lo{0, 0, 0}, hi{0, 0, 0};
+};
+// The pieces of a mesh whose triangle indices are in range.
+std::vector<MeshPiece> mesh_pieces(const TriangleMesh& mesh);
+
+// How far (m) a build can grow any shape: the skin and the level set's band, the pyroclastic layers'
+// displacement and the advection's reach (of a validated model).
+double shape_growth(const CloudModel& model);
 
 // Largest displacement the pyroclastic layers can add, m (sum over layers of amplitude (r^n)^gamma).
 double pyroclastic_bound(const Pyroclastic& p);

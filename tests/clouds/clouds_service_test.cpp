@@ -2,10 +2,13 @@
 // evolution stream, release, and the documented errors.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <sstream>
 #include <string>
@@ -15,6 +18,8 @@
 #include <openvdb/io/Stream.h>
 
 #include "client/client.h"
+#include "clouds/build_memory.h"
+#include "clouds/clouds_request.h"
 #include "clouds/volume.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "support/daemon.h"
@@ -517,9 +522,9 @@ TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
-// A build counts in --memory-budget before it starts: a 22 m sphere in 10 cm voxels (an estimated 5e7 active
-// voxels, 16 bytes each at the build's peak) is refused under a budget of 512 MiB at once, and a 5 m one
-// (4e6 voxels) is built.
+// A build counts in --memory-budget before it starts: a 22 m sphere in 10 cm voxels (its band and leaves
+// grow it to about 5.4e7 voxels, 16 bytes each at the build's peak) is refused under a budget of 512 MiB at
+// once, and a 5 m one (1.2e6 voxels) is built.
 TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   test::Daemon d({"--memory-budget", std::to_string(512ull << 20)});
   v1::BuildVolumeRequest request;
@@ -536,6 +541,75 @@ TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   model.mutable_spheres(0)->set_radius(5);
   status = call(d.address()).build(request, &built);
   EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+// squalld's resident memory (VmRSS, or VmHWM: its peak since clear_peak), bytes.
+uint64_t resident_bytes(pid_t pid, const std::string& key) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.starts_with(key + ":")) return std::stoull(line.substr(key.size() + 1)) * 1024;  // "NNN kB"
+  ADD_FAILURE() << "no " << key << " in /proc/" << pid << "/status";
+  return 0;
+}
+void clear_peak(pid_t pid) { std::ofstream("/proc/" + std::to_string(pid) + "/clear_refs") << "5"; }
+
+// `count` regular tetrahedra of edge sqrt(2) m on a cubic lattice of pitch `pitch` m, as one mesh.
+v1::MeshSpec tetrahedra(int count, double pitch) {
+  v1::MeshSpec mesh;
+  const int side = int(std::ceil(std::cbrt(count)));
+  for (int n = 0; n < count; ++n) {
+    const double x = pitch * (n % side), y = pitch * (n / side % side), z = pitch * (n / side / side);
+    for (const auto& [a, b, c] : {std::array{0.5, 0.5, 0.5}, {0.5, -0.5, -0.5}, {-0.5, 0.5, -0.5}, {-0.5, -0.5, 0.5}})
+      for (double v : {x + a, y + b, z + c}) mesh.add_vertices(v);
+    for (uint32_t k : {0u, 1u, 2u, 0u, 3u, 1u, 0u, 2u, 3u, 1u, 3u, 2u}) mesh.add_triangles(4 * n + k);
+  }
+  return mesh;
+}
+
+// A build is charged what it holds at its peak before it starts: shapes whose narrow bands dwarf their
+// volumes (a thousand tetrahedra 200 m apart, each band a ball of whole OpenVDB leaves; a flat ellipsoid,
+// all band) stay within their charge, measured as squalld's peak resident memory over the build, and the
+// same tetrahedra with a band of 20 m (about 2 GB of grids, an estimated 1.7e5 active voxels) are refused
+// under a budget of 1 GiB before anything is built.
+TEST(CloudsService, ABuildStaysWithinWhatTheMemoryBudgetChargedIt) {
+  const std::vector<std::string> flags = {"--memory-budget", std::to_string(1ull << 30)};
+  v1::CloudModel spread, flat, banded;
+  for (v1::CloudModel* m : {&spread, &flat, &banded}) {
+    m->set_voxel_size(1);
+    m->set_skin(2);
+  }
+  *spread.add_meshes() = tetrahedra(1000, 200);
+  auto* radii = flat.add_ellipsoids()->mutable_radii();
+  radii->set_x(400);
+  radii->set_y(400);
+  radii->set_z(1);
+  banded = spread;
+  banded.set_skin(20);
+  for (const v1::CloudModel* model : {&spread, &flat}) {
+    test::Daemon d(flags);  // a fresh one: no memory freed by an earlier build to take the next one's place
+    const pid_t pid = d.process().pid();
+    const uint64_t charged = clouds::build_bytes(clouds::rpc::model(*model));
+    v1::BuildVolumeRequest request;
+    *request.mutable_model() = *model;
+    v1::BuildVolumeResponse built;
+    const uint64_t before = resident_bytes(pid, "VmRSS");
+    clear_peak(pid);
+    const grpc::Status status = call(d.address()).build(request, &built);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    const uint64_t peak = resident_bytes(pid, "VmHWM") - before;
+    std::printf("build's peak %.0f MB, charged %.0f MB\n", peak / 1e6, charged / 1e6);
+    EXPECT_LE(peak, charged) << model->DebugString().substr(0, 200);
+    EXPECT_GE(peak, charged / 8) << "a charge far above the peak holds back other calls";
+  }
+  test::Daemon d(flags);
+  v1::BuildVolumeRequest request;
+  *request.mutable_model() = banded;
+  v1::BuildVolumeResponse built;
+  const auto start = std::chrono::steady_clock::now();
+  const grpc::Status status = call(d.address()).build(request, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("BuildVolume's build"), std::string::npos) << status.error_message();
+  EXPECT_LT(seconds_since(start), 1.0);
 }
 
 // A sphere of 5 m in 5 cm voxels (about 7e6) advected in 256 MacCormack substeps: 4e9 velocity samples,
