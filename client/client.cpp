@@ -87,8 +87,7 @@ std::unique_ptr<grpc::ClientContext> Client::context(const std::string& session,
 
 squall::v1::GetInfoResponse Client::info() {
   auto stub = squall::v1::Server::NewStub(channel_);
-  squall::v1::GetInfoRequest request;
-  request.set_request_id(options_.request_id);
+  squall::v1::GetInfoRequest request;  // the request id goes as x-request-id, as on every call (no 128-byte cap)
   squall::v1::GetInfoResponse response;
   auto ctx = context();
   grpc::Status status = stub->GetInfo(ctx.get(), request, &response);

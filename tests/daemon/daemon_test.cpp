@@ -469,6 +469,11 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_NE(out.find("--request-id holds the byte \\xc3"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--request-id", "a\nb", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--request-id holds the byte \\x0a"), std::string::npos) << out;
+  // A request id past GetInfo.request_id's 128 bytes goes as x-request-id only, as on every other call.
+  EXPECT_EQ(
+      test::run({kSquall, "--address", shared_daemon().address(), "--request-id", std::string(300, 'r'), "info"}, &out),
+      0)
+      << out;
   // Files named by flags that cannot be read (missing, a folder): a bad command line, whichever flag names
   // them; so are a certificate without its key, an empty address, and arguments info and health do not take.
   for (const char* flag : {"--token-file", "--tls-ca", "--tls-cert", "--tls-key"}) {

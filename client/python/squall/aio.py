@@ -957,7 +957,7 @@ class Client:
 
     async def info(self, *, timeout: Optional[float] = None) -> server_pb2.GetInfoResponse:
         """Server.GetInfo."""
-        request = server_pb2.GetInfoRequest(request_id=self._connection.settings.request_id or "")
+        request = server_pb2.GetInfoRequest()  # the request id goes as x-request-id (any length)
         reply: server_pb2.GetInfoResponse = await self._connection.unary(
             "Server.GetInfo", self._server.GetInfo, request, timeout
         )

@@ -210,7 +210,7 @@ class Client:
         """The daemon's version, devices, kernels, FFT backend, limits and readiness
         (Server.GetInfo).
         """
-        request = server_pb2.GetInfoRequest(request_id=self._connection.settings.request_id or "")
+        request = server_pb2.GetInfoRequest()  # the request id goes as x-request-id (any length)
         reply: server_pb2.GetInfoResponse = self._connection.unary(
             "Server.GetInfo", self._server.GetInfo, request, timeout
         )
