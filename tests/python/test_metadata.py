@@ -111,8 +111,8 @@ def test_unreachable_server_is_unavailable() -> None:
 
 
 def test_a_request_id_past_getinfos_128_bytes_goes_as_metadata_only(daemon) -> None:
-    """GetInfo.request_id holds at most 128 bytes; the client sends its request id as x-request-id on
-    every call, so info() works with a longer one, as every other call does."""
+    """GetInfo.request_id holds at most 128 bytes; the client sends its request id as x-request-id
+    on every call, so info() works with a longer one, as every other call does."""
     long_id = "r" * 300
     with squall.Client(daemon.address, request_id=long_id) as client:
         assert client.info().ready
