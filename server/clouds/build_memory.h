@@ -1,11 +1,11 @@
 // What a cloud build holds at its peak, bounded from the model before anything is built, so that the build
 // is charged to --memory-budget before it starts.
 //
-// OpenVDB keeps a level set's narrow band in whole leaves of 8^3 voxels; converting a mesh holds a distance
-// grid, a triangle index grid and masks over that band, and the stages after it a working copy and the
-// device's NanoVDB copy of the same leaves. So a shape costs the voxels of its grown body rounded out to
-// leaves (about a small shape that is a ball, not its area times the band's width), and each shape apart
-// from the others the node tables above its leaves.
+// OpenVDB keeps a level set's narrow band in whole leaves of 8^3 voxels (the inside as tiles); converting a
+// mesh holds a distance grid, a triangle index grid and masks over that band, and the stages after it a
+// working copy and the device's NanoVDB copy of the same leaves. So a shape costs the voxels of its body
+// grown by the band, rounded out to leaves (about a small shape that is a ball, not its area times the
+// band's width), and the internal nodes above those leaves: tables of 16^3 and 32^3 entries in each grid.
 #pragma once
 
 #include <cstdint>
@@ -14,16 +14,27 @@
 
 namespace squall::clouds {
 
-// Bytes held at the peak of a build of `model` (validated) at most: kBytesPerBandVoxel for each voxel of the
-// shapes' grown bodies (leaves included), kBytesPerShape for each sphere, ellipsoid, particle and connected
-// piece of a mesh, and kBytesPerBuild.
+// Bytes held at the peak of a build of `model` (validated) at most: kBytesPerBandVoxel for each voxel of
+// each shape's grown body (a sphere, ellipsoid, particle or connected piece of a mesh; a piece that is not
+// convex, its whole grown bounding box), and kTemperatureBytesPerVoxel more with a temperature field; the
+// internal nodes those bodies reach in kGridsAtPeak grids; kBytesPerTriangle for each mesh triangle; and
+// kBytesPerBuild. UINT64_MAX past 2^64. Not bounded: the per-thread grids of OpenVDB's mesh conversion,
+// which copies the leaves that the triangles of several threads' shares reach (meshes whose triangles are
+// listed in no spatial order cost up to one band per thread).
 uint64_t build_bytes(const CloudModel& model);
 
-// The peak per voxel of a grown body, measured at up to 12 bytes for meshes (distance, index and masks) and
+// The peak per voxel of a grown body: measured at up to 12 bytes for meshes (distance, index and masks) and
 // for pyroclastic layers (three copies of the band).
 constexpr double kBytesPerBandVoxel = 16;
-// OpenVDB's internal node tables about a shape far from the others (16^3 and 32^3 entries, in each grid).
-constexpr double kBytesPerShape = 256 << 10;
+// A temperature grid and its device copy, as many voxels as the density.
+constexpr double kTemperatureBytesPerVoxel = 8;
+// A mesh triangle: its indices and vertices in the request, the model, and OpenVDB's copies.
+constexpr double kBytesPerTriangle = 128;
+// OpenVDB's internal nodes: a lower one's 16^3 entries of 8 bytes and its two masks, an upper one's 32^3;
+// the grids alive at the peak hold them: the conversion's distance, index and mask grids, the level set,
+// density and NanoVDB grids (a shape alone in its upper node measured 2.7 MB).
+constexpr double kLowerNodeBytes = 16 * 16 * 16 * 8 + 2 * 512, kUpperNodeBytes = 32 * 32 * 32 * 8 + 2 * 4096;
+constexpr double kGridsAtPeak = 10;
 // The build's fixed cost: grids' roots, the conversion's thread-local trees, the device upload.
 constexpr double kBytesPerBuild = 32 << 20;
 

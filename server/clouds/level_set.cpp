@@ -53,15 +53,21 @@ FloatGrid::Ptr mesh_sdf(const openvdb::math::Transform& xform, const std::vector
 FloatGrid::Ptr ellipsoid_sdf(const Ellipsoid& e, const openvdb::math::Transform& xform, float half_width,
                              Interrupter& interrupter) {
   const int rings = 48, segments = 96;  // chord error < 0.06% of the largest radius
+  // Rings about the longest axis (z, then x, y taken cyclically: the winding kept), in the order listed: the
+  // mesh conversion's threads, each given a run of triangles, then each take a slice of it, not all of it.
+  const auto& r = e.radii;
+  const int p = r[0] > r[1] && r[0] > r[2] ? 0 : r[1] > r[2] ? 1 : 2, q = (p + 1) % 3, s = (p + 2) % 3;
   std::vector<Vec3s> points;
   std::vector<openvdb::Vec3I> triangles;
   for (int i = 0; i <= rings; ++i) {
     double theta = M_PI * i / rings;
     for (int j = 0; j < segments; ++j) {
       double phi = 2 * M_PI * j / segments;
-      points.emplace_back(float(e.center[0] + e.radii[0] * std::sin(theta) * std::cos(phi)),
-                          float(e.center[1] + e.radii[1] * std::sin(theta) * std::sin(phi)),
-                          float(e.center[2] + e.radii[2] * std::cos(theta)));
+      Vec3s x;
+      x[q] = float(e.center[q] + r[q] * std::sin(theta) * std::cos(phi));
+      x[s] = float(e.center[s] + r[s] * std::sin(theta) * std::sin(phi));
+      x[p] = float(e.center[p] + r[p] * std::cos(theta));
+      points.push_back(x);
     }
   }
   auto index = [&](int i, int j) { return unsigned(i * segments + (j % segments)); };
@@ -116,7 +122,8 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
     }
   };
   for (const auto& s : model.spheres) {
-    if (s.radius < kMinVdbSphereVoxels * model.voxel_size) {  // OpenVDB's sphere would be empty: as a mesh
+    // OpenVDB's sphere would be empty (its test, in float: float(r) / float(dx) < 1.5f): as a mesh.
+    if (!(float(s.radius) / float(model.voxel_size) >= float(kMinVdbSphereVoxels))) {
       add(ellipsoid_sdf({s.center, {s.radius, s.radius, s.radius}}, *xform, half_width, interrupter));
       continue;
     }

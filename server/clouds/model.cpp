@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <unordered_map>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -71,11 +72,6 @@ void check_growth(const std::string& f, const CloudModel& m, const Growth& g) {
                                   " m) the device resolves about the origin");
 }
 
-// A closed mesh's enclosed volume (m^3) and surface area (m^2): its pieces' together.
-struct MeshSize {
-  double volume, area;
-};
-
 // Vertex k of mesh `f` as the request names it: the OBJ text's (k + 1)th vertex, or the flat list's x, y, z at
 // vertices[3k], [3k + 1] and [3k + 2].
 std::string vertex_path(const std::string& f, const TriangleMesh& m, size_t k) {
@@ -83,9 +79,9 @@ std::string vertex_path(const std::string& f, const TriangleMesh& m, size_t k) {
   return f + ".vertices[" + std::to_string(3 * k) + ".." + std::to_string(3 * k + 2) + "]";
 }
 
-// Mesh `f`'s size, once its counts, its vertices (finite, and within reach when grown by `grow`) and its
-// triangles' indices are checked.
-MeshSize check_mesh(const std::string& f, const TriangleMesh& m, double grow, double voxel_size) {
+// Mesh `f`'s pieces, once its counts, its vertices (finite, and within reach when grown by `grow`), its
+// triangles' indices and the volume it encloses are checked.
+std::vector<MeshPiece> check_mesh(const std::string& f, const TriangleMesh& m, double grow, double voxel_size) {
   if (m.vertices.size() < 4)
     fail(Code::InvalidArgument, f + (m.from_obj ? ".obj" : ".vertices") + " has " + std::to_string(m.vertices.size()) +
                                     " vertices; a closed mesh needs at least 4");
@@ -105,24 +101,27 @@ MeshSize check_mesh(const std::string& f, const TriangleMesh& m, double grow, do
     if (m.triangles[k] >= m.vertices.size())
       fail(Code::InvalidArgument, f + ".triangles[" + std::to_string(k) + "] = " + std::to_string(m.triangles[k]) +
                                       " is out of range (" + std::to_string(m.vertices.size()) + " vertices)");
-  double volume = 0, area = 0;
-  for (const MeshPiece& piece : mesh_pieces(m)) volume += piece.volume, area += piece.area;
+  std::vector<MeshPiece> pieces = mesh_pieces(m);
+  double volume = 0, area = 0;  // the pieces' together
+  for (const MeshPiece& piece : pieces) volume += piece.volume, area += piece.area;
   double scale = std::sqrt(area);
   if (!(area > 0) || std::abs(volume) <= 1e-9 * scale * scale * scale)
     fail(Code::InvalidArgument, f + " is degenerate: it encloses no volume (area " + validate::number(area) +
                                     " m^2, volume " + validate::number(volume) + " m^3)");
-  return {volume, area};
+  return pieces;
 }
 
-// Voxels' volume (m^3) a mesh's level set and density can take: its inside, and a band of `grow` about its
-// surface on both sides (the level set's narrow band), at most its bounding box grown by `grow`.
-double mesh_volume_estimate(const TriangleMesh& m, const MeshSize& size, double grow) {
-  Vec3d lo = m.vertices.front(), hi = lo;
-  for (const Vec3d& v : m.vertices)
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], v[a]), hi[a] = std::max(hi[a], v[a]);
-  double box = 1;
-  for (int a = 0; a < 3; ++a) box *= hi[a] - lo[a] + 2 * grow;
-  return std::min(size.volume + 2 * grow * size.area, box);
+// Voxels' volume (m^3) a mesh's level set and density can take: each piece's inside, a band of `grow` about
+// its surface on both sides (the level set's narrow band) and a ball of `grow` (all of a small piece's
+// band), at most its bounding box grown by `grow`.
+double mesh_volume_estimate(const std::vector<MeshPiece>& pieces, double grow) {
+  double volume = 0;
+  for (const MeshPiece& piece : pieces) {
+    double box = 1;
+    for (int a = 0; a < 3; ++a) box *= piece.hi[a] - piece.lo[a] + 2 * grow;
+    volume += std::min(piece.volume + 2 * grow * piece.area + 4 * M_PI / 3 * grow * grow * grow, box);
+  }
+  return volume;
 }
 
 }  // namespace
@@ -135,8 +134,11 @@ double pyroclastic_bound(const Pyroclastic& p) {
 
 double shape_growth(const CloudModel& m) { return growth_of(m).total(); }
 
-std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
-  std::vector<uint32_t> parent(m.vertices.size());  // union-find over the vertices, joined by triangles
+namespace {
+
+// The piece of each triangle: union-find over the vertices, joined by the triangles.
+std::vector<size_t> piece_of_triangles(const TriangleMesh& m, size_t* pieces) {
+  std::vector<uint32_t> parent(m.vertices.size());
   std::iota(parent.begin(), parent.end(), 0u);
   auto root = [&](uint32_t v) {
     while (parent[v] != v) v = parent[v] = parent[parent[v]];
@@ -144,27 +146,91 @@ std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
   };
   for (size_t t = 0; t < m.triangles.size(); t += 3)
     for (size_t k = t + 1; k < t + 3; ++k) parent[root(m.triangles[k])] = root(m.triangles[t]);
-  std::vector<MeshPiece> pieces;
-  std::vector<size_t> piece_of(m.vertices.size(), SIZE_MAX);  // of a root
-  std::vector<Vec3d> apex;                                    // of a piece: the tetrahedra's common vertex
-  for (size_t t = 0; t < m.triangles.size(); t += 3) {
-    const Vec3d &a = m.vertices[m.triangles[t]], &b = m.vertices[m.triangles[t + 1]],
-                &c = m.vertices[m.triangles[t + 2]];
-    size_t& i = piece_of[root(m.triangles[t])];
-    if (i == SIZE_MAX) {
-      i = pieces.size();
-      pieces.push_back({0, 0, a, a});
-      apex.push_back(a);
+  std::vector<size_t> index(m.vertices.size(), SIZE_MAX), piece(m.triangles.size() / 3);
+  *pieces = 0;
+  for (size_t t = 0; t < piece.size(); ++t) {
+    size_t& i = index[root(m.triangles[3 * t])];
+    if (i == SIZE_MAX) i = (*pieces)++;
+    piece[t] = i;
+  }
+  return piece;
+}
+
+// Marks each piece convex that is: closed (every edge in two triangles), wound alike (the two run an edge
+// in opposite directions), convex at every edge (the far vertex of one triangle not outside the other's
+// plane, the outside told by the sign of the piece's volume) and a sphere (Euler characteristic
+// V - E + F = 2, so no two convex parts joined at a vertex). A closed connected set that is convex about
+// each of its points is convex (H. Tietze, "Uber Konvexheit im kleinen und im grossen", Math. Z. 28, 1928).
+void mark_convex(const TriangleMesh& m, const std::vector<size_t>& piece_of, const std::vector<double>& signed_volume,
+                 std::vector<MeshPiece>& pieces) {
+  struct Edge {
+    uint32_t from, opposite;
+    size_t triangle;
+    int uses;
+  };
+  std::unordered_map<uint64_t, Edge> edges;
+  std::vector<int64_t> euler(pieces.size(), 0);  // V - E + F: F and -E here, V below
+  std::vector<bool> bent(pieces.size(), false);
+  auto vertex = [&](size_t t, int k) { return m.triangles[3 * t + size_t(k)]; };
+  for (size_t t = 0; t < piece_of.size(); ++t) {
+    const size_t i = piece_of[t];
+    euler[i] += 1;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t u = vertex(t, k), v = vertex(t, (k + 1) % 3), w = vertex(t, (k + 2) % 3);
+      const uint64_t key = uint64_t(std::min(u, v)) << 32 | std::max(u, v);
+      auto [it, first] = edges.try_emplace(key, Edge{u, w, t, 1});
+      if (first) {
+        euler[i] -= 1;
+        continue;
+      }
+      Edge& e = it->second;
+      if (++e.uses > 2 || e.from == u) {
+        bent[i] = true;
+        continue;
+      }
+      const Vec3d &a = m.vertices[vertex(e.triangle, 0)], &b = m.vertices[vertex(e.triangle, 1)],
+                  &c = m.vertices[vertex(e.triangle, 2)], &far = m.vertices[w];
+      const Vec3d n = cross(sub(b, a), sub(c, a)), to = sub(far, a);
+      const double outward = signed_volume[i] > 0 ? 1 : -1;
+      if (outward * dot(n, to) > 1e-9 * std::sqrt(dot(n, n) * dot(to, to))) bent[i] = true;
     }
+  }
+  for (const auto& [key, e] : edges)
+    if (e.uses != 2) bent[piece_of[e.triangle]] = true;
+  std::vector<size_t> seen(m.vertices.size(), SIZE_MAX);  // the piece that counted the vertex
+  for (size_t t = 0; t < piece_of.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (size_t& by = seen[vertex(t, k)]; by != piece_of[t]) by = piece_of[t], euler[piece_of[t]] += 1;
+  for (size_t i = 0; i < pieces.size(); ++i) pieces[i].convex = !bent[i] && euler[i] == 2 && signed_volume[i] != 0;
+}
+
+}  // namespace
+
+std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
+  size_t count = 0;
+  const std::vector<size_t> piece_of = piece_of_triangles(m, &count);
+  std::vector<MeshPiece> pieces(count);
+  std::vector<double> signed_volume(count, 0);
+  std::vector<Vec3d> apex(count);  // of a piece: the tetrahedra's common vertex, one of its own
+  std::vector<bool> started(count, false);
+  for (size_t t = 0; t < piece_of.size(); ++t) {
+    const Vec3d &a = m.vertices[m.triangles[3 * t]], &b = m.vertices[m.triangles[3 * t + 1]],
+                &c = m.vertices[m.triangles[3 * t + 2]];
+    const size_t i = piece_of[t];
     MeshPiece& piece = pieces[i];
+    if (!started[i]) {
+      started[i] = true;
+      piece.lo = piece.hi = apex[i] = a;
+    }
     const Vec3d n = cross(sub(b, a), sub(c, a)), &o = apex[i];
     piece.area += std::sqrt(dot(n, n)) / 2;
-    piece.volume += dot(sub(a, o), cross(sub(b, o), sub(c, o))) / 6;
+    signed_volume[i] += dot(sub(a, o), cross(sub(b, o), sub(c, o))) / 6;
     for (const Vec3d* v : {&a, &b, &c})
       for (int k = 0; k < 3; ++k)
         piece.lo[k] = std::min(piece.lo[k], (*v)[k]), piece.hi[k] = std::max(piece.hi[k], (*v)[k]);
   }
-  for (MeshPiece& piece : pieces) piece.volume = std::abs(piece.volume);
+  for (size_t i = 0; i < count; ++i) pieces[i].volume = std::abs(signed_volume[i]);
+  mark_convex(m, piece_of, signed_volume, pieces);
   return pieces;
 }
 
@@ -210,8 +276,8 @@ double validate(const CloudModel& m, const std::string& prefix) {
   }
   for (size_t i = 0; i < m.meshes.size(); ++i) {
     std::string s = validate::at(f + ".meshes", i);
-    const MeshSize size = check_mesh(s, m.meshes[i], grow, m.voxel_size);
-    volume += mesh_volume_estimate(m.meshes[i], size, grow + 2 * m.voxel_size);  // the band's 2 more voxels
+    const std::vector<MeshPiece> pieces = check_mesh(s, m.meshes[i], grow, m.voxel_size);
+    volume += mesh_volume_estimate(pieces, grow + 2 * m.voxel_size);  // the band's 2 more voxels
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {
     std::string s = validate::at(f + ".particles", i);

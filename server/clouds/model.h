@@ -108,11 +108,12 @@ constexpr double kMaxNoiseFrequency = 1e9, kMaxNoiseOffset = 1e9;
 double validate(const CloudModel& model, const std::string& prefix = "model");
 
 // A connected piece of a mesh (triangles that share vertices): its enclosed volume |V| (m^3, by the
-// divergence theorem from one of its vertices: no cancellation far from the origin), surface area (m^2) and
-// bounding box (m).
+// divergence theorem from one of its vertices: no cancellation far from the origin), surface area (m^2),
+// bounding box (m), and whether it bounds a convex body.
 struct MeshPiece {
   double volume = 0, area = 0;
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
+  bool convex = false;
 };
 // The pieces of a mesh whose triangle indices are in range.
 std::vector<MeshPiece> mesh_pieces(const TriangleMesh& mesh);

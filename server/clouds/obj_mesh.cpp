@@ -43,10 +43,10 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
           index = std::stol(vertex, &used);
         } catch (const std::exception&) {
         }
-        if (vertex.empty() || used != vertex.size()) bad("face index \"" + token + "\" is not a whole number");
+        if (vertex.empty() || used != vertex.size()) bad("face index \"" + validate::printable(token) + "\" is not a whole number");
         long n = long(mesh.vertices.size());
         long resolved = index > 0 ? index - 1 : n + index;
-        if (index == 0 || resolved < 0 || resolved >= n) bad("face index " + token + " is out of range");
+        if (index == 0 || resolved < 0 || resolved >= n) bad("face index " + validate::printable(token) + " is out of range");
         face.push_back(uint32_t(resolved));
       }
       if (face.size() < 3) bad("a face needs at least three vertices");

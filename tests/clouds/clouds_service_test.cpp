@@ -543,7 +543,7 @@ TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
-// squalld's resident memory (VmRSS, or VmHWM: its peak since clear_peak), bytes.
+// squalld's resident memory (VmRSS, or VmHWM: its peak since reset_peak), bytes.
 uint64_t resident_bytes(pid_t pid, const std::string& key) {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(status, line);)
@@ -551,7 +551,18 @@ uint64_t resident_bytes(pid_t pid, const std::string& key) {
   ADD_FAILURE() << "no " << key << " in /proc/" << pid << "/status";
   return 0;
 }
-void clear_peak(pid_t pid) { std::ofstream("/proc/" + std::to_string(pid) + "/clear_refs") << "5"; }
+// Resets squalld's VmHWM to its VmRSS (proc(5), clear_refs "5"); false where the kernel does not.
+bool reset_peak(pid_t pid) {
+  std::ofstream clear("/proc/" + std::to_string(pid) + "/clear_refs");
+  clear << "5" << std::flush;
+  return clear.good() && resident_bytes(pid, "VmHWM") <= resident_bytes(pid, "VmRSS") + (4 << 20);
+}
+
+// A unit 3-vector pointing to the k-th of n points spread over the sphere (a Fibonacci lattice).
+std::array<double, 3> direction(int k, int n) {
+  const double z = 1 - (2 * k + 1.0) / n, rho = std::sqrt(1 - z * z), phi = k * M_PI * (3 - std::sqrt(5.0));
+  return {rho * std::cos(phi), rho * std::sin(phi), z};
+}
 
 // `count` regular tetrahedra of edge sqrt(2) m on a cubic lattice of pitch `pitch` m, as one mesh.
 v1::MeshSpec tetrahedra(int count, double pitch) {
@@ -566,44 +577,82 @@ v1::MeshSpec tetrahedra(int count, double pitch) {
   return mesh;
 }
 
-// A build is charged what it holds at its peak before it starts: shapes whose narrow bands dwarf their
-// volumes (a thousand tetrahedra 200 m apart, each band a ball of whole OpenVDB leaves; a flat ellipsoid,
-// all band) stay within their charge, measured as squalld's peak resident memory over the build, and the
-// same tetrahedra with a band of 20 m (about 2 GB of grids, an estimated 1.7e5 active voxels) are refused
-// under a budget of 1 GiB before anything is built.
-TEST(CloudsService, ABuildStaysWithinWhatTheMemoryBudgetChargedIt) {
-  const std::vector<std::string> flags = {"--memory-budget", std::to_string(1ull << 30)};
-  v1::CloudModel spread, flat, banded;
-  for (v1::CloudModel* m : {&spread, &flat, &banded}) {
-    m->set_voxel_size(1);
-    m->set_skin(2);
+// `count` needles `length` m long from one shared vertex at the origin: one piece, far from convex.
+v1::MeshSpec star(int count, double length) {
+  v1::MeshSpec mesh;
+  for (double v : {0.0, 0.0, 0.0}) mesh.add_vertices(v);
+  for (int n = 0; n < count; ++n) {
+    const auto d = direction(n, count), u = direction((n + count / 2) % count, count);
+    const std::array<double, 3> side = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2],
+                                        d[0] * u[1] - d[1] * u[0]};
+    const double norm = std::hypot(side[0], side[1], side[2]);
+    for (int a = 0; a < 3; ++a) mesh.add_vertices(length * d[a]);
+    for (int a = 0; a < 3; ++a) mesh.add_vertices(0.5 * d[a] + 0.3 * side[a] / norm);
+    for (int a = 0; a < 3; ++a) mesh.add_vertices(0.5 * d[a] + 0.3 * u[a]);
+    const uint32_t tip = 1 + 3 * n, b = tip + 1, c = tip + 2;
+    for (uint32_t k : {0u, b, c, 0u, tip, b, 0u, c, tip, tip, c, b}) mesh.add_triangles(k);
   }
-  *spread.add_meshes() = tetrahedra(1000, 200);
-  auto* radii = flat.add_ellipsoids()->mutable_radii();
+  return mesh;
+}
+
+// A build is charged what it holds at its peak before it starts. Shapes whose bands dwarf their volumes,
+// measured as squalld's peak resident memory over the build, stay within their charge: a thousand
+// tetrahedra 200 m apart (each band a ball of whole OpenVDB leaves), 125 of them 5 km apart (each in
+// internal nodes of its own), a flat ellipsoid with a temperature field (all band), and a star of needles
+// (not convex: its whole grown box); the convex ones above an eighth of it. The thousand tetrahedra in a
+// band of 20 m (about 2 GB of grids, an estimated 1.7e5 active voxels) are refused under a budget of 2 GiB
+// before anything is built.
+TEST(CloudsService, ABuildStaysWithinWhatTheMemoryBudgetChargedIt) {
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  GTEST_SKIP() << "AddressSanitizer's shadow memory and quarantine count in squalld's resident memory";
+#endif
+#endif
+  const std::vector<std::string> flags = {"--memory-budget", std::to_string(2ull << 30)};
+  struct Case {
+    const char* name;
+    v1::CloudModel model;
+    bool convex;
+  };
+  std::vector<Case> cases(4);
+  for (Case& c : cases) {
+    c.model.set_voxel_size(1);
+    c.model.set_skin(2);
+    c.convex = true;
+  }
+  cases[0].name = "1000 tetrahedra 200 m apart";
+  *cases[0].model.add_meshes() = tetrahedra(1000, 200);
+  cases[1].name = "125 tetrahedra 5 km apart";
+  *cases[1].model.add_meshes() = tetrahedra(125, 5000);
+  cases[2].name = "a flat ellipsoid with a temperature field";
+  auto* radii = cases[2].model.add_ellipsoids()->mutable_radii();
   radii->set_x(400);
   radii->set_y(400);
   radii->set_z(1);
-  banded = spread;
-  banded.set_skin(20);
-  for (const v1::CloudModel* model : {&spread, &flat}) {
+  cases[2].model.mutable_temperature()->set_enabled(true);
+  cases[3].name = "a star of 60 needles 150 m long";
+  *cases[3].model.add_meshes() = star(60, 150);
+  cases[3].convex = false;
+  for (const Case& c : cases) {
     test::Daemon d(flags);  // a fresh one: no memory freed by an earlier build to take the next one's place
     const pid_t pid = d.process().pid();
-    const uint64_t charged = clouds::build_bytes(clouds::rpc::model(*model));
+    const uint64_t charged = clouds::build_bytes(clouds::rpc::model(c.model));
     v1::BuildVolumeRequest request;
-    *request.mutable_model() = *model;
+    *request.mutable_model() = c.model;
     v1::BuildVolumeResponse built;
     const uint64_t before = resident_bytes(pid, "VmRSS");
-    clear_peak(pid);
+    if (!reset_peak(pid)) GTEST_SKIP() << "this kernel does not reset a process's peak resident memory";
     const grpc::Status status = call(d.address()).build(request, &built);
-    ASSERT_TRUE(status.ok()) << status.error_message();
-    const uint64_t peak = resident_bytes(pid, "VmHWM") - before;
-    std::printf("build's peak %.0f MB, charged %.0f MB\n", peak / 1e6, charged / 1e6);
-    EXPECT_LE(peak, charged) << model->DebugString().substr(0, 200);
-    EXPECT_GE(peak, charged / 8) << "a charge far above the peak holds back other calls";
+    ASSERT_TRUE(status.ok()) << c.name << ": " << status.error_message();
+    const uint64_t peak = std::max(resident_bytes(pid, "VmHWM"), before) - before;
+    std::printf("%s: build's peak %.0f MB, charged %.0f MB\n", c.name, peak / 1e6, charged / 1e6);
+    EXPECT_LE(peak, charged) << c.name;
+    if (c.convex) EXPECT_GE(peak, charged / 8) << c.name << ": a charge far above the peak holds back other calls";
   }
   test::Daemon d(flags);
   v1::BuildVolumeRequest request;
-  *request.mutable_model() = banded;
+  *request.mutable_model() = cases[0].model;
+  request.mutable_model()->set_skin(20);
   v1::BuildVolumeResponse built;
   const auto start = std::chrono::steady_clock::now();
   const grpc::Status status = call(d.address()).build(request, &built);

@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 
+#include "clouds/build_memory.h"
 #include "clouds/renderer.h"
 #include "clouds/volume.h"
 #include "common/error.h"
@@ -171,6 +172,20 @@ TEST(Errors, VoxelBudgetIsEnforced) {
   CloudModel m = sphere_model();
   m.max_active_voxels = 1000;  // a radius-8-voxel sphere has ~2000+
   expect_error([&] { build_cloud(m); }, Code::ResourceExhausted, "model.max_active_voxels = 1000");
+}
+
+// A grain of a mesh in a band of 9e5 m: its band is a ball (3e18 voxels), not its area times the band's
+// width (6 voxels); refused by the voxel budget, and its memory charge saturates rather than wraps.
+TEST(Errors, ASmallMeshInAWideBandIsEstimatedAsABall) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 9e5;
+  TriangleMesh grain;
+  grain.vertices = {{0.001, 0.001, 0.001}, {0.001, -0.001, -0.001}, {-0.001, 0.001, -0.001}, {-0.001, -0.001, 0.001}};
+  grain.triangles = {0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2};
+  m.meshes.push_back(grain);
+  expect_error([&] { validate(m); }, Code::ResourceExhausted, "active voxels exceed model.max_active_voxels");
+  EXPECT_EQ(build_bytes(m), std::numeric_limits<uint64_t>::max());
 }
 
 TEST(Errors, RenderSettingsNameTheirFields) {

@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <random>
+#include <utility>
 
 #include "clouds/advection.h"
 #include "clouds/noise.h"
@@ -112,9 +114,12 @@ TEST(Model, MeshLevelSetIsPositiveInside) {
 // radius / skin (eq 103), and the active voxels are those whose centres lie inside it; also for spheres
 // finer than OpenVDB's sphere resolves (1.5 voxels in radius), down to the half voxel validation allows.
 TEST(Model, SpheresOfAFewVoxelsHaveTheDensityOfTheirRadius) {
-  for (double radius : {0.6, 1.2, 1.3, 1.6, 2.9}) {  // r^2 away from the integers: no centre on the surface
+  // (radius, voxel size), m: r^2 / dx^2 away from the integers (no centre on the surface); 1.5 voxels that
+  // OpenVDB's float test finds just under 1.5 (0.45 / 0.3, 1.8 / 1.2).
+  for (auto [radius, dx] : std::initializer_list<std::pair<double, double>>{
+           {0.6, 1}, {1.2, 1}, {1.3, 1}, {0.45, 0.3}, {1.8, 1.2}, {1.6, 1}, {2.9, 1}}) {
     CloudModel m;
-    m.voxel_size = 1;
+    m.voxel_size = dx;
     m.skin = 4;
     m.spheres.push_back({{0, 0, 0}, radius});
     CloudVolume v = build_cloud(m);
@@ -122,9 +127,67 @@ TEST(Model, SpheresOfAFewVoxelsHaveTheDensityOfTheirRadius) {
     uint64_t inside = 0;
     for (int i = -3; i <= 3; ++i)
       for (int j = -3; j <= 3; ++j)
-        for (int k = -3; k <= 3; ++k) inside += i * i + j * j + k * k < radius * radius;
-    EXPECT_EQ(v.stats.active_voxels, inside) << radius;
+        for (int k = -3; k <= 3; ++k) inside += (i * i + j * j + k * k) * dx * dx < radius * radius;
+    EXPECT_EQ(v.stats.active_voxels, inside) << radius << " m in voxels of " << dx << " m";
   }
+}
+
+// A closed cube, 2 m on a side, its corner 0 at `at`, its vertices from `first` on; `flip` reverses one
+// face's winding.
+void add_cube(TriangleMesh& mesh, const Vec3d& at, uint32_t first, bool flip = false) {
+  for (int v = 0; v < 8; ++v)
+    mesh.vertices.push_back({at[0] + 2 * (v & 1), at[1] + 2 * (v >> 1 & 1), at[2] + 2 * (v >> 2)});
+  std::vector<uint32_t> faces = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                                 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+  if (flip) std::swap(faces[1], faces[2]), std::swap(faces[4], faces[5]);
+  for (uint32_t index : faces) mesh.triangles.push_back(first + index);
+}
+
+// A mesh falls into its connected pieces, each with its volume and area, and convex when it bounds a convex
+// body: not an L of two cubes, two cubes joined at a corner, an open box or a box wound inconsistently.
+TEST(Model, AMeshFallsIntoPiecesThatKnowWhetherTheyAreConvex) {
+  TriangleMesh apart;
+  add_cube(apart, {0, 0, 0}, 0);
+  add_cube(apart, {10, 0, 0}, 8);
+  const auto pieces = mesh_pieces(apart);
+  ASSERT_EQ(pieces.size(), 2u);
+  for (const MeshPiece& piece : pieces) {
+    EXPECT_NEAR(piece.volume, 8, 1e-12);
+    EXPECT_NEAR(piece.area, 24, 1e-12);
+    EXPECT_TRUE(piece.convex);
+  }
+  EXPECT_EQ(pieces[1].lo, (Vec3d{10, 0, 0}));
+  EXPECT_EQ(pieces[1].hi, (Vec3d{12, 2, 2}));
+
+  TriangleMesh joined;  // the second cube's corner 0 is the first's corner 7, (2, 2, 2)
+  add_cube(joined, {0, 0, 0}, 0);
+  add_cube(joined, {2, 2, 2}, 8);
+  for (uint32_t& index : joined.triangles) index = index == 8 ? 7 : index;
+  ASSERT_EQ(mesh_pieces(joined).size(), 1u);
+  EXPECT_FALSE(mesh_pieces(joined)[0].convex) << "two convex parts joined at a vertex";
+
+  TriangleMesh open;
+  add_cube(open, {0, 0, 0}, 0);
+  open.triangles.resize(30);  // the last face gone
+  EXPECT_FALSE(mesh_pieces(open)[0].convex);
+
+  TriangleMesh flipped;
+  add_cube(flipped, {0, 0, 0}, 0, true);
+  EXPECT_FALSE(mesh_pieces(flipped)[0].convex);
+
+  // An L: a 4 x 2 x 2 block with a 2 x 2 x 2 block on one end, one closed surface with a concave edge.
+  TriangleMesh ell;
+  ell.vertices = {{0, 0, 0}, {4, 0, 0}, {4, 2, 0}, {2, 2, 0}, {2, 4, 0}, {0, 4, 0},
+                  {0, 0, 2}, {4, 0, 2}, {4, 2, 2}, {2, 2, 2}, {2, 4, 2}, {0, 4, 2}};
+  ell.triangles = {0, 2, 1,  0, 3,  2,  0, 5, 3,  5,  4,  3,    // bottom (z = 0), outward -z
+                   6, 7, 8,  6, 8,  9,  6, 9, 11, 11, 9,  10,   // top (z = 2), outward +z
+                   0, 1, 7,  0, 7,  6,  1, 2, 8,  1,  8,  7,    // y = 0, x = 4
+                   2, 3, 9,  2, 9,  8,  3, 4, 10, 3,  10, 9,    // y = 2 (x 2..4), x = 2 (y 2..4)
+                   4, 5, 11, 4, 11, 10, 5, 0, 6,  5,  6,  11};  // y = 4, x = 0
+  const auto l = mesh_pieces(ell);
+  ASSERT_EQ(l.size(), 1u);
+  EXPECT_NEAR(l[0].volume, 24, 1e-12);
+  EXPECT_FALSE(l[0].convex);
 }
 
 // A mesh's estimated voxels do not depend on where it is (its enclosed volume is summed from one of its
