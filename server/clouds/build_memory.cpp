@@ -12,7 +12,7 @@ constexpr double kLeafVoxels = 8;
 // Voxels of `body` grown by `g` (m), rounded out to whole leaves (each within 8 sqrt(3) voxels of the grown
 // body): its grown bounding box rounded out to leaves, or for a convex body, if fewer, Steiner's formula
 // V + A r + M r^2 + (4 pi / 3) r^3, its mean-curvature integral M being 2 pi times its mean width, at most
-// its diameter (R. Schneider, "Convex Bodies: The Brunn-Minkowski Theory", eq. 4.2.27).
+// its diameter (R. Schneider, "Convex Bodies: The Brunn-Minkowski Theory", ch. 4).
 double grown_voxels(const MeshPiece& body, double g, double dx) {
   const double leaf = kLeafVoxels * dx;
   double box = 1;

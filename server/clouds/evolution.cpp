@@ -36,8 +36,8 @@ CloudModel model_at(const CloudModel& base, const Evolution& e, double t) {
     move(p.center, e.drift, t);
     move_pattern(p.noise, e.noise_drift, t);
   }
-  // The patterns of the stages in use only: one left as sent is validated as sent, and an error after a long
-  // drift names a noise that shapes the cloud.
+  // The patterns of the stages switched on only: one left as sent is validated as sent, and an error after a
+  // long drift names a noise of a stage the model has.
   if (m.pyroclastic.layers > 0) move_pattern(m.pyroclastic.noise, e.noise_drift, t);
   m.pyroclastic.amplitude = std::max(0.0, m.pyroclastic.amplitude + e.amplitude_rate * t);
   if (m.temperature.enabled) move_pattern(m.temperature.noise, e.noise_drift, t);
