@@ -19,8 +19,8 @@ namespace squall::clouds {
 // convex, its whole grown bounding box), and kTemperatureBytesPerVoxel more with a temperature field; the
 // internal nodes those bodies reach in kGridsAtPeak grids; kBytesPerTriangle for each mesh triangle; and
 // kBytesPerBuild. UINT64_MAX past 2^64. Not bounded: the per-thread grids of OpenVDB's mesh conversion,
-// which copies the leaves that the triangles of several threads' shares reach (meshes whose triangles are
-// listed in no spatial order cost up to one band per thread).
+// which copy the leaves that the triangles of several threads' shares reach (base_level_set hands it a
+// mesh's triangles in Z order and an ellipsoid's in rings along its longest axis, so that shares are regions).
 uint64_t build_bytes(const CloudModel& model);
 
 // The peak per voxel of a grown body: measured at up to 12 bytes for meshes (distance, index and masks) and

@@ -12,6 +12,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "clouds/volume.h"
 
@@ -41,6 +44,32 @@ class Interrupter : public openvdb::util::NullInterrupter {
 
 // OpenVDB's createLevelSetSphere leaves a sphere of fewer voxels in radius empty (below the Nyquist limit).
 constexpr double kMinVdbSphereVoxels = 1.5;
+
+// The bits of `v` (< 2^21) spread to every third bit.
+uint64_t spread_bits(uint64_t v) {
+  uint64_t out = 0;
+  for (int b = 0; b < 21; ++b) out |= (v >> b & 1) << (3 * b);
+  return out;
+}
+
+// Triangles in the Z order of their centroids' leaves (G. M. Morton, "A Computer Oriented Geodetic Data Base
+// and a New Technique in File Sequencing", IBM, 1966). OpenVDB's mesh conversion hands its threads runs of
+// the list and keeps a grid per thread: runs of nearby triangles keep each thread's grid from spanning the
+// whole band, whatever order the client listed them in.
+void sort_by_region(std::vector<openvdb::Vec3I>& triangles, const std::vector<Vec3s>& points,
+                    const openvdb::math::Transform& xform) {
+  std::vector<std::pair<uint64_t, openvdb::Vec3I>> keyed;
+  keyed.reserve(triangles.size());
+  for (const auto& t : triangles) {
+    const openvdb::Vec3d centroid = (openvdb::Vec3d(points[t[0]]) + points[t[1]] + points[t[2]]) / 3;
+    const openvdb::Vec3d leaf = xform.worldToIndex(centroid) / 8;  // within 2^18 leaves of the origin
+    uint64_t code = 0;
+    for (int a = 0; a < 3; ++a) code |= spread_bits(uint64_t(std::clamp(leaf[a] + 0x1p20, 0.0, 0x1p21 - 1))) << a;
+    keyed.emplace_back(code, t);
+  }
+  std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t i = 0; i < triangles.size(); ++i) triangles[i] = keyed[i].second;
+}
 
 // OpenVDB's convention (negative inside) with a symmetric band of `half_width` voxels.
 FloatGrid::Ptr mesh_sdf(const openvdb::math::Transform& xform, const std::vector<Vec3s>& points,
@@ -136,7 +165,9 @@ FloatGrid::Ptr base_level_set(const CloudModel& model, double exterior, double i
     std::vector<openvdb::Vec3I> triangles;
     for (size_t t = 0; t < m.triangles.size(); t += 3)
       triangles.emplace_back(m.triangles[t], m.triangles[t + 1], m.triangles[t + 2]);
-    add(mesh_sdf(*xform, to_points(m.vertices), triangles, half_width, interrupter));
+    const std::vector<Vec3s> points = to_points(m.vertices);
+    sort_by_region(triangles, points, *xform);
+    add(mesh_sdf(*xform, points, triangles, half_width, interrupter));
   }
   if (!sdf) return nullptr;
   cancel.check(what);  // the last shape's union done

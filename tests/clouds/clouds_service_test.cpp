@@ -647,7 +647,9 @@ TEST(CloudsService, ABuildStaysWithinWhatTheMemoryBudgetChargedIt) {
     const uint64_t peak = std::max(resident_bytes(pid, "VmHWM"), before) - before;
     std::printf("%s: build's peak %.0f MB, charged %.0f MB\n", c.name, peak / 1e6, charged / 1e6);
     EXPECT_LE(peak, charged) << c.name;
-    if (c.convex) EXPECT_GE(peak, charged / 8) << c.name << ": a charge far above the peak holds back other calls";
+    if (c.convex) {
+      EXPECT_GE(peak, charged / 8) << c.name << ": a charge far above the peak holds back other calls";
+    }
   }
   test::Daemon d(flags);
   v1::BuildVolumeRequest request;

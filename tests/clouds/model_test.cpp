@@ -190,6 +190,26 @@ TEST(Model, AMeshFallsIntoPiecesThatKnowWhetherTheyAreConvex) {
   EXPECT_FALSE(l[0].convex);
 }
 
+// The order a client lists a mesh's triangles in does not change the cloud (squalld sorts them by region for
+// OpenVDB's threads): two cubes apart, their triangles listed in turn and in reverse.
+TEST(Model, AMeshsCloudDoesNotDependOnTheOrderOfItsTriangles) {
+  CloudModel listed, reversed;
+  for (CloudModel* m : {&listed, &reversed}) {
+    m->voxel_size = 0.25;
+    m->skin = 0.5;
+    m->meshes.emplace_back();
+    add_cube(m->meshes[0], {0, 0, 0}, 0);
+    add_cube(m->meshes[0], {5, 1, 0}, 8);
+  }
+  auto& t = reversed.meshes[0].triangles;
+  for (size_t i = 0, j = t.size() - 3; i < j; i += 3, j -= 3)
+    std::swap_ranges(t.begin() + i, t.begin() + i + 3, t.begin() + j);
+  const CloudVolume a = build_cloud(listed), b = build_cloud(reversed);
+  ASSERT_EQ(a.stats.active_voxels, b.stats.active_voxels);
+  auto other = b.density->getConstAccessor();
+  for (auto it = a.density->cbeginValueOn(); it; ++it) ASSERT_EQ(other.getValue(it.getCoord()), *it) << it.getCoord();
+}
+
 // A mesh's estimated voxels do not depend on where it is (its enclosed volume is summed from one of its
 // vertices, not from the origin, where a mesh far out loses it to cancellation), and a mesh beyond the
 // device's reach is refused for that, not taken for a degenerate one.
