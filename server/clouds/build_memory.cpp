@@ -73,6 +73,13 @@ class NodeCount {
 }  // namespace
 
 uint64_t build_bytes(const CloudModel& m) {
+  std::vector<MeshPiece> pieces;
+  for (const TriangleMesh& mesh : m.meshes)
+    for (const MeshPiece& piece : mesh_pieces(mesh)) pieces.push_back(piece);
+  return build_bytes(m, pieces);
+}
+
+uint64_t build_bytes(const CloudModel& m, const std::vector<MeshPiece>& pieces) {
   // The level set's band reaches 2 voxels past the growth (base_level_set's half width).
   const double g = shape_growth(m) + 2 * m.voxel_size;
   double voxels = 0;
@@ -84,8 +91,7 @@ uint64_t build_bytes(const CloudModel& m) {
   for (const Sphere& s : m.spheres) add(ellipsoid(s.center, {s.radius, s.radius, s.radius}));
   for (const Ellipsoid& e : m.ellipsoids) add(ellipsoid(e.center, e.radii));
   for (const Particle& p : m.particles) add(ellipsoid(p.center, {p.radius, p.radius, p.radius}));
-  for (const TriangleMesh& mesh : m.meshes)
-    for (const MeshPiece& piece : mesh_pieces(mesh)) add(piece);
+  for (const MeshPiece& piece : pieces) add(piece);
   double triangles = 0;
   for (const TriangleMesh& mesh : m.meshes) triangles += double(mesh.triangles.size() / 3);
   const double per_voxel = kBytesPerBandVoxel + (m.temperature.enabled ? kTemperatureBytesPerVoxel : 0);

@@ -21,6 +21,8 @@ namespace squall::clouds {
 // kBytesPerBuild. UINT64_MAX past 2^64. Not bounded: the per-thread grids of OpenVDB's mesh conversion,
 // which copy the leaves that the triangles of several threads' shares reach (base_level_set hands it a
 // mesh's triangles in Z order and an ellipsoid's in rings along its longest axis, so that shares are regions).
+// `pieces`: its meshes' connected pieces, as validate() gives them; the other form computes them.
+uint64_t build_bytes(const CloudModel& model, const std::vector<MeshPiece>& pieces);
 uint64_t build_bytes(const CloudModel& model);
 
 // The peak per voxel of a grown body: measured at up to 12 bytes for meshes (distance, index and masks) and

@@ -46,8 +46,9 @@ std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::st
 
 uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const {
   model = budgeted(std::move(model), options_);
-  clouds::validate(model, field);
-  return build_bytes(model);
+  std::vector<MeshPiece> pieces;
+  clouds::validate(model, field, &pieces);
+  return build_bytes(model, pieces);
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {

@@ -234,7 +234,7 @@ std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
   return pieces;
 }
 
-double validate(const CloudModel& m, const std::string& prefix) {
+double validate(const CloudModel& m, const std::string& prefix, std::vector<MeshPiece>* mesh_pieces) {
   const std::string& f = prefix;
   validate::in(f + ".voxel_size", m.voxel_size, validate::closed(kMinVoxelSize, kMaxVoxelSize));
   positive(f + ".skin", m.skin);
@@ -278,6 +278,7 @@ double validate(const CloudModel& m, const std::string& prefix) {
     std::string s = validate::at(f + ".meshes", i);
     const std::vector<MeshPiece> pieces = check_mesh(s, m.meshes[i], grow, m.voxel_size);
     volume += mesh_volume_estimate(pieces, grow + 2 * m.voxel_size);  // the band's 2 more voxels
+    if (mesh_pieces) mesh_pieces->insert(mesh_pieces->end(), pieces.begin(), pieces.end());
   }
   for (size_t i = 0; i < m.particles.size(); ++i) {
     std::string s = validate::at(f + ".particles", i);

@@ -101,12 +101,6 @@ constexpr double kMinVoxelSize = 1e-4, kMaxVoxelSize = 1e6;
 // lattice coordinates (x + offset) f f_jump^i stay finite in double.
 constexpr double kMaxNoiseFrequency = 1e9, kMaxNoiseOffset = 1e9;
 
-// Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
-// non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
-// voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples. Returns
-// that estimate: an upper bound of the active voxels of every grid the build makes.
-double validate(const CloudModel& model, const std::string& prefix = "model");
-
 // A connected piece of a mesh (triangles that share vertices): its enclosed volume |V| (m^3, by the
 // divergence theorem from one of its vertices: no cancellation far from the origin), surface area (m^2),
 // bounding box (m), and whether it bounds a convex body.
@@ -117,6 +111,13 @@ struct MeshPiece {
 };
 // The pieces of a mesh whose triangle indices are in range.
 std::vector<MeshPiece> mesh_pieces(const TriangleMesh& mesh);
+
+// Throws squall::Error(InvalidArgument) naming the field (prefix + ".spheres[2].radius") for any
+// non-finite or out-of-range value or degenerate mesh, and ResourceExhausted when the estimated active
+// voxel count exceeds max_active_voxels or the advection's velocity samples max_advection_samples. Returns
+// that estimate: an upper bound of the active voxels of every grid the build makes.
+// With `pieces`, the meshes' connected pieces (mesh_pieces) are appended there, for build_bytes.
+double validate(const CloudModel& model, const std::string& prefix = "model", std::vector<MeshPiece>* pieces = nullptr);
 
 // How far (m) a build can grow any shape: the skin and the level set's band, the pyroclastic layers'
 // displacement and the advection's reach (of a validated model).
