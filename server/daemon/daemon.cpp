@@ -38,6 +38,7 @@
 #include "ewave/ewave_service.h"
 #include "ocean/ocean_service.h"
 #include "rpc/request_log.h"
+#include "rpc/undecodable_request.h"
 #include "textures/textures_service.h"
 
 namespace squall::rpc {
@@ -100,6 +101,7 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   // second. Up to --rpc-threads now wait for the next call.
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, options.rpc_threads);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<UndecodableRequestFactory>());  // first: the log shows the status it sets
   interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }

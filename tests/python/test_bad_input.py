@@ -2350,6 +2350,46 @@ def test_newline_in_request_id_stays_in_its_log_line(env: Env) -> None:
     assert not [line for line in log.splitlines() if line.startswith(FORGED)]
 
 
+# A request gRPC cannot decode as the method's message, as a client with a broken encoder (or a proxy
+# mangling bodies) would send it: an unterminated varint, a field longer than the message, no message.
+UNDECODABLE: Dict[str, Optional[bytes]] = {
+    "garbled_varint": b"\xff\xff\xff",
+    "truncated_field": b"\x0a\x05ab",  # field 1, 5 bytes announced, 2 sent
+    "no_message": None,
+}
+
+
+def request_type(rpc: str) -> str:
+    service, method = rpc.split(".")
+    module = {
+        "Server": server_pb2,
+        "Ocean": ocean_pb2,
+        "EWave": ewave_pb2,
+        "Clouds": clouds_pb2,
+        "Textures": textures_pb2,
+    }[service]
+    return str(module.DESCRIPTOR.services_by_name[service].methods_by_name[method].input_type.full_name)
+
+
+@pytest.mark.parametrize("payload", sorted(UNDECODABLE))
+@pytest.mark.parametrize("rpc", [rpc for rpc, (_, _, kind) in RPCS.items() if kind != BIDI])
+def test_undecodable_request_is_invalid_argument_naming_its_type(
+    env: Env, rpc: str, payload: str
+) -> None:
+    """gRPC's own answer to a request it cannot decode is INTERNAL with no message, which blames the
+    server; squalld answers INVALID_ARGUMENT naming the message type it expected. (A client stream's
+    undecodable message reads as the end of the client's stream in gRPC's synchronous API.)"""
+    path = "/squall.v1." + rpc.replace(".", "/")
+    body = UNDECODABLE[payload]
+    messages = [] if body is None else [body]
+    call = env.channel.stream_stream(path)  # raw bytes either way; a stream call can send none
+    with pytest.raises(grpc.RpcError) as raised:
+        list(call(iter(messages), timeout=TIMEOUT))
+    error = raised.value
+    assert error.code() == grpc.StatusCode.INVALID_ARGUMENT, f"{error.code()}: {error.details()}"
+    assert f"request: not a {request_type(rpc)} in protobuf's wire format" in error.details()
+
+
 def test_daemon_is_unharmed(env: Env) -> None:
     """After the sweep: alive, SERVING, the same replies, the target session unchanged, both stream
     slots free, no forged log line."""
