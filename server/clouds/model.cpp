@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numeric>
 #include <unordered_map>
 
+#include "common/disjoint_sets.h"
 #include "common/error.h"
 #include "common/validate.h"
 
@@ -138,18 +138,13 @@ namespace {
 
 // The piece of each triangle: union-find over the vertices, joined by the triangles.
 std::vector<size_t> piece_of_triangles(const TriangleMesh& m, size_t* pieces) {
-  std::vector<uint32_t> parent(m.vertices.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto root = [&](uint32_t v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
+  DisjointSets vertices(m.vertices.size());
   for (size_t t = 0; t < m.triangles.size(); t += 3)
-    for (size_t k = t + 1; k < t + 3; ++k) parent[root(m.triangles[k])] = root(m.triangles[t]);
+    for (size_t k = t + 1; k < t + 3; ++k) vertices.join(m.triangles[k], m.triangles[t]);
   std::vector<size_t> index(m.vertices.size(), SIZE_MAX), piece(m.triangles.size() / 3);
   *pieces = 0;
   for (size_t t = 0; t < piece.size(); ++t) {
-    size_t& i = index[root(m.triangles[3 * t])];
+    size_t& i = index[vertices.find(m.triangles[3 * t])];
     if (i == SIZE_MAX) i = (*pieces)++;
     piece[t] = i;
   }

@@ -1,10 +1,10 @@
 #include "textures/river_network.h"
 
 #include <cmath>
-#include <numeric>
 #include <optional>
 #include <queue>
 
+#include "common/disjoint_sets.h"
 #include "common/error.h"
 #include "common/validate.h"
 
@@ -78,26 +78,19 @@ std::vector<double> flow_rates(const RiverSpec& river, const std::string& path) 
   return rates;
 }
 
-int find(std::vector<int>& parent, int b) {
-  while (parent[b] != b) b = parent[b] = parent[parent[b]];
-  return b;
-}
-
 // Banks that continue through a junction: the outer banks, and the banks between neighbouring channels.
 std::vector<int> join_banks(const RiverSpec& river) {
-  std::vector<int> parent(2 * river.channels.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto join = [&](int a, int b) { parent[find(parent, a)] = find(parent, b); };
+  DisjointSets banks(2 * river.channels.size());
   for (const RiverJunctionSpec& j : river.junctions) {
-    join(left_bank(j.upstream.front()), left_bank(j.downstream.front()));
-    join(right_bank(j.upstream.back()), right_bank(j.downstream.back()));
+    banks.join(left_bank(j.upstream.front()), left_bank(j.downstream.front()));
+    banks.join(right_bank(j.upstream.back()), right_bank(j.downstream.back()));
     for (const std::vector<uint32_t>* side : {&j.upstream, &j.downstream})
-      for (size_t k = 0; k + 1 < side->size(); ++k) join(right_bank((*side)[k]), left_bank((*side)[k + 1]));
+      for (size_t k = 0; k + 1 < side->size(); ++k) banks.join(right_bank((*side)[k]), left_bank((*side)[k + 1]));
   }
-  std::vector<int> boundary(parent.size(), -1), of(parent.size());
+  std::vector<int> boundary(banks.size(), -1), of(banks.size());
   int boundaries = 0;
-  for (size_t b = 0; b < parent.size(); ++b) {
-    int& id = boundary[find(parent, int(b))];
+  for (size_t b = 0; b < banks.size(); ++b) {
+    int& id = boundary[banks.find(b)];
     if (id < 0) id = boundaries++;
     of[b] = id;
   }
