@@ -3,6 +3,7 @@
 #include <google/protobuf/descriptor.h>
 
 #include <string>
+#include <string_view>
 
 namespace squall::rpc {
 namespace {
@@ -10,48 +11,45 @@ namespace {
 using grpc::experimental::InterceptionHookPoints;
 using grpc::experimental::ServerRpcInfo;
 
-// "/squall.v1.Ocean/GetTile" -> "squall.v1.GetTileRequest", from the generated descriptors; empty for a
-// method that is not squall's (gRPC's health and reflection services carry their own messages).
+// "/squall.v1.Ocean/GetTile" -> "squall.v1.GetTileRequest", from the generated descriptors.
 std::string request_type(const std::string& method) {
-  if (method.rfind("/squall.", 0) != 0) return "";
   std::string name = method.substr(1);
   const size_t slash = name.find('/');
-  if (slash == std::string::npos) return "";
-  name[slash] = '.';
+  if (slash != std::string::npos) name[slash] = '.';
   const auto* found = google::protobuf::DescriptorPool::generated_pool()->FindMethodByName(name);
-  return found ? found->input_type()->full_name() : "";
+  return found ? found->input_type()->full_name() : "request message";
 }
 
+// Watches a call of one request (unary or server-streaming), which gRPC decodes before the handler runs.
 class UndecodableRequest : public grpc::experimental::Interceptor {
  public:
-  // Unary and server-streaming calls have one request, decoded before the handler runs.
-  explicit UndecodableRequest(ServerRpcInfo* info)
-      : request_type_(info->type() == ServerRpcInfo::Type::UNARY ||
-                              info->type() == ServerRpcInfo::Type::SERVER_STREAMING
-                          ? request_type(info->method())
-                          : "") {}
+  explicit UndecodableRequest(const char* method) : method_(method) {}
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
-    // The one request of the call, null where gRPC could not decode it.
-    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && !request_type_.empty())
+    // The call's one request, null where gRPC could not decode it.
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE))
       undecoded_ = methods->GetRecvMessage() == nullptr;
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) && undecoded_ &&
         methods->GetSendStatus().error_code() == grpc::StatusCode::INTERNAL)
       methods->ModifySendStatus(grpc::Status(
           grpc::StatusCode::INVALID_ARGUMENT,
-          "request: not a " + request_type_ + " in protobuf's wire format (missing, truncated or garbled)"));
+          "request: not a " + request_type(method_) + " in protobuf's wire format (missing, truncated or garbled)"));
     methods->Proceed();
   }
 
  private:
-  std::string request_type_;  // the one request's protobuf type; empty: not a squall method, or a client stream
+  const char* method_;  // gRPC's, which outlives the call
   bool undecoded_ = false;
 };
 
 }  // namespace
 
+// Only squall's own methods (gRPC's health and reflection services carry their own messages) with one request.
 grpc::experimental::Interceptor* UndecodableRequestFactory::CreateServerInterceptor(ServerRpcInfo* info) {
-  return new UndecodableRequest(info);
+  const bool one_request =
+      info->type() == ServerRpcInfo::Type::UNARY || info->type() == ServerRpcInfo::Type::SERVER_STREAMING;
+  if (!one_request || std::string_view(info->method()).rfind("/squall.", 0) != 0) return nullptr;
+  return new UndecodableRequest(info->method());
 }
 
 }  // namespace squall::rpc
