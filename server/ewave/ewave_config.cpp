@@ -53,37 +53,42 @@ double EWaveConfig::effective_trim_width() const {
   return trim_width > 0 ? trim_width : 0.08 * std::min(length_x(), length_y());
 }
 
-void validate(const EWaveConfig& c, const LimitGate* gate) {
-  if (gate) gate->check_grid("config.grid", c.nx, c.ny);
-  validate::in("config.nx", int64_t(c.nx), 2, int64_t(1) << 30);  // an FFT needs 2 points per axis
-  validate::in("config.ny", int64_t(c.ny), 2, int64_t(1) << 30);
-  validate::in("config.dx", c.dx, kLengths);
-  validate::in("config.dy", c.dy, kLengths);
-  validate::known("config.dispersion", int(c.dispersion), 4, "dispersion model (deep, shallow, capillary, combined)");
-  positive("config.gravity", c.gravity, 1e3);
+void validate_grid(int64_t nx, int64_t ny, const LimitGate* gate, const std::string& path) {
+  validate::in(path + ".nx", nx, 2, int64_t(1) << 30);  // an FFT needs 2 points per axis
+  validate::in(path + ".ny", ny, 2, int64_t(1) << 30);
+  if (gate) gate->check_grid(path, nx, ny);
+}
+
+void validate(const EWaveConfig& c, const LimitGate* gate, const std::string& path) {
+  validate_grid(c.nx, c.ny, gate, path);
+  validate::in(path + ".dx", c.dx, kLengths);
+  validate::in(path + ".dy", c.dy, kLengths);
+  validate::known(path + ".dispersion", int(c.dispersion), 4, "dispersion model (deep, shallow, capillary, combined)");
+  positive(path + ".gravity", c.gravity, 1e3);
   if (c.dispersion == DispersionKind::Shallow || c.dispersion == DispersionKind::Combined)
-    positive("config.depth", c.depth, 1e5);
+    positive(path + ".depth", c.depth, 1e5);
   else
-    non_negative("config.depth", c.depth, 1e5);
-  non_negative("config.capillary_length", c.capillary_length, 1);
-  non_negative("config.trim_width", c.trim_width);
+    non_negative(path + ".depth", c.depth, 1e5);
+  non_negative(path + ".capillary_length", c.capillary_length, 1);
+  non_negative(path + ".trim_width", c.trim_width);
   double half = 0.5 * std::min(c.length_x(), c.length_y());
   if (c.effective_trim_width() > half)
-    validate::reject("config.trim_width", c.effective_trim_width(),
+    validate::reject(path + ".trim_width", c.effective_trim_width(),
                      "<= half the shorter side (" + validate::number(half) + " m)");
-  positive("config.trim_alpha", c.trim_alpha, 10);
-  non_negative("config.friction_time", c.friction_time, kMaxTime);
-  validate::in("config.source_scale", c.source_scale, validate::closed(-kMaxScale, kMaxScale));
-  validate::in("config.displacement_scale", c.displacement_scale, validate::closed(-kMaxScale, kMaxScale));
-  check_map("config.initial_height", c.initial_height, c.cells());
-  check_map("config.initial_phi", c.initial_phi, c.cells());
-  validate::in("config.start_time", c.start_time, validate::closed(-kMaxTime, kMaxTime));
+  positive(path + ".trim_alpha", c.trim_alpha, 10);
+  non_negative(path + ".friction_time", c.friction_time, kMaxTime);
+  validate::in(path + ".source_scale", c.source_scale, validate::closed(-kMaxScale, kMaxScale));
+  validate::in(path + ".displacement_scale", c.displacement_scale, validate::closed(-kMaxScale, kMaxScale));
+  check_map(path + ".initial_height", c.initial_height, c.cells());
+  check_map(path + ".initial_phi", c.initial_phi, c.cells());
+  validate::in(path + ".start_time", c.start_time, validate::closed(-kMaxTime, kMaxTime));
   if (c.initial_ocean) {
     if (!c.initial_height.empty() || !c.initial_phi.empty())
-      fail(Code::InvalidArgument, "config.initial_ocean excludes config.initial_height and config.initial_phi");
-    validate_ocean("config.initial_ocean", *c.initial_ocean, c, gate);
+      fail(Code::InvalidArgument,
+           path + ".initial_ocean excludes " + path + ".initial_height and " + path + ".initial_phi");
+    validate_ocean(path + ".initial_ocean", *c.initial_ocean, c, gate);
   }
-  if (c.ambient_ocean) validate_ocean("config.ambient_ocean", *c.ambient_ocean, c, gate);
+  if (c.ambient_ocean) validate_ocean(path + ".ambient_ocean", *c.ambient_ocean, c, gate);
 }
 
 ocean::TileSpec ocean_on_grid(const ocean::TileSpec& spec, const EWaveConfig& c) {

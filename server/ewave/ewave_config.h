@@ -58,9 +58,13 @@ struct EWaveConfig {
   double effective_trim_width() const;  // trim_width, or its default
 };
 
-// Throws Error(InvalidArgument) naming the field, e.g. "config.dx = nan must be finite and > 0".
-// With a gate, the grid is also checked against --max-grid-cells (RESOURCE_EXHAUSTED).
-void validate(const EWaveConfig& config, const LimitGate* gate = nullptr);
+// The grid's extents, 2 .. 2^30 points an axis (an FFT needs 2), named "<path>.nx"; with a gate, also
+// within --max-grid-cells (RESOURCE_EXHAUSTED).
+void validate_grid(int64_t nx, int64_t ny, const LimitGate* gate, const std::string& path);
+
+// Throws Error(InvalidArgument) naming the field under `path`, e.g. "config.dx = nan must be finite and
+// > 0". With a gate, the grid is also checked against --max-grid-cells (RESOURCE_EXHAUSTED).
+void validate(const EWaveConfig& config, const LimitGate* gate = nullptr, const std::string& path = "config");
 
 // An ocean spec with its output grid set to the session grid of `config` (see EWaveConfig::ambient_ocean).
 ocean::TileSpec ocean_on_grid(const ocean::TileSpec& spec, const EWaveConfig& config);

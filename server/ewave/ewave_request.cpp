@@ -147,7 +147,7 @@ std::vector<float> grid_values(const v1::Field& field, int64_t nx, int64_t ny, c
 }
 
 EWaveConfig config(const v1::EWaveConfig& p, const LimitGate& gate) {
-  gate.check_grid("config", p.nx(), p.ny());
+  validate_grid(p.nx(), p.ny(), &gate, "config");
   EWaveConfig c;
   c.nx = p.nx(), c.ny = p.ny();
   c.dx = p.dx(), c.dy = p.dy();

@@ -124,7 +124,7 @@ std::string EWaveSession::state() const {
 
 EWaveConfig EWaveSession::config_from_state(const std::string& bytes, const LimitGate& gate) {
   const StateHeader h = parse_state_header(bytes);
-  EWaveConfig config = config_of(h);
+  EWaveConfig config = config_of(h, &gate);
   const std::string_view ambient = ambient_ocean_bytes(bytes, h);
   if (!ambient.empty()) config.ambient_ocean = ocean::decode_tile_spec(ambient, gate, "state.ambient_ocean");
   return config;

@@ -106,11 +106,15 @@ std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader
   return std::string_view(bytes).substr(ambient_ocean_offset(h) + kLengthBytes);
 }
 
-EWaveConfig config_of(const StateHeader& header) {
+EWaveConfig config_of(const StateHeader& header, const LimitGate* gate) {
+  // The one stored integer whose config member is narrower (the flags, 0 or 1, are checked below).
+  if (header.dispersion < 0 || header.dispersion > 3)
+    validate::reject("state.dispersion", std::to_string(header.dispersion),
+                     "a known dispersion model (deep, shallow, capillary, combined: 0..3)");
   EWaveConfig c;
   each_member(header, c,
               [](const auto& stored, auto& value) { value = static_cast<std::decay_t<decltype(value)>>(stored); });
-  validate(c);
+  validate(c, gate, "state");
   validate::in("state.time", header.time, validate::closed(-kMaxTime, kMaxTime));
   for (const auto& [field, flag] : {std::pair<const char*, int64_t>{"state.trim", header.trim},
                                     {"state.mask_phi", header.mask_phi},

@@ -57,9 +57,9 @@ StateHeader parse_state_header(const std::string& bytes);
 // The bytes of the config's ambient_ocean in state bytes whose header parse_state_header() returned;
 // empty when it has none (a version 1 state never has one).
 std::string_view ambient_ocean_bytes(const std::string& bytes, const StateHeader& header);
-// The config a header describes, validated (InvalidArgument naming the field); also checks the header's
-// time (naming state.time).
-EWaveConfig config_of(const StateHeader& header);
+// The config a header describes, validated (InvalidArgument naming the field under "state"; with a gate,
+// its grid within --max-grid-cells); also checks the header's time (naming state.time).
+EWaveConfig config_of(const StateHeader& header, const LimitGate* gate = nullptr);
 // Throws Error(InvalidArgument) naming the first field value of the state that is not finite and within
 // +-1e25.
 void check_fields_in_range(const std::string& bytes, const StateHeader& header);

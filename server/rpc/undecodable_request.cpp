@@ -44,12 +44,14 @@ class UndecodableRequest : public grpc::experimental::Interceptor {
 
 }  // namespace
 
-// Only squall's own methods (gRPC's health and reflection services carry their own messages) with one request.
+// The calls of one request of squall's services and of the health service squalld serves (its reflection
+// service is a client stream).
 grpc::experimental::Interceptor* UndecodableRequestFactory::CreateServerInterceptor(ServerRpcInfo* info) {
   const bool one_request =
       info->type() == ServerRpcInfo::Type::UNARY || info->type() == ServerRpcInfo::Type::SERVER_STREAMING;
-  if (!one_request || std::string_view(info->method()).rfind("/squall.", 0) != 0) return nullptr;
-  return new UndecodableRequest(info->method());
+  const std::string_view method = info->method();
+  const bool protobuf = method.rfind("/squall.", 0) == 0 || method.rfind("/grpc.health.v1.", 0) == 0;
+  return one_request && protobuf ? new UndecodableRequest(info->method()) : nullptr;
 }
 
 }  // namespace squall::rpc

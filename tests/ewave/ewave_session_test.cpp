@@ -385,7 +385,7 @@ TEST_F(EngineTest, SessionLimitAndGridLimitAreResourceExhausted) {
   e.create(plain_config(32, 32));
   e.create(plain_config(32, 32));
   expect_error(Code::ResourceExhausted, "max-sessions", [&] { e.create(plain_config(32, 32)); });
-  expect_error(Code::ResourceExhausted, "config.grid", [&] { e.create(plain_config(128, 64)); });
+  expect_error(Code::ResourceExhausted, "config.nx * config.ny", [&] { e.create(plain_config(128, 64)); });
 }
 
 TEST_F(EngineTest, IdleSessionsAreEvictedAfterTheTtl) {
