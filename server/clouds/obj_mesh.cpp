@@ -19,7 +19,7 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
   };
   while (std::getline(lines, line)) {
     ++number;
-    std::istringstream in(line);
+    std::istringstream in(line.substr(0, line.find('#')));  // a comment runs from '#' to the line's end
     std::string tag;
     in >> tag;
     if (tag == "v") {  // x y z, then an optional w (or an exporter's colour), not read
@@ -43,10 +43,12 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
           index = std::stol(vertex, &used);
         } catch (const std::exception&) {
         }
-        if (vertex.empty() || used != vertex.size()) bad("face index \"" + validate::printable(token) + "\" is not a whole number");
+        if (vertex.empty() || used != vertex.size())
+          bad("face index \"" + validate::printable(token) + "\" is not a whole number");
         long n = long(mesh.vertices.size());
         long resolved = index > 0 ? index - 1 : n + index;
-        if (index == 0 || resolved < 0 || resolved >= n) bad("face index " + validate::printable(token) + " is out of range");
+        if (index == 0 || resolved < 0 || resolved >= n)
+          bad("face index " + validate::printable(token) + " is out of range");
         face.push_back(uint32_t(resolved));
       }
       if (face.size() < 3) bad("a face needs at least three vertices");

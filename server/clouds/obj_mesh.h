@@ -1,5 +1,6 @@
 // Wavefront OBJ text to a TriangleMesh: `v x y z` vertices (m) and `f` faces (polygons fan-triangulated;
-// `i`, `i/t`, `i/t/n`, `i//n` and negative, relative indices). Other lines are ignored.
+// `i`, `i/t`, `i/t/n`, `i//n` and negative, relative indices); `#` starts a comment, on any line. Other lines
+// are ignored.
 #pragma once
 
 #include <string>

@@ -160,6 +160,9 @@ TEST(Obj, QuadCubeBuildsTheSameCloudAsItsTriangles) {
   }
   EXPECT_EQ(parse_obj("v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1/1/1 2//2 -1\n", "obj").triangles.size(), 3u)
       << "a w after x y z, and v/vt/vn and negative indices, as OBJ allows";
+  EXPECT_EQ(parse_obj("v 0 0 0 # a\nv 1 0 0#b\nv 0 1 0\nf 1 2 3 # c\nf 3 2 1#\n# f 1 2 3\n", "obj").triangles.size(),
+            6u)
+      << "a comment after a vertex or a face, or in place of a line";
 }
 
 }  // namespace
