@@ -83,7 +83,7 @@ std::string read_bytes(const std::string& flag, const std::string& path) {
     bytes = read_regular_file(path, flag + " " + path);
   } catch (const Error&) {  // a FIFO, a directory, a read error: said the same way
   }
-  if (!bytes) throw UsageError(flag + " " + path + ": cannot read it");
+  if (!bytes) throw UsageError(flag + " " + path + ": cannot read it (a regular file that can be read is needed)");
   if (bytes->empty()) throw UsageError(flag + " " + path + ": the file is empty");
   return *bytes;
 }

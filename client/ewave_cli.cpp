@@ -77,7 +77,8 @@ struct Wake {
 
 void grid_flag(const std::string& value, v1::EWaveConfig& c) {
   size_t x = value.find_first_of("x,");
-  if (x == std::string::npos) throw UsageError("--grid " + value + ": must be NXxNY");
+  if (x == std::string::npos || value.find_first_of("x,", x + 1) != std::string::npos)
+    throw UsageError("--grid " + value + ": must be NXxNY");
   c.set_nx(integer32("--grid", value.substr(0, x), 1));
   c.set_ny(integer32("--grid", value.substr(x + 1), 1));
 }

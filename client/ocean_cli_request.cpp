@@ -56,9 +56,11 @@ namespace {
 namespace v1 = squall::v1;
 
 // "A" or "A,B" (also "AxB"): two numbers, the second defaulting to the first.
-std::pair<std::string, std::string> pair_of(const std::string& text) {
-  size_t at = text.find_first_of(",x");
+std::pair<std::string, std::string> pair_of(const std::string& flag, const std::string& text) {
+  const size_t at = text.find_first_of(",x");
   if (at == std::string::npos) return {text, text};
+  if (text.find_first_of(",x", at + 1) != std::string::npos)
+    throw UsageError(flag + " " + text + ": one value or two (A,B or AxB)");
   return {text.substr(0, at), text.substr(at + 1)};
 }
 
@@ -114,11 +116,11 @@ v1::LayerSpec default_layer() {
 // Returns true when `flag` is a layer flag (and applies it to `layer`).
 bool layer_flag(const std::string& flag, const std::string& value, v1::LayerSpec& l) {
   if (flag == "--extent") {
-    auto [x, y] = pair_of(value);
+    auto [x, y] = pair_of(flag, value);
     l.set_extent_x(number(flag, x, "m"));
     l.set_extent_y(number(flag, y, "m"));
   } else if (flag == "--grid") {
-    auto [x, y] = pair_of(value);
+    auto [x, y] = pair_of(flag, value);
     l.set_nx(integer32(flag, x));
     l.set_ny(integer32(flag, y));
   } else if (flag == "--spectrum") {
@@ -146,24 +148,24 @@ bool layer_flag(const std::string& flag, const std::string& value, v1::LayerSpec
   } else if (flag == "--phillips-exponent") {
     l.set_phillips_exponent(number(flag, value, "1"));
   } else if (flag == "--sigma") {
-    auto [a, b] = pair_of(value);
+    auto [a, b] = pair_of(flag, value);
     l.set_sigma_below_peak(number(flag, a, "1"));
     l.set_sigma_above_peak(number(flag, b, "1"));
   } else if (flag == "--partial") {
-    auto [wp, hs] = pair_of(value);
+    auto [wp, hs] = pair_of(flag, value);
     auto* p = l.add_partials();
     p->set_peak_frequency(number(flag, wp, "rad/s"));
     p->set_significant_wave_height(number(flag, hs, "m"));
   } else if (flag == "--gravity") {
     l.set_gravity(number(flag, value, "m/s^2"));
   } else if (flag == "--k-band") {
-    auto [lo, hi] = pair_of(value);
+    auto [lo, hi] = pair_of(flag, value);
     l.set_k_min(number(flag, lo, "rad/m"));
     l.set_k_max(number(flag, hi, "rad/m"));
   } else if (flag == "--seed") {
     l.set_seed(integer(flag, value));
   } else if (flag == "--drift") {
-    auto [x, y] = pair_of(value);
+    auto [x, y] = pair_of(flag, value);
     l.set_drift_x(number(flag, x, "m/s"));
     l.set_drift_y(number(flag, y, "m/s"));
   } else {
@@ -179,11 +181,11 @@ bool tile_flag(const std::string& flag, const std::string& value, Request& r) {
   } else if (flag == "--b-correction") {
     t.set_b_correction(on_off(flag, value));
   } else if (flag == "--output-grid") {
-    auto [x, y] = pair_of(value);
+    auto [x, y] = pair_of(flag, value);
     t.mutable_output()->set_nx(integer32(flag, x));
     t.mutable_output()->set_ny(integer32(flag, y));
   } else if (flag == "--output-extent") {
-    auto [x, y] = pair_of(value);
+    auto [x, y] = pair_of(flag, value);
     t.mutable_output()->set_extent_x(number(flag, x, "m"));
     t.mutable_output()->set_extent_y(number(flag, y, "m"));
   } else if (flag == "--whitecap-threshold") {

@@ -100,9 +100,9 @@ void center(const std::vector<double>& v, size_t at, v1::AnalyticVelocity* a) {
 }
 
 void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
-  const std::string flag = "--velocity";
   const size_t colon = value.find(':');
   const std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
+  const std::string flag = "--velocity " + kind;  // messages name the kind: "--velocity uniform: needs 2 numbers"
   if (kind == "uniform") {
     auto v = numbers(flag, args, {2});
     a->set_kind(v1::AnalyticVelocity::KIND_UNIFORM), a->set_velocity_x(v[0]), a->set_velocity_y(v[1]);

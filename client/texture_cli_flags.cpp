@@ -57,12 +57,12 @@ void read_exr(const std::string& path, v1::ImageTexture* image) {
 
 // A comma-separated list of one of the allowed lengths.
 std::vector<double> numbers(const std::string& flag, const std::string& text, std::vector<size_t> lengths) {
+  std::string allowed;
+  for (size_t n : lengths) allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);
+  if (text.empty()) throw UsageError(flag + ": needs " + allowed + " numbers, none given");
   const std::vector<double> out = number_list(flag, text);
-  if (std::find(lengths.begin(), lengths.end(), out.size()) == lengths.end()) {
-    std::string allowed;
-    for (size_t n : lengths) allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);
+  if (std::find(lengths.begin(), lengths.end(), out.size()) == lengths.end())
     throw UsageError(flag + " " + text + ": needs " + allowed + " numbers");
-  }
   return out;
 }
 

@@ -631,6 +631,10 @@ TEST(EWaveCli, ARefusedWakeLeavesNoFolder) {
             2)
       << out;
   EXPECT_NE(out.find("--beam is not a flag of a circle hull"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSquall, "--address", first().address(), "ewave", "wake", "--grid", "8x8x8", "-o", dir}, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--grid 8x8x8: must be NXxNY"), std::string::npos) << out;
   for (const char* dt : {"0", "-1"}) {  // a step of no time, or back in time, is no step
     EXPECT_EQ(test::run({kSquall, "--address", first().address(), "ewave", "wake", "--dt", dt, "-o", dir}, &out), 2)
         << out;

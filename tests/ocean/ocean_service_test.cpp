@@ -599,6 +599,8 @@ TEST(OceanCli, ReadableErrorsAndExitCodes) {
   EXPECT_NE(out.find("--wind-speed 0x10: must be a finite number (m/s)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"tile", "--outputs", "height,", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("--outputs height,: an empty item in the list"), std::string::npos) << out;
+  EXPECT_EQ(test::run(cli_args({"tile", "--grid", "8,8,8", "-o", "x.exr"}), &out), 2) << out;  // named whole
+  EXPECT_NE(out.find("--grid 8,8,8: one value or two (A,B or AxB)"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"tile", "--spectrum", "nope", "-o", "x.exr"}), &out), 2) << out;
   EXPECT_NE(out.find("must be one of"), std::string::npos) << out;
   EXPECT_EQ(test::run(cli_args({"sample", "--point", "1"}), &out), 2) << out;  // one number is no point

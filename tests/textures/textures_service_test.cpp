@@ -528,7 +528,10 @@ TEST(TexturesCli, AdvectWritesFrames) {
   for (const auto& [flags, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--method", "naive", "--seed", "7"}, "--seed places the Lagrangian grids: not a flag of --method naive"},
            {{"--image", png, "--noise", "2"}, "--image is the texture: --noise and --spin are flags of a noise"},
-           {{"--spin", "3", "--image", png}, "--image is the texture"}}) {
+           {{"--spin", "3", "--image", png}, "--image is the texture"},
+           // A velocity's numbers are named with its kind, also when none are given.
+           {{"--velocity", "uniform"}, "--velocity uniform: needs 2 numbers, none given"},
+           {{"--velocity", "uniform:1"}, "--velocity uniform 1: needs 2 numbers"}}) {
     std::vector<std::string> bad = {test::squall_path(), "--address", daemon().address(), "texture", "advect"};
     bad.insert(bad.end(), flags.begin(), flags.end());
     bad.insert(bad.end(), {"--out", dir + "/unused"});
