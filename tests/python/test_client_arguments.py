@@ -384,6 +384,148 @@ CASES = [
         TypeError,
         r"^clear_strokes = 'no': want True or False",
     ),
+    # None for a size or a count, which the message would carry as 0
+    case(
+        "config-nx-none",
+        lambda c: ewave.config(nx=None, ny=16, dx=0.01),
+        TypeError,
+        r"^config\.nx = None: want an integer",
+    ),
+    case(
+        "config-ny-none",
+        lambda c: ewave.config(16, None, 0.01),
+        TypeError,
+        r"^config\.ny = None: want an integer",
+    ),
+    case(
+        "config-dx-none",
+        lambda c: ewave.config(16, 16, None),
+        TypeError,
+        r"^config\.dx = None: want a number",
+    ),
+    case(
+        "voxel-size-none",
+        lambda c: clouds.model(voxel_size=None),
+        TypeError,
+        r"^model\.voxel_size = None: want a number",
+    ),
+    case(
+        "camera-width-none",
+        lambda c: clouds.camera(width=None),
+        TypeError,
+        r"^camera\.width = None: want an integer",
+    ),
+    case(
+        "camera-height-none",
+        lambda c: clouds.camera(height=None),
+        TypeError,
+        r"^camera\.height = None: want an integer",
+    ),
+    case(
+        "render-step-none",
+        lambda c: clouds.render_settings(step=None),
+        TypeError,
+        r"^settings\.step = None: want a number",
+    ),
+    case(
+        "output-width-none",
+        lambda c: textures.output(None, 4),
+        TypeError,
+        r"^output\.width = None: want an integer",
+    ),
+    case(
+        "output-height-none",
+        lambda c: textures.output(4, None),
+        TypeError,
+        r"^output\.height = None: want an integer",
+    ),
+    case(
+        "advect-request-frames-none",
+        lambda c: textures.advect_request(frames=None),
+        TypeError,
+        r"^request\.frames = None: want an integer",
+    ),
+    case(
+        "checkpoint-every-none",
+        lambda c: textures.advect_request(frames=2, checkpoint_every=None),
+        TypeError,
+        r"^request\.checkpoint_every = None: want an integer",
+    ),
+    case(
+        "deform-request-frames-none",
+        lambda c: textures.deform_request(np.zeros((4, 4)), np.zeros((4, 4)), frames=None),
+        TypeError,
+        r"^request\.frames = None: want an integer",
+    ),
+    case(
+        "stack-levels-none",
+        lambda c: textures.deform_request(
+            np.zeros((4, 4)), np.zeros((4, 4)), frames=2, stack_levels=None
+        ),
+        TypeError,
+        r"^request\.stack_levels = None: want an integer",
+    ),
+    case(
+        "output-nx-none",
+        lambda c: ts([L()], output=(None, 8)),
+        TypeError,
+        r"^tile\.output\.nx = None: want an integer",
+    ),
+    case(
+        "output-extent-none",
+        lambda c: ts([L()], output=(8, 8, 100.0, None)),
+        TypeError,
+        r"^tile\.output\.extent_y = None: want a number",
+    ),
+    # an array of numbers that are not real (complex, objects, strings): none is sent in part
+    case(
+        "sample-points-complex",
+        lambda c: c.ocean.sample(ts([L(n=8)]), np.array([[1, 2]], dtype=complex)),
+        TypeError,
+        r"^points: want numbers, got an array of complex128",
+    ),
+    case(
+        "sample-points-none",
+        lambda c: c.ocean.sample(ts([L(n=8)]), [(1.0, None)]),
+        TypeError,
+        r"^points: want numbers, got an array of object",
+    ),
+    case(
+        "sample-points-str",
+        lambda c: c.ocean.sample(ts([L(n=8)]), [("1", "2")]),
+        TypeError,
+        r"^points: want numbers, got an array of <U1",
+    ),
+    case(
+        "polygon-complex",
+        lambda c: ewave.polygon(np.ones((3, 2), dtype=complex)),
+        TypeError,
+        r"^polygon\.vertices: want numbers, got an array of complex128",
+    ),
+    case(
+        "polyline-complex",
+        lambda c: textures.polyline(np.ones((3, 2), dtype=np.complex64), "bank"),
+        TypeError,
+        r"^bank: want numbers, got an array of complex64",
+    ),
+    case(
+        "tensor-complex",
+        lambda c: textures.tensor2(np.eye(2) * 1j, "control.deformation"),
+        TypeError,
+        r"^control\.deformation: want numbers, got an array of complex128",
+    ),
+    case(
+        "mesh-vertices-complex",
+        lambda c: clouds.model(meshes=[(np.zeros((4, 3), dtype=complex), [(0, 1, 2)])]),
+        TypeError,
+        r"^model\.meshes\[0\]\.vertices: want numbers, got an array of complex128",
+    ),
+    case(
+        "spacing-complex",
+        lambda c: array_to_field(np.zeros((2, 2)), spacing=(1, 1j), path="map"),
+        TypeError,
+        r"^map\.spacing: want numbers, got an array of complex128",
+    ),
     # a value beyond the dtype it is sent as
     case(
         "source-height-overflow",
@@ -501,6 +643,28 @@ def test_the_asyncio_client_checks_its_arguments() -> None:
         asyncio.run(make(address=NOTHING_LISTENS, retries=1.5))
     with pytest.raises(TypeError, match=r"^service = 5: want a service name"):
         asyncio.run(health(5))
+
+
+def test_a_tls_file_without_a_pem_block_is_refused(tmp_path: Path) -> None:
+    """gRPC takes any bytes as a CA, certificate or key and fails every call later ("empty address
+    list"): a file holding no PEM block is a ValueError naming the argument and the file, for the
+    sync and the asyncio client alike (both take squall.tls_credentials)."""
+    pem = tmp_path / "ca.pem"
+    pem.write_text("-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n")
+    text = tmp_path / "passwd"
+    text.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    empty = tmp_path / "empty.key"
+    empty.write_bytes(b"")
+    assert isinstance(squall.tls_credentials(ca=str(pem)), grpc.ChannelCredentials)
+    assert squall.tls_credentials(ca=str(pem), cert=str(pem), key=str(pem)) is not None
+    with pytest.raises(ValueError, match=r"^ca = '.*/passwd': no PEM block \(-----BEGIN "):
+        squall.tls_credentials(ca=str(text))
+    with pytest.raises(ValueError, match=r"^cert = '.*/passwd': no PEM block"):
+        squall.tls_credentials(ca=str(pem), cert=str(text), key=str(pem))
+    with pytest.raises(ValueError, match=r"^key = '.*/empty\.key': no PEM block"):
+        squall.tls_credentials(cert=str(pem), key=str(empty))
+    with pytest.raises(FileNotFoundError):
+        squall.tls_credentials(ca=str(tmp_path / "missing.pem"))
 
 
 # ---- against the shared daemon

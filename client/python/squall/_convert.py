@@ -14,7 +14,10 @@
   1]); a bool field True or False (numpy bools too, not 0 / 1 or strings such as "off"); a bytes
   field a bytes-like object. Mistakes raise TypeError (the wrong kind of value) or ValueError (the
   right kind, out of range) naming the argument or field path and what is wanted, e.g.
-  ``layer.nx = 2.5: want an integer``.
+  ``layer.nx = 2.5: want an integer``. A size or a count has no "unset" (None would be sent as
+  0): None for one is a TypeError too.
+- Arrays (fields, points, vertices, matrices) take real numbers: an array of complex, object or
+  string values is a TypeError naming the argument (``real_array``), not cast to float.
 """
 
 from __future__ import annotations
@@ -194,15 +197,26 @@ def number_or_floats(value: Any, path: str, want: str) -> List[float]:
     return floats(value, path, want)
 
 
+def real_array(value: Any, path: str) -> np.ndarray:
+    """`value` as an array of real numbers (of a float, int, uint or bool dtype), not cast;
+    TypeError naming `path` for an array of another dtype: complex (a cast to float would drop
+    the imaginary part), object (None, mixed values), str or bytes."""
+    array = np.asarray(value)
+    if array.dtype.kind not in "fiub":
+        raise TypeError(f"{path}: want numbers, got an array of {array.dtype}")
+    return array
+
+
 def float_array(value: Any, path: str, want: str) -> np.ndarray:
-    """`value` as a float64 array; TypeError naming `path` and `want` when it holds no numbers (a
-    str, None, a ragged sequence)."""
+    """`value` as a float64 array of real numbers (see ``real_array``); TypeError naming `path` and
+    `want` when it is no array at all (a str, None, a ragged sequence)."""
     if isinstance(value, (str, bytes, Mapping)) or value is None:
         raise TypeError(f"{path} = {shown(value)}: want {want}")
     try:
-        return np.asarray(value, dtype=np.float64)
+        array = np.asarray(value)
     except (TypeError, ValueError):
         raise TypeError(f"{path} = {shown(value)}: want {want}") from None
+    return np.asarray(real_array(array, path), dtype=np.float64)
 
 
 # -------------------------------------------------------------------------------------------------
@@ -328,8 +342,7 @@ def array_to_field(
         raise ValueError(
             f"{path}: want an array of shape (ny, nx) or (nz, ny, nx), got shape {array.shape}"
         )
-    if array.dtype.kind not in "fiub":
-        raise TypeError(f"{path}: want numbers, got an array of {array.dtype}")
+    real_array(array, path)
     kind: Any
     if dtype is None:
         kind = common_pb2.DTYPE_FLOAT16 if array.dtype == np.float16 else common_pb2.DTYPE_FLOAT32
@@ -342,7 +355,8 @@ def array_to_field(
         field.ny, field.nx = array.shape
     field.data = _cast(array, _NUMPY_DTYPE[kind], path).tobytes()
     if spacing is not None:
-        values = np.atleast_1d(np.asarray(spacing, dtype=np.float64))
+        want = "a number or a sequence (sx, sy) or (sx, sy, sz)"
+        values = np.atleast_1d(float_array(spacing, f"{path}.spacing", want))
         s = [float(values[0])] * 3 if values.size == 1 else [float(v) for v in values]
         field.spacing.CopyFrom(vec3(s, f"{path}.spacing"))
     if origin is not None:

@@ -32,6 +32,8 @@ from squall.textures import Textures
 # that imports both fails at the second import.
 HEALTH_CHECK = "/grpc.health.v1.Health/Check"
 SERVING_STATUS = ("UNKNOWN", "SERVING", "NOT_SERVING", "SERVICE_UNKNOWN")
+# The line that opens each block of a PEM file (a certificate, a key).
+PEM_BEGIN = b"-----BEGIN "
 
 
 def _varint(value: int) -> bytes:
@@ -114,17 +116,28 @@ def tls_credentials(
         ca: PEM file of the CA that signed squalld's certificate; None: the system's roots.
         cert, key: PEM files of this client's certificate chain and private key, for a squalld
             started with ``--tls-client-ca`` (mutual TLS); both or neither.
+
+    Raises:
+        FileNotFoundError: a file that does not exist.
+        ValueError: cert without key or key without cert; a file that holds no PEM block
+            (``-----BEGIN ...``), which gRPC would take and every call then fail UNAVAILABLE.
     """
     if (cert is None) != (key is None):
         raise ValueError("tls_credentials: cert and key go together")
 
-    def read(path: Optional[str]) -> Optional[bytes]:
+    def read(name: str, path: Optional[str]) -> Optional[bytes]:
         if path is None:
             return None
         with open(path, "rb") as f:
-            return f.read()
+            data = f.read()
+        if PEM_BEGIN not in data:
+            raise ValueError(
+                f"{name} = {path!r}: no PEM block ({PEM_BEGIN.decode()}...) in the file: "
+                "want a PEM file"
+            )
+        return data
 
-    return grpc.ssl_channel_credentials(read(ca), read(key), read(cert))
+    return grpc.ssl_channel_credentials(read("ca", ca), read("key", key), read("cert", cert))
 
 
 class Client:

@@ -21,12 +21,15 @@ from typing import Any, List, Mapping, Optional, Sequence, Union
 
 from squall._calls import Connection, Stream, propose_session_id
 from squall._convert import (
+    UINT32_MAX,
     enum_value,
     flag,
     float_array,
     floats,
+    integer,
     items_of,
     message_from,
+    number,
     number_or_floats,
     repeated_per,
     sequence,
@@ -153,7 +156,7 @@ def model(
         clouds_pb2.CloudModel,
         None,
         "model",
-        voxel_size=voxel_size,
+        voxel_size=number(voxel_size, "model.voxel_size"),
         skin=skin,
         spheres=_shapes(spheres, clouds_pb2.SphereSpec, "spheres"),
         ellipsoids=_shapes(ellipsoids, clouds_pb2.EllipsoidSpec, "ellipsoids"),
@@ -190,8 +193,8 @@ def camera(
         eye=vec3(eye, "camera.eye"),
         look_at=vec3(look_at, "camera.look_at"),
         up=vec3(up, "camera.up"),
-        width=width,
-        height=height,
+        width=integer(width, "camera.width", 0, UINT32_MAX),
+        height=integer(height, "camera.height", 0, UINT32_MAX),
         vertical_fov_deg=vertical_fov_deg,
     )
 
@@ -285,7 +288,7 @@ def render_settings(
         None,
         "settings",
         camera=_default_camera() if camera is None else camera,
-        step=step,
+        step=number(step, "settings.step"),
         substeps=substeps,
         trilinear=trilinear,
         seed=seed,

@@ -25,6 +25,7 @@ import numpy as np
 
 from squall._calls import Connection, RequestFeeder, Stream, propose_session_id
 from squall._convert import (
+    UINT32_MAX,
     UINT64_MAX,
     ArrayLike,
     FieldLike,
@@ -115,12 +116,13 @@ def config(
             initial_height / initial_phi.
         ambient_ocean: ambient sea h_A from an ocean tile, evaluated every step that brings none.
     """
+    dx = number(dx, "config.dx")  # nx, ny and dx have no default: None is refused, not sent as 0
     return message_from(
         ewave_pb2.EWaveConfig,
         None,
         "config",
-        nx=nx,
-        ny=ny,
+        nx=integer(nx, "config.nx", 0, UINT32_MAX),
+        ny=integer(ny, "config.ny", 0, UINT32_MAX),
         dx=dx,
         dy=dx if dy is None else dy,
         dispersion=dispersion,

@@ -204,8 +204,9 @@ def tile_spec(
     if output is not None and not isinstance(output, (Mapping, ocean_pb2.OutputGrid)):
         want = "(nx, ny) or (nx, ny, extent_x, extent_y), or an OutputGrid"
         values = items_of(output, "tile.output", (2, 4), want)
-        names = ("nx", "ny", "extent_x", "extent_y")
-        grid = dict(zip(names, values))  # each checked as its field: tile.output.nx, ...
+        sizes = [integer(v, f"tile.output.n{n}", 0, UINT32_MAX) for n, v in zip("xy", values)]
+        extents = [number(v, f"tile.output.extent_{n}") for n, v in zip("xy", values[2:])]
+        grid = dict(zip(("nx", "ny", "extent_x", "extent_y"), sizes + extents))
     return message_from(
         ocean_pb2.TileSpec,
         None,

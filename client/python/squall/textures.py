@@ -352,8 +352,8 @@ def output(
         textures_pb2.TextureOutput,
         None,
         "output",
-        width=width,
-        height=height,
+        width=integer(width, "output.width", 0, UINT32_MAX),
+        height=integer(height, "output.height", 0, UINT32_MAX),
         region=region_message,
         planes=[
             enum_value(textures_pb2.TexturePlane.DESCRIPTOR, p, f"output.planes[{i}]")
@@ -410,12 +410,12 @@ def advect_request(
         output=out,
         t0=t0,
         dt=dt,
-        frames=frames,
+        frames=integer(frames, "request.frames", 0, UINT32_MAX),
         substeps=substeps,
         seed=seed,
         lagrangian=lagrangian,
         eulerian=eulerian,
-        checkpoint_every=checkpoint_every,
+        checkpoint_every=integer(checkpoint_every, "request.checkpoint_every", 0, UINT32_MAX),
         resume_state=resume_state,
     )
 
@@ -821,10 +821,10 @@ def deform_request(
         ),
         strokes=_strokes(strokes, "request.strokes"),
         paper_dt_factor=paper_dt_factor,
-        frames=frames,
+        frames=integer(frames, "request.frames", 0, UINT32_MAX),
         dt=dt,
         substeps=substeps,
-        stack_levels=stack_levels,
+        stack_levels=integer(stack_levels, "request.stack_levels", 0, UINT32_MAX),
         planes=_deform_planes(planes, "request.planes"),
         dtype=dtype_value(dtype, "request.dtype"),
         tolerance=tolerance,
