@@ -7,6 +7,7 @@
 #include <optional>
 #include <random>
 #include <thread>
+#include <tuple>
 
 #include "common/error.h"
 #include "common/regular_file.h"
@@ -40,6 +41,12 @@ std::shared_ptr<grpc::ChannelCredentials> credentials(const ClientOptions& o) {
   if (!o.tls_cert.empty()) ssl.pem_cert_chain = read_file(o.tls_cert, "--tls-cert");
   if (!o.tls_key.empty()) ssl.pem_private_key = read_file(o.tls_key, "--tls-key");
   if (o.tls_cert.empty() != o.tls_key.empty()) throw OptionsError("--tls-cert and --tls-key go together");
+  // gRPC takes any bytes here and fails every call later ("empty address list"): a file must hold PEM blocks.
+  for (const auto& [flag, path, pem] : {std::tuple{"--tls-ca", &o.tls_ca, &ssl.pem_root_certs},
+                                        {"--tls-cert", &o.tls_cert, &ssl.pem_cert_chain},
+                                        {"--tls-key", &o.tls_key, &ssl.pem_private_key}})
+    if (!path->empty() && pem->find("-----BEGIN ") == std::string::npos)
+      throw OptionsError(std::string(flag) + " " + *path + ": no PEM block (-----BEGIN ...) in the file");
   return grpc::SslCredentials(ssl);
 }
 

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <algorithm>
 #include <fstream>
 #include <thread>
 #include <tuple>
@@ -493,6 +494,17 @@ TEST(Cli, ExitCodesSayWhatWentWrong) {
   EXPECT_NE(out.find("--points-file " + fifo + ": cannot read it"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--tls-cert", "/proc/self/status", "info"}, &out), 2) << out;
   EXPECT_NE(out.find("--tls-cert and --tls-key go together"), std::string::npos) << out;
+  // A file that is no PEM file (which gRPC would take, every call then failing as if squalld were away).
+  for (const char* flag : {"--tls-ca", "--tls-cert", "--tls-key"}) {
+    const std::string pem = test::temp_dir("cli-pem") + "/pem", text = "/proc/self/status";
+    std::ofstream(pem) << "-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n";
+    std::vector<std::string> args = {kSquall, "--tls-ca", pem, "--tls-cert", pem, "--tls-key", pem, "info"};
+    *(std::find(args.begin(), args.end(), flag) + 1) = text;
+    EXPECT_EQ(test::run(args, &out), 2) << flag << ": " << out;
+    EXPECT_NE(out.find(std::string(flag) + " " + text + ": no PEM block (-----BEGIN ...) in the file"),
+              std::string::npos)
+        << out;
+  }
   EXPECT_EQ(test::run({kSquall, "--address", "", "info"}, &out), 2) << out;
   EXPECT_EQ(test::run({kSquall, "info", "--address", "127.0.0.1:2"}, &out), 2) << out;
   EXPECT_NE(out.find("--address is a flag of squall itself"), std::string::npos) << out;
