@@ -153,7 +153,9 @@ CloudVolume read_vdb(const std::string& bytes, const std::string& field) {
   std::istringstream in(bytes, std::ios::binary);
   openvdb::GridPtrVecPtr grids;
   try {
-    grids = openvdb::io::Stream(in).getGrids();
+    // Read at once: a delayed load would first copy the bytes to a temporary file, left behind when the
+    // stream is not a .vdb one.
+    grids = openvdb::io::Stream(in, /*delayLoad=*/false).getGrids();
   } catch (const openvdb::Exception& e) {
     fail(Code::InvalidArgument, field + " is not a .vdb stream: " + e.what());
   }

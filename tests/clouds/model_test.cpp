@@ -287,6 +287,28 @@ TEST(Model, ThousandCubedBoundsStaySparse) {
   EXPECT_LT(s.fill_ratio(), 2e-3);
 }
 
+// read_vdb gives back write_vdb's grids, refuses damaged bytes, and leaves no temporary file either way
+// (OpenVDB's delayed loading copies a stream to one first).
+TEST(Model, VdbBytesReadBackWithNoTemporaryFile) {
+  auto temporary_files = [] {
+    size_t n = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::temp_directory_path()))
+      n += entry.path().filename().string().rfind("openvdb_temp_", 0) == 0;
+    return n;
+  };
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.spheres.push_back({{0, 0, 0}, 3});
+  const CloudVolume v = build_cloud(m);
+  const std::string bytes = write_vdb(v);
+  const size_t before = temporary_files();
+  EXPECT_EQ(read_vdb(bytes, "payload").density->activeVoxelCount(), v.density->activeVoxelCount());
+  for (const std::string& damaged : {bytes.substr(0, bytes.size() / 2), std::string(), std::string(100, 'x')}) {
+    test::expect_error(Code::InvalidArgument, "payload is not a .vdb stream", [&] { read_vdb(damaged, "payload"); });
+  }
+  EXPECT_EQ(temporary_files(), before);
+}
+
 TEST(Model, VdbFileOpensInVdbPrintWithGridNamesAndVoxelCounts) {
   CloudModel m;
   m.voxel_size = 0.5;
