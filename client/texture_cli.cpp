@@ -102,7 +102,7 @@ void center(const std::vector<double>& v, size_t at, v1::AnalyticVelocity* a) {
 void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
   const size_t colon = value.find(':');
   const std::string kind = value.substr(0, colon), args = colon == std::string::npos ? "" : value.substr(colon + 1);
-  const std::string flag = "--velocity " + kind;  // messages name the kind: "--velocity uniform: needs 2 numbers"
+  const std::string flag = "--velocity " + kind;  // the numbers' messages name the kind: "--velocity uniform: ..."
   if (kind == "uniform") {
     auto v = numbers(flag, args, {2});
     a->set_kind(v1::AnalyticVelocity::KIND_UNIFORM), a->set_velocity_x(v[0]), a->set_velocity_y(v[1]);
@@ -133,7 +133,7 @@ void velocity_flag(const std::string& value, v1::AnalyticVelocity* a) {
     a->set_kind(v1::AnalyticVelocity::KIND_CYLINDER), a->set_speed(v[0]), center(v, 1, a);
     if (v.size() == 4) a->set_radius(v[3]);
   } else {
-    throw UsageError(flag + " " + value +
+    throw UsageError("--velocity " + value +
                      ": uniform, rotation, shear, sink, vortex, taylor-green, channel or cylinder (KIND:ARGS)");
   }
 }

@@ -531,7 +531,8 @@ TEST(TexturesCli, AdvectWritesFrames) {
            {{"--spin", "3", "--image", png}, "--image is the texture"},
            // A velocity's numbers are named with its kind, also when none are given.
            {{"--velocity", "uniform"}, "--velocity uniform: needs 2 numbers, none given"},
-           {{"--velocity", "uniform:1"}, "--velocity uniform 1: needs 2 numbers"}}) {
+           {{"--velocity", "uniform:1"}, "--velocity uniform 1: needs 2 numbers"},
+           {{"--velocity", "bogus:1"}, "--velocity bogus:1: uniform, rotation"}}) {
     std::vector<std::string> bad = {test::squall_path(), "--address", daemon().address(), "texture", "advect"};
     bad.insert(bad.end(), flags.begin(), flags.end());
     bad.insert(bad.end(), {"--out", dir + "/unused"});
