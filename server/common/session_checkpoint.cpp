@@ -5,6 +5,7 @@
 #include <random>
 
 #include "common/byte_codec.h"
+#include "common/fnv1a.h"
 #include "common/session_store.h"
 
 namespace squall {
@@ -41,10 +42,15 @@ std::string encode_checkpoint(const CheckpointHeader& header, const std::string&
   ByteWriter out;
   out.put_bytes(std::string_view(kMagic, sizeof kMagic));
   put_string(out, header.kind);
-  out.put(header.version);
+  out.put(header.version | kChecksummed);
   put_string(out, header.id);
-  out.put_counted(payload);
-  return out.take();
+  out.put(uint64_t(payload.size() + sizeof(uint64_t)));
+  out.put_bytes(payload);
+  std::string bytes = out.take();
+  const uint64_t checksum = fnv1a(kFnv1aOffsetBasis, bytes.data(), bytes.size());
+  ByteWriter sealed(std::move(bytes));
+  sealed.put(checksum);
+  return sealed.take();
 }
 
 std::string decode_checkpoint(const std::string& data, const std::string& kind, const std::string& field,
@@ -54,11 +60,20 @@ std::string decode_checkpoint(const std::string& data, const std::string& kind, 
   header->kind = get_string(in, "the kind");
   if (header->kind != kind) in.reject("it holds a " + header->kind + ", not a " + kind);
   header->version = in.get<uint32_t>("the version");
+  const bool checksummed = header->version & kChecksummed;
+  header->version &= ~kChecksummed;
   header->id = get_string(in, "the id");
   if (header->id.empty()) in.reject("its id is empty");
-  std::string payload(in.get_counted("the payload"));
+  std::string_view payload = in.get_counted("the payload");
   in.finish("the payload");
-  return payload;
+  if (!checksummed) return std::string(payload);
+  if (payload.size() < sizeof(uint64_t)) in.reject("its payload is shorter than its checksum");
+  payload.remove_suffix(sizeof(uint64_t));
+  const size_t sealed = data.size() - sizeof(uint64_t);
+  ByteReader stored(std::string_view(data).substr(sealed), field, "a session checkpoint");
+  if (stored.get<uint64_t>("the checksum") != fnv1a(kFnv1aOffsetBasis, data.data(), sealed))
+    in.reject("its checksum does not match its bytes: it was damaged after it was written");
+  return std::string(payload);
 }
 
 }  // namespace squall

@@ -5,13 +5,21 @@
 //   8       4     kind length K, then K bytes of kind ("eWave session")
 //   12+K    4     payload format version (the capability's)
 //   16+K    4     id length I, then I bytes of id
-//   20+K+I  8     payload length P, then P bytes of payload
+//   20+K+I  8     payload length P + 8, then P bytes of payload and the checksum: 64-bit FNV-1a
+//                 (common/fnv1a.h) of every byte before it, from the magic on
+// The stored version carries kChecksummed (its top bit) with the checksum; without it (a squalld before
+// checksums) the payload is P bytes with none after it. A squalld older than checksums reads the flagged
+// version as a newer payload format than its own, so that it leaves the session to a newer replica.
+// The checksum finds damage (a flipped bit, a torn write), not a forger: whoever can write the state
+// directory is trusted.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
 namespace squall {
+
+inline constexpr uint32_t kChecksummed = 0x80000000u;
 
 struct CheckpointHeader {
   std::string kind;
@@ -28,7 +36,8 @@ struct VersionedPayload {
   std::string bytes;
 };
 
-// The payload of `data`; INVALID_ARGUMENT naming `field` when data is no checkpoint of `kind`.
+// The payload of `data`; INVALID_ARGUMENT naming `field` when data is no checkpoint of `kind`, or one
+// whose checksum does not match. header->version is the payload's version, without kChecksummed.
 std::string decode_checkpoint(const std::string& data, const std::string& kind, const std::string& field,
                               CheckpointHeader* header);
 

@@ -6,6 +6,7 @@
 
 #include <set>
 
+#include "common/byte_codec.h"
 #include "support/expect_error.h"
 #include "support/process.h"
 
@@ -149,6 +150,24 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   // A newer squalld's checkpoint: another replica (one that reads it) can take the call.
   expect_error(Code::Unavailable, "payload version 7; this squalld reads versions 5 to 6: retry on a newer squalld",
                [&] { s.open_checkpoint(saved, "state", 5, 6, &header); });
+  // Damage anywhere (here one bit of the payload, of the id, of the checksum) is found by the checksum.
+  for (size_t at : {saved.size() - 9, size_t(30), saved.size() - 1}) {
+    std::string damaged = saved;
+    damaged[at] ^= 1;
+    expect_error(Code::InvalidArgument, "its checksum does not match its bytes",
+                 [&] { s.open_checkpoint(damaged, "state", 7, &header); });
+  }
+  // A checkpoint of a squalld before checksums (its version without kChecksummed) is read as it is.
+  ByteWriter legacy;
+  legacy.put_bytes(std::string_view("SQSESS\0\1", 8));
+  legacy.put(uint32_t(7)), legacy.put_bytes("counter");  // the kind
+  legacy.put(uint32_t(7));                               // the version
+  legacy.put(uint32_t(id.size())), legacy.put_bytes(id);
+  legacy.put_counted("41");
+  s.close(id);
+  EXPECT_EQ(s.open_checkpoint(legacy.take(), "state", 7, &header), "41");
+  EXPECT_EQ(header.version, 7u);
+  EXPECT_EQ(header.id, id);
   LimitGate other_gate{Limits{}};
   SessionStore<Counter> other(other_gate, {}, "volume", "volume_id");
   expect_error(Code::InvalidArgument, "holds a counter, not a volume",
