@@ -31,6 +31,7 @@
 #include <string>
 #include <thread>
 
+#include "common/error.h"
 #include "common/log.h"
 #include "common/state_dir.h"
 
@@ -141,9 +142,31 @@ class SessionRegistry {
     return written;
   }
 
-  // "Alive now": this replica's heartbeat (none without a state directory).
+  // "Alive now": this replica's heartbeat (none without a state directory). Throws Error(Unavailable) when
+  // it cannot be written.
   void heartbeat() const {
-    if (state_dir_) state_dir_->heartbeat(replica_);
+    if (!state_dir_) return;
+    try {
+      state_dir_->heartbeat(replica_);
+    } catch (...) {
+      beat_failing_ = true;
+      throw;
+    }
+    last_beat_ = std::chrono::steady_clock::now().time_since_epoch().count();
+    beat_failing_ = false;
+  }
+  // UNAVAILABLE while this replica's heartbeat fails and was last written more than half the owner
+  // timeout ago: the other replicas take it for dead at the full timeout and resume its sessions from their
+  // checkpoints, so from then on it serves none of them (nor takes new ones), and no session is stepped on
+  // two replicas. Once a beat is written again its sessions are served again (those taken over meanwhile
+  // are let go at their next call).
+  void require_beating() const {
+    if (!state_dir_ || !beat_failing_) return;
+    const auto last = std::chrono::steady_clock::time_point(std::chrono::steady_clock::duration(last_beat_.load()));
+    if (std::chrono::steady_clock::now() - last > owner_timeout_ / 2)
+      fail(Code::Unavailable,
+           "this replica cannot write its heartbeat in the state directory (see its log), so "
+           "other replicas take its sessions over; retry: another replica serves it");
   }
 
   // One beat of the daemon's loop: the handover requests for sessions this replica holds (other
@@ -197,6 +220,10 @@ class SessionRegistry {
   const std::string replica_;
   const std::chrono::milliseconds owner_timeout_;
   std::atomic<bool> draining_{false};
+  // When this replica's heartbeat was last written (steady clock ticks; 0 before its first), and whether
+  // the latest try failed.
+  mutable std::atomic<std::chrono::steady_clock::rep> last_beat_{0};
+  mutable std::atomic<bool> beat_failing_{false};
   std::mutex mutex_;         // one checkpoint pass or handover beat at a time; stores_ changes under it too
   std::mutex stores_mutex_;  // stores_ for holds(), which takes no other lock of the registry
   std::map<size_t, Store> stores_;

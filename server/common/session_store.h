@@ -102,6 +102,7 @@ class SessionStore {
   };
   Reservation reserve(uint64_t bytes) {
     if (policy_.registry && policy_.registry->draining()) refuse_new();  // before the limits: retried elsewhere
+    if (persistent()) policy_.registry->require_beating();
     evict_idle();
     Reservation r;
     r.session = gate_.acquire_session();
@@ -361,6 +362,7 @@ class SessionStore {
   // Under entry->mutex: UNAVAILABLE for a session released, or found taken over by another replica at a
   // read of its ownership (at most one per kOwnerCheckInterval; then it leaves the store).
   void require_held(const std::shared_ptr<Entry>& entry) {
+    if (persistent()) policy_.registry->require_beating();
     if (!entry->released && persistent() && policy_.clock() - entry->owner_checked >= kOwnerCheckInterval) {
       entry->owner_checked = policy_.clock();
       if (let_go_if_taken_over(*entry)) forget(entry);
@@ -487,6 +489,7 @@ class SessionStore {
     if (policy_.registry->draining())
       fail(Code::Unavailable,
            kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
+    policy_.registry->require_beating();
     try {
       claim_or_fail(id);
       std::optional<std::string> checkpoint = state_dir()->read(id);

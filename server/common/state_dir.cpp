@@ -375,11 +375,13 @@ void StateDir::heartbeat(const std::string& replica) const {
   // Rewritten in place, not truncated: a beat whose write fails leaves the file's time as it was, and this
   // replica looks older to the others, as it should.
   const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NONBLOCK, 0600);
-  if (fd < 0) return;
   const std::string line = replica + "\n";  // rewriting it moves its time forward
-  const bool wrote = ::write(fd, line.data(), line.size()) == ssize_t(line.size());
-  ::close(fd);
-  if (!wrote) return;
+  const ssize_t written = fd >= 0 ? ::write(fd, line.data(), line.size()) : -1;
+  const int error = errno;
+  if (fd >= 0) ::close(fd);
+  if (written != ssize_t(line.size()))
+    fail(Code::Unavailable, "state directory: cannot write this replica's heartbeat " + file + ": " +
+                                (written >= 0 ? std::string("a short write") : std::strerror(error)));
   std::lock_guard<std::mutex> lock(beat_mutex_);
   beat_ = {file, std::chrono::steady_clock::now()};
 }

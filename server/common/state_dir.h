@@ -69,6 +69,7 @@ class StateDir {
   // alive while its file was written within `timeout` of now, both times as the file system stamps them
   // (now: this process's own last heartbeat, plus the time since), so that where the file server stamps
   // them (NFS) the replicas' clocks need not agree with it or each other.
+  // A beat that cannot be written throws Error(Unavailable): the other replicas will take this one for dead.
   void heartbeat(const std::string& replica) const;
   void retire(const std::string& replica) const;
   bool alive(const std::string& replica, std::chrono::milliseconds timeout) const;

@@ -27,9 +27,22 @@ CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseco
       last_checkpoint_(std::chrono::steady_clock::now()),
       last_expiry_(last_checkpoint_) {
   if (!registry_.state_dir()) return;
-  heartbeat_ = std::make_unique<Beat>(std::chrono::milliseconds(250),
-                                      [this] { logged("heartbeat", [&] { registry_.heartbeat(); }); });
+  heartbeat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { beat(); });
   beat_ = std::make_unique<Beat>(std::chrono::milliseconds(250), [this] { tick(); });
+}
+
+void CheckpointLoop::beat() {
+  try {
+    registry_.heartbeat();
+    if (beat_failing_) log(LogLevel::Info, "state directory: the heartbeat is written again");
+    beat_failing_ = false;
+  } catch (const std::exception& e) {
+    if (!beat_failing_)
+      log(LogLevel::Error, e.what(),
+          " (the other replicas take this one for dead at the owner timeout; its sessions answer UNAVAILABLE "
+          "until a beat is written)");
+    beat_failing_ = true;
+  }
 }
 
 void CheckpointLoop::tick() {

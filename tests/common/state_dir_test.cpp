@@ -483,7 +483,8 @@ TEST(StateDir, FilesThatAreNotRegularAreDamageNotAWait) {
   ASSERT_EQ(::mkfifo((dir + "/" + other + ".handover").c_str(), 0600), 0);
   a.registry.state_dir()->request_handover(other);
   ASSERT_EQ(::mkfifo((dir + "/replicas/fifo").c_str(), 0600), 0);
-  a.registry.state_dir()->heartbeat("fifo");
+  expect_error(Code::Unavailable, "cannot write this replica's heartbeat",
+               [&] { a.registry.state_dir()->heartbeat("fifo"); });
   EXPECT_FALSE(a.registry.state_dir()->owner(other)) << "no owner named";
   std::this_thread::sleep_for(20ms);
   a.registry.heartbeat();
@@ -519,7 +520,7 @@ TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
   Replica a(dir, "a");
   const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{6}));
   fs::rename(dir, root + "/moved");
-  a.registry.heartbeat();
+  expect_error(Code::Unavailable, "cannot write this replica's heartbeat", [&] { a.registry.heartbeat(); });
   EXPECT_FALSE(fs::exists(dir)) << "the heartbeat made the directory again";
   EXPECT_EQ(a.registry.checkpoint_all(false), 0u);
   put(dir, "a file where the directory was");
@@ -535,6 +536,30 @@ TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
   fs::remove(dir);
   fs::rename(root + "/moved", dir);
   EXPECT_EQ(a.registry.checkpoint_all(false), 1u) << "written again once the directory is back";
+}
+
+// A replica whose heartbeat cannot be written (here its file replaced by a folder) is taken for dead by the
+// others at the owner timeout, and they resume its sessions: from half that timeout after its last beat it
+// serves none of them and takes no new one, and once a beat is written it serves them again. One that
+// cannot beat at all does not begin.
+TEST(StateDir, AReplicaWhoseHeartbeatFailsServesNoSessionPastHalfTheOwnerTimeout) {
+  const std::string dir = test::temp_dir("state-no-beat");
+  const auto now = [] { return std::chrono::steady_clock::now(); };
+  Replica a(dir, "a", now, 200ms);
+  const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{6}));
+  const std::string beat = dir + "/replicas/a";
+  fs::remove(beat);
+  fs::create_directory(beat);
+  expect_error(Code::Unavailable, "cannot write this replica's heartbeat", [&] { a.registry.heartbeat(); });
+  EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "within half the timeout of its last beat";
+  std::this_thread::sleep_for(150ms);
+  expect_error(Code::Unavailable, "cannot write its heartbeat", [&] { a.store.with(id, [](Counter&) {}); });
+  expect_error(Code::Unavailable, "cannot write its heartbeat",
+               [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
+  EXPECT_THROW(Replica(dir, "a", now, 200ms), Error) << "a second process under this name cannot beat either";
+  fs::remove(beat);
+  a.registry.heartbeat();
+  EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "served again once a beat is written";
 }
 
 // A replica killed holding a session leaves its owner file, and once the checkpoint has expired too nothing
