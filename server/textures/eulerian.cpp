@@ -41,7 +41,7 @@ int cascade_bands_of(const AdvectSpec& spec) {
 class Eulerian final : public Advection {
  public:
   Eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-           std::shared_ptr<const DeviceInputs> inputs, std::string_view state)
+           std::shared_ptr<const DeviceInputs> inputs, std::string_view state, const Cancellation& cancel)
       : runtime_(runtime),
         kernels_(kernels),
         params_(spec.eulerian),
@@ -55,7 +55,8 @@ class Eulerian final : public Advection {
         ny_(params_.grid_ny),
         cascade_bands_(cascade_bands_of(spec)),
         offset_rng_(spec.seed, RngPurpose::RegenerationOffset),
-        random_offset_(params_.random_offset && spec.method != Method::Naive) {
+        random_offset_(params_.random_offset && spec.method != Method::Naive),
+        cancel_(cancel) {
     const size_t bytes = state_floats() * sizeof(float);
     state_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
     scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
@@ -82,7 +83,10 @@ class Eulerian final : public Advection {
     std::vector<std::pair<std::string, double>> stages;
     auto start = std::chrono::steady_clock::now();
     if (started_) {
-      for (int s = 0; s < substeps_; ++s) advance(t0_ + index_ * dt_ + s * dt_ / substeps_, dt_ / substeps_);
+      for (int s = 0; s < substeps_; ++s) {
+        cancel_.check("the advection");
+        advance(t0_ + index_ * dt_ + s * dt_ / substeps_, dt_ / substeps_);
+      }
       ++index_;
     }
     started_ = true;
@@ -153,6 +157,7 @@ class Eulerian final : public Advection {
     double hx = out.pixel_x * out.width / (nx_ - 1), hy = out.pixel_y * out.height / (ny_ - 1);
     const cl_float2 o = offset(s);
     for (int j = 0; j < ny_; ++j) {
+      if (j % 256 == 0) cancel_.check("the advection's start");  // a slot of 4096^2 nodes takes about 1 s
       for (int i = 0; i < nx_; ++i) {
         float* q = &values[4 * ((size_t(s) * ny_ + j) * nx_ + i)];
         q[0] = float(scale_ * (out.x0 + i * hx)) + o.s[0];
@@ -279,6 +284,7 @@ class Eulerian final : public Advection {
   int cascade_bands_;      // noise bands of the vorticity cascade; 0: off
   CounterRng offset_rng_;  // the regeneration offsets (random_offset_)
   bool random_offset_;
+  Cancellation cancel_;                   // whether the caller still wants the advection
   cl::Buffer state_, scratch_;            // float4 per slot and node: u.x, u.y, d, 0
   cl::Buffer cascade_, cascade_scratch_;  // float2 per band and node (band-major): w_k, theta_k
   cl::Buffer offsets_;                    // float2 per slot: the offset o of its current phase
@@ -292,8 +298,9 @@ class Eulerian final : public Advection {
 }  // namespace
 
 std::unique_ptr<Advection> make_eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state) {
-  return std::make_unique<Eulerian>(runtime, kernels, spec, std::move(inputs), state);
+                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state,
+                                         const Cancellation& cancel) {
+  return std::make_unique<Eulerian>(runtime, kernels, spec, std::move(inputs), state, cancel);
 }
 
 }  // namespace squall::textures

@@ -10,14 +10,17 @@
 #include <string>
 #include <string_view>
 
+#include "common/cancel.h"
 #include "textures/advection.h"
 #include "textures/device_inputs.h"
 #include "textures/texture_kernels.h"
 
 namespace squall::textures {
 
-// `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
+// `state` (from checkpoint()) resumes where it was taken; empty starts at t0. The advection asks `cancel`
+// while it lays out its start and before each substep (Error(Cancelled)).
 std::unique_ptr<Advection> make_eulerian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state);
+                                         std::shared_ptr<const DeviceInputs> inputs, std::string_view state,
+                                         const Cancellation& cancel = {});
 
 }  // namespace squall::textures

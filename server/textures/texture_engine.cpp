@@ -26,10 +26,11 @@ void render_window(Runtime& runtime, TextureKernels& kernels, TextureFrame& fram
 TextureEngine::TextureEngine(Runtime& runtime, const LimitGate& gate)
     : runtime_(runtime), gate_(gate), kernels_(runtime) {}
 
-std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, std::string_view resume_state) {
+std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, std::string_view resume_state,
+                                                const Cancellation& cancel) {
   auto inputs = std::make_shared<const DeviceInputs>(runtime_, spec, reference_stats(spec.texture));
   if (spec.method == Method::LagrangianGrids) return make_lagrangian(runtime_, kernels_, spec, inputs, resume_state);
-  return make_eulerian(runtime_, kernels_, spec, inputs, resume_state);
+  return make_eulerian(runtime_, kernels_, spec, inputs, resume_state, cancel);
 }
 
 uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <string_view>
 
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "runtime/runtime.h"
 #include "textures/advection.h"
@@ -47,8 +48,9 @@ class TextureEngine {
   static uint64_t eulerian_cascade_bytes(const AdvectSpec& spec);
 
   // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
-  // continues it bit-identically.
-  std::unique_ptr<Advection> start(const AdvectSpec& spec, std::string_view resume_state = {});
+  // continues it bit-identically. An Eulerian one asks `cancel` as it starts and before each substep.
+  std::unique_ptr<Advection> start(const AdvectSpec& spec, std::string_view resume_state = {},
+                                   const Cancellation& cancel = {});
 
   // Changes a running advection from its next frame on: `spec` is the spec it was started with, where only
   // the velocity, dt, substeps and the texture's spin and final_scale may differ (validated by the caller).

@@ -173,7 +173,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     return s;
   };
   return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {
-    std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume);
+    std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume, s.cancel);
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {
       // Frame 0 takes no step, but a resumed stream's first frame does: read the current each time.
@@ -219,7 +219,7 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
     s.memory =
         serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
-    advection = engine_->start(s.spec);
+    advection = engine_->start(s.spec, {}, s.cancel);
   } else if (changed || s.current.any()) {
     engine_->steer(*advection, s.spec);
   }

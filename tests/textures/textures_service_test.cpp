@@ -447,6 +447,19 @@ TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
   EXPECT_TRUE(ran.ok()) << ran.error_message();
 }
 
+// An Eulerian advection on 4096 x 4096 nodes (seconds to lay out its start on the host, about two a step
+// on the two cores) under a 0.5 s deadline: squalld stops within a second of the deadline, while it lays
+// out the start, and frees what it holds.
+TEST(TexturesService, AnExpiredAdvectionStopsUsingTheCores) {
+  v1::AdvectTextureRequest r = noise_request(50);
+  r.set_method(v1::TEXTURE_METHOD_EULERIAN_MULTILAYER);
+  r.mutable_eulerian()->set_grid_nx(4096);
+  r.mutable_eulerian()->set_grid_ny(4096);
+  const grpc::Status expired = advect(r, daemon().address(), 0.5).status;
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
+  expect_daemon_stops("advecting the expired texture");
+}
+
 // FINAL_FUNCTION_LUT (LTA11 sec. 3.2): a 3-channel table and a 3 x 2 scalar field give planes final_0..2
 // equal to the engine's; a NaN entry, a LUT band shaping and a mis-sized field name their fields.
 TEST(TexturesService, LookupFinalFunctionMatchesTheEngine) {
