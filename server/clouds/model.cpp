@@ -102,6 +102,11 @@ std::vector<MeshPiece> check_mesh(const std::string& f, const TriangleMesh& m, d
       fail(Code::InvalidArgument, f + ".triangles[" + std::to_string(k) + "] = " + std::to_string(m.triangles[k]) +
                                       " is out of range (" + std::to_string(m.vertices.size()) + " vertices)");
   std::vector<MeshPiece> pieces = mesh_pieces(m);
+  for (const MeshPiece& piece : pieces)
+    if (piece.border_from >= 0)
+      fail(Code::InvalidArgument, f + " is not closed: the edge from " + vertex_path(f, m, size_t(piece.border_from)) +
+                                      " to " + vertex_path(f, m, size_t(piece.border_to)) +
+                                      " borders an odd number of triangles (a closed mesh has every edge in two)");
   double volume = 0, area = 0;  // the pieces' together
   for (const MeshPiece& piece : pieces) volume += piece.volume, area += piece.area;
   double scale = std::sqrt(area);
@@ -190,8 +195,15 @@ void mark_convex(const TriangleMesh& m, const std::vector<size_t>& piece_of, con
       if (outward * dot(n, to) > 1e-9 * std::sqrt(dot(n, n) * dot(to, to))) bent[i] = true;
     }
   }
-  for (const auto& [key, e] : edges)
+  // Each piece's border edge of the smallest key, so that the same mesh is always refused naming the same one.
+  auto key_of = [](const MeshPiece& p) { return uint64_t(p.border_from) << 32 | uint64_t(p.border_to); };
+  for (const auto& [key, e] : edges) {
     if (e.uses != 2) bent[piece_of[e.triangle]] = true;
+    const uint32_t u = uint32_t(key >> 32), v = uint32_t(key);
+    if (e.uses % 2 == 0 || u == v) continue;  // (u, u), of a triangle with a repeated vertex, is no edge
+    MeshPiece& piece = pieces[piece_of[e.triangle]];
+    if (piece.border_from < 0 || key < key_of(piece)) piece.border_from = u, piece.border_to = v;
+  }
   std::vector<size_t> seen(m.vertices.size(), SIZE_MAX);  // the piece that counted the vertex
   for (size_t t = 0; t < piece_of.size(); ++t)
     for (int k = 0; k < 3; ++k)

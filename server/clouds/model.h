@@ -108,6 +108,9 @@ struct MeshPiece {
   double volume = 0, area = 0;
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
   bool convex = false;
+  // An edge of the piece in an odd number of triangles (a border: the piece is open there), as its two
+  // vertex indices; -1 when every edge is in an even number.
+  int64_t border_from = -1, border_to = -1;
 };
 // The pieces of a mesh whose triangle indices are in range.
 std::vector<MeshPiece> mesh_pieces(const TriangleMesh& mesh);

@@ -79,6 +79,22 @@ TEST(Errors, DegenerateMeshIsRejected) {
   expect_error([&] { build_cloud(m); }, Code::InvalidArgument, "model.meshes[0].triangles[4] = 9 is out of range");
 }
 
+// A mesh with a hole (a cube without its top's two triangles) would give part of a cloud, as OpenVDB fills
+// what it can tell is inside: refused naming an edge of the hole, the same one each time; closed, it builds.
+TEST(Errors, AnOpenMeshIsRefusedNamingAnEdgeOfItsHole) {
+  CloudModel m = sphere_model();
+  TriangleMesh cube;
+  cube.vertices = {{-2, -2, -2}, {2, -2, -2}, {2, 2, -2}, {-2, 2, -2}, {-2, -2, 2}, {2, -2, 2}, {2, 2, 2}, {-2, 2, 2}};
+  cube.triangles = {0, 2, 1, 0, 3, 2, 0, 1, 5, 0, 5, 4, 1, 2, 6, 1, 6, 5,
+                    2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7, 4, 5, 6, 4, 6, 7};  // the last two: the top, z = 2
+  m.meshes.push_back(cube);
+  EXPECT_GT(build_cloud(m).stats.active_voxels, 0u);
+  m.meshes[0].triangles.resize(30);
+  expect_error([&] { build_cloud(m); }, Code::InvalidArgument,
+               "model.meshes[0] is not closed: the edge from model.meshes[0].vertices[12..14] to "
+               "model.meshes[0].vertices[15..17] borders an odd number of triangles");
+}
+
 // The advection dilates the density by twice the field's top speed (sqrt(3) speed) times the time, along
 // each axis: a 1 m sphere carried at 100 m/s for 1 s becomes a working grid some 690 voxels across
 // (3e8 voxels), which the estimate refuses up front rather than after building it (it counted 2.4e7).
