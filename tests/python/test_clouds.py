@@ -7,12 +7,14 @@ from __future__ import annotations
 import math
 import re
 import struct
+from typing import Any
 
 import grpc
 import numpy as np
 import pytest
 
 import squall
+from squall._calls import propose_session_id
 from squall.v1 import clouds_pb2, clouds_pb2_grpc
 
 from conftest import Daemon
@@ -119,6 +121,38 @@ def test_a_mesh_conversion_stops_at_the_deadline(client: squall.Client, daemon: 
     wait_for(lambda: len(ended.findall(daemon.log())) > before, 60, "the cancelled build's log")
     duration_ms = float(ended.findall(daemon.log())[before])
     assert duration_ms < 6000, duration_ms
+
+
+class _LateReply(grpc.RpcError):
+    """The error a client sees whose deadline passed as squalld's reply was on its way."""
+
+    def code(self) -> grpc.StatusCode:
+        return grpc.StatusCode.DEADLINE_EXCEEDED
+
+    def details(self) -> str:
+        return "Deadline Exceeded"
+
+
+def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -> None:
+    """squalld kept the volume (the build ended in time on its side), but the client's deadline
+    passed before the reply came: the client releases the id it proposed, so no volume waits for
+    its TTL that nobody can name. The call is the real BuildVolume; only its reply is lost."""
+    clouds = client.clouds
+    stub = clouds_pb2_grpc.CloudsStub(client.channel)
+
+    def late_build(request: clouds_pb2.BuildVolumeRequest, timeout: float, metadata: Any) -> None:
+        stub.BuildVolume(request, timeout=60, metadata=metadata)
+        raise _LateReply()
+
+    proposed = propose_session_id("cloud-")
+    request = squall.clouds.build_request(cloud(), keep=True, return_vdb=False, request=None)
+    undo = squall.clouds.release_call(stub, proposed)
+    with pytest.raises(squall.SquallError) as lost:
+        clouds._connection.create("Clouds.BuildVolume", late_build, request, 60, proposed, undo)
+    assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
+    with pytest.raises(squall.SquallError) as gone:
+        clouds.release(proposed)
+    assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the kept volume is still stored"
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

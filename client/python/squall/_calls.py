@@ -77,6 +77,13 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     return [("grpc.enable_retries", 1), ("grpc.service_config", json.dumps(config))]
 
 
+# A creating call the client gave up on, and what undoes it: (method name, function, request) of
+# the closing call for the proposed id, sent with UNDO_TIMEOUT.
+ABANDONED = (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED)
+UNDO_TIMEOUT = 5.0
+Undo = Tuple[str, Callable[..., Any], Any]
+
+
 def propose_session_id(prefix: str = "") -> str:
     """A fresh session id for a call that creates a session: sent as x-squall-session, it routes
     the creating call through a session-affine proxy like the session's later calls (squalld takes
@@ -199,6 +206,29 @@ class Connection:
             )
         except grpc.RpcError as error:
             raise SquallError.from_rpc(error, method) from None
+
+    def create(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float],
+        proposed: str,
+        undo: "Undo",
+    ) -> Any:
+        """A call that creates a session under the `proposed` id. When the client gives up on it
+        (its deadline passes, it is cancelled) squalld may have made the session all the same,
+        which nothing would then close: `undo` (the closing call) is sent for the proposed id,
+        best effort, before the error is raised."""
+        try:
+            return self.unary(method, function, request, timeout, session=proposed)
+        except SquallError as error:
+            if error.code in ABANDONED:
+                try:
+                    self.unary(*undo, UNDO_TIMEOUT, session=proposed)
+                except SquallError:
+                    pass  # never made, or squalld unreachable: its TTL ends it
+            raise
 
     def stream(
         self,

@@ -49,9 +49,12 @@ from squall import ewave as _ewave
 from squall import ocean as _ocean
 from squall import textures as _textures
 from squall._calls import (
+    ABANDONED,
     DEFAULT_ADDRESS,
     RUN_AHEAD,
+    UNDO_TIMEOUT,
     Settings,
+    Undo,
     address_of,
     propose_session_id,
     resolve_token,
@@ -117,6 +120,26 @@ class Connection:
             )
         except grpc.RpcError as error:
             raise SquallError.from_rpc(error, method) from None
+
+    async def create(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float],
+        proposed: str,
+        undo: Undo,
+    ) -> Any:
+        """squall._calls.Connection.create, awaited."""
+        try:
+            return await self.unary(method, function, request, timeout, session=proposed)
+        except SquallError as error:
+            if error.code in ABANDONED:
+                try:
+                    await self.unary(*undo, UNDO_TIMEOUT, session=proposed)
+                except SquallError:
+                    pass  # never made, or squalld unreachable: its TTL ends it
+            raise
 
     def stream(
         self,
@@ -477,8 +500,13 @@ class EWave:
         proposed = propose_session_id()
 
         async def create() -> EWaveSession:
-            response = await self._connection.unary(
-                "EWave.CreateSession", self._rpc.CreateSession, request, timeout, session=proposed
+            response = await self._connection.create(
+                "EWave.CreateSession",
+                self._rpc.CreateSession,
+                request,
+                timeout,
+                proposed,
+                _ewave.close_call(self._rpc, proposed),
             )
             return EWaveSession(self, response)
 
@@ -487,10 +515,12 @@ class EWave:
     async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session continuing a state snapshot."""
         request = _ewave.restore_request(state)
+        proposed = propose_session_id()
+        undo = _ewave.close_call(self._rpc, proposed)
         return EWaveSession(
             self,
-            await self._connection.unary(
-                "EWave.Restore", self._rpc.Restore, request, timeout, session=propose_session_id()
+            await self._connection.create(
+                "EWave.Restore", self._rpc.Restore, request, timeout, proposed, undo
             ),
         )
 
@@ -520,11 +550,17 @@ class Clouds:
     ) -> Volume:
         """Builds a volume (summary, .vdb bytes or file if asked, id if kept)."""
         message = _clouds.build_request(cloud, keep, return_vdb or path is not None, request)
-        proposed = propose_session_id("cloud-") if message.keep else None
-        response = await self._connection.unary(
-            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, session=proposed
-        )
-        return _clouds.volume_of(response, message.return_vdb, path)
+        if message.keep:
+            proposed = propose_session_id("cloud-")
+            undo = _clouds.release_call(self._rpc, proposed)
+            build = self._connection.create(
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, proposed, undo
+            )
+        else:
+            build = self._connection.unary(
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
+            )
+        return _clouds.volume_of(await build, message.return_vdb, path)
 
     async def render(
         self,

@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
-from squall._calls import Connection, Stream, propose_session_id
+from squall._calls import Connection, Stream, Undo, propose_session_id
 from squall._convert import (
     UINT32_MAX,
     enum_value,
@@ -331,6 +331,12 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
     return message.volume_id if message.WhichOneof("source") == "volume_id" else None
 
 
+def release_call(rpc: Any, volume_id: str) -> Undo:
+    """The ReleaseVolume call of `volume_id` (rpc: the Clouds stub), for Connection.create."""
+    request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
+    return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)
+
+
 def build_request(
     cloud: Optional[ModelLike],
     keep: bool,
@@ -456,10 +462,16 @@ class Clouds:
         """
         want_vdb = return_vdb or path is not None
         message = build_request(cloud, keep, want_vdb, request)
-        proposed = propose_session_id("cloud-") if message.keep else None
-        response = self._connection.unary(
-            "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, session=proposed
-        )
+        if message.keep:
+            proposed = propose_session_id("cloud-")
+            undo = release_call(self._rpc, proposed)
+            response = self._connection.create(
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, proposed, undo
+            )
+        else:
+            response = self._connection.unary(
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout
+            )
         return volume_of(response, message.return_vdb, path)
 
     def render(

@@ -23,7 +23,7 @@ from typing import Any, Callable, Dict, Iterable, Mapping, Optional, Sequence, T
 import grpc
 import numpy as np
 
-from squall._calls import Connection, RequestFeeder, Stream, propose_session_id
+from squall._calls import Connection, RequestFeeder, Stream, Undo, propose_session_id
 from squall._convert import (
     UINT32_MAX,
     UINT64_MAX,
@@ -341,6 +341,12 @@ def unary_step_request(
     )
 
 
+def close_call(rpc: Any, session_id: str) -> Undo:
+    """The CloseSession call of `session_id` (rpc: the EWave stub), for Connection.create."""
+    request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
+    return ("EWave.CloseSession", rpc.CloseSession, request)
+
+
 def restore_request(state: Any) -> ewave_pb2.EWaveRestoreRequest:
     """The Restore of `state`: the bytes of a ``state()`` snapshot, or any buffer of them (a
     number, which bytes() makes that many zero bytes, is a TypeError)."""
@@ -526,20 +532,20 @@ class EWave:
         """Creates a session (CreateSession) from an EWaveConfig, or from the keyword arguments
         of ``squall.ewave.config`` (nx, ny, dx, ...). A ``with`` block closes it at the end."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=as_config(config, **kwargs))
-        response = self._connection.unary(
-            "EWave.CreateSession",
-            self._rpc.CreateSession,
-            request,
-            timeout,
-            session=propose_session_id(),
+        proposed = propose_session_id()
+        undo = close_call(self._rpc, proposed)
+        response = self._connection.create(
+            "EWave.CreateSession", self._rpc.CreateSession, request, timeout, proposed, undo
         )
         return EWaveSession(self, response)
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session (new id) continuing a ``state()`` snapshot bit-identically (Restore)."""
         request = restore_request(state)
-        response = self._connection.unary(
-            "EWave.Restore", self._rpc.Restore, request, timeout, session=propose_session_id()
+        proposed = propose_session_id()
+        undo = close_call(self._rpc, proposed)
+        response = self._connection.create(
+            "EWave.Restore", self._rpc.Restore, request, timeout, proposed, undo
         )
         return EWaveSession(self, response)
 
