@@ -92,6 +92,8 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
 }
 
 RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {
+  // Unset, the camera would stand at the point it looks at: say what is missing instead.
+  if (!s.has_camera()) fail(Code::InvalidArgument, f + ".camera is unset: a render needs its eye, look_at and size");
   RenderSettings out;
   const auto& c = s.camera();
   out.camera.eye = vec(c.eye());

@@ -1396,6 +1396,8 @@ CASES += [
 R = "Clouds.Render"
 CAM = "settings.camera"
 CASES += [
+    bad(R, "settings_unset", drop("settings"), "settings.camera is unset"),
+    bad(R, "camera_unset", drop("settings.camera"), "settings.camera is unset"),
     bad(R, "width_zero", put(f"{CAM}.width", 0), f"{CAM}.width"),
     bad(R, "width_8193", put(f"{CAM}.width", 8193), f"{CAM}.width"),
     bad(R, "width_uint32_max", put(f"{CAM}.width", U32), f"{CAM}.width = {U32} "),  # as sent
@@ -1516,6 +1518,7 @@ CASES += [
 
 R = "Clouds.StreamEvolution"
 CASES += [
+    bad(R, "settings_unset", drop("settings"), "settings.camera is unset"),
     bad(R, "no_times", put("times", []), "times"),
     bad(R, "time_nan", put("times[1]", NAN), "times[1]"),
     bad(R, "times_1001", put("times", [0.0] * 1001), "times"),
