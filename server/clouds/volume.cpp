@@ -11,12 +11,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <sstream>
 
 #include "clouds/advection.h"
 #include "common/error.h"
+#include "common/fnv1a.h"
 #include "common/validate.h"
 
 namespace squall::clouds {
@@ -139,13 +142,47 @@ VolumeStats volume_stats(const FloatGrid& density) {
   return s;
 }
 
+namespace {
+
+// OpenVDB's stream header (io::Archive::writeHeader): the magic number (8 bytes), the file version and the
+// library's major and minor versions (4 each), whether grid offsets follow (1), then a random UUID as 36
+// characters, "xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx".
+constexpr size_t kUuidAt = 21, kUuidLength = 36;
+
+bool is_uuid_text(std::string_view text) {
+  if (text.size() != kUuidLength) return false;
+  for (size_t k = 0; k < kUuidLength; ++k)
+    if (k == 8 || k == 13 || k == 18 || k == 23 ? text[k] != '-' : !std::isxdigit(static_cast<unsigned char>(text[k])))
+      return false;
+  return true;
+}
+
+// Replaces the stream's random UUID by one made of its grids' bytes (two FNV-1a fingerprints), so that the
+// same volume is always the same bytes; a header laid out otherwise is left as it is.
+void derive_uuid(std::string& vdb) {
+  if (vdb.size() < kUuidAt + kUuidLength || !is_uuid_text(std::string_view(vdb).substr(kUuidAt, kUuidLength))) return;
+  const char* rest = vdb.data() + kUuidAt + kUuidLength;
+  const size_t count = vdb.size() - kUuidAt - kUuidLength;
+  const uint64_t halves[2] = {fnv1a(kFnv1aOffsetBasis, rest, count), fnv1a(~kFnv1aOffsetBasis, rest, count)};
+  char hex[33];
+  std::snprintf(hex, sizeof hex, "%016llx%016llx", (unsigned long long)halves[0], (unsigned long long)halves[1]);
+  const std::string digits(hex);
+  const std::string uuid = digits.substr(0, 8) + "-" + digits.substr(8, 4) + "-" + digits.substr(12, 4) + "-" +
+                           digits.substr(16, 4) + "-" + digits.substr(20, 12);
+  vdb.replace(kUuidAt, kUuidLength, uuid);
+}
+
+}  // namespace
+
 std::string write_vdb(const CloudVolume& volume) {
   initialize_openvdb();
   openvdb::GridCPtrVec grids{volume.density};
   if (volume.temperature) grids.push_back(volume.temperature);
   std::ostringstream bytes(std::ios::binary);
   openvdb::io::Stream(bytes).write(grids);
-  return bytes.str();
+  std::string vdb = bytes.str();
+  derive_uuid(vdb);
+  return vdb;
 }
 
 CloudVolume read_vdb(const std::string& bytes, const std::string& field) {

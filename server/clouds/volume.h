@@ -73,7 +73,8 @@ openvdb::FloatGrid::Ptr temperature_field(const openvdb::FloatGrid& density, con
 CloudVolume combine_max(const CloudVolume& a, const CloudVolume& b);
 
 VolumeStats volume_stats(const openvdb::FloatGrid& density);
-// The grids as a .vdb file's bytes (what OpenVDB's tools read).
+// The grids as a .vdb file's bytes (what OpenVDB's tools read); the same volume, the same bytes (the
+// header's UUID is made of the grids' bytes).
 std::string write_vdb(const CloudVolume& volume);
 // The grids of write_vdb's bytes back, with their stats; INVALID_ARGUMENT naming `field` when the bytes
 // are no .vdb stream or hold no float grid named "density".

@@ -287,8 +287,8 @@ TEST(Model, ThousandCubedBoundsStaySparse) {
   EXPECT_LT(s.fill_ratio(), 2e-3);
 }
 
-// read_vdb gives back write_vdb's grids, refuses damaged bytes, and leaves no temporary file either way
-// (OpenVDB's delayed loading copies a stream to one first).
+// write_vdb writes the same bytes for the same volume; read_vdb gives its grids back, refuses damaged
+// bytes, and leaves no temporary file either way (OpenVDB's delayed loading copies a stream to one first).
 TEST(Model, VdbBytesReadBackWithNoTemporaryFile) {
   auto temporary_files = [] {
     size_t n = 0;
@@ -301,6 +301,7 @@ TEST(Model, VdbBytesReadBackWithNoTemporaryFile) {
   m.spheres.push_back({{0, 0, 0}, 3});
   const CloudVolume v = build_cloud(m);
   const std::string bytes = write_vdb(v);
+  EXPECT_EQ(write_vdb(build_cloud(m)), bytes) << "the same volume is the same bytes, its header's UUID too";
   const size_t before = temporary_files();
   EXPECT_EQ(read_vdb(bytes, "payload").density->activeVoxelCount(), v.density->activeVoxelCount());
   for (const std::string& damaged : {bytes.substr(0, bytes.size() / 2), std::string(), std::string(100, 'x')}) {
