@@ -142,6 +142,11 @@ class SessionRegistry {
     return written;
   }
 
+  // Sessions that a checkpoint pass releasing them (a drain) could not write: they resume elsewhere from their
+  // last checkpoint, and what they did since is lost.
+  void count_unsaved() { ++unsaved_; }
+  size_t unsaved() const { return unsaved_; }
+
   // "Alive now": this replica's heartbeat (none without a state directory). Throws Error(Unavailable) when
   // it cannot be written.
   void heartbeat() const {
@@ -224,6 +229,7 @@ class SessionRegistry {
   // the latest try failed.
   mutable std::atomic<std::chrono::steady_clock::rep> last_beat_{0};
   mutable std::atomic<bool> beat_failing_{false};
+  std::atomic<size_t> unsaved_{0};
   std::mutex mutex_;         // one checkpoint pass or handover beat at a time; stores_ changes under it too
   std::mutex stores_mutex_;  // stores_ for holds(), which takes no other lock of the registry
   std::map<size_t, Store> stores_;

@@ -241,6 +241,7 @@ class SessionStore {
             release ? "; released: it resumes elsewhere from its last checkpoint" : "");
         if (release) {  // let go all the same: another replica resumes it at once, not once this one exits
           policy_.registry->release(id);
+          policy_.registry->count_unsaved();
           entry->released = true;
         }
       }

@@ -408,8 +408,13 @@ int run_daemon(const DaemonOptions& options) {
   drain(*daemon, *server, health, checkpoints, options);
   if (options.runtime.profile_kernels)
     log(LogLevel::Info, "device time per kernel:\n", format_kernel_timings(daemon->runtime.kernel_timings()));
+  const size_t unsaved = daemon->sessions.unsaved();
+  if (unsaved > 0)
+    log(LogLevel::Error, unsaved,
+        " sessions could not be checkpointed: they resume elsewhere from their last "
+        "checkpoint, and what they did since is lost (exit code 5)");
   log(LogLevel::Info, "stopped");
-  return kExitOk;
+  return unsaved > 0 ? kExitUnsaved : kExitOk;
 }
 
 }  // namespace squall::rpc

@@ -14,6 +14,8 @@ enum ExitCode {
   kExitUsage = 2,        // bad flags, or no device matches --device
   kExitListen = 3,       // the address could not be bound
   kExitOverran = 4,      // on SIGTERM, a call outlived --grace-period + --shutdown-bound: the watchdog ended it
+  kExitUnsaved = 5,      // on SIGTERM, sessions could not be checkpointed (each logged): they resume elsewhere
+                         // from their last checkpoint, what they did since is lost
 };
 
 int run_daemon(const DaemonOptions& options);

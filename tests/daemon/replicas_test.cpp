@@ -1,11 +1,13 @@
 // squalld replicas sharing a --state-dir, no proxy: each names itself on every response; an eWave
 // session created under a client-proposed id survives its replica's SIGTERM and continues on another
 // replica bit for bit, and moves again to a joining replica by handover; a stored cloud volume renders
-// the same image after its move; flags from SQUALL_* variables; an unwritable kernel cache is named.
+// the same image after its move; flags from SQUALL_* variables; an unwritable kernel cache is named; a drain
+// that cannot checkpoint its sessions exits 5.
 #include <gtest/gtest.h>
 #include <signal.h>
 
 #include <atomic>
+#include <filesystem>
 #include <thread>
 #include <vector>
 
@@ -72,6 +74,20 @@ grpc::Status step(Replica& r, const std::string& id, int n, std::string* height,
   if (status.ok()) *height = frame.fields(0).SerializeAsString();
   if (replica) *replica = metadata(*context, "x-squall-replica");
   return status;
+}
+
+// A drain whose checkpoints cannot be written (the state directory moved away under the replica) loses
+// what its sessions did since their last checkpoint: each is logged, and squalld exits 5, not 0.
+TEST(Replicas, ADrainThatCannotCheckpointItsSessionsExitsFive) {
+  const std::string root = test::temp_dir("replicas-unsaved"), state = root + "/state";
+  Replica a("replica-a", state);
+  v1::EWaveSessionResponse created;
+  ASSERT_TRUE(
+      a.ewave->CreateSession(a.client.context(client::propose_session_id()).get(), create_request(), &created).ok());
+  std::filesystem::rename(state, root + "/moved");
+  a.daemon.process().signal(SIGTERM);
+  EXPECT_EQ(a.daemon.process().wait(30), 5) << a.daemon.process().log();
+  EXPECT_NE(a.daemon.process().log().find("1 sessions could not be checkpointed"), std::string::npos);
 }
 
 TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {
