@@ -72,7 +72,7 @@ std::string decode_checkpoint(const std::string& data, const std::string& kind, 
   const size_t sealed = data.size() - sizeof(uint64_t);
   ByteReader stored(std::string_view(data).substr(sealed), field, "a session checkpoint");
   if (stored.get<uint64_t>("the checksum") != fnv1a(kFnv1aOffsetBasis, data.data(), sealed))
-    in.reject("its checksum does not match its bytes: it was damaged after it was written");
+    fail(Code::InvalidArgument, field + " is damaged: its checksum does not match its bytes");
   return std::string(payload);
 }
 

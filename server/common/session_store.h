@@ -506,7 +506,9 @@ class SessionStore {
       } catch (const Error& e) {  // the file's fault, never the request's
         if (e.code() != Code::InvalidArgument) throw;
         fail(Code::DataLoss,
-             kind_ + " " + id + "'s checkpoint in the state directory cannot be read by this squalld: " + e.what());
+             kind_ + " " + id +
+                 "'s checkpoint in the state directory is damaged or of a format this squalld does not read: " +
+                 e.what());
       }
       log(LogLevel::Info, kind_, " ", id, " resumed from the state directory");
     } catch (...) {

@@ -154,7 +154,7 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
   for (size_t at : {saved.size() - 9, size_t(30), saved.size() - 1}) {
     std::string damaged = saved;
     damaged[at] ^= 1;
-    expect_error(Code::InvalidArgument, "its checksum does not match its bytes",
+    expect_error(Code::InvalidArgument, "state is damaged: its checksum does not match its bytes",
                  [&] { s.open_checkpoint(damaged, "state", 7, &header); });
   }
   // A checkpoint of a squalld before checksums (its version without kChecksummed) is read as it is.

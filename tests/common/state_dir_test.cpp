@@ -142,10 +142,10 @@ TEST(StateDir, AnUnreadableCheckpointIsDataLoss) {
   const std::string dir = test::temp_dir("state-damaged");
   put(dir + "/" + kId + ".session", "not a checkpoint");
   Replica a(dir, "a");
-  expect_error(Code::DataLoss,
-               "counter " + kId + "'s checkpoint in the state directory cannot be read by this squalld: ", [&] {
-                 a.store.get(kId);
-               });
+  expect_error(
+      Code::DataLoss,
+      "counter " + kId + "'s checkpoint in the state directory is damaged or of a format this squalld does not read: ",
+      [&] { a.store.get(kId); });
 }
 
 TEST(StateDir, ALiveOwnerIsAskedToHandTheSessionOverInsteadOfAStaleResume) {
