@@ -7,6 +7,7 @@
 
 #include "common/disjoint_sets.h"
 #include "common/error.h"
+#include "common/fnv1a.h"
 #include "common/validate.h"
 
 namespace squall::clouds {
@@ -211,9 +212,32 @@ void mark_convex(const TriangleMesh& m, const std::vector<size_t>& piece_of, con
   for (size_t i = 0; i < pieces.size(); ++i) pieces[i].convex = !bent[i] && euler[i] == 2 && signed_volume[i] != 0;
 }
 
-}  // namespace
+// The mesh with each triangle's vertices named by the first vertex at their position: exporters split a
+// vertex along seams of texture coordinates or normals, which leaves a surface closed by its positions open by
+// its indices.
+TriangleMesh welded(const TriangleMesh& m) {
+  struct Hash {
+    size_t operator()(const Vec3d& v) const {
+      uint64_t h = kFnv1aOffsetBasis;
+      for (double c : v) {
+        c += 0.0;  // -0 as +0: equal positions, equal hashes
+        h = fnv1a(h, &c, sizeof c);
+      }
+      return size_t(h);
+    }
+  };
+  std::unordered_map<Vec3d, uint32_t, Hash> first;
+  first.reserve(m.vertices.size());
+  std::vector<uint32_t> canonical(m.vertices.size());
+  for (size_t k = 0; k < m.vertices.size(); ++k)
+    canonical[k] = first.try_emplace(m.vertices[k], uint32_t(k)).first->second;
+  TriangleMesh w{m.vertices, {}, m.from_obj};
+  w.triangles.reserve(m.triangles.size());
+  for (uint32_t t : m.triangles) w.triangles.push_back(canonical[t]);
+  return w;
+}
 
-std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
+std::vector<MeshPiece> pieces_of(const TriangleMesh& m) {
   size_t count = 0;
   const std::vector<size_t> piece_of = piece_of_triangles(m, &count);
   std::vector<MeshPiece> pieces(count);
@@ -240,6 +264,10 @@ std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) {
   mark_convex(m, piece_of, signed_volume, pieces);
   return pieces;
 }
+
+}  // namespace
+
+std::vector<MeshPiece> mesh_pieces(const TriangleMesh& m) { return pieces_of(welded(m)); }
 
 double validate(const CloudModel& m, const std::string& prefix, std::vector<MeshPiece>* mesh_pieces) {
   const std::string& f = prefix;

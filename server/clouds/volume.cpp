@@ -157,13 +157,15 @@ bool is_uuid_text(std::string_view text) {
   return true;
 }
 
-// Replaces the stream's random UUID by one made of its grids' bytes (two FNV-1a fingerprints), so that the
-// same volume is always the same bytes; a header laid out otherwise is left as it is.
+// Replaces the stream's random UUID by one made of its grids' bytes (their FNV-1a fingerprint, and that
+// fingerprint's own with the byte count), so that the same volume is always the same bytes; a header laid
+// out otherwise is left as it is.
 void derive_uuid(std::string& vdb) {
   if (vdb.size() < kUuidAt + kUuidLength || !is_uuid_text(std::string_view(vdb).substr(kUuidAt, kUuidLength))) return;
   const char* rest = vdb.data() + kUuidAt + kUuidLength;
   const size_t count = vdb.size() - kUuidAt - kUuidLength;
-  const uint64_t halves[2] = {fnv1a(kFnv1aOffsetBasis, rest, count), fnv1a(~kFnv1aOffsetBasis, rest, count)};
+  const uint64_t first = fnv1a(kFnv1aOffsetBasis, rest, count), tail[2] = {first, uint64_t(count)};
+  const uint64_t halves[2] = {first, fnv1a(kFnv1aOffsetBasis, tail, sizeof tail)};
   char hex[33];
   std::snprintf(hex, sizeof hex, "%016llx%016llx", (unsigned long long)halves[0], (unsigned long long)halves[1]);
   const std::string digits(hex);

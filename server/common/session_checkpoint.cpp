@@ -39,7 +39,10 @@ std::string new_session_id(const std::string& prefix) {
 }
 
 std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload) {
-  ByteWriter out;
+  std::string room;  // the whole checkpoint's, so that no append moves the payload
+  room.reserve(sizeof kMagic + 3 * sizeof(uint32_t) + header.kind.size() + header.id.size() + payload.size() +
+               2 * sizeof(uint64_t));
+  ByteWriter out(std::move(room));
   out.put_bytes(std::string_view(kMagic, sizeof kMagic));
   put_string(out, header.kind);
   out.put(header.version | kChecksummed);

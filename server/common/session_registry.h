@@ -44,9 +44,10 @@ class SessionRegistry {
       : state_dir_(std::move(state_dir)), replica_(std::move(replica)), owner_timeout_(owner_timeout) {}
 
   // Before this replica takes calls: waits (up to twice the owner timeout) for the heartbeat of a former
-  // process under its name to stop, then clears the ownership that process left (files that another
-  // replica has claimed since are left to it) and beats. Throws std::runtime_error when that heartbeat goes
-  // on: another live squalld has this --replica-id.
+  // process under its name to stop, beats, then clears the ownership that process left (files that another
+  // replica has claimed since are left to it). Throws std::runtime_error when that heartbeat goes on (another
+  // live squalld has this --replica-id), and Error(Unavailable) when this one's cannot be written, before
+  // any ownership is touched.
   void begin() {
     if (!state_dir_) return;
     const auto deadline = std::chrono::steady_clock::now() + 2 * owner_timeout_;
@@ -56,8 +57,8 @@ class SessionRegistry {
                                  ": give each replica its own --replica-id");
       std::this_thread::sleep_for(owner_timeout_ / 20);
     }
-    state_dir_->clear_ownership_of(replica_);
     heartbeat();
+    state_dir_->clear_ownership_of(replica_);
   }
 
   const StateDir* state_dir() const { return state_dir_.get(); }
@@ -166,12 +167,16 @@ class SessionRegistry {
   // two replicas. Once a beat is written again its sessions are served again (those taken over meanwhile
   // are let go at their next call).
   void require_beating() const {
-    if (!state_dir_ || !beat_failing_) return;
-    const auto last = std::chrono::steady_clock::time_point(std::chrono::steady_clock::duration(last_beat_.load()));
-    if (std::chrono::steady_clock::now() - last > owner_timeout_ / 2)
+    if (!beating())
       fail(Code::Unavailable,
            "this replica cannot write its heartbeat in the state directory (see its log), so "
            "other replicas take its sessions over; retry: another replica serves it");
+  }
+  // False from then on: what require_beating() refuses for (health turns NOT_SERVING too).
+  bool beating() const {
+    if (!state_dir_ || !beat_failing_) return true;
+    const auto last = std::chrono::steady_clock::time_point(std::chrono::steady_clock::duration(last_beat_.load()));
+    return std::chrono::steady_clock::now() - last <= owner_timeout_ / 2;
   }
 
   // One beat of the daemon's loop: the handover requests for sessions this replica holds (other

@@ -241,8 +241,10 @@ class SessionStore {
             release ? "; released: it resumes elsewhere from its last checkpoint" : "");
         if (release) {  // let go all the same: another replica resumes it at once, not once this one exits
           policy_.registry->release(id);
-          policy_.registry->count_unsaved();
           entry->released = true;
+          // A session with no state to save (broken) loses nothing it had not lost already.
+          const auto* error = dynamic_cast<const Error*>(&e);
+          if (!error || error->code() != Code::FailedPrecondition) policy_.registry->count_unsaved();
         }
       }
     }

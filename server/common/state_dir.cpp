@@ -376,9 +376,10 @@ void StateDir::heartbeat(const std::string& replica) const {
   // replica looks older to the others, as it should.
   const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NONBLOCK, 0600);
   const std::string line = replica + "\n";  // rewriting it moves its time forward
-  const ssize_t written = fd >= 0 ? ::write(fd, line.data(), line.size()) : -1;
-  const int error = errno;
-  if (fd >= 0) ::close(fd);
+  ssize_t written = fd >= 0 ? ::write(fd, line.data(), line.size()) : -1;
+  int error = errno;
+  if (fd >= 0 && ::close(fd) != 0 && written == ssize_t(line.size()))  // a network file system may say so only now
+    written = -1, error = errno;
   if (written != ssize_t(line.size()))
     fail(Code::Unavailable, "state directory: cannot write this replica's heartbeat " + file + ": " +
                                 (written >= 0 ? std::string("a short write") : std::strerror(error)));

@@ -2,13 +2,15 @@
 // budget is nearly spent (at least kFullShare of --memory-budget reserved, what caches keep for the next
 // calls not counted as it is given back to calls that need it: new work would be refused
 // RESOURCE_EXHAUSTED, so balancers should send it elsewhere) and SERVING again once the reservations fall
-// below kFreeShare (the gap keeps it from flapping). Stopped before the daemon drains, which turns health
-// NOT_SERVING for good.
+// below kFreeShare (the gap keeps it from flapping). Also NOT_SERVING while this replica cannot write its
+// heartbeat (SessionRegistry::beating): its sessions answer UNAVAILABLE then, and a balancer that hashes
+// them to it should move them. Stopped before the daemon drains, which turns health NOT_SERVING for good.
 #pragma once
 
 #include <grpcpp/health_check_service_interface.h>
 
 #include "common/limits.h"
+#include "common/session_registry.h"
 #include "daemon/beat.h"
 
 namespace squall::rpc {
@@ -17,16 +19,17 @@ class AdmissionWatch {
  public:
   static constexpr double kFullShare = 0.9, kFreeShare = 0.8;
 
-  AdmissionWatch(const LimitGate& gate, grpc::HealthCheckServiceInterface& health);
+  AdmissionWatch(const LimitGate& gate, const SessionRegistry& sessions, grpc::HealthCheckServiceInterface& health);
   void stop() { beat_.stop(); }
 
  private:
   void tick();
 
   const LimitGate& gate_;
+  const SessionRegistry& sessions_;
   grpc::HealthCheckServiceInterface& health_;
-  bool admitting_ = true;  // touched by the beat's thread only
-  Beat beat_;              // last: it starts ticking once the members above exist
+  bool memory_free_ = true, serving_ = true;  // touched by the beat's thread only
+  Beat beat_;                                 // last: it starts ticking once the members above exist
 };
 
 }  // namespace squall::rpc

@@ -398,7 +398,7 @@ int run_daemon(const DaemonOptions& options) {
   daemon->serving.set_phase(ServingState::Phase::Serving);
   health.SetServingStatus(true);
   log(LogLevel::Info, "SERVING");
-  AdmissionWatch admission(daemon->serving.gate(), health);
+  AdmissionWatch admission(daemon->serving.gate(), daemon->sessions, health);
   Beat sweeper(std::chrono::seconds(1), [&served] { evict_idle_sessions(served); });
 
   int signal_number = wait_for_shutdown(signals, daemon->serving, options);

@@ -21,7 +21,7 @@ namespace squall::ewave {
 enum class DispersionKind { Deep = 0, Shallow = 1, Capillary = 2, Combined = 3 };  // = SQUALL_DISPERSION_*
 
 struct EWaveConfig {
-  int64_t nx = 0, ny = 0;  // cells, >= 1 each (and within --max-grid-cells)
+  int64_t nx = 0, ny = 0;  // cells, 2 .. 2^30 each (and within --max-grid-cells)
   double dx = 0, dy = 0;   // m, > 0
   DispersionKind dispersion = DispersionKind::Deep;
   double gravity = 9.81;              // m/s^2, > 0

@@ -1,6 +1,7 @@
 // A request squalld cannot decode is the client's error: INVALID_ARGUMENT, naming the message it expected.
 // gRPC's synchronous server answers a unary or server-streaming call whose request is not the method's
-// protobuf message (truncated, garbled, wrong type on the wire) or is missing with INTERNAL and no message,
+// protobuf message (truncated, garbled: bytes protobuf's wire format cannot parse) or is missing with
+// INTERNAL and no message,
 // before any handler runs; this server interceptor rewrites that status for squall's own methods and the
 // health service's.
 //

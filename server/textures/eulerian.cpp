@@ -68,10 +68,7 @@ class Eulerian final : public Advection {
         phase_start_.push_back(t0_ - j * schedule_.latencies[i] / schedule_.phases);
     first_start_ = phase_start_;
     if (state.empty()) {
-      std::vector<float> fresh(state_floats());
-      for (int s = 0; s < slots(); ++s) fresh_slot(fresh, s);
-      upload_state(fresh);
-      upload_cascade(std::vector<float>(cascade_floats()));  // w_k = theta_k = 0
+      start_fresh();
     } else {
       restore(state);
     }
@@ -151,7 +148,23 @@ class Eulerian final : public Advection {
     runtime_.queue().enqueueWriteBuffer(offsets_, CL_TRUE, 0, o.size() * sizeof(cl_float2), o.data());
   }
 
-  // u = S x + o, d = 0 at every node of slot s.
+  // Every slot at u = S x + o, d = 0, one slot at a time (one of 4096^2 nodes is 256 MiB on the host), and
+  // the cascade at w_k = theta_k = 0.
+  void start_fresh() {
+    std::vector<float> slot(size_t(nx_) * ny_ * 4);
+    for (int s = 0; s < slots(); ++s) {
+      fresh_slot(slot, s);
+      auto lock = runtime_.exclusive();
+      runtime_.queue().enqueueWriteBuffer(state_, CL_TRUE, size_t(s) * slot.size() * sizeof(float),
+                                          slot.size() * sizeof(float), slot.data());
+    }
+    if (cascade_floats() == 0) return;
+    auto lock = runtime_.exclusive();
+    runtime_.queue().enqueueFillBuffer(cascade_, cl_float(0), 0, cascade_floats() * sizeof(float));
+    runtime_.queue().finish();
+  }
+
+  // u = S x + o, d = 0 at every node of slot s, into `values` (one slot's).
   void fresh_slot(std::vector<float>& values, int s) const {
     OutputGrid out = inputs_->output(1);
     double hx = out.pixel_x * out.width / (nx_ - 1), hy = out.pixel_y * out.height / (ny_ - 1);
@@ -159,7 +172,7 @@ class Eulerian final : public Advection {
     for (int j = 0; j < ny_; ++j) {
       if (j % 256 == 0) cancel_.check("the advection's start");  // a slot of 4096^2 nodes takes about 1 s
       for (int i = 0; i < nx_; ++i) {
-        float* q = &values[4 * ((size_t(s) * ny_ + j) * nx_ + i)];
+        float* q = &values[4 * (size_t(j) * nx_ + i)];
         q[0] = float(scale_ * (out.x0 + i * hx)) + o.s[0];
         q[1] = float(scale_ * (out.y0 + j * hy)) + o.s[1];
         q[2] = q[3] = 0;

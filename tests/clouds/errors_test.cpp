@@ -80,7 +80,8 @@ TEST(Errors, DegenerateMeshIsRejected) {
 }
 
 // A mesh with a hole (a cube without its top's two triangles) would give part of a cloud, as OpenVDB fills
-// what it can tell is inside: refused naming an edge of the hole, the same one each time; closed, it builds.
+// what it can tell is inside: refused naming an edge of the hole, the same one each time; closed, it builds,
+// also where a seam splits vertices at the same positions.
 TEST(Errors, AnOpenMeshIsRefusedNamingAnEdgeOfItsHole) {
   CloudModel m = sphere_model();
   TriangleMesh cube;
@@ -89,6 +90,11 @@ TEST(Errors, AnOpenMeshIsRefusedNamingAnEdgeOfItsHole) {
                     2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7, 4, 5, 6, 4, 6, 7};  // the last two: the top, z = 2
   m.meshes.push_back(cube);
   EXPECT_GT(build_cloud(m).stats.active_voxels, 0u);
+  // The top with corners of its own at the same positions (a seam, as exporters split vertices): closed.
+  m.meshes[0].vertices.insert(m.meshes[0].vertices.end(), {{-2, -2, 2}, {2, -2, 2}, {2, 2, 2}, {-2, 2, 2}});
+  for (size_t k = 30; k < 36; ++k) m.meshes[0].triangles[k] += 4;
+  EXPECT_GT(build_cloud(m).stats.active_voxels, 0u);
+  m.meshes[0] = cube;
   m.meshes[0].triangles.resize(30);
   expect_error([&] { build_cloud(m); }, Code::InvalidArgument,
                "model.meshes[0] is not closed: the edge from model.meshes[0].vertices[12..14] to "

@@ -557,6 +557,7 @@ TEST(StateDir, AReplicaWhoseHeartbeatFailsServesNoSessionPastHalfTheOwnerTimeout
   expect_error(Code::Unavailable, "cannot write its heartbeat",
                [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
   EXPECT_THROW(Replica(dir, "a", now, 200ms), Error) << "a second process under this name cannot beat either";
+  EXPECT_EQ(a.registry.state_dir()->owner(id).value_or("none"), "a") << "and it cleared no ownership first";
   fs::remove(beat);
   a.registry.heartbeat();
   EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "served again once a beat is written";

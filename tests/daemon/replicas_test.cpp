@@ -2,7 +2,7 @@
 // session created under a client-proposed id survives its replica's SIGTERM and continues on another
 // replica bit for bit, and moves again to a joining replica by handover; a stored cloud volume renders
 // the same image after its move; flags from SQUALL_* variables; an unwritable kernel cache is named; a drain
-// that cannot checkpoint its sessions exits 5.
+// that cannot checkpoint its sessions exits 5; one that cannot write its heartbeat turns NOT_SERVING.
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -88,6 +88,35 @@ TEST(Replicas, ADrainThatCannotCheckpointItsSessionsExitsFive) {
   a.daemon.process().signal(SIGTERM);
   EXPECT_EQ(a.daemon.process().wait(30), 5) << a.daemon.process().log();
   EXPECT_NE(a.daemon.process().log().find("1 sessions could not be checkpointed"), std::string::npos);
+}
+
+// A replica that cannot write its heartbeat (its file replaced by a folder) is taken for dead by the others:
+// it answers UNAVAILABLE for its sessions and turns NOT_SERVING, so that a balancer hashing sessions to it
+// moves them; once the heartbeat is written again it serves them and turns SERVING.
+TEST(Replicas, AReplicaThatCannotBeatTurnsNotServingUntilItBeatsAgain) {
+  const std::string state = test::temp_dir("replicas-no-beat");
+  Replica a("replica-a", state);
+  const std::string id = client::propose_session_id();
+  v1::EWaveSessionResponse created;
+  ASSERT_TRUE(a.ewave->CreateSession(a.client.context(id).get(), create_request(), &created).ok());
+  const std::string beat = state + "/replicas/replica-a";
+  std::filesystem::remove(beat);
+  std::filesystem::create_directory(beat);
+  using Status = grpc::health::v1::HealthCheckResponse;
+  auto becomes = [&](Status::ServingStatus want) {
+    for (int i = 0; i < 100 && a.client.health() != want; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return a.client.health() == want;
+  };
+  EXPECT_TRUE(becomes(Status::NOT_SERVING));
+  std::string height;
+  const grpc::Status refused = step(a, id, 0, &height);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("cannot write its heartbeat"), std::string::npos) << refused.error_message();
+  std::filesystem::remove(beat);
+  EXPECT_TRUE(becomes(Status::SERVING));
+  EXPECT_TRUE(step(a, id, 0, &height).ok());
+  EXPECT_NE(a.daemon.process().log().find("cannot write this replica's heartbeat"), std::string::npos);
 }
 
 TEST(Replicas, ASessionMovesToAnotherReplicaOnSigtermAndContinuesBitForBit) {

@@ -12,6 +12,8 @@ import pytest
 
 import squall
 import squall.aio
+from squall._calls import propose_session_id
+from squall.v1 import ewave_pb2
 
 from test_ewave import config, hull_inputs
 from test_ocean import OUTPUTS, small_tile
@@ -126,6 +128,41 @@ def test_closing_a_session_already_gone_is_quiet_and_hides_no_error(daemon) -> N
                 async with aclient.ewave.attach(""):
                     pass
             assert error.value.code == grpc.StatusCode.INVALID_ARGUMENT
+
+    run(main())
+
+
+def test_an_abandoned_creation_closes_the_session_it_proposed(daemon) -> None:
+    """The asyncio client's Connection.create as the sync one's: squalld made the eWave session,
+    the reply was lost to the client's deadline, and the client closes the id it proposed (the call
+    is the real CreateSession; only its reply is lost)."""
+
+    class LateReply(grpc.RpcError):
+        def code(self) -> grpc.StatusCode:
+            return grpc.StatusCode.DEADLINE_EXCEEDED
+
+        def details(self) -> str:
+            return "Deadline Exceeded"
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            rpc = aclient.ewave._rpc
+
+            async def late_create(request: Any, timeout: float, metadata: Any) -> None:
+                await rpc.CreateSession(request, timeout=60, metadata=metadata)
+                raise LateReply()
+
+            proposed = propose_session_id()
+            request = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(**config()))
+            undo = squall.ewave.close_call(rpc, proposed)
+            connection = aclient.ewave._connection
+            with pytest.raises(squall.SquallError) as lost:
+                create = "EWave.CreateSession", late_create, request, 60
+                await connection.create(*create, proposed, undo)
+            assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
+            with pytest.raises(squall.SquallError) as gone:
+                await aclient.ewave.attach(proposed).state()
+            assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the session is still live"
 
     run(main())
 

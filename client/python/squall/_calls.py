@@ -80,7 +80,7 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
 # A creating call the client gave up on, and what undoes it: (method name, function, request) of
 # the closing call for the proposed id, sent with UNDO_TIMEOUT.
 ABANDONED = (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED)
-UNDO_TIMEOUT = 5.0
+UNDO_TIMEOUT = 1.0  # s: what a give-up adds to the call at most
 Undo = Tuple[str, Callable[..., Any], Any]
 
 
@@ -226,8 +226,8 @@ class Connection:
             if error.code in ABANDONED:
                 try:
                     self.unary(*undo, UNDO_TIMEOUT, session=proposed)
-                except SquallError:
-                    pass  # never made, or squalld unreachable: its TTL ends it
+                except Exception:  # never made, squalld unreachable or the client closed: the TTL
+                    pass
             raise
 
     def stream(

@@ -137,8 +137,8 @@ class Connection:
             if error.code in ABANDONED:
                 try:
                     await self.unary(*undo, UNDO_TIMEOUT, session=proposed)
-                except SquallError:
-                    pass  # never made, or squalld unreachable: its TTL ends it
+                except Exception:  # never made, squalld unreachable or the client closed: the TTL
+                    pass
             raise
 
     def stream(
