@@ -172,6 +172,8 @@ class SessionRegistry {
            "this replica cannot write its heartbeat in the state directory (see its log), so "
            "other replicas take its sessions over; retry: another replica serves it");
   }
+  // Whether the latest heartbeat could not be written.
+  bool heartbeat_failing() const { return beat_failing_; }
   // False from then on: what require_beating() refuses for (health turns NOT_SERVING too).
   bool beating() const {
     if (!state_dir_ || !beat_failing_) return true;

@@ -32,16 +32,15 @@ CheckpointLoop::CheckpointLoop(SessionRegistry& registry, std::chrono::milliseco
 }
 
 void CheckpointLoop::beat() {
+  const bool was_failing = registry_.heartbeat_failing();
   try {
     registry_.heartbeat();
-    if (beat_failing_) log(LogLevel::Info, "state directory: the heartbeat is written again");
-    beat_failing_ = false;
+    if (was_failing) log(LogLevel::Info, "state directory: the heartbeat is written again");
   } catch (const std::exception& e) {
-    if (!beat_failing_)
+    if (!was_failing)
       log(LogLevel::Error, e.what(),
           " (the other replicas take this one for dead at the owner timeout; its sessions answer UNAVAILABLE "
           "until a beat is written)");
-    beat_failing_ = true;
   }
 }
 

@@ -35,7 +35,6 @@ class CheckpointLoop {
   void beat();  // logs a heartbeat that fails, once until one is written again
 
   SessionRegistry& registry_;
-  bool beat_failing_ = false;  // the heartbeat's thread only
   const std::chrono::milliseconds interval_, ttl_;
   std::chrono::steady_clock::time_point last_checkpoint_, last_expiry_;  // the beat's thread only
   std::unique_ptr<Beat> heartbeat_, beat_;  // last: they start once the members above exist

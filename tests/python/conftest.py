@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import Any, Iterator, List, Optional
 
+import grpc
 import pytest
 
 import squall
@@ -116,6 +117,16 @@ def _start(flags: List[str], name: str, **client: Any) -> Iterator[Daemon]:
         yield daemon
     finally:
         daemon.stop()
+
+
+class LostReply(grpc.RpcError):
+    """The error a client sees whose deadline passed while squalld's reply was on its way."""
+
+    def code(self) -> grpc.StatusCode:
+        return grpc.StatusCode.DEADLINE_EXCEEDED
+
+    def details(self) -> str:
+        return "Deadline Exceeded"
 
 
 @pytest.fixture(scope="session")

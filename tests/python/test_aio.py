@@ -15,6 +15,7 @@ import squall.aio
 from squall._calls import propose_session_id
 from squall.v1 import ewave_pb2
 
+from conftest import LostReply
 from test_ewave import config, hull_inputs
 from test_ocean import OUTPUTS, small_tile
 
@@ -137,20 +138,13 @@ def test_an_abandoned_creation_closes_the_session_it_proposed(daemon) -> None:
     the reply was lost to the client's deadline, and the client closes the id it proposed (the call
     is the real CreateSession; only its reply is lost)."""
 
-    class LateReply(grpc.RpcError):
-        def code(self) -> grpc.StatusCode:
-            return grpc.StatusCode.DEADLINE_EXCEEDED
-
-        def details(self) -> str:
-            return "Deadline Exceeded"
-
     async def main():
         async with squall.aio.Client(daemon.address) as aclient:
             rpc = aclient.ewave._rpc
 
             async def late_create(request: Any, timeout: float, metadata: Any) -> None:
                 await rpc.CreateSession(request, timeout=60, metadata=metadata)
-                raise LateReply()
+                raise LostReply()
 
             proposed = propose_session_id()
             request = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(**config()))

@@ -17,7 +17,7 @@ import squall
 from squall._calls import propose_session_id
 from squall.v1 import clouds_pb2, clouds_pb2_grpc
 
-from conftest import Daemon
+from conftest import Daemon, LostReply
 from processes import wait_for
 
 W, H = 24, 16
@@ -123,16 +123,6 @@ def test_a_mesh_conversion_stops_at_the_deadline(client: squall.Client, daemon: 
     assert duration_ms < 6000, duration_ms
 
 
-class _LateReply(grpc.RpcError):
-    """The error a client sees whose deadline passed as squalld's reply was on its way."""
-
-    def code(self) -> grpc.StatusCode:
-        return grpc.StatusCode.DEADLINE_EXCEEDED
-
-    def details(self) -> str:
-        return "Deadline Exceeded"
-
-
 def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -> None:
     """squalld kept the volume (the build ended in time on its side), but the client's deadline
     passed before the reply came: the client releases the id it proposed, so no volume waits for
@@ -142,7 +132,7 @@ def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -
 
     def late_build(request: clouds_pb2.BuildVolumeRequest, timeout: float, metadata: Any) -> None:
         stub.BuildVolume(request, timeout=60, metadata=metadata)
-        raise _LateReply()
+        raise LostReply()
 
     proposed = propose_session_id("cloud-")
     request = squall.clouds.build_request(cloud(), keep=True, return_vdb=False, request=None)

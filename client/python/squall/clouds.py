@@ -332,7 +332,8 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 
 
 def release_call(rpc: Any, volume_id: str) -> Undo:
-    """The ReleaseVolume call of `volume_id` (rpc: the Clouds stub), for Connection.create."""
+    """What releases `volume_id`: (method name, the Clouds stub's ReleaseVolume, its request), the
+    `undo` of Connection.create for a kept build."""
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)
 

@@ -342,7 +342,8 @@ def unary_step_request(
 
 
 def close_call(rpc: Any, session_id: str) -> Undo:
-    """The CloseSession call of `session_id` (rpc: the EWave stub), for Connection.create."""
+    """What closes `session_id`: (method name, the EWave stub's CloseSession, its request), the
+    `undo` of Connection.create for a session's creation."""
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
 
