@@ -1,8 +1,7 @@
 // PNanoVDB.h (libnanovdb-dev, embedded by kernels/CMakeLists.txt under "nanovdb/PNanoVDB.h") in OpenCL C.
-// Include this header, never PNanoVDB.h directly. A program that includes it must start with
-//   // squall-build-options: -cl-std=CL2.0
-// because PNanoVDB.h keeps its grid-type tables in program-scope `static const` arrays (OpenCL C 1.2
-// allows only __constant there) and passes pointers to private structs (generic address space).
+// Include this header, never PNanoVDB.h directly. It is OpenCL C 1.2: PNanoVDB.h's pointers are to private
+// structs (unqualified pointers are __private in 1.2), and its program-scope tables are embedded as
+// __constant arrays (kernels/embed.cmake), so no device needs OpenCL C 2.0's generic address space.
 //
 // What this header supplies in place of the libc headers PNanoVDB.h would include (blanked at embed time):
 //   stdint.h: uint32_t, int32_t, uint64_t, int64_t as OpenCL's uint, int, ulong, long;

@@ -1,4 +1,3 @@
-// squall-build-options: -cl-std=CL2.0
 // Device-side checks of the NanoVDB path: exact voxel lookups through PNanoVDB.h.
 #include "clouds/pnanovdb_cl.h"
 

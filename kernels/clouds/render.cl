@@ -1,4 +1,3 @@
-// squall-build-options: -cl-std=CL2.0
 // Cloud ray marcher (appendix A, "The Ray March Algorithm", of J. Tessendorf and M. Kowalski, "Resolution
 // Independent Volumes" (SIGGRAPH course notes 2010/2011), reproduced as App. D of J. Tessendorf, "Gilligan: A
 // Prototype Framework for Simulating and Rendering Maritime Environments" (2017)) over NanoVDB grids read
