@@ -492,10 +492,10 @@ std::vector<std::shared_ptr<KeptShadowMap>> CloudRenderer::kept_maps() {
   return maps;
 }
 
-void CloudRenderer::reclaim(uint64_t bytes) {
+uint64_t CloudRenderer::reclaim(uint64_t bytes) {
   uint64_t freed = 0;
   for (const auto& kept : kept_maps()) {
-    if (freed >= bytes) return;
+    if (freed >= bytes) break;
     std::lock_guard<std::mutex> guard(kept->mutex);
     // A map a render is reading gives nothing back until that render is done: left kept.
     if (!kept->map() || kept->memory.use_count() > 1) continue;
@@ -503,6 +503,7 @@ void CloudRenderer::reclaim(uint64_t bytes) {
     kept->map = cl::Buffer();
     kept->memory.reset(), kept->share = Slot();
   }
+  return freed;
 }
 
 }  // namespace squall::clouds

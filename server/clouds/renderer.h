@@ -166,7 +166,7 @@ class CloudRenderer : public MemoryReclaimer {
                const Cancellation& cancel = {}, const Slot* map_memory = nullptr);
   // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
   // make them again. A map a render is reading now is left kept (its bytes go back only after that render).
-  void reclaim(uint64_t bytes) override;
+  uint64_t reclaim(uint64_t bytes) override;
 
  private:
   struct ShadowMap;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <thread>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -104,6 +105,15 @@ bool LimitGate::memory_room(uint64_t bytes, uint64_t given_back) const {
   return others <= limits_.memory_budget && bytes <= limits_.memory_budget - others;
 }
 
+bool LimitGate::await_memory_room(uint64_t bytes) const {
+  const auto until = std::chrono::steady_clock::now() + kReleaseWait;
+  while (!memory_room(bytes)) {
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(250));
+  }
+  return true;
+}
+
 namespace {
 std::string past_the_budget(const std::string& what, uint64_t bytes) {
   return what + " (" + std::to_string(bytes) + " bytes) would pass the memory budget";
@@ -127,12 +137,16 @@ Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
   constexpr int kAttempts = 3;
   for (int attempt = 1;; ++attempt) {
     if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
-      std::lock_guard<std::mutex> lock(reclaimers_mutex_);
-      for (MemoryReclaimer* cache : reclaimers_) {
-        const uint64_t held = memory_bytes_.load();
-        if (held <= limits_.memory_budget - bytes) break;
-        cache->reclaim(held - (limits_.memory_budget - bytes));
+      uint64_t let_go = 0;
+      {
+        std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+        for (MemoryReclaimer* cache : reclaimers_) {
+          const uint64_t held = memory_bytes_.load();
+          if (held <= limits_.memory_budget - bytes) break;
+          let_go += cache->reclaim(held - (limits_.memory_budget - bytes));
+        }
       }
+      if (let_go > 0) await_memory_room(bytes);  // it may come back from a device runtime's thread
     }
     try {
       return take_memory(what, bytes);

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -61,9 +62,10 @@ class Slot {
 class MemoryReclaimer {
  public:
   virtual ~MemoryReclaimer() = default;
-  // Drops what it keeps, least recently used first, until `bytes` of its memory are given back or it keeps
-  // nothing. Called with no lock of the caller's held.
-  virtual void reclaim(uint64_t bytes) = 0;
+  // Drops what it keeps, least recently used first, until `bytes` of its memory are let go of or it keeps
+  // nothing; the bytes let go of (a device runtime may give them back to the budget later). Called with no
+  // lock of the caller's held.
+  virtual uint64_t reclaim(uint64_t bytes) = 0;
 };
 
 class LimitGate {
@@ -125,6 +127,12 @@ class LimitGate {
   // Whether acquire_memory(bytes) would find room once `given_back` of the bytes held now are given back
   // (a cache's own, which it would drop for them). Other holders may take the room meanwhile.
   bool memory_room(uint64_t bytes, uint64_t given_back = 0) const;
+  // Waits at most kReleaseWait for memory_room(bytes); whether it came. What a cache lets go of may be given
+  // back later, by a device runtime's thread: OpenCL calls a memory object's destructor callback once it has
+  // freed the object's resources (OpenCL 1.2 s5.4.1, clSetMemObjectDestructorCallback), which NVIDIA's
+  // runtime does after clReleaseMemObject has returned.
+  static constexpr auto kReleaseWait = std::chrono::milliseconds(200);
+  bool await_memory_room(uint64_t bytes) const;
 
   uint32_t open_streams() const { return uint32_t(streams_.load()); }
   uint32_t live_sessions() const { return uint32_t(sessions_.load()); }

@@ -112,7 +112,7 @@ void BufferPool::attach(LimitGate* gate) {
   if (gate) gate->add_reclaimer(this);
 }
 
-void BufferPool::reclaim(uint64_t bytes) {
+uint64_t BufferPool::reclaim(uint64_t bytes) {
   std::lock_guard<std::mutex> lock(mutex_);
   uint64_t freed = 0;
   while (freed < bytes && !idle_.empty()) {
@@ -121,6 +121,7 @@ void BufferPool::reclaim(uint64_t bytes) {
     idle_bytes_ -= largest->first;
     idle_.erase(largest);  // released by cl::Buffer (after the commands that use it), its budget given back
   }
+  return freed;
 }
 
 void BufferPool::settle(int slot) {

@@ -65,7 +65,7 @@ class BufferPool : public MemoryReclaimer {
   // room takes them back, reclaim()), and a buffer handed back that finds no room there is released. null:
   // no longer; a pool attached is detached before its gate goes.
   void attach(LimitGate* gate);
-  void reclaim(uint64_t bytes) override;  // releases idle buffers, the largest first
+  uint64_t reclaim(uint64_t bytes) override;  // releases idle buffers, the largest first
 
   BufferLease acquire(size_t bytes);  // bytes > 0
 

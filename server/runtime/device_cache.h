@@ -5,11 +5,13 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <iterator>
 #include <list>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -38,11 +40,18 @@ class DeviceCache : public MemoryReclaimer {
       : max_bytes_(max_bytes), gate_(gate), what_(std::move(what)) {
     if (gate_) gate_->add_reclaimer(this);
   }
+  // Waits (at most kUnreleasedWait) for the destructor callbacks of the buffers it kept, so that none gives
+  // bytes back to a budget that has gone: a cache goes after the calls that use its buffers.
   ~DeviceCache() override {
     if (!gate_) return;
     gate_->remove_reclaimer(this);
-    std::lock_guard<std::mutex> guard(mutex_);
-    for (Entry& e : entries_) gate_->uncache(*e.memory);  // what calls still hold is no cache's now
+    {
+      std::lock_guard<std::mutex> guard(mutex_);
+      for (Entry& e : entries_) gate_->uncache(*e.memory);  // what calls still hold is no cache's now
+      entries_.clear();
+    }
+    std::unique_lock<std::mutex> lock(unreleased_->mutex);
+    unreleased_->none_left.wait_for(lock, kUnreleasedWait, [this] { return unreleased_->count == 0; });
   }
   DeviceCache(const DeviceCache&) = delete;
   DeviceCache& operator=(const DeviceCache&) = delete;
@@ -77,14 +86,16 @@ class DeviceCache : public MemoryReclaimer {
   }
 
   // Evicts the least recently used buffers that no call holds now (evicting one in use frees nothing).
-  void reclaim(uint64_t bytes) override {
+  uint64_t reclaim(uint64_t bytes) override {
     std::lock_guard<std::mutex> guard(mutex_);
-    for (uint64_t freed = 0; freed < bytes;) {
+    uint64_t freed = 0;
+    while (freed < bytes) {
       auto unused = oldest_unused();
       if (unused == entries_.end()) break;
       freed += unused->bytes;
       evict(unused);
     }
+    return freed;
   }
 
   uint64_t computed() const {  // misses computed so far
@@ -108,17 +119,42 @@ class DeviceCache : public MemoryReclaimer {
     Slot* memory = nullptr;  // its bytes in the budget, owned by the buffer's destructor callback; none: no gate
   };
 
+  static constexpr auto kUnreleasedWait = std::chrono::seconds(2);
+
+  // The kept buffers whose destructor callbacks have not run yet. OpenCL runs them once the runtime has
+  // freed the buffer (OpenCL 1.2 s5.4.1), which may be later, on a thread of the runtime's.
+  struct Unreleased {
+    std::mutex mutex;
+    std::condition_variable none_left;
+    size_t count = 0;
+  };
+  struct Held {  // what a kept buffer's destructor callback owns
+    Slot memory;
+    std::shared_ptr<Unreleased> unreleased;
+  };
+
+  static void release_held(cl_mem, void* held) {
+    std::shared_ptr<Unreleased> unreleased = std::move(static_cast<Held*>(held)->unreleased);
+    delete static_cast<Held*>(held);  // its bytes go back to the budget
+    std::lock_guard<std::mutex> lock(unreleased->mutex);
+    if (--unreleased->count == 0) unreleased->none_left.notify_all();
+  }
+
   // `memory` is released with the buffer's last reference (its destructor callback), not with the cache's;
   // the Slot it is moved into, which stays valid while the cache holds a reference.
-  static Slot* hold_until_released(cl::Buffer& buffer, Slot memory) {
-    auto* held = new Slot(std::move(memory));
+  Slot* hold_until_released(cl::Buffer& buffer, Slot memory) {
+    auto* held = new Held{std::move(memory), unreleased_};
+    {
+      std::lock_guard<std::mutex> lock(unreleased_->mutex);
+      ++unreleased_->count;
+    }
     try {
-      buffer.setDestructorCallback([](cl_mem, void* slot) { delete static_cast<Slot*>(slot); }, held);
+      buffer.setDestructorCallback(release_held, held);
     } catch (...) {
-      delete held;
+      release_held(nullptr, held);
       throw;
     }
-    return held;
+    return &held->memory;
   }
 
   using Entries = std::list<Entry>;
@@ -153,14 +189,21 @@ class DeviceCache : public MemoryReclaimer {
     if (gate_ && !gate_->memory_room(made.bytes, bytes_)) return;  // it serves its caller alone; the kept stay
     while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
     Slot memory;
+    bool evicted = false, waited = false;
     for (bool counted = !gate_; !counted;) {
       try {
         memory = gate_->acquire_cache_memory(what_, made.bytes);
         counted = true;
       } catch (const Error&) {
-        auto unused = oldest_unused();
-        if (unused == entries_.end()) return;  // the others' holdings grew meanwhile, or are in use
-        evict(unused);                         // the budget the least recently used hold goes to the newest
+        if (auto unused = oldest_unused(); unused != entries_.end()) {
+          evict(unused);  // the budget the least recently used hold goes to the newest
+          evicted = true;
+          continue;
+        }
+        // What was evicted may come back from the runtime's thread; else the others' holdings grew
+        // meanwhile, or are in use.
+        if (!evicted || waited || !gate_->await_memory_room(made.bytes)) return;
+        waited = true;
       }
     }
     Slot* held = gate_ ? hold_until_released(made.buffer, std::move(memory)) : nullptr;
@@ -177,6 +220,7 @@ class DeviceCache : public MemoryReclaimer {
   std::condition_variable computed_one_;
   Entries entries_;             // most recently used first
   std::vector<Key> computing_;  // misses being computed now
+  std::shared_ptr<Unreleased> unreleased_ = std::make_shared<Unreleased>();
   size_t bytes_ = 0;
   uint64_t computed_ = 0;
 };

@@ -1,6 +1,8 @@
 // The limit gate: each check names the request field and the daemon flag.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
 #include <vector>
 
 #include "common/error.h"
@@ -97,8 +99,10 @@ class PieceCache : public MemoryReclaimer {
   ~PieceCache() override { gate_.remove_reclaimer(this); }
   void keep() { pieces_.push_back(gate_.acquire_cache_memory("a piece", 30)); }
   size_t pieces() const { return pieces_.size(); }
-  void reclaim(uint64_t bytes) override {
-    for (uint64_t freed = 0; freed < bytes && !pieces_.empty(); freed += 30) pieces_.erase(pieces_.begin());
+  uint64_t reclaim(uint64_t bytes) override {
+    uint64_t freed = 0;
+    for (; freed < bytes && !pieces_.empty(); freed += 30) pieces_.erase(pieces_.begin());
+    return freed;
   }
 
  private:
@@ -131,6 +135,54 @@ TEST(Limits, ACallTakesBackWhatCachesKeepAndOnlyWhatItNeeds) {
   EXPECT_EQ(cache.pieces(), 1u) << "the cache gave back what could not make room";
   EXPECT_NO_THROW(gate.acquire_memory("fits once the cache gives back", 30));
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
+}
+
+// A cache whose pieces, once let go of, are given back by a thread of their own `late` afterwards: as an
+// OpenCL runtime may run a buffer's destructor callback after clReleaseMemObject has returned.
+class LateCache : public MemoryReclaimer {
+ public:
+  LateCache(LimitGate& gate, std::chrono::milliseconds late) : gate_(gate), late_(late) { gate_.add_reclaimer(this); }
+  ~LateCache() override {
+    gate_.remove_reclaimer(this);
+    for (std::thread& t : releases_) t.join();
+  }
+  void keep() { pieces_.push_back(gate_.acquire_cache_memory("a piece", 30)); }
+  uint64_t reclaim(uint64_t bytes) override {
+    uint64_t freed = 0;
+    for (; freed < bytes && !pieces_.empty(); freed += 30) {
+      gate_.uncache(pieces_.back());
+      releases_.emplace_back([piece = std::move(pieces_.back()), late = late_]() mutable {
+        std::this_thread::sleep_for(late);
+        piece.release();
+      });
+      pieces_.pop_back();
+    }
+    return freed;
+  }
+
+ private:
+  LimitGate& gate_;
+  std::chrono::milliseconds late_;
+  std::vector<Slot> pieces_;
+  std::vector<std::thread> releases_;
+};
+
+// A call that finds no room waits for what the caches let go of and is given back late, for a bounded time.
+TEST(Limits, ACallWaitsForTheMemoryACacheLetGoOfToComeBackLate) {
+  Limits limits;
+  limits.memory_budget = 60;
+  LimitGate gate(limits);
+  {
+    LateCache cache(gate, LimitGate::kReleaseWait / 4);
+    cache.keep(), cache.keep();
+    const auto start = std::chrono::steady_clock::now();
+    Slot call = gate.acquire_memory("a call", 60);
+    EXPECT_GE(std::chrono::steady_clock::now() - start, LimitGate::kReleaseWait / 4);
+    EXPECT_EQ(gate.memory_bytes(), 60u);
+  }
+  LateCache later(gate, LimitGate::kReleaseWait * 3);
+  later.keep(), later.keep();
+  squall::test::expect_error(Code::ResourceExhausted, "--memory-budget", [&] { gate.acquire_memory("a call", 60); });
 }
 
 // Work that could never fit is refused up front, whatever is held now; work that fits an empty budget is
