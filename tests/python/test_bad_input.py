@@ -51,6 +51,7 @@ from google.protobuf.message import Message
 
 import squall
 from squall._calls import CHANNEL_OPTIONS
+from squall._convert import is_repeated
 from squall.v1 import (
     clouds_pb2,
     clouds_pb2_grpc,
@@ -2643,7 +2644,7 @@ EXTREME_BASES: Dict[str, Callable[[], Any]] = {
 def numbers(message: Message) -> Iterator[Tuple[str, np.ndarray]]:
     """Every number a reply carries: Field and image values decoded, doubles as they are."""
     for descriptor, value in message.ListFields():
-        items = list(value) if descriptor.label == descriptor.LABEL_REPEATED else [value]
+        items = list(value) if is_repeated(descriptor) else [value]
         if descriptor.message_type is None:
             if descriptor.type in (descriptor.TYPE_DOUBLE, descriptor.TYPE_FLOAT):
                 yield descriptor.name, np.asarray(items, dtype=np.float64)

@@ -430,6 +430,13 @@ def _special(cls: Type[M], value: Any, path: str) -> Optional[M]:
     return None
 
 
+def is_repeated(fd: _descriptor.FieldDescriptor) -> bool:
+    """Whether `fd` is a repeated field: `is_repeated` where protobuf has it (newer releases, which
+    dropped `label`), else its label."""
+    repeated = getattr(fd, "is_repeated", None)
+    return bool(repeated) if repeated is not None else fd.label == fd.LABEL_REPEATED
+
+
 def _scalar(fd: _descriptor.FieldDescriptor, value: Any, path: str) -> Any:
     """`value` checked for a field of fd's type (see the module docstring)."""
     if fd.enum_type is not None:
@@ -463,7 +470,7 @@ def set_fields(message: Message, values: Mapping[str, Any], path: str) -> None:
         if value is None:
             continue
         where = f"{path}.{key}"
-        if fd.label == fd.LABEL_REPEATED:
+        if is_repeated(fd):
             container = getattr(message, key)
             del container[:]
             if fd.message_type is not None:
