@@ -25,7 +25,11 @@ tests=(runtime_test fft_test ocean/ocean_engine_test ocean/ocean_service_test ew
        textures/textures_service_test textures/deform_test textures/river_test)
 bins=("$build/squalld" "$build/squall" "$build"/bench/*_bench "$build/bench/load_client")
 for t in "${tests[@]}"; do bins+=("$build/tests/$t"); done
-tools=("$(command -v vdb_render)" "$(command -v vdb_print)")
+tools=()
+for tool in vdb_render vdb_print; do
+  path=$(command -v "$tool") || { echo "$0: $tool not found (Debian: openvdb-tools)" >&2; exit 1; }
+  tools+=("$path")
+done
 mkdir -p "$stage/.gpu/lib" "$stage/.gpu/bin" "$stage/.gpu/py"
 for b in "${bins[@]}"; do
   to="$stage/build/${b#"$build"/}"
@@ -40,5 +44,6 @@ cp -r "$build"/tests/python/venv/lib/python3*/site-packages/squall "$stage/.gpu/
 find "$stage" -name __pycache__ -prune -exec rm -rf {} +
 mkdir -p "$(dirname "$out")"
 printf '%s\n' "${tests[@]}" >"$stage/.gpu/tests.txt"
+echo "$root" >"$stage/.gpu/source_dir"  # where the binaries look for the checkout's files
 tar -C "$stage" -cJf "$out" build .gpu
 ls -la "$out"

@@ -9,7 +9,8 @@
 #   tests     the engine and service test binaries on the GPU (SQUALL_TEST_DEVICE=gpu), all at once.
 # Results go to OUT (default gpu-out): the benchmarks' outputs, and res.tar.gz with the machine's
 # description and the tests' logs. Binaries that read files by the build's absolute paths find them through
-# a link from the source directory of the build machine (/work/main), made where nothing is there.
+# a link from the build machine's source directory (.gpu/source_dir) to this checkout, made where nothing
+# is there.
 #
 #   STAGES="bench tests" bench/gpu_remote.sh
 set -u
@@ -22,7 +23,8 @@ elapsed() { echo "[+$(($(date +%s) - t0)) s]"; }
 has() { [[ $stages == *" $1 "* ]]; }
 
 tar -xJf .gpu/bundle.tar.xz || python3 -c "import tarfile; tarfile.open('.gpu/bundle.tar.xz').extractall()"
-[ -e /work/main ] || { mkdir -p /work && ln -s "$PWD" /work/main; }
+source_dir=$(cat .gpu/source_dir)
+[ -e "$source_dir" ] || { mkdir -p "$(dirname "$source_dir")" && ln -s "$PWD" "$source_dir"; }
 export LD_LIBRARY_PATH=$PWD/.gpu/lib PATH=$PWD/.gpu/bin:$PATH PYTHONPATH=$PWD/.gpu/py:$PWD/bench
 export POCL_CACHE_DIR=/tmp/pocl-cache PYTHONUNBUFFERED=1
 res=$(mktemp -d)/res
@@ -30,8 +32,10 @@ mkdir -p "$res/tests"
 save() { tar -C "$(dirname "$res")" -czf "$OUT/res.tar.gz" res; }
 
 icd=$(find /usr/local/nvidia /usr/lib /usr/lib64 /lib /usr/local/lib -name 'libnvidia-opencl.so*' 2>/dev/null | head -1)
-mkdir -p /tmp/icd && echo "$icd" >/tmp/icd/nvidia.icd
-export OCL_ICD_VENDORS=/tmp/icd
+if [ -n "$icd" ]; then  # else the machine's own ICD files
+  mkdir -p /tmp/icd && echo "$icd" >/tmp/icd/nvidia.icd
+  export OCL_ICD_VENDORS=/tmp/icd
+fi
 {
   nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem,memory.total --format=csv
   head -3 /etc/os-release

@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
   int runs = 51;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--device")) options.device = argv[i + 1];
-    if (!std::strcmp(argv[i], "--runs")) runs = std::stoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--runs")) runs = std::max(1, std::stoi(argv[i + 1]));
   }
   configure_kernel_cache();
   Runtime runtime(options);

@@ -135,18 +135,20 @@ void LimitGate::check_memory(const std::string& what, uint64_t bytes) const {
 // back to the pool): the caches are asked again, a few times, while they could still make room.
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
   constexpr int kAttempts = 3;
+  uint64_t coming = 0;  // let go of by the caches, not given back yet: not asked of them again
+  bool waited = false;
   for (int attempt = 1;; ++attempt) {
     if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
-      uint64_t let_go = 0;
-      {
-        std::lock_guard<std::mutex> lock(reclaimers_mutex_);
-        for (MemoryReclaimer* cache : reclaimers_) {
-          const uint64_t held = memory_bytes_.load();
-          if (held <= limits_.memory_budget - bytes) break;
-          let_go += cache->reclaim(held - (limits_.memory_budget - bytes));
-        }
+      std::lock_guard<std::mutex> lock(reclaimers_mutex_);
+      for (MemoryReclaimer* cache : reclaimers_) {
+        const uint64_t now = memory_bytes_.load(), held = now - std::min(coming, now);
+        if (held <= limits_.memory_budget - bytes) break;
+        coming += cache->reclaim(held - (limits_.memory_budget - bytes));
       }
-      if (let_go > 0) await_memory_room(bytes);  // it may come back from a device runtime's thread
+    }
+    if (coming > 0 && !waited) {  // once a call, as long as what is coming takes
+      await_memory_room(bytes);
+      waited = true;
     }
     try {
       return take_memory(what, bytes);

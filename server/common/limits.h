@@ -47,6 +47,8 @@ class Slot {
   Slot& operator=(const Slot&) = delete;
   ~Slot() { release(); }
   void release();
+  // Drops the hold without giving the amount back: for a holder that outlived the counts it was taken from.
+  void abandon() { counter_ = nullptr; }
   uint64_t amount() const { return counter_ ? amount_ : 0; }
 
  private:
@@ -63,8 +65,8 @@ class MemoryReclaimer {
  public:
   virtual ~MemoryReclaimer() = default;
   // Drops what it keeps, least recently used first, until `bytes` of its memory are let go of or it keeps
-  // nothing; the bytes let go of (a device runtime may give them back to the budget later). Called with no
-  // lock of the caller's held.
+  // nothing. Returns the bytes it has let go of that are not given back to the budget yet (a device runtime
+  // gives them back later, from a thread of its own). Called with no lock of the caller's held.
   virtual uint64_t reclaim(uint64_t bytes) = 0;
 };
 

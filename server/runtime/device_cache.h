@@ -18,6 +18,7 @@
 
 #include "common/error.h"
 #include "common/limits.h"
+#include "common/log.h"
 #include "runtime/opencl.h"
 
 namespace squall {
@@ -41,17 +42,21 @@ class DeviceCache : public MemoryReclaimer {
     if (gate_) gate_->add_reclaimer(this);
   }
   // Waits (at most kUnreleasedWait) for the destructor callbacks of the buffers it kept, so that none gives
-  // bytes back to a budget that has gone: a cache goes after the calls that use its buffers.
+  // bytes back to a budget that has gone: a cache goes after the calls that use its buffers. Those that come
+  // later give nothing back.
   ~DeviceCache() override {
     if (!gate_) return;
     gate_->remove_reclaimer(this);
     {
       std::lock_guard<std::mutex> guard(mutex_);
-      for (Entry& e : entries_) gate_->uncache(*e.memory);  // what calls still hold is no cache's now
+      for (Entry& e : entries_) gate_->uncache(e.held->memory);  // what calls still hold is no cache's now
       entries_.clear();
     }
     std::unique_lock<std::mutex> lock(unreleased_->mutex);
-    unreleased_->none_left.wait_for(lock, kUnreleasedWait, [this] { return unreleased_->count == 0; });
+    if (unreleased_->none_left.wait_for(lock, kUnreleasedWait, [this] { return unreleased_->count == 0; })) return;
+    unreleased_->orphaned = true;
+    log(LogLevel::Warn, unreleased_->count, " buffer(s) of the ", what_,
+        " cache outlived it; their bytes stay counted in the memory budget");
   }
   DeviceCache(const DeviceCache&) = delete;
   DeviceCache& operator=(const DeviceCache&) = delete;
@@ -78,10 +83,16 @@ class DeviceCache : public MemoryReclaimer {
       throw;
     }
     lock.lock();
-    std::erase(computing_, key);
     ++computed_;
-    computed_one_.notify_all();  // the waiters run once the lock is free: after keep(), or after its throw
-    if (made.bytes <= max_bytes_) keep(key, made);
+    try {
+      if (made.bytes <= max_bytes_) keep(key, made, lock);
+    } catch (...) {
+      std::erase(computing_, key);
+      computed_one_.notify_all();
+      throw;
+    }
+    std::erase(computing_, key);  // after keep(), which may let go of the lock: the waiters then find it
+    computed_one_.notify_all();
     return made.buffer;
   }
 
@@ -95,7 +106,7 @@ class DeviceCache : public MemoryReclaimer {
       freed += unused->bytes;
       evict(unused);
     }
-    return freed;
+    return std::min(freed, coming());
   }
 
   uint64_t computed() const {  // misses computed so far
@@ -112,11 +123,12 @@ class DeviceCache : public MemoryReclaimer {
   }
 
  private:
+  struct Held;
   struct Entry {
     Key key;
     cl::Buffer buffer;
     size_t bytes = 0;
-    Slot* memory = nullptr;  // its bytes in the budget, owned by the buffer's destructor callback; none: no gate
+    Held* held = nullptr;  // its bytes in the budget, owned by the buffer's destructor callback; none: no gate
   };
 
   static constexpr auto kUnreleasedWait = std::chrono::seconds(2);
@@ -127,22 +139,33 @@ class DeviceCache : public MemoryReclaimer {
     std::mutex mutex;
     std::condition_variable none_left;
     size_t count = 0;
+    uint64_t evicted_bytes = 0;  // of those, the bytes of buffers the cache has let go of
+    bool orphaned = false;       // the cache has gone before them
   };
   struct Held {  // what a kept buffer's destructor callback owns
     Slot memory;
     std::shared_ptr<Unreleased> unreleased;
+    uint64_t evicted_bytes = 0;  // its bytes in unreleased->evicted_bytes (under its mutex)
   };
 
-  static void release_held(cl_mem, void* held) {
-    std::shared_ptr<Unreleased> unreleased = std::move(static_cast<Held*>(held)->unreleased);
-    delete static_cast<Held*>(held);  // its bytes go back to the budget
+  static void release_held(cl_mem, void* p) {
+    auto* held = static_cast<Held*>(p);
+    std::shared_ptr<Unreleased> unreleased = std::move(held->unreleased);
     std::lock_guard<std::mutex> lock(unreleased->mutex);
+    unreleased->evicted_bytes -= held->evicted_bytes;
+    if (unreleased->orphaned) held->memory.abandon();  // its budget may have gone with the cache
+    delete held;                                       // its bytes go back to the budget
     if (--unreleased->count == 0) unreleased->none_left.notify_all();
   }
 
+  uint64_t coming() const {  // bytes let go of whose callbacks have not run
+    std::lock_guard<std::mutex> lock(unreleased_->mutex);
+    return unreleased_->evicted_bytes;
+  }
+
   // `memory` is released with the buffer's last reference (its destructor callback), not with the cache's;
-  // the Slot it is moved into, which stays valid while the cache holds a reference.
-  Slot* hold_until_released(cl::Buffer& buffer, Slot memory) {
+  // the Held it is moved into, which stays valid while the cache holds a reference.
+  Held* hold_until_released(cl::Buffer& buffer, Slot memory) {
     auto* held = new Held{std::move(memory), unreleased_};
     {
       std::lock_guard<std::mutex> lock(unreleased_->mutex);
@@ -154,7 +177,7 @@ class DeviceCache : public MemoryReclaimer {
       release_held(nullptr, held);
       throw;
     }
-    return &held->memory;
+    return held;
   }
 
   using Entries = std::list<Entry>;
@@ -171,9 +194,14 @@ class DeviceCache : public MemoryReclaimer {
 
   // Lets go of an entry; a buffer that calls still use keeps its bytes in the budget, as call memory.
   void evict(typename Entries::iterator it) {  // under mutex_
-    if (it->memory) gate_->uncache(*it->memory);
+    if (it->held) {
+      gate_->uncache(it->held->memory);
+      std::lock_guard<std::mutex> lock(unreleased_->mutex);
+      it->held->evicted_bytes = it->bytes;
+      unreleased_->evicted_bytes += it->bytes;
+    }
     bytes_ -= it->bytes;
-    entries_.erase(it);
+    entries_.erase(it);  // its callback may run now, or later on the runtime's thread
   }
 
   cl::Buffer find(const Key& key) {  // under mutex_; none on a miss
@@ -185,28 +213,30 @@ class DeviceCache : public MemoryReclaimer {
     return cl::Buffer();
   }
 
-  void keep(const Key& key, Made& made) {                          // under mutex_
+  // Under `lock` (of mutex_), which it lets go of while it waits for evicted bytes to come back (once).
+  void keep(const Key& key, Made& made, std::unique_lock<std::mutex>& lock) {
     if (gate_ && !gate_->memory_room(made.bytes, bytes_)) return;  // it serves its caller alone; the kept stay
     while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
     Slot memory;
-    bool evicted = false, waited = false;
+    bool waited = false;
     for (bool counted = !gate_; !counted;) {
       try {
         memory = gate_->acquire_cache_memory(what_, made.bytes);
         counted = true;
       } catch (const Error&) {
-        if (auto unused = oldest_unused(); unused != entries_.end()) {
-          evict(unused);  // the budget the least recently used hold goes to the newest
-          evicted = true;
+        if (!waited && coming() > 0) {  // what it let go of may come back from the runtime's thread
+          lock.unlock();
+          gate_->await_memory_room(made.bytes);
+          lock.lock();
+          waited = true;
           continue;
         }
-        // What was evicted may come back from the runtime's thread; else the others' holdings grew
-        // meanwhile, or are in use.
-        if (!evicted || waited || !gate_->await_memory_room(made.bytes)) return;
-        waited = true;
+        auto unused = oldest_unused();
+        if (unused == entries_.end()) return;  // the others' holdings grew meanwhile, or are in use
+        evict(unused);                         // the budget the least recently used hold goes to the newest
       }
     }
-    Slot* held = gate_ ? hold_until_released(made.buffer, std::move(memory)) : nullptr;
+    Held* held = gate_ ? hold_until_released(made.buffer, std::move(memory)) : nullptr;
     entries_.push_front(Entry{key, made.buffer, made.bytes, held});
     bytes_ += made.bytes;
   }
