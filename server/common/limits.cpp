@@ -135,9 +135,9 @@ void LimitGate::check_memory(const std::string& what, uint64_t bytes) const {
 // back to the pool): the caches are asked again, a few times, while they could still make room.
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {
   constexpr int kAttempts = 3;
-  uint64_t coming = 0;  // let go of by the caches, not given back yet: not asked of them again
   bool waited = false;
   for (int attempt = 1;; ++attempt) {
+    uint64_t coming = 0;  // let go of by the caches, not given back yet: not asked of them again
     if (!memory_room(bytes) && memory_room(bytes, cached_bytes_.load())) {  // the caches can make room
       std::lock_guard<std::mutex> lock(reclaimers_mutex_);
       for (MemoryReclaimer* cache : reclaimers_) {

@@ -99,14 +99,15 @@ class DeviceCache : public MemoryReclaimer {
   // Evicts the least recently used buffers that no call holds now (evicting one in use frees nothing).
   uint64_t reclaim(uint64_t bytes) override {
     std::lock_guard<std::mutex> guard(mutex_);
-    uint64_t freed = 0;
-    while (freed < bytes) {
+    const uint64_t before = coming();
+    for (uint64_t freed = 0; freed < bytes;) {
       auto unused = oldest_unused();
       if (unused == entries_.end()) break;
       freed += unused->bytes;
       evict(unused);
     }
-    return std::min(freed, coming());
+    const uint64_t after = coming();  // less where older ones came back meanwhile: the caller asks more
+    return after > before ? after - before : 0;
   }
 
   uint64_t computed() const {  // misses computed so far
@@ -139,7 +140,7 @@ class DeviceCache : public MemoryReclaimer {
     std::mutex mutex;
     std::condition_variable none_left;
     size_t count = 0;
-    uint64_t evicted_bytes = 0;  // of those, the bytes of buffers the cache has let go of
+    uint64_t evicted_bytes = 0;  // of those, the bytes of buffers the cache let go of while no call held them
     bool orphaned = false;       // the cache has gone before them
   };
   struct Held {  // what a kept buffer's destructor callback owns
@@ -158,7 +159,7 @@ class DeviceCache : public MemoryReclaimer {
     if (--unreleased->count == 0) unreleased->none_left.notify_all();
   }
 
-  uint64_t coming() const {  // bytes let go of whose callbacks have not run
+  uint64_t coming() const {  // bytes let go of unused whose callbacks have not run
     std::lock_guard<std::mutex> lock(unreleased_->mutex);
     return unreleased_->evicted_bytes;
   }
@@ -196,9 +197,10 @@ class DeviceCache : public MemoryReclaimer {
   void evict(typename Entries::iterator it) {  // under mutex_
     if (it->held) {
       gate_->uncache(it->held->memory);
+      const bool unused = it->buffer.template getInfo<CL_MEM_REFERENCE_COUNT>() == 1;  // else a call's to give back
       std::lock_guard<std::mutex> lock(unreleased_->mutex);
-      it->held->evicted_bytes = it->bytes;
-      unreleased_->evicted_bytes += it->bytes;
+      it->held->evicted_bytes = unused ? it->bytes : 0;
+      unreleased_->evicted_bytes += it->held->evicted_bytes;
     }
     bytes_ -= it->bytes;
     entries_.erase(it);  // its callback may run now, or later on the runtime's thread
@@ -215,16 +217,17 @@ class DeviceCache : public MemoryReclaimer {
 
   // Under `lock` (of mutex_), which it lets go of while it waits for evicted bytes to come back (once).
   void keep(const Key& key, Made& made, std::unique_lock<std::mutex>& lock) {
-    if (gate_ && !gate_->memory_room(made.bytes, bytes_)) return;  // it serves its caller alone; the kept stay
-    while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
     Slot memory;
-    bool waited = false;
-    for (bool counted = !gate_; !counted;) {
+    for (bool waited = false;;) {  // again after a wait, which lets go of the lock
+      // It serves its caller alone where even all the cache's bytes would not make room; the kept stay.
+      if (gate_ && !gate_->memory_room(made.bytes, bytes_ + coming())) return;
+      while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
+      if (!gate_) break;
       try {
         memory = gate_->acquire_cache_memory(what_, made.bytes);
-        counted = true;
+        break;
       } catch (const Error&) {
-        if (!waited && coming() > 0) {  // what it let go of may come back from the runtime's thread
+        if (!waited && coming() > 0) {  // what it let go of comes back from the runtime's thread
           lock.unlock();
           gate_->await_memory_room(made.bytes);
           lock.lock();
