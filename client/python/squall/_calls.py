@@ -226,8 +226,8 @@ class Connection:
             if error.code in ABANDONED:
                 try:
                     self.unary(*undo, UNDO_TIMEOUT, session=proposed)
-                except Exception:  # never made, squalld unreachable or the client closed: the TTL
-                    pass
+                except Exception:  # never made, squalld unreachable or the client closed:
+                    pass  # the session's idle TTL ends it
             raise
 
     def stream(

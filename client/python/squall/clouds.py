@@ -332,8 +332,8 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 
 
 def release_call(rpc: Any, volume_id: str) -> Undo:
-    """What releases `volume_id`: (method name, the Clouds stub's ReleaseVolume, its request), the
-    `undo` of Connection.create for a kept build."""
+    """The call that releases `volume_id`, as (method name, the Clouds stub's ReleaseVolume, its
+    request): Connection.create's `undo` for a kept build."""
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)
 

@@ -342,8 +342,8 @@ def unary_step_request(
 
 
 def close_call(rpc: Any, session_id: str) -> Undo:
-    """What closes `session_id`: (method name, the EWave stub's CloseSession, its request), the
-    `undo` of Connection.create for a session's creation."""
+    """The call that closes `session_id`, as (method name, the EWave stub's CloseSession, its
+    request): Connection.create's `undo` for a session's creation."""
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
 
