@@ -1,7 +1,9 @@
 // What reading an ocean tile's fields back to the host costs: 9 float planes of n x n cells in one device
 // buffer, read
-//   - as the engine reads them: one read command per plane, into 9 vectors made for the call (allocated
-//     and zero-filled, as TileFields' are);
+//   - as the engine reads them: read_views() of a pool buffer (on a CPU device its host storage itself,
+//     elsewhere one pinned block of the runtime's pool, one read command per plane);
+//   - as the engine read them before: one read command per plane, into 9 vectors made for the call
+//     (allocated and zero-filled);
 //   - the same into 9 vectors kept from the last read (pageable memory the process has touched before);
 //   - one read command for all planes into one kept vector;
 //   - one read into pinned memory (a CL_MEM_ALLOC_HOST_PTR buffer mapped once, from which a GPU's DMA
@@ -19,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "runtime/host_transfer.h"
 #include "runtime/runtime.h"
 
 using namespace squall;
@@ -53,15 +56,19 @@ int main(int argc, char** argv) {
   const cl::Context& context = runtime.context();
   std::printf("device: %s\nmedian of %d reads of %d float planes of n x n; ms and GB/s; reference: host memcpy\n\n",
               describe(runtime.device_info()).c_str(), runs, kPlanes);
-  std::printf("%-10s %16s %16s %16s %16s %16s %16s\n", "size", "per plane, new", "per plane, kept", "one read, kept",
-              "pinned", "pinned + memcpy", "memcpy (ref)");
+  std::printf("%-10s %16s %16s %16s %16s %16s %16s %16s\n", "size", "views (engine)", "per plane, new",
+              "per plane, kept", "one read, kept", "pinned", "pinned + memcpy", "memcpy (ref)");
   for (int n : {256, 512, 1024}) {
     const size_t plane = size_t(n) * n, bytes = kPlanes * plane * sizeof(float);
     std::vector<float> pattern(kPlanes * plane);
     for (size_t i = 0; i < pattern.size(); ++i) pattern[i] = float(i % 1000);
     cl::Buffer device(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, pattern.data());
     cl::Buffer pinned(context, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes);
+    std::vector<FloatRange> ranges;
+    for (int p = 0; p < kPlanes; ++p) ranges.push_back({p * plane, plane});
+    std::vector<FloatView> views;
     auto lease = runtime.exclusive();
+    write_buffer(runtime, runtime.buffers().acquire(bytes).buffer(), bytes, pattern.data());  // back to the pool
     const cl::CommandQueue& q = runtime.queue();
     auto* staging = static_cast<float*>(q.enqueueMapBuffer(pinned, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes));
     std::vector<std::vector<float>> kept(kPlanes, std::vector<float>(plane));
@@ -76,6 +83,12 @@ int main(int argc, char** argv) {
     };
     std::vector<std::vector<float>> made;
     const double times[] = {
+        median_seconds(
+            [&] {
+              views.clear();  // the pool's buffer back, to be read again
+              views = read_views(runtime, runtime.buffers().acquire(bytes), ranges);
+            },
+            runs),
         median_seconds([&] { per_plane(made, true); }, runs),
         median_seconds([&] { per_plane(kept, false); }, runs),
         median_seconds([&] { q.enqueueReadBuffer(device, CL_TRUE, 0, bytes, whole.data()); }, runs),
@@ -88,7 +101,8 @@ int main(int argc, char** argv) {
             runs),
         median_seconds([&] { std::memcpy(copy.data(), whole.data(), bytes); }, runs),
     };
-    if (std::memcmp(staging, pattern.data(), bytes) != 0 || made[kPlanes - 1] != kept[kPlanes - 1])
+    const bool views_differ = !std::equal(views.back().begin(), views.back().end(), pattern.end() - plane);
+    if (std::memcmp(staging, pattern.data(), bytes) != 0 || made[kPlanes - 1] != kept[kPlanes - 1] || views_differ)
       std::printf("(a read differs from what the device holds)\n");
     q.enqueueUnmapMemObject(pinned, staging);
     q.finish();

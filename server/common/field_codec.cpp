@@ -62,6 +62,7 @@ void append_bytes(const float* values, size_t count, v1::DType d, std::string* o
   }
 }
 
+namespace {
 void set_header(const Header& header, v1::Field* out) {
   out->set_name(header.name);
   out->set_unit(header.unit);
@@ -70,6 +71,7 @@ void set_header(const Header& header, v1::Field* out) {
   out->set_nz(header.nz);
   out->set_dtype(dtype(header.dtype));
 }
+}  // namespace
 
 void encode(const Header& header, const float* values, size_t count, v1::Field* out) {
   const size_t want = times(times(header.nx, header.ny), std::max<uint32_t>(header.nz, 1));

@@ -39,10 +39,6 @@ struct Header {
   squall::v1::DType dtype = squall::v1::DTYPE_FLOAT32;
 };
 
-// Sets name, unit, nx, ny, nz and dtype of `out`, and leaves its data as it is: for bytes written in place
-// (a float32 Field's data resized to nx * ny * max(nz, 1) * 4 bytes and filled as floats).
-void set_header(const Header& header, squall::v1::Field* out);
-
 // Sets name, unit, nx, ny, nz, dtype and data of `out` from `values`, which must hold
 // nx * ny * max(nz, 1) values (otherwise Error(Internal): a bug of the caller, not of the request).
 // As DTYPE_FLOAT16, a finite value past half's range (|value| >= 65520, which would round to inf) is

@@ -359,47 +359,41 @@ TileFields CpuReference::tile(const TileSpec& spec, double t, unsigned outputs, 
 
   TileFields out;
   out.nx = onx, out.ny = ony, out.dx = olx / onx, out.dy = oly / ony, out.t = t;
-  auto plane = [&](unsigned flag, std::vector<float>& v) {
-    if (outputs & flag) v.resize(ocells);
-  };
-  plane(Height, out.height);
-  plane(Displacement, out.displacement_x), plane(Displacement, out.displacement_y);
-  plane(Slopes, out.slope_x), plane(Slopes, out.slope_y);
-  plane(Normals, out.normal_x), plane(Normals, out.normal_y), plane(Normals, out.normal_z);
-  plane(Jacobian, out.jacobian), plane(Jacobian, out.jacobian_minus), plane(Jacobian, out.jacobian_plus);
-  plane(Whitecaps, out.whitecaps);
+  const unsigned wanted = planes_of(outputs);
+  std::array<std::vector<float>, kPlaneCount> planes;  // in TileFields' order
+  for (int i = 0; i < kPlaneCount; ++i)
+    if (wanted & (1u << i)) planes[i].resize(ocells);
   double decay = 0;
   bool continuing = whitecaps && !whitecaps->empty() && whitecaps->matches(onx, ony);
   if (continuing) decay = std::exp(-(t - whitecaps->last_t()) / spec.whitecap_decay);
   const double lambda = spec.choppiness;
   for (size_t p = 0; p < ocells; ++p) {
+    auto set = [&](int plane, double value) { planes[plane][p] = float(value); };
     double ch[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int q = 0; q < channels; ++q) ch[q] = sum[q * ocells + p];
-    if (outputs & Height) out.height[p] = float(ch[0]);
-    if (outputs & Displacement)
-      out.displacement_x[p] = float(lambda * ch[1]), out.displacement_y[p] = float(lambda * ch[2]);
-    if (outputs & Slopes) out.slope_x[p] = float(ch[3]), out.slope_y[p] = float(ch[4]);
+    if (outputs & Height) set(0, ch[0]);
+    if (outputs & Displacement) set(1, lambda * ch[1]), set(2, lambda * ch[2]);
+    if (outputs & Slopes) set(3, ch[3]), set(4, ch[4]);
     double Jxx = 1 + lambda * ch[5], Jyy = 1 + lambda * ch[6], Jxy = lambda * ch[7];
     if (outputs & Normals) {
       double n[3] = {Jxy * ch[4] - ch[3] * Jyy, ch[3] * Jxy - Jxx * ch[4], Jxx * Jyy - Jxy * Jxy};
       double norm = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      out.normal_x[p] = float(n[0] / norm), out.normal_y[p] = float(n[1] / norm), out.normal_z[p] = float(n[2] / norm);
+      set(5, n[0] / norm), set(6, n[1] / norm), set(7, n[2] / norm);
     }
     double half_trace = 0.5 * (Jxx + Jyy), radius = std::hypot(0.5 * (Jxx - Jyy), Jxy);
     double minus = half_trace - radius, plus = half_trace + radius;
-    if (outputs & Jacobian) {
-      out.jacobian[p] = float(Jxx * Jyy - Jxy * Jxy);
-      out.jacobian_minus[p] = float(minus), out.jacobian_plus[p] = float(plus);
-    }
+    if (outputs & Jacobian) set(8, Jxx * Jyy - Jxy * Jxy), set(9, minus), set(10, plus);
     if (outputs & Whitecaps) {
       double previous = continuing ? whitecaps->map()[p] : 0.0;
-      out.whitecaps[p] = float(minus < spec.whitecap_threshold ? 1.0 : previous * decay);
+      set(11, minus < spec.whitecap_threshold ? 1.0 : previous * decay);
     }
   }
   if ((outputs & Whitecaps) && whitecaps) {
-    whitecaps->mutable_map() = out.whitecaps;
+    whitecaps->mutable_map() = planes[11];
     whitecaps->set(onx, ony, t);
   }
+  for (int i = 0; i < kPlaneCount; ++i)
+    if (wanted & (1u << i)) out.*kTilePlanes[i] = FloatView(std::move(planes[i]));
   double R = spec.pixel_scale > 0 ? spec.pixel_scale : std::max(out.dx, out.dy);
   std::string key = std::to_string(R);
   for (size_t a = 0; a < spec.layers.size(); ++a) key += spectrum_key(spec, a);

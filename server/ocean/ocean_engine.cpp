@@ -298,33 +298,21 @@ std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const Outp
   return whitecaps->map();
 }
 
-// Reads the planes of `outputs` that `planes` names from the finalize kernel's output (kOutputPlanes
-// planes of `cells`, in TileFields' order), each where `destination` says or into its TileFields vector.
-void read_outputs(const Runtime& runtime, const cl::Buffer& out, size_t cells, unsigned outputs, unsigned planes,
-                  const PlaneDestination& destination, TileFields& result) {
-  ReadBack back(runtime);
-  auto read = [&](int plane, std::vector<float>& values) {
-    if (!(planes & (1u << plane))) return;
-    float* into = destination && plane != kWhitecapPlane ? destination(plane, cells) : nullptr;
-    if (!into) {
-      values.resize(cells);
-      into = values.data();
-    }
-    back.add(out, size_t(plane) * cells * sizeof(float), cells * sizeof(float), into);
-  };
-  if (outputs & Height) read(0, result.height);
-  if (outputs & Displacement) read(1, result.displacement_x), read(2, result.displacement_y);
-  if (outputs & Slopes) read(3, result.slope_x), read(4, result.slope_y);
-  if (outputs & Normals) read(5, result.normal_x), read(6, result.normal_y), read(7, result.normal_z);
-  if (outputs & Jacobian) read(8, result.jacobian), read(9, result.jacobian_minus), read(10, result.jacobian_plus);
-  if (outputs & Whitecaps) read(kWhitecapPlane, result.whitecaps);
-  back.wait();
+// The planes `planes` names (kAllPlanes bits) of the finalize kernel's output (kOutputPlanes planes of
+// `cells`, in TileFields' order) into their TileFields views.
+void read_outputs(Runtime& runtime, BufferLease out, size_t cells, unsigned planes, TileFields& result) {
+  std::vector<FloatRange> ranges;
+  std::vector<int> read;
+  for (int plane = 0; plane < kPlaneCount; ++plane)
+    if (planes & (1u << plane)) ranges.push_back({size_t(plane) * cells, cells}), read.push_back(plane);
+  std::vector<FloatView> views = read_views(runtime, std::move(out), ranges);
+  for (size_t i = 0; i < read.size(); ++i) result.*kTilePlanes[read[i]] = std::move(views[i]);
 }
 
 }  // namespace
 
 TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps,
-                             const Cancellation& cancel, unsigned planes, const PlaneDestination& into) {
+                             const Cancellation& cancel, unsigned planes) {
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
@@ -369,11 +357,11 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
                        cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                        whitecap.buffer(), out.buffer());
-  read_outputs(runtime, out.buffer(), cells, outputs, planes | (1u << kWhitecapPlane), into, result);
+  read_outputs(runtime, std::move(out), cells, planes_of(outputs) & (planes | (1u << kWhitecapPlane)), result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {
-    whitecaps->mutable_map() = result.whitecaps;
+    whitecaps->mutable_map() = result.whitecaps.to_vector();
     whitecaps->set(grid.nx, grid.ny, t);
   }
   result.unresolved_slope_variance = impl_->slope_variance(spec);

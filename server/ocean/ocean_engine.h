@@ -9,7 +9,6 @@
 #pragma once
 
 #include <cstddef>
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,12 +21,6 @@
 #include "runtime/runtime.h"
 
 namespace squall::ocean {
-
-// Where tile() reads a plane (its kAllPlanes bit index) into: memory of the caller's for `cells` floats
-// (the bytes of a reply, which then need no copy), or null for the plane's TileFields vector. The memory
-// must stay valid until tile() returns. Never asked for the whitecap plane (bit 11), which TileFields
-// keeps: a stream's map is made from it.
-using PlaneDestination = std::function<float*(int plane, size_t cells)>;
 
 class OceanEngine {
  public:
@@ -54,9 +47,10 @@ class OceanEngine {
   // `cancel` is checked between layers (each waited for): a cancelled call frees the device within a
   // layer (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read back; the
   // others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
-  // A plane that `into` gives memory for is read there, and its TileFields vector is left empty.
+  // The fields are views (TileFields): on a CPU device of the buffer the kernels wrote them in, elsewhere
+  // of one pinned host block they were read into, held from the runtime's pool until the last view goes.
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
-                  const Cancellation& cancel = {}, unsigned planes = kAllPlanes, const PlaneDestination& into = {});
+                  const Cancellation& cancel = {}, unsigned planes = kAllPlanes);
 
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is

@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "common/float_view.h"
+
 namespace squall::ocean {
 
 // Frequency spectrum S(omega) of a layer (eqs 4-26), or Phillips' P(k) (App A eqs 40-41).
@@ -146,21 +148,38 @@ struct TileSpec {
 };
 
 // The fields of one tile: float32, row-major x fastest on the output grid; empty when not requested.
+// The engine's fields are views of the memory it read them into (a pinned host block, or on a CPU device
+// the buffer it computed them in), which goes back to the runtime's pool with the last view of it.
 struct TileFields {
   int64_t nx = 0, ny = 0;
   double dx = 0, dy = 0;  // m, cell size
   double t = 0;           // s
-  std::vector<float> height;
-  std::vector<float> displacement_x, displacement_y;
-  std::vector<float> slope_x, slope_y;
-  std::vector<float> normal_x, normal_y, normal_z;
-  std::vector<float> jacobian, jacobian_minus, jacobian_plus;  // J, J- <= J+
-  std::vector<float> whitecaps;
+  FloatView height;
+  FloatView displacement_x, displacement_y;
+  FloatView slope_x, slope_y;
+  FloatView normal_x, normal_y, normal_z;
+  FloatView jacobian, jacobian_minus, jacobian_plus;  // J, J- <= J+
+  FloatView whitecaps;
   // Eq 96 (sign fixed): sigma_U^2 = integral over pi/R < |k| < slope_k_max of k^2 (P(k) + P(-k)) d^2k,
   // summed over layers (with b_correction: the mean of the layers' spectra, which are then taken as
   // realizations of one physical spectrum). Dimensionless (slope^2).
   double unresolved_slope_variance = 0;
 };
+
+// The field of plane i (kAllPlanes bit i): tile.*kTilePlanes[i].
+inline constexpr FloatView TileFields::*kTilePlanes[kPlaneCount] = {
+    &TileFields::height,         &TileFields::displacement_x, &TileFields::displacement_y, &TileFields::slope_x,
+    &TileFields::slope_y,        &TileFields::normal_x,       &TileFields::normal_y,       &TileFields::normal_z,
+    &TileFields::jacobian,       &TileFields::jacobian_minus, &TileFields::jacobian_plus,  &TileFields::whitecaps};
+
+// The planes (kAllPlanes bits) of the Output groups `outputs`.
+constexpr unsigned planes_of(unsigned outputs) {
+  constexpr unsigned kGroupPlanes[] = {0x001, 0x006, 0x018, 0x0e0, 0x700, 0x800};  // Height .. Whitecaps
+  unsigned planes = 0;
+  for (int group = 0; group < 6; ++group)
+    if (outputs & (1u << group)) planes |= kGroupPlanes[group];
+  return planes;
+}
 
 // Whitecap map carried by the caller across the frames of one stream (same spec, increasing t).
 // The first frame starts from 0; each later frame sets 1 where J- < threshold and multiplies the rest by

@@ -208,7 +208,7 @@ void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny) {
 namespace {
 
 struct Selected {
-  const std::vector<float>* values;
+  const FloatView* values;
   const char* name;
   const char* unit;
 };
@@ -233,13 +233,10 @@ Selected select(const TileFields& f, v1::TileOutput o) {
 
 }  // namespace
 
-void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::Field* field, bool values_in_place) {
+void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::Field* field) {
   Selected s = select(tile, output);
   const squall::field::Header header{s.name, s.unit, uint32_t(tile.nx), uint32_t(tile.ny), 0, d};
-  if (values_in_place)
-    squall::field::set_header(header, field);
-  else
-    squall::field::encode(header, *s.values, field);
+  squall::field::encode(header, s.values->data(), s.values->size(), field);
   field->mutable_spacing()->set_x(tile.dx);
   field->mutable_spacing()->set_y(tile.dy);
   field->mutable_origin();  // (0, 0, 0)

@@ -30,10 +30,8 @@ int output_plane(squall::v1::TileOutput output);                             // 
 void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);
 
 // The Field of one output of a computed tile, as GetTile returns it (name, unit, grid, dtype, bytes;
-// encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype). With
-// values_in_place, the Field's float32 bytes are already there (OceanEngine::tile read them into it
-// through its PlaneDestination) and only the rest is set.
+// encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype).
 void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v1::DType dtype,
-                squall::v1::Field* field, bool values_in_place = false);
+                squall::v1::Field* field);
 
 }  // namespace squall::ocean::rpc

@@ -51,30 +51,14 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
   return job;
 }
 
-// One frame's reply, the outputs in request order. Float32 planes are read by the engine straight into
-// their Field's bytes; the others (float16, whitecaps) are encoded from the engine's vectors.
+// One frame's reply, the outputs in request order, encoded from the engine's views (one copy of each
+// plane, made after the device is let go).
 void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
                 const Cancellation& cancel, v1::GetTileResponse* reply) {
-  std::array<v1::Field*, ocean::kPlaneCount> by_plane{};
-  for (auto o : job.outputs) by_plane.at(size_t(output_plane(o))) = reply->add_fields();
-  unsigned in_place = 0;  // kAllPlanes bits of the planes read into their Field
-  ocean::PlaneDestination into;
-  if (job.dtype == v1::DTYPE_FLOAT32)
-    into = [&](int plane, size_t cells) -> float* {
-      v1::Field* field = by_plane.at(size_t(plane));
-      if (!field) return nullptr;
-      in_place |= 1u << plane;
-      std::string* bytes = field->mutable_data();
-      bytes->resize(cells * sizeof(float));
-      return reinterpret_cast<float*>(bytes->data());
-    };
-  ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, into);
+  const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
-  for (size_t i = 0; i < job.outputs.size(); ++i) {
-    const bool read = in_place & (1u << output_plane(job.outputs[i]));
-    fill_field(fields, job.outputs[i], job.dtype, reply->mutable_fields(int(i)), read);
-  }
+  for (auto output : job.outputs) fill_field(fields, output, job.dtype, reply->add_fields());
 }
 
 ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {

@@ -15,7 +15,7 @@ void* host_storage(const cl::Buffer& buffer) {
 }
 
 BufferLease::BufferLease(BufferLease&& other) noexcept
-    : pool_(other.pool_), buffer_(std::move(other.buffer_)), bytes_(other.bytes_) {
+    : pool_(other.pool_), buffer_(std::move(other.buffer_)), mapping_(std::move(other.mapping_)), bytes_(other.bytes_) {
   other.pool_ = nullptr;
 }
 
@@ -24,6 +24,7 @@ BufferLease& BufferLease::operator=(BufferLease&& other) noexcept {
     give_back();
     pool_ = other.pool_;
     buffer_ = std::move(other.buffer_);
+    mapping_ = std::move(other.mapping_);
     bytes_ = other.bytes_;
     other.pool_ = nullptr;
   }
@@ -33,7 +34,7 @@ BufferLease& BufferLease::operator=(BufferLease&& other) noexcept {
 BufferLease::~BufferLease() { give_back(); }
 
 void BufferLease::give_back() {
-  if (pool_) pool_->put_back(std::move(buffer_), bytes_);
+  if (pool_) pool_->put_back(std::move(buffer_), std::move(mapping_), bytes_);
   pool_ = nullptr;
 }
 
@@ -41,21 +42,37 @@ BufferPool::BufferPool(const cl::Context& context, size_t max_idle_bytes, bool h
                        std::function<int()> held_slot)
     : context_(context), max_idle_bytes_(max_idle_bytes), host_memory_(host_memory), held_slot_(std::move(held_slot)) {}
 
-BufferLease BufferPool::acquire(size_t bytes) {
+BufferLease BufferPool::acquire(size_t bytes, Memory memory) {
   const int slot = held_slot_();
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto [first, last] = idle_.equal_range(bytes);
+    auto [first, last] = idle_.equal_range(Key{bytes, memory});
     for (auto it = first; it != last; ++it) {
       if (it->second.slot >= 0 && it->second.slot != slot) continue;  // another queue's work may use it
-      cl::Buffer buffer = std::move(it->second.buffer);
+      Idle idle = std::move(it->second);
       idle_.erase(it);
       idle_bytes_ -= bytes;
-      return BufferLease(this, std::move(buffer), bytes);
+      return BufferLease(this, std::move(idle.buffer), std::move(idle.mapping), bytes);
     }
     ++allocations_;
   }
-  return BufferLease(this, allocate(bytes), bytes);
+  if (memory == Memory::Pinned) return allocate_pinned(bytes);
+  return BufferLease(this, allocate(bytes), nullptr, bytes);
+}
+
+// Mapped once, on a queue of the pool's own (a thread holding a request's queue may hand the buffer back);
+// the mapping's last holder enqueues the unmap there, before the buffer is released.
+BufferLease BufferPool::allocate_pinned(size_t bytes) {
+  std::call_once(mapping_queue_made_, [this] {
+    mapping_queue_ = cl::CommandQueue(context_, context_.getInfo<CL_CONTEXT_DEVICES>().front());
+  });
+  cl::Buffer buffer(context_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes);
+  void* host = mapping_queue_.enqueueMapBuffer(buffer, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes);
+  std::shared_ptr<void> mapping(host, [buffer, queue = mapping_queue_](void* p) {
+    clEnqueueUnmapMemObject(queue(), buffer(), p, 0, nullptr, nullptr);  // no throw from a deleter
+    clFlush(queue());
+  });
+  return BufferLease(this, std::move(buffer), std::move(mapping), bytes);
 }
 
 // On a CPU device, over memory of its own that the buffer's destructor callback frees once the runtime
@@ -77,7 +94,7 @@ cl::Buffer BufferPool::allocate(size_t bytes) const {
   return buffer;
 }
 
-void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {
+void BufferPool::put_back(cl::Buffer buffer, std::shared_ptr<void> mapping, size_t bytes) {
   const int slot = held_slot_();
   std::lock_guard<std::mutex> lock(mutex_);
   if (idle_bytes_ + bytes > max_idle_bytes_) return;  // dropped: released by cl::Buffer
@@ -90,7 +107,8 @@ void BufferPool::put_back(cl::Buffer buffer, size_t bytes) {
       return;
     }
   }
-  idle_.emplace(bytes, Idle{std::move(buffer), slot, std::move(budget)});
+  const Key key{bytes, mapping ? Memory::Pinned : Memory::Device};
+  idle_.emplace(key, Idle{std::move(buffer), std::move(mapping), slot, std::move(budget)});
   idle_bytes_ += bytes;
 }
 
@@ -117,8 +135,8 @@ uint64_t BufferPool::reclaim(uint64_t bytes) {
   uint64_t freed = 0;
   while (freed < bytes && !idle_.empty()) {
     auto largest = std::prev(idle_.end());
-    freed += largest->first;
-    idle_bytes_ -= largest->first;
+    freed += largest->first.first;
+    idle_bytes_ -= largest->first.first;
     idle_.erase(largest);  // released by cl::Buffer (after the commands that use it), its budget given back
   }
   return 0;  // given back at once
@@ -126,7 +144,7 @@ uint64_t BufferPool::reclaim(uint64_t bytes) {
 
 void BufferPool::settle(int slot) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (auto& [bytes, idle] : idle_)
+  for (auto& [key, idle] : idle_)
     if (idle.slot == slot) idle.slot = -1;
 }
 

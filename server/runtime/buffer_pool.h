@@ -7,7 +7,9 @@
 #include <cstddef>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
+#include <utility>
 
 #include "common/limits.h"
 #include "runtime/opencl.h"
@@ -24,7 +26,12 @@ inline constexpr size_t kHostAlignment = 128;
 // CPU device, whose kernels compute in that memory; null for any other buffer.
 void* host_storage(const cl::Buffer& buffer);
 
-// A read-write device buffer held for the lifetime of one request. Movable, not copyable.
+// What a pool buffer is: memory of the device, or pinned host memory that the host reads and writes in
+// place (a CL_MEM_ALLOC_HOST_PTR buffer, mapped for its lifetime), from which a GPU's DMA engine copies
+// with no staging copy of the driver's: the destination of read-backs that the caller keeps.
+enum class Memory { Device, Pinned };
+
+// A read-write buffer held for the lifetime of one request (or of what it returns). Movable, not copyable.
 class BufferLease {
  public:
   BufferLease() = default;
@@ -36,15 +43,17 @@ class BufferLease {
 
   const cl::Buffer& buffer() const { return buffer_; }
   size_t bytes() const { return bytes_; }
+  void* host() const { return mapping_.get(); }  // a pinned buffer's mapping; null for device memory
 
  private:
   friend class BufferPool;
-  BufferLease(BufferPool* pool, cl::Buffer buffer, size_t bytes)
-      : pool_(pool), buffer_(std::move(buffer)), bytes_(bytes) {}
+  BufferLease(BufferPool* pool, cl::Buffer buffer, std::shared_ptr<void> mapping, size_t bytes)
+      : pool_(pool), buffer_(std::move(buffer)), mapping_(std::move(mapping)), bytes_(bytes) {}
   void give_back();
 
   BufferPool* pool_ = nullptr;
   cl::Buffer buffer_;
+  std::shared_ptr<void> mapping_;  // unmaps the buffer when the last holder (a lease, the idle list) goes
   size_t bytes_ = 0;
 };
 
@@ -67,7 +76,7 @@ class BufferPool : public MemoryReclaimer {
   void attach(LimitGate* gate);
   uint64_t reclaim(uint64_t bytes) override;  // releases idle buffers, the largest first
 
-  BufferLease acquire(size_t bytes);  // bytes > 0
+  BufferLease acquire(size_t bytes, Memory memory = Memory::Device);  // bytes > 0
 
   // The lease of queue `slot` has ended and its queue finished: what was handed back under it is free
   // for every queue.
@@ -78,21 +87,26 @@ class BufferPool : public MemoryReclaimer {
 
  private:
   friend class BufferLease;
-  void put_back(cl::Buffer buffer, size_t bytes);
+  void put_back(cl::Buffer buffer, std::shared_ptr<void> mapping, size_t bytes);
   cl::Buffer allocate(size_t bytes) const;
+  BufferLease allocate_pinned(size_t bytes);
 
   cl::Context context_;
   size_t max_idle_bytes_;
   bool host_memory_;
   struct Idle {
     cl::Buffer buffer;
-    int slot;     // the queue whose work may still use it, -1 for none
-    Slot budget;  // its bytes in the attached gate's memory budget, as cached memory
+    std::shared_ptr<void> mapping;  // a pinned buffer's
+    int slot;                       // the queue whose work may still use it, -1 for none
+    Slot budget;                    // its bytes in the attached gate's memory budget, as cached memory
   };
+  using Key = std::pair<size_t, Memory>;  // bytes first: the largest idle buffer is the last
 
   std::function<int()> held_slot_;
+  std::once_flag mapping_queue_made_;
+  cl::CommandQueue mapping_queue_;  // maps and unmaps pinned buffers, made with the first of them
   mutable std::mutex mutex_;
-  std::multimap<size_t, Idle> idle_;
+  std::multimap<Key, Idle> idle_;
   size_t idle_bytes_ = 0;
   size_t allocations_ = 0;
   LimitGate* gate_ = nullptr;

@@ -8,8 +8,11 @@
 #pragma once
 
 #include <cstddef>
+#include <span>
 #include <vector>
 
+#include "common/float_view.h"
+#include "runtime/buffer_pool.h"
 #include "runtime/opencl.h"
 
 namespace squall {
@@ -55,6 +58,19 @@ class ReadBack {
 
 // One read, waited for: a ReadBack of one add().
 void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, void* into);
+
+// `count` floats of a buffer from float `offset`.
+struct FloatRange {
+  size_t offset = 0;
+  size_t count = 0;
+};
+
+// The ranges of the buffer `lease` holds as views the caller keeps, once the calling thread's queue has
+// finished (the work that wrote them). Where the device computes in the buffer's host storage, the views
+// are of that storage and hold the lease: no copy. Elsewhere each range is read by one command into one
+// pinned block of the runtime's pool (Memory::Pinned), which the views hold, and the buffer goes back.
+// Error(Internal) for a range past the buffer's end.
+std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges);
 
 // Writes `bytes` bytes of `from` at the start of `to` (Error(Internal) beyond its end), on the calling
 // thread's queue. Into host storage:

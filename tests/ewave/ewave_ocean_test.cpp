@@ -61,7 +61,7 @@ ocean::TileSpec sea_spec(const EWaveConfig& c) {
 }
 
 std::vector<float> ocean_height(const ocean::TileSpec& spec, const EWaveConfig& c, double t) {
-  return ocean_engine().tile(ocean_on_grid(spec, c), t, ocean::Height).height;
+  return ocean_engine().tile(ocean_on_grid(spec, c), t, ocean::Height).height.to_vector();
 }
 
 // Runs `steps` free steps of dt and returns the relative rms difference of h from the ocean at the end.

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <complex>
+#include <span>
 #include <vector>
 
 #include <fftw3.h>
@@ -29,20 +30,20 @@ inline TileSpec single(SpectrumModel spectrum, SpreadingModel spreading, int64_t
   return spec;
 }
 
-inline double rms(const std::vector<float>& v) {
+inline double rms(std::span<const float> v) {
   double s = 0;
   for (float x : v) s += double(x) * x;
   return std::sqrt(s / v.size());
 }
 
-inline double relative_rms_error(const std::vector<float>& a, const std::vector<float>& b) {
+inline double relative_rms_error(std::span<const float> a, std::span<const float> b) {
   double e = 0, r = 0;
   for (size_t i = 0; i < a.size(); ++i) e += std::pow(double(a[i]) - b[i], 2), r += double(b[i]) * b[i];
   return std::sqrt(e / r);
 }
 
 // h~(k) = forward DFT / (nx ny) of a real field, in double (FFTW).
-inline std::vector<std::complex<double>> spectrum_of(const std::vector<float>& field, int64_t nx, int64_t ny) {
+inline std::vector<std::complex<double>> spectrum_of(std::span<const float> field, int64_t nx, int64_t ny) {
   std::vector<std::complex<double>> data(field.begin(), field.end());
   fftw_plan plan = fftw_plan_dft_2d(int(ny), int(nx), reinterpret_cast<fftw_complex*>(data.data()),
                                     reinterpret_cast<fftw_complex*>(data.data()), FFTW_FORWARD, FFTW_ESTIMATE);

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <latch>
 #include <map>
+#include <span>
 #include <thread>
 
 #include "ocean/cpu_reference.h"
@@ -311,8 +312,8 @@ TEST(OceanTile, WhitecapsFollowThresholdAndDecay) {
       ASSERT_NEAR(f.whitecaps[i], expected, 1e-6) << "frame " << frame << " cell " << i;
       if (frame > 0) ones += breaking, decayed += !breaking && previous[i] > 0;
     }
-    previous = f.whitecaps;
-    EXPECT_EQ(state.map(), f.whitecaps);
+    previous = f.whitecaps.to_vector();
+    EXPECT_EQ(state.map(), previous);
   }
   EXPECT_GT(ones, 0);
   EXPECT_GT(decayed, 0);
@@ -398,7 +399,7 @@ TEST(OceanTile, TilesMissingOneSpectrumAtOnceComputeItOnce) {
   for (auto& height : heights)
     tiles.emplace_back([&] {
       start.arrive_and_wait();
-      height = fresh.tile(spec, 2.0, Height).height;
+      height = fresh.tile(spec, 2.0, Height).height.to_vector();
     });
   for (auto& t : tiles) t.join();
   EXPECT_EQ(fresh.spectra_built(), 1u);
@@ -430,7 +431,7 @@ TEST(OceanTile, TilesOfEverNewGridSizesKeepABoundedNumberOfPlans) {
 void expect_matches_reference(const TileSpec& spec, double t, double tolerance = 1e-4) {
   CpuReference reference;
   auto e = engine().tile(spec, t, kAllOutputs), r = reference.tile(spec, t, kAllOutputs);
-  std::map<std::string, std::pair<const std::vector<float>*, const std::vector<float>*>> fields = {
+  std::map<std::string, std::pair<const FloatView*, const FloatView*>> fields = {
       {"height", {&e.height, &r.height}},
       {"displacement_x", {&e.displacement_x, &r.displacement_x}},
       {"displacement_y", {&e.displacement_y, &r.displacement_y}},
@@ -534,7 +535,7 @@ TEST(OceanReference, AGridWiderThanARowGroupAgrees) {
   auto height = [](const TileFields& f) { return &f.height; };
   auto displacement = [](const TileFields& f) { return &f.displacement_y; };
   auto slope = [](const TileFields& f) { return &f.slope_y; };
-  for (auto [outputs, field] : {std::pair<unsigned, const std::vector<float>* (*)(const TileFields&)>{Height, height},
+  for (auto [outputs, field] : {std::pair<unsigned, const FloatView* (*)(const TileFields&)>{Height, height},
                                 {Displacement, displacement},
                                 {Slopes, slope}}) {
     auto e = engine().tile(spec, 3.5, outputs), r = reference.tile(spec, 3.5, outputs);
@@ -553,7 +554,7 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
   TileSpec two = one;
   two.layers.push_back(one.layers[0]);
   two.layers[1].nx = two.layers[1].ny = 32, two.layers[1].lx = two.layers[1].ly = 41, two.layers[1].seed = 5;
-  using Field = std::vector<float> TileFields::*;
+  using Field = FloatView TileFields::*;
   const std::vector<std::pair<Output, std::vector<Field>>> fields = {
       {Height, {&TileFields::height}},
       {Displacement, {&TileFields::displacement_x, &TileFields::displacement_y}},
@@ -604,28 +605,25 @@ TEST(OceanTile, ReadsBackOnlyTheNamedPlanes) {
   EXPECT_TRUE(named.normal_x.empty() && named.normal_y.empty());
 }
 
-// A reply's bytes, read in place: the planes a PlaneDestination gives memory for land there, bit for bit
-// as in the vectors, which stay empty; a plane it declines and the whitecaps (never offered) keep theirs.
-TEST(OceanTile, ReadsPlanesWhereTheDestinationSays) {
+// A tile's fields are views of the memory the engine read them into, which stays theirs while they live:
+// the tiles computed after them (of the same shape, which the pool would hand that memory to) leave them
+// as they were. Once they go, the next tiles take that memory again: no allocation per tile.
+TEST(OceanTile, FieldsKeepTheirMemoryUntilTheyGo) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
-  const TileFields all = engine().tile(spec, 1.5, Height | Normals | Whitecaps);
-  std::vector<float> height, normal_x;
-  std::vector<int> asked;
-  PlaneDestination into = [&](int plane, size_t cells) -> float* {
-    asked.push_back(plane);
-    std::vector<float>* memory = plane == 0 ? &height : plane == 5 ? &normal_x : nullptr;
-    if (!memory) return nullptr;
-    memory->assign(cells, -1.0f);
-    return memory->data();
-  };
-  const TileFields got = engine().tile(spec, 1.5, Height | Normals | Whitecaps, nullptr, {}, kAllPlanes, into);
-  EXPECT_EQ(asked, (std::vector<int>{0, 5, 6, 7}));
-  EXPECT_EQ(height, all.height);
-  EXPECT_EQ(normal_x, all.normal_x);
-  EXPECT_TRUE(got.height.empty() && got.normal_x.empty());
-  EXPECT_EQ(got.normal_y, all.normal_y);
-  EXPECT_EQ(got.normal_z, all.normal_z);
-  EXPECT_EQ(got.whitecaps, all.whitecaps);
+  const unsigned outputs = Height | Normals;
+  engine().tile(spec, 0.5, outputs);  // the buffers of this shape made
+  TileFields kept = engine().tile(spec, 1.5, outputs);
+  const std::vector<float> height = kept.height.to_vector(), normal_z = kept.normal_z.to_vector();
+  for (int frame = 0; frame < 3; ++frame) {
+    const TileFields later = engine().tile(spec, 2.5 + frame, outputs);
+    EXPECT_NE(later.height.data(), kept.height.data()) << "frame " << frame;
+  }
+  EXPECT_EQ(kept.height.to_vector(), height);
+  EXPECT_EQ(kept.normal_z.to_vector(), normal_z);
+  kept = {};
+  const size_t made = squall::test::runtime().buffers().allocations();
+  for (int frame = 0; frame < 3; ++frame) engine().tile(spec, 2.5 + frame, outputs);
+  EXPECT_EQ(squall::test::runtime().buffers().allocations(), made);
 }
 
 TEST(OceanSlopeVariance, UnresolvedSlopeVarianceGrowsWithPixelScale) {
@@ -685,7 +683,7 @@ TEST(OceanTile, AFieldIsTheSameWhicheverFieldItIsPackedWith) {
   spec.layers[0].drift_y = -1.1;
   const TileFields alone = engine().tile(spec, 9.5, Height), undisplaced = engine().tile(spec, 9.5, Height | Slopes),
                    all = engine().tile(spec, 9.5, kAllOutputs);
-  auto worst = [](const std::vector<float>& a, const std::vector<float>& b) {
+  auto worst = [](std::span<const float> a, std::span<const float> b) {
     double w = 0;
     for (size_t i = 0; i < a.size(); ++i) w = std::max(w, double(std::abs(a[i] - b[i])));
     return w;

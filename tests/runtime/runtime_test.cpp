@@ -208,6 +208,37 @@ TEST(BufferPool, ReusesBuffersOfTheSameSize) {
   EXPECT_EQ(pool.idle_bytes(), 4096u * 2 + 8192u);
 }
 
+// A pinned buffer is host memory mapped for its lifetime: what the host writes there a copy on the device
+// reads, and what a read command writes there the host reads. It is pooled apart from device buffers of
+// the same size, and comes back mapped at the same address.
+TEST(BufferPool, APinnedBufferIsHostMemoryMappedForItsLifetime) {
+  Runtime& runtime = test::runtime();
+  BufferPool pool(runtime.context(), 1 << 20);
+  constexpr size_t n = 1000;
+  void* host = nullptr;
+  {
+    auto pinned = pool.acquire(n * sizeof(float), Memory::Pinned);
+    auto device = pool.acquire(n * sizeof(float));
+    ASSERT_NE(pinned.host(), nullptr);
+    EXPECT_EQ(device.host(), nullptr);
+    host = pinned.host();
+    auto* values = static_cast<float*>(host);
+    std::fill(values, values + n, 4.0f);
+    auto lock = runtime.exclusive();
+    const cl::CommandQueue& queue = runtime.queue();
+    queue.enqueueWriteBuffer(device.buffer(), CL_TRUE, 0, n * sizeof(float), values);
+    std::vector<float> twice(n, 8.0f);
+    queue.enqueueWriteBuffer(device.buffer(), CL_TRUE, 0, 10 * sizeof(float), twice.data());
+    queue.enqueueReadBuffer(device.buffer(), CL_TRUE, 0, n * sizeof(float), values);
+    EXPECT_EQ(std::count(values, values + 10, 8.0f), 10);
+    EXPECT_EQ(std::count(values + 10, values + n, 4.0f), long(n - 10));
+  }
+  EXPECT_EQ(pool.idle_bytes(), 2 * n * sizeof(float));
+  auto again = pool.acquire(n * sizeof(float), Memory::Pinned);
+  EXPECT_EQ(again.host(), host);
+  EXPECT_EQ(pool.allocations(), 2u);
+}
+
 // Attached to a memory budget, the idle buffers count in it as cached memory: a call that needs the room
 // takes them back, and a buffer handed back that finds no room is released rather than kept.
 TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
@@ -388,6 +419,44 @@ TEST(HostTransfer, ACopyPastTheEndOfABufferIsRefused) {
                      [&] { write_buffer(runtime, pooled.buffer(), 1001, bytes.data()); });
   back.add(pooled.buffer(), 992, 8, bytes.data());
   back.wait();
+}
+
+// Views of ranges of a buffer the caller keeps. Of a pool buffer that the device computes in: its host
+// storage itself, no copy, and the buffer goes back to the pool with the last view. Of device memory:
+// one pinned block of the runtime's pool, the ranges in it one after the other, which goes back with the
+// last view. Either way the values are those the device wrote last.
+TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
+  Runtime& runtime = test::runtime();
+  constexpr size_t n = 4096;
+  const FloatRange ranges[] = {{n / 2, n / 4}, {0, 8}, {n - 3, 3}};
+  BufferPool device_memory(runtime.context(), 1 << 20, false);  // never host storage
+  for (BufferPool* pool : {&runtime.buffers(), &device_memory}) {
+    BufferLease lease = pool->acquire(n * sizeof(float));
+    const void* storage = computed_host_storage(runtime, lease.buffer());
+    std::vector<float> values(n);
+    for (size_t i = 0; i < n; ++i) values[i] = float(i);
+    auto lock = runtime.exclusive();
+    QueueGate gate(runtime);  // the write has not run when read_views is called
+    runtime.queue().enqueueWriteBuffer(lease.buffer(), CL_FALSE, 0, n * sizeof(float), values.data());
+    const size_t idle = runtime.buffers().idle_bytes(), pool_idle = pool->idle_bytes();
+    std::vector<FloatView> views = read_views(runtime, std::move(lease), ranges);
+    ASSERT_EQ(views.size(), 3u);
+    for (size_t r = 0; r < 3; ++r) {
+      ASSERT_EQ(views[r].size(), ranges[r].count);
+      for (size_t i = 0; i < ranges[r].count; ++i) ASSERT_EQ(views[r][i], float(ranges[r].offset + i)) << r;
+    }
+    if (storage) {
+      EXPECT_EQ(views[1].data(), storage) << "the buffer's own host storage";
+      EXPECT_EQ(pool->idle_bytes(), pool_idle) << "held by the views";
+    } else {
+      EXPECT_EQ(views[1].data(), views[0].data() + n / 4) << "one pinned block";
+      EXPECT_EQ(pool->idle_bytes(), pool_idle + n * sizeof(float)) << "the device buffer went back";
+    }
+    views.clear();
+    const size_t pinned_bytes = storage ? 0 : (n / 4 + 11) * sizeof(float);
+    EXPECT_EQ(runtime.buffers().idle_bytes() - (pool == &runtime.buffers() ? n * sizeof(float) : 0),
+              idle + pinned_bytes);
+  }
 }
 
 TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
