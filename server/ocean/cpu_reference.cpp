@@ -368,28 +368,29 @@ TileFields CpuReference::tile(const TileSpec& spec, double t, unsigned outputs, 
   if (continuing) decay = std::exp(-(t - whitecaps->last_t()) / spec.whitecap_decay);
   const double lambda = spec.choppiness;
   for (size_t p = 0; p < ocells; ++p) {
-    auto set = [&](int plane, double value) { planes[plane][p] = float(value); };
+    auto set = [&](plane::Index i, double value) { planes[i][p] = float(value); };
     double ch[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int q = 0; q < channels; ++q) ch[q] = sum[q * ocells + p];
-    if (outputs & Height) set(0, ch[0]);
-    if (outputs & Displacement) set(1, lambda * ch[1]), set(2, lambda * ch[2]);
-    if (outputs & Slopes) set(3, ch[3]), set(4, ch[4]);
+    if (outputs & Height) set(plane::Height, ch[0]);
+    if (outputs & Displacement) set(plane::DisplacementX, lambda * ch[1]), set(plane::DisplacementY, lambda * ch[2]);
+    if (outputs & Slopes) set(plane::SlopeX, ch[3]), set(plane::SlopeY, ch[4]);
     double Jxx = 1 + lambda * ch[5], Jyy = 1 + lambda * ch[6], Jxy = lambda * ch[7];
     if (outputs & Normals) {
       double n[3] = {Jxy * ch[4] - ch[3] * Jyy, ch[3] * Jxy - Jxx * ch[4], Jxx * Jyy - Jxy * Jxy};
       double norm = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      set(5, n[0] / norm), set(6, n[1] / norm), set(7, n[2] / norm);
+      set(plane::NormalX, n[0] / norm), set(plane::NormalY, n[1] / norm), set(plane::NormalZ, n[2] / norm);
     }
     double half_trace = 0.5 * (Jxx + Jyy), radius = std::hypot(0.5 * (Jxx - Jyy), Jxy);
     double minus = half_trace - radius, plus = half_trace + radius;
-    if (outputs & Jacobian) set(8, Jxx * Jyy - Jxy * Jxy), set(9, minus), set(10, plus);
+    if (outputs & Jacobian)
+      set(plane::Jacobian, Jxx * Jyy - Jxy * Jxy), set(plane::JacobianMinus, minus), set(plane::JacobianPlus, plus);
     if (outputs & Whitecaps) {
       double previous = continuing ? whitecaps->map()[p] : 0.0;
-      set(11, minus < spec.whitecap_threshold ? 1.0 : previous * decay);
+      set(plane::Whitecaps, minus < spec.whitecap_threshold ? 1.0 : previous * decay);
     }
   }
   if ((outputs & Whitecaps) && whitecaps) {
-    whitecaps->mutable_map() = planes[11];
+    whitecaps->mutable_map() = planes[plane::Whitecaps];
     whitecaps->set(onx, ony, t);
   }
   for (int i = 0; i < kPlaneCount; ++i)

@@ -18,8 +18,7 @@ namespace squall::ocean {
 namespace {
 
 constexpr const char* kProgram = "ocean/ocean.cl";
-constexpr int kOutputPlanes = 13;   // OUT_* of ocean.cl, the last the scratch plane
-constexpr int kWhitecapPlane = 11;  // OUT_WHITECAP
+constexpr int kOutputPlanes = 13;   // OUT_* of ocean.cl: plane::Index order, then scratch
 
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0
@@ -302,11 +301,12 @@ std::vector<float> previous_whitecaps(const TileSpec& spec, double t, const Outp
 // `cells`, in TileFields' order) into their TileFields views.
 void read_outputs(Runtime& runtime, BufferLease out, size_t cells, unsigned planes, TileFields& result) {
   std::vector<FloatRange> ranges;
-  std::vector<int> read;
-  for (int plane = 0; plane < kPlaneCount; ++plane)
-    if (planes & (1u << plane)) ranges.push_back({size_t(plane) * cells, cells}), read.push_back(plane);
+  for (int i = 0; i < kPlaneCount; ++i)
+    if (planes & (1u << i)) ranges.push_back({size_t(i) * cells, cells});
   std::vector<FloatView> views = read_views(runtime, std::move(out), ranges);
-  for (size_t i = 0; i < read.size(); ++i) result.*kTilePlanes[read[i]] = std::move(views[i]);
+  auto view = views.begin();
+  for (int i = 0; i < kPlaneCount; ++i)
+    if (planes & (1u << i)) result.*kTilePlanes[i] = std::move(*view++);
 }
 
 }  // namespace
@@ -357,7 +357,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
                        cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
                        whitecap.buffer(), out.buffer());
-  read_outputs(runtime, std::move(out), cells, planes_of(outputs) & (planes | (1u << kWhitecapPlane)), result);
+  read_outputs(runtime, std::move(out), cells, planes_of(outputs) & (planes | plane::bit(plane::Whitecaps)), result);
   lock.unlock();
 
   if ((outputs & Whitecaps) && whitecaps) {

@@ -48,7 +48,8 @@ class OceanEngine {
   // layer (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read back; the
   // others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
   // The fields are views (TileFields): on a CPU device of the buffer the kernels wrote them in, elsewhere
-  // of one pinned host block they were read into, held from the runtime's pool until the last view goes.
+  // of one pinned host block they were read into, held from the runtime's pool until the last view goes
+  // (so they must not outlive the runtime).
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
                   const Cancellation& cancel = {}, unsigned planes = kAllPlanes);
 

@@ -116,10 +116,26 @@ enum Output : unsigned {
 constexpr unsigned kAllOutputs = Height | Displacement | Slopes | Normals | Jacobian | Whitecaps;
 
 // Bit flags of single fields (planes), for reading back fewer than the Output groups hold: bit i is the
-// i-th field of TileFields (height, displacement_x, displacement_y, slope_x, slope_y, normal_x, normal_y,
-// normal_z, jacobian, jacobian_minus, jacobian_plus, whitecaps).
+// i-th field of TileFields (plane::Index).
 constexpr int kPlaneCount = 12;
 constexpr unsigned kAllPlanes = (1u << kPlaneCount) - 1;
+namespace plane {
+enum Index : int {
+  Height,
+  DisplacementX,
+  DisplacementY,
+  SlopeX,
+  SlopeY,
+  NormalX,
+  NormalY,
+  NormalZ,
+  Jacobian,
+  JacobianMinus,
+  JacobianPlus,
+  Whitecaps
+};
+constexpr unsigned bit(Index i) { return 1u << i; }
+}  // namespace plane
 
 // A tile: the sum of its layers, sampled on the output grid.
 struct TileSpec {
@@ -149,7 +165,8 @@ struct TileSpec {
 
 // The fields of one tile: float32, row-major x fastest on the output grid; empty when not requested.
 // The engine's fields are views of the memory it read them into (a pinned host block, or on a CPU device
-// the buffer it computed them in), which goes back to the runtime's pool with the last view of it.
+// the buffer it computed them in), which goes back to the runtime's pool with the last view of it: they
+// must not outlive the engine's runtime.
 struct TileFields {
   int64_t nx = 0, ny = 0;
   double dx = 0, dy = 0;  // m, cell size
@@ -174,10 +191,16 @@ inline constexpr FloatView TileFields::*kTilePlanes[kPlaneCount] = {
 
 // The planes (kAllPlanes bits) of the Output groups `outputs`.
 constexpr unsigned planes_of(unsigned outputs) {
-  constexpr unsigned kGroupPlanes[] = {0x001, 0x006, 0x018, 0x0e0, 0x700, 0x800};  // Height .. Whitecaps
+  namespace p = plane;
+  const unsigned groups[][2] = {{Height, bit(p::Height)},
+                                {Displacement, bit(p::DisplacementX) | bit(p::DisplacementY)},
+                                {Slopes, bit(p::SlopeX) | bit(p::SlopeY)},
+                                {Normals, bit(p::NormalX) | bit(p::NormalY) | bit(p::NormalZ)},
+                                {Jacobian, bit(p::Jacobian) | bit(p::JacobianMinus) | bit(p::JacobianPlus)},
+                                {Whitecaps, bit(p::Whitecaps)}};
   unsigned planes = 0;
-  for (int group = 0; group < 6; ++group)
-    if (outputs & (1u << group)) planes |= kGroupPlanes[group];
+  for (const auto& [group, bits] : groups)
+    if (outputs & group) planes |= bits;
   return planes;
 }
 

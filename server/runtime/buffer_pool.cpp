@@ -102,7 +102,7 @@ void BufferPool::put_back(cl::Buffer buffer, std::shared_ptr<void> mapping, size
   if (gate_) {
     if (!gate_->memory_room(bytes)) return;  // dropped: the budget's room is the calls'
     try {
-      budget = gate_->acquire_cache_memory("an idle device buffer", bytes);
+      budget = gate_->acquire_cache_memory(mapping ? "an idle pinned buffer" : "an idle device buffer", bytes);
     } catch (const Error&) {  // taken meanwhile
       return;
     }

@@ -58,25 +58,35 @@ void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, voi
 }
 
 std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges) {
-  for (const FloatRange& r : ranges) check_within(lease.buffer(), r.offset * sizeof(float), r.count * sizeof(float), "a view");
+  size_t total = 0;
+  for (const FloatRange& r : ranges) {
+    check_within(lease.buffer(), r.offset * sizeof(float), r.count * sizeof(float), "a view");
+    total += r.count;
+  }
   std::vector<FloatView> views;
+  views.reserve(ranges.size());
+  const cl::CommandQueue& queue = runtime.queue();
   if (const auto* storage = static_cast<const float*>(computed_host_storage(runtime, lease.buffer()))) {
-    runtime.queue().finish();
+    queue.finish();
     auto keeper = std::make_shared<const BufferLease>(std::move(lease));
     for (const FloatRange& r : ranges) views.emplace_back(storage + r.offset, r.count, keeper);
     return views;
   }
-  size_t total = 0;
-  for (const FloatRange& r : ranges) total += r.count;
   if (total == 0) return std::vector<FloatView>(ranges.size());
   auto pinned = std::make_shared<BufferLease>(runtime.buffers().acquire(total * sizeof(float), Memory::Pinned));
   auto* into = static_cast<float*>(pinned->host());
-  for (const FloatRange& r : ranges) {
-    runtime.queue().enqueueReadBuffer(lease.buffer(), CL_FALSE, r.offset * sizeof(float), r.count * sizeof(float), into);
-    views.emplace_back(into, r.count, pinned);
-    into += r.count;
+  try {
+    for (const FloatRange& r : ranges) {
+      if (r.count > 0)
+        queue.enqueueReadBuffer(lease.buffer(), CL_FALSE, r.offset * sizeof(float), r.count * sizeof(float), into);
+      views.emplace_back(into, r.count, pinned);
+      into += r.count;
+    }
+    queue.finish();
+  } catch (...) {
+    clFinish(queue());  // no read outlives the block, which may be released when it goes back
+    throw;
   }
-  runtime.queue().finish();
   return views;
 }
 

@@ -69,7 +69,7 @@ struct FloatRange {
 // finished (the work that wrote them). Where the device computes in the buffer's host storage, the views
 // are of that storage and hold the lease: no copy. Elsewhere each range is read by one command into one
 // pinned block of the runtime's pool (Memory::Pinned), which the views hold, and the buffer goes back.
-// Error(Internal) for a range past the buffer's end.
+// Error(Internal) for a range past the buffer's end. The views must not outlive the runtime (its pool).
 std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges);
 
 // Writes `bytes` bytes of `from` at the start of `to` (Error(Internal) beyond its end), on the calling
