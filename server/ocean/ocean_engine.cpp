@@ -18,7 +18,7 @@ namespace squall::ocean {
 namespace {
 
 constexpr const char* kProgram = "ocean/ocean.cl";
-constexpr int kOutputPlanes = 13;   // OUT_* of ocean.cl: plane::Index order, then scratch
+constexpr int kOutputPlanes = 13;  // OUT_* of ocean.cl: plane::Index order, then scratch
 
 // The kernels of ocean.cl, each argument list in the order of its signature.
 using H0Kernel = Kernel<cl::Buffer, cl::Buffer, cl_int, cl::Buffer>;  // layer, bands, nbands, h0

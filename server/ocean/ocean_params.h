@@ -185,9 +185,9 @@ struct TileFields {
 
 // The field of plane i (kAllPlanes bit i): tile.*kTilePlanes[i].
 inline constexpr FloatView TileFields::*kTilePlanes[kPlaneCount] = {
-    &TileFields::height,         &TileFields::displacement_x, &TileFields::displacement_y, &TileFields::slope_x,
-    &TileFields::slope_y,        &TileFields::normal_x,       &TileFields::normal_y,       &TileFields::normal_z,
-    &TileFields::jacobian,       &TileFields::jacobian_minus, &TileFields::jacobian_plus,  &TileFields::whitecaps};
+    &TileFields::height,   &TileFields::displacement_x, &TileFields::displacement_y, &TileFields::slope_x,
+    &TileFields::slope_y,  &TileFields::normal_x,       &TileFields::normal_y,       &TileFields::normal_z,
+    &TileFields::jacobian, &TileFields::jacobian_minus, &TileFields::jacobian_plus,  &TileFields::whitecaps};
 
 // The planes (kAllPlanes bits) of the Output groups `outputs`.
 constexpr unsigned planes_of(unsigned outputs) {

@@ -1,6 +1,5 @@
 #include "ocean/ocean_service.h"
 
-#include <array>
 #include <future>
 
 #include "common/field_codec.h"

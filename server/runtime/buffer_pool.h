@@ -1,5 +1,6 @@
-// Device buffers reused across requests of the same shape: a request leases a buffer of an exact byte
-// size, and the lease hands it back when it ends, so the next request of that shape allocates nothing.
+// Device buffers (and pinned host blocks, Memory::Pinned) reused across requests of the same shape: a
+// request leases a buffer of an exact byte size and kind, and the lease hands it back when it ends, so the
+// next request of that shape allocates nothing.
 // A buffer handed back while its thread holds a device queue may still be in use by work queued there:
 // until that queue's lease ends (settle()), only the same queue gets it again, in order after that work.
 #pragma once

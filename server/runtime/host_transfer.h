@@ -1,5 +1,5 @@
-// Copies between host memory and device buffers that, where they can, queue no command: ReadBack and
-// write_buffer().
+// Copies between host memory and device buffers that, where they can, queue no command: ReadBack,
+// read_views() (which, where it can, copies nothing) and write_buffer().
 //
 // Where the device computes in its pool buffers' host storage (Runtime::computes_in_host_storage()), the
 // host copies the bytes of such a buffer itself, once the queue has finished. PoCL's worker threads take
