@@ -47,9 +47,10 @@ class OceanEngine {
   // `cancel` is checked between layers (each waited for): a cancelled call frees the device within a
   // layer (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read back; the
   // others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
-  // The fields are views (TileFields): on a CPU device of the buffer the kernels wrote them in, elsewhere
-  // of one pinned host block they were read into, held from the runtime's pool until the last view goes
-  // (so they must not outlive the runtime).
+  // The fields are views (TileFields): where the device computes in its pool buffers' host storage
+  // (PoCL's CPU devices), of the buffer the kernels wrote them in; elsewhere of one pinned host block they
+  // were read into. Either is held from the runtime's pool until the last view goes (so the fields must
+  // not outlive the runtime).
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
                   const Cancellation& cancel = {}, unsigned planes = kAllPlanes);
 

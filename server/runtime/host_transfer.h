@@ -70,6 +70,7 @@ struct FloatRange {
 // are of that storage and hold the lease: no copy. Elsewhere each range is read by one command into one
 // pinned block of the runtime's pool (Memory::Pinned), which the views hold, and the buffer goes back.
 // Error(Internal) for a range past the buffer's end. The views must not outlive the runtime (its pool).
+// Off host storage, ranges of no floats at all read nothing and wait for nothing.
 std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges);
 
 // Writes `bytes` bytes of `from` at the start of `to` (Error(Internal) beyond its end), on the calling
