@@ -237,6 +237,10 @@ TEST(BufferPool, APinnedBufferIsHostMemoryMappedForItsLifetime) {
   auto again = pool.acquire(n * sizeof(float), Memory::Pinned);
   EXPECT_EQ(again.host(), host);
   EXPECT_EQ(pool.allocations(), 2u);
+  BufferPool keeps_none(runtime.context(), 0);  // a buffer handed back is released: unmapped first
+  for (int i = 0; i < 3; ++i) EXPECT_NE(keeps_none.acquire(64, Memory::Pinned).host(), nullptr);
+  EXPECT_EQ(keeps_none.allocations(), 3u);
+  EXPECT_EQ(keeps_none.idle_bytes(), 0u);
 }
 
 // Attached to a memory budget, the idle buffers count in it as cached memory: a call that needs the room
