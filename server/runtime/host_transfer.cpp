@@ -65,9 +65,8 @@ std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span
   }
   std::vector<FloatView> views;
   views.reserve(ranges.size());
-  const cl::CommandQueue& queue = runtime.queue();
   if (const auto* storage = static_cast<const float*>(computed_host_storage(runtime, lease.buffer()))) {
-    queue.finish();
+    runtime.queue().finish();
     auto keeper = std::make_shared<const BufferLease>(std::move(lease));
     for (const FloatRange& r : ranges) views.emplace_back(storage + r.offset, r.count, keeper);
     return views;
@@ -75,18 +74,13 @@ std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span
   if (total == 0) return std::vector<FloatView>(ranges.size());
   auto pinned = std::make_shared<BufferLease>(runtime.buffers().acquire(total * sizeof(float), Memory::Pinned));
   auto* into = static_cast<float*>(pinned->host());
-  try {
-    for (const FloatRange& r : ranges) {
-      if (r.count > 0)
-        queue.enqueueReadBuffer(lease.buffer(), CL_FALSE, r.offset * sizeof(float), r.count * sizeof(float), into);
-      views.emplace_back(into, r.count, pinned);
-      into += r.count;
-    }
-    queue.finish();
-  } catch (...) {
-    clFinish(queue());  // no read outlives the block, which may be released when it goes back
-    throw;
+  ReadBack read(runtime);  // dropped by a throw, it finishes the queue before the block can go back
+  for (const FloatRange& r : ranges) {
+    if (r.count > 0) read.add(lease.buffer(), r.offset * sizeof(float), r.count * sizeof(float), into);
+    views.emplace_back(into, r.count, pinned);
+    into += r.count;
   }
+  read.wait();
   return views;
 }
 

@@ -332,8 +332,10 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 
 
 def release_call(rpc: Any, volume_id: str) -> Undo:
-    """The call that releases `volume_id`, as (method name, the Clouds stub's ReleaseVolume, its
-    request): Connection.create's `undo` for a kept build."""
+    """Connection.create's `undo` for a kept build: the call that releases `volume_id`.
+
+    Returned as the tuple ("Clouds.ReleaseVolume", the stub's ReleaseVolume, the request).
+    """
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)
 

@@ -342,8 +342,10 @@ def unary_step_request(
 
 
 def close_call(rpc: Any, session_id: str) -> Undo:
-    """The call that closes `session_id`, as (method name, the EWave stub's CloseSession, its
-    request): Connection.create's `undo` for a session's creation."""
+    """Connection.create's `undo` for a session's creation: the call that closes `session_id`.
+
+    Returned as the tuple ("EWave.CloseSession", the stub's CloseSession, the request).
+    """
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
 
