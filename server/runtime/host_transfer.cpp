@@ -57,6 +57,17 @@ void read_back(const Runtime& runtime, const cl::Buffer& from, size_t bytes, voi
   read.wait();
 }
 
+std::vector<FloatRange> contiguous_runs(std::span<const FloatRange> ranges) {
+  std::vector<FloatRange> runs;
+  for (const FloatRange& r : ranges) {
+    if (!runs.empty() && runs.back().offset + runs.back().count == r.offset)
+      runs.back().count += r.count;
+    else
+      runs.push_back(r);
+  }
+  return runs;
+}
+
 std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges) {
   size_t total = 0;
   for (const FloatRange& r : ranges) {
@@ -73,14 +84,19 @@ std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span
   }
   if (total == 0) return std::vector<FloatView>(ranges.size());
   auto pinned = std::make_shared<BufferLease>(runtime.buffers().acquire(total * sizeof(float), Memory::Pinned));
-  auto* into = static_cast<float*>(pinned->host());
+  auto* const block = static_cast<float*>(pinned->host());
   ReadBack read(runtime);  // dropped by a throw, it finishes the queue before the block can go back
-  for (const FloatRange& r : ranges) {
-    if (r.count > 0) read.add(lease.buffer(), r.offset * sizeof(float), r.count * sizeof(float), into);
-    views.emplace_back(into, r.count, pinned);
-    into += r.count;
+  float* into = block;
+  for (const FloatRange& run : contiguous_runs(ranges)) {
+    if (run.count > 0) read.add(lease.buffer(), run.offset * sizeof(float), run.count * sizeof(float), into);
+    into += run.count;
   }
   read.wait();
+  const float* at = block;
+  for (const FloatRange& r : ranges) {
+    views.emplace_back(at, r.count, pinned);
+    at += r.count;
+  }
   return views;
 }
 

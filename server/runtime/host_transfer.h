@@ -65,10 +65,15 @@ struct FloatRange {
   size_t count = 0;
 };
 
+// `ranges` with each run of ranges that follow one another in the buffer (one's end the next one's offset)
+// joined into one: the reads read_views() queues off host storage, one command a run.
+std::vector<FloatRange> contiguous_runs(std::span<const FloatRange> ranges);
+
 // The ranges of the buffer `lease` holds as views the caller keeps, once the calling thread's queue has
 // finished (the work that wrote them). Where the device computes in the buffer's host storage, the views
-// are of that storage and hold the lease: no copy. Elsewhere each range is read by one command into one
-// pinned block of the runtime's pool (Memory::Pinned), which the views hold, and the buffer goes back.
+// are of that storage and hold the lease: no copy. Elsewhere the ranges are read, one command per
+// contiguous run of them, into one pinned block of the runtime's pool (Memory::Pinned), which the views
+// hold, and the buffer goes back.
 // Error(Internal) for a range past the buffer's end. The views must not outlive the runtime (its pool).
 // Off host storage, ranges of no floats at all read nothing and wait for nothing.
 std::vector<FloatView> read_views(Runtime& runtime, BufferLease lease, std::span<const FloatRange> ranges);

@@ -432,8 +432,9 @@ TEST(HostTransfer, ACopyPastTheEndOfABufferIsRefused) {
 // are those the device wrote last: the write is held behind the gate when read_views() is called.
 TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
   Runtime& runtime = test::runtime();
-  constexpr size_t n = 4096, viewed = n / 4 + 8 + 3;
-  const FloatRange ranges[] = {{n / 2, n / 4}, {0, 8}, {n - 3, 3}};
+  constexpr size_t n = 4096, viewed = n / 4 + 5 + 8 + 3;
+  // Off host storage, the first two are one read.
+  const FloatRange ranges[] = {{n / 2, n / 4}, {n / 2 + n / 4, 5}, {0, 8}, {n - 3, 3}};
   BufferPool device_memory(runtime.context(), 1 << 20, false);  // never host storage
   for (BufferPool* pool : {&runtime.buffers(), &device_memory}) {
     BufferLease lease = pool->acquire(n * sizeof(float));
@@ -446,8 +447,8 @@ TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
       QueueGate gate(runtime);
       runtime.queue().enqueueWriteBuffer(lease.buffer(), CL_FALSE, 0, n * sizeof(float), values.data());
       views = read_views(runtime, std::move(lease), ranges);
-      ASSERT_EQ(views.size(), 3u);
-      for (size_t r = 0; r < 3; ++r) {  // before the gate's destructor lets the queue run (if it has not)
+      ASSERT_EQ(views.size(), 4u);
+      for (size_t r = 0; r < 4; ++r) {  // before the gate's destructor lets the queue run (if it has not)
         ASSERT_EQ(views[r].size(), ranges[r].count);
         for (size_t i = 0; i < ranges[r].count; ++i) ASSERT_EQ(views[r][i], float(ranges[r].offset + i)) << r;
       }
@@ -457,7 +458,8 @@ TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
       EXPECT_EQ(first, static_cast<const float*>(storage) + n / 2) << "the buffer's own host storage";
     } else {
       EXPECT_EQ(views[1].data(), first + n / 4) << "one pinned block";
-      EXPECT_EQ(views[2].data(), first + n / 4 + 8);
+      EXPECT_EQ(views[2].data(), first + n / 4 + 5);
+      EXPECT_EQ(views[3].data(), first + n / 4 + 5 + 8);
     }
     views.clear();  // what they held goes back to the pool, and comes out again
     if (storage) {
@@ -466,6 +468,18 @@ TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
       EXPECT_EQ(runtime.buffers().acquire(viewed * sizeof(float), Memory::Pinned).host(), first);
     }
   }
+}
+
+TEST(HostTransfer, RangesThatFollowOneAnotherAreReadAsOne) {
+  const FloatRange ranges[] = {{0, 3}, {3, 4}, {7, 0}, {7, 2}, {12, 1}, {13, 1}, {5, 2}, {7, 1}};
+  const std::vector<FloatRange> runs = contiguous_runs(ranges);
+  const FloatRange expected[] = {{0, 9}, {12, 2}, {5, 3}};  // in the order given: no sort, no overlap merged
+  ASSERT_EQ(runs.size(), std::size(expected));
+  for (size_t i = 0; i < runs.size(); ++i) {
+    EXPECT_EQ(runs[i].offset, expected[i].offset) << i;
+    EXPECT_EQ(runs[i].count, expected[i].count) << i;
+  }
+  EXPECT_TRUE(contiguous_runs({}).empty());
 }
 
 TEST(KernelSources, SplicesIncludesOnceAndReadsBuildOptions) {
