@@ -11,8 +11,9 @@ namespace squall::ocean {
 
 inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
   return context.shared<OceanEngine>([&] {
-    return std::make_unique<OceanEngine>(context.runtime, context.fft, context.gate.limits(),
-                                         OceanEngine::kDefaultMaxCachedBytes, &context.gate);
+    const Limits& limits = context.gate.limits();
+    return std::make_unique<OceanEngine>(context.runtime, context.fft, limits,
+                                         OceanEngine::max_cached_bytes_for(limits.memory_budget), &context.gate);
   });
 }
 
