@@ -18,6 +18,10 @@ CoefficientCache::Key CoefficientCache::key_of(const EWaveConfig& c, double dt) 
   return k;
 }
 
+size_t CoefficientCache::table_bytes(const EWaveConfig& c) {
+  return 4 * (size_t(c.nx) / 2 + 1) * size_t(c.ny) * (c.double_precision ? sizeof(double) : sizeof(float));
+}
+
 cl::Buffer CoefficientCache::get(const Runtime& runtime, const EWaveConfig& config, double dt) {
   return tables_.get(key_of(config, dt), [&] {
     std::vector<char> table = to_state_type(propagator_coefficients(config, dt), config.double_precision);

@@ -31,7 +31,11 @@ class CoefficientCache {
   // computed with no lock held, and callers missing the same table meanwhile wait for it, not for others.
   cl::Buffer get(const Runtime& runtime, const EWaveConfig& config, double dt);
 
+  // The bytes of one table of `config`: four values per mode of its half spectrum, in the state's type.
+  static size_t table_bytes(const EWaveConfig& config);
+
   uint64_t computed() const { return tables_.computed(); }  // tables computed so far
+  size_t max_bytes() const { return tables_.max_bytes(); }  // a larger table is not kept
   size_t bytes() const { return tables_.bytes(); }          // held now
 
  private:

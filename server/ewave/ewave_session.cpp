@@ -16,7 +16,10 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
       ocean_(ocean),
       gate_(gate),
       config_(config),
-      own_coefficients_(coefficients ? nullptr : std::make_unique<CoefficientCache>()),
+      // A session's own cache keeps at least its own table, however large its grid.
+      own_coefficients_(coefficients ? nullptr
+                                     : std::make_unique<CoefficientCache>(std::max(
+                                           CoefficientCache::kDefaultMaxBytes, CoefficientCache::table_bytes(config)))),
       coefficients_(coefficients ? coefficients : own_coefficients_.get()) {
   validate(config_, gate_);
   if (config_.initial_ocean) ocean_engine("config.initial_ocean");

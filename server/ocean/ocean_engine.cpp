@@ -213,10 +213,6 @@ struct OceanEngine::Impl {
   }
 };
 
-size_t OceanEngine::max_cached_bytes_for(uint64_t memory_budget) {
-  return size_t(std::max<uint64_t>(kDefaultMaxCachedBytes, memory_budget / 4));
-}
-
 OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits, size_t max_cached_bytes,
                          LimitGate* budget)
     : impl_(std::make_unique<Impl>(runtime, fft, limits, max_cached_bytes, budget)) {}

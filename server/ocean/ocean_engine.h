@@ -25,11 +25,6 @@ namespace squall::ocean {
 class OceanEngine {
  public:
   static constexpr size_t kDefaultMaxCachedBytes = size_t(256) << 20;
-  // The h0 cache's bound under a memory budget of `memory_budget` bytes: a quarter of it, and at least
-  // kDefaultMaxCachedBytes. The spectra kept give their bytes back to any call that needs them, so the
-  // bound only says how much of an idle budget they may keep; a quarter keeps a 4096^2 layer's (384 MiB)
-  // from a budget of 1.5 GiB, where a fixed 256 MiB made every tile of it compute its spectrum again.
-  static size_t max_cached_bytes_for(uint64_t memory_budget);
 
   // The runtime must have built the "ocean/" programs. `limits` (the daemon's) bound the grids tile() and
   // sample() accept. max_cached_bytes bounds the h0 cache (a layer's spectrum larger than it serves its

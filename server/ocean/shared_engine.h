@@ -6,6 +6,7 @@
 
 #include "ocean/ocean_engine.h"
 #include "rpc/capability.h"
+#include "runtime/device_cache.h"
 
 namespace squall::ocean {
 
@@ -13,7 +14,7 @@ inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
   return context.shared<OceanEngine>([&] {
     const Limits& limits = context.gate.limits();
     return std::make_unique<OceanEngine>(context.runtime, context.fft, limits,
-                                         OceanEngine::max_cached_bytes_for(limits.memory_budget), &context.gate);
+                                         cache_bound(limits.memory_budget, OceanEngine::kDefaultMaxCachedBytes), &context.gate);
   });
 }
 

@@ -23,6 +23,14 @@
 
 namespace squall {
 
+// The byte bound of one of the daemon's caches under a memory budget of `memory_budget` bytes: a quarter of it,
+// and at least `least`. What a cache keeps goes back to any call that needs the room, so the bound only says
+// how much of an idle budget it may keep; a fixed bound had a 4096^2 ocean layer's spectrum (384 MiB) and a
+// 4096^2 eWave grid's propagator table (128 MiB) computed again for every frame and step.
+inline size_t cache_bound(uint64_t memory_budget, size_t least) {
+  return size_t(std::max<uint64_t>(least, memory_budget / 4));
+}
+
 template <typename Key>  // compared with ==
 class DeviceCache : public MemoryReclaimer {
  public:
@@ -118,6 +126,7 @@ class DeviceCache : public MemoryReclaimer {
     std::lock_guard<std::mutex> guard(mutex_);
     return bytes_;
   }
+  size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
   size_t entries() const {  // buffers kept now
     std::lock_guard<std::mutex> guard(mutex_);
     return entries_.size();

@@ -290,6 +290,8 @@ TEST(CoefficientCache, TablesPastTheBudgetEvictTheLeastRecentlyUsed) {
   cache.get(runtime, larger, 0.01);
   EXPECT_EQ(cache.computed(), 8u);
   EXPECT_EQ(cache.bytes(), 2 * host_table(config, 0.01).size());
+  for (const EWaveConfig& c : {config, larger})
+    EXPECT_EQ(CoefficientCache::table_bytes(c), host_table(c, 0.01).size()) << "what a session's own cache keeps";
 }
 
 // Kept tables hold their bytes in the memory budget until evicted or the cache goes. Where the budget has
@@ -363,6 +365,17 @@ class EngineTest : public testing::Test {
   LimitGate gate_;
   std::chrono::steady_clock::time_point now_{};
 };
+
+// The engine's propagator tables may keep a quarter of its memory budget: a 4096^2 grid's single-precision
+// table (4 x 2049 x 4096 floats, 128 MiB) is kept under 1 GiB, where 64 MiB computed it for every step.
+TEST(EWaveEngineCache, PropagatorTablesKeepAQuarterOfTheMemoryBudget) {
+  Limits limits;
+  limits.memory_budget = uint64_t(1) << 30;
+  LimitGate gate(limits);
+  EWaveEngine e(squall::test::runtime(), squall::test::fft(), gate);
+  EXPECT_GE(e.coefficients().max_bytes(), size_t(4) * 2049 * 4096 * sizeof(float));
+  EXPECT_EQ(e.coefficients().max_bytes(), limits.memory_budget / 4);
+}
 
 TEST_F(EngineTest, ClosedIdIsNotFoundAndIdsAreRandom128Bit) {
   EWaveEngine e = engine();

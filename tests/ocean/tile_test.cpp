@@ -388,15 +388,6 @@ TEST(OceanTile, KeptSpectraStayWithinTheCacheAndHoldTheirBytesInTheMemoryBudget)
   EXPECT_EQ(gate.memory_bytes(), 0u);
 }
 
-// The daemon's cache keeps a quarter of the memory budget: a 4096^2 layer's spectrum (384 MiB) under a budget
-// of 1.5 GiB, which a fixed 256 MiB computed again for every tile.
-TEST(OceanTile, TheDaemonsSpectrumCacheKeepsAQuarterOfTheMemoryBudget) {
-  const uint64_t layer_4096 = uint64_t(4096) * 4096 * 6 * sizeof(float);
-  EXPECT_GE(OceanEngine::max_cached_bytes_for(uint64_t(3) << 29), layer_4096);
-  EXPECT_EQ(OceanEngine::max_cached_bytes_for(uint64_t(8) << 30), size_t(2) << 30);
-  EXPECT_EQ(OceanEngine::max_cached_bytes_for(uint64_t(100) << 20), OceanEngine::kDefaultMaxCachedBytes);
-}
-
 // Tiles missing one spectrum at once compute it once: the others wait for it. The tiles are equal bit for
 // bit, whichever ran alone (the fftw backend's plans do not depend on the load).
 TEST(OceanTile, TilesMissingOneSpectrumAtOnceComputeItOnce) {

@@ -272,6 +272,14 @@ TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
 // released it. A call that needs the room takes back only buffers no other call uses (evicting one in use
 // would free nothing); one evicted while in use (past the cache's own limit) holds its bytes on as call
 // memory, which no cache can give back, until its last use ends.
+// A daemon's cache keeps a quarter of the memory budget, and at least its own floor: a 4096^2 ocean layer's
+// spectrum (six float planes, 384 MiB) under a budget of 1.5 GiB.
+TEST(DeviceCache, ADaemonsCacheKeepsAQuarterOfTheMemoryBudget) {
+  EXPECT_GE(cache_bound(uint64_t(3) << 29, 0), size_t(4096) * 4096 * 6 * sizeof(float));
+  EXPECT_EQ(cache_bound(uint64_t(8) << 30, size_t(256) << 20), size_t(2) << 30);
+  EXPECT_EQ(cache_bound(uint64_t(100) << 20, size_t(64) << 20), size_t(64) << 20);
+}
+
 TEST(DeviceCache, ABufferStillInUseStillCountsInTheMemoryBudget) {
   constexpr size_t kBytes = 512 << 10;
   auto make = [] {
