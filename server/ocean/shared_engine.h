@@ -14,7 +14,8 @@ inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
   return context.shared<OceanEngine>([&] {
     const Limits& limits = context.gate.limits();
     return std::make_unique<OceanEngine>(context.runtime, context.fft, limits,
-                                         cache_bound(limits.memory_budget, OceanEngine::kDefaultMaxCachedBytes), &context.gate);
+                                         cache_bound(limits.memory_budget, OceanEngine::kDefaultMaxCachedBytes),
+                                         &context.gate);
   });
 }
 

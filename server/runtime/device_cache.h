@@ -126,11 +126,11 @@ class DeviceCache : public MemoryReclaimer {
     std::lock_guard<std::mutex> guard(mutex_);
     return bytes_;
   }
-  size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
   size_t entries() const {  // buffers kept now
     std::lock_guard<std::mutex> guard(mutex_);
     return entries_.size();
   }
+  size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
 
  private:
   struct Held;
