@@ -141,37 +141,58 @@ inline void store_pack(__global float* out, size_t at, float a_re, float a_im, f
   out[2 * at + 1] = a_im + b_re;
 }
 
+// Mode `at` of h0: a = h0(k) and b = h0(-k) as (re, im), and its phase wt at time t = t_hi + t_lo as c = cos wt,
+// s = sin wt, w = 2 pi f(k). The phases are counted in turns (common/sincos.h): f t with f = f_hi + f_lo and
+// t = t_hi + t_lo, two floats each. Complex values are pairs of floats, read and written as floats: PoCL
+// vectorizes a kernel across work-items only when it computes with no OpenCL vector (float2, float4) values,
+// which LLVM's loop vectorizer cannot widen (nor a struct of two floats, passed as a float2).
+__attribute__((always_inline)) static void mode_phase(__global const float* h0, size_t at, size_t cells, float t_hi,
+                                                      float t_lo, float* a_re, float* a_im, float* b_re, float* b_im,
+                                                      float* c, float* s, float* w) {
+  *a_re = h0[H0_RE * cells + at], *a_im = h0[H0_IM * cells + at];
+  *b_re = h0[H0_MINUS_RE * cells + at], *b_im = h0[H0_MINUS_IM * cells + at];
+  float f_hi = h0[H0_FREQUENCY_HI * cells + at], f_lo = h0[H0_FREQUENCY_LO * cells + at];
+  *w = f_hi * (2.0f * M_PI_F);
+  sq_sincos_turns(f_hi, f_lo, t_hi, t_lo, s, c);
+}
+
+// (re, im) times e^{-i k.U_D t}, the drift U_D's shift of mode (i, j): k.U_D t / 2 pi = n s.x + m s.y turns for
+// the mode numbers (n, m) and the shift s = U_D t / (Lx, Ly) in periods of the layer, reduced to [0, 1] on the
+// host. Nothing where there is no drift.
+__attribute__((always_inline)) static void drift(int i, int j, int nx, int ny, float2 shift, float* re, float* im) {
+  const float shift_x = shift.x, shift_y = shift.y;
+  if (shift_x == 0.0f && shift_y == 0.0f) return;  // the same for every work-item: most layers have no drift
+  float shift_c, shift_s;
+  float turns = sq_product_turns((float)mode_number(i, nx), shift_x) +  // k.U_D t / 2 pi
+                sq_product_turns((float)mode_number(j, ny), shift_y);
+  sq_sincos_turn(-turns, &shift_s, &shift_c);  // -k.U_D t
+  float rotated_re = *re * shift_c - *im * shift_s;
+  *im = *re * shift_s + *im * shift_c, *re = rotated_re;
+}
+
 // The two halves of mode (i, j) of eq 1 / 43 at time t = t_hi + t_lo, shifted by the drift U_D:
-// plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im); w =
-// 2 pi f(k). The phases are counted in turns (common/sincos.h): f t with f = f_hi + f_lo and t = t_hi + t_lo,
-// two floats each, and k.U_D t / 2 pi = n s.x + m s.y for the mode numbers (n, m) and the shift
-// s = U_D t / (Lx, Ly) in periods of the layer, reduced to [0, 1] on the host. Complex values are pairs of
-// floats, read and written as floats: PoCL vectorizes a kernel across work-items only when it computes with
-// no OpenCL vector (float2, float4) values, which LLVM's loop vectorizer cannot widen (nor a struct of two
-// floats, passed as a float2).
+// plus = h0(k) e^{-iwt} e^{-i k.U_D t} and minus = conj(h0(-k)) e^{iwt} e^{-i k.U_D t}, as (re, im).
 __attribute__((always_inline)) static void evolve_halves(__global const float* h0, int i, int j, int nx, int ny,
                                                          float t_hi, float t_lo, float2 shift, float* plus_re,
                                                          float* plus_im, float* minus_re, float* minus_im, float* w) {
-  size_t at = i + (size_t)nx * j, cells = (size_t)nx * ny;
-  float a_re = h0[H0_RE * cells + at], a_im = h0[H0_IM * cells + at];
-  float b_re = h0[H0_MINUS_RE * cells + at], b_im = h0[H0_MINUS_IM * cells + at];
-  float f_hi = h0[H0_FREQUENCY_HI * cells + at], f_lo = h0[H0_FREQUENCY_LO * cells + at];
-  *w = f_hi * (2.0f * M_PI_F);
-  float c, s;
-  sq_sincos_turns(f_hi, f_lo, t_hi, t_lo, &s, &c);
-  *plus_re = a_re * c + a_im * s, *plus_im = a_im * c - a_re * s;     // (a_re + i a_im)(c - i s)
-  *minus_re = b_re * c + b_im * s, *minus_im = b_re * s - b_im * c;   // (b_re - i b_im)(c + i s)
-  const float shift_x = shift.x, shift_y = shift.y;
-  if (shift_x != 0.0f || shift_y != 0.0f) {  // the same for every work-item: most layers have no drift
-    float shift_c, shift_s;
-    float turns = sq_product_turns((float)mode_number(i, nx), shift_x) +  // k.U_D t / 2 pi
-                  sq_product_turns((float)mode_number(j, ny), shift_y);
-    sq_sincos_turn(-turns, &shift_s, &shift_c);  // -k.U_D t
-    float re = *plus_re * shift_c - *plus_im * shift_s;
-    *plus_im = *plus_re * shift_s + *plus_im * shift_c, *plus_re = re;
-    re = *minus_re * shift_c - *minus_im * shift_s;
-    *minus_im = *minus_re * shift_s + *minus_im * shift_c, *minus_re = re;
-  }
+  float a_re, a_im, b_re, b_im, c, s;
+  mode_phase(h0, i + (size_t)nx * j, (size_t)nx * ny, t_hi, t_lo, &a_re, &a_im, &b_re, &b_im, &c, &s, w);
+  *plus_re = a_re * c + a_im * s, *plus_im = a_im * c - a_re * s;    // (a_re + i a_im)(c - i s)
+  *minus_re = b_re * c + b_im * s, *minus_im = b_re * s - b_im * c;  // (b_re - i b_im)(c + i s)
+  drift(i, j, nx, ny, shift, plus_re, plus_im);
+  drift(i, j, nx, ny, shift, minus_re, minus_im);
+}
+
+// h~(k, t) of eq 1 / 43, plus + minus of evolve_halves summed before the products: the same sum in fewer
+// operations, and none that LLVM's SLP vectorizer pairs into float2 values ahead of PoCL's work-item
+// vectorization (as it paired plus_re with minus_re where only h is stored).
+__attribute__((always_inline)) static void evolve_height(__global const float* h0, int i, int j, int nx, int ny,
+                                                         float t_hi, float t_lo, float2 shift, float* h_re,
+                                                         float* h_im) {
+  float a_re, a_im, b_re, b_im, c, s, w;
+  mode_phase(h0, i + (size_t)nx * j, (size_t)nx * ny, t_hi, t_lo, &a_re, &a_im, &b_re, &b_im, &c, &s, &w);
+  *h_re = (a_re + b_re) * c + (a_im + b_im) * s, *h_im = (a_im - b_im) * c - (a_re - b_re) * s;
+  drift(i, j, nx, ny, shift, h_re, h_im);
 }
 
 // Eq 1 / 43 at absolute time t: h~(k,t) = plus + minus (evolve_halves), and its derived channels, packed
@@ -184,9 +205,8 @@ __attribute__((always_inline)) static void evolve_pairs(__global const float* h0
                                                         const int displaced, __global float* outf) {
   int i = get_global_id(0), j = get_global_id(1);
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
-  float plus_re, plus_im, minus_re, minus_im, w;
-  evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
-  float h_re = plus_re + minus_re, h_im = plus_im + minus_im;
+  float h_re, h_im;
+  evolve_height(h0, i, j, nx, ny, t_hi, t_lo, shift, &h_re, &h_im);
   float k = sqrt(kx * kx + ky * ky);
   float inv_k = k > 0.0f ? 1.0f / k : 0.0f;
   size_t cells = (size_t)nx * ny, at = i + (size_t)nx * j;
