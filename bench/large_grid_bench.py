@@ -64,6 +64,8 @@ def main() -> None:
     parser.add_argument("--squalld", type=Path, action="append")
     parser.add_argument("--squalld-flags", default="--fft fftw", help="more squalld flags")
     args = parser.parse_args()
+    if args.frames < 2 or args.rounds < 1:
+        parser.error("--frames must be at least 2 and --rounds at least 1")
     binaries = args.squalld or [ROOT / "build" / "squalld"]
     flags = args.squalld_flags.split()
     runs: Dict[Path, List[Dict[str, List[float]]]] = {b: [] for b in binaries}

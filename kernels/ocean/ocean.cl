@@ -86,7 +86,7 @@ inline float band_count(float kx, float ky, __global const float4* bands, int nb
 }
 
 // The spectrum of a layer, planar: H0_PLANES planes of nx * ny floats, mode (i, j) at i + nx * j of each, so
-// that evolve_halves reads every value of a mode with one wide load per plane (a record of four floats, or
+// that mode_phase reads every value of a mode with one wide load per plane (a record of four floats, or
 // the mode of -k at a mirrored index, would be an AVX-512 gather on a CPU device).
 #define H0_RE 0        // Re h0(k)
 #define H0_IM 1        // Im h0(k)
@@ -195,7 +195,7 @@ __attribute__((always_inline)) static void evolve_height(__global const float* h
   drift(i, j, nx, ny, shift, h_re, h_im);
 }
 
-// Eq 1 / 43 at absolute time t: h~(k,t) = plus + minus (evolve_halves), and its derived channels, packed
+// Eq 1 / 43 at absolute time t: h~(k,t) (evolve_height), and its derived channels, packed
 // into `pairs` complex arrays of nx*ny each, in the displaced or the undisplaced layout. t = t_hi + t_lo
 // (two floats). Kernels ocean_evolve1 to 4 (displaced) and ocean_evolve_undisplaced2 and 3 run it with
 // `pairs` and `displaced` constants, launched over exactly nx x ny work-items: with no store under a

@@ -64,7 +64,9 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
       fft_(fft),
       gate_(gate),
       ocean_(options.ocean),
-      coefficients_(cache_bound(gate.limits().memory_budget, CoefficientCache::kDefaultMaxBytes), &gate),
+      coefficients_(cache_bound(gate.limits().memory_budget, runtime.device_info().global_memory_bytes,
+                                CoefficientCache::kDefaultMaxBytes),
+                    &gate),
       sessions_(gate, std::move(options.sessions), "eWave session", "session_id") {
   sessions_.persist(save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
   // The kernels' argument lists are checked against the device's now, at start-up, not at a first session.

@@ -88,8 +88,9 @@ class OceanEngine {
 // Working memory of one call, for the caller's memory budget: the device buffers tile() takes from the
 // pool for `spec` and `outputs` (Output bits; on the output grid its output planes, whitecap plane and
 // layer sums, and the complex channels of one layer at a time), and the host copies of every layer's
-// channels and the one layer's device buffer that sample() holds. The layers' cached spectra (h0) are not
-// counted: the engine bounds their cache.
+// channels and the one layer's device buffer that sample() holds. The layers' spectra (h0) are not
+// counted: those kept count in the budget as cached memory, and one that the cache does not keep lives for
+// its tile alone.
 uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs);
 uint64_t sample_bytes(const TileSpec& spec);
 

@@ -13,9 +13,9 @@ namespace squall::ocean {
 inline OceanEngine& shared_engine(::squall::rpc::EngineContext& context) {
   return context.shared<OceanEngine>([&] {
     const Limits& limits = context.gate.limits();
-    return std::make_unique<OceanEngine>(context.runtime, context.fft, limits,
-                                         cache_bound(limits.memory_budget, OceanEngine::kDefaultMaxCachedBytes),
-                                         &context.gate);
+    const size_t cached = cache_bound(limits.memory_budget, context.runtime.device_info().global_memory_bytes,
+                                      OceanEngine::kDefaultMaxCachedBytes);
+    return std::make_unique<OceanEngine>(context.runtime, context.fft, limits, cached, &context.gate);
   });
 }
 

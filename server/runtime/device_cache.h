@@ -23,12 +23,13 @@
 
 namespace squall {
 
-// The byte bound of one of the daemon's caches under a memory budget of `memory_budget` bytes: a quarter of it,
-// and at least `least`. What a cache keeps goes back to any call that needs the room, so the bound only says
-// how much of an idle budget it may keep; a fixed bound had a 4096^2 ocean layer's spectrum (384 MiB) and a
-// 4096^2 eWave grid's propagator table (128 MiB) computed again for every frame and step.
-inline size_t cache_bound(uint64_t memory_budget, size_t least) {
-  return size_t(std::max<uint64_t>(least, memory_budget / 4));
+// The byte bound of one of the daemon's device caches: a quarter of its memory budget, but no more than an
+// eighth of the device's global memory (a GPU's is not the host's, and what the caches keep there is
+// reclaimed only when a call finds no room in the budget), and at least `least`. A buffer that no call holds
+// any more goes back to such a call (MemoryReclaimer), so the bound says how much of an idle budget a cache
+// may keep: enough for the spectrum of one 4096^2 ocean layer (384 MiB) on a machine of a few GiB.
+inline size_t cache_bound(uint64_t memory_budget, uint64_t device_memory, size_t least) {
+  return size_t(std::max<uint64_t>(least, std::min(memory_budget / 4, device_memory / 8)));
 }
 
 template <typename Key>  // compared with ==

@@ -65,8 +65,8 @@ struct FloatRange {
   size_t count = 0;
 };
 
-// `ranges` with each run of ranges that follow one another in the buffer (one's end the next one's offset)
-// joined into one: the reads read_views() queues off host storage, one command a run.
+// `ranges` but those of no floats, with each run of ranges that follow one another in the buffer (one's end
+// the next one's offset) joined into one: the reads read_views() queues off host storage, one command a run.
 std::vector<FloatRange> contiguous_runs(std::span<const FloatRange> ranges);
 
 // The ranges of the buffer `lease` holds as views the caller keeps, once the calling thread's queue has

@@ -268,18 +268,20 @@ TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
+// A daemon's cache keeps a quarter of the memory budget, no more than an eighth of the device's memory, and at
+// least its own floor: a 4096^2 ocean layer's spectrum (six float planes, 384 MiB) under a budget of 1.5 GiB.
+TEST(DeviceCache, ADaemonsCacheKeepsAQuarterOfTheBudgetAndAnEighthOfTheDevice) {
+  constexpr uint64_t MiB = uint64_t(1) << 20, GiB = uint64_t(1) << 30;
+  EXPECT_GE(cache_bound(3 * GiB / 2, 16 * GiB, 0), 4096 * 4096 * 6 * sizeof(float));
+  EXPECT_EQ(cache_bound(8 * GiB, 141 * GiB, 256 * MiB), 2 * GiB);            // the budget's quarter
+  EXPECT_EQ(cache_bound(2048 * GiB, 141 * GiB, 256 * MiB), 141 * GiB / 8);  // a GPU's eighth
+  EXPECT_EQ(cache_bound(100 * MiB, 16 * GiB, 64 * MiB), 64 * MiB);          // the floor
+}
+
 // A buffer the cache keeps holds its bytes in the budget until the cache and every call that got it have
 // released it. A call that needs the room takes back only buffers no other call uses (evicting one in use
 // would free nothing); one evicted while in use (past the cache's own limit) holds its bytes on as call
 // memory, which no cache can give back, until its last use ends.
-// A daemon's cache keeps a quarter of the memory budget, and at least its own floor: a 4096^2 ocean layer's
-// spectrum (six float planes, 384 MiB) under a budget of 1.5 GiB.
-TEST(DeviceCache, ADaemonsCacheKeepsAQuarterOfTheMemoryBudget) {
-  EXPECT_GE(cache_bound(uint64_t(3) << 29, 0), size_t(4096) * 4096 * 6 * sizeof(float));
-  EXPECT_EQ(cache_bound(uint64_t(8) << 30, size_t(256) << 20), size_t(2) << 30);
-  EXPECT_EQ(cache_bound(uint64_t(100) << 20, size_t(64) << 20), size_t(64) << 20);
-}
-
 TEST(DeviceCache, ABufferStillInUseStillCountsInTheMemoryBudget) {
   constexpr size_t kBytes = 512 << 10;
   auto make = [] {
@@ -479,9 +481,10 @@ TEST(HostTransfer, ViewsKeepTheMemoryTheyView) {
 }
 
 TEST(HostTransfer, RangesThatFollowOneAnotherAreReadAsOne) {
-  const FloatRange ranges[] = {{0, 3}, {3, 4}, {7, 0}, {7, 2}, {12, 1}, {13, 1}, {5, 2}, {7, 1}};
+  const FloatRange ranges[] = {{0, 3}, {100, 0}, {3, 4}, {7, 0}, {7, 2}, {12, 1}, {13, 1}, {5, 2}, {7, 1}};
   const std::vector<FloatRange> runs = contiguous_runs(ranges);
-  const FloatRange expected[] = {{0, 9}, {12, 2}, {5, 3}};  // in the order given: no sort, no overlap merged
+  // In the order given (no sort, no overlap merged); ranges of no floats, wherever they are, break no run.
+  const FloatRange expected[] = {{0, 9}, {12, 2}, {5, 3}};
   ASSERT_EQ(runs.size(), std::size(expected));
   for (size_t i = 0; i < runs.size(); ++i) {
     EXPECT_EQ(runs[i].offset, expected[i].offset) << i;
