@@ -273,7 +273,7 @@ TEST(BufferPool, IdleBuffersCountInTheMemoryBudgetAndGiveWayToCalls) {
 TEST(DeviceCache, ADaemonsCacheKeepsAQuarterOfTheBudgetAndAnEighthOfTheDevice) {
   constexpr uint64_t MiB = uint64_t(1) << 20, GiB = uint64_t(1) << 30;
   EXPECT_GE(cache_bound(3 * GiB / 2, 16 * GiB, 0), 4096 * 4096 * 6 * sizeof(float));
-  EXPECT_EQ(cache_bound(8 * GiB, 141 * GiB, 256 * MiB), 2 * GiB);            // the budget's quarter
+  EXPECT_EQ(cache_bound(8 * GiB, 141 * GiB, 256 * MiB), 2 * GiB);           // the budget's quarter
   EXPECT_EQ(cache_bound(2048 * GiB, 141 * GiB, 256 * MiB), 141 * GiB / 8);  // a GPU's eighth
   EXPECT_EQ(cache_bound(100 * MiB, 16 * GiB, 64 * MiB), 64 * MiB);          // the floor
 }
