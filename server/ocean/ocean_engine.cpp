@@ -338,8 +338,8 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   BufferLease accum, fields;
   if (!direct) accum = runtime.buffers().acquire(size_t(2 * layout.pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
-    if (a > 0 && cancel.requested()) {  // a layer is the slice
-      runtime.queue().finish();         // the layers enqueued so far end before their buffers go back
+    if (cancel.requested()) {    // a layer is the slice; the first, once a queue is held after the wait for it
+      runtime.queue().finish();  // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
     BufferLease layer = impl_->layer_fields(spec, a, t, layout);  // back to the pool before the next layer's

@@ -150,6 +150,19 @@ TEST(OceanTile, ACancelledSampleStopsAmongItsPoints) {
   EXPECT_EQ(engine().sample(spec, 1.0, points, false).size(), 5000u);
 }
 
+// A tile asks its Cancellation before each layer, the first included: one whose caller went away while it
+// waited for a device queue builds no spectrum and runs no kernel.
+TEST(OceanTile, ACancelledTileStopsBeforeItsFirstLayer) {
+  const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 32, 64, 4711);
+  const Cancellation cancelled([] { return true; });
+  const size_t built = engine().spectra_built();
+  squall::test::expect_error(Code::Cancelled, "tile: before layer 0 cancelled",
+                             [&] { engine().tile(spec, 1.0, Height, nullptr, cancelled); });
+  EXPECT_EQ(engine().spectra_built(), built);
+  engine().tile(spec, 1.0, Height);
+  EXPECT_EQ(engine().spectra_built(), built + 1);
+}
+
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
   auto h = engine().tile(spec, 1.0, Height).height;
