@@ -574,10 +574,12 @@ TEST(StateDir, OwnerFilesAndHeartbeatsOfAReplicaKilledLongAgoExpire) {
   ASSERT_TRUE(state.create_owner(kId, "dead"));
   ASSERT_TRUE(state.create_owner(live, "live"));
   ASSERT_TRUE(state.create_owner(kept, "dead"));
-  std::this_thread::sleep_for(600ms);
+  std::this_thread::sleep_for(1500ms);
   state.heartbeat("live");
   state.write(kept, "a checkpoint of its own");
-  EXPECT_EQ(state.expire(300ms), 2u) << "the dead replica's owner file of kId and its heartbeat";
+  // A TTL well past the few calls between the live beat and the expiry, however loaded the machine (with
+  // 300 ms, a stall under a parallel test run once expired the live replica's files too).
+  EXPECT_EQ(state.expire(1000ms), 2u) << "the dead replica's owner file of kId and its heartbeat";
   EXPECT_FALSE(state.owner(kId));
   EXPECT_FALSE(fs::exists(dir + "/replicas/dead"));
   EXPECT_EQ(state.owner(live).value(), "live");
