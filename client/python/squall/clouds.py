@@ -334,7 +334,7 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 def release_call(rpc: Any, volume_id: str) -> Undo:
     """Connection.create's `undo` for a kept build: the call that releases `volume_id`.
 
-    Returned as the tuple ("Clouds.ReleaseVolume", the stub's ReleaseVolume, the request).
+    The tuple holds the method's name, the stub's ReleaseVolume and its request, in that order.
     """
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)

@@ -344,7 +344,7 @@ def unary_step_request(
 def close_call(rpc: Any, session_id: str) -> Undo:
     """Connection.create's `undo` for a session's creation: the call that closes `session_id`.
 
-    Returned as the tuple ("EWave.CloseSession", the stub's CloseSession, the request).
+    The tuple holds the method's name, the stub's CloseSession and its request, in that order.
     """
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
