@@ -32,10 +32,10 @@ using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_f
 // h0, nx, ny, dkx, dky, t_hi, t_lo, shift, g, out
 using PotentialKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
-// fields, nx, ny, pairs, scale, onx, ony, first, accum
-using AccumulateKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl::Buffer>;
-// sums, cells, channels, displaced, lambda, flags, threshold, decay, whitecap, out (ocean_finalize,
-// ocean_finalize_direct)
+// fields, nx, ny, pairs, scale, onx, ony, first, interleaved, accum
+using AccumulateKernel =
+    Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl_int, cl::Buffer>;
+// sums, cells, channels, displaced, lambda, flags, threshold, decay, whitecap, out
 using FinalizeKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float, cl_int, cl_float, cl_float, cl::Buffer, cl::Buffer>;
 
@@ -96,7 +96,7 @@ struct OceanEngine::Impl {
   std::array<EvolveKernel, 4> evolve;              // displaced layout, [pairs - 1]
   std::array<EvolveKernel, 2> evolve_undisplaced;  // undisplaced layout, [pairs - 2]
   AccumulateKernel accumulate;
-  FinalizeKernel finalize, finalize_direct;
+  FinalizeKernel finalize;
   PotentialKernel evolve_potential, evolve_current;
 
   DeviceCache<std::string> spectra;               // h0 per layer (h0_key)
@@ -115,7 +115,6 @@ struct OceanEngine::Impl {
                            EvolveKernel(r, kProgram, "ocean_evolve_undisplaced3")},
         accumulate(r, kProgram, "ocean_accumulate"),
         finalize(r, kProgram, "ocean_finalize"),
-        finalize_direct(r, kProgram, "ocean_finalize_direct"),
         evolve_potential(r, kProgram, "ocean_evolve_potential"),
         evolve_current(r, kProgram, "ocean_evolve_current"),
         spectra(max_cached_bytes, budget, "an ocean layer's spectrum kept for the next tiles") {}
@@ -190,12 +189,18 @@ struct OceanEngine::Impl {
     return fields;
   }
 
-  // Adds one layer's `pairs` complex arrays onto the output grid's 2 * pairs planes of `accum`.
+  // How ocean_accumulate lays out the sums: as complex arrays (an inverse FFT's output), or as planes of the
+  // real parts and of the imaginary parts.
+  enum class Layout { Interleaved, Planes };
+
+  // Adds one layer's `pairs` complex arrays onto the output grid's `pairs` channel pairs of `accum` (written
+  // if `first`).
   void accumulate_layer(const cl::Buffer& fields, const LayerSpec& L, int pairs, const OutputGrid& grid, bool first,
-                        const cl::Buffer& accum) {
+                        Layout layout, const cl::Buffer& accum) {
     cl_float2 scale{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}};
-    accumulate.launch(row_groups(grid.nx, grid.ny), kRowGroupRange, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs),
-                      scale, cl_int(grid.nx), cl_int(grid.ny), cl_int(first ? 1 : 0), accum);
+    accumulate.launch_rows(grid.nx, grid.ny, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs), scale, cl_int(grid.nx),
+                           cl_int(grid.ny), cl_int(first ? 1 : 0), cl_int(layout == Layout::Interleaved ? 1 : 0),
+                           accum);
   }
 
   // The layer's real channels at t on its own grid: `layout.pairs` complex arrays (ocean.cl).
@@ -226,7 +231,7 @@ void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Bu
   OutputGrid grid = output_grid(spec);
   for (size_t a = 0; a < spec.layers.size(); ++a) {
     BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_potential);
-    impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out);
+    impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, Impl::Layout::Planes, out);
   }
 }
 
@@ -263,7 +268,7 @@ SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
     BufferLease out = impl_->runtime.buffers().acquire(2 * cells * sizeof(float));
     for (size_t a = 0; a < spec.layers.size(); ++a) {
       BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_current);
-      impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, out.buffer());
+      impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, Impl::Layout::Planes, out.buffer());
     }
     ReadBack read(impl_->runtime);
     read.add(out.buffer(), 0, cells * sizeof(float), current.u.data());
@@ -331,32 +336,31 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   for (const LayerSpec& L : spec.layers) work += size_t(L.nx) * size_t(L.ny) * size_t(layout.pairs);
   auto lock = impl_->runtime.exclusive({"ocean.tile", work});
   Runtime& runtime = impl_->runtime;
-  // One layer on the output grid: ocean_finalize reads the inverse FFT's output as it is (no resampling).
+  // The sums of the layers' channels, interleaved complex arrays on the output grid. A first layer on that
+  // grid (the default) is its own sum: its inverse FFT's output, to which the other layers are added.
   const LayerSpec& first = spec.layers.front();
-  const bool direct = spec.layers.size() == 1 && first.nx == grid.nx && first.ny == grid.ny && first.lx == grid.lx &&
-                      first.ly == grid.ly;
-  BufferLease accum, fields;
-  if (!direct) accum = runtime.buffers().acquire(size_t(2 * layout.pairs) * cells * sizeof(float));
+  const bool in_place = first.nx == grid.nx && first.ny == grid.ny && first.lx == grid.lx && first.ly == grid.ly;
+  BufferLease sums;
+  if (!in_place) sums = runtime.buffers().acquire(size_t(2 * layout.pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
     if (cancel.requested()) {    // a layer is the slice; the first, once a queue is held after the wait for it
       runtime.queue().finish();  // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
     BufferLease layer = impl_->layer_fields(spec, a, t, layout);  // back to the pool before the next layer's
-    if (direct)
-      fields = std::move(layer);
+    if (a == 0 && in_place)
+      sums = std::move(layer);
     else
-      impl_->accumulate_layer(layer.buffer(), spec.layers[a], layout.pairs, grid, a == 0, accum.buffer());
+      impl_->accumulate_layer(layer.buffer(), spec.layers[a], layout.pairs, grid, a == 0, Impl::Layout::Interleaved,
+                              sums.buffer());
   }
-  const cl::Buffer& sums = direct ? fields.buffer() : accum.buffer();
   BufferLease out = runtime.buffers().acquire(kOutputPlanes * cells * sizeof(float));
   BufferLease whitecap = runtime.buffers().acquire(cells * sizeof(float));
   if (outputs & Whitecaps)
     runtime.queue().enqueueWriteBuffer(whitecap.buffer(), CL_FALSE, 0, cells * sizeof(float), previous.data());
-  FinalizeKernel& finalize = direct ? impl_->finalize_direct : impl_->finalize;
-  finalize.launch_rows(cells, 1, sums, cl_int(cells), cl_int(2 * layout.pairs), cl_int(layout.displaced ? 1 : 0),
-                       cl_float(spec.choppiness), cl_int(outputs), cl_float(spec.whitecap_threshold), decay,
-                       whitecap.buffer(), out.buffer());
+  impl_->finalize.launch_rows(cells, 1, sums.buffer(), cl_int(cells), cl_int(2 * layout.pairs),
+                              cl_int(layout.displaced ? 1 : 0), cl_float(spec.choppiness), cl_int(outputs),
+                              cl_float(spec.whitecap_threshold), decay, whitecap.buffer(), out.buffer());
   read_outputs(runtime, std::move(out), cells, planes_of(outputs) & (planes | plane::bit(plane::Whitecaps)), result);
   lock.unlock();
 

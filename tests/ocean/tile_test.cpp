@@ -558,8 +558,10 @@ TEST(OceanReference, AGridWiderThanARowGroupAgrees) {
 }
 
 // A tile that asks for no displacement transforms the undisplaced channel layout, one pair fewer: every
-// output of every such set (and of the displaced sets beside them) agrees with the FFTW double reference,
-// on one layer (finalize reads the FFT's output) and on two layers (finalize reads the accumulated planes).
+// output of every such set (and of the displaced sets beside them) agrees with the FFTW double reference:
+// on one layer (finalize reads the FFT's output), on two layers (the second added to the first's transform)
+// and on two layers resampled onto an output grid of their own, wider than a row group of work-items and
+// not a multiple of one (both added to a sum of their own, in two launches).
 TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
   TileSpec one = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 150);
   one.layers[0].drift_x = 0.4;
@@ -567,6 +569,8 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
   TileSpec two = one;
   two.layers.push_back(one.layers[0]);
   two.layers[1].nx = two.layers[1].ny = 32, two.layers[1].lx = two.layers[1].ly = 41, two.layers[1].seed = 5;
+  TileSpec resampled = two;
+  resampled.nx = 300, resampled.ny = 40, resampled.lx = 150, resampled.ly = 60;
   using Field = FloatView TileFields::*;
   const std::vector<std::pair<Output, std::vector<Field>>> fields = {
       {Height, {&TileFields::height}},
@@ -584,7 +588,7 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
                            Height | Displacement | Normals,
                            Displacement | Slopes,
                            Height};
-  for (const TileSpec* spec : {&one, &two}) {
+  for (const TileSpec* spec : {&one, &two, &resampled}) {
     const TileFields r = CpuReference().tile(*spec, 2.5, kAllOutputs);
     for (unsigned outputs : sets) {
       const TileFields e = engine().tile(*spec, 2.5, outputs);
@@ -593,13 +597,14 @@ TEST(OceanReference, EveryOutputSetAgreesWithTheReference) {
           ASSERT_EQ((e.*f).size(), (outputs & output) ? (r.*f).size() : 0u) << "outputs " << outputs;
           if (outputs & output) {
             EXPECT_LT(test::relative_rms_error(e.*f, r.*f), 1e-4)
-                << "outputs " << outputs << ", output " << output << ", layers " << spec->layers.size();
+                << "outputs " << outputs << ", output " << output << ", layers " << spec->layers.size()
+                << ", output grid " << spec->nx;
           }
         }
       ASSERT_EQ(e.whitecaps.size(), (outputs & Whitecaps) ? r.whitecaps.size() : 0u) << "outputs " << outputs;
       size_t differ = 0;  // J- is compared with a threshold: a cell at it may go either way
       for (size_t i = 0; i < e.whitecaps.size(); ++i) differ += e.whitecaps[i] != r.whitecaps[i];
-      EXPECT_LE(differ, r.whitecaps.size() / 1000) << "outputs " << outputs << ", layers " << spec->layers.size();
+      EXPECT_LE(differ, r.whitecaps.size() / 1000) << "outputs " << outputs << ", output grid " << spec->nx;
     }
   }
 }
