@@ -26,6 +26,9 @@ using H0MirrorKernel = Kernel<cl::Buffer, cl_int, cl_int>;            // h0, nx,
 constexpr size_t kH0Planes = 6;                                       // H0_PLANES of ocean.cl
 constexpr size_t kH0FrequencyPlane = 2;                               // H0_FREQUENCY_HI, then H0_FREQUENCY_LO
 constexpr size_t kFrequencyBlockModes = size_t(1) << 16;              // modes per write of the frequencies
+// Modes of a spectrum computed between two looks at the call's cancellation (whole rows, at least one):
+// ocean_h0 takes about 160 ns a mode on two CPU cores, so a 4096^2 layer's 2.7 s is cancelled within 0.2 s.
+constexpr size_t kSpectrumSliceModes = size_t(1) << 20;
 // h0, nx, ny, dkx, dky, t_hi, t_lo, shift, out (ocean_evolve1 to 4 and ocean_evolve_undisplaced2 and 3, one per
 // channel layout and count of pairs)
 using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl::Buffer>;
@@ -120,8 +123,9 @@ struct OceanEngine::Impl {
         spectra(max_cached_bytes, budget, "an ocean layer's spectrum kept for the next tiles") {}
 
   // h0 of layer `index`, computed on a miss (and finished before it is cached: other queues may read it
-  // at once). Runs under runtime.exclusive(). A handle, not a reference: another request may evict it.
-  cl::Buffer spectrum(const TileSpec& spec, size_t index) {
+  // at once), in slices of rows that `cancel` can stop between (Error(Cancelled): nothing is cached). Runs
+  // under runtime.exclusive(). A handle, not a reference: another request may evict it.
+  cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}) {
     return spectra.get(h0_key(spec, index), [&] {
       const LayerSpec& L = spec.layers[index];
       const size_t bytes = size_t(L.nx) * size_t(L.ny) * kH0Planes * sizeof(float);
@@ -134,26 +138,34 @@ struct OceanEngine::Impl {
                              std::max<size_t>(1, bands.size()) * sizeof(none),
                              bands.empty() ? none.data() : bands.front().data());
       cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
-      write_frequencies(L, h0);
-      h0_kernel.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, layer, band_buffer, cl_int(bands.size()), h0);
+      const std::string what = "the spectrum of layer " + std::to_string(index);
+      const size_t nx = size_t(L.nx), ny = size_t(L.ny), rows = std::max<size_t>(1, kSpectrumSliceModes / nx);
+      for (size_t row = 0; row < ny; row += rows) {
+        const size_t count = std::min(rows, ny - row);
+        write_frequencies(L, h0, row * nx, count * nx);
+        h0_kernel.launch_region(cl::NDRange(0, row), cl::NDRange(nx, count), cl::NullRange, layer, band_buffer,
+                                cl_int(bands.size()), h0);
+        runtime.queue().finish();  // each slice ends before `cancel` is looked at
+        cancel.check(what);
+      }
       h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
       runtime.queue().finish();  // the parameter buffers go out of scope
       return DeviceCache<std::string>::Made{h0, bytes};
     });
   }
 
-  // The planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl) from the host's double-precision dispersion, a
-  // block of modes at a time.
-  void write_frequencies(const LayerSpec& L, const cl::Buffer& h0) {
-    const size_t cells = size_t(L.nx) * size_t(L.ny), plane_bytes = cells * sizeof(float);
-    std::vector<float> hi(std::min(cells, kFrequencyBlockModes)), lo(hi.size());
-    for (size_t first = 0; first < cells; first += hi.size()) {
-      const size_t count = std::min(hi.size(), cells - first), offset = first * sizeof(float);
-      mode_frequencies(L, first, count, hi.data(), lo.data());
-      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, kH0FrequencyPlane * plane_bytes + offset, count * sizeof(float),
+  // Modes first .. first + count - 1 of the planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl), from the
+  // host's double-precision dispersion, a block of modes at a time.
+  void write_frequencies(const LayerSpec& L, const cl::Buffer& h0, size_t first, size_t count) {
+    const size_t plane_bytes = size_t(L.nx) * size_t(L.ny) * sizeof(float);
+    std::vector<float> hi(std::min(count, kFrequencyBlockModes)), lo(hi.size());
+    for (size_t done = 0; done < count; done += hi.size()) {
+      const size_t block = std::min(hi.size(), count - done), offset = (first + done) * sizeof(float);
+      mode_frequencies(L, first + done, block, hi.data(), lo.data());
+      runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, kH0FrequencyPlane * plane_bytes + offset, block * sizeof(float),
                                          hi.data());
       runtime.queue().enqueueWriteBuffer(h0, CL_TRUE, (kH0FrequencyPlane + 1) * plane_bytes + offset,
-                                         count * sizeof(float), lo.data());
+                                         block * sizeof(float), lo.data());
     }
   }
 
@@ -204,9 +216,10 @@ struct OceanEngine::Impl {
   }
 
   // The layer's real channels at t on its own grid: `layout.pairs` complex arrays (ocean.cl).
-  BufferLease layer_fields(const TileSpec& spec, size_t index, double t, ChannelLayout layout) {
+  BufferLease layer_fields(const TileSpec& spec, size_t index, double t, ChannelLayout layout,
+                           const Cancellation& cancel) {
     const LayerSpec& L = spec.layers[index];
-    const cl::Buffer& h0 = spectrum(spec, index);
+    const cl::Buffer& h0 = spectrum(spec, index, cancel);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(layout.pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     const cl_float2 time = two_float_time(t);
@@ -347,7 +360,8 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
       runtime.queue().finish();  // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
-    BufferLease layer = impl_->layer_fields(spec, a, t, layout);  // back to the pool before the next layer's
+    // Back to the pool before the next layer's.
+    BufferLease layer = impl_->layer_fields(spec, a, t, layout, cancel);
     if (a == 0 && in_place)
       sums = std::move(layer);
     else
@@ -435,7 +449,8 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
     for (size_t a = 0; a < spec.layers.size(); ++a) {  // a layer's buffer goes back before the next is taken
       cancel.check("sample: before layer " + std::to_string(a));
       const LayerSpec& L = spec.layers[a];
-      BufferLease fields = impl_->layer_fields(spec, a, t, {4, true});  // every channel, as sample_channels reads
+      // Every channel, as sample_channels reads them.
+      BufferLease fields = impl_->layer_fields(spec, a, t, {4, true}, cancel);
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
       read_back(impl_->runtime, fields.buffer(), layers[a].size() * sizeof(float), layers[a].data());
     }

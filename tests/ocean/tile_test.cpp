@@ -142,6 +142,7 @@ TEST(OceanTile, WindDirectionsWholeTurnsApartGiveOneSea) {
 // answers, a sample of 5000 points stops at point 4096.
 TEST(OceanTile, ACancelledSampleStopsAmongItsPoints) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 32, 64);
+  engine().sample(spec, 1.0, {{0, 0}}, false);  // the spectrum kept: building it would look once more
   int asked = 0;
   const Cancellation after_two([&] { return ++asked > 2; });
   const std::vector<Vec2> points(5000, Vec2{1.5, 2.5});
@@ -161,6 +162,28 @@ TEST(OceanTile, ACancelledTileStopsBeforeItsFirstLayer) {
   EXPECT_EQ(engine().spectra_built(), built);
   engine().tile(spec, 1.0, Height);
   EXPECT_EQ(engine().spectra_built(), built + 1);
+}
+
+// A layer's spectrum is built in slices of rows (2^20 modes, 0.2 s on two CPU cores) with the Cancellation
+// asked after each: a 4096^2 layer's 2.7 s could not be stopped before. A 2048 x 1024 layer is two slices.
+// Cancelled from its second look on (the first is the tile's, before the layer), the call stops after the
+// first slice and caches nothing; the next tile builds the spectrum whole, asking once a slice.
+TEST(OceanTile, ACancelledSpectrumStopsAfterItsSlice) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 1024, 2000, 4712);
+  spec.layers[0].nx = 2048, spec.layers[0].lx = 4000;
+  int looks = 0;
+  const Cancellation second_look([&] { return ++looks >= 2; });
+  const size_t built = engine().spectra_built();
+  squall::test::expect_error(Code::Cancelled, "the spectrum of layer 0 cancelled",
+                             [&] { engine().tile(spec, 1.0, Height, nullptr, second_look); });
+  EXPECT_EQ(looks, 2);
+  EXPECT_EQ(engine().spectra_built(), built);
+  looks = 0;
+  const Cancellation counted([&] { return ++looks < 0; });
+  const TileFields whole = engine().tile(spec, 1.0, Height, nullptr, counted);
+  EXPECT_EQ(looks, 1 + 2) << "the tile's look and one a slice";
+  EXPECT_EQ(engine().spectra_built(), built + 1);
+  EXPECT_EQ(whole.height, engine().tile(spec, 1.0, Height).height) << "a cached spectrum is the one built";
 }
 
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
