@@ -18,8 +18,6 @@ namespace {
 
 bool wants_outputs(const OutputSelection& o) { return o.displacement || o.normals; }
 
-cl::NDRange cells_range(const EWaveConfig& c) { return row_groups(size_t(c.nx), size_t(c.ny)); }
-
 // The cells that can meet the shapes' bounding box, with a cell of margin and clamped to the grid.
 // ewave_rasterize leaves every other cell alone (its first test), so rasterizing only these gives the
 // same map.
@@ -201,23 +199,22 @@ void EWaveSession::prepare(const StepInputs& in, bool has_obstruction, const cl:
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.prepare.launch(cells_range(config_), kRowGroupRange, state_.buffer(), cl_int(config_.nx), cl_int(config_.ny),
-                         obstruction, cl_int(has_obstruction), ambient_height ? *ambient_height : none,
-                         cl_int(ambient_height != nullptr), trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim),
-                         source_h, cl_int(!in.source_height.empty()), source_phi, cl_int(!in.source_phi.empty()),
-                         Real(config_.source_scale), Real(decay), Real(gain));
+        k.prepare.launch_rows(config_.nx, config_.ny, state_.buffer(), cl_int(config_.nx), cl_int(config_.ny),
+                              obstruction, cl_int(has_obstruction), ambient_height ? *ambient_height : none,
+                              cl_int(ambient_height != nullptr), trim_x_.buffer(), trim_y_.buffer(),
+                              cl_int(config_.trim), source_h, cl_int(!in.source_height.empty()), source_phi,
+                              cl_int(!in.source_phi.empty()), Real(config_.source_scale), Real(decay), Real(gain));
       },
       kernels_);
 }
 
 void EWaveSession::propagate(const cl::Buffer& coefficients, int fields) {
-  const cl::NDRange modes = row_groups(size_t(config_.nx) / 2 + 1, size_t(config_.ny));
   std::visit(
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
-        k.propagate.launch(modes, kRowGroupRange, spectrum_.buffer(), coefficients, cl_int(config_.nx),
-                           cl_int(config_.ny), Real(2 * std::numbers::pi / config_.length_x()),
-                           Real(2 * std::numbers::pi / config_.length_y()), cl_int(fields));
+        k.propagate.launch_rows(size_t(config_.nx) / 2 + 1, config_.ny, spectrum_.buffer(), coefficients,
+                                cl_int(config_.nx), cl_int(config_.ny), Real(2 * std::numbers::pi / config_.length_x()),
+                                Real(2 * std::numbers::pi / config_.length_y()), cl_int(fields));
       },
       kernels_);
 }
@@ -234,12 +231,12 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
         auto& kernel = drift_mode == 0 ? k.finish : k.finish_advect;
-        kernel.launch(cells_range(config_), kRowGroupRange, work_.buffer(), cl_int(fields), state_.buffer(),
-                      out_.buffer(), cl_int(config_.nx), cl_int(config_.ny), drift_mode,
-                      Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
-                      Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
-                      Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
-                      trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
+        kernel.launch_rows(config_.nx, config_.ny, work_.buffer(), cl_int(fields), state_.buffer(), out_.buffer(),
+                           cl_int(config_.nx), cl_int(config_.ny), drift_mode,
+                           Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
+                           Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
+                           Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
+                           trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
       },
       kernels_);
 }
