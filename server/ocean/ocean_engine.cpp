@@ -356,11 +356,11 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
   BufferLease sums;
   if (!in_place) sums = runtime.buffers().acquire(size_t(2 * layout.pairs) * cells * sizeof(float));
   for (size_t a = 0; a < spec.layers.size(); ++a) {
-    if (cancel.requested()) {    // a layer is the slice; the first, once a queue is held after the wait for it
+    if (cancel.requested()) {    // before each layer; the first, once a queue is held after the wait for it
       runtime.queue().finish();  // the layers enqueued so far end before their buffers go back
       cancel.check("tile: before layer " + std::to_string(a));
     }
-    // Back to the pool before the next layer's.
+    // Back to the pool before the next layer's, but for a first layer that is the sums.
     BufferLease layer = impl_->layer_fields(spec, a, t, layout, cancel);
     if (a == 0 && in_place)
       sums = std::move(layer);
@@ -424,7 +424,8 @@ uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs) {
   const uint64_t cells = uint64_t(grid.nx) * uint64_t(grid.ny);
   const uint64_t pair_bytes = uint64_t(channel_layout(outputs).pairs) * 2 * sizeof(float);
   const uint64_t planes = (kOutputPlanes + 1) * sizeof(float);  // the output planes and the whitecaps
-  // On the output grid its planes and ocean_accumulate's sums (2 floats a pair); a layer's pairs.
+  // On the output grid its planes and the sums (2 floats a pair: the first layer's transform, or
+  // ocean_accumulate's buffer); a layer's pairs.
   return cells * (planes + pair_bytes) + largest_layer_cells(spec) * pair_bytes;
 }
 

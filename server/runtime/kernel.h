@@ -108,11 +108,10 @@ requires(sizeof...(Given) == sizeof...(Expected)) struct KernelArgsMatch<std::tu
 // Rounds n up to a multiple of m (global work sizes).
 inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 
-// Element-wise kernels over an nx x ny grid (or n cells) in work-groups of one row of kRowGroup items
-// (the kernels skip the ids past the grid). PoCL's own choice for a NullRange local size made
-// ewave_finish, ewave_prepare and ewave_propagate 20-35% slower on the CPU device.
+// Element-wise kernels over an nx x ny grid (or n cells) run in work-groups of one row of kRowGroup items
+// (Kernel::launch_rows). PoCL's own choice for a NullRange local size made ewave_finish, ewave_prepare and
+// ewave_propagate 20-35% slower on the CPU device.
 inline constexpr size_t kRowGroup = 256;
-inline cl::NDRange row_groups(size_t nx, size_t ny = 1) { return cl::NDRange(round_up(nx, kRowGroup), ny); }
 inline const cl::NDRange kRowGroupRange{kRowGroup, 1};
 
 template <typename... Args>
