@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -28,6 +29,8 @@
 
 namespace squall::fft {
 namespace {
+
+constexpr double kSlowPlanSeconds = 1;  // a plan that took this long is logged (Info)
 
 // FFTW's planner is not reentrant: every plan creation and destruction holds this.
 std::mutex& planner_mutex() {
@@ -318,8 +321,15 @@ class FftwPlan : public Plan {
     if (typename F::PlanT made = slot.load(std::memory_order_acquire)) return made;
     std::lock_guard<std::mutex> lock(planner_mutex());
     if (!slot.load()) {
+      const bool measured = !(planner_ & FFTW_ESTIMATE);  // FFTW_MEASURE is 0: not a bit to test
+      // Measuring a large transform that the wisdom does not hold takes seconds, which no cancellation
+      // cuts short: said in the log, so that a slow first call of a size is explained.
+      if (measured) log(LogLevel::Debug, "fftw: planning ", describe(key()));
+      const auto start = std::chrono::steady_clock::now();
       slot.store(make(direction, in_place, unaligned), std::memory_order_release);
-      if (!(planner_ & FFTW_ESTIMATE)) wisdom_.save();  // FFTW_MEASURE is 0: not a bit to test
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (seconds >= kSlowPlanSeconds) log(LogLevel::Info, "fftw: planned ", describe(key()), " in ", seconds, " s");
+      if (measured) wisdom_.save();
     }
     return slot.load();
   }
