@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 #include <sstream>
+#include <utility>
 
 #include "ewave_support.h"
 #include "support/test_runtime.h"
@@ -128,6 +129,15 @@ TEST(EWavePhysics, TenStepsOfDtEqualOneStepOfTenDt) {
   EXPECT_EQ(a.step, 10u);
 }
 
+// The travelling wave A cos(k0 x - omega t) at t = 0 with `periods` periods across the grid: h = A cos(k0 x),
+// phi = (A g/omega) sin(k0 x). Returns k0 and omega.
+std::pair<double, double> start_travelling_wave(EWaveConfig& c, int periods, double A) {
+  const double k0 = 2 * M_PI * periods / c.length_x(), w = reference_omega(k0, c);
+  c.initial_height = field(c, [&](double x, double) { return A * std::cos(k0 * x); });
+  c.initial_phi = field(c, [&](double x, double) { return A * c.gravity / w * std::sin(k0 * x); });
+  return {k0, w};
+}
+
 // Plane wave: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
 // the measured phase after t gives the phase speed omega/k0.
 TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
@@ -140,9 +150,8 @@ TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
     c.dispersion = kind;
     c.depth = 0.01;
     c.capillary_length = 0.0027;
-    const double k0 = 2 * M_PI * 5 / c.length_x(), w = reference_omega(k0, c), A = 0.002;
-    c.initial_height = field(c, [&](double x, double) { return A * std::cos(k0 * x); });
-    c.initial_phi = field(c, [&](double x, double) { return A * c.gravity / w * std::sin(k0 * x); });
+    const double A = 0.002;
+    const auto [k0, w] = start_travelling_wave(c, 5, A);
     EWaveSession s = make_session(c);
     const double dt = 0.003;
     Frame f;
@@ -261,9 +270,7 @@ TEST(EWavePhysics, FrictionDecaysByExpMinusDtOverTauPerStep) {
   EWaveConfig bumps = plain_config(64, 64);
   random_initial_state(bumps, 5);
   EWaveConfig wide = plain_config(600, 8);
-  const double k0 = 2 * M_PI * 7 / wide.length_x(), w = reference_omega(k0, wide), A = 0.002;  // a travelling wave
-  wide.initial_height = field(wide, [&](double x, double) { return A * std::cos(k0 * x); });
-  wide.initial_phi = field(wide, [&](double x, double) { return A * wide.gravity / w * std::sin(k0 * x); });
+  start_travelling_wave(wide, 7, 0.002);
   for (const EWaveConfig& c : {bumps, wide}) {
     EWaveConfig damped = c;
     damped.friction_time = 0.05;

@@ -332,9 +332,9 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 
 
 def release_call(rpc: Any, volume_id: str) -> Undo:
-    """Connection.create's `undo` for a kept build: the call that releases `volume_id`.
+    """Connection.create's `undo` for a kept build: what releases `volume_id`.
 
-    The tuple holds the method's name, the stub's ReleaseVolume and its request, in that order.
+    Returns the method's name, the stub's ReleaseVolume callable and a request naming the volume.
     """
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)

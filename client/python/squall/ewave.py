@@ -342,9 +342,9 @@ def unary_step_request(
 
 
 def close_call(rpc: Any, session_id: str) -> Undo:
-    """Connection.create's `undo` for a session's creation: the call that closes `session_id`.
+    """Connection.create's `undo` for a new session: what closes `session_id`.
 
-    The tuple holds the method's name, the stub's CloseSession and its request, in that order.
+    Returns the method's name, the stub's CloseSession callable and a request naming the session.
     """
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
