@@ -44,9 +44,10 @@ class OceanEngine {
   // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be
   // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the
   // map of one stream across frames (see WhitecapState).
-  // `cancel` is checked before each layer and after each slice of a spectrum it builds (each waited for): a
-  // cancelled call frees the device within a layer's frame or a slice (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read back; the
-  // others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
+  // `cancel` is checked before each layer, after each slice of a spectrum it builds and, on grids of more
+  // than 2^20 cells, between a frame's stages (each waited for): a cancelled call frees the device within
+  // a slice or a stage (Error(Cancelled)). `planes` (kAllPlanes bits): of the outputs' fields, those read
+  // back; the others are left empty (whitecaps, when asked for, are always read: the stream's map needs them).
   // The fields are views (TileFields): where the device computes in its pool buffers' host storage
   // (PoCL's CPU devices), of the buffer the kernels wrote them in; elsewhere of one pinned host block they
   // were read into. Either is held from the runtime's pool until the last view goes (so the fields must
@@ -58,7 +59,8 @@ class OceanEngine {
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
   // that of the source point x0 whose displaced position x0 + lambda D(x0) lands on the query point
   // (fixed-point iteration; exact where the map does not fold, J > 0). `cancel` is asked before each layer,
-  // after each slice of a spectrum it builds and before each kSamplesPerCheck points: Error(Cancelled) then.
+  // after each slice of a spectrum it builds, before a large layer's transform (as in tile) and before each
+  // kSamplesPerCheck points: Error(Cancelled) then.
   static constexpr size_t kSamplesPerCheck = 4096;
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                     bool invert_displacement, const Cancellation& cancel = {});

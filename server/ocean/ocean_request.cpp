@@ -242,6 +242,14 @@ void fill_field(const TileFields& tile, v1::TileOutput output, v1::DType d, v1::
   field->mutable_origin();  // (0, 0, 0)
 }
 
+void fill_fields(const TileFields& tile, const std::vector<v1::TileOutput>& outputs, v1::DType dtype,
+                 const Cancellation& cancel, google::protobuf::RepeatedPtrField<v1::Field>* fields) {
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    if (cancel.requested()) Cancellation::stopped("outputs[" + std::to_string(i) + "]'s field");
+    fill_field(tile, outputs[i], dtype, fields->Add());
+  }
+}
+
 double sim_time(const std::string& path, double seconds) {
   return validate::in(path, seconds, validate::closed(-1e9, 1e9));
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "ocean/ocean_params.h"
 #include "squall/v1/ocean.pb.h"
@@ -33,5 +34,11 @@ void output_grid(const TileSpec& spec, int64_t* nx, int64_t* ny);
 // encoded by common/field_codec.h, which also checks the request's dtype: squall::field::dtype).
 void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v1::DType dtype,
                 squall::v1::Field* field);
+
+// The Fields of `outputs`, in their order, appended to `fields` (fill_field). `cancel` is looked at before
+// each, as a 4096^2 plane is 64 MiB to encode: Error(Cancelled) naming the output's index in `outputs`.
+void fill_fields(const TileFields& tile, const std::vector<squall::v1::TileOutput>& outputs,
+                 squall::v1::DType dtype, const Cancellation& cancel,
+                 google::protobuf::RepeatedPtrField<squall::v1::Field>* fields);
 
 }  // namespace squall::ocean::rpc

@@ -51,13 +51,13 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
 }
 
 // One frame's reply, the outputs in request order, encoded from the engine's views (one copy of each
-// plane, made after the device is let go).
+// plane, made after the device is let go). `cancel` is looked at in the engine and before each field.
 void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
                 const Cancellation& cancel, v1::GetTileResponse* reply) {
   const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
-  for (auto output : job.outputs) fill_field(fields, output, job.dtype, reply->add_fields());
+  fill_fields(fields, job.outputs, job.dtype, cancel, reply->mutable_fields());
 }
 
 ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {

@@ -21,6 +21,7 @@
 #include "common/error.h"
 #include "common/field_codec.h"
 #include "common/float16.h"
+#include "ocean/ocean_request.h"
 #include "ocean/tile_chunks.h"
 #include "support/expect_error.h"
 #include "support/process.h"
@@ -402,6 +403,40 @@ TEST(FieldCodec, WrongByteCountOrDtypeIsRejectedNamingTheFieldPath) {
   EXPECT_EQ(field::dtype(squall::v1::DTYPE_UNSPECIFIED), squall::v1::DTYPE_FLOAT32);
   EXPECT_EQ(field::bytes_per_value(squall::v1::DTYPE_UNSPECIFIED), 4u);
   EXPECT_EQ(field::bytes_per_value(squall::v1::DTYPE_FLOAT16), 2u);
+}
+
+// A reply's fields are encoded one by one, the call's cancellation looked at before each (a 4096^2 plane
+// is 64 MiB): cancelled at its second look, a reply of three outputs stops after the first field, naming
+// the second; never cancelled, it looks once a field and each field is its plane's bytes.
+TEST(TileReply, FieldsAreEncodedInOrderAndStopWhenCancelled) {
+  ocean::TileFields tile;
+  tile.nx = 3, tile.ny = 2, tile.dx = 0.5, tile.dy = 0.25;
+  tile.height = FloatView(std::vector<float>{1, 2, 3, 4, 5, 6});
+  tile.normal_z = FloatView(std::vector<float>{0.5f, 1, 1, 1, 1, 0.25f});
+  tile.jacobian = FloatView(std::vector<float>{-1, 0, 1, 2, 3, 4});
+  const std::vector<squall::v1::TileOutput> outputs{squall::v1::TILE_OUTPUT_NORMAL_Z, squall::v1::TILE_OUTPUT_HEIGHT,
+                                                    squall::v1::TILE_OUTPUT_JACOBIAN};
+  int looks = 0;
+  const Cancellation second_look([&] { return ++looks >= 2; });
+  google::protobuf::RepeatedPtrField<squall::v1::Field> fields;
+  test::expect_error(Code::Cancelled, "outputs[1]'s field cancelled", [&] {
+    ocean::rpc::fill_fields(tile, outputs, squall::v1::DTYPE_FLOAT32, second_look, &fields);
+  });
+  EXPECT_EQ(looks, 2);
+  ASSERT_EQ(fields.size(), 1);
+  EXPECT_EQ(fields[0].name(), "normal_z");
+  looks = 0;
+  const Cancellation counted([&] { return ++looks < 0; });
+  fields.Clear();
+  ocean::rpc::fill_fields(tile, outputs, squall::v1::DTYPE_FLOAT32, counted, &fields);
+  EXPECT_EQ(looks, 3);
+  ASSERT_EQ(fields.size(), 3);
+  const FloatView* planes[] = {&tile.normal_z, &tile.height, &tile.jacobian};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(field::decode(fields[i], "fields"), planes[i]->to_vector()) << fields[i].name();
+    EXPECT_EQ(fields[i].nx(), 3u);
+    EXPECT_EQ(fields[i].ny(), 2u);
+  }
 }
 
 }  // namespace
