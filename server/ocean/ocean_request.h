@@ -37,8 +37,7 @@ void fill_field(const TileFields& tile, squall::v1::TileOutput output, squall::v
 
 // The Fields of `outputs`, in their order, appended to `fields` (fill_field). `cancel` is looked at before
 // each, as a 4096^2 plane is 64 MiB to encode: Error(Cancelled) naming the output's index in `outputs`.
-void fill_fields(const TileFields& tile, const std::vector<squall::v1::TileOutput>& outputs,
-                 squall::v1::DType dtype, const Cancellation& cancel,
-                 google::protobuf::RepeatedPtrField<squall::v1::Field>* fields);
+void fill_fields(const TileFields& tile, const std::vector<squall::v1::TileOutput>& outputs, squall::v1::DType dtype,
+                 const Cancellation& cancel, google::protobuf::RepeatedPtrField<squall::v1::Field>* fields);
 
 }  // namespace squall::ocean::rpc

@@ -419,9 +419,8 @@ TEST(TileReply, FieldsAreEncodedInOrderAndStopWhenCancelled) {
   int looks = 0;
   const Cancellation second_look([&] { return ++looks >= 2; });
   google::protobuf::RepeatedPtrField<squall::v1::Field> fields;
-  test::expect_error(Code::Cancelled, "outputs[1]'s field cancelled", [&] {
-    ocean::rpc::fill_fields(tile, outputs, squall::v1::DTYPE_FLOAT32, second_look, &fields);
-  });
+  test::expect_error(Code::Cancelled, "outputs[1]'s field cancelled",
+                     [&] { ocean::rpc::fill_fields(tile, outputs, squall::v1::DTYPE_FLOAT32, second_look, &fields); });
   EXPECT_EQ(looks, 2);
   ASSERT_EQ(fields.size(), 1);
   EXPECT_EQ(fields[0].name(), "normal_z");

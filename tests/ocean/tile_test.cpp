@@ -203,8 +203,8 @@ TEST(OceanTile, ALargeFrameStopsBetweenItsStages) {
   looks = 0;
   engine().tile(spec, 1.0, Height, nullptr, counted);
   EXPECT_EQ(looks, 3) << "a 2048 x 1024 frame: the tile's look and one before each stage after the first";
-  for (const auto& [at, stopped] : {std::pair{2, "the transform of layer 0 cancelled"},
-                                    std::pair{3, "tile: the finalize cancelled"}}) {
+  for (const auto& [at, stopped] :
+       {std::pair{2, "the transform of layer 0 cancelled"}, std::pair{3, "tile: the finalize cancelled"}}) {
     looks = 0;
     const Cancellation cancelled_at([&, at = at] { return ++looks >= at; });
     squall::test::expect_error(Code::Cancelled, stopped,
