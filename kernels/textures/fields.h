@@ -27,7 +27,7 @@
 #define SQUALL_VELOCITY_TAYLOR_GREEN 5 /* v = p0 (sin kx cos ky, -cos kx sin ky), k = 2 pi / p1 */
 #define SQUALL_VELOCITY_CHANNEL 6      /* Poiseuille: u = p0 (1 - ((y - p1)/p2)^2) for |y - p1| < p2; walls outside */
 #define SQUALL_VELOCITY_CYLINDER 7     /* potential flow p0 along x past a cylinder of centre (p1, p2), radius p3 */
-#define SQUALL_VELOCITY_GRID 8         /* nodes on a grid, bilinear in space, linear in time between two frames */
+#define SQUALL_VELOCITY_GRID 8         /* nodes on a grid, bilinear in space, linear in time between frames */
 #define SQUALL_VELOCITY_KINDS 9
 
 /* VelocityField.extrapolation: a grid sampled outside its nodes. */
@@ -36,6 +36,7 @@
 #define SQUALL_EXTRAPOLATE_WRAP 2  /* periodic: node nx is node 0 again, node ny node 0 */
 
 #define SQUALL_VELOCITY_PARAMS 8
+#define SQUALL_VELOCITY_WINDOW SQUALL_VELOCITY_PARAMS /* a grid's frames within one step's reach, at most */
 
 /* Layout (96 bytes, every member 4 bytes, no padding):
  *   offset  0  int   kind            SQUALL_VELOCITY_*
@@ -43,13 +44,15 @@
  *   offset 12  int   extrapolation   SQUALL_EXTRAPOLATE_* (grid only)
  *   offset 16  float origin_x, origin_y   position of node (0, 0), du
  *   offset 24  float hx, hy          node spacing, du
- *   offset 32  float time_a, time_b  times of the two frames interpolated (time_b == time_a: one frame), s after
- *                                    the start of the step the field is passed for: kernels take times from
- *                                    that start, so that float32 keeps them exact at any session time
- *   offset 40  int   frame_a, frame_b     offsets of those frames in the grid array, in nodes
+ *   offset 32  int   frames          grid only: the frames a step reaches (its window), 1..SQUALL_VELOCITY_WINDOW:
+ *                                    the last at or before the step's start to the first at or after its end
+ *   offset 36  int   frame_first     grid only: offset of the window's first frame in the grid array, in nodes
+ *   offset 40  int   reserved0[2]
  *   offset 48  int   has_mask        1: the mask array marks fluid nodes (nearest node decides)
  *   offset 52  int   reserved[3]
- *   offset 64  float p[8]            analytic parameters
+ *   offset 64  float p[8]            analytic parameters; a grid's window frames' times, s after the start of
+ *                                    the step the field is passed for: kernels take times from that start,
+ *                                    so that float32 keeps them exact at any session time
  * The grid array holds frames of nx * ny (u, v) pairs, x fastest. */
 typedef struct VelocityField {
   int kind;
@@ -57,8 +60,8 @@ typedef struct VelocityField {
   int extrapolation;
   float origin_x, origin_y;
   float hx, hy;
-  float time_a, time_b;
-  int frame_a, frame_b;
+  int frames, frame_first;
+  int reserved0[2];
   int has_mask;
   int reserved[3];
   float p[SQUALL_VELOCITY_PARAMS];
@@ -177,10 +180,9 @@ SQUALL_ASSERT_OFFSET(VelocityField, origin_x, 16);
 SQUALL_ASSERT_OFFSET(VelocityField, origin_y, 20);
 SQUALL_ASSERT_OFFSET(VelocityField, hx, 24);
 SQUALL_ASSERT_OFFSET(VelocityField, hy, 28);
-SQUALL_ASSERT_OFFSET(VelocityField, time_a, 32);
-SQUALL_ASSERT_OFFSET(VelocityField, time_b, 36);
-SQUALL_ASSERT_OFFSET(VelocityField, frame_a, 40);
-SQUALL_ASSERT_OFFSET(VelocityField, frame_b, 44);
+SQUALL_ASSERT_OFFSET(VelocityField, frames, 32);
+SQUALL_ASSERT_OFFSET(VelocityField, frame_first, 36);
+SQUALL_ASSERT_OFFSET(VelocityField, reserved0, 40);
 SQUALL_ASSERT_OFFSET(VelocityField, has_mask, 48);
 SQUALL_ASSERT_OFFSET(VelocityField, reserved, 52);
 SQUALL_ASSERT_OFFSET(VelocityField, p, 64);

@@ -109,16 +109,16 @@ std::shared_ptr<const DeviceInputs> DeviceInputs::steered(Runtime& runtime, cons
   return next;
 }
 
-VelocityField DeviceInputs::velocity(double t0) const {
+VelocityField DeviceInputs::velocity(double t0, double span) const {
   VelocityField f = field_;
   if (f.kind != SQUALL_VELOCITY_GRID) return f;
-  size_t a = 0;
-  while (a + 1 < times_.size() && times_[a + 1] <= t0) ++a;
-  size_t b = std::min(a + 1, times_.size() - 1);
-  f.time_a = float(times_[a] - t0);  // from the step's start: exact in float32 at any t0
-  f.time_b = float(times_[b] - t0);
-  f.frame_a = int(a * size_t(f.nx) * f.ny);
-  f.frame_b = int(b * size_t(f.nx) * f.ny);
+  size_t first = 0;  // the last frame at or before t0, else the first
+  while (first + 1 < times_.size() && times_[first + 1] <= t0) ++first;
+  size_t last = first;  // the first frame at or after t0 + span, else the last (validation keeps it in a window)
+  while (last + 1 < times_.size() && last + 1 < first + SQUALL_VELOCITY_WINDOW && times_[last] < t0 + span) ++last;
+  f.frames = int(last - first + 1);
+  f.frame_first = int(first * size_t(f.nx) * f.ny);
+  for (size_t k = first; k <= last; ++k) f.p[k - first] = float(times_[k] - t0);  // exact in float32 at any t0
   return f;
 }
 

@@ -27,9 +27,10 @@ class DeviceInputs {
   // (s) on; the texture's uploads and statistics are shared, not copied (steering a running advection).
   std::shared_ptr<const DeviceInputs> steered(Runtime& runtime, const AdvectSpec& spec, double time) const;
 
-  // The field for a step starting at t0: the two grid frames around t0 (or the one frame), their times
+  // The field for a step over [t0, t0 + span] (s): a grid's frames from the last at or before t0 to the
+  // first at or after t0 + span (validate_advect keeps them within SQUALL_VELOCITY_WINDOW), their times
   // counted from t0, as the kernels count a step's times.
-  VelocityField velocity(double t0) const;
+  VelocityField velocity(double t0, double span) const;
   // The texture as evaluated at time `time` (flow noise turns with time).
   TextureSource texture(double time) const;
   // The output pixels, binned into tiles of `tile` pixels.

@@ -247,7 +247,7 @@ class Eulerian final : public Advection {
     if (reset != 0 && random_offset_) upload_offsets();
     auto lock = runtime_.exclusive();
     kernels_.eulerian_advect.launch(cl::NDRange(nx_, ny_), cl::NullRange, state_, scratch_, cl_int(nx_), cl_int(ny_),
-                                    inputs_->output(1), cl_int(slots()), inputs_->velocity(t), inputs_->grid(),
+                                    inputs_->output(1), cl_int(slots()), inputs_->velocity(t, h), inputs_->grid(),
                                     cl_float(h), cl_float(scale_), reset, offsets_);
     std::swap(state_, scratch_);
     if (cascade_bands_ > 0) advance_cascade(t, h);
@@ -258,7 +258,7 @@ class Eulerian final : public Advection {
     const VorticityCascade& c = params_.cascade;
     kernels_.eulerian_cascade.launch(cl::NDRange(nx_, ny_), cl::NullRange, cascade_, cascade_scratch_, cl_int(nx_),
                                      cl_int(ny_), inputs_->output(1), cl_int(cascade_bands_), cl_float(c.c_w),
-                                     cl_float(c.tau), cl_float(c.tau_ratio), inputs_->velocity(t), inputs_->grid(),
+                                     cl_float(c.tau), cl_float(c.tau_ratio), inputs_->velocity(t, h), inputs_->grid(),
                                      cl_float(h));
     std::swap(cascade_, cascade_scratch_);
   }
@@ -279,7 +279,7 @@ class Eulerian final : public Advection {
           cl_int(schedule_.latencies.size()), cl_int(schedule_.phases), alphas,
           cl_int(params_.deformation == DeformationSum::Paper ? 1 : 0), cl_float(params_.d_star),
           cl_int(int(params_.blend)), texture, inputs_->image(), inputs_->scalar(), inputs_->lut(),
-          inputs_->velocity(t), inputs_->mask(), cascade_, cl_int(cascade_bands_));
+          inputs_->velocity(t, 0), inputs_->mask(), cascade_, cl_int(cascade_bands_));
       read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
     }
     frame.stats = frame_stats(frame);

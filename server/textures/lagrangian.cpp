@@ -181,7 +181,7 @@ class Lagrangian final : public Advection {
     // kernel again for each new count (about 0.2 s on the CPU).
     const size_t count = positions_.size() / 2, group = 64;
     kernels_.lagrangian_advect.launch(cl::NDRange(round_up(count, group)), cl::NDRange(group), buffer, cl_int(count),
-                                      inputs_->velocity(time_), inputs_->grid(), cl_float(dt_), cl_int(substeps_));
+                                      inputs_->velocity(time_, dt_), inputs_->grid(), cl_float(dt_), cl_int(substeps_));
     runtime_.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, positions_.data());
   }
 
@@ -447,7 +447,7 @@ class Lagrangian final : public Advection {
           cl::NDRange(round_up(out.width, kTile), round_up(out.height, kTile)), cl::NDRange(kTile, kTile),
           planes.buffer(), out, offsets, grids, boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
           cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
-          inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_), inputs_->mask());
+          inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_, 0), inputs_->mask());
       read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
     }
     frame.stats = frame_stats(frame);

@@ -59,6 +59,22 @@ void substeps_resolve(const AdvectSpec& spec, const std::string& path) {
              ") or lower dt");
 }
 
+// A step over [t, t + span] reads a grid's frames from the last at or before t to the first at or after
+// t + span, SQUALL_VELOCITY_WINDOW at most: so no SQUALL_VELOCITY_WINDOW - 1 consecutive frames may lie
+// within less than one span (dt for Lagrangian grids, which carry their vertices over a frame at once,
+// dt / substeps for the Eulerian methods).
+void frames_within_a_step(const AdvectSpec& spec, const std::string& path) {
+  const double span = spec.method == Method::LagrangianGrids ? spec.dt : spec.dt / double(spec.substeps);
+  const auto& frames = spec.velocity.frames;
+  const size_t apart = SQUALL_VELOCITY_WINDOW - 2;
+  for (size_t i = 0; i + apart < frames.size(); ++i)
+    if (frames[i + apart].time - frames[i].time < span)
+      reject(at(path + ".frames", i + apart) + ".time", frames[i + apart].time,
+             "at least " + number(span) + " s after frames[" + std::to_string(i) +
+                 "].time = " + number(frames[i].time) + ": a step (" + number(span) + " s) interpolates between " +
+                 std::to_string(SQUALL_VELOCITY_WINDOW) + " frames at most; give fewer frames or a shorter step");
+}
+
 // A grid's node (0, 0) within +-kMaxCoordinate and its spacings in [kMinVelocityDivisor, kMaxCoordinate]:
 // in float32 on the device, neither 0 nor infinite.
 void grid_placement(double origin_x, double origin_y, double hx, double hy, const std::string& path) {
@@ -250,6 +266,7 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
   output(spec.output, gate, path + ".output");
   validate_clock(spec, path);
   substeps_resolve(spec, path);
+  if (spec.velocity.kind == SQUALL_VELOCITY_GRID) frames_within_a_step(spec, velocity + ".grid");
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else

@@ -17,18 +17,27 @@ namespace {
 
 using namespace squall::textures;
 
-// A uniform velocity grid whose speed ramps from 0.1 du/s at t0 to 0.3 du/s at t0 + 1 s (two frames): over
-// tau seconds naive advection carries the window by 0.1 tau + 0.1 tau^2, so u(x) = S (x - that).
-double worst_ramp_error(double t0) {
-  AdvectSpec spec = noise_spec(Method::Naive, SQUALL_VELOCITY_GRID, {}, 64);
+// A uniform velocity grid whose speed ramps from 0.1 du/s at t0 to 0.3 du/s at t0 + 1 s, in frames `spacing`
+// s apart (linear between frames: any spacing is the same ramp), and the last of 11 frames advected on it.
+TextureFrame on_a_ramp(double t0, double spacing, Method method) {
+  AdvectSpec spec = noise_spec(method, SQUALL_VELOCITY_GRID, {}, 64);
   spec.t0 = t0;
   VelocitySpec& v = spec.velocity;
   v.nx = v.ny = 2;
   v.hx = v.hy = 1;
-  for (double speed : {0.1, 0.3})
-    v.frames.push_back({t0 + (speed - 0.1) / 0.2, std::vector<float>(4, float(speed)), std::vector<float>(4, 0)});
-  const TextureFrame last = run(spec, 11).back();
-  const double tau = last.time - t0, shift = 0.1 * tau + 0.1 * tau * tau, S = spec.texture.scale;
+  for (int k = 0; k * spacing <= 1 + 1e-9; ++k) {
+    const float speed = float(0.1 + 0.2 * k * spacing);
+    v.frames.push_back({t0 + k * spacing, std::vector<float>(4, speed), std::vector<float>(4, 0)});
+  }
+  return run(spec, 11).back();
+}
+
+// Over tau seconds the ramp carries the window by 0.1 tau + 0.1 tau^2, so naive advection's coordinates are
+// u(x) = S (x - that): their largest error.
+double worst_ramp_error(double t0, double spacing = 1) {
+  const TextureFrame last = on_a_ramp(t0, spacing, Method::Naive);
+  const double tau = last.time - t0, shift = 0.1 * tau + 0.1 * tau * tau,
+               S = noise_spec(Method::Naive, 0, {}, 64).texture.scale;
   double worst = 0;
   for (int py = 0; py < last.height; ++py) {
     for (int px = 0; px < last.width; ++px) {
@@ -43,6 +52,39 @@ double worst_ramp_error(double t0) {
 TEST(TexturesClock, GridFramesAreBlendedInTimeAtAnyClock) {
   EXPECT_LT(worst_ramp_error(0), 1e-4);
   EXPECT_LT(worst_ramp_error(1e8), 1e-4);  // as one frame (float32 times): off by 0.1 tau^2 S = 0.02
+}
+
+// Frames 0.01 s apart and steps of 1/30 s: a step reaches four or five frames, and each part of it is
+// interpolated between the two frames around that time. Naive advection's coordinates are exact as with two
+// frames; Lagrangian grids' texture is the one they give on the same ramp in two frames. (With the two frames
+// around a step's start alone, the later one held, they are off by 1.3e-3 and 1.9e-2.)
+TEST(TexturesClock, AStepAcrossSeveralGridFramesFollowsEachOfThem) {
+  for (double t0 : {0.0, 1e8}) {
+    EXPECT_LT(worst_ramp_error(t0, 0.01), 1e-4) << t0;
+    const double lagrangian =
+        max_abs_difference(on_a_ramp(t0, 0.01, Method::LagrangianGrids), on_a_ramp(t0, 1, Method::LagrangianGrids), 0);
+    EXPECT_LT(lagrangian, 1e-4) << t0;
+  }
+}
+
+// A step interpolates between SQUALL_VELOCITY_WINDOW (8) frames at most: seven frames within less than
+// one step are refused, naming the last of them.
+TEST(TexturesValidation, MoreGridFramesThanAStepReachesAreRefused) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_GRID, {}, 64);
+  spec.dt = 0.1;
+  VelocitySpec& v = spec.velocity;
+  v.nx = v.ny = 2;
+  v.hx = v.hy = 1;
+  for (int k = 0; k < 10; ++k) v.frames.push_back({0.017 * k, std::vector<float>(4, 0.1f), std::vector<float>(4)});
+  texture_engine().validate(spec, "spec");  // six spacings of 0.017 s: 0.102 s, past a step of 0.1 s
+  v.frames[9].time = v.frames[8].time + 0.0145;
+  expect_error(Code::InvalidArgument,
+               "spec.velocity.grid.frames[9].time = 0.1505 must be at least 0.1 s after "
+               "frames[3].time = 0.051",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.method = Method::Naive;
+  spec.substeps = 2;  // Eulerian steps of dt / substeps
+  texture_engine().validate(spec, "spec");
 }
 
 // Flow noise of one band at spin 2 pi rad/s turns by a whole number of turns in 1e8 s: the window at
