@@ -286,6 +286,19 @@ CASES = [
         TypeError,
         r"^retry_key = 'k': want bytes",
     ),
+    # a bool is no time step (not dt = 1.0)
+    case(
+        "run-dt-bool",
+        lambda c: ewave.step_request("s", True),
+        TypeError,
+        r"^inputs\.dt = True: want a number",
+    ),
+    case(
+        "step-inputs-numpy-bool",
+        lambda c: ewave.as_inputs(np.bool_(True)),
+        TypeError,
+        r"^inputs\.dt = (np\.)?True_?: want a number",
+    ),
     # a client-side mistake, refused before gRPC would answer it INTERNAL
     case("health-int", lambda c: c.health(5), TypeError, r"^service = 5: want a service name"),
     case(

@@ -178,6 +178,18 @@ def test_errors_name_the_field(client: squall.Client) -> None:
     )
 
 
+def test_a_bool_is_no_time_step(client: squall.Client) -> None:
+    """True would be taken as dt = 1 s: run() raises TypeError after the frames before it."""
+    with client.ewave.session(**config()) as session:
+        for flag in (True, np.bool_(False)):
+            received = []
+            with pytest.raises(TypeError, match=r"^inputs\.dt = .*: want a number"):
+                for frame in session.run([0.02, flag, 0.02]):
+                    received.append(frame.step)
+            assert len(received) == 1
+        assert session.step(0.02).step == 3
+
+
 def test_initial_height_from_numpy(client: squall.Client) -> None:
     x = (np.arange(NX) + 0.5) * DX
     bump = np.tile(0.01 * np.cos(2 * np.pi * x / (NX * DX)), (NY, 1)).astype(np.float32)

@@ -1,13 +1,17 @@
 """The package without a daemon: generated modules, the Field codec, enum and message conversion, the
-StreamTiles frame assembler and the hand-encoded health messages."""
+StreamTiles frame assembler, streams and steering streams over fake calls, and the hand-encoded
+health messages."""
 
 from __future__ import annotations
 
+import asyncio
 import pickle
 import struct
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any, Iterable, List
 
 import grpc
 import numpy as np
@@ -164,6 +168,191 @@ def test_tile_assembler_joins_pieces_and_checks_order() -> None:
     with pytest.raises(squall.SquallError, match="out of sequence") as error:
         TileAssembler().add(chunks[1])
     assert error.value.code == grpc.StatusCode.INTERNAL
+
+
+def _chunk(
+    frame: int, index: int, count: int, *pieces: ocean_pb2.FieldPiece
+) -> ocean_pb2.TileChunk:
+    return ocean_pb2.TileChunk(
+        frame_index=frame, chunk_index=index, chunk_count=count, pieces=pieces
+    )
+
+
+def _frame(frame: int, count: int = 2) -> List[ocean_pb2.TileChunk]:
+    """The `count` chunks of one frame: field "h" of `count` rows of 4 values, a row a chunk."""
+    rows = np.arange(4 * count, dtype=np.float32).reshape(count, 4) + frame
+    return [_chunk(frame, k, count, _piece("h", rows[k : k + 1], k, count)) for k in range(count)]
+
+
+def test_tile_assembler_refuses_a_frame_begun_before_the_last_is_complete() -> None:
+    """Chunk 0 of a frame while another is half-built would drop that frame without a word."""
+    for restarted in (_frame(1)[0], _frame(0)[0]):
+        assembler = TileAssembler()
+        assert assembler.add(_frame(0)[0]) is None
+        with pytest.raises(
+            squall.SquallError,
+            match=rf"frame {restarted.frame_index} began after chunk 0 of the 2 chunks of frame 0",
+        ) as error:
+            assembler.add(restarted)
+        assert error.value.code == grpc.StatusCode.INTERNAL
+        assert error.value.method == "Ocean.StreamTiles"
+
+
+@pytest.mark.parametrize("index", [0, 1, 3])  # back, again, a frame skipped
+def test_tile_assembler_wants_each_frame_index_one_more_than_the_last(index: int) -> None:
+    assembler = TileAssembler()
+    for frame in (0, 1):
+        tiles = [assembler.add(c) for c in _frame(frame)]
+        assert tiles[0] is None and tiles[1] is not None and tiles[1].frame_index == frame
+    with pytest.raises(squall.SquallError, match=rf"frame {index} follows frame 1") as error:
+        assembler.add(_frame(index)[0])
+    assert error.value.code == grpc.StatusCode.INTERNAL
+
+
+def test_tile_assembler_checks_each_piece_as_it_arrives() -> None:
+    """A piece whose bytes disagree with its header is refused with its chunk, as a SquallError,
+    not as a ValueError once the frame is joined."""
+    short = _frame(0)
+    short[0].pieces[0].field.data = short[0].pieces[0].field.data[:-4]
+    with pytest.raises(
+        squall.SquallError, match=r"piece of h at row 0 has 12 bytes, want .* \* 4 = 16"
+    ) as error:
+        TileAssembler().add(short[0])
+    assert error.value.code == grpc.StatusCode.INTERNAL
+    whole = _chunk(0, 0, 1, _piece("h", np.zeros((2, 4), np.float32), 0, 2))
+    whole.pieces[0].field.data += b"\0\0\0\0"
+    with pytest.raises(squall.SquallError, match=r"has 36 bytes, want .* = 32"):
+        TileAssembler().add(whole)
+    mixed = _frame(0)  # the second row sent as float16 (its own bytes agree with its dtype)
+    mixed[1].pieces[0].field.CopyFrom(squall.array_to_field(np.ones((1, 4)), "h", dtype="float16"))
+    assembler = TileAssembler()
+    assert assembler.add(mixed[0]) is None
+    with pytest.raises(squall.SquallError, match=r"row 1 has dtype 2 and nz 0, the field dtype 1"):
+        assembler.add(mixed[1])
+    unknown = _frame(0, 1)
+    unknown[0].pieces[0].field.dtype = 7
+    with pytest.raises(squall.SquallError, match=r"field h has dtype 7, not float32 or float16"):
+        TileAssembler().add(unknown[0])
+
+
+def test_tile_assembler_finish_refuses_a_half_built_frame() -> None:
+    assembler = TileAssembler()
+    assert [assembler.add(c) is None for c in _frame(0)] == [True, False]
+    assembler.finish()  # between frames: nothing pending
+    assert assembler.add(_frame(1)[0]) is None
+    with pytest.raises(
+        squall.SquallError, match=r"the stream ended after chunk 0 of the 2 chunks of frame 1"
+    ) as error:
+        assembler.finish()
+    assert error.value.code == grpc.StatusCode.INTERNAL
+    assembler.finish()  # the half-built frame was reported once and dropped
+
+
+class FakeCall:
+    """A gRPC call that answers `replies` in order, then ends normally: the sync and asyncio
+    faces of a server-streaming and a bidirectional call."""
+
+    def __init__(self, replies: Iterable[Any]) -> None:
+        self._replies = iter(replies)
+        self.written: List[Any] = []
+        self.cancelled = False
+
+    def __iter__(self) -> "FakeCall":
+        return self
+
+    def __next__(self) -> Any:
+        return next(self._replies)
+
+    def __aiter__(self) -> "FakeCall":
+        return self
+
+    async def __anext__(self) -> Any:
+        try:
+            return next(self._replies)
+        except StopIteration:
+            raise StopAsyncIteration from None
+
+    async def write(self, message: Any) -> None:
+        self.written.append(message)
+
+    async def read(self) -> Any:
+        return next(self._replies, grpc.aio.EOF)
+
+    def cancel(self) -> bool:
+        self.cancelled = True
+        return True
+
+
+def test_an_ocean_stream_that_ends_inside_a_frame_raises() -> None:
+    """A stream whose call ends normally with a frame half-built raises SquallError INTERNAL,
+    sync and asyncio, instead of stopping as if every frame had come."""
+    chunks = _frame(0) + _frame(1)[:1]
+    spec = squall.ocean.tile_spec()
+    with squall.Client(NOTHING_LISTENS) as client:
+        client.ocean._rpc = SimpleNamespace(StreamTiles=lambda request, **_: FakeCall(chunks))
+        stream = client.ocean.stream(spec, dt=0.1, frames=2)
+        assert next(stream).frame_index == 0
+        with pytest.raises(squall.SquallError, match=r"ended after chunk 0 of the 2") as error:
+            next(stream)
+        assert error.value.code == grpc.StatusCode.INTERNAL
+        assert error.value.method == "Ocean.StreamTiles"
+
+    async def read_all() -> List[int]:
+        frames: List[int] = []
+        async with squall.aio.Client(NOTHING_LISTENS) as aclient:
+            aclient.ocean._rpc = SimpleNamespace(
+                StreamTiles=lambda request, **_: FakeCall(chunks)
+            )
+            with pytest.raises(squall.SquallError, match=r"ended after chunk 0 of the 2"):
+                async for tile in aclient.ocean.stream(spec, dt=0.1, frames=2):
+                    frames.append(tile.frame_index)
+        return frames
+
+    assert asyncio.run(read_all()) == [0]
+
+
+def _texture_replies() -> List[textures_pb2.TextureFrame]:
+    """Frames 0 .. 3 of a steering stream; frame 1's plane is a byte short (fails conversion)."""
+    replies = [
+        textures_pb2.TextureFrame(
+            index=i, planes=[squall.array_to_field(np.zeros((2, 2)), "final", "1")]
+        )
+        for i in range(4)
+    ]
+    replies[1].planes[0].data = replies[1].planes[0].data[:-1]
+    return replies
+
+
+def test_a_steering_stream_ends_when_a_frame_fails_conversion() -> None:
+    """send(frames=3) failing at frame 1 cancels the stream: the next send raises instead of
+    returning frame 2, left over from the failed send."""
+    call = FakeCall(_texture_replies())
+    with squall.Client(NOTHING_LISTENS) as client:
+        client.textures._rpc = SimpleNamespace(AdvectInteractive=lambda requests, **_: call)
+        stream = client.textures.interactive(size=(8, 8))
+        with pytest.raises(ValueError, match=r"planes\.final\.data has 15 bytes"):
+            stream.send(frames=3)
+        with pytest.raises(squall.SquallError, match="the stream has ended") as error:
+            stream.send(frames=1)
+        assert error.value.code == grpc.StatusCode.FAILED_PRECONDITION and call.cancelled
+        stream.close()
+
+
+def test_an_asyncio_steering_stream_ends_when_a_frame_fails_conversion() -> None:
+    call = FakeCall(_texture_replies())
+
+    async def steer() -> None:
+        async with squall.aio.Client(NOTHING_LISTENS) as client:
+            client.textures._rpc = SimpleNamespace(AdvectInteractive=lambda **_: call)
+            stream = client.textures.interactive(size=(8, 8))
+            with pytest.raises(ValueError, match=r"planes\.final\.data has 15 bytes"):
+                await stream.send(frames=3)
+            with pytest.raises(squall.SquallError, match="the stream has ended") as error:
+                await stream.send(frames=1)
+            assert error.value.code == grpc.StatusCode.FAILED_PRECONDITION and call.cancelled
+            await stream.close()
+
+    asyncio.run(steer())
 
 
 def test_health_messages() -> None:

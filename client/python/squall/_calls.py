@@ -239,8 +239,10 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
         feeder: Optional["RequestFeeder"] = None,
+        finish: Optional[Callable[[], None]] = None,
     ) -> "Stream[T]":
-        """A server-streaming or bidirectional call (request: a message or an iterator of them)."""
+        """A server-streaming or bidirectional call (request: a message or an iterator of them);
+        `finish`, if given, is called when the call ends normally (see Stream)."""
         try:
             call = function(
                 request,
@@ -249,7 +251,7 @@ class Connection:
             )
         except grpc.RpcError as error:
             raise SquallError.from_rpc(error, method) from None
-        return Stream(call, method, convert, feeder)
+        return Stream(call, method, convert, feeder, finish)
 
 
 class Stream(Iterator[T], Generic[T]):
@@ -259,6 +261,9 @@ class Stream(Iterator[T], Generic[T]):
     called, when a ``with`` block around it ends, or when the iterator is garbage-collected; a
     cancelled stream frees its --max-streams slot on the server. Errors raise SquallError while
     iterating.
+
+    `convert` turns each message into an item, or None for a part of one (a chunk of a frame);
+    `finish`, called when the call ends normally, raises when the messages ended inside an item.
     """
 
     def __init__(
@@ -267,12 +272,14 @@ class Stream(Iterator[T], Generic[T]):
         method: str,
         convert: Callable[[Any], Optional[T]],
         feeder: Optional["RequestFeeder"] = None,
+        finish: Optional[Callable[[], None]] = None,
     ) -> None:
         self._call = call
         self._method = method
         self._convert = convert
         self._cancelled = False
         self._feeder = feeder
+        self._finish = finish
 
     def __iter__(self) -> "Stream[T]":
         return self
@@ -283,6 +290,8 @@ class Stream(Iterator[T], Generic[T]):
                 message = next(self._call)
             except StopIteration:
                 self._end_feeder()
+                if self._finish is not None:
+                    self._finish()
                 raise
             except grpc.RpcError as error:
                 self._end_feeder()

@@ -291,6 +291,13 @@ def dtype_value(dtype: Union[str, int, np.dtype, type, None], path: str = "dtype
 # Fields
 
 
+def bytes_per_value(dtype: int) -> Optional[int]:
+    """The bytes of one value of a Field's dtype (4 for DTYPE_FLOAT32 or DTYPE_UNSPECIFIED, 2 for
+    DTYPE_FLOAT16), or None for a dtype this client does not know."""
+    known = _NUMPY_DTYPE.get(dtype)
+    return None if known is None else known.itemsize
+
+
 def field_to_array(field: common_pb2.Field, path: str = "field") -> np.ndarray:
     """The values of a Field as a writable array of shape (ny, nx) (2D) or (nz, ny, nx) (3D).
 

@@ -150,24 +150,31 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
         feeder: Any = None,
+        finish: Optional[Callable[[], None]] = None,
     ) -> "AsyncStream[T]":
         call = function(
             request,
             timeout=self.settings.deadline(timeout, stream=True),
             metadata=self.settings.metadata(session),
         )
-        return AsyncStream(call, method, convert, feeder)
+        return AsyncStream(call, method, convert, feeder, finish)
 
 
 class AsyncStream(AsyncIterator[T], Generic[T]):
     """An async iterator over a streaming call's messages, converted (numpy arrays).
 
     ``cancel()`` (or leaving an ``async with`` block around it) ends the call and frees its
-    --max-streams slot; errors raise SquallError while iterating.
+    --max-streams slot; errors raise SquallError while iterating. `convert` and `finish` are as
+    squall._calls.Stream's.
     """
 
     def __init__(
-        self, call: Any, method: str, convert: Callable[[Any], Optional[T]], feeder: Any = None
+        self,
+        call: Any,
+        method: str,
+        convert: Callable[[Any], Optional[T]],
+        feeder: Any = None,
+        finish: Optional[Callable[[], None]] = None,
     ) -> None:
         self._call = call
         self._iterator = call.__aiter__()
@@ -175,6 +182,7 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
         self._convert = convert
         self._cancelled = False
         self._feeder = feeder
+        self._finish = finish
 
     def __aiter__(self) -> "AsyncStream[T]":
         return self
@@ -194,6 +202,8 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
                 message = await self._iterator.__anext__()
             except StopAsyncIteration:
                 self._end_feeder()
+                if self._finish is not None:
+                    self._finish()
                 raise
             except asyncio.CancelledError:
                 if self._cancelled:
@@ -327,12 +337,14 @@ class Ocean:
     ) -> AsyncStream[Tile]:
         """Frames at t0 + k dt (s), reassembled from their chunks (squall.ocean.Ocean.stream)."""
         message = _ocean.stream_request(spec, dt, frames, t0, outputs, dtype, request)
+        assembler = _ocean.TileAssembler()
         return self._connection.stream(
             "Ocean.StreamTiles",
             self._rpc.StreamTiles,
             message,
-            _ocean.TileAssembler().add,
+            assembler.add,
             timeout,
+            finish=assembler.finish,
         )
 
     async def sample(
@@ -642,26 +654,34 @@ class Steering(Generic[T]):
             )
 
     async def _exchange(self, message: Any, frames: int) -> List[T]:
-        """Writes one message and reads the `frames` frames it asks for."""
+        """Writes one message and reads the `frames` frames it asks for. Anything raised while
+        reading them (a frame that fails conversion, the task cancelled) cancels the stream: the
+        frames left unread would otherwise be returned by the next ``send``."""
         self._start = None
         out = []
         try:
-            await self._call.write(message)
-            for _ in range(int(frames)):
-                frame = await self._call.read()
-                if frame is grpc.aio.EOF:
-                    self._ended = True
-                    await self._raise_status()
-                    raise SquallError(
-                        grpc.StatusCode.INTERNAL, "client: the stream ended early", self.METHOD
-                    )
-                out.append(self._convert(frame))
-        except grpc.RpcError as error:
-            self._ended = True
-            raise SquallError.from_rpc(error, self.METHOD) from None
-        except asyncio.InvalidStateError:  # written after the server ended the call
-            self._ended = True
-            await self._raise_status()
+            try:
+                await self._call.write(message)
+                for _ in range(int(frames)):
+                    frame = await self._call.read()
+                    if frame is grpc.aio.EOF:
+                        self._ended = True
+                        await self._raise_status()
+                        raise SquallError(
+                            grpc.StatusCode.INTERNAL,
+                            "client: the stream ended early",
+                            self.METHOD,
+                        )
+                    out.append(self._convert(frame))
+            except grpc.RpcError as error:
+                self._ended = True
+                raise SquallError.from_rpc(error, self.METHOD) from None
+            except asyncio.InvalidStateError:  # written after the server ended the call
+                self._ended = True
+                await self._raise_status()
+                raise
+        except BaseException:
+            self.cancel()
             raise
         self.frames_received += len(out)
         return out

@@ -302,6 +302,8 @@ def as_inputs(
         return inputs(dt, **kwargs)
     if kwargs or dt is not None:
         raise TypeError("step: pass either inputs or dt and keyword arguments, not both")
+    if isinstance(value, (bool, np.bool_)):  # True is an int, but no dt of 1 s
+        raise TypeError(f"inputs.dt = {shown(value)}: want a number")
     if isinstance(value, (int, float, np.integer, np.floating)):
         return inputs(float(value))
     if isinstance(value, Mapping) and set(value) <= _INPUTS_ARGUMENTS:

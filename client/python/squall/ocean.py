@@ -25,6 +25,7 @@ from squall._calls import Connection, Stream
 from squall._convert import (
     UINT32_MAX,
     ArrayLike,
+    bytes_per_value,
     dtype_value,
     enum_value,
     flag,
@@ -317,38 +318,82 @@ def sample_request(
 
 class TileAssembler:
     """Reassembles StreamTiles' chunks into whole frames (``add`` returns a Tile at a frame's last
-    chunk).
+    chunk; ``finish``, at the stream's end, checks that no frame is left half-built).
 
     A frame is chunk_count consecutive TileChunks; the FieldPieces of one field, concatenated in
-    chunk order (rows row_offset .. row_offset + ny), give the field, bit for bit GetTile's.
+    chunk order (rows row_offset .. row_offset + ny), give the field, bit for bit GetTile's. Each
+    frame's frame_index is one more than the previous frame's. Anything else (a chunk out of
+    order, a frame begun before the previous one is complete, a piece whose bytes disagree with
+    its header) raises SquallError INTERNAL as the chunk arrives.
     """
 
     METHOD = "Ocean.StreamTiles"
 
     def __init__(self) -> None:
-        self._frame = -1
+        self._frame = -1  # the frame begun last; -1: none yet
         self._count = 0
-        self._next = 0
+        self._next = 0  # the chunk expected next; 0: no frame pending
         self._fields: Dict[str, Tuple[common_pb2.Field, List[bytes], List[int]]] = {}
         self._head = ocean_pb2.TileChunk()
 
     def _fail(self, message: str) -> SquallError:
         return SquallError(grpc.StatusCode.INTERNAL, f"client: stream: {message}", self.METHOD)
 
+    def _begin(self, chunk: ocean_pb2.TileChunk) -> None:
+        """Starts a frame at its chunk 0, once the previous frame is complete and when its
+        frame_index follows that frame's."""
+        if self._next != 0:
+            raise self._fail(
+                f"frame {chunk.frame_index} began after chunk {self._next - 1} of the "
+                f"{self._count} chunks of frame {self._frame}"
+            )
+        if self._frame >= 0 and chunk.frame_index != self._frame + 1:
+            raise self._fail(f"frame {chunk.frame_index} follows frame {self._frame}")
+        self._frame, self._count = chunk.frame_index, chunk.chunk_count
+        self._fields = {}
+        self._head = chunk
+
+    def _check_piece(self, piece: ocean_pb2.FieldPiece, header: common_pb2.Field) -> None:
+        """Checks a piece's dtype and nz against its field's header, and its byte count against
+        its own nx, ny and dtype."""
+        f = piece.field
+        size = bytes_per_value(f.dtype)
+        if size is None:
+            raise self._fail(f"field {f.name} has dtype {f.dtype}, not float32 or float16")
+        if f.dtype != header.dtype or f.nz != header.nz:
+            raise self._fail(
+                f"piece of {f.name} at row {piece.row_offset} has dtype {f.dtype} and nz {f.nz}, "
+                f"the field dtype {header.dtype} and nz {header.nz}"
+            )
+        want = f.nx * f.ny * max(f.nz, 1) * size
+        if len(f.data) != want:
+            raise self._fail(
+                f"piece of {f.name} at row {piece.row_offset} has {len(f.data)} bytes, want "
+                f"nx * ny * max(nz, 1) * {size} = {want}"
+            )
+
     def add(self, chunk: ocean_pb2.TileChunk) -> Optional[Tile]:
+        """Takes the stream's next chunk: the frame's Tile at its last chunk, else None."""
+        if chunk.chunk_index >= chunk.chunk_count:
+            raise self._fail(
+                f"chunk {chunk.chunk_index}/{chunk.chunk_count} of frame {chunk.frame_index} "
+                "is past the frame's chunk count"
+            )
         if chunk.chunk_index == 0:
-            self._frame, self._count, self._next = chunk.frame_index, chunk.chunk_count, 0
-            self._fields = {}
-            self._head = chunk
-        if (chunk.frame_index, chunk.chunk_index, chunk.chunk_count) != (
+            self._begin(chunk)
+        elif (chunk.frame_index, chunk.chunk_index, chunk.chunk_count) != (
             self._frame,
             self._next,
             self._count,
         ):
+            expected = (
+                f"chunk {self._next}/{self._count} of frame {self._frame}"
+                if self._next
+                else "chunk 0 of a frame"
+            )
             raise self._fail(
                 f"chunk {chunk.chunk_index}/{chunk.chunk_count} of frame {chunk.frame_index} "
-                f"out of sequence (expected chunk {self._next}/{self._count} "
-                f"of frame {self._frame})"
+                f"out of sequence (expected {expected})"
             )
         for piece in chunk.pieces:
             f = piece.field
@@ -373,11 +418,13 @@ class TileAssembler:
                     f"piece of {f.name} at row {piece.row_offset} "
                     f"does not continue the {rows[0]} rows"
                 )
+            self._check_piece(piece, header)
             parts.append(f.data)
             rows[0] += f.ny
         self._next += 1
         if self._next < self._count:
             return None
+        self._next = 0
         response = ocean_pb2.GetTileResponse(time=self._head.time, stats=self._head.stats)
         for name, (header, parts, rows) in self._fields.items():
             if rows[0] != header.ny:
@@ -386,6 +433,18 @@ class TileAssembler:
             response.fields.append(header)
         self._fields = {}
         return Tile(response, self._frame)
+
+    def finish(self) -> None:
+        """The stream has ended normally: SquallError INTERNAL when it ended inside a frame (that
+        frame is dropped; a second call raises nothing)."""
+        if self._next == 0:
+            return
+        done, self._next = self._next, 0
+        self._fields = {}
+        raise self._fail(
+            f"the stream ended after chunk {done - 1} of the {self._count} chunks "
+            f"of frame {self._frame}"
+        )
 
 
 class Ocean:
@@ -449,11 +508,19 @@ class Ocean:
         Returns:
             An iterator of Tiles (``frame_index`` 0, 1, ...), each equal to GetTile's for its time
             bit for bit. It holds one of the server's --max-streams slots until it ends or is
-            cancelled (``cancel()``, or use it in a ``with`` block).
+            cancelled (``cancel()``, or use it in a ``with`` block). Chunks that do not make whole
+            frames in order (see TileAssembler), a stream ending inside a frame among them, raise
+            SquallError INTERNAL.
         """
         message = stream_request(spec, dt, frames, t0, outputs, dtype, request)
+        assembler = TileAssembler()
         return self._connection.stream(
-            "Ocean.StreamTiles", self._rpc.StreamTiles, message, TileAssembler().add, timeout
+            "Ocean.StreamTiles",
+            self._rpc.StreamTiles,
+            message,
+            assembler.add,
+            timeout,
+            finish=assembler.finish,
         )
 
     def sample(

@@ -942,9 +942,15 @@ class Steering(Generic[F]):
         return start
 
     def _exchange(self, message: Any, frames: int) -> List[F]:
-        """Sends one message and reads the `frames` frames it asks for."""
+        """Sends one message and reads the `frames` frames it asks for. Anything raised while
+        reading them (a frame that fails conversion, an interrupt) cancels the stream: the
+        frames left unread would otherwise be returned by the next ``send``."""
         self._requests.put(message)
-        out = [self._convert(self._next()) for _ in range(int(frames))]
+        try:
+            out = [self._convert(self._next()) for _ in range(int(frames))]
+        except BaseException:
+            self.cancel()
+            raise
         self.frames_received += len(out)
         return out
 
