@@ -182,12 +182,14 @@ class SessionStore {
     return f(*entry->value);
   }
 
-  // The value itself, for callers that only read it (its idle time restarts).
+  // The value itself, for callers that only read it (its idle time restarts). The pointer shares the
+  // entry: the value's reservation (slot, bytes, budget) is held until the last such pointer goes, even
+  // when the session is closed or evicted meanwhile.
   std::shared_ptr<T> get(const std::string& id) {
     std::shared_ptr<Entry> entry = find(id);
     std::lock_guard<std::mutex> lock(entry->mutex);
     require_held(entry);
-    return entry->value;
+    return std::shared_ptr<T>(entry, entry->value.get());
   }
 
   // Removes the entry once a call in flight on it has finished, and its checkpoint. An id this store does

@@ -104,6 +104,27 @@ TEST_F(SessionStoreTest, CountAndBytesAreLimitedThroughTheGate) {
   expect_error(Code::NotFound, "counter_id", [&] { s.close(a); });
 }
 
+// A value read with get() keeps its reservation while it is used: closed meanwhile, its session's bytes and
+// slot come back when the last reader lets it go, not before (a render of a stored volume that another call
+// releases still holds the volume's memory).
+TEST_F(SessionStoreTest, AValueInUseHoldsItsReservationPastItsClose) {
+  Limits limits;
+  limits.max_sessions = 1;
+  limits.max_session_bytes = 1000;
+  auto s = store(limits);
+  const std::string id = s.add(s.reserve(600), std::make_shared<Counter>());
+  std::shared_ptr<Counter> in_use = s.get(id);
+  s.close(id);
+  expect_error(Code::NotFound, "counter_id", [&] { s.get(id); });
+  EXPECT_EQ(gate_->session_bytes(), 600u);
+  EXPECT_EQ(gate_->live_sessions(), 1u);
+  expect_error(Code::ResourceExhausted, "--max-sessions", [&] { s.add(s.reserve(0), std::make_shared<Counter>()); });
+  in_use.reset();
+  EXPECT_EQ(gate_->session_bytes(), 0u);
+  EXPECT_EQ(gate_->live_sessions(), 0u);
+  s.add(s.reserve(600), std::make_shared<Counter>());
+}
+
 // While the daemon drains, a new session is UNAVAILABLE (retry on another replica) before any limit is
 // asked: a full store (whose sessions keep their slots until the process ends) does not answer
 // RESOURCE_EXHAUSTED, which a client would not retry.
