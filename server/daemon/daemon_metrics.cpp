@@ -52,8 +52,10 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
   const Runtime::DeviceWait wait = daemon_.runtime.device_wait();
   const auto sites = daemon_.runtime.device_site_times();
   const bool ready = serving.phase() == ServingState::Phase::Serving;
-  // The FFT backend is chosen during start-up: named once the daemon has served.
-  const std::string fft = serving.phase() == ServingState::Phase::Starting ? "" : daemon_.fft->name();
+  // The FFT backend and the capabilities' engines are made during start-up, which a scrape may come in:
+  // read once the daemon has served (the phase is set after them).
+  const bool started = serving.phase() != ServingState::Phase::Starting;
+  const std::string fft = started ? daemon_.fft->name() : "";
   std::vector<prometheus::MetricFamily> families = {
       gauge("squall_build_info", "squalld's version, replica, device and FFT backend (value 1)", 1,
             {{"version", SQUALL_VERSION},
@@ -93,7 +95,7 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
                       "Seconds a device queue was held (the work's time on the device), by call site", sites,
                       [](const QueueSlots::SiteTimes& t) { return t.hold_seconds; }),
   };
-  if (!fft.empty()) {
+  if (started) {
     families.push_back(gauge("squall_fft_plans", "FFT plans kept, all device queues together (32 a queue at most)",
                              double(daemon_.fft->cached_plans())));
     families.push_back(counter("squall_fft_plans_baked_total",
@@ -101,8 +103,9 @@ std::vector<prometheus::MetricFamily> DaemonMetrics::Collect() const {
                                "plans kept",
                                double(daemon_.fft->baked())));
   }
-  for (const auto& capability : capabilities_)
-    for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));
+  if (started)
+    for (const auto& capability : capabilities_)
+      for (const CapabilityGauge& g : capability->gauges()) families.push_back(gauge(g.name, g.help, g.value));
   return families;
 }
 
