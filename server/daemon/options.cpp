@@ -68,6 +68,9 @@ bool on_or_off(const std::string& v) {
   throw std::invalid_argument("must be on or off");
 }
 
+// --max-grid-cells' own bound: 2^26 cells (8192^2) times 32 planes is within a 32-bit index.
+constexpr uint64_t kMaxGridCellsFlag = uint64_t(1) << 26;
+
 // Seconds in (0, max], or in [min, max] when min > 0.
 double positive_seconds(const std::string& text, double max = kMaxSeconds, double min = 0) {
   const std::string rule = "must be a number of seconds in " + std::string(min > 0 ? "[" : "(") +
@@ -99,7 +102,15 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        }},
       {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(positive_integer(v)); }},
       {"fft-wisdom", [o](const std::string& v) { o->fft_wisdom = v; }},
-      {"max-grid-cells", [o](const std::string& v) { o->limits.max_grid_cells = positive_integer(v); }},
+      {"max-grid-cells",
+       [o](const std::string& v) {
+         const uint64_t n = positive_integer(v);
+         if (n > kMaxGridCellsFlag)
+           throw std::invalid_argument(
+               "must be 1 to " + std::to_string(kMaxGridCellsFlag) +
+               " (the kernels index a grid's planes, up to 32 in a buffer, with 32-bit integers)");
+         o->limits.max_grid_cells = n;
+       }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
       {"max-streams-per-client",
        [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(positive_integer(v)); }},
@@ -289,7 +300,7 @@ std::string usage() {
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
          "  --cache-dir DIR           PoCL kernel cache (default $POCL_CACHE_DIR, else $XDG_CACHE_HOME/squall/pocl,\n"
          "                            else ~/.cache/squall/pocl)\n"
-         "  --max-grid-cells N        cells of one field (default " +
+         "  --max-grid-cells N        cells of one field, at most 67108864 (default " +
          std::to_string(d.limits.max_grid_cells) +
          ")\n"
          "  --max-streams N           concurrent streaming calls (default " +

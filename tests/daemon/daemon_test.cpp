@@ -755,6 +755,10 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
               std::string::npos)
         << out;
   }
+  // Grids past 2^26 cells would overflow the kernels' 32-bit indices into a buffer of their planes.
+  EXPECT_EQ(test::run({kSqualld, "--max-grid-cells", "67108865"}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-grid-cells 67108865: must be 1 to 67108864"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-grid-cells", "67108864", "--help"}, &out), 0) << out;
   EXPECT_EQ(test::run({kSqualld, "--max-streams", ""}, &out), 2) << out;
   EXPECT_NE(out.find("--max-streams : must be an integer >= 1"), std::string::npos) << out;
   // The replica id is every reply's metadata value: printable ASCII only.
