@@ -59,6 +59,8 @@ class RiverEngine {
   // is requested.
   RiverBake bake(const RiverSpec& river, const BakeGrid& grid, const std::string& path,
                  const Cancellation& cancel = {});
+  // The host and device bytes a bake on `grid` holds: its result on the device, read back, and as planes.
+  static uint64_t bake_bytes(const BakeGrid& grid) { return 3 * sizeof(cl_float4) * uint64_t(grid.nx) * grid.ny; }
   // The river at each point.
   std::vector<RiverSample> sample(const RiverSpec& river, const std::vector<Point2>& points, const std::string& path);
 

@@ -88,10 +88,12 @@ struct TexturesService::Stream {
 
 namespace {
 
-// Memory an advection stream holds, an estimate: a frame's planes on the device, on the host, in the
-// message and serialized, and the advection's state.
+// Memory an advection stream holds, an estimate: every plane the engine computes, in float32, on the
+// device and on the host; the planes asked for (`frame_bytes`) in the message and serialized; and the
+// advection's state.
 uint64_t working_bytes(uint64_t frame_bytes, const AdvectSpec& spec) {
-  return 4 * frame_bytes + TextureEngine::state_bytes(spec);
+  req::PlaneSelection computed{true, true, true, true, true, true, true, squall::v1::DTYPE_FLOAT32};
+  return 2 * req::frame_bytes(spec, computed) + 2 * frame_bytes + TextureEngine::state_bytes(spec);
 }
 
 }  // namespace
@@ -132,12 +134,17 @@ SurfaceCurrent TexturesService::session_current(const req::FollowedCurrent& foll
   return current;
 }
 
-void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) {
+void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path,
+                                 const std::string& spec_path) {
   if (!velocity.has_river()) return;
   const RiverSpec river = req::river(velocity.river());
   const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
   rivers_->validate(river, path + ".river");
   rivers_->validate(grid, path + ".river", "bake_");
+  AdvectSpec rest = s.spec;  // the rest of the request, checked before the bake (seconds on a large grid)
+  rest.velocity = VelocitySpec{};
+  engine_->validate(rest, spec_path);
+  Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(grid));
   s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
 }
 
@@ -165,7 +172,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
     follow(s, s.spec.t0);
-    bake_river(request->velocity(), s, "request.velocity");
+    bake_river(request->velocity(), s, "request.velocity", "request");
     engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
@@ -211,9 +218,10 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
   validate_clock(s.spec, n == 0 ? path + ".start" : path);
   follow(s, advection ? advection->time() : s.spec.t0);
-  if (n == 0 && !control.has_velocity()) bake_river(control.start().velocity(), s, path + ".start.velocity");
-  if (control.has_velocity()) bake_river(control.velocity(), s, path + ".velocity");
-  engine_->validate(s.spec, n == 0 ? path + ".start" : path);
+  const std::string spec_path = n == 0 ? path + ".start" : path;
+  if (n == 0 && !control.has_velocity()) bake_river(control.start().velocity(), s, path + ".start.velocity", spec_path);
+  if (control.has_velocity()) bake_river(control.velocity(), s, path + ".velocity", spec_path);
+  engine_->validate(s.spec, spec_path);
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
@@ -253,9 +261,12 @@ grpc::Status TexturesService::BakeVelocity(grpc::ServerContext* context, const v
     rivers_->validate(river, "request.river");
     rivers_->validate(grid, "request");
     const uint64_t planes = request->psi() ? 4 : 3;
-    serving_.gate().check_message_bytes(
-        "BakeVelocityReply (ask for fewer nodes)",
-        planes * uint64_t(grid.nx) * uint64_t(grid.ny) * field::bytes_per_value(request->dtype(), "request.dtype"));
+    const uint64_t reply_bytes =
+        planes * uint64_t(grid.nx) * uint64_t(grid.ny) * field::bytes_per_value(request->dtype(), "request.dtype");
+    serving_.gate().check_message_bytes("BakeVelocityReply (ask for fewer nodes)", reply_bytes);
+    // The bake's and the reply's memory, in the message and serialized.
+    Slot memory = serving_.gate().acquire_memory("BakeVelocity's bake and reply",
+                                                 RiverEngine::bake_bytes(grid) + 2 * reply_bytes);
     req::fill_bake(rivers_->bake(river, grid, "request.river", cancellation(*context)), *request, reply);
     return grpc::Status::OK;
   });

@@ -61,8 +61,10 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // The surface current of the eWave session `followed` names, of 2 x 2 cells or more.
   SurfaceCurrent session_current(const textures::rpc::FollowedCurrent& followed) const;
   // The river of `velocity` (the request field at `path`), if it is one, validated and baked into the
-  // stream's velocity.
-  void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path);
+  // stream's velocity. The rest of the stream's spec is validated first (under `spec_path`), and the bake's
+  // memory reserved while it runs.
+  void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path,
+                  const std::string& spec_path);
   // The advection's next frame; with `refresh`, the followed current is read for its step first.
   textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool refresh);
   // Message n of an AdvectInteractive stream applied to `s`: the first starts `advection`.

@@ -94,8 +94,9 @@ v1::AdvectTextureRequest river_request(uint32_t frames) {
 }
 
 // BakeVelocity's reply, or its status thrown as the engine error it carries.
-v1::BakeVelocityReply bake_velocity(const v1::BakeVelocityRequest& request) {
-  client::Client client({daemon().address(), 300, ""});
+v1::BakeVelocityReply bake_velocity(const v1::BakeVelocityRequest& request,
+                                    const std::string& address = daemon().address()) {
+  client::Client client({address, 300, ""});
   auto service = v1::Textures::NewStub(client.channel());
   auto context = client.context();
   v1::BakeVelocityReply reply;
@@ -280,10 +281,8 @@ TEST(TexturesRiver, ASlipRiverGrazingTheNodesBakesFiniteSpeedsAndTooFastOnesName
 // A channel whose banks ripple through 4096 points each, baked on 4096 x 2048 nodes over a region whose
 // lower 70% is land far from it (cheap nodes, baked first) and whose upper 30% has the channel's walls within
 // the search radius (each node scans thousands of segments, and in the channel tests its 8192 edges: seconds
-// of the two cores) under a 1 s deadline: squalld stops baking within a second of the deadline, between
-// two slices, although slices sized on the cheap nodes' pace alone would hold the costly ones for seconds.
-TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
-  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the bake is sized for a CPU device's pace";
+// of the two cores).
+v1::AdvectTextureRequest expensive_river_request() {
   v1::AdvectTextureRequest r = river_request(1);
   v1::RiverVelocity& river = *r.mutable_velocity()->mutable_river();
   river = v1::RiverVelocity();
@@ -304,9 +303,53 @@ TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
   region->set_y0(-9);
   region->set_x1(10);
   region->set_y1(1);
-  const grpc::Status expired = advect(r, daemon().address(), 1).status;
+  return r;
+}
+
+// The advection of expensive_river_request() under a 1 s deadline: squalld stops baking within a second of
+// the deadline, between two slices, although slices sized on the cheap nodes' pace alone would hold the
+// costly ones for seconds.
+TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the bake is sized for a CPU device's pace";
+  const grpc::Status expired = advect(expensive_river_request(), daemon().address(), 1).status;
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   expect_daemon_stops("baking the expired river");
+}
+
+// A bake holds its result on the device, read back and as planes (48 bytes a node), and its reply: 2048^2
+// nodes are 201 MB and 34 MB of float16 planes, refused under a 128 MiB budget; 256^2 nodes are baked.
+TEST(TexturesRiver, ABakeCountsInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(1ull << 27)});
+  v1::BakeVelocityRequest request;
+  *request.mutable_river() = y_river();
+  auto* region = request.mutable_region();
+  region->set_x0(0);
+  region->set_y0(-1.5);
+  region->set_x1(5);
+  region->set_y1(3.5);
+  request.set_psi(true);
+  request.set_dtype(v1::DTYPE_FLOAT16);
+  request.set_nx(2048);
+  request.set_ny(2048);
+  test::expect_error(Code::ResourceExhausted, "BakeVelocity's bake and reply",
+                     [&] { bake_velocity(request, d.address()); });
+  request.set_nx(256);
+  request.set_ny(256);
+  EXPECT_EQ(bake_velocity(request, d.address()).u().nx(), 256u);
+}
+
+// The rest of an advection is validated before its river is baked: expensive_river_request() with a
+// Lagrangian grid spacing d of -1 is refused naming d in 0.4 s, where baking first took 24 s on two CPU cores.
+TEST(TexturesRiver, ABadAdvectionIsRefusedBeforeItsRiverIsBaked) {
+  v1::AdvectTextureRequest r = expensive_river_request();
+  r.set_method(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS);
+  r.mutable_lagrangian()->set_d(-1);
+  const auto start = std::chrono::steady_clock::now();
+  const grpc::Status refused = advect(r, daemon().address(), 60).status;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("request.lagrangian.d"), std::string::npos) << refused.error_message();
+  EXPECT_LT(seconds, 3) << "the river was baked before the request was refused";
 }
 
 // `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;
