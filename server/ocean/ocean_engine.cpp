@@ -76,6 +76,8 @@ std::string h0_key(const TileSpec& spec, size_t index) {
 std::string describe_outputs(unsigned outputs) { return std::to_string(outputs); }
 
 // The time t as two floats, t_hi + t_lo, for the kernels' phases in turns (common/sincos.h).
+uint64_t spectrum_bytes(const LayerSpec& L) { return uint64_t(L.nx) * uint64_t(L.ny) * kH0Planes * sizeof(float); }
+
 cl_float2 two_float_time(double t) {
   const float t_hi = float(t);
   return {{t_hi, float(t - double(t_hi))}};
@@ -132,7 +134,7 @@ struct OceanEngine::Impl {
   cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}) {
     return spectra.get(h0_key(spec, index), [&] {
       const LayerSpec& L = spec.layers[index];
-      const size_t bytes = size_t(L.nx) * size_t(L.ny) * kH0Planes * sizeof(float);
+      const size_t bytes = size_t(spectrum_bytes(L));
       OceanLayer params = device_layer(L, int(index));
       auto bands = layer_bands(spec);
       const cl::Context& context = runtime.context();
@@ -310,6 +312,13 @@ SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
 
 size_t OceanEngine::cached_spectra() const { return impl_->spectra.entries(); }
 size_t OceanEngine::spectra_built() const { return size_t(impl_->spectra.computed()); }
+
+uint64_t OceanEngine::new_spectra_bytes(const TileSpec& spec) const {
+  uint64_t bytes = 0;
+  for (size_t a = 0; a < spec.layers.size(); ++a)
+    if (!impl_->spectra.holds(h0_key(spec, a))) bytes += spectrum_bytes(spec.layers[a]);
+  return bytes;
+}
 size_t OceanEngine::cached_spectrum_bytes() const { return impl_->spectra.bytes(); }
 
 namespace {

@@ -78,8 +78,10 @@ class OceanEngine {
   // U_D the layers share. The spec must pass validate_current().
   SurfaceCurrent surface_current(const TileSpec& spec, double t);
 
-  size_t cached_spectra() const;         // h0 entries on the device now
-  size_t spectra_built() const;          // h0 computations so far (cache misses)
+  size_t cached_spectra() const;  // h0 entries on the device now
+  size_t spectra_built() const;   // h0 computations so far (cache misses)
+  // Bytes of the spectra (h0) a tile or sample of `spec` would build now: its layers' that are not kept.
+  uint64_t new_spectra_bytes(const TileSpec& spec) const;
   size_t cached_spectrum_bytes() const;  // held by the h0 entries now
 
  private:
@@ -91,8 +93,8 @@ class OceanEngine {
 // pool for `spec` and `outputs` (Output bits; on the output grid its output planes, whitecap plane and
 // layer sums, and the complex channels of one layer at a time), and the host copies of every layer's
 // channels and the one layer's device buffer that sample() holds. The layers' spectra (h0) are not
-// counted: those kept count in the budget as cached memory, and one that the cache does not keep lives for
-// its tile alone.
+// counted: those kept count in the budget as cached memory, and the caller adds those to be built
+// (OceanEngine::new_spectra_bytes).
 uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs);
 uint64_t sample_bytes(const TileSpec& spec);
 

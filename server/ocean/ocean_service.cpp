@@ -76,7 +76,8 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     double t = sim_time("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
-    Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1));
+    Slot memory =
+        serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1) + engine_->new_spectra_bytes(job.spec));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
     tile_reply(*engine_, job, t, nullptr, cancellation(*context), response);
     return grpc::Status::OK;
@@ -98,7 +99,8 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     if (request->frame_count() > 0)  // the last frame's time, before the first frame is sent
       sim_time("t0 + (frame_count - 1) dt", t0 + double(request->frame_count() - 1) * dt);
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
-    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2));
+    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames",
+                                                 job.working_bytes(2) + engine_->new_spectra_bytes(job.spec));
     return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
   };
   return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, const Stream& stream) {
@@ -143,7 +145,8 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
     serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint);
     std::vector<ocean::Vec2> points(n);  // each checked finite by sample(), naming "points[i].x"
     for (int i = 0; i < n; ++i) points[i] = {request->points(i).x(), request->points(i).y()};
-    Slot memory = serving_.gate().acquire_memory("SampleSurface's layers", ocean::sample_bytes(spec));
+    Slot memory = serving_.gate().acquire_memory("SampleSurface's layers",
+                                                 ocean::sample_bytes(spec) + engine_->new_spectra_bytes(spec));
     const bool invert = request->invert_displacement();
     std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert, cancellation(*context));
     for (int i = 0; i < n; ++i) {

@@ -449,6 +449,29 @@ TEST(OceanService, BadInputIsRejectedNamingTheFieldAndTheDaemonKeepsServing) {
   EXPECT_EQ(fine.fields_size(), 12);
 }
 
+// A tile whose layer's spectrum is not kept builds it (6 floats a mode) beside its own buffers: a 2048^2
+// layer's is 101 MB, sampled onto 64^2 output cells (34 MB of buffers), refused under a 96 MiB budget and
+// served under 256 MiB.
+TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
+  v1::GetTileRequest request;
+  auto* layer = request.mutable_tile()->add_layers();
+  *layer = tile_spec().layers(0);
+  layer->set_nx(2048), layer->set_ny(2048);
+  layer->set_extent_x(2000), layer->set_extent_y(2000);
+  request.mutable_tile()->mutable_output()->set_nx(64);
+  request.mutable_tile()->mutable_output()->set_ny(64);
+  request.add_outputs(v1::TILE_OUTPUT_HEIGHT);
+  for (const auto& [budget, code] :
+       {std::pair{96ull << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{256ull << 20, grpc::StatusCode::OK}}) {
+    test::Daemon d({"--memory-budget", std::to_string(budget)});
+    Call c = call(d.address());
+    v1::GetTileResponse response;
+    const grpc::Status status = c.stub->GetTile(c.context.get(), request, &response);
+    EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
+    if (!status.ok()) EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
+  }
+}
+
 // --max-streams 1: a second stream is refused while the first runs (RESOURCE_EXHAUSTED); cancelling the
 // endless first stream frees the slot (the server notices the cancellation between frames).
 TEST(OceanService, StreamLimitAndCancellation) {

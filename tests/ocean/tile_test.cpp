@@ -213,6 +213,19 @@ TEST(OceanTile, ALargeFrameStopsBetweenItsStages) {
   }
 }
 
+// What a tile would build now, for the caller's memory budget: the spectrum (6 floats a mode) of each of its
+// layers that is not kept, nothing once it is.
+TEST(OceanTile, NewSpectraBytesAreThoseOfTheLayersNotKept) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 96, 300, 4714);
+  spec.layers.push_back(spec.layers[0]);
+  spec.layers[1].nx = 64, spec.layers[1].lx = 200;
+  EXPECT_EQ(engine().new_spectra_bytes(spec), (96u * 96u + 64u * 96u) * 6 * sizeof(float));
+  engine().tile(spec, 1.0, Height);
+  EXPECT_EQ(engine().new_spectra_bytes(spec), 0u);
+  spec.layers[1].seed = 4715;
+  EXPECT_EQ(engine().new_spectra_bytes(spec), 64u * 96u * 6 * sizeof(float));
+}
+
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
   auto h = engine().tile(spec, 1.0, Height).height;
