@@ -21,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -202,7 +203,9 @@ class SessionStore {
       std::lock_guard<std::mutex> moving(moving_);  // no resume of `id` between looking and removing
       entry = take(id);
       if (!entry) return close_checkpoint(id);
+      closing_.insert(id);
     }
+    const Closing closing{*this, id};  // until its checkpoint is gone, a call on `id` resumes nothing
     std::lock_guard<std::mutex> wait(entry->mutex);
     // Released by a drain, or taken over: another replica may hold it by now, and closes it when asked.
     if (entry->released || let_go_if_taken_over(*entry)) fail(Code::Unavailable, released(id));
@@ -487,7 +490,7 @@ class SessionStore {
   void resume(const std::string& id) {
     if (!persistent() || !is_our_id(id)) return;
     std::lock_guard<std::mutex> moving(moving_);
-    if (lookup(id)) return;  // resumed by a call that held moving_ before this one
+    if (lookup(id) || closing_.count(id)) return;  // resumed by a call before this one, or being closed
     require_not_owned_elsewhere(id);
     if (!state_dir()->checkpointed(id)) return;
     if (state_dir()->expired(id, policy_.ttl)) return;  // idle past the TTL: evicted, as it would be if live
@@ -541,7 +544,20 @@ class SessionStore {
   const SessionPolicy policy_;
   const std::string kind_, id_field_, prefix_;
   mutable std::mutex mutex_;
-  std::mutex moving_;  // a checkpoint resumed or closed from the state directory, one id at a time
+  std::mutex moving_;              // a checkpoint resumed or closed from the state directory, one id at a time
+  std::set<std::string> closing_;  // under moving_: ids taken out by close() whose files are not removed yet
+
+  // close()'s mark on an id, from taking its entry out to removing its checkpoint: a call that comes
+  // meanwhile (while the close waits for the call in flight) does not resume the session from its
+  // periodic checkpoint.
+  struct Closing {
+    SessionStore& store;
+    std::string id;
+    ~Closing() {
+      std::lock_guard<std::mutex> moving(store.moving_);
+      store.closing_.erase(id);
+    }
+  };
   std::map<std::string, std::shared_ptr<Entry>> entries_;
   // persist(): the payload format and its writer and reader, persisted_ once both are set.
   Save save_;

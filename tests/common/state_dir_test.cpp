@@ -448,6 +448,31 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
                [&] { a.store.id_for(live, "metadata x"); });
 }
 
+// A close waits for the call in flight on its session. A call that comes meanwhile finds the session gone
+// (NOT_FOUND), not resumed from its periodic checkpoint, and once the close returns nothing of it is left.
+TEST(StateDir, ACallDuringACloseDoesNotResumeTheSession) {
+  Replica a(test::temp_dir("state-closing"), "a");
+  const std::string id = a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>());
+  ASSERT_EQ(a.registry.checkpoint_all(false), 1u);  // a periodic checkpoint
+  std::atomic<bool> in_call{false}, done{false};
+  std::thread call([&] {
+    a.store.with(id, [&](Counter&) {
+      in_call = true;
+      while (!done) std::this_thread::sleep_for(1ms);
+    });
+  });
+  while (!in_call) std::this_thread::sleep_for(1ms);
+  std::thread closer([&] { a.store.close(id); });
+  while (a.store.size() != 0) std::this_thread::sleep_for(1ms);  // taken out; the close waits for the call
+  expect_error(Code::NotFound, "counter_id", [&] { a.store.get(id); });
+  done = true;
+  call.join();
+  closer.join();
+  EXPECT_FALSE(a.registry.state_dir()->read(id)) << "the close removed the checkpoint";
+  expect_error(Code::NotFound, "counter_id", [&] { a.store.get(id); });
+  EXPECT_EQ(a.store.size(), 0u);
+}
+
 TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
   const std::string dir = test::temp_dir("state-evict");
   LimitGate gate{Limits{}};
