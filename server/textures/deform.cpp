@@ -37,14 +37,14 @@ DeformKernels::DeformKernels(Runtime& runtime)
       real_size(probe_real_size(runtime, real_bytes)) {}
 
 struct DeformEngine::Impl {
+  Impl(Runtime& r, LimitGate& g) : runtime(r), gate(g), kernels(std::make_shared<DeformKernels>(r)), flows(&g) {}
   Runtime& runtime;
-  const LimitGate& gate;
+  LimitGate& gate;
   std::shared_ptr<DeformKernels> kernels;
   FlowCache flows;
 };
 
-DeformEngine::DeformEngine(Runtime& runtime, const LimitGate& gate)
-    : impl_(new Impl{runtime, gate, std::make_shared<DeformKernels>(runtime), {}}) {}
+DeformEngine::DeformEngine(Runtime& runtime, LimitGate& gate) : impl_(std::make_unique<Impl>(runtime, gate)) {}
 
 DeformEngine::~DeformEngine() = default;
 

@@ -51,8 +51,14 @@ class Deformation {
 
 class DeformEngine {
  public:
-  DeformEngine(Runtime& runtime, const LimitGate& gate);
+  // The flow solves kept count in `gate`'s memory budget as cached memory, given back to calls that need it.
+  DeformEngine(Runtime& runtime, LimitGate& gate);
   ~DeformEngine();
+
+  // Host and device bytes a deformation of a validated `spec` holds while it runs, an estimate for the
+  // caller's memory budget: its state (the texture and its stack, the warp, the reference times, the
+  // output), its flow field on the host and the device, and the flow solve's buffers (CGLS in double).
+  static uint64_t working_bytes(const DeformSpec& spec);
 
   // Every field in range (INVALID_ARGUMENT naming "<path>.<field>", the proto's names: "texture",
   // "rigidity", "chart", "d_mu_map", "strokes[i].radius", "deformation_start.xx", ...); width * height (and

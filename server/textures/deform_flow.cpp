@@ -249,14 +249,61 @@ std::shared_ptr<const FlowField> FlowCache::find(const DeformSpec& spec) {
   return nullptr;
 }
 
+FlowCache::FlowCache(LimitGate* gate) : gate_(gate) {
+  if (gate_) gate_->add_reclaimer(this);
+}
+
+FlowCache::~FlowCache() {
+  if (gate_) gate_->remove_reclaimer(this);
+}
+
 void FlowCache::keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow) {
   const uint64_t hash = key_hash(spec);
+  // The flow twice (host and device), the rigidity and the chart.
+  const uint64_t bytes = 2 * flow->bytes() + spec.rigidity.size() * sizeof(float) + spec.chart.size();
   std::lock_guard<std::mutex> lock(mutex_);
   for (const Entry& e : entries_)
     if (matches(e, hash, spec)) return;
-  entries_.push_front(
-      {hash, spec.width, spec.height, spec.max_iterations, spec.tolerance, spec.rigidity, spec.chart, std::move(flow)});
-  if (entries_.size() > kEntries) entries_.pop_back();
+  if (entries_.size() >= kEntries) entries_.pop_back();
+  Slot memory;
+  while (gate_) {
+    try {
+      memory = gate_->acquire_cache_memory("a deformation's flow field kept for the next streams", bytes);
+      break;
+    } catch (const Error&) {
+      auto unused = oldest_unused();
+      if (unused == entries_.end()) return;  // no room: served, not kept
+      entries_.erase(unused);
+    }
+  }
+  entries_.push_front({hash, spec.width, spec.height, spec.max_iterations, spec.tolerance, spec.rigidity, spec.chart,
+                       std::move(flow), bytes, std::move(memory)});
+}
+
+// Entries erased give their budget back at once: the flow's memory, host and device, goes with the last
+// deformation that uses it, and one in use is not erased.
+uint64_t FlowCache::reclaim(uint64_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (uint64_t freed = 0; freed < bytes;) {
+    auto unused = oldest_unused();
+    if (unused == entries_.end()) break;
+    freed += unused->bytes;
+    entries_.erase(unused);
+  }
+  return 0;
+}
+
+size_t FlowCache::entries() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
+}
+
+std::list<FlowCache::Entry>::iterator FlowCache::oldest_unused() {
+  for (auto it = entries_.end(); it != entries_.begin();) {
+    --it;
+    if (it->flow.use_count() == 1) return it;
+  }
+  return entries_.end();
 }
 
 }  // namespace squall::textures

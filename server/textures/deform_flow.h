@@ -9,6 +9,7 @@
 #include <mutex>
 #include <vector>
 
+#include "common/limits.h"
 #include "runtime/runtime.h"
 #include "textures/deform.h"
 #include "textures/deform_kernels.h"
@@ -33,11 +34,22 @@ std::vector<double> dual_rigidity(int width, int height, const std::vector<float
 std::shared_ptr<const FlowField> solve_flow(Runtime& runtime, DeformKernels& kernels, const DeformSpec& spec,
                                             const Cancellation& cancel = {});
 
-// The last few solves, keyed by rigidity, chart, size, tolerance and iterations (compared in full).
-class FlowCache {
+// The last few solves, keyed by rigidity, chart, size, tolerance and iterations (compared in full). What it
+// keeps (the flow on the host and the device, and the key's rigidity and chart) counts in `gate`'s memory
+// budget (null: not counted) as cached memory; where the budget has no room for a new solve, the least
+// recently used that no deformation uses make room or it is not kept, and a call that needs the room takes
+// it back (reclaim).
+class FlowCache final : public MemoryReclaimer {
  public:
+  explicit FlowCache(LimitGate* gate);
+  ~FlowCache() override;
+  FlowCache(const FlowCache&) = delete;
+  FlowCache& operator=(const FlowCache&) = delete;
+
   std::shared_ptr<const FlowField> find(const DeformSpec& spec);
   void keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow);
+  uint64_t reclaim(uint64_t bytes) override;
+  size_t entries() const;
 
  private:
   struct Entry {
@@ -48,11 +60,15 @@ class FlowCache {
     std::vector<float> rigidity;
     std::vector<uint8_t> chart;
     std::shared_ptr<const FlowField> flow;
+    uint64_t bytes;
+    Slot memory;
   };
   static constexpr size_t kEntries = 4;
   bool matches(const Entry& e, uint64_t hash, const DeformSpec& spec) const;
+  std::list<Entry>::iterator oldest_unused();  // under mutex_: end() if every entry is in use
 
-  std::mutex mutex_;
+  LimitGate* gate_;
+  mutable std::mutex mutex_;
   std::list<Entry> entries_;  // most recently used first
 };
 

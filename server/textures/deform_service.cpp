@@ -22,13 +22,15 @@ struct DeformStream {
 };
 
 // The planes of `request`, their bytes within --max-message-bytes, and the stream's working memory
-// (an estimate: a frame's planes on the device, on the host, in the message and serialized) reserved.
+// (an estimate: the deformation's state, flow and solve, DeformEngine::working_bytes, and the planes asked
+// for in the message and serialized) reserved.
 void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, LimitGate& gate, const std::string& path) {
   s.planes = req::deform_planes(request, path);
   s.dtype = field::dtype(request.dtype(), path + ".dtype");
   const uint64_t frame_bytes = req::frame_bytes(s.spec, s.planes, s.dtype);
   gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", frame_bytes);
-  s.memory = gate.acquire_memory("the deformation's frames", 4 * frame_bytes);
+  s.memory =
+      gate.acquire_memory("the deformation's state and frames", DeformEngine::working_bytes(s.spec) + 2 * frame_bytes);
 }
 
 v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {

@@ -38,27 +38,29 @@ struct DeformInteractive : InteractiveCall<v1::DeformControl, v1::DeformFrame> {
       : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformInteractive(c); }) {}
 };
 
-// A 48 x 48 two-channel texture (stripes and rings), R = 1 in a disk at the centre and -1 around it.
-v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames) {
+// A `size` x `size` (48 by default) two-channel texture (stripes and rings), R = 1 in a disk at the centre
+// and -1 around it.
+v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames, int size = kSize) {
   v1::DeformTextureRequest r;
-  std::vector<float> a(kSize * kSize), b(kSize * kSize), rigidity(kSize * kSize);
-  for (int j = 0; j < kSize; ++j) {
-    for (int i = 0; i < kSize; ++i) {
-      const size_t k = size_t(j) * kSize + i;
-      const double dx = i + 0.5 - kSize / 2.0, dy = j + 0.5 - kSize / 2.0;
+  const size_t texels = size_t(size) * size_t(size);
+  std::vector<float> a(texels), b(texels), rigidity(texels);
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      const size_t k = size_t(j) * size + i;
+      const double dx = i + 0.5 - size / 2.0, dy = j + 0.5 - size / 2.0;
       a[k] = float(0.5 + 0.5 * std::sin(0.7 * i));
       b[k] = float(0.5 + 0.5 * std::cos(0.4 * std::hypot(dx, dy)));
       rigidity[k] = dx * dx + dy * dy < 100 ? 1.0f : -1.0f;
     }
   }
-  *r.mutable_texture()->add_channels() = float_field("a", kSize, kSize, a);
-  *r.mutable_texture()->add_channels() = float_field("b", kSize, kSize, b);
-  *r.mutable_rigidity() = float_field("R", kSize, kSize, rigidity);
+  *r.mutable_texture()->add_channels() = float_field("a", size, size, a);
+  *r.mutable_texture()->add_channels() = float_field("b", size, size, b);
+  *r.mutable_rigidity() = float_field("R", size, size, rigidity);
   r.set_control(control);
   r.set_d_mu(0.5);
-  std::vector<float> map(kSize * kSize);
-  for (int k = 0; k < kSize * kSize; ++k) map[k] = float(k % kSize) / kSize;
-  *r.mutable_d_mu_map() = float_field("map", kSize, kSize, map);
+  std::vector<float> map(texels);
+  for (size_t k = 0; k < texels; ++k) map[k] = float(k % size) / size;
+  *r.mutable_d_mu_map() = float_field("map", size, size, map);
   r.mutable_deformation_end()->set_xx(1.5);
   r.mutable_deformation_end()->set_yy(1.0);
   v1::BrushStroke* stroke = r.add_strokes();
@@ -201,6 +203,26 @@ TEST(TexturesDeform, AnExpiredFlowSolveStopsUsingTheCores) {
   const grpc::Status expired = deform(r, 1).status;
   EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
   expect_daemon_stops("solving the expired flow");
+}
+
+// A deformation holds its state, its flow and, while it solves the flow, CGLS's buffers in double: about 160
+// bytes a texel. Two channels of 1024^2 texels are 160 MB, refused under a 128 MiB budget though the one
+// float16 plane a frame sends is 4 MB; the same request at 48^2 runs.
+TEST(TexturesDeform, TheDeformationsStateCountsInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(1ull << 27)});
+  for (const auto& [size, code] :
+       {std::pair{1024, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{kSize, grpc::StatusCode::OK}}) {
+    v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_ISOTROPIC, 2, size);
+    r.clear_planes();
+    r.add_planes(v1::DEFORM_PLANE_REFERENCE);
+    r.set_dtype(v1::DTYPE_FLOAT16);
+    const DeformStreamed got = read_stream<v1::DeformFrame>(
+        [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); }, d.address(),
+        300);
+    EXPECT_EQ(got.status.error_code(), code) << size << ": " << got.status.error_message();
+    if (!got.status.ok())
+      EXPECT_NE(got.status.error_message().find("the deformation's state and frames"), std::string::npos);
+  }
 }
 
 TEST(TexturesDeform, BadRequestsNameTheField) {

@@ -484,6 +484,22 @@ TEST(Deform, TwoRunsAreBitwiseIdentical) {
   for (int i = 0; i < 6; ++i) ASSERT_EQ(deformation->next(all).planes, a[i].planes) << "frame " << i;
 }
 
+// The flow solves kept count in the budget as cached memory (the flow on the host and the device, the
+// rigidity and the chart), and a call that needs the room takes it back from a solve no deformation uses.
+TEST(Deform, AKeptFlowSolveCountsInTheBudgetAndGivesItBack) {
+  const DeformSpec spec = disk_spec(32, {{16, 16, 6}}, smooth_texture(32));
+  Limits limits;
+  limits.memory_budget = 1 << 20;
+  LimitGate gate(limits);
+  DeformEngine engine(runtime(), gate);
+  engine.start(spec)->next(with(true, false, false, false, false));
+  const uint64_t kept = 2 * 8 * 32 * 32 + spec.rigidity.size() * sizeof(float) + spec.chart.size();
+  EXPECT_EQ(gate.cached_memory_bytes(), kept);
+  EXPECT_EQ(gate.memory_bytes(), kept);
+  Slot call = gate.acquire_memory("a call", limits.memory_budget - 1000);
+  EXPECT_EQ(gate.cached_memory_bytes(), 0u) << "the unused solve gave its room to the call";
+}
+
 // ---- Checks ----
 
 TEST(Deform, BadSpecsNameTheirField) {
