@@ -123,13 +123,19 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
   in(p + "region.y0", grid.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(p + "region.x1", grid.x1, open_closed(grid.x0, kMaxCoordinate));
   in(p + "region.y1", grid.y1, open_closed(grid.y0, kMaxCoordinate));
-  // The baked grid's node spacing is a velocity grid's, at least kMinVelocityDivisor.
-  for (const auto& [axis, extent, nodes] :
-       {std::tuple{"x", grid.x1 - grid.x0, grid.nx}, {"y", grid.y1 - grid.y0, grid.ny}})
-    if (extent / (nodes - 1) < kMinVelocityDivisor)
+  // The baked grid's node spacing is a velocity grid's, at least kMinVelocityDivisor; and the kernel places
+  // nodes in float32, as output pixels are placed: a spacing of many float32 steps at the region's
+  // coordinates (otherwise blocks of nodes bake at one point).
+  for (const auto& [axis, lo, hi, nodes] :
+       {std::tuple{"x", grid.x0, grid.x1, grid.nx}, std::tuple{"y", grid.y0, grid.y1, grid.ny}}) {
+    const double extent = hi - lo, spacing = extent / (nodes - 1);
+    const double finest = std::max(std::abs(lo), std::abs(hi)) * kMinPixelPerCoordinate;
+    if (spacing < kMinVelocityDivisor || spacing < finest)
       fail(Code::InvalidArgument, p + "region spans " + validate::number(extent) + " du along " + axis + " over " +
                                       std::to_string(nodes) + " nodes: their spacing must be at least " +
-                                      validate::number(kMinVelocityDivisor) + " du (fewer nodes, or a wider region)");
+                                      validate::number(std::max(kMinVelocityDivisor, finest)) +
+                                      " du there (fewer nodes, a wider region, or one nearer the origin)");
+  }
 }
 
 namespace {

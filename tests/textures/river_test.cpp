@@ -412,6 +412,13 @@ TEST(River, BadRiversNameTheField) {
   expect_error(Code::InvalidArgument, "grid.bake_region spans 0.0001 du along x over 128 nodes", [&] {
     e.validate(BakeGrid{128, 4, 0, 0, 1e-4, 1}, "grid", "bake_");
   });
+  // Nodes placed in float32: 4096 nodes over 1 du at x = 1e6 (float32's step there is 0.0625 du) are refused;
+  // their spacing must be at least 2^-19 of the coordinate, 1.9 du.
+  expect_error(Code::InvalidArgument,
+               "grid.region spans 1 du along x over 4096 nodes: their spacing must be at least 1.9", [&] {
+                 e.validate(BakeGrid{4096, 4, 1e6, 0, 1e6 + 1, 1}, "grid");
+               });
+  e.validate(BakeGrid{4096, 4, 1e6, 0, 1e6 + 8000, 1}, "grid");
 }
 
 }  // namespace
