@@ -75,9 +75,10 @@ std::string h0_key(const TileSpec& spec, size_t index) {
 
 std::string describe_outputs(unsigned outputs) { return std::to_string(outputs); }
 
-// The time t as two floats, t_hi + t_lo, for the kernels' phases in turns (common/sincos.h).
+// A layer's spectrum h0 on the device: kH0Planes floats a mode.
 uint64_t spectrum_bytes(const LayerSpec& L) { return uint64_t(L.nx) * uint64_t(L.ny) * kH0Planes * sizeof(float); }
 
+// The time t as two floats, t_hi + t_lo, for the kernels' phases in turns (common/sincos.h).
 cl_float2 two_float_time(double t) {
   const float t_hi = float(t);
   return {{t_hi, float(t - double(t_hi))}};

@@ -132,7 +132,8 @@ class DeviceCache : public MemoryReclaimer {
     return entries_.size();
   }
   size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
-  bool holds(const Key& key) const {               // kept now (a get() of it may still miss if it is evicted meanwhile)
+  // Whether `key` is kept now (a get() of it may still miss: it may be evicted meanwhile).
+  bool holds(const Key& key) const {
     std::lock_guard<std::mutex> guard(mutex_);
     for (const Entry& e : entries_)
       if (e.key == key) return true;

@@ -293,11 +293,6 @@ uint64_t FlowCache::reclaim(uint64_t bytes) {
   return 0;
 }
 
-size_t FlowCache::entries() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return entries_.size();
-}
-
 std::list<FlowCache::Entry>::iterator FlowCache::oldest_unused() {
   for (auto it = entries_.end(); it != entries_.begin();) {
     --it;

@@ -49,7 +49,6 @@ class FlowCache final : public MemoryReclaimer {
   std::shared_ptr<const FlowField> find(const DeformSpec& spec);
   void keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow);
   uint64_t reclaim(uint64_t bytes) override;
-  size_t entries() const;
 
  private:
   struct Entry {
@@ -68,7 +67,7 @@ class FlowCache final : public MemoryReclaimer {
   std::list<Entry>::iterator oldest_unused();  // under mutex_: end() if every entry is in use
 
   LimitGate* gate_;
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::list<Entry> entries_;  // most recently used first
 };
 
