@@ -20,8 +20,8 @@ from test_ewave import config, hull_inputs
 from test_ocean import OUTPUTS, small_tile
 
 
-def run(coroutine):
-    return asyncio.run(asyncio.wait_for(coroutine, 120))
+def run(coroutine, seconds: float = 120):
+    return asyncio.run(asyncio.wait_for(coroutine, seconds))
 
 
 def test_ocean(client: squall.Client, daemon) -> None:
@@ -285,3 +285,191 @@ def test_a_texture_that_follows_an_ewave_session_names_it(daemon) -> None:
     for method in ("AdvectTexture", "AdvectInteractive"):
         pattern = rf"method=/squall\.v1\.Textures/{method} status=OK .*? session={session_id}\b"
         assert re.search(pattern, log), method
+
+
+def large_tile() -> Any:
+    """A 1024 x 1024 tile: tens of milliseconds of work, in flight when the client closes."""
+    return squall.ocean.tile_spec(
+        [squall.ocean.layer(extent=200, n=256, seed=3)], output=(1024, 1024)
+    )
+
+
+@pytest.fixture(params=["Task.cancelling", "client.close"])
+def task_state(request: Any, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Both ways squall.aio tells the client's closing from the task's own cancellation: asyncio's
+    Task.cancelling() (Python 3.11 and later), and the client's closed flag where asyncio cannot
+    tell (older Pythons, imitated here)."""
+    if request.param == "Task.cancelling":
+        if not hasattr(asyncio.Task, "cancelling"):
+            pytest.skip("Task.cancelling() needs Python 3.11")
+    else:
+        monkeypatch.setattr(squall.aio, "_cancelling", lambda: None)
+    return str(request.param)
+
+
+def assert_closed_under(error: squall.SquallError, method: str) -> None:
+    """Checks that `error` is the CANCELLED of a `method` call whose client was closed."""
+    assert error.code == grpc.StatusCode.CANCELLED, error
+    assert error.method == method and "client was closed" in error.message, error
+
+
+def test_closing_the_client_fails_a_call_in_flight_as_in_the_sync_client(
+    daemon, task_state: str
+) -> None:
+    """grpc.aio raises asyncio.CancelledError for the calls that closing the channel cancels; the
+    client raises SquallError (CANCELLED) instead, as the sync client does, so that the task
+    awaiting the call fails (a TaskGroup reports it) rather than looking cancelled."""
+    spec = large_tile()
+
+    async def main() -> None:
+        aclient = squall.aio.Client(daemon.address)
+        tile = asyncio.create_task(aclient.ocean.tile(spec))
+        await asyncio.sleep(0)  # the call is made
+        await aclient.close()
+        with pytest.raises(squall.SquallError) as error:
+            await tile
+        assert_closed_under(error.value, "Ocean.GetTile")
+
+    async def in_a_task_group() -> None:
+        aclient = squall.aio.Client(daemon.address)
+        async with asyncio.TaskGroup() as group:  # type: ignore[attr-defined]
+            group.create_task(aclient.ocean.tile(spec))
+            await asyncio.sleep(0)
+            await aclient.close()
+
+    run(main(), 20)
+    if hasattr(asyncio, "TaskGroup"):
+        with pytest.raises(ExceptionGroup) as failed:  # noqa: F821 (Python 3.11)
+            run(in_a_task_group(), 20)
+        assert [type(e) for e in failed.value.exceptions] == [squall.SquallError]
+        assert_closed_under(failed.value.exceptions[0], "Ocean.GetTile")
+
+
+def test_closing_the_client_fails_its_streams_in_flight(daemon, task_state: str) -> None:
+    """Server streams and bidirectional streams (EWave.Run) alike: SquallError (CANCELLED)."""
+
+    def endless() -> Any:
+        while True:
+            yield 0.02
+
+    async def main() -> None:
+        aclient = squall.aio.Client(daemon.address)
+        session = await aclient.ewave.session(**config())
+        tiles = aclient.ocean.stream(small_tile(), dt=0.1, outputs="height")
+        steps = session.run(endless())
+        assert (await tiles.__anext__()).frame_index == 0
+        assert (await steps.__anext__()).step == 1
+        await aclient.close()
+        for stream, method in ((tiles, "Ocean.StreamTiles"), (steps, "EWave.Run")):
+            with pytest.raises(squall.SquallError) as error:
+                async for _ in stream:
+                    pass
+            assert_closed_under(error.value, method)
+
+    run(main(), 20)
+
+
+def test_closing_the_client_fails_a_steering_send_and_ends_its_streams_quietly(
+    daemon, task_state: str
+) -> None:
+    """A send() in flight raises SquallError (CANCELLED); a steering stream left open ends quietly
+    at the end of its ``async with`` block, as the sync client's close() does."""
+    start = small_texture_stream()
+
+    async def main() -> None:
+        aclient = squall.aio.Client(daemon.address)
+        async with aclient.textures.interactive(**start) as steer:
+            async with aclient.textures.interactive(**start) as idle:
+                assert len(await steer.send(frames=1)) == len(await idle.send(frames=1)) == 1
+                sending = asyncio.create_task(steer.send(frames=100))
+                await asyncio.sleep(0)  # the message is being written
+                await aclient.close()
+                with pytest.raises(squall.SquallError) as error:
+                    await sending
+                assert_closed_under(error.value, "Textures.AdvectInteractive")
+        with pytest.raises(squall.SquallError) as ended:
+            await idle.send(frames=1)
+        assert ended.value.code == grpc.StatusCode.FAILED_PRECONDITION
+
+    run(main(), 20)
+    client = squall.Client(daemon.address)
+    with client.textures.interactive(**start) as steer:
+        steer.send(frames=1)
+        client.close()
+
+
+def test_cancelling_the_awaiting_task_still_raises_cancelled_error(
+    daemon, task_state: str
+) -> None:
+    """Cancelling the task that awaits a call, a stream or a send (or its asyncio deadline)
+    cancels the call and propagates as asyncio.CancelledError (TimeoutError), not SquallError."""
+    spec = large_tile()
+
+    async def main() -> None:
+        async with squall.aio.Client(daemon.address) as aclient:
+            tiles = aclient.ocean.stream(spec, dt=0.1, outputs="height")
+            steer = aclient.textures.interactive(**small_texture_stream())
+            for awaited in (aclient.ocean.tile(spec), tiles.__anext__(), steer.send(frames=100)):
+                task = asyncio.create_task(awaited)
+                await asyncio.sleep(0)
+                task.cancel()
+                with pytest.raises(asyncio.CancelledError):
+                    await task
+            with pytest.raises(asyncio.TimeoutError):
+                await asyncio.wait_for(aclient.ocean.tile(spec), 0.001)
+            assert await aclient.health() == "SERVING"
+
+    run(main(), 20)
+
+
+def test_a_send_after_the_call_ended_ok_raises_failed_precondition(daemon) -> None:
+    """As the sync client's send() on a stream that has ended: SquallError (FAILED_PRECONDITION),
+    not the asyncio.InvalidStateError of grpc.aio's write."""
+
+    async def main() -> None:
+        async with squall.aio.Client(daemon.address) as aclient:
+            steer = aclient.textures.interactive(**small_texture_stream())
+            assert len(await steer.send(frames=1)) == 1
+            await steer._call.done_writing()  # squalld then ends the call OK
+            with pytest.raises(squall.SquallError) as error:
+                await steer.send(frames=1)
+            assert error.value.code == grpc.StatusCode.FAILED_PRECONDITION, error.value
+            assert error.value.method == "Textures.AdvectInteractive"
+            assert "ended" in error.value.message
+
+    run(main(), 20)
+
+
+class EndedCall:
+    """A grpc.aio steering call that squalld has ended with `code` (its read raises it)."""
+
+    def __init__(self, code: grpc.StatusCode) -> None:
+        self._code = code
+
+    async def done_writing(self) -> None:
+        pass
+
+    async def read(self) -> Any:
+        empty = grpc.aio.Metadata()
+        raise grpc.aio.AioRpcError(self._code, empty, empty, "ended by the server")
+
+    async def code(self) -> grpc.StatusCode:
+        return self._code
+
+    def cancel(self) -> bool:
+        return False
+
+
+@pytest.mark.parametrize("steering", [squall.aio.Interactive, squall.aio.DeformInteractive])
+def test_close_ignores_a_cancelled_call_as_in_the_sync_client(steering: Any) -> None:
+    """The sync Steering.close() raises the call's error unless it is CANCELLED; so does the
+    asyncio one."""
+
+    async def main() -> None:
+        await steering(EndedCall(grpc.StatusCode.CANCELLED), None).close()
+        with pytest.raises(squall.SquallError) as error:
+            await steering(EndedCall(grpc.StatusCode.INTERNAL), None).close()
+        assert error.value.code == grpc.StatusCode.INTERNAL
+        assert error.value.method == steering.METHOD
+
+    run(main(), 20)

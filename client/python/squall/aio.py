@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+import weakref
 from typing import (
     Any,
     AsyncIterable,
@@ -97,12 +98,49 @@ S = TypeVar("S", bound="Steering[Any]")
 __all__ = ["Client", "AsyncStream", "EWaveSession", "Interactive", "DeformInteractive"]
 
 
+def _cancelling() -> Optional[bool]:
+    """Whether the running task is being cancelled (``Task.cancelling()``, Python 3.11 and later);
+    None where asyncio cannot tell."""
+    task = asyncio.current_task()
+    cancelling = getattr(task, "cancelling", None)
+    if cancelling is None:
+        return None
+    return bool(cancelling() > 0)
+
+
+def _cancelled_call(closed: bool, method: str) -> Optional[SquallError]:
+    """The error of a call that raised asyncio.CancelledError: grpc.aio raises it for a call
+    cancelled in this process, as ``Client.close()`` does to every call in flight. When the
+    awaiting task is not itself being cancelled, the call's end is reported as the sync client
+    reports it: SquallError (CANCELLED) naming the method. None when the task is being cancelled
+    (its CancelledError must propagate), and, where asyncio cannot tell (before Python 3.11),
+    unless the client was closed (`closed`)."""
+    cancelling = _cancelling()
+    if cancelling or (cancelling is None and not closed):
+        return None
+    reason = "the client was closed" if closed else "the call was cancelled"
+    return SquallError(grpc.StatusCode.CANCELLED, f"client: {reason}", method)
+
+
 class Connection:
     """An asyncio channel and the client's Settings; runs calls and raises SquallError."""
 
     def __init__(self, channel: grpc.aio.Channel, settings: Settings) -> None:
         self.channel = channel
         self.settings = settings
+        self._streams: "weakref.WeakSet[Any]" = weakref.WeakSet()
+
+    def track(self, call: Any) -> Any:
+        """Registers a streaming call, which ``cancel_streams`` ends; returns it."""
+        self._streams.add(call)
+        return call
+
+    def cancel_streams(self) -> None:
+        """Cancels the streaming calls still running. grpc.aio's channel.close() cancels the calls
+        it finds waiting in a task of their own (unary calls, streams not yet started), not the
+        streams already running, which would otherwise go on after the client is closed."""
+        for call in list(self._streams):
+            call.cancel()
 
     async def unary(
         self,
@@ -120,6 +158,11 @@ class Connection:
             )
         except grpc.RpcError as error:
             raise SquallError.from_rpc(error, method) from None
+        except asyncio.CancelledError:
+            cancelled = _cancelled_call(self.settings.closed, method)
+            if cancelled is None:
+                raise
+            raise cancelled from None
 
     async def create(
         self,
@@ -157,15 +200,17 @@ class Connection:
             timeout=self.settings.deadline(timeout, stream=True),
             metadata=self.settings.metadata(session),
         )
-        return AsyncStream(call, method, convert, feeder, finish)
+        self.track(call)
+        return AsyncStream(call, method, convert, feeder, finish, self.settings)
 
 
 class AsyncStream(AsyncIterator[T], Generic[T]):
     """An async iterator over a streaming call's messages, converted (numpy arrays).
 
     ``cancel()`` (or leaving an ``async with`` block around it) ends the call and frees its
-    --max-streams slot; errors raise SquallError while iterating. `convert` and `finish` are as
-    squall._calls.Stream's.
+    --max-streams slot; errors raise SquallError while iterating, CANCELLED when the client is
+    closed under it. `convert` and `finish` are as squall._calls.Stream's; `settings` are the
+    client's (whether it was closed).
     """
 
     def __init__(
@@ -175,6 +220,7 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
         convert: Callable[[Any], Optional[T]],
         feeder: Any = None,
         finish: Optional[Callable[[], None]] = None,
+        settings: Optional[Settings] = None,
     ) -> None:
         self._call = call
         self._iterator = call.__aiter__()
@@ -183,6 +229,7 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
         self._cancelled = False
         self._feeder = feeder
         self._finish = finish
+        self._settings = settings
 
     def __aiter__(self) -> "AsyncStream[T]":
         return self
@@ -206,9 +253,15 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
                     self._finish()
                 raise
             except asyncio.CancelledError:
-                if self._cancelled:
+                if self._cancelled and not _cancelling():
                     raise StopAsyncIteration from None
-                raise
+                closed = self._settings is not None and self._settings.closed
+                cancelled = _cancelled_call(closed, self._method)
+                if cancelled is None:
+                    raise
+                if self._feeder is not None:
+                    self._feeder.close()
+                raise cancelled from None
             except grpc.RpcError as error:
                 self._end_feeder()
                 code = error.code()  # type: ignore[attr-defined]
@@ -640,12 +693,25 @@ class Steering(Generic[T]):
 
     METHOD = ""
 
-    def __init__(self, call: Any, start: Any, convert: Callable[[Any], T]) -> None:
+    def __init__(
+        self,
+        call: Any,
+        start: Any,
+        convert: Callable[[Any], T],
+        settings: Optional[Settings] = None,
+    ) -> None:
         self._call = call
         self._start: Any = start  # sent with the first message only
         self._convert = convert
+        self._settings = settings  # the client's: whether it was closed
         self.frames_received = 0
         self._ended = False  # the call has ended (its error, if any, was raised)
+
+    def _cancelled_call(self) -> Optional[SquallError]:
+        """The SquallError (CANCELLED) of the call cancelled under a task that is not itself being
+        cancelled (the client was closed), else None: the module's _cancelled_call."""
+        closed = self._settings is not None and self._settings.closed
+        return _cancelled_call(closed, self.METHOD)
 
     def _check_open(self) -> None:
         if self._ended:
@@ -676,25 +742,38 @@ class Steering(Generic[T]):
             except grpc.RpcError as error:
                 self._ended = True
                 raise SquallError.from_rpc(error, self.METHOD) from None
-            except asyncio.InvalidStateError:  # written after the server ended the call
+            except asyncio.InvalidStateError:  # written after the call ended
                 self._ended = True
                 await self._raise_status()
-                raise
+                raise SquallError(
+                    grpc.StatusCode.FAILED_PRECONDITION,
+                    "client: the stream has ended",
+                    self.METHOD,
+                ) from None
+            except asyncio.CancelledError:
+                self._ended = True
+                cancelled = self._cancelled_call()
+                if cancelled is None:
+                    raise
+                raise cancelled from None
         except BaseException:
             self.cancel()
             raise
         self.frames_received += len(out)
         return out
 
-    async def _raise_status(self) -> None:
+    async def _raise_status(self, *quiet: grpc.StatusCode) -> None:
+        """Raises the ended call's status as SquallError, unless it is OK or one of `quiet`."""
         code = await self._call.code()
-        if code != grpc.StatusCode.OK:
+        if code != grpc.StatusCode.OK and code not in quiet:
             metadata = tuple(await self._call.initial_metadata() or ())
             metadata += tuple(await self._call.trailing_metadata() or ())
             raise SquallError(code, await self._call.details(), self.METHOD, metadata)
 
     async def close(self) -> None:
-        """Ends the request side and waits for the call's status (raised unless send raised it)."""
+        """Ends the request side and waits for the call's status (raised unless send raised it).
+        As in the sync client, a call that ended CANCELLED (the client closed under it) raises
+        nothing."""
         if self._ended:
             return
         self._ended = True
@@ -703,8 +782,14 @@ class Steering(Generic[T]):
             while await self._call.read() is not grpc.aio.EOF:
                 pass
         except grpc.RpcError as error:
-            raise SquallError.from_rpc(error, self.METHOD) from None
-        await self._raise_status()
+            if error.code() != grpc.StatusCode.CANCELLED:  # type: ignore[attr-defined]
+                raise SquallError.from_rpc(error, self.METHOD) from None
+            return
+        except asyncio.CancelledError:
+            if self._cancelled_call() is None:
+                raise
+            return
+        await self._raise_status(grpc.StatusCode.CANCELLED)
 
     def cancel(self) -> None:
         """Ends the call now; ``close`` (and leaving ``async with``) then raises nothing, as in the
@@ -729,8 +814,13 @@ class Interactive(Steering[TextureFrame]):
 
     METHOD = "Textures.AdvectInteractive"
 
-    def __init__(self, call: Any, start: textures_pb2.AdvectTextureRequest) -> None:
-        super().__init__(call, start, TextureFrame)
+    def __init__(
+        self,
+        call: Any,
+        start: textures_pb2.AdvectTextureRequest,
+        settings: Optional[Settings] = None,
+    ) -> None:
+        super().__init__(call, start, TextureFrame, settings)
 
     async def send(
         self,
@@ -766,8 +856,13 @@ class DeformInteractive(Steering[DeformFrame]):
 
     METHOD = "Textures.DeformInteractive"
 
-    def __init__(self, call: Any, start: textures_pb2.DeformTextureRequest) -> None:
-        super().__init__(call, start, DeformFrame)
+    def __init__(
+        self,
+        call: Any,
+        start: textures_pb2.DeformTextureRequest,
+        settings: Optional[Settings] = None,
+    ) -> None:
+        super().__init__(call, start, DeformFrame, settings)
 
     async def send(
         self,
@@ -874,7 +969,7 @@ class Textures:
             timeout=settings.deadline(timeout, stream=True),
             metadata=settings.metadata(_textures.followed_session(request)),
         )
-        return Interactive(call, request)
+        return Interactive(self._connection.track(call), request, settings)
 
     async def bake_velocity(
         self,
@@ -967,7 +1062,7 @@ class Textures:
         call = self._rpc.DeformInteractive(
             timeout=settings.deadline(timeout, stream=True), metadata=settings.metadata()
         )
-        return DeformInteractive(call, request)
+        return DeformInteractive(self._connection.track(call), request, settings)
 
 
 class Client:
@@ -1042,8 +1137,10 @@ class Client:
             await asyncio.sleep(0.1)
 
     async def close(self) -> None:
-        """Closes the channel (running streams are cancelled); later calls raise RuntimeError."""
+        """Closes the channel: the calls and streams in flight end, raising SquallError (CANCELLED)
+        as in the sync client; later calls raise RuntimeError."""
         self._connection.settings.closed = True
+        self._connection.cancel_streams()
         await self._connection.channel.close()
 
     async def __aenter__(self) -> "Client":
