@@ -133,32 +133,35 @@ struct OceanEngine::Impl {
   // at once), in slices of rows that `cancel` can stop between (Error(Cancelled): nothing is cached). Runs
   // under runtime.exclusive(). A handle, not a reference: another request may evict it.
   cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}) {
-    return spectra.get(h0_key(spec, index), [&] {
-      const LayerSpec& L = spec.layers[index];
-      const size_t bytes = size_t(spectrum_bytes(L));
-      OceanLayer params = device_layer(L, int(index));
-      auto bands = layer_bands(spec);
-      const cl::Context& context = runtime.context();
-      cl::Buffer layer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(params), &params);
-      std::array<float, 4> none{};
-      cl::Buffer band_buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                             std::max<size_t>(1, bands.size()) * sizeof(none),
-                             bands.empty() ? none.data() : bands.front().data());
-      cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
-      const std::string what = "the spectrum of layer " + std::to_string(index);
-      const size_t nx = size_t(L.nx), ny = size_t(L.ny), rows = std::max<size_t>(1, kSpectrumSliceModes / nx);
-      for (size_t row = 0; row < ny; row += rows) {
-        const size_t count = std::min(rows, ny - row);
-        write_frequencies(L, h0, row * nx, count * nx);
-        h0_kernel.launch_region(cl::NDRange(0, row), cl::NDRange(nx, count), cl::NullRange, layer, band_buffer,
-                                cl_int(bands.size()), h0);
-        runtime.queue().finish();  // each slice ends before `cancel` is looked at
-        cancel.check(what);
-      }
-      h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
-      runtime.queue().finish();  // the parameter buffers go out of scope
-      return DeviceCache<std::string>::Made{h0, bytes};
-    });
+    return spectra.get(
+        h0_key(spec, index),
+        [&] {
+          const LayerSpec& L = spec.layers[index];
+          const size_t bytes = size_t(spectrum_bytes(L));
+          OceanLayer params = device_layer(L, int(index));
+          auto bands = layer_bands(spec);
+          const cl::Context& context = runtime.context();
+          cl::Buffer layer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(params), &params);
+          std::array<float, 4> none{};
+          cl::Buffer band_buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                 std::max<size_t>(1, bands.size()) * sizeof(none),
+                                 bands.empty() ? none.data() : bands.front().data());
+          cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
+          const std::string what = "the spectrum of layer " + std::to_string(index);
+          const size_t nx = size_t(L.nx), ny = size_t(L.ny), rows = std::max<size_t>(1, kSpectrumSliceModes / nx);
+          for (size_t row = 0; row < ny; row += rows) {
+            const size_t count = std::min(rows, ny - row);
+            write_frequencies(L, h0, row * nx, count * nx);
+            h0_kernel.launch_region(cl::NDRange(0, row), cl::NDRange(nx, count), cl::NullRange, layer, band_buffer,
+                                    cl_int(bands.size()), h0);
+            runtime.queue().finish();  // each slice ends before `cancel` is looked at
+            cancel.check(what);
+          }
+          h0_mirror.launch(cl::NDRange(L.nx, L.ny), cl::NullRange, h0, cl_int(L.nx), cl_int(L.ny));
+          runtime.queue().finish();  // the parameter buffers go out of scope
+          return DeviceCache<std::string>::Made{h0, bytes};
+        },
+        cancel);
   }
 
   // Modes first .. first + count - 1 of the planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl), from the

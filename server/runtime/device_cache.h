@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/error.h"
 #include "common/limits.h"
 #include "common/log.h"
@@ -71,14 +72,16 @@ class DeviceCache : public MemoryReclaimer {
   DeviceCache& operator=(const DeviceCache&) = delete;
 
   // The buffer of `key`, from compute() (returning a Made) on a miss. Thread-safe; compute() runs with no
-  // lock held.
+  // lock held. A call that finds another computing `key` waits for it, and looks at `cancel` every
+  // kCancelLook meanwhile (Error(Cancelled)): a cancelled call need not wait out another's computation.
   template <typename Compute>
-  cl::Buffer get(const Key& key, Compute&& compute) {
+  cl::Buffer get(const Key& key, Compute&& compute, const Cancellation& cancel = {}) {
     std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
       if (cl::Buffer found = find(key); found()) return found;
       if (std::find(computing_.begin(), computing_.end(), key) == computing_.end()) break;
-      computed_one_.wait(lock);
+      computed_one_.wait_for(lock, kCancelLook);
+      if (cancel.requested()) Cancellation::stopped("the wait for another call's " + what_);
     }
     computing_.push_back(key);
     lock.unlock();
@@ -150,6 +153,7 @@ class DeviceCache : public MemoryReclaimer {
   };
 
   static constexpr auto kUnreleasedWait = std::chrono::seconds(2);
+  static constexpr auto kCancelLook = std::chrono::milliseconds(50);
 
   // The kept buffers whose destructor callbacks have not run yet. OpenCL runs them once the runtime has
   // freed the buffer (OpenCL 1.2 s5.4.1), which may be later, on a thread of the runtime's.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdlib>
@@ -310,6 +311,33 @@ TEST(DeviceCache, ABufferStillInUseStillCountsInTheMemoryBudget) {
   in_use = cl::Buffer();  // the runtime frees it, then (maybe on a thread of its own) runs its callback
   EXPECT_TRUE(gate.await_memory_room(limits.memory_budget - kBytes));
   EXPECT_EQ(gate.memory_bytes(), kBytes);
+}
+
+// A call that finds another call computing its key waits for it, but a cancelled one stops waiting within
+// the cache's look interval (50 ms): it does not wait out the other's computation (here 1 s), which still
+// ends and is kept.
+TEST(DeviceCache, ACancelledCallStopsWaitingForAnothersComputation) {
+  constexpr size_t kBytes = 4096;
+  DeviceCache<int> cache(1 << 20, nullptr, "a test buffer");
+  std::atomic<bool> computing{false};
+  std::thread first([&] {
+    cache.get(1, [&] {
+      computing = true;
+      std::this_thread::sleep_for(std::chrono::seconds(1));
+      return DeviceCache<int>::Made{cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, kBytes), kBytes};
+    });
+  });
+  while (!computing) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const auto start = std::chrono::steady_clock::now();
+  bool computed_again = false;
+  test::expect_error(Code::Cancelled, "the wait for another call's a test buffer cancelled", [&] {
+    cache.get(
+        1, [&] { return computed_again = true, DeviceCache<int>::Made{}; }, Cancellation([] { return true; }));
+  });
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0.5);
+  EXPECT_FALSE(computed_again);
+  first.join();
+  EXPECT_EQ(cache.entries(), 1u);
 }
 
 // On a CPU device each pool buffer is made over host memory of its own, aligned, in which the device
