@@ -18,6 +18,7 @@ class Cancellation {
   explicit Cancellation(std::function<bool()> requested) : requested_(std::move(requested)) {}
 
   bool requested() const { return requested_ && requested_(); }
+  bool can_be_requested() const { return bool(requested_); }  // false for the default, never cancelled
 
   // Throws Error(Cancelled) "<what> cancelled ..." once requested().
   void check(const std::string& what) const {

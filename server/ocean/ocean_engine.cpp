@@ -132,7 +132,7 @@ struct OceanEngine::Impl {
   // h0 of layer `index`, computed on a miss (and finished before it is cached: other queues may read it
   // at once), in slices of rows that `cancel` can stop between (Error(Cancelled): nothing is cached). Runs
   // under runtime.exclusive(). A handle, not a reference: another request may evict it.
-  cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}) {
+  cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}, Slot* reserved = nullptr) {
     return spectra.get(
         h0_key(spec, index),
         [&] {
@@ -161,7 +161,7 @@ struct OceanEngine::Impl {
           runtime.queue().finish();  // the parameter buffers go out of scope
           return DeviceCache<std::string>::Made{h0, bytes};
         },
-        cancel);
+        cancel, reserved);
   }
 
   // Modes first .. first + count - 1 of the planes H0_FREQUENCY_HI and _LO of h0 (ocean.cl), from the
@@ -227,9 +227,9 @@ struct OceanEngine::Impl {
 
   // The layer's real channels at t on its own grid: `layout.pairs` complex arrays (ocean.cl).
   BufferLease layer_fields(const TileSpec& spec, size_t index, double t, ChannelLayout layout,
-                           const Cancellation& cancel) {
+                           const Cancellation& cancel, Slot* reserved) {
     const LayerSpec& L = spec.layers[index];
-    const cl::Buffer& h0 = spectrum(spec, index, cancel);
+    const cl::Buffer& h0 = spectrum(spec, index, cancel, reserved);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), size_t(layout.pairs), fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     const cl_float2 time = two_float_time(t);
@@ -356,7 +356,7 @@ void read_outputs(Runtime& runtime, BufferLease out, size_t cells, unsigned plan
 }  // namespace
 
 TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps,
-                             const Cancellation& cancel, unsigned planes) {
+                             const Cancellation& cancel, unsigned planes, Slot* spectra_memory) {
   validate(spec);
   if (outputs == 0 || (outputs & ~kAllOutputs))
     fail(Code::InvalidArgument, "outputs = " + describe_outputs(outputs) + " must be a non-empty set of Output flags");
@@ -387,7 +387,7 @@ TileFields OceanEngine::tile(const TileSpec& spec, double t, unsigned outputs, W
       cancel.check("tile: before layer " + std::to_string(a));
     }
     // Back to the pool before the next layer's, but for a first layer that is the sums.
-    BufferLease layer = impl_->layer_fields(spec, a, t, layout, cancel);
+    BufferLease layer = impl_->layer_fields(spec, a, t, layout, cancel, spectra_memory);
     if (a == 0 && in_place)
       sums = std::move(layer);
     else
@@ -464,7 +464,8 @@ uint64_t sample_bytes(const TileSpec& spec) {
 }
 
 std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
-                                               bool invert_displacement, const Cancellation& cancel) {
+                                               bool invert_displacement, const Cancellation& cancel,
+                                               Slot* spectra_memory) {
   validate(spec);
   validate::finite("t", t);
   for (size_t i = 0; i < points.size(); ++i) {
@@ -479,7 +480,7 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
       cancel.check("sample: before layer " + std::to_string(a));
       const LayerSpec& L = spec.layers[a];
       // Every channel, as sample_channels reads them.
-      BufferLease fields = impl_->layer_fields(spec, a, t, {4, true}, cancel);
+      BufferLease fields = impl_->layer_fields(spec, a, t, {4, true}, cancel, spectra_memory);
       layers[a].resize(size_t(L.nx) * size_t(L.ny) * 8);
       read_back(impl_->runtime, fields.buffer(), layers[a].size() * sizeof(float), layers[a].data());
     }

@@ -51,9 +51,10 @@ class OceanEngine {
   // The fields are views (TileFields): where the device computes in its pool buffers' host storage
   // (PoCL's CPU devices), of the buffer the kernels wrote them in; elsewhere of one pinned host block they
   // were read into. Either is held from the runtime's pool until the last view goes (so the fields must
-  // not outlive the runtime).
+  // not outlive the runtime). `spectra_memory`: where given, the caller's reservation, which counted the
+  // spectra the tile builds (new_spectra_bytes); a spectrum kept moves its bytes from there to the cache.
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
-                  const Cancellation& cancel = {}, unsigned planes = kAllPlanes);
+                  const Cancellation& cancel = {}, unsigned planes = kAllPlanes, Slot* spectra_memory = nullptr);
 
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
@@ -63,7 +64,8 @@ class OceanEngine {
   // kSamplesPerCheck points: Error(Cancelled) then.
   static constexpr size_t kSamplesPerCheck = 4096;
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
-                                    bool invert_displacement, const Cancellation& cancel = {});
+                                    bool invert_displacement, const Cancellation& cancel = {},
+                                    Slot* spectra_memory = nullptr);  // as tile()'s
 
   // For the eWave engine (server/ewave): the height h (m) and the linear-theory velocity potential at
   // z = 0, phi (m^2/s), at time t on the spec's output grid, left on the device in `out` (2 planes of

@@ -51,10 +51,11 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
 }
 
 // One frame's reply, the outputs in request order, encoded from the engine's views (one copy of each
-// plane, made after the device is let go). `cancel` is looked at in the engine and before each field.
+// plane, made after the device is let go). `cancel` is looked at in the engine and before each field;
+// `memory` is the call's reservation, from which a spectrum the engine keeps takes its bytes.
 void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
-                const Cancellation& cancel, v1::GetTileResponse* reply) {
-  const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes);
+                const Cancellation& cancel, Slot& memory, v1::GetTileResponse* reply) {
+  const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, &memory);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
   fill_fields(fields, job.outputs, job.dtype, cancel, reply->mutable_fields());
@@ -79,7 +80,7 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     Slot memory =
         serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1) + engine_->new_spectra_bytes(job.spec));
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    tile_reply(*engine_, job, t, nullptr, cancellation(*context), response);
+    tile_reply(*engine_, job, t, nullptr, cancellation(*context), memory, response);
     return grpc::Status::OK;
   });
 }
@@ -90,7 +91,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     TileJob job;
     double t0, dt;
     ChunkPlan plan;
-    Slot memory;  // held for the whole stream
+    Slot memory;  // held for the whole stream; a spectrum kept takes its bytes from it
   };
   auto prepare = [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
@@ -103,7 +104,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
                                                  job.working_bytes(2) + engine_->new_spectra_bytes(job.spec));
     return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
   };
-  return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, const Stream& stream) {
+  return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, Stream& stream) {
     const TileJob& job = stream.job;  // not a structured binding: lambdas below capture these
     const double t0 = stream.t0, dt = stream.dt;
     const ChunkPlan& plan = stream.plan;
@@ -112,7 +113,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     auto compute = [&](uint64_t frame) {
       v1::GetTileResponse reply;
       const double t = sim_time("t0 + frame_index dt", time_of(frame));  // an endless stream's end of time
-      tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), &reply);
+      tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), stream.memory, &reply);
       return reply;
     };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
@@ -148,7 +149,8 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
     Slot memory = serving_.gate().acquire_memory("SampleSurface's layers",
                                                  ocean::sample_bytes(spec) + engine_->new_spectra_bytes(spec));
     const bool invert = request->invert_displacement();
-    std::vector<ocean::SurfaceSample> samples = engine_->sample(spec, t, points, invert, cancellation(*context));
+    std::vector<ocean::SurfaceSample> samples =
+        engine_->sample(spec, t, points, invert, cancellation(*context), &memory);
     for (int i = 0; i < n; ++i) {
       const auto& s = samples[i];
       response->add_height(s.height);

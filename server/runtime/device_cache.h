@@ -74,14 +74,24 @@ class DeviceCache : public MemoryReclaimer {
   // The buffer of `key`, from compute() (returning a Made) on a miss. Thread-safe; compute() runs with no
   // lock held. A call that finds another computing `key` waits for it, and looks at `cancel` every
   // kCancelLook meanwhile (Error(Cancelled)): a cancelled call need not wait out another's computation.
+  // `reserved`, when given, is call memory of the budget that counted the buffer computed (the caller's
+  // reservation): a kept buffer moves its bytes from there to the cache (LimitGate::cache_from) rather than
+  // asking the budget for them twice.
   template <typename Compute>
-  cl::Buffer get(const Key& key, Compute&& compute, const Cancellation& cancel = {}) {
+  cl::Buffer get(const Key& key, Compute&& compute, const Cancellation& cancel = {}, Slot* reserved = nullptr) {
     std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
       if (cl::Buffer found = find(key); found()) return found;
       if (std::find(computing_.begin(), computing_.end(), key) == computing_.end()) break;
+      if (!cancel.can_be_requested()) {
+        computed_one_.wait(lock);
+        continue;
+      }
       computed_one_.wait_for(lock, kCancelLook);
-      if (cancel.requested()) Cancellation::stopped("the wait for another call's " + what_);
+      lock.unlock();  // the call's cancellation may take locks of its own
+      const bool cancelled = cancel.requested();
+      lock.lock();
+      if (cancelled) Cancellation::stopped("waiting for another call to make " + what_);
     }
     computing_.push_back(key);
     lock.unlock();
@@ -97,7 +107,7 @@ class DeviceCache : public MemoryReclaimer {
     lock.lock();
     ++computed_;
     try {
-      if (made.bytes <= max_bytes_) keep(key, made, lock);
+      if (made.bytes <= max_bytes_) keep(key, made, lock, reserved);
     } catch (...) {
       std::erase(computing_, key);
       computed_one_.notify_all();
@@ -237,9 +247,11 @@ class DeviceCache : public MemoryReclaimer {
   }
 
   // Under `lock` (of mutex_), which it lets go of while it waits for evicted bytes to come back (once).
-  void keep(const Key& key, Made& made, std::unique_lock<std::mutex>& lock) {
-    Slot memory;
-    for (bool waited = false;;) {  // again after a wait, which lets go of the lock
+  void keep(const Key& key, Made& made, std::unique_lock<std::mutex>& lock, Slot* reserved) {
+    Slot memory = reserved && gate_ ? gate_->cache_from(*reserved, made.bytes) : Slot();
+    if (memory.amount() > 0)
+      while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();
+    for (bool waited = false; memory.amount() == 0;) {  // again after a wait, which lets go of the lock
       // It serves its caller alone where even all the cache's bytes would not make room; the kept stay.
       if (gate_ && !gate_->memory_room(made.bytes, bytes_ + coming())) return;
       while (!entries_.empty() && bytes_ + made.bytes > max_bytes_) evict_oldest();

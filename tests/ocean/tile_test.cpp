@@ -226,6 +226,25 @@ TEST(OceanTile, NewSpectraBytesAreThoseOfTheLayersNotKept) {
   EXPECT_EQ(engine().new_spectra_bytes(spec), 64u * 96u * 6 * sizeof(float));
 }
 
+// A spectrum the caller reserved for (new_spectra_bytes) moves its bytes from the reservation to the cache
+// when kept: under a budget with room for the tile and one spectrum, the spectrum is kept (it would need
+// room for a second copy if the cache asked the budget for it again) and the reservation keeps the rest.
+TEST(OceanTile, AKeptSpectrumTakesItsBytesFromTheCallersReservation) {
+  const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 256, 500, 4716);
+  const uint64_t h0 = 256 * 256 * 6 * sizeof(float), working = tile_device_bytes(spec, Height);
+  Limits limits;
+  limits.memory_budget = working + h0 + h0 / 2;
+  LimitGate gate(limits);
+  OceanEngine budgeted(squall::test::runtime(), squall::test::fft(), limits, 1 << 30, &gate);
+  ASSERT_EQ(budgeted.new_spectra_bytes(spec), h0);
+  Slot memory = gate.acquire_memory("the tile", working + h0);
+  budgeted.tile(spec, 1.0, Height, nullptr, {}, kAllPlanes, &memory);
+  EXPECT_EQ(budgeted.cached_spectra(), 1u);
+  EXPECT_EQ(memory.amount(), working);
+  EXPECT_EQ(gate.cached_memory_bytes(), h0);
+  EXPECT_EQ(budgeted.new_spectra_bytes(spec), 0u);
+}
+
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
   auto h = engine().tile(spec, 1.0, Height).height;
