@@ -52,11 +52,11 @@ void DeformEngine::validate(const DeformSpec& spec, const std::string& path) con
   validate_deform(spec, impl_->gate, path);
 }
 
-std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec, const Cancellation& cancel) {
+std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec, const Cancellation& cancel, Slot* reserved) {
   std::shared_ptr<const FlowField> flow = impl_->flows.find(spec);
   if (!flow) {
     flow = solve_flow(impl_->runtime, *impl_->kernels, spec, cancel);
-    impl_->flows.keep(spec, flow);
+    impl_->flows.keep(spec, flow, reserved);
   }
   return make_deformation(impl_->runtime, impl_->kernels, std::move(flow), spec);
 }

@@ -66,8 +66,9 @@ class DeformEngine {
   void validate(const DeformSpec& spec, const std::string& path) const;
   // A validated spec's deformation. The flow field is solved here (or reused: the last few solves are
   // kept, keyed by the rigidity, chart, size, tolerance and iterations); the solve asks `cancel` between
-  // its iterations (Error(Cancelled)).
-  std::unique_ptr<Deformation> start(const DeformSpec& spec, const Cancellation& cancel = {});
+  // its iterations (Error(Cancelled)). `reserved`: where given, the caller's reservation of working_bytes,
+  // from which a solve kept takes its bytes.
+  std::unique_ptr<Deformation> start(const DeformSpec& spec, const Cancellation& cancel = {}, Slot* reserved = nullptr);
 
  private:
   struct Impl;

@@ -257,7 +257,7 @@ FlowCache::~FlowCache() {
   if (gate_) gate_->remove_reclaimer(this);
 }
 
-void FlowCache::keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow) {
+void FlowCache::keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow, Slot* reserved) {
   const uint64_t hash = key_hash(spec);
   // The flow twice (host and device), the rigidity and the chart.
   const uint64_t bytes = 2 * flow->bytes() + spec.rigidity.size() * sizeof(float) + spec.chart.size();
@@ -265,8 +265,8 @@ void FlowCache::keep(const DeformSpec& spec, std::shared_ptr<const FlowField> fl
   for (const Entry& e : entries_)
     if (matches(e, hash, spec)) return;
   if (entries_.size() >= kEntries) entries_.pop_back();
-  Slot memory;
-  while (gate_) {
+  Slot memory = reserved && gate_ ? gate_->cache_from(*reserved, bytes) : Slot();
+  while (gate_ && memory.amount() == 0) {
     try {
       memory = gate_->acquire_cache_memory("a deformation's flow field kept for the next streams", bytes);
       break;

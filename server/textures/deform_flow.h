@@ -47,7 +47,8 @@ class FlowCache final : public MemoryReclaimer {
   FlowCache& operator=(const FlowCache&) = delete;
 
   std::shared_ptr<const FlowField> find(const DeformSpec& spec);
-  void keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow);
+  // `reserved`, when given, is the caller's reservation that counted the flow: its bytes move from there.
+  void keep(const DeformSpec& spec, std::shared_ptr<const FlowField> flow, Slot* reserved = nullptr);
   uint64_t reclaim(uint64_t bytes) override;
 
  private:

@@ -51,7 +51,7 @@ grpc::Status TexturesService::DeformTexture(grpc::ServerContext* context, const 
     return s;
   };
   return serve_stream(*context, serving_, "DeformTexture", prepare, [&](StreamCall& call, DeformStream& s) {
-    std::unique_ptr<Deformation> deformation = deform_->start(s.spec, call.cancellation());
+    std::unique_ptr<Deformation> deformation = deform_->start(s.spec, call.cancellation(), &s.memory);
     for (int i = 0; i < s.spec.frames && call.live(); ++i)
       if (!call.write(*writer, encode(s, *deformation))) return;
   });
@@ -72,7 +72,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
         s.spec = req::deform_start(message, serving_.gate(), path);
         deform_->validate(s.spec, path + ".start");
         choose_planes(s, message.start(), serving_.gate(), path + ".start");
-        deformation = deform_->start(s.spec, call.cancellation());
+        deformation = deform_->start(s.spec, call.cancellation(), &s.memory);
       }
       if (req::steer(message, s.spec, path)) deformation->steer(s.spec.control, path);
       for (uint32_t k = 0; k < frames && call.live(); ++k)

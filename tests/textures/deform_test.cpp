@@ -486,6 +486,7 @@ TEST(Deform, TwoRunsAreBitwiseIdentical) {
 
 // The flow solves kept count in the budget as cached memory (the flow on the host and the device, the
 // rigidity and the chart), and a call that needs the room takes it back from a solve no deformation uses.
+// A solve made under a stream's reservation moves its bytes from it.
 TEST(Deform, AKeptFlowSolveCountsInTheBudgetAndGivesItBack) {
   const DeformSpec spec = disk_spec(32, {{16, 16, 6}}, smooth_texture(32));
   Limits limits;
@@ -498,6 +499,13 @@ TEST(Deform, AKeptFlowSolveCountsInTheBudgetAndGivesItBack) {
   EXPECT_EQ(gate.memory_bytes(), kept);
   Slot call = gate.acquire_memory("a call", limits.memory_budget - 1000);
   EXPECT_EQ(gate.cached_memory_bytes(), 0u) << "the unused solve gave its room to the call";
+  call.release();
+  // A stream's reservation counted its flow: a solve kept takes its bytes from there, not again.
+  const DeformSpec other = disk_spec(32, {{16, 16, 5}}, smooth_texture(32));
+  Slot stream = gate.acquire_memory("a stream", DeformEngine::working_bytes(other));
+  engine.start(other, {}, &stream);
+  EXPECT_EQ(gate.cached_memory_bytes(), kept);
+  EXPECT_EQ(stream.amount(), DeformEngine::working_bytes(other) - kept);
 }
 
 // ---- Checks ----
