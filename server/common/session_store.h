@@ -209,6 +209,7 @@ class SessionStore {
     std::lock_guard<std::mutex> wait(entry->mutex);
     // Released by a drain, or taken over: another replica may hold it by now, and closes it when asked.
     if (entry->released || let_go_if_taken_over(*entry)) fail(Code::Unavailable, released(id));
+    entry->removed = true;
     if (const StateDir* dir = persistent() ? state_dir() : nullptr) dir->remove(id, policy_.registry->replica());
   }
   bool erase(const std::string& id) {
@@ -230,8 +231,8 @@ class SessionStore {
     }
     size_t written = 0;
     for (auto& [id, entry] : live) {
-      std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
-      if (entry->released) continue;
+      std::lock_guard<std::mutex> lock(entry->mutex);   // waits for a call in flight on the session
+      if (entry->released || entry->removed) continue;  // a close or an eviction took it meanwhile
       if (let_go_if_taken_over(*entry)) {
         forget(entry);
         continue;
@@ -333,7 +334,7 @@ class SessionStore {
     bool handed = false;  // not a session taken over since: the request is for its new owner
     {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
-      if (!entry->released && !let_go_if_taken_over(*entry)) {
+      if (!entry->released && !entry->removed && !let_go_if_taken_over(*entry)) {
         try {
           state_dir()->write(id, encoded(id, *entry->value, save_));
         } catch (const Error& e) {  // a session with no state to save (broken) goes at its last checkpoint
@@ -357,6 +358,7 @@ class SessionStore {
     std::string id;
     std::mutex mutex;       // one call at a time per entry; guards `released` too
     bool released = false;  // checkpointed for another replica: calls answer UNAVAILABLE
+    bool removed = false;   // closed or evicted, its files removed: no checkpoint writes it again
     std::shared_ptr<T> value;
     Reservation held;
     std::chrono::steady_clock::time_point last_use;
@@ -402,7 +404,9 @@ class SessionStore {
     const StateDir* dir = persistent() ? state_dir() : nullptr;
     if (!dir) return;
     std::lock_guard<std::mutex> lock(entry.mutex);  // waits for a call in flight on the session
-    if (!entry.released && !let_go_if_taken_over(entry)) dir->remove(entry.id, policy_.registry->replica());
+    if (entry.released || let_go_if_taken_over(entry)) return;
+    entry.removed = true;
+    dir->remove(entry.id, policy_.registry->replica());
   }
 
   // Under entry.mutex: whether another replica owns the entry's session in the state directory now (this
