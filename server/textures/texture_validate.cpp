@@ -60,14 +60,15 @@ void substeps_resolve(const AdvectSpec& spec, const std::string& path) {
 }
 
 // A step over [t, t + span] reads a grid's frames from the last at or before t to the first at or after
-// t + span, SQUALL_VELOCITY_WINDOW at most: so no SQUALL_VELOCITY_WINDOW - 1 consecutive frames may lie
-// within less than one span (dt for Lagrangian grids, which carry their vertices over a frame at once,
-// dt / substeps for the Eulerian methods).
+// t + span, SQUALL_VELOCITY_WINDOW at most: so no SQUALL_VELOCITY_WINDOW - 1 consecutive frames with a
+// frame before and one after them may lie within less than one span (dt for Lagrangian grids, which carry
+// their vertices over a frame at once, dt / substeps for the Eulerian methods). Before the first frame and
+// after the last the field is held: a run that starts or ends the list needs no frame beyond it.
 void frames_within_a_step(const AdvectSpec& spec, const std::string& path) {
   const double span = spec.method == Method::LagrangianGrids ? spec.dt : spec.dt / double(spec.substeps);
   const auto& frames = spec.velocity.frames;
   const size_t apart = SQUALL_VELOCITY_WINDOW - 2;
-  for (size_t i = 0; i + apart < frames.size(); ++i)
+  for (size_t i = 1; i + apart + 1 < frames.size(); ++i)
     if (frames[i + apart].time - frames[i].time < span)
       reject(at(path + ".frames", i + apart) + ".time", frames[i + apart].time,
              "at least " + number(span) + " s after frames[" + std::to_string(i) +

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string_view>
+#include <utility>
 
 #include "common/error.h"
 #include "common/field_codec.h"
@@ -141,9 +142,15 @@ void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, co
   const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
   rivers_->validate(river, path + ".river");
   rivers_->validate(grid, path + ".river", "bake_");
-  AdvectSpec rest = s.spec;  // the rest of the request, checked before the bake (seconds on a large grid)
-  rest.velocity = VelocitySpec{};
-  engine_->validate(rest, spec_path);
+  // The rest of the request is checked before the bake (seconds on a large grid), with a still velocity.
+  VelocitySpec velocity_before = std::exchange(s.spec.velocity, VelocitySpec{});
+  try {
+    engine_->validate(s.spec, spec_path);
+  } catch (...) {
+    s.spec.velocity = std::move(velocity_before);
+    throw;
+  }
+  s.spec.velocity = std::move(velocity_before);
   Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(grid));
   s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
 }

@@ -68,14 +68,15 @@ TEST(TexturesClock, AStepAcrossSeveralGridFramesFollowsEachOfThem) {
 }
 
 // A step interpolates between SQUALL_VELOCITY_WINDOW (8) frames at most: seven frames within less than
-// one step are refused, naming the last of them.
+// one step, with a frame before and one after them, are refused, naming the last of the seven. Seven that
+// end the list need one frame besides (after the last the field is held), and are taken.
 TEST(TexturesValidation, MoreGridFramesThanAStepReachesAreRefused) {
   AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_GRID, {}, 64);
   spec.dt = 0.1;
   VelocitySpec& v = spec.velocity;
   v.nx = v.ny = 2;
   v.hx = v.hy = 1;
-  for (int k = 0; k < 10; ++k) v.frames.push_back({0.017 * k, std::vector<float>(4, 0.1f), std::vector<float>(4)});
+  for (int k = 0; k < 12; ++k) v.frames.push_back({0.017 * k, std::vector<float>(4, 0.1f), std::vector<float>(4)});
   texture_engine().validate(spec, "spec");  // six spacings of 0.017 s: 0.102 s, past a step of 0.1 s
   v.frames[9].time = v.frames[8].time + 0.0145;
   expect_error(Code::InvalidArgument,
@@ -84,6 +85,9 @@ TEST(TexturesValidation, MoreGridFramesThanAStepReachesAreRefused) {
                [&] { texture_engine().validate(spec, "spec"); });
   spec.method = Method::Naive;
   spec.substeps = 2;  // Eulerian steps of dt / substeps
+  texture_engine().validate(spec, "spec");
+  spec.method = Method::LagrangianGrids;
+  v.frames.resize(10);  // frames[3..9], 0.0995 s apart, end the list
   texture_engine().validate(spec, "spec");
 }
 
