@@ -128,17 +128,23 @@ void expect_same_planes(const v1::TextureFrame& got, const textures::TextureFram
   for (int k = 0; k < got.planes_size(); ++k) EXPECT_EQ(got.planes(k).data(), encoded.planes(k).data()) << k;
 }
 
-TEST(TexturesRiver, BakeVelocityEqualsTheEngine) {
+// The y river baked on nx x ny nodes over [0, 5] x [-1.5, 3.5] du, with psi.
+v1::BakeVelocityRequest y_river_bake(uint32_t nx, uint32_t ny) {
   v1::BakeVelocityRequest request;
   *request.mutable_river() = y_river();
-  request.set_nx(80);
-  request.set_ny(72);
+  request.set_nx(nx);
+  request.set_ny(ny);
   auto* region = request.mutable_region();
   region->set_x0(0);
   region->set_y0(-1.5);
   region->set_x1(5);
   region->set_y1(3.5);
   request.set_psi(true);
+  return request;
+}
+
+TEST(TexturesRiver, BakeVelocityEqualsTheEngine) {
+  const v1::BakeVelocityRequest request = y_river_bake(80, 72);
   const v1::BakeVelocityReply reply = bake_velocity(request);
   const textures::RiverBake want =
       rivers().bake(textures::rpc::river(request.river()), textures::rpc::bake_grid(request), "river");
@@ -320,17 +326,8 @@ TEST(TexturesRiver, AnExpiredBakeStopsUsingTheCores) {
 // nodes are 201 MB and 34 MB of float16 planes, refused under a 128 MiB budget; 256^2 nodes are baked.
 TEST(TexturesRiver, ABakeCountsInTheMemoryBudget) {
   test::Daemon d({"--memory-budget", std::to_string(1ull << 27)});
-  v1::BakeVelocityRequest request;
-  *request.mutable_river() = y_river();
-  auto* region = request.mutable_region();
-  region->set_x0(0);
-  region->set_y0(-1.5);
-  region->set_x1(5);
-  region->set_y1(3.5);
-  request.set_psi(true);
+  v1::BakeVelocityRequest request = y_river_bake(2048, 2048);
   request.set_dtype(v1::DTYPE_FLOAT16);
-  request.set_nx(2048);
-  request.set_ny(2048);
   test::expect_error(Code::ResourceExhausted, "BakeVelocity's bake and reply",
                      [&] { bake_velocity(request, d.address()); });
   request.set_nx(256);
