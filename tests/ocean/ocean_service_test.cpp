@@ -106,10 +106,15 @@ v1::GetTileRequest tile_request(double t, v1::DType dtype = v1::DTYPE_FLOAT32) {
   return r;
 }
 
-v1::GetTileResponse get_tile(const std::string& address, const v1::GetTileRequest& request) {
+// GetTile's status, its reply in `response`.
+grpc::Status get_tile(const std::string& address, const v1::GetTileRequest& request, v1::GetTileResponse* response) {
   Call c = call(address);
+  return c.stub->GetTile(c.context.get(), request, response);
+}
+
+v1::GetTileResponse get_tile(const std::string& address, const v1::GetTileRequest& request) {
   v1::GetTileResponse response;
-  grpc::Status status = c.stub->GetTile(c.context.get(), request, &response);
+  const grpc::Status status = get_tile(address, request, &response);
   EXPECT_TRUE(status.ok()) << status.error_message();
   return response;
 }
@@ -464,9 +469,8 @@ TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
   for (const auto& [budget, code] :
        {std::pair{96ull << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{256ull << 20, grpc::StatusCode::OK}}) {
     test::Daemon d({"--memory-budget", std::to_string(budget)});
-    Call c = call(d.address());
     v1::GetTileResponse response;
-    const grpc::Status status = c.stub->GetTile(c.context.get(), request, &response);
+    const grpc::Status status = get_tile(d.address(), request, &response);
     EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
     if (!status.ok()) EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
   }

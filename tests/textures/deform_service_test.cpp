@@ -81,11 +81,12 @@ v1::DeformTextureRequest request(v1::DeformControlKind control, uint32_t frames,
 
 using DeformStreamed = StreamedOf<v1::DeformFrame>;
 
-// DeformTexture read to its end, under a deadline of `timeout` s.
-DeformStreamed deform(const v1::DeformTextureRequest& r, double timeout = 300) {
+// DeformTexture read to its end, under a deadline of `timeout` s, from the daemon at `address`.
+DeformStreamed deform(const v1::DeformTextureRequest& r, double timeout = 300,
+                      const std::string& address = daemon().address()) {
   return read_stream<v1::DeformFrame>(
-      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); },
-      daemon().address(), timeout);
+      [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); }, address,
+      timeout);
 }
 
 void deform_or_throw(const v1::DeformTextureRequest& r) { throw_status(deform(r).status); }
@@ -216,9 +217,7 @@ TEST(TexturesDeform, TheDeformationsStateCountsInTheMemoryBudget) {
     r.clear_planes();
     r.add_planes(v1::DEFORM_PLANE_REFERENCE);
     r.set_dtype(v1::DTYPE_FLOAT16);
-    const DeformStreamed got = read_stream<v1::DeformFrame>(
-        [&](v1::Textures::Stub& service, grpc::ClientContext* c) { return service.DeformTexture(c, r); }, d.address(),
-        300);
+    const DeformStreamed got = deform(r, 300, d.address());
     EXPECT_EQ(got.status.error_code(), code) << size << ": " << got.status.error_message();
     if (!got.status.ok())
       EXPECT_NE(got.status.error_message().find("the deformation's state and frames"), std::string::npos);
