@@ -9,26 +9,12 @@ namespace {
 // A checkpoint's payload: the volume as .vdb bytes.
 std::string save(const StoredVolume& volume) { return write_vdb(volume.volume); }
 
-}  // namespace
-
-CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options)
-    : runtime_(runtime),
-      options_(options),
-      renderer_(runtime, &gate),
-      stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {
-  stored_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
+// What a stored volume holds: its host trees (density and temperature) and its grids on the device.
+uint64_t held_bytes(const CloudVolume& volume, const NanoGrids& grids) {
+  uint64_t bytes = volume.stats.bytes + grids.bytes();
+  if (volume.temperature) bytes += volume.temperature->tree().memUsage();
+  return bytes;
 }
-
-std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume) {
-  auto stored = std::make_shared<StoredVolume>();
-  stored->volume = std::move(volume);
-  stored->device = upload_volume(runtime_, stored->volume);
-  stored->bytes = stored->volume.stats.bytes + stored->device.device_bytes;
-  if (stored->volume.temperature) stored->bytes += stored->volume.temperature->tree().memUsage();
-  return stored;
-}
-
-namespace {
 
 // The model with the engine's budgets: its max_active_voxels capped, the advection samples the daemon's.
 CloudModel budgeted(CloudModel model, const CloudEngineOptions& options) {
@@ -39,9 +25,27 @@ CloudModel budgeted(CloudModel model, const CloudEngineOptions& options) {
 
 }  // namespace
 
+CloudEngine::CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options)
+    : runtime_(runtime),
+      options_(options),
+      renderer_(runtime, &gate),
+      stored_(gate, options.sessions, "stored volume", "volume_id", "cloud-") {
+  stored_.persist(kCheckpointVersion, save, [this](const std::string& bytes) { restore_checkpoint(bytes); });
+}
+
+std::shared_ptr<StoredVolume> CloudEngine::upload(CloudVolume volume, const NanoGrids& grids) {
+  auto stored = std::make_shared<StoredVolume>();
+  stored->bytes = held_bytes(volume, grids);
+  stored->volume = std::move(volume);
+  stored->device = upload_volume(runtime_, stored->volume, grids);
+  return stored;
+}
+
 std::shared_ptr<StoredVolume> CloudEngine::build(CloudModel model, const std::string& field,
                                                  const Cancellation& cancel) {
-  return upload(build_cloud(budgeted(std::move(model), options_), field, cancel));
+  CloudVolume volume = build_cloud(budgeted(std::move(model), options_), field, cancel);
+  const NanoGrids grids = to_nanovdb(volume);  // the caller reserved its build's bytes (validate())
+  return upload(std::move(volume), grids);
 }
 
 uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const {
@@ -52,7 +56,11 @@ uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const
 }
 
 std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {
-  auto reservation = stored_.reserve(volume->bytes);
+  return add(id, stored_.reserve(volume->bytes), volume);
+}
+
+std::string CloudEngine::add(const std::string& id, Reservation reservation,
+                             const std::shared_ptr<StoredVolume>& volume) {
   volume->id = id;
   volume->device.kept_shadow_map = std::make_shared<KeptShadowMap>();  // its renders share their map
   return stored_.add(id, std::move(reservation), volume);
@@ -80,8 +88,11 @@ std::string CloudEngine::checkpoint(const std::string& id) { return stored_.chec
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
   std::string vdb = stored_.open_checkpoint(bytes, "checkpoint", kCheckpointVersion, &header);
-  // Like BuildVolume with keep, the volume is built first: its bytes are known once it is uploaded.
-  return store(header.id, upload(read_vdb(vdb, "checkpoint payload")));
+  // Reserved once its size is known, before the device memory is taken: the grids converted, not uploaded.
+  CloudVolume volume = read_vdb(vdb, "checkpoint payload");
+  const NanoGrids grids = to_nanovdb(volume);
+  auto reservation = stored_.reserve(held_bytes(volume, grids));
+  return add(header.id, std::move(reservation), upload(std::move(volume), grids));
 }
 
 }  // namespace squall::clouds

@@ -67,9 +67,13 @@ class CloudEngine {
   uint64_t stored_bytes() const { return stored_.bytes(); }
 
  private:
-  std::shared_ptr<StoredVolume> upload(CloudVolume volume);
-  // Stores a built volume under `id`, written into it before it is shared.
+  using Reservation = SessionStore<StoredVolume>::Reservation;
+
+  std::shared_ptr<StoredVolume> upload(CloudVolume volume, const NanoGrids& grids);
+  // Stores a built volume under `id`, written into it before it is shared: its bytes reserved first
+  // (store), or by the caller (add).
   std::string store(const std::string& id, const std::shared_ptr<StoredVolume>& volume);
+  std::string add(const std::string& id, Reservation reservation, const std::shared_ptr<StoredVolume>& volume);
 
   Runtime& runtime_;
   CloudEngineOptions options_;

@@ -222,17 +222,22 @@ void validate(const RenderSettings& s, const std::string& f) {
   for (size_t a = 0; a < 3; ++a) validate::in(validate::at(f + ".shadow_map_size", a), s.shadow_map_size[a], 2, 512);
 }
 
-DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
+NanoGrids to_nanovdb(const CloudVolume& volume) {
+  NanoGrids grids;
+  grids.density = to_nanovdb(*volume.density);
+  if (volume.temperature) grids.temperature = to_nanovdb(*volume.temperature);
+  return grids;
+}
+
+DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume, const NanoGrids& grids) {
   DeviceVolume d;
-  const NanoHandle density = to_nanovdb(*volume.density);
-  const NanoHandle temperature = volume.temperature ? to_nanovdb(*volume.temperature) : NanoHandle();
   {
     auto lock = runtime.exclusive();  // a queue of its own, not one another request holds
-    d.density = upload_nanovdb(runtime, density);
-    d.temperature = volume.temperature ? upload_nanovdb(runtime, temperature) : d.density;
+    d.density = upload_nanovdb(runtime, grids.density);
+    d.temperature = volume.temperature ? upload_nanovdb(runtime, grids.temperature) : d.density;
   }
   d.has_temperature = bool(volume.temperature);
-  d.device_bytes = density.size() + (volume.temperature ? temperature.size() : 0);
+  d.device_bytes = grids.bytes();
   const auto& b = volume.stats.bounds;
   double dx = volume.density->voxelSize()[0];
   auto box = [&](const openvdb::CoordBBox& c) {  // grown by a voxel: trilinear density spills that far

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "clouds/nanovdb_volume.h"
 #include "clouds/occupancy.h"
 #include "clouds/render_params.h"
 #include "clouds/volume.h"
@@ -114,7 +115,19 @@ struct DeviceVolume {
   std::shared_ptr<KeptShadowMap> kept_shadow_map;
 };
 
-DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume);
+// A volume's grids as NanoVDB buffers on the host, before they are uploaded: their size, the device
+// memory the upload takes, is known here.
+struct NanoGrids {
+  NanoHandle density, temperature;  // temperature empty for a volume without one
+  uint64_t bytes() const { return density.size() + temperature.size(); }
+};
+NanoGrids to_nanovdb(const CloudVolume& volume);
+
+// The grids on the device, with the boxes a render's empty-space skipping reads.
+DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume, const NanoGrids& grids);
+inline DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
+  return upload_volume(runtime, volume, to_nanovdb(volume));
+}
 
 // Density samples a render of `volume` would take, an upper bound computed before it runs: every primary
 // ray crosses the volume's whole box diagonal in steps of s.step with s.substeps samples each; with direct

@@ -116,6 +116,26 @@ TEST(Engine, CheckpointRestoresTheVolumeUnderItsIdAsVdb) {
   error_of([&] { engine.restore_checkpoint(saved); }, Code::AlreadyExists);
 }
 
+// A checkpoint whose volume does not fit is refused before its grids take device memory: no upload (no
+// queue leased) happens.
+TEST(Engine, ACheckpointThatDoesNotFitIsRefusedBeforeItsUpload) {
+  TestStore store;
+  auto v = store.engine->build(small_sphere());
+  const std::string id = store.engine->keep(v);
+  const std::string saved = store.engine->checkpoint(id);
+  Limits limits;
+  limits.max_session_bytes = v->bytes - 1;
+  TestStore capped(limits);
+  const uint64_t uploads = test::runtime().device_wait().acquisitions;
+  error_of([&] { capped.engine->restore_checkpoint(saved); }, Code::ResourceExhausted);
+  EXPECT_EQ(test::runtime().device_wait().acquisitions, uploads);
+  EXPECT_EQ(capped.engine->stored_count(), 0u);
+  limits.max_session_bytes = v->bytes;
+  TestStore fits(limits);
+  EXPECT_EQ(fits.engine->restore_checkpoint(saved), id);
+  EXPECT_EQ(fits.engine->stored_bytes(), v->bytes);
+}
+
 TEST(Engine, ModelBudgetIsCappedByTheEngine) {
   CloudEngineOptions options;
   options.max_active_voxels = 500;
