@@ -20,6 +20,14 @@ Slot& Slot::operator=(Slot&& other) noexcept {
   return *this;
 }
 
+void Slot::give_back(uint64_t bytes) {
+  if (!counter_) return;
+  bytes = std::min(bytes, amount_);
+  counter_->fetch_sub(bytes);
+  if (also_) also_->fetch_sub(bytes);
+  amount_ -= bytes;
+}
+
 void Slot::release() {
   if (counter_) counter_->fetch_sub(amount_);
   if (counter_ && also_) also_->fetch_sub(amount_);

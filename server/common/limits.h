@@ -47,6 +47,8 @@ class Slot {
   Slot& operator=(const Slot&) = delete;
   ~Slot() { release(); }
   void release();
+  // Gives back `bytes` of the amount held (all of it at most) and holds the rest: a holder that needs less.
+  void give_back(uint64_t bytes);
   // Drops the hold without giving the amount back: for a holder that outlived the counts it was taken from.
   void abandon() { counter_ = nullptr; }
   uint64_t amount() const { return counter_ ? amount_ : 0; }

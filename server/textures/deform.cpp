@@ -58,6 +58,7 @@ std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec, const C
     flow = solve_flow(impl_->runtime, *impl_->kernels, spec, cancel);
     impl_->flows.keep(spec, flow, reserved);
   }
+  if (reserved) reserved->give_back(solve_bytes(spec));
   return make_deformation(impl_->runtime, impl_->kernels, std::move(flow), spec);
 }
 

@@ -59,6 +59,8 @@ class DeformEngine {
   // caller's memory budget: its state (the texture and its stack, the warp, the reference times, the
   // output), its flow field on the host and the device, and the flow solve's buffers (CGLS in double).
   static uint64_t working_bytes(const DeformSpec& spec);
+  // The flow solve's part of working_bytes, held only until the flow is there.
+  static uint64_t solve_bytes(const DeformSpec& spec);
 
   // Every field in range (INVALID_ARGUMENT naming "<path>.<field>", the proto's names: "texture",
   // "rigidity", "chart", "d_mu_map", "strokes[i].radius", "deformation_start.xx", ...); width * height (and
@@ -67,7 +69,8 @@ class DeformEngine {
   // A validated spec's deformation. The flow field is solved here (or reused: the last few solves are
   // kept, keyed by the rigidity, chart, size, tolerance and iterations); the solve asks `cancel` between
   // its iterations (Error(Cancelled)). `reserved`: where given, the caller's reservation of working_bytes,
-  // from which a solve kept takes its bytes.
+  // from which a solve kept takes its bytes, and which gives the solve's share back (solve_bytes) once the
+  // flow is there.
   std::unique_ptr<Deformation> start(const DeformSpec& spec, const Cancellation& cancel = {}, Slot* reserved = nullptr);
 
  private:

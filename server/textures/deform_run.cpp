@@ -203,10 +203,14 @@ uint64_t DeformEngine::working_bytes(const DeformSpec& spec) {
   // DeformRun::allocate(): the images, warp, reference, output, and with a stack the residual and levels.
   const uint64_t state = 4 * (2 * levels + 1) * channels * n + 8 * n + 4 * n + 4 * channels * n + stacked * 12 * n +
                          16 * chunks(size_t(n));
-  const uint64_t frame = 4 * channels * n + 12 * n;        // the output, warp and reference read back
-  const uint64_t flow = 2 * 8 * n;                         // v on the host and the device
-  const uint64_t solve = 8 * (4 * 2 * n + 2 * n + n) + n;  // x, s, p, x_best; r, q; b (double); the free texels
-  return state + frame + flow + solve;
+  const uint64_t frame = 4 * channels * n + 12 * n;  // the output, warp and reference read back
+  const uint64_t flow = 2 * 8 * n;                   // v on the host and the device
+  return state + frame + flow + solve_bytes(spec);
+}
+
+uint64_t DeformEngine::solve_bytes(const DeformSpec& spec) {
+  const uint64_t n = uint64_t(spec.width) * uint64_t(spec.height);
+  return 8 * (4 * 2 * n + 2 * n + n) + n;  // x, s, p, x_best; r, q; b (double); the free texels
 }
 
 std::unique_ptr<Deformation> make_deformation(Runtime& runtime, std::shared_ptr<DeformKernels> kernels,

@@ -227,5 +227,28 @@ TEST(Limits, ACacheTakesWhatACallMadeFromTheCallsMemory) {
   EXPECT_EQ(gate.cached_memory_bytes(), 0u);
 }
 
+// A holder that needs less gives part of its amount back and holds the rest; a cache's part leaves the
+// cached count too, and no more than is held goes back.
+TEST(Limits, ASlotGivesPartOfItsAmountBack) {
+  Limits limits;
+  limits.memory_budget = 100;
+  LimitGate gate(limits);
+  Slot call = gate.acquire_memory("a call", 80);
+  Slot kept = gate.cache_from(call, 30);
+  call.give_back(20);
+  EXPECT_EQ(call.amount(), 30u);
+  EXPECT_EQ(gate.memory_bytes(), 60u);
+  kept.give_back(10);
+  EXPECT_EQ(gate.memory_bytes(), 50u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 20u);
+  call.give_back(1000);
+  EXPECT_EQ(call.amount(), 0u);
+  EXPECT_EQ(gate.memory_bytes(), 20u);
+  call = Slot();
+  kept = Slot();
+  EXPECT_EQ(gate.memory_bytes(), 0u);
+  EXPECT_EQ(gate.cached_memory_bytes(), 0u);
+}
+
 }  // namespace
 }  // namespace squall

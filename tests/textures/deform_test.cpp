@@ -505,7 +505,14 @@ TEST(Deform, AKeptFlowSolveCountsInTheBudgetAndGivesItBack) {
   Slot stream = gate.acquire_memory("a stream", DeformEngine::working_bytes(other));
   engine.start(other, {}, &stream);
   EXPECT_EQ(gate.cached_memory_bytes(), kept);
-  EXPECT_EQ(stream.amount(), DeformEngine::working_bytes(other) - kept);
+  // Its solve's buffers are gone once the flow is there: their share goes back to the budget.
+  const uint64_t running = DeformEngine::working_bytes(other) - kept - DeformEngine::solve_bytes(other);
+  EXPECT_EQ(stream.amount(), running);
+  EXPECT_EQ(gate.memory_bytes(), kept + running);
+  // A flow found kept runs no solve: the same share goes back.
+  Slot again = gate.acquire_memory("a second stream", DeformEngine::working_bytes(other));
+  engine.start(other, {}, &again);
+  EXPECT_EQ(again.amount(), DeformEngine::working_bytes(other) - DeformEngine::solve_bytes(other));
 }
 
 // ---- Checks ----
