@@ -110,9 +110,17 @@ std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const CloudRen
 
 // Density samples taken per primary sample: the sample itself and, with direct shadows, a march toward
 // each light across at most the box diagonal; with a deep shadow map, one lookup per light.
-double samples_per_primary_sample(const RenderSettings& s, double diagonal) {
+// Steps of a march of `length` (m) in steps of `step`, each also cut at the faces of the tree's nodes: the
+// steps in a node are at most its chord over `step`, plus one. A segment crosses at most sqrt(3) length /
+// side + 4 cells of a grid of cubes of that side (one, plus a plane crossing per side along each axis),
+// and the smallest nodes, the leaves, are 8 voxels a side.
+double march_steps(double length, double step, double voxel_size) {
+  return std::ceil(length / step + std::sqrt(3.0) * length / (8 * voxel_size)) + 4;
+}
+
+double samples_per_primary_sample(const RenderSettings& s, double diagonal, double voxel_size) {
   const double lights = double(s.lights.size());
-  if (s.shadow == ShadowMode::Direct) return 1 + lights * (std::ceil(diagonal / shadow_step(s)) + 1);
+  if (s.shadow == ShadowMode::Direct) return 1 + lights * march_steps(diagonal, shadow_step(s), voxel_size);
   if (s.shadow == ShadowMode::DeepShadowMap) return 1 + lights;
   return 1;
 }
@@ -138,7 +146,8 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
   const size_t block = (std::max(tiles.x, tiles.y) + kBlocks - 1) / kBlocks, side = 8 * block;  // tiles, pixels
   const size_t bx = (tiles.x + block - 1) / block, by = (tiles.y + block - 1) / block;
   const double per_metre =
-      s.substeps / s.step * samples_per_primary_sample(s, norm(sub(volume.world_max, volume.world_min)));
+      s.substeps / s.step *
+      samples_per_primary_sample(s, norm(sub(volume.world_max, volume.world_min)), volume.voxel_size);
   auto length = [&](size_t u, size_t v) {
     return volume.coarse.marked_length(
         s.camera.eye, camera_ray(p, double(std::min<size_t>(u, p.width)), double(std::min<size_t>(v, p.height))));
@@ -239,7 +248,8 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume, const Na
   d.has_temperature = bool(volume.temperature);
   d.device_bytes = grids.bytes();
   const auto& b = volume.stats.bounds;
-  double dx = volume.density->voxelSize()[0];
+  const double dx = volume.density->voxelSize()[0];
+  d.voxel_size = dx;
   auto box = [&](const openvdb::CoordBBox& c) {  // grown by a voxel: trilinear density spills that far
     d.occupied.push_back({(c.min().x() - 1.5) * dx, (c.min().y() - 1.5) * dx, (c.min().z() - 1.5) * dx,
                           (c.max().x() + 1.5) * dx, (c.max().y() + 1.5) * dx, (c.max().z() + 1.5) * dx});
@@ -279,11 +289,11 @@ CloudRenderer::~CloudRenderer() {
 
 SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings& s) {
   const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
-  const double steps = std::ceil(diagonal / s.step) + 1;
+  const double steps = march_steps(diagonal, s.step, volume.voxel_size);
   SampleEstimate e;
-  e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal);
-  if (s.shadow == ShadowMode::DeepShadowMap) {
-    e.per_map_node = std::ceil(diagonal / shadow_step(s)) + 1;
+  e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal, volume.voxel_size);
+  if (s.shadow == ShadowMode::DeepShadowMap && lights > 0) {  // no light, no map
+    e.per_map_node = march_steps(diagonal, shadow_step(s), volume.voxel_size);
     e.map_nodes = double(s.shadow_map_size[0]) * s.shadow_map_size[1] * s.shadow_map_size[2] * lights;
   }
   e.total = e.per_pixel * s.camera.width * s.camera.height + e.per_map_node * e.map_nodes;

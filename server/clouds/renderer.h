@@ -111,6 +111,7 @@ struct DeviceVolume {
   std::vector<std::array<double, 6>> occupied;
   CoarseOccupancy coarse;  // `occupied` on a coarse grid over the box: what a ray's march will cost
   uint64_t device_bytes = 0;
+  double voxel_size = 1;  // m: a leaf node's side is 8 voxels
   // A stored volume's; none for a volume rendered once (a model in the request, an evolution's frame).
   std::shared_ptr<KeptShadowMap> kept_shadow_map;
 };
@@ -130,10 +131,11 @@ inline DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume) {
 }
 
 // Density samples a render of `volume` would take, an upper bound computed before it runs: every primary
-// ray crosses the volume's whole box diagonal in steps of s.step with s.substeps samples each; with direct
-// shadows every sample marches such a ray toward each light; a deep shadow map marches one per map node
-// and light. Early termination and empty-space skipping only make the real count smaller. By part: per
-// pixel (primary march and direct shadows), per deep shadow map node, and in all.
+// ray crosses the volume's whole box diagonal in steps of s.step with s.substeps samples each, a step cut
+// short at every tree node it leaves (march_steps); with direct shadows every sample marches such a ray
+// toward each light; a deep shadow map marches one per map node and light. Early termination and
+// empty-space skipping only make the real count smaller. By part: per pixel (primary march and direct
+// shadows), per deep shadow map node, and in all.
 struct SampleEstimate {
   double per_pixel = 0, per_map_node = 0, map_nodes = 0, total = 0;
 };

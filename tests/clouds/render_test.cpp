@@ -537,6 +537,37 @@ TEST(Render, KeptShadowMapsTogetherStayWithinTheirBudget) {
 // filling whole leaves (z voxels 0..15 and 304..319): the transmittance through both is exactly
 // exp(-sigma (L1 + L2)) for any step: nothing is lost or added in the skipped gap. (Where a leaf is only
 // partly filled, the jittered estimate is unbiased but not exact: see the trilinear test.)
+// A march's steps are cut at every node face, whatever its step: a rod one voxel thick and 4000 long,
+// seen end on, takes at least a step in each of its 500 leaves with substeps samples each, and each sample's
+// shadow ray toward a light down the rod a step in each leaf it has left to cross (250 on average). The
+// estimate, which bounds what a pixel's uncancellable march costs, holds that count.
+TEST(Render, TheSampleEstimateCountsAStepInEveryNodeCrossed) {
+  initialize_openvdb();
+  CloudVolume rod;
+  rod.density = openvdb::FloatGrid::create(0.0f);
+  rod.density->tree().fill(openvdb::CoordBBox(openvdb::Coord(0, 0, 0), openvdb::Coord(3999, 0, 0)), 1.0f, true);
+  rod.density->tree().voxelizeActiveTiles();
+  rod.stats = volume_stats(*rod.density);
+  const DeviceVolume dv = upload_volume(test::runtime(), rod);
+  RenderSettings s;
+  s.camera.eye = {-100, 0.5, 0.5};
+  s.camera.look_at = {0, 0.5, 0.5};
+  s.camera.width = s.camera.height = 1;
+  s.step = s.shadow_step = 1e6;
+  s.substeps = 8;
+  s.shadow = ShadowMode::Direct;
+  Light down_the_rod;
+  down_the_rod.direction = {1, 0, 0};
+  down_the_rod.intensity = {1};
+  s.lights.assign(4, down_the_rod);
+  const double primary = 500.0 * s.substeps, shadow = 4 * 250.0;
+  EXPECT_GE(estimate_samples(dv, s).per_pixel, primary * (1 + shadow));
+  s.shadow = ShadowMode::DeepShadowMap;
+  EXPECT_GE(estimate_samples(dv, s).per_map_node, 500.0) << "a map node's march down the rod";
+  s.lights.clear();
+  EXPECT_EQ(estimate_samples(dv, s).per_map_node, 0.0) << "no light, no map";
+}
+
 TEST(Render, EmptySpaceBetweenSlabsIsSkippedExactly) {
   initialize_openvdb();
   const double dx = 0.5, rho = 0.5, kappa = 0.2;
