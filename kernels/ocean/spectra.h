@@ -92,22 +92,31 @@ static inline sq_real sq_jonswap(sq_real w, sq_real alpha, sq_real g, sq_real wp
   return sq_pierson_moskowitz(w, alpha, g, wp) * sq_peak_enhancement(w, wp, gamma, sa, sb);
 }
 
-/* eq 19 */
+/* eq 19: nu = w_p U / (2 pi g), so that U / c_p = 2 pi nu, c_p = g / w_p the peak's deep-water phase speed */
 static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) {
   return wp * U / (2.0 * SQUALL_PI * g);
 }
-/* eq 17; nu clamped to the printed ranges [0.83, 5] */
+/* eq 17 fixed: M. A. Donelan, J. Hamilton and W. H. Hui, "Directional spectra of wind-generated waves"
+ * (1985): gamma = 1.7 + 6 log10(U / c_p) for 1 <= U / c_p < 5, 1.7 for 0.83 < U / c_p < 1. The printed
+ * 6.489 + 6 log nu is that in nu with log10 (6.489 = 1.7 + 6 log10(2 pi)), but its ranges are U / c_p's:
+ * read as nu's, gamma would jump from 1.7 to 6.489 at nu = 1 and stay 1.7 for any fetch past a few
+ * hundred metres. U / c_p clamped to [0.83, 5]. */
 static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
-  if (nu < 1.0) return 1.7;
-  return 6.489 + 6.0 * log(fmin(nu, (sq_real)5.0));
+  sq_real u_over_cp = 2.0 * SQUALL_PI * nu;
+  if (u_over_cp < 1.0) return 1.7;
+  return 1.7 + 6.0 * log10(fmin(u_over_cp, (sq_real)5.0));
 }
-/* eq 13 (exponent fixed to (w_p / w)^4), beta of eq 15 */
+/* eq 15 fixed the same way: beta = 0.006 (U / c_p)^0.55 (Donelan et al. 1985), the printed 0.006 nu^0.55
+ * with nu for U / c_p */
+static inline sq_real sq_modified_jonswap_beta(sq_real nu) {
+  return 0.006 * sq_powr(2.0 * SQUALL_PI * nu, (sq_real)0.55);
+}
+/* eq 13 (exponent fixed to (w_p / w)^4) */
 static inline sq_real sq_modified_jonswap(sq_real w, sq_real g, sq_real U, sq_real wp, sq_real sa, sq_real sb) {
   if (w <= 0) return 0;
   sq_real nu = sq_modified_jonswap_nu(g, U, wp);
-  sq_real beta = 0.006 * sq_powr(nu, (sq_real)0.55);
   sq_real r = wp / w;
-  return beta * g * g / wp / (w * w * w * w) * exp(-r * r * r * r) *
+  return sq_modified_jonswap_beta(nu) * g * g / wp / (w * w * w * w) * exp(-r * r * r * r) *
          sq_peak_enhancement(w, wp, sq_modified_jonswap_gamma(nu), sa, sb);
 }
 
@@ -220,11 +229,13 @@ static inline sq_real sq_cos2s(sq_real d, sq_real s) {
   return norm * sq_powr(fmax(c, (sq_real)0.0), 2.0 * s);
 }
 
-/* eq 39-41 with the central values: s = s_p (w / w_p)^mu */
-static inline sq_real sq_jonswap_spread_s(sq_real w, sq_real k, sq_real wp, sq_real U) {
+/* eq 39-41 with the central values: s = s_p (w / w_p)^mu. mu is one per spectrum: the C of eq 41 is the
+ * phase speed at the peak, c_p = g / w_p, as in D. E. Hasselmann, M. Dunckel and J. A. Ewing, "Directional
+ * wave spectra observed during JONSWAP 1973" (1980), whose parametrization it is (read as each mode's w / k,
+ * mu would fall with w and s would no longer be the power law of eq 39). */
+static inline sq_real sq_jonswap_spread_s(sq_real w, sq_real wp, sq_real U, sq_real g) {
   if (w < wp) return 6.97 * sq_powr(w / wp, (sq_real)4.06);
-  sq_real C = w / k;
-  sq_real mu = -2.33 - 1.45 * (U / C - 1.17);
+  sq_real mu = -2.33 - 1.45 * (U * wp / g - 1.17);
   return 9.77 * sq_powr(w / wp, mu);
 }
 
@@ -250,7 +261,7 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_re
       return norm * sq_powr(fmax(cos(d), (sq_real)0.0), s);
     }
     case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));  /* eq 33 */
-    case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, k, p.omega_p, p.wind_speed)); /* eq 38 */
+    case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 38 */
     case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
       sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
       sq_real width = 2.0 * acos(sq_powr((sq_real)0.5, (sq_real)0.5 / fmax(s, (sq_real)1e-6)));

@@ -31,7 +31,7 @@ enum class SpectrumModel : int {
   Phillips = 0,          // P(k) = A exp(-1/(kL)^2) / k^4 |k^.w^|^p exp(-k^2 l^2), L = U^2/g; no S, no D
   PiersonMoskowitz = 1,  // eq 4 with exp[-5/4 (w_p/w)^4] (printed (w/w_p)^4), alpha = 0.0081, w_p = 0.879 g/U
   Jonswap = 2,           // eqs 5-12 (alpha, w_p from fetch; sigma_a for w <= w_p, sigma_b for w > w_p)
-  ModifiedJonswap = 3,   // eqs 13-19, gamma from nu (eq 17, natural log, nu clamped to [0.83, 5])
+  ModifiedJonswap = 3,   // eqs 13-19, gamma and beta from U / c_p = 2 pi nu (Donelan et al. 1985)
   Tma = 4,               // eqs 20-23: JONSWAP times the depth factor r(w*), f solved by Newton; uses depth
   Multipeak = 5,         // eqs 24-26: a sum of partial spectra (partials), each scaled to its own Hs
 };

@@ -57,6 +57,38 @@ TEST(Spectra, JonswapPeaksAtOmegaPAndIsContinuous) {
   EXPECT_NEAR(mpeak / wp, 1.0, 1e-3);
 }
 
+// Donelan, Hamilton and Hui (1985), in the modified JONSWAP's nu = U / (2 pi c_p): gamma = 1.7 + 6 log10(U /
+// c_p) over 1 <= U / c_p < 5, 1.7 below, so continuous at U / c_p = 1 and held past 5; beta = 0.006 (U /
+// c_p)^0.55.
+TEST(Spectra, ModifiedJonswapIsDonelansInUOverCp) {
+  auto nu = [](double u_over_cp) { return u_over_cp / (2 * SQUALL_PI); };
+  EXPECT_NEAR(sq_modified_jonswap_nu(kG, 12.0, 1.5 * kG / 12.0), nu(1.5), 1e-15);
+  EXPECT_NEAR(sq_modified_jonswap_gamma(nu(3)), 1.7 + 6 * std::log10(3.0), 1e-12);  // 4.563
+  EXPECT_NEAR(sq_modified_jonswap_gamma(nu(1 - 1e-9)), 1.7, 1e-12);
+  EXPECT_NEAR(sq_modified_jonswap_gamma(nu(1 + 1e-9)), 1.7, 1e-7);
+  EXPECT_NEAR(sq_modified_jonswap_gamma(nu(0.85)), 1.7, 1e-12);
+  EXPECT_NEAR(sq_modified_jonswap_gamma(nu(7.5)), 1.7 + 6 * std::log10(5.0), 1e-12);  // 5.894
+  EXPECT_NEAR(sq_modified_jonswap_beta(nu(1.5)), 0.006 * std::pow(1.5, 0.55), 1e-15);
+  EXPECT_NEAR(sq_modified_jonswap_beta(nu(1)), 0.006, 1e-15);
+  // At the peak the spectrum is beta g^2 w_p^-5 e^-1 gamma.
+  const double wp = 2.0, U = 1.5 * kG / wp;
+  EXPECT_NEAR(
+      sq_modified_jonswap(wp, kG, U, wp, 0.07, 0.09) /
+          (0.006 * std::pow(1.5, 0.55) * kG * kG / std::pow(wp, 5) * std::exp(-1.0) * (1.7 + 6 * std::log10(1.5))),
+      1.0, 1e-12);
+}
+
+// Hasselmann, Dunckel and Ewing (1980): s = 9.77 (w / w_p)^mu above the peak with mu = -2.33 - 1.45 (U / c_p -
+// 1.17), c_p = g / w_p: one exponent for the whole spectrum, so s is a power law of w / w_p.
+TEST(Spectra, JonswapSpreadingIsAPowerLawWithThePeaksExponent) {
+  const double wp = 1.0, U = 10.0, mu = -2.33 - 1.45 * (U * wp / kG - 1.17);
+  EXPECT_NEAR(sq_jonswap_spread_s(2 * wp, wp, U, kG), 9.77 * std::pow(2.0, mu), 1e-12);  // 2.2607
+  for (double w : {1.0, 1.5, 3.0, 7.0})
+    EXPECT_NEAR(sq_jonswap_spread_s(2 * w, wp, U, kG) / sq_jonswap_spread_s(w, wp, U, kG), std::pow(2.0, mu), 1e-12)
+        << w;
+  EXPECT_NEAR(sq_jonswap_spread_s(0.5 * wp, wp, U, kG), 6.97 * std::pow(0.5, 4.06), 1e-12);
+}
+
 TEST(Spectra, TmaDepthFactorLimits) {
   // deep water: r -> 1; shallow: r -> w*^2 / 2 (Kitaigorodskii)
   EXPECT_NEAR(sq_tma_r(1.0, 1e4, kG), 1.0, 1e-9);
