@@ -141,11 +141,12 @@ static inline sq_real sq_tma_r(sq_real w, sq_real depth, sq_real g) {
   return 1.0 / (f * f * (1.0 + x_over_sinh));
 }
 
-/* eqs 25-26: the dimensionless shape S_c + S_h of one partial at r = w / w_p */
+/* eqs 25-26: the dimensionless shape S_c + S_h of one partial at r = w / w_p; S_h's r^-n exp(-7.987 r^-m)
+ * as one exponential, whose factors alone overflow float at small r */
 static inline sq_real sq_multipeak_shape(sq_real r, sq_real A, sq_real B, sq_real C, sq_real n, sq_real m) {
   if (r <= 0) return 0;
   sq_real q = r - 1.0;
-  return A * exp(-B * q * q) + C * sq_powr(r, -n) * exp(-7.987 * sq_powr(r, -m));
+  return A * exp(-B * q * q) + C * exp(-n * log(r) - 7.987 * sq_powr(r, -m));
 }
 
 /* S(w) of the layer's model (not Phillips, which has no S), m^2 s */
@@ -260,7 +261,7 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_re
       sq_real norm = sq_gamma_ratio_half(0.5 * s) / sqrt((sq_real)SQUALL_PI);
       return norm * sq_powr(fmax(cos(d), (sq_real)0.0), s);
     }
-    case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));  /* eq 33 */
+    case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));    /* eq 33 */
     case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 38 */
     case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
       sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
@@ -299,15 +300,35 @@ static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real 
 
 #ifndef __OPENCL_VERSION__
 /* ---- host only: quadratures for the derived parameters ---- */
-/* integral over r in (0, inf) of the multipeak shape (log-spaced trapezoid of `steps` steps) */
-static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m,
-                                                 int steps = 40000) {
+/* integral of the multipeak shape over r in [0.02, 2000], where validation asks it to hold all but a
+ * thousandth of its energy (sq_multipeak_shape_outside); a log-spaced trapezoid of `steps` steps */
+static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m, int steps = 40000) {
   double u0 = log(0.02), u1 = log(2000.0), du = (u1 - u0) / steps, sum = 0;
   for (int i = 0; i <= steps; ++i) {
     double r = exp(u0 + i * du);
     sum += (i == 0 || i == steps ? 0.5 : 1.0) * sq_multipeak_shape(r, A, B, C, n, m) * r;
   }
   return sum * du;
+}
+
+/* A bound on the shape's integral outside r in [0.02, 2000], the part sq_multipeak_shape_integral leaves out;
+ * infinite where the integral diverges (b = 0 with a > 0, n <= 1 with c > 0) or the hump of
+ * r^-n exp(-7.987 r^-m), which peaks at r_h = (7.987 m / n)^(1/m), peaks below 0.02. Below 0.02 the shape
+ * then rises with r (its Gaussian below r = 1, its hump below r_h), so that part is at most 0.02 S(0.02);
+ * past 2000 the Gaussian's tail is A sqrt(pi / B) erfc(sqrt(B) 1999) / 2 and the hump's at most
+ * C 2000^(1 - n) / (n - 1). */
+static inline double sq_multipeak_shape_outside(double A, double B, double C, double n, double m) {
+  const double lo = 0.02, hi = 2000.0;
+  double above = 0;
+  if (C > 0) {
+    if (!(pow(7.987 * m / n, 1.0 / m) >= lo) || n <= 1) return INFINITY;
+    above += C * pow(hi, 1 - n) / (n - 1);
+  }
+  if (A > 0) {
+    if (B <= 0) return INFINITY;
+    above += A * sqrt(SQUALL_PI / B) * erfc(sqrt(B) * (hi - 1)) / 2;
+  }
+  return lo * sq_multipeak_shape(lo, A, B, C, n, m) + above;
 }
 
 /* m_j = integral of w^j S(w) dw over w_p [1/50, 1000] (log-spaced trapezoid) */

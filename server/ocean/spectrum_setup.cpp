@@ -28,6 +28,22 @@ double partial_scale(const PartialSpectrum& q, int steps = 40000) {
   return m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m, steps));
 }
 
+// A partial is normalized over w / w_p in [0.02, 2000] (sq_multipeak_shape_integral): a shape with more
+// than a thousandth of its energy outside, or an unbounded one, would not have the Hs asked for.
+void check_shape_range(const std::string& g, const PartialSpectrum& p) {
+  const double outside = sq_multipeak_shape_outside(p.a, p.b, p.c, p.n, p.m);
+  const double inside = sq_multipeak_shape_integral(p.a, p.b, p.c, p.n, p.m, 400);
+  if (outside <= 1e-3 * inside) return;
+  fail(Code::InvalidArgument,
+       g + ": its shape (a = " + validate::number(p.a) + ", b = " + validate::number(p.b) + ", c = " +
+           validate::number(p.c) + ", n = " + validate::number(p.n) + ", m = " + validate::number(p.m) + ") has " +
+           (std::isfinite(outside) ? "up to " + validate::number(outside / inside) + " of its energy"
+                                   : "energy without bound") +
+           " outside w / w_p in [0.02, 2000], where it is normalized: b > 0 where a > 0, n > 1 where c > 0, and the "
+           "peak "
+           "of r^-n exp(-7.987 r^-m), (7.987 m / n)^(1/m), well above 0.02");
+}
+
 void validate_partials(const std::string& f, const LayerSpec& L) {
   if (L.partials.empty() || L.partials.size() > size_t(kMaxPartialSpectra))
     fail(Code::InvalidArgument, f + ".partials has " + std::to_string(L.partials.size()) +
@@ -47,6 +63,7 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     // scale past 1e30 (its product with the shape would overflow), would leave the sea flat or NaN.
     for (const auto& [name, value] : {std::pair{".a", p.a}, std::pair{".c", p.c}})
       if (value > 0 && value < 1e-30) validate::reject(g + name, value, "0 or at least 1e-30 (float32 on the device)");
+    check_shape_range(g, p);
     const double scale = partial_scale(p, 400);
     if (!(scale <= 1e30))
       fail(Code::InvalidArgument, g + ": its shape's scale (Hs / 4)^2 / (w_p integral) is " + validate::number(scale) +

@@ -107,5 +107,32 @@ TEST(OceanValidation, MultipeakPartialsPastFloat32AreRefusedByName) {
   test::engine().validate(spec, LimitGate{Limits{}});
 }
 
+// A partial is normalized to its Hs over w / w_p in [0.02, 2000]: a shape with its energy elsewhere is refused
+// by name, before its low modes (r^-20 at r = 0.008 is past float) turn the tile into NaN.
+TEST(OceanValidation, MultipeakPartialsWithEnergyOutsideTheirRangeAreRefusedByName) {
+  TileSpec spec = test::single(SpectrumModel::Multipeak, SpreadingModel::Isotropic, 32, 100);
+  auto refused = [&](PartialSpectrum p, const char* why) {
+    spec.layers[0].partials = {p};
+    const std::string message = squall::test::expect_error(
+        Code::InvalidArgument,
+        "layers[0].partials[0]: its shape (a = ", [&] { test::engine().validate(spec, LimitGate{Limits{}}); });
+    EXPECT_NE(message.find(why), std::string::npos) << message;
+  };
+  PartialSpectrum low;  // the hump peaks at r = (7.987 m / n)^(1/m) = 1e-14
+  low.peak_frequency = 100;
+  low.significant_wave_height = 4;
+  low.n = 20;
+  low.m = 0.1;
+  refused(low, "energy without bound");
+  PartialSpectrum heavy;  // r^-1.2 past 2000: most of it outside
+  heavy.n = 1.2;
+  refused(heavy, "of its energy outside");
+  PartialSpectrum flat;  // a Gaussian of b = 0: a constant
+  flat.b = 0;
+  refused(flat, "energy without bound");
+  spec.layers[0].partials = {PartialSpectrum{}};  // eq 26's shape
+  test::engine().validate(spec, LimitGate{Limits{}});
+}
+
 }  // namespace
 }  // namespace squall::ocean
