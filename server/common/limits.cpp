@@ -28,6 +28,15 @@ void Slot::give_back(uint64_t bytes) {
   amount_ -= bytes;
 }
 
+Slot Slot::split(uint64_t bytes) {
+  if (!counter_) return Slot();
+  bytes = std::min(bytes, amount_);
+  amount_ -= bytes;
+  Slot part(counter_, bytes);
+  part.also_ = also_;
+  return part;
+}
+
 void Slot::release() {
   if (counter_) counter_->fetch_sub(amount_);
   if (counter_ && also_) also_->fetch_sub(amount_);

@@ -49,6 +49,9 @@ class Slot {
   void release();
   // Gives back `bytes` of the amount held (all of it at most) and holds the rest: a holder that needs less.
   void give_back(uint64_t bytes);
+  // Moves `bytes` of the amount held (all of it at most) to a Slot of their own, held in the same counts:
+  // a reservation's share that is given to one use.
+  Slot split(uint64_t bytes);
   // Drops the hold without giving the amount back: for a holder that outlived the counts it was taken from.
   void abandon() { counter_ = nullptr; }
   uint64_t amount() const { return counter_ ? amount_ : 0; }

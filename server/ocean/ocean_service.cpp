@@ -17,6 +17,10 @@ using namespace squall::ocean::rpc;
 
 constexpr int kMaxSamplePoints = 1000000;
 constexpr uint64_t kSampleBytesPerPoint = 8 * 9;  // eight packed doubles
+// What a SampleSurface call holds per point while it runs: the point, its sample, the reply's eight
+// doubles and the reply serialized.
+constexpr uint64_t kSampleWorkingBytesPerPoint =
+    sizeof(ocean::Vec2) + sizeof(ocean::SurfaceSample) + 8 * sizeof(double) + kSampleBytesPerPoint;
 
 // A validated tile request: the engine spec, the outputs in request order, and the reply's dtype.
 struct TileJob {
@@ -52,10 +56,11 @@ TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField
 
 // One frame's reply, the outputs in request order, encoded from the engine's views (one copy of each
 // plane, made after the device is let go). `cancel` is looked at in the engine and before each field;
-// `memory` is the call's reservation, from which a spectrum the engine keeps takes its bytes.
+// `spectra` is the call's reservation of the spectra it builds, from which a spectrum the engine keeps
+// takes its bytes.
 void tile_reply(ocean::OceanEngine& engine, const TileJob& job, double t, ocean::WhitecapState* whitecaps,
-                const Cancellation& cancel, Slot& memory, v1::GetTileResponse* reply) {
-  const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, &memory);
+                const Cancellation& cancel, Slot& spectra, v1::GetTileResponse* reply) {
+  const ocean::TileFields fields = engine.tile(job.spec, t, job.flags, whitecaps, cancel, job.planes, &spectra);
   reply->mutable_time()->set_seconds(t);
   reply->mutable_stats()->set_unresolved_slope_variance(fields.unresolved_slope_variance);
   fill_fields(fields, job.outputs, job.dtype, cancel, reply->mutable_fields());
@@ -77,10 +82,11 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
     double t = sim_time("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
-    Slot memory =
-        serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1) + engine_->new_spectra_bytes(job.spec));
+    const uint64_t new_spectra = engine_->new_spectra_bytes(job.spec);
+    Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1) + new_spectra);
+    Slot spectra = memory.split(new_spectra);
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
-    tile_reply(*engine_, job, t, nullptr, cancellation(*context), memory, response);
+    tile_reply(*engine_, job, t, nullptr, cancellation(*context), spectra, response);
     return grpc::Status::OK;
   });
 }
@@ -91,7 +97,8 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     TileJob job;
     double t0, dt;
     ChunkPlan plan;
-    Slot memory;  // held for the whole stream; a spectrum kept takes its bytes from it
+    Slot memory;   // held for the whole stream
+    Slot spectra;  // the spectra the next frame builds: a spectrum kept takes its bytes from here
   };
   auto prepare = [&] {
     TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
@@ -100,9 +107,10 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     if (request->frame_count() > 0)  // the last frame's time, before the first frame is sent
       sim_time("t0 + (frame_count - 1) dt", t0 + double(request->frame_count() - 1) * dt);
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
-    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames",
-                                                 job.working_bytes(2) + engine_->new_spectra_bytes(job.spec));
-    return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory)};
+    const uint64_t new_spectra = engine_->new_spectra_bytes(job.spec);
+    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2) + new_spectra);
+    Slot spectra = memory.split(new_spectra);
+    return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory), std::move(spectra)};
   };
   return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, Stream& stream) {
     const TileJob& job = stream.job;  // not a structured binding: lambdas below capture these
@@ -113,7 +121,10 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     auto compute = [&](uint64_t frame) {
       v1::GetTileResponse reply;
       const double t = sim_time("t0 + frame_index dt", time_of(frame));  // an endless stream's end of time
-      tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), stream.memory, &reply);
+      if (stream.spectra.amount() == 0)  // a spectrum let go of since (another call needed the room) is built again
+        if (const uint64_t again = engine_->new_spectra_bytes(job.spec))
+          stream.spectra = serving_.gate().acquire_memory("StreamTiles' spectra, built again", again);
+      tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), stream.spectra, &reply);
       return reply;
     };
     const auto more = [&](uint64_t frame) { return request->frame_count() == 0 || frame < request->frame_count(); };
@@ -144,13 +155,20 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
       fail(Code::InvalidArgument,
            "points has " + std::to_string(n) + " entries: must be 1 to " + std::to_string(kMaxSamplePoints));
     serving_.gate().check_message_bytes("SampleSurface reply", uint64_t(n) * kSampleBytesPerPoint);
+    const uint64_t new_spectra = engine_->new_spectra_bytes(spec);
+    Slot memory = serving_.gate().acquire_memory(
+        "SampleSurface's layers and points",
+        ocean::sample_bytes(spec) + uint64_t(n) * kSampleWorkingBytesPerPoint + new_spectra);
+    Slot spectra = memory.split(new_spectra);
     std::vector<ocean::Vec2> points(n);  // each checked finite by sample(), naming "points[i].x"
     for (int i = 0; i < n; ++i) points[i] = {request->points(i).x(), request->points(i).y()};
-    Slot memory = serving_.gate().acquire_memory("SampleSurface's layers",
-                                                 ocean::sample_bytes(spec) + engine_->new_spectra_bytes(spec));
     const bool invert = request->invert_displacement();
     std::vector<ocean::SurfaceSample> samples =
-        engine_->sample(spec, t, points, invert, cancellation(*context), &memory);
+        engine_->sample(spec, t, points, invert, cancellation(*context), &spectra);
+    for (auto* field : {response->mutable_height(), response->mutable_displacement_x(),
+                        response->mutable_displacement_y(), response->mutable_normal_x(), response->mutable_normal_y(),
+                        response->mutable_normal_z(), response->mutable_source_x(), response->mutable_source_y()})
+      field->Reserve(n);  // the eight doubles a point, no more
     for (int i = 0; i < n; ++i) {
       const auto& s = samples[i];
       response->add_height(s.height);

@@ -293,8 +293,8 @@ TEST(OceanService, ABadStreamRequestIsInvalidEvenWhenTheStreamsAreFull) {
   EXPECT_EQ(held->Finish().error_code(), grpc::StatusCode::CANCELLED);
 }
 
-v1::SampleSurfaceResponse sample(const std::vector<std::pair<double, double>>& points, bool invert,
-                                 const v1::TileSpec& tile, double t) {
+v1::SampleSurfaceRequest sample_request(const std::vector<std::pair<double, double>>& points, bool invert,
+                                        const v1::TileSpec& tile, double t) {
   v1::SampleSurfaceRequest request;
   *request.mutable_tile() = tile;
   request.mutable_time()->set_seconds(t);
@@ -304,9 +304,19 @@ v1::SampleSurfaceResponse sample(const std::vector<std::pair<double, double>>& p
     p->set_x(x);
     p->set_y(y);
   }
-  Call c = call(daemon().address());
+  return request;
+}
+
+grpc::Status sample(const std::string& address, const v1::SampleSurfaceRequest& request,
+                    v1::SampleSurfaceResponse* response) {
+  Call c = call(address);
+  return c.stub->SampleSurface(c.context.get(), request, response);
+}
+
+v1::SampleSurfaceResponse sample(const std::vector<std::pair<double, double>>& points, bool invert,
+                                 const v1::TileSpec& tile, double t) {
   v1::SampleSurfaceResponse response;
-  grpc::Status status = c.stub->SampleSurface(c.context.get(), request, &response);
+  const grpc::Status status = sample(daemon().address(), sample_request(points, invert, tile, t), &response);
   EXPECT_TRUE(status.ok()) << status.error_message();
   return response;
 }
@@ -473,6 +483,23 @@ TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
     const grpc::Status status = get_tile(d.address(), request, &response);
     EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
     if (!status.ok()) EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
+  }
+}
+
+// A sample holds about 200 bytes a point while it runs (the point, its sample, the reply's eight doubles and
+// the reply serialized): 400000 points of a small layer, 80 MB, are refused under a 32 MiB budget and served
+// under 256 MiB.
+TEST(OceanService, SamplePointsCountInTheMemoryBudget) {
+  const std::vector<std::pair<double, double>> points(400000, {1.5, 2.5});
+  const v1::SampleSurfaceRequest request = sample_request(points, false, tile_spec(), 1.0);
+  for (const auto& [budget, code] :
+       {std::pair{32ull << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{256ull << 20, grpc::StatusCode::OK}}) {
+    test::Daemon d({"--memory-budget", std::to_string(budget)});
+    v1::SampleSurfaceResponse response;
+    const grpc::Status status = sample(d.address(), request, &response);
+    EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
+    if (status.ok()) EXPECT_EQ(response.height_size(), 400000);
+    if (!status.ok()) EXPECT_NE(status.error_message().find("SampleSurface's layers and points"), std::string::npos);
   }
 }
 

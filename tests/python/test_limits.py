@@ -131,6 +131,46 @@ def test_a_small_tile_or_sample_of_large_layers_counts_their_memory() -> None:
             client.ocean.sample(spec(64), [(1.0, 2.0)], time=1.0)
 
 
+def call_and_cached_bytes(daemon: Daemon) -> Tuple[float, float]:
+    """Of squall_memory_bytes, what calls hold, and what caches keep."""
+    text = scrape(daemon)
+    cached = value(text, "squall_memory_cached_bytes")
+    return value(text, "squall_memory_bytes") - cached, cached
+
+
+def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
+    """A stream reserves its frames' memory (W) and its spectrum's (S), which the spectra cache
+    takes when it keeps the spectrum. A GetTile that needs the room takes the kept spectrum back;
+    the stream's next frame builds it again, reserving it anew: the stream still holds W, not W - S."""
+
+    def spec(seed: int) -> Any:
+        layer = squall.ocean.layer(extent=500, n=256, wind_speed=12, seed=seed)
+        return squall.ocean.tile_spec([layer], output=(256, 256))
+
+    spectrum = 256 * 256 * 6 * 4  # six floats a mode
+    flags = ["--metrics-listen", "127.0.0.1:0", "--memory-budget"]
+    for daemon in _start(flags + [str(BUDGET)], "one stream"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            with client.ocean.stream(spec(1), dt=0.1) as stream:
+                next(stream)
+                time.sleep(1)
+                stream_bytes, cached = call_and_cached_bytes(daemon)
+    assert cached >= spectrum
+    # The stream (W), its kept spectrum (S), and room for W / 2 + S / 2 more: a GetTile of the same
+    # output (W / 2) with a new spectrum (S) takes back the other caches' room and the kept spectrum's.
+    budget = int(1.5 * stream_bytes + 1.5 * spectrum)
+    for daemon in _start(flags + [str(budget)], "a stream and a tile"):
+        with squall.Client(daemon.address, timeout=60) as client:
+            with client.ocean.stream(spec(1), dt=0.1) as stream:
+                next(stream)
+                time.sleep(1)  # the frame computed ahead is done: the spectrum is not in use
+                assert call_and_cached_bytes(daemon) == (stream_bytes, cached)
+                client.ocean.tile(spec(2), time=1.0)
+                for _ in range(100):  # past the frames written ahead: 25 MB, more than a transport holds
+                    next(stream)
+                assert call_and_cached_bytes(daemon)[0] == stream_bytes
+
+
 def test_one_client_cannot_take_more_streams_than_its_share() -> None:
     small = squall.ocean.tile_spec([squall.ocean.layer(extent=50, n=16, wind_speed=8)])
     for daemon in _start(["--max-streams", "4", "--max-streams-per-client", "2"], "per-client"):

@@ -228,8 +228,8 @@ TEST(Limits, ACacheTakesWhatACallMadeFromTheCallsMemory) {
 }
 
 // A holder that needs less gives part of its amount back and holds the rest; a cache's part leaves the
-// cached count too, and no more than is held goes back.
-TEST(Limits, ASlotGivesPartOfItsAmountBack) {
+// cached count too, and no more than is held goes back. A share split off is held as before.
+TEST(Limits, ASlotGivesPartOfItsAmountBackOrSplitsItOff) {
   Limits limits;
   limits.memory_budget = 100;
   LimitGate gate(limits);
@@ -243,6 +243,19 @@ TEST(Limits, ASlotGivesPartOfItsAmountBack) {
   EXPECT_EQ(gate.cached_memory_bytes(), 20u);
   call.give_back(1000);
   EXPECT_EQ(call.amount(), 0u);
+  EXPECT_EQ(gate.memory_bytes(), 20u);
+  // A share split off is held in the same counts, and goes back when its own Slot goes.
+  call = gate.acquire_memory("a call", 40);
+  Slot share = call.split(15);
+  EXPECT_EQ(share.amount(), 15u);
+  EXPECT_EQ(call.amount(), 25u);
+  EXPECT_EQ(gate.memory_bytes(), 60u);
+  Slot rest = call.split(1000);
+  EXPECT_EQ(rest.amount(), 25u);
+  EXPECT_EQ(call.amount(), 0u);
+  EXPECT_EQ(gate.cache_from(share, 15).amount(), 15u) << "a share is call memory, as its Slot's; it goes";
+  EXPECT_EQ(gate.memory_bytes(), 45u);
+  rest = Slot();
   EXPECT_EQ(gate.memory_bytes(), 20u);
   call = Slot();
   kept = Slot();
