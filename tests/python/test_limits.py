@@ -140,8 +140,9 @@ def call_and_cached_bytes(daemon: Daemon) -> Tuple[float, float]:
 
 def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
     """A stream reserves its frames' memory (W) and its spectrum's (S), which the spectra cache
-    takes when it keeps the spectrum. A GetTile that needs the room takes the kept spectrum back;
-    the stream's next frame builds it again, reserving it anew: the stream still holds W, not W - S."""
+    takes when it keeps the spectrum. A GetTile that needs the room takes the kept spectrum
+    back; the stream's next frame builds it again, reserving it anew: the stream still holds W,
+    not W - S."""
 
     def spec(seed: int) -> Any:
         layer = squall.ocean.layer(extent=500, n=256, wind_speed=12, seed=seed)
@@ -156,8 +157,9 @@ def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
                 time.sleep(1)
                 stream_bytes, cached = call_and_cached_bytes(daemon)
     assert cached >= spectrum
-    # The stream (W), its kept spectrum (S), and room for W / 2 + S / 2 more: a GetTile of the same
-    # output (W / 2) with a new spectrum (S) takes back the other caches' room and the kept spectrum's.
+    # The stream (W), its kept spectrum (S), and room for W / 2 + S / 2 more: a GetTile of the
+    # same output (W / 2) with a new spectrum (S) takes back the other caches' room and the kept
+    # spectrum's.
     budget = int(1.5 * stream_bytes + 1.5 * spectrum)
     for daemon in _start(flags + [str(budget)], "a stream and a tile"):
         with squall.Client(daemon.address, timeout=60) as client:
@@ -166,8 +168,8 @@ def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
                 time.sleep(1)  # the frame computed ahead is done: the spectrum is not in use
                 assert call_and_cached_bytes(daemon) == (stream_bytes, cached)
                 client.ocean.tile(spec(2), time=1.0)
-                for _ in range(100):  # past the frames written ahead: 25 MB, more than a transport holds
-                    next(stream)
+                for _ in range(100):  # past the frames written ahead: 25 MB, more than a
+                    next(stream)  # transport holds
                 assert call_and_cached_bytes(daemon)[0] == stream_bytes
 
 
