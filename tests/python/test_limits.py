@@ -168,8 +168,9 @@ def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
                 time.sleep(1)  # the frame computed ahead is done: the spectrum is not in use
                 assert call_and_cached_bytes(daemon) == (stream_bytes, cached)
                 client.ocean.tile(spec(2), time=1.0)
-                for _ in range(100):  # past the frames written ahead: 25 MB, more than a
-                    next(stream)  # transport holds
+                # Past the frames written ahead: 25 MB, more than a transport holds.
+                for _ in range(100):
+                    next(stream)
                 assert call_and_cached_bytes(daemon)[0] == stream_bytes
 
 
