@@ -10,11 +10,13 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "ocean/ocean_params.h"
 
 namespace squall {
 class LimitGate;
-}
+class Slot;
+}  // namespace squall
 
 namespace squall::ewave {
 
@@ -112,6 +114,14 @@ struct StepGuard {
   std::optional<uint64_t> after_step;  // the step count the session must be at; none: no check
 };
 constexpr size_t kMaxRetryKeyBytes = 64;
+
+// What a step's call lends it: its cancellation, looked at while the step builds an ambient ocean's spectra
+// (Error(Cancelled) then, the session as it was), and its reservation of those spectra, from which a
+// spectrum kept takes its bytes (OceanEngine::tile's spectra_memory); none: the budget is asked.
+struct StepCall {
+  Cancellation cancel;
+  Slot* spectra_memory = nullptr;
+};
 
 // The longest step, s: kMaxDt, or with the trim on the period of the grid's shortest wave when shorter
 // (shortest_wave_period in propagator.h: longer trimmed steps grow without bound).

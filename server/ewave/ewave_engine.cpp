@@ -115,8 +115,15 @@ std::string EWaveEngine::create_from_state(const std::string& bytes, const std::
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
-Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs, const StepGuard& guard) {
-  return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs, guard); });
+Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs, const StepGuard& guard, const StepCall& call) {
+  return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs, guard, call); });
+}
+
+EWaveEngine::OceanBytes EWaveEngine::ocean_bytes(const EWaveConfig& config,
+                                                 const std::optional<ocean::TileSpec>& spec) const {
+  if (!spec || !ocean_) return {};
+  const ocean::TileSpec on_grid = ocean_on_grid(*spec, config);
+  return {ocean_->new_spectra_bytes(on_grid), ocean::surface_device_bytes(on_grid)};
 }
 
 uint64_t EWaveEngine::steps(const std::string& id) {

@@ -35,7 +35,15 @@ class EWaveEngine {
   // saved state; under the client's `proposed` id when one is given (SessionStore::id_for).
   std::string create(const EWaveConfig& config, const std::string& proposed = "");
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
-  Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {});  // EWaveSession::step
+  Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
+             const StepCall& call = {});  // EWaveSession::step
+  // What an ocean spec of a session of `config` (its initial or ambient ocean, or a step's) holds while it
+  // is evaluated on the session's grid: the spectra not kept yet (OceanEngine::new_spectra_bytes) and one
+  // layer's fields at a time (ocean::surface_device_bytes). Zero without a spec or an ocean engine.
+  struct OceanBytes {
+    uint64_t new_spectra = 0, working = 0;
+  };
+  OceanBytes ocean_bytes(const EWaveConfig& config, const std::optional<ocean::TileSpec>& spec) const;
   uint64_t steps(const std::string& id);  // steps the session has made
   std::string state(const std::string& id);
   void close(const std::string& id);

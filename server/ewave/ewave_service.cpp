@@ -36,16 +36,29 @@ void refuse_if_gone(const grpc::ServerContext& context, ewave::EWaveEngine& engi
 
 void EWaveService::start(EngineContext& context) { engine_ = &ewave::shared_engine(context); }
 
-void EWaveService::step(const v1::EWaveStepRequest& request, v1::EWaveFrame* frame) {
+void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation& cancel, v1::EWaveFrame* frame) {
   auto& ewave = *engine_;
   const std::string& id = session_id(request.session_id());
   const ewave::EWaveConfig config = ewave.config(id);  // NOT_FOUND for an unknown, closed or evicted id
   const auto outputs = squall::ewave::rpc::outputs(request.inputs());
   const v1::DType type = squall::field::dtype(request.inputs().dtype(), "inputs.dtype");
   // Refused before the step, so that a frame too large to send does not advance the session.
-  serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)",
-                                      frame_bytes(config, outputs.size(), type));
-  ewave::Frame result = ewave.step(id, inputs(request.inputs(), config, serving_.gate()), guard(request));
+  const uint64_t reply_bytes = frame_bytes(config, outputs.size(), type);
+  serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)", reply_bytes);
+  const ewave::StepInputs in = inputs(request.inputs(), config, serving_.gate());
+  // Held while it runs: the frame's float planes and reply, and the spectra and fields of the ocean it
+  // evaluates, if any (its own, else the session's, where it brings no ambient height).
+  std::string what = "Step's frame";
+  std::optional<ocean::TileSpec> sea;
+  if (in.ambient_height.empty() && (in.ambient_ocean || config.ambient_ocean)) {
+    what += in.ambient_ocean ? " and inputs.ambient_ocean" : " and config.ambient_ocean";
+    sea = in.ambient_ocean ? in.ambient_ocean : config.ambient_ocean;
+  }
+  const auto ocean = ewave.ocean_bytes(config, sea);
+  Slot memory = serving_.gate().acquire_memory(
+      what, frame_bytes(config, outputs.size(), v1::DTYPE_FLOAT32) + reply_bytes + ocean.working + ocean.new_spectra);
+  Slot spectra = memory.split(ocean.new_spectra);
+  ewave::Frame result = ewave.step(id, in, guard(request), {cancel, &spectra});
   frame->set_session_id(id);
   try {
     fill_frame(result, config, outputs, type, frame);
@@ -72,7 +85,7 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
 grpc::Status EWaveService::Step(grpc::ServerContext* context, const v1::EWaveStepRequest* request,
                                 v1::EWaveFrame* response) {
   return serve(*context, serving_, [&] {
-    step(*request, response);
+    step(*request, cancellation(*context), response);
     return grpc::Status::OK;
   });
 }
@@ -85,7 +98,7 @@ grpc::Status EWaveService::Run(grpc::ServerContext* context,
     for (uint64_t n = 0; call.live() && call.read(*stream, &request); ++n) {
       frame.Clear();
       try {
-        step(request, &frame);
+        step(request, call.cancellation(), &frame);
       } catch (const Error& e) {
         fail(e.code(), "Run message " + std::to_string(n) + ": " + e.what());
       }

@@ -38,7 +38,7 @@ class EWaveService final : public squall::v1::EWave::Service, public Capability 
                             squall::v1::EWaveCloseResponse* response) override;
 
  private:
-  void step(const squall::v1::EWaveStepRequest& request, squall::v1::EWaveFrame* frame);
+  void step(const squall::v1::EWaveStepRequest& request, const Cancellation& cancel, squall::v1::EWaveFrame* frame);
 
   ServingState& serving_;
   ewave::EWaveEngine* engine_ = nullptr;  // the daemon's, shared with the textures that follow its sessions

@@ -48,7 +48,7 @@ class EWaveSession {
   // FAILED_PRECONDITION until restore().
   // A guard whose retry_key is the last step's returns that step's frame again and steps nothing; one whose
   // after_step is not the step count gives Error(Aborted) naming "after_step".
-  Frame step(const StepInputs& inputs, const StepGuard& guard = {});
+  Frame step(const StepInputs& inputs, const StepGuard& guard = {}, const StepCall& call = {});
   // The retry_key the last step was made with (empty: none), kept in checkpoints so that a retry finds it
   // on the replica the session moves to.
   const std::string& retry_key() const { return retry_key_; }
@@ -78,7 +78,7 @@ class EWaveSession {
   // h_A of a step: its field, else its or the config's ocean spec at time_ (the ocean engine writes it into
   // ambient_ on the device, no host round trip); null when the step has no ambient (or no obstruction, where
   // h_A (1 - O) = 0 and the ocean is not evaluated).
-  const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction);
+  const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction, const StepCall& call);
   ocean::OceanEngine& ocean_engine(const std::string& field) const;
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
   // The step pipeline (ewave_step.cpp), in the order of step().

@@ -61,7 +61,7 @@ using RealOf = typename std::decay_t<K>::RealType;
 
 }  // namespace
 
-Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
+Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const StepCall& call) {
   check_whole();
   if (!guard.retry_key.empty() && guard.retry_key == retry_key_) return replay(in.outputs);
   if (guard.after_step && *guard.after_step != step_)
@@ -88,7 +88,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard) {
       fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
   upload_maps(in);
   const bool has_obstruction = build_obstruction(in);
-  const cl::Buffer* ambient_height = ambient(in, has_obstruction);  // may refuse its ocean: the fields are whole
+  const cl::Buffer* ambient_height = ambient(in, has_obstruction, call);  // may refuse or stop: the fields are whole
   Frame frame;
   try {
     prepare(in, has_obstruction, ambient_height);  // §3.7 steps 1-3 and the sources of step 4
@@ -241,14 +241,14 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
       kernels_);
 }
 
-const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction) {
+const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction, const StepCall& call) {
   if (!in.ambient_height.empty()) return &ambient_.buffer();  // upload_maps() has uploaded it
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
   ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");
   size_t bytes = kStateFields * cells_ * sizeof(float);  // h_A, then the unused phi_A plane
   if (ambient_.bytes() != bytes) ambient_ = runtime_.buffers().acquire(bytes);
-  ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer());
+  ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer(), call.cancel, call.spectra_memory);
   return &ambient_.buffer();
 }
 

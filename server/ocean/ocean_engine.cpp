@@ -198,9 +198,10 @@ struct OceanEngine::Impl {
 
   // The layer's (h, phi) pair (evolve_potential) or (u, v) pair (evolve_current) at t on its own grid: the
   // kernel, then the inverse FFT.
-  BufferLease layer_pair(const TileSpec& spec, size_t index, double t, PotentialKernel& kernel) {
+  BufferLease layer_pair(const TileSpec& spec, size_t index, double t, PotentialKernel& kernel,
+                         const Cancellation& cancel = {}, Slot* spectra_memory = nullptr) {
     const LayerSpec& L = spec.layers[index];
-    const cl::Buffer& h0 = spectrum(spec, index);
+    const cl::Buffer h0 = spectrum(spec, index, cancel, spectra_memory);
     fft::PlanKey key{size_t(L.nx), size_t(L.ny), 1, fft::Transform::C2C, fft::Precision::F32};
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     const cl_float2 time = two_float_time(t);
@@ -258,11 +259,13 @@ OceanEngine::~OceanEngine() = default;
 void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { validate_tile(spec, gate); }
 void OceanEngine::validate(const TileSpec& spec) const { validate_tile(spec, impl_->gate); }
 
-void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out) {
+void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out, const Cancellation& cancel,
+                                    Slot* spectra_memory) {
   validate::finite("t", t);
   OutputGrid grid = output_grid(spec);
   for (size_t a = 0; a < spec.layers.size(); ++a) {
-    BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_potential);
+    cancel.check("surface: before layer " + std::to_string(a));
+    BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_potential, cancel, spectra_memory);
     impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, Impl::Layout::Planes, out);
   }
 }
@@ -446,6 +449,8 @@ uint64_t largest_layer_cells(const TileSpec& spec) {
   return cells;
 }
 }  // namespace
+
+uint64_t surface_device_bytes(const TileSpec& spec) { return largest_layer_cells(spec) * sizeof(cl_float2); }
 
 uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs) {
   const OutputGrid grid = output_grid(spec);

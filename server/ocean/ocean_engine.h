@@ -71,8 +71,10 @@ class OceanEngine {
   // z = 0, phi (m^2/s), at time t on the spec's output grid, left on the device in `out` (2 planes of
   // nx * ny floats: h, then phi). phi~ = -i (g/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}] e^{-ik.U_D t},
   // per layer with its own g and w (ocean.cl ocean_evolve_potential). The spec must be valid; the CALLER
-  // HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the runtime's queue).
-  void surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out);
+  // HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the runtime's queue). `cancel`
+  // and `spectra_memory` as tile()'s, for the spectra it builds.
+  void surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out, const Cancellation& cancel = {},
+                         Slot* spectra_memory = nullptr);
 
   // For the textures that follow the waves (server/textures): the surface current at time t on the spec's
   // output grid (node (i, j) at (i lx / nx, j ly / ny)), u = grad phi of the potential above (the
@@ -99,6 +101,8 @@ class OceanEngine {
 // (OceanEngine::new_spectra_bytes).
 uint64_t tile_device_bytes(const TileSpec& spec, unsigned outputs);
 uint64_t sample_bytes(const TileSpec& spec);
+// The same for surface_on_device beside its output: one layer's (h, phi) pair at a time.
+uint64_t surface_device_bytes(const TileSpec& spec);
 
 // validate_tile(spec, gate, path), and one drift for every layer (a current carries the whole surface):
 // "<path>.layers[i].drift_x = 0.5 must equal layers[0]'s 0".

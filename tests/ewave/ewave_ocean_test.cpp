@@ -182,6 +182,35 @@ TEST(OceanAmbient, StepSpecOverridesTheConfig) {
 
 using squall::test::expect_error;
 
+// A step's ambient ocean looks at the call's cancellation before each layer and between the slices of a
+// spectrum it builds: a cancelled step stops there, the session as it was and nothing built. A spectrum it
+// keeps takes its bytes from the call's reservation of them.
+TEST(OceanAmbient, AStepsOceanStopsWhenCancelledAndTakesItsSpectrumFromTheCallsReservation) {
+  const EWaveConfig c = sea_config(DispersionKind::Deep);
+  Limits limits;
+  limits.memory_budget = 1 << 30;
+  LimitGate gate(limits);
+  ocean::OceanEngine ocean(squall::test::runtime(), session_fft(), limits, 1 << 30, &gate);
+  EWaveSession s(squall::test::runtime(), session_fft(), c, &ocean);
+  StepInputs in = plain_step(0.1);
+  in.obstruction.assign(c.cells(), 0.0f);
+  in.ambient_ocean = sea_spec(c);
+  expect_error(Code::Cancelled, "surface: before layer 0",
+               [&] { s.step(in, {}, {Cancellation([] { return true; })}); });
+  EXPECT_EQ(s.step_index(), 0u);
+  EXPECT_EQ(ocean.spectra_built(), 0u);
+  const uint64_t h0 = ocean.new_spectra_bytes(ocean_on_grid(*in.ambient_ocean, c));
+  ASSERT_GT(h0, 0u);
+  Slot call = gate.acquire_memory("the step", h0 + 1000);
+  Slot spectra = call.split(h0);
+  s.step(in, {}, {{}, &spectra});
+  EXPECT_EQ(s.step_index(), 1u);
+  EXPECT_EQ(ocean.spectra_built(), 1u);
+  EXPECT_EQ(spectra.amount(), 0u);
+  EXPECT_EQ(gate.cached_memory_bytes(), h0);
+  EXPECT_EQ(gate.memory_bytes(), h0 + 1000);
+}
+
 TEST(OceanAmbient, BadSpecsNameTheField) {
   EWaveConfig c = sea_config(DispersionKind::Deep);
   ocean::TileSpec bad = sea_spec(c);

@@ -200,6 +200,32 @@ TEST(EWaveService, AStepsAmbientOceanIsCheckedAgainstTheDaemonsGridLimit) {
                      [&] { ewave::rpc::inputs(in, c, LimitGate{small}); });
 }
 
+// A step's ambient ocean counts in the memory budget: its 2048^2 layer's spectrum (6 floats a mode, 101 MB)
+// and fields, refused under a 64 MiB budget before anything is built, the session still at step 0; the same
+// step with a 64^2 layer runs.
+TEST(EWaveService, AStepsAmbientOceanCountsInTheMemoryBudget) {
+  Daemon d({"--memory-budget", std::to_string(64 << 20)});
+  Session s(d.stub(), proto_config(engine_config()));
+  ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+  v1::EWaveInputs in = plain_inputs(0.01);
+  *in.mutable_obstruction() = field(64, 48, std::vector<float>(64 * 48, 0.5f));  // the ocean is evaluated
+  v1::LayerSpec* layer = in.mutable_ambient_ocean()->add_layers();
+  layer->set_extent_x(100), layer->set_extent_y(100), layer->set_nx(2048), layer->set_ny(2048);
+  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
+  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU);
+  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  layer->set_wind_speed(5);
+  v1::EWaveFrame frame;
+  const grpc::Status refused = s.step(in, &frame);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("Step's frame and inputs.ambient_ocean"), std::string::npos)
+      << refused.error_message();
+  layer->set_nx(64), layer->set_ny(64);
+  const grpc::Status ran = s.step(in, &frame);
+  EXPECT_TRUE(ran.ok()) << ran.error_message();
+  EXPECT_EQ(frame.step(), 1u) << "the refused step made none";
+}
+
 // A session created from an ocean spec over gRPC (config.initial_ocean at config.start_time = t0) continues
 // the ocean: its first frame (t0 + dt) equals GetTile's height of the same spec at t0 + dt on the session
 // grid. Float round-off only (the engine test ewave_ocean_test budgets it at a few 1e-6): asserted < 1e-4.

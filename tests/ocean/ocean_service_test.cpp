@@ -482,7 +482,9 @@ TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
     v1::GetTileResponse response;
     const grpc::Status status = get_tile(d.address(), request, &response);
     EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
-    if (!status.ok()) EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
+    if (!status.ok()) {
+      EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
+    }
   }
 }
 
@@ -498,8 +500,11 @@ TEST(OceanService, SamplePointsCountInTheMemoryBudget) {
     v1::SampleSurfaceResponse response;
     const grpc::Status status = sample(d.address(), request, &response);
     EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
-    if (status.ok()) EXPECT_EQ(response.height_size(), 400000);
-    if (!status.ok()) EXPECT_NE(status.error_message().find("SampleSurface's layers and points"), std::string::npos);
+    if (status.ok()) {
+      EXPECT_EQ(response.height_size(), 400000);
+    } else {
+      EXPECT_NE(status.error_message().find("SampleSurface's layers and points"), std::string::npos);
+    }
   }
 }
 
