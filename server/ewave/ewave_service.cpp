@@ -74,7 +74,12 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
 grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1::EWaveCreateSessionRequest* request,
                                          v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    const auto created = engine_->create(config(request->config(), serving_.gate()), proposed_session(*context));
+    const ewave::EWaveConfig c = config(request->config(), serving_.gate());
+    // An initial ocean is evaluated once, as the session is made: its new spectra and fields held meanwhile.
+    const auto ocean = engine_->ocean_bytes(c, c.initial_ocean);
+    const Slot memory =
+        serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
+    const auto created = engine_->create(c, proposed_session(*context));
     refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);
     announce_session(*context, response->session_id());

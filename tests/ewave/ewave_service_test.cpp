@@ -202,8 +202,8 @@ TEST(EWaveService, AStepsAmbientOceanIsCheckedAgainstTheDaemonsGridLimit) {
 
 // A step's ambient ocean counts in the memory budget: its 2048^2 layer's spectrum (6 floats a mode, 101 MB)
 // and fields, refused under a 64 MiB budget before anything is built, the session still at step 0; the same
-// step with a 64^2 layer runs.
-TEST(EWaveService, AStepsAmbientOceanCountsInTheMemoryBudget) {
+// step with a 64^2 layer runs. So does a session's initial ocean.
+TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   Daemon d({"--memory-budget", std::to_string(64 << 20)});
   Session s(d.stub(), proto_config(engine_config()));
   ASSERT_TRUE(s.status().ok()) << s.status().error_message();
@@ -224,6 +224,19 @@ TEST(EWaveService, AStepsAmbientOceanCountsInTheMemoryBudget) {
   const grpc::Status ran = s.step(in, &frame);
   EXPECT_TRUE(ran.ok()) << ran.error_message();
   EXPECT_EQ(frame.step(), 1u) << "the refused step made none";
+  // The same for a session's initial ocean, evaluated as the session is made.
+  v1::EWaveConfig from_the_sea = proto_config(ewave::test::plain_config(64, 48));
+  *from_the_sea.mutable_initial_ocean() = in.ambient_ocean();
+  from_the_sea.mutable_initial_ocean()->mutable_layers(0)->set_nx(2048);
+  from_the_sea.mutable_initial_ocean()->mutable_layers(0)->set_ny(2048);
+  const Session big(d.stub(), from_the_sea);
+  EXPECT_EQ(big.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << big.status().error_message();
+  EXPECT_NE(big.status().error_message().find("CreateSession's config.initial_ocean"), std::string::npos)
+      << big.status().error_message();
+  from_the_sea.mutable_initial_ocean()->mutable_layers(0)->set_nx(64);
+  from_the_sea.mutable_initial_ocean()->mutable_layers(0)->set_ny(64);
+  const Session small(d.stub(), from_the_sea);
+  EXPECT_TRUE(small.status().ok()) << small.status().error_message();
 }
 
 // A session created from an ocean spec over gRPC (config.initial_ocean at config.start_time = t0) continues
