@@ -17,19 +17,34 @@ static inline float phase_hg(float s2, float c2, float g) {
   return SQUALL_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
 }
 
+// A(p) / e^2 for e = 1 - delta, where A(p) = p e - (1 - delta^p) cancels to p (p - 1) e^2 / 2 + O(e^3): near
+// e = 0 its binomial series to e^5 (c_0 = p (p - 1) / 2, c_(j+1) = -c_j (p - j - 2) / (j + 3)), elsewhere
+// with delta^p - 1 as expm1(p log delta), so that only the last addition rounds.
+static inline float ff_bracket_part(float p, float delta, float e) {
+  if (fabs(e) >= 0.1f) return (expm1(p * log(delta)) + p * e) / (e * e);
+  float sum = 0.0f, c = 0.5f * p * (p - 1.0f), e_j = 1.0f;
+  for (int j = 0; j < 6; ++j) {
+    sum += c * e_j;
+    c *= -(p - j - 2.0f) / (j + 3.0f);
+    e_j *= e;
+  }
+  return sum;
+}
+
 // Fournier-Forand, eqs A.9-A.12, with the Junge slope mu_j in 3.5..5 and refractive index n (the caption of
-// Fig A.2 prints mu = 0.35..0.5, a factor of 10 off: with those values it does not integrate to 1).
+// Fig A.2 prints mu = 0.35..0.5, a factor of 10 off: with those values it does not integrate to 1). With
+// e = 1 - delta, A.9's bracket over (1 - delta)^2 is A(nu) / e^2 - A(nu + 1) / (s2 e^2), A as above (its
+// second part, delta (1 - delta^nu) - nu e, is -A(nu + 1)): each part vanishes as e^2 where delta nears 1
+// (sin^2(Theta/2) = 3 (n - 1)^2 / 4, a few degrees), and float would leave rounding over e^2 there, or 0 / 0.
 static inline float phase_fournier_forand(float mu, float s2, float n, float mu_j) {
   float nu = (3.0f - mu_j) / 2.0f;
   float k = 4.0f / (3.0f * (n - 1.0f) * (n - 1.0f));
   s2 = fmax(s2, 1e-12f);
-  float delta = k * s2;
+  float delta = k * s2, e = 1.0f - delta;
   float delta180 = k;
   float dnu = pow(delta, nu);
   float d180nu = pow(delta180, nu);
-  float one_minus = 1.0f - delta;
-  float first = (nu * one_minus - (1.0f - dnu) + (delta * (1.0f - dnu) - nu * one_minus) / s2) /
-                (4.0f * M_PI_F * one_minus * one_minus * dnu);
+  float first = (ff_bracket_part(nu, delta, e) - ff_bracket_part(nu + 1.0f, delta, e) / s2) / (4.0f * M_PI_F * dnu);
   float second = (1.0f - d180nu) / (16.0f * M_PI_F * (delta180 - 1.0f) * d180nu) * (3.0f * mu * mu - 1.0f);
   return first + second;
 }

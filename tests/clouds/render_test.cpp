@@ -680,6 +680,48 @@ TEST(Render, PhaseFunctionsIntegrateToOneAndHenyeyGreensteinMeanCosineIsG) {
   }
 }
 
+// Fournier-Forand in double (eqs A.9-A.12), where its bracket's cancellation near delta = 1 costs about
+// 1e-16 / (1 - delta)^2 of its value: used only 1e-3 or more away from delta = 1.
+double fournier_forand(double theta, double n, double mu_j) {
+  const double nu = (3 - mu_j) / 2, k = 4 / (3 * (n - 1) * (n - 1)), s2 = std::pow(std::sin(theta / 2), 2);
+  const double delta = k * s2, e = 1 - delta, dnu = std::pow(delta, nu), d180nu = std::pow(k, nu);
+  const double first = (nu * e - (1 - dnu) + (delta * (1 - dnu) - nu * e) / s2) / (4 * kPi * e * e * dnu);
+  return first + (1 - d180nu) / (16 * kPi * (k - 1) * d180nu) * (3 * std::pow(std::cos(theta), 2) - 1);
+}
+
+// Near delta = 1 (4.96 degrees at n = 1.05) Fournier-Forand's bracket and its (1 - delta)^2 both vanish:
+// every float angle there gives a finite, positive value that meets the formula in double away from the
+// point and, at it, the limit nu (nu - 1) / 2 - k nu (nu + 1) / 2 of the bracket over (1 - delta)^2.
+TEST(Render, FournierForandIsExactWhereItsBracketCancels) {
+  RenderSettings s;
+  s.phase.kind = PhaseKind::FournierForand;
+  s.phase.ff_n = 1.05;
+  for (double mu_j : {3.5, 4.0, 5.0}) {
+    s.phase.ff_mu = mu_j;
+    const double n = double(float(s.phase.ff_n)), k = 4 / (3 * (n - 1) * (n - 1)), nu = (3 - mu_j) / 2;
+    const float at_one = float(2 * std::asin(std::sqrt(1 / k)));
+    std::vector<float> theta{at_one};
+    for (float up = at_one, down = at_one; theta.size() < 4001;) {
+      theta.push_back(up = std::nextafter(up, 4.0f));
+      theta.push_back(down = std::nextafter(down, 0.0f));
+    }
+    for (double off = 1e-4; off < 0.05; off *= 1.5)
+      theta.insert(theta.end(), {at_one + float(off), at_one - float(off)});
+    const std::vector<float> P = device_phase(s, theta);
+    for (size_t i = 0; i < theta.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(P[i]) && P[i] > 0) << "mu_j " << mu_j << " theta " << theta[i] << ": " << P[i];
+      const double e = 1 - k * std::pow(std::sin(double(theta[i]) / 2), 2);
+      if (std::abs(e) >= 1e-3) {
+        EXPECT_NEAR(P[i] / fournier_forand(theta[i], n, mu_j), 1.0, 1e-4) << "mu_j " << mu_j << " theta " << theta[i];
+      }
+    }
+    const double d180nu = std::pow(k, nu),
+                 limit = (nu * (nu - 1) / 2 - k * nu * (nu + 1) / 2) / (4 * kPi) +
+                         (1 - d180nu) / (16 * kPi * (k - 1) * d180nu) * (3 * std::pow(std::cos(double(at_one)), 2) - 1);
+    EXPECT_NEAR(P[0] / limit, 1.0, 1e-4) << "mu_j " << mu_j;
+  }
+}
+
 // At the largest asymmetries allowed, Henyey-Greenstein's peak (forward for g = 0.9999, backward for
 // g = -0.9999) is as eq A.8 gives it in double: its denominator 1 + g^2 - 2 g mu, some 1e-8 there, is not left
 // to float32's cancellation.
