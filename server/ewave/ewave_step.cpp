@@ -55,6 +55,12 @@ double rasterize_tests(const std::vector<EWaveShape>& shapes, const EWaveConfig&
   return region.cells() * n + std::min(near, region.cells()) * points * n + edges;
 }
 
+// The cells a uniform drift moves the fields in one step (eq 68-69: departure x - U dt), reduced in double
+// to within half the grid of 0: the fields are periodic, and a float (or the kernel's int) holds no more.
+double cells_moved(double drift, double dt, double spacing, int64_t n) {
+  return std::remainder(drift * dt / spacing, double(n));
+}
+
 // The state's type of the step kernels `k` (a StepKernels<Real>).
 template <typename K>
 using RealOf = typename std::decay_t<K>::RealType;
@@ -231,12 +237,12 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
       [&](auto& k) {
         using Real = RealOf<decltype(k)>;
         auto& kernel = drift_mode == 0 ? k.finish : k.finish_advect;
-        kernel.launch_rows(config_.nx, config_.ny, work_.buffer(), cl_int(fields), state_.buffer(), out_.buffer(),
-                           cl_int(config_.nx), cl_int(config_.ny), drift_mode,
-                           Real(in.drift_x * in.dt / config_.dx),  // eq 68-69: departure x - U dt, in cells
-                           Real(in.drift_y * in.dt / config_.dy), drift_x, drift_y, Real(in.dt / config_.dx),
-                           Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi),
-                           trim_x_.buffer(), trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
+        kernel.launch_rows(
+            config_.nx, config_.ny, work_.buffer(), cl_int(fields), state_.buffer(), out_.buffer(), cl_int(config_.nx),
+            cl_int(config_.ny), drift_mode, Real(cells_moved(in.drift_x, in.dt, config_.dx, config_.nx)),
+            Real(cells_moved(in.drift_y, in.dt, config_.dy, config_.ny)), drift_x, drift_y, Real(in.dt / config_.dx),
+            Real(in.dt / config_.dy), obstruction, cl_int(has_obstruction), cl_int(config_.mask_phi), trim_x_.buffer(),
+            trim_y_.buffer(), cl_int(config_.trim), Real(config_.displacement_scale));
       },
       kernels_);
 }
