@@ -358,7 +358,9 @@ class SessionStore {
     std::string id;
     std::mutex mutex;       // one call at a time per entry; guards `released` too
     bool released = false;  // checkpointed for another replica: calls answer UNAVAILABLE
-    bool removed = false;   // closed or evicted, its files removed: no checkpoint writes it again
+    // Closed or evicted (its files removed: no checkpoint writes it again); a call that found it before
+    // answers NOT_FOUND. Set under `mutex`, except by an eviction with no files, which does not wait.
+    std::atomic<bool> removed = false;
     std::shared_ptr<T> value;
     Reservation held;
     std::chrono::steady_clock::time_point last_use;
@@ -378,6 +380,7 @@ class SessionStore {
       if (let_go_if_taken_over(*entry)) forget(entry);
     }
     if (entry->released) fail(Code::Unavailable, released(entry->id));
+    if (entry->removed) fail(Code::NotFound, not_found(entry->id));  // closed or evicted while the call waited
   }
 
   std::string not_found(const std::string& id) const {
@@ -402,7 +405,10 @@ class SessionStore {
   // state another replica resumes, and holds by now.
   void remove_files(Entry& entry) {
     const StateDir* dir = persistent() ? state_dir() : nullptr;
-    if (!dir) return;
+    if (!dir) {
+      entry.removed = true;  // a call that found it and waits for its lock answers NOT_FOUND
+      return;
+    }
     std::lock_guard<std::mutex> lock(entry.mutex);  // waits for a call in flight on the session
     if (entry.released || let_go_if_taken_over(entry)) return;
     entry.removed = true;

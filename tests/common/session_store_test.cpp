@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <future>
 #include <set>
+#include <thread>
 
 #include "common/byte_codec.h"
 #include "support/expect_error.h"
@@ -128,6 +131,43 @@ TEST_F(SessionStoreTest, AValueInUseHoldsItsReservationPastItsClose) {
 // While the daemon drains, a new session is UNAVAILABLE (retry on another replica) before any limit is
 // asked: a full store (whose sessions keep their slots until the process ends) does not answer
 // RESOURCE_EXHAUSTED, which a client would not retry.
+// A call that found a session and waits for its lock while another call runs on it answers NOT_FOUND when
+// the session is evicted meanwhile: it does not run on a session no longer live.
+TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
+  std::atomic<int64_t> now_ms{0};
+  LimitGate gate{Limits{}};
+  SessionStore<Counter> s(
+      gate,
+      SessionPolicy{100ms, [&] { return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms)); }},
+      "counter", "counter_id", "c-");
+  const std::string id = s.add(s.reserve(0), std::make_shared<Counter>());
+  std::promise<void> inside, go;
+  std::thread running([&] {
+    s.with(id, [&](Counter& c) {
+      inside.set_value();
+      go.get_future().wait();
+      ++c.value;
+    });
+  });
+  inside.get_future().wait();
+  std::promise<std::string> outcome;
+  std::thread waiting([&] {
+    try {
+      s.with(id, [](Counter& c) { c.value += 10; });
+      outcome.set_value("ran");
+    } catch (const Error& e) {
+      outcome.set_value(code_name(e.code()));
+    }
+  });
+  std::this_thread::sleep_for(200ms);  // it has found the session and waits for the running call
+  now_ms = 1000;                       // both idle past the TTL
+  EXPECT_EQ(s.evict_idle(), 1u);
+  go.set_value();
+  running.join();
+  waiting.join();
+  EXPECT_EQ(outcome.get_future().get(), code_name(Code::NotFound));
+}
+
 TEST(SessionStoreDrain, ANewSessionIsUnavailableEvenWhenTheStoreIsFull) {
   Limits limits;
   limits.max_sessions = 1;

@@ -379,8 +379,9 @@ TEST(EWaveEngineCache, PropagatorTablesKeepAQuarterOfTheMemoryBudget) {
   EWaveEngine e(runtime, squall::test::fft(), gate);
   EXPECT_EQ(e.coefficients().max_bytes(), cache_bound(limits.memory_budget, runtime.device_info().global_memory_bytes,
                                                       CoefficientCache::kDefaultMaxBytes));
-  if (runtime.device_info().global_memory_bytes >= (uint64_t(2) << 30))  // an eighth of it past 256 MiB
+  if (runtime.device_info().global_memory_bytes >= (uint64_t(2) << 30)) {  // an eighth of it past 256 MiB
     EXPECT_EQ(e.coefficients().max_bytes(), limits.memory_budget / 4);
+  }
 }
 
 TEST_F(EngineTest, ClosedIdIsNotFoundAndIdsAreRandom128Bit) {
