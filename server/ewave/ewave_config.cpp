@@ -81,7 +81,7 @@ void validate(const EWaveConfig& c, const LimitGate* gate, const std::string& pa
   validate::in(path + ".displacement_scale", c.displacement_scale, validate::closed(-kMaxScale, kMaxScale));
   check_map(path + ".initial_height", c.initial_height, c.cells());
   check_map(path + ".initial_phi", c.initial_phi, c.cells());
-  validate::in(path + ".start_time", c.start_time, validate::closed(-kMaxTime, kMaxTime));
+  validate::in(path + ".start_time.seconds", c.start_time, validate::closed(-kMaxTime, kMaxTime));
   if (c.initial_ocean) {
     if (!c.initial_height.empty() || !c.initial_phi.empty())
       fail(Code::InvalidArgument,

@@ -930,7 +930,7 @@ CASES += [
     bad(R, "friction_time_negative", put("config.friction_time", -1.0), "config.friction_time"),
     bad(R, "source_scale_inf", put("config.source_scale", INF), "config.source_scale"),
     bad(R, "displacement_scale_nan", put("config.displacement_scale", NAN), "displacement_scale"),
-    bad(R, "start_time_nan", put("config.start_time.seconds", NAN), "config.start_time"),
+    bad(R, "start_time_nan", put("config.start_time.seconds", NAN), "config.start_time.seconds"),
     bad(
         R,
         "initial_height_wrong_nx",
