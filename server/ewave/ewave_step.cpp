@@ -141,7 +141,10 @@ void EWaveSession::check_rasterize_work(const StepInputs& in) const {
 // The step's maps, before its first command: on a CPU device they are copied into their buffers' host
 // storage with no command, and the queue they finish first is empty (write_buffer()).
 void EWaveSession::upload_maps(const StepInputs& in) {
-  if (!in.obstruction.empty()) upload(obstruction_, in.obstruction);
+  if (!in.obstruction.empty()) {
+    shape_map_ = false;  // before the map is overwritten: a later upload that throws leaves no stale shape map
+    upload(obstruction_, in.obstruction);
+  }
   if (!in.ambient_height.empty()) upload(ambient_, in.ambient_height);
   if (!in.source_height.empty()) upload(source_h_, in.source_height);
   if (!in.source_phi.empty()) upload(source_phi_, in.source_phi);
@@ -154,7 +157,6 @@ void EWaveSession::upload_maps(const StepInputs& in) {
 bool EWaveSession::build_obstruction(const StepInputs& in) {
   if (in.obstruction.empty() && in.shapes.empty()) return false;
   if (!in.obstruction.empty()) {  // upload_maps() has uploaded it
-    shape_map_ = false;
     if (!in.shapes.empty()) rasterize(false);
     return true;
   }
