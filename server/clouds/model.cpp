@@ -118,14 +118,18 @@ std::vector<MeshPiece> check_mesh(const std::string& f, const TriangleMesh& m, d
 }
 
 // Voxels' volume (m^3) a mesh's level set and density can take: each piece's inside, a band of `grow` about
-// its surface on both sides (the level set's narrow band) and a ball of `grow` (all of a small piece's
-// band), at most its bounding box grown by `grow`.
+// its surface on both sides (the level set's narrow band), the tube of `grow` about its edges (Steiner's
+// M grow^2 with M, 2 pi times the mean width, at most 2 pi times its diameter: all of a thin piece's band)
+// and a ball of `grow` (all of a small piece's band), at most its bounding box grown by `grow`.
 double mesh_volume_estimate(const std::vector<MeshPiece>& pieces, double grow) {
   double volume = 0;
   for (const MeshPiece& piece : pieces) {
     double box = 1;
     for (int a = 0; a < 3; ++a) box *= piece.hi[a] - piece.lo[a] + 2 * grow;
-    volume += std::min(piece.volume + 2 * grow * piece.area + 4 * M_PI / 3 * grow * grow * grow, box);
+    const double diameter = std::hypot(piece.hi[0] - piece.lo[0], piece.hi[1] - piece.lo[1], piece.hi[2] - piece.lo[2]);
+    volume += std::min(
+        piece.volume + 2 * grow * piece.area + 2 * M_PI * diameter * grow * grow + 4 * M_PI / 3 * grow * grow * grow,
+        box);
   }
   return volume;
 }

@@ -146,6 +146,28 @@ TEST(Errors, AThinMeshsSurfaceCountsInTheVoxelEstimate) {
   expect_error([&] { validate(m); }, Code::ResourceExhausted, "model.max_active_voxels");
 }
 
+// A long thin mesh grown by its skin and displacement is a tube: pi g^2 per metre of its length, which its
+// area alone (4 m^2 a metre) misses. The estimate holds the voxels a build makes: a 1000 x 1 x 1 m box grown
+// by 10 m of pyroclastic displacement.
+TEST(Errors, ANeedleMeshsGrownTubeCountsInTheVoxelEstimate) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 1;
+  m.pyroclastic.layers = 1;
+  m.pyroclastic.amplitude = 10;
+  m.pyroclastic.gamma = 1e-6;
+  TriangleMesh needle;
+  needle.vertices = {{0, 0, 0}, {1000, 0, 0}, {1000, 1, 0}, {0, 1, 0},
+                     {0, 0, 1}, {1000, 0, 1}, {1000, 1, 1}, {0, 1, 1}};
+  needle.triangles = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                      2, 3, 7, 2, 7, 6, 1, 2, 6, 1, 6, 5, 3, 0, 4, 3, 4, 7};
+  m.meshes.push_back(needle);
+  const double estimated = validate(m);
+  const double built = double(build_cloud(m).stats.active_voxels);
+  std::printf("needle: %.0f voxels built, %.0f estimated\n", built, estimated);
+  EXPECT_GE(estimated, built);
+}
+
 // The march's float32 index coordinates resolve an eighth of a voxel up to 2^20 voxels from the origin: a
 // shape farther out is refused by name.
 TEST(Errors, AShapeFarFromTheOriginIsRefusedByName) {
