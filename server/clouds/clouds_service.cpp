@@ -1,6 +1,7 @@
 #include "clouds/clouds_service.h"
 
 #include <algorithm>
+#include <map>
 
 #include "clouds/clouds_request.h"
 #include "common/validate.h"
@@ -23,16 +24,36 @@ uint64_t render_working_bytes(const RenderSettings& settings) {
   return image_working_bytes(settings) + clouds::shadow_map_bytes(settings);
 }
 
-// The times, the request's model, then the frames' models at the earliest and the latest time, before the
-// stream takes a slot or sends a frame. Every parameter of model_at() is linear in t or clamped linear
-// (monotone), so a frame between those two times is within bounds when they are.
+// The times where a parameter of model_at() clamped at 0 reaches it (the pyroclastic amplitude, the
+// advection time), sorted: between two of them every parameter is linear in t, and the advection is on or
+// off throughout.
+std::vector<double> clamp_times(const CloudModel& base, const Evolution& e) {
+  std::vector<double> at;
+  if (e.amplitude_rate != 0) at.push_back(-base.pyroclastic.amplitude / e.amplitude_rate);
+  if (e.advection_rate != 0) at.push_back(-base.advection.time / e.advection_rate);
+  std::sort(at.begin(), at.end());
+  return at;
+}
+
+// The times, the request's model, then the frames' models before the stream takes a slot or sends a frame:
+// within each stretch of times between clamp_times() (and at each of them) every bound the validation
+// checks is monotone in t, so a frame is within bounds when the stretch's earliest and latest frames are.
 void validate_frames(const CloudEngine& engine, const CloudModel& base, const Evolution& evolution,
                      const google::protobuf::RepeatedField<double>& times) {
   for (int i = 0; i < times.size(); ++i) validate::finite(validate::at("times", i), times[i]);
   engine.validate(base, "model");
-  const auto [earliest, latest] = std::minmax_element(times.begin(), times.end());
-  for (auto t : {earliest, latest})
-    engine.validate(model_at(base, evolution, *t), "model at " + validate::at("times", int(t - times.begin())));
+  const std::vector<double> clamps = clamp_times(base, evolution);
+  std::map<size_t, std::pair<int, int>> ends;  // a stretch's earliest and latest frames, by the stretch
+  for (int i = 0; i < times.size(); ++i) {
+    const auto below = std::lower_bound(clamps.begin(), clamps.end(), times[i]);
+    const size_t stretch = 2 * size_t(below - clamps.begin()) + (below != clamps.end() && *below == times[i]);
+    const auto it = ends.try_emplace(stretch, i, i).first;
+    if (times[i] < times[it->second.first]) it->second.first = i;
+    if (times[i] > times[it->second.second]) it->second.second = i;
+  }
+  for (const auto& [stretch, frames] : ends)
+    for (int i : {frames.first, frames.second})
+      engine.validate(model_at(base, evolution, times[i]), "model at " + validate::at("times", i));
 }
 
 }  // namespace

@@ -247,6 +247,31 @@ TEST(CloudsService, EvolutionAtNegativeTimesClampsTheAdvectionTime) {
       << "advected for 1 s, the cloud changes";
 }
 
+// Every frame is checked before the first is sent, also where the checks are not monotone in t: with the
+// amplitude falling to 0 at t = 1 and the advection on from t = 0, the frame at t = 0 is not advected and the
+// one at 1 has no displacement, while the one at 0.5 has both: 2.7e9 velocity samples, past the daemon's
+// 1e9, refused by name with no frame sent.
+TEST(CloudsService, EvolutionFramesBetweenTwoClampsAreCheckedBeforeTheFirstIsSent) {
+  grpc::Status status;
+  const auto frames = evolve(
+      {0.0, 0.5, 1.0},
+      [](v1::StreamEvolutionRequest& r) {
+        r.mutable_model()->set_voxel_size(1);
+        r.mutable_model()->mutable_spheres(0)->set_radius(50);
+        r.mutable_model()->mutable_pyroclastic()->set_amplitude(100);
+        auto* advection = r.mutable_model()->mutable_advection();
+        advection->set_speed(1);
+        advection->set_substeps(256);
+        advection->mutable_noise()->set_frequency(0.2);
+        r.mutable_evolution()->set_amplitude_rate(-100);
+        r.mutable_evolution()->set_advection_rate(1);
+      },
+      &status);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("model at times[1]"), std::string::npos) << status.error_message();
+  EXPECT_TRUE(frames.empty());
+}
+
 TEST(CloudsService, BadRequestsGetClearErrors) {
   struct Case {
     std::function<void(v1::RenderRequest&)> edit;
