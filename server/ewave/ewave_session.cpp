@@ -71,6 +71,7 @@ ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
 void EWaveSession::initial_from_ocean() {
   ocean::TileSpec spec = ocean_on_grid(*config_.initial_ocean, config_);
   ocean::OceanEngine& ocean = ocean_engine("config.initial_ocean");
+  ocean.check_transforms(spec, "config.initial_ocean");
   if (!config_.double_precision) {  // state_ is h then phi in float: the ocean writes it directly
     ocean.surface_on_device(spec, time_, state_.buffer());
     runtime_.queue().finish();

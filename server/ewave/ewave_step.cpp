@@ -253,7 +253,9 @@ const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstructi
   if (!in.ambient_height.empty()) return &ambient_.buffer();  // upload_maps() has uploaded it
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
-  ocean::OceanEngine& ocean = ocean_engine(in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean");
+  const std::string field = in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean";
+  ocean::OceanEngine& ocean = ocean_engine(field);
+  ocean.check_transforms(*spec, field);
   size_t bytes = kStateFields * cells_ * sizeof(float);  // h_A, then the unused phi_A plane
   if (ambient_.bytes() != bytes) ambient_ = runtime_.buffers().acquire(bytes);
   ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer(), call.cancel, call.spectra_memory);

@@ -148,6 +148,7 @@ class ClfftBackend : public Backend {
  public:
   explicit ClfftBackend(Runtime& runtime) : runtime_(runtime), library_(library()) {}
   std::string name() const override { return "clfft"; }
+  bool transforms(size_t n) const override { return clfft_supports(n); }
   std::unique_ptr<Plan> bake(const PlanKey& key) override { return std::make_unique<ClfftPlan>(runtime_, key); }
 
  private:

@@ -256,8 +256,22 @@ OceanEngine::OceanEngine(Runtime& runtime, fft::Fft& fft, const Limits& limits, 
     : impl_(std::make_unique<Impl>(runtime, fft, limits, max_cached_bytes, budget)) {}
 OceanEngine::~OceanEngine() = default;
 
-void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const { validate_tile(spec, gate); }
-void OceanEngine::validate(const TileSpec& spec) const { validate_tile(spec, impl_->gate); }
+void OceanEngine::validate(const TileSpec& spec, const LimitGate& gate) const {
+  validate_tile(spec, gate);
+  check_transforms(spec);
+}
+void OceanEngine::validate(const TileSpec& spec) const { validate(spec, impl_->gate); }
+
+void OceanEngine::check_transforms(const TileSpec& spec, const std::string& path) const {
+  const std::string layers = path.empty() ? "layers" : path + ".layers";
+  for (size_t i = 0; i < spec.layers.size(); ++i)
+    for (const auto& [axis, n] : {std::pair{".nx", spec.layers[i].nx}, std::pair{".ny", spec.layers[i].ny}})
+      if (!impl_->fft.transforms(size_t(n)))
+        fail(Code::InvalidArgument, validate::at(layers, i) + axis + " = " + std::to_string(n) + ": the " +
+                                        impl_->fft.name() +
+                                        " FFT backend transforms products of 2, 3, 5, 7, 11 and 13 only (pick such a "
+                                        "size, or run squalld with --fft vkfft)");
+}
 
 void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out, const Cancellation& cancel,
                                     Slot* spectra_memory) {

@@ -40,6 +40,10 @@ class OceanEngine {
   // call it with the engine's limits; the service validates each request first, under its field path.
   void validate(const TileSpec& spec, const LimitGate& gate) const;
   void validate(const TileSpec& spec) const;  // with the engine's limits
+  // INVALID_ARGUMENT naming "<path>.layers[i].nx" (or ny) where the engine's FFT backend cannot transform a
+  // layer's grid (clfft: products of 2, 3, 5, 7, 11 and 13 only); validate() checks it too, before anything
+  // is built.
+  void check_transforms(const TileSpec& spec, const std::string& path = "") const;
 
   // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be
   // null (then the map of this frame alone: 1 where J- < threshold, else 0); otherwise it carries the

@@ -42,10 +42,11 @@ struct TileJob {
   }
 };
 
-TileJob tile_job(const v1::TileSpec& tile, const google::protobuf::RepeatedField<int>& outputs, v1::DType d,
-                 const LimitGate& gate) {
+TileJob tile_job(const ocean::OceanEngine& engine, const v1::TileSpec& tile,
+                 const google::protobuf::RepeatedField<int>& outputs, v1::DType d, const LimitGate& gate) {
   TileJob job;
   job.spec = tile_spec(tile, gate);  // validated under "tile."
+  engine.check_transforms(job.spec, "tile");
   job.outputs = squall::ocean::rpc::outputs(outputs);
   job.flags = output_flags(job.outputs);
   job.planes = output_planes(job.outputs);
@@ -79,7 +80,7 @@ void OceanService::start(EngineContext& context) { engine_ = &ocean::shared_engi
 grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTileRequest* request,
                                    v1::GetTileResponse* response) {
   return serve(*context, serving_, [&] {
-    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
+    TileJob job = tile_job(*engine_, request->tile(), request->outputs(), request->dtype(), serving_.gate());
     double t = sim_time("time.seconds", request->time().seconds());
     serving_.gate().check_message_bytes("GetTile reply (use StreamTiles, which splits frames)", job.frame_bytes());
     const uint64_t new_spectra = engine_->new_spectra_bytes(job.spec);
@@ -101,7 +102,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     Slot spectra;  // the spectra the next frame builds: a spectrum kept takes its bytes from here
   };
   auto prepare = [&] {
-    TileJob job = tile_job(request->tile(), request->outputs(), request->dtype(), serving_.gate());
+    TileJob job = tile_job(*engine_, request->tile(), request->outputs(), request->dtype(), serving_.gate());
     const double t0 = sim_time("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
     if (request->frame_count() > 0)  // the last frame's time, before the first frame is sent
@@ -149,6 +150,7 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
                                          v1::SampleSurfaceResponse* response) {
   return serve(*context, serving_, [&] {
     ocean::TileSpec spec = tile_spec(request->tile(), serving_.gate());
+    engine_->check_transforms(spec, "tile");
     const double t = sim_time("time.seconds", request->time().seconds());
     const int n = request->points_size();
     if (n < 1 || n > kMaxSamplePoints)

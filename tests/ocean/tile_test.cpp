@@ -245,6 +245,20 @@ TEST(OceanTile, AKeptSpectrumTakesItsBytesFromTheCallersReservation) {
   EXPECT_EQ(budgeted.new_spectra_bytes(spec), 0u);
 }
 
+// A layer grid the FFT backend cannot transform (clfft: 34 = 2 x 17) is refused by name before its spectrum
+// is built; one it can (36) runs.
+TEST(OceanTile, AGridTheFftBackendCannotTransformIsRefusedBeforeItsSpectrum) {
+  OceanEngine clfft(squall::test::runtime(), squall::test::fft("clfft"));
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 34, 100);
+  squall::test::expect_error(Code::InvalidArgument, "layers[0].nx = 34: the clfft FFT backend",
+                             [&] { clfft.tile(spec, 1.0, Height); });
+  squall::test::expect_error(Code::InvalidArgument, "tile.layers[0].nx = 34",
+                             [&] { clfft.check_transforms(spec, "tile"); });
+  EXPECT_EQ(clfft.spectra_built(), 0u);
+  spec.layers[0].nx = spec.layers[0].ny = 36;
+  EXPECT_EQ(clfft.tile(spec, 1.0, Height).height.size(), 36u * 36u);
+}
+
 TEST(OceanTile, PeriodicAcrossEdgesAndInSampling) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Hyperbolic, 64, 100);
   auto h = engine().tile(spec, 1.0, Height).height;
