@@ -115,7 +115,13 @@ grpc::Status EWaveService::Run(grpc::ServerContext* context,
 grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWaveSessionRequest* request,
                                     v1::EWaveStateResponse* response) {
   return serve(*context, serving_, [&] {
-    std::string state = engine_->state(session_id(request->session_id()));
+    const std::string& id = session_id(request->session_id());
+    // Its fields alone, known from the config before they are read: refused or reserved first.
+    const ewave::EWaveConfig config = engine_->config(id);
+    const uint64_t fields = ewave::kStateFields * uint64_t(config.cells()) * (config.double_precision ? 8 : 4);
+    serving_.gate().check_message_bytes("GetState reply (the session's state)", fields);
+    const Slot memory = serving_.gate().acquire_memory("GetState's state", fields);
+    std::string state = engine_->state(id);
     serving_.gate().check_message_bytes("GetState reply (the session's state)", state.size());
     *response->mutable_state() = std::move(state);
     return grpc::Status::OK;

@@ -239,6 +239,31 @@ TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   EXPECT_TRUE(small.status().ok()) << small.status().error_message();
 }
 
+// GetState reserves the state it reads (a 512^2 double session's 4 MiB of fields) before reading it: refused
+// under a budget that holds the session and 2 MiB more, served under one with 8 MiB more.
+TEST(EWaveService, GetStateReservesItsStateBeforeReadingIt) {
+  ewave::EWaveConfig c = ewave::test::plain_config(512, 512);
+  c.double_precision = true;
+  v1::EWaveConfig config = proto_config(c);
+  config.set_double_precision(true);
+  for (const auto& [more, code] :
+       {std::pair{2 << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{8 << 20, grpc::StatusCode::OK}}) {
+    Daemon d({"--memory-budget", std::to_string(ewave::session_bytes(c) + more)});
+    Session s(d.stub(), config);
+    ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+    v1::EWaveSessionRequest get;
+    get.set_session_id(s.id());
+    v1::EWaveStateResponse state;
+    const grpc::Status status = d.stub().GetState(context().get(), get, &state);
+    EXPECT_EQ(status.error_code(), code) << more << ": " << status.error_message();
+    if (status.ok()) {
+      EXPECT_GT(state.state().size(), 4u << 20);
+    } else {
+      EXPECT_NE(status.error_message().find("GetState's state"), std::string::npos) << status.error_message();
+    }
+  }
+}
+
 // A session created from an ocean spec over gRPC (config.initial_ocean at config.start_time = t0) continues
 // the ocean: its first frame (t0 + dt) equals GetTile's height of the same spec at t0 + dt on the session
 // grid. Float round-off only (the engine test ewave_ocean_test budgets it at a few 1e-6): asserted < 1e-4.
