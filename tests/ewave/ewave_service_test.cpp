@@ -181,17 +181,23 @@ TEST(EWaveService, CreateStepCloseMatchesTheEngineInProcess) {
   EXPECT_TRUE(s.close().ok());
 }
 
+// A deep-water Pierson-Moskowitz layer of 100 m x 100 m on an n x n grid.
+v1::LayerSpec sea_layer(uint32_t n) {
+  v1::LayerSpec layer;
+  layer.set_extent_x(100), layer.set_extent_y(100), layer.set_nx(n), layer.set_ny(n);
+  layer.set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
+  layer.set_spreading(v1::SPREADING_MODEL_MITSUYASU);
+  layer.set_dispersion(v1::DISPERSION_MODEL_DEEP);
+  layer.set_wind_speed(5);
+  return layer;
+}
+
 // The request translator checks a step's ambient ocean against the daemon's --max-grid-cells (the gate it
 // is given), as it does the config's ocean specs.
 TEST(EWaveService, AStepsAmbientOceanIsCheckedAgainstTheDaemonsGridLimit) {
   const ewave::EWaveConfig c = engine_config();
   v1::EWaveInputs in = plain_inputs(0.01);
-  v1::LayerSpec* layer = in.mutable_ambient_ocean()->add_layers();
-  layer->set_extent_x(100), layer->set_extent_y(100), layer->set_nx(128), layer->set_ny(128);
-  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
-  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU);
-  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
-  layer->set_wind_speed(5);
+  *in.mutable_ambient_ocean()->add_layers() = sea_layer(128);
   const LimitGate defaults{Limits{}};
   EXPECT_TRUE(ewave::rpc::inputs(in, c, defaults).ambient_ocean.has_value());
   Limits small;
@@ -210,11 +216,7 @@ TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   v1::EWaveInputs in = plain_inputs(0.01);
   *in.mutable_obstruction() = field(64, 48, std::vector<float>(64 * 48, 0.5f));  // the ocean is evaluated
   v1::LayerSpec* layer = in.mutable_ambient_ocean()->add_layers();
-  layer->set_extent_x(100), layer->set_extent_y(100), layer->set_nx(2048), layer->set_ny(2048);
-  layer->set_spectrum(v1::SPECTRUM_MODEL_PIERSON_MOSKOWITZ);
-  layer->set_spreading(v1::SPREADING_MODEL_MITSUYASU);
-  layer->set_dispersion(v1::DISPERSION_MODEL_DEEP);
-  layer->set_wind_speed(5);
+  *layer = sea_layer(2048);
   v1::EWaveFrame frame;
   const grpc::Status refused = s.step(in, &frame);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "client/client.h"
@@ -464,6 +465,21 @@ TEST(OceanService, BadInputIsRejectedNamingTheFieldAndTheDaemonKeepsServing) {
   EXPECT_EQ(fine.fields_size(), 12);
 }
 
+// `call` on a squalld of each memory budget: refused under `tight` (RESOURCE_EXHAUSTED naming `what`), served
+// under `roomy`.
+void refused_then_served(uint64_t tight, uint64_t roomy, const std::string& what,
+                         const std::function<grpc::Status(const std::string& address)>& call) {
+  for (const auto& [budget, code] :
+       {std::pair{tight, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{roomy, grpc::StatusCode::OK}}) {
+    test::Daemon d({"--memory-budget", std::to_string(budget)});
+    const grpc::Status status = call(d.address());
+    EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
+    if (!status.ok()) {
+      EXPECT_NE(status.error_message().find(what), std::string::npos) << status.error_message();
+    }
+  }
+}
+
 // A tile whose layer's spectrum is not kept builds it (6 floats a mode) beside its own buffers: a 2048^2
 // layer's is 101 MB, sampled onto 64^2 output cells (34 MB of buffers), refused under a 96 MiB budget and
 // served under 256 MiB.
@@ -476,16 +492,10 @@ TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
   request.mutable_tile()->mutable_output()->set_nx(64);
   request.mutable_tile()->mutable_output()->set_ny(64);
   request.add_outputs(v1::TILE_OUTPUT_HEIGHT);
-  for (const auto& [budget, code] :
-       {std::pair{96ull << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{256ull << 20, grpc::StatusCode::OK}}) {
-    test::Daemon d({"--memory-budget", std::to_string(budget)});
+  refused_then_served(96ull << 20, 256ull << 20, "GetTile's tile", [&](const std::string& address) {
     v1::GetTileResponse response;
-    const grpc::Status status = get_tile(d.address(), request, &response);
-    EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
-    if (!status.ok()) {
-      EXPECT_NE(status.error_message().find("GetTile's tile"), std::string::npos);
-    }
-  }
+    return get_tile(address, request, &response);
+  });
 }
 
 // A sample holds about 200 bytes a point while it runs (the point, its sample, the reply's eight doubles and
@@ -494,18 +504,14 @@ TEST(OceanService, ASpectrumToBuildCountsInTheMemoryBudget) {
 TEST(OceanService, SamplePointsCountInTheMemoryBudget) {
   const std::vector<std::pair<double, double>> points(400000, {1.5, 2.5});
   const v1::SampleSurfaceRequest request = sample_request(points, false, tile_spec(), 1.0);
-  for (const auto& [budget, code] :
-       {std::pair{32ull << 20, grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{256ull << 20, grpc::StatusCode::OK}}) {
-    test::Daemon d({"--memory-budget", std::to_string(budget)});
+  refused_then_served(32ull << 20, 256ull << 20, "SampleSurface's layers and points", [&](const std::string& address) {
     v1::SampleSurfaceResponse response;
-    const grpc::Status status = sample(d.address(), request, &response);
-    EXPECT_EQ(status.error_code(), code) << budget << ": " << status.error_message();
+    const grpc::Status status = sample(address, request, &response);
     if (status.ok()) {
       EXPECT_EQ(response.height_size(), 400000);
-    } else {
-      EXPECT_NE(status.error_message().find("SampleSurface's layers and points"), std::string::npos);
     }
-  }
+    return status;
+  });
 }
 
 // --max-streams 1: a second stream is refused while the first runs (RESOURCE_EXHAUSTED); cancelling the
