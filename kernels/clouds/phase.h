@@ -17,9 +17,10 @@ static inline float phase_hg(float s2, float c2, float g) {
   return SQUALL_INV_4PI * (1.0f - g * g) / (d * sqrt(d));
 }
 
-// A(p) / e^2 for e = 1 - delta, where A(p) = p e - (1 - delta^p) cancels to p (p - 1) e^2 / 2 + O(e^3): near
-// e = 0 its binomial series to e^5 (c_0 = p (p - 1) / 2, c_(j+1) = -c_j (p - j - 2) / (j + 3)), elsewhere
-// with delta^p - 1 as expm1(p log delta), so that only the last addition rounds.
+// A(p) / e^2 for e = 1 - delta, where A(p) = p e - (1 - delta^p) cancels to p (p - 1) e^2 / 2 + O(e^3): for
+// |e| < 0.1 its binomial series to e^5 (c_0 = p (p - 1) / 2, c_(j+1) = -c_j (p - j - 2) / (j + 3); the
+// first term left out is under 1e-6 of the sum), elsewhere with delta^p - 1 as expm1(p log delta), whose
+// sum with p e then loses at most 2 / |e (p - 1)| ulps (80 at |e| = 0.1 and p = 3/4).
 static inline float ff_bracket_part(float p, float delta, float e) {
   if (fabs(e) >= 0.1f) return (expm1(p * log(delta)) + p * e) / (e * e);
   float sum = 0.0f, c = 0.5f * p * (p - 1.0f), e_j = 1.0f;

@@ -100,7 +100,7 @@ static inline sq_real sq_modified_jonswap_nu(sq_real g, sq_real U, sq_real wp) {
  * (1985): gamma = 1.7 + 6 log10(U / c_p) for 1 <= U / c_p < 5, 1.7 for 0.83 < U / c_p < 1. The printed
  * 6.489 + 6 log nu is that in nu with log10 (6.489 = 1.7 + 6 log10(2 pi)), but its ranges are U / c_p's:
  * read as nu's, gamma would jump from 1.7 to 6.489 at nu = 1 and stay 1.7 for any fetch past a few
- * hundred metres. U / c_p clamped to [0.83, 5]. */
+ * hundred metres. gamma holds its value at U / c_p = 5 past it. */
 static inline sq_real sq_modified_jonswap_gamma(sq_real nu) {
   sq_real u_over_cp = 2.0 * SQUALL_PI * nu;
   if (u_over_cp < 1.0) return 1.7;
@@ -233,7 +233,8 @@ static inline sq_real sq_cos2s(sq_real d, sq_real s) {
 /* eq 39-41 with the central values: s = s_p (w / w_p)^mu. mu is one per spectrum: the C of eq 41 is the
  * phase speed at the peak, c_p = g / w_p, as in D. E. Hasselmann, M. Dunckel and J. A. Ewing, "Directional
  * wave spectra observed during JONSWAP 1973" (1980), whose parametrization it is (read as each mode's w / k,
- * mu would fall with w and s would no longer be the power law of eq 39). */
+ * mu would fall with w and s would no longer be the power law of eq 39). c_p is the deep-water one on a
+ * shallow or TMA layer too, as in their deep-water measurements. */
 static inline sq_real sq_jonswap_spread_s(sq_real w, sq_real wp, sq_real U, sq_real g) {
   if (w < wp) return 6.97 * sq_powr(w / wp, (sq_real)4.06);
   sq_real mu = -2.33 - 1.45 * (U * wp / g - 1.17);
@@ -248,7 +249,7 @@ static inline sq_real sq_hyperbolic_beta(sq_real r) {
 }
 
 /* D(theta; w, k), rad^-1. d = theta - theta0 in [-pi, pi). */
-static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real k) {
+static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w) {
   switch (p.spreading) {
     case SQUALL_SPREAD_ISOTROPIC: return 1.0 / (2.0 * SQUALL_PI);
     case SQUALL_SPREAD_PIERSON_COS2: { /* eq 27 fixed: (2/pi) cos^2 on the half plane */
@@ -295,13 +296,13 @@ static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real 
   sq_real k = sqrt(kx * kx + ky * ky);
   if (k <= 0 || w <= 0) return 0;
   sq_real d = sq_angle_difference(atan2(ky, kx), p.theta0);
-  return sq_frequency_spectrum(p, w) * sq_spreading(p, d, w, k) * vg / (2.0 * k);
+  return sq_frequency_spectrum(p, w) * sq_spreading(p, d, w) * vg / (2.0 * k);
 }
 
 #ifndef __OPENCL_VERSION__
 /* ---- host only: quadratures for the derived parameters ---- */
 /* integral of the multipeak shape over r in [0.02, 2000], where validation asks it to hold all but a
- * thousandth of its energy (sq_multipeak_shape_outside); a log-spaced trapezoid of `steps` steps */
+ * hundredth of its energy (sq_multipeak_shape_outside); a log-spaced trapezoid of `steps` steps */
 static inline double sq_multipeak_shape_integral(double A, double B, double C, double n, double m, int steps = 40000) {
   double u0 = log(0.02), u1 = log(2000.0), du = (u1 - u0) / steps, sum = 0;
   for (int i = 0; i <= steps; ++i) {
@@ -312,23 +313,24 @@ static inline double sq_multipeak_shape_integral(double A, double B, double C, d
 }
 
 /* A bound on the shape's integral outside r in [0.02, 2000], the part sq_multipeak_shape_integral leaves out;
- * infinite where the integral diverges (b = 0 with a > 0, n <= 1 with c > 0) or the hump of
- * r^-n exp(-7.987 r^-m), which peaks at r_h = (7.987 m / n)^(1/m), peaks below 0.02. Below 0.02 the shape
- * then rises with r (its Gaussian below r = 1, its hump below r_h), so that part is at most 0.02 S(0.02);
- * past 2000 the Gaussian's tail is A sqrt(pi / B) erfc(sqrt(B) 1999) / 2 and the hump's at most
- * C 2000^(1 - n) / (n - 1). */
+ * infinite where the integral diverges (b = 0 with a > 0, n <= 1 with c > 0). Below 0.02 the Gaussian rises
+ * with r (r < 1), and the hump C r^-n exp(-7.987 r^-m) rises up to its peak at r_h = (7.987 m / n)^(1/m):
+ * that part is at most 0.02 times their largest values there (the hump's at min(r_h, 0.02)). Past 2000 the
+ * Gaussian's tail is A sqrt(pi / B) erfc(sqrt(B) 1999) / 2 and the hump's at most C 2000^(1 - n) / (n - 1). */
 static inline double sq_multipeak_shape_outside(double A, double B, double C, double n, double m) {
   const double lo = 0.02, hi = 2000.0;
-  double above = 0;
+  double below = A * exp(-B * (lo - 1) * (lo - 1)), above = 0;
   if (C > 0) {
-    if (!(pow(7.987 * m / n, 1.0 / m) >= lo) || n <= 1) return INFINITY;
+    if (n <= 1) return INFINITY;
+    const double log_r_h = log(7.987 * m / n) / m, log_r = fmin(log_r_h, log(lo));
+    below += C * exp(-n * log_r - 7.987 * exp(-m * log_r)); /* in logs: r_h may underflow */
     above += C * pow(hi, 1 - n) / (n - 1);
   }
   if (A > 0) {
     if (B <= 0) return INFINITY;
     above += A * sqrt(SQUALL_PI / B) * erfc(sqrt(B) * (hi - 1)) / 2;
   }
-  return lo * sq_multipeak_shape(lo, A, B, C, n, m) + above;
+  return lo * below + above;
 }
 
 /* m_j = integral of w^j S(w) dw over w_p [1/50, 1000] (log-spaced trapezoid) */

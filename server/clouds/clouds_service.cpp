@@ -109,7 +109,8 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
       fail(Code::ResourceExhausted, step + " = " + step_value + " makes an estimated " + validate::number(samples) +
                                         " density samples per " + what + ", more than " +
                                         validate::number(clouds::kMaxSamplesPerPixel) + " (a " + what +
-                                        "'s march cannot be cancelled midway; a larger step costs less)");
+                                        "'s march cannot be cancelled midway; a larger step costs less, down to "
+                                        "a step per 8-voxel leaf crossed)");
   };
   check_one_march(field, value, estimate.per_pixel, "pixel");
   const bool own_shadow_step = settings.shadow_step > 0;  // else 3 steps

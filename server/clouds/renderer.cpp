@@ -108,8 +108,6 @@ std::vector<cl_uchar> shadow_map_mask(const DeviceVolume& volume, const CloudRen
   return mask;
 }
 
-// Density samples taken per primary sample: the sample itself and, with direct shadows, a march toward
-// each light across at most the box diagonal; with a deep shadow map, one lookup per light.
 // Steps of a march of `length` (m) in steps of `step`, each also cut at the faces of the tree's nodes: the
 // steps in a node are at most its chord over `step`, plus one. A segment crosses at most sqrt(3) length /
 // side + 4 cells of a grid of cubes of that side (one, plus a plane crossing per side along each axis),
@@ -118,6 +116,8 @@ double march_steps(double length, double step, double voxel_size) {
   return std::ceil(length / step + std::sqrt(3.0) * length / (8 * voxel_size)) + 4;
 }
 
+// Density samples taken per primary sample: the sample itself and, with direct shadows, a march toward
+// each light across at most the box diagonal; with a deep shadow map, one lookup per light.
 double samples_per_primary_sample(const RenderSettings& s, double diagonal, double voxel_size) {
   const double lights = double(s.lights.size());
   if (s.shadow == ShadowMode::Direct) return 1 + lights * march_steps(diagonal, shadow_step(s), voxel_size);

@@ -75,11 +75,15 @@ EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWave
   if (runtime.device_info().double_precision) StepKernels<cl_double> double_precision(runtime);
 }
 
+uint64_t state_field_bytes(const EWaveConfig& config) {
+  return kStateFields * uint64_t(config.nx) * uint64_t(config.ny) * (config.double_precision ? 8 : 4);
+}
+
 uint64_t session_bytes(const EWaveConfig& config) {
   const uint64_t cells = uint64_t(config.nx) * config.ny;
   const uint64_t modes = uint64_t(config.nx / 2 + 1) * config.ny;
   const uint64_t real = config.double_precision ? 8 : 4;
-  const uint64_t state = kStateFields * cells * real;
+  const uint64_t state = state_field_bytes(config);
   const uint64_t spectrum = kOutputFields * modes * 2 * real, work = kOutputFields * cells * real;
   // Float maps: 5 output planes, the zeros of an absent input, and the inputs a step may upload
   // (obstruction, ambient h and phi, source h and phi, drift x and y); the trim profiles.

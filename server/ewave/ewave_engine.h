@@ -79,5 +79,7 @@ class EWaveEngine {
 // Host + device bytes a session of `config` holds: the state (h, phi), the spectrum, the work and output
 // buffers and the per-cell input maps, counted against --max-session-bytes.
 uint64_t session_bytes(const EWaveConfig& config);
+// Bytes of a session's h and phi (its state's fields, in its precision).
+uint64_t state_field_bytes(const EWaveConfig& config);
 
 }  // namespace squall::ewave

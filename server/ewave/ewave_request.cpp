@@ -235,6 +235,12 @@ uint64_t frame_bytes(const EWaveConfig& c, size_t outputs, v1::DType d) {
   return outputs * (c.cells() * squall::field::bytes_per_value(d) + 128) + 256;
 }
 
+uint64_t frame_host_bytes(const EWaveConfig& c, const OutputSelection& o) {
+  const uint64_t state_planes = uint64_t(o.height) + uint64_t(o.phi);
+  const uint64_t float_planes = state_planes + 2 * uint64_t(o.displacement) + 4 * uint64_t(o.normals);
+  return c.cells() * (float_planes * sizeof(float) + (c.double_precision ? state_planes * sizeof(double) : 0));
+}
+
 StepGuard guard(const v1::EWaveStepRequest& request) {
   if (request.retry_key().size() > kMaxRetryKeyBytes)
     fail(Code::InvalidArgument, "retry_key has " + std::to_string(request.retry_key().size()) + " bytes, at most " +

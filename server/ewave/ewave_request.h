@@ -28,6 +28,10 @@ std::vector<squall::v1::EWaveOutput> outputs(const squall::v1::EWaveInputs& prot
 
 // Bytes of a frame with these outputs (a bound, for --max-message-bytes).
 uint64_t frame_bytes(const EWaveConfig& config, size_t outputs, squall::v1::DType dtype);
+// Host bytes a step's Frame holds for `o` before it is encoded: a float plane each for h and phi (read as
+// doubles first in a double session), two for the displacement, three for the normals and one for the
+// normal component being encoded.
+uint64_t frame_host_bytes(const EWaveConfig& config, const OutputSelection& o);
 
 // The reply frame of an engine frame: one Field per output, in order.
 void fill_frame(const Frame& frame, const EWaveConfig& config, const std::vector<squall::v1::EWaveOutput>& outputs,

@@ -46,17 +46,19 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
   const uint64_t reply_bytes = frame_bytes(config, outputs.size(), type);
   serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)", reply_bytes);
   const ewave::StepInputs in = inputs(request.inputs(), config, serving_.gate());
-  // Held while it runs: the frame's float planes and reply, and the spectra and fields of the ocean it
-  // evaluates, if any (its own, else the session's, where it brings no ambient height).
+  // Held while it runs: the frame's planes and reply, and the spectra and fields of the ocean it evaluates,
+  // if any: its own, else the session's, where it brings no ambient height and an obstruction (without one,
+  // h_A (1 - O) = 0 and the ocean is not evaluated: EWaveSession::ambient).
   std::string what = "Step's frame";
   std::optional<ocean::TileSpec> sea;
-  if (in.ambient_height.empty() && (in.ambient_ocean || config.ambient_ocean)) {
+  const bool obstructed = !in.obstruction.empty() || !in.shapes.empty();
+  if (obstructed && in.ambient_height.empty() && (in.ambient_ocean || config.ambient_ocean)) {
     what += in.ambient_ocean ? " and inputs.ambient_ocean" : " and config.ambient_ocean";
     sea = in.ambient_ocean ? in.ambient_ocean : config.ambient_ocean;
   }
   const auto ocean = ewave.ocean_bytes(config, sea);
   Slot memory = serving_.gate().acquire_memory(
-      what, frame_bytes(config, outputs.size(), v1::DTYPE_FLOAT32) + reply_bytes + ocean.working + ocean.new_spectra);
+      what, frame_host_bytes(config, in.outputs) + reply_bytes + ocean.working + ocean.new_spectra);
   Slot spectra = memory.split(ocean.new_spectra);
   ewave::Frame result = ewave.step(id, in, guard(request), {cancel, &spectra});
   frame->set_session_id(id);
@@ -117,8 +119,7 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
   return serve(*context, serving_, [&] {
     const std::string& id = session_id(request->session_id());
     // Its fields alone, known from the config before they are read: refused or reserved first.
-    const ewave::EWaveConfig config = engine_->config(id);
-    const uint64_t fields = ewave::kStateFields * uint64_t(config.cells()) * (config.double_precision ? 8 : 4);
+    const uint64_t fields = ewave::state_field_bytes(engine_->config(id));
     serving_.gate().check_message_bytes("GetState reply (the session's state)", fields);
     const Slot memory = serving_.gate().acquire_memory("GetState's state", fields);
     std::string state = engine_->state(id);

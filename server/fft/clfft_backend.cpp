@@ -20,6 +20,7 @@ void check(clfftStatus status, const std::string& what) {
 }
 
 // clFFT factors each length into radices 2, 3, 5, 7, 11 and 13 only.
+constexpr char kClfftLengths[] = "products of 2, 3, 5, 7, 11 and 13";
 bool clfft_supports(size_t n) {
   for (size_t r : {2, 3, 5, 7, 11, 13})
     while (n % r == 0) n /= r;
@@ -59,7 +60,7 @@ class ClfftPlan : public Plan {
     for (size_t n : {key.nx, key.ny})
       if (!clfft_supports(n))
         fail(Code::InvalidArgument, "clfft cannot plan " + describe(key) + ": " + std::to_string(n) +
-                                        " is not a product of the radices 2, 3, 5, 7, 11, 13");
+                                        " is not one of its lengths, " + kClfftLengths);
     // Bake the out-of-place plan now so that unsupported combinations fail here, not per request.
     handle(false);
   }
@@ -149,6 +150,7 @@ class ClfftBackend : public Backend {
   explicit ClfftBackend(Runtime& runtime) : runtime_(runtime), library_(library()) {}
   std::string name() const override { return "clfft"; }
   bool transforms(size_t n) const override { return clfft_supports(n); }
+  std::string lengths() const override { return kClfftLengths; }
   std::unique_ptr<Plan> bake(const PlanKey& key) override { return std::make_unique<ClfftPlan>(runtime_, key); }
 
  private:

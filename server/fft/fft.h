@@ -80,8 +80,9 @@ class Backend {
  public:
   virtual ~Backend() = default;
   virtual std::string name() const = 0;
-  // Whether it transforms a length of n along an axis (clfft: products of its radices only).
+  // Whether it transforms a length of n along an axis, and the lengths it does, in words.
   virtual bool transforms(size_t /*n*/) const { return true; }
+  virtual std::string lengths() const { return "any length"; }
   // Bakes a plan; throws Error(InvalidArgument) naming the size when the backend cannot do it.
   virtual std::unique_ptr<Plan> bake(const PlanKey& key) = 0;
 };
@@ -123,6 +124,7 @@ class Fft {
   explicit Fft(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {}
   const std::string name() const { return backend_->name(); }
   bool transforms(size_t n) const { return backend_->transforms(n); }  // Backend::transforms
+  std::string lengths() const { return backend_->lengths(); }          // Backend::lengths
 
   // The cached plan for key on the calling thread's device queue, baked on first use (a plan's scratch
   // memory serves one queue). Thread-safe; other lookups go on while a plan is baked. Under a lease

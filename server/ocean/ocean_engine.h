@@ -41,8 +41,8 @@ class OceanEngine {
   void validate(const TileSpec& spec, const LimitGate& gate) const;
   void validate(const TileSpec& spec) const;  // with the engine's limits
   // INVALID_ARGUMENT naming "<path>.layers[i].nx" (or ny) where the engine's FFT backend cannot transform a
-  // layer's grid (clfft: products of 2, 3, 5, 7, 11 and 13 only); validate() checks it too, before anything
-  // is built.
+  // layer's grid (fft::Backend::transforms: clfft's lengths are products of its radices); validate() checks
+  // it too, before anything is built.
   void check_transforms(const TileSpec& spec, const std::string& path = "") const;
 
   // The fields of `outputs` (Output flags, at least one) at absolute time t (s, finite). whitecaps may be

@@ -122,9 +122,11 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     auto compute = [&](uint64_t frame) {
       v1::GetTileResponse reply;
       const double t = sim_time("t0 + frame_index dt", time_of(frame));  // an endless stream's end of time
-      if (stream.spectra.amount() == 0)  // a spectrum let go of since (another call needed the room) is built again
-        if (const uint64_t again = engine_->new_spectra_bytes(job.spec))
-          stream.spectra = serving_.gate().acquire_memory("StreamTiles' spectra, built again", again);
+      // A spectrum let go of since (another call needed the room) is built again, reserved anew.
+      if (const uint64_t again = engine_->new_spectra_bytes(job.spec); again > stream.spectra.amount()) {
+        stream.spectra = Slot();
+        stream.spectra = serving_.gate().acquire_memory("StreamTiles' spectra, built again", again);
+      }
       tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), stream.spectra, &reply);
       return reply;
     };

@@ -21,27 +21,31 @@ bool spreading_needs_wind(SpreadingModel s) {
   return s == SpreadingModel::Mitsuyasu || s == SpreadingModel::Jonswap || s == SpreadingModel::VonMises;
 }
 
-// The scale of a partial's shape: its m0 = scale w_p integral(shape dr) = (Hs / 4)^2; the integral by a
-// trapezoid of `steps` steps (validation's order of magnitude needs a hundredth of the spectrum's).
-double partial_scale(const PartialSpectrum& q, int steps = 40000) {
+// The scale of a partial's shape: its m0 = scale w_p integral(shape dr) = (Hs / 4)^2, given the integral
+// (validation's order of magnitude needs a hundredth of the spectrum's steps), or computed in full.
+double partial_scale(const PartialSpectrum& q, double shape_integral) {
   const double m0 = 0.0625 * q.significant_wave_height * q.significant_wave_height;
-  return m0 / (q.peak_frequency * sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m, steps));
+  return m0 / (q.peak_frequency * shape_integral);
+}
+double partial_scale(const PartialSpectrum& q) {
+  return partial_scale(q, sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m));
 }
 
 // A partial is normalized over w / w_p in [0.02, 2000] (sq_multipeak_shape_integral): a shape with more
-// than a thousandth of its energy outside, or an unbounded one, would not have the Hs asked for.
-void check_shape_range(const std::string& g, const PartialSpectrum& p) {
+// than a hundredth of its energy outside (its Hs then half a percent short), or an unbounded one, is refused.
+// Returns the integral.
+double check_shape_range(const std::string& g, const PartialSpectrum& p) {
   const double outside = sq_multipeak_shape_outside(p.a, p.b, p.c, p.n, p.m);
   const double inside = sq_multipeak_shape_integral(p.a, p.b, p.c, p.n, p.m, 400);
-  if (outside <= 1e-3 * inside) return;
-  fail(Code::InvalidArgument,
-       g + ": its shape (a = " + validate::number(p.a) + ", b = " + validate::number(p.b) + ", c = " +
-           validate::number(p.c) + ", n = " + validate::number(p.n) + ", m = " + validate::number(p.m) + ") has " +
-           (std::isfinite(outside) ? "up to " + validate::number(outside / inside) + " of its energy"
-                                   : "energy without bound") +
-           " outside w / w_p in [0.02, 2000], where it is normalized: b > 0 where a > 0, n > 1 where c > 0, and the "
-           "peak "
-           "of r^-n exp(-7.987 r^-m), (7.987 m / n)^(1/m), well above 0.02");
+  if (outside <= 1e-2 * inside) return inside;
+  const std::string share = std::isfinite(outside) ? "up to " + validate::number(outside / inside) + " of its energy"
+                                                   : "energy without bound";
+  fail(Code::InvalidArgument, g + ": its shape (a = " + validate::number(p.a) + ", b = " + validate::number(p.b) +
+                                  ", c = " + validate::number(p.c) + ", n = " + validate::number(p.n) +
+                                  ", m = " + validate::number(p.m) + ") has " + share +
+                                  " outside w / w_p in [0.02, 2000], where it is normalized: b > 0 where a > 0, "
+                                  "n > 1 where c > 0, and the peak of r^-n exp(-7.987 r^-m), (7.987 m / n)^(1/m), "
+                                  "well above 0.02");
 }
 
 void validate_partials(const std::string& f, const LayerSpec& L) {
@@ -63,8 +67,7 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     // scale past 1e30 (its product with the shape would overflow), would leave the sea flat or NaN.
     for (const auto& [name, value] : {std::pair{".a", p.a}, std::pair{".c", p.c}})
       if (value > 0 && value < 1e-30) validate::reject(g + name, value, "0 or at least 1e-30 (float32 on the device)");
-    check_shape_range(g, p);
-    const double scale = partial_scale(p, 400);
+    const double scale = partial_scale(p, check_shape_range(g, p));
     if (!(scale <= 1e30))
       fail(Code::InvalidArgument, g + ": its shape's scale (Hs / 4)^2 / (w_p integral) is " + validate::number(scale) +
                                       ", past 1e30 (float32 on the device): raise a or c");

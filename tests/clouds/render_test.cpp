@@ -533,10 +533,6 @@ TEST(Render, KeptShadowMapsTogetherStayWithinTheirBudget) {
   EXPECT_EQ(second.kept_shadow_map->made, 3u);
 }
 
-// Empty-space skipping: two slabs 144 m apart (the gap spans whole internal nodes of the tree), each
-// filling whole leaves (z voxels 0..15 and 304..319): the transmittance through both is exactly
-// exp(-sigma (L1 + L2)) for any step: nothing is lost or added in the skipped gap. (Where a leaf is only
-// partly filled, the jittered estimate is unbiased but not exact: see the trilinear test.)
 // A march's steps are cut at every node face, whatever its step: a rod one voxel thick and 4000 long,
 // seen end on, takes at least a step in each of its 500 leaves with substeps samples each, and each sample's
 // shadow ray toward a light down the rod a step in each leaf it has left to cross (250 on average). The
@@ -568,6 +564,10 @@ TEST(Render, TheSampleEstimateCountsAStepInEveryNodeCrossed) {
   EXPECT_EQ(estimate_samples(dv, s).per_map_node, 0.0) << "no light, no map";
 }
 
+// Empty-space skipping: two slabs 144 m apart (the gap spans whole internal nodes of the tree), each
+// filling whole leaves (z voxels 0..15 and 304..319): the transmittance through both is exactly
+// exp(-sigma (L1 + L2)) for any step: nothing is lost or added in the skipped gap. (Where a leaf is only
+// partly filled, the jittered estimate is unbiased but not exact: see the trilinear test.)
 TEST(Render, EmptySpaceBetweenSlabsIsSkippedExactly) {
   initialize_openvdb();
   const double dx = 0.5, rho = 0.5, kappa = 0.2;

@@ -128,18 +128,21 @@ TEST_F(SessionStoreTest, AValueInUseHoldsItsReservationPastItsClose) {
   s.add(s.reserve(600), std::make_shared<Counter>());
 }
 
-// While the daemon drains, a new session is UNAVAILABLE (retry on another replica) before any limit is
-// asked: a full store (whose sessions keep their slots until the process ends) does not answer
-// RESOURCE_EXHAUSTED, which a client would not retry.
+// The thread of the call that waits: the store's clock tells when that call has found the session.
+thread_local bool t_waiting_call = false;
+
 // A call that found a session and waits for its lock while another call runs on it answers NOT_FOUND when
 // the session is evicted meanwhile: it does not run on a session no longer live.
 TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
   std::atomic<int64_t> now_ms{0};
+  std::promise<void> found;  // the waiting call's second clock read: after evict_idle, lookup() found it
+  int waiting_reads = 0;     // on the waiting call's thread only
+  auto clock = [&] {
+    if (t_waiting_call && ++waiting_reads == 2) found.set_value();
+    return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms));
+  };
   LimitGate gate{Limits{}};
-  SessionStore<Counter> s(
-      gate,
-      SessionPolicy{100ms, [&] { return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms)); }},
-      "counter", "counter_id", "c-");
+  SessionStore<Counter> s(gate, SessionPolicy{100ms, clock}, "counter", "counter_id", "c-");
   const std::string id = s.add(s.reserve(0), std::make_shared<Counter>());
   std::promise<void> inside, go;
   std::thread running([&] {
@@ -152,6 +155,7 @@ TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
   inside.get_future().wait();
   std::promise<std::string> outcome;
   std::thread waiting([&] {
+    t_waiting_call = true;
     try {
       s.with(id, [](Counter& c) { c.value += 10; });
       outcome.set_value("ran");
@@ -159,8 +163,8 @@ TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
       outcome.set_value(code_name(e.code()));
     }
   });
-  std::this_thread::sleep_for(200ms);  // it has found the session and waits for the running call
-  now_ms = 1000;                       // both idle past the TTL
+  found.get_future().wait();
+  now_ms = 1000;  // both idle past the TTL
   EXPECT_EQ(s.evict_idle(), 1u);
   go.set_value();
   running.join();
@@ -168,6 +172,9 @@ TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
   EXPECT_EQ(outcome.get_future().get(), code_name(Code::NotFound));
 }
 
+// While the daemon drains, a new session is UNAVAILABLE (retry on another replica) before any limit is
+// asked: a full store (whose sessions keep their slots until the process ends) does not answer
+// RESOURCE_EXHAUSTED, which a client would not retry.
 TEST(SessionStoreDrain, ANewSessionIsUnavailableEvenWhenTheStoreIsFull) {
   Limits limits;
   limits.max_sessions = 1;

@@ -304,9 +304,8 @@ TEST(EWavePhysics, FrictionWithConstantSourceApproachesTauS) {
 }
 
 // A uniform drift of a whole number of cells per step is an exact shift (the semi-Lagrangian advection of
-// eq 68-69).
-// A drift of whole cells moves the fields by exactly that many cells (mod the grid), however many periods
-// of the grid it crosses: 2^24 + 3 cells in one step, where float cannot hold the count, is 3 cells.
+// eq 68-69), by that many cells mod the grid however many periods it crosses: 2^24 + 3 cells in one step,
+// where float cannot hold the count, is 3 cells.
 TEST(EWavePhysics, WholeCellDriftIsAnExactShift) {
   auto expect_shift = [](double spacing, double dt, double drift_x, double drift_y) {
     EWaveConfig c = plain_config(64, 32, spacing);

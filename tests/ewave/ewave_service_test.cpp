@@ -207,8 +207,9 @@ TEST(EWaveService, AStepsAmbientOceanIsCheckedAgainstTheDaemonsGridLimit) {
 }
 
 // A step's ambient ocean counts in the memory budget: its 2048^2 layer's spectrum (6 floats a mode, 101 MB)
-// and fields, refused under a 64 MiB budget before anything is built, the session still at step 0; the same
-// step with a 64^2 layer runs. So does a session's initial ocean.
+// and fields, refused under a 64 MiB budget before anything is built, the session as it was; the same step
+// with a 64^2 layer runs, and so does one with no obstruction, where the ocean is not evaluated. A session's
+// initial ocean counts alike.
 TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   Daemon d({"--memory-budget", std::to_string(64 << 20)});
   Session s(d.stub(), proto_config(engine_config()));
@@ -218,6 +219,10 @@ TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   v1::LayerSpec* layer = in.mutable_ambient_ocean()->add_layers();
   *layer = sea_layer(2048);
   v1::EWaveFrame frame;
+  v1::EWaveInputs open_water = in;  // no obstruction: h_A (1 - O) = 0, the ocean is neither built nor reserved
+  open_water.clear_obstruction();
+  const grpc::Status unobstructed = s.step(open_water, &frame);
+  EXPECT_TRUE(unobstructed.ok()) << unobstructed.error_message();
   const grpc::Status refused = s.step(in, &frame);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
   EXPECT_NE(refused.error_message().find("Step's frame and inputs.ambient_ocean"), std::string::npos)
@@ -225,7 +230,7 @@ TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   layer->set_nx(64), layer->set_ny(64);
   const grpc::Status ran = s.step(in, &frame);
   EXPECT_TRUE(ran.ok()) << ran.error_message();
-  EXPECT_EQ(frame.step(), 1u) << "the refused step made none";
+  EXPECT_EQ(frame.step(), 2u) << "the refused step made none";
   // The same for a session's initial ocean, evaluated as the session is made.
   v1::EWaveConfig from_the_sea = proto_config(ewave::test::plain_config(64, 48));
   *from_the_sea.mutable_initial_ocean() = in.ambient_ocean();

@@ -123,7 +123,7 @@ TEST(OceanValidation, MultipeakPartialsWithEnergyOutsideTheirRangeAreRefusedByNa
   low.significant_wave_height = 4;
   low.n = 20;
   low.m = 0.1;
-  refused(low, "energy without bound");
+  refused(low, "of its energy outside");
   PartialSpectrum heavy;  // r^-1.2 past 2000: most of it outside
   heavy.n = 1.2;
   refused(heavy, "of its energy outside");
@@ -131,6 +131,8 @@ TEST(OceanValidation, MultipeakPartialsWithEnergyOutsideTheirRangeAreRefusedByNa
   flat.b = 0;
   refused(flat, "energy without bound");
   spec.layers[0].partials = {PartialSpectrum{}};  // eq 26's shape
+  test::engine().validate(spec, LimitGate{Limits{}});
+  spec.layers[0].partials[0].b = 3;  // a broad peak: a thousandth of its energy below 0.02
   test::engine().validate(spec, LimitGate{Limits{}});
 }
 

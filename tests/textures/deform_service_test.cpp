@@ -219,8 +219,9 @@ TEST(TexturesDeform, TheDeformationsStateCountsInTheMemoryBudget) {
     r.set_dtype(v1::DTYPE_FLOAT16);
     const DeformStreamed got = deform(r, 300, d.address());
     EXPECT_EQ(got.status.error_code(), code) << size << ": " << got.status.error_message();
-    if (!got.status.ok())
+    if (!got.status.ok()) {
       EXPECT_NE(got.status.error_message().find("the deformation's state and frames"), std::string::npos);
+    }
   }
 }
 
