@@ -115,10 +115,11 @@ struct StepGuard {
 };
 constexpr size_t kMaxRetryKeyBytes = 64;
 
-// What a step's call lends it: its cancellation, looked at while the step builds an ambient ocean's spectra
-// (Error(Cancelled) then, the session as it was), and its reservation of those spectra, from which a
-// spectrum kept takes its bytes (OceanEngine::tile's spectra_memory); none: the budget is asked.
-struct StepCall {
+// What a call lends the ocean its step (an ambient ocean) or a session's creation (its initial ocean)
+// evaluates: its cancellation, looked at while the ocean's spectra are built (Error(Cancelled) then, the
+// session as it was, or not made), and its reservation of those spectra, from which a spectrum kept takes
+// its bytes (OceanEngine::tile's spectra_memory); none: the budget is asked.
+struct OceanCall {
   Cancellation cancel;
   Slot* spectra_memory = nullptr;
 };

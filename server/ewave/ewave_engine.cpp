@@ -91,16 +91,16 @@ uint64_t session_bytes(const EWaveConfig& config) {
   return state + spectrum + work + maps + trims;
 }
 
-EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config) {
+EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call) {
   validate(config, &gate_);
   auto reservation = sessions_.reserve(session_bytes(config));
   return {std::move(reservation),
-          std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_, &coefficients_)};
+          std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_, &coefficients_, call)};
 }
 
-std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed) {
+std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed, const OceanCall& call) {
   const std::string id = sessions_.id_for(proposed, kProposedIdField);
-  auto [reservation, session] = new_session(config);
+  auto [reservation, session] = new_session(config, call);
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
@@ -119,7 +119,8 @@ std::string EWaveEngine::create_from_state(const std::string& bytes, const std::
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
-Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs, const StepGuard& guard, const StepCall& call) {
+Frame EWaveEngine::step(const std::string& id, const StepInputs& inputs, const StepGuard& guard,
+                        const OceanCall& call) {
   return sessions_.with(id, [&](EWaveSession& s) { return s.step(inputs, guard, call); });
 }
 

@@ -32,11 +32,12 @@ class EWaveEngine {
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
   // A new session of `config` (validated; RESOURCE_EXHAUSTED past --max-sessions), and one continuing a
-  // saved state; under the client's `proposed` id when one is given (SessionStore::id_for).
-  std::string create(const EWaveConfig& config, const std::string& proposed = "");
+  // saved state; under the client's `proposed` id when one is given (SessionStore::id_for). `call`: what the
+  // creating call lends the initial ocean's evaluation.
+  std::string create(const EWaveConfig& config, const std::string& proposed = "", const OceanCall& call = {});
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
   Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
-             const StepCall& call = {});  // EWaveSession::step
+             const OceanCall& call = {});  // EWaveSession::step
   // What an ocean spec of a session of `config` (its initial or ambient ocean, or a step's) holds while it
   // is evaluated on the session's grid: the spectra not kept yet (OceanEngine::new_spectra_bytes) and one
   // layer's fields at a time (ocean::surface_device_bytes). Zero without a spec or an ocean engine.
@@ -65,7 +66,7 @@ class EWaveEngine {
   // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`,
   // with the ambient ocean they hold, else `ambient_ocean` (a version-2 checkpoint's, beside its state).
   using NewSession = std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>>;
-  NewSession new_session(const EWaveConfig& config);
+  NewSession new_session(const EWaveConfig& config, const OceanCall& call = {});
   NewSession from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean = std::nullopt);
 
   Runtime& runtime_;

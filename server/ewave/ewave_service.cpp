@@ -79,9 +79,10 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
     const ewave::EWaveConfig c = config(request->config(), serving_.gate());
     // An initial ocean is evaluated once, as the session is made: its new spectra and fields held meanwhile.
     const auto ocean = engine_->ocean_bytes(c, c.initial_ocean);
-    const Slot memory =
+    Slot memory =
         serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
-    const auto created = engine_->create(c, proposed_session(*context));
+    Slot spectra = memory.split(ocean.new_spectra);
+    const auto created = engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra});
     refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);
     announce_session(*context, response->session_id());

@@ -10,7 +10,7 @@
 namespace squall::ewave {
 
 EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean,
-                           const LimitGate* gate, CoefficientCache* coefficients)
+                           const LimitGate* gate, CoefficientCache* coefficients, const OceanCall& call)
     : runtime_(runtime),
       fft_(fft),
       ocean_(ocean),
@@ -41,7 +41,7 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   absent_map_ = pool.acquire(cells_ * sizeof(float));
   auto lock = runtime_.exclusive();
   runtime_.queue().enqueueFillBuffer(absent_map_.buffer(), cl_float(0), 0, cells_ * sizeof(float));
-  upload_initial_fields();
+  upload_initial_fields(call);
   lock.unlock();  // measuring FFTW plans takes up to seconds: no device queue is held meanwhile
   // The plans of every step, made now rather than during the first step: the state's forward transform,
   // and the inverse one of the state alone or of the state with the derived outputs (step()).
@@ -51,7 +51,7 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
     fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
 }
 
-void EWaveSession::upload_initial_fields() {
+void EWaveSession::upload_initial_fields(const OceanCall& call) {
   upload_trim();
   std::vector<double> fields(kStateFields * cells_, 0.0);
   std::copy(config_.initial_height.begin(), config_.initial_height.end(), fields.begin());
@@ -60,7 +60,7 @@ void EWaveSession::upload_initial_fields() {
   config_.initial_phi.clear();
   std::vector<char> bytes = to_state_type(fields, config_.double_precision);
   runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, bytes.size(), bytes.data());
-  if (config_.initial_ocean) initial_from_ocean();
+  if (config_.initial_ocean) initial_from_ocean(call);
 }
 
 ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
@@ -68,18 +68,18 @@ ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
   return *ocean_;
 }
 
-void EWaveSession::initial_from_ocean() {
+void EWaveSession::initial_from_ocean(const OceanCall& call) {
   ocean::TileSpec spec = ocean_on_grid(*config_.initial_ocean, config_);
   ocean::OceanEngine& ocean = ocean_engine("config.initial_ocean");
   ocean.check_transforms(spec, "config.initial_ocean");
   if (!config_.double_precision) {  // state_ is h then phi in float: the ocean writes it directly
-    ocean.surface_on_device(spec, time_, state_.buffer());
+    ocean.surface_on_device(spec, time_, state_.buffer(), call.cancel, call.spectra_memory);
     runtime_.queue().finish();
     return;
   }
   // Double state: one host round trip at creation, converting the float ocean fields.
   BufferLease surface = runtime_.buffers().acquire(kStateFields * cells_ * sizeof(float));
-  ocean.surface_on_device(spec, time_, surface.buffer());
+  ocean.surface_on_device(spec, time_, surface.buffer(), call.cancel, call.spectra_memory);
   std::vector<float> values(kStateFields * cells_);
   runtime_.queue().enqueueReadBuffer(surface.buffer(), CL_TRUE, 0, values.size() * sizeof(float), values.data());
   std::vector<char> bytes = to_state_type(std::vector<double>(values.begin(), values.end()), config_.double_precision);

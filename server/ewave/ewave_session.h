@@ -35,9 +35,10 @@ class EWaveSession {
   // such specs give Error(FailedPrecondition). It must outlive the session and share the runtime.
   // `gate` holds the daemon's limits (--max-grid-cells) that the ocean specs' layers are checked against;
   // null: the default limits. `coefficients` holds the propagator tables the session shares with others;
-  // null: a cache of the session's own. Both must outlive the session.
+  // null: a cache of the session's own. Both must outlive the session. `call`: what the creating call lends
+  // the initial ocean's evaluation.
   EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean = nullptr,
-               const LimitGate* gate = nullptr, CoefficientCache* coefficients = nullptr);
+               const LimitGate* gate = nullptr, CoefficientCache* coefficients = nullptr, const OceanCall& call = {});
 
   const EWaveConfig& config() const { return config_; }
   uint64_t step_index() const { return step_; }
@@ -48,7 +49,7 @@ class EWaveSession {
   // FAILED_PRECONDITION until restore().
   // A guard whose retry_key is the last step's returns that step's frame again and steps nothing; one whose
   // after_step is not the step count gives Error(Aborted) naming "after_step".
-  Frame step(const StepInputs& inputs, const StepGuard& guard = {}, const StepCall& call = {});
+  Frame step(const StepInputs& inputs, const StepGuard& guard = {}, const OceanCall& call = {});
   // The retry_key the last step was made with (empty: none), kept in checkpoints so that a retry finds it
   // on the replica the session moves to.
   const std::string& retry_key() const { return retry_key_; }
@@ -72,13 +73,13 @@ class EWaveSession {
   static EWaveConfig config_from_state(const std::string& bytes, const LimitGate& gate);
 
  private:
-  void upload_initial_fields();  // config_'s initial h, phi (or initial_ocean) into state_ (under the lock)
-  void upload_trim();            // the trim profiles of config_ (eq 82)
-  void initial_from_ocean();     // h, phi of config_.initial_ocean at time_ into state_ (under the lock)
+  void upload_initial_fields(const OceanCall& call);  // config_'s h, phi or initial_ocean into state_ (under the lock)
+  void upload_trim();                                 // the trim profiles of config_ (eq 82)
+  void initial_from_ocean(const OceanCall& call);     // h, phi of config_.initial_ocean at time_ (under the lock)
   // h_A of a step: its field, else its or the config's ocean spec at time_ (the ocean engine writes it into
   // ambient_ on the device, no host round trip); null when the step has no ambient (or no obstruction, where
   // h_A (1 - O) = 0 and the ocean is not evaluated).
-  const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction, const StepCall& call);
+  const cl::Buffer* ambient(const StepInputs& inputs, bool has_obstruction, const OceanCall& call);
   ocean::OceanEngine& ocean_engine(const std::string& field) const;
   const cl::Buffer& upload(BufferLease& lease, const std::vector<float>& values);
   // The step pipeline (ewave_step.cpp), in the order of step().

@@ -67,7 +67,7 @@ using RealOf = typename std::decay_t<K>::RealType;
 
 }  // namespace
 
-Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const StepCall& call) {
+Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const OceanCall& call) {
   check_whole();
   if (!guard.retry_key.empty() && guard.retry_key == retry_key_) return replay(in.outputs);
   if (guard.after_step && *guard.after_step != step_)
@@ -249,7 +249,7 @@ void EWaveSession::finish(const StepInputs& in, int fields, bool has_obstruction
       kernels_);
 }
 
-const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction, const StepCall& call) {
+const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstruction, const OceanCall& call) {
   if (!in.ambient_height.empty()) return &ambient_.buffer();  // upload_maps() has uploaded it
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean

@@ -185,7 +185,7 @@ using squall::test::expect_error;
 // A step's ambient ocean looks at the call's cancellation before each layer and between the slices of a
 // spectrum it builds: a cancelled step stops there, the session as it was and nothing built. A spectrum it
 // keeps takes its bytes from the call's reservation of them.
-TEST(OceanAmbient, AStepsOceanStopsWhenCancelledAndTakesItsSpectrumFromTheCallsReservation) {
+TEST(OceanAmbient, AStepsOceanStopsWhenCancelledAndTakesTheCallsReservation) {
   const EWaveConfig c = sea_config(DispersionKind::Deep);
   Limits limits;
   limits.memory_budget = 1 << 30;
@@ -209,6 +209,28 @@ TEST(OceanAmbient, AStepsOceanStopsWhenCancelledAndTakesItsSpectrumFromTheCallsR
   EXPECT_EQ(spectra.amount(), 0u);
   EXPECT_EQ(gate.cached_memory_bytes(), h0);
   EXPECT_EQ(gate.memory_bytes(), h0 + 1000);
+}
+
+// A session's initial ocean is evaluated as it is made, lent the creating call's cancellation and spectra
+// reservation alike: a cancelled creation builds nothing, and a spectrum kept takes the call's share.
+TEST(OceanAmbient, ASessionsInitialOceanStopsWhenCancelledAndTakesTheCallsReservation) {
+  EWaveConfig c = sea_config(DispersionKind::Deep);
+  c.initial_ocean = sea_spec(c);
+  Limits limits;
+  limits.memory_budget = 1 << 30;
+  LimitGate gate(limits);
+  ocean::OceanEngine ocean(squall::test::runtime(), session_fft(), limits, 1 << 30, &gate);
+  expect_error(Code::Cancelled, "surface: before layer 0", [&] {
+    EWaveSession(squall::test::runtime(), session_fft(), c, &ocean, &gate, nullptr,
+                 {Cancellation([] { return true; })});
+  });
+  EXPECT_EQ(ocean.spectra_built(), 0u);
+  const uint64_t h0 = ocean.new_spectra_bytes(ocean_on_grid(*c.initial_ocean, c));
+  Slot spectra = gate.acquire_memory("the creation", h0);
+  EWaveSession s(squall::test::runtime(), session_fft(), c, &ocean, &gate, nullptr, {{}, &spectra});
+  EXPECT_EQ(ocean.spectra_built(), 1u);
+  EXPECT_EQ(spectra.amount(), 0u);
+  EXPECT_EQ(gate.cached_memory_bytes(), h0);
 }
 
 TEST(OceanAmbient, BadSpecsNameTheField) {
