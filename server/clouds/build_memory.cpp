@@ -101,4 +101,8 @@ uint64_t build_bytes(const CloudModel& m, const std::vector<MeshPiece>& pieces) 
   return bytes < 0x1p64 ? uint64_t(bytes) : UINT64_MAX;  // a band of 1e6 voxels about a grain passes 2^64
 }
 
+uint64_t mesh_read_bytes(uint64_t vertices, uint64_t triangles) {
+  return uint64_t(kReadBytesPerVertex * double(vertices) + kReadBytesPerTriangle * double(triangles));
+}
+
 }  // namespace squall::clouds

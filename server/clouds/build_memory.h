@@ -25,6 +25,11 @@ namespace squall::clouds {
 uint64_t build_bytes(const CloudModel& model, const std::vector<MeshPiece>& pieces);
 uint64_t build_bytes(const CloudModel& model);
 
+// Bytes a mesh of `vertices` vertices and `triangles` triangles takes while it is read from a request and
+// checked, at most: the model's copy and validate's welded copy, vertex sets, piece labels and edge table.
+// Its counts are known before it is read (count_obj), so that reading it is charged to --memory-budget first.
+uint64_t mesh_read_bytes(uint64_t vertices, uint64_t triangles);
+
 // The peak per voxel of a grown body: measured at up to 12 bytes for meshes (distance, index and masks) and
 // for pyroclastic layers (three copies of the band).
 constexpr double kBytesPerBandVoxel = 16;
@@ -37,6 +42,10 @@ constexpr double kBytesPerTriangle = 128;
 // density and NanoVDB grids (a shape alone in its upper node measured 2.7 MB).
 constexpr double kLowerNodeBytes = 16 * 16 * 16 * 8 + 2 * 512, kUpperNodeBytes = 32 * 32 * 32 * 8 + 2 * 4096;
 constexpr double kGridsAtPeak = 10;
+// Reading and checking a mesh, as measured: per vertex the model's and the welded copy's position, the weld's
+// hash table and the vertex sets; per triangle the two copies' indices, its piece and its share of the edge
+// table (a node per edge, three halves of an edge per triangle).
+constexpr double kReadBytesPerVertex = 160, kReadBytesPerTriangle = 96;
 // The build's fixed cost: grids' roots, the conversion's thread-local trees, the device upload.
 constexpr double kBytesPerBuild = 32 << 20;
 

@@ -55,10 +55,6 @@ uint64_t CloudEngine::validate(CloudModel model, const std::string& field) const
   return build_bytes(model, pieces);
 }
 
-std::string CloudEngine::store(const std::string& id, const std::shared_ptr<StoredVolume>& volume) {
-  return add(id, stored_.reserve(volume->bytes), volume);
-}
-
 std::string CloudEngine::add(const std::string& id, Reservation reservation,
                              const std::shared_ptr<StoredVolume>& volume) {
   volume->id = id;
@@ -66,12 +62,14 @@ std::string CloudEngine::add(const std::string& id, Reservation reservation,
   return stored_.add(id, std::move(reservation), volume);
 }
 
-std::string CloudEngine::kept_id(const std::string& proposed) const {
-  return stored_.id_for(proposed, kProposedIdField);
+CloudEngine::Place CloudEngine::place(const std::string& proposed) {
+  std::string id = stored_.id_for(proposed, kProposedIdField);
+  return {std::move(id), stored_.reserve_session()};
 }
 
-std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, const std::string& id) {
-  return store(id, volume);
+std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, Place place, Slot* build) {
+  stored_.reserve_bytes(place.reservation, volume->bytes, build);
+  return add(place.id, std::move(place.reservation), volume);
 }
 
 std::shared_ptr<StoredVolume> CloudEngine::find(const std::string& id) { return stored_.get(id); }

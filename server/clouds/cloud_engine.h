@@ -44,12 +44,18 @@ class CloudEngine {
   // (Error(InvalidArgument) naming `field`). Returns the bytes its build holds at most (build_bytes), for the
   // caller to reserve in the memory budget first.
   uint64_t validate(CloudModel model, const std::string& field = "model") const;
-  // The id of a volume about to be built and kept: a new one, or the client's `proposed` one
-  // (SessionStore::id_for), checked before the build and again by keep().
-  std::string kept_id(const std::string& proposed = "") const;
-  // Keeps a volume under `id` (kept_id()); RESOURCE_EXHAUSTED past --max-sessions or --max-session-bytes.
-  std::string keep(const std::shared_ptr<StoredVolume>& volume, const std::string& id);
-  std::string keep(const std::shared_ptr<StoredVolume>& volume) { return keep(volume, kept_id()); }
+  // Where a volume about to be built will be kept: its id, a new one or the client's `proposed` one
+  // (SessionStore::id_for, checked again by keep()), and its --max-sessions slot, taken before the build so
+  // that a full or draining server refuses before the work (RESOURCE_EXHAUSTED, UNAVAILABLE).
+  struct Place {
+    std::string id;
+    SessionStore<StoredVolume>::Reservation reservation;
+  };
+  Place place(const std::string& proposed = "");
+  // Keeps a volume in `place`; RESOURCE_EXHAUSTED past --max-session-bytes or the memory budget. Its bytes
+  // move from `build`, the build's reservation, where that holds them all.
+  std::string keep(const std::shared_ptr<StoredVolume>& volume, Place place, Slot* build = nullptr);
+  std::string keep(const std::shared_ptr<StoredVolume>& volume) { return keep(volume, place()); }
   // The volume stored under id (its TTL restarts); NOT_FOUND naming volume_id otherwise.
   std::shared_ptr<StoredVolume> find(const std::string& id);
   // Drops a stored volume; NOT_FOUND naming volume_id (the id escaped and cut) when there is none.
@@ -72,7 +78,6 @@ class CloudEngine {
   std::shared_ptr<StoredVolume> upload(CloudVolume volume, const NanoGrids& grids);
   // Stores a built volume under `id`, written into it before it is shared: its bytes reserved first
   // (store), or by the caller (add).
-  std::string store(const std::string& id, const std::shared_ptr<StoredVolume>& volume);
   std::string add(const std::string& id, Reservation reservation, const std::shared_ptr<StoredVolume>& volume);
 
   Runtime& runtime_;

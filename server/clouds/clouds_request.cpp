@@ -1,5 +1,6 @@
 #include "clouds/clouds_request.h"
 
+#include "clouds/build_memory.h"
 #include "clouds/obj_mesh.h"
 #include "common/error.h"
 #include "common/validate.h"
@@ -37,6 +38,7 @@ TriangleMesh mesh(const v1::MeshSpec& m, const std::string& field) {
     fail(Code::InvalidArgument,
          field + ".vertices has " + std::to_string(m.vertices_size()) + " numbers; it needs x, y, z per vertex");
   TriangleMesh out;
+  out.vertices.reserve(size_t(m.vertices_size() / 3));
   for (int i = 0; i < m.vertices_size(); i += 3)
     out.vertices.push_back({m.vertices(i), m.vertices(i + 1), m.vertices(i + 2)});
   out.triangles.assign(m.triangles().begin(), m.triangles().end());
@@ -89,6 +91,17 @@ CloudModel model(const v1::CloudModel& m, const std::string& f) {
     out.max_active_voxels = ~0ull;  // the engine's cap applies
   }
   return out;
+}
+
+uint64_t mesh_read_bytes(const v1::CloudModel& m) {
+  uint64_t bytes = 0;
+  for (const v1::MeshSpec& mesh : m.meshes()) {
+    const ObjCounts counts = mesh.obj().empty() ? ObjCounts{(uint64_t(mesh.vertices_size()) + 2) / 3,
+                                                            (uint64_t(mesh.triangles_size()) + 2) / 3}
+                                                : count_obj(mesh.obj());
+    bytes += clouds::mesh_read_bytes(counts.vertices, counts.triangles);
+  }
+  return bytes;
 }
 
 RenderSettings settings(const v1::RenderSettings& s, const std::string& f) {

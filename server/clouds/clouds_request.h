@@ -13,6 +13,9 @@ namespace squall::clouds::rpc {
 // Translates; structural problems (a mesh with both obj and vertices, a bad OBJ) throw InvalidArgument
 // naming the field. Range checks happen in clouds::validate with the same field paths.
 CloudModel model(const squall::v1::CloudModel& m, const std::string& field = "model");
+// Bytes the model's meshes take while they are read and checked (clouds::mesh_read_bytes), counted from the
+// request alone, so that they can be reserved before model() reads them.
+uint64_t mesh_read_bytes(const squall::v1::CloudModel& m);
 RenderSettings settings(const squall::v1::RenderSettings& s, const std::string& field = "settings");
 Evolution evolution(const squall::v1::EvolutionSpec& e);
 

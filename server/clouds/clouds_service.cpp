@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 
 #include "clouds/clouds_request.h"
 #include "common/validate.h"
@@ -76,9 +77,12 @@ std::vector<CapabilityGauge> CloudsService::gauges() const {
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
+    const Slot mesh_memory =
+        serving_.gate().acquire_memory("BuildVolume's meshes, read", req::mesh_read_bytes(request->model()));
     const CloudModel model = req::model(request->model());
-    const std::string id = request->keep() ? engine_->kept_id(proposed_session(*context)) : "";
-    const Slot memory = serving_.gate().acquire_memory("BuildVolume's build", engine_->validate(model, "model"));
+    std::optional<CloudEngine::Place> place;
+    if (request->keep()) place = engine_->place(proposed_session(*context));
+    Slot memory = serving_.gate().acquire_memory("BuildVolume's build", engine_->validate(model, "model"));
     auto volume = engine_->build(model, "model", cancellation(*context));
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
@@ -88,7 +92,7 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
     if (request->keep()) {
       if (context->IsCancelled())  // built for a caller that has gone: nobody would hold its id
         fail(Code::Cancelled, "the volume was built after the call ended (client gone or deadline passed)");
-      announce_session(*context, engine_->keep(volume, id));
+      announce_session(*context, engine_->keep(volume, std::move(*place), &memory));
     }
     req::fill_summary(*volume, response->mutable_summary());
     return grpc::Status::OK;
@@ -133,6 +137,8 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
+      const Slot mesh_memory =
+          serving_.gate().acquire_memory("Render's meshes, read", req::mesh_read_bytes(request->model()));
       const CloudModel model = req::model(request->model());
       model_memory = serving_.gate().acquire_memory("Render's model, built", clouds.validate(model, "model"));
       volume = clouds.build(model, "model", cancel);
@@ -154,11 +160,14 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     CloudModel base;
     Evolution evolution;
     RenderSettings settings;
-    Slot memory;  // held for the whole stream
+    Slot memory;       // held for the whole stream
+    Slot mesh_memory;  // the base model's meshes and a frame's copy of them, each read and checked
   };
   auto prepare = [&] {
-    Stream s{
-        req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings()), {}};
+    Slot mesh_memory = serving_.gate().acquire_memory("StreamEvolution's meshes, read",
+                                                      2 * req::mesh_read_bytes(request->model()));
+    Stream s{req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings()),
+             {}, std::move(mesh_memory)};
     clouds::validate(s.evolution, "evolution");
     clouds::validate(s.settings, "settings");
     serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
@@ -170,7 +179,7 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     return s;
   };
   return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {
-    const auto& [base, evolution, settings, memory] = s;
+    const auto& [base, evolution, settings, memory, mesh_memory] = s;
     for (double t : request->times()) {
       if (!call.live()) return;
       const CloudModel model = model_at(base, evolution, t);

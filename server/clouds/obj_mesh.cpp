@@ -1,43 +1,87 @@
 #include "clouds/obj_mesh.h"
 
+#include <algorithm>
 #include <optional>
-#include <sstream>
 
 #include "common/error.h"
 #include "common/validate.h"
 
 namespace squall::clouds {
+namespace {
 
-TriangleMesh parse_obj(const std::string& text, const std::string& field) {
+constexpr std::string_view kSpace = " \t\r\v\f";
+
+// The first whitespace-separated token of `rest`, taken off its front; empty once none is left.
+std::string_view take_token(std::string_view& rest) {
+  const size_t start = rest.find_first_not_of(kSpace);
+  if (start == std::string_view::npos) {
+    rest = {};
+    return {};
+  }
+  rest.remove_prefix(start);
+  const std::string_view token = rest.substr(0, rest.find_first_of(kSpace));
+  rest.remove_prefix(token.size());
+  return token;
+}
+
+// Calls visit(number, tag, rest) for each line of `text`: its number from 1, its first token and the rest of
+// it, a comment ('#' to the line's end) left out.
+template <class Visit>
+void for_each_line(std::string_view text, Visit visit) {
+  size_t number = 0;
+  for (size_t start = 0; start <= text.size(); start += 1) {
+    const size_t end = std::min(text.find('\n', start), text.size());
+    std::string_view rest = text.substr(start, end - start);
+    rest = rest.substr(0, rest.find('#'));
+    const std::string_view tag = take_token(rest);
+    visit(++number, tag, rest);
+    start = end;
+  }
+}
+
+uint64_t count_tokens(std::string_view rest) {
+  uint64_t n = 0;
+  while (!take_token(rest).empty()) ++n;
+  return n;
+}
+
+}  // namespace
+
+ObjCounts count_obj(std::string_view text) {
+  ObjCounts counts;
+  for_each_line(text, [&](size_t, std::string_view tag, std::string_view rest) {
+    if (tag == "v") counts.vertices += 1;
+    if (tag == "f") counts.triangles += std::max<uint64_t>(count_tokens(rest), 2) - 2;
+  });
+  return counts;
+}
+
+TriangleMesh parse_obj(std::string_view text, const std::string& field) {
+  const ObjCounts counts = count_obj(text);
   TriangleMesh mesh;
   mesh.from_obj = true;
-  std::istringstream lines(text);
-  std::string line;
-  int number = 0;
-  auto bad = [&](const std::string& why) {
-    fail(Code::InvalidArgument, field + " line " + std::to_string(number) + ": " + why);
-  };
-  while (std::getline(lines, line)) {
-    ++number;
-    std::istringstream in(line.substr(0, line.find('#')));  // a comment runs from '#' to the line's end
-    std::string tag;
-    in >> tag;
+  mesh.vertices.reserve(counts.vertices);
+  mesh.triangles.reserve(3 * counts.triangles);
+  std::vector<uint32_t> face;
+  for_each_line(text, [&](size_t number, std::string_view tag, std::string_view rest) {
+    auto bad = [&](const std::string& why) {
+      fail(Code::InvalidArgument, field + " line " + std::to_string(number) + ": " + why);
+    };
     if (tag == "v") {  // x y z, then an optional w (or an exporter's colour), not read
       Vec3d v;
       for (int a = 0; a < 3; ++a) {
-        std::string token;
-        if (!(in >> token)) bad("a vertex needs three numbers");
+        const std::string_view token = take_token(rest);
+        if (token.empty()) bad("a vertex needs three numbers");
         const std::optional<double> x = validate::decimal(token);
         if (!x) bad("vertex coordinate \"" + validate::printable(token) + "\" is not a finite decimal number");
         v[a] = *x;
       }
       mesh.vertices.push_back(v);
     } else if (tag == "f") {
-      std::vector<uint32_t> face;
-      std::string token;
-      while (in >> token) {
+      face.clear();
+      for (std::string_view token = take_token(rest); !token.empty(); token = take_token(rest)) {
         long index = 0;
-        const std::string vertex = token.substr(0, token.find('/'));  // v/vt/vn: the vertex
+        const std::string vertex(token.substr(0, token.find('/')));  // v/vt/vn: the vertex
         size_t used = 0;
         try {
           index = std::stol(vertex, &used);
@@ -55,7 +99,7 @@ TriangleMesh parse_obj(const std::string& text, const std::string& field) {
       for (size_t k = 1; k + 1 < face.size(); ++k)
         mesh.triangles.insert(mesh.triangles.end(), {face[0], face[k], face[k + 1]});
     }
-  }
+  });
   return mesh;
 }
 

@@ -102,15 +102,26 @@ class SessionStore {
     uint64_t bytes = 0;
   };
   Reservation reserve(uint64_t bytes) {
+    Reservation r = reserve_session();
+    reserve_bytes(r, bytes);
+    return r;
+  }
+  // reserve() in two steps, for a value whose bytes are known only once it is made (a cloud volume, once
+  // built): the drain, heartbeat and --max-sessions checks before the work, so that it is refused before it
+  // is done; then its bytes, moved from `work` (the work's own reservation) where that holds them all.
+  Reservation reserve_session() {
     if (policy_.registry && policy_.registry->draining()) refuse_new();  // before the limits: retried elsewhere
     if (persistent()) policy_.registry->require_beating();
     evict_idle();
     Reservation r;
     r.session = gate_.acquire_session();
-    r.memory = gate_.acquire_session_bytes("keeping this " + kind_, bytes);
-    r.budget = gate_.acquire_memory("keeping this " + kind_, bytes);
-    r.bytes = bytes;
     return r;
+  }
+  void reserve_bytes(Reservation& r, uint64_t bytes, Slot* work = nullptr) {
+    r.memory = gate_.acquire_session_bytes("keeping this " + kind_, bytes);
+    r.budget = work && work->amount() >= bytes ? work->split(bytes)
+                                               : gate_.acquire_memory("keeping this " + kind_, bytes);
+    r.bytes = bytes;
   }
 
   // A fresh id for add(): the caller may write it into the value before the value is shared.
@@ -203,7 +214,6 @@ class SessionStore {
       std::lock_guard<std::mutex> moving(moving_);  // no resume of `id` between looking and removing
       entry = take(id);
       if (!entry) return close_checkpoint(id);
-      closing_.insert(id);
     }
     const Closing closing{*this, id};  // until its checkpoint is gone, a call on `id` resumes nothing
     std::lock_guard<std::mutex> wait(entry->mutex);
@@ -215,6 +225,7 @@ class SessionStore {
   bool erase(const std::string& id) {
     std::shared_ptr<Entry> entry = take(id);
     if (!entry) return false;
+    const Closing closing{*this, id};
     remove_files(*entry);
     return true;
   }
@@ -265,6 +276,7 @@ class SessionStore {
       const auto now = policy_.clock();
       for (auto it = entries_.begin(); it != entries_.end();) {
         if (now - it->second->last_use > policy_.ttl) {
+          closing_.insert(it->first);  // a call that comes before its files are gone resumes nothing
           evicted.push_back(std::move(it->second));
           it = entries_.erase(it);
         } else {
@@ -273,7 +285,10 @@ class SessionStore {
       }
     }
     if (!evicted.empty()) log(LogLevel::Info, kind_, ": evicted ", evicted.size(), " idle past the TTL");
-    for (const auto& entry : evicted) remove_files(*entry);
+    for (const auto& entry : evicted) {
+      const Closing closing{*this, entry->id};
+      remove_files(*entry);
+    }
     return evicted.size();
   }
 
@@ -500,7 +515,7 @@ class SessionStore {
   void resume(const std::string& id) {
     if (!persistent() || !is_our_id(id)) return;
     std::lock_guard<std::mutex> moving(moving_);
-    if (lookup(id) || closing_.count(id)) return;  // resumed by a call before this one, or being closed
+    if (live_or_closing(id)) return;  // resumed by a call before this one, or being closed or evicted
     require_not_owned_elsewhere(id);
     if (!state_dir()->checkpointed(id)) return;
     if (state_dir()->expired(id, policy_.ttl)) return;  // idle past the TTL: evicted, as it would be if live
@@ -547,6 +562,7 @@ class SessionStore {
     if (it == entries_.end()) return nullptr;
     std::shared_ptr<Entry> entry = std::move(it->second);
     entries_.erase(it);
+    closing_.insert(id);  // until the caller's Closing: a call that comes meanwhile resumes nothing
     return entry;
   }
 
@@ -555,19 +571,23 @@ class SessionStore {
   const std::string kind_, id_field_, prefix_;
   mutable std::mutex mutex_;
   std::mutex moving_;              // a checkpoint resumed or closed from the state directory, one id at a time
-  std::set<std::string> closing_;  // under moving_: ids taken out by close() whose files are not removed yet
+  std::set<std::string> closing_;  // under mutex_: ids taken out of the map whose files are not removed yet
 
-  // close()'s mark on an id, from taking its entry out to removing its checkpoint: a call that comes
-  // meanwhile (while the close waits for the call in flight) does not resume the session from its
-  // periodic checkpoint.
+  // The mark on an id taken out of the map by a close, an erase or an eviction, from then to removing its
+  // checkpoint: a call that comes meanwhile (while the removal waits for the call in flight, or for a
+  // periodic checkpoint being written) does not resume the session from that checkpoint.
   struct Closing {
     SessionStore& store;
     std::string id;
     ~Closing() {
-      std::lock_guard<std::mutex> moving(store.moving_);
+      std::lock_guard<std::mutex> lock(store.mutex_);
       store.closing_.erase(id);
     }
   };
+  bool live_or_closing(const std::string& id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return entries_.count(id) || closing_.count(id);
+  }
   std::map<std::string, std::shared_ptr<Entry>> entries_;
   // persist(): the payload format and its writer and reader, persisted_ once both are set.
   Save save_;

@@ -549,7 +549,7 @@ TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
 
 // A build counts in --memory-budget before it starts: a 22 m sphere in 10 cm voxels (its band and leaves
 // grow it to about 5.4e7 voxels, 16 bytes each at the build's peak) is refused under a budget of 512 MiB at
-// once, and a 5 m one (1.2e6 voxels) is built.
+// once, and a 5 m one (1.2e6 voxels) is built; so is a mesh's reading.
 TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   test::Daemon d({"--memory-budget", std::to_string(512ull << 20)});
   v1::BuildVolumeRequest request;
@@ -566,6 +566,14 @@ TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   model.mutable_spheres(0)->set_radius(5);
   status = call(d.address()).build(request, &built);
   EXPECT_TRUE(status.ok()) << status.error_message();
+  // Reading a mesh counts too, before it is read: 4e6 vertices in 32 MB of OBJ text take 640 MB to read
+  // and check (160 bytes each), refused at once.
+  std::string obj;
+  for (int k = 0; k < 4000000; ++k) obj += "v 0 0 0\n";
+  model.add_meshes()->set_obj(obj);
+  status = call(d.address()).build(request, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("BuildVolume's meshes, read"), std::string::npos) << status.error_message();
 }
 
 // squalld's resident memory (VmRSS, or VmHWM: its peak since reset_peak), bytes.

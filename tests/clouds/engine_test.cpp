@@ -74,6 +74,28 @@ TEST(Engine, IdleVolumesExpireAndTheMemoryCapHolds) {
   EXPECT_NE(msg.find("cap"), std::string::npos) << msg;
 }
 
+// A volume kept after its build takes its bytes from the build's reservation, which counted them, rather than
+// from the budget a second time; and with every --max-sessions slot taken, the next is refused before a build.
+TEST(Engine, AKeptVolumeMovesItsBytesFromItsBuildsReservation) {
+  const CloudModel model = small_sphere();
+  TestStore probe;
+  const uint64_t build_bytes = probe.engine->validate(model), volume_bytes = probe.engine->build(model)->bytes;
+  ASSERT_LT(volume_bytes, build_bytes);
+  Limits limits;
+  limits.memory_budget = build_bytes + volume_bytes / 2;  // the build, not the build and the volume again
+  limits.max_sessions = 1;
+  TestStore store(limits);
+  CloudEngine& engine = *store.engine;
+  CloudEngine::Place place = engine.place();
+  Slot build = store.gate.acquire_memory("the build", engine.validate(model));
+  engine.keep(engine.build(model), std::move(place), &build);
+  EXPECT_EQ(build.amount(), build_bytes - volume_bytes);
+  build.release();
+  EXPECT_EQ(store.gate.memory_bytes(), volume_bytes);
+  std::string msg = error_of([&] { engine.place(); }, Code::ResourceExhausted);
+  EXPECT_NE(msg.find("--max-sessions"), std::string::npos) << msg;
+}
+
 // A kept volume's renders from two cameras make one deep shadow map, held in the memory budget until the
 // volume is released; a volume rendered without being kept keeps none.
 TEST(Engine, AKeptVolumeKeepsItsShadowMapUntilReleased) {

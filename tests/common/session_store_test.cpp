@@ -289,6 +289,46 @@ TEST(SessionStoreStateDir, ClosingACheckpointedSessionRemovesItsCheckpointOnly) 
   expect_error(Code::Unavailable, "moved to the state directory", [&] { a.counters.close(id); });
 }
 
+// A session evicted while a periodic checkpoint (or a call) holds it is not resumed from that checkpoint by
+// a call that comes before the eviction has removed its files: that call answers NOT_FOUND, and the
+// eviction then removes the files of a session no longer live anywhere.
+TEST(SessionStoreStateDir, ACallDuringAnEvictionResumesNothing) {
+  const std::string dir = test::temp_dir("store-evict");
+  std::atomic<int64_t> now_ms{0};
+  SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"), "a");
+  SessionPolicy policy{100ms, [&] { return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms)); },
+                       &registry};
+  LimitGate gate{Limits{}};
+  SessionStore<Counter> s(gate, policy, "counter", "counter_id", "c-");
+  s.persist(
+      1, [](const Counter& c) { return std::to_string(c.value); },
+      [&s](const std::string& bytes) {
+        CheckpointHeader header;
+        const std::string value = s.open_checkpoint(bytes, "checkpoint", 1, &header);
+        s.add(header.id, s.reserve(8), std::make_shared<Counter>(Counter{std::stoi(value)}));
+      });
+  const std::string id = s.add(s.reserve(8), std::make_shared<Counter>(Counter{7}));
+  ASSERT_EQ(s.checkpoint_all(false), 1u);
+  std::promise<void> inside, go;
+  std::thread running([&] {
+    s.with(id, [&](Counter&) {
+      inside.set_value();
+      go.get_future().wait();
+    });
+  });
+  inside.get_future().wait();
+  now_ms = 1000;  // idle past the TTL
+  std::thread evicting([&] { s.evict_idle(); });  // takes it out, then waits for the call to remove its files
+  for (int i = 0; i < 1000 && s.size() > 0; ++i) std::this_thread::sleep_for(1ms);
+  ASSERT_EQ(s.size(), 0u);
+  expect_error(Code::NotFound, "counter_id", [&] { s.with(id, [](Counter&) {}); });
+  go.set_value();
+  running.join();
+  evicting.join();
+  EXPECT_FALSE(registry.state_dir()->read(id).has_value()) << "the checkpoint of an evicted session was kept";
+  expect_error(Code::NotFound, "counter_id", [&] { s.with(id, [](Counter&) {}); });
+}
+
 TEST_F(SessionStoreTest, ClosingAnExpiredIdIsNotFound) {
   auto s = store({}, 100ms);
   std::string id = s.add(s.reserve(0), std::make_shared<Counter>());
