@@ -264,7 +264,11 @@ void FlowCache::keep(const DeformSpec& spec, std::shared_ptr<const FlowField> fl
   std::lock_guard<std::mutex> lock(mutex_);
   for (const Entry& e : entries_)
     if (matches(e, hash, spec)) return;
-  if (entries_.size() >= kEntries) entries_.pop_back();
+  if (entries_.size() >= kEntries) {
+    auto unused = oldest_unused();
+    if (unused == entries_.end()) return;  // all in use: served, not kept, still counted where it was
+    entries_.erase(unused);
+  }
   Slot memory = reserved && gate_ ? gate_->cache_from(*reserved, bytes) : Slot();
   while (gate_ && memory.amount() == 0) {
     try {

@@ -115,8 +115,12 @@ void vertex_weights(const GridView& grid, Vec2 p, double d, double temporal, con
 }
 
 double temporal_weight(double age, double since_kill, double tau) {
-  if (since_kill >= 0) return std::max(0.0, 1 - since_kill / tau);  // fade-out
-  return std::min(1.0, age / tau);                                  // fade-in, then 1
+  const double killed_at = since_kill >= 0 ? age - since_kill : age;
+  const double faded_in = std::min(1.0, killed_at / tau);  // fade-in, then 1
+  if (since_kill < 0) return faded_in;
+  // Fade-out from the weight reached when killed, so that a particle killed while fading in does not jump
+  // to 1 (Yu, Neyret, Bruneton and Holzschuch, "Scalable real-time animation of rivers", eq. 7).
+  return faded_in * std::max(0.0, 1 - since_kill / tau);
 }
 
 }  // namespace squall::textures

@@ -40,7 +40,7 @@ void vertex_weights(const GridView& grid, Vec2 p, double d, double temporal, con
                     const std::vector<uint8_t>& outside, float* weights);
 
 // Eq. 6: the temporal weight K_t of a particle aged `age` (s), killed `since_kill` s ago (negative while
-// alive), with fade duration tau.
+// alive), with fade duration tau: a killed particle fades out from the weight it had when killed.
 double temporal_weight(double age, double since_kill, double tau);
 
 }  // namespace squall::textures

@@ -42,6 +42,14 @@ uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
   return 3 * (eulerian_slot_bytes(spec) + eulerian_cascade_bytes(spec));
 }
 
+uint64_t TextureEngine::input_bytes(const AdvectSpec& spec) {
+  const TextureSpec& t = spec.texture;
+  const uint64_t texture = 2 * sizeof(float) * (t.pixels.size() + t.lut.table.size() + t.lut.field.values.size());
+  uint64_t grid = spec.velocity.mask.size();
+  for (const VelocityFrame& f : spec.velocity.frames) grid += sizeof(float) * (f.u.size() + f.v.size());
+  return texture + kVelocityCopies * grid;
+}
+
 namespace {
 
 uint64_t eulerian_nodes(const AdvectSpec& spec) {

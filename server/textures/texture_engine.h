@@ -42,6 +42,12 @@ class TextureEngine {
   // checkpoints), or the Lagrangian grids at their bound (positions, coordinates and weights, on the host
   // and on the device).
   static uint64_t state_bytes(const AdvectSpec& spec);
+  // Bytes the inputs of a validated spec hold while it runs, at most: the image's planes and the LUT's table
+  // and scalar field on the host and the device; a velocity grid's frames kVelocityCopies times (the spec's,
+  // or a followed current's two surface currents; their interleaved copy for the upload; on the device, twice
+  // while a steered field replaces the last).
+  static uint64_t input_bytes(const AdvectSpec& spec);
+  static constexpr uint64_t kVelocityCopies = 4;
   // One copy of an Eulerian advection's slots' node state (float4 per slot and node) and of its cascade's
   // (float2 per band and node), bytes: each is one device buffer. 0 for Lagrangian grids.
   static uint64_t eulerian_slot_bytes(const AdvectSpec& spec);

@@ -12,6 +12,8 @@ namespace {
 using namespace squall::validate;
 
 constexpr int kMaxVelocityFrames = 4096;
+// beta's floor: the margin, in units of d, by which a grid's border clears the kernel about its centre.
+constexpr double kMinGridMargin = 0.05;
 constexpr double kMaxSubstepTurn = 2;  // rad: RK4's stability limit on rotations is 2 sqrt(2)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
@@ -29,8 +31,28 @@ void analytic(const VelocitySpec& v, const std::string& path) {
   if (divisor >= 0) in(param(path, divisor), v.params[divisor], closed(kMinVelocityDivisor, kMaxVelocityParam));
 }
 
-// The largest rate of an analytic field's velocity gradient, 1/s (fields.h): the turn rate of a rotation,
-// the shear of a shear, what the centre or the walls of the others reach.
+// The largest entry of a velocity grid's gradient over its frames, 1/s: the differences of neighbouring fluid
+// nodes over their spacing (across the seam too, where the grid is periodic).
+double grid_gradient_rate(const VelocitySpec& v) {
+  auto fluid = [&](size_t n) { return v.mask.empty() || v.mask[n]; };
+  const bool wrap = v.extrapolation == Extrapolation::Wrap;
+  double rate = 0;
+  for (const VelocityFrame& f : v.frames)
+    for (int j = 0; j < v.ny; ++j)
+      for (int i = 0; i < v.nx; ++i) {
+        const size_t n = size_t(j) * size_t(v.nx) + size_t(i);
+        auto differ = [&](size_t m, double h) {
+          if (fluid(n) && fluid(m))
+            rate = std::max({rate, std::abs(double(f.u[m]) - f.u[n]) / h, std::abs(double(f.v[m]) - f.v[n]) / h});
+        };
+        if (i + 1 < v.nx || wrap) differ(size_t(j) * size_t(v.nx) + size_t((i + 1) % v.nx), v.hx);
+        if (j + 1 < v.ny || wrap) differ(size_t((j + 1) % v.ny) * size_t(v.nx) + size_t(i), v.hy);
+      }
+  return rate;
+}
+
+// The largest rate of a field's velocity gradient, 1/s (fields.h): the turn rate of a rotation,
+// the shear of a shear, what the centre or the walls of the others reach, a grid's between its nodes.
 double gradient_rate(const VelocitySpec& v) {
   const auto& p = v.params;
   switch (v.kind) {
@@ -41,6 +63,7 @@ double gradient_rate(const VelocitySpec& v) {
     case SQUALL_VELOCITY_TAYLOR_GREEN: return std::abs(p[0]) * 2 * M_PI / p[1];
     case SQUALL_VELOCITY_CHANNEL: return 2 * std::abs(p[0]) / p[2];   // at the walls
     case SQUALL_VELOCITY_CYLINDER: return 2 * std::abs(p[0]) / p[3];  // at the cylinder
+    case SQUALL_VELOCITY_GRID: return grid_gradient_rate(v);
     default: return 0;
   }
 }
@@ -187,7 +210,8 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
     fail(Code::ResourceExhausted, path + ".d = " + number(p.d) + " would need about " + number(area / (p.d * p.d)) +
                                       " particles over the output region; at most " + number(kMaxParticles));
   in(path + ".alpha", p.alpha, open(0, 1));
-  in(path + ".beta", p.beta, closed(0, 4));
+  // With no margin a grid's border lies at d from its centre, and rounding alone would fail its coverage.
+  in(path + ".beta", p.beta, closed(kMinGridMargin, 4));
   in(path + ".grid_res", p.grid_res, 3, 16);
   in(path + ".delta_max", p.delta_max, open_closed(1, 100));
   positive(path + ".fade_tau", p.fade_tau, 1e6);

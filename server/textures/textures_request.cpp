@@ -201,6 +201,8 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
   PngHeader h;
   if (!png_header(reader.png, reader.info, &h)) fail(Code::InvalidArgument, path + " is not a readable PNG file");
   gate.check_grid(path + " width", path + " height", int64_t(h.width), int64_t(h.height));
+  gate.check_memory(path + " decoded (its samples, then as floats)",
+                    uint64_t(h.width) * h.height * h.channels * (h.depth / 8 + sizeof(float)));
   const size_t row_bytes = size_t(h.width) * h.channels * (h.depth / 8);
   std::vector<png_byte> pixels(row_bytes * h.height);
   std::vector<png_bytep> rows(h.height);

@@ -82,6 +82,7 @@ struct TexturesService::Stream {
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
   Slot memory;               // the stream's working memory, against --memory-budget
+  Slot steered_memory;       // what inputs a later control message sent hold beyond `memory`
   Cancellation cancel;       // whether its client still wants it: ends a river's bake early
   uint64_t fingerprint = 0;  // of the request, which its checkpoints carry (AdvectTexture, with checkpoints)
   std::string_view resume;   // the advection state it resumes from (AdvectTexture; empty: from frame 0)
@@ -90,11 +91,12 @@ struct TexturesService::Stream {
 namespace {
 
 // Memory an advection stream holds, an estimate: every plane the engine computes, in float32, on the
-// device and on the host; the planes asked for (`frame_bytes`) in the message and serialized; and the
-// advection's state.
+// device and on the host; the planes asked for (`frame_bytes`) in the message and serialized; the
+// advection's state and its inputs.
 uint64_t working_bytes(uint64_t frame_bytes, const AdvectSpec& spec) {
   req::PlaneSelection computed{true, true, true, true, true, true, true, squall::v1::DTYPE_FLOAT32};
-  return 2 * req::frame_bytes(spec, computed) + 2 * frame_bytes + TextureEngine::state_bytes(spec);
+  return 2 * req::frame_bytes(spec, computed) + 2 * frame_bytes + TextureEngine::state_bytes(spec) +
+         TextureEngine::input_bytes(spec);
 }
 
 }  // namespace
@@ -236,6 +238,9 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
         serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
     advection = engine_->start(s.spec, {}, s.cancel);
   } else if (changed || s.current.any()) {
+    const uint64_t needed = working_bytes(s.frame_bytes, s.spec);
+    if (needed > s.memory.amount() + s.steered_memory.amount())
+      s.steered_memory = serving_.gate().acquire_memory(path + "'s steered inputs", needed - s.memory.amount());
     engine_->steer(*advection, s.spec);
   }
 }

@@ -1904,6 +1904,15 @@ CASES += [
     ),
     bad(
         R,
+        "lagrangian_beta_0",
+        also(
+            put("method", textures_pb2.TEXTURE_METHOD_LAGRANGIAN_GRIDS),
+            put("lagrangian.beta", 0.0),
+        ),
+        "request.lagrangian.beta",
+    ),
+    bad(
+        R,
         "eulerian_latencies_decreasing",
         also(
             put("method", textures_pb2.TEXTURE_METHOD_EULERIAN_MULTILAYER),

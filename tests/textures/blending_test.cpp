@@ -11,6 +11,7 @@
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "textures/grid_quality.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -119,6 +120,23 @@ TEST(TexturesBlending, FadingGridsKilledInEveryFrameAreHeldToABound) {
   std::printf("%d grids killed in 40 frames; at most %d held (bound %d)\n", killed, most, limit);
   EXPECT_GT(killed, limit);         // more kills than the bound: without it the fading grids would pass it
   EXPECT_GE(most, limit * 9 / 10);  // the bound was reached
+}
+
+// A particle's temporal weight (LTA11 eq. 6) changes by at most dt / tau a frame through its whole life,
+// also when it is killed while fading in: it fades out from the weight it had reached, as in Yu et al.,
+// "Scalable real-time animation of rivers" (2009), eq. 7, rather than jumping to 1 first.
+TEST(TexturesBlending, AParticleKilledWhileFadingInFadesOutFromTheWeightItReached) {
+  const double dt = 1.0 / 30, tau = 0.5, kill = 4 * dt;
+  EXPECT_NEAR(temporal_weight(kill + dt, 0, tau), (kill + dt) / tau, 1e-12);
+  EXPECT_NEAR(temporal_weight(kill + dt + tau / 2, tau / 2, tau), (kill + dt) / tau / 2, 1e-12);
+  EXPECT_EQ(temporal_weight(kill + dt + tau, tau, tau), 0.0);
+  double previous = 0;
+  for (int frame = 0; frame < 40; ++frame) {  // ages as the engine counts them: frame time + dt
+    const double t = frame * dt, since_kill = t >= kill ? t - kill : -1;
+    const double w = temporal_weight(t + dt, since_kill, tau);
+    EXPECT_LE(std::abs(w - previous), dt / tau + 1e-12) << "frame " << frame;
+    previous = w;
+  }
 }
 
 // With zero velocity the flow map's phases reset to the same window coordinates, so every frame is the

@@ -178,6 +178,24 @@ TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
   spec.velocity.params[0] = 50;  // 1.7 rad at 1 substep
   spec.substeps = 1;
   texture_engine().validate(spec, "spec");
+  // The same rule for a grid: a rotation of 100 rad/s sampled on 64 x 64 nodes, 3.3 rad at 1 substep.
+  const int n = 64;
+  const double omega = 100, h = 1.0 / (n - 1);
+  spec.velocity = VelocitySpec{};
+  spec.velocity.kind = SQUALL_VELOCITY_GRID;
+  spec.velocity.nx = spec.velocity.ny = n;
+  spec.velocity.hx = spec.velocity.hy = h;
+  VelocityFrame frame;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      frame.u.push_back(float(-omega * (j * h - 0.5)));
+      frame.v.push_back(float(omega * (i * h - 0.5)));
+    }
+  spec.velocity.frames = {frame};
+  expect_error(Code::InvalidArgument, "spec.substeps = 1: the velocity field turns by 3.33",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.substeps = 2;
+  texture_engine().validate(spec, "spec");
 }
 
 // Pixels finer than float32 places at the region's coordinates: a 1 du region of 64 pixels at x = 1e6

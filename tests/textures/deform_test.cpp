@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <vector>
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
@@ -513,6 +515,28 @@ TEST(Deform, AKeptFlowSolveCountsInTheBudgetAndGivesItBack) {
   Slot again = gate.acquire_memory("a second stream", DeformEngine::working_bytes(other));
   engine.start(other, {}, &again);
   EXPECT_EQ(again.amount(), DeformEngine::working_bytes(other) - DeformEngine::solve_bytes(other));
+}
+
+// A full cache drops the least recently used solve that no deformation uses; when all are in use the new one
+// is not kept, and its bytes stay with the stream that counted them: every running flow stays counted.
+TEST(Deform, AFullCacheDropsNoFlowInUse) {
+  Limits limits;
+  limits.memory_budget = 64 << 20;
+  LimitGate gate(limits);
+  DeformEngine engine(runtime(), gate);
+  std::vector<Slot> streams;
+  std::vector<std::unique_ptr<Deformation>> running;
+  uint64_t counted = 0;  // each stream's flow and state, its solve's share given back
+  for (int k = 0; k < 6; ++k) {
+    const DeformSpec spec = disk_spec(32, {{16, 16, 3.0 + k}}, smooth_texture(32));
+    streams.push_back(gate.acquire_memory("a stream", DeformEngine::working_bytes(spec)));
+    running.push_back(engine.start(spec, {}, &streams.back()));
+    counted += DeformEngine::working_bytes(spec) - DeformEngine::solve_bytes(spec);
+    EXPECT_EQ(gate.memory_bytes(), counted) << "after " << k + 1 << " streams";
+  }
+  running.clear();
+  streams.clear();
+  EXPECT_EQ(gate.memory_bytes(), gate.cached_memory_bytes()) << "the kept solves alone";
 }
 
 // ---- Checks ----

@@ -447,6 +447,45 @@ TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
   EXPECT_TRUE(ran.ok()) << ran.error_message();
 }
 
+// A PNG of a uniform 16-bit RGBA colour, `side` pixels a side: a few kilobytes that decode to side^2 x 4
+// samples.
+std::string uniform_png(uint32_t side) {
+  std::vector<uint16_t> samples(size_t(side) * side * 4, 30000);
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = image.height = side;
+  image.format = PNG_FORMAT_LINEAR_RGB_ALPHA;
+  png_alloc_size_t size = 0;
+  png_image_write_to_memory(&image, nullptr, &size, 0, samples.data(), 0, nullptr);
+  std::string bytes(size, '\0');
+  png_image_write_to_memory(&image, bytes.data(), &size, 0, samples.data(), 0, nullptr);
+  return bytes;
+}
+
+// An advection's inputs count in --memory-budget: a 2048^2 RGBA PNG of a few kilobytes holds 134 MB of planes
+// (float32, on the host and the device), refused under 128 MiB though its frames are 16 x 16 pixels; the same
+// image at 256^2 runs. A PNG whose samples alone pass the budget is refused before it is decoded.
+TEST(TexturesService, AnAdvectionsInputsCountInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(1ull << 27)});
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.mutable_output()->set_width(16);
+  r.mutable_output()->set_height(16);
+  r.mutable_texture()->mutable_image()->set_png(uniform_png(2048));
+  EXPECT_LT(r.texture().image().png().size(), 1u << 20);
+  const grpc::Status refused = advect(r, d.address()).status;
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("AdvectTexture's frames and state"), std::string::npos)
+      << refused.error_message();
+  r.mutable_texture()->mutable_image()->set_png(uniform_png(256));
+  const grpc::Status ran = advect(r, d.address()).status;
+  EXPECT_TRUE(ran.ok()) << ran.error_message();
+  Limits small;
+  small.memory_budget = 4 << 20;
+  r.mutable_texture()->mutable_image()->set_png(uniform_png(512));  // 6.3 MB of samples and floats
+  test::expect_error(Code::ResourceExhausted, "request.texture.image.png decoded",
+                     [&] { textures::rpc::spec(r, LimitGate{small}); });
+}
+
 // The engine computes every plane of a frame in float32 whichever it sends: 8 bands (8 final, 8 raw and 6
 // auxiliary planes) at 2048 x 2048 pixels are 369 MB on the host and again on the device, refused under a
 // 512 MiB budget though the one plane asked for, in float16, is 8 MB. The same request at 256 x 256 runs.
