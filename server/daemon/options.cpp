@@ -4,6 +4,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <set>
@@ -32,6 +33,13 @@ uint64_t positive_integer(const std::string& text) {
   long long v = std::stoll(text);  // std::out_of_range past 2^63 - 1
   if (v < 1) throw std::invalid_argument(rule);
   return static_cast<uint64_t>(v);
+}
+
+// A whole number in [1, max]; `why` says what sets max, where that is not plain.
+uint64_t integer_at_most(const std::string& text, uint64_t max, const std::string& why = "") {
+  const uint64_t n = positive_integer(text);
+  if (n > max) throw std::invalid_argument("must be 1 to " + std::to_string(max) + why);
+  return n;
 }
 
 // A count written as an integer or in the exponent notation of the defaults (--max-render-samples 4e11).
@@ -68,6 +76,9 @@ bool on_or_off(const std::string& v) {
   throw std::invalid_argument("must be on or off");
 }
 
+// --rpc-threads' and --fft-threads' bound.
+constexpr uint64_t kMaxThreads = 1024;
+
 // --max-grid-cells' own bound: 2^26 cells (8192^2) times 32 planes is within a 32-bit index.
 constexpr uint64_t kMaxGridCellsFlag = uint64_t(1) << 26;
 
@@ -87,12 +98,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"metrics-listen", [o](const std::string& v) { o->metrics_listen = v; }},
       {"device", [o](const std::string& v) { o->runtime.device = v; }},
       {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
-      {"device-queues",
-       [o](const std::string& v) {
-         const uint64_t n = positive_integer(v);
-         if (n > 16) throw std::invalid_argument("must be 1 to 16");
-         o->runtime.queues = size_t(n);
-       }},
+      {"device-queues", [o](const std::string& v) { o->runtime.queues = size_t(integer_at_most(v, 16)); }},
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
       {"fft",
        [o](const std::string& v) {
@@ -100,24 +106,24 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
            throw std::invalid_argument("must be auto, vkfft, clfft or fftw");
          o->fft = v;
        }},
-      {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(positive_integer(v)); }},
+      {"fft-threads", [o](const std::string& v) { o->fftw.threads = int(integer_at_most(v, kMaxThreads)); }},
       {"fft-wisdom", [o](const std::string& v) { o->fft_wisdom = v; }},
       {"max-grid-cells",
        [o](const std::string& v) {
-         const uint64_t n = positive_integer(v);
-         if (n > kMaxGridCellsFlag)
-           throw std::invalid_argument(
-               "must be 1 to " + std::to_string(kMaxGridCellsFlag) +
-               " (the kernels index a grid's planes, up to 32 in a buffer, with 32-bit integers)");
-         o->limits.max_grid_cells = n;
+         o->limits.max_grid_cells = integer_at_most(
+             v, kMaxGridCellsFlag, " (the kernels index a grid's planes, up to 32 in a buffer, with 32-bit integers)");
        }},
-      {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(positive_integer(v)); }},
+      {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(integer_at_most(v, UINT32_MAX)); }},
       {"max-streams-per-client",
-       [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(positive_integer(v)); }},
-      {"max-sessions", [o](const std::string& v) { o->limits.max_sessions = uint32_t(positive_integer(v)); }},
+       [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(integer_at_most(v, UINT32_MAX)); }},
+      {"max-sessions",
+       [o](const std::string& v) { o->limits.max_sessions = uint32_t(integer_at_most(v, UINT32_MAX)); }},
       {"stream-idle-timeout", [o](const std::string& v) { o->limits.stream_idle_seconds = idle_seconds(v); }},
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
-      {"max-message-bytes", [o](const std::string& v) { o->limits.max_message_bytes = positive_integer(v); }},
+      {"max-message-bytes",
+       [o](const std::string& v) {
+         o->limits.max_message_bytes = integer_at_most(v, INT32_MAX, " (gRPC's largest message)");
+       }},
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = positive_count(v); }},
       {"max-advection-samples", [o](const std::string& v) { o->limits.max_advection_samples = positive_count(v); }},
@@ -126,12 +132,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
       // gRPC takes the interval in int milliseconds, and a ping every few milliseconds is a flood
       {"keepalive", [o](const std::string& v) { o->keepalive_seconds = positive_seconds(v, 1e6, 0.1); }},
-      {"rpc-threads",
-       [o](const std::string& v) {
-         const uint64_t n = positive_integer(v);
-         if (n > 1024) throw std::invalid_argument("must be 1 to 1024");
-         o->rpc_threads = int(n);
-       }},
+      {"rpc-threads", [o](const std::string& v) { o->rpc_threads = int(integer_at_most(v, kMaxThreads)); }},
       {"session-ttl", [o](const std::string& v) { o->session_ttl_seconds = positive_seconds(v); }},
       {"profile-kernels", [o](const std::string& v) { o->runtime.profile_kernels = on_or_off(v); }},
       {"reflection",
@@ -315,7 +316,7 @@ std::string usage() {
          "  --max-sessions N          live stateful sessions (default " +
          std::to_string(d.limits.max_sessions) +
          ")\n"
-         "  --max-message-bytes N     largest gRPC message either way (default " +
+         "  --max-message-bytes N     largest gRPC message either way, at most 2^31 - 1 (default " +
          std::to_string(d.limits.max_message_bytes) +
          ")\n"
          "  --max-session-bytes N     host + device bytes of all stateful sessions (default: half the device's\n"

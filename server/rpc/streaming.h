@@ -104,18 +104,19 @@ class StreamCall {
   mutable std::atomic<bool> stopped_by_drain_{false};
 };
 
-// Runs a streaming handler under guarded(): the serving check, then prepare() (the request's validation,
-// so that a bad request is refused before it takes a stream slot), then run(call, prepared) holding a
-// --max-streams slot. The status is the first error thrown, else the call's.
+// Runs a streaming handler under guarded(): the serving and token checks, a --max-streams slot (and the
+// client's), then prepare() (the request's validation and what the stream sets up before its first frame:
+// a river's bake, a followed ocean, its memory, all bounded by the slots), then run(call, prepared). The
+// slots are given back on every way out. The status is the first error thrown, else the call's.
 template <typename Prepare, typename Run>
 grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Prepare&& prepare,
                           Run&& run) {
   return guarded([&] {
     serving.require_serving(context);
     serving.require_token(context);
-    auto prepared = prepare();
-    Slot slot = serving.gate().acquire_stream();  // released on every way out of this call
+    Slot slot = serving.gate().acquire_stream();
     Slot client_slot = serving.gate().acquire_client_stream(client_address(context));
+    auto prepared = prepare();
     StreamCall call(context, method, serving);
     try {
       run(call, prepared);

@@ -759,6 +759,14 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--max-grid-cells", "67108865"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-grid-cells 67108865: must be 1 to 67108864"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--max-grid-cells", "67108864", "--help"}, &out), 0) << out;
+  // Counts are 32-bit and gRPC's messages at most 2^31 - 1 bytes: larger values are refused, not wrapped.
+  EXPECT_EQ(test::run({kSqualld, "--max-streams", "4294967296"}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-streams 4294967296: must be 1 to 4294967295"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-sessions", "4294967296"}, &out), 2) << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-message-bytes", "3000000000"}, &out), 2) << out;
+  EXPECT_NE(out.find("--max-message-bytes 3000000000: must be 1 to 2147483647 (gRPC's largest message)"),
+            std::string::npos)
+      << out;
   EXPECT_EQ(test::run({kSqualld, "--max-streams", ""}, &out), 2) << out;
   EXPECT_NE(out.find("--max-streams : must be an integer >= 1"), std::string::npos) << out;
   // The replica id is every reply's metadata value: printable ASCII only.

@@ -20,9 +20,9 @@ struct RecordingWriter {
 
 // A serving squalld's state and a call's context, as a streaming handler has them.
 struct Serving {
-  ServingState state{Limits{}};
+  ServingState state;
   grpc::ServerContext context;
-  Serving() { state.set_phase(ServingState::Phase::Serving); }
+  explicit Serving(const Limits& limits = {}) : state(limits) { state.set_phase(ServingState::Phase::Serving); }
 };
 
 // A message made before squalld began to drain (an eWave step already taken and checkpointed) is sent, and
@@ -51,6 +51,31 @@ TEST(StreamCall, AFailedWriteEndsTheCall) {
   EXPECT_FALSE(call.write(writer, std::string("frame 2")));
   EXPECT_TRUE(writer.written.empty());
   EXPECT_EQ(call.status().error_code(), grpc::StatusCode::CANCELLED);
+}
+
+// A stream takes its --max-streams slot before its request is prepared: preparing can bake a river, evaluate
+// an ocean or reserve memory, work the slots bound. A refused preparation gives the slot back.
+TEST(ServeStream, TheSlotIsTakenBeforeTheRequestIsPrepared) {
+  Limits limits;
+  limits.max_streams = 1;
+  Serving serving(limits);
+  bool prepared = false;
+  auto prepare = [&] {
+    prepared = true;
+    fail(Code::InvalidArgument, "request.field is bad");
+    return 0;
+  };
+  auto run = [](StreamCall&, int) {};
+  {
+    Slot open = serving.state.gate().acquire_stream();
+    const grpc::Status full = serve_stream(serving.context, serving.state, "Run", prepare, run);
+    EXPECT_EQ(full.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << full.error_message();
+    EXPECT_FALSE(prepared) << "prepared for a stream that had no slot";
+  }
+  const grpc::Status bad = serve_stream(serving.context, serving.state, "Run", prepare, run);
+  EXPECT_EQ(bad.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad.error_message();
+  EXPECT_TRUE(prepared);
+  EXPECT_EQ(serving.state.gate().open_streams(), 0u);
 }
 
 }  // namespace
