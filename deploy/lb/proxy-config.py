@@ -61,6 +61,11 @@ static_resources:
                 "@type": type.googleapis.com/envoy.extensions.filters.network.http_connection_manager.v3.HttpConnectionManager
                 stat_prefix: squall
                 codec_type: HTTP2
+                # A stream may be quiet for up to an hour (an interactive client), as with
+                # nginx (grpc_read_timeout 1h): longer than squalld's --stream-idle-timeout
+                # (600 s by default), so squalld's limit is the one that applies. Envoy's
+                # default, 5 minutes, would cut such a stream at the proxy.
+                stream_idle_timeout: 3600s
                 route_config:
                   name: squall
                   virtual_hosts:
@@ -70,7 +75,7 @@ static_resources:
                         - match: {{prefix: "/"}}
                           route:
                             cluster: squalld
-                            timeout: 0s  # streams run as long as the client wants
+                            timeout: 0s  # no limit on a call's duration (idle: above)
                             # A session's calls (x-squall-session) go to one replica; calls without it
                             # are spread (ring hash picks a random host when the header is absent).
                             hash_policy:

@@ -6,7 +6,8 @@
 set -euo pipefail
 source_dir=$1 tools=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
-for tool in "$tools/bin/envoy" /usr/sbin/nginx; do
+nginx=/usr/sbin/nginx  # not on a non-root user's PATH on Debian
+for tool in "$tools/bin/envoy" "$nginx"; do
   [ -x "$tool" ] || { echo "missing $tool: run deploy/install-deploy-tools.sh" >&2; exit 1; }
 done
 upstreams=(--upstream 127.0.0.1:50061 --upstream 127.0.0.1:50062 --upstream 127.0.0.1:50063)
@@ -18,9 +19,15 @@ diff -u "$source_dir/deploy/lb/nginx.conf" "$work/nginx.conf"
 python3 "$source_dir/deploy/lb/proxy-config.py" envoy --listen 0.0.0.0:8080 --dns --upstream squalld-pods:50051 \
   --admin 127.0.0.1:9901 > "$work/two-tier-envoy.yaml"
 diff -u "$source_dir/deploy/k8s/overlays/two-tier/envoy.yaml" "$work/two-tier-envoy.yaml"
+# A quiet stream lasts as long through Envoy as through nginx (grpc_read_timeout 1h): Envoy's default
+# stream_idle_timeout (5 minutes) would cut it.
+grep -q '^ *grpc_read_timeout 1h;$' "$work/nginx.conf" || { echo "nginx.conf: no grpc_read_timeout 1h" >&2; exit 1; }
+for config in "$work/envoy.yaml" "$work/two-tier-envoy.yaml"; do
+  grep -q '^ *stream_idle_timeout: 3600s$' "$config" || { echo "$config: no stream_idle_timeout: 3600s" >&2; exit 1; }
+done
 "$tools/bin/envoy" --mode validate -c "$work/envoy.yaml" --log-level error
 mkdir -p /tmp/squall-nginx  # the example's prefix
-nginx -t -p /tmp/squall-nginx -c "$work/nginx.conf"
+"$nginx" -t -p /tmp/squall-nginx -c "$work/nginx.conf"
 # A broken configuration must fail the same checks.
 sed 's/lb_policy: RING_HASH/lb_policy: RING_HASHH/' "$work/envoy.yaml" > "$work/broken.yaml"
 if "$tools/bin/envoy" --mode validate -c "$work/broken.yaml" --log-level critical >/dev/null 2>&1; then

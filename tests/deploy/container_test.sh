@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The container image, built and run as a user would: hadolint passes the Containerfile; the image builds
+# The container image, built and run as a user would: hadolint passes the Containerfile, .dockerignore
+# leaves build trees out of a plain `docker build .`'s context; the image builds
 # from the local Debian base (deploy/container/build-image.sh); two containers run read-only as the image's
 # user, uid 10001 (host networking, each on its own 127.0.0.1 port) behind Envoy; health turns SERVING
 # through the proxy; a GetTile through the proxy is bit for bit the host build's answer. Prints the image
@@ -29,6 +30,17 @@ wait_serving() {  # ADDRESS SECONDS
 
 "$tools/bin/hadolint" --failure-threshold error "$source_dir/deploy/container/Containerfile"
 echo "hadolint: OK"
+
+# `docker build .` / `podman build .` from the checkout: .dockerignore leaves the host's build trees and
+# .git out of the context (a build/ would break the image's cmake -B build) and no tracked file.
+ignore=$source_dir/.dockerignore
+[ -f "$ignore" ] || { echo "no $ignore: a host build/ would go into the image's context" >&2; exit 1; }
+for pattern in /build '/build-*' /.git; do
+  grep -qxF -- "$pattern" "$ignore" || { echo "$ignore does not leave out $pattern" >&2; exit 1; }
+done
+left_out=$(git -C "$source_dir" ls-files -ci --exclude-from="$ignore")
+[ -z "$left_out" ] || { echo "$ignore leaves out tracked files: $left_out" >&2; exit 1; }
+echo ".dockerignore: OK"
 
 if ! podman info >/dev/null 2>&1; then
   echo "SKIPPED: podman cannot run here: $(podman info 2>&1 | tail -1)"
