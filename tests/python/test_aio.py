@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import gc
 import re
 import time
 from typing import Any, List
@@ -244,6 +245,39 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
             return await two_frames_once_the_slot_is_back(aclient, spec)
 
     assert run(main()) == [0, 1]
+
+
+@pytest.mark.parametrize("call", ["ewave.run", "ocean.stream"])
+def test_an_async_stream_left_by_break_releases_its_slot(tight_daemon, call: str) -> None:
+    """As the synchronous client's Stream: an AsyncStream left by ``break`` and never cancelled
+    cancels its call once nothing refers to it. The garbage collector is held off: grpc.aio's call
+    sits in reference cycles (its response generator, its request task), which it would break only
+    at some later collection, the slot held until then; the one-stream daemon takes another stream
+    within seconds."""
+    spec = small_tile()
+
+    def endless() -> Any:
+        while True:
+            yield 0.02
+
+    async def main() -> List[int]:
+        async with squall.aio.Client(tight_daemon.address) as aclient:
+            if call == "ewave.run":
+                async with aclient.ewave.session(**config()) as session:
+                    async for frame in session.run(endless()):
+                        assert frame.step == 1
+                        break
+                    return await two_frames_once_the_slot_is_back(aclient, spec)
+            async for tile in aclient.ocean.stream(spec, dt=0.1, outputs="height"):
+                assert tile.frame_index == 0
+                break
+            return await two_frames_once_the_slot_is_back(aclient, spec)
+
+    gc.disable()
+    try:
+        assert run(main()) == [0, 1]
+    finally:
+        gc.enable()
 
 
 def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> None:

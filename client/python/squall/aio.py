@@ -207,10 +207,10 @@ class Connection:
 class AsyncStream(AsyncIterator[T], Generic[T]):
     """An async iterator over a streaming call's messages, converted (numpy arrays).
 
-    ``cancel()`` (or leaving an ``async with`` block around it) ends the call and frees its
-    --max-streams slot; errors raise SquallError while iterating, CANCELLED when the client is
-    closed under it. `convert` and `finish` are as squall._calls.Stream's; `settings` are the
-    client's (whether it was closed).
+    ``cancel()`` (or leaving an ``async with`` block around it, or dropping the last reference to
+    it, as after ``break`` in ``async for``) ends the call and frees its --max-streams slot; errors
+    raise SquallError while iterating, CANCELLED when the client is closed under it. `convert` and
+    `finish` are as squall._calls.Stream's; `settings` are the client's (whether it was closed).
     """
 
     def __init__(
@@ -292,6 +292,21 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
 
     async def __aexit__(self, *exc: Any) -> None:
         self.cancel()
+
+    def __del__(self) -> None:
+        # As squall._calls.Stream's: grpc.aio's call is held by reference cycles (its response
+        # generator, its request task) and would keep the server's stream slot until the garbage
+        # collector finds them. Call.cancel() is synchronous (a no-op on an ended call); the loop
+        # may be gone by now, hence the quiet excepts.
+        try:
+            self._call.cancel()
+        except Exception:
+            pass
+        try:
+            if self._feeder is not None:
+                self._feeder.close()
+        except Exception:  # __init__ failed early, or the loop is closed
+            pass
 
 
 def _awaitable_next(items: Iterator[Any]) -> Callable[[], Awaitable[Any]]:
