@@ -125,7 +125,8 @@ std::map<std::string, Verb>& verbs() {
   static std::map<std::string, Verb> table = {
       {"info", {"info              print the daemon's version, devices, kernels, FFT backend and limits", info}},
       {"health",
-       {"health [SERVICE]  SERVING / NOT_SERVING of the server, a service or liveness; exit 1 if not", health}},
+       {"health [SERVICE]  SERVING / NOT_SERVING of the server, a service, admission or liveness; exit 1 if not",
+        health}},
       {"ocean", {ocean::kVerbUsage, ocean::run}},
       {"ewave", {ewave::kVerbUsage, ewave::run}},
       {"cloud", {cloud::kVerbUsage, cloud::run}},

@@ -381,6 +381,7 @@ int run_daemon(const DaemonOptions& options) {
   }
   for (const auto& capability : served) health.SetServingStatus(capability->service_name(), false);
   health.SetServingStatus(squall::v1::Server::service_full_name(), false);
+  health.SetServingStatus(HealthService::kAdmission, false);
   health.SetServingStatus(HealthService::kLiveness, true);  // up: signals are answered from now on
   write_port_file(options.port_file, port);
   const char* transport = options.tls_cert.empty() ? "plaintext" : options.tls_client_ca.empty() ? "TLS" : "mutual TLS";

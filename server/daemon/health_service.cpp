@@ -14,11 +14,13 @@ void HealthService::SetServingStatus(const std::string& service_name, bool servi
   changed_.notify_all();
 }
 
-void HealthService::SetServingStatus(bool serving) {
+void HealthService::SetServingStatus(bool serving) { SetReadiness(serving, true); }
+
+void HealthService::SetReadiness(bool serving, bool admitting) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (auto& [name, value] : serving_by_name_)
-      if (name != kLiveness) value = serving && !shut_down_;
+      if (name != kLiveness) value = serving && (admitting || name != kAdmission) && !shut_down_;
   }
   changed_.notify_all();
 }

@@ -4,10 +4,13 @@
 // through the built-in one: the status "" (the server as a whole) and of any service name set; Check of
 // an unknown name is NOT_FOUND, Watch of one SERVICE_UNKNOWN, as the health protocol says.
 //
-// Two kinds of name: readiness names ("" and each service's, "squall.v1.Ocean"), NOT_SERVING while the
-// kernels build, while the daemon drains and while the memory budget is nearly spent (take the replica
-// out of rotation); and kLiveness, SERVING from the moment the daemon listens until shutdown (restart
-// the process only when it stops answering, never because it is busy or still building kernels).
+// Three kinds of name: readiness names ("" and each service's, "squall.v1.Ocean"), NOT_SERVING while the
+// kernels build, while the daemon drains and while it cannot write its heartbeat (take the replica out of
+// rotation: its sessions move); kAdmission, a readiness name that is also NOT_SERVING while the memory
+// budget is nearly spent (send new stateless work elsewhere, but leave the sessions where they live: a
+// balancer hashing sessions to replicas must not move them because one call is large); and kLiveness,
+// SERVING from the moment the daemon listens until shutdown (restart the process only when it stops
+// answering, never because it is busy or still building kernels).
 #pragma once
 
 #include <grpcpp/health_check_service_interface.h>
@@ -31,12 +34,16 @@ class HealthService final : public grpc::health::v1::Health::Service, public grp
   HealthService(const ServingState& serving, bool exempt) : serving_(serving), exempt_(exempt) {}
 
   static constexpr const char* kLiveness = "liveness";
+  static constexpr const char* kAdmission = "admission";
   // Watch streams open at once: each holds a server thread, and with health exempt from the token anyone
   // may open them; a balancer or kubelet needs a few. RESOURCE_EXHAUSTED past it.
   static constexpr int kMaxWatches = 64;
 
   void SetServingStatus(const std::string& service_name, bool serving) override;
   void SetServingStatus(bool serving) override;  // every readiness name's (all but kLiveness)
+  // Every readiness name's status `serving`, and kAdmission's `serving && admitting`, in one change: a Watch
+  // of kAdmission sees no SERVING in between.
+  void SetReadiness(bool serving, bool admitting);
   // NOT_SERVING from now on, whatever is set later, and every Watch ends.
   void Shutdown() override;
 

@@ -3,8 +3,9 @@
 The one memory budget (--memory-budget): a flood of eWave sessions, and one of ocean streams whose
 clients never read, is refused with RESOURCE_EXHAUSTED naming the budget before squalld's resident
 memory passes it (measured above its level when idle); what the flood held is given back when it ends,
-and squalld then serves as before; while 90% of the budget is reserved, health says NOT_SERVING (new
-work would be refused: a balancer sends it elsewhere). --max-streams-per-client: one client (its
+and squalld then serves as before; while 90% of the budget is reserved, health's "admission" says
+NOT_SERVING (new work would be refused: a balancer of stateless work sends it elsewhere), while the
+server's own name stays SERVING. --max-streams-per-client: one client (its
 address, whatever its connections) cannot take more stream slots than that. Stored cloud volumes count
 as sessions (--max-sessions), and their bytes leave the metrics when they are released. A small tile or
 sample of large layers counts the layers' memory. --stream-idle-timeout: a stream that waits on its
@@ -258,21 +259,22 @@ def opens(client: squall.Client, spec: Any) -> bool:
         return False
 
 
-def test_health_is_not_serving_while_the_memory_budget_is_spent() -> None:
+def test_admission_is_not_serving_while_the_memory_budget_is_spent() -> None:
     """One unread StreamTiles of 12 fields at 256^2 reserves about 28.3 MB (two frames: the engine's
-    fields, its device buffers, the reply) of a 30 MB budget: health turns NOT_SERVING within a
-    second, and SERVING again once the stream is cancelled."""
+    fields, its device buffers, the reply) of a 30 MB budget: health's "admission" turns NOT_SERVING
+    within a second, and SERVING again once the stream is cancelled. The server's and the services'
+    names stay SERVING all along: a balancer hashing sessions to replicas does not move them."""
     spec = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=256, wind_speed=12)])
     for daemon in _start(["--memory-budget", str(30_000_000)], "admission"):
         with squall.Client(daemon.address, timeout=60) as client:
-            assert client.health() == "SERVING"
+            assert client.health() == client.health("admission") == "SERVING"
             stream = client.ocean.stream(spec, dt=0.1, outputs=ALL_OUTPUTS)
             next(stream)
-            wait_for(lambda: client.health() == "NOT_SERVING", 5, "NOT_SERVING")
-            assert client.health("squall.v1.Ocean") == "NOT_SERVING"
-            assert client.health("liveness") == "SERVING"  # busy, not broken: no restart
+            wait_for(lambda: client.health("admission") == "NOT_SERVING", 5, "NOT_SERVING")
+            for name in ("", "squall.v1.Ocean", "liveness"):  # busy, not broken or draining
+                assert client.health(name) == "SERVING", name
             stream.cancel()
-            wait_for(lambda: client.health() == "SERVING", 5, "SERVING again")
+            wait_for(lambda: client.health("admission") == "SERVING", 5, "SERVING again")
 
 
 @pytest.fixture(scope="module")
