@@ -120,9 +120,19 @@ void EWaveSession::check_whole() const {
 std::string EWaveSession::state() const {
   check_whole();
   std::string bytes = new_state(config_, step_, time_);
-  auto lock = runtime_.exclusive();
-  runtime_.queue().enqueueReadBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,
-                                     state_fields(bytes));
+  {
+    auto lock = runtime_.exclusive();
+    runtime_.queue().enqueueReadBuffer(state_.buffer(), CL_TRUE, 0, kStateFields * cells_ * real_size_,
+                                       state_fields(bytes));
+  }
+  // A state restore() would refuse is not handed out: inputs held to their ranges can still drive a
+  // session there (a source stepped for hours at a large dt, a gravity of 1000).
+  try {
+    check_fields_in_range(bytes, parse_state_header(bytes));
+  } catch (const Error& e) {
+    fail(Code::FailedPrecondition, std::string("the session's fields have grown past what a state holds (") + e.what() +
+                                       "): close it, and Restore a state taken before as a new session");
+  }
   return bytes;
 }
 

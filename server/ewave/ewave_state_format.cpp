@@ -125,9 +125,10 @@ EWaveConfig config_of(const StateHeader& header, const LimitGate* gate) {
   return c;
 }
 
-// Past any state a session reaches (its inputs are held to 1e6), and small enough that a grid's sum of such
-// values in a step's transforms, times its propagator, stays within float. (The normals' own limit is
-// lower where slopes pass 1.8e19: sq_surface_normal.)
+// Far past the state of a physical session, and small enough that a grid's sum of such values in a step's
+// transforms, times its propagator, stays within float. (The normals' own limit is lower where slopes pass
+// 1.8e19: sq_surface_normal.) Inputs held to their ranges can still drive a session past it, whose state
+// EWaveSession::state() then refuses to hand out.
 constexpr double kMaxStateValue = 1e25;
 
 void check_fields_in_range(const std::string& bytes, const StateHeader& h) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <latch>
 #include <thread>
@@ -11,6 +12,7 @@
 #include "common/error.h"
 #include "common/limits.h"
 #include "ewave/ewave_engine.h"
+#include "ewave/ewave_state_format.h"
 #include "ewave/propagator.h"
 #include "ewave_support.h"
 #include "support/expect_error.h"
@@ -214,6 +216,23 @@ TEST(EWaveSession, BadInputsAreInvalidArgumentsNamingTheField) {
   c.trim_width = 1.0;
   expect_error(Code::InvalidArgument, "config.trim_width", [&] { make_session(c); });
   expect_error(Code::InvalidArgument, "state", [&] { s.restore("not a state"); });
+}
+
+// A session driven past the fields a state holds (+-1e25; here phi -= g h dt with h = 1e25) hands out no
+// state that Restore would refuse: GetState is FAILED_PRECONDITION naming the field, and the state taken
+// before it restores.
+TEST(EWaveSession, AStateRestoreWouldRefuseIsNotHandedOut) {
+  EWaveSession s = make_session(plain_config(32, 16));
+  std::string state = s.state();
+  std::vector<float> h(32 * 16, 1e25f);
+  std::memcpy(state_fields(state), h.data(), h.size() * sizeof(float));
+  s.restore(state);
+  EXPECT_EQ(s.state(), state);
+  s.step(plain_step(1.0));
+  expect_error(Code::FailedPrecondition, "the session's fields have grown past what a state holds (state.fields[",
+               [&] { s.state(); });
+  s.restore(state);
+  EXPECT_EQ(s.state(), state);
 }
 
 // A step may not take the session's time past kMaxTime (1e9 s, a SimTime's range), which its state bytes
