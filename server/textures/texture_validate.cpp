@@ -31,28 +31,38 @@ void analytic(const VelocitySpec& v, const std::string& path) {
   if (divisor >= 0) in(param(path, divisor), v.params[divisor], closed(kMinVelocityDivisor, kMaxVelocityParam));
 }
 
-// The largest entry of a velocity grid's gradient over its frames, 1/s: the differences of neighbouring fluid
-// nodes over their spacing (across the seam too, where the grid is periodic).
+// The largest modulus of the eigenvalues of [[a, b], [c, d]], a velocity gradient: a rotation's rate, a
+// strain's; 0 for a shear (it carries a texel along, at the rate it grows its distance from its neighbours).
+double spectral_radius(double a, double b, double c, double d) {
+  const double half_trace = (a + d) / 2, det = a * d - b * c, disc = half_trace * half_trace - det;
+  return disc >= 0 ? std::abs(half_trace) + std::sqrt(disc) : std::sqrt(det);  // a complex pair: |lambda|^2 = det
+}
+
+// The largest spectral radius of a velocity grid's gradient over its cells and frames, 1/s: each cell's of
+// four fluid nodes (across the seam too, where the grid is periodic), from its edges' mean differences.
 double grid_gradient_rate(const VelocitySpec& v) {
   auto fluid = [&](size_t n) { return v.mask.empty() || v.mask[n]; };
   const bool wrap = v.extrapolation == Extrapolation::Wrap;
+  auto node = [&](int i, int j) { return size_t(j % v.ny) * size_t(v.nx) + size_t(i % v.nx); };
   double rate = 0;
   for (const VelocityFrame& f : v.frames)
-    for (int j = 0; j < v.ny; ++j)
-      for (int i = 0; i < v.nx; ++i) {
-        const size_t n = size_t(j) * size_t(v.nx) + size_t(i);
-        auto differ = [&](size_t m, double h) {
-          if (fluid(n) && fluid(m))
-            rate = std::max({rate, std::abs(double(f.u[m]) - f.u[n]) / h, std::abs(double(f.v[m]) - f.v[n]) / h});
+    for (int j = 0; j < (wrap ? v.ny : v.ny - 1); ++j)
+      for (int i = 0; i < (wrap ? v.nx : v.nx - 1); ++i) {
+        const size_t n00 = node(i, j), n10 = node(i + 1, j), n01 = node(i, j + 1), n11 = node(i + 1, j + 1);
+        if (!fluid(n00) || !fluid(n10) || !fluid(n01) || !fluid(n11)) continue;
+        auto along_x = [&](const std::vector<float>& w) {
+          return (double(w[n10]) - w[n00] + double(w[n11]) - w[n01]) / (2 * v.hx);
         };
-        if (i + 1 < v.nx || wrap) differ(size_t(j) * size_t(v.nx) + size_t((i + 1) % v.nx), v.hx);
-        if (j + 1 < v.ny || wrap) differ(size_t((j + 1) % v.ny) * size_t(v.nx) + size_t(i), v.hy);
+        auto along_y = [&](const std::vector<float>& w) {
+          return (double(w[n01]) - w[n00] + double(w[n11]) - w[n10]) / (2 * v.hy);
+        };
+        rate = std::max(rate, spectral_radius(along_x(f.u), along_y(f.u), along_x(f.v), along_y(f.v)));
       }
   return rate;
 }
 
 // The largest rate of a field's velocity gradient, 1/s (fields.h): the turn rate of a rotation,
-// the shear of a shear, what the centre or the walls of the others reach, a grid's between its nodes.
+// the shear of a shear, what the centre or the walls of the others reach; a grid's eigenvalues in its cells.
 double gradient_rate(const VelocitySpec& v) {
   const auto& p = v.params;
   switch (v.kind) {
