@@ -92,12 +92,15 @@ uint64_t build_bytes(const CloudModel& m, const std::vector<MeshPiece>& pieces) 
   for (const Ellipsoid& e : m.ellipsoids) add(ellipsoid(e.center, e.radii));
   for (const Particle& p : m.particles) add(ellipsoid(p.center, {p.radius, p.radius, p.radius}));
   for (const MeshPiece& piece : pieces) add(piece);
-  double triangles = 0;
-  for (const TriangleMesh& mesh : m.meshes) triangles += double(mesh.triangles.size() / 3);
+  double triangles = 0, vertices = 0;
+  for (const TriangleMesh& mesh : m.meshes) {
+    triangles += double(mesh.triangles.size() / 3);
+    vertices += double(mesh.vertices.size());
+  }
   const double per_voxel = kBytesPerBandVoxel + (m.temperature.enabled ? kTemperatureBytesPerVoxel : 0);
   const double bytes = per_voxel * voxels +
                        kGridsAtPeak * (kLowerNodeBytes * nodes.lower() + kUpperNodeBytes * nodes.upper()) +
-                       kBytesPerTriangle * triangles + kBytesPerBuild;
+                       kBytesPerTriangle * triangles + kBytesPerVertex * vertices + kBytesPerBuild;
   return bytes < 0x1p64 ? uint64_t(bytes) : UINT64_MAX;  // a band of 1e6 voxels about a grain passes 2^64
 }
 

@@ -76,8 +76,8 @@ class CloudEngine {
   using Reservation = SessionStore<StoredVolume>::Reservation;
 
   std::shared_ptr<StoredVolume> upload(CloudVolume volume, const NanoGrids& grids);
-  // Stores a built volume under `id`, written into it before it is shared: its bytes reserved first
-  // (store), or by the caller (add).
+  // Stores a built volume under `id`, written into it before it is shared, with its reservation (made by
+  // place() and keep(), or by the checkpoint's restore).
   std::string add(const std::string& id, Reservation reservation, const std::shared_ptr<StoredVolume>& volume);
 
   Runtime& runtime_;

@@ -77,12 +77,14 @@ std::vector<CapabilityGauge> CloudsService::gauges() const {
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
-    const Slot mesh_memory =
+    Slot mesh_memory =
         serving_.gate().acquire_memory("BuildVolume's meshes, read", req::mesh_read_bytes(request->model()));
     const CloudModel model = req::model(request->model());
     std::optional<CloudEngine::Place> place;
     if (request->keep()) place = engine_->place(proposed_session(*context));
-    Slot memory = serving_.gate().acquire_memory("BuildVolume's build", engine_->validate(model, "model"));
+    const uint64_t peak = engine_->validate(model, "model");
+    mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
+    Slot memory = serving_.gate().acquire_memory("BuildVolume's build", peak);
     auto volume = engine_->build(model, "model", cancellation(*context));
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
@@ -137,10 +139,12 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
-      const Slot mesh_memory =
+      Slot mesh_memory =
           serving_.gate().acquire_memory("Render's meshes, read", req::mesh_read_bytes(request->model()));
       const CloudModel model = req::model(request->model());
-      model_memory = serving_.gate().acquire_memory("Render's model, built", clouds.validate(model, "model"));
+      const uint64_t peak = clouds.validate(model, "model");
+      mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
+      model_memory = serving_.gate().acquire_memory("Render's model, built", peak);
       volume = clouds.build(model, "model", cancel);
     } else {
       if (request->volume_id().empty())
@@ -163,22 +167,26 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     Slot memory;       // held for the whole stream
     Slot mesh_memory;  // the base model's meshes and a frame's copy of them, each read and checked
   };
-  auto prepare = [&] {
-    Slot mesh_memory = serving_.gate().acquire_memory("StreamEvolution's meshes, read",
-                                                      2 * req::mesh_read_bytes(request->model()));
-    Stream s{req::model(request->model()), req::evolution(request->evolution()), req::settings(request->settings()),
-             {}, std::move(mesh_memory)};
+  auto check = [&] {
+    Slot mesh_memory =
+        serving_.gate().acquire_memory("StreamEvolution's meshes, read", 2 * req::mesh_read_bytes(request->model()));
+    Stream s{req::model(request->model()),
+             req::evolution(request->evolution()),
+             req::settings(request->settings()),
+             {},
+             std::move(mesh_memory)};
     clouds::validate(s.evolution, "evolution");
     clouds::validate(s.settings, "settings");
     serving_.gate().check_message_bytes("EvolutionFrame.image", req::image_bytes(s.settings));
     if (request->times_size() < 1 || request->times_size() > 1000)
       fail(Code::InvalidArgument, "times has " + std::to_string(request->times_size()) + " entries: must be 1 to 1000");
     validate_frames(*engine_, s.base, s.evolution, request->times());
-    // The frames' images and deep shadow maps, held for the whole stream.
-    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
     return s;
   };
-  return serve_stream(*context, serving_, "StreamEvolution", prepare, [&](StreamCall& call, const Stream& s) {
+  auto prepare = [&](Stream& s) {  // the frames' images and deep shadow maps, held for the whole stream
+    s.memory = serving_.gate().acquire_memory("StreamEvolution's frames", render_working_bytes(s.settings));
+  };
+  return serve_stream(*context, serving_, "StreamEvolution", check, prepare, [&](StreamCall& call, const Stream& s) {
     const auto& [base, evolution, settings, memory, mesh_memory] = s;
     for (double t : request->times()) {
       if (!call.live()) return;

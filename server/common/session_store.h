@@ -119,8 +119,8 @@ class SessionStore {
   }
   void reserve_bytes(Reservation& r, uint64_t bytes, Slot* work = nullptr) {
     r.memory = gate_.acquire_session_bytes("keeping this " + kind_, bytes);
-    r.budget = work && work->amount() >= bytes ? work->split(bytes)
-                                               : gate_.acquire_memory("keeping this " + kind_, bytes);
+    r.budget =
+        work && work->amount() >= bytes ? work->split(bytes) : gate_.acquire_memory("keeping this " + kind_, bytes);
     r.bytes = bytes;
   }
 

@@ -101,19 +101,21 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
     Slot memory;   // held for the whole stream
     Slot spectra;  // the spectra the next frame builds: a spectrum kept takes its bytes from here
   };
-  auto prepare = [&] {
+  auto check = [&] {
     TileJob job = tile_job(*engine_, request->tile(), request->outputs(), request->dtype(), serving_.gate());
     const double t0 = sim_time("t0.seconds", request->t0().seconds());
     const double dt = validate::positive("dt", request->dt());
     if (request->frame_count() > 0)  // the last frame's time, before the first frame is sent
       sim_time("t0 + (frame_count - 1) dt", t0 + double(request->frame_count() - 1) * dt);
     ChunkPlan plan = frame_plan(job, serving_.gate().limits().max_message_bytes);
-    const uint64_t new_spectra = engine_->new_spectra_bytes(job.spec);
-    Slot memory = serving_.gate().acquire_memory("StreamTiles' frames", job.working_bytes(2) + new_spectra);
-    Slot spectra = memory.split(new_spectra);
-    return Stream{std::move(job), t0, dt, std::move(plan), std::move(memory), std::move(spectra)};
+    return Stream{std::move(job), t0, dt, std::move(plan), Slot(), Slot()};
   };
-  return serve_stream(*context, serving_, "StreamTiles", prepare, [&](StreamCall& call, Stream& stream) {
+  auto prepare = [&](Stream& stream) {
+    const uint64_t new_spectra = engine_->new_spectra_bytes(stream.job.spec);
+    stream.memory = serving_.gate().acquire_memory("StreamTiles' frames", stream.job.working_bytes(2) + new_spectra);
+    stream.spectra = stream.memory.split(new_spectra);
+  };
+  return serve_stream(*context, serving_, "StreamTiles", check, prepare, [&](StreamCall& call, Stream& stream) {
     const TileJob& job = stream.job;  // not a structured binding: lambdas below capture these
     const double t0 = stream.t0, dt = stream.dt;
     const ChunkPlan& plan = stream.plan;

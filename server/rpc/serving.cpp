@@ -38,12 +38,17 @@ bool same_in_constant_time(std::string_view a, std::string_view b) {
 }  // namespace
 
 void ServingState::require_token(const grpc::ServerContext& context) const {
+  if (!token_accepted(context))
+    fail(Code::Unauthenticated, "a valid bearer token is required (authorization: Bearer ...)");
+}
+
+bool ServingState::token_accepted(const grpc::ServerContext& context) const {
   std::shared_ptr<const std::vector<std::string>> tokens;
   {
     std::lock_guard<std::mutex> lock(tokens_mutex_);
     tokens = tokens_;
   }
-  if (tokens->empty()) return;
+  if (tokens->empty()) return true;
   constexpr std::string_view kBearer = "bearer ";  // the scheme's case does not matter (RFC 7235 sec. 2.1)
   auto is_bearer = [&](std::string_view value) {
     if (value.size() < kBearer.size()) return false;
@@ -58,7 +63,7 @@ void ServingState::require_token(const grpc::ServerContext& context) const {
     std::string_view token = value.substr(kBearer.size());
     for (const auto& t : *tokens) accepted |= same_in_constant_time(token, t);  // every token, always
   }
-  if (!accepted) fail(Code::Unauthenticated, "a valid bearer token is required (authorization: Bearer ...)");
+  return accepted;
 }
 
 }  // namespace squall::rpc

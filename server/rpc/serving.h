@@ -51,11 +51,15 @@ class ServingState {
     auto next = std::make_shared<const std::vector<std::string>>(std::move(tokens));
     std::lock_guard<std::mutex> lock(tokens_mutex_);
     tokens_ = std::move(next);
+    tokens_version_.fetch_add(1);
   }
+  // How many times the tokens were set: an open stream checks its token again when this has changed.
+  uint64_t tokens_version() const { return tokens_version_.load(); }
   // With tokens set: UNAUTHENTICATED unless the call's "authorization" metadata is "Bearer <token>" (the
   // scheme in any case) with one of them, compared in constant time; the message says nothing about which
   // part was wrong.
   void require_token(const grpc::ServerContext& context) const;
+  bool token_accepted(const grpc::ServerContext& context) const;  // require_token's test, as a bool
 
   double uptime_seconds() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
@@ -66,6 +70,7 @@ class ServingState {
   mutable StreamWatch streams_;
   mutable std::mutex tokens_mutex_;  // guards the pointer; the vector it points to never changes
   std::shared_ptr<const std::vector<std::string>> tokens_ = std::make_shared<const std::vector<std::string>>();
+  std::atomic<uint64_t> tokens_version_{0};
   std::string replica_id_;               // set before serving starts, read-only afterwards
   SessionRegistry* sessions_ = nullptr;  // likewise
   std::atomic<Phase> phase_{Phase::Starting};

@@ -3,7 +3,8 @@
 // each message, and the status the call ends with. When squalld drains, a stream whose x-squall-session names
 // no session live here ends before its next message with UNAVAILABLE (reopen it on another replica); one
 // that names such a session goes on until the session is checkpointed for another replica, whose calls then
-// answer UNAVAILABLE.
+// answer UNAVAILABLE. A stream whose bearer token is dropped when squalld reads its tokens again (SIGHUP)
+// ends before its next message with UNAUTHENTICATED.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -36,13 +37,14 @@ class StreamCall {
     return reader.Read(message);
   }
 
-  // False once the call is cancelled, a write failed, or squalld drains (streams naming no session live
-  // here, asked while draining: the stream's own messages may have resumed it); the handler then stops.
+  // False once the call is cancelled, a write failed, squalld drains (streams naming no session live
+  // here, asked while draining: the stream's own messages may have resumed it) or the call's token is no
+  // longer accepted; the handler then stops.
   bool live() const {
     if (!stopped_by_drain_ && serving_.phase() == ServingState::Phase::Draining &&
         !serving_.names_live_session(context_))
       stopped_by_drain_ = true;
-    return !ended_ && !context_.IsCancelled() && !stopped_by_drain_;
+    return !ended_ && !context_.IsCancelled() && !stopped_by_drain_ && token_still_accepted();
   }
 
   // Writes one message, even while squalld drains: what it holds was made (an eWave step is taken, its
@@ -69,17 +71,21 @@ class StreamCall {
     return Cancellation([this] { return !live(); });
   }
 
-  // OK; UNAVAILABLE when squalld drains; DEADLINE_EXCEEDED when it waited on its client past
-  // --stream-idle-timeout (for the log: the client sees the cancellation); CANCELLED naming the method when
-  // the call did not end by itself.
+  // OK; UNAVAILABLE when squalld drains; UNAUTHENTICATED when its token is no longer accepted;
+  // DEADLINE_EXCEEDED when it waited on its client past --stream-idle-timeout (for the log: the client sees
+  // the cancellation); CANCELLED naming the method when the call did not end by itself.
   grpc::Status status() const {
+    const bool alive = live();  // first: it finds a drain or a dropped token that came since the last look
     if (waiting_.idled_out)
       return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                           method_ + " waited on its client past --stream-idle-timeout and was cancelled");
     if (stopped_by_drain_)
       return grpc::Status(grpc::StatusCode::UNAVAILABLE,
                           method_ + " ended: squalld is shutting down; reopen the stream on another replica");
-    if (live()) return grpc::Status::OK;
+    if (revoked_)
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                          method_ + " ended: its bearer token is no longer accepted (--auth-tokens was read again)");
+    if (alive) return grpc::Status::OK;
     return grpc::Status(grpc::StatusCode::CANCELLED, method_ + " cancelled (client gone, deadline or shutdown)");
   }
 
@@ -94,29 +100,44 @@ class StreamCall {
     StreamWaiting& w_;
   };
 
+  // A stream outlives the tokens it was let in with: when they are set again (SIGHUP), its token is checked
+  // again at its next live(), and one no longer among them ends the stream.
+  bool token_still_accepted() const {
+    const uint64_t version = serving_.tokens_version();
+    if (version != tokens_checked_.load()) {
+      if (!serving_.token_accepted(context_)) revoked_ = true;
+      tokens_checked_ = version;
+    }
+    return !revoked_;
+  }
+
   grpc::ServerContext& context_;
   std::string method_;
   const ServingState& serving_;
   StreamWaiting waiting_;
+  mutable std::atomic<uint64_t> tokens_checked_{0};  // the tokens_version() its token was last checked at
+  mutable std::atomic<bool> revoked_{false};
   // A write failed; live() said no because squalld drains. Atomic: engines ask live() from their worker
   // threads (a stream's next frame is computed while the handler writes the last).
   std::atomic<bool> ended_{false};
   mutable std::atomic<bool> stopped_by_drain_{false};
 };
 
-// Runs a streaming handler under guarded(): the serving and token checks, a --max-streams slot (and the
-// client's), then prepare() (the request's validation and what the stream sets up before its first frame:
-// a river's bake, a followed ocean, its memory, all bounded by the slots), then run(call, prepared). The
-// slots are given back on every way out. The status is the first error thrown, else the call's.
-template <typename Prepare, typename Run>
-grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Prepare&& prepare,
-                          Run&& run) {
+// Runs a streaming handler under guarded(): the serving and token checks; check(), the request's validation,
+// so that a bad request is refused for what it is even when every slot is taken; a --max-streams slot and
+// the client's, given back on every way out; prepare(checked), what the stream sets up before its first
+// frame (a river's bake, a followed ocean, its memory: work the slots bound); then run(call, checked). The
+// status is the first error thrown, else the call's.
+template <typename Check, typename Prepare, typename Run>
+grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Check&& check,
+                          Prepare&& prepare, Run&& run) {
   return guarded([&] {
     serving.require_serving(context);
     serving.require_token(context);
+    auto prepared = check();
     Slot slot = serving.gate().acquire_stream();
     Slot client_slot = serving.gate().acquire_client_stream(client_address(context));
-    auto prepared = prepare();
+    prepare(prepared);
     StreamCall call(context, method, serving);
     try {
       run(call, prepared);
@@ -125,6 +146,14 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
     }
     return call.status();
   });
+}
+
+// The same with nothing to set up before the first frame.
+template <typename Check, typename Run>
+grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, const char* method, Check&& check,
+                          Run&& run) {
+  return serve_stream(
+      context, serving, method, check, [](auto&) {}, run);
 }
 
 // The same for a stream whose messages are validated one by one as they arrive: run(call).

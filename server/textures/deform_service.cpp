@@ -21,16 +21,18 @@ struct DeformStream {
   Slot memory;  // the stream's working memory, against --memory-budget
 };
 
-// The planes of `request`, their bytes within --max-message-bytes, and the stream's working memory
-// (an estimate: the deformation's state, flow and solve, DeformEngine::working_bytes, and the planes asked
-// for in the message and serialized) reserved.
+// The planes of `request`, their bytes within --max-message-bytes.
 void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, LimitGate& gate, const std::string& path) {
   s.planes = req::deform_planes(request, path);
   s.dtype = field::dtype(request.dtype(), path + ".dtype");
-  const uint64_t frame_bytes = req::frame_bytes(s.spec, s.planes, s.dtype);
-  gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", frame_bytes);
-  s.memory =
-      gate.acquire_memory("the deformation's state and frames", DeformEngine::working_bytes(s.spec) + 2 * frame_bytes);
+  gate.check_message_bytes("DeformFrame (ask for fewer texels or planes)", req::frame_bytes(s.spec, s.planes, s.dtype));
+}
+
+// The stream's working memory reserved: an estimate, the deformation's state, flow and solve
+// (DeformEngine::working_bytes) and the planes asked for in the message and serialized.
+void reserve(DeformStream& s, LimitGate& gate) {
+  s.memory = gate.acquire_memory("the deformation's state and frames",
+                                 DeformEngine::working_bytes(s.spec) + 2 * req::frame_bytes(s.spec, s.planes, s.dtype));
 }
 
 v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {
@@ -43,14 +45,15 @@ v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {
 
 grpc::Status TexturesService::DeformTexture(grpc::ServerContext* context, const v1::DeformTextureRequest* request,
                                             grpc::ServerWriter<v1::DeformFrame>* writer) {
-  auto prepare = [&] {
+  auto check = [&] {
     DeformStream s;
     s.spec = req::deform_spec(*request, serving_.gate());
     deform_->validate(s.spec, "request");
     choose_planes(s, *request, serving_.gate(), "request");
     return s;
   };
-  return serve_stream(*context, serving_, "DeformTexture", prepare, [&](StreamCall& call, DeformStream& s) {
+  auto prepare = [&](DeformStream& s) { reserve(s, serving_.gate()); };
+  return serve_stream(*context, serving_, "DeformTexture", check, prepare, [&](StreamCall& call, DeformStream& s) {
     std::unique_ptr<Deformation> deformation = deform_->start(s.spec, call.cancellation(), &s.memory);
     for (int i = 0; i < s.spec.frames && call.live(); ++i)
       if (!call.write(*writer, encode(s, *deformation))) return;
@@ -72,6 +75,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
         s.spec = req::deform_start(message, serving_.gate(), path);
         deform_->validate(s.spec, path + ".start");
         choose_planes(s, message.start(), serving_.gate(), path + ".start");
+        reserve(s, serving_.gate());
         deformation = deform_->start(s.spec, call.cancellation(), &s.memory);
       }
       if (req::steer(message, s.spec, path)) deformation->steer(s.spec.control, path);

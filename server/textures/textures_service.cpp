@@ -144,17 +144,20 @@ void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, co
   const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
   rivers_->validate(river, path + ".river");
   rivers_->validate(grid, path + ".river", "bake_");
-  // The rest of the request is checked before the bake (seconds on a large grid), with a still velocity.
-  VelocitySpec velocity_before = std::exchange(s.spec.velocity, VelocitySpec{});
+  validate_beside_velocity(s, spec_path);  // before the bake: seconds on a large grid
+  Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(grid));
+  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
+}
+
+void TexturesService::validate_beside_velocity(Stream& s, const std::string& spec_path) const {
+  VelocitySpec velocity = std::exchange(s.spec.velocity, VelocitySpec{});
   try {
     engine_->validate(s.spec, spec_path);
   } catch (...) {
-    s.spec.velocity = std::move(velocity_before);
+    s.spec.velocity = std::move(velocity);
     throw;
   }
-  s.spec.velocity = std::move(velocity_before);
-  Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(grid));
-  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
+  s.spec.velocity = std::move(velocity);
 }
 
 TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {
@@ -167,7 +170,9 @@ TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool r
 
 grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const v1::AdvectTextureRequest* request,
                                             grpc::ServerWriter<v1::TextureFrame>* writer) {
-  auto prepare = [&] {
+  const bool velocity_made =
+      request->velocity().has_river() || request->velocity().has_ocean() || request->velocity().has_ewave_session();
+  auto check = [&] {
     Stream s;
     s.cancel = cancellation(*context);
     s.spec = req::spec(*request, serving_.gate());
@@ -180,15 +185,21 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
-    follow(s, s.spec.t0);
-    bake_river(request->velocity(), s, "request.velocity", "request");
-    engine_->validate(s.spec, "request");
+    if (velocity_made)                     // a river or a current: the rest now, the velocity once made
+      validate_beside_velocity(s, "request");
+    else
+      engine_->validate(s.spec, "request");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
     return s;
   };
-  return serve_stream(*context, serving_, "AdvectTexture", prepare, [&](StreamCall& call, Stream& s) {
+  auto prepare = [&](Stream& s) {  // the velocity made, and the memory reserved, under the stream's slot
+    follow(s, s.spec.t0);
+    bake_river(request->velocity(), s, "request.velocity", "request");
+    if (velocity_made) engine_->validate(s.spec, "request");
+    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
+  };
+  return serve_stream(*context, serving_, "AdvectTexture", check, prepare, [&](StreamCall& call, Stream& s) {
     std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume, s.cancel);
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {
@@ -239,8 +250,10 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
     advection = engine_->start(s.spec, {}, s.cancel);
   } else if (changed || s.current.any()) {
     const uint64_t needed = working_bytes(s.frame_bytes, s.spec);
-    if (needed > s.memory.amount() + s.steered_memory.amount())
+    if (needed > s.memory.amount() + s.steered_memory.amount()) {
+      s.steered_memory = Slot();  // given back before the larger share is asked for, not counted twice
       s.steered_memory = serving_.gate().acquire_memory(path + "'s steered inputs", needed - s.memory.amount());
+    }
     engine_->steer(*advection, s.spec);
   }
 }

@@ -65,6 +65,9 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // memory reserved while it runs.
   void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path,
                   const std::string& spec_path);
+  // The stream's spec validated (under `spec_path`) with a still velocity: the rest of a request whose
+  // velocity is made later, a river's bake or a followed current's read, refused before that is done.
+  void validate_beside_velocity(Stream& s, const std::string& spec_path) const;
   // The advection's next frame; with `refresh`, the followed current is read for its step first.
   textures::TextureFrame next_frame(Stream& s, textures::Advection& advection, bool refresh);
   // Message n of an AdvectInteractive stream applied to `s`: the first starts `advection`.

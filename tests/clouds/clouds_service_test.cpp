@@ -566,8 +566,8 @@ TEST(CloudsService, ABuildPastTheMemoryBudgetIsRefusedBeforeItStarts) {
   model.mutable_spheres(0)->set_radius(5);
   status = call(d.address()).build(request, &built);
   EXPECT_TRUE(status.ok()) << status.error_message();
-  // Reading a mesh counts too, before it is read: 4e6 vertices in 32 MB of OBJ text take 640 MB to read
-  // and check (160 bytes each), refused at once.
+  // Reading a mesh counts too, before it is read: 4e6 vertices in 32 MB of OBJ text take 768 MB to read
+  // and check (192 bytes each), refused at once.
   std::string obj;
   for (int k = 0; k < 4000000; ++k) obj += "v 0 0 0\n";
   model.add_meshes()->set_obj(obj);

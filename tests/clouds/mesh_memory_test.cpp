@@ -67,9 +67,10 @@ int64_t peak_of(const std::function<void()>& f) {
 double peak_over_reserved(const v1::CloudModel& model) {
   const int64_t peak = peak_of([&] {
     const CloudModel m = rpc::model(model);
+    CloudModel copy = m;  // CloudEngine::validate's, which takes the model by value
     std::vector<MeshPiece> pieces;
-    validate(m, "model", &pieces);
-    build_bytes(m, pieces);
+    validate(copy, "model", &pieces);
+    build_bytes(copy, pieces);
   });
   return double(peak) / double(rpc::mesh_read_bytes(model));
 }
@@ -82,8 +83,8 @@ std::string sphere_obj(int rings, int segments, bool split) {
   for (int r = 1; r <= rings; ++r)
     for (int s = 0; s < segments; ++s) {
       const double theta = M_PI * r / (rings + 1), phi = 2 * M_PI * s / segments;
-      points.push_back({10 * std::sin(theta) * std::cos(phi), 10 * std::sin(theta) * std::sin(phi),
-                        10 * std::cos(theta)});
+      points.push_back(
+          {10 * std::sin(theta) * std::cos(phi), 10 * std::sin(theta) * std::sin(phi), 10 * std::cos(theta)});
     }
   points.push_back({0, 0, -10});
   const int south = int(points.size()) - 1;

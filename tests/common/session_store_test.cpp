@@ -317,7 +317,7 @@ TEST(SessionStoreStateDir, ACallDuringAnEvictionResumesNothing) {
     });
   });
   inside.get_future().wait();
-  now_ms = 1000;  // idle past the TTL
+  now_ms = 1000;                                  // idle past the TTL
   std::thread evicting([&] { s.evict_idle(); });  // takes it out, then waits for the call to remove its files
   for (int i = 0; i < 1000 && s.size() > 0; ++i) std::this_thread::sleep_for(1ms);
   ASSERT_EQ(s.size(), 0u);

@@ -280,6 +280,26 @@ def test_an_async_stream_left_by_break_releases_its_slot(tight_daemon, call: str
         gc.enable()
 
 
+def test_an_async_steering_stream_dropped_unclosed_releases_its_slot(tight_daemon) -> None:
+    """As an AsyncStream's: an Interactive neither closed nor left in ``async with`` gives its slot
+    back once nothing refers to it, the garbage collector held off (its call is in no reference
+    cycle: grpc.aio cancels it as it is freed)."""
+    spec = small_tile()
+
+    async def main() -> List[int]:
+        async with squall.aio.Client(tight_daemon.address) as aclient:
+            steer = aclient.textures.interactive(**small_texture_stream())
+            assert len(await steer.send(frames=1)) == 1
+            del steer
+            return await two_frames_once_the_slot_is_back(aclient, spec)
+
+    gc.disable()
+    try:
+        assert run(main()) == [0, 1]
+    finally:
+        gc.enable()
+
+
 def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> None:
     """As the synchronous client's: the call is cancelled, its --max-streams slot given back."""
     spec = small_tile()

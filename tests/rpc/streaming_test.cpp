@@ -1,6 +1,7 @@
 // StreamCall, the bookkeeping of the streaming handlers, with a writer that records what it is given.
 #include "rpc/streaming.h"
 
+#include <grpcpp/test/server_context_test_spouse.h>
 #include <gtest/gtest.h>
 
 #include <string>
@@ -53,28 +54,53 @@ TEST(StreamCall, AFailedWriteEndsTheCall) {
   EXPECT_EQ(call.status().error_code(), grpc::StatusCode::CANCELLED);
 }
 
-// A stream takes its --max-streams slot before its request is prepared: preparing can bake a river, evaluate
-// an ocean or reserve memory, work the slots bound. A refused preparation gives the slot back.
-TEST(ServeStream, TheSlotIsTakenBeforeTheRequestIsPrepared) {
+// A stream outlives the tokens it was let in with: when they are read again (SIGHUP), a stream whose token is
+// still among them goes on, and one whose token was dropped ends UNAUTHENTICATED.
+TEST(StreamCall, AStreamWhoseTokenIsDroppedEndsUnauthenticated) {
+  Serving serving;
+  grpc::testing::ServerContextTestSpouse spouse(&serving.context);
+  spouse.AddClientMetadata("authorization", "Bearer old");
+  serving.state.set_tokens({"old"});
+  serving.state.require_token(serving.context);
+  StreamCall call(serving.context, "Run", serving.state);
+  EXPECT_TRUE(call.live());
+  serving.state.set_tokens({"new", "old"});
+  EXPECT_TRUE(call.live()) << "its token is still accepted";
+  serving.state.set_tokens({"new"});
+  EXPECT_FALSE(call.live());
+  EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAUTHENTICATED) << call.status().error_message();
+  serving.state.set_tokens({"new", "old"});
+  EXPECT_FALSE(call.live()) << "a stream once ended stays ended";
+}
+
+// A stream's request is checked before it asks for a --max-streams slot (a bad request is refused for what it
+// is, even when every slot is taken), and set up after it has one: setting up can bake a river, evaluate an
+// ocean or reserve memory, work the slots bound. A refused setup gives the slot back.
+TEST(ServeStream, TheRequestIsCheckedBeforeItsSlotAndSetUpAfter) {
   Limits limits;
   limits.max_streams = 1;
   Serving serving(limits);
-  bool prepared = false;
-  auto prepare = [&] {
-    prepared = true;
-    fail(Code::InvalidArgument, "request.field is bad");
+  bool bad = true, set_up = false;
+  auto check = [&] {
+    if (bad) fail(Code::InvalidArgument, "request.field is bad");
     return 0;
   };
+  auto prepare = [&](int&) {
+    set_up = true;
+    fail(Code::ResourceExhausted, "its bake would pass the memory budget");
+  };
   auto run = [](StreamCall&, int) {};
+  auto code = [&] { return serve_stream(serving.context, serving.state, "Run", check, prepare, run).error_code(); };
   {
     Slot open = serving.state.gate().acquire_stream();
-    const grpc::Status full = serve_stream(serving.context, serving.state, "Run", prepare, run);
-    EXPECT_EQ(full.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << full.error_message();
-    EXPECT_FALSE(prepared) << "prepared for a stream that had no slot";
+    EXPECT_EQ(code(), grpc::StatusCode::INVALID_ARGUMENT);
+    bad = false;
+    const grpc::Status full = serve_stream(serving.context, serving.state, "Run", check, prepare, run);
+    EXPECT_NE(full.error_message().find("--max-streams"), std::string::npos) << full.error_message();
+    EXPECT_FALSE(set_up) << "set up for a stream that had no slot";
   }
-  const grpc::Status bad = serve_stream(serving.context, serving.state, "Run", prepare, run);
-  EXPECT_EQ(bad.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad.error_message();
-  EXPECT_TRUE(prepared);
+  EXPECT_EQ(code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(set_up);
   EXPECT_EQ(serving.state.gate().open_streams(), 0u);
 }
 
