@@ -6,7 +6,7 @@ import asyncio
 import gc
 import re
 import time
-from typing import Any, List
+from typing import Any, Coroutine, List
 
 import grpc
 import pytest
@@ -247,6 +247,15 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
     assert run(main()) == [0, 1]
 
 
+def run_without_collector(main: Coroutine[Any, Any, List[int]]) -> List[int]:
+    """run(main) with the garbage collector held off: what it frees, reference counts free."""
+    gc.disable()
+    try:
+        return run(main)
+    finally:
+        gc.enable()
+
+
 @pytest.mark.parametrize("call", ["ewave.run", "ocean.stream"])
 def test_an_async_stream_left_by_break_releases_its_slot(tight_daemon, call: str) -> None:
     """As the synchronous client's Stream: an AsyncStream left by ``break`` and never cancelled
@@ -273,11 +282,7 @@ def test_an_async_stream_left_by_break_releases_its_slot(tight_daemon, call: str
                 break
             return await two_frames_once_the_slot_is_back(aclient, spec)
 
-    gc.disable()
-    try:
-        assert run(main()) == [0, 1]
-    finally:
-        gc.enable()
+    assert run_without_collector(main()) == [0, 1]
 
 
 def test_an_async_steering_stream_dropped_unclosed_releases_its_slot(tight_daemon) -> None:
@@ -293,11 +298,7 @@ def test_an_async_steering_stream_dropped_unclosed_releases_its_slot(tight_daemo
             del steer
             return await two_frames_once_the_slot_is_back(aclient, spec)
 
-    gc.disable()
-    try:
-        assert run(main()) == [0, 1]
-    finally:
-        gc.enable()
+    assert run_without_collector(main()) == [0, 1]
 
 
 def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> None:
