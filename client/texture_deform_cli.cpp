@@ -21,7 +21,8 @@ Content-aware deformation (Guingo, Larue, Sauvage, Lutz, Dischler, Cani, "Conten
 deformation with dynamic control", Computers & Graphics 2020): a flow field v is solved from the rigidity
 map R (div v = R, least squares), then every texel's warp moves along v by its d mu each frame; for d mu > 0
 the pattern shrinks where R > 0 (rigid) and stretches where R < 0. Each frame is DIR/frame_NNNN.exr (every
-returned plane, the frame's time as squall.time_seconds) and DIR/frame_NNNN.png (color_0).
+returned plane, the frame's time as squall.time_seconds) and DIR/frame_NNNN.png (the first returned plane:
+color_0 unless --planes leaves it out).
   --image FILE           the texture: .exr (R, G, B, A first, at most 8 channels) or .png
   --rigidity FILE|R      R in [-1, 1]: an .exr (its first channel, the texture's size) or one value
   --chart FILE.exr       nonzero inside the chart (first channel); texels outside stay fixed

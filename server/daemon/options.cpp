@@ -146,10 +146,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"tls-cert", [o](const std::string& v) { o->tls_cert = v; }},
       {"tls-key", [o](const std::string& v) { o->tls_key = v; }},
       {"tls-client-ca", [o](const std::string& v) { o->tls_client_ca = v; }},
-      {"tls-refresh",
-       [o](const std::string& v) {
-         o->tls_refresh_seconds = unsigned(std::min<uint64_t>(positive_integer(v), 86400));
-       }},
+      {"tls-refresh", [o](const std::string& v) { o->tls_refresh_seconds = unsigned(integer_at_most(v, 86400)); }},
       {"replica-id",
        [o](const std::string& v) {
          if (v.empty() || v.size() > 128) throw std::invalid_argument("must be 1 to 128 characters");
@@ -342,7 +339,7 @@ std::string usage() {
          "  --tls-cert PEM --tls-key PEM  serve TLS only, with this certificate chain and private key\n"
          "  --tls-client-ca PEM       mutual TLS: require client certificates signed by this CA\n"
          "  --tls-refresh SECONDS     re-read the TLS files this often: renewed certificates need no restart\n"
-         "                            (default 60)\n"
+         "                            (whole seconds, 1 to 86400; default 60)\n"
          "  --auth-tokens FILE        require \"authorization: Bearer <token>\" with a token of FILE (one per line,\n"
          "                            optionally followed by a name; # comments); health stays open unless\n"
          "                            --auth-exempt-health off; SIGHUP re-reads FILE\n"

@@ -763,6 +763,8 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--max-streams", "4294967296"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-streams 4294967296: must be 1 to 4294967295"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--max-sessions", "4294967296"}, &out), 2) << out;
+  EXPECT_EQ(test::run({kSqualld, "--tls-refresh", "100000"}, &out), 2) << out;  // refused, not cut to a day
+  EXPECT_NE(out.find("--tls-refresh 100000: must be 1 to 86400"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--max-message-bytes", "3000000000"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-message-bytes 3000000000: must be 1 to 2147483647 (gRPC's largest message)"),
             std::string::npos)

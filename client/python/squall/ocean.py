@@ -112,7 +112,8 @@ def layer(
         spreading: "isotropic", "pierson_cos2", "krylov", "mitsuyasu", "jonswap", "von_mises",
             "hyperbolic"; "unspecified" only with Phillips (which has its own |k.w|^p factor).
         dispersion: "deep", "shallow", "capillary", "combined" (Gilligan Table 1).
-        wind_speed: U at 10 m, m/s; in (0, 100] (Multipeak: [0, 100]).
+        wind_speed: U at 10 m, m/s; in (0, 100] (Multipeak with a spreading that does not use the
+            wind: [0, 100]).
         wind_direction: direction the wind blows towards, rad.
         fetch: JONSWAP / modified JONSWAP / TMA fetch, m; in (0, 1e8].
         depth: water depth (shallow / combined dispersion, TMA), m; in (0, 1e5].
