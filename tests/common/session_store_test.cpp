@@ -137,9 +137,10 @@ TEST(SessionStoreRace, ACallWaitingOnASessionEvictedMeanwhileAnswersNotFound) {
   std::atomic<int64_t> now_ms{0};
   std::promise<void> found;  // the waiting call's second clock read: after evict_idle, lookup() found it
   int waiting_reads = 0;     // on the waiting call's thread only
-  auto clock = [&] {
+  auto clock = [&] {  // the time read before the signal, which lets the test move the clock on
+    const auto now = std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms));
     if (t_waiting_call && ++waiting_reads == 2) found.set_value();
-    return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms));
+    return now;
   };
   LimitGate gate{Limits{}};
   SessionStore<Counter> s(gate, SessionPolicy{100ms, clock}, "counter", "counter_id", "c-");
