@@ -193,24 +193,27 @@ void texture(const TextureSpec& t, const LimitGate& gate, const std::string& pat
   if (t.final_function == SQUALL_FINAL_LUT) lookup(t.lut, gate, path + ".lut");
 }
 
+// The device places pixels and nodes in float32: along each axis, `steps` of them over [lo, hi] must each span
+// many of float32's steps at the region's coordinates (a 1 du region of pixels at x = 1e6 came out flat;
+// Eulerian nodes that close lost their strain and vorticity, whose differences x +- h then read x twice).
+void resolved(const std::string& path, const char* what, const char* axis, double lo, double hi, double steps) {
+  const double farthest = std::max(std::abs(lo), std::abs(hi)), step = (hi - lo) / steps;
+  if (step < farthest * kMinPixelPerCoordinate)
+    fail(Code::InvalidArgument, path + ": " + what + " of " + number(step) + " du along " + axis +
+                                    " at coordinates up to " + number(farthest) +
+                                    " du are finer than float32 places them there (at least " +
+                                    number(farthest * kMinPixelPerCoordinate) +
+                                    " du): move the region nearer the origin or use fewer " + what);
+}
+
 void output(const OutputSpec& o, const LimitGate& gate, const std::string& path) {
   gate.check_grid(path + ".width", path + ".height", o.width, o.height);
   in(path + ".region.x0", o.x0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".region.y0", o.y0, closed(-kMaxCoordinate, kMaxCoordinate));
   in(path + ".region.x1", o.x1, open_closed(o.x0, kMaxCoordinate));
   in(path + ".region.y1", o.y1, open_closed(o.y0, kMaxCoordinate));
-  // The device places pixels in float32: along each axis a pixel must span many of float32's steps at the
-  // region's coordinates (a 1 du region at x = 1e6 came out flat).
-  auto resolved = [&](const char* axis, double lo, double hi, int pixels) {
-    const double farthest = std::max(std::abs(lo), std::abs(hi)), pixel = (hi - lo) / pixels;
-    if (pixel < farthest * kMinPixelPerCoordinate)
-      fail(Code::InvalidArgument,
-           path + ": pixels of " + number(pixel) + " du along " + axis + " at coordinates up to " + number(farthest) +
-               " du are finer than float32 places them there (at least " + number(farthest * kMinPixelPerCoordinate) +
-               " du): move the region nearer the origin or use fewer pixels");
-  };
-  resolved("x", o.x0, o.x1, o.width);
-  resolved("y", o.y0, o.y1, o.height);
+  resolved(path, "pixels", "x", o.x0, o.x1, o.width);
+  resolved(path, "pixels", "y", o.y0, o.y1, o.height);
 }
 
 void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::string& path) {
@@ -227,10 +230,13 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
   positive(path + ".fade_tau", p.fade_tau, 1e6);
 }
 
-void eulerian(const EulerianParams& p, Method method, const LimitGate& gate, const std::string& path) {
+void eulerian(const EulerianParams& p, Method method, const OutputSpec& o, const LimitGate& gate,
+              const std::string& path) {
   in(path + ".grid_nx", p.grid_nx, 2, 4096);
   in(path + ".grid_ny", p.grid_ny, 2, 4096);
   gate.check_grid(path + ".grid_nx", path + ".grid_ny", p.grid_nx, p.grid_ny);
+  resolved(path + ".grid_nx", "nodes", "x", o.x0, o.x1, double(p.grid_nx - 1));
+  resolved(path + ".grid_ny", "nodes", "y", o.y0, o.y1, double(p.grid_ny - 1));
   if (method == Method::Naive) return;  // never regenerated: no latency
   in(path + ".latencies size", int64_t(p.latencies.size()), 1,
      method == Method::EulerianMultilayer ? SQUALL_EULERIAN_MAX_LAYERS : 1);
@@ -305,7 +311,7 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
   if (spec.method == Method::LagrangianGrids)
     lagrangian(spec.lagrangian, spec.output, path + ".lagrangian");
   else
-    eulerian(spec.eulerian, spec.method, gate, path + ".eulerian");
+    eulerian(spec.eulerian, spec.method, spec.output, gate, path + ".eulerian");
   if (spec.method == Method::EulerianMultilayer)
     cascade(spec.eulerian.cascade, spec.texture, path + ".eulerian.cascade");
 }

@@ -198,8 +198,8 @@ TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
   texture_engine().validate(spec, "spec");
 }
 
-// Pixels finer than float32 places at the region's coordinates: a 1 du region of 64 pixels at x = 1e6
-// came out flat. The same region at x = 1e3 is accepted.
+// Pixels (and Eulerian nodes) finer than float32 places at the region's coordinates: a 1 du region of 64
+// pixels at x = 1e6 came out flat. The same region at x = 1e3 is accepted.
 TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
   spec.output.x0 = 1e6;
@@ -217,6 +217,15 @@ TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   spec.velocity.frames = {{0.0, std::vector<float>(4), std::vector<float>(4)}};
   expect_error(Code::InvalidArgument, "spec.velocity.grid.spacing.x = 1e-50",
                [&] { texture_engine().validate(spec, "spec"); });
+  // Eulerian nodes too: 4096 over 1.25 du at x = 1e4 are 3e-4 du apart, where float32's step is 1e-3 (their
+  // strain and vorticity read x +- h as x); 64 of them are as far apart as the pixels.
+  spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
+  spec.output = {64, 64, 1e4, 0, 1e4 + 1.25, 1};
+  spec.eulerian.grid_nx = 4096;
+  expect_error(Code::InvalidArgument, "spec.eulerian.grid_nx: nodes of 0.000305",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.eulerian.grid_nx = 64;
+  texture_engine().validate(spec, "spec");
 }
 
 }  // namespace
