@@ -29,12 +29,12 @@ class StreamCall {
   StreamCall(const StreamCall&) = delete;
   StreamCall& operator=(const StreamCall&) = delete;
 
-  // Reads the client's next message (false at its end, or once the call is cancelled), as time spent
-  // waiting on the client.
+  // Reads the client's next message (false at its end, once the call is cancelled, or when its token was
+  // dropped while it waited: that message is not acted on), as time spent waiting on the client.
   template <typename Reader, typename Message>
   bool read(Reader& reader, Message* message) {
     const Waiting waiting(waiting_);
-    return reader.Read(message);
+    return reader.Read(message) && token_still_accepted();
   }
 
   // False once the call is cancelled, a write failed, squalld drains (streams naming no session live

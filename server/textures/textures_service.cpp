@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string_view>
 #include <utility>
 
@@ -74,18 +75,23 @@ void check_ocean_clock(const req::FollowedCurrent& current, const AdvectSpec& sp
 
 }  // namespace
 
-// One advection stream: its spec (as steered so far), the planes it sends and the current its velocity
-// follows (if any).
+// One advection stream: its spec (as steered so far), the planes it sends, the current its velocity follows
+// and the river it bakes into its velocity (if any).
 struct TexturesService::Stream {
   AdvectSpec spec;
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
-  Slot memory;               // the stream's working memory, against --memory-budget
-  Slot steered_memory;       // what inputs a later control message sent hold beyond `memory`
-  Cancellation cancel;       // whether its client still wants it: ends a river's bake early
-  uint64_t fingerprint = 0;  // of the request, which its checkpoints carry (AdvectTexture, with checkpoints)
-  std::string_view resume;   // the advection state it resumes from (AdvectTexture; empty: from frame 0)
+  Slot memory;          // the stream's working memory, against --memory-budget
+  Slot steered_memory;  // what inputs a later control message sent hold beyond `memory`
+  struct River {
+    RiverSpec spec;
+    BakeGrid grid;
+  };
+  std::optional<River> river;  // checked, to bake into the velocity
+  Cancellation cancel;         // whether its client still wants it: ends a river's bake early
+  uint64_t fingerprint = 0;    // of the request, which its checkpoints carry (AdvectTexture, with checkpoints)
+  std::string_view resume;     // the advection state it resumes from (AdvectTexture; empty: from frame 0)
 };
 
 namespace {
@@ -137,16 +143,23 @@ SurfaceCurrent TexturesService::session_current(const req::FollowedCurrent& foll
   return current;
 }
 
-void TexturesService::bake_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path,
-                                 const std::string& spec_path) {
+void TexturesService::check_river(const v1::VelocitySpec& velocity, Stream& s, const std::string& path) const {
+  s.river.reset();
   if (!velocity.has_river()) return;
-  const RiverSpec river = req::river(velocity.river());
-  const BakeGrid grid = req::bake_grid(velocity.river(), s.spec.output);
-  rivers_->validate(river, path + ".river");
-  rivers_->validate(grid, path + ".river", "bake_");
+  Stream::River river{req::river(velocity.river()), req::bake_grid(velocity.river(), s.spec.output)};
+  rivers_->validate(river.spec, path + ".river");
+  rivers_->validate(river.grid, path + ".river", "bake_");
+  s.river = std::move(river);
+}
+
+void TexturesService::bake_river(Stream& s, const std::string& path, const std::string& spec_path) {
+  if (!s.river) return;
   validate_beside_velocity(s, spec_path);  // before the bake: seconds on a large grid
-  Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(grid));
-  s.spec.velocity = velocity_grid(rivers_->bake(river, grid, path + ".river", s.cancel), path + ".river");
+  Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(s.river->grid));
+  VelocitySpec baked =
+      velocity_grid(rivers_->bake(s.river->spec, s.river->grid, path + ".river", s.cancel), path + ".river");
+  s.river.reset();
+  s.spec.velocity = std::move(baked);
 }
 
 void TexturesService::validate_beside_velocity(Stream& s, const std::string& spec_path) const {
@@ -185,7 +198,8 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
-    if (velocity_made)                     // a river or a current: the rest now, the velocity once made
+    check_river(request->velocity(), s, "request.velocity");
+    if (velocity_made)  // a river or a current: the rest now, the velocity once made
       validate_beside_velocity(s, "request");
     else
       engine_->validate(s.spec, "request");
@@ -195,7 +209,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
   };
   auto prepare = [&](Stream& s) {  // the velocity made, and the memory reserved, under the stream's slot
     follow(s, s.spec.t0);
-    bake_river(request->velocity(), s, "request.velocity", "request");
+    bake_river(s, "request.velocity", "request");
     if (velocity_made) engine_->validate(s.spec, "request");
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
   };
@@ -239,8 +253,14 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   validate_clock(s.spec, n == 0 ? path + ".start" : path);
   follow(s, advection ? advection->time() : s.spec.t0);
   const std::string spec_path = n == 0 ? path + ".start" : path;
-  if (n == 0 && !control.has_velocity()) bake_river(control.start().velocity(), s, path + ".start.velocity", spec_path);
-  if (control.has_velocity()) bake_river(control.velocity(), s, path + ".velocity", spec_path);
+  if (n == 0 && !control.has_velocity()) {
+    check_river(control.start().velocity(), s, path + ".start.velocity");
+    bake_river(s, path + ".start.velocity", spec_path);
+  }
+  if (control.has_velocity()) {
+    check_river(control.velocity(), s, path + ".velocity");
+    bake_river(s, path + ".velocity", spec_path);
+  }
   engine_->validate(s.spec, spec_path);
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);

@@ -60,11 +60,12 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   void follow(Stream& s, double from);
   // The surface current of the eWave session `followed` names, of 2 x 2 cells or more.
   SurfaceCurrent session_current(const textures::rpc::FollowedCurrent& followed) const;
-  // The river of `velocity` (the request field at `path`), if it is one, validated and baked into the
-  // stream's velocity. The rest of the stream's spec is validated first (under `spec_path`), and the bake's
-  // memory reserved while it runs.
-  void bake_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path,
-                  const std::string& spec_path);
+  // The river of `velocity` (the request field at `path`), if it is one, and its bake grid, validated into
+  // the stream's river to bake.
+  void check_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path) const;
+  // The stream's river to bake, if any, baked into its velocity: the rest of its spec validated first (under
+  // `spec_path`), and the bake's memory reserved while it runs.
+  void bake_river(Stream& s, const std::string& path, const std::string& spec_path);
   // The stream's spec validated (under `spec_path`) with a still velocity: the rest of a request whose
   // velocity is made later, a river's bake or a followed current's read, refused before that is done.
   void validate_beside_velocity(Stream& s, const std::string& spec_path) const;

@@ -66,7 +66,13 @@ TEST(StreamCall, AStreamWhoseTokenIsDroppedEndsUnauthenticated) {
   EXPECT_TRUE(call.live());
   serving.state.set_tokens({"new", "old"});
   EXPECT_TRUE(call.live()) << "its token is still accepted";
-  serving.state.set_tokens({"new"});
+  struct Reader {
+    bool Read(std::string* message) { return !(*message = "step").empty(); }
+  } reader;
+  std::string message;
+  EXPECT_TRUE(call.read(reader, &message));
+  serving.state.set_tokens({"new"});  // while the stream waits for its client's next message
+  EXPECT_FALSE(call.read(reader, &message)) << "the message that comes next is not acted on";
   EXPECT_FALSE(call.live());
   EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAUTHENTICATED) << call.status().error_message();
   serving.state.set_tokens({"new", "old"});

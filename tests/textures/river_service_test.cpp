@@ -349,6 +349,28 @@ TEST(TexturesRiver, ABadAdvectionIsRefusedBeforeItsRiverIsBaked) {
   EXPECT_LT(seconds, 3) << "the river was baked before the request was refused";
 }
 
+// A bad river is refused for what it is, INVALID_ARGUMENT naming it, even when every stream slot is taken:
+// a river is checked before its stream asks for a slot, and baked only once it has one.
+TEST(TexturesRiver, ABadRiverIsInvalidEvenWhenTheStreamsAreFull) {
+  test::Daemon d({"--max-streams", "1"});
+  auto stub = v1::Textures::NewStub(grpc::CreateChannel(d.address(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext open;
+  auto held = stub->AdvectTexture(&open, river_request(1000));
+  v1::TextureFrame frame;
+  ASSERT_TRUE(held->Read(&frame));
+  v1::AdvectTextureRequest bad = river_request(2);
+  bad.mutable_velocity()->mutable_river()->set_bake_nx(1);
+  grpc::ClientContext refused;
+  auto stream = stub->AdvectTexture(&refused, bad);
+  while (stream->Read(&frame)) {
+  }
+  const grpc::Status status = stream->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("request.velocity.river.bake_nx"), std::string::npos) << status.error_message();
+  open.TryCancel();
+  held->Finish();
+}
+
 // `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;
 // `squall texture advect --velocity river:FILE.json` streams frames driven by the same file.
 TEST(TexturesRiver, CommandLine) {
