@@ -267,8 +267,8 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w) {
     case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
       /* c = ln 2 / (1 - cos(width)) with cos(width / 2) = 2^(-1 / (2 s)), written as 1 - cos(width) =
        * -2 expm1(-ln 2 / s) and c (cos d - 1) = -2 c sin^2(d / 2): both differences cancelled in float,
-       * 42% off at s = 1e7 and c infinite past s = 1.16e7 (a light wind's narrow swell), D then NaN. */
-      /* s past 1e12 (a wind of 1e-14 m/s overflows it) is a spread narrower than any grid resolves */
+       * 42% off at s = 1e7 and c infinite past s = 1.16e7 (a light wind's narrow swell), D then NaN. s is
+       * held below 1e12, a spread narrower than any grid resolves (a wind of 1e-14 m/s overflows it). */
       sq_real s = fmin(fmax(sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g), (sq_real)1e-6), (sq_real)1e12);
       sq_real c = log((sq_real)2.0) / (-2.0 * expm1(-log((sq_real)2.0) / s));
       sq_real half_sine = sin(0.5 * d);

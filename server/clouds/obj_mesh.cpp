@@ -28,14 +28,13 @@ std::string_view take_token(std::string_view& rest) {
 // it, a comment ('#' to the line's end) left out.
 template <class Visit>
 void for_each_line(std::string_view text, Visit visit) {
-  size_t number = 0;
-  for (size_t start = 0; start <= text.size(); start += 1) {
+  for (size_t start = 0, number = 1; start <= text.size(); ++number) {
     const size_t end = std::min(text.find('\n', start), text.size());
     std::string_view rest = text.substr(start, end - start);
     rest = rest.substr(0, rest.find('#'));
     const std::string_view tag = take_token(rest);
-    visit(++number, tag, rest);
-    start = end;
+    visit(number, tag, rest);
+    start = end + 1;
   }
 }
 

@@ -183,8 +183,8 @@ TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool r
 
 grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const v1::AdvectTextureRequest* request,
                                             grpc::ServerWriter<v1::TextureFrame>* writer) {
-  const bool velocity_made =
-      request->velocity().has_river() || request->velocity().has_ocean() || request->velocity().has_ewave_session();
+  // A river or a current: the velocity is made after the check, under the stream's slot.
+  auto velocity_made = [](const Stream& s) { return s.river || s.current.any(); };
   auto check = [&] {
     Stream s;
     s.cancel = cancellation(*context);
@@ -199,7 +199,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
     check_river(request->velocity(), s, "request.velocity");
-    if (velocity_made)  // a river or a current: the rest now, the velocity once made
+    if (velocity_made(s))  // the rest now, the velocity once made
       validate_beside_velocity(s, "request");
     else
       engine_->validate(s.spec, "request");
@@ -208,9 +208,10 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     return s;
   };
   auto prepare = [&](Stream& s) {  // the velocity made, and the memory reserved, under the stream's slot
+    const bool made = velocity_made(s);
     follow(s, s.spec.t0);
     bake_river(s, "request.velocity", "request");
-    if (velocity_made) engine_->validate(s.spec, "request");
+    if (made) engine_->validate(s.spec, "request");
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
   };
   return serve_stream(*context, serving_, "AdvectTexture", check, prepare, [&](StreamCall& call, Stream& s) {

@@ -353,22 +353,14 @@ TEST(TexturesRiver, ABadAdvectionIsRefusedBeforeItsRiverIsBaked) {
 // a river is checked before its stream asks for a slot, and baked only once it has one.
 TEST(TexturesRiver, ABadRiverIsInvalidEvenWhenTheStreamsAreFull) {
   test::Daemon d({"--max-streams", "1"});
-  auto stub = v1::Textures::NewStub(grpc::CreateChannel(d.address(), grpc::InsecureChannelCredentials()));
-  grpc::ClientContext open;
-  auto held = stub->AdvectTexture(&open, river_request(1000));
-  v1::TextureFrame frame;
-  ASSERT_TRUE(held->Read(&frame));
+  Interactive held(d.address());  // the one slot, for as long as it is open
+  ASSERT_TRUE(held.send(start(river_request(2), 1), 1));
   v1::AdvectTextureRequest bad = river_request(2);
   bad.mutable_velocity()->mutable_river()->set_bake_nx(1);
-  grpc::ClientContext refused;
-  auto stream = stub->AdvectTexture(&refused, bad);
-  while (stream->Read(&frame)) {
-  }
-  const grpc::Status status = stream->Finish();
+  const grpc::Status status = advect(bad, d.address()).status;
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
   EXPECT_NE(status.error_message().find("request.velocity.river.bake_nx"), std::string::npos) << status.error_message();
-  open.TryCancel();
-  held->Finish();
+  EXPECT_TRUE(held.finish().ok());
 }
 
 // `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;

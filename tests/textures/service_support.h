@@ -73,8 +73,8 @@ class InteractiveCall {
   using Stream = grpc::ClientReaderWriter<Control, Frame>;
   using Open = std::function<std::unique_ptr<Stream>(v1::Textures::Stub&, grpc::ClientContext*)>;
 
-  explicit InteractiveCall(const Open& open)
-      : client_({daemon().address(), 300, ""}),
+  explicit InteractiveCall(const Open& open, const std::string& address = daemon().address())
+      : client_({address, 300, ""}),
         service_(v1::Textures::NewStub(client_.channel())),
         context_(client_.context()),
         stream_(open(*service_, context_.get())) {}
@@ -107,8 +107,9 @@ class InteractiveCall {
 };
 
 struct Interactive : InteractiveCall<v1::TextureControl, v1::TextureFrame> {
-  Interactive()
-      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectInteractive(c); }) {}
+  explicit Interactive(const std::string& address = daemon().address())
+      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectInteractive(c); }, address) {
+  }
 };
 
 // The first message of an AdvectInteractive call: `request` (its frames cleared), then `frames` frames.

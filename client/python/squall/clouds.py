@@ -334,8 +334,8 @@ def stored_session(message: clouds_pb2.RenderRequest) -> Optional[str]:
 def release_call(rpc: Any, volume_id: str) -> Undo:
     """Connection.create's `undo` for a kept build: what releases `volume_id`.
 
-    The undo is a triple of the method's name ("Clouds.ReleaseVolume"), the gRPC stub's
-    ReleaseVolume callable and the ReleaseVolumeRequest that names `volume_id`.
+    The undo is a triple: the method's name ("Clouds.ReleaseVolume"), the connection's
+    ReleaseVolume callable (`rpc.ReleaseVolume`) and a ReleaseVolumeRequest for `volume_id`.
     """
     request = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id)
     return ("Clouds.ReleaseVolume", rpc.ReleaseVolume, request)

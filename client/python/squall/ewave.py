@@ -346,8 +346,8 @@ def unary_step_request(
 def close_call(rpc: Any, session_id: str) -> Undo:
     """Connection.create's `undo` for a new session: what closes `session_id`.
 
-    The undo is a triple of the method's name ("EWave.CloseSession"), the gRPC stub's
-    CloseSession callable and the EWaveSessionRequest that names `session_id`.
+    The undo is a triple: the method's name ("EWave.CloseSession"), the connection's
+    CloseSession callable (`rpc.CloseSession`) and an EWaveSessionRequest for `session_id`.
     """
     request = ewave_pb2.EWaveSessionRequest(session_id=session_id)
     return ("EWave.CloseSession", rpc.CloseSession, request)
