@@ -15,9 +15,8 @@ std::vector<cl_float2> grid_pairs(const VelocitySpec& v) {
   if (v.kind != SQUALL_VELOCITY_GRID) return pairs;
   const size_t nodes = size_t(v.nx) * v.ny;
   for (const auto& frame : v.frames) {
-    std::vector<float> u = frame.u, w = frame.v;
-    if (v.extrapolation == Extrapolation::PushPull && !v.mask.empty()) push_pull(v.nx, v.ny, v.mask, u, w);
-    for (size_t n = 0; n < nodes; ++n) pairs.push_back(cl_float2{{u[n], w[n]}});
+    const VelocityFrame f = sampled_frame(v, frame);
+    for (size_t n = 0; n < nodes; ++n) pairs.push_back(cl_float2{{f.u[n], f.v[n]}});
   }
   return pairs;
 }

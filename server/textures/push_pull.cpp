@@ -68,4 +68,14 @@ void push_pull(int nx, int ny, const std::vector<uint8_t>& mask, std::vector<flo
   }
 }
 
+bool fills_solid_nodes(const VelocitySpec& grid) {
+  return grid.extrapolation == Extrapolation::PushPull && !grid.mask.empty();
+}
+
+VelocityFrame sampled_frame(const VelocitySpec& grid, const VelocityFrame& frame) {
+  VelocityFrame sampled = frame;
+  if (fills_solid_nodes(grid)) push_pull(grid.nx, grid.ny, grid.mask, sampled.u, sampled.v);
+  return sampled;
+}
+
 }  // namespace squall::textures

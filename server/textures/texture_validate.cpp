@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "common/validate.h"
+#include "textures/push_pull.h"
 #include "textures/texture_engine.h"
 
 namespace squall::textures {
@@ -38,18 +39,22 @@ double spectral_radius(double a, double b, double c, double d) {
   return disc >= 0 ? std::abs(half_trace) + std::sqrt(disc) : std::sqrt(det);  // a complex pair: |lambda|^2 = det
 }
 
-// The largest spectral radius of a velocity grid's gradient over its cells and frames, 1/s: each cell's of
-// four fluid nodes (across the seam too, where the grid is periodic), from its edges' mean differences.
+// The largest spectral radius of a velocity grid's gradient over its cells and frames, 1/s, from each cell's
+// edges' mean differences (across the seam too, where the grid is periodic), of the frames as the kernels
+// sample them. Every cell with a fluid node counts: the fluid around that node (the mask's nearest node
+// decides) takes the cell's bilinear velocity, solid nodes' included. Cells of four solid nodes carry none.
 double grid_gradient_rate(const VelocitySpec& v) {
   auto fluid = [&](size_t n) { return v.mask.empty() || v.mask[n]; };
   const bool wrap = v.extrapolation == Extrapolation::Wrap;
   auto node = [&](int i, int j) { return size_t(j % v.ny) * size_t(v.nx) + size_t(i % v.nx); };
   double rate = 0;
-  for (const VelocityFrame& f : v.frames)
+  for (const VelocityFrame& given : v.frames) {
+    VelocityFrame filled;
+    const VelocityFrame& f = fills_solid_nodes(v) ? (filled = sampled_frame(v, given)) : given;
     for (int j = 0; j < (wrap ? v.ny : v.ny - 1); ++j)
       for (int i = 0; i < (wrap ? v.nx : v.nx - 1); ++i) {
         const size_t n00 = node(i, j), n10 = node(i + 1, j), n01 = node(i, j + 1), n11 = node(i + 1, j + 1);
-        if (!fluid(n00) || !fluid(n10) || !fluid(n01) || !fluid(n11)) continue;
+        if (!fluid(n00) && !fluid(n10) && !fluid(n01) && !fluid(n11)) continue;
         auto along_x = [&](const std::vector<float>& w) {
           return (double(w[n10]) - w[n00] + double(w[n11]) - w[n01]) / (2 * v.hx);
         };
@@ -58,6 +63,7 @@ double grid_gradient_rate(const VelocitySpec& v) {
         };
         rate = std::max(rate, spectral_radius(along_x(f.u), along_y(f.u), along_x(f.v), along_y(f.v)));
       }
+  }
   return rate;
 }
 

@@ -196,6 +196,23 @@ TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
                [&] { texture_engine().validate(spec, "spec"); });
   spec.substeps = 2;
   texture_engine().validate(spec, "spec");
+  // A still grid whose solid columns i = 0, 1 hold a speed of 50 du/s. Column 0's cells carry no texel; the
+  // cells between columns 1 and 2 carry the fluid up to half a cell from column 2, at their bilinear speed,
+  // whose gradient of 3150 /s turns 52 rad per substep.
+  std::fill(frame.u.begin(), frame.u.end(), 0.0f);
+  std::fill(frame.v.begin(), frame.v.end(), 0.0f);
+  spec.velocity.mask.assign(size_t(n) * n, 1);
+  for (int j = 0; j < n; ++j) {
+    spec.velocity.mask[size_t(j) * n] = spec.velocity.mask[size_t(j) * n + 1] = 0;
+    frame.u[size_t(j) * n] = 50;
+  }
+  spec.velocity.frames = {frame};
+  texture_engine().validate(spec, "spec");
+  for (int j = 0; j < n; ++j) spec.velocity.frames[0].u[size_t(j) * n + 1] = 50;
+  expect_error(Code::InvalidArgument, "spec.substeps = 2: the velocity field turns by 52",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.velocity.extrapolation = Extrapolation::PushPull;  // the solid nodes take the still fluid's speed
+  texture_engine().validate(spec, "spec");
 }
 
 // Pixels (and Eulerian nodes) finer than float32 places at the region's coordinates: a 1 du region of 64

@@ -70,7 +70,8 @@ v1::RiverVelocity y_river(double island_x = 1, double island_y = 1) {
 }
 
 // The naive method (texture coordinates advected, never regenerated) over [0, 5] x [-1.5, 3.5], 64 x 64
-// pixels, noise bands summed, the final and uv planes, 2 periods per du, dt 0.1 s.
+// pixels, noise bands summed, the final and uv planes, 2 periods per du, dt 0.1 s in 2 substeps: the
+// strain at the island's shore turns a texel by 2.5 rad in 0.1 s, past the 2 one substep may.
 v1::AdvectTextureRequest river_request(uint32_t frames) {
   v1::AdvectTextureRequest r;
   r.set_method(v1::TEXTURE_METHOD_NAIVE);
@@ -89,6 +90,7 @@ v1::AdvectTextureRequest river_request(uint32_t frames) {
   r.mutable_eulerian()->set_grid_nx(96);
   r.mutable_eulerian()->set_grid_ny(96);
   r.set_dt(0.1);
+  r.set_substeps(2);
   r.set_frames(frames);
   return r;
 }
