@@ -139,6 +139,22 @@ def call_and_cached_bytes(daemon: Daemon) -> Tuple[float, float]:
     return value(text, "squall_memory_bytes") - cached, cached
 
 
+def settled_bytes(daemon: Daemon) -> Tuple[float, float]:
+    """call_and_cached_bytes once two scrapes 0.5 s apart agree (within 20 s): the frame a stream
+    computes ahead is done, and its spectrum is kept."""
+    last: List[Tuple[float, float]] = [call_and_cached_bytes(daemon)]
+
+    def unchanged() -> bool:
+        time.sleep(0.4)
+        now = call_and_cached_bytes(daemon)
+        same = now == last[0] and now[1] > 0
+        last[0] = now
+        return same
+
+    wait_for(unchanged, 20, "squall_memory_bytes to settle")
+    return last[0]
+
+
 def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
     """A stream reserves its frames' memory (W) and its spectrum's (S), which the spectra cache
     takes when it keeps the spectrum. A GetTile that needs the room takes the kept spectrum
@@ -155,8 +171,7 @@ def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
         with squall.Client(daemon.address, timeout=60) as client:
             with client.ocean.stream(spec(1), dt=0.1) as stream:
                 next(stream)
-                time.sleep(1)
-                stream_bytes, cached = call_and_cached_bytes(daemon)
+                stream_bytes, cached = settled_bytes(daemon)
     assert cached >= spectrum
     # The stream (W), its kept spectrum (S), and room for W / 2 + S / 2 more: a GetTile of the
     # same output (W / 2) with a new spectrum (S) takes back the other caches' room and the kept
@@ -166,8 +181,8 @@ def test_a_stream_whose_spectrum_is_built_again_keeps_its_reservation() -> None:
         with squall.Client(daemon.address, timeout=60) as client:
             with client.ocean.stream(spec(1), dt=0.1) as stream:
                 next(stream)
-                time.sleep(1)  # the frame computed ahead is done: the spectrum is not in use
-                assert call_and_cached_bytes(daemon) == (stream_bytes, cached)
+                # the frame computed ahead is done: the spectrum is not in use
+                assert settled_bytes(daemon) == (stream_bytes, cached)
                 client.ocean.tile(spec(2), time=1.0)
                 # Past the frames written ahead: 25 MB, more than a transport holds.
                 for _ in range(100):
@@ -228,7 +243,9 @@ def test_a_stream_that_waits_on_its_client_past_the_idle_timeout_is_cancelled() 
             large = squall.ocean.tile_spec([squall.ocean.layer(extent=500, n=1024)])
             unread = client.ocean.stream(large, dt=0.1, outputs=("height", "normal_z"))
             next(unread)
-            time.sleep(2)  # squalld's writes wait on this client's flow control meanwhile
+            # squalld's writes wait on this client's flow control meanwhile, until it gives up
+            gave_up = "waited on its client for 0.5 s (--stream-idle-timeout)"
+            wait_for(lambda: daemon.log().count(gave_up) >= 2, 30, "the unread stream's cancel")
             with pytest.raises(squall.SquallError) as ended_unread:
                 list(unread)
             assert ended_unread.value.code == grpc.StatusCode.CANCELLED, ended_unread.value
