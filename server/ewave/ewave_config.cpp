@@ -112,8 +112,11 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
   ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
-// fmin: a period past kMaxDt (weak gravity) or infinite (a depth of 1e-300 in shallow water) is kMaxDt.
-double max_dt(const EWaveConfig& c) { return c.trim ? std::fmin(shortest_wave_period(c), kMaxDt) : kMaxDt; }
+// fmin: a period past kMaxDt (weak gravity) or infinite (a depth of 1e-300 in shallow water) is kMaxDt. The
+// trim and mask_phi both multiply phi in real space, which a longer step turns into growing waves.
+double max_dt(const EWaveConfig& c) {
+  return c.trim || c.mask_phi ? std::fmin(shortest_wave_period(c), kMaxDt) : kMaxDt;
+}
 
 void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate) {
   positive("inputs.dt", in.dt, kMaxDt);
@@ -122,8 +125,8 @@ void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate)
     fail(Code::InvalidArgument, "inputs.dt = " + validate::number_apart(in.dt, longest) +
                                     " s is longer than the period of the grid's shortest wave, " +
                                     validate::number(longest) +
-                                    " s: with config.trim on, longer steps grow without bound; take shorter steps "
-                                    "or turn the trim off");
+                                    " s: with config.trim or config.mask_phi on, longer steps grow without bound; "
+                                    "take shorter steps or turn them off");
   size_t cells = c.cells();
   check_map("inputs.obstruction", in.obstruction, cells, validate::closed(0, 1));
   check_map("inputs.ambient_height", in.ambient_height, cells);
