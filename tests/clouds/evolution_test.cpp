@@ -9,6 +9,7 @@
 #include "common/error.h"
 
 #include "support/expect_error.h"
+#include "support/worst.h"
 
 namespace squall::clouds {
 namespace {
@@ -39,7 +40,7 @@ TEST(Evolution, DriftingShapeAndNoiseTranslateTheCloud) {
   double worst = 0;
   for (auto it = v0.density->cbeginValueOn(); it; ++it) {
     if (!it.isVoxelValue()) continue;
-    worst = std::max(worst, double(std::abs(b.getValue(it.getCoord() + shift) - *it)));
+    worst = squall::test::worse(worst, double(std::abs(b.getValue(it.getCoord() + shift) - *it)));
   }
   EXPECT_LT(worst, 1e-4);
   // The noise alone moving changes the cloud.

@@ -18,6 +18,7 @@
 #include "common/limits.h"
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include <openvdb/tools/Interpolation.h>
 
 namespace squall::clouds {
@@ -93,8 +94,8 @@ TEST(Render, SlabTransmittanceIsExpMinusSigmaLForAnyStep) {
             double tau = kappa * rho * L / pixel_cos(s, x, y);
             double T = std::exp(-tau);
             double radiance = 0.8 * 1000 / (4 * kPi) * (1 - T);
-            worst_t = std::max(worst_t, std::abs(img.at(1, x, y) - T));
-            worst_l = std::max(worst_l, std::abs(img.at(0, x, y) - radiance) / radiance);
+            worst_t = squall::test::worse(worst_t, std::abs(img.at(1, x, y) - T));
+            worst_l = squall::test::worse(worst_l, std::abs(img.at(0, x, y) - radiance) / radiance);
           }
         EXPECT_LT(worst_t, 1e-3) << "step " << step << " substeps " << substeps << " voxelized " << voxelize;
         EXPECT_LT(worst_l, 1e-3) << "step " << step << " substeps " << substeps << " voxelized " << voxelize;
@@ -127,7 +128,7 @@ std::pair<double, double> slab_errors(
       const double mu_c = pixel_cos(s, x, y);
       const double w = lit_from_below(tau_axis / mu_c, mu_c, mu_l, 0.8, 1000, phase(mu_c));
       got += img.at(0, x, y), want += w;
-      worst = std::max(worst, std::abs(img.at(0, x, y) - w) / w);
+      worst = squall::test::worse(worst, std::abs(img.at(0, x, y) - w) / w);
     }
   return {std::abs(got - want) / want, worst};
 }
@@ -589,7 +590,8 @@ TEST(Render, EmptySpaceBetweenSlabsIsSkippedExactly) {
     double worst = 0;
     for (int y = 0; y < s.camera.height; ++y)
       for (int x = 0; x < s.camera.width; ++x)
-        worst = std::max(worst, std::abs(img.at(1, x, y) - std::exp(-kappa * rho * 32 * dx / pixel_cos(s, x, y))));
+        worst = squall::test::worse(worst,
+                                    std::abs(img.at(1, x, y) - std::exp(-kappa * rho * 32 * dx / pixel_cos(s, x, y))));
     EXPECT_LT(worst, 1e-5) << step;
     // depth: T = 0.5 at tau = ln 2, 6.93 m into the first slab, whose face is at z = -0.25 m (eye at -40 m);
     // it is reported at the sample of the step where T crosses 0.5, so within one step.

@@ -3,17 +3,29 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <initializer_list>
 #include <utility>
 
 #include "support/expect_error.h"
+#include "support/worst.h"
 
 namespace squall {
 namespace {
 
 using test::expect_error;
+
+// The tests' running worst error keeps a NaN, wherever it comes: std::max drops it.
+TEST(TestSupport, TheWorstErrorKeepsANaN) {
+  const double nan = std::nan("");
+  EXPECT_EQ(std::max(1.0, nan), 1.0);
+  EXPECT_EQ(test::worse(1.0, 2.0, 0.5), 2.0);
+  EXPECT_TRUE(std::isnan(test::worse(1.0, nan)));
+  EXPECT_TRUE(std::isnan(test::worse(nan, 3.0)));
+  EXPECT_TRUE(std::isnan(test::worse(0.0, 1.0, nan, 2.0)));
+}
 
 TEST(Validate, MessagesNameThePathTheValueAndTheRule) {
   EXPECT_EQ(validate::positive("a.b", 2.5), 2.5);

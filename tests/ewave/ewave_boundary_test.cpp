@@ -8,6 +8,7 @@
 #include "ewave/propagator.h"
 #include "ewave_support.h"
 #include "support/expect_error.h"
+#include "support/worst.h"
 
 namespace squall::ewave::test {
 namespace {
@@ -122,7 +123,7 @@ TEST(EWaveAmbient, AmbientIsSubtractedInsideTheObstruction) {
   double worst = 0;
   for (size_t i = 0; i < c.cells(); ++i) {
     double o = in.obstruction[i];
-    worst = std::max(worst, std::abs(f.height[i] + in.ambient_height[i] * (1 - o) * o));
+    worst = squall::test::worse(worst, std::abs(f.height[i] + in.ambient_height[i] * (1 - o) * o));
   }
   EXPECT_LT(worst, 1e-6);  // of a 1e-2 ambient amplitude
   EXPECT_GT(max_abs(f.height), 1e-3) << "the soft edge carries -h_A (1 - O) O";
@@ -199,9 +200,8 @@ TEST(EWaveTrim, StepsLongerThanTheShortestWavesPeriodAreRefused) {
   // (1e34 in 80 steps of 100 s on 16^2 cells of 1 m). The same bound holds, and steps of the period drain it.
   EWaveConfig masked = deep;
   masked.mask_phi = true;
-  masked.initial_height = field(masked, [&](double x, double y) {
-    return std::exp(-(std::pow(x - 16, 2) + std::pow(y - 16, 2)) / 4);
-  });
+  masked.initial_height =
+      field(masked, [&](double x, double y) { return std::exp(-(std::pow(x - 16, 2) + std::pow(y - 16, 2)) / 4); });
   StepInputs blocked = plain_step(shortest_wave_period(masked));
   blocked.obstruction = field(masked, [](double x, double y) { return x >= 6 && x < 10 && y >= 6 && y < 10 ? 0 : 1; });
   EWaveSession s = make_session(masked);

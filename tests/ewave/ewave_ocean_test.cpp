@@ -23,6 +23,7 @@
 #include "ocean/tile_spec_bytes.h"
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 
 namespace squall::ewave::test {
 namespace {
@@ -144,12 +145,12 @@ TEST(OceanAmbient, CompositeIsZeroInsideTheObstruction) {
     double o = in.obstruction[i], h1 = -f.phi[i] / g_dt;
     if (o == 0) {
       ++inside;
-      composite = std::max(composite, std::abs(h_A[i] + h1));
-      masked = std::max(masked, double(std::abs(f.height[i])));
+      composite = squall::test::worse(composite, std::abs(h_A[i] + h1));
+      masked = squall::test::worse(masked, double(std::abs(f.height[i])));
     }
-    edge = std::max(edge, std::abs(f.height[i] + h_A[i] * (1 - o) * o));
-    against_now = std::max(against_now, std::abs(h1 + h_A[i] * (1 - o)));
-    against_early = std::max(against_early, std::abs(h1 + h_A_early[i] * (1 - o)));
+    edge = squall::test::worse(edge, std::abs(f.height[i] + h_A[i] * (1 - o) * o));
+    against_now = squall::test::worse(against_now, std::abs(h1 + h_A[i] * (1 - o)));
+    against_early = squall::test::worse(against_early, std::abs(h1 + h_A_early[i] * (1 - o)));
   }
   std::printf(
       "[ocean ambient] max|h_A| = %.3g m, %zu cells with O = 0: max composite %.3g, soft edge %.3g, "

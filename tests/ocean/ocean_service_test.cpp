@@ -24,6 +24,7 @@
 #include "support/daemon.h"
 #include "support/in_process.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 
 namespace squall {
 namespace {
@@ -337,7 +338,8 @@ TEST(OceanService, SomeFieldsOfAGroupAreThoseOfTheWholeTile) {
     ASSERT_EQ(a.size(), b.size());
     double worst = 0, scale = 0;
     for (size_t i = 0; i < a.size(); ++i)
-      worst = std::max(worst, double(std::abs(a[i] - b[i]))), scale = std::max(scale, double(std::abs(b[i])));
+      worst = squall::test::worse(worst, double(std::abs(a[i] - b[i]))),
+      scale = std::max(scale, double(std::abs(b[i])));
     EXPECT_LT(worst, 1e-5 * scale) << part.fields(p).name();
   }
 }

@@ -12,6 +12,7 @@
 #include "common/surface_normal.h"
 #include "ocean/cpu_reference.h"
 #include "ocean/spectra.h"
+#include "support/worst.h"
 
 namespace {
 
@@ -221,7 +222,7 @@ double sincos_turns_error(double f_max, double t_max, int n) {
     sq_sincos_turns(f_hi, f_lo, t_hi, t_lo, &s, &c);
     const long double turns = (long double)f * (long double)t;
     const double phase = double(2 * M_PIl * (turns - std::floor(turns)));
-    worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
+    worst = squall::test::worse(worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase)));
   }
   return worst;
 }
@@ -247,7 +248,7 @@ TEST(SinCosPhase, EveryQuadrantOfOneTurnToAFewUlps) {
     float s, c;
     sq_sincos_turn(x, &s, &c);
     const double phase = 2 * M_PI * double(x);
-    worst = std::max({worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase))});
+    worst = squall::test::worse(worst, std::abs(s - std::sin(phase)), std::abs(c - std::cos(phase)));
   }
   EXPECT_LT(worst, 3e-7);
 }
@@ -271,7 +272,7 @@ TEST(SinCosPhase, TheFractionOfAProductOfTwoFloatsIsExactToARounding) {
     const long double turns = (long double)a * (long double)b;  // exact: 48 bits
     const double fraction = double(turns - std::nearbyint(turns));
     const double off = std::abs(sq_product_turns(a, b) - fraction);
-    worst = std::max(worst, std::min(off, 1 - off));  // a fraction of +-1/2 may come out as the other
+    worst = squall::test::worse(worst, std::min(off, 1 - off));  // a fraction of +-1/2 may come out as the other
   }
   EXPECT_LT(worst, std::ldexp(1.0, -25) * (1 + 1e-6));
 }

@@ -12,8 +12,9 @@
 #include <thread>
 
 #include "ocean/cpu_reference.h"
-#include "support/expect_error.h"
 #include "ocean_test_util.h"
+#include "support/expect_error.h"
+#include "support/worst.h"
 
 namespace squall::ocean {
 namespace {
@@ -104,7 +105,7 @@ TEST(OceanTile, EachModeAdvancesByOmegaT) {
       double k = std::hypot(n * 2 * M_PI / L.lx, m * 2 * M_PI / L.ly);
       double w = std::sqrt(9.81 * k * std::tanh(k * 8) * (1 + std::pow(k * 2.7e-3, 2)));
       std::complex<double> ratio = b[at] / a[at] * std::polar(1.0, w * (t1 - t0));
-      worst = std::max(worst, std::abs(std::arg(ratio)));
+      worst = squall::test::worse(worst, std::abs(std::arg(ratio)));
       ++checked;
     }
   EXPECT_GT(checked, 50);
@@ -121,7 +122,7 @@ TEST(OceanTile, DriftCurrentTranslatesTheField) {
   double worst = 0;
   for (int j = 0; j < 64; ++j)
     for (int i = 0; i < 64; ++i)
-      worst = std::max(worst, double(std::abs(b[i + 64 * j] - a[(i - 3 + 64) % 64 + 64 * ((j + 5) % 64)])));
+      worst = squall::test::worse(worst, double(std::abs(b[i + 64 * j] - a[(i - 3 + 64) % 64 + 64 * ((j + 5) % 64)])));
   EXPECT_LT(worst, 1e-4 * test::rms(a));
 }
 
@@ -134,7 +135,7 @@ TEST(OceanTile, WindDirectionsWholeTurnsApartGiveOneSea) {
   turned.layers[0].wind_direction = 0.3 + 2 * M_PI * 1e5;
   auto a = engine().tile(spec, 2.0, Height).height, b = engine().tile(turned, 2.0, Height).height;
   double worst = 0;
-  for (size_t k = 0; k < a.size(); ++k) worst = std::max(worst, double(std::abs(a[k] - b[k])));
+  for (size_t k = 0; k < a.size(); ++k) worst = squall::test::worse(worst, double(std::abs(a[k] - b[k])));
   EXPECT_LT(worst, 1e-5 * test::rms(a));
 }
 
@@ -304,8 +305,8 @@ TEST(OceanTile, BitIdenticalRepeatAndLargeWavesKeptAcrossResolutions) {
   for (auto& c : coarse_k) peak = std::max(peak, std::abs(c));
   for (int m = -31; m <= 31; ++m)
     for (int n = -31; n <= 31; ++n)
-      worst = std::max(worst, std::abs(coarse_k[(n + 64) % 64 + 64 * ((m + 64) % 64)] -
-                                       fine_k[(n + 128) % 128 + 128 * ((m + 128) % 128)]));
+      worst = squall::test::worse(worst, std::abs(coarse_k[(n + 64) % 64 + 64 * ((m + 64) % 64)] -
+                                                  fine_k[(n + 128) % 128 + 128 * ((m + 128) % 128)]));
   EXPECT_LT(worst, 1e-5 * peak);
 }
 
@@ -317,8 +318,9 @@ TEST(OceanTile, ChoppyJacobianInvariantsAndCrests) {
   size_t n = f.jacobian.size();
   for (size_t i = 0; i < n; ++i) mean += f.jacobian[i] / double(n);
   for (size_t i = 0; i < n; ++i) {
-    worst_product = std::max(worst_product, double(std::abs(f.jacobian_minus[i] * f.jacobian_plus[i] - f.jacobian[i])));
-    worst_order = std::max(worst_order, double(f.jacobian_minus[i] - f.jacobian_plus[i]));
+    worst_product =
+        squall::test::worse(worst_product, double(std::abs(f.jacobian_minus[i] * f.jacobian_plus[i] - f.jacobian[i])));
+    worst_order = squall::test::worse(worst_order, double(f.jacobian_minus[i] - f.jacobian_plus[i]));
     hj += f.height[i] * (f.jacobian[i] - mean), hh += f.height[i] * f.height[i],
         jj += std::pow(f.jacobian[i] - mean, 2);
   }
@@ -331,7 +333,7 @@ TEST(OceanTile, ChoppyJacobianInvariantsAndCrests) {
   double worst_unit = 0, worst_lambda0 = 0;
   for (size_t i = 0; i < n; ++i) {
     double nx = f.normal_x[i], ny = f.normal_y[i], nz = f.normal_z[i];
-    worst_unit = std::max(worst_unit, std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1));
+    worst_unit = squall::test::worse(worst_unit, std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1));
   }
   EXPECT_LT(worst_unit, 1e-6);
   // with lambda = 0, eq 94 reduces to eq 90: n = (-eps_x, -eps_y, 1) / sqrt(1 + |eps|^2), and J = J- = J+ = 1
@@ -339,8 +341,8 @@ TEST(OceanTile, ChoppyJacobianInvariantsAndCrests) {
   auto g = engine().tile(spec, 3.0, Slopes | Normals | Jacobian);
   for (size_t i = 0; i < n; ++i) {
     double norm = std::sqrt(1 + g.slope_x[i] * g.slope_x[i] + g.slope_y[i] * g.slope_y[i]);
-    worst_lambda0 = std::max(worst_lambda0, std::abs(g.normal_x[i] + g.slope_x[i] / norm));
-    worst_lambda0 = std::max(worst_lambda0, std::abs(g.normal_z[i] - 1 / norm));
+    worst_lambda0 = squall::test::worse(worst_lambda0, std::abs(g.normal_x[i] + g.slope_x[i] / norm));
+    worst_lambda0 = squall::test::worse(worst_lambda0, std::abs(g.normal_z[i] - 1 / norm));
     worst_lambda0 =
         std::max(worst_lambda0, double(std::abs(g.jacobian_minus[i] - 1)) + std::abs(g.jacobian_plus[i] - 1));
   }
@@ -390,9 +392,9 @@ TEST(OceanTile, ChoppyNormalsAndJacobianAreThoseOfTheDisplacedSurface) {
       auto cosine = [&](const double* n, const double* t) {
         return std::abs(n[0] * t[0] + n[1] * t[1] + n[2] * t[2]) / std::hypot(t[0], t[1], t[2]);
       };
-      worst_dot = std::max({worst_dot, cosine(normal, tx), cosine(normal, ty)});
-      worst_eq90 = std::max({worst_eq90, cosine(eq90, tx), cosine(eq90, ty)});
-      worst_j = std::max(worst_j, std::abs(f.jacobian[at] - (tx[0] * ty[1] - tx[1] * ty[0])));
+      worst_dot = squall::test::worse(worst_dot, cosine(normal, tx), cosine(normal, ty));
+      worst_eq90 = squall::test::worse(worst_eq90, cosine(eq90, tx), cosine(eq90, ty));
+      worst_j = squall::test::worse(worst_j, std::abs(f.jacobian[at] - (tx[0] * ty[1] - tx[1] * ty[0])));
       fold_free = std::min(fold_free, double(f.jacobian[at]));
     }
   std::printf("displaced surface: worst |n.t| %.2e (eq 90's normal: %.2e), worst |J - det| %.2e, smallest J %.3f\n",

@@ -9,6 +9,7 @@
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include "textures/device_inputs.h"
 #include "textures/textures_support.h"
 
@@ -43,7 +44,7 @@ double worst_ramp_error(double t0, double spacing = 1) {
     for (int px = 0; px < last.width; ++px) {
       const double x = (px + 0.5) / last.width, y = (py + 0.5) / last.height;
       const size_t k = size_t(px) + size_t(last.width) * py;
-      worst = std::max({worst, std::abs(last.uv_x()[k] - S * (x - shift)), std::abs(last.uv_y()[k] - S * y)});
+      worst = squall::test::worse(worst, std::abs(last.uv_x()[k] - S * (x - shift)), std::abs(last.uv_y()[k] - S * y));
     }
   }
   return worst;

@@ -14,6 +14,7 @@
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include "textures/deform_support.h"
 #include "textures/textures_support.h"
 
@@ -97,7 +98,7 @@ TEST(Deform, FlowIsMirrorSymmetricForMirroredDisks) {
     for (int i = 0; i < size; ++i) {
       const size_t t = size_t(i) + size * j, m = size_t(size - 1 - i) + size * j;
       largest = std::max(largest, double(std::hypot(vx[t], vy[t])));
-      worst = std::max({worst, std::abs(double(vx[t]) + vx[m]), std::abs(double(vy[t]) - vy[m])});
+      worst = squall::test::worse(worst, std::abs(double(vx[t]) + vx[m]), std::abs(double(vy[t]) - vy[m]));
     }
   }
   const FlowSolve& solve = deformation->flow();
@@ -443,7 +444,7 @@ TEST(Deform, StackShowsTheSameTextureWithABoundedResidual) {
   double worst_psnr = 1e9, worst_residual = 0;
   for (int i = 1; i < frames; ++i) {
     worst_psnr = std::min(worst_psnr, psnr(plane(stacked[i], 0), plane(direct[i], 0), 1.0));
-    worst_residual = std::max(worst_residual, stacked[i].max_residual);
+    worst_residual = squall::test::worse(worst_residual, stacked[i].max_residual);
     EXPECT_GT(stacked[i].max_warp, stacked[i - 1].max_warp);
   }
   const std::vector<float> level = plane(stacked.back(), 1);

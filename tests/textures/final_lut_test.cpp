@@ -10,6 +10,7 @@
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -118,7 +119,7 @@ double static_error(const AdvectSpec& spec, const TextureFrame& frame) {
       double a = image_at(spec.texture, spec.texture.scale * x, spec.texture.scale * y);
       for (int c = 0; c < frame.final_planes; ++c) {
         double got = frame.plane(c)[px + frame.width * py];
-        worst = std::max(worst, std::abs(got - expected(spec, px, py, a, c)));
+        worst = squall::test::worse(worst, std::abs(got - expected(spec, px, py, a, c)));
       }
     }
   }
@@ -182,7 +183,7 @@ TEST(TexturesFinalLut, ScalarFieldShiftsTheLookup) {
     for (int px = 0; px < frame.width; ++px) {
       const size_t k = size_t(px + frame.width * py);
       const double value = expected(spec, px, py, raw[k], 0);
-      worst = std::max(worst, std::abs(final[k] - value));
+      worst = squall::test::worse(worst, std::abs(final[k] - value));
       const int region = px < frame.width / 3 ? 0 : px >= frame.width - frame.width / 3 ? 1 : -1;
       if (region < 0) continue;
       got[region] += final[k];

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "support/worst.h"
 #include "textures/metrics.h"
 
 namespace squall::test {
@@ -152,7 +153,7 @@ TEST(Metrics, RadialPowerSpectrumOfWhiteNoiseIsFlat) {
   std::nth_element(sorted.begin(), sorted.begin() + kBins / 2, sorted.end());
   const double median = sorted[kBins / 2];
   double worst = 0;
-  for (int b = 2; b < kBins; ++b) worst = std::max(worst, std::abs(spectrum[b] / median - 1));
+  for (int b = 2; b < kBins; ++b) worst = squall::test::worse(worst, std::abs(spectrum[b] / median - 1));
   std::printf("radial_power_spectrum white noise: largest deviation from the median %.4f\n", worst);
   EXPECT_LT(worst, 0.2);
 }

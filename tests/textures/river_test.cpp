@@ -13,6 +13,7 @@
 
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include "textures/river.h"
 
 namespace squall::test {
@@ -180,8 +181,8 @@ std::pair<double, double> worst_penetration(const RiverSpec& river, const std::v
   for (size_t k = 0; k < s.size(); ++k) {
     EXPECT_TRUE(s[k].fluid) << k;
     const double speed = std::hypot(s[k].u, s[k].v), normal = std::abs(s[k].u * normals[k].x + s[k].v * normals[k].y);
-    worst = std::max(worst, normal / mean_speed);
-    if (speed > mean_speed / 2) worst_relative = std::max(worst_relative, normal / speed);
+    worst = squall::test::worse(worst, normal / mean_speed);
+    if (speed > mean_speed / 2) worst_relative = squall::test::worse(worst_relative, normal / speed);
   }
   return {worst, worst_relative};
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "support/worst.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -76,7 +77,7 @@ TEST(TexturesUv, NaiveCoordinatesAreTheWindowCarriedByTheFlow) {
     for (int px = 0; px < last.width; ++px) {
       const double x = (px + 0.5) / last.width, y = (py + 0.5) / last.height;
       const size_t k = size_t(px) + size_t(last.width) * py;
-      worst = std::max({worst, std::abs(u[k] - S * (x - vx * t)), std::abs(v[k] - S * (y - vy * t))});
+      worst = squall::test::worse(worst, std::abs(u[k] - S * (x - vx * t)), std::abs(v[k] - S * (y - vy * t)));
     }
   }
   EXPECT_LT(worst, 1e-4);
@@ -105,8 +106,8 @@ TEST(TexturesUv, APeriodicVelocityGridWrapsPastItsEdges) {
   const TextureFrame next = run(spec, 11).back();
   double worst = 0;
   for (int k = 0; k < here.width * here.height; ++k)
-    worst = std::max({worst, std::abs(double(next.uv_x()[k]) - here.uv_x()[k] - spec.texture.scale),
-                      std::abs(double(next.uv_y()[k]) - here.uv_y()[k])});
+    worst = squall::test::worse(worst, std::abs(double(next.uv_x()[k]) - here.uv_x()[k] - spec.texture.scale),
+                                std::abs(double(next.uv_y()[k]) - here.uv_y()[k]));
   EXPECT_LT(worst, 1e-3);
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "support/test_runtime.h"
+#include "support/worst.h"
 #include "textures/state_codec.h"
 
 namespace squall::test {
@@ -70,7 +71,8 @@ Image plane_image(const TextureFrame& frame, int k) {
 double max_abs_difference(const TextureFrame& a, const TextureFrame& b, int k) {
   double worst = 0;
   const float *pa = a.plane(k), *pb = b.plane(k);
-  for (size_t i = 0; i < size_t(a.width) * a.height; ++i) worst = std::max(worst, double(std::abs(pa[i] - pb[i])));
+  for (size_t i = 0; i < size_t(a.width) * a.height; ++i)
+    worst = squall::test::worse(worst, double(std::abs(pa[i] - pb[i])));
   return worst;
 }
 
