@@ -31,6 +31,13 @@ double partial_scale(const PartialSpectrum& q) {
   return partial_scale(q, sq_multipeak_shape_integral(q.a, q.b, q.c, q.n, q.m));
 }
 
+// ln of the largest value of the hump c r^-n exp(-7.987 r^-m) (eq 25's S_h before its scale), at
+// r^m = 7.987 m / n: ln c - (n / m) (ln(7.987 m / n) + 1). -inf without a hump.
+double hump_log_peak(const PartialSpectrum& p) {
+  if (p.c <= 0) return -INFINITY;
+  return std::log(p.c) - p.n / p.m * (std::log(7.987 * p.m / p.n) + 1);
+}
+
 // A partial is normalized over w / w_p in [0.02, 2000] (sq_multipeak_shape_integral): a shape with more
 // than a hundredth of its energy outside (its Hs then half a percent short), or an unbounded one, is refused.
 // Returns the integral.
@@ -71,6 +78,11 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     if (!(scale <= 1e30))
       fail(Code::InvalidArgument, g + ": its shape's scale (Hs / 4)^2 / (w_p integral) is " + validate::number(scale) +
                                       ", past 1e30 (float32 on the device): raise a or c");
+    if (hump_log_peak(p) > std::log(1e30))
+      fail(Code::InvalidArgument, g + ": its shape's hump c r^-n exp(-7.987 r^-m) peaks at e^" +
+                                      validate::number(hump_log_peak(p)) +
+                                      ", past 1e30 (float32 on the device; its scale, " + validate::number(scale) +
+                                      ", would be 0 there): lower n or c, or raise m");
   }
 }
 

@@ -130,6 +130,19 @@ TEST(OceanValidation, MultipeakPartialsWithEnergyOutsideTheirRangeAreRefusedByNa
   PartialSpectrum flat;  // a Gaussian of b = 0: a constant
   flat.b = 0;
   refused(flat, "energy without bound");
+  // A hump of c = 1, n = 100, m = 1 peaks at e^152.7 (r = 0.08), past float32, and its scale, 1.4e-66, is 0 there:
+  // the device made a flat sea of a partial of Hs = 1 m.
+  PartialSpectrum steep;
+  steep.peak_frequency = 10;
+  steep.significant_wave_height = 1;
+  steep.n = 100;
+  steep.m = 1;
+  steep.c = 1;
+  spec.layers[0].partials = {steep};
+  squall::test::expect_error(Code::InvalidArgument,
+                             "layers[0].partials[0]: its shape's hump c r^-n exp(-7.987 r^-m) "
+                             "peaks at e^152.7",
+                             [&] { test::engine().validate(spec, LimitGate{Limits{}}); });
   spec.layers[0].partials = {PartialSpectrum{}};  // eq 26's shape
   test::engine().validate(spec, LimitGate{Limits{}});
   spec.layers[0].partials[0].b = 3;  // a broad peak: a thousandth of its energy below 0.02
