@@ -80,9 +80,9 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
     Slot mesh_memory =
         serving_.gate().acquire_memory("BuildVolume's meshes, read", req::mesh_read_bytes(request->model()));
     const CloudModel model = req::model(request->model());
-    std::optional<CloudEngine::Place> place;
-    if (request->keep()) place = engine_->place(proposed_session(*context));
     const uint64_t peak = engine_->validate(model, "model");
+    std::optional<CloudEngine::Place> place;  // a bad model is INVALID_ARGUMENT however full the sessions are
+    if (request->keep()) place = engine_->place(proposed_session(*context));
     mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
     Slot memory = serving_.gate().acquire_memory("BuildVolume's build", peak);
     auto volume = engine_->build(model, "model", cancellation(*context));

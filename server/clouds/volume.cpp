@@ -82,7 +82,8 @@ FloatGrid::Ptr advect_density(const FloatGrid& density, const VelocityField& u, 
   return out;
 }
 
-FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t, const std::string& field) {
+FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t, const std::string& field,
+                                 const Cancellation& cancel) {
   FloatGrid::Ptr out = FloatGrid::create(0.0f);
   out->setTransform(density.transform().copy());
   out->tree().topologyUnion(density.tree());
@@ -90,7 +91,12 @@ FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t,
   out->setName("temperature");
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
   std::vector<double> lowest(leaves.leafCount(), INFINITY), highest(leaves.leafCount(), -INFINITY);
+  std::atomic<bool> cancelled{false};
   leaves.foreach ([&](openvdb::FloatTree::LeafNodeType& leaf, size_t n) {
+    if (cancelled || cancel.requested()) {  // a leaf is the slice: up to 512 fractal noises
+      cancelled = true;
+      return;
+    }
     for (auto it = leaf.beginValueOn(); it; ++it) {
       openvdb::Vec3d x = out->transform().indexToWorld(it.getCoord());
       double T = t.surface - t.lapse_rate * (x[2] - t.base_altitude);  // hydrostatic lapse (§6.3)
@@ -99,6 +105,7 @@ FloatGrid::Ptr temperature_field(const FloatGrid& density, const Temperature& t,
       it.setValue(float(std::clamp(T, 0.0, kMaxTemperature)));  // as it is wherever the field is kept
     }
   });
+  if (cancelled) Cancellation::stopped(field + ": the temperature");
   if (lowest.empty()) return out;  // no voxel (voxelized, every active value is in a leaf)
   const double T_min = *std::min_element(lowest.begin(), lowest.end());
   const double T_max = *std::max_element(highest.begin(), highest.end());
@@ -235,7 +242,7 @@ CloudVolume build_cloud(const CloudModel& model, const std::string& field, const
   CloudVolume volume;
   volume.density = density;
   cancel.check(field + ": the build");
-  if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature, field);
+  if (model.temperature.enabled) volume.temperature = temperature_field(*density, model.temperature, field, cancel);
   volume.stats = volume_stats(*density);
   return volume;
 }

@@ -68,7 +68,7 @@ openvdb::FloatGrid::Ptr advect_density(const openvdb::FloatGrid& density, const 
 // §6.3 on the active voxels of density; INVALID_ARGUMENT naming `field`.temperature where it leaves
 // (0, kMaxTemperature] K (a lapse over a tall volume, or a fluctuation larger than the surface temperature).
 openvdb::FloatGrid::Ptr temperature_field(const openvdb::FloatGrid& density, const Temperature& temperature,
-                                          const std::string& field = "model");
+                                          const std::string& field = "model", const Cancellation& cancel = {});
 // Clouds of a library combined by maximum density (§6.2.5); the temperature follows the denser cloud.
 CloudVolume combine_max(const CloudVolume& a, const CloudVolume& b);
 

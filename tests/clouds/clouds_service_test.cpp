@@ -547,6 +547,23 @@ TEST(CloudsService, ARendersShadowMapCountsInTheMemoryBudget) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
+// BuildVolume(keep) checks its model before it takes a --max-sessions slot: with the one slot taken, a bad
+// model is INVALID_ARGUMENT (naming its field), not RESOURCE_EXHAUSTED, which a client would retry.
+TEST(CloudsService, ABadModelIsInvalidEvenWhenTheSessionsAreFull) {
+  test::Daemon d({"--max-sessions", "1"});
+  v1::BuildVolumeRequest request;
+  *request.mutable_model() = sphere_model();
+  request.set_keep(true);
+  v1::BuildVolumeResponse built;
+  ASSERT_TRUE(call(d.address()).build(request, &built).ok());
+  grpc::Status status = call(d.address()).build(request, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  request.mutable_model()->set_voxel_size(0);
+  status = call(d.address()).build(request, &built);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("model.voxel_size"), std::string::npos) << status.error_message();
+}
+
 // A build counts in --memory-budget before it starts: a 22 m sphere in 10 cm voxels (its band and leaves
 // grow it to about 5.4e7 voxels, 16 bytes each at the build's peak) is refused under a budget of 512 MiB at
 // once, and a 5 m one (1.2e6 voxels) is built; so is a mesh's reading.

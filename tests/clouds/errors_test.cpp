@@ -1,6 +1,7 @@
 // Bad input: each gets squall::Error with the right code and a message naming the field.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -131,6 +132,18 @@ TEST(Errors, ABuildStopsWithinTheStageItWasCancelledIn) {
   m.particles.push_back(p);
   asked = 0;
   expect_error([&] { build_cloud(m, "model", after_two); }, Code::Cancelled, "model: the particles cancelled");
+  // The temperature's fractal noise is a stage of its own: cancelled after every question the build without
+  // it asks, the build stops there.
+  m = sphere_model();
+  m.temperature.enabled = false;
+  m.temperature.fluctuation = 10;
+  std::atomic<int> questions{0};
+  build_cloud(m, "model", Cancellation([&] { return ++questions < 0; }));
+  const int before_temperature = questions;
+  m.temperature.enabled = true;
+  questions = 0;
+  expect_error([&] { build_cloud(m, "model", Cancellation([&] { return ++questions > before_temperature; })); },
+               Code::Cancelled, "model: the temperature cancelled");
 }
 
 // A mesh's estimate counts its surface: a tetrahedron 10 km wide and 1 cm high encloses 1.7e5 m^3, but its
