@@ -198,10 +198,11 @@ static inline sq_real sq_bessel_i0_scaled(sq_real x) {
 
 /* eq 34-37: Mitsuyasu's spreading parameter s(w) */
 static inline sq_real sq_mitsuyasu_s(sq_real w, sq_real wp, sq_real U, sq_real g) {
-  sq_real wt = w * U / g, wtp = wp * U / g;
-  sq_real sp = 11.5 * sq_powr(wtp, (sq_real)-2.5);
-  sq_real r = wt / wtp;
-  return w <= wp ? sp * (r * r * r * r * r) : sp * sq_powr(r, (sq_real)-2.5);
+  sq_real sp = 11.5 * sq_powr(wp * U / g, (sq_real)-2.5);
+  sq_real r = w / wp; /* not w U / g over wp U / g: a wind that rounds to 0 made that 0 / 0 */
+  sq_real s = w <= wp ? sp * (r * r * r * r * r) : sp * sq_powr(r, (sq_real)-2.5);
+  /* held to [1e-6, 1e12]: a spread narrower than any grid resolves (a wind of 1e-14 m/s overflows s) */
+  return fmin(fmax(s, (sq_real)1e-6), (sq_real)1e12);
 }
 
 /* Gamma(x + 1) / Gamma(x + 1/2) for x >= 0, the norm of the cos^{2s} and Krylov spreads. In the kernels
@@ -248,6 +249,19 @@ static inline sq_real sq_hyperbolic_beta(sq_real r) {
   return 1.24;
 }
 
+/* Krylov's exponent of cos^s (eqs 29-31): s = 1.8 w_mean / w, at most 1e4 */
+static inline sq_real sq_krylov_s(SpectrumParams p, sq_real w) {
+  return w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
+}
+
+/* The von Mises concentration (eqs 43-44) c = ln 2 / (1 - cos(width)) with cos(width / 2) = 2^(-1 / (2 s)),
+ * written as 1 - cos(width) = -2 expm1(-ln 2 / s): the difference cancelled in float, 42% off at s = 1e7
+ * and c infinite past s = 1.16e7 (a light wind's narrow swell). */
+static inline sq_real sq_von_mises_c(SpectrumParams p, sq_real w) {
+  sq_real s = sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
+  return log((sq_real)2.0) / (-2.0 * expm1(-log((sq_real)2.0) / s));
+}
+
 /* D(theta; w, k), rad^-1. d = theta - theta0 in [-pi, pi). */
 static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w) {
   switch (p.spreading) {
@@ -258,19 +272,15 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w) {
     }
     case SQUALL_SPREAD_KRYLOV: { /* eqs 29-31 fixed normalization */
       if (fabs(d) >= 0.5 * SQUALL_PI) return 0;
-      sq_real s = w > 0 ? fmin(1.8 * p.omega_mean / w, (sq_real)1e4) : (sq_real)1e4;
+      sq_real s = sq_krylov_s(p, w);
       sq_real norm = sq_gamma_ratio_half(0.5 * s) / sqrt((sq_real)SQUALL_PI);
       return norm * sq_powr(fmax(cos(d), (sq_real)0.0), s);
     }
     case SQUALL_SPREAD_MITSUYASU: return sq_cos2s(d, sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g));    /* eq 33 */
     case SQUALL_SPREAD_JONSWAP: return sq_cos2s(d, sq_jonswap_spread_s(w, p.omega_p, p.wind_speed, p.g)); /* eq 38 */
     case SQUALL_SPREAD_VON_MISES: { /* eqs 43-44, with exp(-c) I0(c) against overflow */
-      /* c = ln 2 / (1 - cos(width)) with cos(width / 2) = 2^(-1 / (2 s)), written as 1 - cos(width) =
-       * -2 expm1(-ln 2 / s) and c (cos d - 1) = -2 c sin^2(d / 2): both differences cancelled in float,
-       * 42% off at s = 1e7 and c infinite past s = 1.16e7 (a light wind's narrow swell), D then NaN. s is
-       * held below 1e12, a spread narrower than any grid resolves (a wind of 1e-14 m/s overflows it). */
-      sq_real s = fmin(fmax(sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g), (sq_real)1e-6), (sq_real)1e12);
-      sq_real c = log((sq_real)2.0) / (-2.0 * expm1(-log((sq_real)2.0) / s));
+      /* c (cos d - 1) as -2 c sin^2(d / 2), which does not cancel */
+      sq_real c = sq_von_mises_c(p, w);
       sq_real half_sine = sin(0.5 * d);
       return exp(-2.0 * c * half_sine * half_sine) / (2.0 * SQUALL_PI * sq_bessel_i0_scaled(c));
     }
@@ -281,6 +291,32 @@ static inline sq_real sq_spreading(SpectrumParams p, sq_real d, sq_real w) {
     }
     default: return 0;
   }
+}
+
+/* The variance of a narrow spread about its direction, rad^2, where it is a Gaussian in d:
+ * cos^{2s}(d / 2) ~ exp(-s d^2 / 4) (Mitsuyasu, JONSWAP), cos^s(d) ~ exp(-s d^2 / 2) (Krylov) and
+ * exp(-2 c sin^2(d / 2)) ~ exp(-c d^2 / 2) (von Mises), each to 1 + O(d^4) in the exponent; 0 for the
+ * others, which are never narrow. */
+static inline sq_real sq_spread_variance(SpectrumParams p, sq_real w) {
+  switch (p.spreading) {
+    case SQUALL_SPREAD_KRYLOV: return 1.0 / sq_krylov_s(p, w);
+    case SQUALL_SPREAD_MITSUYASU: return 2.0 / sq_mitsuyasu_s(w, p.omega_p, p.wind_speed, p.g);
+    case SQUALL_SPREAD_JONSWAP: return 2.0 / sq_jonswap_spread_s(w, p.omega_p, p.wind_speed, p.g);
+    case SQUALL_SPREAD_VON_MISES: return 1.0 / sq_von_mises_c(p, w);
+    default: return 0;
+  }
+}
+
+/* D over a mode's angular cell [d - dtheta / 2, d + dtheta / 2]. A spread narrower than the cell (and
+ * than 0.25 rad, where it is a Gaussian to a few parts in 1e3) is averaged over it in its Gaussian form: at
+ * the cell's centre alone, it put a light wind's swell of s = 3.5e7 on the modes along an axis at
+ * sqrt(s / pi) / 2 times its energy, and on none at other angles. Wider spreads, and a point (dtheta = 0),
+ * take D itself: sampled at spacings under sigma, a Gaussian's sum is its integral to 1e-8. */
+static inline sq_real sq_cell_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real dtheta) {
+  sq_real variance = sq_spread_variance(p, w);
+  if (!(variance > 0) || !(variance < dtheta * dtheta) || variance > (sq_real)0.0625) return sq_spreading(p, d, w);
+  sq_real scale = 1.0 / sqrt(2.0 * variance);
+  return (erf((d + 0.5 * dtheta) * scale) - erf((d - 0.5 * dtheta) * scale)) / (2.0 * dtheta);
 }
 
 /* App A eqs 40-41: Phillips P(k), with |k^.w^|^p (p = 2 in App A eq 40) */
@@ -294,13 +330,15 @@ static inline sq_real sq_phillips(SpectrumParams p, sq_real kx, sq_real ky) {
          exp(-k2 * p.phillips_cutoff * p.phillips_cutoff);
 }
 
-/* Eq 3: P(k) = S(w) D(theta; w, k) v_g / (2k), m^4, given w(k) and v_g(k) of the layer's dispersion. */
-static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real ky, sq_real w, sq_real vg) {
+/* Eq 3: P(k) = S(w) D(theta; w, k) v_g / (2k), m^4, given w(k) and v_g(k) of the layer's dispersion, with D
+ * over the mode's angular cell dtheta (sqrt(dkx dky) / k on a grid; 0 at a point). */
+static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real ky, sq_real w, sq_real vg,
+                                          sq_real dtheta) {
   if (p.spectrum == SQUALL_SPECTRUM_PHILLIPS) return sq_phillips(p, kx, ky);
   sq_real k = sqrt(kx * kx + ky * ky);
   if (k <= 0 || w <= 0) return 0;
   sq_real d = sq_angle_difference(atan2(ky, kx), p.theta0);
-  return sq_frequency_spectrum(p, w) * sq_spreading(p, d, w) * vg / (2.0 * k);
+  return sq_frequency_spectrum(p, w) * sq_cell_spreading(p, d, w, dtheta) * vg / (2.0 * k);
 }
 
 #ifndef __OPENCL_VERSION__
