@@ -81,8 +81,8 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     if (hump_log_peak(p) > std::log(1e30))
       fail(Code::InvalidArgument, g + ": its shape's hump c r^-n exp(-7.987 r^-m) peaks at e^" +
                                       validate::number(hump_log_peak(p)) +
-                                      ", past 1e30 (float32 on the device; its scale, " + validate::number(scale) +
-                                      ", would be 0 there): lower n or c, or raise m");
+                                      ", past 1e30 (float32 on the device, where its product with its scale, " +
+                                      validate::number(scale) + ", underflows or overflows): lower n or c, or raise m");
   }
 }
 

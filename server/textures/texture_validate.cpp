@@ -42,7 +42,8 @@ double spectral_radius(double a, double b, double c, double d) {
 // The largest spectral radius of a velocity grid's gradient over its cells and frames, 1/s, from each cell's
 // edges' mean differences (across the seam too, where the grid is periodic), of the frames as the kernels
 // sample them. Every cell with a fluid node counts: the fluid around that node (the mask's nearest node
-// decides) takes the cell's bilinear velocity, solid nodes' included. Cells of four solid nodes carry none.
+// decides) takes the cell's bilinear velocity, solid nodes' included. Cells of four solid nodes carry none
+// (a Runge-Kutta stage of a substep that crosses more than half a cell may still sample one).
 double grid_gradient_rate(const VelocitySpec& v) {
   auto fluid = [&](size_t n) { return v.mask.empty() || v.mask[n]; };
   const bool wrap = v.extrapolation == Extrapolation::Wrap;

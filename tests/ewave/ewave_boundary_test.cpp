@@ -196,12 +196,14 @@ TEST(EWaveTrim, StepsLongerThanTheShortestWavesPeriodAreRefused) {
     for (int n = 0; n < 400; ++n) f = s.step(plain_step(shortest_wave_period(c)));
     EXPECT_LT(spectral_energy(f.height, f.phi, c), 1e-2 * e0);
   }
-  // mask_phi multiplies phi too: with the trim off, a block of O = 0 in the pulse's way grew it past float
-  // (1e34 in 80 steps of 100 s on 16^2 cells of 1 m). The same bound holds, and steps of the period drain it.
+  // mask_phi multiplies phi too: with the trim off, a block of O = 0 in a pulse's way grew it past float
+  // (1e34 in 80 steps of 100 s, on a model of 16^2 cells of 1 m). The same bound holds, and steps of the
+  // period drain it.
   EWaveConfig masked = deep;
   masked.mask_phi = true;
   masked.initial_height =
       field(masked, [&](double x, double y) { return std::exp(-(std::pow(x - 16, 2) + std::pow(y - 16, 2)) / 4); });
+  EXPECT_EQ(max_dt(masked), shortest_wave_period(masked));
   StepInputs blocked = plain_step(shortest_wave_period(masked));
   blocked.obstruction = field(masked, [](double x, double y) { return x >= 6 && x < 10 && y >= 6 && y < 10 ? 0 : 1; });
   EWaveSession s = make_session(masked);

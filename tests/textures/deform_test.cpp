@@ -387,7 +387,7 @@ TEST(Deform, BrushMovesTexelsNearItsCentreOnly) {
   for (int j = 0; j < kSize; ++j)
     for (int i = 0; i < kSize; ++i)
       if (std::hypot(i + 0.5 - stroke.center_x, j + 0.5 - stroke.center_y) > 4 * stroke.radius)
-        far = std::max(far, double(std::hypot(wx[i + kSize * j], wy[i + kSize * j])));
+        far = squall::test::worse(far, double(std::hypot(wx[i + kSize * j], wy[i + kSize * j])));
   const size_t c = size_t(stroke.center_x) + kSize * size_t(stroke.center_y);
   const double along = (wx[c] * vx[c] + wy[c] * vy[c]) / (vx[c] * vx[c] + vy[c] * vy[c]);
   std::printf("brush: t* at the centre %.4f, warp there %.4f along v (x t*), max warp beyond 4 radii %.3g\n", ts[c],

@@ -106,7 +106,7 @@ def config(
         trim_alpha: taper exponent, (0, 10]; unset: 0.05.
         friction_time: relaxation time tau (eqs 72-73), s; 0: no friction.
         source_scale: S0 of eq 75, m/s: the obstruction is also a height source S0 (1 - O).
-        mask_phi: also multiply phi by the obstruction.
+        mask_phi: also multiply phi by the obstruction (bounds ``dt`` as the trim does).
         double_precision: keep h, phi and the FFTs in float64 (needs an fp64 device).
         displacement_scale: lambda of the horizontal displacement and normals; unset: 1.
         initial_height: h at the start, m: array (ny, nx); unset: zero.
@@ -220,8 +220,8 @@ def inputs(
     float16.
 
     Args:
-        dt: time step, s, in (0, 1e4] (the propagator is exact; with the trim on, at most the
-            period of the grid's shortest wave).
+        dt: time step, s, in (0, 1e4] (the propagator is exact; with the trim or mask_phi on, at
+            most the period of the grid's shortest wave).
         obstruction: O per cell: 1 open water, 0 solid, between: partial; unset: 1.
         shapes: obstruction shapes rasterized into O (``circle``, ``ellipse``, ``box``,
             ``polygon``), at most 1024.
@@ -401,8 +401,9 @@ class EWaveSession:
             session.
         config: the EWaveConfig in force (defaults filled in); for a session from ``attach``,
             the config given to it (empty when none was).
-        max_dt: the longest step, s: with the trim on, the period of the grid's shortest wave
-            (longer trimmed steps grow without bound); 0 for a session from ``attach`` (unknown).
+        max_dt: the longest step, s: with the trim or mask_phi on, the period of the grid's
+            shortest wave (longer steps then grow without bound); 0 for a session from ``attach``
+            (unknown).
         steps: the steps the session had made when this object last heard: 0 after ``create``,
             the saved state's after ``restore``, then each ``step()``'s frame's; a ``step(...,
             after_step=session.steps)`` fails when another caller has stepped it since. 0 for a
