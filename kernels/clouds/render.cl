@@ -25,40 +25,7 @@
 #include "clouds/render_params.h"
 #include "clouds/phase.h"
 
-typedef struct {
-  pnanovdb_buf_t buf;
-  pnanovdb_grid_handle_t grid;
-  pnanovdb_readaccessor_t acc;
-} VdbVolume;
-
-static inline VdbVolume sq_volume_open(__global const uint* data) {
-  VdbVolume v;
-  v.buf = pnanovdb_make_buf(data);
-  v.grid.address.byte_offset = 0;
-  v.acc = sq_vdb_accessor(v.buf);
-  return v;
-}
-
-static inline float3 sq_world_to_index(VdbVolume* v, float3 x) {
-  pnanovdb_vec3_t p = {x.x, x.y, x.z};
-  pnanovdb_vec3_t i = pnanovdb_grid_world_to_indexf(v->buf, v->grid, &p);
-  return (float3)(i.x, i.y, i.z);
-}
-static inline float3 sq_world_to_index_dir(VdbVolume* v, float3 d) {
-  pnanovdb_vec3_t p = {d.x, d.y, d.z};
-  pnanovdb_vec3_t i = pnanovdb_grid_world_to_index_dirf(v->buf, v->grid, &p);
-  return (float3)(i.x, i.y, i.z);
-}
-
-// One node of the tree along a ray: a leaf (8 voxels a side), or a tile of a lower node (8), an upper
-// node (128) or the root (4096).
-typedef struct {
-  float exit;                   // the ray parameter where the ray leaves it
-  float tile;                   // a tile's value, the density at every voxel of it; -1 in a leaf
-  int3 lo;                      // its first voxel (cell space)
-  int dim;                      // voxels a side
-  pnanovdb_leaf_handle_t leaf;  // a leaf's handle (the one its query cached in the accessor)
-} VdbNode;
+#include "clouds/node_walk.clh"
 
 // The value of voxel ijk: from the leaf of `node`, which must hold it (no tree query), or with no node
 // through the accessor.
@@ -83,46 +50,6 @@ static float sq_trilinear(VdbVolume* v, const VdbNode* node, float3 p) {
 // Density at index-space position p.
 static inline float sq_sample(VdbVolume* v, float3 p, int trilinear) {
   return trilinear ? sq_trilinear(v, 0, p) : sq_voxel(v, 0, convert_int3_rtn(p + 0.5f));
-}
-
-// Clips [*t0, *t1] to the cell-space box [lo, hi) (pnanovdb_hdda_ray_clip); false when it misses.
-static inline bool sq_clip(float3 lo, float3 hi, float3 o, float3 d, float* t0, float* t1) {
-  pnanovdb_vec3_t bmin = {lo.x, lo.y, lo.z}, bmax = {hi.x, hi.y, hi.z};
-  pnanovdb_vec3_t po = {o.x, o.y, o.z}, pd = {d.x, d.y, d.z};
-  bool hit = pnanovdb_hdda_ray_clip(&bmin, &bmax, &po, t0, &pd, t1);
-  return hit && *t0 < *t1;
-}
-
-// The ray's span inside the grid's root bounding box; false when it misses.
-static inline bool sq_clip_root(VdbVolume* v, float3 o, float3 d, float* t0, float* t1) {
-  pnanovdb_coord_t lo = pnanovdb_root_get_bbox_min(v->buf, v->acc.root);
-  pnanovdb_coord_t hi = pnanovdb_root_get_bbox_max(v->buf, v->acc.root);
-  if (lo.x > hi.x) return false;  // empty grid
-  return sq_clip((float3)(lo.x, lo.y, lo.z), (float3)(hi.x + 1, hi.y + 1, hi.z + 1), o, d, t0, t1);
-}
-
-// The node containing the cell at ray parameter t, from one tree query. Returns whether it can hold
-// density (a leaf, or a tile of nonzero value). The cell is looked up `nudge` past t, and at least 4 float
-// ulps of t past it: far from the ray's origin a fixed nudge rounds away, the lookup lands back in the
-// node the ray is leaving, and a march whose next t is that node's exit would never move on.
-static inline bool sq_node(VdbVolume* v, float3 o, float3 d, float3 inv_d, float t, float nudge, VdbNode* node) {
-  nudge = fmax(nudge, t * 0x1p-21f);
-  float3 c = o + (t + nudge) * d;
-  pnanovdb_coord_t ijk = {(int)floor(c.x), (int)floor(c.y), (int)floor(c.z)};
-  pnanovdb_uint32_t level = 0;
-  pnanovdb_address_t at =
-      pnanovdb_readaccessor_get_value_address_and_level(PNANOVDB_GRID_TYPE_FLOAT, v->buf, &v->acc, &ijk, &level);
-  node->tile = level == 0 ? -1.0f : pnanovdb_read_float(v->buf, at);
-  node->leaf = v->acc.leaf;  // meaningful at level 0
-  int dim = level <= 1 ? 8 : level == 2 ? 128 : 4096;
-  node->dim = dim;
-  node->lo = (int3)(ijk.x, ijk.y, ijk.z) & (int3)(~(dim - 1));
-  float3 lo = convert_float3(node->lo);
-  // The nearest of the three planes the ray leaves through (inv_d = 1 / d; an axis it runs parallel to
-  // gives +inf, or NaN on the plane itself, which fmin passes over).
-  float3 far = (select(lo, lo + (float)dim, isgreater(inv_d, 0.0f)) - o) * inv_d;
-  node->exit = fmax(fmin(fmin(far.x, far.y), far.z), t + nudge);
-  return node->tile != 0.0f;
 }
 
 // Trilinear density at cell-space point c of the ray's current node: where the 8 voxels around c lie in

@@ -637,6 +637,50 @@ std::vector<float> device_phase(const RenderSettings& rs, const std::vector<floa
   return test::read<float>(out, theta.size());
 }
 
+// The tree queries of rays through a volume's nodes (probe.cl's node_walk_queries): origins and directions
+// in cell space, three floats a ray.
+std::vector<int> node_walk_queries(const DeviceVolume& dv, const std::vector<float>& origins,
+                                   const std::vector<float>& directions) {
+  Runtime& rt = test::runtime();
+  const size_t n = origins.size() / 3;
+  cl::Buffer o = test::upload(origins), d = test::upload(directions);
+  cl::Buffer out(rt.context(), CL_MEM_WRITE_ONLY, n * sizeof(int));
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, cl_int, cl::Buffer> walk(rt, "clouds/probe.cl", "node_walk_queries");
+  walk.launch(cl::NDRange(round_up(n, 64)), cl::NDRange(64), dv.density, o, d, cl_int(n), out);
+  return test::read<int>(out, n);
+}
+
+// A ray crosses each node once wherever the volume lies: a sphere 30 m wide in 1 m voxels, at x = 0 and at
+// x = 1e6 (within the reach of 2^20 voxels), by rays from 400 m on either side along x, straight and
+// grazing. At 1e6 cell positions rounded to 1/16 voxel, which the walk's 1e-4 voxel nudge past a node's
+// face was lost in: a ray going toward -x crept out of each node by nudges, with thousands of queries.
+TEST(Render, ANodeWalkFarFromTheGridsOriginQueriesEachNodeOnce) {
+  std::vector<int> near;
+  for (double x : {0.0, 1e6}) {
+    CloudModel m;
+    m.voxel_size = 1;
+    m.skin = 1;
+    m.spheres.push_back({{x, 0, 0}, 15});
+    const DeviceVolume dv = upload_volume(test::runtime(), build_cloud(m));
+    std::vector<float> origins, directions;
+    for (double side : {-1.0, 1.0})
+      for (double graze : {0.0, 0.03}) {
+        origins.insert(origins.end(), {float(x + 400 * side + 0.5), 0.5f, 0.5f});
+        directions.insert(directions.end(), {float(-side), float(graze), float(graze / 3)});
+      }
+    const std::vector<int> queries = node_walk_queries(dv, origins, directions);
+    for (size_t r = 0; r < queries.size(); ++r) {
+      SCOPED_TRACE("x = " + std::to_string(x) + ", ray " + std::to_string(r));
+      EXPECT_GT(queries[r], 2);
+      EXPECT_LT(queries[r], 40);
+      if (x == 0)
+        near.push_back(queries[r]);
+      else
+        EXPECT_LE(std::abs(queries[r] - near[r]), 2) << queries[r] << " against " << near[r] << " at x = 0";
+    }
+  }
+}
+
 // 2 pi int P(theta) sin(theta) dtheta and 2 pi int P cos sin dtheta by the trapezoid rule on a grid that is
 // log-spaced near theta = 0 (the forward peaks) and uniform beyond.
 std::pair<double, double> integrate(const RenderSettings& s) {
