@@ -439,8 +439,14 @@ double periodic_cell(double x, double extent, int n) {
   return std::clamp(r / (extent / n), 0.0, std::nextafter(double(n), 0.0));
 }
 
-// Bilinear periodic sample of the 8 real channels of one layer (host copy of its complex pairs).
-void sample_channels(const std::vector<float>& fields, const LayerSpec& L, double x, double y, double out[8]) {
+// The channels sample() reads at a point: the 8 real channels of the layers' pairs (height, D, slopes,
+// grad D), then the gradient of the bilinear D itself, which the inversion steps along.
+constexpr int kSampled = 12;
+constexpr int kBilinearGradD = 8;  // dDx/dx, dDx/dy, dDy/dx, dDy/dy, 1
+
+// Bilinear periodic sample of the 8 real channels of one layer (host copy of its complex pairs), and the
+// gradient of its bilinear Dx and Dy, added to out[kSampled].
+void sample_channels(const std::vector<float>& fields, const LayerSpec& L, double x, double y, double out[kSampled]) {
   const size_t nx = size_t(L.nx), ny = size_t(L.ny), cells = nx * ny;
   const double u = periodic_cell(x, L.lx, L.nx), v = periodic_cell(y, L.ly, L.ny);
   size_t i0 = size_t(u), j0 = size_t(v);
@@ -448,13 +454,60 @@ void sample_channels(const std::vector<float>& fields, const LayerSpec& L, doubl
   size_t i1 = (i0 + 1) % nx, j1 = (j0 + 1) % ny;
   for (int c = 0; c < 8; ++c) {
     auto at = [&](size_t i, size_t j) { return double(fields[2 * ((c / 2) * cells + i + nx * j) + (c % 2)]); };
-    out[c] = (1 - fv) * ((1 - fu) * at(i0, j0) + fu * at(i1, j0)) + fv * ((1 - fu) * at(i0, j1) + fu * at(i1, j1));
+    out[c] += (1 - fv) * ((1 - fu) * at(i0, j0) + fu * at(i1, j0)) + fv * ((1 - fu) * at(i0, j1) + fu * at(i1, j1));
+    if (c != 1 && c != 2) continue;
+    const double along_u = (1 - fv) * (at(i1, j0) - at(i0, j0)) + fv * (at(i1, j1) - at(i0, j1));
+    const double along_v = (1 - fu) * (at(i0, j1) - at(i0, j0)) + fu * (at(i1, j1) - at(i1, j0));
+    out[kBilinearGradD + 2 * (c - 1)] += along_u * L.nx / L.lx;
+    out[kBilinearGradD + 2 * (c - 1) + 1] += along_v * L.ny / L.ly;
   }
 }
 }  // namespace
 
 namespace {
 constexpr uint64_t kLayerBytesPerCell = 4 * 2 * sizeof(float);  // sample(): 4 complex channel pairs
+
+// The source x0 of query x on the surface displaced by lambda D (eq 47): the root of
+// F(x0) = x0 + lambda D(x0) - x by Newton's method, with the Jacobian I + lambda grad D of the bilinear D
+// the samples read, each step halved until |F| shrinks; where that Jacobian is singular (the surface
+// folds) the step is the fixed-point one, -F. The fixed-point iteration x0 = x - lambda D(x0) alone
+// converges only where both eigenvalues of lambda grad D lie within (-1, 1): it diverged at troughs (J > 2)
+// and crept at crests (J near 0). Stops once |F| <= tolerance or no step shrinks it; leaves in c what
+// channels_at read at x0.
+template <typename Channels>
+Vec2 displaced_source(const Channels& channels_at, Vec2 x, double lambda, double tolerance, double c[kSampled]) {
+  Vec2 x0 = x;
+  channels_at(x0.x, x0.y, c);
+  auto residual = [&](Vec2 p, const double* at) {
+    return Vec2{p.x + lambda * at[1] - x.x, p.y + lambda * at[2] - x.y};
+  };
+  Vec2 F = residual(x0, c);
+  for (int iteration = 0; iteration < 64 && std::hypot(F.x, F.y) > tolerance; ++iteration) {
+    const double* g = c + kBilinearGradD;
+    const double a = 1 + lambda * g[0], b = lambda * g[1], d = lambda * g[2], e = 1 + lambda * g[3];
+    const double det = a * e - b * d;  // of [[a, b], [d, e]]
+    const Vec2 step = det != 0 ? Vec2{(b * F.y - e * F.x) / det, (d * F.x - a * F.y) / det} : Vec2{-F.x, -F.y};
+    bool shrank = false;
+    for (double scale = 1; scale > 1e-4 && !shrank; scale /= 2) {
+      const Vec2 trial{x0.x + scale * step.x, x0.y + scale * step.y};
+      double at[kSampled];
+      channels_at(trial.x, trial.y, at);
+      const Vec2 G = residual(trial, at);
+      if (!(std::hypot(G.x, G.y) < std::hypot(F.x, F.y))) continue;
+      x0 = trial, F = G, shrank = true;
+      std::copy(at, at + kSampled, c);
+    }
+    if (!shrank) break;
+  }
+  return x0;
+}
+
+// 1e-6 of the finest layer's cell, m: where displaced_source stops.
+double source_tolerance(const TileSpec& spec) {
+  double cell = INFINITY;
+  for (const LayerSpec& L : spec.layers) cell = std::min({cell, L.lx / L.nx, L.ly / L.ny});
+  return 1e-6 * cell;
+}
 
 uint64_t largest_layer_cells(const TileSpec& spec) {
   uint64_t cells = 0;
@@ -504,26 +557,21 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
     }
   }
   const double lambda = spec.choppiness;
-  auto channels_at = [&](double x, double y, double c[8]) {
-    std::fill(c, c + 8, 0.0);
-    for (size_t a = 0; a < spec.layers.size(); ++a) {
-      double one[8];
-      sample_channels(layers[a], spec.layers[a], x, y, one);
-      for (int q = 0; q < 8; ++q) c[q] += one[q];
-    }
+  auto channels_at = [&](double x, double y, double c[kSampled]) {
+    std::fill(c, c + kSampled, 0.0);
+    for (size_t a = 0; a < spec.layers.size(); ++a) sample_channels(layers[a], spec.layers[a], x, y, c);
   };
   std::vector<SurfaceSample> samples(points.size());
+  const double tolerance = source_tolerance(spec);
   for (size_t i = 0; i < points.size(); ++i) {
     if (i % kSamplesPerCheck == 0) cancel.check("sample: at points[" + std::to_string(i) + "]");
-    double x0 = points[i].x, y0 = points[i].y, c[8];
-    channels_at(x0, y0, c);
-    if (invert_displacement)  // x0 + lambda D(x0) = x by fixed-point iteration
-      for (int it = 0; it < 16; ++it) {
-        x0 = points[i].x - lambda * c[1];
-        y0 = points[i].y - lambda * c[2];
-        channels_at(x0, y0, c);
-      }
+    double c[kSampled];
     SurfaceSample& s = samples[i];
+    s.source = points[i];
+    if (invert_displacement)
+      s.source = displaced_source(channels_at, points[i], lambda, tolerance, c);
+    else
+      channels_at(s.source.x, s.source.y, c);
     s.height = c[0];
     s.displacement_x = lambda * c[1];
     s.displacement_y = lambda * c[2];

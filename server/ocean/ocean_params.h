@@ -235,6 +235,7 @@ struct Vec2 {
 
 // The surface at one world point, summed over all layers.
 struct SurfaceSample {
+  Vec2 source;                                    // m: the surface point before its displacement
   double height = 0;                              // m
   double displacement_x = 0, displacement_y = 0;  // m, lambda * D at the (source) point
   double normal_x = 0, normal_y = 0, normal_z = 1;

@@ -183,8 +183,8 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
       response->add_normal_x(s.normal_x);
       response->add_normal_y(s.normal_y);
       response->add_normal_z(s.normal_z);
-      response->add_source_x(invert ? points[i].x - s.displacement_x : points[i].x);
-      response->add_source_y(invert ? points[i].y - s.displacement_y : points[i].y);
+      response->add_source_x(s.source.x);
+      response->add_source_y(s.source.y);
     }
     return grpc::Status::OK;
   });

@@ -460,6 +460,47 @@ TEST(OceanTile, SampleMatchesTileAndInvertsDisplacement) {
   EXPECT_NEAR(direct.height, inv.height, 1e-6);
 }
 
+// With the displacement as strong as a sea that does not fold at its grid points takes (its tile's smallest J-
+// 0.05), an inverted sample of each grid point's landing place finds a source that lands there, to 1e-5 of
+// a cell, and that source is the grid point itself but where the bilinear surface between the grid points
+// folds (one point of 4096 here, landing where another does). The fixed-point iteration x0 = x - lambda D(x0)
+// converges as |1 - J|^n there: after its 16 steps, 0.95^16 = 0.44 of the way.
+TEST(OceanTile, InvertedSamplesFindTheSourcesOfASteepSea) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  spec.choppiness = 1;
+  const auto unit = engine().tile(spec, 2.0, Jacobian);
+  const double steepest = 1 - *std::min_element(unit.jacobian_minus.begin(), unit.jacobian_minus.end());
+  ASSERT_GT(steepest, 0.1);  // -(the most negative eigenvalue of grad D)
+  spec.choppiness = 0.95 / steepest;
+  const auto f = engine().tile(spec, 2.0, Displacement | Jacobian);
+  EXPECT_NEAR(*std::min_element(f.jacobian_minus.begin(), f.jacobian_minus.end()), 0.05, 1e-3);
+  const double cell = 2.0, period = 128;
+  std::vector<Vec2> landed;
+  for (int j = 0; j < 64; ++j)
+    for (int i = 0; i < 64; ++i) {
+      const size_t k = size_t(i + 64 * j);
+      landed.push_back({i * cell + f.displacement_x[k], j * cell + f.displacement_y[k]});
+    }
+  const auto inverted = engine().sample(spec, 2.0, landed, true);
+  std::vector<Vec2> sources;
+  for (const SurfaceSample& s : inverted) sources.push_back(s.source);
+  const auto at_source = engine().sample(spec, 2.0, sources, false);
+  auto apart = [&](double a, double b) { return std::remainder(a - b, period); };  // periodic images alike
+  double residual = 0;
+  int elsewhere = 0;
+  for (int j = 0; j < 64; ++j)
+    for (int i = 0; i < 64; ++i) {
+      const size_t k = size_t(i + 64 * j);
+      const Vec2 x = sources[k];
+      residual = squall::test::worse(residual, std::hypot(x.x + at_source[k].displacement_x - landed[k].x,
+                                                          x.y + at_source[k].displacement_y - landed[k].y) /
+                                                   cell);
+      elsewhere += std::hypot(apart(x.x, i * cell), apart(x.y, j * cell)) > 1e-3 * cell;
+    }
+  EXPECT_LT(residual, 1e-5);
+  EXPECT_LE(elsewhere, 4);
+}
+
 TEST(OceanTile, SpectrumCachedAcrossFrames) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 64, 90, 4242);
   engine().tile(spec, 0.0, Height);
