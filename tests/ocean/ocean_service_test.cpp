@@ -265,6 +265,54 @@ TEST(OceanService, LargeFramesAreChunkedAndReassembleToGetTile) {
   EXPECT_NE(status.error_message().find("StreamTiles"), std::string::npos) << status.error_message();
 }
 
+// The bytes a GetTile of `outputs` (one 2048^2 layer, a 64^2 output) asks the memory budget for, read from its
+// refusal under a budget of one byte.
+uint64_t tile_request_bytes(const v1::GetTileRequest& request) {
+  Limits limits;
+  limits.memory_budget = 1;
+  test::InProcess<rpc::OceanService> server(limits);
+  grpc::ClientContext context;
+  v1::GetTileResponse response;
+  const grpc::Status status = v1::Ocean::NewStub(server.channel())->GetTile(&context, request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  const size_t open = status.error_message().find("GetTile's tile (");
+  return open == std::string::npos ? 0 : std::stoull(status.error_message().substr(open + 16));
+}
+
+// A GetTile whose own kept spectrum the budget takes back to make room for its tile builds it again
+// reserved. The budget holds the height's tile with the spectrum (N1 bytes), and the full tile alone, not
+// with the spectrum (N2): after the height's tile kept it, the full tile is refused naming the rebuild.
+// Before, its reservation evicted the kept spectrum, and the rebuild on the device went uncounted.
+TEST(OceanService, ATileWhoseKeptSpectrumIsTakenBackReservesItsRebuild) {
+  v1::GetTileRequest height;
+  *height.mutable_tile() = tile_spec();
+  height.mutable_tile()->mutable_layers()->DeleteSubrange(1, 1);
+  v1::LayerSpec& layer = *height.mutable_tile()->mutable_layers(0);
+  layer.set_nx(2048), layer.set_ny(2048), layer.set_extent_x(2000), layer.set_extent_y(2000);
+  height.mutable_tile()->mutable_output()->set_nx(64);
+  height.mutable_tile()->mutable_output()->set_ny(64);
+  height.add_outputs(v1::TILE_OUTPUT_HEIGHT);
+  v1::GetTileRequest all = height;
+  all.clear_outputs();
+  for (auto o : kAllOutputs) all.add_outputs(o);
+  const uint64_t spectrum = 2048ull * 2048 * 6 * sizeof(float), n1 = tile_request_bytes(height),
+                 n2 = tile_request_bytes(all);
+  ASSERT_GT(n2, n1);
+  ASSERT_LT(n2 - n1, 2 * spectrum);  // the full tile alone fits the budget between them
+  Limits limits;
+  limits.memory_budget = (n1 + n2) / 2;
+  test::InProcess<rpc::OceanService> server(limits);
+  auto stub = v1::Ocean::NewStub(server.channel());
+  v1::GetTileResponse response;
+  grpc::ClientContext first;
+  ASSERT_TRUE(stub->GetTile(&first, height, &response).ok());
+  EXPECT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
+  grpc::ClientContext second;
+  const grpc::Status status = stub->GetTile(&second, all, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_NE(status.error_message().find("GetTile's spectra, built again"), std::string::npos) << status.error_message();
+}
+
 // A bad request is refused for what it is, INVALID_ARGUMENT, even when every stream slot is taken: it is
 // validated before it asks for a slot.
 TEST(OceanService, ABadStreamRequestIsInvalidEvenWhenTheStreamsAreFull) {
