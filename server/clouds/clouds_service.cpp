@@ -188,12 +188,14 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
   };
   return serve_stream(*context, serving_, "StreamEvolution", check, prepare, [&](StreamCall& call, const Stream& s) {
     const auto& [base, evolution, settings, memory, mesh_memory] = s;
-    for (double t : request->times()) {
+    for (int i = 0; i < request->times_size(); ++i) {
       if (!call.live()) return;
+      const double t = request->times(i);
       const CloudModel model = model_at(base, evolution, t);
+      const std::string field = "model at " + validate::at("times", i);
       Slot volume_memory =
-          serving_.gate().acquire_memory("StreamEvolution's volume, built", engine_->validate(model, "model"));
-      auto volume = engine_->build(model, "model", call.cancellation());
+          serving_.gate().acquire_memory("StreamEvolution's volume, built", engine_->validate(model, field));
+      auto volume = engine_->build(model, field, call.cancellation());
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);

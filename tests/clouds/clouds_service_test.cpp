@@ -272,6 +272,23 @@ TEST(CloudsService, EvolutionFramesBetweenTwoClampsAreCheckedBeforeTheFirstIsSen
   EXPECT_TRUE(frames.empty());
 }
 
+// A frame's temperatures are checked as it is built, and the error names the frame: a cloud drifting up at
+// 1000 m/s through a lapse of 0.1 K/m is at -712 K at t = 10 s.
+TEST(CloudsService, AnEvolvedFramesTemperatureOutOfRangeNamesTheFrame) {
+  grpc::Status status;
+  const auto frames = evolve(
+      {0.0, 10.0},
+      [](v1::StreamEvolutionRequest& r) {
+        r.mutable_model()->mutable_temperature()->set_lapse_rate(0.1);
+        r.mutable_evolution()->mutable_drift()->set_z(1000);
+      },
+      &status);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("model at times[1].temperature makes temperatures from"), std::string::npos)
+      << status.error_message();
+  EXPECT_EQ(frames.size(), 1u);
+}
+
 TEST(CloudsService, BadRequestsGetClearErrors) {
   struct Case {
     std::function<void(v1::RenderRequest&)> edit;
