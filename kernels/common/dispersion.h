@@ -49,6 +49,13 @@ static inline float dispersion_capillary_term(float k, Dispersion d) {
   return (d.kind == SQUALL_DISPERSION_CAPILLARY || d.kind == SQUALL_DISPERSION_COMBINED) ? kl * kl : 0.0f;
 }
 
+/* G(k) = g (1 + (k l)^2), m/s^2: the restoring force of gravity and surface tension per unit height in the
+ * linearized surface conditions (L. D. Landau, E. M. Lifshitz, "Fluid Mechanics", sec. 61):
+ * d phi / dt = -G h and d h / dt = k tanh(kh) phi = (omega^2 / G) phi. */
+static inline float dispersion_restoring(float k, Dispersion d) {
+  return d.gravity * (1.0f + dispersion_capillary_term(k, d));
+}
+
 /* omega(k) >= 0 of Table 1; 0 at k <= 0. */
 static inline float dispersion_omega(float k, Dispersion d) {
   if (k <= 0.0f) return 0.0f;

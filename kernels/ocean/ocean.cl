@@ -255,35 +255,40 @@ __kernel void ocean_evolve_undisplaced3(__global const float* h0, const int nx, 
   evolve_pairs(h0, nx, ny, dkx, dky, t_hi, t_lo, shift, 3, 0, out);
 }
 
+// G / w of mode k of a layer of dispersion d (dispersion_restoring): phi~ = -i (G/w) (plus - minus).
+static inline float restoring_over_omega(float kx, float ky, float w, Dispersion d) {
+  return w > 0.0f ? dispersion_restoring(sqrt(kx * kx + ky * ky), d) / w : 0.0f;
+}
+
 // The surface height and its linear-theory velocity potential at z = 0, packed as one pair (h, phi) for
 // the eWave engine's ambient and initial fields (server/ewave). With h~ = plus + minus as in evolve_pairs,
-// phi~ = -i (g/w) (plus - minus) (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/g) phi, i.e.
-// eWave's exact propagator h' = cos(w dt) h + (w/g) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
+// phi~ = -i (G/w) (plus - minus) (0 where w = 0): each e^{-iwt} part then obeys dh/dt = (w^2/G) phi, i.e.
+// eWave's exact propagator h' = cos(w dt) h + (w/G) sin(w dt) phi maps it to h0 e^{-iw(t+dt)} (eqs 64-65).
 __kernel void ocean_evolve_potential(__global const float* h0, const int nx, const int ny, const float dkx,
                                      const float dky, const float t_hi, const float t_lo, const float2 shift,
-                                     const float g, __global float2* out) {
+                                     const Dispersion d, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
   evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
-  float g_over_w = w > 0.0f ? g / w : 0.0f;
-  float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);
+  float G_over_w = restoring_over_omega(kx, ky, w, d);
+  float d_re = G_over_w * (plus_re - minus_re), d_im = G_over_w * (plus_im - minus_im);
   // phi~ = -i (d_re + i d_im) = (d_im, -d_re)
   store_pack((__global float*)out, i + (size_t)nx * j, plus_re + minus_re, plus_im + minus_im, d_im, -d_re);
 }
 
 // The horizontal current at the surface, u = grad phi of the potential above, packed as one pair (u, v)
-// for the textures that follow the waves (server/textures): u~ = i kx phi~ = kx (g/w) (plus - minus), and
+// for the textures that follow the waves (server/textures): u~ = i kx phi~ = kx (G/w) (plus - minus), and
 // ky for v~ (exact spectral derivatives; the drift U_D is added by the host).
 __kernel void ocean_evolve_current(__global const float* h0, const int nx, const int ny, const float dkx,
                                    const float dky, const float t_hi, const float t_lo, const float2 shift,
-                                   const float g, __global float2* out) {
+                                   const Dispersion d, __global float2* out) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly nx x ny
   float kx = mode_number(i, nx) * dkx, ky = mode_number(j, ny) * dky;
   float plus_re, plus_im, minus_re, minus_im, w;
   evolve_halves(h0, i, j, nx, ny, t_hi, t_lo, shift, &plus_re, &plus_im, &minus_re, &minus_im, &w);
-  float g_over_w = w > 0.0f ? g / w : 0.0f;
-  float d_re = g_over_w * (plus_re - minus_re), d_im = g_over_w * (plus_im - minus_im);  // phi~ = -i d
+  float G_over_w = restoring_over_omega(kx, ky, w, d);
+  float d_re = G_over_w * (plus_re - minus_re), d_im = G_over_w * (plus_im - minus_im);  // phi~ = -i d
   store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);
 }
 

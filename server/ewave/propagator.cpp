@@ -29,12 +29,13 @@ std::vector<double> propagator_coefficients(const EWaveConfig& c, double dt) {
   std::vector<double> out(4 * hx * ny);
   for (size_t j = 0; j < ny; ++j)
     for (size_t i = 0; i < hx; ++i) {
-      double omega = dispersion_omega(float(wavenumber(c, i, j)), d);
+      const float k = float(wavenumber(c, i, j));
+      double omega = dispersion_omega(k, d), G = dispersion_restoring(k, d);
       double s = std::sin(omega * dt);
       double* m = &out[4 * (i + hx * j)];
       m[0] = std::cos(omega * dt) * scale;                  // eq 64-65: cos
-      m[1] = omega / g * s * scale;                         // phi -> h
-      m[2] = (omega > 0 ? g * s / omega : g * dt) * scale;  // h -> phi, k = 0 limit g dt
+      m[1] = omega / G * s * scale;                         // phi -> h: (k tanh(kh) / omega) sin
+      m[2] = (omega > 0 ? G * s / omega : g * dt) * scale;  // h -> phi, k = 0 limit g dt
       m[3] = 0;
     }
   return out;

@@ -18,11 +18,13 @@ Dispersion dispersion_of(const EWaveConfig& config);
 // j' = j for j <= ny/2, j - ny above.
 double wavenumber(const EWaveConfig& config, size_t i, size_t j);
 
-// 4 floats per mode of the (nx/2+1) x ny half spectrum: (c, (omega/g) s, (g/omega) s, 0) / (nx ny),
-// c = cos(omega dt), s = sin(omega dt), omega = dispersion_omega(k). At k = 0: (1, 0, g dt, 0) / (nx ny).
-// The determinant c^2 + s^2 = 1 per mode, so E = sum g|h~|^2 + (omega^2/g)|phi~|^2 is conserved
-// (Gilligan sec. 3.2 keeps eq 64's k/omega with a general omega; that gives the determinant
-// c^2 + (g k/omega^2) s^2 and loses energy unless omega^2 = g k. (omega/g) s equals k/omega in deep water).
+// 4 floats per mode of the (nx/2+1) x ny half spectrum: (c, (omega/G) s, (G/omega) s, 0) / (nx ny),
+// c = cos(omega dt), s = sin(omega dt), omega = dispersion_omega(k), G = dispersion_restoring(k) (g, and
+// surface tension's g (k l)^2): the exact flow of dh/dt = (omega^2 / G) phi = k tanh(kh) phi and
+// dphi/dt = -G h, phi the velocity potential at the surface. At k = 0: (1, 0, g dt, 0) / (nx ny). The
+// determinant c^2 + s^2 = 1 per mode, so E = sum G|h~|^2 + (omega^2/G)|phi~|^2 is conserved (Gilligan
+// sec. 3.2 keeps eq 64's k/omega with a general omega; that gives the determinant c^2 + (g k/omega^2) s^2
+// and loses energy unless omega^2 = g k. (omega/G) s equals k/omega in deep water).
 std::vector<double> propagator_coefficients(const EWaveConfig& config, double dt);
 
 // The period 2 pi / omega of the grid's shortest wave, at its corner mode (pi/dx, pi/dy), s. With the trim

@@ -14,6 +14,8 @@
 #include "runtime/host_transfer.h"
 #include "runtime/kernel.h"
 
+SQUALL_KERNEL_STRUCT(Dispersion)  // ocean_evolve_potential and ocean_evolve_current take the layer's
+
 namespace squall::ocean {
 namespace {
 
@@ -36,9 +38,9 @@ constexpr size_t kStageLookCells = kSpectrumSliceModes;
 // h0, nx, ny, dkx, dky, t_hi, t_lo, shift, out (ocean_evolve1 to 4 and ocean_evolve_undisplaced2 and 3, one per
 // channel layout and count of pairs)
 using EvolveKernel = Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl::Buffer>;
-// h0, nx, ny, dkx, dky, t_hi, t_lo, shift, g, out
+// h0, nx, ny, dkx, dky, t_hi, t_lo, shift, the layer's dispersion, out
 using PotentialKernel =
-    Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, cl_float, cl::Buffer>;
+    Kernel<cl::Buffer, cl_int, cl_int, cl_float, cl_float, cl_float, cl_float, cl_float2, Dispersion, cl::Buffer>;
 // fields, nx, ny, pairs, scale, onx, ony, first, interleaved, accum
 using AccumulateKernel =
     Kernel<cl::Buffer, cl_int, cl_int, cl_int, cl_float2, cl_int, cl_int, cl_int, cl_int, cl::Buffer>;
@@ -206,7 +208,7 @@ struct OceanEngine::Impl {
     BufferLease fields = runtime.buffers().acquire(key.complex_bytes());
     const cl_float2 time = two_float_time(t);
     kernel.launch_rows(L.nx, L.ny, h0, cl_int(L.nx), cl_int(L.ny), cl_float(2 * SQUALL_PI / L.lx),
-                       cl_float(2 * SQUALL_PI / L.ly), time.s[0], time.s[1], drift_shift(L, t), cl_float(L.gravity),
+                       cl_float(2 * SQUALL_PI / L.ly), time.s[0], time.s[1], drift_shift(L, t), dispersion_of(L),
                        fields.buffer());
     fft.plan(key).enqueue(runtime.queue(), fft::Direction::Inverse, fields.buffer(), fields.buffer());
     return fields;

@@ -214,6 +214,10 @@ SpectrumParams derive_spectrum(const LayerSpec& L) {
   return p;
 }
 
+Dispersion dispersion_of(const LayerSpec& L) {
+  return Dispersion{int(L.dispersion), float(L.gravity), float(L.depth), float(L.capillary_length)};
+}
+
 OceanLayer device_layer(const LayerSpec& L, int index) {
   SpectrumParams p = derive_spectrum(L);
   OceanLayer d{};
@@ -250,10 +254,7 @@ OceanLayer device_layer(const LayerSpec& L, int index) {
     d.partial_n[i] = float(p.partial_n[i]);
     d.partial_m[i] = float(p.partial_m[i]);
   }
-  d.dispersion.kind = int(L.dispersion);
-  d.dispersion.gravity = float(L.gravity);
-  d.dispersion.depth = float(L.depth);
-  d.dispersion.capillary_length = float(L.capillary_length);
+  d.dispersion = dispersion_of(L);
   d.seed_lo = unsigned(L.seed & 0xffffffffu);
   d.seed_hi = unsigned(L.seed >> 32);
   return d;
@@ -273,7 +274,7 @@ namespace {
 double layer_slope_variance(const LayerSpec& L, double k_lo, double k_hi) {
   if (!(k_hi > k_lo)) return 0;
   SpectrumParams p = derive_spectrum(L);
-  Dispersion d{int(L.dispersion), float(L.gravity), float(L.depth), float(L.capillary_length)};
+  const Dispersion d = dispersion_of(L);
   const int steps = 4000;
   double u0 = std::log(k_lo), du = (std::log(k_hi) - u0) / steps, sum = 0;
   // Phillips: integral of |cos|^p over the circle = 2 sqrt(pi) Gamma((p+1)/2) / Gamma(p/2 + 1).

@@ -31,6 +31,9 @@ void validate_tile(const TileSpec& spec, const LimitGate& gate, const std::strin
 // The formula parameters of a layer (spectra.h) in double precision.
 SpectrumParams derive_spectrum(const LayerSpec& layer);
 
+// The layer's dispersion relation, as the kernels take it (common/dispersion.h).
+Dispersion dispersion_of(const LayerSpec& layer);
+
 // The device block of layer `index` (params.h).
 OceanLayer device_layer(const LayerSpec& layer, int index);
 

@@ -131,12 +131,36 @@ TEST(EWavePhysics, TenStepsOfDtEqualOneStepOfTenDt) {
 }
 
 // The travelling wave A cos(k0 x - omega t) at t = 0 with `periods` periods across the grid: h = A cos(k0 x),
-// phi = (A g/omega) sin(k0 x). Returns k0 and omega.
+// phi = (A G/omega) sin(k0 x). Returns k0 and omega.
 std::pair<double, double> start_travelling_wave(EWaveConfig& c, int periods, double A) {
-  const double k0 = 2 * M_PI * periods / c.length_x(), w = reference_omega(k0, c);
+  const double k0 = 2 * M_PI * periods / c.length_x(), w = reference_omega(k0, c), G = reference_restoring(k0, c);
   c.initial_height = field(c, [&](double x, double) { return A * std::cos(k0 * x); });
-  c.initial_phi = field(c, [&](double x, double) { return A * c.gravity / w * std::sin(k0 * x); });
+  c.initial_phi = field(c, [&](double x, double) { return A * G / w * std::sin(k0 * x); });
   return {k0, w};
+}
+
+// With surface tension, the velocity potential at the surface drives the height as linear theory has it,
+// dh/dt = k phi in deep water, and the height drives it back as dphi/dt = -g (1 + (k l)^2) h (L. D. Landau,
+// E. M. Lifshitz, "Fluid Mechanics", sec. 61). On 1 cm cells with l = 1 cm, a potential cos(k x) of 8
+// periods (k l = 0.79) raises h = (k / omega) sin(omega dt) cos(k x) in a step (it raised 1 + (k l)^2 =
+// 1.62 times that), and a height cos(k x) gives phi = -(G / omega) sin(omega dt) cos(k x).
+TEST(EWavePhysics, WithSurfaceTensionThePotentialDrivesTheHeightAsLinearTheory) {
+  EWaveConfig c = plain_config(64, 64, 0.01);
+  c.dispersion = DispersionKind::Capillary;
+  c.capillary_length = 0.01;
+  const double k = 2 * M_PI * 8 / c.length_x(), w = reference_omega(k, c), G = reference_restoring(k, c), dt = 1e-3;
+  const std::vector<float> wave = field(c, [&](double x, double) { return std::cos(k * x); });
+  auto worst_off = [&](const std::vector<float>& got, double amplitude) {
+    double worst = 0;
+    for (size_t i = 0; i < got.size(); ++i) worst = squall::test::worse(worst, std::abs(got[i] - amplitude * wave[i]));
+    return worst / std::abs(amplitude);
+  };
+  EWaveConfig potential = c;
+  potential.initial_phi = wave;
+  EXPECT_LT(worst_off(make_session(potential).step(plain_step(dt)).height, k / w * std::sin(w * dt)), 1e-4);
+  EWaveConfig height = c;
+  height.initial_height = wave;
+  EXPECT_LT(worst_off(make_session(height).step(plain_step(dt)).phi, -G / w * std::sin(w * dt)), 1e-4);
 }
 
 // Plane wave: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);

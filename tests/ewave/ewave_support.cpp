@@ -45,6 +45,11 @@ double reference_omega(double k, const EWaveConfig& c) {
   return std::sqrt(w2);
 }
 
+double reference_restoring(double k, const EWaveConfig& c) {
+  const bool tension = c.dispersion == DispersionKind::Capillary || c.dispersion == DispersionKind::Combined;
+  return c.gravity * (tension ? 1 + (k * c.capillary_length) * (k * c.capillary_length) : 1);
+}
+
 namespace {
 
 std::vector<std::complex<double>> dft(const std::vector<float>& f, size_t nx, size_t ny) {
@@ -67,9 +72,9 @@ double spectral_energy(const std::vector<float>& h, const std::vector<float>& ph
       double ii = i <= nx / 2 ? double(i) : double(i) - double(nx);
       double jj = j <= ny / 2 ? double(j) : double(j) - double(ny);
       double k = std::hypot(2 * M_PI * ii / c.length_x(), 2 * M_PI * jj / c.length_y());
-      double w = reference_omega(k, c);
+      double w = reference_omega(k, c), G = reference_restoring(k, c);
       size_t m = i + nx * j;
-      e += c.gravity * std::norm(ht[m]) + w * w / c.gravity * std::norm(pt[m]);
+      e += G * std::norm(ht[m]) + w * w / G * std::norm(pt[m]);
     }
   return e;
 }

@@ -21,6 +21,8 @@ EWaveSession make_session(const EWaveConfig& config);  // on session_fft()
 
 // omega(k) in double, written from Table 1 independently of kernels/common/dispersion.h.
 double reference_omega(double k, const EWaveConfig& config);
+// G(k) = g (1 + (k l)^2) with surface tension, g without, m/s^2: dphi/dt = -G h.
+double reference_restoring(double k, const EWaveConfig& config);
 
 // E = sum_k (g |h~|^2 + (omega^2/g) |phi~|^2) over the full spectrum (FFTW, double): the energy that the
 // propagator of Gilligan eqs 64-65, in its energy-conserving form (omega/g in place of k/omega), keeps.
