@@ -570,18 +570,18 @@ TEST(StateDir, AStateDirectoryGoneOrReplacedLetsNoLiveSessionGo) {
 TEST(StateDir, AReplicaWhoseHeartbeatFailsServesNoSessionPastHalfTheOwnerTimeout) {
   const std::string dir = test::temp_dir("state-no-beat");
   const auto now = [] { return std::chrono::steady_clock::now(); };
-  Replica a(dir, "a", now, 200ms);
+  Replica a(dir, "a", now, 2s);  // its last beat is a second from going stale: ample under a loaded machine
   const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{6}));
   const std::string beat = dir + "/replicas/a";
   fs::remove(beat);
   fs::create_directory(beat);
   expect_error(Code::Unavailable, "cannot write this replica's heartbeat", [&] { a.registry.heartbeat(); });
   EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "within half the timeout of its last beat";
-  std::this_thread::sleep_for(150ms);
+  std::this_thread::sleep_for(1500ms);
   expect_error(Code::Unavailable, "cannot write its heartbeat", [&] { a.store.with(id, [](Counter&) {}); });
   expect_error(Code::Unavailable, "cannot write its heartbeat",
                [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
-  EXPECT_THROW(Replica(dir, "a", now, 200ms), Error) << "a second process under this name cannot beat either";
+  EXPECT_THROW(Replica(dir, "a", now, 2s), Error) << "a second process under this name cannot beat either";
   EXPECT_EQ(a.registry.state_dir()->owner(id).value_or("none"), "a") << "and it cleared no ownership first";
   fs::remove(beat);
   a.registry.heartbeat();

@@ -179,6 +179,14 @@ TEST(OceanAmbient, StepSpecOverridesTheConfig) {
   std::vector<float> want = ocean_height(step_spec, c, 0.0), phi_over = f.phi;
   for (float& v : phi_over) v = float(v / (c.gravity * in.dt));
   EXPECT_LT(rms_difference(phi_over, want) / rms(want), 1e-4);
+  // A step's own field (no ocean of its own: the two are exclusive) over the config's ocean.
+  EWaveSession fresh = ocean_session(c);
+  StepInputs given = plain_step(1e-6);
+  given.obstruction.assign(c.cells(), 0.0f);
+  given.ambient_height = field(c, [](double x, double y) { return 0.01 * std::sin(x) * std::cos(2 * y); });
+  phi_over = fresh.step(given).phi;
+  for (float& v : phi_over) v = float(v / (c.gravity * given.dt));
+  EXPECT_LT(rms_difference(phi_over, given.ambient_height) / rms(given.ambient_height), 1e-4);
 }
 
 using squall::test::expect_error;

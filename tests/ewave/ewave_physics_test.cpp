@@ -326,6 +326,7 @@ TEST(EWavePhysics, FrictionWithConstantSourceApproachesTauS) {
   in.source_height.assign(c.cells(), 0.5f);  // m/s
   Frame f;
   for (int n = 0; n < 60; ++n) f = s.step(in);  // 30 tau
+  ASSERT_EQ(f.height.size(), c.cells());
   for (float v : f.height) ASSERT_NEAR(v, 0.02 * 0.5, 1e-6);
 }
 

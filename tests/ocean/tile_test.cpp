@@ -889,6 +889,8 @@ TEST(OceanSlopeVariance, ALayerWithNoEnergyHasNone) {
     spec.pixel_scale = 4;
     const TileFields f = engine().tile(spec, 0, Height);
     EXPECT_EQ(f.unresolved_slope_variance, 0.0) << int(c.spectrum) << " " << int(c.dispersion);
+    ASSERT_EQ(f.height.size(), 32u * 32u);
+    for (float h : f.height) ASSERT_EQ(h, 0.0f) << int(c.spectrum) << " " << int(c.dispersion);
   }
 }
 

@@ -230,7 +230,8 @@ TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
     std::this_thread::sleep_for(std::chrono::milliseconds(80));
   }
   EXPECT_GE(q.slots.expected_hold(alone), 0.080);  // a sleep lasts at least its time
-  EXPECT_LT(q.slots.expected_hold(alone), 0.200) << "the lease alone was learned beside others";
+  // 0.5 s if not learned; the margin over 80 ms is for a sleep that a loaded machine stretches
+  EXPECT_LT(q.slots.expected_hold(alone), 0.300) << "the lease alone was learned beside others";
   EXPECT_GT(q.slots.expected_hold(shared), 0.008) << "the first lease was learned as alone";
   EXPECT_LT(q.slots.expected_hold(shared), 0.040) << "the overlapping leases were learned as alone";
 }
@@ -335,7 +336,7 @@ TEST(DeviceQueues, AWaiterWhoseKindIsNoLongerLimitedTakesAFreeQueue) {
   wait_for([&] { return q.slots.waiting() == 0; });
   const auto waited = std::chrono::steady_clock::now() - asked;
   EXPECT_EQ(q.slots.waiting(), 0u) << "the tile still waits with two queues free";
-  EXPECT_LT(waited, QueueSlots::kShortWorkWindow + QueueSlots::kShortWorkWindow / 4);
+  EXPECT_LT(waited, QueueSlots::kShortWorkWindow + QueueSlots::kShortWorkWindow / 2);  // polled every 1/8
   EXPECT_GE(q.slots.held(), 2u) << "the tiles before it still hold their queues";
   end.set_value();
   EXPECT_EQ(q.served(), (std::vector<std::string>{"tile"}));

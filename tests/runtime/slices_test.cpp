@@ -62,13 +62,15 @@ TEST(Slices, QuickWorkGrowsFourfoldASliceUpToTheWhole) {
   EXPECT_LT(slices.size(), 12u) << "2^20 ids in at most about log4(2^20) slices";
 }
 
-// 1 ms per id: a slice of 100 ids is kSliceSeconds. Starting from 400 (0.4 s) the slices shrink to it.
+// 1 ms per id: a slice of 100 ids is kSliceSeconds. Starting from 400 (0.4 s) the slices shrink to it (or
+// below, where a loaded machine stretches the sleeps that stand for the work).
 TEST(Slices, SlowWorkShrinksTowardTheTargetTime) {
   const Slices slices = record(uniform(1000, 1, 400), 1e-3);
   ASSERT_GE(slices.size(), 3u);
   EXPECT_EQ(slices[0].second, 400u);
   EXPECT_EQ(slices[1].second, 100u);
-  EXPECT_NEAR(double(slices[2].second), 100.0, 20.0);
+  EXPECT_LE(slices[2].second, 102u);
+  EXPECT_GE(slices[2].second, 50u);
 }
 
 TEST(Slices, ACancelStopsTheWorkBetweenTwoSlices) {
@@ -92,7 +94,8 @@ TEST(Slices, AShortJobTakesTheDeviceOnceALongOneLetsOthersIn) {
   EXPECT_TRUE(lease.held());
   EXPECT_EQ(held_queue_slot(), int(lease.slot()));
   lease.unlock();
-  EXPECT_EQ(runtime.device_wait().acquisitions - before, 1u) << quick << " quick slices";
+  // once (twice where the machine paused the test past a slice's time between two of them), not per slice
+  EXPECT_LE(runtime.device_wait().acquisitions - before, 2u) << quick << " quick slices";
 
   const uint64_t middle = runtime.device_wait().acquisitions;
   const Slices slow = record(uniform(300, 1, 100), 1e-3);  // 0.1 s a slice
