@@ -145,7 +145,8 @@ VolumeStats volume_stats(const FloatGrid& density) {
   s.bytes = density.tree().memUsage();
   s.bounds = density.evalActiveVoxelBoundingBox();
   s.dense_voxels = s.active_voxels ? s.bounds.volume() : 0;
-  s.dense_bytes = 4 * s.dense_voxels;
+  // saturated: a box 1.7e6 voxels a side (spheres at +-8.5e5 m in 1 m voxels) has 4.9e18 voxels
+  s.dense_bytes = s.dense_voxels > UINT64_MAX / 4 ? UINT64_MAX : 4 * s.dense_voxels;
   return s;
 }
 

@@ -112,6 +112,18 @@ void validate_ocean(const std::string& field, const ocean::TileSpec& spec, const
   ocean::validate_tile(ocean_on_grid(spec, c), gate ? *gate : fallback, field);
 }
 
+// A drift field's departure point, u dt / dx cells back, is taken in float on the device: at most 2^22 cells,
+// where float holds it to a quarter of a cell (at 1e10 cells it sampled cells 1024 apart). A uniform drift
+// is reduced modulo the grid in double instead, and may move any distance.
+void check_drift_reach(const std::string& field, const std::vector<float>& drift, double dt_over_d) {
+  double cells = 0;
+  for (float u : drift) cells = std::max(cells, std::abs(double(u)) * dt_over_d);
+  if (cells > 0x1p22)
+    fail(Code::InvalidArgument, field + " moves a cell up to " + validate::number(cells) +
+                                    " cells in a step (speed x inputs.dt / spacing), past 2^22 = 4194304, which "
+                                    "float32 places to a quarter cell: take shorter steps, or a uniform drift");
+}
+
 // fmin: a period past kMaxDt (weak gravity) or infinite (a depth of 1e-300 in shallow water) is kMaxDt. The
 // trim and mask_phi both multiply phi in real space, which a longer step turns into growing waves.
 double max_dt(const EWaveConfig& c) {
@@ -144,6 +156,8 @@ void validate(const StepInputs& in, const EWaveConfig& c, const LimitGate* gate)
   check_map("inputs.drift_field_y", in.drift_field_y, cells, speeds);
   if (in.drift_field_x.empty() != in.drift_field_y.empty())
     fail(Code::InvalidArgument, "inputs.drift_field_x and inputs.drift_field_y must be given together");
+  check_drift_reach("inputs.drift_field_x", in.drift_field_x, in.dt / c.dx);
+  check_drift_reach("inputs.drift_field_y", in.drift_field_y, in.dt / c.dy);
   if (in.shapes.size() > kMaxShapes)
     fail(Code::InvalidArgument,
          "inputs.shapes has " + std::to_string(in.shapes.size()) + " shapes, at most " + std::to_string(kMaxShapes));

@@ -132,6 +132,18 @@ TEST(Model, SpheresOfAFewVoxelsHaveTheDensityOfTheirRadius) {
   }
 }
 
+// A dense grid over two spheres at opposite corners of the reach, 1.7e6 voxels apart on each axis, would take
+// 2e19 bytes, past 2^64: its size saturates (it wrapped to 1.2e18, and the fill ratio came out 16 times high).
+TEST(Model, ADenseGridPastTwoToTheSixtyFourBytesSaturates) {
+  CloudModel m;
+  m.voxel_size = 1;
+  m.skin = 1;
+  m.spheres = {{{-8.5e5, -8.5e5, -8.5e5}, 2}, {{8.5e5, 8.5e5, 8.5e5}, 2}};
+  const CloudVolume v = build_cloud(m);
+  EXPECT_GT(v.stats.dense_voxels, UINT64_MAX / 4);
+  EXPECT_EQ(v.stats.dense_bytes, UINT64_MAX);
+}
+
 // A closed cube, 2 m on a side, its corner 0 at `at`, its vertices from `first` on; `flip` reverses one
 // face's winding.
 void add_cube(TriangleMesh& mesh, const Vec3d& at, uint32_t first, bool flip = false) {

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "ewave_support.h"
+#include "support/expect_error.h"
 #include "support/test_runtime.h"
 #include "support/worst.h"
 
@@ -352,6 +353,20 @@ TEST(EWavePhysics, WholeCellDriftIsAnExactShift) {
   };
   expect_shift(1.0, 0.5, 6.0, -2.0);
   expect_shift(0.25, 8192, 16777219.0 / 32768, -1.0 / 32768);  // 2^24 + 3 cells, exact in double
+}
+
+// A drift field's departure point is taken in float: a field that moves cells past 2^22 in a step is refused
+// by name (1000 m/s over 1e4 s on 1 mm cells, 1e10 cells, sampled cells 1024 apart); 4e6 passes.
+TEST(EWavePhysics, ADriftFieldMovingCellsPastFloatsReachIsRefused) {
+  EWaveConfig c = plain_config(16, 16, 1e-3);
+  StepInputs in = plain_step(1e4);
+  in.drift_field_x.assign(c.cells(), 0.0f);
+  in.drift_field_y.assign(c.cells(), 0.0f);
+  in.drift_field_y[5] = -1000;
+  squall::test::expect_error(Code::InvalidArgument, "inputs.drift_field_y moves a cell up to 1e+10 cells",
+                             [&] { validate(in, c); });
+  in.drift_field_y[5] = -0.4f;  // 4e6 cells
+  validate(in, c);
 }
 
 }  // namespace
