@@ -109,8 +109,9 @@ __kernel void ocean_h0(__global const OceanLayer* layer, __global const float4* 
   float k = sqrt(kx * kx + ky * ky);
   Dispersion d = layer->dispersion;
   float w = dispersion_omega(k, d);
-  float dtheta = k > 0.0f ? sqrt(layer->dkx * layer->dky) / k : 0.0f;  // the mode's angular cell
-  float P = sq_spatial_spectrum(spectrum_of(layer), kx, ky, w, dispersion_group_velocity(k, d), dtheta);  // eq 3
+  float cell_a, cell_b;  // the mode's angular cell
+  sq_mode_cell(kx, ky, layer->dkx, layer->dky, &cell_a, &cell_b);
+  float P = sq_spatial_spectrum(spectrum_of(layer), kx, ky, w, dispersion_group_velocity(k, d), cell_a, cell_b);
   int nyquist = (2 * i == nx) || (2 * j == ny);  // the Nyquist row and column stay 0
   int outside = k < layer->k_min || (layer->k_max > 0.0f && k > layer->k_max);
   if (nyquist || outside || !(P > 0.0f)) P = 0.0f;

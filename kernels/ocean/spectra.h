@@ -307,16 +307,42 @@ static inline sq_real sq_spread_variance(SpectrumParams p, sq_real w) {
   }
 }
 
-/* D over a mode's angular cell [d - dtheta / 2, d + dtheta / 2]. A spread narrower than the cell (and
- * than 0.25 rad, where it is a Gaussian to a few parts in 1e3) is averaged over it in its Gaussian form: at
- * the cell's centre alone, it put a light wind's swell of s = 3.5e7 on the modes along an axis at
- * sqrt(s / pi) / 2 times its energy, and on none at other angles. Wider spreads, and a point (dtheta = 0),
- * take D itself: sampled at spacings under sigma, a Gaussian's sum is its integral to 1e-8. */
-static inline sq_real sq_cell_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real dtheta) {
+/* The angular profile of a grid mode's cell (dkx by dky about (kx, ky)) across the mode's direction, rad: a
+ * trapezoid of unit area, the convolution of boxes of widths *a >= *b, with base a + b = (dkx |sin| +
+ * dky |cos|) / k and top a - b = |dkx |sin| - dky |cos|| / k. Along an axis a box of dky / k; along a
+ * diagonal of a square cell a triangle (the modes of a diagonal lie farther apart across it). */
+static inline void sq_mode_cell(sq_real kx, sq_real ky, sq_real dkx, sq_real dky, sq_real* a, sq_real* b) {
+  sq_real k = sqrt(kx * kx + ky * ky);
+  sq_real across_x = k > 0 ? dkx * fabs(ky) / (k * k) : 0, across_y = k > 0 ? dky * fabs(kx) / (k * k) : 0;
+  *a = fmax(across_x, across_y);
+  *b = fmin(across_x, across_y);
+}
+
+/* z erf(z) + exp(-z^2) / sqrt(pi): the antiderivative of erf, and twice integrated a Gaussian's. */
+static inline sq_real sq_erf_integral(sq_real z) { return z * erf(z) + exp(-z * z) / sqrt((sq_real)SQUALL_PI); }
+
+/* D over a mode's angular cell, the trapezoid of sq_mode_cell (a box of width a where b = 0). A spread
+ * narrower than the cell (and than 0.25 rad, where it is a Gaussian to a few parts in 1e3) is averaged over
+ * it in its Gaussian form: at the cell's centre alone, it put a light wind's swell of s = 3.5e7 on the modes
+ * along an axis at sqrt(s / pi) / 2 times its energy, and on none at other angles. The average is the
+ * Gaussian convolved with the two boxes: erf's difference over box a, then its antiderivative's second
+ * difference over box b. A box b narrower than the Gaussian joins it instead, as the Gaussian of their summed
+ * variances, sigma^2 + b^2 / 12 (to O(b^4 / sigma^4); the differences over it would cancel in float). Wider
+ * spreads, and a point (a = 0), take D itself: sampled at spacings under sigma, a Gaussian's sum is its
+ * integral to 1e-8. */
+static inline sq_real sq_cell_spreading(SpectrumParams p, sq_real d, sq_real w, sq_real a, sq_real b) {
   sq_real variance = sq_spread_variance(p, w);
-  if (!(variance > 0) || !(variance < dtheta * dtheta) || variance > (sq_real)0.0625) return sq_spreading(p, d, w);
-  sq_real scale = 1.0 / sqrt(2.0 * variance);
-  return (erf((d + 0.5 * dtheta) * scale) - erf((d - 0.5 * dtheta) * scale)) / (2.0 * dtheta);
+  if (!(variance > 0) || !(variance < a * a) || variance > (sq_real)0.0625) return sq_spreading(p, d, w);
+  sq_real r = sqrt(2.0 * variance);                /* erf's unit */
+  if (fabs(d) > 0.5 * (a + b) + 6.0 * r) return 0; /* beyond the cell's reach (the differences are rounding) */
+  if (b < r) {
+    r = sqrt(r * r + b * b / 6.0);
+    return (erf((d + 0.5 * a) / r) - erf((d - 0.5 * a) / r)) / (2.0 * a);
+  }
+  sq_real h = 0.5 * (a + b), q = 0.5 * (a - b);
+  sq_real second_difference = sq_erf_integral((d + h) / r) - sq_erf_integral((d + q) / r) -
+                              sq_erf_integral((d - q) / r) + sq_erf_integral((d - h) / r);
+  return fmax(r * second_difference / (2.0 * a * b), (sq_real)0);
 }
 
 /* App A eqs 40-41: Phillips P(k), with |k^.w^|^p (p = 2 in App A eq 40) */
@@ -331,14 +357,14 @@ static inline sq_real sq_phillips(SpectrumParams p, sq_real kx, sq_real ky) {
 }
 
 /* Eq 3: P(k) = S(w) D(theta; w, k) v_g / (2k), m^4, given w(k) and v_g(k) of the layer's dispersion, with D
- * over the mode's angular cell dtheta (sqrt(dkx dky) / k on a grid; 0 at a point). */
-static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real ky, sq_real w, sq_real vg,
-                                          sq_real dtheta) {
+ * over an angular cell of widths a, b (sq_mode_cell on a grid; a box of a where b = 0; a point where a = 0). */
+static inline sq_real sq_spatial_spectrum(SpectrumParams p, sq_real kx, sq_real ky, sq_real w, sq_real vg, sq_real a,
+                                          sq_real b) {
   if (p.spectrum == SQUALL_SPECTRUM_PHILLIPS) return sq_phillips(p, kx, ky);
   sq_real k = sqrt(kx * kx + ky * ky);
   if (k <= 0 || w <= 0) return 0;
   sq_real d = sq_angle_difference(atan2(ky, kx), p.theta0);
-  return sq_frequency_spectrum(p, w) * sq_cell_spreading(p, d, w, dtheta) * vg / (2.0 * k);
+  return sq_frequency_spectrum(p, w) * sq_cell_spreading(p, d, w, a, b) * vg / (2.0 * k);
 }
 
 #ifndef __OPENCL_VERSION__

@@ -166,8 +166,9 @@ LayerSpectrum build_spectrum(const TileSpec& spec, size_t index) {
     for (int64_t i = 0; i < L.nx; ++i) {
       int64_t n = signed_mode(i, L.nx), m = signed_mode(j, L.ny);
       double kx = n * dkx, ky = m * dky, k = std::hypot(kx, ky);
-      const double dtheta = k > 0 ? std::sqrt(dkx * dky) / k : 0;  // the mode's angular cell
-      double P = sq_spatial_spectrum(p, kx, ky, omega(L, k), group_velocity(L, k), dtheta);
+      double cell_a, cell_b;  // the mode's angular cell
+      sq_mode_cell(kx, ky, dkx, dky, &cell_a, &cell_b);
+      double P = sq_spatial_spectrum(p, kx, ky, omega(L, k), group_velocity(L, k), cell_a, cell_b);
       if (2 * i == L.nx || 2 * j == L.ny || k < L.k_min || (L.k_max > 0 && k > L.k_max)) P = 0;
       if (spec.b_correction && P > 0) {
         double B = coverage(spec, kx, ky);
@@ -271,9 +272,10 @@ CpuReference::CpuReference(int threads) : impl_(std::make_unique<Impl>()) {
 }
 CpuReference::~CpuReference() = default;
 
-double CpuReference::spectrum(const LayerSpec& L, double kx, double ky, double dtheta) {
-  double k = std::hypot(kx, ky);
-  return sq_spatial_spectrum(formula_parameters(L), kx, ky, omega(L, k), group_velocity(L, k), dtheta);
+double CpuReference::spectrum(const LayerSpec& L, double kx, double ky, double dkx, double dky) {
+  double k = std::hypot(kx, ky), cell_a, cell_b;
+  sq_mode_cell(kx, ky, dkx, dky, &cell_a, &cell_b);
+  return sq_spatial_spectrum(formula_parameters(L), kx, ky, omega(L, k), group_velocity(L, k), cell_a, cell_b);
 }
 
 namespace {
@@ -302,7 +304,7 @@ double slope_variance(const TileSpec& spec, double R) {
       double w = omega(L, k), vg = group_velocity(L, k), ring = 0;
       for (int b = 0; b < nt; ++b) {
         double th = 2 * kPi * (b + 0.5) / nt;
-        ring += sq_spatial_spectrum(p, k * std::cos(th), k * std::sin(th), w, vg, 2 * kPi / nt);
+        ring += sq_spatial_spectrum(p, k * std::cos(th), k * std::sin(th), w, vg, 2 * kPi / nt, 0);
       }
       sum += 2 * k * k * ring * (2 * kPi / nt) * k * (k * du);  // (P(k)+P(-k)) over the circle, d^2k = k dk dth
     }

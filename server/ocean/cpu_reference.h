@@ -23,9 +23,9 @@ class CpuReference {
   // The h0 spectra are cached per layer like the engine's, so a stream of frames costs eq 43 + FFTs.
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr);
 
-  // P(k) of a layer at wave vector (kx, ky), m^4 (eq 3, or Phillips), in double precision, with D over an
-  // angular cell dtheta (sqrt(dkx dky) / k for a mode of the layer's grid; 0: at the point).
-  static double spectrum(const LayerSpec& layer, double kx, double ky, double dtheta = 0);
+  // P(k) of a layer at wave vector (kx, ky), m^4 (eq 3, or Phillips), in double precision, with D over the
+  // cell of a grid of steps dkx, dky about it (sq_mode_cell; 0 and 0: at the point).
+  static double spectrum(const LayerSpec& layer, double kx, double ky, double dkx = 0, double dky = 0);
 
  private:
   struct Impl;
