@@ -148,6 +148,13 @@ void LimitGate::check_memory(const std::string& what, uint64_t bytes) const {
                                       std::to_string(limits_.memory_budget));
 }
 
+void LimitGate::top_up(Slot& slot, const std::string& what, const std::function<uint64_t()>& needed) {
+  for (uint64_t now; (now = needed()) > slot.amount();) {
+    slot = Slot();  // given back first: the new one may need all of the room
+    slot = acquire_memory(what, now);
+  }
+}
+
 // The room the caches give back may be taken by another holder before this call takes it (a buffer handed
 // back to the pool): the caches are asked again, a few times, while they could still make room.
 Slot LimitGate::acquire_memory(const std::string& what, uint64_t bytes) {

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -113,6 +114,10 @@ class LimitGate {
   // the memory is allocated, so a flood is refused rather than killed by the kernel's OOM killer. Where
   // the budget has no room, the caches (add_reclaimer) first give back what they keep.
   Slot acquire_memory(const std::string& what, uint64_t bytes);
+  // Makes `slot` hold what `needed()` reports, asking again until it reports no more: acquiring may make the
+  // caches give back what the caller counted on finding there (its own kept spectrum), which it then
+  // builds and needs room for. RESOURCE_EXHAUSTED naming `what` past the budget.
+  void top_up(Slot& slot, const std::string& what, const std::function<uint64_t()>& needed);
   // RESOURCE_EXHAUSTED, worded as acquire_memory's, where `bytes` would pass the memory budget even with
   // nothing else held: work that could never run, refused before any of it is done.
   void check_memory(const std::string& what, uint64_t bytes) const;

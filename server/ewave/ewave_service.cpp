@@ -60,6 +60,8 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
   Slot memory = serving_.gate().acquire_memory(
       what, frame_host_bytes(config, in.outputs) + reply_bytes + ocean.working + ocean.new_spectra);
   Slot spectra = memory.split(ocean.new_spectra);
+  serving_.gate().top_up(spectra, what + "'s spectra, built again",
+                         [&] { return ewave.ocean_bytes(config, sea).new_spectra; });
   ewave::Frame result = ewave.step(id, in, guard(request), {cancel, &spectra});
   frame->set_session_id(id);
   try {
@@ -82,6 +84,8 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
     Slot memory =
         serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
     Slot spectra = memory.split(ocean.new_spectra);
+    serving_.gate().top_up(spectra, "CreateSession's config.initial_ocean's spectra, built again",
+                           [&] { return engine_->ocean_bytes(c, c.initial_ocean).new_spectra; });
     const auto created = engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra});
     refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);

@@ -444,7 +444,7 @@ double periodic_cell(double x, double extent, int n) {
 // The channels sample() reads at a point: the 8 real channels of the layers' pairs (height, D, slopes,
 // grad D), then the gradient of the bilinear D itself, which the inversion steps along.
 constexpr int kSampled = 12;
-constexpr int kBilinearGradD = 8;  // dDx/dx, dDx/dy, dDy/dx, dDy/dy, 1
+constexpr int kBilinearGradD = 8;  // dDx/dx, dDx/dy, dDy/dx, dDy/dy, 1/m
 
 // Bilinear periodic sample of the 8 real channels of one layer (host copy of its complex pairs), and the
 // gradient of its bilinear Dx and Dy, added to out[kSampled].
@@ -471,11 +471,11 @@ constexpr uint64_t kLayerBytesPerCell = 4 * 2 * sizeof(float);  // sample(): 4 c
 
 // The source x0 of query x on the surface displaced by lambda D (eq 47): the root of
 // F(x0) = x0 + lambda D(x0) - x by Newton's method, with the Jacobian I + lambda grad D of the bilinear D
-// the samples read, each step halved until |F| shrinks; where that Jacobian is singular (the surface
-// folds) the step is the fixed-point one, -F. The fixed-point iteration x0 = x - lambda D(x0) alone
-// converges only where both eigenvalues of lambda grad D lie within (-1, 1): it diverged at troughs (J > 2)
-// and crept at crests (J near 0). Stops once |F| <= tolerance or no step shrinks it; leaves in c what
-// channels_at read at x0.
+// the samples read, each step halved until |F| shrinks; where no Newton step does (the Jacobian singular
+// or nearly, where the surface folds), the fixed-point step -F. The fixed-point iteration
+// x0 = x - lambda D(x0) alone converges only where both eigenvalues of lambda grad D lie within (-1, 1):
+// it diverged at troughs (J > 2) and crept at crests (J near 0). Stops once |F| <= tolerance or neither
+// step shrinks it; leaves in c what channels_at read at x0.
 template <typename Channels>
 Vec2 displaced_source(const Channels& channels_at, Vec2 x, double lambda, double tolerance, double c[kSampled]) {
   Vec2 x0 = x;
@@ -484,22 +484,26 @@ Vec2 displaced_source(const Channels& channels_at, Vec2 x, double lambda, double
     return Vec2{p.x + lambda * at[1] - x.x, p.y + lambda * at[2] - x.y};
   };
   Vec2 F = residual(x0, c);
-  for (int iteration = 0; iteration < 64 && std::hypot(F.x, F.y) > tolerance; ++iteration) {
-    const double* g = c + kBilinearGradD;
-    const double a = 1 + lambda * g[0], b = lambda * g[1], d = lambda * g[2], e = 1 + lambda * g[3];
-    const double det = a * e - b * d;  // of [[a, b], [d, e]]
-    const Vec2 step = det != 0 ? Vec2{(b * F.y - e * F.x) / det, (d * F.x - a * F.y) / det} : Vec2{-F.x, -F.y};
-    bool shrank = false;
-    for (double scale = 1; scale > 1e-4 && !shrank; scale /= 2) {
+  // x0 moves along `step`, halved until |F| shrinks (at most 14 times); false where it never does.
+  auto advance = [&](Vec2 step) {
+    for (double scale = 1; scale > 1e-4; scale /= 2) {
       const Vec2 trial{x0.x + scale * step.x, x0.y + scale * step.y};
       double at[kSampled];
       channels_at(trial.x, trial.y, at);
       const Vec2 G = residual(trial, at);
       if (!(std::hypot(G.x, G.y) < std::hypot(F.x, F.y))) continue;
-      x0 = trial, F = G, shrank = true;
+      x0 = trial, F = G;
       std::copy(at, at + kSampled, c);
+      return true;
     }
-    if (!shrank) break;
+    return false;
+  };
+  for (int iteration = 0; iteration < 64 && std::hypot(F.x, F.y) > tolerance; ++iteration) {
+    const double* g = c + kBilinearGradD;
+    const double a = 1 + lambda * g[0], b = lambda * g[1], d = lambda * g[2], e = 1 + lambda * g[3];
+    const double det = a * e - b * d;  // of [[a, b], [d, e]]
+    const bool newton = det != 0 && advance({(b * F.y - e * F.x) / det, (d * F.x - a * F.y) / det});
+    if (!newton && !advance({-F.x, -F.y})) break;
   }
   return x0;
 }

@@ -73,17 +73,6 @@ ChunkPlan frame_plan(const TileJob& job, uint64_t max_message_bytes) {
   return plan_chunks(row_bytes, ny, chunk_payload_budget(max_message_bytes));
 }
 
-// acquire_memory may take kept spectra back to make room, this call's own among them: those it let go of
-// since new_spectra_bytes looked are built again, and reserved in `spectra` as `what` (refused past the
-// budget).
-void reserve_spectra_taken_back(const ocean::OceanEngine& engine, const ocean::TileSpec& spec, LimitGate& gate,
-                                Slot& spectra, const std::string& what) {
-  for (uint64_t again; (again = engine.new_spectra_bytes(spec)) > spectra.amount();) {
-    spectra = Slot();
-    spectra = gate.acquire_memory(what, again);
-  }
-}
-
 }  // namespace
 
 void OceanService::start(EngineContext& context) { engine_ = &ocean::shared_engine(context); }
@@ -97,7 +86,8 @@ grpc::Status OceanService::GetTile(grpc::ServerContext* context, const v1::GetTi
     const uint64_t new_spectra = engine_->new_spectra_bytes(job.spec);
     Slot memory = serving_.gate().acquire_memory("GetTile's tile", job.working_bytes(1) + new_spectra);
     Slot spectra = memory.split(new_spectra);
-    reserve_spectra_taken_back(*engine_, job.spec, serving_.gate(), spectra, "GetTile's spectra, built again");
+    serving_.gate().top_up(spectra, "GetTile's spectra, built again",
+                           [&] { return engine_->new_spectra_bytes(job.spec); });
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "GetTile cancelled");
     tile_reply(*engine_, job, t, nullptr, cancellation(*context), spectra, response);
     return grpc::Status::OK;
@@ -137,8 +127,8 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
       v1::GetTileResponse reply;
       const double t = sim_time("t0 + frame_index dt", time_of(frame));  // an endless stream's end of time
       // A spectrum let go of since (another call needed the room) is built again, reserved anew.
-      reserve_spectra_taken_back(*engine_, job.spec, serving_.gate(), stream.spectra,
-                                 "StreamTiles' spectra, built again");
+      serving_.gate().top_up(stream.spectra, "StreamTiles' spectra, built again",
+                             [&] { return engine_->new_spectra_bytes(job.spec); });
       tile_reply(*engine_, job, t, &whitecaps, call.cancellation(), stream.spectra, &reply);
       return reply;
     };
@@ -176,7 +166,8 @@ grpc::Status OceanService::SampleSurface(grpc::ServerContext* context, const v1:
         "SampleSurface's layers and points",
         ocean::sample_bytes(spec) + uint64_t(n) * kSampleWorkingBytesPerPoint + new_spectra);
     Slot spectra = memory.split(new_spectra);
-    reserve_spectra_taken_back(*engine_, spec, serving_.gate(), spectra, "SampleSurface's spectra, built again");
+    serving_.gate().top_up(spectra, "SampleSurface's spectra, built again",
+                           [&] { return engine_->new_spectra_bytes(spec); });
     std::vector<ocean::Vec2> points(n);  // each checked finite by sample(), naming "points[i].x"
     for (int i = 0; i < n; ++i) points[i] = {request->points(i).x(), request->points(i).y()};
     const bool invert = request->invert_displacement();

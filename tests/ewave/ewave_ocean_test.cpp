@@ -37,11 +37,14 @@ EWaveSession ocean_session(const EWaveConfig& c) {
   return EWaveSession(squall::test::runtime(), session_fft(), c, &ocean_engine());
 }
 
-// A 64 m x 64 m session at 1 m (Pierson-Moskowitz, 5 m/s: peak wavelength ~20 m, all modes resolved).
+// A 64 m x 64 m session at 1 m (Pierson-Moskowitz, 5 m/s: peak wavelength ~20 m, all modes resolved). With
+// surface tension a capillary length of 0.3 m (k l up to 1.3 at the corner modes) makes it matter here.
 EWaveConfig sea_config(DispersionKind dispersion) {
   EWaveConfig c = plain_config(64, 64, 1.0);
   c.dispersion = dispersion;
-  c.depth = dispersion == DispersionKind::Shallow ? 3.0 : 0.0;  // k_p h ~ 0.9: clearly not deep
+  const bool bottom = dispersion == DispersionKind::Shallow || dispersion == DispersionKind::Combined;
+  c.depth = bottom ? 3.0 : 0.0;  // k_p h ~ 0.9: clearly not deep
+  if (dispersion == DispersionKind::Capillary || dispersion == DispersionKind::Combined) c.capillary_length = 0.3;
   return c;
 }
 
@@ -53,7 +56,8 @@ ocean::TileSpec sea_spec(const EWaveConfig& c) {
   L.wind_speed = 5;
   L.wind_direction = 0.4;
   L.dispersion = ocean::DispersionKind(int(c.dispersion));
-  L.depth = c.dispersion == DispersionKind::Shallow ? c.depth : 100;
+  L.depth = c.depth > 0 ? c.depth : 100;
+  L.capillary_length = c.capillary_length;
   L.gravity = c.gravity;
   L.seed = 7;
   ocean::TileSpec spec;
@@ -75,7 +79,7 @@ double relative_error_after(EWaveSession& s, const ocean::TileSpec& spec, const 
 
 class OceanStart : public ::testing::TestWithParam<DispersionKind> {};
 
-// h and phi = -i (g/w)[h0 e^{-iwt} - conj(h0(-k)) e^{iwt}] at t0 = 12.3 s, then 50 free steps of 0.1 s (T = 5 s,
+// h and phi = -i (G/w)[h0 e^{-iwt} - conj(h0(-k)) e^{iwt}] at t0 = 12.3 s, then 50 free steps of 0.1 s (T = 5 s,
 // ~1.4 peak periods; the ocean's phase w t reaches ~90 rad at the highest modes). The error budget is float round-off:
 // the ocean's phase (within 1e-6 rad), eWave's float omega (~1e-7 relative) and 100 float FFTs (~1e-6 each);
 // together a few 1e-6, so 1e-4 holds a 10x margin and still fails for any wrong sign or factor
@@ -104,7 +108,9 @@ TEST_P(OceanStart, ReproducesTheOceanTileAtT0PlusT) {
   EXPECT_GT(control_error, 0.3);
 }
 
-INSTANTIATE_TEST_SUITE_P(DeepAndShallow, OceanStart, ::testing::Values(DispersionKind::Deep, DispersionKind::Shallow));
+INSTANTIATE_TEST_SUITE_P(EveryDispersion, OceanStart,
+                         ::testing::Values(DispersionKind::Deep, DispersionKind::Shallow, DispersionKind::Capillary,
+                                           DispersionKind::Combined));
 
 // Double-precision state: the float ocean fields are converted at creation (a host round trip, once).
 TEST(OceanStartDouble, StartsFromTheOceanTile) {

@@ -164,7 +164,7 @@ TEST(EWavePhysics, WithSurfaceTensionThePotentialDrivesTheHeightAsLinearTheory) 
   EXPECT_LT(worst_off(make_session(height).step(plain_step(dt)).phi, -G / w * std::sin(w * dt)), 1e-4);
 }
 
-// Plane wave: h = A cos(k0 x), phi = (A g/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
+// Plane wave: h = A cos(k0 x), phi = (A G/omega) sin(k0 x) is the travelling wave A cos(k0 x - omega t);
 // the measured phase after t gives the phase speed omega/k0.
 TEST(EWavePhysics, PlaneWaveMovesAtPhaseSpeed) {
   for (auto kind :

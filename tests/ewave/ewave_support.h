@@ -24,8 +24,8 @@ double reference_omega(double k, const EWaveConfig& config);
 // G(k) = g (1 + (k l)^2) with surface tension, g without, m/s^2: dphi/dt = -G h.
 double reference_restoring(double k, const EWaveConfig& config);
 
-// E = sum_k (g |h~|^2 + (omega^2/g) |phi~|^2) over the full spectrum (FFTW, double): the energy that the
-// propagator of Gilligan eqs 64-65, in its energy-conserving form (omega/g in place of k/omega), keeps.
+// E = sum_k (G |h~|^2 + (omega^2/G) |phi~|^2) over the full spectrum (FFTW, double): the energy that the
+// propagator of Gilligan eqs 64-65, in its energy-conserving form (omega/G in place of k/omega), keeps.
 double spectral_energy(const std::vector<float>& h, const std::vector<float>& phi, const EWaveConfig& config);
 
 // Frame with height and phi.
