@@ -45,9 +45,10 @@ struct EWaveConfig {
   // covering nx dx x ny dy, ocean sample (i, j) (at x = i dx, y = j dy of the ocean's frame) -> cell (i, j),
   // i.e. the ocean's origin sits at the centre of cell (0, 0). The spec's own output grid must be 0 or
   // equal to that. Messages name "config.ambient_ocean.layers[0].wind_speed" etc.
-  // initial_ocean: h and phi at start_time from the ocean surface, phi~ = -i (G/w)[h0 e^{-iwt} - conj(h0(-k))
-  // e^{iwt}], G = g (1 + (k l)^2) (the linear potential that eWave's propagator continues exactly when the
-  // layer's dispersion, gravity and capillary length are the session's and its drift is 0). Exclusive with initial_height / initial_phi.
+  // initial_ocean: h and phi at start_time from the ocean surface, phi~ = -i (G/w)[h0 e^{-iwt} -
+  // conj(h0(-k)) e^{iwt}], G = g (1 + (k l)^2) (the linear potential that eWave's propagator continues
+  // exactly when the layer's dispersion, gravity and capillary length are the session's and its drift is 0).
+  // Exclusive with initial_height / initial_phi.
   std::optional<ocean::TileSpec> initial_ocean;
   // ambient_ocean: h_A of eq 77 for every step that brings no ambient of its own, evaluated at the session
   // time at the start of the step (when eq 77 is applied). Not part of GetState's bytes; the engine's

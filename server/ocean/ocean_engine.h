@@ -63,9 +63,9 @@ class OceanEngine {
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
   // that of the source point x0 whose displaced position x0 + lambda D(x0) lands on the query point
-  // (Newton's method to 1e-6 of the finest cell where the map does not fold, J > 0). `cancel` is asked before each layer,
-  // after each slice of a spectrum it builds, before a large layer's transform (as in tile) and before each
-  // kSamplesPerCheck points: Error(Cancelled) then.
+  // (Newton's method to 1e-6 of the finest cell where the map does not fold, J > 0). `cancel` is asked
+  // before each layer, after each slice of a spectrum it builds, before a large layer's transform (as in
+  // tile) and before each kSamplesPerCheck points: Error(Cancelled) then.
   static constexpr size_t kSamplesPerCheck = 4096;
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                     bool invert_displacement, const Cancellation& cancel = {},
@@ -74,9 +74,9 @@ class OceanEngine {
   // For the eWave engine (server/ewave): the height h (m) and the linear-theory velocity potential at
   // z = 0, phi (m^2/s), at time t on the spec's output grid, left on the device in `out` (2 planes of
   // nx * ny floats: h, then phi). phi~ = -i (G/w) [h0(k) e^{-iwt} - conj(h0(-k)) e^{iwt}] e^{-ik.U_D t},
-  // G = g (1 + (k l)^2), per layer with its own dispersion (ocean.cl ocean_evolve_potential). The spec must be valid; the CALLER
-  // HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the runtime's queue). `cancel`
-  // and `spectra_memory` as tile()'s, for the spectra it builds.
+  // G = g (1 + (k l)^2), per layer with its own dispersion (ocean.cl ocean_evolve_potential). The spec
+  // must be valid; the CALLER HOLDS runtime.exclusive() (the kernels are enqueued, not waited for, on the
+  // runtime's queue). `cancel` and `spectra_memory` as tile()'s, for the spectra it builds.
   void surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out, const Cancellation& cancel = {},
                          Slot* spectra_memory = nullptr);
 

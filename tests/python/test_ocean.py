@@ -237,7 +237,7 @@ def test_an_expired_tile_frees_the_device_within_a_layer() -> None:
                 start = time.monotonic()
                 one = squall.ocean.tile_spec(layers[last:][:1], output=(2048, 2048))
                 client.ocean.tile(one, time=1.0, outputs=("height",))
-                layer = time.monotonic() - start  # a spectrum and its transforms, at this run's pace
+                layer = time.monotonic() - start  # a spectrum and its transforms, this run's pace
             with pytest.raises(squall.SquallError) as expired:
                 client.ocean.tile(heavy, time=1.0, outputs=("height",), timeout=1.5)
             assert expired.value.code == grpc.StatusCode.DEADLINE_EXCEEDED, expired.value
