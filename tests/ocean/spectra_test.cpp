@@ -12,6 +12,7 @@
 #include "common/surface_normal.h"
 #include "ocean/cpu_reference.h"
 #include "ocean/spectra.h"
+#include "ocean/spectrum_setup.h"
 #include "support/worst.h"
 
 namespace {
@@ -261,6 +262,23 @@ TEST(SinCosPhase, APhaseInTurnsKeepsItsFractionAtAnyTime) {
   EXPECT_LT(sincos_turns_error(10, 600, 200000), 1e-6);
   EXPECT_LT(sincos_turns_error(10, 1e6, 200000), 1e-6);
   EXPECT_LT(sincos_turns_error(10, 1e9, 200000), 1e-6 + 2 * M_PI * 3 * 10 * 1e9 * std::ldexp(1.0, -47));
+}
+
+// Krylov's mean frequency (eq 31) of a Multipeak spectrum is m1 / m0 of all its partials: a swell at 0.01
+// rad/s beside a sea at 5 rad/s adds its moments to the sea's, each taken over its own partial's range.
+TEST(Spectra, KrylovsMeanFrequencyCountsEveryPartial) {
+  squall::ocean::LayerSpec L;
+  L.spectrum = squall::ocean::SpectrumModel::Multipeak;
+  L.spreading = squall::ocean::SpreadingModel::Krylov;
+  L.partials = {{5.0, 2.0}, {0.01, 1.0}};
+  double m0 = 0, m1 = 0;
+  for (const auto& partial : L.partials) {
+    squall::ocean::LayerSpec one = L;
+    one.partials = {partial};
+    const SpectrumParams p = squall::ocean::derive_spectrum(one);
+    m0 += sq_spectral_moment(p, 0), m1 += sq_spectral_moment(p, 1);
+  }
+  EXPECT_NEAR(squall::ocean::derive_spectrum(L).omega_mean, m1 / m0, 1e-3 * m1 / m0);
 }
 
 TEST(SinCosPhase, TheFractionOfAProductOfTwoFloatsIsExactToARounding) {
