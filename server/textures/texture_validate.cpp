@@ -1,6 +1,7 @@
 // TextureEngine::validate: every field of an AdvectSpec, under the caller's path.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "common/error.h"
 #include "common/validate.h"
@@ -50,8 +51,9 @@ double grid_gradient_rate(const VelocitySpec& v) {
   auto node = [&](int i, int j) { return size_t(j % v.ny) * size_t(v.nx) + size_t(i % v.nx); };
   double rate = 0;
   for (const VelocityFrame& given : v.frames) {
-    VelocityFrame filled;
-    const VelocityFrame& f = fills_solid_nodes(v) ? (filled = sampled_frame(v, given)) : given;
+    std::optional<VelocityFrame> filled;  // a copy only where push-pull fills the solid nodes
+    if (fills_solid_nodes(v)) filled = sampled_frame(v, given);
+    const VelocityFrame& f = filled ? *filled : given;
     for (int j = 0; j < (wrap ? v.ny : v.ny - 1); ++j)
       for (int i = 0; i < (wrap ? v.nx : v.nx - 1); ++i) {
         const size_t n00 = node(i, j), n10 = node(i + 1, j), n01 = node(i, j + 1), n11 = node(i + 1, j + 1);

@@ -254,13 +254,11 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   validate_clock(s.spec, n == 0 ? path + ".start" : path);
   follow(s, advection ? advection->time() : s.spec.t0);
   const std::string spec_path = n == 0 ? path + ".start" : path;
-  if (n == 0 && !control.has_velocity()) {
-    check_river(control.start().velocity(), s, path + ".start.velocity");
-    bake_river(s, path + ".start.velocity", spec_path);
-  }
-  if (control.has_velocity()) {
-    check_river(control.velocity(), s, path + ".velocity");
-    bake_river(s, path + ".velocity", spec_path);
+  const bool started_velocity = n == 0 && !control.has_velocity();  // the start's, unless steered at once
+  if (started_velocity || control.has_velocity()) {
+    const std::string velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");
+    check_river(started_velocity ? control.start().velocity() : control.velocity(), s, velocity_path);
+    bake_river(s, velocity_path, spec_path);
   }
   engine_->validate(s.spec, spec_path);
   if (n == 0) {

@@ -271,9 +271,8 @@ uint64_t tile_request_bytes(const v1::GetTileRequest& request) {
   Limits limits;
   limits.memory_budget = 1;
   test::InProcess<rpc::OceanService> server(limits);
-  grpc::ClientContext context;
   v1::GetTileResponse response;
-  const grpc::Status status = v1::Ocean::NewStub(server.channel())->GetTile(&context, request, &response);
+  const grpc::Status status = get_tile(server.address(), request, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   const size_t open = status.error_message().find("GetTile's tile (");
   return open == std::string::npos ? 0 : std::stoull(status.error_message().substr(open + 16));
@@ -302,13 +301,10 @@ TEST(OceanService, ATileWhoseKeptSpectrumIsTakenBackReservesItsRebuild) {
   Limits limits;
   limits.memory_budget = (n1 + n2) / 2;
   test::InProcess<rpc::OceanService> server(limits);
-  auto stub = v1::Ocean::NewStub(server.channel());
   v1::GetTileResponse response;
-  grpc::ClientContext first;
-  ASSERT_TRUE(stub->GetTile(&first, height, &response).ok());
+  ASSERT_TRUE(get_tile(server.address(), height, &response).ok());
   EXPECT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
-  grpc::ClientContext second;
-  const grpc::Status status = stub->GetTile(&second, all, &response);
+  const grpc::Status status = get_tile(server.address(), all, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_NE(status.error_message().find("GetTile's spectra, built again"), std::string::npos) << status.error_message();
 }

@@ -33,6 +33,7 @@ class InProcess {
   }
   ~InProcess() { server_->Shutdown(); }
 
+  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   std::shared_ptr<grpc::Channel> channel() const {
     return grpc::CreateChannel("127.0.0.1:" + std::to_string(port_), grpc::InsecureChannelCredentials());
   }

@@ -107,8 +107,9 @@ class InteractiveCall {
 };
 
 struct Interactive : InteractiveCall<v1::TextureControl, v1::TextureFrame> {
-  explicit Interactive(const std::string& address = daemon().address())
-      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.AdvectInteractive(c); }, address) {
+  explicit Interactive(const std::string& address = daemon().address()) : InteractiveCall(&open, address) {}
+  static std::unique_ptr<Stream> open(v1::Textures::Stub& textures, grpc::ClientContext* context) {
+    return textures.AdvectInteractive(context);
   }
 };
 
