@@ -201,8 +201,9 @@ void evict_idle_sessions(const std::vector<std::unique_ptr<Capability>>& capabil
 // Drains: health NOT_SERVING, no new sessions or stateless calls, every live session written to the state
 // directory and released (its later calls answer UNAVAILABLE, and another replica resumes it); calls
 // keep being answered (UNAVAILABLE: retry elsewhere) for --drain-wait, while proxies and clients notice
-// NOT_SERVING, since a call that reaches a closing server is CANCELLED, which no retry policy retries;
-// then the calls still in flight get the rest of the grace period.
+// NOT_SERVING, since a call that reaches a closing server is CANCELLED before any handler sees it, which no
+// retry policy retries (it carries no x-squall-replica: the Python client sends it again); then the calls
+// still in flight get the rest of the grace period.
 void drain(DaemonState& daemon, grpc::Server& server, HealthService& health, CheckpointLoop& checkpoints,
            const DaemonOptions& options) {
   const auto deadline = std::chrono::system_clock::now() + milliseconds(options.grace_seconds);

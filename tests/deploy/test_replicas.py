@@ -12,6 +12,7 @@
   handover (the replica the new ring picks asks the holder for it and answers UNAVAILABLE, and the
   retry goes elsewhere, until the holder has handed it over). So with Envoy the steps are checked
   before and after that; on the new ring a session moves at most once more, never back.
+- Eight threads sampling through one squall.Client while a replica drains and exits: no call fails.
 
 Every process is started detached with its PID recorded and stopped by PID. Paths come from ctest's
 environment (tests/deploy/lb.cmake).
@@ -23,6 +24,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
 from collections import Counter
@@ -33,7 +35,7 @@ import grpc
 import pytest
 
 import squall
-from squall._calls import SESSION_KEY, propose_session_id, retry_options
+from squall._calls import SESSION_KEY, propose_session_id, retry_options, unseen_by_squalld
 from squall._errors import REPLICA_KEY
 from squall.v1 import ewave_pb2, ewave_pb2_grpc, ocean_pb2, ocean_pb2_grpc
 
@@ -166,7 +168,8 @@ def create_request() -> ewave_pb2.EWaveCreateSessionRequest:
 
 
 def step_request(session_id: str, n: int) -> ewave_pb2.EWaveStepRequest:
-    request = ewave_pb2.EWaveStepRequest(session_id=session_id)
+    # the Python client's retry key: a step sent again is made once
+    request = ewave_pb2.EWaveStepRequest(session_id=session_id, retry_key=f"{n}".encode())
     request.inputs.dt = 0.01
     request.inputs.outputs.append(ewave_pb2.EWAVE_OUTPUT_HEIGHT)
     circle = request.inputs.shapes.add().circle
@@ -195,7 +198,9 @@ def step(
     cluster: Cluster, session_id: str, n: int, retry_seconds: float
 ) -> Tuple[bytes, str, int]:
     """One step through the proxy: its height bytes, the replica, and how many times the test
-    itself had to call again (nginx: UNAVAILABLE outlasting the channel's retry policy)."""
+    itself had to call again (nginx: UNAVAILABLE outlasting the channel's retry policy, or a call
+    that reached the victim as its server closed, which gRPC cancels before squalld sees it and
+    the Python client sends again)."""
     md = ((SESSION_KEY, session_id),)
     deadline, again = time.monotonic() + retry_seconds, 0
     while True:
@@ -205,7 +210,8 @@ def step(
             )
             return frame.fields[0].data, replica_of(call), again
         except grpc.RpcError as error:
-            if error.code() != grpc.StatusCode.UNAVAILABLE or time.monotonic() > deadline:
+            retryable = error.code() == grpc.StatusCode.UNAVAILABLE or unseen_by_squalld(error)
+            if not retryable or time.monotonic() > deadline:
                 raise
             again += 1
             time.sleep(0.2)
@@ -242,7 +248,8 @@ def test_sessions_stick_and_move_bit_for_bit_on_sigterm(
     os.kill(victim.pid, signal.SIGTERM)
     signalled = time.monotonic()
     # nginx only fails over once the draining replica's port closes (--drain-wait 2 s); the
-    # channel's own retries may run out before that, so the test calls again for that long.
+    # channel's own retries may run out before that, so the test calls again for that long, as it
+    # does (as the Python client does) when a call reaches the victim as its server closes.
     patience = 0 if cluster.kind == "envoy" else 15
     # The replicas that served each session other than the victim, in turn, per state of the proxy's
     # ring (with the victim, without it).
@@ -278,3 +285,36 @@ def test_sessions_stick_and_move_bit_for_bit_on_sigterm(
     assert time.monotonic() - signalled < GRACE + 5
     moved = {i for _, i in served if homes[i] == busiest}
     assert len(moved) == Counter(homes.values())[busiest] >= 1, "every session of the victim moved"
+
+
+def test_no_call_fails_while_a_replica_drains_under_load(cluster: Cluster) -> None:
+    """Eight threads sample the surface through one squall.Client while a replica is SIGTERM'd and
+    goes: every call succeeds. The channel's retry policy sends UNAVAILABLE (draining, a proxy's
+    502) elsewhere; the client itself sends again a call that reached the replica as its server
+    closed, which gRPC cancels before squalld sees it (nginx passes that on)."""
+    request, stop = sample_request(), threading.Event()
+    answered: List[int] = []
+    errors: List[str] = []
+
+    def sample(client: squall.Client) -> None:
+        while not stop.is_set():
+            try:
+                answered.append(len(client.ocean.sample(request=request)["height"]))
+            except squall.SquallError as error:
+                errors.append(str(error))
+
+    victim = cluster.replicas[0]
+    with squall.Client(cluster.address) as client:
+        threads = [threading.Thread(target=sample, args=(client,)) for _ in range(8)]
+        for thread in threads:
+            thread.start()
+        time.sleep(1)
+        os.kill(victim.pid, signal.SIGTERM)
+        exited = victim.popen.wait(GRACE + 5)
+        time.sleep(1)
+        stop.set()
+        for thread in threads:
+            thread.join()
+    assert exited == 0, victim.log.read_text()[-3000:]
+    assert not errors, f"{len(errors)} of {len(errors) + len(answered)} calls failed: {errors[:3]}"
+    assert len(answered) >= 100 and set(answered) == {1}

@@ -1,20 +1,25 @@
 """Routing through a session-affine proxy, from the client's side: sessions are created under ids
 the client proposes (x-squall-session on the creating call, taken by squalld), every response names
-its replica (x-squall-replica), and the channel retries UNAVAILABLE. The retries at work, with
-several replicas behind a real proxy: tests/deploy/test_replicas.py."""
+its replica (x-squall-replica), the channel retries UNAVAILABLE, and the client sends again a call
+that gRPC cancelled before squalld saw it. The retries at work, with several replicas behind a real
+proxy: tests/deploy/test_replicas.py."""
 
 from __future__ import annotations
 
+import asyncio
 import gc
 import json
 import os
 import re
+import time
+from concurrent import futures
 from typing import Any, Callable, Dict, List, Tuple
 
 import grpc
 import pytest
 
 import squall
+import squall.aio
 from squall._calls import retry_options
 from squall._errors import REPLICA_KEY
 from squall.v1 import clouds_pb2_grpc, ewave_pb2, ewave_pb2_grpc, server_pb2, server_pb2_grpc
@@ -123,6 +128,65 @@ def test_the_retry_policy_retries_unavailable_only() -> None:
     # one attempt: no retry policy, as the C++ client; gRPC's transparent retries (of calls that
     # never reached a server) stay on
     assert retry_options(1) == []
+
+
+class ClosingServer:
+    """A real gRPC server whose health check answers as a squalld replica whose server is closing
+    (gRPC cancels a call that reaches it then, before squalld sees it: CANCELLED and no
+    x-squall-replica) for the first `cancels` calls, then SERVING. `named`: its CANCELLED names a
+    replica, as one squalld itself makes."""
+
+    def __init__(self, cancels: int, named: bool = False) -> None:
+        self.cancels, self.named, self.calls = cancels, named, 0
+        handler = grpc.unary_unary_rpc_method_handler(self.check)  # bytes in, bytes out
+        service = grpc.method_handlers_generic_handler("grpc.health.v1.Health", {"Check": handler})
+        self.server = grpc.server(futures.ThreadPoolExecutor(2), handlers=(service,))
+        self.address = f"127.0.0.1:{self.server.add_insecure_port('127.0.0.1:0')}"
+        self.server.start()
+
+    def check(self, request: bytes, context: grpc.ServicerContext) -> bytes:
+        self.calls += 1
+        if self.calls > self.cancels:
+            return b"\x08\x01"  # HealthCheckResponse { status: SERVING }
+        if self.named:
+            context.set_trailing_metadata(((REPLICA_KEY, "r0"),))
+        context.abort(grpc.StatusCode.CANCELLED, "CANCELLED")
+
+    def __enter__(self) -> "ClosingServer":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.server.stop(None)
+
+
+async def health_of(address: str) -> str:
+    async with squall.aio.Client(address) as client:
+        return await client.health()
+
+
+def test_a_call_cancelled_before_squalld_saw_it_is_sent_again() -> None:
+    """Within the client's retries and the call's deadline, with the retry policy's backoff; a
+    CANCELLED that names a replica (squalld's own) is not."""
+    with ClosingServer(cancels=2) as server, squall.Client(server.address) as client:
+        assert client.health() == "SERVING" and server.calls == 3
+    with ClosingServer(cancels=2) as server:
+        assert asyncio.run(health_of(server.address)) == "SERVING" and server.calls == 3
+    with ClosingServer(cancels=9) as server, squall.Client(server.address, retries=3) as client:
+        start = time.monotonic()
+        with pytest.raises(squall.SquallError) as error:
+            client.health()
+        assert error.value.code == grpc.StatusCode.CANCELLED and server.calls == 3
+        assert 0.3 <= time.monotonic() - start < 2  # paused 0.1 s, then 0.2 s
+    with ClosingServer(cancels=9) as server, squall.Client(server.address) as client:
+        start = time.monotonic()
+        with pytest.raises(squall.SquallError):
+            client.health(timeout=0.75)  # sent at 0, 0.1, 0.3, 0.7 s; not 1.5 s, past the deadline
+        assert server.calls <= 4 and time.monotonic() - start < 1.3
+    with ClosingServer(cancels=1, named=True) as server, squall.Client(server.address) as client:
+        with pytest.raises(squall.SquallError) as error:
+            client.health()
+        assert error.value.code == grpc.StatusCode.CANCELLED and error.value.replica == "r0"
+        assert server.calls == 1
 
 
 def test_a_texture_that_follows_an_ewave_session_names_it(

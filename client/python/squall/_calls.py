@@ -8,12 +8,13 @@ import os
 import queue
 import secrets
 import threading
+import time
 from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, Tuple, TypeVar
 
 import grpc
 
 from squall._convert import integer, shown
-from squall._errors import SquallError
+from squall._errors import REPLICA_KEY, SquallError
 
 T = TypeVar("T")
 
@@ -75,6 +76,42 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     names = [{"service": f"squall.v1.{s}"} for s in SERVICES]
     config = {"methodConfig": [{"name": names, "retryPolicy": policy}]}
     return [("grpc.enable_retries", 1), ("grpc.service_config", json.dumps(config))]
+
+
+def unseen_by_squalld(error: grpc.RpcError) -> bool:
+    """Whether a unary call's `error` is CANCELLED with no x-squall-replica in its response: gRPC
+    cancelled the call at a server that was closing, before squalld saw it, so nothing was done.
+    squalld names itself in every answer it makes, its own CANCELLED included. A proxy without
+    health checks (nginx) sends a draining replica calls until its port closes, and one that
+    arrives in the instant its server closes ends so: the client sends it again."""
+    if error.code() != grpc.StatusCode.CANCELLED:
+        return False
+    metadata = tuple(error.initial_metadata() or ()) + tuple(error.trailing_metadata() or ())
+    return all(key != REPLICA_KEY for key, _ in metadata)
+
+
+class Resends:
+    """The sends of one unary call: its deadline, and whether (and when) to send it again after an
+    error: while gRPC cancels it before squalld sees it, up to the client's retries in all, with
+    the retry policy's backoff (0.1 s doubling to 2 s), within the deadline."""
+
+    def __init__(self, settings: "Settings", seconds: Optional[float]) -> None:
+        self.settings = settings
+        self.ends = None if seconds is None else time.monotonic() + seconds
+        self.attempt = 1
+
+    def timeout(self) -> Optional[float]:
+        """Seconds left to the call's deadline (None: no deadline), at least 0."""
+        return None if self.ends is None else max(0.0, self.ends - time.monotonic())
+
+    def pause(self, error: grpc.RpcError, method: str) -> float:
+        """Seconds to wait before the next send after `error`; SquallError when there is none."""
+        done = self.attempt >= self.settings.attempts or self.settings.closed
+        if done or not unseen_by_squalld(error):
+            raise SquallError.from_rpc(error, method) from None
+        backoff, left = min(0.1 * 2 ** (self.attempt - 1), 2.0), self.timeout()
+        self.attempt += 1
+        return backoff if left is None else min(backoff, left)
 
 
 # A creating call the client gave up on, and what undoes it: (method name, function, request) of
@@ -150,8 +187,11 @@ class Settings:
         stream_timeout: Optional[float],
         token: Optional[str],
         request_id: Optional[str],
+        attempts: int = 1,
     ) -> None:
         self.timeout = seconds("timeout", timeout)
+        # sends of a unary call that gRPC cancelled before squalld saw it (unseen_by_squalld)
+        self.attempts = max(1, min(integer(attempts, "retries", 0), 5))
         self.stream_timeout = seconds("stream_timeout", stream_timeout)
         self.token = metadata_value("the token", token)
         self.request_id = metadata_value("request_id", request_id)
@@ -198,14 +238,16 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
     ) -> Any:
-        try:
-            return function(
-                request,
-                timeout=self.settings.deadline(timeout, stream=False),
-                metadata=self.settings.metadata(session),
-            )
-        except grpc.RpcError as error:
-            raise SquallError.from_rpc(error, method) from None
+        """function(request) within the call's deadline, sent again while gRPC cancels it before
+        squalld sees it (Resends)."""
+        metadata = self.settings.metadata(session)
+        sends = Resends(self.settings, self.settings.deadline(timeout, stream=False))
+        while True:
+            try:
+                return function(request, timeout=sends.timeout(), metadata=metadata)
+            except grpc.RpcError as error:
+                pause = sends.pause(error, method)
+            time.sleep(pause)
 
     def create(
         self,

@@ -54,6 +54,7 @@ from squall._calls import (
     DEFAULT_ADDRESS,
     RUN_AHEAD,
     UNDO_TIMEOUT,
+    Resends,
     Settings,
     Undo,
     address_of,
@@ -150,19 +151,21 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
     ) -> Any:
-        try:
-            return await function(
-                request,
-                timeout=self.settings.deadline(timeout, stream=False),
-                metadata=self.settings.metadata(session),
-            )
-        except grpc.RpcError as error:
-            raise SquallError.from_rpc(error, method) from None
-        except asyncio.CancelledError:
-            cancelled = _cancelled_call(self.settings.closed, method)
-            if cancelled is None:
-                raise
-            raise cancelled from None
+        """function(request) within the call's deadline, sent again while gRPC cancels it before
+        squalld sees it (Resends)."""
+        metadata = self.settings.metadata(session)
+        sends = Resends(self.settings, self.settings.deadline(timeout, stream=False))
+        while True:
+            try:
+                return await function(request, timeout=sends.timeout(), metadata=metadata)
+            except grpc.RpcError as error:
+                pause = sends.pause(error, method)
+            except asyncio.CancelledError:
+                cancelled = _cancelled_call(self.settings.closed, method)
+                if cancelled is None:
+                    raise
+                raise cancelled from None
+            await asyncio.sleep(pause)
 
     async def create(
         self,
@@ -1099,7 +1102,9 @@ class Client:
         own_connection: bool = False,
     ) -> None:
         self.address = address_of(address)
-        settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
+        settings = Settings(
+            timeout, stream_timeout, resolve_token(token, token_file), request_id, retries
+        )
         grpc_options = channel_options(retries, own_connection, options)
         if credentials is None:
             channel = grpc.aio.insecure_channel(address, options=grpc_options)

@@ -159,7 +159,9 @@ class Client:
         options: extra gRPC channel options, added to squall's (no client-side message size limit).
         retries: attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica
             gone behind a proxy), with backoff from 0.1 s to 2 s: an integer >= 0, of which at
-            most 5 count (0 or 1: no retries).
+            most 5 count (0 or 1: no retries). A unary call that comes back CANCELLED with no
+            x-squall-replica (gRPC cancelled it at a replica whose server was closing, before
+            squalld saw it) is sent again too, within the same attempts and deadline.
             gRPC retries only calls the server has not begun to answer, squalld answers
             UNAVAILABLE before it touches a session, and an eWave step carries a retry key that
             squalld answers once: these retries of a step make it once (unless another caller
@@ -196,7 +198,9 @@ class Client:
         own_connection: bool = False,
     ) -> None:
         self.address = address_of(address)
-        settings = Settings(timeout, stream_timeout, resolve_token(token, token_file), request_id)
+        settings = Settings(
+            timeout, stream_timeout, resolve_token(token, token_file), request_id, retries
+        )
         grpc_options = channel_options(retries, own_connection, options)
         if credentials is None:
             channel = grpc.insecure_channel(address, options=grpc_options)
