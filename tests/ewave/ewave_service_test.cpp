@@ -17,6 +17,7 @@
 
 #include "client/client.h"
 #include "client/image_io.h"
+#include "ewave/ewave_config.h"
 #include "ewave/ewave_request.h"
 #include "ewave/ewave_session.h"
 #include "ewave_support.h"
@@ -25,6 +26,7 @@
 #include "squall/v1/ewave.grpc.pb.h"
 #include "squall/v1/ocean.grpc.pb.h"
 #include "ewave/ewave_service.h"
+#include "ocean/ocean_engine.h"
 #include "rpc/metadata.h"
 #include "support/daemon.h"
 #include "support/expect_error.h"
@@ -244,6 +246,54 @@ TEST(EWaveService, AnAmbientOrInitialOceanCountsInTheMemoryBudget) {
   from_the_sea.mutable_initial_ocean()->mutable_layers(0)->set_ny(64);
   const Session small(d.stub(), from_the_sea);
   EXPECT_TRUE(small.status().ok()) << small.status().error_message();
+}
+
+// A step whose ambient ocean's spectrum was kept, and then taken back by the cache to make room for the step
+// itself, reserves the spectrum it builds again: under a budget that holds a first step (its spectrum built
+// and kept) and half of what seven more output planes add, such a second step is refused naming the rebuild.
+TEST(EWaveService, AStepWhoseKeptSpectrumIsTakenBackReservesItsRebuild) {
+  const ewave::EWaveConfig c = ewave::test::plain_config(256, 256);
+  v1::EWaveInputs height;
+  height.set_dt(0.01);
+  height.add_outputs(v1::EWAVE_OUTPUT_HEIGHT);
+  *height.mutable_obstruction() = field(256, 256, std::vector<float>(256 * 256, 0.5f));  // the ocean is evaluated
+  *height.mutable_ambient_ocean()->add_layers() = sea_layer(1024);
+  v1::EWaveInputs all = height;
+  for (int o = v1::EWAVE_OUTPUT_DISPLACEMENT_X; o <= v1::EWAVE_OUTPUT_PHI; ++o) all.add_outputs(v1::EWaveOutput(o));
+  const LimitGate unlimited{Limits{}};
+  const ewave::StepInputs in = ewave::rpc::inputs(height, c, unlimited);
+  auto frame = [&](const v1::EWaveInputs& step) {
+    return ewave::rpc::frame_host_bytes(c, ewave::rpc::inputs(step, c, unlimited).outputs) +
+           ewave::rpc::frame_bytes(c, size_t(step.outputs_size()), v1::DTYPE_FLOAT32);
+  };
+  const uint64_t added = frame(all) - frame(height),
+                 fields = ocean::surface_device_bytes(ewave::ocean_on_grid(*in.ambient_ocean, c));
+  uint64_t session = 0, spectrum = 0;  // what a live session holds of the budget, and the kept spectrum
+  {
+    test::InProcess<rpc::EWaveService> measured;
+    auto stub = v1::EWave::NewStub(measured.channel());
+    Session s(*stub, proto_config(c));
+    ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+    session = measured.serving().gate().memory_bytes();
+    v1::EWaveFrame f;
+    ASSERT_TRUE(s.step(height, &f).ok());
+    spectrum = measured.serving().gate().cached_memory_bytes();
+    ASSERT_GE(spectrum, 1024ull * 1024 * 6 * sizeof(float));  // at least six floats a mode
+  }
+  Limits limits;
+  limits.memory_budget = session + frame(height) + fields + spectrum + added / 2;
+  test::InProcess<rpc::EWaveService> server(limits);
+  auto stub = v1::EWave::NewStub(server.channel());
+  Session s(*stub, proto_config(c));
+  ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+  v1::EWaveFrame f;
+  const grpc::Status first = s.step(height, &f);
+  ASSERT_TRUE(first.ok()) << first.error_message();
+  ASSERT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
+  const grpc::Status refused = s.step(all, &f);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("inputs.ambient_ocean's spectra, built again"), std::string::npos)
+      << refused.error_message();
 }
 
 // GetState reserves the state it reads (a 512^2 double session's 4 MiB of fields) before reading it: refused
