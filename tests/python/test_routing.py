@@ -11,6 +11,7 @@ import gc
 import json
 import os
 import re
+import threading
 import time
 from concurrent import futures
 from typing import Any, Callable, Dict, List, Tuple
@@ -179,9 +180,15 @@ def test_a_call_cancelled_before_squalld_saw_it_is_sent_again() -> None:
         assert 0.3 <= time.monotonic() - start < 2  # paused 0.1 s, then 0.2 s
     with ClosingServer(cancels=9) as server, squall.Client(server.address) as client:
         start = time.monotonic()
-        with pytest.raises(squall.SquallError):
+        with pytest.raises(squall.SquallError) as error:
             client.health(timeout=0.75)  # sent at 0, 0.1, 0.3, 0.7 s; not 1.5 s, past the deadline
+        assert error.value.code == grpc.StatusCode.CANCELLED
         assert server.calls <= 4 and time.monotonic() - start < 1.3
+    with ClosingServer(cancels=9) as server, squall.Client(server.address) as client:
+        threading.Timer(0.15, client.close).start()  # during the pause after the second send
+        with pytest.raises(RuntimeError, match="closed"):
+            client.health()
+        assert server.calls == 2
     with ClosingServer(cancels=1, named=True) as server, squall.Client(server.address) as client:
         with pytest.raises(squall.SquallError) as error:
             client.health()

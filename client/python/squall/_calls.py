@@ -78,12 +78,14 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     return [("grpc.enable_retries", 1), ("grpc.service_config", json.dumps(config))]
 
 
-def unseen_by_squalld(error: grpc.RpcError) -> bool:
-    """Whether a unary call's `error` is CANCELLED with no x-squall-replica in its response: gRPC
-    cancelled the call at a server that was closing, before squalld saw it, so nothing was done.
-    squalld names itself in every answer it makes, its own CANCELLED included. A proxy without
-    health checks (nginx) sends a draining replica calls until its port closes, and one that
-    arrives in the instant its server closes ends so: the client sends it again."""
+def cancelled_unanswered(error: grpc.RpcError) -> bool:
+    """Whether a unary call's `error` is CANCELLED with no x-squall-replica in its response: squalld
+    sent no answer (it names itself in every answer it sends). gRPC ends so a call that reaches a
+    server as it closes, before any handler runs: a proxy without health checks (nginx) sends a
+    draining replica calls until its port closes. The client sends such a call again: squall's
+    unary calls are idempotent or keyed (an eWave step's retry_key, a session's proposed id), so
+    a call that did run before it was cancelled (one that outlasted a draining squalld's grace
+    period) is not made twice."""
     if error.code() != grpc.StatusCode.CANCELLED:
         return False
     metadata = tuple(error.initial_metadata() or ()) + tuple(error.trailing_metadata() or ())
@@ -92,8 +94,9 @@ def unseen_by_squalld(error: grpc.RpcError) -> bool:
 
 class Resends:
     """The sends of one unary call: its deadline, and whether (and when) to send it again after an
-    error: while gRPC cancels it before squalld sees it, up to the client's retries in all, with
-    the retry policy's backoff (0.1 s doubling to 2 s), within the deadline."""
+    error: while it is cancelled unanswered (cancelled_unanswered), up to the client's retries
+    sends in all (counted apart from the retry policy's attempts at each send), 0.1 s after the
+    first, then twice as long each time, none that would end past the deadline."""
 
     def __init__(self, settings: "Settings", seconds: Optional[float]) -> None:
         self.settings = settings
@@ -106,12 +109,12 @@ class Resends:
 
     def pause(self, error: grpc.RpcError, method: str) -> float:
         """Seconds to wait before the next send after `error`; SquallError when there is none."""
+        backoff, left = 0.1 * 2 ** (self.attempt - 1), self.timeout()
         done = self.attempt >= self.settings.attempts or self.settings.closed
-        if done or not unseen_by_squalld(error):
+        if done or (left is not None and left <= backoff) or not cancelled_unanswered(error):
             raise SquallError.from_rpc(error, method) from None
-        backoff, left = min(0.1 * 2 ** (self.attempt - 1), 2.0), self.timeout()
         self.attempt += 1
-        return backoff if left is None else min(backoff, left)
+        return backoff
 
 
 # A creating call the client gave up on, and what undoes it: (method name, function, request) of
@@ -190,7 +193,7 @@ class Settings:
         attempts: int = 1,
     ) -> None:
         self.timeout = seconds("timeout", timeout)
-        # sends of a unary call that gRPC cancelled before squalld saw it (unseen_by_squalld)
+        # sends of a unary call cancelled unanswered (cancelled_unanswered)
         self.attempts = max(1, min(integer(attempts, "retries", 0), 5))
         self.stream_timeout = seconds("stream_timeout", stream_timeout)
         self.token = metadata_value("the token", token)
@@ -238,11 +241,11 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
     ) -> Any:
-        """function(request) within the call's deadline, sent again while gRPC cancels it before
-        squalld sees it (Resends)."""
-        metadata = self.settings.metadata(session)
+        """function(request) within the call's deadline, sent again while it is cancelled
+        unanswered (Resends)."""
         sends = Resends(self.settings, self.settings.deadline(timeout, stream=False))
         while True:
+            metadata = self.settings.metadata(session)  # RuntimeError once the client is closed
             try:
                 return function(request, timeout=sends.timeout(), metadata=metadata)
             except grpc.RpcError as error:

@@ -151,11 +151,11 @@ class Connection:
         timeout: Optional[float] = None,
         session: Optional[str] = None,
     ) -> Any:
-        """function(request) within the call's deadline, sent again while gRPC cancels it before
-        squalld sees it (Resends)."""
-        metadata = self.settings.metadata(session)
+        """function(request) within the call's deadline, sent again while it is cancelled
+        unanswered (Resends)."""
         sends = Resends(self.settings, self.settings.deadline(timeout, stream=False))
         while True:
+            metadata = self.settings.metadata(session)  # RuntimeError once the client is closed
             try:
                 return await function(request, timeout=sends.timeout(), metadata=metadata)
             except grpc.RpcError as error:

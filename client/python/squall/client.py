@@ -160,8 +160,9 @@ class Client:
         retries: attempts of a call answered UNAVAILABLE (squalld starting or draining, a replica
             gone behind a proxy), with backoff from 0.1 s to 2 s: an integer >= 0, of which at
             most 5 count (0 or 1: no retries). A unary call that comes back CANCELLED with no
-            x-squall-replica (gRPC cancelled it at a replica whose server was closing, before
-            squalld saw it) is sent again too, within the same attempts and deadline.
+            x-squall-replica (unanswered: gRPC ends so a call that reaches a replica as its
+            server closes) is sent again too, up to `retries` sends (counted apart from the
+            retry policy's attempts), within its deadline.
             gRPC retries only calls the server has not begun to answer, squalld answers
             UNAVAILABLE before it touches a session, and an eWave step carries a retry key that
             squalld answers once: these retries of a step make it once (unless another caller
