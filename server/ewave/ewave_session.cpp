@@ -2,6 +2,8 @@
 // (ewave_state_format.h). The step pipeline is in ewave_step.cpp.
 #include "ewave/ewave_session.h"
 
+#include <algorithm>
+
 #include "common/error.h"
 #include "ewave/propagator.h"
 #include "ocean/tile_spec_bytes.h"
@@ -51,16 +53,27 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
     fft_.prepare({nx, ny, size_t(fields), fft::Transform::C2R, precision()}, fft::Direction::Inverse, false);
 }
 
+// The state (h, then phi) zeroed, then each given field written into its plane: no host copy of the whole
+// state, which a large session (or one restored, whose state is written over this) would hold for nothing.
 void EWaveSession::upload_initial_fields(const OceanCall& call) {
   upload_trim();
-  std::vector<double> fields(kStateFields * cells_, 0.0);
-  std::copy(config_.initial_height.begin(), config_.initial_height.end(), fields.begin());
-  std::copy(config_.initial_phi.begin(), config_.initial_phi.end(), fields.begin() + cells_);
-  config_.initial_height.clear();
-  config_.initial_phi.clear();
-  std::vector<char> bytes = to_state_type(fields, config_.double_precision);
-  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, bytes.size(), bytes.data());
+  runtime_.queue().enqueueFillBuffer(state_.buffer(), cl_float(0), 0, kStateFields * cells_ * real_size_);
+  write_state_plane(0, config_.initial_height);
+  write_state_plane(1, config_.initial_phi);
+  std::vector<float>().swap(config_.initial_height);  // the config's copies are not kept either
+  std::vector<float>().swap(config_.initial_phi);
   if (config_.initial_ocean) initial_from_ocean(call);
+}
+
+void EWaveSession::write_state_plane(size_t plane, const std::vector<float>& values) {
+  const size_t n = std::min(values.size(), cells_), offset = plane * cells_ * real_size_;
+  if (n == 0) return;  // zero
+  if (!config_.double_precision) {
+    runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, offset, n * sizeof(float), values.data());
+    return;
+  }
+  const std::vector<double> widened(values.begin(), values.begin() + ptrdiff_t(n));
+  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, offset, n * sizeof(double), widened.data());
 }
 
 ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
@@ -82,8 +95,8 @@ void EWaveSession::initial_from_ocean(const OceanCall& call) {
   ocean.surface_on_device(spec, time_, surface.buffer(), call.cancel, call.spectra_memory);
   std::vector<float> values(kStateFields * cells_);
   runtime_.queue().enqueueReadBuffer(surface.buffer(), CL_TRUE, 0, values.size() * sizeof(float), values.data());
-  std::vector<char> bytes = to_state_type(std::vector<double>(values.begin(), values.end()), config_.double_precision);
-  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, bytes.size(), bytes.data());
+  const std::vector<double> widened(values.begin(), values.end());
+  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, widened.size() * sizeof(double), widened.data());
 }
 
 const cl::Buffer& EWaveSession::upload(BufferLease& lease, const std::vector<float>& values) {

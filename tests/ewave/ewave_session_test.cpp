@@ -59,6 +59,37 @@ TEST(EWaveSession, SaveAndRestoreContinueBitIdentically) {
   expect_bit_identical(a.step(busy_step(5)), c.step(busy_step(5)));
 }
 
+// A new session's state is its initial h and phi, bit for bit, in the state's type (float or double), and
+// zero where a field is not given.
+TEST(EWaveSession, ItsStateIsItsInitialFieldsBitForBit) {
+  for (const bool wide : {false, true}) {
+    if (wide && !squall::test::runtime().device_info().double_precision) continue;
+    EWaveConfig c = plain_config(24, 20);
+    c.double_precision = wide;
+    c.initial_height = field(c, [](double x, double y) { return 0.01 * std::sin(40 * x) * std::cos(30 * y); });
+    c.initial_phi = field(c, [](double x, double y) { return 0.002 * std::cos(50 * x + 20 * y); });
+    for (const bool phi : {true, false}) {
+      EWaveConfig given = c;
+      if (!phi) given.initial_phi.clear();
+      const std::string state = make_session(given).state();
+      const char* fields = state_fields(state);
+      const size_t cells = c.initial_height.size();
+      for (size_t i = 0; i < 2 * cells; ++i) {
+        const float expected = i < cells ? c.initial_height[i] : phi ? c.initial_phi[i - cells] : 0.0f;
+        double value = 0;
+        if (wide) {
+          std::memcpy(&value, fields + i * sizeof(double), sizeof(double));
+        } else {
+          float f = 0;
+          std::memcpy(&f, fields + i * sizeof(float), sizeof(float));
+          value = f;
+        }
+        ASSERT_EQ(value, double(expected)) << (wide ? "double" : "float") << " state, value " << i;
+      }
+    }
+  }
+}
+
 // A step sent again with its retry key (a retry whose first attempt was made and its reply lost) is not
 // made again: the frame of that step comes back, bit for bit. A new key steps on; a count the session is
 // not at is refused. A session restored from a checkpoint keeps the key but not the step's displacement, so a
