@@ -153,6 +153,14 @@ static inline int final_channels(const TextureSource* t) {
   return t->final_function == SQUALL_FINAL_LUT ? t->lut_channels : 1;
 }
 
+/* The nearest of n nodes spaced h apart to a point `offset` from the first, clamped to the grid before the
+ * conversion to int (a point far outside a fine grid would overflow it; NaN gives node 0). */
+static inline int nearest_node(float offset, float h, int n) {
+  const float u = floor(offset / h + 0.5f);
+  if (!(u > 0.0f)) return 0;
+  return u >= (float)(n - 1) ? n - 1 : (int)u;
+}
+
 /* Fluid test at (x, y): 0 inside the cylinder or outside the channel's walls, and on grid nodes the mask
  * marks solid (nearest node, clamped to the grid). */
 static inline int velocity_fluid_at(const VelocityField* f, SQUALL_GLOBAL const unsigned char* mask, float x, float y) {
@@ -162,10 +170,7 @@ static inline int velocity_fluid_at(const VelocityField* f, SQUALL_GLOBAL const 
     return dx * dx + dy * dy > f->p[3] * f->p[3];
   }
   if (f->kind != SQUALL_VELOCITY_GRID || !f->has_mask) return 1;
-  int i = (int)floor((x - f->origin_x) / f->hx + 0.5f);
-  int j = (int)floor((y - f->origin_y) / f->hy + 0.5f);
-  i = i < 0 ? 0 : (i >= f->nx ? f->nx - 1 : i);
-  j = j < 0 ? 0 : (j >= f->ny ? f->ny - 1 : j);
+  const int i = nearest_node(x - f->origin_x, f->hx, f->nx), j = nearest_node(y - f->origin_y, f->hy, f->ny);
   return mask[i + f->nx * j] != 0;
 }
 
