@@ -110,10 +110,15 @@ SpectrumParams compute_formula_parameters(const LayerSpec& L) {
   } else {
     p.omega_p = g / std::max(U, 1e-9);
   }
-  if (L.spectrum != SpectrumModel::Phillips) {  // mean frequency m1 / m0 (midpoint rule in w)
-    double m0 = 0, m1 = 0, dw = p.omega_p * 2e-4;
-    for (double w = 0.5 * dw; w < 60 * p.omega_p; w += dw) {
-      double s = sq_frequency_spectrum(p, w);
+  if (L.spectrum != SpectrumModel::Phillips) {  // mean frequency m1 / m0 (midpoint rule in ln w)
+    double lo = p.omega_p, hi = p.omega_p;      // from the lowest peak / 50 to the highest x 1000
+    for (const PartialSpectrum& q : L.partials)
+      if (L.spectrum == SpectrumModel::Multipeak)
+        lo = std::min(lo, q.peak_frequency), hi = std::max(hi, q.peak_frequency);
+    const double u0 = std::log(lo / 50), du = (std::log(hi * 1000) - u0) / 300000;
+    double m0 = 0, m1 = 0;
+    for (int i = 0; i < 300000; ++i) {
+      const double w = std::exp(u0 + (i + 0.5) * du), s = sq_frequency_spectrum(p, w) * w;  // dw = w du
       m0 += s, m1 += w * s;
     }
     p.omega_mean = m1 / m0;
@@ -271,6 +276,8 @@ CpuReference::CpuReference(int threads) : impl_(std::make_unique<Impl>()) {
 #endif
 }
 CpuReference::~CpuReference() = default;
+
+double CpuReference::mean_frequency(const LayerSpec& L) { return formula_parameters(L).omega_mean; }
 
 double CpuReference::spectrum(const LayerSpec& L, double kx, double ky, double dkx, double dky) {
   double k = std::hypot(kx, ky), cell_a, cell_b;

@@ -55,6 +55,15 @@ double check_shape_range(const std::string& g, const PartialSpectrum& p) {
                                   "well above 0.02");
 }
 
+// Krylov's spread follows the mean frequency m1 / m0 (eq 31), which a hump's tail c r^-n leaves infinite for
+// n <= 2.
+void check_krylov_mean(const std::string& g, const PartialSpectrum& p) {
+  if (p.c > 0 && p.n <= 2)
+    validate::reject(g + ".n", p.n,
+                     "above 2 where c > 0 with the Krylov spreading (its mean frequency m1 / m0 "
+                     "diverges for a tail r^-n with n <= 2)");
+}
+
 void validate_partials(const std::string& f, const LayerSpec& L) {
   if (L.partials.empty() || L.partials.size() > size_t(kMaxPartialSpectra))
     fail(Code::InvalidArgument, f + ".partials has " + std::to_string(L.partials.size()) +
@@ -70,6 +79,7 @@ void validate_partials(const std::string& f, const LayerSpec& L) {
     positive(g + ".n", p.n, 100);
     positive(g + ".m", p.m, 100);
     if (p.a + p.c <= 0) fail(Code::InvalidArgument, g + ".a and " + g + ".c are both 0: the partial has no energy");
+    if (L.spreading == SpreadingModel::Krylov) check_krylov_mean(g, p);
     // The device holds the shape's parameters and scale in float32: an a or c that rounds to 0 there, or a
     // scale past 1e30 (its product with the shape would overflow), would leave the sea flat or NaN.
     for (const auto& [name, value] : {std::pair{".a", p.a}, std::pair{".c", p.c}})

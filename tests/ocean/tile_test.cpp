@@ -709,17 +709,23 @@ TEST(OceanReference, ASpreadNarrowerThanTheGridKeepsTheSeasEnergyAtAnyDirection)
                     direction, ratio);
         EXPECT_NEAR(ratio, 1, 0.02);
       }
-  L.spreading = SpreadingModel::VonMises, L.wind_speed = 0.05, L.wind_direction = 0.3;
-  const std::vector<double> e = expected_power(L);
-  double e2 = 0, mean = 0;
-  for (double v : e) e2 += v * v;
-  const int seeds = 8;
-  for (int s = 0; s < seeds; ++s) {
-    L.seed = 500 + s;
-    const double r = test::rms(engine().tile(spec, 3.0, Height).height);
-    mean += r * r / seeds;
+  // The device's cell averages against the reference's, off the axes. 3e-4: the device takes the second
+  // difference of erf integrals in float (1.2e-4 to 1.7e-4 rms on the slopes and normals measured, where
+  // the modes of the cells' edges weigh most; point samples at the cells' centres were 30% off in energy).
+  L.spreading = SpreadingModel::VonMises, L.wind_speed = 0.05;
+  for (double direction : {0.3, M_PI / 4, std::atan(2.0)}) {
+    SCOPED_TRACE("direction " + std::to_string(direction));
+    L.wind_direction = direction;
+    expect_matches_reference(spec, 3.0, 3e-4);
   }
-  EXPECT_NEAR(mean, sum_of(e), 4 * std::sqrt(2 * e2 / seeds));  // |h~|^2 exponential per mode
+}
+
+// Krylov's spread follows the mean frequency of the whole spectrum: a partial at 40 rad/s, past every mode
+// of this grid and past 60 times the dominant peak, still raises it, narrowing the swell's spread.
+TEST(OceanReference, AKrylovSeaCountsAPartialPastTheGridInItsMeanFrequency) {
+  TileSpec spec = test::single(SpectrumModel::Multipeak, SpreadingModel::Krylov, 64, 300);
+  spec.layers[0].partials = {PartialSpectrum{0.5, 1.5}, PartialSpectrum{40, 0.3}};
+  expect_matches_reference(spec, 2.0);
 }
 
 TEST(OceanReference, LayersWithBCorrectionOnAnotherGridAgree) {

@@ -149,5 +149,22 @@ TEST(OceanValidation, MultipeakPartialsWithEnergyOutsideTheirRangeAreRefusedByNa
   test::engine().validate(spec, LimitGate{Limits{}});
 }
 
+// Krylov's spread follows the mean frequency m1 / m0, which a hump's tail r^-n leaves infinite for n <= 2
+// (a shape the normalization range accepts: c = 1, n = 2 has 0.07% of its energy outside it).
+TEST(OceanValidation, AKrylovSeaWhoseMeanFrequencyDivergesIsRefusedByName) {
+  TileSpec spec = test::single(SpectrumModel::Multipeak, SpreadingModel::Krylov, 32, 100);
+  PartialSpectrum tail;
+  tail.a = 0, tail.c = 1, tail.n = 2, tail.m = 8;
+  spec.layers[0].partials = {tail};
+  squall::test::expect_error(Code::InvalidArgument, "layers[0].partials[0].n = 2 must be above 2 where c > 0",
+                             [&] { test::engine().validate(spec, LimitGate{Limits{}}); });
+  spec.layers[0].spreading = SpreadingModel::Mitsuyasu;  // no mean frequency needed
+  spec.layers[0].wind_speed = 10;
+  test::engine().validate(spec, LimitGate{Limits{}});
+  spec.layers[0].spreading = SpreadingModel::Krylov;
+  spec.layers[0].partials[0].n = 3;
+  test::engine().validate(spec, LimitGate{Limits{}});
+}
+
 }  // namespace
 }  // namespace squall::ocean
