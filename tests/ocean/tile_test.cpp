@@ -501,6 +501,38 @@ TEST(OceanTile, InvertedSamplesFindTheSourcesOfASteepSea) {
   EXPECT_LE(elsewhere, 4);
 }
 
+// Past the fold (the surface overturns where J < 0) a landing point may have several sources, and the search
+// from x itself can stall at a local minimum of |x0 + lambda D(x0) - x| beside a fold, short of every one.
+// Each grid point's landing place has a source by construction: one is found for each (any of them).
+TEST(OceanTile, InvertedSamplesFindASourceOfEveryPointOfAFoldedSea) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  spec.choppiness = 1;
+  const auto unit = engine().tile(spec, 2.0, Jacobian);
+  const double steepest = 1 - *std::min_element(unit.jacobian_minus.begin(), unit.jacobian_minus.end());
+  const double cell = 2.0;
+  for (double past_the_fold : {1.1, 1.3, 1.6}) {
+    spec.choppiness = past_the_fold / steepest;
+    const auto f = engine().tile(spec, 2.0, Displacement);
+    std::vector<Vec2> landed;
+    for (int j = 0; j < 64; ++j)
+      for (int i = 0; i < 64; ++i) {
+        const size_t k = size_t(i + 64 * j);
+        landed.push_back({i * cell + f.displacement_x[k], j * cell + f.displacement_y[k]});
+      }
+    const auto inverted = engine().sample(spec, 2.0, landed, true);
+    std::vector<Vec2> sources;
+    for (const SurfaceSample& s : inverted) sources.push_back(s.source);
+    const auto at_source = engine().sample(spec, 2.0, sources, false);
+    int stalled = 0;
+    for (size_t k = 0; k < landed.size(); ++k) {
+      const double off = std::hypot(sources[k].x + at_source[k].displacement_x - landed[k].x,
+                                    sources[k].y + at_source[k].displacement_y - landed[k].y);
+      stalled += !(off < 1e-5 * cell);
+    }
+    EXPECT_EQ(stalled, 0) << past_the_fold << " times the choppiness of the first fold";
+  }
+}
+
 TEST(OceanTile, SpectrumCachedAcrossFrames) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Krylov, 64, 90, 4242);
   engine().tile(spec, 0.0, Height);
