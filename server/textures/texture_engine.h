@@ -20,7 +20,9 @@ namespace squall::textures {
 constexpr double kMaxParticles = 200000;
 
 // TextureEngine::validate without an engine: the same checks against `gate`.
-void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path);
+// `velocity_path`: the request field the velocity came from (empty: path + ".velocity").
+void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path,
+                     const std::string& velocity_path = "");
 // Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times.
 void validate_clock(const AdvectSpec& spec, const std::string& path);
 // A current read from what a request follows (an eWave session, an ocean tile), each time it is read:
@@ -35,7 +37,7 @@ class TextureEngine {
   // Every field in range (INVALID_ARGUMENT naming "<path>.<field>"), the output and velocity grids
   // within --max-grid-cells and an Eulerian grid's buffers within the device's largest allocation
   // (RESOURCE_EXHAUSTED).
-  void validate(const AdvectSpec& spec, const std::string& path) const;
+  void validate(const AdvectSpec& spec, const std::string& path, const std::string& velocity_path = "") const;
 
   // Bytes the advection of a validated spec holds besides its frames, at most: the Eulerian slots' node
   // state and the cascade's (twice on the device, state and scratch, and once on the host as it starts or

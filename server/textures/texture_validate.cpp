@@ -272,8 +272,8 @@ void cascade(const VorticityCascade& c, const TextureSpec& t, const std::string&
 
 }  // namespace
 
-void TextureEngine::validate(const AdvectSpec& spec, const std::string& path) const {
-  validate_advect(spec, gate_, path);
+void TextureEngine::validate(const AdvectSpec& spec, const std::string& path, const std::string& velocity_path) const {
+  validate_advect(spec, gate_, path, velocity_path);
   const uint64_t largest = runtime_.device_info().max_allocation_bytes;
   const uint64_t bytes = std::max(eulerian_slot_bytes(spec), eulerian_cascade_bytes(spec));
   if (bytes > largest)
@@ -304,9 +304,10 @@ void validate_followed_current(const VelocitySpec& velocity, const std::string& 
                                              " du/s that advection takes");
 }
 
-void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path) {
+void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path,
+                     const std::string& velocity_path) {
   known(path + ".method", int(spec.method), kMethods, "method");
-  const std::string velocity = path + ".velocity";
+  const std::string velocity = velocity_path.empty() ? path + ".velocity" : velocity_path;
   known(velocity + ".kind", spec.velocity.kind, SQUALL_VELOCITY_KINDS, "velocity kind");
   if (spec.velocity.kind == SQUALL_VELOCITY_GRID)
     velocity_grid(spec.velocity, gate, velocity + ".grid");

@@ -92,6 +92,7 @@ struct TexturesService::Stream {
   Cancellation cancel;         // whether its client still wants it: ends a river's bake early
   uint64_t fingerprint = 0;    // of the request, which its checkpoints carry (AdvectTexture, with checkpoints)
   std::string_view resume;     // the advection state it resumes from (AdvectTexture; empty: from frame 0)
+  std::string velocity_path;   // the request field its velocity came from (AdvectInteractive's last)
 };
 
 namespace {
@@ -148,7 +149,12 @@ void TexturesService::check_river(const v1::VelocitySpec& velocity, Stream& s, c
   if (!velocity.has_river()) return;
   Stream::River river{req::river(velocity.river()), req::bake_grid(velocity.river(), s.spec.output)};
   rivers_->validate(river.spec, path + ".river");
-  rivers_->validate(river.grid, path + ".river", "bake_");
+  try {
+    rivers_->validate(river.grid, path + ".river", "bake_");
+  } catch (const Error& e) {
+    if (velocity.river().has_bake_region()) throw;
+    fail(e.code(), std::string(e.what()) + " (bake_region is unset: it is the output's region)");
+  }
   s.river = std::move(river);
 }
 
@@ -198,11 +204,13 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
-    check_river(request->velocity(), s, "request.velocity");
-    if (velocity_made(s))  // the rest now, the velocity once made
+    // A river's or a current's velocity is made later: the rest now (the output first, a river's default
+    // bake region), the velocity once made.
+    if (request->velocity().has_river() || s.current.any())
       validate_beside_velocity(s, "request");
     else
       engine_->validate(s.spec, "request");
+    check_river(request->velocity(), s, "request.velocity");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
     return s;
@@ -256,11 +264,13 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   const std::string spec_path = n == 0 ? path + ".start" : path;
   const bool started_velocity = n == 0 && !control.has_velocity();  // the start's, unless steered at once
   if (started_velocity || control.has_velocity()) {
-    const std::string velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");
-    check_river(started_velocity ? control.start().velocity() : control.velocity(), s, velocity_path);
-    bake_river(s, velocity_path, spec_path);
+    s.velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");
+    const v1::VelocitySpec& velocity = started_velocity ? control.start().velocity() : control.velocity();
+    if (velocity.has_river()) validate_beside_velocity(s, spec_path);  // the output first: the bake's default
+    check_river(velocity, s, s.velocity_path);
+    bake_river(s, s.velocity_path, spec_path);
   }
-  engine_->validate(s.spec, spec_path);
+  engine_->validate(s.spec, spec_path, s.velocity_path);
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);

@@ -319,6 +319,23 @@ TEST(TexturesEWave, CurrentPastAdvectionsRangeIsTheSessionsStateNamedByItsField)
                      [&] { advect_or_throw(r); });
 }
 
+// A still velocity grid of 2 x 2 nodes 1 du apart, with `frames` frames `apart` s apart from t = 0.
+v1::VelocitySpec still_grid(int frames, double apart) {
+  v1::VelocitySpec v;
+  auto* g = v.mutable_grid();
+  g->set_nx(2);
+  g->set_ny(2);
+  g->mutable_spacing()->set_x(1);
+  g->mutable_spacing()->set_y(1);
+  for (int i = 0; i < frames; ++i) {
+    auto* frame = g->add_frames();
+    frame->set_time(i * apart);
+    *frame->mutable_u() = float_field("u", 2, 2, std::vector<float>(4, 0.0f));
+    *frame->mutable_v() = float_field("v", 2, 2, std::vector<float>(4, 0.0f));
+  }
+  return v;
+}
+
 TEST(TexturesInteractive, BadMessagesGetClearErrors) {
   const v1::AdvectTextureRequest good = still_noise(v1::TEXTURE_METHOD_NAIVE, 0, 0, 1);
   struct Case {
@@ -357,6 +374,23 @@ TEST(TexturesInteractive, BadMessagesGetClearErrors) {
        "control[1].velocity.named.velocity_x = inf"},
       {then([](v1::TextureControl& c) { c.set_final_scale(NAN); }), Code::InvalidArgument,
        "control[1].final_scale = nan"},
+      // A velocity is named where it was given: the first message's own, steered at once; the start's,
+      // when a later message's dt makes its frames too close for one step.
+      {[&] {
+         v1::TextureControl first = start(good, 1);
+         *first.mutable_velocity() = still_grid(2, 1);
+         first.mutable_velocity()->mutable_grid()->mutable_spacing()->set_x(1e-7);
+         return std::vector<v1::TextureControl>{first};
+       },
+       Code::InvalidArgument, "control[0].velocity.grid.spacing.x = 1e-07"},
+      {[&] {
+         v1::AdvectTextureRequest framed = good;
+         *framed.mutable_velocity() = still_grid(9, 0.1);
+         v1::TextureControl steer = more(1);
+         steer.set_dt(1);
+         return std::vector<v1::TextureControl>{start(framed, 1), steer};
+       },
+       Code::InvalidArgument, "control[0].start.velocity.grid.frames[7].time = 0.7"},
   };
   for (const auto& k : cases) {
     Interactive s;

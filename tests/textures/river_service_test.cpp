@@ -251,6 +251,18 @@ TEST(TexturesRiver, BadRiversNameTheField) {
   advect_request.mutable_velocity()->mutable_river()->mutable_junctions(0)->add_downstream(9);
   test::expect_error(Code::InvalidArgument, "request.velocity.river.junctions[0].downstream[2] = 9",
                      [&] { advect_or_throw(advect_request); });
+  // With no bake_region of its own the river bakes over the output's region, which is checked first, under
+  // its own name; a bake grid too fine for it says where its region came from.
+  advect_request = river_request(2);
+  advect_request.mutable_output()->mutable_region()->set_x0(-2e7);
+  test::expect_error(Code::InvalidArgument, "request.output.region.x0 = -20000000",
+                     [&] { advect_or_throw(advect_request); });
+  advect_request = river_request(2);
+  advect_request.mutable_output()->mutable_region()->set_x1(1e-4);
+  advect_request.mutable_velocity()->mutable_river()->set_bake_nx(4096);
+  const std::string fine = test::expect_error(Code::InvalidArgument, "request.velocity.river.bake_region spans",
+                                              [&] { advect_or_throw(advect_request); });
+  EXPECT_NE(fine.find("bake_region is unset: it is the output's region"), std::string::npos) << fine;
 }
 
 // A slip river (p = 0.01: the speed grows as d^(p - 1) toward a wall) of the largest flow rate whose right
