@@ -401,22 +401,30 @@ static inline double sq_multipeak_shape_outside(double A, double B, double C, do
   return lo * below + above;
 }
 
-/* m_j = integral of w^j S(w) dw over [w_lo / 50, 1000 w_hi] (log-spaced trapezoid), w_lo and w_hi the lowest
- * and highest peaks: a Multipeak spectrum's partials' (over the dominant one's alone, a partial at 0.01 rad/s
- * beside one at 5 fell outside and Krylov's mean frequency came out 25% off), else w_p. */
+/* m_j = integral of w^j S(w) dw: over [w_lo / 50, 1e12 w_hi] (log-spaced trapezoid), w_lo and w_hi the
+ * lowest and highest peaks, a Multipeak spectrum's partials' (over the dominant one's alone, a partial at
+ * 0.01 rad/s beside one at 5 fell outside and Krylov's mean frequency came out 25% off), else w_p; and
+ * beyond, where exp(-7.987 r^-m) is 1, a hump's tail scale c w_p^n w^(j+1-n) / (n - j - 1) (finite for
+ * n > j + 1; a tail r^-2.2 leaves a quarter of m_1 past 1000 w_hi). */
 static inline double sq_spectral_moment(SpectrumParams p, int j) {
   double lo = p.omega_p, hi = p.omega_p;
   for (int i = 0; p.spectrum == SQUALL_SPECTRUM_MULTIPEAK && i < p.partials; ++i) {
     lo = fmin(lo, p.partial_omega_p[i]);
     hi = fmax(hi, p.partial_omega_p[i]);
   }
-  const int steps = 40000 + (int)(4000.0 * log(hi / lo)); /* 4000 more an e-fold between the peaks */
-  double u0 = log(lo / 50.0), u1 = log(hi * 1000.0), du = (u1 - u0) / steps, sum = 0;
+  const double top = hi * 1e12;
+  const int steps = 120000 + (int)(4000.0 * log(hi / lo)); /* 4000 an e-fold */
+  double u0 = log(lo / 50.0), u1 = log(top), du = (u1 - u0) / steps, sum = 0;
   for (int i = 0; i <= steps; ++i) {
     double w = exp(u0 + i * du);
     sum += (i == 0 || i == steps ? 0.5 : 1.0) * pow(w, j) * sq_frequency_spectrum(p, w) * w;
   }
-  return sum * du;
+  sum *= du;
+  for (int i = 0; p.spectrum == SQUALL_SPECTRUM_MULTIPEAK && i < p.partials; ++i) {
+    const double n = p.partial_n[i], c = p.partial_c[i];
+    if (c > 0) sum += p.partial_scale[i] * c * pow(p.partial_omega_p[i], n) * pow(top, j + 1 - n) / (n - j - 1);
+  }
+  return sum;
 }
 #endif
 

@@ -52,7 +52,7 @@ static RiverNear near_boundaries(float2 P, RiverGeometry geo, __global const flo
                                  __global const int* bin_items, __global const float* boundary_s, int limit) {
   RiverNear near;
   near.n = 0;
-  // Saturated: a point far from the river's bins would overflow an int (then the range is empty).
+  // Saturated: a node (finite) far from the river's bins would overflow an int; the range is then empty.
   const int bx0 = max(convert_int_sat(floor((P.x - geo.s_max - geo.bin_x0) / geo.bin_size)), 0);
   const int by0 = max(convert_int_sat(floor((P.y - geo.s_max - geo.bin_y0) / geo.bin_size)), 0);
   const int bx1 = min(convert_int_sat(floor((P.x + geo.s_max - geo.bin_x0) / geo.bin_size)), geo.bins_x - 1);

@@ -70,6 +70,26 @@ SpectrumParams formula_parameters(const LayerSpec& L) {
   return last;
 }
 
+// Krylov's mean frequency m1 / m0: the midpoint rule in ln w from the lowest peak / 50 to the highest x 1e12,
+// and past that a hump's tail scale c w_p^n w^(j+1-n) / (n - j - 1), where exp(-7.987 r^-m) is 1.
+double mean_of(const LayerSpec& L, const SpectrumParams& p) {
+  double lo = p.omega_p, hi = p.omega_p;
+  if (L.spectrum == SpectrumModel::Multipeak)
+    for (const PartialSpectrum& q : L.partials)
+      lo = std::min(lo, q.peak_frequency), hi = std::max(hi, q.peak_frequency);
+  const double top = hi * 1e12, u0 = std::log(lo / 50), du = (std::log(top) - u0) / 900000;
+  double m[2] = {0, 0};
+  for (int i = 0; i < 900000; ++i) {
+    const double w = std::exp(u0 + (i + 0.5) * du), s = sq_frequency_spectrum(p, w) * w * du;  // dw = w du
+    m[0] += s, m[1] += w * s;
+  }
+  for (int i = 0; L.spectrum == SpectrumModel::Multipeak && i < p.partials; ++i)
+    for (int j = 0; j < 2 && p.partial_c[i] > 0; ++j)
+      m[j] += p.partial_scale[i] * p.partial_c[i] * std::pow(p.partial_omega_p[i], p.partial_n[i]) *
+              std::pow(top, j + 1 - p.partial_n[i]) / (p.partial_n[i] - j - 1);
+  return m[1] / m[0];
+}
+
 SpectrumParams compute_formula_parameters(const LayerSpec& L) {
   SpectrumParams p{};
   p.spectrum = int(L.spectrum);
@@ -110,19 +130,7 @@ SpectrumParams compute_formula_parameters(const LayerSpec& L) {
   } else {
     p.omega_p = g / std::max(U, 1e-9);
   }
-  if (L.spectrum != SpectrumModel::Phillips) {  // mean frequency m1 / m0 (midpoint rule in ln w)
-    double lo = p.omega_p, hi = p.omega_p;      // from the lowest peak / 50 to the highest x 1000
-    for (const PartialSpectrum& q : L.partials)
-      if (L.spectrum == SpectrumModel::Multipeak)
-        lo = std::min(lo, q.peak_frequency), hi = std::max(hi, q.peak_frequency);
-    const double u0 = std::log(lo / 50), du = (std::log(hi * 1000) - u0) / 300000;
-    double m0 = 0, m1 = 0;
-    for (int i = 0; i < 300000; ++i) {
-      const double w = std::exp(u0 + (i + 0.5) * du), s = sq_frequency_spectrum(p, w) * w;  // dw = w du
-      m0 += s, m1 += w * s;
-    }
-    p.omega_mean = m1 / m0;
-  }
+  if (L.spectrum != SpectrumModel::Phillips && L.spreading == SpreadingModel::Krylov) p.omega_mean = mean_of(L, p);
   return p;
 }
 

@@ -26,7 +26,7 @@ class CpuReference {
   // P(k) of a layer at wave vector (kx, ky), m^4 (eq 3, or Phillips), in double precision, with D over the
   // cell of a grid of steps dkx, dky about it (sq_mode_cell; 0 and 0: at the point).
   static double spectrum(const LayerSpec& layer, double kx, double ky, double dkx = 0, double dky = 0);
-  // The mean frequency m1 / m0 of the layer's S(w) (Krylov's eq 31), rad/s; not for Phillips.
+  // The mean frequency m1 / m0 of a Krylov layer's S(w) (Gilligan's eq 31), rad/s; 0 for other spreads.
   static double mean_frequency(const LayerSpec& layer);
 
  private:

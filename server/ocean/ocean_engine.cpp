@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -514,12 +515,15 @@ Vec2 newton_source(const Channels& channels_at, Vec2 x, Vec2 start, double lambd
 // minimum of |F| beside the fold, short of every source (0.3 to 2% of the points of a sea 1.3 to 1.6 times
 // as choppy as its first fold): it starts again from x - lambda D(x), then from rings about x out to
 // `reach`, the largest |lambda D| (every source lies that near), and keeps the first root, else the least |F|.
+// The tolerance is at least what F's rounding in double allows at x. *searches: how many were made.
 template <typename Channels>
 Vec2 displaced_source(const Channels& channels_at, Vec2 x, double lambda, double tolerance, double reach,
-                      double c[kSampled]) {
+                      double c[kSampled], int* searches) {
+  tolerance = std::max(tolerance, 8 * DBL_EPSILON * (std::abs(x.x) + std::abs(x.y) + reach));
   double size = 0;
   Vec2 best = newton_source(channels_at, x, x, lambda, tolerance, c, &size);
-  if (size <= tolerance) return best;
+  *searches = 1;
+  if (size <= tolerance || !(reach > 0)) return best;
   constexpr int kRings = 6, kAngles = 16;
   double at[kSampled];
   channels_at(x.x, x.y, at);
@@ -533,6 +537,7 @@ Vec2 displaced_source(const Channels& channels_at, Vec2 x, double lambda, double
   for (const Vec2& start : starts) {
     double again = 0;
     const Vec2 x0 = newton_source(channels_at, x, start, lambda, tolerance, at, &again);
+    ++*searches;
     if (again >= size) continue;
     best = x0, size = again;
     std::copy(at, at + kSampled, c);
@@ -615,15 +620,21 @@ std::vector<SurfaceSample> OceanEngine::sample(const TileSpec& spec, double t, c
   double reach = 0;  // of the displacement: |x - x0| at most
   for (size_t a = 0; invert_displacement && a < spec.layers.size(); ++a)
     reach += std::abs(lambda) * largest_displacement(layers[a], spec.layers[a]);
+  uint64_t work = 0, next_check = 0;  // points read and searches made: a stalled inversion counts each
   for (size_t i = 0; i < points.size(); ++i) {
-    if (i % kSamplesPerCheck == 0) cancel.check("sample: at points[" + std::to_string(i) + "]");
+    if (work >= next_check) {
+      cancel.check("sample: at points[" + std::to_string(i) + "]");
+      next_check = work + kSamplesPerCheck;
+    }
     double c[kSampled];
     SurfaceSample& s = samples[i];
     s.source = points[i];
+    int searches = 1;
     if (invert_displacement)
-      s.source = displaced_source(channels_at, points[i], lambda, tolerance, reach, c);
+      s.source = displaced_source(channels_at, points[i], lambda, tolerance, reach, c, &searches);
     else
       channels_at(s.source.x, s.source.y, c);
+    work += uint64_t(searches);
     s.height = c[0];
     s.displacement_x = lambda * c[1];
     s.displacement_y = lambda * c[2];

@@ -63,9 +63,10 @@ class OceanEngine {
   // The surface at world points (x, y in m, finite, any value: the layers repeat periodically), summed
   // over all layers, bilinear between the layers' grid points. With invert_displacement the sample is
   // that of the source point x0 whose displaced position x0 + lambda D(x0) lands on the query point
-  // (Newton's method to 1e-6 of the finest cell where the map does not fold, J > 0). `cancel` is asked
-  // before each layer, after each slice of a spectrum it builds, before a large layer's transform (as in
-  // tile) and before each kSamplesPerCheck points: Error(Cancelled) then.
+  // (Newton's method to 1e-6 of the finest cell, or the rounding of double at the point; past a fold, one
+  // of its sources, searched again from around the point where the first search stalls). `cancel` is
+  // asked before each layer, after each slice of a spectrum it builds, before a large layer's transform
+  // (as in tile) and before each kSamplesPerCheck points or searches: Error(Cancelled) then.
   static constexpr size_t kSamplesPerCheck = 4096;
   std::vector<SurfaceSample> sample(const TileSpec& spec, double t, const std::vector<Vec2>& points,
                                     bool invert_displacement, const Cancellation& cancel = {},

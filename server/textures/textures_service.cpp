@@ -152,15 +152,15 @@ void TexturesService::check_river(const v1::VelocitySpec& velocity, Stream& s, c
   try {
     rivers_->validate(river.grid, path + ".river", "bake_");
   } catch (const Error& e) {
-    if (velocity.river().has_bake_region()) throw;
-    fail(e.code(), std::string(e.what()) + " (bake_region is unset: it is the output's region)");
+    const std::string what = e.what();
+    if (velocity.river().has_bake_region() || what.find(".bake_region") == std::string::npos) throw;
+    fail(e.code(), what + " (bake_region is unset: it is the output's region)");
   }
   s.river = std::move(river);
 }
 
-void TexturesService::bake_river(Stream& s, const std::string& path, const std::string& spec_path) {
+void TexturesService::bake_river(Stream& s, const std::string& path) {
   if (!s.river) return;
-  validate_beside_velocity(s, spec_path);  // before the bake: seconds on a large grid
   Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(s.river->grid));
   VelocitySpec baked =
       velocity_grid(rivers_->bake(s.river->spec, s.river->grid, path + ".river", s.cancel), path + ".river");
@@ -218,7 +218,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
   auto prepare = [&](Stream& s) {  // the velocity made, and the memory reserved, under the stream's slot
     const bool made = velocity_made(s);
     follow(s, s.spec.t0);
-    bake_river(s, "request.velocity", "request");
+    bake_river(s, "request.velocity");
     if (made) engine_->validate(s.spec, "request");
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
   };
@@ -266,9 +266,11 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (started_velocity || control.has_velocity()) {
     s.velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");
     const v1::VelocitySpec& velocity = started_velocity ? control.start().velocity() : control.velocity();
-    if (velocity.has_river()) validate_beside_velocity(s, spec_path);  // the output first: the bake's default
+    // The rest first (before the bake, seconds on a large grid), the output before the river, whose bake
+    // region it is by default.
+    if (velocity.has_river()) validate_beside_velocity(s, spec_path);
     check_river(velocity, s, s.velocity_path);
-    bake_river(s, s.velocity_path, spec_path);
+    bake_river(s, s.velocity_path);
   }
   engine_->validate(s.spec, spec_path, s.velocity_path);
   if (n == 0) {

@@ -63,9 +63,9 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // The river of `velocity` (the request field at `path`), if it is one, and its bake grid, validated into
   // the stream's river to bake.
   void check_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path) const;
-  // The stream's river to bake, if any, baked into its velocity: the rest of its spec validated first (under
-  // `spec_path`), and the bake's memory reserved while it runs.
-  void bake_river(Stream& s, const std::string& path, const std::string& spec_path);
+  // The stream's river to bake, if any, baked into its velocity (the rest of its spec validated before
+  // check_river), the bake's memory reserved while it runs.
+  void bake_river(Stream& s, const std::string& path);
   // The stream's spec validated (under `spec_path`) with a still velocity: the rest of a request whose
   // velocity is made later, a river's bake or a followed current's read, refused before that is done.
   void validate_beside_velocity(Stream& s, const std::string& spec_path) const;

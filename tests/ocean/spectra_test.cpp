@@ -277,6 +277,20 @@ TEST(Spectra, KrylovsMeanFrequencyCountsEveryPartial) {
   EXPECT_NEAR(squall::ocean::CpuReference::mean_frequency(L), 4.002, 1e-5);
 }
 
+// A hump alone (a = 0) has m_j = scale c w_p^(j+1) K^((j+1-n)/m) Gamma((n-j-1)/m) / m, K = 7.987 (r = w / w_p,
+// s = K r^-m): its mean frequency is w_p K^(1/m) Gamma((n-2)/m) / Gamma((n-1)/m), 8.2 w_p for n = 2.2, m = 8,
+// a quarter of whose m1 lies past 1000 w_p, where the quadrature once stopped.
+TEST(Spectra, KrylovsMeanFrequencyOfAHeavyTailIsItsClosedForm) {
+  squall::ocean::LayerSpec L;
+  L.spectrum = squall::ocean::SpectrumModel::Multipeak;
+  L.spreading = squall::ocean::SpreadingModel::Krylov;
+  L.partials = {{1.0, 1.0, 0, 22.2222, 1, 2.2, 8}};
+  const double expected = std::pow(7.987, 1 / 8.0) * std::tgamma(0.2 / 8) / std::tgamma(1.2 / 8);
+  EXPECT_NEAR(expected, 8.2, 0.1);
+  EXPECT_NEAR(squall::ocean::derive_spectrum(L).omega_mean, expected, 1e-3 * expected);
+  EXPECT_NEAR(squall::ocean::CpuReference::mean_frequency(L), expected, 1e-3 * expected);
+}
+
 TEST(SinCosPhase, TheFractionOfAProductOfTwoFloatsIsExactToARounding) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> a_of(-100, 100), log_b_of(-3, 9);  // products of 1e-5 to 1e11 turns

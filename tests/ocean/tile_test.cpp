@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -460,6 +461,25 @@ TEST(OceanTile, SampleMatchesTileAndInvertsDisplacement) {
   EXPECT_NEAR(direct.height, inv.height, 1e-6);
 }
 
+// -(the most negative eigenvalue of grad D) of spec's sea at choppiness 1 and t = 2 s: past
+// 1 / steepest_fold the surface folds.
+double steepest_fold(TileSpec spec) {
+  spec.choppiness = 1;
+  const auto unit = engine().tile(spec, 2.0, Jacobian);
+  return 1 - *std::min_element(unit.jacobian_minus.begin(), unit.jacobian_minus.end());
+}
+
+// Where the points of tile f's 64 x 64 grid, `cell` apart, land: each one's displaced position.
+std::vector<Vec2> landing_places(const TileFields& f, double cell) {
+  std::vector<Vec2> landed;
+  for (int j = 0; j < 64; ++j)
+    for (int i = 0; i < 64; ++i) {
+      const size_t k = size_t(i + 64 * j);
+      landed.push_back({i * cell + f.displacement_x[k], j * cell + f.displacement_y[k]});
+    }
+  return landed;
+}
+
 // With the displacement as strong as a sea that does not fold at its grid points takes (its tile's smallest J-
 // 0.05), an inverted sample of each grid point's landing place finds a source that lands there, to 1e-5 of
 // a cell, and that source is the grid point itself but where the bilinear surface between the grid points
@@ -467,20 +487,13 @@ TEST(OceanTile, SampleMatchesTileAndInvertsDisplacement) {
 // converges as |1 - J|^n there: after its 16 steps, 0.95^16 = 0.44 of the way.
 TEST(OceanTile, InvertedSamplesFindTheSourcesOfASteepSea) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
-  spec.choppiness = 1;
-  const auto unit = engine().tile(spec, 2.0, Jacobian);
-  const double steepest = 1 - *std::min_element(unit.jacobian_minus.begin(), unit.jacobian_minus.end());
-  ASSERT_GT(steepest, 0.1);  // -(the most negative eigenvalue of grad D)
+  const double steepest = steepest_fold(spec);
+  ASSERT_GT(steepest, 0.1);
   spec.choppiness = 0.95 / steepest;
   const auto f = engine().tile(spec, 2.0, Displacement | Jacobian);
   EXPECT_NEAR(*std::min_element(f.jacobian_minus.begin(), f.jacobian_minus.end()), 0.05, 1e-3);
   const double cell = 2.0, period = 128;
-  std::vector<Vec2> landed;
-  for (int j = 0; j < 64; ++j)
-    for (int i = 0; i < 64; ++i) {
-      const size_t k = size_t(i + 64 * j);
-      landed.push_back({i * cell + f.displacement_x[k], j * cell + f.displacement_y[k]});
-    }
+  const std::vector<Vec2> landed = landing_places(f, cell);
   const auto inverted = engine().sample(spec, 2.0, landed, true);
   std::vector<Vec2> sources;
   for (const SurfaceSample& s : inverted) sources.push_back(s.source);
@@ -506,19 +519,10 @@ TEST(OceanTile, InvertedSamplesFindTheSourcesOfASteepSea) {
 // Each grid point's landing place has a source by construction: one is found for each (any of them).
 TEST(OceanTile, InvertedSamplesFindASourceOfEveryPointOfAFoldedSea) {
   TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
-  spec.choppiness = 1;
-  const auto unit = engine().tile(spec, 2.0, Jacobian);
-  const double steepest = 1 - *std::min_element(unit.jacobian_minus.begin(), unit.jacobian_minus.end());
-  const double cell = 2.0;
+  const double steepest = steepest_fold(spec), cell = 2.0;
   for (double past_the_fold : {1.1, 1.3, 1.6}) {
     spec.choppiness = past_the_fold / steepest;
-    const auto f = engine().tile(spec, 2.0, Displacement);
-    std::vector<Vec2> landed;
-    for (int j = 0; j < 64; ++j)
-      for (int i = 0; i < 64; ++i) {
-        const size_t k = size_t(i + 64 * j);
-        landed.push_back({i * cell + f.displacement_x[k], j * cell + f.displacement_y[k]});
-      }
+    const std::vector<Vec2> landed = landing_places(engine().tile(spec, 2.0, Displacement), cell);
     const auto inverted = engine().sample(spec, 2.0, landed, true);
     std::vector<Vec2> sources;
     for (const SurfaceSample& s : inverted) sources.push_back(s.source);
@@ -531,6 +535,34 @@ TEST(OceanTile, InvertedSamplesFindASourceOfEveryPointOfAFoldedSea) {
     }
     EXPECT_EQ(stalled, 0) << past_the_fold << " times the choppiness of the first fold";
   }
+}
+
+// Far from the origin the residual's rounding in double passes 1e-6 of a cell (4e-4 m at 1e12 m): the
+// search stops at that rounding instead of starting again 97 times at every point. The same landing places
+// shifted by 1e12 m (a whole number of periods) find the same sources, in about the same time.
+TEST(OceanTile, InvertedSamplesFarFromTheOriginStopAtTheRoundingOfDouble) {
+  TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 128);
+  spec.choppiness = 0.9 / steepest_fold(spec);
+  std::vector<Vec2> near, far;
+  for (int k = 0; k < 4096; ++k) {
+    near.push_back({0.031 * k, 0.017 * k});
+    far.push_back({near.back().x + 1e12, near.back().y + 1e12});  // 1e12 = 7812500000 periods of 128 m
+  }
+  auto timed = [&](const std::vector<Vec2>& points, double* seconds) {
+    const auto start = std::chrono::steady_clock::now();
+    auto samples = engine().sample(spec, 2.0, points, true);
+    *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return samples;
+  };
+  double near_seconds = 0, far_seconds = 0;
+  engine().sample(spec, 2.0, {near[0]}, true);  // the spectrum built and kept, outside the timings
+  const auto a = timed(near, &near_seconds), b = timed(far, &far_seconds);
+  double apart = 0;
+  for (size_t k = 0; k < a.size(); ++k)
+    apart = squall::test::worse(apart,
+                                std::hypot(b[k].source.x - 1e12 - a[k].source.x, b[k].source.y - 1e12 - a[k].source.y));
+  EXPECT_LT(apart, 1e-2);
+  EXPECT_LT(far_seconds, 5 * near_seconds + 0.05) << "a search restarted at points that had converged";
 }
 
 TEST(OceanTile, SpectrumCachedAcrossFrames) {
