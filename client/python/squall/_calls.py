@@ -84,8 +84,8 @@ def cancelled_unanswered(error: grpc.RpcError) -> bool:
     server as it closes, before any handler runs: a proxy without health checks (nginx) sends a
     draining replica calls until its port closes. The client sends such a call again: squall's
     unary calls are idempotent or keyed (an eWave step's retry_key, a session's proposed id), so
-    a call that did run before it was cancelled (one that outlasted a draining squalld's grace
-    period) is not made twice."""
+    one that did run before it was cancelled (it outlasted a draining squalld's grace period)
+    does no harm run again."""
     if error.code() != grpc.StatusCode.CANCELLED:
         return False
     metadata = tuple(error.initial_metadata() or ()) + tuple(error.trailing_metadata() or ())
@@ -94,9 +94,9 @@ def cancelled_unanswered(error: grpc.RpcError) -> bool:
 
 class Resends:
     """The sends of one unary call: its deadline, and whether (and when) to send it again after an
-    error: while it is cancelled unanswered (cancelled_unanswered), up to the client's retries
-    sends in all (counted apart from the retry policy's attempts at each send), 0.1 s after the
-    first, then twice as long each time, none that would end past the deadline."""
+    error: while it is cancelled unanswered (cancelled_unanswered), up to `retries` sends in all
+    (counted apart from the retry policy's attempts within each send), 0.1 s after the first,
+    then twice as long each time, none once the pause would reach the deadline."""
 
     def __init__(self, settings: "Settings", seconds: Optional[float]) -> None:
         self.settings = settings
