@@ -58,15 +58,15 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
 void EWaveSession::upload_initial_fields(const OceanCall& call) {
   upload_trim();
   runtime_.queue().enqueueFillBuffer(state_.buffer(), cl_float(0), 0, kStateFields * cells_ * real_size_);
-  write_state_plane(0, config_.initial_height);
-  write_state_plane(1, config_.initial_phi);
+  write_state(0, config_.initial_height);
+  write_state(1, config_.initial_phi);
   std::vector<float>().swap(config_.initial_height);  // the config's copies are not kept either
   std::vector<float>().swap(config_.initial_phi);
   if (config_.initial_ocean) initial_from_ocean(call);
 }
 
-void EWaveSession::write_state_plane(size_t plane, const std::vector<float>& values) {
-  const size_t n = std::min(values.size(), cells_), offset = plane * cells_ * real_size_;
+void EWaveSession::write_state(size_t plane, const std::vector<float>& values) {
+  const size_t n = std::min(values.size(), (kStateFields - plane) * cells_), offset = plane * cells_ * real_size_;
   if (n == 0) return;  // zero
   if (!config_.double_precision) {
     runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, offset, n * sizeof(float), values.data());
@@ -95,8 +95,7 @@ void EWaveSession::initial_from_ocean(const OceanCall& call) {
   ocean.surface_on_device(spec, time_, surface.buffer(), call.cancel, call.spectra_memory);
   std::vector<float> values(kStateFields * cells_);
   runtime_.queue().enqueueReadBuffer(surface.buffer(), CL_TRUE, 0, values.size() * sizeof(float), values.data());
-  const std::vector<double> widened(values.begin(), values.end());
-  runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, 0, widened.size() * sizeof(double), widened.data());
+  write_state(0, values);
 }
 
 const cl::Buffer& EWaveSession::upload(BufferLease& lease, const std::vector<float>& values) {

@@ -74,8 +74,9 @@ class EWaveSession {
 
  private:
   void upload_initial_fields(const OceanCall& call);  // config_'s h, phi or initial_ocean into state_ (under the lock)
-  void write_state_plane(size_t plane, const std::vector<float>& values);  // h (0) or phi (1); none: left zero
-  void upload_trim();                                                      // the trim profiles of config_ (eq 82)
+  // `values` into the state from plane h (0) or phi (1) on, as many as there are (none: left as it is).
+  void write_state(size_t plane, const std::vector<float>& values);
+  void upload_trim();                              // the trim profiles of config_ (eq 82)
   void initial_from_ocean(const OceanCall& call);  // h, phi of config_.initial_ocean at time_ (under the lock)
   // h_A of a step: its field, else its or the config's ocean spec at time_ (the ocean engine writes it into
   // ambient_ on the device, no host round trip); null when the step has no ambient (or no obstruction, where

@@ -78,8 +78,9 @@ RiverEngine::RiverEngine(Runtime& runtime, const LimitGate& gate)
 
 void RiverEngine::validate(const RiverSpec& river, const std::string& path) const { validate_river(river, path); }
 
-void RiverEngine::validate(const BakeGrid& grid, const std::string& path, const std::string& prefix) const {
-  validate_bake_grid(grid, gate_, path, prefix);
+void RiverEngine::validate(const BakeGrid& grid, const std::string& path, const std::string& prefix,
+                           const std::string& region_note) const {
+  validate_bake_grid(grid, gate_, path, prefix, region_note);
 }
 
 void validate_river(const RiverSpec& river, const std::string& path) {
@@ -113,8 +114,8 @@ void validate_river(const RiverSpec& river, const std::string& path) {
     in(path + ".search_radius", *river.search_radius, closed(kMinVelocityDivisor, kMaxCoordinate));
 }
 
-void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
-                        const std::string& prefix) {
+void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path, const std::string& prefix,
+                        const std::string& region_note) {
   const std::string p = path + "." + prefix;
   in(p + "nx", grid.nx, 2, 4096);
   in(p + "ny", grid.ny, 2, 4096);
@@ -131,10 +132,10 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
     const double extent = hi - lo, spacing = extent / (nodes - 1);
     const double finest = std::max(std::abs(lo), std::abs(hi)) * kMinPixelPerCoordinate;
     if (spacing < kMinVelocityDivisor || spacing < finest)
-      fail(Code::InvalidArgument, p + "region spans " + validate::number(extent) + " du along " + axis + " over " +
-                                      std::to_string(nodes) + " nodes: their spacing must be at least " +
-                                      validate::number(std::max(kMinVelocityDivisor, finest)) +
-                                      " du there (fewer nodes, a wider region, or one nearer the origin)");
+      fail(Code::InvalidArgument,
+           p + "region spans " + validate::number(extent) + " du along " + axis + " over " + std::to_string(nodes) +
+               " nodes: their spacing must be at least " + validate::number(std::max(kMinVelocityDivisor, finest)) +
+               " du there (fewer nodes, a wider region, or one nearer the origin)" + region_note);
   }
 }
 

@@ -42,7 +42,7 @@ struct RiverBake {
 // RiverEngine::validate without an engine.
 void validate_river(const RiverSpec& river, const std::string& path);
 void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path,
-                        const std::string& prefix = "");
+                        const std::string& prefix = "", const std::string& region_note = "");
 
 class RiverEngine {
  public:
@@ -51,8 +51,10 @@ class RiverEngine {
   // Every field in range: INVALID_ARGUMENT naming "<path>.channels[c].left_bank.points[k].x", ...
   void validate(const RiverSpec& river, const std::string& path) const;
   // nx, ny in 2..4096 and within --max-grid-cells (RESOURCE_EXHAUSTED); the region finite, x1 > x0,
-  // y1 > y0. Messages name "<path>.<prefix>nx", "<path>.<prefix>region.x1", ...
-  void validate(const BakeGrid& grid, const std::string& path, const std::string& prefix = "") const;
+  // y1 > y0. Messages name "<path>.<prefix>nx", "<path>.<prefix>region.x1", ...; a region too fine for
+  // its nodes adds `region_note` (where the region came from).
+  void validate(const BakeGrid& grid, const std::string& path, const std::string& prefix = "",
+                const std::string& region_note = "") const;
 
   // A validated river on a validated grid. The network and the obstacles' psi may still fail
   // (INVALID_ARGUMENT naming the field under `path`). Runs in slices; CANCELLED between them once `cancel`

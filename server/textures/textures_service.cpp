@@ -149,13 +149,9 @@ void TexturesService::check_river(const v1::VelocitySpec& velocity, Stream& s, c
   if (!velocity.has_river()) return;
   Stream::River river{req::river(velocity.river()), req::bake_grid(velocity.river(), s.spec.output)};
   rivers_->validate(river.spec, path + ".river");
-  try {
-    rivers_->validate(river.grid, path + ".river", "bake_");
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    if (velocity.river().has_bake_region() || what.find(".bake_region") == std::string::npos) throw;
-    fail(e.code(), what + " (bake_region is unset: it is the output's region)");
-  }
+  const bool defaulted = !velocity.river().has_bake_region();
+  rivers_->validate(river.grid, path + ".river", "bake_",
+                    defaulted ? "; bake_region is unset: it is the output's region" : "");
   s.river = std::move(river);
 }
 
