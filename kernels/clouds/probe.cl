@@ -38,9 +38,9 @@ __kernel void node_walk_queries(__global const uint* grid, __global const float*
   VdbVolume v = sq_volume_open(grid);
   float3 o = (float3)(origin[3 * i], origin[3 * i + 1], origin[3 * i + 2]);
   float3 d = (float3)(dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]);
-  float t0 = 0.0f, t1 = 1e30f;
+  float base, t0, t1;
   int queries = 0;
-  if (sq_clip_root(&v, o, d, &t0, &t1)) {
+  if (sq_clip_root_from_entry(&v, &o, d, &base, &t0, &t1)) {
     const float nudge = 1e-4f / length(d);
     const float3 inv_d = 1.0f / d;
     for (float t = t0; t < t1 && queries < 1000000; ++queries) {

@@ -20,7 +20,8 @@
 // value x length, what its jittered steps would sum to. Inside a leaf the samples read the leaf's value
 // table directly (a trilinear one when its 8 voxels lie in the leaf), with no tree query per step.
 // Index convention: voxel ijk is centred at index position ijk (OpenVDB); the walk uses "cell space"
-// c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres.
+// c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres, a primary
+// ray's counted from where it enters the grid's box (sq_clip_root_from_entry), a shadow ray's from its point.
 #include "clouds/pnanovdb_cl.h"
 #include "clouds/render_params.h"
 #include "clouds/phase.h"
@@ -226,8 +227,9 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
   VdbVolume tv = sq_volume_open(p.has_temperature ? temperature : density);
   float3 o = sq_world_to_index(&v, eye) + 0.5f;
   float3 d = sq_world_to_index_dir(&v, dir);
-  float t0 = 0.0f, t1 = 1e30f;
-  bool hit = sq_clip_root(&v, o, d, &t0, &t1);
+  float base = 0.0f, t0, t1;  // the march counts t from the ray's entry into the volume, base from the eye
+  bool hit = sq_clip_root_from_entry(&v, &o, d, &base, &t0, &t1);
+  const float3 entry = sq_index_to_world(&v, o - 0.5f);  // world point at t = 0
   float nudge = 1e-4f / length(d);
   float3 inv_d = 1.0f / d;
   float r[SQUALL_CLOUD_MAX_SUBSTEPS + 1];
@@ -246,7 +248,7 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
         float3 c = o + at * d;
         float rho = sq_node_density(&v, &node, c, p.interpolation);
         if (!(rho > 0.0f) || len <= 0.0f) continue;
-        float3 x = eye + at * dir;
+        float3 x = entry + at * dir;
         float temp = p.has_temperature ? sq_sample(&tv, c - 0.5f, p.interpolation) : 0.0f;
         // Lights: irradiance scale, phase and column density toward each.
         float irr[SQUALL_CLOUD_MAX_LIGHTS], phase[SQUALL_CLOUD_MAX_LIGHTS], column[SQUALL_CLOUD_MAX_LIGHTS];
@@ -271,7 +273,7 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
           L[w] += ct * T[w] * weight;                                                                    // A.24 (L +=)
           T[w] *= 1.0f - opacity;                                                                        // A.25
         }
-        if (depth < 0.0f && T[0] < 0.5f) depth = at;
+        if (depth < 0.0f && T[0] < 0.5f) depth = base + at;
       }
       s += h;
       float tmax = 0.0f;

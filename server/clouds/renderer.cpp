@@ -301,26 +301,17 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
 }
 
 void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s, const std::string& prefix) {
-  const Vec3d& eye = s.camera.eye;
-  double far = 0;  // the eye's distance to the box's farthest corner
-  for (int corner = 0; corner < 8; ++corner) {
-    Vec3d at;
-    for (int a = 0; a < 3; ++a) at[a] = corner & (1 << a) ? volume.world_max[a] : volume.world_min[a];
-    far = std::max(far, norm(sub(at, eye)));
-  }
-  auto check = [&](const char* field, double step, double distance, const std::string& where) {
-    const double least = kMinStepOfDistance * distance;
+  const double across = norm(sub(volume.world_max, volume.world_min));
+  auto check = [&](const char* field, double step, const char* march) {
+    const double least = kMinStepOfDistance * across;
     if (step < least)
-      fail(Code::InvalidArgument,
-           prefix + field + " = " + validate::number(step) + " is below the float resolution of a march " + where +
-               " (" + validate::number(distance) + " m): it must be at least " + validate::number(least));
+      fail(Code::InvalidArgument, prefix + field + " = " + validate::number(step) +
+                                      " is below the float resolution of a march across the volume" + march + " (" +
+                                      validate::number(across) + " m): it must be at least " + validate::number(least));
   };
-  check(".step", s.step, far,
-        "from " + prefix + ".camera.eye = " + validate::xyz(eye) + " to the far side of the volume");
+  check(".step", s.step, "");
   const bool shadows = s.shadow != ShadowMode::None && !s.lights.empty();
-  if (shadows)
-    check(s.shadow_step > 0 ? ".shadow_step" : ".step", shadow_step(s), norm(sub(volume.world_max, volume.world_min)),
-          "across the volume toward a light");
+  if (shadows) check(s.shadow_step > 0 ? ".shadow_step" : ".step", shadow_step(s), " toward a light");
 }
 
 uint64_t shadow_map_bytes(const RenderSettings& s) {

@@ -149,9 +149,9 @@ inline constexpr double kMaxSamplesPerPixel = 1e7;
 void validate(const RenderSettings& settings, const std::string& prefix = "render");
 
 // The kernels march in float: a step below about 2^-24 of the distance it is taken at rounds back to
-// where it started, and the march would never end. Steps are refused below kMinStepOfDistance of the
-// farthest distance a march of `volume` reaches (8 float ulps, a margin over that): the eye's distance to
-// the far corner of its box (s.step) or the box's diagonal (the shadow step toward a light). Throws
+// where it started, and the march would never end. A march counts its distance from where it enters the
+// volume's box (or from the eye, inside it), so steps are refused below kMinStepOfDistance of the box's
+// diagonal (8 float ulps, a margin over that), the primary step and the shadow step alike. Throws
 // squall::Error(InvalidArgument) naming prefix + ".step" or prefix + ".shadow_step" and the least step.
 inline constexpr double kMinStepOfDistance = 0x1p-20;
 void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s, const std::string& prefix);
