@@ -94,6 +94,11 @@ uint64_t session_bytes(const EWaveConfig& config) {
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call) {
   validate(config, &gate_);
   auto reservation = sessions_.reserve(session_bytes(config));
+  // The initial ocean's spectra the call reserved may have been kept then, and taken back by the cache
+  // since to make room for the session: those built again are reserved too.
+  if (call.spectra_memory)
+    gate_.top_up(*call.spectra_memory, "config.initial_ocean's spectra, built again",
+                 [&] { return ocean_bytes(config, config.initial_ocean).new_spectra; });
   return {std::move(reservation),
           std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_, &coefficients_, call)};
 }

@@ -83,9 +83,7 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
     const auto ocean = engine_->ocean_bytes(c, c.initial_ocean);
     Slot memory =
         serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
-    Slot spectra = memory.split(ocean.new_spectra);
-    serving_.gate().top_up(spectra, "CreateSession's config.initial_ocean's spectra, built again",
-                           [&] { return engine_->ocean_bytes(c, c.initial_ocean).new_spectra; });
+    Slot spectra = memory.split(ocean.new_spectra);  // topped up by the engine once the session is reserved
     const auto created = engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra});
     refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);

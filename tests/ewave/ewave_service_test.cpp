@@ -296,6 +296,45 @@ TEST(EWaveService, AStepWhoseKeptSpectrumIsTakenBackReservesItsRebuild) {
       << refused.error_message();
 }
 
+// A session whose initial ocean's spectrum was kept, and then taken back by the cache to make room for
+// the session's own bytes, reserves the spectrum it builds again: under a budget that holds a first such
+// session, the spectrum it kept, the ocean's fields and half a session more, a second is refused naming
+// the rebuild; with the spectrum's bytes more it is made.
+TEST(EWaveService, ASessionWhoseInitialOceansKeptSpectrumIsTakenBackReservesItsRebuild) {
+  const ewave::EWaveConfig c = ewave::test::plain_config(256, 256);
+  v1::EWaveConfig from_the_sea = proto_config(c);
+  *from_the_sea.mutable_initial_ocean()->add_layers() = sea_layer(1024);
+  const ewave::EWaveConfig translated = ewave::rpc::config(from_the_sea, LimitGate{Limits{}});
+  const uint64_t fields = ocean::surface_device_bytes(ewave::ocean_on_grid(*translated.initial_ocean, c));
+  uint64_t session = 0, spectrum = 0;  // what a live session holds of the budget, and the kept spectrum
+  {
+    test::InProcess<rpc::EWaveService> measured;
+    auto stub = v1::EWave::NewStub(measured.channel());
+    Session s(*stub, from_the_sea);
+    ASSERT_TRUE(s.status().ok()) << s.status().error_message();
+    spectrum = measured.serving().gate().cached_memory_bytes();
+    session = measured.serving().gate().memory_bytes() - spectrum;
+    ASSERT_GE(spectrum, 1024ull * 1024 * 6 * sizeof(float));  // at least six floats a mode
+    ASSERT_GE(spectrum, session / 2) << "the session's reservation would not take the spectrum back";
+  }
+  for (const auto& [more, code] :
+       {std::pair{uint64_t(0), grpc::StatusCode::RESOURCE_EXHAUSTED}, std::pair{spectrum, grpc::StatusCode::OK}}) {
+    Limits limits;
+    limits.memory_budget = session + spectrum + fields + session / 2 + more;
+    test::InProcess<rpc::EWaveService> server(limits);
+    auto stub = v1::EWave::NewStub(server.channel());
+    const Session first(*stub, from_the_sea);
+    ASSERT_TRUE(first.status().ok()) << first.status().error_message();
+    ASSERT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
+    const Session second(*stub, from_the_sea);
+    EXPECT_EQ(second.status().error_code(), code) << second.status().error_message();
+    if (code != grpc::StatusCode::OK)
+      EXPECT_NE(second.status().error_message().find("config.initial_ocean's spectra, built again"), std::string::npos)
+          << second.status().error_message();
+    EXPECT_LE(server.serving().gate().memory_bytes(), limits.memory_budget);
+  }
+}
+
 // GetState reserves the state it reads (a 512^2 double session's 4 MiB of fields) before reading it: refused
 // under a budget that holds the session and 2 MiB more, served under one with 8 MiB more.
 TEST(EWaveService, GetStateReservesItsStateBeforeReadingIt) {
