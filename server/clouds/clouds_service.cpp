@@ -101,28 +101,34 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
   });
 }
 
-// The refusal names the finer of the two steps that drive the cost: the primary march's or the shadows'.
+// Each refusal names the step that drives the cost it counts. A pixel's march: the primary step, or with
+// direct shadows the finer of it and the shadow step (each of its samples marches toward the lights). A
+// deep shadow map node's: the shadow step (three primary steps when not given). The whole render: a
+// pixel's, or with a deep shadow map the map's where its nodes cost more than the pixels.
 void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds::RenderSettings& settings) const {
-  const bool shadows = settings.shadow != ShadowMode::None && !settings.lights.empty();
-  const bool by_shadow_step = shadows && settings.shadow_step > 0 && settings.shadow_step < settings.step;
-  const std::string field = by_shadow_step ? "settings.shadow_step" : "settings.step";
-  const std::string value = validate::number(by_shadow_step ? settings.shadow_step : settings.step);
+  const bool lit = !settings.lights.empty(), own_shadow_step = settings.shadow_step > 0;
+  const bool direct = lit && settings.shadow == ShadowMode::Direct;
+  const bool pixel_by_shadow_step = direct && own_shadow_step && settings.shadow_step < settings.step;
+  auto step = [&](bool shadow_step) {
+    return shadow_step ? std::pair{std::string("settings.shadow_step"), validate::number(settings.shadow_step)}
+                       : std::pair{std::string("settings.step"), validate::number(settings.step)};
+  };
   const clouds::SampleEstimate estimate = clouds::estimate_samples(volume, settings);
-  serving_.gate().check_render_samples(field, value, estimate.total);
+  const double pixels = double(settings.camera.width) * settings.camera.height;
+  const bool by_map = estimate.per_map_node * estimate.map_nodes > estimate.per_pixel * pixels;
+  const auto [total_field, total_value] = step(by_map ? own_shadow_step : pixel_by_shadow_step);
+  serving_.gate().check_render_samples(total_field, total_value, estimate.total);
   // A pixel's march, and a deep shadow map node's, runs to its end once started.
-  auto check_one_march = [](const std::string& step, const std::string& step_value, double samples, const char* what) {
+  auto check_one_march = [](const std::pair<std::string, std::string>& step, double samples, const char* what) {
     if (samples > clouds::kMaxSamplesPerPixel)
-      fail(Code::ResourceExhausted, step + " = " + step_value + " makes an estimated " + validate::number(samples) +
-                                        " density samples per " + what + ", more than " +
+      fail(Code::ResourceExhausted, step.first + " = " + step.second + " makes an estimated " +
+                                        validate::number(samples) + " density samples per " + what + ", more than " +
                                         validate::number(clouds::kMaxSamplesPerPixel) + " (a " + what +
                                         "'s march cannot be cancelled midway; a larger step costs less, down to "
                                         "a step per 8-voxel leaf crossed)");
   };
-  check_one_march(field, value, estimate.per_pixel, "pixel");
-  const bool own_shadow_step = settings.shadow_step > 0;  // else 3 steps
-  check_one_march(own_shadow_step ? "settings.shadow_step" : "settings.step",
-                  validate::number(own_shadow_step ? settings.shadow_step : settings.step), estimate.per_map_node,
-                  "deep shadow map node");
+  check_one_march(step(pixel_by_shadow_step), estimate.per_pixel, "pixel");
+  check_one_march(step(own_shadow_step), estimate.per_map_node, "deep shadow map node");
   clouds::check_march_resolution(volume, settings, "settings");
 }
 

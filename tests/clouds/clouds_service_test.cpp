@@ -484,9 +484,40 @@ TEST(CloudsService, ARenderWhosePixelsAreTooCostlyIsRefused) {
   EXPECT_NE(status.error_message().find("samples per pixel"), std::string::npos) << status.error_message();
 }
 
+// Each refusal names the step that drives what it counts. With a deep shadow map a pixel's march takes
+// no shadow steps: 2 um steps through the sphere are 2e7 samples a pixel, refused naming the step though
+// the shadow step is finer. And where the map's nodes cost more than the pixels (512^3 nodes, each a march
+// in 3 mm steps across a box at least 10 m wide: over 7e11 samples), the render is refused naming the
+// shadow step, though the primary step is finer.
+TEST(CloudsService, ARefusedRenderNamesTheStepThatDrivesItsCost) {
+  auto refused = [](const v1::RenderSettings& settings, const std::string& needle) {
+    v1::RenderRequest request;
+    *request.mutable_model() = test::long_work_sphere();
+    *request.mutable_settings() = settings;
+    v1::RenderResponse response;
+    const grpc::Status status = call().render(request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    EXPECT_NE(status.error_message().find(needle), std::string::npos) << status.error_message();
+  };
+  v1::RenderSettings s = test::long_render_settings();
+  s.set_shadow(v1::SHADOW_MODE_DEEP_SHADOW_MAP);
+  for (int a = 0; a < 3; ++a) s.add_shadow_map_size(2);
+  s.mutable_camera()->set_width(8);
+  s.mutable_camera()->set_height(8);
+  s.set_step(2e-6);
+  s.set_shadow_step(1e-6);
+  refused(s, "settings.step = 2e-06 makes an estimated");
+  refused(s, "density samples per pixel");
+  for (int a = 0; a < 3; ++a) s.set_shadow_map_size(a, 512);
+  s.set_step(0.002);
+  s.set_shadow_step(0.003);
+  refused(s, "settings.shadow_step = 0.003 makes an estimated");
+  refused(s, "--max-render-samples");
+}
+
 // The kernels march in float: a step that rounds back to where it started would never end its march and
-// hold a device queue for good. Refused with the least step: the eye 1e7 m away with a 0.5 m step, and
-// a shadow step of 1e-5 m across the sphere's box (about 24 m); a shadow step so fine that one map node's
+// hold a device queue for good. Refused with the least step: a step and a shadow step of 1e-5 m across the
+// sphere's box (about 24 m); a shadow step so fine that one map node's
 // march could not be cancelled in time is refused first, as a pixel's is.
 TEST(CloudsService, ARenderWhoseStepsFloatCannotResolveIsRefused) {
   v1::RenderRequest request;
