@@ -30,17 +30,18 @@ __kernel void blackbody_eval(__global const float* lambda, __global const float*
 }
 
 // out[i] = the tree queries of the walk of ray i (cell-space origin and direction at origin[3i], dir[3i])
-// through the grid's bounding box, as the marches walk it; stops counting at 1e6.
+// through the grid's bounding box, as the marches walk it: counted from where it enters the box, as a
+// primary ray (from_entry), or from its origin, as a shadow ray; stops counting at 1e6.
 __kernel void node_walk_queries(__global const uint* grid, __global const float* origin, __global const float* dir,
-                                const int n, __global int* out) {
+                                const int n, const int from_entry, __global int* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
   VdbVolume v = sq_volume_open(grid);
   float3 o = (float3)(origin[3 * i], origin[3 * i + 1], origin[3 * i + 2]);
   float3 d = (float3)(dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]);
-  float base, t0, t1;
+  float base, t0 = 0.0f, t1 = 1e30f;
   int queries = 0;
-  if (sq_clip_root_from_entry(&v, &o, d, &base, &t0, &t1)) {
+  if (from_entry ? sq_clip_root_from_entry(&v, &o, d, &base, &t0, &t1) : sq_clip_root(&v, o, d, &t0, &t1)) {
     const float nudge = 1e-4f / length(d);
     const float3 inv_d = 1.0f / d;
     for (float t = t0; t < t1 && queries < 1000000; ++queries) {
