@@ -117,7 +117,9 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
   const double pixels = double(settings.camera.width) * settings.camera.height;
   const bool by_map = estimate.per_map_node * estimate.map_nodes > estimate.per_pixel * pixels;
   const auto [total_field, total_value] = step(by_map ? own_shadow_step : pixel_by_shadow_step);
-  serving_.gate().check_render_samples(total_field, total_value, estimate.total);
+  serving_.gate().check_render_samples(total_field, total_value, estimate.total,
+                                       by_map ? "a larger shadow step or a smaller shadow_map_size"
+                                              : "a larger step, fewer pixels or sub-steps, or a deep shadow map");
   // A pixel's march, and a deep shadow map node's, runs to its end once started.
   auto check_one_march = [](const std::pair<std::string, std::string>& step, double samples, const char* what) {
     if (samples > clouds::kMaxSamplesPerPixel)

@@ -74,12 +74,12 @@ void LimitGate::check_message_bytes(const std::string& what, uint64_t bytes) con
                                       "--max-message-bytes = " + std::to_string(limits_.max_message_bytes));
 }
 
-void LimitGate::check_render_samples(const std::string& field, const std::string& value, double samples) const {
+void LimitGate::check_render_samples(const std::string& field, const std::string& value, double samples,
+                                     const std::string& cheaper) const {
   if (!(samples <= limits_.max_render_samples))
-    fail(Code::ResourceExhausted,
-         field + " = " + value + " makes an estimated " + validate::number(samples) +
-             " density samples, more than --max-render-samples = " + validate::number(limits_.max_render_samples) +
-             " (a larger step, fewer pixels or sub-steps, or a deep shadow map cost less)");
+    fail(Code::ResourceExhausted, field + " = " + value + " makes an estimated " + validate::number(samples) +
+                                      " density samples, more than --max-render-samples = " +
+                                      validate::number(limits_.max_render_samples) + " (" + cheaper + " cost less)");
 }
 
 // Adds `amount` to `counter` unless that would pass `limit`; the message names what and the flag:

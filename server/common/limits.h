@@ -96,8 +96,9 @@ class LimitGate {
 
   // The work a cloud render would do, estimated before it runs (density samples, an upper bound);
   // RESOURCE_EXHAUSTED naming `field` (the setting that drives it, e.g. "settings.step") beyond
-  // max_render_samples.
-  void check_render_samples(const std::string& field, const std::string& value, double samples) const;
+  // max_render_samples, with `cheaper`: what would cost less ("a larger step, ...").
+  void check_render_samples(const std::string& field, const std::string& value, double samples,
+                            const std::string& cheaper) const;
 
   Slot acquire_stream();  // RESOURCE_EXHAUSTED when max_streams are open
   // One of `client`'s streams (a peer address, a token's name); RESOURCE_EXHAUSTED when it has

@@ -512,7 +512,7 @@ TEST(CloudsService, ARefusedRenderNamesTheStepThatDrivesItsCost) {
   s.set_step(0.002);
   s.set_shadow_step(0.003);
   refused(s, "settings.shadow_step = 0.003 makes an estimated");
-  refused(s, "--max-render-samples");
+  refused(s, "--max-render-samples = 4e+11 (a larger shadow step or a smaller shadow_map_size cost less)");
 }
 
 // The kernels march in float: a step that rounds back to where it started would never end its march and
