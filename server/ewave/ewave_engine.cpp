@@ -93,9 +93,13 @@ uint64_t session_bytes(const EWaveConfig& config) {
 
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call) {
   validate(config, &gate_);
+  // The initial ocean's kept spectra, held until the session is made: taken back to make room for the
+  // session's own bytes, they would have to be built again, which would not fit either.
+  const std::vector<cl::Buffer> held = ocean_ && config.initial_ocean
+                                           ? ocean_->kept_spectra(ocean_on_grid(*config.initial_ocean, config))
+                                           : std::vector<cl::Buffer>{};
   auto reservation = sessions_.reserve(session_bytes(config));
-  // The initial ocean's spectra the call reserved may have been kept then, and taken back by the cache
-  // since to make room for the session: those built again are reserved too.
+  // Those kept when the call reserved its spectra and evicted since, by another call, are reserved now.
   if (call.spectra_memory)
     gate_.top_up(*call.spectra_memory, "config.initial_ocean's spectra, built again",
                  [&] { return ocean_bytes(config, config.initial_ocean).new_spectra; });

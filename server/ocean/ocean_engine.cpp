@@ -342,6 +342,12 @@ uint64_t OceanEngine::new_spectra_bytes(const TileSpec& spec) const {
     if (!impl_->spectra.holds(h0_key(spec, a))) bytes += spectrum_bytes(spec.layers[a]);
   return bytes;
 }
+std::vector<cl::Buffer> OceanEngine::kept_spectra(const TileSpec& spec) {
+  std::vector<cl::Buffer> kept;
+  for (size_t a = 0; a < spec.layers.size(); ++a)
+    if (cl::Buffer h0 = impl_->spectra.kept(h0_key(spec, a)); h0()) kept.push_back(h0);
+  return kept;
+}
 size_t OceanEngine::cached_spectrum_bytes() const { return impl_->spectra.bytes(); }
 
 namespace {

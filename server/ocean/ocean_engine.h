@@ -91,6 +91,9 @@ class OceanEngine {
   size_t spectra_built() const;   // h0 computations so far (cache misses)
   // Bytes of the spectra (h0) a tile or sample of `spec` would build now: its layers' that are not kept.
   uint64_t new_spectra_bytes(const TileSpec& spec) const;
+  // The spectra of `spec` kept now, for the caller to hold: the cache does not take back a spectrum held
+  // (to make room for the caller's own reservation, say), so it need not be built again.
+  std::vector<cl::Buffer> kept_spectra(const TileSpec& spec);
   size_t cached_spectrum_bytes() const;  // held by the h0 entries now
 
  private:

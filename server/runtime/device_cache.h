@@ -145,6 +145,12 @@ class DeviceCache : public MemoryReclaimer {
     return entries_.size();
   }
   size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
+  // The buffer of `key` if it is kept now, none otherwise; nothing is computed. While a caller holds it,
+  // reclaim() leaves it alone (it takes back only the buffers nobody else holds).
+  cl::Buffer kept(const Key& key) {
+    std::lock_guard<std::mutex> guard(mutex_);
+    return find(key);
+  }
   // Whether `key` is kept now (a get() of it may still miss: it may be evicted meanwhile).
   bool holds(const Key& key) const {
     std::lock_guard<std::mutex> guard(mutex_);
