@@ -114,8 +114,8 @@ void CloudsService::check_work(const clouds::DeviceVolume& volume, const clouds:
                        : std::pair{std::string("settings.step"), validate::number(settings.step)};
   };
   const clouds::SampleEstimate estimate = clouds::estimate_samples(volume, settings);
-  const double pixels = double(settings.camera.width) * settings.camera.height;
-  const bool by_map = estimate.per_map_node * estimate.map_nodes > estimate.per_pixel * pixels;
+  const double map = estimate.per_map_node * estimate.map_nodes;  // of estimate.total, the rest the pixels'
+  const bool by_map = map > estimate.total - map;
   const auto [total_field, total_value] = step(by_map ? own_shadow_step : pixel_by_shadow_step);
   serving_.gate().check_render_samples(total_field, total_value, estimate.total,
                                        by_map ? "a larger shadow step or a smaller shadow_map_size"

@@ -33,8 +33,9 @@ class EWaveEngine {
 
   // A new session of `config` (validated; RESOURCE_EXHAUSTED past --max-sessions), and one continuing a
   // saved state; under the client's `proposed` id when one is given (SessionStore::id_for). `call`: what the
-  // creating call lends the initial ocean's evaluation; its spectra_memory is topped up, once the session's
-  // bytes are reserved, to the spectra that must be built (RESOURCE_EXHAUSTED past --memory-budget).
+  // creating call lends the initial ocean's evaluation: the spectra kept are held while the session's bytes
+  // are reserved, and its spectra_memory is then topped up to those that must be built (RESOURCE_EXHAUSTED
+  // past --memory-budget).
   std::string create(const EWaveConfig& config, const std::string& proposed = "", const OceanCall& call = {});
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
   Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
