@@ -209,6 +209,11 @@ void run_fog(Runtime& runtime) {
       settings.shadow_trilinear = trilinear;
       return bench::median_seconds([&] { *out = renderer.render(device, settings); }, 3);
     };
+    renderer.set_work_schedule(WorkSchedule::WorkGroups);  // a GPU's way, for comparison
+    Image direct_groups, dsm_groups;
+    const double direct_in_groups = render(ShadowMode::Direct, 3, false, &direct_groups);
+    const double dsm_in_groups = render(ShadowMode::DeepShadowMap, 3, false, &dsm_groups);
+    renderer.set_work_schedule(WorkSchedule::Auto);
     const double direct = render(ShadowMode::Direct, 3, false, &fast);
     const double direct_trilinear = render(ShadowMode::Direct, 3, true, &fast_trilinear);
     const double dsm = render(ShadowMode::DeepShadowMap, 3, false, &dsm_image);
@@ -219,6 +224,11 @@ void run_fog(Runtime& runtime) {
         "  extinction %.2f /m: squall direct %.3f s (trilinear shadows %.3f s), DSM 64^3 %.3f s, no shadows "
         "%.3f s; vdb_render %.3f s (file read included)\n",
         extinction, direct, direct_trilinear, dsm, primary, vdb_s);
+    std::printf(
+        "    in work-groups of 64 items: direct %.3f s, DSM %.3f s (the device's schedule takes %.2f and %.2f of "
+        "that; same images: %s)\n",
+        direct_in_groups, dsm_in_groups, direct / direct_in_groups, dsm / dsm_in_groups,
+        direct_groups.data == fast.data && dsm_groups.data == dsm_image.data ? "yes" : "NO");
     std::printf(
         "    vdb_render / squall: direct %.2f (trilinear %.2f; goal >= 1), DSM %.2f (goal >= 2); correlation of the "
         "images (squall direct, vdb_render) %.4f\n",

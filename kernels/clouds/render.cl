@@ -17,8 +17,9 @@
 // HDDA: the node's level and value from pnanovdb_readaccessor_get_value_address_and_level, its exit from
 // the ray's inverse direction) and marches only through leaves and tiles of nonzero density. A tile's
 // density is one value: the primary ray reads it without a lookup, and a nearest-voxel shadow ray adds
-// value x length, what its jittered steps would sum to. Inside a leaf the samples read the leaf's value
-// table directly (a trilinear one when its 8 voxels lie in the leaf), with no tree query per step.
+// value x length, what its jittered steps would sum to (a lower node's tiles one after another from its
+// table, sq_tile_run). Inside a leaf the samples read the leaf's value table directly (a trilinear one when
+// its 8 voxels lie in the leaf), with no tree query per step.
 // Index convention: voxel ijk is centred at index position ijk (OpenVDB); the walk uses "cell space"
 // c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres, a primary
 // ray's counted from where it enters the grid's box (sq_clip_root_from_entry), a shadow ray's from its point.
@@ -148,9 +149,15 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
     VdbNode node;
     bool occupied = sq_node(v, o, d, inv_d, t, nudge, &node);
     float exit = fmin(node.exit, t1);
-    if (node.tile >= 0.0f && !p->shadow_interpolation) {  // nearest voxels of a tile: the steps would sum to this
-      column += node.tile * (exit - t);
-      t = exit;
+    if (node.tile >= 0.0f && !p->shadow_interpolation) {
+      // Nearest voxels of a tile: the steps would sum to value x length. The tiles of a lower node are
+      // crossed one after another from its table (sq_tile_run), with no tree query each.
+      if (node.dim == 8) {
+        t = sq_tile_run(v, o, d, inv_d, t, t1, &node, p->shadow_column_max, &column);
+      } else {
+        column += node.tile * (exit - t);
+        t = exit;
+      }
       continue;
     }
     for (float s = t; occupied && s < exit && column <= p->shadow_column_max;) {
@@ -197,13 +204,13 @@ static inline float3 sq_to_light(__private const CloudLight* l, float3 x, float*
 }
 
 // Deep shadow map: column density toward each light at the nodes of a box grid (log T^L = -kappa column).
-// Sparse: nodes with needed[node] == 0 (farther than one map cell from any density) are skipped.
-__kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,
-                               __global float* dsm) {
-  int3 n = (int3)(p.dsm_n[0], p.dsm_n[1], p.dsm_n[2]);
-  size_t id = get_global_id(0);
+// Sparse: nodes with needed[node] == 0 (farther than one map cell from any density) are skipped. Entry
+// id of the map: node id % nodes toward light id / nodes.
+static void sq_shadow_map_entry(size_t id, __global const uint* density, __private const CloudRenderParams* p,
+                                __global const uchar* needed, __global float* dsm) {
+  int3 n = (int3)(p->dsm_n[0], p->dsm_n[1], p->dsm_n[2]);
   size_t nodes = (size_t)n.x * n.y * n.z;
-  if (id >= nodes * p.n_lights) return;
+  if (id >= nodes * p->n_lights) return;
   int light = (int)(id / nodes);
   size_t node = id % nodes;
   if (!needed[node]) {
@@ -211,23 +218,22 @@ __kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p
     return;
   }
   int3 i = (int3)(node % n.x, (node / n.x) % n.y, node / ((size_t)n.x * n.y));
-  float3 lo = (float3)(p.dsm_min[0], p.dsm_min[1], p.dsm_min[2]);
-  float3 hi = (float3)(p.dsm_max[0], p.dsm_max[1], p.dsm_max[2]);
+  float3 lo = (float3)(p->dsm_min[0], p->dsm_min[1], p->dsm_min[2]);
+  float3 hi = (float3)(p->dsm_max[0], p->dsm_max[1], p->dsm_max[2]);
   float3 x = lo + (hi - lo) * convert_float3(i) / convert_float3(n - 1);
   VdbVolume v = sq_volume_open(density);
-  uint rng = sq_hash((uint)id ^ sq_hash((uint)p.seed + 17u));
+  uint rng = sq_hash((uint)id ^ sq_hash((uint)p->seed + 17u));
   float dist, scale;
-  float3 dir = sq_to_light(&p.lights[light], x, &dist, &scale);
-  dsm[id] = sq_column_density(&v, x, dir, dist, &p, &rng);
+  float3 dir = sq_to_light(&p->lights[light], x, &dist, &scale);
+  dsm[id] = sq_column_density(&v, x, dir, dist, p, &rng);
 }
 
-// One pixel per work-item. out: channel-major planes of width*height floats: radiance per wavelength
-// (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance in m at
-// which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
-__kernel void cloud_render(__global const uint* density, __global const uint* temperature, __global const float* dsm,
-                           CloudRenderParams p, __global float* out) {
-  int px = get_global_id(0), py = get_global_id(1);
-  if (px >= p.width || py >= p.height) return;
+// Pixel (px, py) of the image into out: channel-major planes of width*height floats: radiance per
+// wavelength (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance
+// in m at which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
+static void sq_render_pixel(int px, int py, __global const uint* density, __global const uint* temperature,
+                            __global const float* dsm, __private const CloudRenderParams* pp, __global float* out) {
+  const CloudRenderParams p = *pp;
   size_t pixel = (size_t)py * p.width + px;
   size_t plane = (size_t)p.width * p.height;
   int nw = p.n_wavelengths;
@@ -310,4 +316,45 @@ __kernel void cloud_render(__global const uint* density, __global const uint* te
     out[(nw + w) * plane + pixel] = T[w];
   }
   out[2 * nw * plane + pixel] = depth;
+}
+
+// The kernels: an entry of the map, or a pixel, per work-item (a GPU's way); or, on a CPU device, a
+// work-item per thread, each taking runs of SQ_SHARED_RUN entries or pixels from a counter the work-items
+// share (*next, 0 at launch), so that the threads share the work however unevenly its cost is spread
+// (PoCL's pthread device deals each thread a fixed run of work-groups: up to 64, half of a small launch).
+// A run of 8 items takes one atomic add: an add an item made a deep shadow map's cheap entries slower than
+// in work-groups.
+#define SQ_SHARED_RUN 8u
+
+__kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,
+                               __global float* dsm) {
+  sq_shadow_map_entry(get_global_id(0), density, &p, needed, dsm);
+}
+
+// Entries first .. first + count - 1 of the map.
+__kernel void cloud_shadow_map_shared(__global const uint* density, CloudRenderParams p,
+                                      __global const uchar* needed, __global float* dsm, uint first, uint count,
+                                      volatile __global uint* next) {
+  for (uint run = atomic_add(next, SQ_SHARED_RUN); run < count; run = atomic_add(next, SQ_SHARED_RUN))
+    for (uint i = run; i < min(run + SQ_SHARED_RUN, count); ++i)
+      sq_shadow_map_entry(first + i, density, &p, needed, dsm);
+}
+
+__kernel void cloud_render(__global const uint* density, __global const uint* temperature, __global const float* dsm,
+                           CloudRenderParams p, __global float* out) {
+  int px = get_global_id(0), py = get_global_id(1);
+  if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, &p, out);
+}
+
+// The pixels of tiles first_tile .. first_tile + tiles - 1 of the image's 8x8 tiles (row order, tiles_x a
+// row).
+__kernel void cloud_render_shared(__global const uint* density, __global const uint* temperature,
+                                  __global const float* dsm, CloudRenderParams p, __global float* out,
+                                  uint first_tile, uint tiles, uint tiles_x, volatile __global uint* next) {
+  for (uint run = atomic_add(next, SQ_SHARED_RUN); run < tiles * 64; run = atomic_add(next, SQ_SHARED_RUN))
+    for (uint i = run; i < run + SQ_SHARED_RUN; ++i) {  // a row of a tile
+      const uint tile = first_tile + i / 64, k = i % 64;
+      const int px = (tile % tiles_x) * 8 + k % 8, py = (tile / tiles_x) * 8 + k / 8;
+      if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, &p, out);
+    }
 }

@@ -279,7 +279,9 @@ CloudRenderer::CloudRenderer(Runtime& runtime, LimitGate* gate, size_t max_kept_
       gate_(gate),
       kept_maps_(kept_maps_limits(max_kept_maps_bytes)),
       shadow_map_(runtime, "clouds/render.cl", "cloud_shadow_map"),
-      render_(runtime, "clouds/render.cl", "cloud_render") {
+      shadow_map_shared_(runtime, "clouds/render.cl", "cloud_shadow_map_shared"),
+      render_(runtime, "clouds/render.cl", "cloud_render"),
+      render_shared_(runtime, "clouds/render.cl", "cloud_render_shared") {
   if (gate_) gate_->add_reclaimer(this);
 }
 
@@ -379,13 +381,40 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   const WorkKind kind{"clouds.render", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
   SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, kFirstSliceSamples, kind};
   run_sliced(runtime_, lease, plan, cancel, field + ": the render", [&](size_t first, size_t count) {
-    for (const auto& r : tiles.rectangles(first, count))
-      render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
-                            volume.density, volume.temperature, map.buffer, p, out.buffer());
+    launch_tiles(volume, map.buffer, p, out.buffer(), tiles, first, count);
   });
   read_back(runtime_, out.buffer(), image.data.size() * sizeof(float), image.data.data());
   if (map.to_keep) keep(volume, map);
   return image;
+}
+
+bool CloudRenderer::shares_work() const {
+  const WorkSchedule schedule = schedule_;
+  return schedule == WorkSchedule::Auto ? runtime_.device_info().type == "cpu"
+                                        : schedule == WorkSchedule::SharedCounter;
+}
+
+cl::NDRange CloudRenderer::sharing_items() const {
+  return cl::NDRange(std::max(1u, runtime_.device_info().compute_units));
+}
+
+BufferLease CloudRenderer::shared_counter() {
+  BufferLease next = runtime_.buffers().acquire(sizeof(cl_uint));
+  runtime_.queue().enqueueFillBuffer(next.buffer(), cl_uint(0), 0, sizeof(cl_uint));
+  return next;
+}
+
+void CloudRenderer::launch_tiles(const DeviceVolume& volume, const cl::Buffer& map, const CloudRenderParams& p,
+                                 const cl::Buffer& out, const TileGrid& tiles, size_t first, size_t count) {
+  if (!shares_work()) {
+    for (const auto& r : tiles.rectangles(first, count))
+      render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
+                            volume.density, volume.temperature, map, p, out);
+    return;
+  }
+  const BufferLease next = shared_counter();
+  render_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, volume.temperature, map, p, out,
+                        cl_uint(first), cl_uint(count), cl_uint(tiles.x), next.buffer());
 }
 
 void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
@@ -444,8 +473,14 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
   };
   const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, map_kind};
   run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
-    shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
-                              map.mask.buffer(), map.buffer);
+    if (!shares_work()) {
+      shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
+                                map.mask.buffer(), map.buffer);
+      return;
+    }
+    const BufferLease next = shared_counter();
+    shadow_map_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, p, map.mask.buffer(), map.buffer,
+                              cl_uint(first), cl_uint(count), next.buffer());
   });
   // Its last slice is not waited for: the render's first slice, timed with it, may size the second
   // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.

@@ -160,6 +160,18 @@ void check_march_resolution(const DeviceVolume& volume, const RenderSettings& s,
 // map node and light, and the mask of needed nodes (a byte per node) on the host and on the device.
 uint64_t shadow_map_bytes(const RenderSettings& s);
 
+// How a render deals its work items (pixels, deep shadow map entries) to the device. A work-group of 8x8
+// pixels (64 entries) suits a GPU. A CPU device runs a work-group as one thread's loop, and PoCL's pthread
+// device deals each thread a fixed run of work-groups (up to 64; half of a launch of 128 or fewer): a run
+// that held a cloud's costly tiles kept one core busy while the other had none. There a work-item a
+// compute unit takes the items one at a time from a counter the work-items share. Both give the same
+// image, bit for bit.
+enum class WorkSchedule {
+  Auto,           // SharedCounter on a CPU device, WorkGroups elsewhere
+  WorkGroups,     // a work-item an item, in work-groups of 64
+  SharedCounter,  // a work-item a compute unit, an item at a time from a shared counter
+};
+
 class CloudRenderer : public MemoryReclaimer {
  public:
   // Creates the render.cl kernels (and checks their signatures): the runtime has built "clouds/". The
@@ -182,6 +194,8 @@ class CloudRenderer : public MemoryReclaimer {
   // Drops kept maps, least recently used first, until `bytes` are given back: their volumes' next renders
   // make them again. A map a render is reading now is left kept (its bytes go back only after that render).
   uint64_t reclaim(uint64_t bytes) override;
+  // The way renders deal their work from now on (Auto at construction): a benchmark or a test compares them.
+  void set_work_schedule(WorkSchedule schedule) { schedule_ = schedule; }
 
  private:
   struct ShadowMap;
@@ -190,6 +204,14 @@ class CloudRenderer : public MemoryReclaimer {
   void make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                        const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
                        const std::string& field, const Slot* map_memory);
+  // Launches that share their work: whether the schedule (Auto resolved) is SharedCounter, their
+  // work-items (one a compute unit), and a counter at 0 for one (filled on the lease's queue).
+  bool shares_work() const;
+  cl::NDRange sharing_items() const;
+  BufferLease shared_counter();
+  // Enqueues tiles first .. first + count - 1 of the image as the schedule says.
+  void launch_tiles(const DeviceVolume& volume, const cl::Buffer& map, const CloudRenderParams& p,
+                    const cl::Buffer& out, const TileGrid& tiles, size_t first, size_t count);
   bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, ShadowMap& map);
@@ -204,8 +226,14 @@ class CloudRenderer : public MemoryReclaimer {
   std::vector<std::weak_ptr<KeptShadowMap>> kept_;  // the volumes' maps that keep() has kept
   std::atomic<uint64_t> uses_{0};                   // KeptShadowMap::used
   Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
+  // density, p, needed, dsm, first entry, entries, next entry
+  Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer, cl_uint, cl_uint, cl::Buffer> shadow_map_shared_;
   Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
       render_;  // density, temperature, dsm, p, out
+  // density, temperature, dsm, p, out, first tile, tiles, tiles a row, next pixel: on CPU devices
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer, cl_uint, cl_uint, cl_uint, cl::Buffer>
+      render_shared_;
+  std::atomic<WorkSchedule> schedule_{WorkSchedule::Auto};
 };
 
 }  // namespace squall::clouds

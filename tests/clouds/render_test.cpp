@@ -15,6 +15,7 @@
 #include "clouds/render_params.h"
 #include "clouds/renderer.h"
 #include "clouds/volume.h"
+#include "common/cancel.h"
 #include "common/limits.h"
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
@@ -401,6 +402,156 @@ TEST(Render, AStoredVolumesShadowMapServesEveryCamera) {
   s.seed = 7;
   expect_as_fresh();
   EXPECT_EQ(kept.kept_shadow_map->made, 3u);
+}
+
+// Blocks of 8^3 voxels of one value each in [-96, 96)^3 (voxel 0.5 m), most active tiles of the lower
+// nodes, some leaves of one value, some empty, and an upper node's tile over [0, 128)^3: a field whose
+// nearest-voxel column along any line is a sum of value x length over the blocks it crosses.
+CloudVolume blocks() {
+  initialize_openvdb();
+  CloudVolume v;
+  v.density = openvdb::FloatGrid::create(0.0f);
+  v.density->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
+  v.density->setName("density");
+  auto& tree = v.density->tree();
+  uint32_t h = 12345;
+  for (int bx = -12; bx < 12; ++bx)
+    for (int by = -12; by < 12; ++by)
+      for (int bz = -12; bz < 12; ++bz) {
+        h = h * 1664525u + 1013904223u;     // Numerical Recipes' LCG
+        const int kind = int(h >> 28) % 5;  // 0: empty, 1: a leaf, else a tile
+        const float value = 0.2f + float((h >> 8) & 0xffff) / 65536.0f * 1.8f;
+        const openvdb::Coord lo(8 * bx, 8 * by, 8 * bz);
+        if (kind == 0) continue;
+        if (kind == 2 || kind == 3 || kind == 4) {
+          tree.fill(openvdb::CoordBBox(lo, lo.offsetBy(7)), value, true);
+          continue;
+        }
+        for (int i = 0; i < 8; ++i)
+          for (int j = 0; j < 8; ++j)
+            for (int k = 0; k < 8; ++k) tree.setValueOn(lo.offsetBy(i, j, k), value);
+      }
+  tree.fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(127)), 0.7f, true);
+  v.stats = volume_stats(*v.density);
+  return v;
+}
+
+// The nearest-voxel column (m) of `grid` from world point x along unit direction u to the box's end: the
+// line crosses the blocks' faces (cell-space planes at multiples of 8; the field is constant between them).
+double exact_column(const openvdb::FloatGrid& grid, const Vec3d& x, const Vec3d& u, double box_lo, double box_hi) {
+  const double dx = grid.voxelSize()[0];
+  std::vector<double> cuts{0};
+  double end = 1e300;
+  for (int a = 0; a < 3; ++a) {
+    const double c0 = x[a] / dx + 0.5, dc = u[a] / dx;  // cell space, per metre
+    if (dc == 0) continue;
+    end = std::min(end, ((dc > 0 ? box_hi : box_lo) - c0) / dc);
+    for (int k = -20; k <= 20; ++k)
+      if (const double t = (8 * k - c0) / dc; t > 0) cuts.push_back(t);
+  }
+  std::sort(cuts.begin(), cuts.end());
+  auto acc = grid.getConstAccessor();
+  double column = 0;
+  for (size_t i = 0; i + 1 < cuts.size() && cuts[i] < end; ++i) {
+    const double a = cuts[i], b = std::min(cuts[i + 1], end), mid = (a + b) / 2;
+    const openvdb::Coord ijk(int(std::floor(x[0] / dx + 0.5 + mid * u[0] / dx)),
+                             int(std::floor(x[1] / dx + 0.5 + mid * u[1] / dx)),
+                             int(std::floor(x[2] / dx + 0.5 + mid * u[2] / dx)));
+    column += acc.getValue(ijk) * (b - a);
+  }
+  return column;
+}
+
+// A deep shadow map's nodes hold the column toward each light, here through tiles of lower and upper nodes,
+// leaves and empty blocks, across the nodes' edges, toward a light along a face's plane too: nearest-voxel
+// marches of such blocks are exact whatever their steps, so every node matches the blocks' exact column.
+TEST(Render, ShadowColumnsThroughTilesAndLeavesAreExact) {
+  CloudRenderer renderer(test::runtime());
+  const CloudVolume volume = blocks();
+  DeviceVolume dv = upload_volume(test::runtime(), volume);
+  dv.kept_shadow_map = std::make_shared<KeptShadowMap>();
+  RenderSettings s = sphere_camera(0.5);
+  s.camera.width = s.camera.height = 8;
+  s.shadow = ShadowMode::DeepShadowMap;
+  const std::vector<Vec3d> toward = {{0.6, 0.0, 0.8}, {-0.36, 0.8, -0.48}, {0.0, 0.0, -1.0}};
+  for (const Vec3d& u : toward) {
+    Light sun;
+    sun.direction = u;
+    sun.intensity = {1000};
+    s.lights.push_back(sun);
+  }
+  constexpr int kNodes = 23;
+  s.shadow_map_size = {kNodes, kNodes, kNodes};
+  renderer.render(dv, s);
+  const size_t per_light = size_t(kNodes) * kNodes * kNodes;
+  std::vector<float> map(per_light * toward.size());
+  test::runtime().queue().enqueueReadBuffer(dv.kept_shadow_map->map, true, 0, map.size() * sizeof(float), map.data());
+  const double box_lo = -96, box_hi = 128;  // cell space
+  const auto acc = volume.density->getConstAccessor();
+  double worst = 0;
+  size_t compared = 0;
+  for (size_t light = 0; light < toward.size(); ++light)
+    for (int k = 0; k < kNodes; ++k)
+      for (int j = 0; j < kNodes; ++j)
+        for (int i = 0; i < kNodes; ++i) {
+          Vec3d x;
+          for (int a = 0; a < 3; ++a)
+            x[a] = dv.world_min[a] + (dv.world_max[a] - dv.world_min[a]) * (a == 0 ? i : a == 1 ? j : k) / (kNodes - 1);
+          // Nodes in density (a map skips those far from any), not on a block's face along the light (which
+          // block's value the line takes is float's choice there).
+          bool skip = acc.getValue(openvdb::Coord::round(volume.density->worldToIndex({x[0], x[1], x[2]}))) == 0;
+          for (int a = 0; a < 3; ++a) {
+            const double c = x[a] / 0.5 + 0.5;
+            skip |= toward[light][a] == 0 && std::abs(c - 8 * std::round(c / 8)) < 1e-3;
+          }
+          if (skip) continue;
+          ++compared;
+          const double want = exact_column(*volume.density, x, toward[light], box_lo, box_hi);
+          const double got = map[light * per_light + (size_t(k) * kNodes + j) * kNodes + i];
+          worst = test::worse(worst, std::abs(got - want) / std::max(want, 1.0));
+        }
+  std::printf("deep shadow map of 8^3 blocks: worst |column - exact| / max(exact, 1 m) %.2e over %zu nodes\n", worst,
+              compared);
+  EXPECT_GT(compared, toward.size() * per_light / 3);
+  EXPECT_LT(worst, 1e-4);
+}
+
+// The two work schedules give the same image, bit for bit (a pixel's or a map entry's jitter is seeded by
+// its index, not by who computes it), over several slices, the second starting mid-row, with tiles
+// overhanging the image's right and bottom edges, with direct shadows and with a deep shadow map.
+TEST(Render, BothWorkSchedulesRenderTheSameImage) {
+  CloudRenderer renderer(test::runtime());
+  DeviceVolume dv = upload_volume(test::runtime(), soft_sphere());
+  RenderSettings s = sphere_camera(0.05);
+  s.camera.width = 61;  // 8 x 6 tiles, the last column and row partly outside
+  s.camera.height = 45;
+  Light sun;
+  sun.direction = {1, 0.3, 0.5};
+  sun.intensity = {1000};
+  s.lights = {sun};
+  s.shadow_map_size = {96, 96, 96};
+  int slices = 0;  // run_sliced asks before each slice
+  const Cancellation counting([&] { return ++slices, false; });
+  // Each render after one of the other schedule and another seed, whose image and map stay in the pool's
+  // buffers where a render would leave items unwritten.
+  auto render = [&](WorkSchedule schedule, WorkSchedule before) {
+    renderer.set_work_schedule(before);
+    s.seed = 2;
+    renderer.render(dv, s);
+    renderer.set_work_schedule(schedule);
+    s.seed = 1;
+    slices = 0;
+    Image image = renderer.render(dv, s, "render", counting);
+    EXPECT_GE(slices, 2) << "the first slice holds a fixed cost: about 14 of the 48 tiles here";
+    return image;
+  };
+  for (ShadowMode shadow : {ShadowMode::Direct, ShadowMode::DeepShadowMap}) {
+    s.shadow = shadow;
+    const Image shared = render(WorkSchedule::SharedCounter, WorkSchedule::WorkGroups);
+    const Image groups = render(WorkSchedule::WorkGroups, WorkSchedule::SharedCounter);
+    EXPECT_GT(mean_channel(groups, 0), 0.0);
+    EXPECT_EQ(shared.data, groups.data) << (shadow == ShadowMode::Direct ? "direct shadows" : "deep shadow map");
+  }
 }
 
 // A kept map holds its bytes in the memory budget until it is replaced, its volume goes, or a call takes its
