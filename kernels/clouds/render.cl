@@ -321,9 +321,8 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
 // The kernels: an entry of the map, or a pixel, per work-item (a GPU's way); or, on a CPU device, a
 // work-item per thread, each taking runs of SQ_SHARED_RUN entries or pixels from a counter the work-items
 // share (*next, 0 at launch), so that the threads share the work however unevenly its cost is spread
-// (PoCL's pthread device deals each thread a fixed run of work-groups: up to 64, half of a small launch).
-// A run of 8 items takes one atomic add: an add an item made a deep shadow map's cheap entries slower than
-// in work-groups.
+// (PoCL's pthread device deals each thread a fixed run of work-groups: 32 per thread, or half of what is
+// left of a small launch). A run takes one atomic add for 8 items (a tile's row of pixels).
 #define SQ_SHARED_RUN 8u
 
 __kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,
@@ -352,7 +351,7 @@ __kernel void cloud_render_shared(__global const uint* density, __global const u
                                   __global const float* dsm, CloudRenderParams p, __global float* out,
                                   uint first_tile, uint tiles, uint tiles_x, volatile __global uint* next) {
   for (uint run = atomic_add(next, SQ_SHARED_RUN); run < tiles * 64; run = atomic_add(next, SQ_SHARED_RUN))
-    for (uint i = run; i < run + SQ_SHARED_RUN; ++i) {  // a row of a tile
+    for (uint i = run; i < min(run + SQ_SHARED_RUN, tiles * 64); ++i) {
       const uint tile = first_tile + i / 64, k = i % 64;
       const int px = (tile % tiles_x) * 8 + k % 8, py = (tile / tiles_x) * 8 + k / 8;
       if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, &p, out);

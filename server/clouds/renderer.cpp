@@ -417,6 +417,17 @@ void CloudRenderer::launch_tiles(const DeviceVolume& volume, const cl::Buffer& m
                         cl_uint(first), cl_uint(count), cl_uint(tiles.x), next.buffer());
 }
 
+void CloudRenderer::launch_map_entries(const DeviceVolume& volume, const CloudRenderParams& p, const cl::Buffer& needed,
+                                       const cl::Buffer& map, size_t first, size_t count) {
+  if (!shares_work()) {
+    shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p, needed, map);
+    return;
+  }
+  const BufferLease next = shared_counter();
+  shadow_map_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, p, needed, map, cl_uint(first),
+                            cl_uint(count), next.buffer());
+}
+
 void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,
                                     const CloudRenderParams& p, QueueLease& lease, const Cancellation& cancel,
                                     const std::string& field, const Slot* map_memory) {
@@ -473,14 +484,7 @@ void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, 
   };
   const SlicePlan nodes{round_up(dsm_floats, 64) / 64, 64, node_cost, kFirstSliceSamples, map_kind};
   run_sliced(runtime_, lease, nodes, cancel, field + ": the deep shadow map", [&](size_t first, size_t count) {
-    if (!shares_work()) {
-      shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p,
-                                map.mask.buffer(), map.buffer);
-      return;
-    }
-    const BufferLease next = shared_counter();
-    shadow_map_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, p, map.mask.buffer(), map.buffer,
-                              cl_uint(first), cl_uint(count), next.buffer());
+    launch_map_entries(volume, p, map.mask.buffer(), map.buffer, first, count);
   });
   // Its last slice is not waited for: the render's first slice, timed with it, may size the second
   // smaller than it could be (by at most 4x, once). A render of one slice waits once in all.

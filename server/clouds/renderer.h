@@ -162,14 +162,15 @@ uint64_t shadow_map_bytes(const RenderSettings& s);
 
 // How a render deals its work items (pixels, deep shadow map entries) to the device. A work-group of 8x8
 // pixels (64 entries) suits a GPU. A CPU device runs a work-group as one thread's loop, and PoCL's pthread
-// device deals each thread a fixed run of work-groups (up to 64; half of a launch of 128 or fewer): a run
-// that held a cloud's costly tiles kept one core busy while the other had none. There a work-item a
-// compute unit takes the items one at a time from a counter the work-items share. Both give the same
-// image, bit for bit.
+// device deals each thread a fixed run of work-groups (32 per thread, or half of what is left of a small
+// launch): a run that held a cloud's costly tiles kept one core busy while the other had none. There a
+// work-item a compute unit takes runs of 8 items from a counter the work-items share (the map's entries
+// too: its needed ones gather where the cloud is). Both compile the same code for an item and gave the same
+// images, bit for bit, where measured (Render.BothWorkSchedulesRenderTheSameImage, on the tests' device).
 enum class WorkSchedule {
   Auto,           // SharedCounter on a CPU device, WorkGroups elsewhere
   WorkGroups,     // a work-item an item, in work-groups of 64
-  SharedCounter,  // a work-item a compute unit, an item at a time from a shared counter
+  SharedCounter,  // a work-item a compute unit, runs of 8 items from a shared counter
 };
 
 class CloudRenderer : public MemoryReclaimer {
@@ -209,9 +210,12 @@ class CloudRenderer : public MemoryReclaimer {
   bool shares_work() const;
   cl::NDRange sharing_items() const;
   BufferLease shared_counter();
-  // Enqueues tiles first .. first + count - 1 of the image as the schedule says.
+  // Enqueue tiles first .. first + count - 1 of the image, and entries first .. first + count - 1 of a deep
+  // shadow map (those past its end do nothing), as the schedule says.
   void launch_tiles(const DeviceVolume& volume, const cl::Buffer& map, const CloudRenderParams& p,
                     const cl::Buffer& out, const TileGrid& tiles, size_t first, size_t count);
+  void launch_map_entries(const DeviceVolume& volume, const CloudRenderParams& p, const cl::Buffer& needed,
+                          const cl::Buffer& map, size_t first, size_t count);
   bool may_keep(const KeptShadowMap& kept, size_t bytes) const;  // under kept.mutex
   // Keeps a map made for a render, once the render has waited for its queue.
   void keep(const DeviceVolume& volume, ShadowMap& map);
