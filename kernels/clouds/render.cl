@@ -321,8 +321,8 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
 // The kernels: an entry of the map, or a pixel, per work-item (a GPU's way); or, on a CPU device, a
 // work-item per thread, each taking runs of SQ_SHARED_RUN entries or pixels from a counter the work-items
 // share (*next, 0 at launch), so that the threads share the work however unevenly its cost is spread
-// (PoCL's pthread device deals each thread a fixed run of work-groups: 32 per thread, or half of what is
-// left of a small launch). A run takes one atomic add for 8 items (a tile's row of pixels).
+// (PoCL's pthread device deals each thread a fixed run of work-groups: on two threads 64, or half of what
+// is left of a small launch). A run takes one atomic add for 8 items (a tile's row of pixels).
 #define SQ_SHARED_RUN 8u
 
 __kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,

@@ -162,7 +162,7 @@ uint64_t shadow_map_bytes(const RenderSettings& s);
 
 // How a render deals its work items (pixels, deep shadow map entries) to the device. A work-group of 8x8
 // pixels (64 entries) suits a GPU. A CPU device runs a work-group as one thread's loop, and PoCL's pthread
-// device deals each thread a fixed run of work-groups (32 per thread, or half of what is left of a small
+// device deals each thread a fixed run of work-groups (on two threads 64, or half of what is left of a small
 // launch): a run that held a cloud's costly tiles kept one core busy while the other had none. There a
 // work-item a compute unit takes runs of 8 items from a counter the work-items share (the map's entries
 // too: its needed ones gather where the cloud is). Both compile the same code for an item and gave the same
