@@ -232,8 +232,7 @@ static void sq_shadow_map_entry(size_t id, __global const uint* density, __priva
 // wavelength (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance
 // in m at which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
 static void sq_render_pixel(int px, int py, __global const uint* density, __global const uint* temperature,
-                            __global const float* dsm, __private const CloudRenderParams* pp, __global float* out) {
-  const CloudRenderParams p = *pp;
+                            __global const float* dsm, CloudRenderParams p, __global float* out) {
   size_t pixel = (size_t)py * p.width + px;
   size_t plane = (size_t)p.width * p.height;
   int nw = p.n_wavelengths;
@@ -342,7 +341,7 @@ __kernel void cloud_shadow_map_shared(__global const uint* density, CloudRenderP
 __kernel void cloud_render(__global const uint* density, __global const uint* temperature, __global const float* dsm,
                            CloudRenderParams p, __global float* out) {
   int px = get_global_id(0), py = get_global_id(1);
-  if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, &p, out);
+  if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, p, out);
 }
 
 // The pixels of tiles first_tile .. first_tile + tiles - 1 of the image's 8x8 tiles (row order, tiles_x a
@@ -354,6 +353,6 @@ __kernel void cloud_render_shared(__global const uint* density, __global const u
     for (uint i = run; i < min(run + SQ_SHARED_RUN, tiles * 64); ++i) {
       const uint tile = first_tile + i / 64, k = i % 64;
       const int px = (tile % tiles_x) * 8 + k % 8, py = (tile / tiles_x) * 8 + k / 8;
-      if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, &p, out);
+      if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, p, out);
     }
 }

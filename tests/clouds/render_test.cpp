@@ -498,13 +498,10 @@ TEST(Render, ShadowColumnsThroughTilesAndLeavesAreExact) {
       for (int k = 0; k < kNodes; ++k)
         for (int j = 0; j < kNodes; ++j)
           for (int i = 0; i < kNodes; ++i) {
+            const int node[3] = {i, j, k};
             Vec3d x;
             for (int a = 0; a < 3; ++a)
-              x[a] = dv.world_min[a] + (dv.world_max[a] - dv.world_min[a]) *
-                                           (a == 0   ? i
-                                            : a == 1 ? j
-                                                     : k) /
-                                           (kNodes - 1);
+              x[a] = dv.world_min[a] + (dv.world_max[a] - dv.world_min[a]) * node[a] / (kNodes - 1);
             bool skip = acc.getValue(openvdb::Coord::round(volume.density->worldToIndex({x[0], x[1], x[2]}))) == 0;
             for (int a = 0; a < 3; ++a) {
               const double c = x[a] / 0.5 + 0.5;
