@@ -36,7 +36,7 @@ __kernel void node_walk_queries(__global const uint* grid, __global const float*
                                 const int n, const int from_entry, __global int* out) {
   uint i = get_global_id(0);
   if (i >= n) return;
-  VdbVolume v = sq_volume_open(grid);
+  VdbVolume v = sq_volume_open(grid, 0);
   float3 o = (float3)(origin[3 * i], origin[3 * i + 1], origin[3 * i + 2]);
   float3 d = (float3)(dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]);
   float base, t0 = 0.0f, t1 = 1e30f;

@@ -15,11 +15,12 @@
 // is constant over each leaf it fills).
 // Empty-space skipping: the ray walks the NanoVDB tree node by node (the hierarchical DDA of NanoVDB's
 // HDDA: the node's level and value from pnanovdb_readaccessor_get_value_address_and_level, its exit from
-// the ray's inverse direction) and marches only through leaves and tiles of nonzero density. A tile's
-// density is one value: the primary ray reads it without a lookup, and a nearest-voxel shadow ray adds
-// value x length, what its jittered steps would sum to (a lower node's tiles one after another from its
-// table, sq_tile_run). Inside a leaf the samples read the leaf's value table directly (a trilinear one when
-// its 8 voxels lie in the leaf), with no tree query per step.
+// the ray's inverse direction); the primary ray marches only through leaves and tiles of nonzero density.
+// A tile's density is one value: the primary ray reads it without a lookup, and a shadow ray adds value x
+// length where its steps would sum to that (sq_tile_column: a nearest-voxel tile, a trilinear tile's core
+// or a tile inside uniform density), crossing a lower node's tiles one after another from its table
+// (TileRun). Inside a leaf the samples read the leaf's value table directly (a trilinear one's 2x2x2 block
+// when its 8 voxels lie in the leaf), with no tree query per step.
 // Index convention: voxel ijk is centred at index position ijk (OpenVDB); the walk uses "cell space"
 // c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres, a primary
 // ray's counted from where it enters the grid's box (sq_clip_root_from_entry), a shadow ray's from its point.
@@ -37,31 +38,54 @@ static inline float sq_voxel(VdbVolume* v, const VdbNode* node, int3 ijk) {
   return pnanovdb_read_float(v->buf, pnanovdb_leaf_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, v->buf, node->leaf, &c));
 }
 
-// Trilinear interpolation at index-space position p between the 8 voxels around it, read as sq_voxel does.
-static float sq_trilinear(VdbVolume* v, const VdbNode* node, float3 p) {
-  float3 f = floor(p), w = p - f;
-  int3 i = convert_int3(f);
-  float c000 = sq_voxel(v, node, i), c100 = sq_voxel(v, node, i + (int3)(1, 0, 0));
-  float c010 = sq_voxel(v, node, i + (int3)(0, 1, 0)), c110 = sq_voxel(v, node, i + (int3)(1, 1, 0));
-  float c001 = sq_voxel(v, node, i + (int3)(0, 0, 1)), c101 = sq_voxel(v, node, i + (int3)(1, 0, 1));
-  float c011 = sq_voxel(v, node, i + (int3)(0, 1, 1)), c111 = sq_voxel(v, node, i + (int3)(1, 1, 1));
-  float c00 = mix(c000, c100, w.x), c10 = mix(c010, c110, w.x), c01 = mix(c001, c101, w.x), c11 = mix(c011, c111, w.x);
+// The corner (n & 1, n >> 1 & 1, n >> 2) of the 8 voxels from i.
+static inline int3 sq_corner(int3 i, int n) { return i + (int3)(n & 1, n >> 1 & 1, n >> 2); }
+
+// Trilinear interpolation between the 8 values k[n] at sq_corner(i, n), at fractions w from corner 0.
+static inline float sq_mix8(const float* k, float3 w) {
+  float c00 = mix(k[0], k[1], w.x), c10 = mix(k[2], k[3], w.x), c01 = mix(k[4], k[5], w.x), c11 = mix(k[6], k[7], w.x);
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
 
-// Density at index-space position p.
+// Density at index-space position p: the nearest voxel, or trilinear between the 8 around it, each
+// through the accessor.
 static inline float sq_sample(VdbVolume* v, float3 p, int trilinear) {
-  return trilinear ? sq_trilinear(v, 0, p) : sq_voxel(v, 0, convert_int3_rtn(p + 0.5f));
+  if (!trilinear) return sq_voxel(v, 0, convert_int3_rtn(p + 0.5f));
+  float3 f = floor(p);
+  float k[8];
+  for (int n = 0; n < 8; ++n) k[n] = sq_voxel(v, 0, sq_corner(convert_int3(f), n));
+  return sq_mix8(k, p - f);
 }
 
-// Trilinear density at cell-space point c of the ray's current node: where the 8 voxels around c lie in
-// the node, a tile's value or the leaf's own values (no tree query); elsewhere a query per corner. Not
-// inlined: inlined into the marches it made the nearest-voxel shadow rays 9% slower.
+// The value of voxel ijk, from the ray's current node where it holds the voxel (a tile's value, or the
+// leaf's table; no tree query), through the accessor elsewhere.
+static inline float sq_node_voxel(VdbVolume* v, const VdbNode* node, int3 ijk) {
+  if (any(ijk < node->lo) || any(ijk >= node->lo + node->dim)) return sq_voxel(v, 0, ijk);
+  return node->tile >= 0.0f ? node->tile : sq_voxel(v, node, ijk);
+}
+
+// Trilinear density at cell-space point c of the ray's current node. Where the 8 voxels around c lie in
+// the node: a tile's value, or the leaf's 2x2x2 block from one address (its table holds voxel (x, y, z) at
+// float x << 6 | y << 3 | z); elsewhere each voxel read as sq_node_voxel does, so that a sample across a
+// leaf's face queries the tree only for the voxels beyond it (the accessor then caches the neighbour,
+// not two leaves in turn). Not inlined: inlined into the marches it made the nearest-voxel shadow rays
+// 9% slower.
 __attribute__((noinline)) static float sq_node_trilinear(VdbVolume* v, const VdbNode* node, float3 c) {
-  float3 p = c - 0.5f;
-  int3 i = convert_int3(floor(p)) - node->lo;
-  if (any(i < 0) || any(i > node->dim - 2)) return sq_trilinear(v, 0, p);
-  return node->tile >= 0.0f ? node->tile : sq_trilinear(v, node, p);
+  const float3 p = c - 0.5f, f = floor(p);
+  const int3 i = convert_int3(f);
+  const bool inside = all(i >= node->lo) && all(i <= node->lo + node->dim - 2);
+  if (node->tile >= 0.0f && (inside || node->interior)) return node->tile;
+  float k[8];
+  if (inside) {
+    pnanovdb_coord_t ijk = {i.x, i.y, i.z};
+    const pnanovdb_address_t at =
+        pnanovdb_leaf_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, v->buf, node->leaf, &ijk);
+    for (int n = 0; n < 8; ++n)
+      k[n] = pnanovdb_read_float(v->buf, pnanovdb_address_offset(at, 4u * ((n & 1) << 6 | (n >> 1 & 1) << 3 | n >> 2)));
+  } else {
+    for (int n = 0; n < 8; ++n) k[n] = sq_node_voxel(v, node, sq_corner(i, n));
+  }
+  return sq_mix8(k, p - f);
 }
 
 // Density at cell-space point c of the ray's current node: trilinear (sq_node_trilinear), or the nearest
@@ -131,11 +155,76 @@ static inline void sq_substep_offsets(int n, uint* rng, float* r) {
   r[n] = 1.0f;
 }
 
+// The column density of [s, e) of a shadow ray (cell space o + t d) in `node`, added to *column: jittered
+// steps of p->shadow_step, until *column passes p->shadow_column_max.
+static void sq_march_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float s, float e,
+                            __private const CloudRenderParams* p, uint* rng, float* column) {
+  while (s < e && *column <= p->shadow_column_max) {
+    float h = sq_float_step(s, fmin(p->shadow_step, e - s));
+    *column += sq_node_density(v, node, o + (s + sq_uniform(rng) * h) * d, p->shadow_interpolation) * h;
+    s += h;
+  }
+}
+
+// Clips [*a, *b] to the span of the ray inside the box [lo, hi] (cell space, seen from `from`; inv_d = 1 / d);
+// false when nothing is left. An axis the ray runs parallel to leaves the span whole where `from` lies in
+// its slab, and empty where not.
+static inline bool sq_clip_slabs(float3 lo, float3 hi, float3 from, float3 inv_d, float* a, float* b) {
+  const float3 t_lo = (lo - from) * inv_d, t_hi = (hi - from) * inv_d;
+  const int3 parallel = isinf(inv_d), in_slab = isgreaterequal(from, lo) & islessequal(from, hi);
+  const float3 inf = (float3)(INFINITY);
+  const float3 near = select(fmin(t_lo, t_hi), select(inf, -inf, in_slab), parallel);
+  const float3 far = select(fmax(t_lo, t_hi), select(-inf, inf, in_slab), parallel);
+  *a = fmax(*a, fmax(fmax(near.x, near.y), near.z));
+  *b = fmin(*b, fmin(fmin(far.x, far.y), far.z));
+  return *a < *b;
+}
+
+// The column density of [s, e) of a shadow ray through a tile, added to *column. Nearest voxels: value x
+// length, what jittered steps would sum to. Trilinear: value x length over the tile's core, the points whose
+// 8 voxels all lie in the tile ([lo + 1/2, lo + dim - 1/2) in cell space), or over all of [s, e) in a tile
+// inside uniform density (interior); jittered steps over the rest, its half-voxel shell, where the tile's
+// value meets its neighbours'. An empty tile adds nothing: the marches skip empty nodes, and with them
+// the density trilinear interpolation spills into them, up to half a voxel past a face (none at a cloud's
+// edge, where density falls to zero).
+static void sq_tile_column(VdbVolume* v, const VdbNode* tile, float3 o, float3 d, float3 inv_d, float s, float e,
+                           __private const CloudRenderParams* p, uint* rng, float* column) {
+  if (!p->shadow_interpolation || tile->interior || tile->tile == 0.0f) {
+    *column += tile->tile * (e - s);
+    return;
+  }
+  const float3 base_cell = floor(o + s * d), lo = convert_float3(tile->lo) - base_cell;
+  float a = s, b = e;
+  if (!sq_clip_slabs(lo + 0.5f, lo + (tile->dim - 0.5f), o - base_cell, inv_d, &a, &b)) {
+    sq_march_column(v, tile, o, d, s, e, p, rng, column);
+    return;
+  }
+  sq_march_column(v, tile, o, d, s, a, p, rng, column);
+  *column += tile->tile * (b - a);
+  sq_march_column(v, tile, o, d, b, e, p, rng, column);
+}
+
+// The column through the tiles of a lower node from `node`, one of them (level 1) that sq_node found at t,
+// crossed one after another from the node's table (TileRun), with no tree query, up to t_end, a leaf or
+// the node's edge. Returns the ray parameter reached, where the walk goes on: at least node->exit (or t_end).
+static float sq_tile_run_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float3 inv_d, float t,
+                                float t_end, __private const CloudRenderParams* p, uint* rng, float* column) {
+  TileRun run = sq_tile_run_begin(v, o, d, inv_d, t, t_end, node);
+  VdbNode tile = *node;
+  do {
+    tile.lo = run.lo;
+    tile.tile = run.value;
+    tile.interior = run.interior;
+    sq_tile_column(v, &tile, o, d, inv_d, run.enter, run.exit, p, rng, column);
+  } while (*column <= p->shadow_column_max && sq_tile_run_next(v, inv_d, &run));
+  return run.exit;
+}
+
 // Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax], in
 // jittered steps of p->shadow_step clipped to the tree's nodes, sampling the nearest voxel or trilinear
-// (p->shadow_interpolation). The march stops once the column passes
-// p->shadow_column_max: the light's transmittance is then below min_transmittance at every wavelength, and
-// the estimate keeps at most that much light (the bias of early termination).
+// (p->shadow_interpolation); through tiles as sq_tile_column takes them. The march stops once the column
+// passes p->shadow_column_max: the light's transmittance is then below min_transmittance at every
+// wavelength, and the estimate keeps at most that much light (the bias of early termination).
 static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, __private const CloudRenderParams* p,
                                uint* rng) {
   float3 o = sq_world_to_index(v, x) + 0.5f;
@@ -147,25 +236,16 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
   float column = 0.0f;
   for (float t = t0; t < t1 && column <= p->shadow_column_max;) {
     VdbNode node;
-    bool occupied = sq_node(v, o, d, inv_d, t, nudge, &node);
+    sq_node(v, o, d, inv_d, t, nudge, &node);
     float exit = fmin(node.exit, t1);
-    if (node.tile >= 0.0f && !p->shadow_interpolation) {
-      // Nearest voxels of a tile: the steps would sum to value x length. The tiles of a lower node are
-      // crossed one after another from its table (sq_tile_run), with no tree query each.
-      if (node.dim == 8) {
-        t = sq_tile_run(v, o, d, inv_d, t, t1, &node, p->shadow_column_max, &column);
-      } else {
-        column += node.tile * (exit - t);
-        t = exit;
-      }
+    if (node.tile >= 0.0f && node.dim == 8) {
+      t = sq_tile_run_column(v, &node, o, d, inv_d, t, t1, p, rng, &column);
       continue;
     }
-    for (float s = t; occupied && s < exit && column <= p->shadow_column_max;) {
-      float h = sq_float_step(s, fmin(p->shadow_step, exit - s));
-      float3 c = o + (s + sq_uniform(rng) * h) * d;
-      column += sq_node_density(v, &node, c, p->shadow_interpolation) * h;
-      s += h;
-    }
+    if (node.tile >= 0.0f)
+      sq_tile_column(v, &node, o, d, inv_d, t, exit, p, rng, &column);
+    else
+      sq_march_column(v, &node, o, d, t, exit, p, rng, &column);
     t = exit;
   }
   return column;
@@ -206,7 +286,8 @@ static inline float3 sq_to_light(__private const CloudLight* l, float3 x, float*
 // Deep shadow map: column density toward each light at the nodes of a box grid (log T^L = -kappa column).
 // Sparse: nodes with needed[node] == 0 (farther than one map cell from any density) are skipped. Entry
 // id of the map: node id % nodes toward light id / nodes.
-static void sq_shadow_map_entry(size_t id, __global const uint* density, __private const CloudRenderParams* p,
+static void sq_shadow_map_entry(size_t id, __global const uint* density, __global const uint* interior,
+                                __private const CloudRenderParams* p,
                                 __global const uchar* needed, __global float* dsm) {
   int3 n = (int3)(p->dsm_n[0], p->dsm_n[1], p->dsm_n[2]);
   size_t nodes = (size_t)n.x * n.y * n.z;
@@ -221,7 +302,7 @@ static void sq_shadow_map_entry(size_t id, __global const uint* density, __priva
   float3 lo = (float3)(p->dsm_min[0], p->dsm_min[1], p->dsm_min[2]);
   float3 hi = (float3)(p->dsm_max[0], p->dsm_max[1], p->dsm_max[2]);
   float3 x = lo + (hi - lo) * convert_float3(i) / convert_float3(n - 1);
-  VdbVolume v = sq_volume_open(density);
+  VdbVolume v = sq_volume_open(density, interior);
   uint rng = sq_hash((uint)id ^ sq_hash((uint)p->seed + 17u));
   float dist, scale;
   float3 dir = sq_to_light(&p->lights[light], x, &dist, &scale);
@@ -231,7 +312,8 @@ static void sq_shadow_map_entry(size_t id, __global const uint* density, __priva
 // Pixel (px, py) of the image into out: channel-major planes of width*height floats: radiance per
 // wavelength (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance
 // in m at which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
-static void sq_render_pixel(int px, int py, __global const uint* density, __global const uint* temperature,
+static void sq_render_pixel(int px, int py, __global const uint* density, __global const uint* interior,
+                            __global const uint* temperature,
                             __global const float* dsm, CloudRenderParams p, __global float* out) {
   size_t pixel = (size_t)py * p.width + px;
   size_t plane = (size_t)p.width * p.height;
@@ -251,8 +333,8 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
   }
   float depth = -1.0f;
   uint rng = sq_hash((uint)pixel ^ sq_hash((uint)p.seed));
-  VdbVolume v = sq_volume_open(density);
-  VdbVolume tv = sq_volume_open(p.has_temperature ? temperature : density);
+  VdbVolume v = sq_volume_open(density, interior);
+  VdbVolume tv = sq_volume_open(p.has_temperature ? temperature : density, 0);
   float3 o = sq_world_to_index(&v, eye) + 0.5f;
   float3 d = sq_world_to_index_dir(&v, dir);
   float base = 0.0f, t0, t1;  // the march counts t from the ray's entry into the volume, base from the eye
@@ -324,35 +406,37 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
 // is left of a small launch). A run takes one atomic add for 8 items (a tile's row of pixels).
 #define SQ_SHARED_RUN 8u
 
-__kernel void cloud_shadow_map(__global const uint* density, CloudRenderParams p, __global const uchar* needed,
-                               __global float* dsm) {
-  sq_shadow_map_entry(get_global_id(0), density, &p, needed, dsm);
+__kernel void cloud_shadow_map(__global const uint* density, __global const uint* interior, CloudRenderParams p,
+                               __global const uchar* needed, __global float* dsm) {
+  sq_shadow_map_entry(get_global_id(0), density, interior, &p, needed, dsm);
 }
 
 // Entries first .. first + count - 1 of the map.
-__kernel void cloud_shadow_map_shared(__global const uint* density, CloudRenderParams p,
-                                      __global const uchar* needed, __global float* dsm, uint first, uint count,
-                                      volatile __global uint* next) {
+__kernel void cloud_shadow_map_shared(__global const uint* density, __global const uint* interior,
+                                      CloudRenderParams p, __global const uchar* needed, __global float* dsm,
+                                      uint first, uint count, volatile __global uint* next) {
   for (uint run = atomic_add(next, SQ_SHARED_RUN); run < count; run = atomic_add(next, SQ_SHARED_RUN))
     for (uint i = run; i < min(run + SQ_SHARED_RUN, count); ++i)
-      sq_shadow_map_entry(first + i, density, &p, needed, dsm);
+      sq_shadow_map_entry(first + i, density, interior, &p, needed, dsm);
 }
 
-__kernel void cloud_render(__global const uint* density, __global const uint* temperature, __global const float* dsm,
-                           CloudRenderParams p, __global float* out) {
+__kernel void cloud_render(__global const uint* density, __global const uint* interior,
+                           __global const uint* temperature, __global const float* dsm, CloudRenderParams p,
+                           __global float* out) {
   int px = get_global_id(0), py = get_global_id(1);
-  if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, p, out);
+  if (px < p.width && py < p.height) sq_render_pixel(px, py, density, interior, temperature, dsm, p, out);
 }
 
 // The pixels of tiles first_tile .. first_tile + tiles - 1 of the image's 8x8 tiles (row order, tiles_x a
 // row).
-__kernel void cloud_render_shared(__global const uint* density, __global const uint* temperature,
-                                  __global const float* dsm, CloudRenderParams p, __global float* out,
-                                  uint first_tile, uint tiles, uint tiles_x, volatile __global uint* next) {
+__kernel void cloud_render_shared(__global const uint* density, __global const uint* interior,
+                                  __global const uint* temperature, __global const float* dsm, CloudRenderParams p,
+                                  __global float* out, uint first_tile, uint tiles, uint tiles_x,
+                                  volatile __global uint* next) {
   for (uint run = atomic_add(next, SQ_SHARED_RUN); run < tiles * 64; run = atomic_add(next, SQ_SHARED_RUN))
     for (uint i = run; i < min(run + SQ_SHARED_RUN, tiles * 64); ++i) {
       const uint tile = first_tile + i / 64, k = i % 64;
       const int px = (tile % tiles_x) * 8 + k % 8, py = (tile / tiles_x) * 8 + k / 8;
-      if (px < p.width && py < p.height) sq_render_pixel(px, py, density, temperature, dsm, p, out);
+      if (px < p.width && py < p.height) sq_render_pixel(px, py, density, interior, temperature, dsm, p, out);
     }
 }

@@ -42,7 +42,8 @@ constexpr double kBytesPerTriangle = 128;
 constexpr double kBytesPerVertex = 36;
 // OpenVDB's internal nodes: a lower one's 16^3 entries of 8 bytes and its two masks, an upper one's 32^3;
 // the grids alive at the peak hold them: the conversion's distance, index and mask grids, the level set,
-// density and NanoVDB grids (a shape alone in its upper node measured 2.7 MB).
+// density and NanoVDB grids, and the NanoVDB grid's interior_tiles (512 bytes a lower node; a shape alone in
+// its upper node measured 2.7 MB).
 constexpr double kLowerNodeBytes = 16 * 16 * 16 * 8 + 2 * 512, kUpperNodeBytes = 32 * 32 * 32 * 8 + 2 * 4096;
 constexpr double kGridsAtPeak = 10;
 // Reading and checking a mesh, as measured (up to 0.83 of it): per vertex the model's two copies (the read

@@ -16,4 +16,12 @@ cl::Buffer upload_nanovdb(Runtime& runtime, const NanoHandle& handle) {
   return buffer;
 }
 
+cl::Buffer upload_words(Runtime& runtime, const std::vector<uint32_t>& words) {
+  const std::vector<uint32_t> none{0};
+  const std::vector<uint32_t>& w = words.empty() ? none : words;
+  cl::Buffer buffer(runtime.context(), CL_MEM_READ_ONLY, w.size() * sizeof(uint32_t));
+  runtime.queue().enqueueWriteBuffer(buffer, CL_TRUE, 0, w.size() * sizeof(uint32_t), w.data());
+  return buffer;
+}
+
 }  // namespace squall::clouds

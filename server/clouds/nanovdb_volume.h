@@ -9,6 +9,9 @@
 #include <nanovdb/util/HostBuffer.h>
 #include <openvdb/openvdb.h>
 
+#include <cstdint>
+#include <vector>
+
 #include "runtime/runtime.h"
 
 namespace squall::clouds {
@@ -20,5 +23,8 @@ NanoHandle to_nanovdb(const openvdb::FloatGrid& grid);
 
 // A device copy of the handle's bytes (read-only, padded to whole 32-bit words).
 cl::Buffer upload_nanovdb(Runtime& runtime, const NanoHandle& handle);
+
+// A device copy of the words (read-only; one word, 0, for none).
+cl::Buffer upload_words(Runtime& runtime, const std::vector<uint32_t>& words);
 
 }  // namespace squall::clouds

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <utility>
 
+#include "clouds/interior_tiles.h"
 #include "clouds/nanovdb_volume.h"
 #include "clouds/occupancy.h"
 #include "clouds/render_params.h"
@@ -234,6 +235,7 @@ void validate(const RenderSettings& s, const std::string& f) {
 NanoGrids to_nanovdb(const CloudVolume& volume) {
   NanoGrids grids;
   grids.density = to_nanovdb(*volume.density);
+  grids.interior = interior_tiles(*grids.density.grid<float>());
   if (volume.temperature) grids.temperature = to_nanovdb(*volume.temperature);
   return grids;
 }
@@ -244,6 +246,7 @@ DeviceVolume upload_volume(Runtime& runtime, const CloudVolume& volume, const Na
     auto lock = runtime.exclusive();  // a queue of its own, not one another request holds
     d.density = upload_nanovdb(runtime, grids.density);
     d.temperature = volume.temperature ? upload_nanovdb(runtime, grids.temperature) : d.density;
+    d.interior = upload_words(runtime, grids.interior);
   }
   d.has_temperature = bool(volume.temperature);
   d.device_bytes = grids.bytes();
@@ -409,23 +412,24 @@ void CloudRenderer::launch_tiles(const DeviceVolume& volume, const cl::Buffer& m
   if (!shares_work()) {
     for (const auto& r : tiles.rectangles(first, count))
       render_.launch_region(cl::NDRange(8 * r.x, 8 * r.y), cl::NDRange(8 * r.width, 8 * r.height), cl::NDRange(8, 8),
-                            volume.density, volume.temperature, map, p, out);
+                            volume.density, volume.interior, volume.temperature, map, p, out);
     return;
   }
   const BufferLease next = shared_counter();
-  render_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, volume.temperature, map, p, out,
-                        cl_uint(first), cl_uint(count), cl_uint(tiles.x), next.buffer());
+  render_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, volume.interior, volume.temperature, map, p,
+                        out, cl_uint(first), cl_uint(count), cl_uint(tiles.x), next.buffer());
 }
 
 void CloudRenderer::launch_map_entries(const DeviceVolume& volume, const CloudRenderParams& p, const cl::Buffer& needed,
                                        const cl::Buffer& map, size_t first, size_t count) {
   if (!shares_work()) {
-    shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, p, needed, map);
+    shadow_map_.launch_region(cl::NDRange(first), cl::NDRange(count), cl::NDRange(64), volume.density, volume.interior,
+                              p, needed, map);
     return;
   }
   const BufferLease next = shared_counter();
-  shadow_map_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, p, needed, map, cl_uint(first),
-                            cl_uint(count), next.buffer());
+  shadow_map_shared_.launch(sharing_items(), cl::NDRange(1), volume.density, volume.interior, p, needed, map,
+                            cl_uint(first), cl_uint(count), next.buffer());
 }
 
 void CloudRenderer::make_shadow_map(ShadowMap& map, const DeviceVolume& volume, const RenderSettings& settings,

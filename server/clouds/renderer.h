@@ -104,6 +104,7 @@ inline constexpr size_t kMaxKeptShadowMapsBytes = size_t(64) << 20;
 // A volume on the device: the NanoVDB buffers of its grids, byte for byte.
 struct DeviceVolume {
   cl::Buffer density, temperature;
+  cl::Buffer interior;  // interior_tiles() of the density
   bool has_temperature = false;
   Vec3d world_min{0, 0, 0}, world_max{0, 0, 0};  // the active voxels' cells, m; both 0 when none is
   // World boxes (min x, y, z, max x, y, z; m) of the density's active leaves and tiles grown by a voxel:
@@ -120,7 +121,8 @@ struct DeviceVolume {
 // memory the upload takes, is known here.
 struct NanoGrids {
   NanoHandle density, temperature;  // temperature empty for a volume without one
-  uint64_t bytes() const { return density.size() + temperature.size(); }
+  std::vector<uint32_t> interior;   // interior_tiles() of the density
+  uint64_t bytes() const { return density.size() + temperature.size() + interior.size() * sizeof(uint32_t); }
 };
 NanoGrids to_nanovdb(const CloudVolume& volume);
 
@@ -229,13 +231,16 @@ class CloudRenderer : public MemoryReclaimer {
   std::mutex kept_mutex_;                           // guards kept_; no map's mutex is taken under it
   std::vector<std::weak_ptr<KeptShadowMap>> kept_;  // the volumes' maps that keep() has kept
   std::atomic<uint64_t> uses_{0};                   // KeptShadowMap::used
-  Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;  // density, p, needed, dsm
-  // density, p, needed, dsm, first entry, entries, next entry
-  Kernel<cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer, cl_uint, cl_uint, cl::Buffer> shadow_map_shared_;
-  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer>
-      render_;  // density, temperature, dsm, p, out
-  // density, temperature, dsm, p, out, first tile, tiles, tiles a row, next pixel: on CPU devices
-  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer, cl_uint, cl_uint, cl_uint, cl::Buffer>
+  // density, interior, p, needed, dsm
+  Kernel<cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer> shadow_map_;
+  // density, interior, p, needed, dsm, first entry, entries, next entry
+  Kernel<cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer, cl::Buffer, cl_uint, cl_uint, cl::Buffer>
+      shadow_map_shared_;
+  // density, interior, temperature, dsm, p, out
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer> render_;
+  // density, interior, temperature, dsm, p, out, first tile, tiles, tiles a row, next pixel: on CPU devices
+  Kernel<cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, CloudRenderParams, cl::Buffer, cl_uint, cl_uint, cl_uint,
+         cl::Buffer>
       render_shared_;
   std::atomic<WorkSchedule> schedule_{WorkSchedule::Auto};
 };
