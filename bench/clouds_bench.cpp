@@ -2,11 +2,12 @@
 // (1) the reference fog volume a user would try first: four unioned spheres (radii 100, 70, 60, 50 m,
 //     voxel 1 m) built by squall and written as .vdb, rendered at 512x512 with step 1 voxel and shadow step 3
 //     voxels by squall (direct shadows, and a 64^3 deep shadow map) and by OpenVDB's `vdb_render`
-//     executable on that .vdb (same camera, image, steps, light and coefficients), and squall's direct
-//     shadows at shadow step 3 against the exact march (shadow step 1 voxel);
+//     executable on that .vdb (same camera, image, steps, light, coefficients and rays' end), squall's
+//     direct shadows with its own default end too, each against the exact march (shadow step 1 voxel);
 // (2) build time of a reference cumulus at N^3 effective resolution (OpenVDB on the host), render time and
 //     rays per second of squall's OpenCL ray marcher on the device, beside OpenVDB's own CPU volume
-//     renderer (tools::VolumeRender, what vdb_render uses) linked in, on the same grid, image and step.
+//     renderer (tools::VolumeRender, what vdb_render uses) linked in, on the same grid, image, step and
+//     rays' end.
 // Usage: clouds_bench [--device auto|cpu|gpu|NAME] [--image WxH] [--kernel-dir DIR] [N ...]
 //   N: the cumuli of (2) (default: 256 512; 0: part (1) alone); --image: the image of (2) (default 256x256;
 //   1920x1080 for the goal on a GPU, whose frames/s it prints); DIR: kernels from DIR, e.g. another commit's,
@@ -65,6 +66,13 @@ struct ImageSize {
 };
 ImageSize g_image;
 constexpr double kExtinction = 0.01, kAlbedo = 0.9;  // 1/m per unit density
+// OpenVDB's cut-off (VolumeRender::setCutOff, vdb_render's -cutoff, 0.005 by default) ends a ray where the
+// squared length of its RGB transmittance falls below it, and skips samples of lower density: under a grey
+// light at T = sqrt(cut-off / 3) = 0.041, not at 0.005. squall's rays end at that transmittance
+// (min_transmittance) where they are compared with OpenVDB's, so that both march as far.
+constexpr double kCutOff = 0.005;
+const double kCutOffTransmittance = std::sqrt(kCutOff / 3);
+constexpr double kSquallMinTransmittance = 1e-4;  // squall's default, for its cost and the exact march
 const Vec3d kLight{0.5, -0.3, 0.8};
 
 RenderSettings squall_settings(double dx, ShadowMode shadow, int shadow_map_nodes) {
@@ -77,7 +85,7 @@ RenderSettings squall_settings(double dx, ShadowMode shadow, int shadow_map_node
   s.camera.height = g_image.height;
   s.step = dx;
   s.trilinear = true;
-  s.min_transmittance = 1e-3;
+  s.min_transmittance = kCutOffTransmittance;
   s.extinction = {kExtinction};
   s.albedo = {kAlbedo};
   s.phase.kind = PhaseKind::Uniform;
@@ -107,7 +115,7 @@ double openvdb_render_seconds(const openvdb::FloatGrid& grid, double dx) {
   renderer.setScattering(kAlbedo * sigma, kAlbedo * sigma, kAlbedo * sigma);
   renderer.setAbsorption((1 - kAlbedo) * sigma, (1 - kAlbedo) * sigma, (1 - kAlbedo) * sigma);
   renderer.setLightGain(0);
-  renderer.setCutOff(0.005);
+  renderer.setCutOff(kCutOff);
   return bench::median_seconds([&] { renderer.render(true); }, 1);
 }
 
@@ -125,14 +133,14 @@ CloudModel four_spheres() {
   return m;
 }
 
-RenderSettings fog_settings(ShadowMode shadow, double shadow_step, double extinction) {
+RenderSettings fog_settings(ShadowMode shadow, double shadow_step, double extinction, double min_transmittance) {
   RenderSettings s = squall_settings(1.0, shadow, 64);
   s.camera.eye = kFogEye;
   s.camera.look_at = kFogCenter;
   s.camera.vertical_fov_deg = 40;
   s.camera.width = s.camera.height = kFogImage;
   s.shadow_step = shadow_step;
-  s.min_transmittance = 0.005;  // vdb_render's -cutoff
+  s.min_transmittance = min_transmittance;
   s.extinction = {extinction};
   return s;
 }
@@ -143,11 +151,11 @@ double vdb_render_seconds(const std::string& vdb, const std::string& image, doub
   char command[1024];
   std::snprintf(command, sizeof command,
                 "vdb_render %s %s -res %dx%d -translate %g,%g,%g -lookat %g,%g,%g -up 0,0,1 -fov 40 -step 1 "
-                "-shadowstep 3 -light %g,%g,%g,1,1,1 -scatter %g,%g,%g -absorb %g,%g,%g -gain 0 -cutoff 0.005 "
+                "-shadowstep 3 -light %g,%g,%g,1,1,1 -scatter %g,%g,%g -absorb %g,%g,%g -gain 0 -cutoff %g "
                 "-cpus 0 > /dev/null 2>&1",
                 vdb.c_str(), image.c_str(), kFogImage, kFogImage, kFogEye[0], kFogEye[1], kFogEye[2], kFogCenter[0],
                 kFogCenter[1], kFogCenter[2], kLight[0], kLight[1], kLight[2], scatter, scatter, scatter, absorb,
-                absorb, absorb);
+                absorb, absorb, kCutOff);
   int status = 0;
   const double t = bench::median_seconds([&] { status = std::system(command); }, 3);
   if (status != 0) {
@@ -203,27 +211,32 @@ void run_fog(Runtime& runtime) {
   DeviceVolume device = upload_volume(runtime, volume);
   CloudRenderer renderer(runtime);
   for (double extinction : {0.01, 0.1}) {  // 1/m: optical depth 2 or 20 across the big sphere
-    Image exact, fast, fast_trilinear, dsm_image, unshadowed;
-    auto render = [&](ShadowMode mode, double shadow_step, bool trilinear, Image* out) {
-      RenderSettings settings = fog_settings(mode, shadow_step, extinction);
+    Image exact, fast, fast_trilinear, dsm_image, unshadowed, strict, strict_trilinear;
+    auto render = [&](ShadowMode mode, double shadow_step, bool trilinear, double min_transmittance, Image* out) {
+      RenderSettings settings = fog_settings(mode, shadow_step, extinction, min_transmittance);
       settings.shadow_trilinear = trilinear;
       return bench::median_seconds([&] { *out = renderer.render(device, settings); }, 3);
     };
+    const double cut = kCutOffTransmittance, own = kSquallMinTransmittance;
     renderer.set_work_schedule(WorkSchedule::WorkGroups);  // a GPU's way, for comparison
     Image direct_groups, dsm_groups;
-    const double direct_in_groups = render(ShadowMode::Direct, 3, false, &direct_groups);
-    const double dsm_in_groups = render(ShadowMode::DeepShadowMap, 3, false, &dsm_groups);
+    const double direct_in_groups = render(ShadowMode::Direct, 3, false, cut, &direct_groups);
+    const double dsm_in_groups = render(ShadowMode::DeepShadowMap, 3, false, cut, &dsm_groups);
     renderer.set_work_schedule(WorkSchedule::Auto);
-    const double direct = render(ShadowMode::Direct, 3, false, &fast);
-    const double direct_trilinear = render(ShadowMode::Direct, 3, true, &fast_trilinear);
-    const double dsm = render(ShadowMode::DeepShadowMap, 3, false, &dsm_image);
-    const double primary = render(ShadowMode::None, 3, false, &unshadowed);
-    render(ShadowMode::Direct, 1, true, &exact);  // the exact march: every voxel, trilinear
+    const double direct = render(ShadowMode::Direct, 3, false, cut, &fast);
+    const double direct_trilinear = render(ShadowMode::Direct, 3, true, cut, &fast_trilinear);
+    const double dsm = render(ShadowMode::DeepShadowMap, 3, false, cut, &dsm_image);
+    const double primary = render(ShadowMode::None, 3, false, cut, &unshadowed);
+    const double direct_strict = render(ShadowMode::Direct, 3, false, own, &strict);
+    const double trilinear_strict = render(ShadowMode::Direct, 3, true, own, &strict_trilinear);
+    render(ShadowMode::Direct, 1, true, own, &exact);  // the exact march: every voxel, trilinear, to T = 1e-4
     const double vdb_s = vdb_render_seconds(vdb, "/tmp/squall_clouds_bench_fog.exr", extinction);
     std::printf(
-        "  extinction %.2f /m: squall direct %.3f s (trilinear shadows %.3f s), DSM 64^3 %.3f s, no shadows "
-        "%.3f s; vdb_render %.3f s (file read included)\n",
-        extinction, direct, direct_trilinear, dsm, primary, vdb_s);
+        "  extinction %.2f /m, rays ending at T = %.3f as OpenVDB's: squall direct %.3f s (trilinear shadows %.3f "
+        "s), DSM 64^3 %.3f s, no shadows %.3f s; vdb_render %.3f s (file read included)\n",
+        extinction, cut, direct, direct_trilinear, dsm, primary, vdb_s);
+    std::printf("    rays ending at squall's default T = %g: direct %.3f s (trilinear shadows %.3f s)\n", own,
+                direct_strict, trilinear_strict);
     std::printf(
         "    in work-groups of 64 items: direct %.3f s, DSM %.3f s (the device's schedule takes %.2f and %.2f of "
         "that; same images: %s)\n",
@@ -235,10 +248,11 @@ void run_fog(Runtime& runtime) {
         vdb_s / direct, vdb_s / direct_trilinear, vdb_s / dsm,
         correlation_with(fast, "/tmp/squall_clouds_bench_fog.exr"));
     std::printf(
-        "    against the exact march (shadow step 1 voxel, trilinear): mean |dL| / mean L = %.2e direct, %.2e "
-        "trilinear shadows, %.2e DSM; mean L ratio %.4f direct, %.4f DSM\n",
-        mean_abs_relative(fast, exact), mean_abs_relative(fast_trilinear, exact), mean_abs_relative(dsm_image, exact),
-        mean_ratio(fast, exact), mean_ratio(dsm_image, exact));
+        "    against the exact march (shadow step 1 voxel, trilinear, to T = %g): mean |dL| / mean L = %.2e direct, "
+        "%.2e trilinear shadows, %.2e DSM, %.2e and %.2e to T = %g; mean L ratio %.4f direct, %.4f DSM\n",
+        own, mean_abs_relative(fast, exact), mean_abs_relative(fast_trilinear, exact),
+        mean_abs_relative(dsm_image, exact), mean_abs_relative(strict, exact),
+        mean_abs_relative(strict_trilinear, exact), own, mean_ratio(fast, exact), mean_ratio(dsm_image, exact));
   }
   std::printf("\n");
 }
