@@ -51,6 +51,8 @@ render flags:
   --shadow-step M           step of the marches toward the lights, m (default: 3 steps)
   --shadow-trilinear        trilinear density on those marches (default nearest voxel)
   --trilinear               trilinear density (default nearest voxel)
+  --min-transmittance T     primary and shadow marches end where the transmittance falls below T, in [0, 1)
+                            (default 1e-4; vdb_render's -cutoff C ends them at sqrt(C / 3) under a grey light)
 )";
 
 std::vector<double> numbers(const std::string& flag, const std::string& text, size_t min, size_t max) {
@@ -161,6 +163,8 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     s.set_step(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--shadow-step")
     s.set_shadow_step(numbers(flag, value, 1, 1)[0]);
+  else if (flag == "--min-transmittance")
+    s.set_min_transmittance(numbers(flag, value, 1, 1)[0]);
   else if (flag == "--wavelengths") {
     s.clear_wavelengths();
     for (double l : numbers(flag, value, 1, 8)) s.add_wavelengths(l);

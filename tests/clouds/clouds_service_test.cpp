@@ -829,6 +829,17 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
             4)
       << out;
   EXPECT_NE(out.find("extinction"), std::string::npos) << out;
+  EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "--size", "8x8", "--min-transmittance", "0.041", "-o",
+                            dir + "/t.exr"}),
+                      &out),
+            0)
+      << out;
+  EXPECT_EQ(test::run(args({"render", "--sphere", "0,0,0,4", "--size", "8x8", "--min-transmittance", "1", "-o",
+                            dir + "/x.exr"}),
+                      &out),
+            4)
+      << out;
+  EXPECT_NE(out.find("settings.min_transmittance"), std::string::npos) << out;
   EXPECT_EQ(test::run(args({"render", "--volume", "cloud-404", "-o", dir + "/x.exr"}), &out), 4) << out;
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
 }
@@ -849,6 +860,7 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--phase", "hg:0.5,0.3"}, "--phase hg:0.5,0.3: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
       {{"render", "--phase", "uniform:anything"}, "--phase uniform:anything: uniform, hg:G"},
       {{"render", "--step", "1,2"}, "--step 1,2: needs 1 number"},
+      {{"render", "--min-transmittance", "0.1,0.2"}, "--min-transmittance 0.1,0.2: needs 1 number"},
       {{"render", "--shadow", "none", "--shadow-step", "5"}, "not flags of --shadow none"},
       {{"render", "--shadow-trilinear", "--shadow", "none"}, "not flags of --shadow none"},
       {{"frobnicate"}, "unknown cloud verb frobnicate (build or render)"},
