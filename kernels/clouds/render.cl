@@ -18,8 +18,8 @@
 // the ray's inverse direction); the primary ray marches only through leaves and tiles of nonzero density.
 // A tile's density is one value: the primary ray reads it without a lookup, and a shadow ray adds value x
 // length where its steps would sum to that (sq_tile_column: a nearest-voxel tile, a trilinear tile's core
-// or a tile inside uniform density), crossing a lower node's tiles one after another from its table
-// (TileRun). Inside a leaf the samples read the leaf's value table directly (a trilinear one's 2x2x2 block
+// or a tile inside uniform density), crossing a lower node's tiles and leaves one after another from its
+// table (CellRun). Inside a leaf the samples read the leaf's value table directly (a trilinear one's 2x2x2 block
 // when its 8 voxels lie in the leaf), with no tree query per step.
 // Index convention: voxel ijk is centred at index position ijk (OpenVDB); the walk uses "cell space"
 // c = index + 0.5, where voxel ijk is the cell [ijk, ijk + 1). Ray parameters t are world metres, a primary
@@ -204,25 +204,31 @@ static void sq_tile_column(VdbVolume* v, const VdbNode* tile, float3 o, float3 d
   sq_march_column(v, tile, o, d, b, e, p, rng, column);
 }
 
-// The column through the tiles of a lower node from `node`, one of them (level 1) that sq_node found at t,
-// crossed one after another from the node's table (TileRun), with no tree query, up to t_end, a leaf or
-// the node's edge. Returns the ray parameter reached, where the walk goes on: at least node->exit (or t_end).
-static float sq_tile_run_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float3 inv_d, float t,
+// The column through the cells of a lower node from `node`, a leaf or a tile of it (dim 8) that sq_node
+// found at t, crossed one after another from the node's table (CellRun), with no tree query: tiles as
+// sq_tile_column takes them, leaves in jittered steps. Up to t_end or the node's edge; returns the ray
+// parameter reached, where the walk goes on: at least node->exit (or t_end).
+static float sq_cell_run_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float3 inv_d, float t,
                                 float t_end, __private const CloudRenderParams* p, uint* rng, float* column) {
-  TileRun run = sq_tile_run_begin(v, o, d, inv_d, t, t_end, node);
-  VdbNode tile = *node;
+  CellRun run = sq_cell_run_begin(v, o, d, inv_d, t, t_end, node);
+  VdbNode cell = *node;
   do {
-    tile.lo = run.lo;
-    tile.tile = run.value;
-    tile.interior = run.interior;
-    sq_tile_column(v, &tile, o, d, inv_d, run.enter, run.exit, p, rng, column);
-  } while (*column <= p->shadow_column_max && sq_tile_run_next(v, inv_d, &run));
+    cell.lo = run.lo;
+    cell.tile = run.value;
+    cell.interior = run.interior;
+    cell.leaf = run.leaf;
+    if (cell.tile >= 0.0f)
+      sq_tile_column(v, &cell, o, d, inv_d, run.enter, run.exit, p, rng, column);
+    else
+      sq_march_column(v, &cell, o, d, run.enter, run.exit, p, rng, column);
+  } while (*column <= p->shadow_column_max && sq_cell_run_next(v, inv_d, &run));
   return run.exit;
 }
 
 // Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax], in
 // jittered steps of p->shadow_step clipped to the tree's nodes, sampling the nearest voxel or trilinear
-// (p->shadow_interpolation); through tiles as sq_tile_column takes them. The march stops once the column
+// (p->shadow_interpolation); through tiles as sq_tile_column takes them, and a lower node's cells one after
+// another from its table (sq_cell_run_column). The march stops once the column
 // passes p->shadow_column_max: the light's transmittance is then below min_transmittance at every
 // wavelength, and the estimate keeps at most that much light (the bias of early termination).
 static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, __private const CloudRenderParams* p,
@@ -237,16 +243,13 @@ static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, _
   for (float t = t0; t < t1 && column <= p->shadow_column_max;) {
     VdbNode node;
     sq_node(v, o, d, inv_d, t, nudge, &node);
-    float exit = fmin(node.exit, t1);
-    if (node.tile >= 0.0f && node.dim == 8) {
-      t = sq_tile_run_column(v, &node, o, d, inv_d, t, t1, p, rng, &column);
-      continue;
-    }
-    if (node.tile >= 0.0f)
+    if (node.dim == 8) {  // a leaf, or a tile of a lower node
+      t = sq_cell_run_column(v, &node, o, d, inv_d, t, t1, p, rng, &column);
+    } else {  // a tile of an upper node or of the root
+      const float exit = fmin(node.exit, t1);
       sq_tile_column(v, &node, o, d, inv_d, t, exit, p, rng, &column);
-    else
-      sq_march_column(v, &node, o, d, t, exit, p, rng, &column);
-    t = exit;
+      t = exit;
+    }
   }
   return column;
 }
