@@ -67,8 +67,8 @@ struct ImageSize {
 ImageSize g_image;
 constexpr double kExtinction = 0.01, kAlbedo = 0.9;  // 1/m per unit density
 // OpenVDB's cut-off (VolumeRender::setCutOff, vdb_render's -cutoff, 0.005 by default) ends a ray where the
-// squared length of its RGB transmittance falls below it, and skips samples of lower density: under a grey
-// light at T = sqrt(cut-off / 3) = 0.041, not at 0.005. squall's rays end at that transmittance
+// squared length of its RGB transmittance falls below it, and skips samples of lower density: with equal RGB
+// coefficients (a grey medium) at T = sqrt(cut-off / 3) = 0.041, not at 0.005. squall's rays end at that transmittance
 // (min_transmittance) where they are compared with OpenVDB's, so that both march as far.
 constexpr double kCutOff = 0.005;
 const double kCutOffTransmittance = std::sqrt(kCutOff / 3);
@@ -296,8 +296,9 @@ void run(Runtime& runtime, int n) {
                   t / kept);
     }
     if (g_image.width == 1920 && g_image.height == 1080 && nodes != 128)
-      bench::print_gpu_goal(("cloud 1920x1080, N=" + std::to_string(n) + " cumulus, " + mode + " shadows").c_str(),
-                            1 / t, 30, "frames/s");
+      bench::print_gpu_goal(
+          ("cloud 1920x1080, N=" + std::to_string(n) + " cumulus, " + mode + " shadows, rays to T = 0.041").c_str(),
+          1 / t, 30, "frames/s");
   }
   double vdb = openvdb_render_seconds(*volume.density, dx);
   std::printf("  openvdb::tools::VolumeRender (direct shadows, CPU, TBB): %.3f s, %.3g rays/s\n", vdb, rays / vdb);

@@ -52,7 +52,7 @@ render flags:
   --shadow-trilinear        trilinear density on those marches (default nearest voxel)
   --trilinear               trilinear density (default nearest voxel)
   --min-transmittance T     primary and shadow marches end where the transmittance falls below T, in [0, 1)
-                            (default 1e-4; vdb_render's -cutoff C ends them at sqrt(C / 3) under a grey light)
+                            (default 1e-4; vdb_render's -cutoff C ends them at sqrt(C / 3) in a grey medium)
 )";
 
 std::vector<double> numbers(const std::string& flag, const std::string& text, size_t min, size_t max) {

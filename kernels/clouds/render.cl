@@ -206,8 +206,9 @@ static void sq_tile_column(VdbVolume* v, const VdbNode* tile, float3 o, float3 d
 
 // The column through the cells of a lower node from `node`, a leaf or a tile of it (dim 8) that sq_node
 // found at t, crossed one after another from the node's table (CellRun), with no tree query: tiles as
-// sq_tile_column takes them, leaves in jittered steps. Up to t_end or the node's edge; returns the ray
-// parameter reached, where the walk goes on: at least node->exit (or t_end).
+// sq_tile_column takes them, leaves in jittered steps. Up to t_end, the node's edge or a column past
+// p->shadow_column_max; returns the ray parameter reached, where the walk goes on: at least
+// min(node->exit, t_end).
 static float sq_cell_run_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float3 inv_d, float t,
                                 float t_end, __private const CloudRenderParams* p, uint* rng, float* column) {
   CellRun run = sq_cell_run_begin(v, o, d, inv_d, t, t_end, node);

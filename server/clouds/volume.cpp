@@ -182,6 +182,25 @@ void derive_uuid(std::string& vdb) {
   vdb.replace(kUuidAt, kUuidLength, uuid);
 }
 
+// Density is finite and >= 0 in every voxel and tile, active or not, and in the background: the marches read
+// them all (a leaf's inactive voxels through trilinear samples), and tell a leaf from a tile by a tile's
+// value being >= 0.
+void check_density_values(const FloatGrid& density, const std::string& field) {
+  auto refuse = [&](const std::string& where, float value) {
+    fail(Code::InvalidArgument, field + ": its density grid holds " + validate::number(value) + " at " + where +
+                                    ": density must be finite and >= 0");
+  };
+  if (!(density.background() >= 0 && std::isfinite(density.background())))
+    refuse("the background", density.background());
+  for (auto it = density.cbeginValueAll(); it; ++it) {
+    if (*it >= 0 && std::isfinite(*it)) continue;
+    const openvdb::Coord c = it.getCoord();
+    refuse((it.isVoxelValue() ? "voxel (" : "the tile at (") + std::to_string(c.x()) + ", " + std::to_string(c.y()) +
+               ", " + std::to_string(c.z()) + ")",
+           *it);
+  }
+}
+
 }  // namespace
 
 std::string write_vdb(const CloudVolume& volume) {
@@ -213,6 +232,7 @@ CloudVolume read_vdb(const std::string& bytes, const std::string& field) {
     if (floats && floats->getName() == "temperature") volume.temperature = floats;
   }
   if (!volume.density) fail(Code::InvalidArgument, field + " holds no float grid named \"density\"");
+  check_density_values(*volume.density, field);
   volume.stats = volume_stats(*volume.density);
   return volume;
 }

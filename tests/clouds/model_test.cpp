@@ -322,6 +322,29 @@ TEST(Model, VdbBytesReadBackWithNoTemporaryFile) {
   EXPECT_EQ(temporary_files(), before);
 }
 
+// A .vdb whose density is negative or not finite anywhere (a voxel, active or not, a tile, the background) is
+// refused naming where: the marches read every value, and take a negative one for a leaf's mark.
+TEST(Model, VdbWithNegativeOrNonFiniteDensityIsRefused) {
+  CloudModel m;
+  m.voxel_size = 0.5;
+  m.spheres.push_back({{0, 0, 0}, 3});
+  const CloudVolume v = build_cloud(m);
+  EXPECT_NO_THROW(read_vdb(write_vdb(v), "payload"));
+  auto refused = [&](auto damage, const std::string& message) {
+    CloudVolume bad = v;
+    bad.density = v.density->deepCopy();
+    damage(*bad.density);
+    test::expect_error(Code::InvalidArgument, "payload: its density grid holds " + message,
+                       [&] { read_vdb(write_vdb(bad), "payload"); });
+  };
+  refused([](openvdb::FloatGrid& g) { g.tree().addTile(1, openvdb::Coord(64, 0, 0), -0.5f, true); },
+          "-0.5 at the tile at (64, 0, 0)");
+  refused([](openvdb::FloatGrid& g) { g.tree().setValueOff(openvdb::Coord(1, 2, 3), NAN); }, "nan at voxel (1, 2, 3)");
+  refused([](openvdb::FloatGrid& g) { g.tree().setValueOn(openvdb::Coord(-1, 0, 2), INFINITY); },
+          "inf at voxel (-1, 0, 2)");
+  refused([](openvdb::FloatGrid& g) { g.tree().root().setBackground(-1.0f, true); }, "-1 at the background");
+}
+
 TEST(Model, VdbFileOpensInVdbPrintWithGridNamesAndVoxelCounts) {
   CloudModel m;
   m.voxel_size = 0.5;
