@@ -229,9 +229,9 @@ static float sq_cell_run_column(VdbVolume* v, const VdbNode* node, float3 o, flo
 // Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax], in
 // jittered steps of p->shadow_step clipped to the tree's nodes, sampling the nearest voxel or trilinear
 // (p->shadow_interpolation); through tiles as sq_tile_column takes them, and a lower node's cells one after
-// another from its table (sq_cell_run_column). The march stops once the column
-// passes p->shadow_column_max: the light's transmittance is then below min_transmittance at every
-// wavelength, and the estimate keeps at most that much light (the bias of early termination).
+// another from its table (sq_cell_run_column). The march stops once the column passes
+// p->shadow_column_max: the light's transmittance is then below min_transmittance at every wavelength, and
+// the estimate keeps at most that much light (the bias of early termination).
 static float sq_column_density(VdbVolume* v, float3 x, float3 dir, float tmax, __private const CloudRenderParams* p,
                                uint* rng) {
   float3 o = sq_world_to_index(v, x) + 0.5f;
