@@ -212,18 +212,13 @@ static void sq_tile_column(VdbVolume* v, const VdbNode* tile, float3 o, float3 d
 static float sq_cell_run_column(VdbVolume* v, const VdbNode* node, float3 o, float3 d, float3 inv_d, float t,
                                 float t_end, __private const CloudRenderParams* p, uint* rng, float* column) {
   CellRun run = sq_cell_run_begin(v, o, d, inv_d, t, t_end, node);
-  VdbNode cell = *node;
   do {
-    cell.lo = run.lo;
-    cell.tile = run.value;
-    cell.interior = run.interior;
-    cell.leaf = run.leaf;
-    if (cell.tile >= 0.0f)
-      sq_tile_column(v, &cell, o, d, inv_d, run.enter, run.exit, p, rng, column);
+    if (run.cell.tile >= 0.0f)
+      sq_tile_column(v, &run.cell, o, d, inv_d, run.enter, run.cell.exit, p, rng, column);
     else
-      sq_march_column(v, &cell, o, d, run.enter, run.exit, p, rng, column);
+      sq_march_column(v, &run.cell, o, d, run.enter, run.cell.exit, p, rng, column);
   } while (*column <= p->shadow_column_max && sq_cell_run_next(v, inv_d, &run));
-  return run.exit;
+  return run.cell.exit;
 }
 
 // Column density (integral of rho ds, m) from world point x along unit direction dir over [0, tmax], in

@@ -186,19 +186,14 @@ void derive_uuid(std::string& vdb) {
 // them all (a leaf's inactive voxels through trilinear samples), and tell a leaf from a tile by a tile's
 // value being >= 0.
 void check_density_values(const FloatGrid& density, const std::string& field) {
-  auto refuse = [&](const std::string& where, float value) {
-    fail(Code::InvalidArgument, field + ": its density grid holds " + validate::number(value) + " at " + where +
-                                    ": density must be finite and >= 0");
+  auto check = [&](float value, auto where) {
+    if (!(value >= 0 && std::isfinite(value)))
+      fail(Code::InvalidArgument, field + ": its density grid holds " + validate::number(value) + " at " + where() +
+                                      ": density must be finite and >= 0");
   };
-  if (!(density.background() >= 0 && std::isfinite(density.background())))
-    refuse("the background", density.background());
-  for (auto it = density.cbeginValueAll(); it; ++it) {
-    if (*it >= 0 && std::isfinite(*it)) continue;
-    const openvdb::Coord c = it.getCoord();
-    refuse((it.isVoxelValue() ? "voxel (" : "the tile at (") + std::to_string(c.x()) + ", " + std::to_string(c.y()) +
-               ", " + std::to_string(c.z()) + ")",
-           *it);
-  }
+  check(density.background(), [] { return std::string("the background"); });
+  for (auto it = density.cbeginValueAll(); it; ++it)
+    check(*it, [&] { return (it.isVoxelValue() ? "voxel " : "the tile at ") + validate::xyz(it.getCoord()); });
 }
 
 }  // namespace
