@@ -268,18 +268,23 @@ static float sq_dsm_column(__global const float* dsm, int light, float3 x, __pri
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
 
-// Direction to the light, distance to it and the irradiance scale (1/d^2 for a point light).
-static inline float3 sq_to_light(__private const CloudLight* l, float3 x, float* dist, float* scale) {
+// Unit direction to light i from x, the distance to it and its irradiance scale: 1 for a directional light;
+// for a point light the inverse square 1 / max(d, r)^2, r = p->point_light_radius (half the grid's voxel).
+// Along a ray through a point light the integral of 1 / d^2 diverges; within r, below the density's own
+// resolution, the light is taken as a source of radius r. At d = 0 the direction is +z: any direction, the
+// column toward the light being 0.
+static inline float3 sq_to_light(__private const CloudRenderParams* p, int i, float3 x, float* dist, float* scale) {
+  __private const CloudLight* l = &p->lights[i];
   if (l->kind == SQUALL_LIGHT_DIRECTIONAL) {
     *dist = 1e30f;
     *scale = 1.0f;
     return normalize((float3)(l->direction[0], l->direction[1], l->direction[2]));
   }
   float3 to = (float3)(l->position[0], l->position[1], l->position[2]) - x;
-  float d2 = dot(to, to);
+  const float d2 = dot(to, to), r = p->point_light_radius;
   *dist = sqrt(d2);
-  *scale = 1.0f / d2;
-  return to / *dist;
+  *scale = 1.0f / fmax(d2, r * r);
+  return *dist > 0.0f ? to / *dist : (float3)(0.0f, 0.0f, 1.0f);
 }
 
 // Deep shadow map: column density toward each light at the nodes of a box grid (log T^L = -kappa column).
@@ -304,7 +309,7 @@ static void sq_shadow_map_entry(size_t id, __global const uint* density, __globa
   VdbVolume v = sq_volume_open(density, interior);
   uint rng = sq_hash((uint)id ^ sq_hash((uint)p->seed + 17u));
   float dist, scale;
-  float3 dir = sq_to_light(&p->lights[light], x, &dist, &scale);
+  float3 dir = sq_to_light(p, light, x, &dist, &scale);
   dsm[id] = sq_column_density(&v, x, dir, dist, p, &rng);
 }
 
@@ -363,7 +368,7 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
         float irr[SQUALL_CLOUD_MAX_LIGHTS], phase[SQUALL_CLOUD_MAX_LIGHTS], column[SQUALL_CLOUD_MAX_LIGHTS];
         for (int i = 0; i < p.n_lights; ++i) {
           float dist;
-          float3 nl = sq_to_light(&p.lights[i], x, &dist, &irr[i]);
+          float3 nl = sq_to_light(&p, i, x, &dist, &irr[i]);
           float3 diff = dir - nl, sum = dir + nl;
           phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff), 0.25f * dot(sum, sum));
           column[i] = p.shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)

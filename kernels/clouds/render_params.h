@@ -62,6 +62,7 @@ typedef struct CloudRenderParams {
   float shadow_column_max;  // a shadow march stops past this column density, m (-ln(min_transmittance) /
                             // the smallest extinction); FLT_MAX: never
   int shadow_interpolation;  // density on the shadow marches: 0 nearest voxel, 1 trilinear
+  float point_light_radius;  // m, > 0: a point light's irradiance I / max(d, radius)^2 (half the grid's voxel)
 } CloudRenderParams;
 
 #ifdef __cplusplus
@@ -71,7 +72,7 @@ SQUALL_ASSERT_OFFSET(CloudLight, kind, 0);
 SQUALL_ASSERT_OFFSET(CloudLight, position, 4);
 SQUALL_ASSERT_OFFSET(CloudLight, direction, 16);
 SQUALL_ASSERT_OFFSET(CloudLight, intensity, 28);
-SQUALL_ASSERT_SIZE(CloudRenderParams, 504);
+SQUALL_ASSERT_SIZE(CloudRenderParams, 508);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, eye, 0);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, forward, 12);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, right, 24);
@@ -104,6 +105,7 @@ SQUALL_ASSERT_OFFSET(CloudRenderParams, dsm_max, 480);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_step, 492);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_column_max, 496);
 SQUALL_ASSERT_OFFSET(CloudRenderParams, shadow_interpolation, 500);
+SQUALL_ASSERT_OFFSET(CloudRenderParams, point_light_radius, 504);
 #endif
 
 #endif

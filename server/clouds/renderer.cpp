@@ -361,6 +361,7 @@ Image CloudRenderer::render(const DeviceVolume& volume, const RenderSettings& se
   p.has_temperature = volume.has_temperature ? 1 : 0;
   put(p.dsm_min, volume.world_min);
   put(p.dsm_max, volume.world_max);
+  p.point_light_radius = float(0.5 * volume.voxel_size);
   const int nw = p.n_wavelengths;
   Image image;
   image.width = p.width;

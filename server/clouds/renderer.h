@@ -39,7 +39,9 @@ struct Light {
   LightKind kind = LightKind::Directional;
   Vec3d position{0, 0, 100};      // point light, m
   Vec3d direction{0, 0, 1};       // directional: toward the light (normalized here)
-  std::vector<double> intensity;  // per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; [0, 1e20]
+  // Per wavelength: point W sr^-1 m^-1, directional W m^-2 m^-1; [0, 1e20]. A point light's irradiance at
+  // distance d is intensity / max(d, r)^2, r half the volume's voxel (render.cl's sq_to_light).
+  std::vector<double> intensity;
 };
 
 struct Phase {

@@ -214,6 +214,63 @@ TEST(Render, ALightBehindTheCameraIsSeenByBackscatter) {
   EXPECT_LT(worst, 1e-2);
 }
 
+// Composite Simpson's rule for f over [a, b] in n (even) intervals.
+double simpson(const std::function<double(double)>& f, double a, double b, int n) {
+  const double h = (b - a) / n;
+  double sum = f(a) + f(b);
+  for (int i = 1; i < n; ++i) sum += (i % 2 ? 4 : 2) * f(a + i * h);
+  return sum * h / 3;
+}
+
+// A point light of intensity I inside the slab, with direct shadows: a sample at distance d from the light,
+// u past the slab's near face, is lit through the column rho d, so along a pixel's ray
+//   L = albedo kappa rho I integral of p(dir . n_L) exp(-kappa rho (u + d)) / max(d, r)^2 ds over the slab,
+// r half a voxel (within it the light is a source of radius r: along a ray through a point light the
+// integral of 1 / d^2 diverges), here by Simpson's rule in double. The light is on the axis of an image of
+// odd size, so that the centre pixel's ray runs through it (its neighbours' pass 0.28 m from it, just outside
+// r), and its intensity is the largest allowed; the phase is Henyey-Greenstein (g = 0.5, eq A.8), so the
+// direction toward the light counts as well as its distance.
+TEST(Render, APointLightLightsTheSlabAsTheInverseSquareOutsideHalfAVoxel) {
+  const double g = 0.5, intensity = 1e20, r = kSlabDx / 2, sigma = kSlabKappa * kSlabRho;
+  const Vec3d light{0.3, -0.2, 4.75};
+  CloudRenderer renderer(test::runtime());
+  DeviceVolume dv = upload_volume(test::runtime(), slab(kSlabDx, 20, float(kSlabRho), false));
+  RenderSettings s = lit_slab({0, 0, 1}, PhaseKind::HenyeyGreenstein);
+  s.phase.g1 = g;
+  s.camera.width = 15;
+  s.camera.height = 11;
+  s.step = 0.002 * kSlabL;
+  s.lights[0].kind = LightKind::Point;
+  s.lights[0].position = light;
+  s.lights[0].intensity = {intensity};
+  const Image img = renderer.render(dv, s);
+  auto hg = [&](double mu) { return (1 - g * g) / (4 * kPi * std::pow(1 + g * g - 2 * g * mu, 1.5)); };
+  const Vec3d& eye = s.camera.eye;
+  double worst = 0, centre = 0;
+  for (int y = 0; y < s.camera.height; ++y)
+    for (int x = 0; x < s.camera.width; ++x) {
+      const auto [sx, sy] = pixel_offsets(s, x, y);  // right is -x and up +y for this camera
+      const double n = std::sqrt(sx * sx + sy * sy + 1);
+      const Vec3d dir{-sx / n, sy / n, 1 / n};
+      const double s_in = (-kSlabDx / 2 - eye[2]) / dir[2], s_out = (kSlabL - kSlabDx / 2 - eye[2]) / dir[2];
+      auto lit = [&](double t) {
+        Vec3d to;
+        for (int a = 0; a < 3; ++a) to[a] = light[a] - (eye[a] + t * dir[a]);
+        const double d = std::hypot(to[0], to[1], to[2]);
+        const double mu = d > 0 ? (dir[0] * to[0] + dir[1] * to[1] + dir[2] * to[2]) / d : dir[2];
+        return hg(mu) * std::exp(-sigma * (t - s_in + d)) / std::pow(std::max(d, r), 2);
+      };
+      const double want = 0.8 * sigma * intensity * simpson(lit, s_in, s_out, 100000);
+      const double error = std::abs(img.at(0, x, y) - want) / want;
+      worst = squall::test::worse(worst, error);
+      if (x == 7 && y == 5) centre = error;
+    }
+  std::printf("point light in the slab: worst pixel's radiance error %.2e, the ray through the light's %.2e\n",
+              worst, centre);
+  EXPECT_LT(worst, 1e-2);
+  EXPECT_LT(centre, 1e-2);
+}
+
 // A soft sphere cloud (no noise) of radius 6 m, voxel 0.25 m, skin 1.5 m.
 CloudVolume soft_sphere() {
   CloudModel m;
