@@ -112,6 +112,7 @@ struct OceanEngine::Impl {
   FinalizeKernel finalize;
   PotentialKernel evolve_potential, evolve_current;
 
+  LimitGate* budget;                              // the daemon's memory budget; none in some tests
   DeviceCache<std::string> spectra;               // h0 per layer (h0_key)
   std::map<std::string, double> slope_variances;  // eq 96 per spec (bounded)
   std::mutex slope_mutex;                         // guards slope_variances
@@ -130,17 +131,24 @@ struct OceanEngine::Impl {
         finalize(r, kProgram, "ocean_finalize"),
         evolve_potential(r, kProgram, "ocean_evolve_potential"),
         evolve_current(r, kProgram, "ocean_evolve_current"),
+        budget(budget),
         spectra(max_cached_bytes, budget, "an ocean layer's spectrum kept for the next tiles") {}
 
   // h0 of layer `index`, computed on a miss (and finished before it is cached: other queues may read it
   // at once), in slices of rows that `cancel` can stop between (Error(Cancelled): nothing is cached). Runs
-  // under runtime.exclusive(). A handle, not a reference: another request may evict it.
+  // under runtime.exclusive(). A handle, not a reference: another request may evict it. `reserved`, the
+  // caller's reservation for the spectra it builds, counted those not kept when it was made: one kept
+  // then and evicted since by another call is reserved anew before it is built (RESOURCE_EXHAUSTED where it
+  // does not fit), so that no spectrum is built outside the budget.
   cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}, Slot* reserved = nullptr) {
     return spectra.get(
         h0_key(spec, index),
         [&] {
           const LayerSpec& L = spec.layers[index];
           const size_t bytes = size_t(spectrum_bytes(L));
+          const std::string what = "the spectrum of layer " + std::to_string(index);
+          if (reserved && budget) budget->top_up(*reserved, what + ", evicted since the call reserved its memory",
+                                                 [&] { return bytes; });
           OceanLayer params = device_layer(L, int(index));
           auto bands = layer_bands(spec);
           const cl::Context& context = runtime.context();
@@ -150,7 +158,6 @@ struct OceanEngine::Impl {
                                  std::max<size_t>(1, bands.size()) * sizeof(none),
                                  bands.empty() ? none.data() : bands.front().data());
           cl::Buffer h0(context, CL_MEM_READ_WRITE, bytes);
-          const std::string what = "the spectrum of layer " + std::to_string(index);
           const size_t nx = size_t(L.nx), ny = size_t(L.ny), rows = std::max<size_t>(1, kSpectrumSliceModes / nx);
           for (size_t row = 0; row < ny; row += rows) {
             const size_t count = std::min(rows, ny - row);

@@ -56,7 +56,8 @@ class OceanEngine {
   // (PoCL's CPU devices), of the buffer the kernels wrote them in; elsewhere of one pinned host block they
   // were read into. Either is held from the runtime's pool until the last view goes (so the fields must
   // not outlive the runtime). `spectra_memory`: where given, the caller's reservation, which counted the
-  // spectra the tile builds (new_spectra_bytes); a spectrum kept moves its bytes from there to the cache.
+  // spectra the tile builds (new_spectra_bytes); a spectrum kept moves its bytes from there to the cache,
+  // and one evicted since the reservation was made is reserved anew before it is built.
   TileFields tile(const TileSpec& spec, double t, unsigned outputs, WhitecapState* whitecaps = nullptr,
                   const Cancellation& cancel = {}, unsigned planes = kAllPlanes, Slot* spectra_memory = nullptr);
 

@@ -255,6 +255,34 @@ TEST(OceanTile, AKeptSpectrumTakesItsBytesFromTheCallersReservation) {
   EXPECT_EQ(budgeted.new_spectra_bytes(spec), 0u);
 }
 
+// A spectrum kept when the caller reserved for the spectra it builds, and evicted since by another call, is
+// reserved anew before it is built: here a reservation of nothing (the spectrum counted as kept) under a
+// budget with no room for it refuses the tile before the spectrum is built, and with room the spectrum's
+// bytes, reserved then, move to the cache.
+TEST(OceanTile, ASpectrumEvictedSinceTheCallReservedIsReservedAnewBeforeItIsBuilt) {
+  const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200, 4717);
+  const uint64_t h0 = 64 * 64 * 6 * sizeof(float);
+  for (const uint64_t budget : {h0 - 1, h0 + h0 / 2}) {
+    Limits limits;
+    limits.memory_budget = budget;
+    LimitGate gate(limits);
+    OceanEngine budgeted(squall::test::runtime(), squall::test::fft(), limits, 1 << 30, &gate);
+    Slot counted_as_kept;
+    auto tile = [&] { budgeted.tile(spec, 1.0, Height, nullptr, {}, kAllPlanes, &counted_as_kept); };
+    if (budget < h0) {
+      squall::test::expect_error(Code::ResourceExhausted,
+                                 "the spectrum of layer 0, evicted since the call reserved its memory", tile);
+      EXPECT_EQ(budgeted.spectra_built(), 0u);
+      continue;
+    }
+    tile();
+    EXPECT_EQ(budgeted.spectra_built(), 1u);
+    EXPECT_EQ(gate.cached_memory_bytes(), h0);
+    EXPECT_EQ(gate.memory_bytes(), h0);
+    EXPECT_EQ(counted_as_kept.amount(), 0u);
+  }
+}
+
 // A layer grid the FFT backend cannot transform (clfft: 34 = 2 x 17) is refused by name before its spectrum
 // is built; one it can (36) runs.
 TEST(OceanTile, AGridTheFftBackendCannotTransformIsRefusedBeforeItsSpectrum) {
