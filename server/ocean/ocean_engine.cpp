@@ -147,8 +147,8 @@ struct OceanEngine::Impl {
           const LayerSpec& L = spec.layers[index];
           const size_t bytes = size_t(spectrum_bytes(L));
           const std::string what = "the spectrum of layer " + std::to_string(index);
-          if (reserved && budget) budget->top_up(*reserved, what + ", evicted since the call reserved its memory",
-                                                 [&] { return bytes; });
+          if (reserved && budget)
+            budget->top_up(*reserved, what + ", evicted since the call reserved its memory", [&] { return bytes; });
           OceanLayer params = device_layer(L, int(index));
           auto bands = layer_bands(spec);
           const cl::Context& context = runtime.context();

@@ -265,8 +265,8 @@ TEST(Render, APointLightLightsTheSlabAsTheInverseSquareOutsideHalfAVoxel) {
       worst = squall::test::worse(worst, error);
       if (x == 7 && y == 5) centre = error;
     }
-  std::printf("point light in the slab: worst pixel's radiance error %.2e, the ray through the light's %.2e\n",
-              worst, centre);
+  std::printf("point light in the slab: worst pixel's radiance error %.2e, the ray through the light's %.2e\n", worst,
+              centre);
   EXPECT_LT(worst, 1e-2);
   EXPECT_LT(centre, 1e-2);
 }
