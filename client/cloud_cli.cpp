@@ -46,6 +46,8 @@ render flags:
   --albedo A                for every wavelength (default 0.9)
   --sun DX,DY,DZ,E          directional light, DX,DY,DZ pointing from the scene to it (DZ > 0: above the horizon),
                             irradiance E for every wavelength (repeatable)
+  --lamp X,Y,Z,I            point light at X,Y,Z (m), intensity I W sr^-1 m^-1 for every wavelength; within half a
+                            voxel of it, a source of that radius (repeatable)
   --phase uniform|hg:G|dhg:G1,G2,W|ff:N,MU   (default hg:0.8)
   --shadow none|direct|dsm  (default dsm)
   --shadow-step M           step of the marches toward the lights, m (default: 3 steps)
@@ -178,6 +180,12 @@ bool render_flag(const std::string& flag, const std::string& value, Request& r) 
     l->set_kind(v1::LIGHT_KIND_DIRECTIONAL);
     vec(v, 0, l->mutable_direction());
     l->add_intensity(v[3]);  // expanded to every wavelength below
+  } else if (flag == "--lamp") {
+    auto v = numbers(flag, value, 4, 4);
+    auto* l = s.add_lights();
+    l->set_kind(v1::LIGHT_KIND_POINT);
+    vec(v, 0, l->mutable_position());
+    l->add_intensity(v[3]);  // as the sun's
   } else if (flag == "--phase") {
     auto* p = s.mutable_phase();
     auto colon = value.find(':');

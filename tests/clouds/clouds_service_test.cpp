@@ -1,7 +1,12 @@
 // squall.v1.Clouds through a real squalld: build (kept, with .vdb bytes), render by id and by model,
 // evolution stream, release, and the documented errors.
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -844,6 +849,56 @@ TEST(CloudsCli, BuildWritesVdbAndRenderWritesExr) {
   EXPECT_NE(out.find("NOT_FOUND"), std::string::npos) << out;
 }
 
+// The channels `names` of the w x h EXR at `path`, read with OpenEXR's own InputFile, one after another.
+std::vector<float> exr_channels(const std::string& path, const std::vector<std::string>& names, int w, int h) {
+  Imf::InputFile file(path.c_str());
+  std::vector<float> pixels(names.size() * w * h);
+  Imf::FrameBuffer frame;
+  for (size_t c = 0; c < names.size(); ++c) {
+    EXPECT_NE(file.header().channels().findChannel(names[c]), nullptr) << names[c];
+    frame.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(&pixels[c * w * h]), 4, 4 * w));
+  }
+  file.setFrameBuffer(frame);
+  file.readPixels(0, h - 1);
+  return pixels;
+}
+
+// `--lamp X,Y,Z,I` is a point light of intensity I at every wavelength, at X,Y,Z: a lamp inside the cloud, the
+// only light, lights it (every pixel finite, the brightest nearest the lamp), both wavelengths alike (one
+// extinction and albedo for all), and twice the intensity gives twice the radiance, bit for bit.
+TEST(CloudsCli, ALampLightsTheCloudInProportionToItsIntensity) {
+  const std::string dir = test::temp_dir("clouds-cli-lamp");
+  std::string out;
+  auto render = [&](const std::string& intensity, const std::string& file) {
+    EXPECT_EQ(test::run({kSquall,         "--address", daemon().address(),
+                         "cloud",         "render",    "--voxel-size",
+                         "0.5",           "--sphere",  "0,0,0,4",
+                         "--eye",         "0,-30,0",   "--size",
+                         "16x12",         "--step",    "0.25",
+                         "--shadow",      "direct",    "--wavelengths",
+                         "450e-9,650e-9", "--lamp",    "0.3,-0.2,0.1," + intensity,
+                         "--preview",     "none",      "-o",
+                         dir + "/" + file},
+                        &out),
+              0)
+        << out;
+    return exr_channels(dir + "/" + file, {"radiance_0", "radiance_1"}, 16, 12);
+  };
+  const std::vector<float> once = render("1000", "once.exr"), twice = render("2000", "twice.exr");
+  const size_t plane = 16 * 12;
+  double sum = 0;
+  for (size_t i = 0; i < plane; ++i) {
+    ASSERT_TRUE(std::isfinite(once[i])) << i;
+    EXPECT_EQ(once[plane + i], once[i]) << i;
+    sum += once[i];
+  }
+  EXPECT_GT(sum, 0.0);
+  // The brightest pixel is the one whose ray passes nearest the lamp, 0.3 m right of and 0.1 m above the view
+  // axis: (8, 5), whose ray passes 1.0 m from it (pixels are 1.8 m wide there).
+  EXPECT_EQ(std::max_element(once.begin(), once.begin() + plane) - once.begin(), 5 * 16 + 8);
+  for (size_t i = 0; i < once.size(); ++i) EXPECT_EQ(twice[i], 2 * once[i]) << i;
+}
+
 // Flag values that are not what they say exit 2 naming the value, before any call: a count that is negative,
 // fractional or past its type, a size with more after WxH, a phase with no parameters, an unknown verb.
 TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
@@ -860,6 +915,7 @@ TEST(CloudsCli, BadFlagValuesAreRefusedNamingThem) {
       {{"render", "--phase", "hg:0.5,0.3"}, "--phase hg:0.5,0.3: uniform, hg:G, dhg:G1,G2,W or ff:N,MU"},
       {{"render", "--phase", "uniform:anything"}, "--phase uniform:anything: uniform, hg:G"},
       {{"render", "--step", "1,2"}, "--step 1,2: needs 1 number"},
+      {{"render", "--lamp", "0,0,0"}, "--lamp 0,0,0: needs 4 numbers"},
       {{"render", "--min-transmittance", "0.1,0.2"}, "--min-transmittance 0.1,0.2: needs 1 number"},
       {{"render", "--shadow", "none", "--shadow-step", "5"}, "not flags of --shadow none"},
       {{"render", "--shadow-trilinear", "--shadow", "none"}, "not flags of --shadow none"},
