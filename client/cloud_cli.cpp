@@ -46,8 +46,8 @@ render flags:
   --albedo A                for every wavelength (default 0.9)
   --sun DX,DY,DZ,E          directional light, DX,DY,DZ pointing from the scene to it (DZ > 0: above the horizon),
                             irradiance E for every wavelength (repeatable)
-  --lamp X,Y,Z,I            point light at X,Y,Z (m), intensity I W sr^-1 m^-1 for every wavelength; within half a
-                            voxel of it, a source of that radius (repeatable)
+  --lamp X,Y,Z,I            point light at X,Y,Z (m), intensity I W sr^-1 m^-1 for every wavelength; its irradiance
+                            I / d^2 is held at its value at half a voxel within that distance (repeatable)
   --phase uniform|hg:G|dhg:G1,G2,W|ff:N,MU   (default hg:0.8)
   --shadow none|direct|dsm  (default dsm)
   --shadow-step M           step of the marches toward the lights, m (default: 3 steps)

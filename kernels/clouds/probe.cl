@@ -13,6 +13,7 @@ __kernel void nanovdb_lookup(__global const uint* grid, __global const int* ijk,
 
 #include "clouds/render_params.h"
 #include "clouds/phase.h"
+#include "clouds/lights.h"
 
 // out[i] = the phase function of p at scattering angle theta[i] (radians).
 __kernel void phase_eval(CloudRenderParams p, __global const float* theta, const int n, __global float* out) {
@@ -51,4 +52,18 @@ __kernel void node_walk_queries(__global const uint* grid, __global const float*
     }
   }
   out[i] = queries;
+}
+
+// out[4i..4i+3] = sq_to_light's direction (x, y, z) and irradiance scale for light `light` of p at the
+// world point x[3i..3i+2].
+__kernel void light_eval(CloudRenderParams p, const int light, __global const float* x, const int n,
+                         __global float* out) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  float dist, scale;
+  float3 dir = sq_to_light(&p, light, (float3)(x[3 * i], x[3 * i + 1], x[3 * i + 2]), &dist, &scale);
+  out[4 * i] = dir.x;
+  out[4 * i + 1] = dir.y;
+  out[4 * i + 2] = dir.z;
+  out[4 * i + 3] = scale;
 }

@@ -27,6 +27,7 @@
 #include "clouds/pnanovdb_cl.h"
 #include "clouds/render_params.h"
 #include "clouds/phase.h"
+#include "clouds/lights.h"
 
 #include "clouds/node_walk.clh"
 
@@ -266,25 +267,6 @@ static float sq_dsm_column(__global const float* dsm, int light, float3 x, __pri
         c11 = mix(SQUALL_DSM(0, 1, 1), SQUALL_DSM(1, 1, 1), w.x);
 #undef SQUALL_DSM
   return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
-}
-
-// Unit direction to light i from x, the distance to it and its irradiance scale: 1 for a directional light;
-// for a point light the inverse square 1 / max(d, r)^2, r = p->point_light_radius (half the grid's voxel).
-// Along a ray through a point light the integral of 1 / d^2 diverges; within r, below the density's own
-// resolution, the light is taken as a source of radius r. At d = 0 the direction is +z: any direction, the
-// column toward the light being 0.
-static inline float3 sq_to_light(__private const CloudRenderParams* p, int i, float3 x, float* dist, float* scale) {
-  __private const CloudLight* l = &p->lights[i];
-  if (l->kind == SQUALL_LIGHT_DIRECTIONAL) {
-    *dist = 1e30f;
-    *scale = 1.0f;
-    return normalize((float3)(l->direction[0], l->direction[1], l->direction[2]));
-  }
-  float3 to = (float3)(l->position[0], l->position[1], l->position[2]) - x;
-  const float d2 = dot(to, to), r = p->point_light_radius;
-  *dist = sqrt(d2);
-  *scale = 1.0f / fmax(d2, r * r);
-  return *dist > 0.0f ? to / *dist : (float3)(0.0f, 0.0f, 1.0f);
 }
 
 // Deep shadow map: column density toward each light at the nodes of a box grid (log T^L = -kappa column).

@@ -139,7 +139,7 @@ struct OceanEngine::Impl {
   // under runtime.exclusive(). A handle, not a reference: another request may evict it. `reserved`, the
   // caller's reservation for the spectra it builds, counted those not kept when it was made: one kept
   // then and evicted since by another call is reserved anew before it is built (RESOURCE_EXHAUSTED where it
-  // does not fit), so that no spectrum is built outside the budget.
+  // does not fit; the wait for room, at most LimitGate's, holds the device queue, but only in that race).
   cl::Buffer spectrum(const TileSpec& spec, size_t index, const Cancellation& cancel = {}, Slot* reserved = nullptr) {
     return spectra.get(
         h0_key(spec, index),
@@ -147,8 +147,7 @@ struct OceanEngine::Impl {
           const LayerSpec& L = spec.layers[index];
           const size_t bytes = size_t(spectrum_bytes(L));
           const std::string what = "the spectrum of layer " + std::to_string(index);
-          if (reserved && budget)
-            budget->top_up(*reserved, what + ", evicted since the call reserved its memory", [&] { return bytes; });
+          if (reserved && budget) budget->top_up(*reserved, what, [&] { return bytes; });
           OceanLayer params = device_layer(L, int(index));
           auto bands = layer_bands(spec);
           const cl::Context& context = runtime.context();
@@ -309,7 +308,7 @@ void validate_current(const TileSpec& spec, const LimitGate& gate, const std::st
   }
 }
 
-SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
+SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t, Slot* spectra_memory) {
   validate::finite("t", t);
   const OutputGrid grid = output_grid(spec);
   const size_t cells = size_t(grid.nx) * size_t(grid.ny);
@@ -325,7 +324,7 @@ SurfaceCurrent OceanEngine::surface_current(const TileSpec& spec, double t) {
     auto lock = impl_->runtime.exclusive();
     BufferLease out = impl_->runtime.buffers().acquire(2 * cells * sizeof(float));
     for (size_t a = 0; a < spec.layers.size(); ++a) {
-      BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_current);
+      BufferLease fields = impl_->layer_pair(spec, a, t, impl_->evolve_current, {}, spectra_memory);
       impl_->accumulate_layer(fields.buffer(), spec.layers[a], 1, grid, a == 0, Impl::Layout::Planes, out.buffer());
     }
     ReadBack read(impl_->runtime);

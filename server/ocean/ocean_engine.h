@@ -85,8 +85,8 @@ class OceanEngine {
   // For the textures that follow the waves (server/textures): the surface current at time t on the spec's
   // output grid (node (i, j) at (i lx / nx, j ly / ny)), u = grad phi of the potential above (the
   // orbital velocity of linear theory, exact spectral derivatives, summed over the layers) plus the drift
-  // U_D the layers share. The spec must pass validate_current().
-  SurfaceCurrent surface_current(const TileSpec& spec, double t);
+  // U_D the layers share. The spec must pass validate_current(). `spectra_memory` as tile()'s.
+  SurfaceCurrent surface_current(const TileSpec& spec, double t, Slot* spectra_memory = nullptr);
 
   size_t cached_spectra() const;  // h0 entries on the device now
   size_t spectra_built() const;   // h0 computations so far (cache misses)

@@ -121,9 +121,10 @@ void TexturesService::follow(Stream& s, double from) {
   if (!followed.any()) return;
   if (followed.ocean) {
     check_ocean_time(followed.path, "the texture's clock", from + s.spec.dt);
-    s.spec.velocity = current_grid(
-        {ocean_->surface_current(*followed.ocean, from), ocean_->surface_current(*followed.ocean, from + s.spec.dt)},
-        repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
+    Slot spectra;  // none: a spectrum the current builds is reserved before it is built
+    s.spec.velocity = current_grid({ocean_->surface_current(*followed.ocean, from, &spectra),
+                                    ocean_->surface_current(*followed.ocean, from + s.spec.dt, &spectra)},
+                                   repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);
   } else {
     s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
   }

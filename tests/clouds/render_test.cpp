@@ -225,8 +225,8 @@ double simpson(const std::function<double(double)>& f, double a, double b, int n
 // A point light of intensity I inside the slab, with direct shadows: a sample at distance d from the light,
 // u past the slab's near face, is lit through the column rho d, so along a pixel's ray
 //   L = albedo kappa rho I integral of p(dir . n_L) exp(-kappa rho (u + d)) / max(d, r)^2 ds over the slab,
-// r half a voxel (within it the light is a source of radius r: along a ray through a point light the
-// integral of 1 / d^2 diverges), here by Simpson's rule in double. The light is on the axis of an image of
+// r half a voxel (within r the inverse square is held at its value at r: along a ray through a point light
+// the integral of 1 / d^2 diverges), here by Simpson's rule in double. The light is on the axis of an image of
 // odd size, so that the centre pixel's ray runs through it (its neighbours' pass 0.28 m from it, just outside
 // r), and its intensity is the largest allowed; the phase is Henyey-Greenstein (g = 0.5, eq A.8), so the
 // direction toward the light counts as well as its distance.
@@ -269,6 +269,24 @@ TEST(Render, APointLightLightsTheSlabAsTheInverseSquareOutsideHalfAVoxel) {
               centre);
   EXPECT_LT(worst, 1e-2);
   EXPECT_LT(centre, 1e-2);
+}
+
+// sq_to_light on the device (probe.cl's light_eval), a point light with r = 0.25 m (voxels of 0.5 m): at the
+// light itself the direction +z and the scale 1 / r^2 (not 0 / 0), 0.1 m from it the direction toward it
+// and 1 / r^2, 2 m from it 1 / d^2.
+TEST(Render, APointLightsScaleIsHeldWithinHalfAVoxelAndFiniteAtTheLight) {
+  Runtime& rt = test::runtime();
+  CloudRenderParams p{};
+  p.n_lights = 1;
+  p.lights[0].kind = SQUALL_LIGHT_POINT;
+  p.lights[0].position[0] = 1.5f, p.lights[0].position[1] = -2.0f, p.lights[0].position[2] = 3.25f;
+  p.point_light_radius = 0.25f;
+  const std::vector<float> x = {1.5f, -2.0f, 3.25f, 1.5f, -2.0f, 3.35f, 1.5f, -2.0f, 5.25f};
+  cl::Buffer in = test::upload(x), out(rt.context(), CL_MEM_WRITE_ONLY, 12 * sizeof(float));
+  Kernel<CloudRenderParams, cl_int, cl::Buffer, cl_int, cl::Buffer> light(rt, "clouds/probe.cl", "light_eval");
+  light.launch(cl::NDRange(64), cl::NDRange(64), p, cl_int(0), in, cl_int(3), out);
+  const std::vector<float> got = test::read<float>(out, 12);
+  EXPECT_EQ(got, (std::vector<float>{0, 0, 1, 16, 0, 0, -1, 16, 0, 0, -1, 0.25f}));
 }
 
 // A soft sphere cloud (no noise) of radius 6 m, voxel 0.25 m, skin 1.5 m.

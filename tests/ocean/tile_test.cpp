@@ -255,32 +255,32 @@ TEST(OceanTile, AKeptSpectrumTakesItsBytesFromTheCallersReservation) {
   EXPECT_EQ(budgeted.new_spectra_bytes(spec), 0u);
 }
 
-// A spectrum kept when the caller reserved for the spectra it builds, and evicted since by another call, is
-// reserved anew before it is built: here a reservation of nothing (the spectrum counted as kept) under a
-// budget with no room for it refuses the tile before the spectrum is built, and with room the spectrum's
-// bytes, reserved then, move to the cache.
+// A spectrum kept when the caller reserved for the spectra it builds (so it reserved nothing for it), and
+// evicted since by another call, is reserved anew before it is built: while the other call holds the room,
+// the tile is refused before the spectrum is built (it was built outside the budget); once that room is
+// given back, the spectrum's bytes are reserved, then move to the cache.
 TEST(OceanTile, ASpectrumEvictedSinceTheCallReservedIsReservedAnewBeforeItIsBuilt) {
   const TileSpec spec = test::single(SpectrumModel::Jonswap, SpreadingModel::Mitsuyasu, 64, 200, 4717);
   const uint64_t h0 = 64 * 64 * 6 * sizeof(float);
-  for (const uint64_t budget : {h0 - 1, h0 + h0 / 2}) {
-    Limits limits;
-    limits.memory_budget = budget;
-    LimitGate gate(limits);
-    OceanEngine budgeted(squall::test::runtime(), squall::test::fft(), limits, 1 << 30, &gate);
-    Slot counted_as_kept;
-    auto tile = [&] { budgeted.tile(spec, 1.0, Height, nullptr, {}, kAllPlanes, &counted_as_kept); };
-    if (budget < h0) {
-      squall::test::expect_error(Code::ResourceExhausted,
-                                 "the spectrum of layer 0, evicted since the call reserved its memory", tile);
-      EXPECT_EQ(budgeted.spectra_built(), 0u);
-      continue;
-    }
-    tile();
+  Limits limits;
+  limits.memory_budget = h0 + h0 / 2;
+  LimitGate gate(limits);
+  OceanEngine budgeted(squall::test::runtime(), squall::test::fft(), limits, 1 << 30, &gate);
+  budgeted.tile(spec, 0.0, Height);
+  ASSERT_EQ(budgeted.new_spectra_bytes(spec), 0u);
+  Slot reserved = gate.acquire_memory("the tile", budgeted.new_spectra_bytes(spec));
+  auto tile = [&] { budgeted.tile(spec, 1.0, Height, nullptr, {}, kAllPlanes, &reserved); };
+  {
+    Slot other = gate.acquire_memory("another call", h0);  // evicts the spectrum to make room
+    ASSERT_EQ(budgeted.cached_spectra(), 0u);
+    squall::test::expect_error(Code::ResourceExhausted, "the spectrum of layer 0 (98304 bytes) would pass", tile);
     EXPECT_EQ(budgeted.spectra_built(), 1u);
-    EXPECT_EQ(gate.cached_memory_bytes(), h0);
-    EXPECT_EQ(gate.memory_bytes(), h0);
-    EXPECT_EQ(counted_as_kept.amount(), 0u);
   }
+  tile();
+  EXPECT_EQ(budgeted.spectra_built(), 2u);
+  EXPECT_EQ(gate.cached_memory_bytes(), h0);
+  EXPECT_EQ(gate.memory_bytes(), h0);
+  EXPECT_EQ(reserved.amount(), 0u);
 }
 
 // A layer grid the FFT backend cannot transform (clfft: 34 = 2 x 17) is refused by name before its spectrum

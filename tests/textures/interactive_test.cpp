@@ -210,6 +210,28 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
   test::expect_error(Code::InvalidArgument, "request.t0 = nan", [&] { advect_or_throw(bad); });
 }
 
+// The spectra of the ocean a texture follows are reserved in the memory budget before they are built: under a
+// budget of 16 MiB, which holds the stream, a 1024^2 layer's spectrum (24 MiB) is refused by name (it was
+// built outside the budget); a 16^2 layer's runs.
+TEST(TexturesOcean, TheFollowedOceansSpectraCountInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(16 << 20)});
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0, 0, 1);
+  *r.mutable_velocity()->mutable_ocean() = still_water(0.2, 0.1);
+  r.set_frames(2);
+  const Streamed small = advect(r, d.address());
+  EXPECT_TRUE(small.status.ok()) << small.status.error_message();
+  v1::TileSpec& waves = *r.mutable_velocity()->mutable_ocean();
+  waves.mutable_layers(0)->set_nx(1024);
+  waves.mutable_layers(0)->set_ny(1024);
+  waves.mutable_output()->set_nx(16);
+  waves.mutable_output()->set_ny(16);
+  const grpc::Status refused = advect(r, d.address()).status;
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("the spectrum of layer 0 (25165824 bytes) would pass the memory budget"),
+            std::string::npos)
+      << refused.error_message();
+}
+
 // A stream resumed from a checkpoint reads the ocean's current for the checkpoint's time (not t0): its
 // frames equal the uninterrupted stream's bit for bit, under waves whose current changes every step.
 TEST(TexturesOcean, ResumedStreamFollowsTheCurrentFromTheCheckpointsTime) {

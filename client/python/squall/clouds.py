@@ -221,7 +221,8 @@ def point_light(
     position: Sequence[float], intensity: Union[float, Sequence[float]]
 ) -> clouds_pb2.LightSpec:
     """A point light at `position` (m) with intensity W sr^-1 m^-1 (one number, or one per
-    wavelength). Its irradiance at distance d is intensity / max(d, r)^2, r half the volume's voxel.
+    wavelength). Its irradiance at distance d is intensity / max(d, r)^2, r half the volume's
+    voxel.
     """
     want = "a number or one per wavelength, W sr^-1 m^-1"
     values = number_or_floats(intensity, "point_light.intensity", want)
