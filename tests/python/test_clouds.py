@@ -190,6 +190,28 @@ def test_a_sun_lights_the_side_its_direction_points_to(client: squall.Client) ->
     assert bottom > 1.5 * top
 
 
+def test_a_point_light_lights_the_cloud_around_it(client: squall.Client) -> None:
+    """A point light inside the sphere, the only light, at (6, 0, 4) m: every pixel finite, the
+    brightest pixel in the image's right half and upper half (x right, z up from the camera at
+    -y), and twice the intensity gives twice the radiance, bit for bit."""
+
+    def radiance(intensity: float) -> np.ndarray:
+        image = client.clouds.render(
+            cloud(),
+            camera=squall.clouds.camera(eye=(0, -60, 0), width=W, height=H),
+            step=0.5,
+            lights=[squall.clouds.point_light((6, 0, 4), intensity)],
+            shadow="direct",
+        )
+        return image["radiance_0"]
+
+    once, twice = radiance(1000.0), radiance(2000.0)
+    assert np.isfinite(once).all() and once.max() > 0
+    row, column = np.unravel_index(int(np.argmax(once)), once.shape)
+    assert column >= W // 2 and row < H // 2, (row, column)
+    assert np.array_equal(twice, 2 * once)
+
+
 def test_render_settings_take_the_shadow_march_options() -> None:
     s = squall.clouds.render_settings(shadow_step=0.75, shadow_trilinear=True)
     assert s.shadow_step == 0.75 and s.shadow_trilinear
