@@ -295,6 +295,44 @@ static void sq_shadow_map_entry(size_t id, __global const uint* density, __globa
   dsm[id] = sq_column_density(&v, x, dir, dist, p, &rng);
 }
 
+// The phase function between the view direction dir and the direction nl toward a light.
+static inline float sq_phase_toward(__private const CloudRenderParams* p, float3 dir, float3 nl) {
+  const float3 diff = dir - nl, sum = dir + nl;
+  return phase_function(p, dot(dir, nl), 0.25f * dot(diff, diff), 0.25f * dot(sum, sum));
+}
+
+// The column density (m) from x toward light i (direction nl, at distance dist), as the shadow mode has it.
+static inline float sq_light_column(VdbVolume* v, __global const float* dsm, __private const CloudRenderParams* p,
+                                    int i, float3 x, float3 nl, float dist, uint* rng) {
+  return p->shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, p)
+         : p->shadow == SQUALL_SHADOW_DIRECT ? sq_column_density(v, x, nl, dist, p, rng)
+                                             : 0.0f;
+}
+
+// Point light i's in-scatter over the sub-step [t0, t0 + len] of the primary ray entry + t dir (density rho
+// there), added to own[w]: the sub-step's mean of I g(t) p T^L exp(-kappa rho (t - t0)), with g the capped
+// inverse square. Equiangular samples (lights.h), stratified: one per 1/SQUALL_CLOUD_POINT_LIGHT_STRATA of a
+// half turn that the sub-step spans seen from the light; each has its own phase and column toward the light,
+// which vary across the peak as fast as g does (with one sample a sub-step a ray passing a light at a voxel's
+// distance, at one-voxel steps, was 5-40% off the exact radiance; with 64 a half turn 1-2%).
+static void sq_point_light_inscatter(VdbVolume* v, __global const float* dsm, __private const CloudRenderParams* p,
+                                     int i, float3 entry, float3 dir, float t0, float len, float rho, uint* rng,
+                                     float* own) {
+  const LightSpan span = sq_light_span(p, i, entry, dir, t0, t0 + len);
+  const int most = SQUALL_CLOUD_POINT_LIGHT_STRATA;
+  const int strata = clamp((int)ceil(span.angle * (most / M_PI_F)), 1, most);
+  const float share = span.integral / (len * strata);  // of the sub-step's mean of g
+  for (int n = 0; n < strata; ++n) {
+    const float t = sq_light_span_point(&span, (n + sq_uniform(rng)) / strata);
+    const float3 x = entry + t * dir;
+    float dist, scale;
+    const float3 nl = sq_to_light(p, i, x, &dist, &scale);
+    const float lit = share * sq_phase_toward(p, dir, nl), column = sq_light_column(v, dsm, p, i, x, nl, dist, rng);
+    for (int w = 0; w < p->n_wavelengths; ++w)
+      own[w] += p->lights[i].intensity[w] * lit * exp(-p->extinction[w] * (column + rho * (t - t0)));
+  }
+}
+
 // Pixel (px, py) of the image into out: channel-major planes of width*height floats: radiance per
 // wavelength (n_wavelengths planes), transmittance per wavelength (n_wavelengths), then depth (the distance
 // in m at which the transmittance of the first wavelength falls below 0.5; -1 where it never does).
@@ -346,16 +384,20 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
         if (!(rho > 0.0f) || len <= 0.0f) continue;
         float3 x = entry + at * dir;
         float temp = p.has_temperature ? sq_sample(&tv, c - 0.5f, p.interpolation) : 0.0f;
-        // Lights: irradiance scale, phase and column density toward each.
+        // Directional lights: irradiance scale, phase and column density toward each from x. Point lights:
+        // their in-scatter over the sub-step, per wavelength (sq_point_light_inscatter).
         float irr[SQUALL_CLOUD_MAX_LIGHTS], phase[SQUALL_CLOUD_MAX_LIGHTS], column[SQUALL_CLOUD_MAX_LIGHTS];
+        float own[SQUALL_CLOUD_MAX_WAVELENGTHS];
+        for (int w = 0; w < nw; ++w) own[w] = 0.0f;
         for (int i = 0; i < p.n_lights; ++i) {
+          if (p.lights[i].kind == SQUALL_LIGHT_POINT) {
+            sq_point_light_inscatter(&v, dsm, &p, i, entry, dir, s + r[j - 1] * h, len, rho, &rng, own);
+            continue;
+          }
           float dist;
           float3 nl = sq_to_light(&p, i, x, &dist, &irr[i]);
-          float3 diff = dir - nl, sum = dir + nl;
-          phase[i] = phase_function(&p, dot(dir, nl), 0.25f * dot(diff, diff), 0.25f * dot(sum, sum));
-          column[i] = p.shadow == SQUALL_SHADOW_DSM      ? sq_dsm_column(dsm, i, x, &p)
-                      : p.shadow == SQUALL_SHADOW_DIRECT ? sq_column_density(&v, x, nl, dist, &p, &rng)
-                                                         : 0.0f;
+          phase[i] = sq_phase_toward(&p, dir, nl);
+          column[i] = sq_light_column(&v, dsm, &p, i, x, nl, dist, &rng);
         }
         for (int w = 0; w < nw; ++w) {
           float kappa = p.extinction[w];
@@ -363,10 +405,12 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
           float weight = kappa > 0.0f ? opacity / kappa : rho * len;  // (1 - dT)/kappa
           float ci = 0.0f;
           for (int i = 0; i < p.n_lights; ++i)
-            ci += p.lights[i].intensity[w] * irr[i] * exp(-kappa * column[i]) * phase[i];                // A.4, A.7
+            if (p.lights[i].kind != SQUALL_LIGHT_POINT)
+              ci += p.lights[i].intensity[w] * irr[i] * exp(-kappa * column[i]) * phase[i];              // A.4, A.7
           float ct = p.albedo[w] * kappa * ci;                                                           // C^S C^I
           if (p.has_temperature) ct += (1.0f - p.albedo[w]) * kappa * blackbody(p.wavelength[w], temp);  // C^E
           L[w] += ct * T[w] * weight;                                                                    // A.24 (L +=)
+          if (own[w] > 0.0f) L[w] += p.albedo[w] * kappa * own[w] * rho * len * T[w];
           sq_attenuate(&T[w], &lost_T[w], opacity);                                                      // A.25
         }
         if (depth < 0.0f && T[0] < 0.5f) depth = base + at;

@@ -297,6 +297,13 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
   const double steps = march_steps(diagonal, s.step, volume.voxel_size);
   SampleEstimate e;
   e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal, volume.voxel_size);
+  // A ray's samples of a point light beyond one a sub-step (render.cl's sq_point_light_inscatter), each a
+  // march toward it with direct shadows.
+  const auto points =
+      std::count_if(s.lights.begin(), s.lights.end(), [](const Light& l) { return l.kind == LightKind::Point; });
+  const double per_light_sample =
+      s.shadow == ShadowMode::Direct ? march_steps(diagonal, shadow_step(s), volume.voxel_size) : 1;
+  e.per_pixel += double(points) * SQUALL_CLOUD_POINT_LIGHT_STRATA * per_light_sample;
   if (s.shadow == ShadowMode::DeepShadowMap && lights > 0) {  // no light, no map
     e.per_map_node = march_steps(diagonal, shadow_step(s), volume.voxel_size);
     e.map_nodes = double(s.shadow_map_size[0]) * s.shadow_map_size[1] * s.shadow_map_size[2] * lights;
