@@ -50,47 +50,50 @@ static inline float sq_g_inverse(float h, float b, float r2, float c) {
   return copysign((c + m * b * b) / (1.0f - m * c), h);
 }
 
-// Point light i seen from the sub-step [t0, t1] of the primary ray entry + t dir (dir a unit vector).
+// Point light i seen from the sub-step [t0, t0 + len] of the primary ray entry + t dir (dir a unit vector).
+// Ray parameters are kept as offsets from the sub-step's start, not from tc, which may be far along the ray
+// from a distant light: its rounding there would swamp the sub-step's length.
 typedef struct LightSpan {
-  float t0, tc;      // the sub-step's start and the ray parameter nearest the light, m
-  float u0, u1;      // the sub-step's ends from tc, m
-  float b, r2, c;    // the light's distance from the ray, r^2, the held core's half-length (m, m^2, m)
-  float integral;    // G, the integral of g over the sub-step, m^-1
-  float angle;       // the angle the sub-step spans seen from the light (b G; r G within the core), rad
+  float len;       // the sub-step's length, m
+  float u0;        // its start from the ray's point nearest the light, m
+  float b, r2, c;  // the light's distance from the ray, r^2, the held core's half-length (m, m^2, m)
+  int one_side;    // the sub-step lies on one side of the core (|u| >= c throughout)
+  float integral;  // G, the integral of g over the sub-step, m^-1
+  float angle;     // max(b, r) G: the angle the sub-step spans seen from the light where b >= r, rad
 } LightSpan;
 
-// On one side of the held core (the usual case away from the light), G comes from the sub-step's own ends
-// (atan(b (u1 - u0) / (b^2 + u0 u1)) / b), not as a difference of integrals from the nearest point, which
+// On one side of the held core (the usual case away from the light), G comes from the sub-step's own
+// length (atan(b len / (b^2 + u0 u1)) / b), not as a difference of integrals from the nearest point, which
 // would cancel far from the light.
 static inline LightSpan sq_light_span(__private const CloudRenderParams* p, int i, float3 entry, float3 dir,
-                                      float t0, float t1) {
+                                      float t0, float len) {
   __private const CloudLight* l = &p->lights[i];
   const float3 to = (float3)(l->position[0], l->position[1], l->position[2]) - entry;
+  const float tc = dot(to, dir);
   LightSpan s;
-  s.t0 = t0;
-  s.tc = dot(to, dir);
-  s.b = length(to - s.tc * dir);
+  s.len = len;
+  s.u0 = t0 - tc;
+  s.b = length(to - tc * dir);
   s.r2 = p->point_light_radius * p->point_light_radius;
   s.c = sqrt(fmax(s.r2 - s.b * s.b, 0.0f));
-  s.u0 = t0 - s.tc;
-  s.u1 = t1 - s.tc;
-  const bool one_side = s.u0 >= s.c || s.u1 <= -s.c;
-  s.integral = one_side ? sq_atan_over(s.b, (s.u1 - s.u0) / (s.b * s.b + s.u0 * s.u1))
-                        : sq_g_integral(s.u1, s.b, s.r2, s.c) - sq_g_integral(s.u0, s.b, s.r2, s.c);
+  const float u1 = s.u0 + len;
+  s.one_side = s.u0 >= s.c || u1 <= -s.c;
+  s.integral = s.one_side ? sq_atan_over(s.b, len / (s.b * s.b + s.u0 * u1))
+                          : sq_g_integral(u1, s.b, s.r2, s.c) - sq_g_integral(s.u0, s.b, s.r2, s.c);
   s.angle = s.integral * fmax(s.b, p->point_light_radius);
   return s;
 }
 
-// The ray parameter at which the integral of g from the sub-step's start reaches xi G (xi in [0, 1]): a point
-// drawn with density g / G for a uniform xi.
+// The offset from the sub-step's start, in [0, len], at which the integral of g from there reaches xi G
+// (xi in [0, 1]): a point drawn with density g / G for a uniform xi.
 static inline float sq_light_span_point(const LightSpan* s, float xi) {
-  float u;
-  if (s->u0 >= s->c || s->u1 <= -s->c) {
+  float du;
+  if (s->one_side) {
     const float m = sq_tan_over(s->b, xi * s->integral);
-    u = s->u0 + m * (s->b * s->b + s->u0 * s->u0) / (1.0f - m * s->u0);
+    du = m * (s->b * s->b + s->u0 * s->u0) / (1.0f - m * s->u0);
   } else {
-    u = sq_g_inverse(sq_g_integral(s->u0, s->b, s->r2, s->c) + xi * s->integral, s->b, s->r2, s->c);
+    du = sq_g_inverse(sq_g_integral(s->u0, s->b, s->r2, s->c) + xi * s->integral, s->b, s->r2, s->c) - s->u0;
   }
-  return clamp(s->tc + u, s->t0, s->tc + s->u1);
+  return clamp(du, 0.0f, s->len);
 }
 #endif

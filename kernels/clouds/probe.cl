@@ -67,3 +67,16 @@ __kernel void light_eval(CloudRenderParams p, const int light, __global const fl
   out[4 * i + 2] = dir.z;
   out[4 * i + 3] = scale;
 }
+
+// out[2i], out[2i + 1] = sq_light_span's G and sq_light_span_point's offset for light `light` of p, on the
+// sub-step of ray i: in[9i..9i+8] = entry (3), unit direction (3), t0, len, xi.
+__kernel void light_span_eval(CloudRenderParams p, const int light, __global const float* in, const int n,
+                              __global float* out) {
+  uint i = get_global_id(0);
+  if (i >= n) return;
+  __global const float* r = in + 9 * i;
+  const LightSpan span =
+      sq_light_span(&p, light, (float3)(r[0], r[1], r[2]), (float3)(r[3], r[4], r[5]), r[6], r[7]);
+  out[2 * i] = span.integral;
+  out[2 * i + 1] = sq_light_span_point(&span, r[8]);
+}

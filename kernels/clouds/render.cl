@@ -310,26 +310,26 @@ static inline float sq_light_column(VdbVolume* v, __global const float* dsm, __p
 }
 
 // Point light i's in-scatter over the sub-step [t0, t0 + len] of the primary ray entry + t dir (density rho
-// there), added to own[w]: the sub-step's mean of I g(t) p T^L exp(-kappa rho (t - t0)), with g the capped
-// inverse square. Equiangular samples (lights.h), stratified: one per 1/SQUALL_CLOUD_POINT_LIGHT_STRATA of a
-// half turn that the sub-step spans seen from the light; each has its own phase and column toward the light,
-// which vary across the peak as fast as g does (with one sample a sub-step a ray passing a light at a voxel's
-// distance, at one-voxel steps, was 5-40% off the exact radiance; with 64 a half turn 1-2%).
+// there), added to own[w]: the integral over the sub-step of I g(t) p T^L exp(-kappa rho (t - t0)), g the
+// capped inverse square. Equiangular samples (lights.h), stratified: one per pi / SQUALL_CLOUD_POINT_LIGHT_STRATA
+// of the sub-step's angle seen from the light (max(b, r) G), each with its own phase and column toward the
+// light, which vary across the peak as fast as g does (with one sample a sub-step, a ray passing a light at
+// a voxel's distance at one-voxel steps was 5-40% off the exact radiance; with 64 a half turn 1-2%).
 static void sq_point_light_inscatter(VdbVolume* v, __global const float* dsm, __private const CloudRenderParams* p,
                                      int i, float3 entry, float3 dir, float t0, float len, float rho, uint* rng,
                                      float* own) {
-  const LightSpan span = sq_light_span(p, i, entry, dir, t0, t0 + len);
+  const LightSpan span = sq_light_span(p, i, entry, dir, t0, len);
   const int most = SQUALL_CLOUD_POINT_LIGHT_STRATA;
-  const int strata = clamp((int)ceil(span.angle * (most / M_PI_F)), 1, most);
-  const float share = span.integral / (len * strata);  // of the sub-step's mean of g
+  const int strata = clamp(convert_int_sat(ceil(span.angle * (most / M_PI_F))), 1, most);
+  const float share = span.integral / strata;  // of G, a sample's
   for (int n = 0; n < strata; ++n) {
-    const float t = sq_light_span_point(&span, (n + sq_uniform(rng)) / strata);
-    const float3 x = entry + t * dir;
+    const float delay = sq_light_span_point(&span, (n + sq_uniform(rng)) / strata);
+    const float3 x = entry + (t0 + delay) * dir;
     float dist, scale;
     const float3 nl = sq_to_light(p, i, x, &dist, &scale);
     const float lit = share * sq_phase_toward(p, dir, nl), column = sq_light_column(v, dsm, p, i, x, nl, dist, rng);
     for (int w = 0; w < p->n_wavelengths; ++w)
-      own[w] += p->lights[i].intensity[w] * lit * exp(-p->extinction[w] * (column + rho * (t - t0)));
+      own[w] += p->lights[i].intensity[w] * lit * exp(-p->extinction[w] * (column + rho * delay));
   }
 }
 
@@ -410,7 +410,7 @@ static void sq_render_pixel(int px, int py, __global const uint* density, __glob
           float ct = p.albedo[w] * kappa * ci;                                                           // C^S C^I
           if (p.has_temperature) ct += (1.0f - p.albedo[w]) * kappa * blackbody(p.wavelength[w], temp);  // C^E
           L[w] += ct * T[w] * weight;                                                                    // A.24 (L +=)
-          if (own[w] > 0.0f) L[w] += p.albedo[w] * kappa * own[w] * rho * len * T[w];
+          if (own[w] > 0.0f) L[w] += p.albedo[w] * kappa * own[w] * rho * T[w];
           sq_attenuate(&T[w], &lost_T[w], opacity);                                                      // A.25
         }
         if (depth < 0.0f && T[0] < 0.5f) depth = base + at;

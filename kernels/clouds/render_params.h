@@ -9,7 +9,7 @@
 #define SQUALL_CLOUD_MAX_LIGHTS 4
 #define SQUALL_CLOUD_MAX_SUBSTEPS 8
 // Equiangular samples of a point light per half turn seen from it along a primary ray (render.cl's
-// sq_point_light_inscatter): at most this many more than one a sub-step, per ray and point light.
+// sq_point_light_inscatter): at most 4 / pi times this many more than one a sub-step, per ray and point light.
 #define SQUALL_CLOUD_POINT_LIGHT_STRATA 64
 
 // phase (App D: J. Tessendorf and M. Kowalski, "Resolution Independent Volumes" (SIGGRAPH course notes

@@ -126,6 +126,17 @@ double samples_per_primary_sample(const RenderSettings& s, double diagonal, doub
   return 1;
 }
 
+// Density samples (or map lookups) a ray takes of its point lights beyond one a sub-step (render.cl's
+// sq_point_light_inscatter): per light, strata of pi / SQUALL_CLOUD_POINT_LIGHT_STRATA in max(b, r) G, whose
+// sum along a ray (b the light's distance from it, G the integral of its capped inverse square) is at most pi
+// where b >= r and at most 4 where b < r; with direct shadows each a march toward the light.
+double point_light_samples(const RenderSettings& s, double diagonal, double voxel_size) {
+  const auto points =
+      std::count_if(s.lights.begin(), s.lights.end(), [](const Light& l) { return l.kind == LightKind::Point; });
+  const double per_sample = s.shadow == ShadowMode::Direct ? march_steps(diagonal, shadow_step(s), voxel_size) : 1;
+  return double(points) * std::ceil(4 * SQUALL_CLOUD_POINT_LIGHT_STRATA / M_PI) * per_sample;
+}
+
 // The direction of the primary ray through image point (u, v), in pixels from the top-left corner: the
 // camera of cloud_render.
 Vec3d camera_ray(const CloudRenderParams& p, double u, double v) {
@@ -138,7 +149,8 @@ Vec3d camera_ray(const CloudRenderParams& p, double u, double v) {
 
 // Each 8x8 tile's estimated density samples, in row order: the length of its rays inside density (the
 // mean over the corners and centre of its block, from the coarse occupancy; empty space is skipped by
-// the march) in steps, times the samples per step, plus one per pixel for the ray itself. A block is
+// the march) in steps, times the samples per step, plus one per pixel for the ray itself and, where the ray
+// meets density, its point lights' samples (point_light_samples). A block is
 // one tile, or several a side in images of over kBlocks tiles a side (an 8192^2 image would otherwise
 // trace 2 M rays on the host). Only the ratios between tiles matter: they size the render's slices.
 std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings& s, const CloudRenderParams& p,
@@ -146,9 +158,9 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
   constexpr size_t kBlocks = 256;
   const size_t block = (std::max(tiles.x, tiles.y) + kBlocks - 1) / kBlocks, side = 8 * block;  // tiles, pixels
   const size_t bx = (tiles.x + block - 1) / block, by = (tiles.y + block - 1) / block;
-  const double per_metre =
-      s.substeps / s.step *
-      samples_per_primary_sample(s, norm(sub(volume.world_max, volume.world_min)), volume.voxel_size);
+  const double diagonal = norm(sub(volume.world_max, volume.world_min));
+  const double per_metre = s.substeps / s.step * samples_per_primary_sample(s, diagonal, volume.voxel_size);
+  const double per_lit_ray = point_light_samples(s, diagonal, volume.voxel_size);
   auto length = [&](size_t u, size_t v) {
     return volume.coarse.marked_length(
         s.camera.eye, camera_ray(p, double(std::min<size_t>(u, p.width)), double(std::min<size_t>(v, p.height))));
@@ -163,7 +175,7 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
       const double mean = (corners[c] + corners[c + 1] + corners[c + bx + 1] + corners[c + bx + 2] +
                            length(side * bi + side / 2, side * bj + side / 2)) /
                           5;
-      block_cost[bj * bx + bi] = 64 * (1 + mean * per_metre);
+      block_cost[bj * bx + bi] = 64 * (1 + mean * per_metre + (mean > 0 ? per_lit_ray : 0));
     }
   std::vector<double> costs(tiles.x * tiles.y);
   for (size_t j = 0; j < tiles.y; ++j)
@@ -296,14 +308,8 @@ SampleEstimate estimate_samples(const DeviceVolume& volume, const RenderSettings
   const double diagonal = norm(sub(volume.world_max, volume.world_min)), lights = double(s.lights.size());
   const double steps = march_steps(diagonal, s.step, volume.voxel_size);
   SampleEstimate e;
-  e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal, volume.voxel_size);
-  // A ray's samples of a point light beyond one a sub-step (render.cl's sq_point_light_inscatter), each a
-  // march toward it with direct shadows.
-  const auto points =
-      std::count_if(s.lights.begin(), s.lights.end(), [](const Light& l) { return l.kind == LightKind::Point; });
-  const double per_light_sample =
-      s.shadow == ShadowMode::Direct ? march_steps(diagonal, shadow_step(s), volume.voxel_size) : 1;
-  e.per_pixel += double(points) * SQUALL_CLOUD_POINT_LIGHT_STRATA * per_light_sample;
+  e.per_pixel = steps * s.substeps * samples_per_primary_sample(s, diagonal, volume.voxel_size) +
+                point_light_samples(s, diagonal, volume.voxel_size);
   if (s.shadow == ShadowMode::DeepShadowMap && lights > 0) {  // no light, no map
     e.per_map_node = march_steps(diagonal, shadow_step(s), volume.voxel_size);
     e.map_nodes = double(s.shadow_map_size[0]) * s.shadow_map_size[1] * s.shadow_map_size[2] * lights;
