@@ -9,7 +9,9 @@
 // Steps: each step [s, s + h] (h = step, clipped to node boundaries and the ray's end) is cut at N_s - 1
 // sorted uniform offsets r_1 < ... < r_{N_s-1}, with r_0 = 0 and r_{N_s} = 1 (the printed sub-step update
 // advances x by r_j h and stops at r_{N_s-1}; here x advances by (r_j - r_{j-1}) h and the last sub-interval
-// is kept); each sub-interval is sampled at a uniformly jittered point. The optical depth estimate is
+// is kept); each sub-interval is sampled at a uniformly jittered point, where the directional lights are
+// sampled too; a point light, whose 1 / d^2 peaks along the ray, is sampled by sub-step at points of its own
+// (sq_point_light_inscatter: equiangular, lights.h). The optical depth estimate is
 // unbiased for any step; it is exact, whatever the step, where the density is constant over each step
 // (steps end at leaf and tile boundaries and at the grid's bounding box, so e.g. nearest-voxel density that
 // is constant over each leaf it fills).

@@ -150,9 +150,9 @@ Vec3d camera_ray(const CloudRenderParams& p, double u, double v) {
 // Each 8x8 tile's estimated density samples, in row order: the length of its rays inside density (the
 // mean over the corners and centre of its block, from the coarse occupancy; empty space is skipped by
 // the march) in steps, times the samples per step, plus one per pixel for the ray itself and, where the ray
-// meets density, its point lights' samples (point_light_samples). A block is
-// one tile, or several a side in images of over kBlocks tiles a side (an 8192^2 image would otherwise
-// trace 2 M rays on the host). Only the ratios between tiles matter: they size the render's slices.
+// meets density, its point lights' samples (point_light_samples). A block is one tile, or several a side in
+// images of over kBlocks tiles a side (an 8192^2 image would otherwise trace 2 M rays on the host). They size
+// the render's slices (the first at kFirstSliceSamples) and, summed, its place in the device's line.
 std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings& s, const CloudRenderParams& p,
                                const TileGrid& tiles) {
   constexpr size_t kBlocks = 256;

@@ -249,7 +249,7 @@ TEST(Render, APointLightLightsTheSlabAsTheInverseSquareOutsideHalfAVoxel) {
   s.lights[0].intensity = {intensity};
   auto hg = [&](double mu) { return (1 - g * g) / (4 * kPi * std::pow(1 + g * g - 2 * g * mu, 1.5)); };
   const Vec3d& eye = s.camera.eye;
-  for (const auto [step, seed, bound] : {std::tuple{kSlabDx / 50, 1u, 5e-3}, std::tuple{kSlabDx, 1u, 3e-2},
+  for (const auto& [step, seed, bound] : {std::tuple{kSlabDx / 50, 1u, 5e-3}, std::tuple{kSlabDx, 1u, 3e-2},
                                          std::tuple{kSlabDx, 2u, 3e-2}, std::tuple{kSlabDx, 3u, 3e-2}}) {
     s.step = step;
     s.seed = seed;
@@ -581,8 +581,9 @@ TEST(Render, BothWorkSchedulesRenderTheSameImage) {
     renderer.set_work_schedule(schedule);
     slices = 0;
     Image image = renderer.render(dv, s, "render", counting);
-    if (s.shadow == ShadowMode::Direct)
+    if (s.shadow == ShadowMode::Direct) {
       EXPECT_GE(slices, 2) << "the first slice holds a fixed cost: about 14 of the 48 tiles here";
+    }
     EXPECT_EQ(std::count_if(image.data.begin(), image.data.end(), [](float x) { return std::isnan(x); }), 0);
     return image;
   };

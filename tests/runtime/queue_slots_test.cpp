@@ -240,7 +240,7 @@ TEST(DeviceQueues, TheSmallerOfTheHoldsAloneAndBesideOthersIsExpected) {
 // is held, or after 2 s (the test's expectations then fail; a lease never granted hangs the test).
 struct Holders {
   QueuesInLine& q;
-  std::vector<std::thread> threads;
+  std::vector<std::thread> threads{};
   ~Holders() {
     for (auto& t : threads) t.join();
   }
