@@ -250,7 +250,7 @@ TEST(Render, APointLightLightsTheSlabAsTheInverseSquareOutsideHalfAVoxel) {
   auto hg = [&](double mu) { return (1 - g * g) / (4 * kPi * std::pow(1 + g * g - 2 * g * mu, 1.5)); };
   const Vec3d& eye = s.camera.eye;
   for (const auto& [step, seed, bound] : {std::tuple{kSlabDx / 50, 1u, 5e-3}, std::tuple{kSlabDx, 1u, 3e-2},
-                                         std::tuple{kSlabDx, 2u, 3e-2}, std::tuple{kSlabDx, 3u, 3e-2}}) {
+                                          std::tuple{kSlabDx, 2u, 3e-2}, std::tuple{kSlabDx, 3u, 3e-2}}) {
     s.step = step;
     s.seed = seed;
     const Image img = renderer.render(dv, s);
