@@ -121,7 +121,9 @@ void TexturesService::follow(Stream& s, double from) {
   if (!followed.any()) return;
   if (followed.ocean) {
     check_ocean_time(followed.path, "the texture's clock", from + s.spec.dt);
-    Slot spectra;  // none: a spectrum the current builds is reserved before it is built
+    // The spectra the current builds, reserved before it takes the device (as a tile's).
+    Slot spectra =
+        serving_.gate().acquire_memory(followed.path + "'s spectra", ocean_->new_spectra_bytes(*followed.ocean));
     s.spec.velocity = current_grid({ocean_->surface_current(*followed.ocean, from, &spectra),
                                     ocean_->surface_current(*followed.ocean, from + s.spec.dt, &spectra)},
                                    repeats(*followed.ocean) ? Extrapolation::Wrap : Extrapolation::Clamp);

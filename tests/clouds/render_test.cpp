@@ -334,6 +334,7 @@ TEST(Render, APointLightsSpanIntegratesAndInvertsItsInverseSquare) {
     for (size_t i = 0; i + 1 < cuts.size(); ++i) sum += simpson(g, cuts[i], cuts[i + 1], 2000);
     return sum;
   };
+  Kernel<CloudRenderParams, cl_int, cl::Buffer, cl_int, cl::Buffer> span(rt, "clouds/probe.cl", "light_span_eval");
   int n = 0;
   for (const Case& k : cases) {
     // The light in world metres, the rays along +x; its position's float rounding is the test's: tc as a float.
@@ -341,7 +342,6 @@ TEST(Render, APointLightsSpanIntegratesAndInvertsItsInverseSquare) {
     std::vector<float> in;
     for (double xi : xis) in.insert(in.end(), {0, 0, 0, 1, 0, 0, float(k.t0), float(k.len), float(xi)});
     cl::Buffer rays = test::upload(in), out(rt.context(), CL_MEM_WRITE_ONLY, 2 * xis.size() * sizeof(float));
-    Kernel<CloudRenderParams, cl_int, cl::Buffer, cl_int, cl::Buffer> span(rt, "clouds/probe.cl", "light_span_eval");
     span.launch(cl::NDRange(64), cl::NDRange(64), p, cl_int(0), rays, cl_int(xis.size()), out);
     const std::vector<float> got = test::read<float>(out, 2 * xis.size());
     const Case exact{double(float(k.tc)), double(float(k.b)), double(float(k.t0)), double(float(k.len))};

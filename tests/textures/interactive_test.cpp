@@ -227,8 +227,9 @@ TEST(TexturesOcean, TheFollowedOceansSpectraCountInTheMemoryBudget) {
   waves.mutable_output()->set_ny(16);
   const grpc::Status refused = advect(r, d.address()).status;
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
-  EXPECT_NE(refused.error_message().find("the spectrum of layer 0 (25165824 bytes) would pass the memory budget"),
-            std::string::npos)
+  EXPECT_NE(
+      refused.error_message().find("request.velocity.ocean's spectra (25165824 bytes) would pass the memory budget"),
+      std::string::npos)
       << refused.error_message();
 }
 
