@@ -99,6 +99,11 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"device", [o](const std::string& v) { o->runtime.device = v; }},
       {"kernel-dir", [o](const std::string& v) { o->runtime.kernel_dir = v; }},
       {"device-queues", [o](const std::string& v) { o->runtime.queues = size_t(integer_at_most(v, 16)); }},
+      {"cpu-buffers",
+       [o](const std::string& v) {
+         if (v != "host" && v != "device") throw std::invalid_argument("must be host or device");
+         o->runtime.host_buffers_on_cpu = v == "host";
+       }},
       {"cache-dir", [o](const std::string& v) { o->cache_dir = v; }},
       {"fft",
        [o](const std::string& v) {
@@ -289,6 +294,9 @@ std::string usage() {
          "  --device-queues N         requests on the device at once, each on its own in-order queue, 1..16\n"
          "                            (default 3; 1 serializes them; from 3 on, while much shorter work is\n"
          "                            about, longer work holds about half of them at most)\n"
+         "  --cpu-buffers host|device  on a CPU device, make buffers over host memory, which reads and writes\n"
+         "                            reach with no command (default host), or as a GPU's are (device: tests\n"
+         "                            the paths a GPU takes)\n"
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
          "                            fftw, on the host, only for CPU devices)\n"
          "  --fft-threads N           FFTW's threads per transform of 512^2 cells or more (default: the\n"

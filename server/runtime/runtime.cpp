@@ -57,14 +57,15 @@ Runtime::Runtime(const RuntimeOptions& options)
       context_(found_.device),
       sources_(options.kernel_dir),
       program_prefixes_(options.program_prefixes),
-      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes, found_.info.type == "cpu",
-                                            held_queue_slot)),
+      buffers_(std::make_unique<BufferPool>(context_, options.max_idle_buffer_bytes,
+                                            found_.info.type == "cpu" && options.host_buffers_on_cpu, held_queue_slot)),
       queues_(std::make_unique<QueueSlots>(context_, found_.device, options.queues,
                                            profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0,
                                            [this](size_t slot) { buffers_->settle(int(slot)); })) {
-  log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
   computes_in_host_storage_ = probe_host_storage(*buffers_, queues_->queue(0));
-  if (found_.info.type == "cpu" && !computes_in_host_storage_)
+  log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s), ",
+      computes_in_host_storage_ ? "computing in host memory" : "reading and writing by commands");
+  if (found_.info.type == "cpu" && options.host_buffers_on_cpu && !computes_in_host_storage_)
     log(LogLevel::Warn,
         "the device keeps copies of host-memory buffers: out of place, an FFTW transform runs as "
         "two native kernels");

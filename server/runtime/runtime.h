@@ -37,6 +37,12 @@ struct RuntimeOptions {
   // 2-core CPU device, two long requests at once (one per PoCL worker) and one queue for short work gave
   // the long requests a lower p99 at 8 clients than two queues for short work did (docs/performance.md).
   size_t queues = 3;
+  // On a CPU device the pool's buffers are made over host memory of their own, in which the device
+  // computes: reads and writes of them are copies with no command (computes_in_host_storage()). false
+  // makes them as a discrete device's are, so that the read and write commands, pinned blocks and native
+  // kernels over device memory that a GPU's calls take also run, and are tested, on PoCL
+  // (SQUALL_TEST_BUFFERS=device in the test binaries).
+  bool host_buffers_on_cpu = true;
 };
 
 // Device time of one kernel in profile mode, summed over its launches.

@@ -706,10 +706,18 @@ TEST(Daemon, DrainingTurnsNotServingForWatchersAndEndsTheirStreams) {
   EXPECT_LT(seconds, 2 + 5) << "shutdown took longer than --grace-period allows";
 }
 
+// Also: --cpu-buffers device makes a CPU device's buffers as a GPU's are, read and written by commands,
+// where by default the device computes in host memory; the start-up line says which.
 TEST(Daemon, SigintAlsoStopsCleanly) {
-  Daemon d({"--fft", "clfft"});
+  Daemon d({"--fft", "clfft", "--cpu-buffers", "device"});
   d.process().signal(SIGINT);
   EXPECT_EQ(d.process().wait(30), 0) << d.process().log();
+  EXPECT_NE(d.process().log().find("queue(s), reading and writing by commands"), std::string::npos)
+      << d.process().log();
+  const std::string log = shared_daemon().process().log();
+  if (log.find("(cpu)") != std::string::npos) {
+    EXPECT_NE(log.find("queue(s), computing in host memory"), std::string::npos) << log;
+  }
 }
 
 TEST(Daemon, BrokenKernelPrintsBuildLogAndExitsNonZero) {
@@ -729,6 +737,8 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_EQ(test::run({kSqualld, "--rpc-threads", "1025"}, &out), 2) << out;
   EXPECT_NE(out.find("--rpc-threads 1025: must be 1 to 1024"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
+  EXPECT_EQ(test::run({kSqualld, "--cpu-buffers", "pinned"}, &out), 2) << out;
+  EXPECT_NE(out.find("--cpu-buffers pinned: must be host or device"), std::string::npos) << out;
   // The sample budgets take the exponent notation their --help defaults are written in, and whole numbers only.
   EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "4e11", "--max-advection-samples", "1e9", "--help"}, &out), 0)
       << out;

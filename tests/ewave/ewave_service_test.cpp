@@ -329,9 +329,10 @@ TEST(EWaveService, ASessionHoldsItsInitialOceansKeptSpectrumWhileItReservesItsBy
     ASSERT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
     const Session second(*stub, from_the_sea);
     EXPECT_EQ(second.status().error_code(), code) << second.status().error_message();
-    if (code != grpc::StatusCode::OK)
+    if (code != grpc::StatusCode::OK) {
       EXPECT_NE(second.status().error_message().find("keeping this eWave session"), std::string::npos)
           << second.status().error_message();
+    }
     EXPECT_EQ(server.serving().gate().cached_memory_bytes(), spectrum);
   }
 }

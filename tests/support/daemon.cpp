@@ -21,6 +21,7 @@ Daemon::Daemon(const std::vector<std::string>& extra_flags, double timeout_secon
   argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
   if (std::find(extra_flags.begin(), extra_flags.end(), "--fft") == extra_flags.end())
     argv.insert(argv.end(), {"--fft", engine_fft_backend()});  // the in-process engines' backend: same frames
+  if (!host_buffers_on_cpu()) argv.insert(argv.end(), {"--cpu-buffers", "device"});  // as the engines' runtime
   process_ = std::make_unique<Process>(argv, dir_ + "/log.txt");
   auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(long(timeout_seconds * 1000));
   auto fail_if_gone = [&](const char* waiting_for) {

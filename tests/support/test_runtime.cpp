@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <string>
 
 namespace squall::test {
 
@@ -18,11 +19,17 @@ std::vector<std::string> programs_under_test() {
   return prefixes;
 }
 
+bool host_buffers_on_cpu() {
+  const char* buffers = std::getenv("SQUALL_TEST_BUFFERS");
+  return !buffers || std::string(buffers) != "device";
+}
+
 Runtime& runtime() {
   static Runtime* instance = [] {
     configure_kernel_cache();
     RuntimeOptions options;
     if (const char* d = std::getenv("SQUALL_TEST_DEVICE")) options.device = d;
+    options.host_buffers_on_cpu = host_buffers_on_cpu();
     options.program_prefixes = programs_under_test();
     auto* r = new Runtime(options);  // never destroyed: lives until the test binary exits
     r->build_programs();

@@ -8,6 +8,9 @@ namespace squall::test {
 
 // --device from $SQUALL_TEST_DEVICE (default "auto"); builds the programs_under_test().
 Runtime& runtime();
+// RuntimeOptions::host_buffers_on_cpu of runtime(): false under $SQUALL_TEST_BUFFERS=device (the ctest
+// runs NAME_device_buffers), where a CPU device's pool buffers are made as a GPU's are.
+bool host_buffers_on_cpu();
 // The kernel programs this test binary builds: the PROGRAMS prefixes given to squall_test() in
 // tests/CMakeLists.txt (all programs when none are given).
 std::vector<std::string> programs_under_test();
