@@ -350,7 +350,7 @@ int render(client::Client& client, const Request& r) {
         {img.channels(c), std::vector<float>(values.begin() + c * plane, values.begin() + (c + 1) * plane)});
   try {
     const std::string preview = r.preview.empty() ? client::preview_beside(r.output) : r.preview;
-    client::write_exr_and_preview(r.output, image, preview == "none" ? "" : preview);
+    client::write_exr_and_preview(r.output, image, preview == "none" ? "" : preview, client::Tone::Radiance);
   } catch (const std::exception& e) {
     std::cerr << "squall cloud: " << e.what() << "\n";
     return kLocalError;

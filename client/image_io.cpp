@@ -19,11 +19,11 @@
 
 namespace squall::client {
 
-void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png) {
+void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png, Tone tone) {
   write_exr(exr, image);
   if (png.empty() || image.channels.empty()) return;
   try {
-    write_png_preview(png, image.nx, image.ny, image.channels.front().values);
+    write_png_preview(png, image.nx, image.ny, image.channels.front().values, tone);
   } catch (...) {
     std::remove(exr.c_str());
     throw;
@@ -86,7 +86,12 @@ struct PngWriter {
   }
 };
 
-std::vector<png_byte> to_grey(const std::vector<float>& values) {
+// The sRGB encoding of a linear value in [0, 1] (IEC 61966-2-1).
+double srgb_encoded(double linear) {
+  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+}
+
+std::vector<png_byte> range_grey(const std::vector<float>& values) {
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   for (float v : values)
     if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
@@ -99,12 +104,41 @@ std::vector<png_byte> to_grey(const std::vector<float>& values) {
   return grey;
 }
 
+// The value that Radiance maps to white: the 99th percentile of the finite values, their largest where
+// that is not above 0; 0 where none is.
+float radiance_white(const std::vector<float>& values) {
+  std::vector<float> finite;
+  finite.reserve(values.size());
+  for (float v : values)
+    if (std::isfinite(v)) finite.push_back(v);
+  if (finite.empty()) return 0;
+  auto at = finite.begin() + std::ptrdiff_t(0.99 * double(finite.size() - 1));
+  std::nth_element(finite.begin(), at, finite.end());
+  return *at > 0 ? *at : *std::max_element(at, finite.end());
+}
+
+std::vector<png_byte> radiance_grey(const std::vector<float>& values) {
+  const double white = radiance_white(values);
+  std::vector<png_byte> grey(values.size(), 0);
+  if (!(white > 0)) return grey;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i])) continue;
+    const double exposed = std::clamp(values[i] / white, 0.0, 1.0);
+    grey[i] = static_cast<png_byte>(std::lround(255 * srgb_encoded(exposed)));
+  }
+  return grey;
+}
+
 }  // namespace
 
-void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values) {
+std::vector<unsigned char> preview_grey(const std::vector<float>& values, Tone tone) {
+  return tone == Tone::Radiance ? radiance_grey(values) : range_grey(values);
+}
+
+void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values, Tone tone) {
   if (nx < 1 || ny < 1 || values.size() != static_cast<size_t>(nx) * ny)
     throw std::runtime_error(path + ": preview needs nx * ny values");
-  std::vector<png_byte> grey = to_grey(values);
+  std::vector<png_byte> grey = preview_grey(values, tone);
   PngWriter w;
   w.file = std::fopen(path.c_str(), "wb");
   if (!w.file) throw std::runtime_error("cannot open " + path + " for writing");

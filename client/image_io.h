@@ -27,9 +27,19 @@ struct Image {
   std::vector<std::pair<std::string, std::string>> attributes;
 };
 
+// How a preview maps values to 8-bit grey.
+// - Range: linearly from [min, max] of the finite values to [0, 255] (a constant field is mid-grey): for
+//   fields of both signs and a bounded range, as heights and displacements are.
+// - Radiance: for light, which is >= 0 and of high dynamic range: exposed so that the 99th percentile of
+//   the finite values is white (their largest where that is 0), clipped above it, and sRGB-encoded (IEC
+//   61966-2-1): a lamp's glow shows around it, not as the one white pixel that Range would give.
+// Non-finite values are black in both.
+enum class Tone { Range, Radiance };
+std::vector<unsigned char> preview_grey(const std::vector<float>& values, Tone tone);
+
 // Writes `exr` and, unless `png` is empty, the preview of its first channel to `png`: both or neither (an
 // EXR written before its preview failed is removed). Throws what the failing write threw.
-void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png);
+void write_exr_and_preview(const std::string& exr, const Image& image, const std::string& png, Tone tone = Tone::Range);
 
 // Adds "squall.time_seconds": a frame's time, s, with 17 significant digits (read back as the same double).
 void add_time_attribute(Image& image, double seconds);
@@ -38,9 +48,9 @@ void add_time_attribute(Image& image, double seconds);
 // when a channel does not hold nx * ny values.
 void write_exr(const std::string& path, const Image& image);
 
-// Writes values (nx * ny, x fastest) as 8-bit grey, linearly mapped from [min, max] of the finite
-// values to [0, 255] (a constant field is mid-grey, non-finite values black). Throws on failure.
-void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values);
+// Writes values (nx * ny, x fastest) as 8-bit grey, mapped by `tone`. Throws on failure.
+void write_png_preview(const std::string& path, int nx, int ny, const std::vector<float>& values,
+                       Tone tone = Tone::Range);
 // The preview written beside an EXR `output`: its ".exr" replaced by ".png", else ".png" appended (an
 // output named x.png keeps its EXR, and one in a dotted folder its own folder).
 std::string preview_beside(const std::string& output);

@@ -23,12 +23,14 @@
 #include <openvdb/io/Stream.h>
 
 #include "client/client.h"
+#include "client/image_io.h"
 #include "clouds/build_memory.h"
 #include "clouds/clouds_request.h"
 #include "clouds/volume.h"
 #include "squall/v1/clouds.grpc.pb.h"
 #include "support/daemon.h"
 #include "support/long_work.h"
+#include "support/png_grey.h"
 
 namespace squall {
 namespace {
@@ -865,11 +867,12 @@ std::vector<float> exr_channels(const std::string& path, const std::vector<std::
 
 // `--lamp X,Y,Z,I` is a point light of intensity I at every wavelength, at X,Y,Z: a lamp inside the cloud, the
 // only light, lights it (every pixel finite, the brightest nearest the lamp), both wavelengths alike (one
-// extinction and albedo for all), and twice the intensity gives twice the radiance, bit for bit.
+// extinction and albedo for all), and twice the intensity gives twice the radiance, bit for bit. Its PNG
+// preview shows the cloud lit around the lamp.
 TEST(CloudsCli, ALampLightsTheCloudInProportionToItsIntensity) {
   const std::string dir = test::temp_dir("clouds-cli-lamp");
   std::string out;
-  auto render = [&](const std::string& intensity, const std::string& file) {
+  auto render = [&](const std::string& intensity, const std::string& file, const std::string& preview) {
     EXPECT_EQ(test::run({kSquall,         "--address", daemon().address(),
                          "cloud",         "render",    "--voxel-size",
                          "0.5",           "--sphere",  "0,0,0,4",
@@ -877,14 +880,15 @@ TEST(CloudsCli, ALampLightsTheCloudInProportionToItsIntensity) {
                          "16x12",         "--step",    "0.25",
                          "--shadow",      "direct",    "--wavelengths",
                          "450e-9,650e-9", "--lamp",    "0.3,-0.2,0.1," + intensity,
-                         "--preview",     "none",      "-o",
+                         "--preview",     preview,     "-o",
                          dir + "/" + file},
                         &out),
               0)
         << out;
     return exr_channels(dir + "/" + file, {"radiance_0", "radiance_1"}, 16, 12);
   };
-  const std::vector<float> once = render("1000", "once.exr"), twice = render("2000", "twice.exr");
+  const std::vector<float> once = render("1000", "once.exr", dir + "/once.png");
+  const std::vector<float> twice = render("2000", "twice.exr", "none");
   const size_t plane = 16 * 12;
   double sum = 0;
   for (size_t i = 0; i < plane; ++i) {
@@ -897,6 +901,17 @@ TEST(CloudsCli, ALampLightsTheCloudInProportionToItsIntensity) {
   // axis: (8, 5), whose ray passes 1.0 m from it (pixels are 1.8 m wide there).
   EXPECT_EQ(std::max_element(once.begin(), once.begin() + plane) - once.begin(), 5 * 16 + 8);
   for (size_t i = 0; i < once.size(); ++i) EXPECT_EQ(twice[i], 2 * once[i]) << i;
+  // The preview shows the cloud lit around the lamp (its radiance exposed at the 99th percentile and
+  // sRGB-encoded), not only the pixel next to it, as a preview spanning min..max linearly did.
+  const test::GreyImage preview = test::read_png_grey(dir + "/once.png");
+  ASSERT_EQ(preview.pixels.size(), plane);
+  EXPECT_EQ(preview.pixels[5 * 16 + 8], 255);
+  const auto lit = std::count_if(preview.pixels.begin(), preview.pixels.end(), [](png_byte g) { return g >= 26; });
+  const std::vector<float> radiance(once.begin(), once.begin() + plane);
+  const auto covered = std::count_if(radiance.begin(), radiance.end(), [](float l) { return l > 0; });
+  EXPECT_GE(lit, 0.8 * double(covered)) << "pixels above a tenth of white, of " << covered << " the cloud covers";
+  const std::vector<unsigned char> range = client::preview_grey(radiance, client::Tone::Range);
+  EXPECT_GT(lit, 2 * std::count_if(range.begin(), range.end(), [](unsigned char g) { return g >= 26; }));
 }
 
 // Flag values that are not what they say exit 2 naming the value, before any call: a count that is negative,

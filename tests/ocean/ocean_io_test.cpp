@@ -8,8 +8,8 @@
 #include <ImfInputFile.h>
 #include <ImfStringAttribute.h>
 #include <gtest/gtest.h>
-#include <png.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -24,6 +24,7 @@
 #include "ocean/ocean_request.h"
 #include "ocean/tile_chunks.h"
 #include "support/expect_error.h"
+#include "support/png_grey.h"
 #include "support/process.h"
 
 namespace squall {
@@ -151,18 +152,47 @@ TEST(ImageIo, PngPreviewSpansTheRange) {
   v[7] = -1;  // (-1 - -4) / 9 = 1/3 -> 85
   std::string path = test::temp_dir("png") + "/p.png";
   client::write_png_preview(path, nx, ny, v);
-  png_image png;
-  std::memset(&png, 0, sizeof png);
-  png.version = PNG_IMAGE_VERSION;
-  ASSERT_TRUE(png_image_begin_read_from_file(&png, path.c_str()));
-  png.format = PNG_FORMAT_GRAY;
-  std::vector<png_byte> grey(PNG_IMAGE_SIZE(png));
-  ASSERT_TRUE(png_image_finish_read(&png, nullptr, grey.data(), 0, nullptr));
-  ASSERT_EQ(int(png.width), nx);
-  ASSERT_EQ(int(png.height), ny);
+  const test::GreyImage png = test::read_png_grey(path);
+  ASSERT_EQ(png.width, nx);
+  ASSERT_EQ(png.height, ny);
+  EXPECT_EQ(png.pixels[0], 0);
+  EXPECT_EQ(png.pixels[14], 255);
+  EXPECT_EQ(png.pixels[7], 85);
+}
+
+// A radiance preview is exposed so that the 99th percentile is white, clipped above it and sRGB-encoded:
+// of 0, 1, ..., 100 (49.5 for 50), 99 is white, 100 clipped to it, and 49.5 (half of white) is
+// 255 * (1.055 * 0.5^(1/2.4) - 0.055) = 187.5, 188. Where the percentile is not above 0, the largest
+// value is white; negative and non-finite values are black, and a black image stays black.
+TEST(ImageIo, ARadiancePreviewIsExposedAtThe99thPercentileAndSrgbEncoded) {
+  std::vector<float> ramp(101);
+  for (int i = 0; i <= 100; ++i) ramp[i] = float(i);
+  ramp[50] = 49.5f;
+  const std::vector<unsigned char> grey = client::preview_grey(ramp, client::Tone::Radiance);
   EXPECT_EQ(grey[0], 0);
-  EXPECT_EQ(grey[14], 255);
-  EXPECT_EQ(grey[7], 85);
+  EXPECT_EQ(grey[50], 188);
+  EXPECT_EQ(grey[99], 255);
+  EXPECT_EQ(grey[100], 255);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(client::preview_grey({-1, 2, nan, 0}, client::Tone::Radiance), (std::vector<unsigned char>{0, 255, 0, 0}));
+  EXPECT_EQ(client::preview_grey({0, 0, nan}, client::Tone::Radiance), (std::vector<unsigned char>{0, 0, 0}));
+}
+
+// A lamp's inverse-square glow (1 / max(d, 0.5)^2 over 101 x 101 pixels, d in pixels from the centre):
+// mapped by its range only the few pixels next to the lamp are above a tenth of white, where the
+// radiance preview shows the glow over most of the image.
+TEST(ImageIo, ARadiancePreviewShowsALampsGlowThatTheRangeHidesInADot) {
+  const int n = 101;
+  std::vector<float> glow(size_t(n) * n);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      glow[size_t(j) * n + i] = float(1 / std::pow(std::max(std::hypot(i - 50, j - 50), 0.5), 2));
+  auto lit = [&](client::Tone tone) {
+    const std::vector<unsigned char> grey = client::preview_grey(glow, tone);
+    return double(std::count_if(grey.begin(), grey.end(), [](unsigned char g) { return g >= 26; })) / grey.size();
+  };
+  EXPECT_LT(lit(client::Tone::Range), 0.002);
+  EXPECT_GT(lit(client::Tone::Radiance), 0.6);
 }
 
 // A frame of 3 fields of 10 rows of 1000 bytes with 2600 bytes per chunk: 2 rows (+ headers) per chunk,
