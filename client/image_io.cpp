@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -104,17 +105,16 @@ std::vector<png_byte> range_grey(const std::vector<float>& values) {
   return grey;
 }
 
-// The value that Radiance maps to white: the 99th percentile of the finite values, their largest where
-// that is not above 0; 0 where none is.
+// The value that Radiance maps to white: the 99th percentile of the finite values above 0; 0 where none is.
 float radiance_white(const std::vector<float>& values) {
-  std::vector<float> finite;
-  finite.reserve(values.size());
+  std::vector<float> lit;
+  lit.reserve(values.size());
   for (float v : values)
-    if (std::isfinite(v)) finite.push_back(v);
-  if (finite.empty()) return 0;
-  auto at = finite.begin() + std::ptrdiff_t(0.99 * double(finite.size() - 1));
-  std::nth_element(finite.begin(), at, finite.end());
-  return *at > 0 ? *at : *std::max_element(at, finite.end());
+    if (std::isfinite(v) && v > 0) lit.push_back(v);
+  if (lit.empty()) return 0;
+  auto at = lit.begin() + std::ptrdiff_t(0.99 * double(lit.size() - 1));
+  std::nth_element(lit.begin(), at, lit.end());
+  return *at;
 }
 
 std::vector<png_byte> radiance_grey(const std::vector<float>& values) {

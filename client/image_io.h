@@ -31,9 +31,10 @@ struct Image {
 // - Range: linearly from [min, max] of the finite values to [0, 255] (a constant field is mid-grey): for
 //   fields of both signs and a bounded range, as heights and displacements are.
 // - Radiance: for light, which is >= 0 and of high dynamic range: exposed so that the 99th percentile of
-//   the finite values is white (their largest where that is 0), clipped above it, and sRGB-encoded (IEC
-//   61966-2-1): a lamp's glow shows around it, not as the one white pixel that Range would give.
-// Non-finite values are black in both.
+//   the finite values above 0 is white (what is not lit, a background of sky, does not count), clipped
+//   above it, and sRGB-encoded (IEC 61966-2-1): a lamp's glow shows around it, not as the one white pixel
+//   that Range would give.
+// Non-finite values are black in both, and so is an image of no value above 0 in Radiance.
 enum class Tone { Range, Radiance };
 std::vector<unsigned char> preview_grey(const std::vector<float>& values, Tone tone);
 

@@ -62,9 +62,10 @@ Runtime::Runtime(const RuntimeOptions& options)
       queues_(std::make_unique<QueueSlots>(context_, found_.device, options.queues,
                                            profiling_ ? CL_QUEUE_PROFILING_ENABLE : 0,
                                            [this](size_t slot) { buffers_->settle(int(slot)); })) {
+  log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s)");
   computes_in_host_storage_ = probe_host_storage(*buffers_, queues_->queue(0));
-  log(LogLevel::Info, "OpenCL ", describe(found_.info), ", ", queues_->count(), " queue(s), ",
-      computes_in_host_storage_ ? "computing in host memory" : "reading and writing by commands");
+  log(LogLevel::Info, computes_in_host_storage_ ? "buffers: the device computes in their host memory"
+                                                : "buffers: read and written by commands");
   if (found_.info.type == "cpu" && options.host_buffers_on_cpu && !computes_in_host_storage_)
     log(LogLevel::Warn,
         "the device keeps copies of host-memory buffers: out of place, an FFTW transform runs as "

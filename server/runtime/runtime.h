@@ -39,9 +39,9 @@ struct RuntimeOptions {
   size_t queues = 3;
   // On a CPU device the pool's buffers are made over host memory of their own, in which the device
   // computes: reads and writes of them are copies with no command (computes_in_host_storage()). false
-  // makes them as a discrete device's are, so that the read and write commands, pinned blocks and native
-  // kernels over device memory that a GPU's calls take also run, and are tested, on PoCL
-  // (SQUALL_TEST_BUFFERS=device in the test binaries).
+  // makes them as a discrete device's are, so that the read and write commands and pinned blocks that a
+  // GPU's calls take also run, and are tested, on PoCL (SQUALL_TEST_BUFFERS=device in the test binaries);
+  // the fftw backend then runs its native kernels over buffers of no host storage.
   bool host_buffers_on_cpu = true;
 };
 

@@ -160,10 +160,11 @@ TEST(ImageIo, PngPreviewSpansTheRange) {
   EXPECT_EQ(png.pixels[7], 85);
 }
 
-// A radiance preview is exposed so that the 99th percentile is white, clipped above it and sRGB-encoded:
-// of 0, 1, ..., 100 (49.5 for 50), 99 is white, 100 clipped to it, and 49.5 (half of white) is
-// 255 * (1.055 * 0.5^(1/2.4) - 0.055) = 187.5, 188. Where the percentile is not above 0, the largest
-// value is white; negative and non-finite values are black, and a black image stays black.
+// A radiance preview is exposed so that the 99th percentile of what is lit (above 0) is white, clipped
+// above it and sRGB-encoded: of 0, 1, ..., 100 (49.5 for 50), 99 is white, 100 clipped to it, 98 is
+// 255 * (1.055 * (98/99)^(1/2.4) - 0.055) = 253.9, 254, and 49.5 (half of white) 187.5, 188. However many
+// pixels are dark, the lit ones set the exposure; negative and non-finite values are black, and an image
+// with nothing lit stays black.
 TEST(ImageIo, ARadiancePreviewIsExposedAtThe99thPercentileAndSrgbEncoded) {
   std::vector<float> ramp(101);
   for (int i = 0; i <= 100; ++i) ramp[i] = float(i);
@@ -171,8 +172,12 @@ TEST(ImageIo, ARadiancePreviewIsExposedAtThe99thPercentileAndSrgbEncoded) {
   const std::vector<unsigned char> grey = client::preview_grey(ramp, client::Tone::Radiance);
   EXPECT_EQ(grey[0], 0);
   EXPECT_EQ(grey[50], 188);
+  EXPECT_EQ(grey[98], 254);
   EXPECT_EQ(grey[99], 255);
   EXPECT_EQ(grey[100], 255);
+  std::vector<float> mostly_dark(10000, 0.0f);
+  std::copy(ramp.begin(), ramp.end(), mostly_dark.begin());
+  EXPECT_EQ(client::preview_grey(mostly_dark, client::Tone::Radiance)[98], 254);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(client::preview_grey({-1, 2, nan, 0}, client::Tone::Radiance), (std::vector<unsigned char>{0, 255, 0, 0}));
   EXPECT_EQ(client::preview_grey({0, 0, nan}, client::Tone::Radiance), (std::vector<unsigned char>{0, 0, 0}));
