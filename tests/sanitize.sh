@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The sanitizer job: a clang build (AddressSanitizer, LeakSanitizer, libFuzzer coverage) of squalld and a
-# subset of the tests in BUILD_DIR (default ./build-asan), then: the runtime and common unit tests, the
-# clouds service tests against the instrumented squalld (cancelled renders and builds), the bad-input
-# sweep of every RPC against it, and the four libFuzzer harnesses over request validation for
+# subset of the tests in BUILD_DIR (default ./build-asan), then: the runtime and common unit tests (the
+# runtime's also with its buffers made as a GPU's: pinned blocks, their mappings and the views that hold
+# them), the clouds service tests against the instrumented squalld (cancelled renders and builds), the
+# bad-input sweep of every RPC against it, and the four libFuzzer harnesses over request validation for
 # SQUALL_FUZZ_SECONDS each (default 30). Any sanitizer report, leak included, fails the job.
 # Needs the main build (./build, deploy/build.sh): its Python venv and its PoCL kernel cache.
 # Usage: tests/sanitize.sh [BUILD_DIR]
@@ -29,7 +30,7 @@ export ASAN_OPTIONS="log_path=$reports/asan:detect_leaks=1:abort_on_error=0:new_
 export LSAN_OPTIONS="suppressions=$source_dir/tests/support/lsan.supp:print_suppressions=0"
 status=0
 ctest --test-dir "$build" --output-on-failure \
-  -R '^(runtime_test|common_test|clouds_service_test|(ocean|ewave|clouds|textures)_fuzz)$' || status=1
+  -R '^(runtime_test(_device_buffers)?|common_test|clouds_service_test|(ocean|ewave|clouds|textures)_fuzz)$' || status=1
 (cd "$source_dir/tests/python" &&
   SQUALL_SQUALLD="$build/squalld" SQUALL_CLI="$build/squall" POCL_CACHE_DIR="$main_build/pocl-cache" \
     PYTHONDONTWRITEBYTECODE=1 "$main_build/tests/python/venv/bin/python" -m pytest -q -p no:cacheprovider \
