@@ -14,7 +14,6 @@ client that long is cancelled."""
 from __future__ import annotations
 
 import contextlib
-import re
 import threading
 import time
 from typing import Any, Callable, Iterator, List, Optional, Tuple, TypeVar
@@ -25,9 +24,9 @@ import pytest
 import squall
 import squall.v1.textures_pb2_grpc
 from conftest import Daemon, _start
-from exposition import http_get, samples, value
+from exposition import samples, value
 from processes import wait_for
-from test_load import resident_bytes
+from test_load import resident_bytes, scrape
 
 T = TypeVar("T")
 
@@ -298,13 +297,6 @@ def test_admission_is_not_serving_while_the_memory_budget_is_spent() -> None:
 def volume_daemon() -> Iterator[Daemon]:
     """At most two live sessions (stored cloud volumes count), its metrics on a port of its own."""
     yield from _start(["--max-sessions", "2", "--metrics-listen", "127.0.0.1:0"], "volumes")
-
-
-def scrape(daemon: Daemon) -> str:
-    """The daemon's /metrics (its port from its log)."""
-    port = re.search(r"/metrics \(port (\d+)\)", daemon.log_path.read_text())
-    assert port, "squalld logs its metrics port"
-    return http_get(f"http://127.0.0.1:{port.group(1)}/metrics")
 
 
 def volume_gauges(daemon: Daemon) -> Tuple[float, float]:

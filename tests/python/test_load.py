@@ -40,14 +40,17 @@ def resident_bytes(pid: int) -> int:
     return int(line.split()[1]) * 1024
 
 
-def cached_bytes(daemon: Daemon) -> int:
-    """What the daemon's caches keep for the next calls (squall_memory_cached_bytes, from the
-    metrics port in its log): idle buffers, spectra, propagators, plans, within the memory
-    budget."""
+def scrape(daemon: Daemon) -> str:
+    """The daemon's /metrics (its port from its log)."""
     port = re.search(r"/metrics \(port (\d+)\)", daemon.log_path.read_text())
     assert port, "squalld logs its metrics port"
-    text = http_get(f"http://127.0.0.1:{port.group(1)}/metrics")
-    return int(value(text, "squall_memory_cached_bytes"))
+    return http_get(f"http://127.0.0.1:{port.group(1)}/metrics")
+
+
+def cached_bytes(daemon: Daemon) -> int:
+    """What the daemon's caches keep for the next calls (squall_memory_cached_bytes): idle buffers,
+    spectra, propagators, plans, within the memory budget."""
+    return int(value(scrape(daemon), "squall_memory_cached_bytes"))
 
 
 def ewave_run(client: squall.Client, steps: int = 4) -> List[bytes]:
