@@ -16,6 +16,7 @@
 #include "fft/fft.h"
 #include "support/expect_error.h"
 #include "support/fftw_wisdom.h"
+#include "support/process.h"
 #include "support/test_runtime.h"
 
 namespace squall {
@@ -408,9 +409,8 @@ TEST(FftPlans, FftwPreparedTransformPlansNothingWhenItRuns) {
 TEST(FftPlans, FftwWisdomFilesSpareTheNextProcessItsMeasurements) {
   if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
   const PlanKey key{88, 52, 1, Transform::C2C, Precision::F32};  // a size no other test plans
-  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-fftw-wisdom";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  // This process's own: the test binary runs twice at once under ctest (fft_test_device_buffers).
+  const std::filesystem::path dir = test::temp_dir("fftw-wisdom");
   fft::FftwOptions options;
   options.wisdom_dir = dir.string();
   auto prepare = [&](const fft::FftwOptions& o) {
@@ -445,8 +445,7 @@ TEST(FftPlans, FftwWisdomFilesSpareTheNextProcessItsMeasurements) {
 // clients ask for, and the file never loses what it held.
 TEST(FftPlans, FftwWisdomStaysWithinItsCap) {
   if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the fftw backend runs on CPU devices only";
-  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "squall-fftw-wisdom-cap";
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = test::temp_dir("fftw-wisdom-cap");  // this process's own, as above
   fft::FftwOptions options;
   options.wisdom_dir = dir.string();
   options.max_wisdom_bytes = 8 << 10;  // about 1.4 KB a size here: reached after five or six
