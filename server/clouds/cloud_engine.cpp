@@ -62,9 +62,9 @@ std::string CloudEngine::add(const std::string& id, Reservation reservation,
   return stored_.add(id, std::move(reservation), volume);
 }
 
-CloudEngine::Place CloudEngine::place(const std::string& proposed) {
+CloudEngine::Place CloudEngine::place(const std::string& proposed, const std::string& client) {
   std::string id = stored_.id_for(proposed, kProposedIdField);
-  return {std::move(id), stored_.reserve_session()};
+  return {std::move(id), stored_.reserve_session(client)};
 }
 
 std::string CloudEngine::keep(const std::shared_ptr<StoredVolume>& volume, Place place, Slot* build) {

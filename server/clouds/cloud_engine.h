@@ -45,13 +45,14 @@ class CloudEngine {
   // caller to reserve in the memory budget first.
   uint64_t validate(CloudModel model, const std::string& field = "model") const;
   // Where a volume about to be built will be kept: its id, a new one or the client's `proposed` one
-  // (SessionStore::id_for, checked again by keep()), and its --max-sessions slot, taken before the build so
-  // that a full or draining server refuses before the work (RESOURCE_EXHAUSTED, UNAVAILABLE).
+  // (SessionStore::id_for, checked again by keep()), and its --max-sessions slot (and one of `client`'s
+  // --max-sessions-per-client; empty: no client's), taken before the build so that a full or draining
+  // server refuses before the work (RESOURCE_EXHAUSTED, UNAVAILABLE).
   struct Place {
     std::string id;
     SessionStore<StoredVolume>::Reservation reservation;
   };
-  Place place(const std::string& proposed = "");
+  Place place(const std::string& proposed = "", const std::string& client = "");
   // Keeps a volume in `place`; RESOURCE_EXHAUSTED past --max-session-bytes or the memory budget. Its bytes
   // move from `build`, the build's reservation, where that holds them all.
   std::string keep(const std::shared_ptr<StoredVolume>& volume, Place place, Slot* build = nullptr);

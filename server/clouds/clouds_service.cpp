@@ -82,7 +82,7 @@ grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::
     const CloudModel model = req::model(request->model());
     const uint64_t peak = engine_->validate(model, "model");
     std::optional<CloudEngine::Place> place;  // a bad model is INVALID_ARGUMENT however full the sessions are
-    if (request->keep()) place = engine_->place(proposed_session(*context));
+    if (request->keep()) place = engine_->place(proposed_session(*context), client_address(*context));
     mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
     Slot memory = serving_.gate().acquire_memory("BuildVolume's build", peak);
     auto volume = engine_->build(model, "model", cancellation(*context));

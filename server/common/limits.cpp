@@ -106,6 +106,13 @@ Slot LimitGate::acquire_client_stream(const std::string& client) {
               "--max-streams-per-client", "already open");
 }
 
+Slot LimitGate::acquire_client_session(const std::string& client) {
+  if (limits_.max_sessions_per_client == 0) return Slot();
+  auto& bucket = client_sessions_[std::hash<std::string>{}(client) % kClientBuckets];
+  return take(bucket, 1, limits_.max_sessions_per_client, "sessions of " + validate::printable(client),
+              "--max-sessions-per-client", "already live");
+}
+
 Slot LimitGate::acquire_session() {
   return take(sessions_, 1, limits_.max_sessions, "sessions", "--max-sessions", "already live");
 }

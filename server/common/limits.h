@@ -22,6 +22,8 @@ struct Limits {
   double stream_idle_seconds = 600;             // --stream-idle-timeout: how long a stream may wait on its
                                                 // client (to send, or to read) before it is cancelled; 0: for ever
   uint32_t max_sessions = 64;                   // --max-sessions: live stateful sessions
+  uint32_t max_sessions_per_client = 0;         // --max-sessions-per-client: of those, the ones one client
+                                                // created (0: no limit of its own)
   uint64_t max_message_bytes = 64ull << 20;     // --max-message-bytes: one gRPC message
   uint64_t max_session_bytes = 2ull << 30;      // --max-session-bytes: host + device bytes of all sessions
                                                 // (squalld's default: half the device's global memory)
@@ -107,6 +109,9 @@ class LimitGate {
   // such limit.
   Slot acquire_client_stream(const std::string& client);
   Slot acquire_session();  // RESOURCE_EXHAUSTED when max_sessions are live
+  // One of the sessions `client` creates, held for the session's life; RESOURCE_EXHAUSTED when it has
+  // max_sessions_per_client live. Counted in buckets as acquire_client_stream counts streams.
+  Slot acquire_client_session(const std::string& client);
   // `bytes` more held by sessions; RESOURCE_EXHAUSTED naming `what` past max_session_bytes.
   Slot acquire_session_bytes(const std::string& what, uint64_t bytes);
 
@@ -170,6 +175,7 @@ class LimitGate {
   std::vector<MemoryReclaimer*> reclaimers_;
   static constexpr size_t kClientBuckets = 4096;
   std::array<std::atomic<uint64_t>, kClientBuckets> client_streams_{};
+  std::array<std::atomic<uint64_t>, kClientBuckets> client_sessions_{};
 };
 
 }  // namespace squall

@@ -95,26 +95,28 @@ class SessionStore {
   }
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
-  // RESOURCE_EXHAUSTED past --max-sessions, --max-session-bytes or --memory-budget. Idle entries are
-  // evicted first, so they never block a new one.
+  // RESOURCE_EXHAUSTED past --max-sessions, --max-session-bytes or --memory-budget, and past
+  // --max-sessions-per-client for a session that `client` creates (empty: one no client counts, such as
+  // a session resumed from its checkpoint). Idle entries are evicted first, so they never block a new one.
   struct Reservation {
-    Slot session, memory, budget;
+    Slot session, client, memory, budget;
     uint64_t bytes = 0;
   };
-  Reservation reserve(uint64_t bytes) {
-    Reservation r = reserve_session();
+  Reservation reserve(uint64_t bytes, const std::string& client = "") {
+    Reservation r = reserve_session(client);
     reserve_bytes(r, bytes);
     return r;
   }
   // reserve() in two steps, for a value whose bytes are known only once it is made (a cloud volume, once
   // built): the drain, heartbeat and --max-sessions checks before the work, so that it is refused before it
   // is done; then its bytes, moved from `work` (the work's own reservation) where that holds them all.
-  Reservation reserve_session() {
+  Reservation reserve_session(const std::string& client = "") {
     if (policy_.registry && policy_.registry->draining()) refuse_new();  // before the limits: retried elsewhere
     if (persistent()) policy_.registry->require_beating();
     evict_idle();
     Reservation r;
     r.session = gate_.acquire_session();
+    if (!client.empty()) r.client = gate_.acquire_client_session(client);
     return r;
   }
   void reserve_bytes(Reservation& r, uint64_t bytes, Slot* work = nullptr) {

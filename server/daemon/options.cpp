@@ -123,6 +123,8 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
        [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(integer_at_most(v, UINT32_MAX)); }},
       {"max-sessions",
        [o](const std::string& v) { o->limits.max_sessions = uint32_t(integer_at_most(v, UINT32_MAX)); }},
+      {"max-sessions-per-client",
+       [o](const std::string& v) { o->limits.max_sessions_per_client = uint32_t(integer_at_most(v, UINT32_MAX)); }},
       {"stream-idle-timeout", [o](const std::string& v) { o->limits.stream_idle_seconds = idle_seconds(v); }},
       {"memory-budget", [o](const std::string& v) { o->limits.memory_budget = positive_integer(v); }},
       {"max-message-bytes",
@@ -321,6 +323,8 @@ std::string usage() {
          "  --max-sessions N          live stateful sessions (default " +
          std::to_string(d.limits.max_sessions) +
          ")\n"
+         "  --max-sessions-per-client N  of those, the ones one client created (its address without the port;\n"
+         "                            default: no limit of its own)\n"
          "  --max-message-bytes N     largest gRPC message either way, at most 2^31 - 1 (default " +
          std::to_string(d.limits.max_message_bytes) +
          ")\n"

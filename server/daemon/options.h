@@ -27,7 +27,7 @@ struct DaemonOptions {
   std::string port_file;                    // --port-file: write the bound port here once listening
   std::string metrics_listen;               // --metrics-listen host:port: Prometheus /metrics; empty: none
   RuntimeOptions runtime;                   // --device, --kernel-dir
-  std::string cache_dir;                    // --cache-dir: POCL_CACHE_DIR unless the environment sets it
+  std::string cache_dir;                    // --cache-dir: POCL_CACHE_DIR (empty: the environment's, else XDG's)
   std::string fft = "auto";                 // --fft vkfft | clfft | fftw | auto (the fastest, measured at start-up)
   fft::FftwOptions fftw;                    // --fft-threads
   std::string fft_wisdom;                   // --fft-wisdom: a directory, "none", or "" for the kernel cache

@@ -91,14 +91,16 @@ uint64_t session_bytes(const EWaveConfig& config) {
   return state + spectrum + work + maps + trims;
 }
 
-EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call) {
-  validate(config, &gate_);
+EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call,
+                                                 const std::string& path, const std::string& client) {
+  validate(config, &gate_, path);
+  EWaveSession::check_runs_on(runtime_, fft_, ocean_, config, path);  // before the session's bytes are reserved
   // The initial ocean's kept spectra, held until the session is made: taken back to make room for the
   // session's own bytes, they would have to be built again, which would not fit either.
   const std::vector<cl::Buffer> held = ocean_ && config.initial_ocean
                                            ? ocean_->kept_spectra(ocean_on_grid(*config.initial_ocean, config))
                                            : std::vector<cl::Buffer>{};
-  auto reservation = sessions_.reserve(session_bytes(config));
+  auto reservation = sessions_.reserve(session_bytes(config), client);
   // Those kept when the call reserved its spectra and evicted since, by another call, are reserved now.
   if (call.spectra_memory)
     gate_.top_up(*call.spectra_memory, "config.initial_ocean's spectra, built again",
@@ -107,24 +109,26 @@ EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, cons
           std::make_shared<EWaveSession>(runtime_, fft_, config, ocean_, &gate_, &coefficients_, call)};
 }
 
-std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed, const OceanCall& call) {
+std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed, const OceanCall& call,
+                                const std::string& client) {
   const std::string id = sessions_.id_for(proposed, kProposedIdField);
-  auto [reservation, session] = new_session(config, call);
+  auto [reservation, session] = new_session(config, call, "config", client);
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
-EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes,
-                                                std::optional<ocean::TileSpec> ambient_ocean) {
+EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean,
+                                                const std::string& client) {
   EWaveConfig config = EWaveSession::config_from_state(bytes, gate_);
   if (!config.ambient_ocean) config.ambient_ocean = std::move(ambient_ocean);
-  NewSession made = new_session(config);
+  NewSession made = new_session(config, {}, "state", client);
   made.second->restore(bytes);
   return made;
 }
 
-std::string EWaveEngine::create_from_state(const std::string& bytes, const std::string& proposed) {
+std::string EWaveEngine::create_from_state(const std::string& bytes, const std::string& proposed,
+                                           const std::string& client) {
   const std::string id = sessions_.id_for(proposed, kProposedIdField);
-  auto [reservation, session] = from_state(bytes);
+  auto [reservation, session] = from_state(bytes, std::nullopt, client);
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 

@@ -32,12 +32,14 @@ class EWaveEngine {
   EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options = {});
 
   // A new session of `config` (validated; RESOURCE_EXHAUSTED past --max-sessions), and one continuing a
-  // saved state; under the client's `proposed` id when one is given (SessionStore::id_for). `call`: what the
-  // creating call lends the initial ocean's evaluation: the spectra kept are held while the session's bytes
-  // are reserved, and its spectra_memory is then topped up to those that must be built (RESOURCE_EXHAUSTED
-  // past --memory-budget).
-  std::string create(const EWaveConfig& config, const std::string& proposed = "", const OceanCall& call = {});
-  std::string create_from_state(const std::string& bytes, const std::string& proposed = "");
+  // saved state; under the client's `proposed` id when one is given (SessionStore::id_for), counted against
+  // `client`'s --max-sessions-per-client (empty: no client's). `call`: what the creating call lends the
+  // initial ocean's evaluation: the spectra kept are held while the session's bytes are reserved, and its
+  // spectra_memory is then topped up to those that must be built (RESOURCE_EXHAUSTED past --memory-budget).
+  std::string create(const EWaveConfig& config, const std::string& proposed = "", const OceanCall& call = {},
+                     const std::string& client = "");
+  std::string create_from_state(const std::string& bytes, const std::string& proposed = "",
+                                const std::string& client = "");
   Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
              const OceanCall& call = {});  // EWaveSession::step
   // What an ocean spec of a session of `config` (its initial or ambient ocean, or a step's) holds while it
@@ -68,8 +70,10 @@ class EWaveEngine {
   // A validated session of `config`, its memory reserved before it is built; and one continuing `bytes`,
   // with the ambient ocean they hold, else `ambient_ocean` (a version-2 checkpoint's, beside its state).
   using NewSession = std::pair<SessionStore<EWaveSession>::Reservation, std::shared_ptr<EWaveSession>>;
-  NewSession new_session(const EWaveConfig& config, const OceanCall& call = {});
-  NewSession from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean = std::nullopt);
+  NewSession new_session(const EWaveConfig& config, const OceanCall& call = {}, const std::string& path = "config",
+                         const std::string& client = "");
+  NewSession from_state(const std::string& bytes, std::optional<ocean::TileSpec> ambient_ocean = std::nullopt,
+                        const std::string& client = "");
 
   Runtime& runtime_;
   fft::Fft& fft_;

@@ -84,7 +84,8 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
     Slot memory =
         serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
     Slot spectra = memory.split(ocean.new_spectra);  // topped up by the engine once the session is reserved
-    const auto created = engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra});
+    const auto created =
+        engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra}, client_address(*context));
     refuse_if_gone(*context, *engine_, created);
     session_reply(*engine_, created, response);
     announce_session(*context, response->session_id());
@@ -135,7 +136,8 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
 grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    const std::string restored = engine_->create_from_state(request->state(), proposed_session(*context));
+    const std::string restored =
+        engine_->create_from_state(request->state(), proposed_session(*context), client_address(*context));
     refuse_if_gone(*context, *engine_, restored);
     session_reply(*engine_, restored, response);
     announce_session(*context, response->session_id());

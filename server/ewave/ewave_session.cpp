@@ -26,10 +26,8 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
   validate(config_, gate_);
   if (config_.initial_ocean) ocean_engine("config.initial_ocean");
   if (config_.ambient_ocean) ocean_engine("config.ambient_ocean");
+  check_runs_on(runtime_, fft_, ocean_, config_, "config");
   time_ = config_.start_time;
-  if (config_.double_precision && !runtime_.device_info().double_precision)
-    fail(Code::InvalidArgument,
-         "config.double_precision = true but device " + runtime_.device_info().name + " has no fp64");
   cells_ = config_.cells();
   half_ = (size_t(config_.nx) / 2 + 1) * size_t(config_.ny);
   real_size_ = config_.double_precision ? sizeof(double) : sizeof(float);
@@ -76,6 +74,18 @@ void EWaveSession::write_state(size_t plane, const std::vector<float>& values) {
   runtime_.queue().enqueueWriteBuffer(state_.buffer(), CL_TRUE, offset, n * sizeof(double), widened.data());
 }
 
+void EWaveSession::check_runs_on(const Runtime& runtime, const fft::Fft& fft, const ocean::OceanEngine* ocean,
+                                 const EWaveConfig& config, const std::string& path) {
+  if (config.double_precision && !runtime.device_info().double_precision)
+    fail(Code::InvalidArgument,
+         path + ".double_precision = true but device " + runtime.device_info().name + " has no fp64");
+  fft.check_length(path + ".nx", size_t(config.nx));
+  fft.check_length(path + ".ny", size_t(config.ny));
+  if (!ocean) return;  // an ocean then fails where it is evaluated (ocean_engine)
+  if (config.initial_ocean) ocean->check_transforms(*config.initial_ocean, path + ".initial_ocean");
+  if (config.ambient_ocean) ocean->check_transforms(*config.ambient_ocean, path + ".ambient_ocean");
+}
+
 ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
   if (!ocean_) fail(Code::FailedPrecondition, field + " needs the ocean engine, which this eWave engine was not given");
   return *ocean_;
@@ -84,7 +94,6 @@ ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
 void EWaveSession::initial_from_ocean(const OceanCall& call) {
   ocean::TileSpec spec = ocean_on_grid(*config_.initial_ocean, config_);
   ocean::OceanEngine& ocean = ocean_engine("config.initial_ocean");
-  ocean.check_transforms(spec, "config.initial_ocean");
   if (!config_.double_precision) {  // state_ is h then phi in float: the ocean writes it directly
     ocean.surface_on_device(spec, time_, state_.buffer(), call.cancel, call.spectra_memory);
     runtime_.queue().finish();

@@ -71,6 +71,11 @@ class EWaveSession {
   // A config from state bytes (for a new session), with their ambient ocean validated against `gate`;
   // throws InvalidArgument when the bytes are not a state (naming "state.ambient_ocean..." for its spec).
   static EWaveConfig config_from_state(const std::string& bytes, const LimitGate& gate);
+  // What a valid config needs of where it runs: fp64 for double precision, and grid and ocean layer lengths
+  // that the FFT backend transforms (clFFT's are products of 2, 3, 5, 7, 11 and 13). INVALID_ARGUMENT naming
+  // the field under `path` ("config", "state"). The oceans are not checked without `ocean`.
+  static void check_runs_on(const Runtime& runtime, const fft::Fft& fft, const ocean::OceanEngine* ocean,
+                            const EWaveConfig& config, const std::string& path);
 
  private:
   void upload_initial_fields(const OceanCall& call);  // config_'s h, phi or initial_ocean into state_ (under the lock)

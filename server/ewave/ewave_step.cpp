@@ -77,6 +77,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const Oce
                                                        : " (after_step is past them: steps lost when it resumed from "
                                                          "a checkpoint, or another session's count)"));
   validate(in, config_, gate_);
+  if (in.ambient_ocean && ocean_) ocean_->check_transforms(*in.ambient_ocean, "inputs.ambient_ocean");
   stage_shapes(in);
   check_rasterize_work(in);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold
@@ -254,8 +255,7 @@ const cl::Buffer* EWaveSession::ambient(const StepInputs& in, bool has_obstructi
   const std::optional<ocean::TileSpec>& spec = in.ambient_ocean ? in.ambient_ocean : config_.ambient_ocean;
   if (!spec || !has_obstruction) return nullptr;  // h_A (1 - O) = 0 without an obstruction: skip the ocean
   const std::string field = in.ambient_ocean ? "inputs.ambient_ocean" : "config.ambient_ocean";
-  ocean::OceanEngine& ocean = ocean_engine(field);
-  ocean.check_transforms(*spec, field);
+  ocean::OceanEngine& ocean = ocean_engine(field);       // the config's layers checked at creation, the inputs' above
   size_t bytes = kStateFields * cells_ * sizeof(float);  // h_A, then the unused phi_A plane
   if (ambient_.bytes() != bytes) ambient_ = runtime_.buffers().acquire(bytes);
   ocean.surface_on_device(ocean_on_grid(*spec, config_), time_, ambient_.buffer(), call.cancel, call.spectra_memory);

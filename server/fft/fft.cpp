@@ -52,6 +52,12 @@ std::vector<std::string> available_backends(const Runtime& runtime) {
   return names;
 }
 
+void Fft::check_length(const std::string& field, size_t n) const {
+  if (!transforms(n))
+    fail(Code::InvalidArgument, field + " = " + std::to_string(n) + ": the " + name() + " FFT backend transforms " +
+                                    lengths() + " only (pick such a size, or run squalld with --fft vkfft)");
+}
+
 Plan& Fft::plan(const PlanKey& key) { return take({current_queue_slot(), key}, false); }
 
 Plan& Fft::prepare(const PlanKey& key, Direction direction, bool in_place) {

@@ -125,6 +125,9 @@ class Fft {
   const std::string name() const { return backend_->name(); }
   bool transforms(size_t n) const { return backend_->transforms(n); }  // Backend::transforms
   std::string lengths() const { return backend_->lengths(); }          // Backend::lengths
+  // INVALID_ARGUMENT naming `field` (its value n) where the backend cannot transform length n: a request's
+  // grid refused before any of its work is done, not when its plan is baked.
+  void check_length(const std::string& field, size_t n) const;
 
   // The cached plan for key on the calling thread's device queue, baked on first use (a plan's scratch
   // memory serves one queue). Thread-safe; other lookups go on while a plan is baked. Under a lease

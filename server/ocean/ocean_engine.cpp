@@ -275,10 +275,7 @@ void OceanEngine::check_transforms(const TileSpec& spec, const std::string& path
   const std::string layers = path.empty() ? "layers" : path + ".layers";
   for (size_t i = 0; i < spec.layers.size(); ++i)
     for (const auto& [axis, n] : {std::pair{".nx", spec.layers[i].nx}, std::pair{".ny", spec.layers[i].ny}})
-      if (!impl_->fft.transforms(size_t(n)))
-        fail(Code::InvalidArgument, validate::at(layers, i) + axis + " = " + std::to_string(n) + ": the " +
-                                        impl_->fft.name() + " FFT backend transforms " + impl_->fft.lengths() +
-                                        " only (pick such a size, or run squalld with --fft vkfft)");
+      impl_->fft.check_length(validate::at(layers, i) + axis, size_t(n));
 }
 
 void OceanEngine::surface_on_device(const TileSpec& spec, double t, const cl::Buffer& out, const Cancellation& cancel,

@@ -42,13 +42,13 @@ std::vector<uint8_t> chart(const v1::DeformTextureRequest& r, const DeformSpec& 
 
 }  // namespace
 
-DeformSpec deform_spec(const v1::DeformTextureRequest& r, const LimitGate& gate, const std::string& path) {
+DeformSpec deform_spec(const v1::DeformTextureRequest& r, LimitGate& gate, Slot& decoded, const std::string& path) {
   DeformSpec s;
-  const TextureSpec image = image_texture(r.texture(), gate, path + ".texture");
+  TextureSpec image = image_texture(r.texture(), gate, decoded, path + ".texture");
   s.width = image.width;
   s.height = image.height;
   s.channels = image.channels;
-  s.pixels = image.pixels;
+  s.pixels = std::move(image.pixels);
   if (!r.has_rigidity())
     fail(Code::InvalidArgument, path + ".rigidity is unset: give R, the texture's size, values in [-1, 1]");
   s.rigidity = image_plane(r.rigidity(), path + ".rigidity", uint32_t(s.width), uint32_t(s.height));
@@ -91,7 +91,7 @@ DeformPlanes deform_planes(const v1::DeformTextureRequest& r, const std::string&
   return p;
 }
 
-DeformSpec deform_start(const v1::DeformControl& control, const LimitGate& gate, const std::string& path) {
+DeformSpec deform_start(const v1::DeformControl& control, LimitGate& gate, Slot& decoded, const std::string& path) {
   if (!control.has_start())
     fail(Code::InvalidArgument, path + ".start is unset: the first message starts the deformation");
   if (control.start().frames() != 0)
@@ -99,7 +99,7 @@ DeformSpec deform_start(const v1::DeformControl& control, const LimitGate& gate,
   if (control.start().has_deformation_end())
     fail(Code::InvalidArgument, path + ".start.deformation_end is set: an interactive deformation holds " +
                                     "deformation_start until a message's deformation steers it");
-  DeformSpec s = deform_spec(control.start(), gate, path + ".start");
+  DeformSpec s = deform_spec(control.start(), gate, decoded, path + ".start");
   s.frames = 1;  // per message (deform_control_frames); the tensor holds its start until steered
   s.control.deformation_end = s.control.deformation_start;
   return s;

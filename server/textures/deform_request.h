@@ -13,12 +13,14 @@ namespace squall::textures::rpc {
 
 // Translates; what translation reads throws InvalidArgument naming the field under `path` (an unknown
 // enum, a Field of the wrong size, an unset rigidity); range checks happen in DeformEngine::validate.
-DeformSpec deform_spec(const squall::v1::DeformTextureRequest& request, const LimitGate& gate,
+// The texture's decoded planes are held in `decoded` as spec() holds them.
+DeformSpec deform_spec(const squall::v1::DeformTextureRequest& request, LimitGate& gate, Slot& decoded,
                        const std::string& path = "request");
 DeformPlanes deform_planes(const squall::v1::DeformTextureRequest& request, const std::string& path = "request");
 
 // DeformInteractive's first message: its start (required, frames 0) with frames = 1.
-DeformSpec deform_start(const squall::v1::DeformControl& control, const LimitGate& gate, const std::string& path);
+DeformSpec deform_start(const squall::v1::DeformControl& control, LimitGate& gate, Slot& decoded,
+                        const std::string& path);
 // The frames a message asks for: 1 when unset, else 0..1024.
 uint32_t deform_control_frames(const squall::v1::DeformControl& control, const std::string& path);
 // A message's changes applied to the running control (its tensor in deformation_start, as

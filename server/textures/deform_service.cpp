@@ -18,7 +18,8 @@ struct DeformStream {
   DeformSpec spec;
   DeformPlanes planes;
   v1::DType dtype = v1::DTYPE_FLOAT32;
-  Slot memory;  // the stream's working memory, against --memory-budget
+  Slot decoded;  // the texture's planes, from their decoding until `memory` counts them
+  Slot memory;   // the stream's working memory, against --memory-budget
 };
 
 // The planes of `request`, their bytes within --max-message-bytes.
@@ -31,6 +32,7 @@ void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, Lim
 // The stream's working memory reserved: an estimate, the deformation's state, flow and solve
 // (DeformEngine::working_bytes) and the planes asked for in the message and serialized.
 void reserve(DeformStream& s, LimitGate& gate) {
+  s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
   s.memory = gate.acquire_memory("the deformation's state and frames",
                                  DeformEngine::working_bytes(s.spec) + 2 * req::frame_bytes(s.spec, s.planes, s.dtype));
 }
@@ -47,7 +49,7 @@ grpc::Status TexturesService::DeformTexture(grpc::ServerContext* context, const 
                                             grpc::ServerWriter<v1::DeformFrame>* writer) {
   auto check = [&] {
     DeformStream s;
-    s.spec = req::deform_spec(*request, serving_.gate());
+    s.spec = req::deform_spec(*request, serving_.gate(), s.decoded);
     deform_->validate(s.spec, "request");
     choose_planes(s, *request, serving_.gate(), "request");
     return s;
@@ -72,7 +74,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
       if (n > 0 && message.has_start())
         fail(Code::InvalidArgument, path + ".start is set: only the first message starts the deformation");
       if (n == 0) {
-        s.spec = req::deform_start(message, serving_.gate(), path);
+        s.spec = req::deform_start(message, serving_.gate(), s.decoded, path);
         deform_->validate(s.spec, path + ".start");
         choose_planes(s, message.start(), serving_.gate(), path + ".start");
         reserve(s, serving_.gate());

@@ -151,8 +151,14 @@ class Lagrangian final : public Advection {
     counter_ = in.get<uint64_t>("the particle counter");
     next_id_ = in.get<uint64_t>("the next particle id");
     // One by one: a count past the end is caught at the first particle missing, before the rest is allocated.
+    // More than the advection ever holds (held_limit_, which its memory estimate counts) is no checkpoint of it.
     particles_.clear();
-    for (uint64_t n = in.get<uint64_t>("the particle count"), i = 0; i < n; ++i) {
+    const uint64_t n = in.get<uint64_t>("the particle count");
+    if (n > held_limit_)
+      fail(Code::InvalidArgument, "resume_state holds " + std::to_string(n) + " particles, past the " +
+                                      std::to_string(held_limit_) +
+                                      " this request's output region holds at most: not a checkpoint of this request");
+    for (uint64_t i = 0; i < n; ++i) {
       Particle& p = particles_.emplace_back();
       p.id = in.get<uint64_t>("a particle's id");
       p.birth = in.get<double>("a particle's birth time");

@@ -186,7 +186,7 @@ struct PngReader {
 };
 
 // The PNG's channels as planes of values in [0, 1], row j of the file as texture row j.
-void png_image(const std::string& bytes, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+void png_image(const std::string& bytes, LimitGate& gate, Slot& decoded, const std::string& path, TextureSpec& out) {
   if (bytes.size() < 8 || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, 8) != 0)
     fail(Code::InvalidArgument, path + " is not a PNG file (" + std::to_string(bytes.size()) + " bytes)");
   PngReader reader;
@@ -201,9 +201,12 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
   PngHeader h;
   if (!png_header(reader.png, reader.info, &h)) fail(Code::InvalidArgument, path + " is not a readable PNG file");
   gate.check_grid(path + " width", path + " height", int64_t(h.width), int64_t(h.height));
-  gate.check_memory(path + " decoded (its samples, then as floats)",
-                    uint64_t(h.width) * h.height * h.channels * (h.depth / 8 + sizeof(float)));
+  // A few kB of PNG may decode to gigabytes: held before they are allocated, so that concurrent calls are
+  // refused rather than killed by the kernel's OOM killer. The samples are given back once converted.
   const size_t row_bytes = size_t(h.width) * h.channels * (h.depth / 8);
+  const uint64_t sample_bytes = uint64_t(row_bytes) * h.height;
+  decoded = gate.acquire_memory(path + " decoded (its samples, then as floats)",
+                                sample_bytes + uint64_t(h.width) * h.height * h.channels * sizeof(float));
   std::vector<png_byte> pixels(row_bytes * h.height);
   std::vector<png_bytep> rows(h.height);
   for (size_t j = 0; j < h.height; ++j) rows[j] = pixels.data() + j * row_bytes;
@@ -218,16 +221,19 @@ void png_image(const std::string& bytes, const LimitGate& gate, const std::strin
     out.pixels[c * n + pixel] =
         h.depth == 16 ? float((pixels[2 * k] << 8 | pixels[2 * k + 1]) / 65535.0) : float(pixels[k] / 255.0);
   }
+  std::vector<png_byte>().swap(pixels);
+  decoded.give_back(sample_bytes);
 }
 
 // 8-bit interleaved pixels as planes of byte / 255.
-void pixels8_image(const v1::Pixels8& p, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+void pixels8_image(const v1::Pixels8& p, LimitGate& gate, Slot& decoded, const std::string& path, TextureSpec& out) {
   gate.check_grid(path + ".width", path + ".height", int64_t(p.width()), int64_t(p.height()));
   validate::in(path + ".width", int64_t(p.width()), 1, int64_t(1) << 30);
   validate::in(path + ".height", int64_t(p.height()), 1, int64_t(1) << 30);
   validate::in(path + ".channels", int64_t(p.channels()), 1, SQUALL_TEXTURE_MAX_CHANNELS);
   const size_t pixels = size_t(p.width()) * p.height();
   validate::count(path + ".data", p.data().size(), pixels * p.channels(), "width x height x channels bytes");
+  decoded = gate.acquire_memory(path + " as floats", uint64_t(pixels) * p.channels() * sizeof(float));
   out.width = int(p.width());
   out.height = int(p.height());
   out.channels = int(p.channels());
@@ -237,14 +243,14 @@ void pixels8_image(const v1::Pixels8& p, const LimitGate& gate, const std::strin
     for (int c = 0; c < out.channels; ++c) out.pixels[c * pixels + k] = float(bytes[k * out.channels + c]) / 255.0f;
 }
 
-void image(const v1::ImageTexture& im, const LimitGate& gate, const std::string& path, TextureSpec& out) {
+void image(const v1::ImageTexture& im, LimitGate& gate, Slot& decoded, const std::string& path, TextureSpec& out) {
   out.kind = SQUALL_TEXTURE_IMAGE;
   const int sources = (im.channels_size() > 0) + !im.png().empty() + im.has_pixels8();
   if (sources != 1)
     fail(Code::InvalidArgument,
          path + " has " + std::to_string(sources) + " of channels, png and pixels8; send exactly one of them");
-  if (!im.png().empty()) return png_image(im.png(), gate, path + ".png", out);
-  if (im.has_pixels8()) return pixels8_image(im.pixels8(), gate, path + ".pixels8", out);
+  if (!im.png().empty()) return png_image(im.png(), gate, decoded, path + ".png", out);
+  if (im.has_pixels8()) return pixels8_image(im.pixels8(), gate, decoded, path + ".pixels8", out);
   const uint32_t nx = im.channels(0).nx(), ny = im.channels(0).ny();
   gate.check_grid(at(path + ".channels", 0), nx, ny);  // before any plane is decoded
   out.width = int(nx);
@@ -308,10 +314,10 @@ FinalLookupSpec lookup(const v1::FinalLookup& l, const std::string& path) {
   return out;
 }
 
-TextureSpec texture(const v1::TextureSource& t, const LimitGate& gate, const std::string& path) {
+TextureSpec texture(const v1::TextureSource& t, LimitGate& gate, Slot& decoded, const std::string& path) {
   TextureSpec out;
   if (t.has_image())
-    image(t.image(), gate, path + ".image", out);
+    image(t.image(), gate, decoded, path + ".image", out);
   else
     noise(t.noise(), path + ".noise", out);
   out.scale = t.has_scale() ? t.scale() : 4.0;
@@ -423,9 +429,9 @@ void fill_stats(const FrameStats& s, v1::FrameStats* out) {
 
 }  // namespace
 
-TextureSpec image_texture(const v1::ImageTexture& im, const LimitGate& gate, const std::string& path) {
+TextureSpec image_texture(const v1::ImageTexture& im, LimitGate& gate, Slot& decoded, const std::string& path) {
   TextureSpec t;
-  image(im, gate, path, t);
+  image(im, gate, decoded, path, t);
   return t;
 }
 
@@ -433,11 +439,11 @@ std::vector<float> image_plane(const v1::Field& f, const std::string& path, uint
   return plane(f, path, nx, ny, "the texture");
 }
 
-AdvectSpec spec(const v1::AdvectTextureRequest& r, const LimitGate& gate, const std::string& path) {
+AdvectSpec spec(const v1::AdvectTextureRequest& r, LimitGate& gate, Slot& decoded, const std::string& path) {
   AdvectSpec s;
   s.method = method(r.method(), path + ".method");
   s.velocity = velocity(r.velocity(), path + ".velocity");
-  s.texture = texture(r.texture(), gate, path + ".texture");
+  s.texture = texture(r.texture(), gate, decoded, path + ".texture");
   s.output = output(r.output(), gate, path + ".output");
   s.t0 = r.t0();
   s.dt = r.has_dt() ? r.dt() : 1.0 / 30;
@@ -463,7 +469,8 @@ FollowedCurrent followed(const v1::VelocitySpec& velocity, const LimitGate& gate
   return current;
 }
 
-AdvectSpec interactive_start(const v1::TextureControl& control, const LimitGate& gate, const std::string& path) {
+AdvectSpec interactive_start(const v1::TextureControl& control, LimitGate& gate, Slot& decoded,
+                             const std::string& path) {
   if (!control.has_start())
     fail(Code::InvalidArgument, path + ".start is unset: the first message starts the advection");
   const v1::AdvectTextureRequest& start = control.start();
@@ -475,7 +482,7 @@ AdvectSpec interactive_start(const v1::TextureControl& control, const LimitGate&
                      "0 (interactive streams carry no checkpoints)");
   if (!start.resume_state().empty())
     fail(Code::InvalidArgument, start_path + ".resume_state is set: interactive streams do not resume checkpoints");
-  AdvectSpec s = spec(start, gate, start_path);
+  AdvectSpec s = spec(start, gate, decoded, start_path);
   s.frames = 1;  // per message (control_frames)
   return s;
 }

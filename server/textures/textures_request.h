@@ -27,13 +27,16 @@ struct PlaneSelection {
 // a PNG, an unreadable PNG, and the values whose engine names differ from the proto's (the named velocity
 // parameters, image values, the grid's origin and spacing, the output's size and region). A PNG larger
 // than --max-grid-cells is RESOURCE_EXHAUSTED before it is decoded. The other range checks happen in
-// TextureEngine::validate under the same path.
-AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, const LimitGate& gate,
+// TextureEngine::validate under the same path. An image's decoded planes are held in `decoded` (acquired
+// from `gate`'s memory budget before they are allocated: RESOURCE_EXHAUSTED past it) until the call's own
+// reservation counts them.
+AdvectSpec spec(const squall::v1::AdvectTextureRequest& request, LimitGate& gate, Slot& decoded,
                 const std::string& path = "request");
 PlaneSelection planes(const squall::v1::TextureOutput& output, const std::string& path = "request.output");
 
 // An image's planes (kind SQUALL_TEXTURE_IMAGE), translated as AdvectTexture's texture.image.
-TextureSpec image_texture(const squall::v1::ImageTexture& image, const LimitGate& gate, const std::string& path);
+TextureSpec image_texture(const squall::v1::ImageTexture& image, LimitGate& gate, Slot& decoded,
+                          const std::string& path);
 // A Field that must be an nx x ny plane (the texture's size), decoded: InvalidArgument naming `path`.nx,
 // .ny, .nz, .dtype or .data otherwise.
 std::vector<float> image_plane(const squall::v1::Field& field, const std::string& path, uint32_t nx, uint32_t ny);
@@ -51,7 +54,8 @@ FollowedCurrent followed(const squall::v1::VelocitySpec& velocity, const LimitGa
 
 // AdvectInteractive. The first message's start (required; frames, checkpoint_every and resume_state
 // unset), translated like spec() under `path`.start, with frames = 1.
-AdvectSpec interactive_start(const squall::v1::TextureControl& control, const LimitGate& gate, const std::string& path);
+AdvectSpec interactive_start(const squall::v1::TextureControl& control, LimitGate& gate, Slot& decoded,
+                             const std::string& path);
 // The frames a message asks for: 1 when unset, else 0..kMaxControlFrames.
 constexpr int64_t kMaxControlFrames = 1024;
 uint32_t control_frames(const squall::v1::TextureControl& control, const std::string& path);

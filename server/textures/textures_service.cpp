@@ -82,6 +82,7 @@ struct TexturesService::Stream {
   req::PlaneSelection planes;
   uint64_t frame_bytes = 0;  // the planes of one frame
   req::FollowedCurrent current;
+  Slot decoded;         // the texture's image planes, from their decoding until `memory` counts them
   Slot memory;          // the stream's working memory, against --memory-budget
   Slot steered_memory;  // what inputs a later control message sent hold beyond `memory`
   struct River {
@@ -107,6 +108,12 @@ uint64_t working_bytes(uint64_t frame_bytes, const AdvectSpec& spec) {
 }
 
 }  // namespace
+
+req::FollowedCurrent TexturesService::followed(const v1::VelocitySpec& velocity, const std::string& path) {
+  req::FollowedCurrent current = req::followed(velocity, serving_.gate(), path);
+  if (current.ocean) ocean_->check_transforms(*current.ocean, current.path);
+  return current;
+}
 
 void TexturesService::start(EngineContext& context) {
   engine_ = std::make_unique<TextureEngine>(context.runtime, context.gate);
@@ -193,14 +200,14 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
   auto check = [&] {
     Stream s;
     s.cancel = cancellation(*context);
-    s.spec = req::spec(*request, serving_.gate());
+    s.spec = req::spec(*request, serving_.gate(), s.decoded);
     if (request->checkpoint_every() > 0 || !request->resume_state().empty()) {
       s.fingerprint = req::request_fingerprint(*request);
       if (!request->resume_state().empty())
         s.resume = req::bound_state(request->resume_state(), s.fingerprint, "request.resume_state");
     }
     s.planes = req::planes(request->output());
-    s.current = req::followed(request->velocity(), serving_.gate(), "request.velocity");
+    s.current = followed(request->velocity(), "request.velocity");
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
     // A river's or a current's velocity is made later: the rest now (the output first, a river's default
@@ -219,6 +226,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     follow(s, s.spec.t0);
     bake_river(s, "request.velocity");
     if (made) engine_->validate(s.spec, "request");
+    s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
     s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
   };
   return serve_stream(*context, serving_, "AdvectTexture", check, prepare, [&](StreamCall& call, Stream& s) {
@@ -252,12 +260,12 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n > 0 && control.has_start())
     fail(Code::InvalidArgument, path + ".start is set: only the first message starts the advection");
   if (n == 0) {
-    s.spec = req::interactive_start(control, serving_.gate(), path);
+    s.spec = req::interactive_start(control, serving_.gate(), s.decoded, path);
     s.planes = req::planes(control.start().output(), path + ".start.output");
-    s.current = req::followed(control.start().velocity(), serving_.gate(), path + ".start.velocity");
+    s.current = followed(control.start().velocity(), path + ".start.velocity");
   }
   const bool changed = req::steer(control, s.spec, path);
-  if (control.has_velocity()) s.current = req::followed(control.velocity(), serving_.gate(), path + ".velocity");
+  if (control.has_velocity()) s.current = followed(control.velocity(), path + ".velocity");
   validate_clock(s.spec, n == 0 ? path + ".start" : path);
   follow(s, advection ? advection->time() : s.spec.t0);
   const std::string spec_path = n == 0 ? path + ".start" : path;
@@ -275,6 +283,7 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
+    s.decoded = Slot();
     s.memory =
         serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
     advection = engine_->start(s.spec, {}, s.cancel);

@@ -328,6 +328,43 @@ StepInputs hull_step(int n) {
   return in;
 }
 
+// Lengths the FFT backend cannot transform (clFFT's are products of 2, 3, 5, 7, 11 and 13; 34 = 2 x 17) are
+// refused by name before a session is made: its grid (config.ny; state.nx for a state restored), its initial
+// and ambient oceans' layers, and a step's ambient ocean before the step changes anything (36 runs).
+TEST(OceanAmbient, LengthsTheFftBackendCannotTransformAreRefusedByName) {
+  fft::Fft& clfft = squall::test::fft("clfft");
+  ocean::OceanEngine ocean(squall::test::runtime(), clfft);
+  EWaveEngineOptions options;
+  options.ocean = &ocean;
+  LimitGate gate{Limits{}};
+  EWaveEngine engine(squall::test::runtime(), clfft, gate, options);
+  const std::string backend = ": the clfft FFT backend transforms";
+  EWaveConfig c = sea_config(DispersionKind::Deep);  // 64 x 64
+  c.ny = 34;
+  expect_error(Code::InvalidArgument, "config.ny = 34" + backend, [&] { engine.create(c); });
+  c = sea_config(DispersionKind::Deep);
+  c.initial_ocean = sea_spec(c);
+  c.initial_ocean->layers[0].ny = 34;
+  expect_error(Code::InvalidArgument, "config.initial_ocean.layers[0].ny = 34" + backend, [&] { engine.create(c); });
+  c.ambient_ocean = c.initial_ocean;
+  c.initial_ocean.reset();
+  expect_error(Code::InvalidArgument, "config.ambient_ocean.layers[0].ny = 34" + backend, [&] { engine.create(c); });
+  const std::string state =
+      EWaveSession(squall::test::runtime(), squall::test::fft("vkfft"), plain_config(34, 64)).state();
+  expect_error(Code::InvalidArgument, "state.nx = 34" + backend, [&] { engine.create_from_state(state); });
+  EXPECT_EQ(engine.size(), 0u);
+
+  c = sea_config(DispersionKind::Deep);
+  const std::string id = engine.create(c);
+  StepInputs in = hull_step(0);
+  in.ambient_ocean = sea_spec(c);
+  in.ambient_ocean->layers[0].nx = 34;
+  expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].nx = 34" + backend, [&] { engine.step(id, in); });
+  EXPECT_EQ(engine.steps(id), 0u);
+  in.ambient_ocean->layers[0].nx = 36;
+  EXPECT_EQ(engine.step(id, in).step, 1u);
+}
+
 // A config's ambient_ocean with a second layer and its other members away from their defaults.
 EWaveConfig ambient_config() {
   EWaveConfig c = sea_config(DispersionKind::Deep);

@@ -469,6 +469,36 @@ TEST(EWaveService, RunEndsWithTheStatusOfABadMessage) {
   EXPECT_NE(status.error_message().find("Run message 1: inputs.dt = 0"), std::string::npos) << status.error_message();
 }
 
+// --max-sessions-per-client: the sessions one client creates (CreateSession or Restore) count against its
+// share for their lives, so that one client cannot take every --max-sessions slot; closing one frees it.
+TEST(EWaveService, AClientsSessionsCountAgainstItsShare) {
+  Limits limits;
+  limits.max_sessions_per_client = 2;
+  test::InProcess<rpc::EWaveService> server(limits);
+  auto stub = v1::EWave::NewStub(server.channel());
+  Session a(*stub, proto_config(engine_config()));
+  auto b = std::make_unique<Session>(*stub, proto_config(engine_config()));
+  ASSERT_TRUE(a.status().ok() && b->status().ok()) << a.status().error_message() << b->status().error_message();
+  Session refused(*stub, proto_config(engine_config()));
+  EXPECT_EQ(refused.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(refused.status().error_message().find("2 already live, the limit is --max-sessions-per-client = 2"),
+            std::string::npos)
+      << refused.status().error_message();
+  v1::EWaveSessionRequest get;
+  get.set_session_id(a.id());
+  v1::EWaveStateResponse state;
+  ASSERT_TRUE(stub->GetState(context().get(), get, &state).ok());
+  v1::EWaveRestoreRequest restore;
+  restore.set_state(state.state());
+  v1::EWaveSessionResponse restored;
+  const grpc::Status restore_refused = stub->Restore(context().get(), restore, &restored);
+  EXPECT_EQ(restore_refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << restore_refused.error_message();
+  b.reset();  // closed
+  const grpc::Status status = stub->Restore(context().get(), restore, &restored);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  Session c(*stub, restored.session_id());
+}
+
 TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
   Session a(first().stub(), proto_config(engine_config()));
   v1::EWaveFrame f;

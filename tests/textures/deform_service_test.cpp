@@ -112,7 +112,7 @@ TEST(TexturesDeform, EveryControlStreamsTheEnginesFrames) {
     const DeformStreamed got = deform(r);
     ASSERT_TRUE(got.status.ok()) << got.status.error_message();
     ASSERT_EQ(got.frames.size(), 4u) << control;
-    const textures::DeformSpec spec = textures::rpc::deform_spec(r, LimitGate{Limits{}});
+    const textures::DeformSpec spec = translated(r);
     auto deformation = deformer().start(spec);
     const textures::DeformPlanes planes = textures::rpc::deform_planes(r);
     for (const v1::DeformFrame& frame : got.frames)
@@ -149,7 +149,9 @@ TEST(TexturesDeform, InteractiveMessagesSteerFromTheNextFrame) {
   EXPECT_GT(f[4].max_warp(), f[2].max_warp());
   EXPECT_EQ(f[6].max_warp(), f[4].max_warp());  // cleared: the warp holds
 
-  textures::DeformSpec spec = textures::rpc::deform_start(first, LimitGate{Limits{}}, "control[0]");
+  LimitGate gate{Limits{}};
+  Slot decoded;
+  textures::DeformSpec spec = textures::rpc::deform_start(first, gate, decoded, "control[0]");
   auto deformation = deformer().start(spec);
   r.set_frames(1);
   for (int i = 0; i < 2; ++i)
@@ -284,8 +286,10 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   v1::DeformControl with_end = first;
   with_end.mutable_start()->mutable_deformation_end()->set_xx(2);
   with_end.mutable_start()->mutable_deformation_end()->set_yy(2);
+  LimitGate gate{Limits{}};
+  Slot decoded;
   test::expect_error(Code::InvalidArgument, "control[0].start.deformation_end is set",
-                     [&] { textures::rpc::deform_start(with_end, LimitGate{Limits{}}, "control[0]"); });
+                     [&] { textures::rpc::deform_start(with_end, gate, decoded, "control[0]"); });
 }
 
 TEST(TexturesDeform, CommandLine) {

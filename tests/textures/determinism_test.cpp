@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "support/expect_error.h"
+#include "textures/lagrangian.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -115,6 +116,22 @@ TEST(TexturesDeterminism, AParticleBornAfterTheFramesTimeIsRefused) {
                  [&] { texture_engine().start(spec, bad); });
   }
   EXPECT_NO_THROW(texture_engine().start(spec, state));
+}
+
+// A Lagrangian checkpoint that holds more particles than the request's advection ever holds (twice its
+// output region's area over d^2, which its memory estimate counts) is refused before they are read: the
+// count (a u64 after the version, the started flag, the frame index, the counter and the next id: byte 29)
+// forged one past that bound names both.
+TEST(TexturesDeterminism, MoreParticlesThanTheAdvectionHoldsAreRefused) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM);
+  auto advection = texture_engine().start(spec);
+  advection->next();
+  std::string bad = advection->checkpoint();
+  const uint64_t bound = squall::textures::lagrangian_grid_bound(spec), forged = bound + 1;
+  std::memcpy(&bad[29], &forged, sizeof(forged));
+  expect_error(Code::InvalidArgument,
+               "resume_state holds " + std::to_string(forged) + " particles, past the " + std::to_string(bound),
+               [&] { texture_engine().start(spec, bad); });
 }
 
 }  // namespace

@@ -210,6 +210,23 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
   test::expect_error(Code::InvalidArgument, "request.t0 = nan", [&] { advect_or_throw(bad); });
 }
 
+// The layers of the ocean a texture follows are checked against the FFT backend's lengths before the stream
+// starts, named as the client sent them (clFFT cannot transform 34 = 2 x 17; the stream took its slot and
+// failed in the current's transform, naming no field). The same layer at 36 runs.
+TEST(TexturesOcean, AFollowedOceansLayersHaveLengthsTheFftBackendTransforms) {
+  test::Daemon d({"--fft", "clfft"});
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0, 0, 1);
+  *r.mutable_velocity()->mutable_ocean() = still_water(0.2, 0.1);
+  r.set_frames(2);
+  r.mutable_velocity()->mutable_ocean()->mutable_layers(0)->set_nx(34);
+  test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[0].nx = 34: the clfft FFT backend",
+                     [&] { throw_status(advect(r, d.address()).status); });
+  r.mutable_velocity()->mutable_ocean()->mutable_layers(0)->set_nx(36);
+  const Streamed s = advect(r, d.address());
+  EXPECT_TRUE(s.status.ok()) << s.status.error_message();
+  EXPECT_EQ(s.frames.size(), 2u);
+}
+
 // The spectra of the ocean a texture follows are reserved in the memory budget before they are built: under a
 // budget of 16 MiB, which holds the stream, a 1024^2 layer's spectrum (24 MiB) is refused by name (it was
 // built outside the budget); a 16^2 layer's runs.

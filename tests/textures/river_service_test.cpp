@@ -108,7 +108,7 @@ v1::BakeVelocityReply bake_velocity(const v1::BakeVelocityRequest& request,
 
 // The request's advection in this process, on the river baked here.
 textures::AdvectSpec in_process_spec(const v1::AdvectTextureRequest& request, const v1::RiverVelocity& river) {
-  textures::AdvectSpec spec = textures::rpc::spec(request, LimitGate{Limits{}});
+  textures::AdvectSpec spec = translated(request);
   spec.velocity = textures::velocity_grid(
       rivers().bake(textures::rpc::river(river), textures::rpc::bake_grid(river, spec.output), "river"), "river");
   engine().validate(spec, "request");

@@ -9,6 +9,8 @@
 #include "common/field_codec.h"
 #include "support/process.h"
 #include "support/test_runtime.h"
+#include "textures/deform_request.h"
+#include "textures/textures_request.h"
 
 namespace squall::textures_test {
 
@@ -21,6 +23,18 @@ textures::TextureEngine& engine() {
   static LimitGate gate{Limits{}};
   static textures::TextureEngine e(test::runtime(), gate);
   return e;
+}
+
+textures::AdvectSpec translated(const v1::AdvectTextureRequest& request, const Limits& limits) {
+  LimitGate gate{limits};
+  Slot decoded;
+  return textures::rpc::spec(request, gate, decoded);
+}
+
+textures::DeformSpec translated(const v1::DeformTextureRequest& request, const Limits& limits) {
+  LimitGate gate{limits};
+  Slot decoded;
+  return textures::rpc::deform_spec(request, gate, decoded);
 }
 
 Streamed advect(const v1::AdvectTextureRequest& request, const std::string& address, double timeout) {

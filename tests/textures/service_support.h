@@ -11,8 +11,10 @@
 
 #include "client/client.h"
 #include "common/error.h"
+#include "common/limits.h"
 #include "squall/v1/textures.grpc.pb.h"
 #include "support/daemon.h"
+#include "textures/deform.h"
 #include "textures/texture_engine.h"
 
 namespace squall::textures_test {
@@ -48,6 +50,11 @@ StreamedOf<Frame> read_stream(const Open& open, const std::string& address = dae
 // AdvectTexture read to its end (on the daemon at `address`, under a deadline of `timeout` s).
 Streamed advect(const v1::AdvectTextureRequest& request, const std::string& address = daemon().address(),
                 double timeout = 300);
+// A request translated as the service translates it, under `limits` (the decoded image's memory given
+// back once translated).
+textures::AdvectSpec translated(const v1::AdvectTextureRequest& request, const Limits& limits = {});
+textures::DeformSpec translated(const v1::DeformTextureRequest& request, const Limits& limits = {});
+
 // The engine's code for a gRPC status code.
 // After a call that expired: squalld, given a second to notice, spends under 0.5 s of CPU in the next
 // two (it stopped `what`, the expired call's work).

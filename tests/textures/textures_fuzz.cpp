@@ -20,7 +20,9 @@ const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::AdvectTextureRequest r;
       if (!test::parse(bytes, &r)) return;
-      textures::validate_advect(req::spec(r, test::default_gate()), test::default_gate(), "request");
+      LimitGate gate{Limits{}};
+      Slot decoded;
+      textures::validate_advect(req::spec(r, gate, decoded), gate, "request");
       req::planes(r.output());
       req::followed(r.velocity(), test::default_gate(), "request.velocity");
     },
@@ -33,7 +35,9 @@ const std::vector<test::RequestCheck> kChecks = {
     [](const std::string& bytes) {
       v1::DeformTextureRequest r;
       if (!test::parse(bytes, &r)) return;
-      textures::validate_deform(req::deform_spec(r, test::default_gate()), test::default_gate(), "request");
+      LimitGate gate{Limits{}};
+      Slot decoded;
+      textures::validate_deform(req::deform_spec(r, gate, decoded), gate, "request");
       req::deform_planes(r, "request");
     },
 };

@@ -31,7 +31,7 @@ constexpr double kPi = 3.14159265358979323846;
 
 // The same request run by the in-process engine, frame by frame until frame `frames - 1`.
 std::vector<textures::TextureFrame> in_process(const v1::AdvectTextureRequest& request) {
-  textures::AdvectSpec spec = textures::rpc::spec(request, LimitGate{Limits{}});
+  textures::AdvectSpec spec = translated(request);
   engine().validate(spec, "request");
   auto advection = engine().start(spec);
   std::vector<textures::TextureFrame> frames;
@@ -317,7 +317,7 @@ TEST(TexturesRequest, PngSamplesBecomeUnitChannels) {
     r.mutable_texture()->mutable_image()->set_png(bytes);
     r.mutable_output()->set_width(1);
     r.mutable_output()->set_height(1);
-    const textures::TextureSpec t = textures::rpc::spec(r, LimitGate{Limits{}}).texture;
+    const textures::TextureSpec t = translated(r).texture;
     ASSERT_EQ(t.kind, SQUALL_TEXTURE_IMAGE);
     ASSERT_EQ(t.channels, c.channels);
     ASSERT_EQ(t.width, int(w));
@@ -342,8 +342,7 @@ TEST(TexturesRequest, EightBitPixelsBecomeUnitChannels) {
   pixels->set_data(data);
   r.mutable_output()->set_width(1);
   r.mutable_output()->set_height(1);
-  const LimitGate gate{Limits{}};
-  const textures::TextureSpec t = textures::rpc::spec(r, gate).texture;
+  const textures::TextureSpec t = translated(r).texture;
   ASSERT_EQ(t.channels, int(channels));
   ASSERT_EQ(t.width, int(w));
   for (size_t pixel = 0; pixel < w * h; ++pixel)
@@ -352,15 +351,14 @@ TEST(TexturesRequest, EightBitPixelsBecomeUnitChannels) {
   auto bad = r;
   bad.mutable_texture()->mutable_image()->mutable_pixels8()->set_data(data.substr(1));
   test::expect_error(Code::InvalidArgument, "request.texture.image.pixels8.data has 17 values, want",
-                     [&] { textures::rpc::spec(bad, gate); });
+                     [&] { translated(bad); });
   bad = r;
   bad.mutable_texture()->mutable_image()->mutable_pixels8()->set_channels(9);
-  test::expect_error(Code::InvalidArgument, "request.texture.image.pixels8.channels = 9",
-                     [&] { textures::rpc::spec(bad, gate); });
+  test::expect_error(Code::InvalidArgument, "request.texture.image.pixels8.channels = 9", [&] { translated(bad); });
   bad = r;
   bad.mutable_texture()->mutable_image()->set_png("x");
   test::expect_error(Code::InvalidArgument, "request.texture.image has 2 of channels, png and pixels8",
-                     [&] { textures::rpc::spec(bad, gate); });
+                     [&] { translated(bad); });
 }
 
 TEST(TexturesService, BadRequestsGetClearErrors) {
@@ -482,8 +480,32 @@ TEST(TexturesService, AnAdvectionsInputsCountInTheMemoryBudget) {
   Limits small;
   small.memory_budget = 4 << 20;
   r.mutable_texture()->mutable_image()->set_png(uniform_png(512));  // 6.3 MB of samples and floats
+  test::expect_error(Code::ResourceExhausted, "request.texture.image.png decoded", [&] { translated(r, small); });
+}
+
+// A PNG's decoded planes are held in the memory budget from before they are allocated until the call's own
+// reservation counts them, so that concurrent calls with small PNGs of large images are refused rather than
+// exhaust the machine: a 512^2 RGBA16 image (2.1 MB of samples, 4.2 MB of floats) fits an 8 MiB budget
+// alone, and not while another call holds its floats; the samples are given back once converted.
+TEST(TexturesRequest, APngsDecodedPlanesAreHeldInTheMemoryBudget) {
+  Limits limits;
+  limits.memory_budget = 8 << 20;
+  LimitGate gate{limits};
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.mutable_texture()->mutable_image()->set_png(uniform_png(512));
+  const uint64_t floats = 512 * 512 * 4 * sizeof(float);
+  Slot first;
+  const textures::AdvectSpec spec = textures::rpc::spec(r, gate, first);
+  EXPECT_EQ(spec.texture.pixels.size() * sizeof(float), floats);
+  EXPECT_EQ(first.amount(), floats);
+  EXPECT_EQ(gate.memory_bytes(), floats);
+  Slot second;
   test::expect_error(Code::ResourceExhausted, "request.texture.image.png decoded",
-                     [&] { textures::rpc::spec(r, LimitGate{small}); });
+                     [&] { textures::rpc::spec(r, gate, second); });
+  EXPECT_EQ(gate.memory_bytes(), floats);
+  first = Slot();
+  textures::rpc::spec(r, gate, second);
+  EXPECT_EQ(gate.memory_bytes(), floats);
 }
 
 // The engine computes every plane of a frame in float32 whichever it sends: 8 bands (8 final, 8 raw and 6
