@@ -91,10 +91,18 @@ uint64_t session_bytes(const EWaveConfig& config) {
   return state + spectrum + work + maps + trims;
 }
 
+void EWaveEngine::check_runs_here(const EWaveConfig& config, const std::string& path) const {
+  EWaveSession::check_runs_on(runtime_, fft_, ocean_, config, path);
+}
+
+void EWaveEngine::check_runs_here(const StepInputs& inputs) const {
+  if (inputs.ambient_ocean && ocean_) ocean_->check_transforms(*inputs.ambient_ocean, "inputs.ambient_ocean");
+}
+
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call,
                                                  const std::string& path, const std::string& client) {
   validate(config, &gate_, path);
-  EWaveSession::check_runs_on(runtime_, fft_, ocean_, config, path);  // before the session's bytes are reserved
+  check_runs_here(config, path);  // before the session's bytes are reserved
   // The initial ocean's kept spectra, held until the session is made: taken back to make room for the
   // session's own bytes, they would have to be built again, which would not fit either.
   const std::vector<cl::Buffer> held = ocean_ && config.initial_ocean

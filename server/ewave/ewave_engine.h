@@ -42,6 +42,11 @@ class EWaveEngine {
                                 const std::string& client = "");
   Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
              const OceanCall& call = {});  // EWaveSession::step
+  // What a session of `config` (EWaveSession::check_runs_on, under `path`) or a step's `inputs` (its ambient
+  // ocean's layers) needs of this engine's device and FFT backend: INVALID_ARGUMENT naming the field, for a
+  // caller to refuse before it reserves anything. create() and step() check again.
+  void check_runs_here(const EWaveConfig& config, const std::string& path = "config") const;
+  void check_runs_here(const StepInputs& inputs) const;
   // What an ocean spec of a session of `config` (its initial or ambient ocean, or a step's) holds while it
   // is evaluated on the session's grid: the spectra not kept yet (OceanEngine::new_spectra_bytes) and one
   // layer's fields at a time (ocean::surface_device_bytes). Zero without a spec or an ocean engine.

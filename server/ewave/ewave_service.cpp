@@ -46,6 +46,7 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
   const uint64_t reply_bytes = frame_bytes(config, outputs.size(), type);
   serving_.gate().check_message_bytes("EWaveFrame (ask for fewer outputs, or DTYPE_FLOAT16)", reply_bytes);
   const ewave::StepInputs in = inputs(request.inputs(), config, serving_.gate());
+  ewave.check_runs_here(in);  // before its memory is reserved
   // Held while it runs: the frame's planes and reply, and the spectra and fields of the ocean it evaluates,
   // if any: its own, else the session's, where it brings no ambient height and an obstruction (without one,
   // h_A (1 - O) = 0 and the ocean is not evaluated: EWaveSession::ambient).
@@ -79,6 +80,7 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
                                          v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
     const ewave::EWaveConfig c = config(request->config(), serving_.gate());
+    engine_->check_runs_here(c);  // before its memory is reserved
     // An initial ocean is evaluated once, as the session is made: its new spectra and fields held meanwhile.
     const auto ocean = engine_->ocean_bytes(c, c.initial_ocean);
     Slot memory =

@@ -30,11 +30,15 @@ void choose_planes(DeformStream& s, const v1::DeformTextureRequest& request, Lim
 }
 
 // The stream's working memory reserved: an estimate, the deformation's state, flow and solve
-// (DeformEngine::working_bytes) and the planes asked for in the message and serialized.
+// (DeformEngine::working_bytes), the planes asked for in the message and serialized, and the spec's own
+// planes on the host (the texture, the rigidity and a d mu map), which the stream keeps.
 void reserve(DeformStream& s, LimitGate& gate) {
-  s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
-  s.memory = gate.acquire_memory("the deformation's state and frames",
-                                 DeformEngine::working_bytes(s.spec) + 2 * req::frame_bytes(s.spec, s.planes, s.dtype));
+  const DeformSpec& spec = s.spec;
+  const uint64_t inputs = sizeof(float) * (spec.pixels.size() + spec.rigidity.size() + spec.control.d_mu_map.size());
+  s.decoded = Slot();  // the texture's planes, counted in `inputs`: given back first, not held twice
+  s.memory =
+      gate.acquire_memory("the deformation's state and frames",
+                          DeformEngine::working_bytes(spec) + inputs + 2 * req::frame_bytes(spec, s.planes, s.dtype));
 }
 
 v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {

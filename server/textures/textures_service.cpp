@@ -200,6 +200,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
   auto check = [&] {
     Stream s;
     s.cancel = cancellation(*context);
+    s.current = followed(request->velocity(), "request.velocity");  // before the texture is decoded
     s.spec = req::spec(*request, serving_.gate(), s.decoded);
     if (request->checkpoint_every() > 0 || !request->resume_state().empty()) {
       s.fingerprint = req::request_fingerprint(*request);
@@ -207,7 +208,6 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
         s.resume = req::bound_state(request->resume_state(), s.fingerprint, "request.resume_state");
     }
     s.planes = req::planes(request->output());
-    s.current = followed(request->velocity(), "request.velocity");
     validate_clock(s.spec, "request");
     check_ocean_clock(s.current, s.spec);  // before any frame is sent
     // A river's or a current's velocity is made later: the rest now (the output first, a river's default
@@ -260,9 +260,9 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n > 0 && control.has_start())
     fail(Code::InvalidArgument, path + ".start is set: only the first message starts the advection");
   if (n == 0) {
+    s.current = followed(control.start().velocity(), path + ".start.velocity");  // before the texture is decoded
     s.spec = req::interactive_start(control, serving_.gate(), s.decoded, path);
     s.planes = req::planes(control.start().output(), path + ".start.output");
-    s.current = followed(control.start().velocity(), path + ".start.velocity");
   }
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = followed(control.velocity(), path + ".velocity");
@@ -283,7 +283,7 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-    s.decoded = Slot();
+    s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
     s.memory =
         serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
     advection = engine_->start(s.spec, {}, s.cancel);

@@ -58,8 +58,8 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // field for an unknown id), or an ocean tile's over the step from `from` to from + dt, each checked as
   // read (validate_followed_current). No-op otherwise.
   void follow(Stream& s, double from);
-  // The current `velocity` (the request field at `path`) names, translated (req::followed), an ocean's layers
-  // as lengths the FFT backend transforms.
+  // The current `velocity` (the request field at `path`) names, translated (req::followed); an ocean's layers
+  // checked against the FFT backend's lengths (INVALID_ARGUMENT naming them).
   textures::rpc::FollowedCurrent followed(const squall::v1::VelocitySpec& velocity, const std::string& path);
   // The surface current of the eWave session `followed` names, of 2 x 2 cells or more.
   SurfaceCurrent session_current(const textures::rpc::FollowedCurrent& followed) const;

@@ -330,7 +330,8 @@ StepInputs hull_step(int n) {
 
 // Lengths the FFT backend cannot transform (clFFT's are products of 2, 3, 5, 7, 11 and 13; 34 = 2 x 17) are
 // refused by name before a session is made: its grid (config.ny; state.nx for a state restored), its initial
-// and ambient oceans' layers, and a step's ambient ocean before the step changes anything (36 runs).
+// and ambient oceans' layers, and a step's ambient ocean before the step changes anything, whether the step
+// evaluates it (an obstruction) or not (36 runs).
 TEST(OceanAmbient, LengthsTheFftBackendCannotTransformAreRefusedByName) {
   fft::Fft& clfft = squall::test::fft("clfft");
   ocean::OceanEngine ocean(squall::test::runtime(), clfft);
@@ -356,11 +357,17 @@ TEST(OceanAmbient, LengthsTheFftBackendCannotTransformAreRefusedByName) {
 
   c = sea_config(DispersionKind::Deep);
   const std::string id = engine.create(c);
+  for (StepInputs in : {plain_step(0.05), hull_step(0)}) {
+    in.ambient_ocean = sea_spec(c);
+    in.ambient_ocean->layers[0].nx = 34;
+    expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].nx = 34" + backend,
+                 [&] { engine.step(id, in); });
+    EXPECT_NO_THROW(engine.check_runs_here(StepInputs{}));
+    expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].nx = 34", [&] { engine.check_runs_here(in); });
+  }
+  EXPECT_EQ(engine.steps(id), 0u);
   StepInputs in = hull_step(0);
   in.ambient_ocean = sea_spec(c);
-  in.ambient_ocean->layers[0].nx = 34;
-  expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].nx = 34" + backend, [&] { engine.step(id, in); });
-  EXPECT_EQ(engine.steps(id), 0u);
   in.ambient_ocean->layers[0].nx = 36;
   EXPECT_EQ(engine.step(id, in).step, 1u);
 }

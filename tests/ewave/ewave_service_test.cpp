@@ -493,6 +493,8 @@ TEST(EWaveService, AClientsSessionsCountAgainstItsShare) {
   v1::EWaveSessionResponse restored;
   const grpc::Status restore_refused = stub->Restore(context().get(), restore, &restored);
   EXPECT_EQ(restore_refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << restore_refused.error_message();
+  EXPECT_NE(restore_refused.error_message().find("--max-sessions-per-client"), std::string::npos)
+      << restore_refused.error_message();
   b.reset();  // closed
   const grpc::Status status = stub->Restore(context().get(), restore, &restored);
   ASSERT_TRUE(status.ok()) << status.error_message();

@@ -72,13 +72,15 @@ TEST(Limits, EachClientHasItsOwnShareOfStreams) {
 // A client's share of sessions: held for each session's life, refused past it naming the client and the flag,
 // another client's share untouched; 0 is no limit.
 TEST(Limits, EachClientHasItsOwnShareOfSessions) {
-  LimitGate gate(Limits{.max_sessions = 64, .max_sessions_per_client = 2});
+  LimitGate gate(Limits{.max_streams_per_client = 1, .max_sessions = 64, .max_sessions_per_client = 2});
   Slot a = gate.acquire_client_session("ipv4:127.0.0.1");
   Slot b = gate.acquire_client_session("ipv4:127.0.0.1");
   EXPECT_EQ(message_of([&] { gate.acquire_client_session("ipv4:127.0.0.1"); }, Code::ResourceExhausted),
             "sessions of ipv4:127.0.0.1: 2 already live, the limit is --max-sessions-per-client = 2");
   Slot other = gate.acquire_client_session("ipv6:[::1]");
-  Slot stream = gate.acquire_client_stream("ipv4:127.0.0.1");  // streams are counted apart
+  Slot stream = gate.acquire_client_stream("ipv4:127.0.0.1");  // streams are counted apart, to their own limit
+  EXPECT_EQ(message_of([&] { gate.acquire_client_stream("ipv4:127.0.0.1"); }, Code::ResourceExhausted),
+            "streams of ipv4:127.0.0.1: 1 already open, the limit is --max-streams-per-client = 1");
   a.release();
   EXPECT_NO_THROW(gate.acquire_client_session("ipv4:127.0.0.1"));
   EXPECT_NO_THROW(LimitGate(Limits{.max_sessions_per_client = 0}).acquire_client_session("any"));
