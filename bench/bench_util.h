@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <vector>
 
@@ -24,6 +25,17 @@ inline double median_seconds(const std::function<void()>& f, int runs) {
   }
   std::sort(t.begin(), t.end());
   return t[t.size() / 2];
+}
+
+// A benchmark's main: an error (a device no platform has, a size a backend refuses) is printed as
+// "<program>: <what>" with exit status 2, where an uncaught exception would abort.
+inline int guarded_main(const char* program, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+    return 2;
+  }
 }
 
 // One line per goal, the same in every benchmark, so that a script can collect them:

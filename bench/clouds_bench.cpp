@@ -309,7 +309,7 @@ void run(Runtime& runtime, int n) {
 }  // namespace
 }  // namespace squall::clouds
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   using namespace squall;
   configure_kernel_cache();
   clouds::initialize_openvdb();
@@ -338,4 +338,8 @@ int main(int argc, char** argv) {
   for (int n : sizes)
     if (n > 0) clouds::run(runtime, n);  // 0: the fog volume alone
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

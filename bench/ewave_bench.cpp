@@ -168,7 +168,7 @@ double through_stream(const std::string& address, const ewave::EWaveConfig& c, d
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/", "ewave/"};
   std::string backend = "auto", address;
@@ -215,4 +215,8 @@ int main(int argc, char** argv) {
                 format_kernel_timings(runtime.kernel_timings()).c_str());
   fftwf_cleanup_threads();
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

@@ -20,7 +20,7 @@
 
 using namespace squall;
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   int runs = 21;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -80,4 +80,8 @@ int main(int argc, char** argv) {
   std::printf("\nratios > 1: slower than FFTW on the same machine\n");
   fftwf_cleanup_threads();
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

@@ -93,7 +93,7 @@ double stream_rate(v1::Ocean::Stub& stub, const v1::TileSpec& spec, int frames) 
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   std::string backend = "auto";
   double budget = 3;
@@ -157,4 +157,8 @@ int main(int argc, char** argv) {
                 format_kernel_timings(runtime.kernel_timings()).c_str());
   server->Shutdown();
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

@@ -18,6 +18,7 @@
 
 #include "runtime/kernel.h"
 #include "runtime/runtime.h"
+#include "bench_util.h"
 
 using namespace squall;
 
@@ -53,7 +54,7 @@ PerCall median_per_call(const cl::CommandQueue& queue, const std::function<void(
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/"};
   int runs = 7, calls = 2000;
@@ -99,4 +100,9 @@ int main(int argc, char** argv) {
     std::printf("%-24s %10.1f %10.1f %10.1f %10.1f\n", name.c_str(), t.wall_us, t.cpu_us,
                 t.wall_us / std::max(reference.wall_us, 1e-3), t.cpu_us / std::max(reference.cpu_us, 1e-3));
   }
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

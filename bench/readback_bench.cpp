@@ -23,6 +23,7 @@
 
 #include "runtime/host_transfer.h"
 #include "runtime/runtime.h"
+#include "bench_util.h"
 
 using namespace squall;
 
@@ -43,7 +44,7 @@ double median_seconds(const std::function<void()>& read, int runs) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/"};
   int runs = 51;
@@ -112,4 +113,9 @@ int main(int argc, char** argv) {
     for (double t : times) std::printf(" %7.3f %5.1fGB/s", 1e3 * t, double(bytes) / t / 1e9);
     std::printf("\n");
   }
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

@@ -203,7 +203,7 @@ void bench_deform(DeformEngine& engine, squall::v1::Textures::Stub* textures, do
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/", "textures/river", "textures/deform"};
   double budget = 2;
@@ -234,4 +234,8 @@ int main(int argc, char** argv) {
     std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s",
                 format_kernel_timings(runtime.kernel_timings()).c_str());
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }

@@ -113,7 +113,7 @@ double through_stream(squall::v1::Textures::Stub& textures, Method method, int s
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   RuntimeOptions options;
   options.program_prefixes = {"runtime/", "textures/"};
   std::string address;
@@ -160,4 +160,8 @@ int main(int argc, char** argv) {
     std::printf("\nkernel device time (SQUALL_PROFILE_KERNELS=1)\n%s",
                 format_kernel_timings(runtime.kernel_timings()).c_str());
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return squall::bench::guarded_main(argv[0], [&] { return bench_main(argc, argv); });
 }
