@@ -95,9 +95,7 @@ void EWaveEngine::check_runs_here(const EWaveConfig& config, const std::string& 
   EWaveSession::check_runs_on(runtime_, fft_, ocean_, config, path);
 }
 
-void EWaveEngine::check_runs_here(const StepInputs& inputs) const {
-  if (inputs.ambient_ocean && ocean_) ocean_->check_transforms(*inputs.ambient_ocean, "inputs.ambient_ocean");
-}
+void EWaveEngine::check_runs_here(const StepInputs& inputs) const { EWaveSession::check_runs_on(ocean_, inputs); }
 
 EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, const OceanCall& call,
                                                  const std::string& path, const std::string& client) {

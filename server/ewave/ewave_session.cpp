@@ -86,6 +86,10 @@ void EWaveSession::check_runs_on(const Runtime& runtime, const fft::Fft& fft, co
   if (config.ambient_ocean) ocean->check_transforms(*config.ambient_ocean, path + ".ambient_ocean");
 }
 
+void EWaveSession::check_runs_on(const ocean::OceanEngine* ocean, const StepInputs& inputs) {
+  if (inputs.ambient_ocean && ocean) ocean->check_transforms(*inputs.ambient_ocean, "inputs.ambient_ocean");
+}
+
 ocean::OceanEngine& EWaveSession::ocean_engine(const std::string& field) const {
   if (!ocean_) fail(Code::FailedPrecondition, field + " needs the ocean engine, which this eWave engine was not given");
   return *ocean_;

@@ -76,6 +76,8 @@ class EWaveSession {
   // the field under `path` ("config", "state"). The oceans are not checked without `ocean`.
   static void check_runs_on(const Runtime& runtime, const fft::Fft& fft, const ocean::OceanEngine* ocean,
                             const EWaveConfig& config, const std::string& path);
+  // The same for a step's inputs: its ambient ocean's layers (named "inputs.ambient_ocean...").
+  static void check_runs_on(const ocean::OceanEngine* ocean, const StepInputs& inputs);
 
  private:
   void upload_initial_fields(const OceanCall& call);  // config_'s h, phi or initial_ocean into state_ (under the lock)

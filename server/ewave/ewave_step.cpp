@@ -77,7 +77,7 @@ Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const Oce
                                                        : " (after_step is past them: steps lost when it resumed from "
                                                          "a checkpoint, or another session's count)"));
   validate(in, config_, gate_);
-  if (in.ambient_ocean && ocean_) ocean_->check_transforms(*in.ambient_ocean, "inputs.ambient_ocean");
+  check_runs_on(ocean_, in);
   stage_shapes(in);
   check_rasterize_work(in);
   if (time_ + in.dt > kMaxTime)  // the state's time stays one that GetState's bytes and checkpoints can hold

@@ -484,6 +484,7 @@ TEST(EWaveService, AClientsSessionsCountAgainstItsShare) {
   EXPECT_NE(refused.status().error_message().find("2 already live, the limit is --max-sessions-per-client = 2"),
             std::string::npos)
       << refused.status().error_message();
+  EXPECT_TRUE(refused.id().empty());  // no session was made
   v1::EWaveSessionRequest get;
   get.set_session_id(a.id());
   v1::EWaveStateResponse state;
@@ -495,10 +496,16 @@ TEST(EWaveService, AClientsSessionsCountAgainstItsShare) {
   EXPECT_EQ(restore_refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << restore_refused.error_message();
   EXPECT_NE(restore_refused.error_message().find("--max-sessions-per-client"), std::string::npos)
       << restore_refused.error_message();
-  b.reset();  // closed
+  b.reset();  // closed: its slot comes back
   const grpc::Status status = stub->Restore(context().get(), restore, &restored);
   ASSERT_TRUE(status.ok()) << status.error_message();
   Session c(*stub, restored.session_id());
+  v1::EWaveFrame frame;
+  const grpc::Status stepped = c.step(plain_inputs(0.01), &frame);
+  ASSERT_TRUE(stepped.ok()) << stepped.error_message();
+  EXPECT_EQ(frame.step(), 1u);                         // the restored session runs on from a's state
+  Session full(*stub, proto_config(engine_config()));  // and holds the slot b gave back
+  EXPECT_EQ(full.status().error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << full.status().error_message();
 }
 
 TEST(EWaveService, StateRestoredOnAnotherDaemonContinuesBitIdentically) {
