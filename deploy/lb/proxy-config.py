@@ -122,7 +122,9 @@ static_resources:
 def nginx(listen: str, upstreams: List[str], prefix: str) -> str:
     servers = "".join(f"\n        server {u} max_fails=1 fail_timeout=10s;" for u in upstreams)
     return f"""# nginx in front of squalld replicas: written by deploy/lb/proxy-config.py.
-# Run: nginx -p PREFIX -c nginx.conf (PREFIX holds the logs and temporary files; no root needed).
+# Run: mkdir -p {prefix} && nginx -p {prefix} -c "$PWD/nginx.conf"
+# (-c absolute: a relative one is read from the -p directory). The pid and temporary files go to
+# {prefix} by absolute path (proxy-config.py --prefix); errors go to stderr; no root needed.
 worker_processes 1;
 pid {prefix}/nginx.pid;
 error_log stderr warn;
@@ -165,7 +167,7 @@ def main() -> None:
     parser.add_argument("--upstream", action="append", required=True, help="a replica's HOST:PORT")
     parser.add_argument("--admin", default="127.0.0.1:9901", help="Envoy's admin HOST:PORT")
     parser.add_argument(
-        "--prefix", default="/tmp/squall-nginx", help="nginx's directory for pid, temp"
+        "--prefix", default="/tmp/squall-nginx", help="nginx's directory for pid, temp files"
     )
     parser.add_argument("--dns", action="store_true", help="Envoy: upstreams are DNS names")
     args = parser.parse_args()

@@ -187,10 +187,12 @@ class SessionStore {
     return add(new_id(), std::move(reservation), std::move(value));
   }
 
-  // Runs f(T&) under the entry's lock and returns what f returns; the entry's idle time restarts.
+  // Runs f(T&) under the entry's lock and returns what f returns. From the call's lookup to its end (its wait
+  // for the lock included) the entry is not evicted, however long f runs; its idle time starts again then.
   template <typename F>
   auto with(const std::string& id, F&& f) {
-    std::shared_ptr<Entry> entry = find(id);
+    std::shared_ptr<Entry> entry = find(id, true);
+    const Call call{*this, *entry};
     std::lock_guard<std::mutex> lock(entry->mutex);
     require_held(entry);
     return f(*entry->value);
@@ -270,14 +272,15 @@ class SessionStore {
     return written;
   }
 
-  // Removes entries idle longer than the TTL, and their files; returns how many.
+  // Removes entries idle longer than the TTL (no call of with() on them meanwhile), and their files; returns
+  // how many.
   size_t evict_idle() {
     std::vector<std::shared_ptr<Entry>> evicted;  // destroyed outside the map's lock
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const auto now = policy_.clock();
       for (auto it = entries_.begin(); it != entries_.end();) {
-        if (now - it->second->last_use > policy_.ttl) {
+        if (it->second->calls == 0 && now - it->second->last_use > policy_.ttl) {
           closing_.insert(it->first);  // a call that comes before its files are gone resumes nothing
           evicted.push_back(std::move(it->second));
           it = entries_.erase(it);
@@ -380,7 +383,8 @@ class SessionStore {
     std::atomic<bool> removed = false;
     std::shared_ptr<T> value;
     Reservation held;
-    std::chrono::steady_clock::time_point last_use;
+    std::chrono::steady_clock::time_point last_use;       // under the store's mutex_
+    int calls = 0;                                        // under the store's mutex_: with() calls running or waiting
     std::chrono::steady_clock::time_point owner_checked;  // when its ownership was last read (require_held)
   };
 
@@ -455,21 +459,35 @@ class SessionStore {
     if (auto it = entries_.find(entry->id); it != entries_.end() && it->second == entry) entries_.erase(it);
   }
 
-  std::shared_ptr<Entry> find(const std::string& id) {
+  // The live entry of `id`, resumed from its checkpoint if need be; with `call`, counted among the entry's
+  // calls (Call ends it). NOT_FOUND when there is none.
+  std::shared_ptr<Entry> find(const std::string& id, bool call = false) {
     evict_idle();
-    if (auto entry = lookup(id)) return entry;
+    if (auto entry = lookup(id, call)) return entry;
     resume(id);
-    if (auto entry = lookup(id)) return entry;
+    if (auto entry = lookup(id, call)) return entry;
     fail(Code::NotFound, not_found(id));
   }
 
-  std::shared_ptr<Entry> lookup(const std::string& id) {
+  std::shared_ptr<Entry> lookup(const std::string& id, bool call = false) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(id);
     if (it == entries_.end()) return nullptr;
     it->second->last_use = policy_.clock();
+    it->second->calls += call;
     return it->second;
   }
+
+  // A with() call on an entry, from its lookup (find(id, true)) on: its end restarts the entry's idle time.
+  struct Call {
+    SessionStore& store;
+    Entry& entry;
+    ~Call() {
+      std::lock_guard<std::mutex> lock(store.mutex_);
+      --entry.calls;
+      entry.last_use = store.policy_.clock();
+    }
+  };
 
   // When another live replica owns `id`, a handover is requested and the call answered UNAVAILABLE (its
   // retry finds the checkpoint).

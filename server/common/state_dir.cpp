@@ -34,13 +34,23 @@ constexpr auto kLockWait = std::chrono::seconds(2);    // how long a change of o
 
 // The directory's files are named within it, not by their path on this host. UNAVAILABLE: the call may
 // succeed on a replica whose volume works, or here once this one does again.
-void fail_io(const std::string& what, const std::string& path) {
+[[noreturn]] void fail_io(const std::string& what, const std::string& path) {
   const std::string why = std::strerror(errno);
   fail(Code::Unavailable,
        "state directory: cannot " + what + " " + fs::path(path).filename().string() + ": " + why + "; retry later");
 }
 
-// Writes all of `bytes` to a new file `path` (one that exists is an error) and flushes them to the device.
+// fail_io for the file `path` this process created, which is removed first: on a full volume, a write
+// that failed each checkpoint pass would otherwise leave a partial file each time.
+[[noreturn]] void fail_io_removing(const std::string& what, const std::string& path) {
+  const int error = errno;
+  ::unlink(path.c_str());
+  errno = error;
+  fail_io(what, path);
+}
+
+// Writes all of `bytes` to a new file `path` (one that exists is an error) and flushes them to the device;
+// the file is removed again when that fails.
 void write_synced(const std::string& path, const std::string& bytes) {
   int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) fail_io("create", path);
@@ -49,13 +59,18 @@ void write_synced(const std::string& path, const std::string& bytes) {
     ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) {
+      const int error = errno;
       ::close(fd);
-      fail_io("write", path);
+      errno = error;
+      fail_io_removing("write", path);
     }
     done += size_t(n);
   }
   const bool synced = ::fsync(fd) == 0;
-  if (::close(fd) != 0 || !synced) fail_io("sync", path);
+  const int error = errno;
+  if (::close(fd) != 0) fail_io_removing("sync", path);
+  errno = error;
+  if (!synced) fail_io_removing("sync", path);
 }
 
 // The bytes of the regular file `path`, nullopt when there is none, named within the directory in errors:

@@ -39,6 +39,7 @@
 #include "ocean/ocean_service.h"
 #include "rpc/request_log.h"
 #include "rpc/undecodable_request.h"
+#include "runtime/cpu_threads.h"
 #include "textures/textures_service.h"
 
 namespace squall::rpc {
@@ -300,20 +301,6 @@ void write_port_file(const std::string& path, int port) {
 
 }  // namespace
 
-uint64_t cgroup_memory_limit() {
-  for (const char* file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
-    std::ifstream in(file);
-    std::string text;
-    if (!(in >> text) || text == "max") continue;
-    try {
-      const uint64_t bytes = std::stoull(text);
-      if (bytes < (uint64_t(1) << 60)) return bytes;  // cgroup v1 writes a huge number for "no limit"
-    } catch (const std::exception&) {
-    }
-  }
-  return 0;
-}
-
 uint64_t usable_memory() {
   if (const uint64_t cgroup = cgroup_memory_limit()) return cgroup;
   return uint64_t(sysconf(_SC_PHYS_PAGES)) * uint64_t(sysconf(_SC_PAGE_SIZE));
@@ -326,6 +313,7 @@ int run_daemon(const DaemonOptions& options) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   const std::string replica = replica_id(options);
+  fit_cpu_threads_to_quota();  // before gRPC's threads and the ICD loader start
   const std::string cache = configure_kernel_cache(options.cache_dir);
   log(LogLevel::Info, "squalld ", SQUALL_VERSION, " starting as replica ", replica, "; kernel cache ", cache);
   std::unique_ptr<DaemonState> daemon;

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "common/cgroup.h"
 #include "common/session_registry.h"
 #include "fft/fft.h"
 #include "rpc/capability.h"
@@ -14,11 +15,6 @@
 #include "runtime/runtime.h"
 
 namespace squall::rpc {
-
-// The memory limit of squalld's control group (cgroup v2 memory.max, else v1 memory.limit_in_bytes);
-// 0 when there is none. PoCL reports the host's RAM as a CPU device's global memory even in a container
-// limited to less, so the session budget must look here too.
-uint64_t cgroup_memory_limit();
 
 // The memory squalld may use: its control group's limit, else the physical memory.
 uint64_t usable_memory();

@@ -302,7 +302,8 @@ std::string usage() {
          "  --fft NAME                auto | vkfft | clfft | fftw (default auto: the fastest, timed at start-up;\n"
          "                            fftw, on the host, only for CPU devices)\n"
          "  --fft-threads N           FFTW's threads per transform of 512^2 cells or more (default: the\n"
-         "                            device's compute units; smaller ones run on one)\n"
+         "                            device's compute units, at most the cgroup CPU quota rounded up;\n"
+         "                            smaller ones run on one)\n"
          "  --fft-wisdom DIR|none     where FFTW's measured plans are kept for the next start (default: the\n"
          "                            kernel cache)\n"
          "  --kernel-dir DIR          load OpenCL sources from DIR instead of the embedded copy (development)\n"
@@ -329,7 +330,7 @@ std::string usage() {
          std::to_string(d.limits.max_message_bytes) +
          ")\n"
          "  --max-session-bytes N     host + device bytes of all stateful sessions (default: half the device's\n"
-         "                            global memory)\n"
+         "                            global memory; on a CPU device at most half the cgroup memory limit)\n"
          "  --memory-budget N         bytes of sessions, stored volumes and running calls' working memory\n"
          "                            together (default: 3/4 of the cgroup memory limit, else of the RAM)\n"
          "  --max-advection-samples N  a cloud build's estimated velocity samples: active voxels x advection\n"

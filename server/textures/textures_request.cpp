@@ -11,6 +11,7 @@
 #include "common/validate.h"
 #include "ocean/ocean_engine.h"
 #include "ocean/ocean_request.h"
+#include "textures/texture_engine.h"
 
 namespace squall::textures::rpc {
 namespace v1 = squall::v1;
@@ -542,6 +543,12 @@ uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& p) {
   const uint64_t planes = (p.final_planes ? finals : 0) + (p.raw_planes ? channels : 0) + p.weight_sum +
                           p.weight_sq_sum + p.coverage + p.layer + 2 * p.uv;
   return planes * uint64_t(spec.output.width) * uint64_t(spec.output.height) * field::bytes_per_value(p.dtype);
+}
+
+uint64_t stream_bytes(const AdvectSpec& spec, uint64_t frame_bytes) {
+  const PlaneSelection computed{true, true, true, true, true, true, true, v1::DTYPE_FLOAT32};
+  return 2 * rpc::frame_bytes(spec, computed) + 2 * frame_bytes + TextureEngine::state_bytes(spec) +
+         TextureEngine::input_bytes(spec);
 }
 
 void fill_frame(const TextureFrame& f, const AdvectSpec& spec, const PlaneSelection& p, v1::TextureFrame* out) {

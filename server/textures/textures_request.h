@@ -65,6 +65,10 @@ bool steer(const squall::v1::TextureControl& control, AdvectSpec& spec, const st
 
 // Bytes of the planes one frame carries (the Fields' data).
 uint64_t frame_bytes(const AdvectSpec& spec, const PlaneSelection& planes);
+// Memory an advection stream holds, an estimate for the memory budget: every plane the engine computes, in
+// float32, on the device and on the host; the planes sent (`frame_bytes`) in the message and serialized; the
+// advection's state and its inputs (an image's planes among them).
+uint64_t stream_bytes(const AdvectSpec& spec, uint64_t frame_bytes);
 
 // The frame's index, time, selected planes (placed on the output pixels) and statistics.
 void fill_frame(const TextureFrame& frame, const AdvectSpec& spec, const PlaneSelection& planes,

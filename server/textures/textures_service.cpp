@@ -96,19 +96,6 @@ struct TexturesService::Stream {
   std::string velocity_path;   // the request field its velocity came from (AdvectInteractive's last)
 };
 
-namespace {
-
-// Memory an advection stream holds, an estimate: every plane the engine computes, in float32, on the
-// device and on the host; the planes asked for (`frame_bytes`) in the message and serialized; the
-// advection's state and its inputs.
-uint64_t working_bytes(uint64_t frame_bytes, const AdvectSpec& spec) {
-  req::PlaneSelection computed{true, true, true, true, true, true, true, squall::v1::DTYPE_FLOAT32};
-  return 2 * req::frame_bytes(spec, computed) + 2 * frame_bytes + TextureEngine::state_bytes(spec) +
-         TextureEngine::input_bytes(spec);
-}
-
-}  // namespace
-
 req::FollowedCurrent TexturesService::followed(const v1::VelocitySpec& velocity, const std::string& path) {
   req::FollowedCurrent current = req::followed(velocity, serving_.gate(), path);
   if (current.ocean) ocean_->check_transforms(*current.ocean, current.path);
@@ -226,8 +213,9 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     follow(s, s.spec.t0);
     bake_river(s, "request.velocity");
     if (made) engine_->validate(s.spec, "request");
-    s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
-    s.memory = serving_.gate().acquire_memory("AdvectTexture's frames and state", working_bytes(s.frame_bytes, s.spec));
+    s.decoded = Slot();  // counted in stream_bytes: given back first, not held twice
+    s.memory =
+        serving_.gate().acquire_memory("AdvectTexture's frames and state", req::stream_bytes(s.spec, s.frame_bytes));
   };
   return serve_stream(*context, serving_, "AdvectTexture", check, prepare, [&](StreamCall& call, Stream& s) {
     std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume, s.cancel);
@@ -283,12 +271,12 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   if (n == 0) {
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
-    s.decoded = Slot();  // counted in working_bytes: given back first, not held twice
-    s.memory =
-        serving_.gate().acquire_memory("AdvectInteractive's frames and state", working_bytes(s.frame_bytes, s.spec));
+    s.decoded = Slot();  // counted in stream_bytes: given back first, not held twice
+    s.memory = serving_.gate().acquire_memory("AdvectInteractive's frames and state",
+                                              req::stream_bytes(s.spec, s.frame_bytes));
     advection = engine_->start(s.spec, {}, s.cancel);
   } else if (changed || s.current.any()) {
-    const uint64_t needed = working_bytes(s.frame_bytes, s.spec);
+    const uint64_t needed = req::stream_bytes(s.spec, s.frame_bytes);
     if (needed > s.memory.amount() + s.steered_memory.amount()) {
       s.steered_memory = Slot();  // given back before the larger share is asked for, not counted twice
       s.steered_memory = serving_.gate().acquire_memory(path + "'s steered inputs", needed - s.memory.amount());

@@ -3,11 +3,14 @@
 #include "common/state_dir.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include "common/session_store.h"
@@ -95,6 +98,35 @@ TEST(StateDir, WritesWholeFilesNamedByIdAndExpiresOldOnes) {
   state.retire("host:50051/x");
   EXPECT_FALSE(state.alive("host:50051/x", 1h));
   EXPECT_THROW(StateDir("/proc/no-such-dir", "--state-dir"), std::runtime_error);
+}
+
+// A write that fails (here past RLIMIT_FSIZE, as on a full volume) is UNAVAILABLE and leaves no partial file
+// behind, where each checkpoint pass on a full volume would leave one per session; the last checkpoint stays.
+TEST(StateDir, AWriteThatFailsLeavesNoFileBehind) {
+  const std::string dir = test::temp_dir("state-full");
+  StateDir state(dir, "--state-dir");
+  state.write(kId, "small");
+  struct sigaction ignore {
+  }, before{};  // past the limit write(2) fails (EFBIG) rather than raise SIGXFSZ
+  ignore.sa_handler = SIG_IGN;
+  ASSERT_EQ(sigaction(SIGXFSZ, &ignore, &before), 0);
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  rlimit small = saved;
+  small.rlim_cur = 4096;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::optional<Error> refused;
+  try {
+    state.write(kId, std::string(1 << 16, 'x'));
+  } catch (const Error& e) {
+    refused = e;
+  }
+  setrlimit(RLIMIT_FSIZE, &saved);
+  sigaction(SIGXFSZ, &before, nullptr);
+  ASSERT_TRUE(refused.has_value()) << "a write past the file size limit succeeded";
+  EXPECT_EQ(refused->code(), Code::Unavailable) << refused->what();
+  EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".session"}) << "a partial file was left behind";
+  EXPECT_EQ(state.read(kId).value(), "small");
 }
 
 TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {

@@ -9,6 +9,7 @@ Paths come from ctest's environment (tests/CMakeLists.txt).
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -276,3 +277,30 @@ def test_the_default_memory_budget_is_three_quarters_of_the_usable_memory(daemon
     assert value(text, "squall_memory_budget_bytes") == pytest.approx(
         usable_memory() // 4 * 3, rel=1e-9
     )
+
+
+def cpu_quota() -> float:
+    """The control group's CPU quota in CPUs (v2 cpu.max, else v1's cfs files), 0 for none: read here."""
+    try:
+        quota, period = Path("/sys/fs/cgroup/cpu.max").read_text().split()
+        return 0.0 if quota == "max" else int(quota) / int(period)
+    except OSError:
+        pass
+    try:
+        quota = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_quota_us").read_text())
+        period = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_period_us").read_text())
+    except OSError:
+        return 0.0
+    return quota / period if quota > 0 else 0.0
+
+
+def test_the_cpu_device_runs_as_many_threads_as_the_cpu_quota_allows(daemon: Squalld) -> None:
+    info = daemon.cli("info")
+    assert info.returncode == 0, info.stderr
+    selected = re.search(r"^\* .*\(cpu, .*?(\d+) CUs", info.stdout, re.MULTILINE)
+    if not selected:
+        pytest.skip("the selected device is no CPU device")
+    cores = len(os.sched_getaffinity(0))
+    quota = cpu_quota()
+    expected = min(cores, max(1, math.ceil(quota))) if quota > 0 else cores
+    assert int(selected.group(1)) == expected, (info.stdout, quota, cores)

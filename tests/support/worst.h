@@ -14,4 +14,10 @@ double worse(double worst, Errors... errors) {
   return worst;
 }
 
+// The same for scores where lower is worse (a PSNR): the running lowest, a NaN kept once met.
+template <typename... Scores>
+double lowest(double worst, Scores... scores) {
+  return -worse(-worst, -double(scores)...);
+}
+
 }  // namespace squall::test

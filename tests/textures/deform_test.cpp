@@ -443,7 +443,7 @@ TEST(Deform, StackShowsTheSameTextureWithABoundedResidual) {
   for (size_t t = 0; t < vx.size(); ++t) max_v = std::max(max_v, double(std::hypot(vx[t], vy[t])));
   double worst_psnr = 1e9, worst_residual = 0;
   for (int i = 1; i < frames; ++i) {
-    worst_psnr = std::min(worst_psnr, psnr(plane(stacked[i], 0), plane(direct[i], 0), 1.0));
+    worst_psnr = squall::test::lowest(worst_psnr, psnr(plane(stacked[i], 0), plane(direct[i], 0), 1.0));
     worst_residual = squall::test::worse(worst_residual, stacked[i].max_residual);
     EXPECT_GT(stacked[i].max_warp, stacked[i - 1].max_warp);
   }

@@ -508,6 +508,28 @@ TEST(TexturesRequest, APngsDecodedPlanesAreHeldInTheMemoryBudget) {
   EXPECT_EQ(gate.memory_bytes(), floats);
 }
 
+// A stream's reservation counts its image's decoded planes and takes over their hold: under a budget of the
+// stream's reservation and half the planes, an AdvectTexture of a 1024^2 RGBA16 PNG runs, which it could not
+// if the planes were held twice, and runs again, which it could not if the first call had kept either.
+TEST(TexturesService, AStreamCountsItsDecodedImageOnce) {
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.mutable_output()->set_width(16);
+  r.mutable_output()->set_height(16);
+  r.mutable_texture()->mutable_image()->set_png(uniform_png(1024));
+  LimitGate unlimited{Limits{}};
+  Slot decoded;
+  const textures::AdvectSpec spec = textures::rpc::spec(r, unlimited, decoded);
+  const uint64_t frame = textures::rpc::frame_bytes(spec, textures::rpc::planes(r.output()));
+  const uint64_t stream = textures::rpc::stream_bytes(spec, frame), planes = decoded.amount();
+  ASSERT_EQ(planes, 1024 * 1024 * 4 * sizeof(float));
+  ASSERT_GE(stream, 2 * planes);  // the decoding (16-bit samples, then floats: 1.5x the planes) fits alone
+  test::Daemon d({"--memory-budget", std::to_string(stream + planes / 2)});
+  for (int call = 0; call < 2; ++call) {
+    const grpc::Status status = advect(r, d.address()).status;
+    EXPECT_TRUE(status.ok()) << "call " << call << ": " << status.error_message();
+  }
+}
+
 // The engine computes every plane of a frame in float32 whichever it sends: 8 bands (8 final, 8 raw and 6
 // auxiliary planes) at 2048 x 2048 pixels are 369 MB on the host and again on the device, refused under a
 // 512 MiB budget though the one plane asked for, in float16, is 8 MB. The same request at 256 x 256 runs.

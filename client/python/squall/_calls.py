@@ -9,7 +9,18 @@ import queue
 import secrets
 import threading
 import time
-from typing import Any, Callable, Generic, Iterable, Iterator, List, Optional, Tuple, TypeVar
+from typing import (
+    Any,
+    Callable,
+    Generic,
+    Iterable,
+    Iterator,
+    List,
+    Optional,
+    Tuple,
+    TypeVar,
+    cast,
+)
 
 import grpc
 
@@ -86,9 +97,13 @@ def cancelled_unanswered(error: grpc.RpcError) -> bool:
     unary calls are idempotent or keyed (an eWave step's retry_key, a session's proposed id), so
     one that did run before it was cancelled (it outlasted a draining squalld's grace period)
     does no harm run again."""
-    if error.code() != grpc.StatusCode.CANCELLED:
+    call = cast(grpc.Call, error)  # see SquallError.from_rpc
+    try:
+        if call.code() != grpc.StatusCode.CANCELLED:
+            return False
+        metadata = tuple(call.initial_metadata() or ()) + tuple(call.trailing_metadata() or ())
+    except Exception:  # an RpcError that is not a Call: not known to be unanswered
         return False
-    metadata = tuple(error.initial_metadata() or ()) + tuple(error.trailing_metadata() or ())
     return all(key != REPLICA_KEY for key, _ in metadata)
 
 
@@ -109,7 +124,7 @@ class Resends:
 
     def pause(self, error: grpc.RpcError, method: str) -> float:
         """Seconds to wait before the next send after `error`; SquallError when there is none."""
-        backoff, left = 0.1 * 2 ** (self.attempt - 1), self.timeout()
+        backoff, left = 0.1 * 2.0 ** (self.attempt - 1), self.timeout()
         done = self.attempt >= self.settings.attempts or self.settings.closed
         if done or (left is not None and left <= backoff) or not cancelled_unanswered(error):
             raise SquallError.from_rpc(error, method) from None
@@ -340,7 +355,7 @@ class Stream(Iterator[T], Generic[T]):
                 raise
             except grpc.RpcError as error:
                 self._end_feeder()
-                code = error.code()  # type: ignore[attr-defined]
+                code = error.code()
                 if self._cancelled and code == grpc.StatusCode.CANCELLED:
                     raise StopIteration from None
                 raise SquallError.from_rpc(error, self._method) from None

@@ -35,21 +35,24 @@ from typing import (
     Type,
     TypeVar,
     Union,
+    cast,
 )
 
 import numpy as np
 from google.protobuf import descriptor as _descriptor
 from google.protobuf.message import Message
+from numpy.typing import NDArray
 
 from squall._pb import common_pb2
 
 M = TypeVar("M", bound=Message)
 
-ArrayLike = Union[np.ndarray, Sequence[Any]]
-FieldLike = Union[np.ndarray, common_pb2.Field, Sequence[Any]]
+ArrayLike = Union[NDArray[Any], Sequence[Any]]
+FieldLike = Union[NDArray[Any], common_pb2.Field, Sequence[Any]]
 Vec3Like = Union[common_pb2.Vec3, Sequence[float]]
 
-_NUMPY_DTYPE: Dict[int, np.dtype] = {
+# The numpy dtype of each Field dtype (Fields hold float32 or float16 values).
+_NUMPY_DTYPE: Dict[int, np.dtype[np.floating[Any]]] = {
     common_pb2.DTYPE_UNSPECIFIED: np.dtype("<f4"),
     common_pb2.DTYPE_FLOAT32: np.dtype("<f4"),
     common_pb2.DTYPE_FLOAT16: np.dtype("<f2"),
@@ -197,7 +200,7 @@ def number_or_floats(value: Any, path: str, want: str) -> List[float]:
     return floats(value, path, want)
 
 
-def real_array(value: Any, path: str) -> np.ndarray:
+def real_array(value: Any, path: str) -> NDArray[Any]:
     """`value` as an array of real numbers (of a float, int, uint or bool dtype), not cast;
     TypeError naming `path` for an array of another dtype: complex (a cast to float would drop
     the imaginary part), object (None, mixed values), str or bytes."""
@@ -207,7 +210,7 @@ def real_array(value: Any, path: str) -> np.ndarray:
     return array
 
 
-def float_array(value: Any, path: str, want: str) -> np.ndarray:
+def float_array(value: Any, path: str, want: str) -> NDArray[np.float64]:
     """`value` as a float64 array of real numbers (see ``real_array``); TypeError naming `path` and
     `want` when it is no array at all (a str, None, a ragged sequence)."""
     if isinstance(value, (str, bytes, Mapping)) or value is None:
@@ -273,7 +276,7 @@ def enum_name(enum: _descriptor.EnumDescriptor, number: int) -> str:
     return value.name[len(_enum_prefix(enum)) :].lower()
 
 
-def dtype_value(dtype: Union[str, int, np.dtype, type, None], path: str = "dtype") -> Any:
+def dtype_value(dtype: Union[str, int, np.dtype[Any], type, None], path: str = "dtype") -> Any:
     """squall.v1.DType from "float32" / "float16", np.float32 / np.float16, or the enum."""
     if dtype is None:
         return common_pb2.DTYPE_FLOAT32
@@ -298,7 +301,7 @@ def bytes_per_value(dtype: int) -> Optional[int]:
     return None if known is None else known.itemsize
 
 
-def field_to_array(field: common_pb2.Field, path: str = "field") -> np.ndarray:
+def field_to_array(field: common_pb2.Field, path: str = "field") -> NDArray[np.floating[Any]]:
     """The values of a Field as a writable array of shape (ny, nx) (2D) or (nz, ny, nx) (3D).
 
     float32 fields give float32 arrays, float16 fields float16 arrays (exact;
@@ -328,7 +331,7 @@ def array_to_field(
     name: str = "",
     unit: str = "",
     *,
-    dtype: Union[str, int, np.dtype, type, None] = None,
+    dtype: Union[str, int, np.dtype[Any], type, None] = None,
     spacing: Optional[Union[float, Sequence[float]]] = None,
     origin: Optional[Sequence[float]] = None,
     path: str = "field",
@@ -363,15 +366,17 @@ def array_to_field(
     field.data = _cast(array, _NUMPY_DTYPE[kind], path).tobytes()
     if spacing is not None:
         want = "a number or a sequence (sx, sy) or (sx, sy, sz)"
-        values = np.atleast_1d(float_array(spacing, f"{path}.spacing", want))
-        s = [float(values[0])] * 3 if values.size == 1 else [float(v) for v in values]
+        given = np.atleast_1d(float_array(spacing, f"{path}.spacing", want))
+        s = [float(given[0])] * 3 if given.size == 1 else [float(v) for v in given]
         field.spacing.CopyFrom(vec3(s, f"{path}.spacing"))
     if origin is not None:
         field.origin.CopyFrom(vec3(origin, f"{path}.origin"))
     return field
 
 
-def _cast(array: np.ndarray, dtype: np.dtype, path: str) -> np.ndarray:
+def _cast(
+    array: NDArray[Any], dtype: np.dtype[np.floating[Any]], path: str
+) -> NDArray[np.floating[Any]]:
     """`array` as a contiguous array of `dtype`; ValueError naming `path`, the first value and its
     index when a finite value is beyond the dtype's range (the cast would send it as inf)."""
     with np.errstate(over="ignore", invalid="ignore"):
@@ -441,7 +446,10 @@ def is_repeated(fd: _descriptor.FieldDescriptor) -> bool:
     """Whether `fd` is a repeated field: `is_repeated` where protobuf has it (newer releases, which
     dropped `label`), else its label."""
     repeated = getattr(fd, "is_repeated", None)
-    return bool(repeated) if repeated is not None else fd.label == fd.LABEL_REPEATED
+    if repeated is not None:
+        return bool(repeated)
+    label: int = getattr(fd, "label")  # not in the type hints of newer releases
+    return label == fd.LABEL_REPEATED
 
 
 def _scalar(fd: _descriptor.FieldDescriptor, value: Any, path: str) -> Any:
@@ -466,7 +474,8 @@ def _scalar(fd: _descriptor.FieldDescriptor, value: Any, path: str) -> Any:
 
 def set_fields(message: Message, values: Mapping[str, Any], path: str) -> None:
     """Sets the fields of `message` from a mapping (None values leave a field unset)."""
-    descriptor = message.DESCRIPTOR
+    # protobuf's Python Descriptor or upb's, which has the same members (typed apart).
+    descriptor = cast(_descriptor.Descriptor, message.DESCRIPTOR)
     for key, value in values.items():
         fd = descriptor.fields_by_name.get(key)
         if fd is None:
@@ -540,6 +549,8 @@ def repeated_per(
     return items * count if is_number(values) else items
 
 
-def fields_dict(fields: Iterable[common_pb2.Field], path: str = "fields") -> Dict[str, np.ndarray]:
+def fields_dict(
+    fields: Iterable[common_pb2.Field], path: str = "fields"
+) -> Dict[str, NDArray[np.floating[Any]]]:
     """name -> array for Fields (see field_to_array)."""
     return {f.name: field_to_array(f, f"{path}.{f.name}") for f in fields}

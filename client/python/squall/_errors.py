@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Optional, Tuple
+from typing import Any, Optional, Tuple, cast
 
 import grpc
 
@@ -62,11 +62,13 @@ class SquallError(Exception):
         code: Optional[grpc.StatusCode] = None
         details: Optional[str] = None
         metadata: Tuple[Tuple[str, Any], ...] = ()
+        # gRPC raises a Call (sync) or an AioRpcError, which has the same methods.
+        call = cast(grpc.Call, error)
         try:
-            code = error.code()  # type: ignore[attr-defined]
-            details = error.details()  # type: ignore[attr-defined]
-            initial = error.initial_metadata()  # type: ignore[attr-defined]
-            trailers = error.trailing_metadata()  # type: ignore[attr-defined]
+            code = call.code()
+            details = call.details()
+            initial = call.initial_metadata()
+            trailers = call.trailing_metadata()
             metadata = tuple((m[0], m[1]) for m in [*(initial or ()), *(trailers or ())])
         except Exception:  # an RpcError that is not a Call
             pass

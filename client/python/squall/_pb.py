@@ -4,6 +4,8 @@ They are generated at build time (setup.py) into the subpackage squall.v1; a sou
 was not built has none, and gets an ImportError saying how to build them.
 """
 
+from typing import Any, Callable
+
 try:
     from squall.v1 import (  # noqa: F401  (re-exported)
         clouds_pb2,
@@ -27,6 +29,13 @@ except ImportError as error:  # pragma: no cover - depends on how the package wa
         f"Cause: {error}"
     ) from error
 
+
+def stub(cls: Callable[[Any], Any], channel: Any) -> Any:
+    """``cls(channel)``: a generated client class (``squall.v1.*_pb2_grpc.*Stub``) on a grpc or
+    grpc.aio channel. The generated gRPC modules have no type hints: a stub's methods are Any."""
+    return cls(channel)
+
+
 __all__ = [
     "clouds_pb2",
     "clouds_pb2_grpc",
@@ -39,4 +48,5 @@ __all__ = [
     "server_pb2_grpc",
     "textures_pb2",
     "textures_pb2_grpc",
+    "stub",
 ]

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Iterable, Iterator, List, Optional, Tuple
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Tuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from squall._convert import field_to_array
 from squall._pb import clouds_pb2, common_pb2, ewave_pb2, ocean_pb2, textures_pb2
 
 
-class FieldSet(Dict[str, np.ndarray]):
+# The arrays' type as a string: np.floating[...] is subscriptable at run time from numpy 1.22 on.
+class FieldSet(Dict[str, "NDArray[np.floating[Any]]"]):
     """Arrays keyed by field name ("height", "displacement_x", ...), in the order the server sent
     them.
 
@@ -138,19 +140,19 @@ class BakedVelocity(FieldSet):
         self.reply = reply
 
     @property
-    def u(self) -> np.ndarray:
+    def u(self) -> NDArray[np.floating[Any]]:
         return self["u"]
 
     @property
-    def v(self) -> np.ndarray:
+    def v(self) -> NDArray[np.floating[Any]]:
         return self["v"]
 
     @property
-    def fluid(self) -> np.ndarray:
+    def fluid(self) -> NDArray[np.floating[Any]]:
         return self["fluid"]
 
     @property
-    def psi(self) -> Optional[np.ndarray]:
+    def psi(self) -> Optional[NDArray[np.floating[Any]]]:
         return self.get("psi")
 
     def __repr__(self) -> str:
@@ -187,7 +189,7 @@ class DeformFrame(FieldSet):
         return f"DeformFrame({self.index}, t={self.time} s, max_warp={self.max_warp}; {self._shapes()})"
 
 
-class Samples(Dict[str, np.ndarray]):
+class Samples(Dict[str, NDArray[np.float64]]):
     """SampleSurface's answer: one float64 array of shape (n,) per quantity, in point order.
 
     Keys: "height", "displacement_x", "displacement_y" (m), "normal_x", "normal_y", "normal_z" (1),
@@ -210,7 +212,7 @@ class Samples(Dict[str, np.ndarray]):
         self.response = response
 
     @property
-    def position(self) -> np.ndarray:
+    def position(self) -> NDArray[np.float64]:
         """(n, 3) positions of the sampled surface points (source + displacement, height), m."""
         return np.stack(
             [
@@ -234,7 +236,7 @@ class Image:
         summary: the rendered volume's squall.v1.VolumeSummary.
     """
 
-    pixels: np.ndarray
+    pixels: NDArray[np.float32]
     channels: Tuple[str, ...]
     summary: Optional[clouds_pb2.VolumeSummary] = None
 
@@ -254,15 +256,15 @@ class Image:
         pixels = np.ascontiguousarray(planes.transpose(1, 2, 0), dtype=np.float32)
         return cls(pixels, tuple(image.channels), summary)
 
-    def __getitem__(self, channel: str) -> np.ndarray:
+    def __getitem__(self, channel: str) -> NDArray[np.float32]:
         """One channel by name, shape (height, width); KeyError for a name it does not have."""
         if channel not in self.channels:
             raise KeyError(f"{channel!r}: the image's channels are {', '.join(self.channels)}")
         return self.pixels[:, :, self.channels.index(channel)]
 
     def __array__(
-        self, dtype: Optional[np.dtype] = None, copy: Optional[bool] = None
-    ) -> np.ndarray:
+        self, dtype: Optional[np.dtype[Any]] = None, copy: Optional[bool] = None
+    ) -> NDArray[Any]:
         """The pixels, for np.asarray (NumPy 2's copy: True always copies, False never)."""
         converts = dtype is not None and np.dtype(dtype) != self.pixels.dtype
         if copy is False and converts:
@@ -273,7 +275,7 @@ class Image:
 
     @property
     def shape(self) -> Tuple[int, ...]:
-        return self.pixels.shape  # type: ignore[no-any-return]
+        return self.pixels.shape
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.channels)

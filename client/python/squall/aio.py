@@ -71,6 +71,7 @@ from squall._pb import (
     ocean_pb2_grpc,
     server_pb2,
     server_pb2_grpc,
+    stub,
     textures_pb2,
     textures_pb2_grpc,
 )
@@ -267,7 +268,7 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
                 raise cancelled from None
             except grpc.RpcError as error:
                 self._end_feeder()
-                code = error.code()  # type: ignore[attr-defined]
+                code = error.code()
                 if self._cancelled and code == grpc.StatusCode.CANCELLED:
                     raise StopAsyncIteration from None
                 raise SquallError.from_rpc(error, self._method) from None
@@ -352,9 +353,9 @@ class _AsyncFeeder:
     async def __aiter__(self) -> AsyncIterator[Any]:
         pull: Callable[[], Awaitable[Any]]
         if hasattr(self._items, "__aiter__"):
-            pull = self._items.__aiter__().__anext__  # type: ignore[union-attr]
+            pull = self._items.__aiter__().__anext__
         else:
-            pull = _awaitable_next(iter(self._items))  # type: ignore[arg-type]
+            pull = _awaitable_next(iter(self._items))
         index = 0
         try:
             while True:
@@ -376,7 +377,7 @@ class Ocean:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = ocean_pb2_grpc.OceanStub(connection.channel)
+        self._rpc = stub(ocean_pb2_grpc.OceanStub, connection.channel)
 
     async def tile(
         self,
@@ -499,11 +500,10 @@ class EWaveSession:
         """The session as opaque bytes for restore."""
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
-        return (
-            await conn.unary(
-                "EWave.GetState", self._service._rpc.GetState, request, timeout, self.id
-            )
-        ).state
+        reply: ewave_pb2.EWaveStateResponse = await conn.unary(
+            "EWave.GetState", self._service._rpc.GetState, request, timeout, self.id
+        )
+        return reply.state
 
     async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> "EWaveSession":
         """A new session continuing `state`."""
@@ -568,7 +568,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = ewave_pb2_grpc.EWaveStub(connection.channel)
+        self._rpc = stub(ewave_pb2_grpc.EWaveStub, connection.channel)
 
     def session(
         self,
@@ -619,7 +619,7 @@ class Clouds:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = clouds_pb2_grpc.CloudsStub(connection.channel)
+        self._rpc = stub(clouds_pb2_grpc.CloudsStub, connection.channel)
 
     async def build(
         self,
@@ -800,7 +800,7 @@ class Steering(Generic[T]):
             while await self._call.read() is not grpc.aio.EOF:
                 pass
         except grpc.RpcError as error:
-            if error.code() != grpc.StatusCode.CANCELLED:  # type: ignore[attr-defined]
+            if error.code() != grpc.StatusCode.CANCELLED:
                 raise SquallError.from_rpc(error, self.METHOD) from None
             return
         except asyncio.CancelledError:
@@ -915,7 +915,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = textures_pb2_grpc.TexturesStub(connection.channel)
+        self._rpc = stub(textures_pb2_grpc.TexturesStub, connection.channel)
 
     def advect(
         self,
@@ -1111,7 +1111,7 @@ class Client:
         else:
             channel = grpc.aio.secure_channel(address, credentials, options=grpc_options)
         self._connection = Connection(channel, settings)
-        self._server = server_pb2_grpc.ServerStub(channel)
+        self._server = stub(server_pb2_grpc.ServerStub, channel)
         self._health = channel.unary_unary(
             HEALTH_CHECK,
             request_serializer=encode_health_request,

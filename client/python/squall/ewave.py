@@ -45,7 +45,7 @@ from squall._convert import (
     vec3,
 )
 from squall._errors import SquallError
-from squall._pb import ewave_pb2, ewave_pb2_grpc
+from squall._pb import ewave_pb2, ewave_pb2_grpc, stub
 from squall._results import EWaveFrame
 from squall.ocean import TileLike, as_tile_spec
 
@@ -486,9 +486,10 @@ class EWaveSession:
         """The whole session (config, step, time, h, phi) as opaque bytes for ``EWave.restore``."""
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
         conn = self._service._connection
-        return conn.unary(
+        reply: ewave_pb2.EWaveStateResponse = conn.unary(
             "EWave.GetState", self._service._rpc.GetState, request, timeout, self.id
-        ).state
+        )
+        return reply.state
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> "EWaveSession":
         """A new session continuing `state` (from ``state()`` of this or another session); this one
@@ -527,7 +528,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = ewave_pb2_grpc.EWaveStub(connection.channel)
+        self._rpc = stub(ewave_pb2_grpc.EWaveStub, connection.channel)
 
     def session(
         self,

@@ -49,7 +49,7 @@ from squall._convert import (
     to_message,
 )
 from squall._errors import SquallError
-from squall._pb import common_pb2, ocean_pb2, textures_pb2, textures_pb2_grpc
+from squall._pb import common_pb2, ocean_pb2, stub, textures_pb2, textures_pb2_grpc
 from squall._results import BakedVelocity, DeformFrame, TextureFrame
 
 # VelocitySpec, AnalyticVelocity, VelocityGrid, RiverVelocity, TileSpec, an eWave session (id or
@@ -732,7 +732,9 @@ def brush_stroke(value: StrokeLike, path: str = "strokes[0]") -> textures_pb2.Br
     )
 
 
-def _strokes(values: Optional[Sequence[StrokeLike]], path: str) -> Optional[list]:
+def _strokes(
+    values: Optional[Sequence[StrokeLike]], path: str
+) -> Optional[List[textures_pb2.BrushStroke]]:
     if values is None:
         return None
     items = sequence(values, path, "a sequence of strokes")
@@ -965,7 +967,7 @@ class Steering(Generic[F]):
             for _ in self._call:
                 pass
         except grpc.RpcError as error:
-            if error.code() != grpc.StatusCode.CANCELLED:  # type: ignore[attr-defined]
+            if error.code() != grpc.StatusCode.CANCELLED:
                 raise SquallError.from_rpc(error, self.METHOD) from None
 
     def cancel(self) -> None:
@@ -1162,7 +1164,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = textures_pb2_grpc.TexturesStub(connection.channel)
+        self._rpc = stub(textures_pb2_grpc.TexturesStub, connection.channel)
 
     def advect(
         self,
