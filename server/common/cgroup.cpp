@@ -7,7 +7,7 @@
 namespace squall {
 namespace {
 
-// The first two words of the file at `path` (the second empty where there is one); false when it cannot be read.
+// The first two words of the file at `path` (the second empty where there is none); false when it cannot be read.
 bool read_words(const std::string& path, std::string& first, std::string& second) {
   std::ifstream in(path);
   first.clear();
@@ -26,27 +26,30 @@ bool read_number(const std::string& text, double& value) {
   }
 }
 
+// The quota over the period, both numbers of microseconds; 0 for no quota ("max", -1) or one unreadable.
+double quota_over_period(const std::string& quota, const std::string& period) {
+  double q = 0, p = 0;
+  return read_number(quota, q) && read_number(period, p) && q > 0 && p > 0 ? q / p : 0;
+}
+
 }  // namespace
 
 uint64_t cgroup_memory_limit(const std::string& root) {
   for (const std::string& file : {root + "/memory.max", root + "/memory/memory.limit_in_bytes"}) {
     std::string text, unused;
     double bytes = 0;
-    if (!read_words(file, text, unused) || text == "max" || !read_number(text, bytes) || bytes <= 0) continue;
+    if (!read_words(file, text, unused) || !read_number(text, bytes) || bytes <= 0) continue;  // "max": none
     if (bytes < 0x1p60) return uint64_t(bytes);  // version 1 writes a huge number for "no limit"
   }
   return 0;
 }
 
 double cgroup_cpu_limit(const std::string& root) {
-  std::string quota, period;
-  double q = 0, p = 0;
-  if (read_words(root + "/cpu.max", quota, period))  // "max 100000" or "<quota> <period>", microseconds
-    return quota != "max" && read_number(quota, q) && read_number(period, p) && q > 0 && p > 0 ? q / p : 0;
-  std::string unused;
-  if (read_words(root + "/cpu/cpu.cfs_quota_us", quota, unused) &&  // -1: no limit
+  std::string quota, period, unused;
+  if (read_words(root + "/cpu.max", quota, period)) return quota_over_period(quota, period);  // "max 100000"
+  if (read_words(root + "/cpu/cpu.cfs_quota_us", quota, unused) &&                            // -1: no limit
       read_words(root + "/cpu/cpu.cfs_period_us", period, unused))
-    return read_number(quota, q) && read_number(period, p) && q > 0 && p > 0 ? q / p : 0;
+    return quota_over_period(quota, period);
   return 0;
 }
 

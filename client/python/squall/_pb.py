@@ -30,9 +30,10 @@ except ImportError as error:  # pragma: no cover - depends on how the package wa
     ) from error
 
 
-def stub(cls: Callable[[Any], Any], channel: Any) -> Any:
-    """``cls(channel)``: a generated client class (``squall.v1.*_pb2_grpc.*Stub``) on a grpc or
-    grpc.aio channel. The generated gRPC modules have no type hints: a stub's methods are Any."""
+def rpc_client(cls: Callable[[Any], Any], channel: Any) -> Any:
+    """``cls(channel)``: one of the generated client classes (``squall.v1.*_pb2_grpc.*Stub``) on
+    a grpc or grpc.aio channel, typed Any: the generated gRPC modules have no type hints, so
+    mypy --strict would otherwise reject each call of their methods as untyped."""
     return cls(channel)
 
 
@@ -48,5 +49,5 @@ __all__ = [
     "server_pb2_grpc",
     "textures_pb2",
     "textures_pb2_grpc",
-    "stub",
+    "rpc_client",
 ]

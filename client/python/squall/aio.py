@@ -69,9 +69,9 @@ from squall._pb import (
     ewave_pb2_grpc,
     ocean_pb2,
     ocean_pb2_grpc,
+    rpc_client,
     server_pb2,
     server_pb2_grpc,
-    stub,
     textures_pb2,
     textures_pb2_grpc,
 )
@@ -377,7 +377,7 @@ class Ocean:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(ocean_pb2_grpc.OceanStub, connection.channel)
+        self._rpc = rpc_client(ocean_pb2_grpc.OceanStub, connection.channel)
 
     async def tile(
         self,
@@ -568,7 +568,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(ewave_pb2_grpc.EWaveStub, connection.channel)
+        self._rpc = rpc_client(ewave_pb2_grpc.EWaveStub, connection.channel)
 
     def session(
         self,
@@ -619,7 +619,7 @@ class Clouds:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(clouds_pb2_grpc.CloudsStub, connection.channel)
+        self._rpc = rpc_client(clouds_pb2_grpc.CloudsStub, connection.channel)
 
     async def build(
         self,
@@ -915,7 +915,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(textures_pb2_grpc.TexturesStub, connection.channel)
+        self._rpc = rpc_client(textures_pb2_grpc.TexturesStub, connection.channel)
 
     def advect(
         self,
@@ -1111,7 +1111,7 @@ class Client:
         else:
             channel = grpc.aio.secure_channel(address, credentials, options=grpc_options)
         self._connection = Connection(channel, settings)
-        self._server = stub(server_pb2_grpc.ServerStub, channel)
+        self._server = rpc_client(server_pb2_grpc.ServerStub, channel)
         self._health = channel.unary_unary(
             HEALTH_CHECK,
             request_serializer=encode_health_request,

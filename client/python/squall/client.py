@@ -19,7 +19,7 @@ from squall._calls import (
 )
 from squall._convert import flag, shown
 from squall._errors import SquallError
-from squall._pb import server_pb2, server_pb2_grpc, stub
+from squall._pb import rpc_client, server_pb2, server_pb2_grpc
 from squall.clouds import Clouds
 from squall.ewave import EWave
 from squall.ocean import Ocean
@@ -208,7 +208,7 @@ class Client:
         else:
             channel = grpc.secure_channel(address, credentials, options=grpc_options)
         self._connection = Connection(channel, settings)
-        self._server = stub(server_pb2_grpc.ServerStub, channel)
+        self._server = rpc_client(server_pb2_grpc.ServerStub, channel)
         self._health = channel.unary_unary(
             HEALTH_CHECK,
             request_serializer=encode_health_request,

@@ -37,7 +37,7 @@ from squall._convert import (
     to_message,
     vec3,
 )
-from squall._pb import clouds_pb2, clouds_pb2_grpc, stub
+from squall._pb import clouds_pb2, clouds_pb2_grpc, rpc_client
 from squall._results import EvolutionFrame, Image, Volume
 
 CloudModel = clouds_pb2.CloudModel
@@ -439,7 +439,7 @@ class Clouds:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(clouds_pb2_grpc.CloudsStub, connection.channel)
+        self._rpc = rpc_client(clouds_pb2_grpc.CloudsStub, connection.channel)
 
     def build(
         self,

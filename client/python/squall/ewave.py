@@ -45,7 +45,7 @@ from squall._convert import (
     vec3,
 )
 from squall._errors import SquallError
-from squall._pb import ewave_pb2, ewave_pb2_grpc, stub
+from squall._pb import ewave_pb2, ewave_pb2_grpc, rpc_client
 from squall._results import EWaveFrame
 from squall.ocean import TileLike, as_tile_spec
 
@@ -528,7 +528,7 @@ class EWave:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(ewave_pb2_grpc.EWaveStub, connection.channel)
+        self._rpc = rpc_client(ewave_pb2_grpc.EWaveStub, connection.channel)
 
     def session(
         self,

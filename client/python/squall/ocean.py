@@ -39,7 +39,7 @@ from squall._convert import (
     to_message,
 )
 from squall._errors import SquallError
-from squall._pb import common_pb2, ocean_pb2, ocean_pb2_grpc, stub
+from squall._pb import common_pb2, ocean_pb2, ocean_pb2_grpc, rpc_client
 from squall._results import Samples, Tile
 
 LayerSpec = ocean_pb2.LayerSpec
@@ -455,7 +455,7 @@ class Ocean:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(ocean_pb2_grpc.OceanStub, connection.channel)
+        self._rpc = rpc_client(ocean_pb2_grpc.OceanStub, connection.channel)
 
     def tile(
         self,

@@ -49,7 +49,7 @@ from squall._convert import (
     to_message,
 )
 from squall._errors import SquallError
-from squall._pb import common_pb2, ocean_pb2, stub, textures_pb2, textures_pb2_grpc
+from squall._pb import common_pb2, ocean_pb2, rpc_client, textures_pb2, textures_pb2_grpc
 from squall._results import BakedVelocity, DeformFrame, TextureFrame
 
 # VelocitySpec, AnalyticVelocity, VelocityGrid, RiverVelocity, TileSpec, an eWave session (id or
@@ -1164,7 +1164,7 @@ class Textures:
 
     def __init__(self, connection: Connection) -> None:
         self._connection = connection
-        self._rpc = stub(textures_pb2_grpc.TexturesStub, connection.channel)
+        self._rpc = rpc_client(textures_pb2_grpc.TexturesStub, connection.channel)
 
     def advect(
         self,
