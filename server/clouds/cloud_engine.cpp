@@ -1,13 +1,19 @@
 #include "clouds/cloud_engine.h"
 
 #include "clouds/build_memory.h"
+#include "common/byte_codec.h"
 #include "common/error.h"
 
 namespace squall::clouds {
 namespace {
 
-// A checkpoint's payload: the volume as .vdb bytes.
-std::string save(const StoredVolume& volume) { return write_vdb(volume.volume); }
+// A checkpoint's payload (CloudEngine::kCheckpointVersion): the bytes the volume holds, then its .vdb bytes.
+std::string save(const StoredVolume& volume) {
+  ByteWriter out;
+  out.put(volume.bytes);
+  out.put_bytes(write_vdb(volume.volume));
+  return out.take();
+}
 
 // What a stored volume holds: its host trees (density and temperature) and its grids on the device.
 uint64_t held_bytes(const CloudVolume& volume, const NanoGrids& grids) {
@@ -85,11 +91,22 @@ std::string CloudEngine::checkpoint(const std::string& id) { return stored_.chec
 
 std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
-  std::string vdb = stored_.open_checkpoint(bytes, "checkpoint", kCheckpointVersion, &header);
-  // Reserved once its size is known, before the device memory is taken: the grids converted, not uploaded.
-  CloudVolume volume = read_vdb(vdb, "checkpoint payload");
-  const NanoGrids grids = to_nanovdb(volume);
-  auto reservation = stored_.reserve(held_bytes(volume, grids));
+  std::string payload =
+      stored_.open_checkpoint(bytes, "checkpoint", kOldestCheckpointVersion, kCheckpointVersion, &header);
+  Reservation reservation = stored_.reserve_session();
+  if (header.version >= 2) {  // reserved before anything is decoded
+    ByteReader in(payload, "checkpoint payload", "a stored volume");
+    stored_.reserve_bytes(reservation, in.get<uint64_t>("the bytes the volume holds"));
+    payload.erase(0, in.offset());  // the .vdb bytes
+  }
+  CloudVolume volume = read_vdb(payload, "checkpoint payload");
+  const NanoGrids grids = to_nanovdb(volume);  // converted, not uploaded: the device memory is taken once reserved
+  if (const uint64_t held = held_bytes(volume, grids); held != reservation.bytes) {
+    // A version 1 payload, or a tree that this OpenVDB sizes otherwise than the one that wrote it.
+    reservation.memory.release();
+    reservation.budget.release();
+    stored_.reserve_bytes(reservation, held);
+  }
   return add(header.id, std::move(reservation), upload(std::move(volume), grids));
 }
 

@@ -31,8 +31,10 @@ struct StoredVolume {
 
 class CloudEngine {
  public:
-  // Version of the checkpoint payload (the volume's .vdb bytes).
-  static constexpr uint32_t kCheckpointVersion = 1;
+  // Version of the checkpoint payload: 2, the bytes the volume holds (a u64, StoredVolume::bytes) and then
+  // its .vdb bytes; 1 (an older squalld's): the .vdb bytes alone.
+  static constexpr uint32_t kCheckpointVersion = 2;
+  static constexpr uint32_t kOldestCheckpointVersion = 1;
 
   CloudEngine(Runtime& runtime, LimitGate& gate, const CloudEngineOptions& options);
 
@@ -65,7 +67,9 @@ class CloudEngine {
   Image render(const StoredVolume& volume, const RenderSettings& settings, const std::string& field = "settings",
                const Cancellation& cancel = {}, const Slot* map_memory = nullptr);
 
-  // A stored volume as versioned bytes, and back under its id.
+  // A stored volume as versioned bytes, and back under its id: its session slot and the bytes it records
+  // are reserved before its .vdb bytes are read (RESOURCE_EXHAUSTED, and nothing decoded, where they do not
+  // fit), then adjusted to what the volume read holds.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 

@@ -217,6 +217,8 @@ class SessionStore {
     {
       std::lock_guard<std::mutex> moving(moving_);  // no resume of `id` between looking and removing
       entry = take(id);
+      // Another close or an eviction is removing it (and its files): that one answers for it.
+      if (!entry && closing(id)) fail(Code::NotFound, not_found(id));
       if (!entry) return close_checkpoint(id);
     }
     const Closing closing{*this, id};  // until its checkpoint is gone, a call on `id` resumes nothing
@@ -607,6 +609,10 @@ class SessionStore {
   bool live_or_closing(const std::string& id) const {
     std::lock_guard<std::mutex> lock(mutex_);
     return entries_.count(id) || closing_.count(id);
+  }
+  bool closing(const std::string& id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return closing_.count(id) > 0;
   }
   std::map<std::string, std::shared_ptr<Entry>> entries_;
   // persist(): the payload format and its writer and reader, persisted_ once both are set.

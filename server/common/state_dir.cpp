@@ -461,7 +461,8 @@ void StateDir::clear_handover(const std::string& id) const {
 bool StateDir::expired(const std::string& id, std::chrono::milliseconds ttl) const {
   const std::optional<std::string> file = file_of(id, kSession);
   const std::optional<Stamp> written = file ? stamp(*file) : std::nullopt;
-  return written && file_system_now() - written->written > ttl;
+  const FileTime now = file_system_now();
+  return written && now - written->written > ttl && !held_live(id, ttl, now);
 }
 
 size_t StateDir::expire(std::chrono::milliseconds ttl) const {
@@ -477,6 +478,7 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
     if (!expiring) continue;
     const std::optional<Stamp> written = stamp(entry.path().string());
     if (!written || now - written->written <= ttl) continue;
+    if (name.ends_with(kSession) && held_live(name.substr(0, name.size() - std::strlen(kSession)), ttl, now)) continue;
     removed += fs::remove(entry.path(), error) ? 1 : 0;
   }
   return removed + expire_heartbeats(ttl, now);
@@ -505,6 +507,20 @@ bool StateDir::expire_owner(const std::string& id, std::chrono::milliseconds ttl
   } catch (const Error&) {  // the lock is another replica's now, or the directory failed: the next pass
   }
   return removed;
+}
+
+// Whether a replica that has beaten within `ttl` of `now` owns session `id` (or its owner file cannot be read
+// now): that replica holds the session live and evicts it when it is idle, while its checkpoint may be as old
+// as its last periodic write, or as its resumption where it checkpoints only when it drains.
+bool StateDir::held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const {
+  const std::optional<std::string> file = file_of(id, kOwner);
+  if (!file) return false;
+  try {
+    const std::optional<std::string> named = read_whole(*file);
+    return named && !silent_for(*named, ttl, now);
+  } catch (const Error& e) {
+    return e.code() != Code::DataLoss;  // unreadable for now: kept; DataLoss: no owner record at all
+  }
 }
 
 // Beyond doubt: the heartbeat file is gone, or it was last written more than `ttl` before `now`.

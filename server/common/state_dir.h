@@ -79,10 +79,11 @@ class StateDir {
   void clear_handover(const std::string& id) const;
 
   // Removes the checkpoints, handover requests, locks and temporaries last written more than `ttl` ago (by
-  // the file system's clock), the owner files of sessions with no checkpoint whose owner has not beaten
-  // for `ttl` (a replica killed holding them), and such replicas' heartbeats; returns how many.
+  // the file system's clock), except the checkpoints of sessions whose owner has beaten within `ttl` (it
+  // holds them live and evicts them itself); the owner files of sessions with no checkpoint whose owner has
+  // not beaten for `ttl` (a replica killed holding them), and such replicas' heartbeats; returns how many.
   size_t expire(std::chrono::milliseconds ttl) const;
-  // Whether id's checkpoint was last written more than `ttl` ago: what expire() removes at its next pass.
+  // Whether id's checkpoint is one expire() removes at its next pass.
   bool expired(const std::string& id, std::chrono::milliseconds ttl) const;
 
   const std::string& path() const { return path_; }
@@ -94,6 +95,7 @@ class StateDir {
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
   bool expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
+  bool held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
   bool silent_for(const std::string& replica, std::chrono::milliseconds ttl, FileTime now) const;
   size_t expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const;
   // Whether path_ is still the directory opened at construction (not a mount point's empty directory

@@ -154,12 +154,18 @@ uint64_t EWaveEngine::steps(const std::string& id) {
   return sessions_.with(id, [](EWaveSession& s) { return s.step_index(); });
 }
 
-std::string EWaveEngine::state(const std::string& id) {
-  return sessions_.with(id, [](EWaveSession& s) { return s.state(); });
+std::string EWaveEngine::state(const std::string& id, uint64_t serial) {
+  return sessions_.with(id, [&](EWaveSession& s) {
+    s.require_serial(serial);
+    return s.state();
+  });
 }
 
-EWaveConfig EWaveEngine::config(const std::string& id) {
-  return sessions_.with(id, [](EWaveSession& s) { return s.config(); });
+EWaveConfig EWaveEngine::config(const std::string& id, uint64_t* serial) {
+  return sessions_.with(id, [&](EWaveSession& s) {
+    if (serial) *serial = s.serial();
+    return s.config();
+  });
 }
 
 SurfaceCurrent EWaveEngine::surface_current(const std::string& id) {

@@ -55,9 +55,12 @@ class EWaveEngine {
   };
   OceanBytes ocean_bytes(const EWaveConfig& config, const std::optional<ocean::TileSpec>& spec) const;
   uint64_t steps(const std::string& id);  // steps the session has made
-  std::string state(const std::string& id);
+  // The session's state; with a `serial`, Error(Aborted) unless the id still names that session
+  // (EWaveSession::require_serial).
+  std::string state(const std::string& id, uint64_t serial = 0);
   void close(const std::string& id);
-  EWaveConfig config(const std::string& id);
+  // The session's config, and its serial (EWaveSession::serial) for a later step's StepGuard or state().
+  EWaveConfig config(const std::string& id, uint64_t* serial = nullptr);
   // The session's surface current after its last step, for the textures that follow its wakes.
   SurfaceCurrent surface_current(const std::string& id);
 

@@ -19,8 +19,9 @@ void fill_config(const EWaveConfig& config, squall::v1::EWaveConfig* proto);
 // One step's inputs for a session of `config` ("inputs").
 StepInputs inputs(const squall::v1::EWaveInputs& proto, const EWaveConfig& config, const LimitGate& gate);
 
-// The request's retry_key (at most kMaxRetryKeyBytes: InvalidArgument naming "retry_key") and after_step.
-StepGuard guard(const squall::v1::EWaveStepRequest& request);
+// The request's retry_key (at most kMaxRetryKeyBytes: InvalidArgument naming "retry_key") and after_step, for
+// the session of serial `session` (EWaveEngine::config).
+StepGuard guard(const squall::v1::EWaveStepRequest& request, uint64_t session);
 
 // The validated output list of inputs (empty: height only). The reply's element type is checked by
 // squall::field::dtype (common/field_codec.h).

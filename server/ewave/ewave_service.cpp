@@ -39,7 +39,8 @@ void EWaveService::start(EngineContext& context) { engine_ = &ewave::shared_engi
 void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation& cancel, v1::EWaveFrame* frame) {
   auto& ewave = *engine_;
   const std::string& id = session_id(request.session_id());
-  const ewave::EWaveConfig config = ewave.config(id);  // NOT_FOUND for an unknown, closed or evicted id
+  uint64_t serial = 0;  // the step runs on this session, not on one made under its id since
+  const ewave::EWaveConfig config = ewave.config(id, &serial);  // NOT_FOUND for an unknown, closed or evicted id
   const auto outputs = squall::ewave::rpc::outputs(request.inputs());
   const v1::DType type = squall::field::dtype(request.inputs().dtype(), "inputs.dtype");
   // Refused before the step, so that a frame too large to send does not advance the session.
@@ -63,7 +64,7 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
   Slot spectra = memory.split(ocean.new_spectra);
   serving_.gate().top_up(spectra, what + "'s spectra, built again",
                          [&] { return ewave.ocean_bytes(config, sea).new_spectra; });
-  ewave::Frame result = ewave.step(id, in, guard(request), {cancel, &spectra});
+  ewave::Frame result = ewave.step(id, in, guard(request, serial), {cancel, &spectra});
   frame->set_session_id(id);
   try {
     fill_frame(result, config, outputs, type, frame);
@@ -125,10 +126,11 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
   return serve(*context, serving_, [&] {
     const std::string& id = session_id(request->session_id());
     // Its fields alone, known from the config before they are read: refused or reserved first.
-    const uint64_t fields = ewave::state_field_bytes(engine_->config(id));
+    uint64_t serial = 0;  // the state read is this session's, not one's made under its id since
+    const uint64_t fields = ewave::state_field_bytes(engine_->config(id, &serial));
     serving_.gate().check_message_bytes("GetState reply (the session's state)", fields);
     const Slot memory = serving_.gate().acquire_memory("GetState's state", fields);
-    std::string state = engine_->state(id);
+    std::string state = engine_->state(id, serial);
     serving_.gate().check_message_bytes("GetState reply (the session's state)", state.size());
     *response->mutable_state() = std::move(state);
     return grpc::Status::OK;

@@ -3,6 +3,7 @@
 #include "ewave/ewave_session.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include "common/error.h"
 #include "ewave/propagator.h"
@@ -10,6 +11,14 @@
 #include "runtime/host_transfer.h"
 
 namespace squall::ewave {
+namespace {
+
+uint64_t next_serial() {
+  static std::atomic<uint64_t> last{0};
+  return ++last;
+}
+
+}  // namespace
 
 EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& config, ocean::OceanEngine* ocean,
                            const LimitGate* gate, CoefficientCache* coefficients, const OceanCall& call)
@@ -18,6 +27,7 @@ EWaveSession::EWaveSession(Runtime& runtime, fft::Fft& fft, const EWaveConfig& c
       ocean_(ocean),
       gate_(gate),
       config_(config),
+      serial_(next_serial()),
       // A session's own cache keeps at least its own table, however large its grid.
       own_coefficients_(coefficients ? nullptr
                                      : std::make_unique<CoefficientCache>(std::max(
@@ -133,6 +143,13 @@ uint64_t EWaveSession::device_bytes() const {
                                    &ambient_, &source_h_, &source_phi_, &drift_x_, &drift_y_})
     bytes += lease->bytes();
   return bytes;
+}
+
+void EWaveSession::require_serial(uint64_t serial) const {
+  if (serial != 0 && serial != serial_)
+    fail(Code::Aborted,
+         "session_id names a session made again under that id (closed and created) since this call read its "
+         "config: nothing was done; send the call again");
 }
 
 void EWaveSession::check_whole() const {

@@ -41,6 +41,11 @@ class EWaveSession {
                const LimitGate* gate = nullptr, CoefficientCache* coefficients = nullptr, const OceanCall& call = {});
 
   const EWaveConfig& config() const { return config_; }
+  // A number no other session of this process has had: it tells a session from one made later under its id.
+  uint64_t serial() const { return serial_; }
+  // Error(Aborted) unless `serial` is 0 or this session's: the id names a session made after the caller's
+  // read of it (closed and made again under the same id), whose config the caller did not see.
+  void require_serial(uint64_t serial) const;
   uint64_t step_index() const { return step_; }
   double time() const { return time_; }
 
@@ -48,7 +53,8 @@ class EWaveSession {
   // fails once it has begun to change the fields leaves the session broken: this and state() then answer
   // FAILED_PRECONDITION until restore().
   // A guard whose retry_key is the last step's returns that step's frame again and steps nothing; one whose
-  // after_step is not the step count gives Error(Aborted) naming "after_step".
+  // after_step is not the step count gives Error(Aborted) naming "after_step", as does one whose session
+  // serial is not this session's (require_serial).
   Frame step(const StepInputs& inputs, const StepGuard& guard = {}, const OceanCall& call = {});
   // The retry_key the last step was made with (empty: none), kept in checkpoints so that a retry finds it
   // on the replica the session moves to.
@@ -119,6 +125,7 @@ class EWaveSession {
   ocean::OceanEngine* ocean_;
   const LimitGate* gate_;
   EWaveConfig config_;
+  const uint64_t serial_;
   size_t cells_, half_;  // nx ny real cells; (nx/2+1) ny spectrum modes
   size_t real_size_;     // bytes of one state value: 4 (float) or 8 (double)
   uint64_t step_ = 0;

@@ -6,7 +6,9 @@
 
 #include "clouds/cloud_engine.h"
 #include "clouds/obj_mesh.h"
+#include "common/byte_codec.h"
 #include "common/error.h"
+#include "common/session_checkpoint.h"
 #include "support/expect_error.h"
 #include "support/test_runtime.h"
 
@@ -174,6 +176,33 @@ TEST(Engine, ACheckpointThatDoesNotFitIsRefusedBeforeItsUpload) {
   TestStore fits(limits);
   EXPECT_EQ(fits.engine->restore_checkpoint(saved), id);
   EXPECT_EQ(fits.engine->stored_bytes(), v->bytes);
+}
+
+// A checkpoint records the bytes its volume holds, and those are reserved before its .vdb bytes are decoded:
+// a record past the limits is refused as such even where the bytes that follow are no .vdb at all. One of
+// the first payload version (the .vdb bytes alone, as an older squalld writes them) still resumes.
+TEST(Engine, ACheckpointsRecordedSizeIsReservedBeforeItIsDecoded) {
+  TestStore store;
+  auto v = store.engine->build(small_sphere());
+  const std::string id = store.engine->keep(v);
+  const CheckpointHeader header{"stored volume", CloudEngine::kCheckpointVersion, id};
+  ByteWriter huge;
+  huge.put(uint64_t(1) << 60);
+  huge.put_bytes("not a .vdb stream");
+  store.engine->release(id);
+  const uint64_t before = store.gate.memory_bytes();
+  error_of([&] { store.engine->restore_checkpoint(encode_checkpoint(header, huge.take())); }, Code::ResourceExhausted);
+  ByteWriter fits;
+  fits.put(v->bytes);
+  fits.put_bytes("not a .vdb stream");
+  error_of([&] { store.engine->restore_checkpoint(encode_checkpoint(header, fits.take())); }, Code::InvalidArgument);
+  EXPECT_EQ(store.engine->stored_count(), 0u);
+  EXPECT_EQ(store.gate.memory_bytes(), before) << "a refused checkpoint keeps no reservation";
+
+  const std::string first = encode_checkpoint({"stored volume", 1, id}, write_vdb(v->volume));
+  EXPECT_EQ(store.engine->restore_checkpoint(first), id);
+  EXPECT_EQ(store.engine->find(id)->bytes, v->bytes);
+  EXPECT_EQ(store.engine->stored_bytes(), v->bytes) << "reserved as the volume read holds";
 }
 
 TEST(Engine, ModelBudgetIsCappedByTheEngine) {

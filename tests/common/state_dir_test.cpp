@@ -481,8 +481,10 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
 }
 
 // A close waits for the call in flight on its session. A call that comes meanwhile finds the session gone
-// (NOT_FOUND), not resumed from its periodic checkpoint, and once the close returns nothing of it is left.
-TEST(StateDir, ACallDuringACloseDoesNotResumeTheSession) {
+// (NOT_FOUND), not resumed from its periodic checkpoint, and so does a second close (which before removed the
+// checkpoint and ownership itself, and the first then answered UNAVAILABLE); once the close returns nothing
+// of it is left.
+TEST(StateDir, ACallOrACloseDuringACloseDoesNotResumeTheSession) {
   Replica a(test::temp_dir("state-closing"), "a");
   const std::string id = a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>());
   ASSERT_EQ(a.registry.checkpoint_all(false), 1u);  // a periodic checkpoint
@@ -494,12 +496,23 @@ TEST(StateDir, ACallDuringACloseDoesNotResumeTheSession) {
     });
   });
   while (!in_call) std::this_thread::sleep_for(1ms);
-  std::thread closer([&] { a.store.close(id); });
+  std::string first_close = "running";  // "closed", or its error
+  std::thread closer([&] {
+    try {
+      a.store.close(id);
+      first_close = "closed";
+    } catch (const Error& e) {
+      first_close = e.what();
+    }
+  });
   while (a.store.size() != 0) std::this_thread::sleep_for(1ms);  // taken out; the close waits for the call
   expect_error(Code::NotFound, "counter_id", [&] { a.store.get(id); });
+  expect_error(Code::NotFound, "counter_id", [&] { a.store.close(id); });
+  EXPECT_TRUE(a.registry.state_dir()->read(id)) << "the checkpoint is the first close's to remove";
   done = true;
   call.join();
   closer.join();
+  EXPECT_EQ(first_close, "closed");
   EXPECT_FALSE(a.registry.state_dir()->read(id)) << "the close removed the checkpoint";
   expect_error(Code::NotFound, "counter_id", [&] { a.store.get(id); });
   EXPECT_EQ(a.store.size(), 0u);
@@ -641,6 +654,31 @@ TEST(StateDir, OwnerFilesAndHeartbeatsOfAReplicaKilledLongAgoExpire) {
   EXPECT_FALSE(fs::exists(dir + "/replicas/dead"));
   EXPECT_EQ(state.owner(live).value(), "live");
   EXPECT_EQ(state.owner(kept).value(), "dead");
+}
+
+// A checkpoint's age says nothing of a session that its owner holds live (a replica that checkpoints seldom or
+// only when it drains): it stays while that owner beats, and expires once the owner has been silent for the
+// TTL, as one with no owner does.
+TEST(StateDir, ACheckpointStaysWhileItsOwnerBeats) {
+  const std::string dir = test::temp_dir("state-live-owner");
+  const std::string live = "c-11111111111111111111111111111111", dead = "c-22222222222222222222222222222222";
+  const std::string unowned = "c-33333333333333333333333333333333";
+  StateDir state(dir, "--state-dir");
+  state.heartbeat("dead");
+  ASSERT_TRUE(state.create_owner(live, "live"));
+  ASSERT_TRUE(state.create_owner(dead, "dead"));
+  for (const std::string& id : {live, dead, unowned}) state.write(id, "a checkpoint");
+  std::this_thread::sleep_for(1500ms);
+  state.heartbeat("live");
+  // A TTL well past the few calls between the live beat and the expiry, however loaded the machine.
+  EXPECT_FALSE(state.expired(live, 1000ms)) << "its owner beats";
+  EXPECT_TRUE(state.expired(dead, 1000ms)) << "its owner has been silent for the TTL";
+  EXPECT_TRUE(state.expired(unowned, 1000ms));
+  state.expire(1000ms);
+  EXPECT_EQ(state.read(live).value_or("gone"), "a checkpoint");
+  EXPECT_FALSE(state.read(dead));
+  EXPECT_FALSE(state.read(unowned));
+  EXPECT_EQ(state.owner(live).value_or("none"), "live");
 }
 
 // A directory squalld makes is its user's alone (file names are session ids); one given keeps its mode.

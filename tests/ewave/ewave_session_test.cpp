@@ -450,6 +450,32 @@ TEST_F(EngineTest, ClosedIdIsNotFoundAndIdsAreRandom128Bit) {
   e.step(b, plain_step(0.01));  // the other session is untouched
 }
 
+// A call reads its session's config to validate and size what it does, then steps or reads the state in a
+// second locked call: where the id names a session made again under it meanwhile (closed and created), the
+// second part is refused rather than run on a grid the first did not see.
+TEST_F(EngineTest, ACallThatReadASessionsConfigRunsOnThatSessionOnly) {
+  EWaveEngine e = engine();
+  const std::string id = e.create(plain_config(32, 32), std::string(32, 'a'));
+  uint64_t serial = 0;
+  EXPECT_EQ(e.config(id, &serial).nx, 32);
+  EXPECT_NE(serial, 0u);
+  StepGuard guard;
+  guard.session = serial;
+  EXPECT_EQ(e.step(id, plain_step(0.01), guard).step, 1u) << "the session read is stepped";
+  EXPECT_FALSE(e.state(id, serial).empty());
+  e.close(id);
+  ASSERT_EQ(e.create(plain_config(16, 16), id), id);
+  expect_error(Code::Aborted, "session_id names a session made again under that id",
+               [&] { e.step(id, plain_step(0.01), guard); });
+  expect_error(Code::Aborted, "session_id names a session made again", [&] { e.state(id, serial); });
+  uint64_t again = 0;
+  EXPECT_EQ(e.config(id, &again).nx, 16);
+  EXPECT_NE(again, serial);
+  EXPECT_EQ(e.steps(id), 0u) << "the refused step left the new session as it was";
+  guard.session = again;
+  EXPECT_EQ(e.step(id, plain_step(0.01), guard).step, 1u);
+}
+
 TEST_F(EngineTest, SessionLimitAndGridLimitAreResourceExhausted) {
   EWaveEngine e = engine();
   e.create(plain_config(32, 32));
