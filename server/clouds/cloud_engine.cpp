@@ -101,9 +101,13 @@ std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   }
   CloudVolume volume = read_vdb(payload, "checkpoint payload");
   const NanoGrids grids = to_nanovdb(volume);  // converted, not uploaded: the device memory is taken once reserved
-  if (const uint64_t held = held_bytes(volume, grids); held != reservation.bytes) {
-    // A version 1 payload, or a tree that this OpenVDB sizes otherwise than the one that wrote it.
-    reservation.memory.release();
+  // A version 1 payload, or a tree that this OpenVDB sizes otherwise than the one that wrote it.
+  if (const uint64_t held = held_bytes(volume, grids); held < reservation.bytes) {
+    reservation.memory.give_back(reservation.bytes - held);
+    reservation.budget.give_back(reservation.bytes - held);
+    reservation.bytes = held;
+  } else if (held > reservation.bytes) {
+    reservation.memory.release();  // given back first, not counted twice
     reservation.budget.release();
     stored_.reserve_bytes(reservation, held);
   }

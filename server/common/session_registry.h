@@ -143,6 +143,12 @@ class SessionRegistry {
     return written;
   }
 
+  // An expiry pass over the state directory (StateDir::expire), which keeps the checkpoints of the sessions
+  // live here and removes those of an owner file of this replica's that no store holds (one left behind).
+  size_t expire(std::chrono::milliseconds ttl) {
+    return state_dir_->expire(ttl, replica_, [this](const std::string& id) { return holds(id); });
+  }
+
   // Sessions that a checkpoint pass releasing them (a drain) could not write: they resume elsewhere from their
   // last checkpoint, and what they did since is lost.
   void count_unsaved() { ++unsaved_; }

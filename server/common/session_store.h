@@ -211,14 +211,17 @@ class SessionStore {
   // Removes the entry once a call in flight on it has finished, and its checkpoint. An id this store does
   // not hold but the state directory does (its replica drained) is closed by removing its checkpoint; one
   // that another live replica holds is UNAVAILABLE (that replica is asked to hand it over, so the retry
-  // closes it here). NOT_FOUND when absent.
-  void close(const std::string& id) {
+  // closes it here). NOT_FOUND when absent, and for a second close while the first one waits (even where the
+  // first then finds the session released: UNAVAILABLE). With `accepts`, only an entry live here whose
+  // value it accepts (called under the map's lock, without the entry's: it must read what never changes,
+  // such as a serial), NOT_FOUND otherwise: a call closing the session it made, not one made under its id since.
+  void close(const std::string& id, const std::function<bool(const T&)>& accepts = {}) {
     std::shared_ptr<Entry> entry;
     {
       std::lock_guard<std::mutex> moving(moving_);  // no resume of `id` between looking and removing
-      entry = take(id);
+      entry = take(id, accepts);
       // Another close or an eviction is removing it (and its files): that one answers for it.
-      if (!entry && closing(id)) fail(Code::NotFound, not_found(id));
+      if (!entry && (accepts || closing(id))) fail(Code::NotFound, not_found(id));
       if (!entry) return close_checkpoint(id);
     }
     const Closing closing{*this, id};  // until its checkpoint is gone, a call on `id` resumes nothing
@@ -378,8 +381,10 @@ class SessionStore {
  private:
   struct Entry {
     std::string id;
-    std::mutex mutex;       // one call at a time per entry; guards `released` too
-    bool released = false;  // checkpointed for another replica: calls answer UNAVAILABLE
+    std::mutex mutex;  // one call at a time per entry; `released` changes under it
+    // Checkpointed for another replica: calls answer UNAVAILABLE. Atomic for holds(), which reads it under the
+    // map's lock only.
+    std::atomic<bool> released = false;
     // Closed or evicted (its files removed: no checkpoint writes it again); a call that found it before
     // answers NOT_FOUND. Set under `mutex`, except by an eviction with no files, which does not wait.
     std::atomic<bool> removed = false;
@@ -525,9 +530,10 @@ class SessionStore {
          kind_ + " " + id + " was claimed first by replica " + holder + ", which holds it now; retry in a moment");
   }
 
-  bool holds(const std::string& id) const {
+  bool holds(const std::string& id) const {  // live here, and not released for another replica
     std::lock_guard<std::mutex> lock(mutex_);
-    return entries_.count(id) > 0;
+    auto it = entries_.find(id);
+    return it != entries_.end() && !it->second->released;
   }
 
   // An id this store does not hold and no other live replica owns: resumed from its checkpoint when there
@@ -540,7 +546,9 @@ class SessionStore {
     if (live_or_closing(id)) return;  // resumed by a call before this one, or being closed or evicted
     require_not_owned_elsewhere(id);
     if (!state_dir()->checkpointed(id)) return;
-    if (state_dir()->expired(id, policy_.ttl)) return;  // idle past the TTL: evicted, as it would be if live
+    // Idle past the TTL: evicted, as it would be if live (an owner file naming this replica, which does not hold
+    // the session, keeps nothing).
+    if (state_dir()->expired(id, policy_.ttl, policy_.registry->replica())) return;
     if (policy_.registry->draining())
       fail(Code::Unavailable,
            kind_ + " " + id + " is checkpointed and squalld is shutting down; retry on another replica");
@@ -577,11 +585,11 @@ class SessionStore {
     return encode_checkpoint({kind_, payload.version, id}, payload.bytes);
   }
 
-  std::shared_ptr<Entry> take(const std::string& id) {
+  std::shared_ptr<Entry> take(const std::string& id, const std::function<bool(const T&)>& accepts = {}) {
     evict_idle();  // an expired id is NOT_FOUND here too
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = entries_.find(id);
-    if (it == entries_.end()) return nullptr;
+    if (it == entries_.end() || (accepts && !accepts(*it->second->value))) return nullptr;
     std::shared_ptr<Entry> entry = std::move(it->second);
     entries_.erase(it);
     closing_.insert(id);  // until the caller's Closing: a call that comes meanwhile resumes nothing

@@ -458,14 +458,15 @@ void StateDir::clear_handover(const std::string& id) const {
   if (auto file = file_of(id, kHandover)) std::remove(file->c_str());
 }
 
-bool StateDir::expired(const std::string& id, std::chrono::milliseconds ttl) const {
+bool StateDir::expired(const std::string& id, std::chrono::milliseconds ttl, const std::string& self,
+                       const HeldHere& held_here) const {
   const std::optional<std::string> file = file_of(id, kSession);
   const std::optional<Stamp> written = file ? stamp(*file) : std::nullopt;
   const FileTime now = file_system_now();
-  return written && now - written->written > ttl && !held_live(id, ttl, now);
+  return written && now - written->written > ttl && !held_live(id, ttl, now, self, held_here);
 }
 
-size_t StateDir::expire(std::chrono::milliseconds ttl) const {
+size_t StateDir::expire(std::chrono::milliseconds ttl, const std::string& self, const HeldHere& held_here) const {
   size_t removed = 0;
   std::error_code error;
   const auto now = file_system_now();  // the clock the files are stamped by
@@ -478,7 +479,9 @@ size_t StateDir::expire(std::chrono::milliseconds ttl) const {
     if (!expiring) continue;
     const std::optional<Stamp> written = stamp(entry.path().string());
     if (!written || now - written->written <= ttl) continue;
-    if (name.ends_with(kSession) && held_live(name.substr(0, name.size() - std::strlen(kSession)), ttl, now)) continue;
+    if (name.ends_with(kSession) &&
+        held_live(name.substr(0, name.size() - std::strlen(kSession)), ttl, now, self, held_here))
+      continue;
     removed += fs::remove(entry.path(), error) ? 1 : 0;
   }
   return removed + expire_heartbeats(ttl, now);
@@ -509,14 +512,18 @@ bool StateDir::expire_owner(const std::string& id, std::chrono::milliseconds ttl
   return removed;
 }
 
-// Whether a replica that has beaten within `ttl` of `now` owns session `id` (or its owner file cannot be read
-// now): that replica holds the session live and evicts it when it is idle, while its checkpoint may be as old
-// as its last periodic write, or as its resumption where it checkpoints only when it drains.
-bool StateDir::held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const {
+// Whether session `id` is held live: its owner file names another replica that has beaten within `ttl` of
+// `now`, or `self` where `held_here` says it holds the session (an owner file of its own that it does not hold
+// is one left behind), or cannot be read now. The owner evicts such a session when it is idle, while its
+// checkpoint may be as old as its last periodic write, or as its resumption where it checkpoints only when
+// it drains.
+bool StateDir::held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now, const std::string& self,
+                         const HeldHere& held_here) const {
   const std::optional<std::string> file = file_of(id, kOwner);
   if (!file) return false;
   try {
     const std::optional<std::string> named = read_whole(*file);
+    if (named && !self.empty() && *named == self) return held_here && held_here(id);
     return named && !silent_for(*named, ttl, now);
   } catch (const Error& e) {
     return e.code() != Code::DataLoss;  // unreadable for now: kept; DataLoss: no owner record at all

@@ -79,12 +79,15 @@ class StateDir {
   void clear_handover(const std::string& id) const;
 
   // Removes the checkpoints, handover requests, locks and temporaries last written more than `ttl` ago (by
-  // the file system's clock), except the checkpoints of sessions whose owner has beaten within `ttl` (it
-  // holds them live and evicts them itself); the owner files of sessions with no checkpoint whose owner has
-  // not beaten for `ttl` (a replica killed holding them), and such replicas' heartbeats; returns how many.
-  size_t expire(std::chrono::milliseconds ttl) const;
+  // the file system's clock), except the checkpoints of sessions held live (their owner evicts them itself,
+  // however seldom it checkpoints): by another replica that has beaten within `ttl`, or by replica `self`
+  // (the caller's) where `held_here` says so; the owner files of sessions with no checkpoint whose owner
+  // has not beaten for `ttl` (a replica killed holding them), and such replicas' heartbeats; returns how many.
+  using HeldHere = std::function<bool(const std::string& id)>;
+  size_t expire(std::chrono::milliseconds ttl, const std::string& self = "", const HeldHere& held_here = {}) const;
   // Whether id's checkpoint is one expire() removes at its next pass.
-  bool expired(const std::string& id, std::chrono::milliseconds ttl) const;
+  bool expired(const std::string& id, std::chrono::milliseconds ttl, const std::string& self = "",
+               const HeldHere& held_here = {}) const;
 
   const std::string& path() const { return path_; }
 
@@ -95,7 +98,8 @@ class StateDir {
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
   void break_if_stale(const std::string& lock) const;
   bool expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
-  bool held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
+  bool held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now, const std::string& self,
+                 const HeldHere& held_here) const;
   bool silent_for(const std::string& replica, std::chrono::milliseconds ttl, FileTime now) const;
   size_t expire_heartbeats(std::chrono::milliseconds ttl, FileTime now) const;
   // Whether path_ is still the directory opened at construction (not a mount point's empty directory

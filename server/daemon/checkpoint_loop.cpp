@@ -56,8 +56,7 @@ void CheckpointLoop::tick() {
   }
   if (now - last_expiry_ >= kExpiry) {
     last_expiry_ = now;
-    logged("expiry",
-           [&] { log(LogLevel::Debug, "state directory: ", registry_.state_dir()->expire(ttl_), " files expired"); });
+    logged("expiry", [&] { log(LogLevel::Debug, "state directory: ", registry_.expire(ttl_), " files expired"); });
   }
 }
 

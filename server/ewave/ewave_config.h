@@ -113,9 +113,9 @@ struct StepInputs {
 struct StepGuard {
   std::string retry_key;               // the caller's key for this step, at most kMaxRetryKeyBytes; empty: none
   std::optional<uint64_t> after_step;  // the step count the session must be at; none: no check
-  // The serial of the session the caller read the config of (EWaveEngine::config), to validate the step's
+  // The serial of the session the caller read the config of (EWaveEngine::view), to validate the step's
   // inputs and size its frame; 0: no check.
-  uint64_t session = 0;
+  uint64_t session_serial = 0;
 };
 constexpr size_t kMaxRetryKeyBytes = 64;
 

@@ -57,6 +57,10 @@ Saved load(std::string payload, uint32_t version, const LimitGate& gate) {
   return saved;
 }
 
+SessionView view_of(const std::string& id, const EWaveSession& s) {
+  return {id, s.config(), s.step_index(), s.serial()};
+}
+
 }  // namespace
 
 EWaveEngine::EWaveEngine(Runtime& runtime, fft::Fft& fft, LimitGate& gate, EWaveEngineOptions options)
@@ -116,9 +120,10 @@ EWaveEngine::NewSession EWaveEngine::new_session(const EWaveConfig& config, cons
 }
 
 std::string EWaveEngine::create(const EWaveConfig& config, const std::string& proposed, const OceanCall& call,
-                                const std::string& client) {
+                                const std::string& client, SessionView* made) {
   const std::string id = sessions_.id_for(proposed, kProposedIdField);
   auto [reservation, session] = new_session(config, call, "config", client);
+  if (made) *made = view_of(id, *session);
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
@@ -132,9 +137,10 @@ EWaveEngine::NewSession EWaveEngine::from_state(const std::string& bytes, std::o
 }
 
 std::string EWaveEngine::create_from_state(const std::string& bytes, const std::string& proposed,
-                                           const std::string& client) {
+                                           const std::string& client, SessionView* made) {
   const std::string id = sessions_.id_for(proposed, kProposedIdField);
   auto [reservation, session] = from_state(bytes, std::nullopt, client);
+  if (made) *made = view_of(id, *session);
   return sessions_.add(id, std::move(reservation), std::move(session));
 }
 
@@ -150,10 +156,6 @@ EWaveEngine::OceanBytes EWaveEngine::ocean_bytes(const EWaveConfig& config,
   return {ocean_->new_spectra_bytes(on_grid), ocean::surface_device_bytes(on_grid)};
 }
 
-uint64_t EWaveEngine::steps(const std::string& id) {
-  return sessions_.with(id, [](EWaveSession& s) { return s.step_index(); });
-}
-
 std::string EWaveEngine::state(const std::string& id, uint64_t serial) {
   return sessions_.with(id, [&](EWaveSession& s) {
     s.require_serial(serial);
@@ -161,18 +163,18 @@ std::string EWaveEngine::state(const std::string& id, uint64_t serial) {
   });
 }
 
-EWaveConfig EWaveEngine::config(const std::string& id, uint64_t* serial) {
-  return sessions_.with(id, [&](EWaveSession& s) {
-    if (serial) *serial = s.serial();
-    return s.config();
-  });
+SessionView EWaveEngine::view(const std::string& id) {
+  return sessions_.with(id, [&](EWaveSession& s) { return view_of(id, s); });
 }
 
 SurfaceCurrent EWaveEngine::surface_current(const std::string& id) {
   return sessions_.with(id, [](EWaveSession& s) { return s.surface_current(); });
 }
 
-void EWaveEngine::close(const std::string& id) { sessions_.close(id); }
+void EWaveEngine::close(const std::string& id, uint64_t serial) {
+  if (serial == 0) return sessions_.close(id);
+  sessions_.close(id, [serial](const EWaveSession& s) { return s.serial() == serial; });  // serial_ is const
+}
 
 std::string EWaveEngine::checkpoint(const std::string& id) { return sessions_.checkpoint(id, save); }
 

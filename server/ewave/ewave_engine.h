@@ -21,6 +21,14 @@ struct EWaveEngineOptions {
   ocean::OceanEngine* ocean = nullptr;
 };
 
+// A session as one locked read saw it: its serial (EWaveSession::serial) names it for a later call's
+// StepGuard, state() or close(), which then act on that session only.
+struct SessionView {
+  std::string id;
+  EWaveConfig config;
+  uint64_t steps = 0, serial = 0;
+};
+
 class EWaveEngine {
  public:
   // Versions of the checkpoint payload (ewave_engine.cpp): 3, the session's state bytes, its config's
@@ -36,10 +44,11 @@ class EWaveEngine {
   // `client`'s --max-sessions-per-client (empty: no client's). `call`: what the creating call lends the
   // initial ocean's evaluation: the spectra kept are held while the session's bytes are reserved, and its
   // spectra_memory is then topped up to those that must be built (RESOURCE_EXHAUSTED past --memory-budget).
+  // `made`, if given, receives the new session's view, read before any other call can reach it.
   std::string create(const EWaveConfig& config, const std::string& proposed = "", const OceanCall& call = {},
-                     const std::string& client = "");
+                     const std::string& client = "", SessionView* made = nullptr);
   std::string create_from_state(const std::string& bytes, const std::string& proposed = "",
-                                const std::string& client = "");
+                                const std::string& client = "", SessionView* made = nullptr);
   Frame step(const std::string& id, const StepInputs& inputs, const StepGuard& guard = {},
              const OceanCall& call = {});  // EWaveSession::step
   // What a session of `config` (EWaveSession::check_runs_on, under `path`) or a step's `inputs` (its ambient
@@ -54,13 +63,12 @@ class EWaveEngine {
     uint64_t new_spectra = 0, working = 0;
   };
   OceanBytes ocean_bytes(const EWaveConfig& config, const std::optional<ocean::TileSpec>& spec) const;
-  uint64_t steps(const std::string& id);  // steps the session has made
   // The session's state; with a `serial`, Error(Aborted) unless the id still names that session
   // (EWaveSession::require_serial).
   std::string state(const std::string& id, uint64_t serial = 0);
-  void close(const std::string& id);
-  // The session's config, and its serial (EWaveSession::serial) for a later step's StepGuard or state().
-  EWaveConfig config(const std::string& id, uint64_t* serial = nullptr);
+  // Closes the session; with a `serial`, only that session (NOT_FOUND where the id names another one now).
+  void close(const std::string& id, uint64_t serial = 0);
+  SessionView view(const std::string& id);  // in one locked read
   // The session's surface current after its last step, for the textures that follow its wakes.
   SurfaceCurrent surface_current(const std::string& id);
 

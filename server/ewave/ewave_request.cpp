@@ -241,11 +241,11 @@ uint64_t frame_host_bytes(const EWaveConfig& c, const OutputSelection& o) {
   return c.cells() * (float_planes * sizeof(float) + (c.double_precision ? state_planes * sizeof(double) : 0));
 }
 
-StepGuard guard(const v1::EWaveStepRequest& request, uint64_t session) {
+StepGuard guard(const v1::EWaveStepRequest& request, uint64_t session_serial) {
   if (request.retry_key().size() > kMaxRetryKeyBytes)
     fail(Code::InvalidArgument, "retry_key has " + std::to_string(request.retry_key().size()) + " bytes, at most " +
                                     std::to_string(kMaxRetryKeyBytes));
-  StepGuard guard{request.retry_key(), std::nullopt, session};
+  StepGuard guard{request.retry_key(), std::nullopt, session_serial};
   if (request.has_after_step()) guard.after_step = request.after_step();
   return guard;
 }

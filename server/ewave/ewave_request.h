@@ -20,8 +20,8 @@ void fill_config(const EWaveConfig& config, squall::v1::EWaveConfig* proto);
 StepInputs inputs(const squall::v1::EWaveInputs& proto, const EWaveConfig& config, const LimitGate& gate);
 
 // The request's retry_key (at most kMaxRetryKeyBytes: InvalidArgument naming "retry_key") and after_step, for
-// the session of serial `session` (EWaveEngine::config).
-StepGuard guard(const squall::v1::EWaveStepRequest& request, uint64_t session);
+// the session of serial `session_serial` (EWaveEngine::view).
+StepGuard guard(const squall::v1::EWaveStepRequest& request, uint64_t session_serial);
 
 // The validated output list of inputs (empty: height only). The reply's element type is checked by
 // squall::field::dtype (common/field_codec.h).

@@ -17,18 +17,23 @@ const std::string& session_id(const std::string& id) {
   return id;
 }
 
-void session_reply(ewave::EWaveEngine& engine, const std::string& id, v1::EWaveSessionResponse* response) {
-  response->set_session_id(id);
-  fill_config(engine.config(id), response->mutable_config());
-  response->set_step(engine.steps(id));
-  response->set_max_dt(ewave::max_dt(engine.config(id)));
+void session_reply(const ewave::SessionView& session, v1::EWaveSessionResponse* response) {
+  response->set_session_id(session.id);
+  fill_config(session.config, response->mutable_config());
+  response->set_step(session.steps);
+  response->set_max_dt(ewave::max_dt(session.config));
 }
 
 // A session made for a caller that has gone meanwhile (its deadline passed while the session was built)
-// is held by nobody: it is closed at once rather than kept until --session-ttl.
-void refuse_if_gone(const grpc::ServerContext& context, ewave::EWaveEngine& engine, const std::string& id) {
+// is held by nobody: it is closed at once rather than kept until --session-ttl (that session only: not one
+// made under its id since).
+void refuse_if_gone(const grpc::ServerContext& context, ewave::EWaveEngine& engine, const ewave::SessionView& made) {
   if (!context.IsCancelled()) return;
-  engine.close(id);
+  try {
+    engine.close(made.id, made.serial);
+  } catch (const Error& e) {
+    if (e.code() != Code::NotFound) throw;  // closed already, or another session under its id now
+  }
   fail(Code::Cancelled, "the session was made after the call ended (client gone or deadline passed): closed");
 }
 
@@ -39,8 +44,10 @@ void EWaveService::start(EngineContext& context) { engine_ = &ewave::shared_engi
 void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation& cancel, v1::EWaveFrame* frame) {
   auto& ewave = *engine_;
   const std::string& id = session_id(request.session_id());
-  uint64_t serial = 0;  // the step runs on this session, not on one made under its id since
-  const ewave::EWaveConfig config = ewave.config(id, &serial);  // NOT_FOUND for an unknown, closed or evicted id
+  // NOT_FOUND for an unknown, closed or evicted id. The step runs on this session, not on one made under
+  // its id since.
+  const ewave::SessionView session = ewave.view(id);
+  const ewave::EWaveConfig& config = session.config;
   const auto outputs = squall::ewave::rpc::outputs(request.inputs());
   const v1::DType type = squall::field::dtype(request.inputs().dtype(), "inputs.dtype");
   // Refused before the step, so that a frame too large to send does not advance the session.
@@ -64,7 +71,7 @@ void EWaveService::step(const v1::EWaveStepRequest& request, const Cancellation&
   Slot spectra = memory.split(ocean.new_spectra);
   serving_.gate().top_up(spectra, what + "'s spectra, built again",
                          [&] { return ewave.ocean_bytes(config, sea).new_spectra; });
-  ewave::Frame result = ewave.step(id, in, guard(request, serial), {cancel, &spectra});
+  ewave::Frame result = ewave.step(id, in, guard(request, session.serial), {cancel, &spectra});
   frame->set_session_id(id);
   try {
     fill_frame(result, config, outputs, type, frame);
@@ -87,10 +94,10 @@ grpc::Status EWaveService::CreateSession(grpc::ServerContext* context, const v1:
     Slot memory =
         serving_.gate().acquire_memory("CreateSession's config.initial_ocean", ocean.working + ocean.new_spectra);
     Slot spectra = memory.split(ocean.new_spectra);  // topped up by the engine once the session is reserved
-    const auto created =
-        engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra}, client_address(*context));
-    refuse_if_gone(*context, *engine_, created);
-    session_reply(*engine_, created, response);
+    ewave::SessionView made;
+    engine_->create(c, proposed_session(*context), {cancellation(*context), &spectra}, client_address(*context), &made);
+    refuse_if_gone(*context, *engine_, made);
+    session_reply(made, response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });
@@ -126,11 +133,11 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
   return serve(*context, serving_, [&] {
     const std::string& id = session_id(request->session_id());
     // Its fields alone, known from the config before they are read: refused or reserved first.
-    uint64_t serial = 0;  // the state read is this session's, not one's made under its id since
-    const uint64_t fields = ewave::state_field_bytes(engine_->config(id, &serial));
+    const ewave::SessionView session = engine_->view(id);  // read as this session's, not one made under its id since
+    const uint64_t fields = ewave::state_field_bytes(session.config);
     serving_.gate().check_message_bytes("GetState reply (the session's state)", fields);
     const Slot memory = serving_.gate().acquire_memory("GetState's state", fields);
-    std::string state = engine_->state(id, serial);
+    std::string state = engine_->state(id, session.serial);
     serving_.gate().check_message_bytes("GetState reply (the session's state)", state.size());
     *response->mutable_state() = std::move(state);
     return grpc::Status::OK;
@@ -140,10 +147,10 @@ grpc::Status EWaveService::GetState(grpc::ServerContext* context, const v1::EWav
 grpc::Status EWaveService::Restore(grpc::ServerContext* context, const v1::EWaveRestoreRequest* request,
                                    v1::EWaveSessionResponse* response) {
   return serve(*context, serving_, [&] {
-    const std::string restored =
-        engine_->create_from_state(request->state(), proposed_session(*context), client_address(*context));
-    refuse_if_gone(*context, *engine_, restored);
-    session_reply(*engine_, restored, response);
+    ewave::SessionView made;
+    engine_->create_from_state(request->state(), proposed_session(*context), client_address(*context), &made);
+    refuse_if_gone(*context, *engine_, made);
+    session_reply(made, response);
     announce_session(*context, response->session_id());
     return grpc::Status::OK;
   });

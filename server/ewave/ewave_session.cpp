@@ -148,8 +148,8 @@ uint64_t EWaveSession::device_bytes() const {
 void EWaveSession::require_serial(uint64_t serial) const {
   if (serial != 0 && serial != serial_)
     fail(Code::Aborted,
-         "session_id names a session made again under that id (closed and created) since this call read its "
-         "config: nothing was done; send the call again");
+         "session_id names a session made again under that id (closed and created, or resumed from its "
+         "checkpoint) since this call read its config: nothing was done; send the call again");
 }
 
 void EWaveSession::check_whole() const {

@@ -44,7 +44,8 @@ class EWaveSession {
   // A number no other session of this process has had: it tells a session from one made later under its id.
   uint64_t serial() const { return serial_; }
   // Error(Aborted) unless `serial` is 0 or this session's: the id names a session made after the caller's
-  // read of it (closed and made again under the same id), whose config the caller did not see.
+  // read of it (closed and made again under the same id, or resumed from its checkpoint: a session moved
+  // away and back), whose config the caller may not have seen.
   void require_serial(uint64_t serial) const;
   uint64_t step_index() const { return step_; }
   double time() const { return time_; }

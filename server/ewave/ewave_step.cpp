@@ -68,7 +68,7 @@ using RealOf = typename std::decay_t<K>::RealType;
 }  // namespace
 
 Frame EWaveSession::step(const StepInputs& in, const StepGuard& guard, const OceanCall& call) {
-  require_serial(guard.session);
+  require_serial(guard.session_serial);
   check_whole();
   if (!guard.retry_key.empty() && guard.retry_key == retry_key_) return replay(in.outputs);
   if (guard.after_step && *guard.after_step != step_)

@@ -49,6 +49,14 @@ struct FollowedCurrent {
   std::optional<ocean::TileSpec> ocean;  // velocity.ocean, validated (ocean::validate_current)
   std::string path;                      // the request field that names it
   bool any() const { return !ewave_session.empty() || ocean.has_value(); }
+  // The eWave session's grid at the first read of its current, which the stream was validated and reserved
+  // for: a later read of another grid (the session closed and made again under its id) is refused.
+  struct Grid {
+    int64_t nx = 0, ny = 0;
+    double dx = 0, dy = 0;
+    bool operator==(const Grid&) const = default;
+  };
+  std::optional<Grid> session_grid;
 };
 FollowedCurrent followed(const squall::v1::VelocitySpec& velocity, const LimitGate& gate, const std::string& path);
 

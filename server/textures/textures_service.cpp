@@ -73,6 +73,12 @@ void check_ocean_clock(const req::FollowedCurrent& current, const AdvectSpec& sp
                    spec.t0 + double(steps) * spec.dt);
 }
 
+// "64 x 64 cells of 0.03125 x 0.03125 m".
+std::string describe(const req::FollowedCurrent::Grid& grid) {
+  return std::to_string(grid.nx) + " x " + std::to_string(grid.ny) + " cells of " + validate::number(grid.dx) + " x " +
+         validate::number(grid.dy) + " m";
+}
+
 }  // namespace
 
 // One advection stream: its spec (as steered so far), the planes it sends, the current its velocity follows
@@ -111,7 +117,7 @@ void TexturesService::start(EngineContext& context) {
 }
 
 void TexturesService::follow(Stream& s, double from) {
-  const req::FollowedCurrent& followed = s.current;
+  req::FollowedCurrent& followed = s.current;  // session_current() notes the session's grid in it
   if (!followed.any()) return;
   if (followed.ocean) {
     check_ocean_time(followed.path, "the texture's clock", from + s.spec.dt);
@@ -127,7 +133,7 @@ void TexturesService::follow(Stream& s, double from) {
   validate_followed_current(s.spec.velocity, followed.path);
 }
 
-SurfaceCurrent TexturesService::session_current(const req::FollowedCurrent& followed) const {
+SurfaceCurrent TexturesService::session_current(req::FollowedCurrent& followed) const {
   SurfaceCurrent current;
   try {
     current = ewave_->surface_current(followed.ewave_session);
@@ -138,6 +144,12 @@ SurfaceCurrent TexturesService::session_current(const req::FollowedCurrent& foll
   if (current.nx < 2 || current.ny < 2)
     fail(Code::InvalidArgument, followed.path + " is a session of " + std::to_string(current.nx) + " x " +
                                     std::to_string(current.ny) + " cells: a followed current needs 2 x 2 or more");
+  const req::FollowedCurrent::Grid grid{current.nx, current.ny, current.dx, current.dy};
+  if (!followed.session_grid) followed.session_grid = grid;
+  if (grid != *followed.session_grid)
+    fail(Code::Aborted, followed.path + " names a session of " + describe(grid) + " now, not the one of " +
+                            describe(*followed.session_grid) +
+                            " that the stream began to follow: it was closed and made again under its id");
   return current;
 }
 

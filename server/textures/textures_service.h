@@ -61,8 +61,9 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
   // The current `velocity` (the request field at `path`) names, translated (req::followed); an ocean's layers
   // checked against the FFT backend's lengths (INVALID_ARGUMENT naming them).
   textures::rpc::FollowedCurrent followed(const squall::v1::VelocitySpec& velocity, const std::string& path);
-  // The surface current of the eWave session `followed` names, of 2 x 2 cells or more.
-  SurfaceCurrent session_current(const textures::rpc::FollowedCurrent& followed) const;
+  // The surface current of the eWave session `followed` names, of 2 x 2 cells or more, and of the grid of its
+  // first read (noted in `followed`; ABORTED when it differs).
+  SurfaceCurrent session_current(textures::rpc::FollowedCurrent& followed) const;
   // The river of `velocity` (the request field at `path`), if it is one, and its bake grid, validated into
   // the stream's river to bake.
   void check_river(const squall::v1::VelocitySpec& velocity, Stream& s, const std::string& path) const;

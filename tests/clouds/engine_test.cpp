@@ -179,8 +179,9 @@ TEST(Engine, ACheckpointThatDoesNotFitIsRefusedBeforeItsUpload) {
 }
 
 // A checkpoint records the bytes its volume holds, and those are reserved before its .vdb bytes are decoded:
-// a record past the limits is refused as such even where the bytes that follow are no .vdb at all. One of
-// the first payload version (the .vdb bytes alone, as an older squalld writes them) still resumes.
+// a record past the limits is refused as such even where the bytes that follow are no .vdb at all. A record
+// off either way (another OpenVDB's sizes) and one of the first payload version (the .vdb bytes alone, as an
+// older squalld writes them) resume, reserved as the volume read holds.
 TEST(Engine, ACheckpointsRecordedSizeIsReservedBeforeItIsDecoded) {
   TestStore store;
   auto v = store.engine->build(small_sphere());
@@ -199,10 +200,18 @@ TEST(Engine, ACheckpointsRecordedSizeIsReservedBeforeItIsDecoded) {
   EXPECT_EQ(store.engine->stored_count(), 0u);
   EXPECT_EQ(store.gate.memory_bytes(), before) << "a refused checkpoint keeps no reservation";
 
-  const std::string first = encode_checkpoint({"stored volume", 1, id}, write_vdb(v->volume));
-  EXPECT_EQ(store.engine->restore_checkpoint(first), id);
-  EXPECT_EQ(store.engine->find(id)->bytes, v->bytes);
-  EXPECT_EQ(store.engine->stored_bytes(), v->bytes) << "reserved as the volume read holds";
+  // Recorded sizes off either way (another OpenVDB's), and none (version 1): reserved as the volume read holds.
+  for (const uint64_t recorded : {v->bytes + 4096, v->bytes - 1, uint64_t(0)}) {
+    ByteWriter payload;
+    if (recorded) payload.put(recorded);
+    payload.put_bytes(write_vdb(v->volume));
+    const uint32_t version = recorded ? CloudEngine::kCheckpointVersion : 1;
+    EXPECT_EQ(store.engine->restore_checkpoint(encode_checkpoint({"stored volume", version, id}, payload.take())), id);
+    EXPECT_EQ(store.engine->find(id)->bytes, v->bytes);
+    EXPECT_EQ(store.engine->stored_bytes(), v->bytes) << "recorded " << recorded;
+    EXPECT_EQ(store.gate.memory_bytes(), before + v->bytes) << "recorded " << recorded;
+    store.engine->release(id);
+  }
 }
 
 TEST(Engine, ModelBudgetIsCappedByTheEngine) {

@@ -138,7 +138,9 @@ TEST(StateDir, ASessionReleasedByOneReplicaIsResumedByAnother) {
   EXPECT_EQ(a.registry.checkpoint_all(false), 1u);
   a.store.with(id, [](Counter& c) { c.value = 8; });  // a periodic checkpoint does not release
   a.registry.begin_drain();
+  EXPECT_TRUE(a.registry.holds(id)) << "a call naming it goes on while the daemon drains";
   EXPECT_EQ(a.registry.checkpoint_all(true), 1u);
+  EXPECT_FALSE(a.registry.holds(id)) << "released: a stream naming it in its metadata no longer outlives the drain";
   expect_error(Code::Unavailable, "moved to the state directory", [&] { a.store.with(id, [](Counter&) {}); });
   expect_error(Code::Unavailable, "shutting down",
                [&] { a.store.add(a.store.reserve(0), std::make_shared<Counter>()); });
@@ -481,9 +483,9 @@ TEST(StateDir, ProposedIdsMustLookLikeOursAndBeNew) {
 }
 
 // A close waits for the call in flight on its session. A call that comes meanwhile finds the session gone
-// (NOT_FOUND), not resumed from its periodic checkpoint, and so does a second close (which before removed the
-// checkpoint and ownership itself, and the first then answered UNAVAILABLE); once the close returns nothing
-// of it is left.
+// (NOT_FOUND), not resumed from its periodic checkpoint, and so does a second close, which leaves the
+// checkpoint and ownership to the first (the first would otherwise find its ownership gone: UNAVAILABLE);
+// once the close returns nothing of it is left.
 TEST(StateDir, ACallOrACloseDuringACloseDoesNotResumeTheSession) {
   Replica a(test::temp_dir("state-closing"), "a");
   const std::string id = a.store.add(a.store.id_for(kId, "metadata"), a.store.reserve(0), std::make_shared<Counter>());
@@ -672,6 +674,9 @@ TEST(StateDir, ACheckpointStaysWhileItsOwnerBeats) {
   state.heartbeat("live");
   // A TTL well past the few calls between the live beat and the expiry, however loaded the machine.
   EXPECT_FALSE(state.expired(live, 1000ms)) << "its owner beats";
+  EXPECT_TRUE(state.expired(live, 1000ms, "live")) << "asked by its owner, which does not hold it (a file left behind)";
+  EXPECT_FALSE(state.expired(live, 1000ms, "live", [&](const std::string& id) { return id == live; }))
+      << "asked by its owner, which holds it";
   EXPECT_TRUE(state.expired(dead, 1000ms)) << "its owner has been silent for the TTL";
   EXPECT_TRUE(state.expired(unowned, 1000ms));
   state.expire(1000ms);

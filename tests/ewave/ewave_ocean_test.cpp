@@ -365,7 +365,7 @@ TEST(OceanAmbient, LengthsTheFftBackendCannotTransformAreRefusedByName) {
     EXPECT_NO_THROW(engine.check_runs_here(StepInputs{}));
     expect_error(Code::InvalidArgument, "inputs.ambient_ocean.layers[0].nx = 34", [&] { engine.check_runs_here(in); });
   }
-  EXPECT_EQ(engine.steps(id), 0u);
+  EXPECT_EQ(engine.view(id).steps, 0u);
   StepInputs in = hull_step(0);
   in.ambient_ocean = sea_spec(c);
   in.ambient_ocean->layers[0].nx = 36;
@@ -417,14 +417,14 @@ TEST(OceanAmbient, CheckpointAndStateResumeWithTheAmbientOceanBitIdentically) {
   EXPECT_EQ(second.restore_checkpoint(saved), id);
   const std::string from_state = second.create_from_state(state);
   for (const std::string& restored : {id, from_state}) {
-    const EWaveConfig config = second.config(restored);
+    const EWaveConfig config = second.view(restored).config;
     ASSERT_TRUE(config.ambient_ocean.has_value()) << restored << " lost config.ambient_ocean";
     EXPECT_EQ(ocean::encode_tile_spec(*config.ambient_ocean), ocean::encode_tile_spec(*c.ambient_ocean));
     for (int n = 4; n < 10; ++n) expect_bit_identical(second.step(restored, hull_step(n)), expected[n - 4]);
   }
 
   const std::string without = second.create_from_state(without_ambient_ocean(state));
-  EXPECT_FALSE(second.config(without).ambient_ocean.has_value());
+  EXPECT_FALSE(second.view(without).config.ambient_ocean.has_value());
   EXPECT_GT(rms_difference(second.step(without, hull_step(4)).height, expected[0].height),
             1e-3 * rms(expected[0].height));
 }
@@ -439,7 +439,7 @@ TEST(OceanAmbient, VersionOneCheckpointResumesWithoutTheAmbientOcean) {
   const std::string state = without_ambient_ocean(e.state(id));
   e.close(id);
   EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 1, id}, state)), id);
-  EXPECT_FALSE(e.config(id).ambient_ocean.has_value());
+  EXPECT_FALSE(e.view(id).config.ambient_ocean.has_value());
   const std::string from_state = e.create_from_state(state);
   for (int n = 3; n < 6; ++n) expect_bit_identical(e.step(id, hull_step(n)), e.step(from_state, hull_step(n)));
   e.close(id);
@@ -489,7 +489,7 @@ TEST(OceanAmbient, BadAmbientOceansInStateBytesAreInvalidArgument) {
   expect_error(Code::InvalidArgument, "state.ambient_ocean.layers[1].wind_speed",
                [&] { e.create_from_state(with_bad.take()); });
   EXPECT_EQ(e.size(), 0u);
-  EXPECT_TRUE(e.config(e.create_from_state(state)).ambient_ocean.has_value()) << "the good bytes restore";
+  EXPECT_TRUE(e.view(e.create_from_state(state)).config.ambient_ocean.has_value()) << "the good bytes restore";
 }
 
 // A version-2 payload that is cut short, or whose ambient ocean is invalid, is InvalidArgument naming it.
@@ -513,7 +513,7 @@ TEST(OceanAmbient, BadCheckpointPayloadsAreInvalidArgument) {
                [&] { restore(checkpoint_payload(state, ocean::encode_tile_spec(bad))); });
   EXPECT_EQ(e.size(), 0u);
   EXPECT_EQ(e.restore_checkpoint(encode_checkpoint({"eWave session", 2, id}, good)), id);
-  EXPECT_TRUE(e.config(id).ambient_ocean.has_value());
+  EXPECT_TRUE(e.view(id).config.ambient_ocean.has_value());
 }
 
 }  // namespace

@@ -450,30 +450,37 @@ TEST_F(EngineTest, ClosedIdIsNotFoundAndIdsAreRandom128Bit) {
   e.step(b, plain_step(0.01));  // the other session is untouched
 }
 
-// A call reads its session's config to validate and size what it does, then steps or reads the state in a
-// second locked call: where the id names a session made again under it meanwhile (closed and created), the
-// second part is refused rather than run on a grid the first did not see.
+// A call reads its session's config to validate and size what it does, then steps, reads the state or closes
+// it in a second locked call: where the id names a session made again under it meanwhile (closed and
+// created), the second part is refused rather than run on a session the first did not see.
 TEST_F(EngineTest, ACallThatReadASessionsConfigRunsOnThatSessionOnly) {
   EWaveEngine e = engine();
-  const std::string id = e.create(plain_config(32, 32), std::string(32, 'a'));
-  uint64_t serial = 0;
-  EXPECT_EQ(e.config(id, &serial).nx, 32);
-  EXPECT_NE(serial, 0u);
+  SessionView made;
+  const std::string id = e.create(plain_config(32, 32), std::string(32, 'a'), {}, "", &made);
+  EXPECT_EQ(made.id, id);
+  EXPECT_EQ(made.config.nx, 32);
+  EXPECT_EQ(made.steps, 0u);
+  const SessionView first = e.view(id);
+  EXPECT_EQ(first.serial, made.serial);
   StepGuard guard;
-  guard.session = serial;
+  guard.session_serial = first.serial;
   EXPECT_EQ(e.step(id, plain_step(0.01), guard).step, 1u) << "the session read is stepped";
-  EXPECT_FALSE(e.state(id, serial).empty());
+  EXPECT_FALSE(e.state(id, first.serial).empty());
+  EXPECT_EQ(e.view(id).steps, 1u);
   e.close(id);
   ASSERT_EQ(e.create(plain_config(16, 16), id), id);
   expect_error(Code::Aborted, "session_id names a session made again under that id",
                [&] { e.step(id, plain_step(0.01), guard); });
-  expect_error(Code::Aborted, "session_id names a session made again", [&] { e.state(id, serial); });
-  uint64_t again = 0;
-  EXPECT_EQ(e.config(id, &again).nx, 16);
-  EXPECT_NE(again, serial);
-  EXPECT_EQ(e.steps(id), 0u) << "the refused step left the new session as it was";
-  guard.session = again;
+  expect_error(Code::Aborted, "session_id names a session made again", [&] { e.state(id, first.serial); });
+  expect_error(Code::NotFound, "session_id", [&] { e.close(id, first.serial); });
+  const SessionView second = e.view(id);
+  EXPECT_EQ(second.config.nx, 16);
+  EXPECT_NE(second.serial, first.serial);
+  EXPECT_EQ(second.steps, 0u) << "the refused step left the new session as it was";
+  guard.session_serial = second.serial;
   EXPECT_EQ(e.step(id, plain_step(0.01), guard).step, 1u);
+  e.close(id, second.serial);
+  expect_error(Code::NotFound, "session_id", [&] { e.view(id); });
 }
 
 TEST_F(EngineTest, SessionLimitAndGridLimitAreResourceExhausted) {
@@ -537,7 +544,7 @@ TEST_F(EngineTest, ACheckpointCarriesTheLastStepsRetryKey) {
   EWaveEngine second = engine();
   second.restore_checkpoint(saved);
   expect_bit_identical(second.step(id, heights, {"the only step", std::nullopt}), made);
-  EXPECT_EQ(second.steps(id), 1u);
+  EXPECT_EQ(second.view(id).steps, 1u);
   EXPECT_EQ(second.step(id, heights, {"another step", std::nullopt}).step, 2u);
 
   ByteWriter long_key(keyless_payload);

@@ -114,10 +114,10 @@ TEST(TexturesInteractive, SteeredVelocityAndDtTakeEffectAtTheNextFrame) {
   }
 }
 
-// An eWave session of 64 x 64 cells over 2 m x 2 m whose potential phi = (U L / 2 pi) sin(2 pi x / L)
-// gives the surface current u = U cos(2 pi x / L), v = 0; nothing steps it, so the current is steady.
-std::string still_current_session(double U) {
-  const uint32_t n = 64;
+// An eWave session of n x n cells (64 unless given) over 2 m x 2 m whose potential
+// phi = (U L / 2 pi) sin(2 pi x / L) gives the surface current u = U cos(2 pi x / L), v = 0; nothing steps it,
+// so the current is steady. Under the `proposed` id, if one is given.
+std::string still_current_session(double U, uint32_t n = 64, const std::string& proposed = "") {
   const double L = 2.0;
   v1::EWaveCreateSessionRequest create;
   auto* c = create.mutable_config();
@@ -131,7 +131,7 @@ std::string still_current_session(double U) {
   field::encode({"phi", "m^2/s", n, n, 0, v1::DTYPE_FLOAT32}, phi, c->mutable_initial_phi());
   client::Client client({daemon().address(), 60, ""});
   auto ewave = v1::EWave::NewStub(client.channel());
-  auto context = client.context();
+  auto context = client.context(proposed);
   v1::EWaveSessionResponse session;
   grpc::Status status = ewave->CreateSession(context.get(), create, &session);
   EXPECT_TRUE(status.ok()) << status.error_message();
@@ -159,6 +159,38 @@ TEST(TexturesEWave, TextureFollowsTheSessionsSurfaceCurrent) {
       EXPECT_NEAR(d.dy, 0, 0.08);
     }
   }
+}
+
+// A stream is validated and its memory reserved for the grid of the session it follows: where that session is
+// closed and one of another grid made under its id, the next frame is refused rather than advected by the
+// new session's current unreserved. A control naming the session again follows the new one.
+TEST(TexturesEWave, AStreamFollowsTheSessionWhoseGridItWasSizedFor) {
+  const std::string id = still_current_session(0.05, 64, std::string(32, 'e'));
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
+  r.mutable_velocity()->set_ewave_session(id);
+  Interactive s, again;
+  ASSERT_TRUE(s.send(start(r, 1), 1));
+  ASSERT_TRUE(again.send(start(r, 1), 1));
+  client::Client client({daemon().address(), 60, ""});
+  v1::EWaveCloseResponse closed;
+  v1::EWaveSessionRequest close;
+  close.set_session_id(id);
+  grpc::Status status = v1::EWave::NewStub(client.channel())->CloseSession(client.context(id).get(), close, &closed);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(still_current_session(0.05, 128, id), id);
+  s.send(more(1), 1);
+  status = s.finish();
+  EXPECT_EQ(s.frames().size(), 1u);
+  test::expect_error(Code::Aborted,
+                     "control[0].start.velocity.ewave_session names a session of 128 x 128 cells of 0.015625 x "
+                     "0.015625 m now, not the one of 64 x 64 cells of 0.03125 x 0.03125 m that the stream began to "
+                     "follow",
+                     [&] { throw_status(status); });
+  v1::TextureControl follow = more(2);
+  follow.mutable_velocity()->set_ewave_session(id);
+  ASSERT_TRUE(again.send(follow, 2)) << "a control that names it again follows the new session";
+  ASSERT_TRUE(again.finish().ok());
+  EXPECT_EQ(again.frames().size(), 3u);
 }
 
 // A Phillips layer of amplitude 0 (no waves) drifting at U_D: the current is U_D everywhere, and the

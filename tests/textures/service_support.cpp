@@ -57,6 +57,7 @@ Code code_of(grpc::StatusCode code) {
     case grpc::StatusCode::NOT_FOUND: return Code::NotFound;
     case grpc::StatusCode::FAILED_PRECONDITION: return Code::FailedPrecondition;
     case grpc::StatusCode::UNAVAILABLE: return Code::Unavailable;
+    case grpc::StatusCode::ABORTED: return Code::Aborted;
     default: return Code::Internal;
   }
 }
