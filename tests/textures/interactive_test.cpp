@@ -161,6 +161,15 @@ TEST(TexturesEWave, TextureFollowsTheSessionsSurfaceCurrent) {
   }
 }
 
+// Closes eWave session `id` (EWave.CloseSession, routed by the id).
+grpc::Status close_session(const std::string& id) {
+  client::Client client({daemon().address(), 60, ""});
+  v1::EWaveSessionRequest request;
+  request.set_session_id(id);
+  v1::EWaveCloseResponse reply;
+  return v1::EWave::NewStub(client.channel())->CloseSession(client.context(id).get(), request, &reply);
+}
+
 // A stream is validated and its memory reserved for the grid of the session it follows: where that session is
 // closed and one of another grid made under its id, the next frame is refused rather than advected by the
 // new session's current unreserved. A control naming the session again follows the new one.
@@ -171,15 +180,10 @@ TEST(TexturesEWave, AStreamFollowsTheSessionWhoseGridItWasSizedFor) {
   Interactive s, again;
   ASSERT_TRUE(s.send(start(r, 1), 1));
   ASSERT_TRUE(again.send(start(r, 1), 1));
-  client::Client client({daemon().address(), 60, ""});
-  v1::EWaveCloseResponse closed;
-  v1::EWaveSessionRequest close;
-  close.set_session_id(id);
-  grpc::Status status = v1::EWave::NewStub(client.channel())->CloseSession(client.context(id).get(), close, &closed);
-  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_TRUE(close_session(id).ok());
   ASSERT_EQ(still_current_session(0.05, 128, id), id);
   s.send(more(1), 1);
-  status = s.finish();
+  const grpc::Status status = s.finish();
   EXPECT_EQ(s.frames().size(), 1u);
   test::expect_error(Code::Aborted,
                      "control[0].start.velocity.ewave_session names a session of 128 x 128 cells of 0.015625 x "
@@ -191,6 +195,7 @@ TEST(TexturesEWave, AStreamFollowsTheSessionWhoseGridItWasSizedFor) {
   ASSERT_TRUE(again.send(follow, 2)) << "a control that names it again follows the new session";
   ASSERT_TRUE(again.finish().ok());
   EXPECT_EQ(again.frames().size(), 3u);
+  EXPECT_TRUE(close_session(id).ok()) << "the id is free for a run of this test again";
 }
 
 // A Phillips layer of amplitude 0 (no waves) drifting at U_D: the current is U_D everywhere, and the
