@@ -301,15 +301,20 @@ __kernel void ocean_evolve_current(__global const float* h0, const int nx, const
 // imaginary ones). One work-item a cell: its coordinates and weights serve every pair. On a CPU device the
 // kernel stays scalar: vectorized, its reads become AVX-512 gathers, which took 1.3 times the scalar
 // loop's time on an AMD EPYC.
+// Cell coordinate c of a periodic axis of n cells, taken into [0, n]: rounding may leave c - n floor(c / n)
+// a fraction of a cell outside [0, n), which would read outside the layer.
+__attribute__((always_inline)) static float wrapped_cell(float c, int n) {
+  c -= n * floor(c / n);
+  return clamp(c, 0.0f, (float)n);
+}
+
 __kernel void ocean_accumulate(__global const float2* fields, const int nx, const int ny, const int pairs,
                                const float2 scale, const int onx, const int ony, const int first,
                                const int interleaved, __global float* accum) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly onx x ony
-  float u = i * scale.x, v = j * scale.y;
-  u -= nx * floor(u / nx);
-  v -= ny * floor(v / ny);
+  float u = wrapped_cell(i * scale.x, nx), v = wrapped_cell(j * scale.y, ny);
   int i0 = min((int)u, nx - 1), j0 = min((int)v, ny - 1);
-  float fu = u - i0, fv = v - j0;
+  float fu = min(u - i0, 1.0f), fv = min(v - j0, 1.0f);
   int i1 = i0 + 1 == nx ? 0 : i0 + 1, j1 = j0 + 1 == ny ? 0 : j0 + 1;
   size_t cells = (size_t)nx * ny, ocells = (size_t)onx * ony, at = i + (size_t)onx * j;
   size_t cell_stride = interleaved ? 2 : 1, im_offset = interleaved ? 1 : ocells;

@@ -229,7 +229,11 @@ struct OceanEngine::Impl {
   // if `first`).
   void accumulate_layer(const cl::Buffer& fields, const LayerSpec& L, int pairs, const OutputGrid& grid, bool first,
                         Layout layout, const cl::Buffer& accum) {
-    cl_float2 scale{{float((grid.lx / grid.nx) / (L.lx / L.nx)), float((grid.ly / grid.ny) / (L.ly / L.ny))}};
+    // Output point i sits at i * s layer cells, periodic: s is taken into the period here, in double, so that
+    // i * s keeps its fraction of a cell in float however many periods apart the points are.
+    const double sx = std::remainder((grid.lx / grid.nx) / (L.lx / L.nx), double(L.nx));
+    const double sy = std::remainder((grid.ly / grid.ny) / (L.ly / L.ny), double(L.ny));
+    cl_float2 scale{{float(sx), float(sy)}};
     accumulate.launch_rows(grid.nx, grid.ny, fields, cl_int(L.nx), cl_int(L.ny), cl_int(pairs), scale, cl_int(grid.nx),
                            cl_int(grid.ny), cl_int(first ? 1 : 0), cl_int(layout == Layout::Interleaved ? 1 : 0),
                            accum);
