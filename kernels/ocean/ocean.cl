@@ -293,6 +293,13 @@ __kernel void ocean_evolve_current(__global const float* h0, const int nx, const
   store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);
 }
 
+// Cell coordinate c of a periodic axis of n cells, taken into [0, n]: rounding may leave c - n floor(c / n)
+// a fraction of a cell outside [0, n), which would read outside the layer.
+__attribute__((always_inline)) static float wrapped_cell(float c, int n) {
+  c -= n * floor(c / n);
+  return clamp(c, 0.0f, (float)n);
+}
+
 // Adds one layer's real fields (the inverse FFT of evolve_pairs: `pairs` complex arrays of nx * ny values)
 // at the output grid points: output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y),
 // periodic; bilinear between layer points (exact where they coincide). accum holds `pairs` complex channel
@@ -301,13 +308,6 @@ __kernel void ocean_evolve_current(__global const float* h0, const int nx, const
 // imaginary ones). One work-item a cell: its coordinates and weights serve every pair. On a CPU device the
 // kernel stays scalar: vectorized, its reads become AVX-512 gathers, which took 1.3 times the scalar
 // loop's time on an AMD EPYC.
-// Cell coordinate c of a periodic axis of n cells, taken into [0, n]: rounding may leave c - n floor(c / n)
-// a fraction of a cell outside [0, n), which would read outside the layer.
-__attribute__((always_inline)) static float wrapped_cell(float c, int n) {
-  c -= n * floor(c / n);
-  return clamp(c, 0.0f, (float)n);
-}
-
 __kernel void ocean_accumulate(__global const float2* fields, const int nx, const int ny, const int pairs,
                                const float2 scale, const int onx, const int ony, const int first,
                                const int interleaved, __global float* accum) {
