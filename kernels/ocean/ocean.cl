@@ -293,13 +293,6 @@ __kernel void ocean_evolve_current(__global const float* h0, const int nx, const
   store_pack((__global float*)out, i + (size_t)nx * j, kx * d_re, kx * d_im, ky * d_re, ky * d_im);
 }
 
-// Cell coordinate c of a periodic axis of n cells, taken into [0, n]: rounding may leave c - n floor(c / n)
-// a fraction of a cell outside [0, n), which would read outside the layer.
-__attribute__((always_inline)) static float wrapped_cell(float c, int n) {
-  c -= n * floor(c / n);
-  return clamp(c, 0.0f, (float)n);
-}
-
 // Adds one layer's real fields (the inverse FFT of evolve_pairs: `pairs` complex arrays of nx * ny values)
 // at the output grid points: output point (i, j) sits at layer cell coordinates (i * scale.x, j * scale.y),
 // periodic; bilinear between layer points (exact where they coincide). accum holds `pairs` complex channel
@@ -312,9 +305,11 @@ __kernel void ocean_accumulate(__global const float2* fields, const int nx, cons
                                const float2 scale, const int onx, const int ony, const int first,
                                const int interleaved, __global float* accum) {
   int i = get_global_id(0), j = get_global_id(1);  // launched over exactly onx x ony
-  float u = wrapped_cell(i * scale.x, nx), v = wrapped_cell(j * scale.y, ny);
+  float u = i * scale.x, v = j * scale.y;
+  u -= nx * floor(u / nx);
+  v -= ny * floor(v / ny);
   int i0 = min((int)u, nx - 1), j0 = min((int)v, ny - 1);
-  float fu = min(u - i0, 1.0f), fv = min(v - j0, 1.0f);
+  float fu = u - i0, fv = v - j0;
   int i1 = i0 + 1 == nx ? 0 : i0 + 1, j1 = j0 + 1 == ny ? 0 : j0 + 1;
   size_t cells = (size_t)nx * ny, ocells = (size_t)onx * ony, at = i + (size_t)onx * j;
   size_t cell_stride = interleaved ? 2 : 1, im_offset = interleaved ? 1 : ocells;

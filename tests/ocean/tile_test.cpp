@@ -842,7 +842,7 @@ TEST(OceanReference, LayersWithBCorrectionOnAnotherGridAgree) {
 // taken into the layer's period. In float, i * s of millions of cells kept little of a cell's fraction (a 20 m
 // layer of 64 cells, output points 111 km apart: heights 1.8% off, rms), and at 2^24 periods the wrap fell
 // hundreds of cells outside the layer (a 2 cm layer: 84% off, from reads outside its buffer). The host now
-// takes s into the period first, in double; the kernel clamps what rounding leaves outside it.
+// takes s into the period first, in double, so that i * s stays within a few periods.
 TEST(OceanReference, OutputPointsManyLayerPeriodsApartSampleTheLayerWhereTheReferenceDoes) {
   for (double extent : {20.0, 0.02}) {
     SCOPED_TRACE("layer extent " + std::to_string(extent) + " m");
