@@ -143,8 +143,7 @@ grpc::Status OceanService::StreamTiles(grpc::ServerContext* context, const v1::S
       if (more(frame + 1)) next = std::async(std::launch::async, compute, frame + 1);
       for (uint32_t c = 0; c < plan.size(); ++c) {  // a frame whole: live() is asked before the next one
         fill_chunk(reply, plan, c, uint32_t(frame), &chunk);
-        call.write(*writer, chunk);
-        if (!call.writing()) return;
+        if (!call.write(*writer, chunk)) return;
       }
     }
   });

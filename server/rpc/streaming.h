@@ -4,7 +4,8 @@
 // no session live here ends before its next message with UNAVAILABLE (reopen it on another replica); one
 // that names such a session goes on until the session is checkpointed for another replica, whose calls then
 // answer UNAVAILABLE. A stream whose bearer token is dropped when squalld reads its tokens again (SIGHUP)
-// ends before its next message with UNAUTHENTICATED.
+// ends before its next message with UNAUTHENTICATED. A stream that sent every message it was to make ends OK,
+// whatever came after its last.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -34,58 +35,57 @@ class StreamCall {
   template <typename Reader, typename Message>
   bool read(Reader& reader, Message* message) {
     const Waiting waiting(waiting_);
-    return reader.Read(message) && token_still_accepted();
+    if (!reader.Read(message)) return false;
+    if (token_still_accepted()) return true;
+    told_to_stop_ = true;
+    return false;
   }
 
-  // False once the call is cancelled, a write failed, squalld drains (streams naming no session live
-  // here, asked while draining: the stream's own messages may have resumed it) or the call's token is no
-  // longer accepted; the handler then stops.
+  // Asked before each message is made: false once the call is cancelled, a write failed, squalld drains
+  // (streams naming no session live here, asked while draining: the stream's own messages may have resumed
+  // it) or the call's token is no longer accepted; the handler then stops, and the call ends with why.
   bool live() const {
-    if (!stopped_by_drain_ && serving_.phase() == ServingState::Phase::Draining &&
-        !serving_.names_live_session(context_))
-      stopped_by_drain_ = true;
-    return !ended_ && !context_.IsCancelled() && !stopped_by_drain_ && token_still_accepted();
+    if (still_wanted()) return true;
+    told_to_stop_ = true;
+    return false;
   }
 
   // Writes one message, even while squalld drains: what it holds was made (an eWave step is taken, its
-  // session checkpointed with it), so it is sent before the stream ends. Returns live(): false when the
-  // write failed, or the handler is to stop before its next message.
+  // session checkpointed with it), so it is sent before the stream ends. False when the write failed (the
+  // client is gone); whether to make another message is live()'s to say.
   template <typename Writer, typename Message>
   bool write(Writer& writer, const Message& message) {
-    bool written = false;
-    if (!ended_) {
-      const Waiting waiting(waiting_);  // a client that reads nothing blocks the write (flow control)
-      written = writer.Write(message);
-    }
-    if (!written) ended_ = true;
-    return live();
+    if (ended_) return false;
+    const Waiting waiting(waiting_);  // a client that reads nothing blocks the write (flow control)
+    if (!writer.Write(message)) ended_ = true;
+    return !ended_;
   }
-  // False once a write has failed (the client is gone): the parts of one message split over several
-  // writes (an ocean frame's chunks) are all sent while this holds, whatever live() says.
-  bool writing() const { return !ended_; }
 
   grpc::ServerContext& context() { return context_; }
 
-  // For the engines' long work: requested once the call is no longer live.
+  // For the engines' long work: requested once the call is no longer live. Work that stops for it throws
+  // Error(Cancelled), which serve_stream takes for the handler being stopped.
   Cancellation cancellation() const {
-    return Cancellation([this] { return !live(); });
+    return Cancellation([this] { return !still_wanted(); });
   }
+  void stopped_by_cancellation() { told_to_stop_ = true; }
 
-  // OK; UNAVAILABLE when squalld drains; UNAUTHENTICATED when its token is no longer accepted;
-  // DEADLINE_EXCEEDED when it waited on its client past --stream-idle-timeout (for the log: the client sees
-  // the cancellation); CANCELLED naming the method when the call did not end by itself.
+  // The status of a handler that returned. OK when it ended by itself: every message it was to make was
+  // written, whatever happened since (a drain or a SIGHUP after the last frame of a finite stream).
+  // Otherwise why it was stopped: DEADLINE_EXCEEDED when it waited on its client past --stream-idle-timeout
+  // (for the log: the client sees the cancellation); UNAVAILABLE when squalld drains; UNAUTHENTICATED when
+  // its token is no longer accepted; CANCELLED naming the method when the client went away.
   grpc::Status status() const {
-    const bool alive = live();  // first: it finds a drain or a dropped token that came since the last look
     if (waiting_.idled_out)
       return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                           method_ + " waited on its client past --stream-idle-timeout and was cancelled");
+    if (!told_to_stop_ && !ended_ && !context_.IsCancelled()) return grpc::Status::OK;
     if (stopped_by_drain_)
       return grpc::Status(grpc::StatusCode::UNAVAILABLE,
                           method_ + " ended: squalld is shutting down; reopen the stream on another replica");
     if (revoked_)
       return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
                           method_ + " ended: its bearer token is no longer accepted (--auth-tokens was read again)");
-    if (alive) return grpc::Status::OK;
     return grpc::Status(grpc::StatusCode::CANCELLED, method_ + " cancelled (client gone, deadline or shutdown)");
   }
 
@@ -99,6 +99,14 @@ class StreamCall {
    private:
     StreamWaiting& w_;
   };
+
+  // live()'s answer, without taking a no for the handler's: the engines ask it from their worker threads.
+  bool still_wanted() const {
+    if (!stopped_by_drain_ && serving_.phase() == ServingState::Phase::Draining &&
+        !serving_.names_live_session(context_))
+      stopped_by_drain_ = true;
+    return !ended_ && !context_.IsCancelled() && !stopped_by_drain_ && token_still_accepted();
+  }
 
   // A stream outlives the tokens it was let in with: when they are set again (SIGHUP), its token is checked
   // again at its next live(), and one no longer among them ends the stream.
@@ -117,10 +125,12 @@ class StreamCall {
   StreamWaiting waiting_;
   mutable std::atomic<uint64_t> tokens_checked_{0};  // the tokens_version() its token was last checked at
   mutable std::atomic<bool> revoked_{false};
-  // A write failed; live() said no because squalld drains. Atomic: engines ask live() from their worker
-  // threads (a stream's next frame is computed while the handler writes the last).
+  // A write failed (the client is gone). Atomic: engines ask still_wanted() from their
+  // worker threads (a stream's next frame is computed while the handler writes the last).
   std::atomic<bool> ended_{false};
   mutable std::atomic<bool> stopped_by_drain_{false};
+  // live() or read() said no to the handler, or its work was cancelled: it did not end by itself.
+  mutable std::atomic<bool> told_to_stop_{false};
 };
 
 // Runs a streaming handler under guarded(): the serving and token checks; check(), the request's validation,
@@ -143,6 +153,7 @@ grpc::Status serve_stream(grpc::ServerContext& context, ServingState& serving, c
       run(call, prepared);
     } catch (const Error& e) {
       if (e.code() != Code::Cancelled) throw;  // work stopped because the call ended: say why it ended
+      call.stopped_by_cancellation();
     }
     return call.status();
   });

@@ -32,12 +32,46 @@ TEST(StreamCall, AMessageMadeWhenTheDrainBeginsIsSentAndTheStreamThenStops) {
   Serving serving;
   StreamCall call(serving.context, "Run", serving.state);
   RecordingWriter writer;
+  ASSERT_TRUE(call.live());
   EXPECT_TRUE(call.write(writer, std::string("frame 1")));
+  ASSERT_TRUE(call.live());
   serving.state.set_phase(ServingState::Phase::Draining);
-  EXPECT_FALSE(call.write(writer, std::string("frame 2"))) << "the handler stops before its next message";
-  EXPECT_TRUE(call.writing()) << "the rest of a message split over several writes is sent";
+  EXPECT_TRUE(call.write(writer, std::string("frame 2"))) << "the rest of a message split over writes is sent";
+  EXPECT_FALSE(call.live()) << "the handler stops before its next message";
   EXPECT_EQ(writer.written, (std::vector<std::string>{"frame 1", "frame 2"}));
   EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAVAILABLE);
+}
+
+// A finite stream that sent its every frame ends OK, though squalld began to drain and dropped its token
+// after the last one went out: the client has all it asked for.
+TEST(StreamCall, AStreamThatSentEveryFrameEndsOkWhateverCameAfter) {
+  Serving serving;
+  grpc::testing::ServerContextTestSpouse spouse(&serving.context);
+  spouse.AddClientMetadata("authorization", "Bearer old");
+  serving.state.set_tokens({"old"});
+  StreamCall call(serving.context, "StreamTiles", serving.state);
+  RecordingWriter writer;
+  for (const char* frame : {"frame 0", "frame 1"}) {
+    ASSERT_TRUE(call.live());
+    ASSERT_TRUE(call.write(writer, std::string(frame)));
+  }
+  serving.state.set_phase(ServingState::Phase::Draining);
+  serving.state.set_tokens({"new"});
+  EXPECT_TRUE(call.cancellation().requested()) << "the engines' work would stop";
+  EXPECT_TRUE(call.status().ok()) << call.status().error_message();
+  EXPECT_FALSE(call.live()) << "a handler with another frame to make is stopped";
+  EXPECT_EQ(call.status().error_code(), grpc::StatusCode::UNAVAILABLE);
+}
+
+// Work that stopped because the call was no longer wanted (the engines' Error(Cancelled)) ends the stream
+// with why, not OK.
+TEST(ServeStream, WorkCancelledByADrainEndsUnavailable) {
+  Serving serving;
+  const grpc::Status status = serve_stream(serving.context, serving.state, "StreamEvolution", [&](StreamCall& call) {
+    serving.state.set_phase(ServingState::Phase::Draining);
+    call.cancellation().check("the volume's build");
+  });
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
 }
 
 // A write the transport refuses (the client is gone) ends the call: nothing more is written.
@@ -47,7 +81,7 @@ TEST(StreamCall, AFailedWriteEndsTheCall) {
   RecordingWriter writer;
   writer.accepts = false;
   EXPECT_FALSE(call.write(writer, std::string("frame 1")));
-  EXPECT_FALSE(call.writing());
+  EXPECT_FALSE(call.live());
   writer.accepts = true;
   EXPECT_FALSE(call.write(writer, std::string("frame 2")));
   EXPECT_TRUE(writer.written.empty());
