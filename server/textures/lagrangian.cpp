@@ -24,6 +24,13 @@ struct Particle {
   bool fading() const { return kill != kAlive; }
 };
 
+// floor(v) as an index into [0, n): clamped in double first, so a value far outside (or NaN, which goes to 0)
+// is never converted to int.
+int clamped_index(double v, int n) {
+  v = std::floor(v);
+  return v >= n - 1 ? n - 1 : v > 0 ? int(v) : 0;
+}
+
 double milliseconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
@@ -312,8 +319,7 @@ class Lagrangian final : public Advection {
   BucketRange quad_buckets(size_t k, int a, int b, const cl_float4& box, const cl_float4& scale) const {
     const cl_float4 q = lattice_bounds(k, a, b, 2, 2);
     auto at = [n = buckets()](float x, float origin, float inverse, double widen) {
-      double v = std::floor((double(x) - origin) * inverse + widen);
-      return v >= n - 1 ? n - 1 : v > 0 ? int(v) : 0;
+      return clamped_index((double(x) - origin) * inverse + widen, n);
     };
     return {at(q.s[0], box.s[0], scale.s[0], -1e-3), at(q.s[2], box.s[0], scale.s[0], 1e-3),
             at(q.s[1], box.s[1], scale.s[1], -1e-3), at(q.s[3], box.s[1], scale.s[1], 1e-3)};
@@ -417,7 +423,7 @@ class Lagrangian final : public Advection {
   static void bin(const OutputGrid& out, const cl_float4& box, cl_int grid, std::vector<std::vector<cl_int>>& tiles) {
     int tiles_y = int(tiles.size()) / out.tiles_x;
     auto tile_of = [](float x, float origin, float pixel, int count) {
-      return std::clamp(int(std::floor((x - origin) / pixel / kTile)), 0, count - 1);
+      return clamped_index((x - origin) / pixel / kTile, count);
     };
     if (box.s[2] < out.x0 || box.s[3] < out.y0 || box.s[0] > out.x0 + out.width * out.pixel_x ||
         box.s[1] > out.y0 + out.height * out.pixel_y)

@@ -112,6 +112,7 @@ void validate_river(const RiverSpec& river, const std::string& path) {
   in(path + ".p", river.p, open_closed(0, 8));
   if (river.search_radius)
     in(path + ".search_radius", *river.search_radius, closed(kMinVelocityDivisor, kMaxCoordinate));
+  solve_network(river, path);  // its flow rates and bank values: a river they fail for is refused now
 }
 
 void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::string& path, const std::string& prefix,

@@ -218,6 +218,10 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
     check_river(request->velocity(), s, "request.velocity");
     s.frame_bytes = req::frame_bytes(s.spec, s.planes);
     serving_.gate().check_message_bytes("TextureFrame (ask for fewer pixels or planes)", s.frame_bytes);
+    if (request->checkpoint_every() > 0)  // an Eulerian checkpoint holds its slots' and cascade's nodes
+      serving_.gate().check_message_bytes(
+          "TextureFrame.checkpoint with the planes",
+          TextureEngine::eulerian_slot_bytes(s.spec) + TextureEngine::eulerian_cascade_bytes(s.spec) + s.frame_bytes);
     return s;
   };
   auto prepare = [&](Stream& s) {  // the velocity made, and the memory reserved, under the stream's slot
@@ -266,9 +270,10 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   }
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = followed(control.velocity(), path + ".velocity");
-  validate_clock(s.spec, n == 0 ? path + ".start" : path);
-  follow(s, advection ? advection->time() : s.spec.t0);
   const std::string spec_path = n == 0 ? path + ".start" : path;
+  validate_clock(s.spec, spec_path);
+  if (s.current.any()) validate_beside_velocity(s, spec_path);  // the rest before the current is read
+  follow(s, advection ? advection->time() : s.spec.t0);
   const bool started_velocity = n == 0 && !control.has_velocity();  // the start's, unless steered at once
   if (started_velocity || control.has_velocity()) {
     s.velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");

@@ -441,6 +441,15 @@ TEST(TexturesInteractive, BadMessagesGetClearErrors) {
          return std::vector<v1::TextureControl>{first};
        },
        Code::InvalidArgument, "control[0].start.output.width = 0"},
+      // The rest of the first message is checked before the current it follows is read.
+      {[&] {
+         v1::TextureControl first = start(good, 1);
+         first.mutable_start()->set_method(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS);
+         first.mutable_start()->mutable_lagrangian()->set_d(-1);
+         first.mutable_start()->mutable_velocity()->set_ewave_session("no-such-session");
+         return std::vector<v1::TextureControl>{first};
+       },
+       Code::InvalidArgument, "control[0].start.lagrangian.d = -1"},
       {[&] { return std::vector<v1::TextureControl>{start(good, 5000)}; }, Code::InvalidArgument,
        "control[0].frames = 5000"},
       {then([&](v1::TextureControl& c) { *c.mutable_start() = good; }), Code::InvalidArgument,

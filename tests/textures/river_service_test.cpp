@@ -364,16 +364,22 @@ TEST(TexturesRiver, ABadAdvectionIsRefusedBeforeItsRiverIsBaked) {
 }
 
 // A bad river is refused for what it is, INVALID_ARGUMENT naming it, even when every stream slot is taken:
-// a river is checked before its stream asks for a slot, and baked only once it has one.
+// a river is checked (its bake grid, its flow rates solved through the junctions) before its stream asks for
+// a slot, and baked only once it has one.
 TEST(TexturesRiver, ABadRiverIsInvalidEvenWhenTheStreamsAreFull) {
   test::Daemon d({"--max-streams", "1"});
   Interactive held(d.address());  // the one slot, for as long as it is open
   ASSERT_TRUE(held.send(start(river_request(2), 1), 1));
-  v1::AdvectTextureRequest bad = river_request(2);
-  bad.mutable_velocity()->mutable_river()->set_bake_nx(1);
-  const grpc::Status status = advect(bad, d.address()).status;
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
-  EXPECT_NE(status.error_message().find("request.velocity.river.bake_nx"), std::string::npos) << status.error_message();
+  v1::AdvectTextureRequest coarse = river_request(2), unbalanced = river_request(2);
+  coarse.mutable_velocity()->mutable_river()->set_bake_nx(1);
+  for (int c : {1, 2})  // 3 du^2/s in, 1 + 1 out
+    unbalanced.mutable_velocity()->mutable_river()->mutable_channels(c)->set_flow_rate(1);
+  for (const auto& [bad, field] :
+       {std::pair{coarse, "request.velocity.river.bake_nx"}, std::pair{unbalanced, "flow in 3 du^2/s != flow out 2"}}) {
+    const grpc::Status status = advect(bad, d.address()).status;
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find(field), std::string::npos) << status.error_message();
+  }
   EXPECT_TRUE(held.finish().ok());
 }
 

@@ -445,6 +445,29 @@ TEST(TexturesService, AnAdvectionsStateCountsInTheMemoryBudget) {
   EXPECT_TRUE(ran.ok()) << ran.error_message();
 }
 
+// A checkpoint past --max-message-bytes is refused before the stream starts, by its own name even when every
+// stream slot is taken: an Eulerian advection's holds float4 per slot and node, 6 latencies of 3 phases on
+// 128 x 128 nodes, 4.7 MB past a limit of 1 MiB. The same request asking for no checkpoint runs.
+TEST(TexturesService, ACheckpointPastTheMessageLimitIsRefusedBeforeTheStream) {
+  test::Daemon d({"--max-message-bytes", std::to_string(1 << 20), "--max-streams", "1"});
+  v1::AdvectTextureRequest r = noise_request(2);
+  r.set_method(v1::TEXTURE_METHOD_EULERIAN_MULTILAYER);
+  for (double latency : {0.1, 0.2, 0.4, 0.8, 1.6, 3.2}) r.mutable_eulerian()->add_latencies(latency);
+  r.mutable_eulerian()->set_grid_nx(128);
+  r.mutable_eulerian()->set_grid_ny(128);
+  r.set_checkpoint_every(1);
+  {
+    Interactive held(d.address());  // the one slot, for as long as it is open
+    ASSERT_TRUE(held.send(start(noise_request(2), 1), 1));
+    test::expect_error(Code::ResourceExhausted, "TextureFrame.checkpoint with the planes",
+                       [&] { throw_status(advect(r, d.address()).status); });
+    EXPECT_TRUE(held.finish().ok());
+  }
+  r.set_checkpoint_every(0);
+  const grpc::Status ran = advect(r, d.address()).status;
+  EXPECT_TRUE(ran.ok()) << ran.error_message();
+}
+
 // A PNG of a uniform 16-bit RGBA colour, `side` pixels a side: a few kilobytes that decode to side^2 x 4
 // samples.
 std::string uniform_png(uint32_t side) {
