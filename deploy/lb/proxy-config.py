@@ -30,30 +30,39 @@ from typing import List, Tuple
 
 
 def host_port(address: str) -> Tuple[str, int]:
+    """HOST:PORT, or [IPV6]:PORT, as (host without brackets, port)."""
     host, _, port = address.rpartition(":")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    elif ":" in host:
+        raise argparse.ArgumentTypeError(f"{address}: an IPv6 address is written [ADDRESS]:PORT")
     if not host or not port.isdigit():
         raise argparse.ArgumentTypeError(f"{address}: want HOST:PORT")
     return host, int(port)
 
 
+def socket_address(address: str) -> str:
+    """Envoy's socket_address of HOST:PORT, the host quoted: YAML would read [::1] as a list."""
+    host, port = host_port(address)
+    return f'{{socket_address: {{address: "{host}", port_value: {port}}}}}'
+
+
 def envoy(listen: str, upstreams: List[str], admin: str, dns: bool) -> str:
-    lhost, lport = host_port(listen)
-    ahost, aport = host_port(admin)
     endpoints = "".join(
         f"""
-              - endpoint: {{address: {{socket_address: {{address: {h}, port_value: {p}}}}}}}"""
-        for h, p in map(host_port, upstreams)
+              - endpoint: {{address: {socket_address(u)}}}"""
+        for u in upstreams
     )
     dns_options = """
       dns_lookup_family: V4_ONLY
       dns_refresh_rate: 5s"""
     return f"""# Envoy in front of squalld replicas: written by deploy/lb/proxy-config.py.
 admin:
-  address: {{socket_address: {{address: {ahost}, port_value: {aport}}}}}
+  address: {socket_address(admin)}
 static_resources:
   listeners:
     - name: grpc
-      address: {{socket_address: {{address: {lhost}, port_value: {lport}}}}}
+      address: {socket_address(listen)}
       filter_chains:
         - filters:
             - name: envoy.filters.network.http_connection_manager

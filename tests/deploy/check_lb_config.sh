@@ -28,6 +28,17 @@ done
 "$tools/bin/envoy" --mode validate -c "$work/envoy.yaml" --log-level error
 mkdir -p /tmp/squall-nginx  # the example's prefix
 "$nginx" -t -p /tmp/squall-nginx -c "$work/nginx.conf"
+# IPv6 loopback, written [::1]:PORT: Envoy takes the address unbracketed and quoted (YAML would read [::1] as a
+# list), nginx as given.
+v6=(--listen "[::1]:50051" --upstream "[::1]:50061" --upstream "[::1]:50062" --admin "[::1]:9901")
+python3 "$source_dir/deploy/lb/proxy-config.py" envoy "${v6[@]}" > "$work/envoy-v6.yaml"
+python3 "$source_dir/deploy/lb/proxy-config.py" nginx "${v6[@]}" > "$work/nginx-v6.conf"
+grep -q 'address: "::1", port_value: 50061' "$work/envoy-v6.yaml" || { echo "envoy-v6.yaml: no ::1 upstream" >&2; exit 1; }
+"$tools/bin/envoy" --mode validate -c "$work/envoy-v6.yaml" --log-level error
+"$nginx" -t -p /tmp/squall-nginx -c "$work/nginx-v6.conf"
+if python3 "$source_dir/deploy/lb/proxy-config.py" envoy --listen ::1:50051 --upstream ::1:50061 2>/dev/null; then
+  echo "proxy-config.py took an IPv6 address without brackets" >&2; exit 1
+fi
 # A broken configuration must fail the same checks.
 sed 's/lb_policy: RING_HASH/lb_policy: RING_HASHH/' "$work/envoy.yaml" > "$work/broken.yaml"
 if "$tools/bin/envoy" --mode validate -c "$work/broken.yaml" --log-level critical >/dev/null 2>&1; then
