@@ -9,6 +9,7 @@
 #include "client/cli.h"
 #include "client/cli_flags.h"
 #include "client/image_io.h"
+#include "client/replacing_file.h"
 #include "server/common/field_codec.h"
 #include "squall/v1/clouds.grpc.pb.h"
 
@@ -312,10 +313,11 @@ int build(client::Client& client, const Request& r) {
   request.set_return_vdb(true);
   v1::BuildVolumeResponse response;
   check(stub->BuildVolume(context.get(), request, &response), "Clouds.BuildVolume");
-  std::ofstream out(r.output, std::ios::binary);
+  client::ReplacingFile file(r.output);
+  std::ofstream out(file.temp(), std::ios::binary);
   out << response.vdb();
   out.close();  // a full disk shows here, not at the write
-  if (out.fail()) {
+  if (out.fail() || !file.commit()) {
     std::cerr << "squall cloud: cannot write " << r.output
               << (response.summary().volume_id().empty()
                       ? ""

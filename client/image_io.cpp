@@ -9,14 +9,18 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+
+#include "client/replacing_file.h"
 
 namespace squall::client {
 
@@ -54,7 +58,8 @@ void write_exr(const std::string& path, const Image& image) {
     frame.insert(channel.name, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * image.nx));
   }
   try {
-    std::ofstream stream(path, std::ios::binary | std::ios::trunc);
+    ReplacingFile out(path);
+    std::ofstream stream(out.temp(), std::ios::binary | std::ios::trunc);
     if (!stream) throw std::runtime_error("cannot open it");
     {
       Imf::StdOFStream exr(stream, path.c_str());
@@ -64,6 +69,7 @@ void write_exr(const std::string& path, const Image& image) {
     }  // the line offsets are written as the file closes, where OpenEXR reports no error
     stream.close();
     if (stream.fail()) throw std::runtime_error("it was not written in full (is the disk full?)");
+    if (!out.commit()) throw std::runtime_error(std::string("cannot put it in place: ") + std::strerror(errno));
   } catch (const std::exception& e) {
     throw std::runtime_error("cannot write " + path + ": " + e.what());
   }
@@ -139,8 +145,9 @@ void write_png_preview(const std::string& path, int nx, int ny, const std::vecto
   if (nx < 1 || ny < 1 || values.size() != static_cast<size_t>(nx) * ny)
     throw std::runtime_error(path + ": preview needs nx * ny values");
   std::vector<png_byte> grey = preview_grey(values, tone);
+  ReplacingFile out(path);
   PngWriter w;
-  w.file = std::fopen(path.c_str(), "wb");
+  w.file = std::fopen(out.temp().c_str(), "wb");
   if (!w.file) throw std::runtime_error("cannot open " + path + " for writing");
   w.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   if (w.png) w.info = png_create_info_struct(w.png);
@@ -154,7 +161,7 @@ void write_png_preview(const std::string& path, int nx, int ny, const std::vecto
   png_write_end(w.png, nullptr);
   const int flushed = std::fflush(w.file), closed = std::fclose(w.file);
   w.file = nullptr;
-  if (flushed != 0 || closed != 0) throw std::runtime_error("cannot write " + path);
+  if (flushed != 0 || closed != 0 || !out.commit()) throw std::runtime_error("cannot write " + path);
 }
 
 }  // namespace squall::client

@@ -145,6 +145,9 @@ class DeviceCache : public MemoryReclaimer {
     return entries_.size();
   }
   size_t max_bytes() const { return max_bytes_; }  // a buffer larger than this is not kept
+  // Buffers kept at most, however small: a lookup walks them under the cache's lock, so that a client
+  // asking for ever new tiny ones (a 2 x 2 ocean layer's spectrum is 96 bytes) cannot slow every call.
+  static constexpr size_t kMaxEntries = 256;
   // The buffer of `key` if it is kept now, none otherwise; nothing is computed. While a caller holds it,
   // reclaim() leaves it alone (it takes back only the buffers nobody else holds).
   cl::Buffer kept(const Key& key) {
@@ -278,6 +281,7 @@ class DeviceCache : public MemoryReclaimer {
         evict(unused);                         // the budget the least recently used hold goes to the newest
       }
     }
+    while (entries_.size() >= kMaxEntries) evict_oldest();
     Held* held = gate_ ? hold_until_released(made.buffer, std::move(memory)) : nullptr;
     entries_.push_front(Entry{key, made.buffer, made.bytes, held});
     bytes_ += made.bytes;

@@ -9,9 +9,15 @@
 #include <ImfStringAttribute.h>
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <thread>
@@ -140,6 +146,62 @@ TEST(ImageIo, ExrReadsBackWithOpenExr) {
 TEST(ImageIo, ExrRejectsAChannelOfTheWrongSize) {
   client::Image image{4, 4, {{"height", std::vector<float>(15)}}, {}};
   EXPECT_THROW(client::write_exr(test::temp_dir("exr-bad") + "/x.exr", image), std::runtime_error);
+}
+
+// Reads a whole file's bytes.
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// While alive, no file grows past `bytes` (RLIMIT_FSIZE): a write past it fails as on a full disk
+// (EFBIG; SIGXFSZ ignored), then the limit and the signal are restored.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) : old_signal_(std::signal(SIGXFSZ, SIG_IGN)) {
+    getrlimit(RLIMIT_FSIZE, &old_);
+    rlimit limited = old_;
+    limited.rlim_cur = bytes;
+    setrlimit(RLIMIT_FSIZE, &limited);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &old_);
+    std::signal(SIGXFSZ, old_signal_);
+  }
+
+ private:
+  rlimit old_{};
+  void (*old_signal_)(int);
+};
+
+// An image file that cannot be written in full (the disk fills) leaves the file that was there as it was,
+// and nothing beside it: the EXR and the PNG go to a temporary file renamed over the old one once whole.
+TEST(ImageIo, AWriteThatFailsLeavesTheFileThatWasThere) {
+  const std::string dir = test::temp_dir("exr-full");
+  const int n = 256;
+  client::Image small{2, 2, {{"height", std::vector<float>(4, 1.0f)}}, {}};
+  client::Image large{n, n, {{"height", std::vector<float>(size_t(n) * n)}}, {}};
+  std::mt19937 rng(5);
+  std::normal_distribution<float> normal;
+  for (float& v : large.channels[0].values) v = normal(rng);  // noise: 256 KiB that ZIP barely shrinks
+  client::write_exr(dir + "/tile.exr", small);
+  client::write_png_preview(dir + "/tile.png", 2, 2, small.channels[0].values);
+  const std::string exr = file_bytes(dir + "/tile.exr"), png = file_bytes(dir + "/tile.png");
+  {
+    const FileSizeLimit full(16 << 10);
+    EXPECT_THROW(client::write_exr(dir + "/tile.exr", large), std::runtime_error);
+    EXPECT_THROW(client::write_png_preview(dir + "/tile.png", n, n, large.channels[0].values), std::runtime_error);
+  }
+  EXPECT_TRUE(file_bytes(dir + "/tile.exr") == exr) << "the EXR that was there changed";
+  EXPECT_TRUE(file_bytes(dir + "/tile.png") == png) << "the PNG that was there changed";
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 2) << "a temporary file was left";
+  client::write_exr(dir + "/tile.exr", large);
+  EXPECT_GT(file_bytes(dir + "/tile.exr").size(), size_t(16 << 10)) << "the limit was lifted";
+  // A symbolic link is written through, as named (so is a device: /dev/full fails as a full disk).
+  std::filesystem::create_symlink("tile.exr", dir + "/link.exr");
+  client::write_exr(dir + "/link.exr", small);
+  EXPECT_TRUE(std::filesystem::is_symlink(dir + "/link.exr"));
+  EXPECT_TRUE(file_bytes(dir + "/tile.exr") == exr) << "not written through the link";
 }
 
 // The PNG preview maps [min, max] to [0, 255]: read back with libpng, the minimum is 0, the maximum 255

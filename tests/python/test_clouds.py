@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 import re
+import resource
+import signal
 import struct
 from typing import Any
 
@@ -163,6 +165,27 @@ def test_build_of_a_request_with_a_path_writes_the_vdb(client: squall.Client, tm
     path = tmp_path / "request.vdb"
     volume = client.clouds.build(request=clouds_pb2.BuildVolumeRequest(model=cloud()), path=path)
     assert volume.vdb and path.read_bytes() == volume.vdb  # the path asked for the bytes
+
+
+def test_a_vdb_that_cannot_be_written_whole_leaves_the_file_that_was_there(tmp_path) -> None:
+    """A .vdb write that fails (here past RLIMIT_FSIZE, as on a full disk) leaves the old file as
+    it was and nothing beside it."""
+    path = tmp_path / "cloud.vdb"
+    path.write_bytes(b"the volume written before")
+    response = clouds_pb2.BuildVolumeResponse(vdb=bytes(1 << 20))
+    old_limit = resource.getrlimit(resource.RLIMIT_FSIZE)
+    old_handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    try:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1 << 16, old_limit[1]))
+        with pytest.raises(OSError):
+            squall.clouds.volume_of(response, False, path)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, old_limit)
+        signal.signal(signal.SIGXFSZ, old_handler)
+    assert path.read_bytes() == b"the volume written before"
+    assert [p.name for p in tmp_path.iterdir()] == ["cloud.vdb"]
+    squall.clouds.volume_of(response, False, path)
+    assert path.read_bytes() == response.vdb
 
 
 def test_a_sun_lights_the_side_its_direction_points_to(client: squall.Client) -> None:

@@ -313,6 +313,27 @@ TEST(DeviceCache, ABufferStillInUseStillCountsInTheMemoryBudget) {
   EXPECT_EQ(gate.memory_bytes(), kBytes);
 }
 
+// However small its buffers, a cache keeps at most kMaxEntries of them, the most recently used: a client
+// asking for ever new 96-byte spectra cannot make every lookup walk an endless list.
+TEST(DeviceCache, ACacheKeepsAtMostItsEntryCountOfTinyBuffers) {
+  constexpr size_t kBytes = 96, kMost = DeviceCache<int>::kMaxEntries;
+  auto make = [] {
+    return DeviceCache<int>::Made{cl::Buffer(test::runtime().context(), CL_MEM_READ_WRITE, kBytes), kBytes};
+  };
+  DeviceCache<int> cache(1 << 30, nullptr, "a test buffer");
+  cache.get(0, make);
+  for (int key = 1; key < int(kMost) + 100; ++key) {
+    cache.get(key, make);
+    cache.get(0, make);  // used again each time: kept
+  }
+  EXPECT_EQ(cache.entries(), kMost);
+  EXPECT_EQ(cache.bytes(), kMost * kBytes);
+  EXPECT_TRUE(cache.holds(0));
+  EXPECT_TRUE(cache.holds(int(kMost) + 99));
+  EXPECT_FALSE(cache.holds(1));
+  EXPECT_EQ(cache.computed(), kMost + 100);
+}
+
 // A call that finds another call computing its key waits for it, but a cancelled one stops waiting (within
 // the cache's look interval, 50 ms): here the other's computation ends only once the cancelled call has
 // stopped, and is kept.

@@ -16,7 +16,9 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import os
+import stat
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
 from squall._calls import Connection, Stream, Undo, propose_session_id
@@ -408,12 +410,31 @@ def evolution_request(
     )
 
 
+def write_whole(path: PathLike, data: bytes) -> None:
+    """Writes `data` at `path` whole or not at all: into a temporary file beside it, renamed over it
+    once written, so that a full disk leaves the file that was there as it was. Only a regular file
+    (or none) is replaced so: a device, a pipe or a symbolic link is written in place."""
+    target = os.fspath(path)
+    if os.path.lexists(target) and not stat.S_ISREG(os.lstat(target).st_mode):
+        with open(target, "wb") as f:
+            f.write(data)
+        return
+    temp = f"{target}.partial-{os.getpid()}"
+    try:
+        with open(temp, "wb") as f:
+            f.write(data)
+        os.replace(temp, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(temp)
+        raise
+
+
 def volume_of(
     response: clouds_pb2.BuildVolumeResponse, return_vdb: bool, path: Optional[PathLike]
 ) -> Volume:
     if path is not None:
-        with open(path, "wb") as f:
-            f.write(response.vdb)
+        write_whole(path, response.vdb)
     return Volume(response.summary, response.vdb if return_vdb else None)
 
 
