@@ -186,6 +186,10 @@ std::vector<double> tile_costs(const DeviceVolume& volume, const RenderSettings&
 // The kernels work in float32: a point or direction of the scene has components within +-kMaxWorld (m).
 constexpr double kMaxWorld = 1e7;
 
+// A march's step (m): a normal float32 (a subnormal one is 0 or imprecise on the device, and makes an empty
+// volume's cost estimates 0 / 0), and no longer than ten times the world is wide.
+const validate::Interval kStepRange = validate::closed(FLT_MIN, 10 * kMaxWorld);
+
 void world_xyz(const std::string& path, const Vec3d& v) {
   validate::in_xyz(path, v, validate::closed(-kMaxWorld, kMaxWorld));
 }
@@ -204,10 +208,10 @@ void validate(const RenderSettings& s, const std::string& f) {
   validate::in(f + ".camera.vertical_fov_deg", c.vertical_fov_deg, validate::open(0, 170));
   validate::in(f + ".camera.width", c.width, 1, 8192);
   validate::in(f + ".camera.height", c.height, 1, 8192);
-  validate::positive(f + ".step", s.step);
+  validate::in(f + ".step", s.step, kStepRange);
   validate::in(f + ".substeps", s.substeps, 1, SQUALL_CLOUD_MAX_SUBSTEPS);
   validate::in(f + ".min_transmittance", s.min_transmittance, validate::closed_open(0, 1));
-  validate::non_negative(f + ".shadow_step", s.shadow_step);
+  if (s.shadow_step != 0) validate::in(f + ".shadow_step", s.shadow_step, kStepRange);  // 0: three steps
   const Phase& ph = s.phase;
   // |g| and n - 1 at least 1e-4 from their poles in float32 (g = 0.99999999 is 1.0f: 0/0 at mu = 1)
   validate::in(f + ".phase.g1", ph.g1, validate::closed(-0.9999, 0.9999));

@@ -249,6 +249,14 @@ TEST(Errors, RenderSettingsNameTheirFields) {
   RenderSettings s;
   s.step = std::nan("");
   expect_error([&] { validate(s); }, Code::InvalidArgument, "render.step = nan");
+  s.step = 1e-40;  // a float32 subnormal
+  expect_error([&] { validate(s); }, Code::InvalidArgument,
+               "render.step = 1e-40 must be finite and in [1.17549435e-38, 100000000]");
+  s = RenderSettings{};
+  s.shadow_step = 1e-45;
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.shadow_step = 1e-45");
+  s.shadow_step = -1;
+  expect_error([&] { validate(s); }, Code::InvalidArgument, "render.shadow_step = -1");
   s = RenderSettings{};
   // The caption of Fig A.2 of J. Tessendorf and M. Kowalski, "Resolution Independent Volumes" (SIGGRAPH
   // course notes 2010/2011) misprints the Junge slope 3.5..5 as 0.35..0.5; a value from that range is refused.
