@@ -4,6 +4,8 @@
 #include <cmath>
 #include <unordered_set>
 
+#include "common/seeded_hash.h"
+
 namespace squall::clouds {
 namespace {
 
@@ -49,7 +51,7 @@ class NodeCount {
  private:
   static constexpr double kMaxListed = 1 << 16;
   // Node coordinates stay within 2^21 voxels of the origin (the model's reach): 20 bits an axis.
-  static double count(const MeshPiece& body, double g, double span, std::unordered_set<uint64_t>& seen) {
+  static double count(const MeshPiece& body, double g, double span, std::unordered_set<uint64_t, SeededHash>& seen) {
     int64_t lo[3], hi[3];
     double nodes = 1;
     for (int a = 0; a < 3; ++a) {
@@ -66,7 +68,7 @@ class NodeCount {
                        .second;
     return added;
   }
-  std::unordered_set<uint64_t> lower_nodes_, upper_nodes_;
+  std::unordered_set<uint64_t, SeededHash> lower_nodes_, upper_nodes_;  // coordinates of the client's bodies
   double lower_ = 0, upper_ = 0;
 };
 

@@ -1,13 +1,14 @@
 #include "clouds/model.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
 
 #include "common/disjoint_sets.h"
 #include "common/error.h"
-#include "common/fnv1a.h"
+#include "common/seeded_hash.h"
 #include "common/validate.h"
 
 namespace squall::clouds {
@@ -173,8 +174,8 @@ void mark_convex(const TriangleMesh& m, const std::vector<size_t>& piece_of, con
     size_t triangle;
     int uses;
   };
-  std::unordered_map<uint64_t, Edge> edges;
-  std::vector<int64_t> euler(pieces.size(), 0);  // V - E + F: F and -E here, V below
+  std::unordered_map<uint64_t, Edge, SeededHash> edges;  // keys of the client's vertex indices
+  std::vector<int64_t> euler(pieces.size(), 0);          // V - E + F: F and -E here, V below
   std::vector<bool> bent(pieces.size(), false);
   auto vertex = [&](size_t t, int k) { return m.triangles[3 * t + size_t(k)]; };
   for (size_t t = 0; t < piece_of.size(); ++t) {
@@ -222,11 +223,8 @@ void mark_convex(const TriangleMesh& m, const std::vector<size_t>& piece_of, con
 TriangleMesh welded(const TriangleMesh& m) {
   struct Hash {
     size_t operator()(const Vec3d& v) const {
-      uint64_t h = kFnv1aOffsetBasis;
-      for (double c : v) {
-        c += 0.0;  // -0 as +0: equal positions, equal hashes
-        h = fnv1a(h, &c, sizeof c);
-      }
+      uint64_t h = hash_seed();
+      for (double c : v) h = mix_in(h, std::bit_cast<uint64_t>(c + 0.0));  // -0 as +0: equal positions, equal hashes
       return size_t(h);
     }
   };
