@@ -167,22 +167,23 @@ class SessionRegistry {
     last_beat_ = std::chrono::steady_clock::now().time_since_epoch().count();
     beat_failing_ = false;
   }
-  // UNAVAILABLE while this replica's heartbeat fails and was last written more than half the owner
-  // timeout ago: the other replicas take it for dead at the full timeout and resume its sessions from their
-  // checkpoints, so from then on it serves none of them (nor takes new ones), and no session is stepped on
-  // two replicas. Once a beat is written again its sessions are served again (those taken over meanwhile
-  // are let go at their next call).
+  // UNAVAILABLE while this replica's heartbeat was last written more than half the owner timeout ago
+  // (its writes fail, or hang on a file server that is gone): the other replicas take it for dead at the
+  // full timeout and resume its sessions from their checkpoints, so from then on it serves none of them (nor
+  // takes new ones), and no session is stepped on two replicas. Once a beat is written again its sessions
+  // are served again (those taken over meanwhile are let go at their next call).
   void require_beating() const {
     if (!beating())
       fail(Code::Unavailable,
-           "this replica cannot write its heartbeat in the state directory (see its log), so "
+           "this replica cannot write its heartbeat in the state directory (its writes fail or hang; see its log), so "
            "other replicas take its sessions over; retry: another replica serves it");
   }
   // Whether the latest heartbeat could not be written.
   bool heartbeat_failing() const { return beat_failing_; }
-  // False from then on: what require_beating() refuses for (health turns NOT_SERVING too).
+  // False from then on: what require_beating() refuses for (health turns NOT_SERVING too). The daemon beats
+  // every owner timeout / 20 on a thread of its own, from begin() on.
   bool beating() const {
-    if (!state_dir_ || !beat_failing_) return true;
+    if (!state_dir_) return true;
     const auto last = std::chrono::steady_clock::time_point(std::chrono::steady_clock::duration(last_beat_.load()));
     return std::chrono::steady_clock::now() - last <= owner_timeout_ / 2;
   }

@@ -257,6 +257,7 @@ struct Replica {
             const std::string value = store->open_checkpoint(bytes, "checkpoint", 1, &header);
             store->add(header.id, store->reserve(8), std::make_shared<Counter>(Counter{std::stoi(value)}));
           });
+    registry.begin();  // beats: a replica serves its sessions while its heartbeat is fresh
   }
   SessionPolicy policy() {
     SessionPolicy p;
@@ -297,6 +298,7 @@ TEST(SessionStoreStateDir, AnEvictionPassDoesNotWaitForACallInFlight) {
   const std::string dir = test::temp_dir("store-evict");
   std::atomic<int64_t> now_ms{0};
   SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"), "a");
+  registry.begin();
   SessionPolicy policy{100ms, [&] { return std::chrono::steady_clock::time_point(std::chrono::milliseconds(now_ms)); },
                        &registry};
   LimitGate gate{Limits{}};

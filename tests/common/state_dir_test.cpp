@@ -367,6 +367,7 @@ TEST(StateDir, ARestartedReplicaClaimsNoneOfItsFormerSessions) {
   b.registry.heartbeat();
   expect_error(Code::Unavailable, "is live on replica a", [&] { b.store.get(id); });
   Replica restarted(dir, "a", now, 1s);  // waits for the former heartbeat to stop
+  b.registry.heartbeat();                // as its daemon would have meanwhile
   EXPECT_EQ(b.store.with(id, [](Counter& c) { return c.value; }), 4);
   EXPECT_EQ(b.registry.state_dir()->owner(id).value(), "b");
   EXPECT_TRUE(b.registry.state_dir()->handover_requests().empty()) << "b's request to a, answered";
@@ -524,6 +525,7 @@ TEST(StateDir, EvictingASessionRemovesItsCheckpoint) {
   const std::string dir = test::temp_dir("state-evict");
   LimitGate gate{Limits{}};
   SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"));
+  registry.begin();
   auto now = std::chrono::steady_clock::now();
   SessionStore<Counter> store(gate, SessionPolicy{100ms, [&] { return now; }, &registry}, "counter", "counter_id",
                               "c-");
@@ -631,6 +633,23 @@ TEST(StateDir, AReplicaWhoseHeartbeatFailsServesNoSessionPastHalfTheOwnerTimeout
   EXPECT_THROW(Replica(dir, "a", now, 2s), Error) << "a second process under this name cannot beat either";
   EXPECT_EQ(a.registry.state_dir()->owner(id).value_or("none"), "a") << "and it cleared no ownership first";
   fs::remove(beat);
+  a.registry.heartbeat();
+  EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "served again once a beat is written";
+}
+
+// A heartbeat whose write hangs (a hard mount whose file server is gone) fails nothing, but is not written
+// either: the other replicas take the replica for dead all the same, so from half the owner timeout after its
+// last beat it serves none of its sessions, as when its writes fail.
+TEST(StateDir, AReplicaWhoseHeartbeatIsNotWrittenServesNoSessionPastHalfTheOwnerTimeout) {
+  const std::string dir = test::temp_dir("state-beat-hangs");
+  const auto now = [] { return std::chrono::steady_clock::now(); };
+  Replica a(dir, "a", now, 2s);
+  const std::string id = a.store.add(a.store.reserve(0), std::make_shared<Counter>(Counter{6}));
+  EXPECT_TRUE(a.registry.beating());
+  std::this_thread::sleep_for(1500ms);  // no beat: its thread waits on the write
+  EXPECT_FALSE(a.registry.heartbeat_failing());
+  EXPECT_FALSE(a.registry.beating());
+  expect_error(Code::Unavailable, "cannot write its heartbeat", [&] { a.store.with(id, [](Counter&) {}); });
   a.registry.heartbeat();
   EXPECT_EQ(a.store.with(id, [](Counter& c) { return c.value; }), 6) << "served again once a beat is written";
 }
