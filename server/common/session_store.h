@@ -258,7 +258,10 @@ class SessionStore {
         continue;
       }
       try {
-        state_dir()->write(id, encoded(id, *entry->value, save_));
+        if (!write_owned(*entry)) {  // taken over between the look above and the write
+          forget(entry);
+          continue;
+        }
         if (release) policy_.registry->release(id);
         entry->released = release;
         ++written;
@@ -360,14 +363,17 @@ class SessionStore {
     {
       std::lock_guard<std::mutex> lock(entry->mutex);  // waits for a call in flight on the session
       if (!entry->released && !entry->removed && !let_go_if_taken_over(*entry)) {
+        bool owned = true;  // false: taken over between the look above and the write, and let go
         try {
-          state_dir()->write(id, encoded(id, *entry->value, save_));
+          owned = write_owned(*entry);
         } catch (const Error& e) {  // a session with no state to save (broken) goes at its last checkpoint
           if (e.code() != Code::FailedPrecondition) throw;  // the writing failed: asked again at the next tick
           log(LogLevel::Error, kind_, " ", id, " not written (", e.what(), "): handed over at its last checkpoint");
         }
-        policy_.registry->release(id);
-        entry->released = handed = true;  // a call already waiting for this entry answers UNAVAILABLE
+        if (owned) {
+          policy_.registry->release(id);
+          entry->released = handed = true;  // a call already waiting for this entry answers UNAVAILABLE
+        }
       }
     }
     forget(entry);
@@ -459,6 +465,16 @@ class SessionStore {
         ": let go here");
     entry.released = true;
     return true;
+  }
+
+  // Under entry.mutex: writes the entry's checkpoint while this replica owns its session; false, the entry
+  // released, where another replica took it over since let_go_if_taken_over() looked.
+  bool write_owned(Entry& entry) {
+    if (state_dir()->write_owned(entry.id, encoded(entry.id, *entry.value, save_), policy_.registry->replica()))
+      return true;
+    log(LogLevel::Warn, kind_, " ", entry.id, " was taken over by another replica as it was written: let go here");
+    entry.released = true;
+    return false;
   }
 
   void forget(const std::shared_ptr<Entry>& entry) {  // out of the map, if it is still there

@@ -241,6 +241,31 @@ void StateDir::write(const std::string& id, const std::string& bytes) const {
   write_atomically(*file, path_, bytes);
 }
 
+bool StateDir::write_owned(const std::string& id, const std::string& bytes, const std::string& replica) const {
+  auto file = file_of(id, kSession);
+  if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
+  require_same_directory();
+  const std::string tmp = temporary(*file, "");
+  write_synced(tmp, bytes);  // before the lock, which is then held for a read and a rename
+  bool owned = false;
+  try {
+    with_owner_lock(id, [&] {
+      const std::optional<std::string> now = owner(id);
+      owned = now ? *now == replica : !owner_missing(id);
+      if (owned && std::rename(tmp.c_str(), file->c_str()) != 0) fail_io("rename into place", *file);
+    });
+  } catch (...) {
+    std::remove(tmp.c_str());
+    throw;
+  }
+  if (!owned) {
+    std::remove(tmp.c_str());
+    return false;
+  }
+  sync_directory(path_);
+  return true;
+}
+
 std::optional<std::string> StateDir::read(const std::string& id) const {
   auto file = file_of(id, kSession);
   return file ? read_whole(*file) : std::nullopt;

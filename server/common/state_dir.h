@@ -41,6 +41,11 @@ class StateDir {
   StateDir(std::string path, const std::string& flag);
 
   void write(const std::string& id, const std::string& bytes) const;
+  // write() for the owner of `id`: the bytes are written and synced first, then put in place under the
+  // session's ownership lock only while its owner file names `replica` (or cannot be read: a glitch of a
+  // network file system drops no session). False, and nothing changed, where another replica has taken the
+  // session over meanwhile (this one was presumed dead): its older state never lands over the new owner's.
+  bool write_owned(const std::string& id, const std::string& bytes, const std::string& replica) const;
   std::optional<std::string> read(const std::string& id) const;  // nullopt: no such file (or no such id)
   bool checkpointed(const std::string& id) const;                // whether read() finds a file
   // The session's checkpoint and handover request, and its owner file if it names `owner`.

@@ -237,6 +237,24 @@ TEST(StateDir, OwnershipIsClaimedOnlyWhereThereIsNoneAndGivenUpOnlyByItsOwner) {
   EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".owner"});
 }
 
+// A checkpoint is put in place only while its owner file names the writer, checked under the ownership lock
+// as the rename is made: a replica stalled past the owner timeout (another has claimed the session since)
+// leaves the new owner's checkpoint as it is, and no temporary file behind.
+TEST(StateDir, ACheckpointIsPutInPlaceOnlyByItsOwner) {
+  const std::string dir = test::temp_dir("state-write-owned");
+  StateDir state(dir, "--state-dir");
+  ASSERT_TRUE(state.create_owner(kId, "a"));
+  EXPECT_TRUE(state.write_owned(kId, "a at step 1", "a"));
+  ASSERT_TRUE(state.claim_owner(kId, "b", [](const std::string&) { return true; }));  // a taken for dead
+  EXPECT_FALSE(state.write_owned(kId, "a at step 2", "a"));
+  EXPECT_EQ(state.read(kId).value(), "a at step 1");
+  EXPECT_TRUE(state.write_owned(kId, "b at step 2", "b"));
+  ASSERT_TRUE(state.remove_owner_if(kId, "b"));  // given up: no owner at all
+  EXPECT_FALSE(state.write_owned(kId, "a at step 3", "a"));
+  EXPECT_EQ(state.read(kId).value(), "b at step 2");
+  EXPECT_EQ(files(dir), std::vector<std::string>{kId + ".session"});
+}
+
 // A lock held by a replica that is changing the session's owner makes another wait, and answer
 // UNAVAILABLE after a few seconds; one left by a replica that died holding it (older than seconds) is broken.
 TEST(StateDir, AnOwnershipLockLeftBehindIsBrokenAndALiveOneWaitedFor) {
