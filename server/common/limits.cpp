@@ -82,6 +82,14 @@ void LimitGate::check_render_samples(const std::string& field, const std::string
                                       validate::number(limits_.max_render_samples) + " (" + cheaper + " cost less)");
 }
 
+void LimitGate::check_bake_work(const std::string& what, double tests) const {
+  if (!(tests <= limits_.max_bake_work))
+    fail(Code::ResourceExhausted,
+         what + " makes an estimated " + validate::number(tests) +
+             " wall and polygon tests, more than --max-bake-work = " + validate::number(limits_.max_bake_work) +
+             " (fewer nodes, a smaller search_radius or fewer wall points cost less)");
+}
+
 // Adds `amount` to `counter` unless that would pass `limit`; the message names what and the flag:
 // "streams: 16 already open, the limit is --max-streams = 16".
 Slot LimitGate::take(std::atomic<uint64_t>& counter, uint64_t amount, uint64_t limit, const std::string& what,

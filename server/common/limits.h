@@ -30,6 +30,8 @@ struct Limits {
   double max_render_samples = 4e11;             // --max-render-samples: estimated density samples of one cloud render
   double max_advection_samples = 1e9;           // --max-advection-samples: a cloud build's estimated velocity
                                                 // samples (active voxels x substeps, x2 for MacCormack)
+  double max_bake_work = 1e12;                  // --max-bake-work: a river bake's estimated wall-segment and
+                                                // polygon-point tests (nodes x those near each)
   uint64_t memory_budget = 8ull << 30;          // --memory-budget: bytes of sessions, stored volumes and calls'
                                                 // working memory together (squalld's default: 3/4 of the
                                                 // cgroup memory limit, else of the physical memory)
@@ -101,6 +103,9 @@ class LimitGate {
   // max_render_samples, with `cheaper`: what would cost less ("a larger step, ...").
   void check_render_samples(const std::string& field, const std::string& value, double samples,
                             const std::string& cheaper) const;
+  // The work a river bake would do, estimated before it runs (`tests`: wall segments and polygon points
+  // tested, summed over its nodes); RESOURCE_EXHAUSTED naming `what` beyond max_bake_work.
+  void check_bake_work(const std::string& what, double tests) const;
 
   Slot acquire_stream();  // RESOURCE_EXHAUSTED when max_streams are open
   // One of `client`'s streams (a peer address, a token's name); RESOURCE_EXHAUSTED when it has

@@ -134,6 +134,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
       {"max-session-bytes", [o](const std::string& v) { o->limits.max_session_bytes = positive_integer(v); }},
       {"max-render-samples", [o](const std::string& v) { o->limits.max_render_samples = positive_count(v); }},
       {"max-advection-samples", [o](const std::string& v) { o->limits.max_advection_samples = positive_count(v); }},
+      {"max-bake-work", [o](const std::string& v) { o->limits.max_bake_work = positive_count(v); }},
       {"grace-period", [o](const std::string& v) { o->grace_seconds = positive_seconds(v); }},
       {"drain-wait", [o](const std::string& v) { o->drain_wait_seconds = seconds_or_zero(v); }},
       {"shutdown-bound", [o](const std::string& v) { o->shutdown_bound_seconds = positive_seconds(v); }},
@@ -337,6 +338,8 @@ std::string usage() {
          "                            substeps, x2 for MacCormack (default 1e9)\n"
          "  --max-render-samples N    estimated density samples of one cloud render, an upper bound computed\n"
          "                            before it runs (default 4e11)\n"
+         "  --max-bake-work N         estimated wall and polygon tests of one river bake, computed before it\n"
+         "                            runs (default 1e12)\n"
          "  --grace-period SECONDS    on SIGTERM/SIGINT, time calls get to finish before they are cancelled (default "
          "10)\n"
          "  --drain-wait SECONDS      of the grace period, how long a draining squalld keeps answering UNAVAILABLE\n"

@@ -66,11 +66,12 @@ struct RiverEngine::Geometry {
   std::vector<double> obstacle_psi;
   std::vector<float> boundary_psi, boundary_s;
   std::vector<cl_int> bin_offsets;        // bin_start on the host, for bake_tile_costs
+  Slot bins_memory;                       // the bins' bytes in the memory budget
   std::vector<PolygonBox> polygon_boxes;  // the channels' and obstacles' polygons, likewise
   cl::Buffer segments, segment_boundary, bin_start, bin_items, psi, s, polygon_start, polygon_points;
 };
 
-RiverEngine::RiverEngine(Runtime& runtime, const LimitGate& gate)
+RiverEngine::RiverEngine(Runtime& runtime, LimitGate& gate)
     : runtime_(runtime),
       gate_(gate),
       points_(runtime, "textures/river.cl", "river_points"),
@@ -212,10 +213,11 @@ void for_each_bin_crossed(const cl_float4& s, const RiverGeometry& geo, F&& visi
 }
 
 // Bins of about s_max / 2 over the segments' bounding box (fewer, larger bins past kMaxBins), each listing
-// the segments that pass through it (CSR). RESOURCE_EXHAUSTED, naming `path`, past kMaxBinItems entries:
-// walls that cross the region many times over.
+// the segments that pass through it (CSR). RESOURCE_EXHAUSTED, naming `path`, past kMaxBinItems entries
+// (walls that cross the region many times over), counted before any is stored; the entries are then held in
+// `gate`'s memory budget, host and device copies, in `memory`.
 void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& start, std::vector<cl_int>& items,
-                  const std::string& path) {
+                  LimitGate& gate, Slot& memory, const std::string& path) {
   float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
   for (const cl_float4& s : walls.segments) {
     x0 = std::min({x0, s.s[0], s.s[2]});
@@ -231,24 +233,24 @@ void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& s
   geo.bin_y0 = y0;
   geo.bins_x = int((x1 - x0) / geo.bin_size) + 1;
   geo.bins_y = int((y1 - y0) / geo.bin_size) + 1;
-  std::vector<std::vector<cl_int>> bins(size_t(geo.bins_x) * geo.bins_y);
+  start.assign(size_t(geo.bins_x) * geo.bins_y + 1, 0);  // each bin's count, then its first entry
   int64_t entries = 0;
-  for (size_t k = 0; k < walls.segments.size(); ++k) {
-    for_each_bin_crossed(walls.segments[k], geo, [&](size_t bin) {
+  for (const cl_float4& segment : walls.segments)
+    for_each_bin_crossed(segment, geo, [&](size_t bin) {
       if (++entries > kMaxBinItems)
         fail(Code::ResourceExhausted, path + ": its walls cross more than " + std::to_string(kMaxBinItems) +
                                           " bins of " + number(geo.bin_size) +
                                           " du (the search radius / 2): fewer or shorter segments, or a smaller "
                                           "search_radius");
-      bins[bin].push_back(cl_int(k));
+      ++start[bin + 1];
     });
-  }
-  start.assign(1, 0);
-  items.reserve(size_t(entries));
-  for (const auto& bin : bins) {
-    items.insert(items.end(), bin.begin(), bin.end());
-    start.push_back(cl_int(items.size()));
-  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  // The bins on the host and the device, for the bake's length.
+  memory = gate.acquire_memory(path + "'s wall bins", 2 * sizeof(cl_int) * (uint64_t(entries) + start.size()));
+  items.resize(size_t(entries));
+  std::vector<cl_int> next(start.begin(), start.end() - 1);
+  for (size_t k = 0; k < walls.segments.size(); ++k)
+    for_each_bin_crossed(walls.segments[k], geo, [&](size_t bin) { items[size_t(next[bin]++)] = cl_int(k); });
 }
 
 Point2 vertex_centroid(const std::vector<Point2>& points) {
@@ -292,7 +294,7 @@ RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::str
   g.geo.p = float(river.p);
   g.geo.s_max = *std::max_element(g.boundary_s.begin(), g.boundary_s.end());
   std::vector<cl_int> bin_items;
-  bin_segments(walls, g.geo, g.bin_offsets, bin_items, path);
+  bin_segments(walls, g.geo, g.bin_offsets, bin_items, gate_, g.bins_memory, path);
   g.polygon_boxes = polygon_boxes(walls);
   g.segments = squall::upload(runtime_, walls.segments);
   g.segment_boundary = squall::upload(runtime_, walls.boundary);
@@ -358,8 +360,11 @@ RiverBake RiverEngine::bake(const RiverSpec& river, const BakeGrid& grid, const 
   // of 8 x 8 tiles, each slice timed, so that a cancelled call stops within about one slice.
   const TileGrid tiles{round_up(grid.nx, 8) / 8, round_up(grid.ny, 8) / 8};
   const std::vector<double> costs = bake_tile_costs(g.geo, g.bin_offsets, g.polygon_boxes, grid, tiles);
+  const double total = std::accumulate(costs.begin(), costs.end(), 0.0);
+  gate_.check_bake_work(path + ": the bake of " + std::to_string(grid.nx) + " x " + std::to_string(grid.ny) + " nodes",
+                        64 * total);  // a tile's cost is per node
   const double first = std::accumulate(costs.begin(), costs.begin() + std::min<size_t>(costs.size(), 4), 0.0);
-  const WorkKind kind{"textures.river_bake", size_t(std::accumulate(costs.begin(), costs.end(), 0.0))};
+  const WorkKind kind{"textures.river_bake", size_t(total)};
   const SlicePlan plan{costs.size(), 1, [&](size_t t) { return costs[t]; }, first, kind};
   QueueLease lease;
   run_sliced(runtime_, lease, plan, cancel, path + ": the bake", [&](size_t first, size_t count) {

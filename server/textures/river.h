@@ -46,7 +46,7 @@ void validate_bake_grid(const BakeGrid& grid, const LimitGate& gate, const std::
 
 class RiverEngine {
  public:
-  RiverEngine(Runtime& runtime, const LimitGate& gate);
+  RiverEngine(Runtime& runtime, LimitGate& gate);
 
   // Every field in range: INVALID_ARGUMENT naming "<path>.channels[c].left_bank.points[k].x", ...
   void validate(const RiverSpec& river, const std::string& path) const;
@@ -73,7 +73,7 @@ class RiverEngine {
   std::vector<RiverSample> run_points(const Geometry& geometry, const std::vector<Point2>& points, int limit);
 
   Runtime& runtime_;
-  const LimitGate& gate_;
+  LimitGate& gate_;
   // out, points, count, geometry, segments, segment_boundary, bin_start, bin_items, boundary_psi,
   // boundary_s, polygon_start, polygon_points, limit
   Kernel<cl::Buffer, cl::Buffer, cl_int, RiverGeometry, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer, cl::Buffer,

@@ -383,6 +383,37 @@ TEST(TexturesRiver, ABadRiverIsInvalidEvenWhenTheStreamsAreFull) {
   EXPECT_TRUE(held.finish().ok());
 }
 
+// A bake's work is estimated before it runs (each node tests the wall segments within the search radius and
+// the points of the polygons around it) and refused past --max-bake-work: under 1e7 tests the Y river bakes
+// on 64 x 64 nodes, and on 1024 x 1024 it is refused naming the bake and the flag.
+TEST(TexturesRiver, ABakePastMaxBakeWorkIsRefusedBeforeItRuns) {
+  test::Daemon d({"--max-bake-work", "1e7"});
+  EXPECT_EQ(bake_velocity(y_river_bake(64, 64), d.address()).u().nx(), 64u);
+  const std::string refused =
+      test::expect_error(Code::ResourceExhausted, "request.river: the bake of 1024 x 1024 nodes",
+                         [&] { bake_velocity(y_river_bake(1024, 1024), d.address()); });
+  EXPECT_NE(refused.find("more than --max-bake-work = 10000000"), std::string::npos) << refused;
+}
+
+// A river's wall bins are counted before they are stored and held in the memory budget: a bank zigzagging
+// ten times across a region 2e7 du long (a request of a few hundred bytes) crosses 1e7 bins of 20 du, 80 MB
+// of entries on the host and the device, refused under a 64 MiB budget naming them.
+TEST(TexturesRiver, AWallsBinsCountInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(64 << 20)});
+  v1::BakeVelocityRequest request = y_river_bake(2, 2);
+  v1::RiverVelocity& river = *request.mutable_river();
+  river = v1::RiverVelocity();
+  v1::RiverChannel* channel = river.add_channels();
+  std::vector<std::pair<double, double>> zigzag;
+  for (int k = 0; k <= 10; ++k) zigzag.push_back({k % 2 ? 1e7 : -1e7, 1 + 0.01 * k});
+  polyline(channel->mutable_left_bank(), zigzag);
+  polyline(channel->mutable_right_bank(), {{-1e7, 0}, {1e7, 0}});
+  channel->set_flow_rate(1);
+  river.set_search_radius(1);
+  test::expect_error(Code::ResourceExhausted, "request.river's wall bins",
+                     [&] { bake_velocity(request, d.address()); });
+}
+
 // `squall texture river` writes the bake as an EXR (the reply's values) and prints the flow rates;
 // `squall texture advect --velocity river:FILE.json` streams frames driven by the same file.
 TEST(TexturesRiver, CommandLine) {

@@ -405,7 +405,7 @@ TEST(River, BadRiversNameTheField) {
   });
   Limits small;
   small.max_grid_cells = 1000;
-  const LimitGate gate(small);
+  LimitGate gate(small);
   const RiverEngine limited(runtime(), gate);
   expect_error(Code::ResourceExhausted, "grid", [&] { limited.validate(BakeGrid{40, 40, 0, 0, 1, 1}, "grid"); });
   expect_error(Code::InvalidArgument, "grid.region.x1", [&] { e.validate(BakeGrid{4, 4, 0, 0, 0, 1}, "grid"); });
