@@ -77,15 +77,16 @@ std::vector<CapabilityGauge> CloudsService::gauges() const {
 grpc::Status CloudsService::BuildVolume(grpc::ServerContext* context, const v1::BuildVolumeRequest* request,
                                         v1::BuildVolumeResponse* response) {
   return serve(*context, serving_, [&] {
+    // Held through the build: the request's model lives on, and the build checks the model again.
     Slot mesh_memory =
         serving_.gate().acquire_memory("BuildVolume's meshes, read", req::mesh_read_bytes(request->model()));
-    const CloudModel model = req::model(request->model());
+    CloudModel model = req::model(request->model());
     const uint64_t peak = engine_->validate(model, "model");
     std::optional<CloudEngine::Place> place;  // a bad model is INVALID_ARGUMENT however full the sessions are
     if (request->keep()) place = engine_->place(proposed_session(*context), client_address(*context));
-    mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
     Slot memory = serving_.gate().acquire_memory("BuildVolume's build", peak);
-    auto volume = engine_->build(model, "model", cancellation(*context));
+    auto volume = engine_->build(std::move(model), "model", cancellation(*context));
+    mesh_memory.release();
     if (request->return_vdb()) {
       std::string vdb = write_vdb(volume->volume);
       serving_.gate().check_message_bytes("BuildVolumeResponse.vdb", vdb.size());
@@ -147,13 +148,12 @@ grpc::Status CloudsService::Render(grpc::ServerContext* context, const v1::Rende
     Slot memory = serving_.gate().acquire_memory("Render's image", image_working_bytes(settings)), model_memory;
     std::shared_ptr<StoredVolume> volume;
     if (request->has_model()) {
-      Slot mesh_memory =
+      Slot mesh_memory =  // held through the build, as BuildVolume's
           serving_.gate().acquire_memory("Render's meshes, read", req::mesh_read_bytes(request->model()));
-      const CloudModel model = req::model(request->model());
+      CloudModel model = req::model(request->model());
       const uint64_t peak = clouds.validate(model, "model");
-      mesh_memory.release();  // checked: the model's meshes count in the build's bytes from here
       model_memory = serving_.gate().acquire_memory("Render's model, built", peak);
-      volume = clouds.build(model, "model", cancel);
+      volume = clouds.build(std::move(model), "model", cancel);
     } else {
       if (request->volume_id().empty())
         fail(Code::InvalidArgument, "volume_id is empty and no model is given: send one of them");
@@ -199,11 +199,11 @@ grpc::Status CloudsService::StreamEvolution(grpc::ServerContext* context, const 
     for (int i = 0; i < request->times_size(); ++i) {
       if (!call.live()) return;
       const double t = request->times(i);
-      const CloudModel model = model_at(base, evolution, t);
+      CloudModel model = model_at(base, evolution, t);
       const std::string field = "model at " + validate::at("times", i);
       Slot volume_memory =
           serving_.gate().acquire_memory("StreamEvolution's volume, built", engine_->validate(model, field));
-      auto volume = engine_->build(model, field, call.cancellation());
+      auto volume = engine_->build(std::move(model), field, call.cancellation());
       check_work(volume->device, settings);
       v1::EvolutionFrame frame;
       frame.set_time(t);
