@@ -107,6 +107,8 @@ Slot LimitGate::acquire_stream() {
   return take(streams_, 1, limits_.max_streams, "streams", "--max-streams", "already open");
 }
 
+Slot LimitGate::acquire_call() { return take(calls_, 1, limits_.max_calls, "calls", "--max-calls", "running"); }
+
 Slot LimitGate::acquire_client_stream(const std::string& client) {
   if (limits_.max_streams_per_client == 0) return Slot();
   auto& bucket = client_streams_[std::hash<std::string>{}(client) % kClientBuckets];

@@ -17,6 +17,7 @@ namespace squall {
 struct Limits {
   uint64_t max_grid_cells = 4096ull * 4096ull;  // --max-grid-cells: cells of one field
   uint32_t max_streams = 16;                    // --max-streams: concurrent streaming calls
+  uint32_t max_calls = 256;                     // --max-calls: unary calls of the capabilities running at once
   uint32_t max_streams_per_client = 0;          // --max-streams-per-client: of those, one client's (0: no
                                                 // limit of its own)
   double stream_idle_seconds = 600;             // --stream-idle-timeout: how long a stream may wait on its
@@ -108,6 +109,7 @@ class LimitGate {
   void check_bake_work(const std::string& what, double tests) const;
 
   Slot acquire_stream();  // RESOURCE_EXHAUSTED when max_streams are open
+  Slot acquire_call();    // a unary call's, for its length; RESOURCE_EXHAUSTED when max_calls are running
   // One of `client`'s streams (a peer address, a token's name); RESOURCE_EXHAUSTED when it has
   // max_streams_per_client open. Clients are counted in kClientBuckets buckets by a hash of the name, so
   // the memory is fixed; two clients sharing a bucket share its limit. An empty Slot when there is no
@@ -172,6 +174,7 @@ class LimitGate {
 
   Limits limits_;
   std::atomic<uint64_t> streams_{0};
+  std::atomic<uint64_t> calls_{0};
   std::atomic<uint64_t> sessions_{0};
   std::atomic<uint64_t> session_bytes_{0};
   std::atomic<uint64_t> memory_bytes_{0};

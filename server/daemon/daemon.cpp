@@ -6,12 +6,14 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/impl/server_builder_option.h>
+#include <grpcpp/resource_quota.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/security/tls_certificate_provider.h>
 #include <grpcpp/security/tls_credentials_options.h>
 #include <prometheus/exposer.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <future>
@@ -101,6 +103,15 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   // call that finds none: under a few clients' load that was hundreds of threads started and ended a
   // second. Up to --rpc-threads now wait for the next call.
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, options.rpc_threads);
+  // Every running call holds a thread: at most --max-calls unary ones, --max-streams streams and the health
+  // service's Watch streams, with the idle pollers and 64 more for health checks, reflection and refusing
+  // calls past the limits by name. Past this many threads gRPC itself answers RESOURCE_EXHAUSTED ("Server
+  // Threadpool Exhausted"), from the last idle poller.
+  const int64_t threads = int64_t(options.limits.max_calls) + options.limits.max_streams + options.rpc_threads +
+                          HealthService::kMaxWatches + 64;
+  grpc::ResourceQuota quota("squalld");
+  quota.SetMaxThreads(int(std::min<int64_t>(threads, INT32_MAX)));
+  builder.SetResourceQuota(quota);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<UndecodableRequestFactory>());  // first: the log shows the status it sets
   interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));

@@ -78,6 +78,8 @@ bool on_or_off(const std::string& v) {
 
 // --rpc-threads' and --fft-threads' bound.
 constexpr uint64_t kMaxThreads = 1024;
+// --max-calls' bound: a running call holds a thread.
+constexpr uint64_t kMaxCalls = 16384;
 
 // --max-grid-cells' own bound: 2^26 cells (8192^2) times 32 planes is within a 32-bit index.
 constexpr uint64_t kMaxGridCellsFlag = uint64_t(1) << 26;
@@ -119,6 +121,7 @@ std::map<std::string, Setter> setters(DaemonOptions* o) {
              v, kMaxGridCellsFlag, " (the kernels index a grid's planes, up to 32 in a buffer, with 32-bit integers)");
        }},
       {"max-streams", [o](const std::string& v) { o->limits.max_streams = uint32_t(integer_at_most(v, UINT32_MAX)); }},
+      {"max-calls", [o](const std::string& v) { o->limits.max_calls = uint32_t(integer_at_most(v, kMaxCalls)); }},
       {"max-streams-per-client",
        [o](const std::string& v) { o->limits.max_streams_per_client = uint32_t(integer_at_most(v, UINT32_MAX)); }},
       {"max-sessions",
@@ -316,6 +319,10 @@ std::string usage() {
          "  --max-streams N           concurrent streaming calls (default " +
          std::to_string(d.limits.max_streams) +
          ")\n"
+         "  --max-calls N             unary calls of the capabilities running at once, 1..16384 (default " +
+         std::to_string(d.limits.max_calls) +
+         "); health\n"
+         "                            checks are not counted\n"
          "  --max-streams-per-client N  of those, one client's (its address without the port; default: no\n"
          "                            limit of its own)\n"
          "  --stream-idle-timeout SECONDS  how long a stream may wait on its client, to send or to read, before\n"

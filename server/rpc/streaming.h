@@ -180,12 +180,15 @@ inline Cancellation cancellation(const grpc::ServerContext& context) {
   return Cancellation([&context] { return context.IsCancelled(); });
 }
 
-// A unary handler's body() -> grpc::Status under guarded(), after the serving and token checks.
+// A unary handler's body() -> grpc::Status under guarded(), after the serving and token checks, holding one
+// of the --max-calls slots: each call holds a gRPC thread and its request, so that many clients at once are
+// refused by name rather than starting a thread each.
 template <typename Body>
 grpc::Status serve(const grpc::ServerContext& context, ServingState& serving, Body&& body) {
   return guarded([&] {
     serving.require_serving(context);
     serving.require_token(context);
+    const Slot call = serving.gate().acquire_call();
     return body();
   });
 }

@@ -740,11 +740,17 @@ TEST(Daemon, BadFlagsAndUnknownDeviceExitTwo) {
   EXPECT_NE(out.find("--max-streams 0: must be an integer >= 1"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSqualld, "--rpc-threads", "1025"}, &out), 2) << out;
   EXPECT_NE(out.find("--rpc-threads 1025: must be 1 to 1024"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-calls", "16385"}, &out), 2) << out;  // each running call holds a thread
+  EXPECT_NE(out.find("--max-calls 16385: must be 1 to 16384"), std::string::npos) << out;
+  EXPECT_EQ(test::run({kSqualld, "--max-calls", "0"}, &out), 2) << out;
   EXPECT_EQ(test::run({kSqualld, "--no-such-flag", "1"}, &out), 2) << out;
   EXPECT_EQ(test::run({kSqualld, "--cpu-buffers", "pinned"}, &out), 2) << out;
   EXPECT_NE(out.find("--cpu-buffers pinned: must be host or device"), std::string::npos) << out;
   // The sample budgets take the exponent notation their --help defaults are written in, and whole numbers only.
-  EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "4e11", "--max-advection-samples", "1e9", "--help"}, &out), 0)
+  EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "4e11", "--max-advection-samples", "1e9", "--max-bake-work",
+                       "1e12", "--help"},
+                      &out),
+            0)
       << out;
   EXPECT_EQ(test::run({kSqualld, "--max-render-samples", "1.5"}, &out), 2) << out;
   EXPECT_NE(out.find("--max-render-samples 1.5: must be a whole number >= 1"), std::string::npos) << out;

@@ -144,5 +144,22 @@ TEST(ServeStream, TheRequestIsCheckedBeforeItsSlotAndSetUpAfter) {
   EXPECT_EQ(serving.state.gate().open_streams(), 0u);
 }
 
+// A unary call holds one of the --max-calls slots for its length: while one runs under a limit of one, the
+// next is refused naming the flag; once it has returned, the next runs.
+TEST(Serve, AUnaryCallPastMaxCallsIsRefusedNamingTheFlag) {
+  Limits limits;
+  limits.max_calls = 1;
+  Serving serving(limits);
+  grpc::Status inner;
+  const grpc::Status outer = serve(serving.context, serving.state, [&] {
+    inner = serve(serving.context, serving.state, [] { return grpc::Status::OK; });
+    return grpc::Status::OK;
+  });
+  EXPECT_TRUE(outer.ok()) << outer.error_message();
+  EXPECT_EQ(inner.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(inner.error_message(), "calls: 1 running, the limit is --max-calls = 1");
+  EXPECT_TRUE(serve(serving.context, serving.state, [] { return grpc::Status::OK; }).ok());
+}
+
 }  // namespace
 }  // namespace squall::rpc
