@@ -54,7 +54,7 @@ def envoy(listen: str, upstreams: List[str], admin: str, dns: bool) -> str:
         for u in upstreams
     )
     dns_options = """
-      dns_lookup_family: V4_ONLY
+      dns_lookup_family: V4_PREFERRED
       dns_refresh_rate: 5s"""
     return f"""# Envoy in front of squalld replicas: written by deploy/lb/proxy-config.py.
 admin:

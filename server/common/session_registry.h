@@ -181,7 +181,7 @@ class SessionRegistry {
   // Whether the latest heartbeat could not be written.
   bool heartbeat_failing() const { return beat_failing_; }
   // False from then on: what require_beating() refuses for (health turns NOT_SERVING too). The daemon beats
-  // every owner timeout / 20 on a thread of its own, from begin() on.
+  // every 250 ms (a twentieth of its owner timeout) on a thread of its own, from begin() on.
   bool beating() const {
     if (!state_dir_) return true;
     const auto last = std::chrono::steady_clock::time_point(std::chrono::steady_clock::duration(last_beat_.load()));

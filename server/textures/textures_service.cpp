@@ -234,6 +234,7 @@ grpc::Status TexturesService::AdvectTexture(grpc::ServerContext* context, const 
         serving_.gate().acquire_memory("AdvectTexture's frames and state", req::stream_bytes(s.spec, s.frame_bytes));
   };
   return serve_stream(*context, serving_, "AdvectTexture", check, prepare, [&](StreamCall& call, Stream& s) {
+    s.cancel = call.cancellation();  // from now on a drain or a dropped token stops a frame's work too
     std::unique_ptr<Advection> advection = engine_->start(s.spec, s.resume, s.cancel);
     const uint32_t every = request->checkpoint_every();
     for (bool first = true; call.live(); first = false) {

@@ -197,6 +197,10 @@ TEST(ImageIo, AWriteThatFailsLeavesTheFileThatWasThere) {
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 2) << "a temporary file was left";
   client::write_exr(dir + "/tile.exr", large);
   EXPECT_GT(file_bytes(dir + "/tile.exr").size(), size_t(16 << 10)) << "the limit was lifted";
+  // The file replaced keeps its mode.
+  std::filesystem::permissions(dir + "/tile.exr", std::filesystem::perms(0640));
+  client::write_exr(dir + "/tile.exr", large);
+  EXPECT_EQ(std::filesystem::status(dir + "/tile.exr").permissions(), std::filesystem::perms(0640));
   // A symbolic link is written through, as named (so is a device: /dev/full fails as a full disk).
   std::filesystem::create_symlink("tile.exr", dir + "/link.exr");
   client::write_exr(dir + "/link.exr", small);

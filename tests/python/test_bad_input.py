@@ -1427,11 +1427,14 @@ CASES += [
         "shadow_step_tiny",
         also(
             put("settings.shadow", clouds_pb2.SHADOW_MODE_DIRECT),
-            put("settings.shadow_step", 1e-300),
+            put("settings.shadow_step", 1e-9),
         ),
         "settings.shadow_step",
         EXHAUSTED,
     ),
+    # Below the least normal float32, which the device would take for 0.
+    bad(R, "step_subnormal", put("settings.step", 1e-40), "settings.step = 1e-40"),
+    bad(R, "shadow_step_subnormal", put("settings.shadow_step", 1e-300), "settings.shadow_step = 1e-300"),
     bad(R, "wavelength_1m", put("settings.wavelengths[0]", 1.0), "settings.wavelengths[0]"),
     bad(
         R,

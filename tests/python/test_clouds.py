@@ -8,6 +8,7 @@ import math
 import re
 import resource
 import signal
+import stat
 import struct
 from typing import Any
 
@@ -184,8 +185,10 @@ def test_a_vdb_that_cannot_be_written_whole_leaves_the_file_that_was_there(tmp_p
         signal.signal(signal.SIGXFSZ, old_handler)
     assert path.read_bytes() == b"the volume written before"
     assert [p.name for p in tmp_path.iterdir()] == ["cloud.vdb"]
+    path.chmod(0o640)
     squall.clouds.volume_of(response, False, path)
     assert path.read_bytes() == response.vdb
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640  # the file replaced keeps its mode
 
 
 def test_a_sun_lights_the_side_its_direction_points_to(client: squall.Client) -> None:

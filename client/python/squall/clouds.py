@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import stat
+import uuid
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
 from squall._calls import Connection, Stream, Undo, propose_session_id
@@ -412,17 +413,29 @@ def evolution_request(
 
 def write_whole(path: PathLike, data: bytes) -> None:
     """Writes `data` at `path` whole or not at all: into a temporary file beside it, renamed over it
-    once written, so that a full disk leaves the file that was there as it was. Only a regular file
-    (or none) is replaced so: a device, a pipe or a symbolic link is written in place."""
+    once written with the mode of the file it replaces, so that a full disk leaves the file that was
+    there as it was. Only a regular file this user may write (or none) is replaced so: a device, a
+    pipe, a symbolic link, or a file in a folder where no other can be made, is written in place."""
     target = os.fspath(path)
-    if os.path.lexists(target) and not stat.S_ISREG(os.lstat(target).st_mode):
+    try:
+        st: Optional[os.stat_result] = os.lstat(target)
+    except FileNotFoundError:
+        st = None
+    replaceable = st is None or (stat.S_ISREG(st.st_mode) and os.access(target, os.W_OK))
+    temp = f"{target}.partial-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    try:
+        fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666) if replaceable else -1
+    except OSError:
+        fd = -1
+    if fd < 0:
         with open(target, "wb") as f:
             f.write(data)
         return
-    temp = f"{target}.partial-{os.getpid()}"
     try:
-        with open(temp, "wb") as f:
+        with os.fdopen(fd, "wb") as f:
             f.write(data)
+        if st is not None:
+            os.chmod(temp, stat.S_IMODE(st.st_mode))
         os.replace(temp, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
