@@ -125,8 +125,8 @@ class StreamCall {
   StreamWaiting waiting_;
   mutable std::atomic<uint64_t> tokens_checked_{0};  // the tokens_version() its token was last checked at
   mutable std::atomic<bool> revoked_{false};
-  // A write failed (the client is gone). Atomic: engines ask still_wanted() from their
-  // worker threads (a stream's next frame is computed while the handler writes the last).
+  // A write failed (the client is gone). Atomic: engines ask still_wanted() from their worker threads (a
+  // stream's next frame is computed while the handler writes the last).
   std::atomic<bool> ended_{false};
   mutable std::atomic<bool> stopped_by_drain_{false};
   // live() or read() said no to the handler, or its work was cancelled: it did not end by itself.
