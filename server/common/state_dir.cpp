@@ -242,28 +242,12 @@ void StateDir::write(const std::string& id, const std::string& bytes) const {
 }
 
 bool StateDir::write_owned(const std::string& id, const std::string& bytes, const std::string& replica) const {
-  auto file = file_of(id, kSession);
-  if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
-  require_same_directory();
-  const std::string tmp = temporary(*file, "");
-  write_synced(tmp, bytes);  // before the lock, which is then held for a read and a rename
-  bool owned = false;
-  try {
-    with_owner_lock(id, [&] {
-      const std::optional<std::string> now = owner(id);
-      owned = now ? *now == replica : !owner_missing(id);
-      if (owned && std::rename(tmp.c_str(), file->c_str()) != 0) fail_io("rename into place", *file);
-    });
-  } catch (...) {
-    std::remove(tmp.c_str());
-    throw;
-  }
-  if (!owned) {
-    std::remove(tmp.c_str());
-    return false;
-  }
-  sync_directory(path_);
-  return true;
+  return put_under_owner_lock(id, kSession, bytes, [&](const std::string& temporary, const std::string& file) {
+    const std::optional<std::string> now = owner(id);
+    if (!(now ? *now == replica : !owner_missing(id))) return false;
+    if (std::rename(temporary.c_str(), file.c_str()) != 0) fail_io("rename into place", file);
+    return true;
+  });
 }
 
 std::optional<std::string> StateDir::read(const std::string& id) const {
@@ -297,34 +281,36 @@ bool StateDir::create_owner(const std::string& id, const std::string& replica) c
 
 bool StateDir::claim_owner(const std::string& id, const std::string& replica,
                            const std::function<bool(const std::string& owner)>& may_take, std::string* holder) const {
-  auto file = file_of(id, kOwner);
+  return put_under_owner_lock(id, kOwner, replica, [&](const std::string& mine, const std::string& file) {
+    const std::optional<std::string> owner = read_whole(file);
+    if (owner == replica) return true;
+    if (owner && !may_take(*owner)) {
+      if (holder) *holder = *owner;
+      return false;
+    }
+    if (owner && std::remove(file.c_str()) != 0) fail_io("remove the former owner", file);
+    if (!linked(mine, file)) fail_io("link into place", file);
+    return true;
+  });
+}
+
+bool StateDir::put_under_owner_lock(const std::string& id, const char* suffix, const std::string& bytes,
+                                    const Put& put) const {
+  auto file = file_of(id, suffix);
   if (!file) fail(Code::Internal, "state directory: id \"" + id + "\" cannot name a file");
   require_same_directory();
-  const std::string mine = temporary(*file, "");
-  write_synced(mine, replica);  // before the lock, which is then held for a read and a link
-  bool claimed = false;
+  const std::string temporary_file = temporary(*file, "");
+  write_synced(temporary_file, bytes);  // before the lock, which is then held for a read and a link or rename
+  bool put_in_place = false;
   try {
-    with_owner_lock(id, [&] {
-      const std::optional<std::string> owner = read_whole(*file);
-      if (owner == replica) {
-        claimed = true;
-        return;
-      }
-      if (owner && !may_take(*owner)) {
-        if (holder) *holder = *owner;
-        return;
-      }
-      if (owner && std::remove(file->c_str()) != 0) fail_io("remove the former owner", *file);
-      if (!linked(mine, *file)) fail_io("link into place", *file);
-      claimed = true;
-    });
+    with_owner_lock(id, [&] { put_in_place = put(temporary_file, *file); });
   } catch (...) {
-    std::remove(mine.c_str());
+    std::remove(temporary_file.c_str());
     throw;
   }
-  std::remove(mine.c_str());
-  if (claimed) sync_directory(path_);
-  return claimed;
+  std::remove(temporary_file.c_str());  // linked: its other name; renamed: gone already
+  if (put_in_place) sync_directory(path_);
+  return put_in_place;
 }
 
 bool StateDir::remove_owner_if(const std::string& id, const std::string& replica) const {

@@ -101,6 +101,11 @@ class StateDir {
   std::string replica_file(const std::string& replica) const;
   FileTime file_system_now() const;
   void with_owner_lock(const std::string& id, const std::function<void()>& f) const;
+  // Writes `bytes` to a synced temporary file beside id's `suffix` file, then under with_owner_lock(id) asks
+  // put(temporary, file) to put it in place (true) or not; the temporary is removed after, and the directory
+  // synced where it was put. Returns put's answer.
+  using Put = std::function<bool(const std::string& temporary, const std::string& file)>;
+  bool put_under_owner_lock(const std::string& id, const char* suffix, const std::string& bytes, const Put& put) const;
   void break_if_stale(const std::string& lock) const;
   bool expire_owner(const std::string& id, std::chrono::milliseconds ttl, FileTime now) const;
   bool held_live(const std::string& id, std::chrono::milliseconds ttl, FileTime now, const std::string& self,
