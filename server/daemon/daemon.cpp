@@ -39,6 +39,7 @@
 #include "daemon/server_service.h"
 #include "ewave/ewave_service.h"
 #include "ocean/ocean_service.h"
+#include "rpc/reflection_limit.h"
 #include "rpc/request_log.h"
 #include "rpc/undecodable_request.h"
 #include "runtime/cpu_threads.h"
@@ -103,18 +104,19 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   // call that finds none: under a few clients' load that was hundreds of threads started and ended a
   // second. Up to --rpc-threads now wait for the next call.
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, options.rpc_threads);
-  // Every running call holds a thread: at most --max-calls unary ones, --max-streams streams and the health
-  // service's Watch streams, with the idle pollers and 64 more for health checks, reflection and refusing
-  // calls past the limits by name. Past this many threads gRPC itself answers RESOURCE_EXHAUSTED ("Server
-  // Threadpool Exhausted"), from the last idle poller.
+  // Every running call holds a thread: at most --max-calls unary ones, --max-streams streams, the health
+  // service's Watch streams and the reflection streams, with the idle pollers and 64 more for health checks
+  // and refusing calls past the limits by name. Past this many threads gRPC itself answers
+  // RESOURCE_EXHAUSTED ("Server Threadpool Exhausted"), from the last idle poller.
   const int64_t threads = int64_t(options.limits.max_calls) + options.limits.max_streams + options.rpc_threads +
-                          HealthService::kMaxWatches + 64;
+                          HealthService::kMaxWatches + ReflectionLimitFactory::kMaxStreams + 64;
   grpc::ResourceQuota quota("squalld");
   quota.SetMaxThreads(int(std::min<int64_t>(threads, INT32_MAX)));
   builder.SetResourceQuota(quota);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<UndecodableRequestFactory>());  // first: the log shows the status it sets
   interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));
+  interceptors.push_back(std::make_unique<ReflectionLimitFactory>());
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }
 

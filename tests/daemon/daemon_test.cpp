@@ -162,38 +162,68 @@ TEST(Daemon, TheLogLineNamesTheSessionTheClientSends) {
   EXPECT_NE(log.find("session=0123abcd"), std::string::npos) << log;
 }
 
-// Asks the reflection service for its list of services over a raw bidi stream, with the request
-// encoded by hand (ServerReflectionRequest{list_services: ""} is field 7, empty: bytes 0x3a 0x00).
-std::string reflection_list_services(const std::string& address) {
-  client::Client c({address, 10, ""});
-  grpc::GenericStub stub(c.channel());
-  grpc::CompletionQueue cq;
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-  auto call = stub.PrepareCall(&ctx, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
-  void* tag;
-  bool ok = false;
-  auto step = [&](int id) { return cq.Next(&tag, &ok) && tag == reinterpret_cast<void*>(id) && ok; };
-  call->StartCall(reinterpret_cast<void*>(1));
-  if (!step(1)) return "start failed";
-  const char request[] = {0x3a, 0x00};
-  grpc::Slice slice(request, sizeof request);
-  call->Write(grpc::ByteBuffer(&slice, 1), reinterpret_cast<void*>(2));
-  if (!step(2)) return "write failed";
-  grpc::ByteBuffer reply;
-  call->Read(&reply, reinterpret_cast<void*>(3));
-  if (!step(3)) return "read failed";
-  std::vector<grpc::Slice> slices;
-  reply.Dump(&slices);
-  std::string bytes;
-  for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
-  call->WritesDone(reinterpret_cast<void*>(4));
-  step(4);
-  grpc::Status status;
-  call->Finish(&status, reinterpret_cast<void*>(5));
-  step(5);
-  return bytes;
-}
+// A reflection stream over a raw bidi call, with the request encoded by hand
+// (ServerReflectionRequest{list_services: ""} is field 7, empty: bytes 0x3a 0x00). It stays open, holding
+// the server's thread, until close().
+class ReflectionStream {
+ public:
+  explicit ReflectionStream(const std::string& address) : client_({address, 10, ""}), stub_(client_.channel()) {
+    ctx_.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    call_ = stub_.PrepareCall(&ctx_, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq_);
+    call_->StartCall(tag(1));
+    started_ = step(1);
+  }
+  ~ReflectionStream() { close(); }
+
+  // The reply to list_services: "" where the stream failed.
+  std::string list_services() {
+    if (!started_) return "";
+    const char request[] = {0x3a, 0x00};
+    grpc::Slice slice(request, sizeof request);
+    call_->Write(grpc::ByteBuffer(&slice, 1), tag(2));
+    if (!step(2)) return "";
+    grpc::ByteBuffer reply;
+    call_->Read(&reply, tag(3));
+    if (!step(3)) return "";
+    std::vector<grpc::Slice> slices;
+    reply.Dump(&slices);
+    std::string bytes;
+    for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+    return bytes;
+  }
+
+  void close() {
+    if (!call_) return;
+    call_->WritesDone(tag(4));
+    step(4);
+    grpc::Status status;
+    call_->Finish(&status, tag(5));
+    step(5);
+    call_.reset();
+    cq_.Shutdown();
+    void* ignored;
+    bool ok;
+    while (cq_.Next(&ignored, &ok)) {
+    }
+  }
+
+ private:
+  static void* tag(intptr_t id) { return reinterpret_cast<void*>(id); }
+  bool step(intptr_t id) {
+    void* got;
+    bool ok = false;
+    return cq_.Next(&got, &ok) && got == tag(id) && ok;
+  }
+
+  client::Client client_;
+  grpc::GenericStub stub_;
+  grpc::CompletionQueue cq_;
+  grpc::ClientContext ctx_;
+  std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;
+  bool started_ = false;
+};
+
+std::string reflection_list_services(const std::string& address) { return ReflectionStream(address).list_services(); }
 
 TEST(Daemon, ReflectionListsTheServices) {
   std::string listed = reflection_list_services(shared_daemon().address());
@@ -206,6 +236,25 @@ TEST(Daemon, ReflectionCanBeTurnedOff) {
   EXPECT_EQ(reflection_list_services(d.address()).find("squall.v1.Server"), std::string::npos);
   client::Client c({d.address(), 10, ""});
   EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+}
+
+// Idle reflection streams each hold a server thread; past 16 (ReflectionLimitFactory::kMaxStreams) new ones
+// are cancelled, so however many a client opens, the threads left for health checks and calls remain.
+TEST(Daemon, IdleReflectionStreamsPastTheirLimitAreCancelledAndCallsGoOn) {
+  Daemon d({"--fft", "vkfft", "--max-calls", "1", "--max-streams", "1", "--rpc-threads", "1"});
+  std::vector<std::unique_ptr<ReflectionStream>> streams;
+  int answered = 0;
+  for (int i = 0; i < 200; ++i) {  // past the whole thread quota of this daemon (1 + 1 + 1 + 64 + 16 + 64)
+    streams.push_back(std::make_unique<ReflectionStream>(d.address()));
+    if (streams.back()->list_services().find("squall.v1.Server") != std::string::npos) ++answered;
+  }
+  EXPECT_EQ(answered, 16);
+  client::Client c({d.address(), 10, ""});
+  EXPECT_EQ(c.health(), grpc::health::v1::HealthCheckResponse::SERVING);
+  EXPECT_TRUE(c.info().ready());
+  EXPECT_NE(d.process().log().find("reflection: 16 streams open"), std::string::npos);
+  streams.clear();  // the places come back as the streams end
+  EXPECT_NE(reflection_list_services(d.address()).find("squall.v1.Server"), std::string::npos);
 }
 
 // A CA, and a server (SAN IP 127.0.0.1) and a client certificate it signed, made by openssl (P-256 keys).
