@@ -93,7 +93,7 @@ std::string CloudEngine::restore_checkpoint(const std::string& bytes) {
   CheckpointHeader header;
   std::string payload =
       stored_.open_checkpoint(bytes, "checkpoint", kOldestCheckpointVersion, kCheckpointVersion, &header);
-  Reservation reservation = stored_.reserve_session();
+  Reservation reservation = stored_.reserve_session(header.client);
   if (header.version >= 2) {  // reserved before anything is decoded
     ByteReader in(payload, "checkpoint payload", "a stored volume");
     stored_.reserve_bytes(reservation, in.get<uint64_t>("the bytes the volume holds"));

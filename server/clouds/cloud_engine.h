@@ -69,7 +69,8 @@ class CloudEngine {
 
   // A stored volume as versioned bytes, and back under its id: its session slot and the bytes it records
   // are reserved before its .vdb bytes are read (RESOURCE_EXHAUSTED, and nothing decoded, where they do not
-  // fit), then adjusted to what the volume read holds.
+  // fit), then adjusted to what the volume read holds; it counts against the --max-sessions-per-client of
+  // the client its checkpoint names.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 

@@ -13,7 +13,7 @@ namespace {
 
 constexpr char kMagic[8] = {'S', 'Q', 'S', 'E', 'S', 'S', 0, 1};
 
-// The kind and the id: a u32 length, then the bytes.
+// The kind, the id and the client: a u32 length, then the bytes.
 void put_string(ByteWriter& out, const std::string& s) {
   out.put(uint32_t(s.size()));
   out.put_bytes(s);
@@ -40,14 +40,17 @@ std::string new_session_id(const std::string& prefix) {
 
 std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload) {
   std::string room;  // the whole checkpoint's, so that no append moves the payload
-  room.reserve(sizeof kMagic + 3 * sizeof(uint32_t) + header.kind.size() + header.id.size() + payload.size() +
-               2 * sizeof(uint64_t));
+  const bool with_client = !header.client.empty();
+  const size_t client_bytes = with_client ? sizeof(uint32_t) + header.client.size() : 0;
+  room.reserve(sizeof kMagic + 3 * sizeof(uint32_t) + header.kind.size() + header.id.size() + client_bytes +
+               payload.size() + 2 * sizeof(uint64_t));
   ByteWriter out(std::move(room));
   out.put_bytes(std::string_view(kMagic, sizeof kMagic));
   put_string(out, header.kind);
-  out.put(header.version | kChecksummed);
+  out.put(header.version | kChecksummed | (with_client ? kWithClient : 0));
   put_string(out, header.id);
-  out.put(uint64_t(payload.size() + sizeof(uint64_t)));
+  out.put(uint64_t(client_bytes + payload.size() + sizeof(uint64_t)));
+  if (with_client) put_string(out, header.client);
   out.put_bytes(payload);
   std::string bytes = out.take();
   const uint64_t checksum = fnv1a(kFnv1aOffsetBasis, bytes.data(), bytes.size());
@@ -64,18 +67,26 @@ std::string decode_checkpoint(const std::string& data, const std::string& kind, 
   if (header->kind != kind) in.reject("it holds a " + header->kind + ", not a " + kind);
   header->version = in.get<uint32_t>("the version");
   const bool checksummed = header->version & kChecksummed;
-  header->version &= ~kChecksummed;
+  const bool with_client = header->version & kWithClient;
+  header->version &= ~(kChecksummed | kWithClient);
   header->id = get_string(in, "the id");
   if (header->id.empty()) in.reject("its id is empty");
   std::string_view payload = in.get_counted("the payload");
   in.finish("the payload");
-  if (!checksummed) return std::string(payload);
-  if (payload.size() < sizeof(uint64_t)) in.reject("its payload is shorter than its checksum");
-  payload.remove_suffix(sizeof(uint64_t));
-  const size_t sealed = data.size() - sizeof(uint64_t);
-  ByteReader stored(std::string_view(data).substr(sealed), field, "a session checkpoint");
-  if (stored.get<uint64_t>("the checksum") != fnv1a(kFnv1aOffsetBasis, data.data(), sealed))
-    fail(Code::InvalidArgument, field + " is damaged: its checksum does not match its bytes");
+  if (checksummed) {
+    if (payload.size() < sizeof(uint64_t)) in.reject("its payload is shorter than its checksum");
+    payload.remove_suffix(sizeof(uint64_t));
+    const size_t sealed = data.size() - sizeof(uint64_t);
+    ByteReader stored(std::string_view(data).substr(sealed), field, "a session checkpoint");
+    if (stored.get<uint64_t>("the checksum") != fnv1a(kFnv1aOffsetBasis, data.data(), sealed))
+      fail(Code::InvalidArgument, field + " is damaged: its checksum does not match its bytes");
+  }
+  header->client.clear();
+  if (with_client) {
+    ByteReader leading(payload, field, "a session checkpoint");
+    header->client = get_string(leading, "the client");
+    payload.remove_prefix(leading.offset());
+  }
   return std::string(payload);
 }
 

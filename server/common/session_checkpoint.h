@@ -10,6 +10,9 @@
 // The stored version carries kChecksummed (its top bit) with the checksum; without it (a squalld before
 // checksums) the payload is P bytes with none after it. A squalld older than checksums reads the flagged
 // version as a newer payload format than its own, so that it leaves the session to a newer replica.
+// With kWithClient (the next bit) the P bytes begin with the client whose session it is (a u32 length C,
+// then C bytes), which --max-sessions-per-client counts on the replica that resumes it; a squalld older
+// than the flag leaves such a session to a newer replica in the same way.
 // The checksum finds damage (a flipped bit, a torn write), not a forger: whoever can write the state
 // directory is trusted.
 #pragma once
@@ -20,11 +23,13 @@
 namespace squall {
 
 inline constexpr uint32_t kChecksummed = 0x80000000u;
+inline constexpr uint32_t kWithClient = 0x40000000u;
 
 struct CheckpointHeader {
   std::string kind;
   uint32_t version = 0;
   std::string id;
+  std::string client;  // the client a --max-sessions-per-client slot is held for; "" for none
 };
 
 std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload);
@@ -37,7 +42,7 @@ struct VersionedPayload {
 };
 
 // The payload of `data`; INVALID_ARGUMENT naming `field` when data is no checkpoint of `kind`, or one
-// whose checksum does not match. header->version is the payload's version, without kChecksummed.
+// whose checksum does not match. header->version is the payload's version, without the flags.
 std::string decode_checkpoint(const std::string& data, const std::string& kind, const std::string& field,
                               CheckpointHeader* header);
 

@@ -96,11 +96,13 @@ class SessionStore {
 
   // A session slot and `bytes` of host and device memory, taken before the value is built;
   // RESOURCE_EXHAUSTED past --max-sessions, --max-session-bytes or --memory-budget, and past
-  // --max-sessions-per-client for a session that `client` creates (empty: one no client counts, such as
-  // a session resumed from its checkpoint). Idle entries are evicted first, so they never block a new one.
+  // --max-sessions-per-client for a session of `client` (empty: one no client counts): one it creates, or
+  // one resumed from a checkpoint that names it (CheckpointHeader::client). Idle entries are evicted first,
+  // so they never block a new one.
   struct Reservation {
     Slot session, client, memory, budget;
     uint64_t bytes = 0;
+    std::string counted_client;  // whom `client` is held for, named in checkpoints to the state directory
   };
   Reservation reserve(uint64_t bytes, const std::string& client = "") {
     Reservation r = reserve_session(client);
@@ -117,6 +119,7 @@ class SessionStore {
     Reservation r;
     r.session = gate_.acquire_session();
     if (!client.empty()) r.client = gate_.acquire_client_session(client);
+    if (r.client.amount() > 0) r.counted_client = client;
     return r;
   }
   void reserve_bytes(Reservation& r, uint64_t bytes, Slot* work = nullptr) {
@@ -322,7 +325,7 @@ class SessionStore {
   }
   // The same, the payload's version named by `save`.
   std::string checkpoint(const std::string& id, const Save& save) {
-    return with(id, [&](T& value) { return encoded(id, value, save); });
+    return with(id, [&](T& value) { return encoded(id, value, save, ""); });
   }
 
   // The header and payload of a checkpoint of this store's kind and payload `version`, before anything
@@ -470,7 +473,8 @@ class SessionStore {
   // Under entry.mutex: writes the entry's checkpoint while this replica owns its session; false, the entry
   // released, where another replica took it over since let_go_if_taken_over() looked.
   bool write_owned(Entry& entry) {
-    if (state_dir()->write_owned(entry.id, encoded(entry.id, *entry.value, save_), policy_.registry->replica()))
+    const std::string bytes = encoded(entry.id, *entry.value, save_, entry.held.counted_client);
+    if (state_dir()->write_owned(entry.id, bytes, policy_.registry->replica()))
       return true;
     log(LogLevel::Warn, kind_, " ", entry.id, " was taken over by another replica as it was written: let go here");
     entry.released = true;
@@ -596,9 +600,11 @@ class SessionStore {
     }
   }
 
-  std::string encoded(const std::string& id, const T& value, const Save& save) const {
+  // A checkpoint naming `client` (for a session resumed in another replica, whose --max-sessions-per-client
+  // it counts against there), or no client.
+  std::string encoded(const std::string& id, const T& value, const Save& save, const std::string& client) const {
     VersionedPayload payload = save(value);
-    return encode_checkpoint({kind_, payload.version, id}, payload.bytes);
+    return encode_checkpoint({kind_, payload.version, id, client}, payload.bytes);
   }
 
   std::shared_ptr<Entry> take(const std::string& id, const std::function<bool(const T&)>& accepts = {}) {

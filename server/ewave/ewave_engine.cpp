@@ -183,7 +183,7 @@ std::string EWaveEngine::restore_checkpoint(const std::string& bytes) {
   std::string payload =
       sessions_.open_checkpoint(bytes, "checkpoint", kOldestCheckpointVersion, kCheckpointVersion, &header);
   Saved saved = load(std::move(payload), header.version, gate_);
-  auto [reservation, session] = from_state(saved.state, std::move(saved.ambient_ocean));
+  auto [reservation, session] = from_state(saved.state, std::move(saved.ambient_ocean), header.client);
   session->set_retry_key(std::move(saved.retry_key));  // a retry of its last step finds it here too
   return sessions_.add(header.id, std::move(reservation), std::move(session));
 }

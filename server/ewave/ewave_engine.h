@@ -73,7 +73,8 @@ class EWaveEngine {
   SurfaceCurrent surface_current(const std::string& id);
 
   // The session as versioned bytes, and back under its id: to persist sessions or move them between
-  // daemons. A restored session continues bit-identically, as one made from state() does.
+  // daemons. A restored session continues bit-identically, as one made from state() does, and counts
+  // against the --max-sessions-per-client of the client its checkpoint names.
   std::string checkpoint(const std::string& id);
   std::string restore_checkpoint(const std::string& bytes);
 

@@ -242,6 +242,50 @@ TEST_F(SessionStoreTest, CheckpointsRestoreUnderTheSameId) {
                [&] { other.open_checkpoint(saved, "state", 7, &header); });
 }
 
+// A checkpoint names the client it counts against only when one is counted (--max-sessions-per-client), in
+// the kWithClient form; a checkpoint of no client keeps the form every squalld since checksums reads.
+TEST(SessionCheckpoint, NamesItsClientOnlyWhenOneIsCounted) {
+  CheckpointHeader header;
+  const std::string plain = encode_checkpoint({"counter", 3, "c-1"}, "payload");
+  EXPECT_EQ(decode_checkpoint(plain, "counter", "state", &header), "payload");
+  EXPECT_EQ(header.client, "");
+  ByteReader in(plain, "state", "a checkpoint");
+  in.get_bytes(8 + 4 + 7, "magic and kind");
+  EXPECT_EQ(in.get<uint32_t>("the version"), 3u | kChecksummed);
+
+  const std::string named = encode_checkpoint({"counter", 3, "c-1", "ipv4:10.0.0.7"}, "payload");
+  EXPECT_EQ(decode_checkpoint(named, "counter", "state", &header), "payload");
+  EXPECT_EQ(header.version, 3u);
+  EXPECT_EQ(header.client, "ipv4:10.0.0.7");
+  // Read as a squalld before the flag reads it: a payload version newer than any it knows.
+  ByteReader older(named, "state", "a checkpoint");
+  older.get_bytes(8 + 4 + 7, "magic and kind");
+  EXPECT_GT(older.get<uint32_t>("the version") & ~kChecksummed, 3u);
+  std::string damaged = named;
+  damaged[named.size() - 20] ^= 1;  // in the client's name
+  expect_error(Code::InvalidArgument, "state is damaged",
+               [&] { decode_checkpoint(damaged, "counter", "state", &header); });
+}
+
+// Where --max-sessions-per-client is in force, a store's checkpoints to the state directory name the client
+// that created the session, and no client where it is not.
+TEST(SessionStoreStateDir, ACheckpointNamesTheClientItsSessionCountsAgainst) {
+  for (uint32_t per_client : {0u, 2u}) {
+    const std::string dir = test::temp_dir("store-client");
+    SessionRegistry registry(std::make_unique<StateDir>(dir, "--state-dir"), "a");
+    registry.begin();
+    LimitGate gate{Limits{.max_sessions_per_client = per_client}};
+    SessionStore<Counter> s(gate, SessionPolicy{.registry = &registry}, "counter", "counter_id", "c-");
+    s.persist(
+        1, [](const Counter& c) { return std::to_string(c.value); }, [](const std::string&) {});
+    const std::string id = s.add(s.reserve(8, "ipv4:10.0.0.7"), std::make_shared<Counter>(Counter{7}));
+    ASSERT_EQ(s.checkpoint_all(false), 1u);
+    CheckpointHeader header;
+    EXPECT_EQ(decode_checkpoint(*registry.state_dir()->read(id), "counter", "checkpoint", &header), "7");
+    EXPECT_EQ(header.client, per_client ? "ipv4:10.0.0.7" : "") << "--max-sessions-per-client " << per_client;
+  }
+}
+
 // Stores of two kinds (ids "c-..." and "v-...") on two replicas sharing one state directory, as squalld's
 // eWave sessions and cloud volumes do: each store writes its values as text and resumes them.
 struct Replica {

@@ -38,11 +38,17 @@ client::ClientOptions options(const std::string& address, int attempts) {
 // A replica's eWave service through a client that makes `attempts` of each call (1: every status is
 // the server's).
 struct Replica {
-  Replica(const std::string& name, const std::string& state_dir, int attempts = 1)
-      : daemon({"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir, "--checkpoint-interval", "0",
-                "--drain-wait", "3"}),
+  Replica(const std::string& name, const std::string& state_dir, int attempts = 1,
+          std::vector<std::string> more_flags = {})
+      : daemon(flags(name, state_dir, std::move(more_flags))),
         client(options(daemon.address(), attempts)),
         ewave(v1::EWave::NewStub(client.channel())) {}
+  static std::vector<std::string> flags(const std::string& name, const std::string& state_dir,
+                                        std::vector<std::string> more) {
+    more.insert(more.begin(), {"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir});
+    more.insert(more.end(), {"--checkpoint-interval", "0", "--drain-wait", "3"});
+    return more;
+  }
   Daemon daemon;
   client::Client client;
   std::unique_ptr<v1::EWave::Stub> ewave;
@@ -281,6 +287,39 @@ TEST(Replicas, AStoredCloudVolumeMovesOnSigtermAndRendersTheSameImage) {
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(after, before) << "the resumed volume renders bit for bit the same image";
   EXPECT_NE(b.daemon.process().log().find("stored volume " + id + " resumed"), std::string::npos);
+}
+
+// --max-sessions-per-client follows a client's sessions to the replica that resumes them: its eWave session
+// and its stored volume, moved there by a drain, take its two places, so the move frees none for a third.
+TEST(Replicas, AClientsMovedSessionsCountAgainstItsShareWhereTheyResume) {
+  const std::string state = test::temp_dir("replicas-share");
+  const std::vector<std::string> share = {"--max-sessions-per-client", "2"};
+  Replica a("share-a", state, 1, share), b("share-b", state, 1, share);
+  const std::string session = client::propose_session_id(), volume = client::propose_session_id("cloud-");
+  v1::EWaveSessionResponse created;
+  ASSERT_TRUE(a.ewave->CreateSession(a.client.context(session).get(), create_request(), &created).ok());
+  v1::BuildVolumeResponse built;
+  ASSERT_TRUE(v1::Clouds::NewStub(a.client.channel())
+                  ->BuildVolume(a.client.context(volume).get(), keep_a_sphere(), &built)
+                  .ok());
+  a.daemon.process().signal(SIGTERM);
+  ASSERT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
+
+  std::string height, image;
+  ASSERT_TRUE(step(b, session, 0, &height).ok());  // both resumed on b
+  ASSERT_TRUE(render(b, volume, &image).ok());
+  v1::EWaveSessionResponse third;
+  grpc::Status refused = b.ewave->CreateSession(b.client.context().get(), create_request(), &third);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("2 already live, the limit is --max-sessions-per-client = 2"),
+            std::string::npos)
+      << refused.error_message();
+  v1::EWaveSessionRequest close;
+  close.set_session_id(session);
+  v1::EWaveCloseResponse closed;
+  ASSERT_TRUE(b.ewave->CloseSession(b.client.context(session).get(), close, &closed).ok());
+  EXPECT_TRUE(b.ewave->CreateSession(b.client.context().get(), create_request(), &third).ok())
+      << "closing the resumed session gave its place back";
 }
 
 TEST(Replicas, AStreamOfNoSessionEndsUnavailableWhenItsReplicaDrains) {
