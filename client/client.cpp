@@ -55,9 +55,12 @@ std::string retry_config(int attempts) {
   std::string names;
   for (const char* service : {"Server", "Ocean", "EWave", "Clouds", "Textures"})
     names += std::string(names.empty() ? "" : ",") + "{\"service\":\"squall.v1." + service + "\"}";
+  // An eWave Run is never retried (the most specific name wins): its steps carry no retry key, and a
+  // connection lost after a step but before its frame would replay that step.
   return "{\"methodConfig\":[{\"name\":[" + names + "],\"retryPolicy\":{\"maxAttempts\":" + std::to_string(attempts) +
          ",\"initialBackoff\":\"0.1s\",\"maxBackoff\":\"2s\",\"backoffMultiplier\":2,"
-         "\"retryableStatusCodes\":[\"UNAVAILABLE\"]}}]}";
+         "\"retryableStatusCodes\":[\"UNAVAILABLE\"]}},"
+         "{\"name\":[{\"service\":\"squall.v1.EWave\",\"method\":\"Run\"}]}]}";
 }
 
 }  // namespace

@@ -6,6 +6,7 @@ import asyncio
 import gc
 import re
 import time
+from functools import partial
 from typing import Any, Coroutine, List
 
 import grpc
@@ -143,24 +144,52 @@ def test_an_abandoned_creation_closes_the_session_it_proposed(daemon) -> None:
         async with squall.aio.Client(daemon.address) as aclient:
             rpc = aclient.ewave._rpc
 
+            proposed: List[str] = []
+
             async def late_create(request: Any, timeout: float, metadata: Any) -> None:
+                proposed.append(dict(metadata)["x-squall-session"])
                 await rpc.CreateSession(request, timeout=60, metadata=metadata)
                 raise LostReply()
 
-            proposed = propose_session_id()
             request = ewave_pb2.EWaveCreateSessionRequest(config=squall.ewave.config(**config()))
-            undo = squall.ewave.close_call(rpc, proposed)
+            undo = partial(squall.ewave.close_call, rpc)
             connection = aclient.ewave._connection
             with pytest.raises(squall.SquallError) as lost:
                 create = "EWave.CreateSession", late_create, request, 60
-                await connection.create(*create, proposed, undo)
+                await connection.create(*create, "", undo)
             assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
             with pytest.raises(squall.SquallError) as gone:
-                await aclient.ewave.attach(proposed).state()
+                await aclient.ewave.attach(proposed[0]).state()
             assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the session is still live"
 
     run(main())
 
+
+
+def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
+    daemon, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The asyncio client's Connection.create as the sync one's: ALREADY_EXISTS for the id it drew
+    (the session an earlier attempt made, its answer lost) closes that session and creates one
+    under a fresh id."""
+
+    async def main():
+        async with squall.aio.Client(daemon.address) as aclient:
+            made = await aclient.ewave.session(**config())
+            draws = [made.id]
+            monkeypatch.setattr(
+                squall.aio,
+                "propose_session_id",
+                lambda prefix="": draws.pop() if draws else propose_session_id(prefix),
+            )
+            session = await aclient.ewave.session(**config())
+            assert session.id != made.id
+            with pytest.raises(squall.SquallError) as gone:
+                await made.state()
+            assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the first one is still live"
+            await session.close()
+
+    run(main())
 
 def small_texture_stream() -> dict:
     """The arguments of a small texture stream (advect, interactive)."""

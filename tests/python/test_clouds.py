@@ -10,14 +10,14 @@ import resource
 import signal
 import stat
 import struct
-from typing import Any
+from functools import partial
+from typing import Any, List
 
 import grpc
 import numpy as np
 import pytest
 
 import squall
-from squall._calls import propose_session_id
 from squall.v1 import clouds_pb2, clouds_pb2_grpc
 
 from conftest import Daemon, LostReply
@@ -133,18 +133,20 @@ def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -
     clouds = client.clouds
     stub = clouds_pb2_grpc.CloudsStub(client.channel)
 
+    proposed: List[str] = []
+
     def late_build(request: clouds_pb2.BuildVolumeRequest, timeout: float, metadata: Any) -> None:
+        proposed.append(dict(metadata)["x-squall-session"])
         stub.BuildVolume(request, timeout=60, metadata=metadata)
         raise LostReply()
 
-    proposed = propose_session_id("cloud-")
     request = squall.clouds.build_request(cloud(), keep=True, return_vdb=False, request=None)
-    undo = squall.clouds.release_call(stub, proposed)
+    undo = partial(squall.clouds.release_call, stub)
     with pytest.raises(squall.SquallError) as lost:
-        clouds._connection.create("Clouds.BuildVolume", late_build, request, 60, proposed, undo)
+        clouds._connection.create("Clouds.BuildVolume", late_build, request, 60, "cloud-", undo)
     assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
     with pytest.raises(squall.SquallError) as gone:
-        clouds.release(proposed)
+        clouds.release(proposed[0])
     assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the kept volume is still stored"
 
 

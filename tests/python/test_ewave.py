@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import time
+from concurrent import futures
 from typing import Iterator
 
 import grpc
@@ -263,3 +264,62 @@ def test_a_failing_close_does_not_hide_the_error_that_ended_the_block() -> None:
             with pytest.raises(squall.SquallError) as error:
                 session.close()  # outside a failing block nothing hides its error
             assert error.value.method == "EWave.CloseSession", error.value
+
+
+
+def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
+    client: squall.Client, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A CreateSession sent again after its answer was lost (gRPC retries a call whose connection
+    broke) finds the id it proposed taken by the session its first attempt made: ALREADY_EXISTS,
+    which for an id of 128 random bits means only that. The client closes that session and creates
+    one under a fresh id: the caller gets a session, and none is left waiting for its TTL."""
+    made = client.ewave.session(**config())  # the first attempt's, whose answer was lost
+    draws = [made.id]
+
+    def draw(prefix: str = "") -> str:
+        return draws.pop() if draws else prefix + os.urandom(16).hex()
+
+    monkeypatch.setattr(squall._calls, "propose_session_id", draw)
+    with client.ewave.session(**config()) as session:
+        assert session.id != made.id
+        session.step(0.02)
+    with pytest.raises(squall.SquallError) as gone:
+        made.state()
+    assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the first attempt's session is still live"
+
+class LostAfterTheStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
+    """An eWave service whose first Run stream ends UNAVAILABLE after it has read (and would have
+    applied) a step, before any frame: as a connection lost after squalld stepped the session."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self.steps = 0
+
+    def Run(self, request_iterator, context):  # type: ignore[no-untyped-def]
+        self.calls += 1
+        next(request_iterator)
+        self.steps += 1
+        if self.calls == 1:
+            context.abort(grpc.StatusCode.UNAVAILABLE, "connection lost after the step")
+        yield ewave_pb2.EWaveFrame(step=self.steps)
+
+
+def test_a_run_stream_is_not_retried_so_no_step_is_applied_twice() -> None:
+    """The client's retry policy (UNAVAILABLE, up to 5 attempts) covers every squall call but the
+    Run stream, whose steps carry no retry key: gRPC would replay the step it had sent."""
+    from concurrent import futures
+
+    server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
+    service = LostAfterTheStep()
+    squall.v1.ewave_pb2_grpc.add_EWaveServicer_to_server(service, server)
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    try:
+        with squall.Client(f"127.0.0.1:{port}", retries=5) as client:
+            with pytest.raises(squall.SquallError) as lost:
+                list(client.ewave.attach("0" * 32).run([0.02]))
+        assert lost.value.code == grpc.StatusCode.UNAVAILABLE, lost.value
+        assert service.steps == 1, f"the step was sent {service.steps} times"
+    finally:
+        server.stop(None)

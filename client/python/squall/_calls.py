@@ -70,7 +70,8 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
     gRPC retries only calls the server has not begun to answer; squalld answers UNAVAILABLE before
     it touches a session, and an eWave step's retry key makes a step whose reply was lost (a
     broken connection, a proxy's retry on another replica) once, unless another caller steps the
-    session in between.
+    session in between. An eWave Run is never retried: its steps carry no retry key, and a
+    connection lost after a step but before its frame would replay that step.
     """
     attempts = integer(attempts, "retries", 0)
     if attempts <= 1:
@@ -85,7 +86,8 @@ def retry_options(attempts: int) -> List[Tuple[str, Any]]:
         "retryableStatusCodes": ["UNAVAILABLE"],
     }
     names = [{"service": f"squall.v1.{s}"} for s in SERVICES]
-    config = {"methodConfig": [{"name": names, "retryPolicy": policy}]}
+    run = {"service": "squall.v1.EWave", "method": "Run"}  # the most specific name wins
+    config = {"methodConfig": [{"name": names, "retryPolicy": policy}, {"name": [run]}]}
     return [("grpc.enable_retries", 1), ("grpc.service_config", json.dumps(config))]
 
 
@@ -273,22 +275,30 @@ class Connection:
         function: Callable[..., Any],
         request: Any,
         timeout: Optional[float],
-        proposed: str,
-        undo: "Undo",
+        prefix: str,
+        undo: Callable[[str], Undo],
     ) -> Any:
-        """A call that creates a session under the `proposed` id. When the client gives up on it
-        (its deadline passes, it is cancelled) squalld may have made the session all the same,
-        which nothing would then close: `undo` (the closing call) is sent for the proposed id,
-        best effort, before the error is raised."""
-        try:
-            return self.unary(method, function, request, timeout, session=proposed)
-        except SquallError as error:
-            if error.code in ABANDONED:
-                try:
-                    self.unary(*undo, UNDO_TIMEOUT, session=proposed)
-                except Exception:  # never made, squalld unreachable or the client closed:
-                    pass  # the session's idle TTL ends it
-            raise
+        """A call that creates a session under an id it proposes, propose_session_id(prefix). When
+        the client gives up on it (its deadline passes, it is cancelled) squalld may have made the
+        session all the same, which nothing would then close: undo(id), the closing call, is sent,
+        best effort, before the error is raised. ALREADY_EXISTS for an id drawn here (128 random
+        bits) means that an earlier attempt of this call made the session and its answer was lost
+        (a retry after a broken connection): that session is closed and the call made once more,
+        under a fresh id."""
+        for attempt in (1, 2):
+            proposed = propose_session_id(prefix)
+            try:
+                return self.unary(method, function, request, timeout, session=proposed)
+            except SquallError as error:
+                made_unanswered = error.code == grpc.StatusCode.ALREADY_EXISTS
+                if error.code in ABANDONED or made_unanswered:
+                    try:
+                        self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                    except Exception:  # never made, squalld unreachable or the client closed:
+                        pass  # the session's idle TTL ends it
+                if not made_unanswered or attempt == 2:
+                    raise
+        raise AssertionError("unreachable")
 
     def stream(
         self,

@@ -23,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import time
 import weakref
+from functools import partial
 from typing import (
     Any,
     AsyncIterable,
@@ -174,19 +175,24 @@ class Connection:
         function: Callable[..., Any],
         request: Any,
         timeout: Optional[float],
-        proposed: str,
-        undo: Undo,
+        prefix: str,
+        undo: Callable[[str], Undo],
     ) -> Any:
         """squall._calls.Connection.create, awaited."""
-        try:
-            return await self.unary(method, function, request, timeout, session=proposed)
-        except SquallError as error:
-            if error.code in ABANDONED:
-                try:
-                    await self.unary(*undo, UNDO_TIMEOUT, session=proposed)
-                except Exception:  # never made, squalld unreachable or the client closed:
-                    pass  # the session's idle TTL ends it
-            raise
+        for attempt in (1, 2):
+            proposed = propose_session_id(prefix)
+            try:
+                return await self.unary(method, function, request, timeout, session=proposed)
+            except SquallError as error:
+                made_unanswered = error.code == grpc.StatusCode.ALREADY_EXISTS
+                if error.code in ABANDONED or made_unanswered:
+                    try:
+                        await self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                    except Exception:  # never made, squalld unreachable or the client closed:
+                        pass  # the session's idle TTL ends it
+                if not made_unanswered or attempt == 2:
+                    raise
+        raise AssertionError("unreachable")
 
     def stream(
         self,
@@ -580,7 +586,6 @@ class EWave:
         """Creates a session from an EWaveConfig or squall.ewave.config's keyword arguments:
         await it, or use it in ``async with`` (closed at the end)."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=_ewave.as_config(config, **kwargs))
-        proposed = propose_session_id()
 
         async def create() -> EWaveSession:
             response = await self._connection.create(
@@ -588,8 +593,8 @@ class EWave:
                 self._rpc.CreateSession,
                 request,
                 timeout,
-                proposed,
-                _ewave.close_call(self._rpc, proposed),
+                "",
+                partial(_ewave.close_call, self._rpc),
             )
             return EWaveSession(self, response)
 
@@ -598,12 +603,11 @@ class EWave:
     async def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session continuing a state snapshot."""
         request = _ewave.restore_request(state)
-        proposed = propose_session_id()
-        undo = _ewave.close_call(self._rpc, proposed)
+        undo = partial(_ewave.close_call, self._rpc)
         return EWaveSession(
             self,
             await self._connection.create(
-                "EWave.Restore", self._rpc.Restore, request, timeout, proposed, undo
+                "EWave.Restore", self._rpc.Restore, request, timeout, "", undo
             ),
         )
 
@@ -634,10 +638,9 @@ class Clouds:
         """Builds a volume (summary, .vdb bytes or file if asked, id if kept)."""
         message = _clouds.build_request(cloud, keep, return_vdb or path is not None, request)
         if message.keep:
-            proposed = propose_session_id("cloud-")
-            undo = _clouds.release_call(self._rpc, proposed)
+            undo = partial(_clouds.release_call, self._rpc)
             build = self._connection.create(
-                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, proposed, undo
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, "cloud-", undo
             )
         else:
             build = self._connection.unary(

@@ -20,9 +20,10 @@ import contextlib
 import os
 import stat
 import uuid
+from functools import partial
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
-from squall._calls import Connection, Stream, Undo, propose_session_id
+from squall._calls import Connection, Stream, Undo
 from squall._convert import (
     UINT32_MAX,
     enum_value,
@@ -502,10 +503,9 @@ class Clouds:
         want_vdb = return_vdb or path is not None
         message = build_request(cloud, keep, want_vdb, request)
         if message.keep:
-            proposed = propose_session_id("cloud-")
-            undo = release_call(self._rpc, proposed)
+            undo = partial(release_call, self._rpc)
             response = self._connection.create(
-                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, proposed, undo
+                "Clouds.BuildVolume", self._rpc.BuildVolume, message, timeout, "cloud-", undo
             )
         else:
             response = self._connection.unary(

@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import inspect
 import os
+from functools import partial
 from typing import Any, Callable, Dict, Iterable, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 import numpy as np
 
-from squall._calls import Connection, RequestFeeder, Stream, Undo, propose_session_id
+from squall._calls import Connection, RequestFeeder, Stream, Undo
 from squall._convert import (
     UINT32_MAX,
     UINT64_MAX,
@@ -540,20 +541,18 @@ class EWave:
         """Creates a session (CreateSession) from an EWaveConfig, or from the keyword arguments
         of ``squall.ewave.config`` (nx, ny, dx, ...). A ``with`` block closes it at the end."""
         request = ewave_pb2.EWaveCreateSessionRequest(config=as_config(config, **kwargs))
-        proposed = propose_session_id()
-        undo = close_call(self._rpc, proposed)
+        undo = partial(close_call, self._rpc)
         response = self._connection.create(
-            "EWave.CreateSession", self._rpc.CreateSession, request, timeout, proposed, undo
+            "EWave.CreateSession", self._rpc.CreateSession, request, timeout, "", undo
         )
         return EWaveSession(self, response)
 
     def restore(self, state: bytes, *, timeout: Optional[float] = None) -> EWaveSession:
         """A new session (new id) continuing a ``state()`` snapshot bit-identically (Restore)."""
         request = restore_request(state)
-        proposed = propose_session_id()
-        undo = close_call(self._rpc, proposed)
+        undo = partial(close_call, self._rpc)
         response = self._connection.create(
-            "EWave.Restore", self._rpc.Restore, request, timeout, proposed, undo
+            "EWave.Restore", self._rpc.Restore, request, timeout, "", undo
         )
         return EWaveSession(self, response)
 
