@@ -253,7 +253,12 @@ void image(const v1::ImageTexture& im, LimitGate& gate, Slot& decoded, const std
   if (!im.png().empty()) return png_image(im.png(), gate, decoded, path + ".png", out);
   if (im.has_pixels8()) return pixels8_image(im.pixels8(), gate, decoded, path + ".pixels8", out);
   const uint32_t nx = im.channels(0).nx(), ny = im.channels(0).ny();
-  gate.check_grid(at(path + ".channels", 0), nx, ny);  // before any plane is decoded
+  // Their number, size and floats' memory before any plane is decoded.
+  validate::in(path + ".channels", int64_t(im.channels_size()), 1, SQUALL_TEXTURE_MAX_CHANNELS);
+  gate.check_grid(at(path + ".channels", 0), nx, ny);
+  const size_t values = size_t(nx) * ny * im.channels_size();
+  decoded = gate.acquire_memory(path + ".channels as floats", uint64_t(values) * sizeof(float));
+  out.pixels.reserve(values);
   out.width = int(nx);
   out.height = int(ny);
   out.channels = im.channels_size();

@@ -531,6 +531,29 @@ TEST(TexturesRequest, APngsDecodedPlanesAreHeldInTheMemoryBudget) {
   EXPECT_EQ(gate.memory_bytes(), floats);
 }
 
+// An image sent as float planes is held in the memory budget as a PNG's is, and its number of planes is
+// checked before any is decoded: 8 planes of 512^2 (8 MiB of floats) are refused under a 4 MiB budget,
+// held in full under a larger one, and 9 planes are refused by their count.
+TEST(TexturesRequest, AnImagesFloatPlanesAreCountedAndHeldInTheMemoryBudget) {
+  v1::AdvectTextureRequest r = noise_request(2);
+  const std::vector<float> plane(512 * 512, 0.5f);
+  for (int c = 0; c < 8; ++c)
+    *r.mutable_texture()->mutable_image()->add_channels() = float_field("c" + std::to_string(c), 512, 512, plane);
+  const uint64_t floats = 8 * plane.size() * sizeof(float);
+  LimitGate small{Limits{.memory_budget = 4 << 20}};
+  Slot decoded;
+  test::expect_error(Code::ResourceExhausted, "request.texture.image.channels as floats",
+                     [&] { textures::rpc::spec(r, small, decoded); });
+  LimitGate gate{Limits{.memory_budget = 64 << 20}};
+  const textures::AdvectSpec spec = textures::rpc::spec(r, gate, decoded);
+  EXPECT_EQ(spec.texture.pixels.size() * sizeof(float), floats);
+  EXPECT_EQ(decoded.amount(), floats);
+  *r.mutable_texture()->mutable_image()->add_channels() = float_field("c8", 512, 512, plane);
+  Slot nine;
+  test::expect_error(Code::InvalidArgument, "request.texture.image.channels = 9",
+                     [&] { textures::rpc::spec(r, gate, nine); });
+}
+
 // A stream's reservation counts its image's decoded planes and takes over their hold: under a budget of the
 // stream's reservation and half the planes, an AdvectTexture of a 1024^2 RGBA16 PNG runs, which it could not
 // if the planes were held twice, and runs again, which it could not if the first call had kept either.
