@@ -31,6 +31,24 @@ int clamped_index(double v, int n) {
   return v >= n - 1 ? n - 1 : v > 0 ? int(v) : 0;
 }
 
+// The reconstruction tiles [i0, i1] x [j0, j1] that a grid's bounds meet; none (i0 > i1) off the output.
+struct TileRange {
+  int i0 = 1, i1 = 0, j0 = 0, j1 = 0;
+  size_t count() const { return i0 > i1 ? 0 : size_t(i1 - i0 + 1) * size_t(j1 - j0 + 1); }
+};
+
+TileRange tiles_met(const OutputGrid& out, const cl_float4& box) {
+  const int tiles_y = (out.height + kTile - 1) / kTile;
+  auto tile_of = [](float x, float origin, float pixel, int count) {
+    return clamped_index((x - origin) / pixel / kTile, count);
+  };
+  if (box.s[2] < out.x0 || box.s[3] < out.y0 || box.s[0] > out.x0 + out.width * out.pixel_x ||
+      box.s[1] > out.y0 + out.height * out.pixel_y)
+    return {};
+  return {tile_of(box.s[0], out.x0, out.pixel_x, out.tiles_x), tile_of(box.s[2], out.x0, out.pixel_x, out.tiles_x),
+          tile_of(box.s[1], out.y0, out.pixel_y, tiles_y), tile_of(box.s[3], out.y0, out.pixel_y, tiles_y)};
+}
+
 double milliseconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
@@ -62,6 +80,7 @@ class Lagrangian final : public Advection {
     const double d = params_.d;
     region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d, {}};
     held_limit_ = lagrangian_grid_bound(spec);
+    tile_budget_ = lagrangian_tile_bound(spec.lagrangian, spec.output);
     sample_fluid_of_inputs();
     if (!state.empty()) restore(state);
   }
@@ -182,6 +201,26 @@ class Lagrangian final : public Advection {
     uvs_ = in.get_finite_vector<float>("the uvs", kMaxStateValue);
     if (!in.done() || positions_.size() != particles_.size() * 2 * vertices() || uvs_.size() != positions_.size())
       fail(Code::InvalidArgument, "resume_state does not match this request's grid_res");
+    if (!started_ && !particles_.empty())  // the first frame inserts the first particles
+      fail(Code::InvalidArgument, "resume_state holds particles before its first frame: not a checkpoint");
+    // Checked before any tile list is made: grids spread far past the budget would take hours and gigabytes.
+    if (const size_t entries = total(tile_entries()); entries > tile_budget_)
+      fail(Code::InvalidArgument, "resume_state's grids meet " + std::to_string(entries) +
+                                      " reconstruction tiles in all, past the " + std::to_string(tile_budget_) +
+                                      " this request's grids ever meet: not a checkpoint of this request");
+  }
+
+  // The reconstruction tiles each grid meets, and their sum.
+  std::vector<size_t> tile_entries() const {
+    const OutputGrid out = inputs_->output(kTile);
+    std::vector<size_t> entries(particles_.size());
+    for (size_t k = 0; k < particles_.size(); ++k) entries[k] = tiles_met(out, bounds(k)).count();
+    return entries;
+  }
+  static size_t total(const std::vector<size_t>& entries) {
+    size_t sum = 0;
+    for (size_t e : entries) sum += e;
+    return sum;
   }
 
   // Carries every vertex over [time_, time_ + dt] on the device.
@@ -206,6 +245,7 @@ class Lagrangian final : public Advection {
     kill_crowded(centres, stats);
     erase_finished(stats);
     insert(stats, time_);
+    fit_tile_budget(stats);
   }
 
   // Rules 1-3: the grid no longer covers its kernel, some vertex quality fell below 1/2, or it folded.
@@ -245,6 +285,26 @@ class Lagrangian final : public Advection {
       const Particle& p = particles_[k];
       return (p.fading() && time_ - p.kill >= params_.fade_tau) || !overlaps_region(k);
     });
+  }
+
+  // Deletes grids until the frame's tile lists fit tile_budget_: FADING ones before ALIVE ones, each kind the
+  // most spread (the most tiles met) first, ties by order.
+  void fit_tile_budget(ParticleStats& stats) {
+    const std::vector<size_t> entries = tile_entries();
+    size_t sum = total(entries);
+    if (sum <= tile_budget_) return;
+    std::vector<size_t> order(particles_.size());
+    for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      const bool fading_a = particles_[a].fading(), fading_b = particles_[b].fading();
+      return fading_a != fading_b ? fading_a : entries[a] > entries[b];
+    });
+    std::vector<bool> doomed(particles_.size(), false);
+    for (size_t i = 0; i < order.size() && sum > tile_budget_; ++i) {
+      doomed[order[i]] = true;
+      sum -= entries[order[i]];
+    }
+    erase_where(stats, [&](size_t k) { return doomed[k]; });
   }
 
   // Deletes the FADING particles killed first until `more` particles fit in held_limit_: with kills in every
@@ -394,8 +454,7 @@ class Lagrangian final : public Advection {
   Reconstruction prepare(const OutputGrid& out, ParticleStats& stats) const {
     Reconstruction r;
     r.weights.resize(particles_.size() * vertices());
-    int tiles_y = (out.height + kTile - 1) / kTile;
-    std::vector<std::vector<cl_int>> tiles(size_t(out.tiles_x) * tiles_y);
+    std::vector<TileRange> met(particles_.size());
     for (size_t k = 0; k < particles_.size(); ++k) {
       const Particle& p = particles_[k];
       std::vector<uint8_t> flags = outside(k);
@@ -409,30 +468,26 @@ class Lagrangian final : public Advection {
         stats.max_distortion = std::max(stats.max_distortion, q.max_distortion);
       }
       push_buckets(k, r);
-      bin(out, r.boxes[2 * k], cl_int(k), tiles);
+      met[k] = tiles_met(out, r.boxes[2 * k]);
     }
-    r.tile_offsets.push_back(0);
-    for (auto& list : tiles) {
-      r.tile_grids.insert(r.tile_grids.end(), list.begin(), list.end());
-      r.tile_offsets.push_back(cl_int(r.tile_grids.size()));
-    }
-    if (r.tile_grids.empty()) r.tile_grids.push_back(0);
+    bin(out, met, r);
     return r;
   }
 
-  static void bin(const OutputGrid& out, const cl_float4& box, cl_int grid, std::vector<std::vector<cl_int>>& tiles) {
-    int tiles_y = int(tiles.size()) / out.tiles_x;
-    auto tile_of = [](float x, float origin, float pixel, int count) {
-      return clamped_index((x - origin) / pixel / kTile, count);
+  // Each tile's grids (those whose bounds meet it, ascending), CSR: counted, then stored. At most
+  // tile_budget_ entries (restore, fit_tile_budget), which lagrangian_tile_bound keeps within cl_int.
+  static void bin(const OutputGrid& out, const std::vector<TileRange>& met, Reconstruction& r) {
+    const size_t tiles = size_t(out.tiles_x) * size_t((out.height + kTile - 1) / kTile);
+    auto each_tile = [&](const TileRange& m, auto&& f) {
+      for (int j = m.j0; m.i0 <= m.i1 && j <= m.j1; ++j)
+        for (int i = m.i0; i <= m.i1; ++i) f(size_t(i) + size_t(out.tiles_x) * j);
     };
-    if (box.s[2] < out.x0 || box.s[3] < out.y0 || box.s[0] > out.x0 + out.width * out.pixel_x ||
-        box.s[1] > out.y0 + out.height * out.pixel_y)
-      return;
-    int i0 = tile_of(box.s[0], out.x0, out.pixel_x, out.tiles_x),
-        i1 = tile_of(box.s[2], out.x0, out.pixel_x, out.tiles_x);
-    int j0 = tile_of(box.s[1], out.y0, out.pixel_y, tiles_y), j1 = tile_of(box.s[3], out.y0, out.pixel_y, tiles_y);
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) tiles[size_t(i) + size_t(out.tiles_x) * j].push_back(grid);
+    std::vector<cl_int> start(tiles + 1, 0);  // counts, then each tile's next free slot
+    for (const TileRange& m : met) each_tile(m, [&](size_t t) { ++start[t + 1]; });
+    for (size_t t = 1; t <= tiles; ++t) start[t] += start[t - 1];
+    r.tile_offsets = start;
+    r.tile_grids.resize(std::max<size_t>(start.back(), 1), 0);
+    for (size_t k = 0; k < met.size(); ++k) each_tile(met[k], [&](size_t t) { r.tile_grids[start[t]++] = cl_int(k); });
   }
 
   TextureFrame reconstruct(const ParticleStats& counts) {
@@ -474,7 +529,8 @@ class Lagrangian final : public Advection {
   int substeps_;
   std::shared_ptr<const DeviceInputs> inputs_;
   PoissonRegion region_;
-  size_t held_limit_;  // particles held at most, ALIVE and FADING: twice the region's area / d^2
+  size_t held_limit_;   // particles held at most, ALIVE and FADING: twice the region's area / d^2
+  size_t tile_budget_;  // tile list entries held at most (lagrangian_tile_bound)
   CounterRng angle_rng_, patch_rng_;
   // The state a checkpoint holds:
   bool started_ = false;
@@ -487,10 +543,19 @@ class Lagrangian final : public Advection {
 
 }  // namespace
 
-size_t lagrangian_grid_bound(const AdvectSpec& spec) {
-  const double d = spec.lagrangian.d;
-  return size_t(
-      2 * std::ceil((spec.output.x1 - spec.output.x0 + 2 * d) * (spec.output.y1 - spec.output.y0 + 2 * d) / (d * d)));
+size_t lagrangian_grid_bound(const LagrangianParams& params, const OutputSpec& output) {
+  const double d = params.d;
+  return size_t(2 * std::ceil((output.x1 - output.x0 + 2 * d) * (output.y1 - output.y0 + 2 * d) / (d * d)));
+}
+
+uint64_t lagrangian_tile_bound(const LagrangianParams& params, const OutputSpec& output) {
+  const double rest = (2 + params.beta) * params.d;  // a grid's side at rest (sec. 3.3.1)
+  auto across = [rest](double extent, int pixels) {  // the tiles a side of `rest` meets at most
+    const int tiles = (pixels + kTile - 1) / kTile;
+    return std::min(std::floor(rest / (extent / pixels * kTile)) + 2, double(tiles));
+  };
+  return uint64_t(kTileSpread * double(lagrangian_grid_bound(params, output)) *
+                  across(output.x1 - output.x0, output.width) * across(output.y1 - output.y0, output.height));
 }
 
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,

@@ -18,7 +18,16 @@ namespace squall::textures {
 
 // The most grids an advection of `spec` holds, ALIVE and FADING: twice the area of the output region grown
 // by d on each side over d^2.
-size_t lagrangian_grid_bound(const AdvectSpec& spec);
+size_t lagrangian_grid_bound(const LagrangianParams& params, const OutputSpec& output);
+inline size_t lagrangian_grid_bound(const AdvectSpec& spec) {
+  return lagrangian_grid_bound(spec.lagrangian, spec.output);
+}
+
+// The most entries a frame's tile lists hold (a grid in each 16 x 16-pixel reconstruction tile its bounds
+// meet): kTileSpread times what the most grids take at rest. Past it the most spread grids are deleted
+// (FADING before ALIVE): a grid fading for a long fade_tau in a shear flow spreads over ever more tiles.
+inline constexpr double kTileSpread = 4;
+uint64_t lagrangian_tile_bound(const LagrangianParams& params, const OutputSpec& output);
 
 // `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,

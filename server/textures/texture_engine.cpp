@@ -37,7 +37,9 @@ uint64_t TextureEngine::state_bytes(const AdvectSpec& spec) {
   if (spec.method == Method::LagrangianGrids) {
     const uint64_t vertices = uint64_t(spec.lagrangian.grid_res) * uint64_t(spec.lagrangian.grid_res);
     constexpr uint64_t kBytesPerVertex = 40;  // host: position, u, weight; device: position, u, weight
-    return uint64_t(lagrangian_grid_bound(spec)) * vertices * kBytesPerVertex;
+    constexpr uint64_t kBytesPerTileEntry = 2 * sizeof(cl_int);  // a frame's tile lists, on the host and the device
+    return uint64_t(lagrangian_grid_bound(spec)) * vertices * kBytesPerVertex +
+           lagrangian_tile_bound(spec.lagrangian, spec.output) * kBytesPerTileEntry;
   }
   return 3 * (eulerian_slot_bytes(spec) + eulerian_cascade_bytes(spec));
 }

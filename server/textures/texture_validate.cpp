@@ -5,6 +5,7 @@
 
 #include "common/error.h"
 #include "common/validate.h"
+#include "textures/lagrangian.h"
 #include "textures/push_pull.h"
 #include "textures/texture_engine.h"
 
@@ -237,6 +238,11 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
   in(path + ".grid_res", p.grid_res, 3, 16);
   in(path + ".delta_max", p.delta_max, open_closed(1, 100));
   positive(path + ".fade_tau", p.fade_tau, 1e6);
+  // The reconstruction's tile lists are indexed by cl_int.
+  if (const uint64_t entries = lagrangian_tile_bound(p, o); entries > uint64_t(INT32_MAX))
+    fail(Code::ResourceExhausted, path + ".d = " + number(p.d) + " over an output of " + std::to_string(o.width) +
+                                      " x " + std::to_string(o.height) + " pixels would bin grids into up to " +
+                                      std::to_string(entries) + " tile entries; at most 2^31 - 1");
 }
 
 void eulerian(const EulerianParams& p, Method method, const OutputSpec& o, const LimitGate& gate,

@@ -11,6 +11,7 @@
 #include "support/test_runtime.h"
 #include "support/worst.h"
 #include "textures/device_inputs.h"
+#include "textures/lagrangian.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -218,6 +219,21 @@ TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
 
 // Pixels (and Eulerian nodes) finer than float32 places at the region's coordinates: a 1 du region of 64
 // pixels at x = 1e6 came out flat. The same region at x = 1e3 is accepted.
+// The reconstruction's tile lists are indexed by cl_int: an output and a d whose grids could meet more tiles
+// than that in all (lagrangian_tile_bound) are refused, which only a --max-grid-cells far past its default
+// lets through to this check.
+TEST(TexturesValidation, TileListsPastClIntAreRefused) {
+  LimitGate gate{Limits{.max_grid_cells = uint64_t(1) << 40}};
+  TextureEngine engine(runtime(), gate);
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {}, 131072);
+  spec.lagrangian.d = 0.005;
+  ASSERT_GT(lagrangian_tile_bound(spec.lagrangian, spec.output), uint64_t(INT32_MAX));
+  expect_error(Code::ResourceExhausted, "spec.lagrangian.d = 0.005 over an output of 131072 x 131072 pixels",
+               [&] { engine.validate(spec, "spec"); });
+  spec.output.width = spec.output.height = 4096;
+  engine.validate(spec, "spec");
+}
+
 TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
   spec.output.x0 = 1e6;

@@ -8,6 +8,7 @@
 #include "common/error.h"
 #include "support/expect_error.h"
 #include "textures/lagrangian.h"
+#include "textures/state_codec.h"
 #include "textures/textures_support.h"
 
 namespace squall::test {
@@ -132,6 +133,55 @@ TEST(TexturesDeterminism, MoreParticlesThanTheAdvectionHoldsAreRefused) {
   expect_error(Code::InvalidArgument,
                "resume_state holds " + std::to_string(forged) + " particles, past the " + std::to_string(bound),
                [&] { texture_engine().start(spec, bad); });
+}
+
+// A Lagrangian checkpoint at frame 0 (started) of `grids` FADING particles (killed at 0 s) whose grids
+// each span [0, 1]^2: the layout of Lagrangian::checkpoint.
+std::string spanning_grids(size_t grids, int res, bool started = true) {
+  textures::StateWriter out;
+  out.put(uint32_t(1));  // the version
+  out.put(started);
+  out.put(int64_t(0));       // the frame index
+  out.put(uint64_t(0));      // the particle counter
+  out.put(uint64_t(grids));  // the next id
+  out.put(uint64_t(grids));  // the count, then each particle's id, birth and kill
+  for (size_t k = 0; k < grids; ++k) out.put(uint64_t(k)), out.put(0.0), out.put(0.0);
+  std::vector<float> positions;
+  for (size_t k = 0; k < grids; ++k)
+    for (int b = 0; b < res; ++b)
+      for (int a = 0; a < res; ++a) positions.insert(positions.end(), {float(a) / (res - 1), float(b) / (res - 1)});
+  out.put_vector(positions);
+  out.put_vector(std::vector<float>(positions.size(), 0.0f));  // the uvs
+  return out.take();
+}
+
+// A Lagrangian checkpoint whose grids each span the whole output region, each in every one of its 32 x 32
+// reconstruction tiles, is refused before any tile list is made when they meet more tiles in all than its
+// request's grids ever meet (lagrangian_tile_bound): it would take the host's memory and the device for
+// hours. So is one holding particles before its first frame.
+TEST(TexturesDeterminism, GridsSpreadPastTheTilesAnAdvectionMeetsAreRefused) {
+  const AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {}, 512);
+  const size_t fit = lagrangian_tile_bound(spec.lagrangian, spec.output) / (32 * 32);
+  const int res = spec.lagrangian.grid_res;
+  expect_error(Code::InvalidArgument, "reconstruction tiles in all, past the",
+               [&] { texture_engine().start(spec, spanning_grids(fit + 1, res)); });
+  EXPECT_NO_THROW(texture_engine().start(spec, spanning_grids(fit, res)));
+  expect_error(Code::InvalidArgument, "particles before its first frame",
+               [&] { texture_engine().start(spec, spanning_grids(1, res, false)); });
+}
+
+// A frame whose grids would meet more tiles than the bound (FADING grids spread over the whole output, as
+// ones fading for a long fade_tau in a strong flow would be, with the grids inserted around them) deletes the
+// most spread until its tile lists fit: its checkpoint then resumes.
+TEST(TexturesDeterminism, AFramesGridsAreKeptWithinTheTilesAnAdvectionMeets) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {}, 512);
+  spec.lagrangian.fade_tau = 1e6;
+  const size_t fit = lagrangian_tile_bound(spec.lagrangian, spec.output) / (32 * 32);
+  auto advection = texture_engine().start(spec, spanning_grids(fit, spec.lagrangian.grid_res));
+  const TextureFrame frame = advection->next();
+  EXPECT_GT(frame.stats.particles.deleted, 0);
+  EXPECT_GT(frame.stats.particles.alive, 0);
+  EXPECT_NO_THROW(texture_engine().start(spec, advection->checkpoint()));
 }
 
 }  // namespace
