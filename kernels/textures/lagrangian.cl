@@ -21,11 +21,12 @@ __kernel void lagrangian_advect(__global float2* positions, int count, VelocityF
   positions[i] = x;
 }
 
-/* Barycentric coordinates of p in triangle (a, b, c); all >= -eps when p is inside. */
+/* Barycentric coordinates of p in triangle (a, b, c); all >= -eps when p is inside. A triangle whose area is
+ * below float32's resolution of its edges (relative, so that grids of any size are sampled) holds no point. */
 static float3 barycentric(float2 p, float2 a, float2 b, float2 c) {
   float2 e0 = b - a, e1 = c - a, q = p - a;
   float det = e0.x * e1.y - e0.y * e1.x;
-  if (fabs(det) < 1e-20f) return (float3)(-1.0f);
+  if (!(fabs(det) > 1e-6f * (dot(e0, e0) + dot(e1, e1)))) return (float3)(-1.0f);
   float l1 = (q.x * e1.y - q.y * e1.x) / det, l2 = (e0.x * q.y - e0.y * q.x) / det;
   return (float3)(1.0f - l1 - l2, l1, l2);
 }

@@ -25,10 +25,11 @@ void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::s
                      const std::string& velocity_path = "");
 // Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times.
 void validate_clock(const AdvectSpec& spec, const std::string& path);
-// A current read from what a request follows (an eWave session, an ocean tile), each time it is read:
-// every node's speed within +-kMaxVelocityParam, else FAILED_PRECONDITION naming `path`, the field that
-// follows it (the state followed is out of range, not the request).
-void validate_followed_current(const VelocitySpec& velocity, const std::string& path);
+// A current read from what a request follows (an eWave session, an ocean tile) into spec.velocity, each time
+// it is read: every node's speed within +-kMaxVelocityParam, and its gradients turning the flow by at most
+// 2 rad per substep of spec.dt (as the substeps were checked), else FAILED_PRECONDITION naming `path`, the
+// field that follows it (the state followed is out of range, not the request).
+void validate_followed_current(const AdvectSpec& spec, const std::string& path);
 
 class TextureEngine {
  public:

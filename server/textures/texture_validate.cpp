@@ -236,6 +236,11 @@ void lagrangian(const LagrangianParams& p, const OutputSpec& o, const std::strin
   // With no margin a grid's border lies at d from its centre, and rounding alone would fail its coverage.
   in(path + ".beta", p.beta, closed(kMinGridMargin, 4));
   in(path + ".grid_res", p.grid_res, 3, 16);
+  // A grid's vertices, (2 + beta) d / (grid_res - 1) apart (Yu et al. 2011, sec. 3.3.1), are placed in float32
+  // as the pixels are: closer, they coincide and every grid is killed as folded on its first frame.
+  const double spacing = (2 + p.beta) * p.d / (p.grid_res - 1);
+  resolved(path + ".d", "grid vertices", "x", o.x0 - p.d, o.x1 + p.d, (o.x1 - o.x0 + 2 * p.d) / spacing);
+  resolved(path + ".d", "grid vertices", "y", o.y0 - p.d, o.y1 + p.d, (o.y1 - o.y0 + 2 * p.d) / spacing);
   in(path + ".delta_max", p.delta_max, open_closed(1, 100));
   positive(path + ".fade_tau", p.fade_tau, 1e6);
   // The reconstruction's tile lists are indexed by cl_int.
@@ -297,7 +302,8 @@ void validate_clock(const AdvectSpec& spec, const std::string& path) {
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
 }
 
-void validate_followed_current(const VelocitySpec& velocity, const std::string& path) {
+void validate_followed_current(const AdvectSpec& spec, const std::string& path) {
+  const VelocitySpec& velocity = spec.velocity;
   const size_t nodes = size_t(velocity.nx) * velocity.ny;
   for (const VelocityFrame& frame : velocity.frames)
     for (const std::vector<float>* speeds : {&frame.u, &frame.v})
@@ -308,6 +314,12 @@ void validate_followed_current(const VelocitySpec& velocity, const std::string& 
                                              " has " + (speeds == &frame.u ? "u" : "v") + " = " + number((*speeds)[n]) +
                                              " du/s, past the +-" + number(kMaxVelocityParam) +
                                              " du/s that advection takes");
+  // The stream's substeps were checked against the current of its first frame; the state followed may
+  // have changed since.
+  if (const double turn = gradient_rate(velocity) * spec.dt / spec.substeps; turn > kMaxSubstepTurn)
+    fail(Code::FailedPrecondition, path + ": its current now turns the flow by " + number(turn) +
+                                       " rad per substep (its largest gradient times dt / substeps), more than the " +
+                                       number(kMaxSubstepTurn) + " that the integration keeps stable");
 }
 
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path,

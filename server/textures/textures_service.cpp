@@ -130,7 +130,7 @@ void TexturesService::follow(Stream& s, double from) {
   } else {
     s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
   }
-  validate_followed_current(s.spec.velocity, followed.path);
+  validate_followed_current(s.spec, followed.path);
 }
 
 SurfaceCurrent TexturesService::session_current(req::FollowedCurrent& followed) const {

@@ -234,6 +234,34 @@ TEST(TexturesValidation, TileListsPastClIntAreRefused) {
   engine.validate(spec, "spec");
 }
 
+// Lagrangian grid vertices are placed in float32 as pixels are: d = 0.3 with beta = 0.05 and 16 vertices a
+// side puts them 0.041 du apart, where float32's step at x = 1e6 is 0.0625 (they coincide, and every grid
+// was killed as folded on its first frame); the same grids near the origin run.
+TEST(TexturesValidation, LagrangianVerticesFinerThanFloat32PlacesThemAreRefused) {
+  AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {}, 32);
+  spec.output = {32, 32, 1e6, 1e6, 1e6 + 64, 1e6 + 64};
+  spec.lagrangian.d = 0.3;
+  spec.lagrangian.beta = 0.05;
+  spec.lagrangian.grid_res = 16;
+  expect_error(Code::InvalidArgument, "spec.lagrangian.d: grid vertices of 0.041",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.output = {32, 32, 0, 0, 64, 64};
+  texture_engine().validate(spec, "spec");
+}
+
+// Grids of any size cover the pixels: over a region 1e-8 du wide with d = 2.5e-10 the triangles' areas are
+// below 1e-20 du^2 (an absolute threshold of 1e-20 left every pixel uncovered), as at d = 0.025 over 1 du.
+TEST(TexturesLagrangian, TinyGridsCoverEveryPixel) {
+  for (double extent : {1e-8, 1.0}) {
+    AdvectSpec spec = noise_spec(Method::LagrangianGrids, SQUALL_VELOCITY_UNIFORM, {}, 32);
+    spec.output = {32, 32, 0, 0, extent, extent};
+    spec.lagrangian.d = extent / 40;
+    texture_engine().validate(spec, "spec");
+    const TextureFrame frame = texture_engine().start(spec)->next();
+    EXPECT_EQ(frame.stats.uncovered, 0) << "a region " << extent << " du wide";
+  }
+}
+
 TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
   spec.output.x0 = 1e6;

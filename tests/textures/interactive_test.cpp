@@ -170,6 +170,26 @@ grpc::Status close_session(const std::string& id) {
   return v1::EWave::NewStub(client.channel())->CloseSession(client.context(id).get(), request, &reply);
 }
 
+// A stream's substeps are checked against the current of its first frame, and the current it follows is
+// checked again at each read: where the session now holds a current whose gradients (U 2 pi / L = 1260 /s,
+// 126 rad per frame of 0.1 s) the integration cannot follow, the next frame is refused naming the session.
+TEST(TexturesEWave, AFollowedCurrentThatTurnsTooFastForTheSubstepsIsRefused) {
+  const std::string id = still_current_session(0.05, 64, std::string(31, 'e') + "f");
+  v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
+  r.mutable_velocity()->set_ewave_session(id);
+  Interactive s;
+  ASSERT_TRUE(s.send(start(r, 1), 1));
+  ASSERT_TRUE(close_session(id).ok());
+  ASSERT_EQ(still_current_session(400, 64, id), id);
+  s.send(more(1), 1);
+  const grpc::Status status = s.finish();
+  EXPECT_EQ(s.frames().size(), 1u);
+  test::expect_error(Code::FailedPrecondition,
+                     "control[0].start.velocity.ewave_session: its current now turns the flow by 1",
+                     [&] { throw_status(status); });
+  EXPECT_TRUE(close_session(id).ok()) << "the id is free for a run of this test again";
+}
+
 // A stream is validated and its memory reserved for the grid of the session it follows: where that session is
 // closed and one of another grid made under its id, the next frame is refused rather than advected by the
 // new session's current unreserved. A control naming the session again follows the new one.
