@@ -13,6 +13,7 @@ against the shared daemon.
 from __future__ import annotations
 
 import asyncio
+import warnings
 from pathlib import Path
 from typing import Any, Callable, Iterator, List, Type
 
@@ -721,3 +722,61 @@ def test_send_of_no_frames_reports_its_error_later(client: squall.Client) -> Non
     assert run.send(frames=0, dt=-1.0) == []
     with pytest.raises(squall.SquallError, match=r"control\[0\]\.dt = -1"):
         run.close()
+
+
+def test_a_whole_build_request_takes_keep_and_return_vdb_too() -> None:
+    """build(request=..., keep=True) stores the volume as build(model, keep=True) does: the
+    arguments add to what the request asks, never silently dropped."""
+    model = squall.clouds.model(0.5, spheres=[(0, 0, 0, 4)])
+    whole = squall.clouds.build_request(None, False, False, {"model": model})
+    assert not whole.keep and not whole.return_vdb
+    both = squall.clouds.build_request(None, True, True, {"model": model})
+    assert both.keep and both.return_vdb
+    kept = squall.clouds.build_request(None, False, False, {"model": model, "keep": True})
+    assert kept.keep, "the request's own keep stays"
+
+
+@pytest.mark.parametrize(
+    "address, warned",
+    [
+        ("192.0.2.1:50051", True),
+        ("squalld.example:50051", True),
+        ("dns:///squalld.example:50051", True),
+        ("[2001:db8::1]:50051", True),
+        ("127.0.0.1:50051", False),
+        ("localhost:50051", False),
+        ("[::1]:50051", False),
+        ("ipv4:127.0.0.2:50051", False),
+        ("unix:/run/squalld.sock", False),
+    ],
+)
+def test_a_token_sent_in_plaintext_off_this_machine_is_warned_of(address: str, warned: bool) -> None:
+    """A bearer token without TLS to another host can be read on the way: the client says so when
+    it is made (it connects later), and keeps quiet on loopback, with TLS or without a token."""
+
+    def made(make: Callable[[], Any]) -> List[warnings.WarningMessage]:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            make()
+        return [w for w in caught if issubclass(w.category, squall.PlaintextTokenWarning)]
+
+    async def made_async(**kwargs: Any) -> List[warnings.WarningMessage]:
+        async def make() -> None:
+            await squall.aio.Client(address, **kwargs).close()
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            await make()
+        return [w for w in caught if issubclass(w.category, squall.PlaintextTokenWarning)]
+
+    tls = grpc.ssl_channel_credentials()
+    for seen in (
+        made(lambda: squall.Client(address, token="secret").close()),
+        asyncio.run(made_async(token="secret")),
+    ):
+        assert len(seen) == int(warned), (address, [str(w.message) for w in seen])
+        if warned:
+            assert address in str(seen[0].message) and "secret" not in str(seen[0].message)
+    assert not made(lambda: squall.Client(address).close()), "no token, no warning"
+    assert not made(lambda: squall.Client(address, token="t", credentials=tls).close()), "TLS"
+    assert not asyncio.run(made_async()), "no token, no warning (asyncio)"

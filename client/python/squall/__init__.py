@@ -21,7 +21,7 @@ messages themselves (generated from proto/squall/v1 at install time) are ``squal
 
 from squall import clouds, ewave, ocean, textures
 from squall._convert import array_to_field, field_to_array
-from squall._errors import SquallError
+from squall._errors import PlaintextTokenWarning, SquallError
 from squall._results import (
     BakedVelocity,
     DeformFrame,
@@ -42,6 +42,7 @@ __all__ = [
     "Client",
     "tls_credentials",
     "SquallError",
+    "PlaintextTokenWarning",
     "ocean",
     "ewave",
     "clouds",

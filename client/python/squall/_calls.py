@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import numbers
 import os
@@ -9,6 +10,7 @@ import queue
 import secrets
 import threading
 import time
+import warnings
 from typing import (
     Any,
     Callable,
@@ -25,7 +27,7 @@ from typing import (
 import grpc
 
 from squall._convert import integer, shown
-from squall._errors import REPLICA_KEY, SquallError
+from squall._errors import REPLICA_KEY, PlaintextTokenWarning, SquallError
 
 T = TypeVar("T")
 
@@ -173,6 +175,38 @@ def address_of(address: Any) -> str:
     if not isinstance(address, str):
         raise TypeError(f'address = {shown(address)}: want "host:port" (a str)')
     return address
+
+
+def is_loopback(address: str) -> bool:
+    """Whether gRPC target `address` is this machine: localhost, a loopback IP (127.0.0.0/8, ::1;
+    "host:port", "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme) or a unix
+    socket."""
+    target = address
+    for scheme in ("dns:///", "ipv4:", "ipv6:"):
+        target = target[len(scheme) :] if target.startswith(scheme) else target
+    if target.startswith(("unix:", "unix-abstract:")):
+        return True
+    if target.startswith("["):
+        host = target[1 : target.find("]")]
+    else:
+        host = target.rsplit(":", 1)[0] if target.count(":") == 1 else target
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def warn_plaintext_token(address: str, token: Optional[str], tls: bool) -> None:
+    """PlaintextTokenWarning when `token` would go to `address`, not this machine, without TLS."""
+    if token and not tls and not is_loopback(address):
+        warnings.warn(
+            f"squall: the bearer token goes to {address} in plaintext (no TLS credentials): "
+            "anyone on the path can read it",
+            PlaintextTokenWarning,
+            stacklevel=3,
+        )
 
 
 def seconds(name: str, value: Optional[float]) -> Optional[float]:

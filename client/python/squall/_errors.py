@@ -73,3 +73,9 @@ class SquallError(Exception):
         except Exception:  # an RpcError that is not a Call
             pass
         return cls(code or grpc.StatusCode.UNKNOWN, details or str(error), method, metadata)
+
+
+class PlaintextTokenWarning(UserWarning):
+    """A client sends its bearer token to a host other than this machine without TLS: anyone on
+    the path can read the token and call squalld as its owner. Give ``credentials``
+    (``squall.tls_credentials``), or reach squalld through a TLS-terminating proxy."""

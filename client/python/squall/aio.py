@@ -61,6 +61,7 @@ from squall._calls import (
     address_of,
     propose_session_id,
     resolve_token,
+    warn_plaintext_token,
 )
 from squall._errors import SquallError
 from squall._pb import (
@@ -1109,6 +1110,7 @@ class Client:
             timeout, stream_timeout, resolve_token(token, token_file), request_id, retries
         )
         grpc_options = channel_options(retries, own_connection, options)
+        warn_plaintext_token(address, settings.token, credentials is not None)
         if credentials is None:
             channel = grpc.aio.insecure_channel(address, options=grpc_options)
         else:

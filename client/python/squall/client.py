@@ -16,6 +16,7 @@ from squall._calls import (
     address_of,
     resolve_token,
     retry_options,
+    warn_plaintext_token,
 )
 from squall._convert import flag, shown
 from squall._errors import SquallError
@@ -203,6 +204,7 @@ class Client:
             timeout, stream_timeout, resolve_token(token, token_file), request_id, retries
         )
         grpc_options = channel_options(retries, own_connection, options)
+        warn_plaintext_token(address, settings.token, credentials is not None)
         if credentials is None:
             channel = grpc.insecure_channel(address, options=grpc_options)
         else:

@@ -355,7 +355,9 @@ def build_request(
     if request is not None:
         message = clouds_pb2.BuildVolumeRequest()
         message.CopyFrom(to_message(clouds_pb2.BuildVolumeRequest, request))
-        message.return_vdb = message.return_vdb or return_vdb  # a path asks for the bytes
+        # The arguments add to what the request asks (a path asks for the bytes).
+        message.keep = message.keep or flag(keep, "keep")
+        message.return_vdb = message.return_vdb or flag(return_vdb, "return_vdb")
         return message
     if cloud is None:
         raise TypeError("build: a model is needed (squall.clouds.model(...), or request=...)")
@@ -495,6 +497,9 @@ class Clouds:
                 its last render, which the next renders that differ only in the camera reuse.
             return_vdb: return the grids ("density", "temperature") as .vdb bytes (``Volume.vdb``).
             path: write the .vdb file there (implies return_vdb).
+            timeout: seconds (None: the client's).
+            request: a whole BuildVolumeRequest (or a mapping of its fields) instead of `cloud`;
+                keep, return_vdb and path add to what it asks.
 
         Returns:
             A Volume: ``summary`` (bounds m, active voxels, bytes, ...), ``vdb`` bytes if asked,
