@@ -17,6 +17,7 @@ using namespace squall::validate;
 constexpr int kMaxVelocityFrames = 4096;
 // beta's floor: the margin, in units of d, by which a grid's border clears the kernel about its centre.
 constexpr double kMinGridMargin = 0.05;
+constexpr double kMinDtPerTime = 0x1p-44;  // 2^-44: 256 of double's steps at any time
 constexpr double kMaxSubstepTurn = 2;  // rad: RK4's stability limit on rotations is 2 sqrt(2)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
@@ -300,6 +301,13 @@ void validate_clock(const AdvectSpec& spec, const std::string& path) {
   positive(path + ".dt", spec.dt, kMaxTextureDt);
   in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
+  // Frame times t0 + n dt are doubles: a dt within a few of double's steps at the stream's times makes
+  // frames (and a followed current's two readings) that double cannot tell apart.
+  const double farthest = std::max(std::abs(spec.t0), std::abs(spec.t0 + spec.frames * spec.dt));
+  if (spec.dt < farthest * kMinDtPerTime)
+    fail(Code::InvalidArgument, path + ".dt = " + number(spec.dt) + " s at times up to " + number(farthest) +
+                                    " s: double cannot tell frames that close apart there (at least " +
+                                    number(farthest * kMinDtPerTime) + " s); use a larger dt or a t0 nearer 0");
 }
 
 void validate_followed_current(const AdvectSpec& spec, const std::string& path) {

@@ -129,6 +129,10 @@ TEST(TexturesClock, TimesAndSpinsPastTheirRangeAreRefusedNamingTheField) {
   spec.t0 = -2e9;
   expect_error(Code::InvalidArgument, "spec.t0 = -2e+09", [&] { texture_engine().validate(spec, "spec"); });
   spec.t0 = 1e9;
+  spec.dt = 5e-8;  // t0 + dt is 1e9 + 0 or one step of 1.2e-7 s: frames double cannot tell apart
+  expect_error(Code::InvalidArgument, "spec.dt = 5e-08 s at times up to 1e+09 s",
+               [&] { texture_engine().validate(spec, "spec"); });
+  spec.dt = 1e-3;
   spec.texture.spin = 2e6;
   expect_error(Code::InvalidArgument, "spec.texture.noise.spin", [&] { texture_engine().validate(spec, "spec"); });
   spec.texture.spin = 0;
