@@ -183,6 +183,10 @@ int main(int argc, char** argv) {
     return std::cerr << "squall: --address " << options.address << ": the port must be in 1..65535\n", kUsage;
   auto it = verbs().find(argv[i]);
   if (it == verbs().end()) return std::cerr << "squall: unknown verb " << argv[i] << "\n", print_usage(), kUsage;
+  const bool tls = !options.tls_ca.empty() || !options.tls_cert.empty() || !options.tls_key.empty();
+  if (!options.token.empty() && !tls && !client::is_loopback_address(options.address))
+    std::cerr << "squall: warning: the bearer token goes to " << options.address
+              << " in plaintext (no --tls-ca): anyone on the path can read it\n";
   std::vector<std::string> args(argv + i + 1, argv + argc);
   try {
     client::Client client(options);

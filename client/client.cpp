@@ -1,5 +1,7 @@
 #include "client/client.h"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -64,6 +66,23 @@ std::string retry_config(int attempts) {
 }
 
 }  // namespace
+
+bool is_loopback_address(const std::string& address) {
+  std::string target = address;
+  for (const char* scheme : {"dns:///", "ipv4:", "ipv6:"})
+    if (target.rfind(scheme, 0) == 0) target.erase(0, std::string(scheme).size());
+  if (target.rfind("unix:", 0) == 0 || target.rfind("unix-abstract:", 0) == 0) return true;
+  std::string host = target;
+  if (!target.empty() && target[0] == '[')
+    host = target.substr(1, target.find(']') - 1);
+  else if (std::count(target.begin(), target.end(), ':') == 1)
+    host = target.substr(0, target.find(':'));
+  if (host == "localhost") return true;
+  in_addr v4{};
+  in6_addr v6{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  return inet_pton(AF_INET6, host.c_str(), &v6) == 1 && IN6_IS_ADDR_LOOPBACK(&v6);
+}
 
 std::string propose_session_id(const std::string& prefix) {
   std::random_device device;

@@ -416,6 +416,15 @@ TEST(Auth, HealthNeedsTheTokenWhenNotExempt) {
   EXPECT_EQ(watch->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
 }
 
+TEST(Client, LoopbackAddressesAreThoseOfThisMachineOnly) {
+  for (const char* address : {"127.0.0.1:50051", "127.8.9.10:1", "localhost:50051", "[::1]:50051", "ipv4:127.0.0.1:1",
+                              "ipv6:[::1]:1", "dns:///localhost:1", "unix:/run/squalld.sock"})
+    EXPECT_TRUE(client::is_loopback_address(address)) << address;
+  for (const char* address : {"192.0.2.1:50051", "0.0.0.0:1", "squalld.example:50051", "[2001:db8::1]:1",
+                              "dns:///squalld.example:1", "128.0.0.1:1", "[::ffff:192.0.2.1]:1"})
+    EXPECT_FALSE(client::is_loopback_address(address)) << address;
+}
+
 TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
   std::string dir = test::temp_dir("auth");
   std::ofstream(dir + "/tokens") << "# squalld tokens\n\ns3cret-alice alice\nother-token\n";
@@ -424,6 +433,11 @@ TEST(Auth, BearerTokensAreRequiredAndHealthStaysOpen) {
   Daemon d({"--fft", "vkfft", "--auth-tokens", dir + "/tokens"});
   std::string out;
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/alice", "info"}, &out), 0) << out;
+  EXPECT_EQ(out.find("in plaintext"), std::string::npos) << "a token to loopback is no warning: " << out;
+  // 0.0.0.0 reaches this machine too, but names no loopback address: the CLI warns, and goes on.
+  const std::string any = "0.0.0.0:" + d.address().substr(d.address().rfind(':') + 1);
+  EXPECT_EQ(test::run({kSquall, "--address", any, "--token-file", dir + "/alice", "info"}, &out), 0) << out;
+  EXPECT_NE(out.find("squall: warning: the bearer token goes to " + any + " in plaintext"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "info"}, &out), 4) << out;
   EXPECT_NE(out.find("UNAUTHENTICATED: a valid bearer token is required"), std::string::npos) << out;
   EXPECT_EQ(test::run({kSquall, "--address", d.address(), "--token-file", dir + "/wrong", "info"}, &out), 4) << out;

@@ -146,6 +146,12 @@ def test_a_frame_too_wide_for_float16_is_refused_and_its_step_read_again(
         assert "the step was made (the session is at step 1)" in error.value.message
         frame = s.step(0.02, outputs=["height"], retry_key=b"wide")
         assert frame.step == 1 and np.all(np.abs(frame["height"]) > 65504)
+        # A key the client drew: the session keeps it, so the step's frame is not lost either.
+        with pytest.raises(squall.SquallError) as error:
+            s.step(0.02, outputs=["height"], dtype="float16")
+        assert "the step was made (the session is at step 2)" in error.value.message
+        frame = s.step(0.02, outputs=["height"], retry_key=s.last_retry_key)
+        assert frame.step == s.steps == 2
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

@@ -454,6 +454,7 @@ class EWaveSession:
         self.config: ewave_pb2.EWaveConfig = response.config
         self.max_dt: float = response.max_dt
         self.steps: int = response.step  # as squall.ewave.EWaveSession.steps
+        self.last_retry_key: Optional[bytes] = None  # as squall.ewave.EWaveSession.last_retry_key
         self.closed = False
 
     @property
@@ -477,6 +478,7 @@ class EWaveSession:
         request = _ewave.unary_step_request(
             self.id, _ewave.as_inputs(inputs, dt, **kwargs), after_step, retry_key
         )
+        self.last_retry_key = request.retry_key
         conn = self._service._connection
         frame = EWaveFrame(
             await conn.unary("EWave.Step", self._service._rpc.Step, request, timeout, self.id)

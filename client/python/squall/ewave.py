@@ -409,6 +409,8 @@ class EWaveSession:
             the saved state's after ``restore``, then each ``step()``'s frame's; a ``step(...,
             after_step=session.steps)`` fails when another caller has stepped it since. 0 for a
             session from ``attach``; frames of ``run`` carry their own ``step``.
+        last_retry_key: the retry key of the last ``step()`` sent (None before the first): the
+            same key reads that step's frame again, where the step was made but its call raised.
     """
 
     def __init__(self, service: "EWave", response: ewave_pb2.EWaveSessionResponse) -> None:
@@ -417,6 +419,7 @@ class EWaveSession:
         self.config: ewave_pb2.EWaveConfig = response.config
         self.max_dt: float = response.max_dt
         self.steps: int = response.step
+        self.last_retry_key: Optional[bytes] = None
         self.closed = False
 
     @property
@@ -448,10 +451,13 @@ class EWaveSession:
             retry_key: up to 64 bytes naming this step; None: a fresh random key. A caller that
                 may try a step() again after it raised (DEADLINE_EXCEEDED, UNAVAILABLE after the
                 retries) passes a key of its own, and the same key again: the step is made once.
+                The key sent is kept as ``last_retry_key``: a step() that raised after the step
+                was made (a frame too wide for float16) reads that frame with it.
         """
         request = unary_step_request(
             self.id, as_inputs(inputs, dt, **kwargs), after_step, retry_key
         )
+        self.last_retry_key = request.retry_key
         conn = self._service._connection
         frame = EWaveFrame(
             conn.unary("EWave.Step", self._service._rpc.Step, request, timeout, session=self.id)
