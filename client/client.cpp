@@ -72,8 +72,10 @@ bool is_loopback_address(const std::string& address) {
   for (const char* scheme : {"dns:///", "ipv4:", "ipv6:"})
     if (target.rfind(scheme, 0) == 0) target.erase(0, std::string(scheme).size());
   if (target.rfind("unix:", 0) == 0 || target.rfind("unix-abstract:", 0) == 0) return true;
+  if (const size_t comma = target.find(','); comma != std::string::npos)  // a list: every address
+    return is_loopback_address(target.substr(0, comma)) && is_loopback_address(target.substr(comma + 1));
   std::string host = target;
-  if (!target.empty() && target[0] == '[')
+  if (!target.empty() && target[0] == '[' && target.find(']') != std::string::npos)
     host = target.substr(1, target.find(']') - 1);
   else if (std::count(target.begin(), target.end(), ':') == 1)
     host = target.substr(0, target.find(':'));

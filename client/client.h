@@ -49,8 +49,8 @@ struct ClientOptions {
 std::string propose_session_id(const std::string& prefix = "");
 
 // Whether gRPC target `address` is this machine: localhost, a loopback IP (127.0.0.0/8, ::1; "host:port" or
-// "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme) or a unix socket. A token sent without
-// TLS anywhere else can be read on the way.
+// "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme; every one of a list) or a unix socket.
+// A token sent without TLS anywhere else can be read on the way.
 bool is_loopback_address(const std::string& address);
 
 // ClientOptions that cannot be used (a --tls-* file that is no readable file, a certificate without its key):

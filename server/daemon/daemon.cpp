@@ -115,8 +115,8 @@ void configure(grpc::ServerBuilder& builder, const DaemonOptions& options, const
   builder.SetResourceQuota(quota);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<UndecodableRequestFactory>());  // first: the log shows the status it sets
+  interceptors.push_back(std::make_unique<ReflectionLimitFactory>());     // before the log: it reads its status
   interceptors.push_back(std::make_unique<RequestLogFactory>(replica, metrics));
-  interceptors.push_back(std::make_unique<ReflectionLimitFactory>());
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
 }
 

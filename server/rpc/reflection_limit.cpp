@@ -2,9 +2,8 @@
 
 #include <grpcpp/server_context.h>
 
+#include <string>
 #include <string_view>
-
-#include "common/log.h"
 
 namespace squall::rpc {
 namespace {
@@ -12,7 +11,8 @@ namespace {
 using grpc::experimental::InterceptionHookPoints;
 
 // Holds one place among the open reflection streams from the call's start to its end; cancels the call
-// as its metadata arrives, before the handler reads, when it found no place.
+// as its metadata arrives, before the handler reads, when it found no place. The status it records (the
+// request log, which runs after it, and the metrics) says why; the client, cancelled, sees CANCELLED.
 class ReflectionStream : public grpc::experimental::Interceptor {
  public:
   ReflectionStream(grpc::experimental::ServerRpcInfo* info, std::atomic<int>& open)
@@ -20,11 +20,12 @@ class ReflectionStream : public grpc::experimental::Interceptor {
   ~ReflectionStream() override { open_.fetch_sub(1); }
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
-    if (refused_ && methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
-      log(LogLevel::Warn, "reflection: ", ReflectionLimitFactory::kMaxStreams,
-          " streams open, the most squalld serves at once; a new one was cancelled");
+    if (refused_ && methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA))
       info_->server_context()->TryCancel();
-    }
+    if (refused_ && methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS))
+      methods->ModifySendStatus(grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                                             "reflection: " + std::to_string(ReflectionLimitFactory::kMaxStreams) +
+                                                 " streams open, the most squalld serves at once"));
     methods->Proceed();
   }
 

@@ -23,13 +23,16 @@ constexpr double kMaxParticles = 200000;
 // `velocity_path`: the request field the velocity came from (empty: path + ".velocity").
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path,
                      const std::string& velocity_path = "");
-// Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times.
-void validate_clock(const AdvectSpec& spec, const std::string& path);
-// A current read from what a request follows (an eWave session, an ocean tile) into spec.velocity, each time
-// it is read: every node's speed within +-kMaxVelocityParam, and its gradients turning the flow by at most
-// 2 rad per substep of spec.dt (as the substeps were checked), else FAILED_PRECONDITION naming `path`, the
-// field that follows it (the state followed is out of range, not the request).
-void validate_followed_current(const AdvectSpec& spec, const std::string& path);
+// Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times. `now`:
+// the time a steered stream has reached (its frames go on from there).
+void validate_clock(const AdvectSpec& spec, const std::string& path, double now = 0);
+// A current read from what a request follows (an eWave session, an ocean tile), each time it is read: every
+// node's speed within +-kMaxVelocityParam, else FAILED_PRECONDITION naming `path`, the field that follows it
+// (the state followed is out of range, not the request).
+void validate_followed_current(const VelocitySpec& velocity, const std::string& path);
+// The same current read again for a later frame (the request's substeps were checked against its first
+// reading): its gradients turn the flow by at most 2 rad per substep of spec.dt, else FAILED_PRECONDITION.
+void validate_followed_turn(const AdvectSpec& spec, const std::string& path);
 
 class TextureEngine {
  public:

@@ -18,7 +18,7 @@ constexpr int kMaxVelocityFrames = 4096;
 // beta's floor: the margin, in units of d, by which a grid's border clears the kernel about its centre.
 constexpr double kMinGridMargin = 0.05;
 constexpr double kMinDtPerTime = 0x1p-44;  // 2^-44: 256 of double's steps at any time
-constexpr double kMaxSubstepTurn = 2;  // rad: RK4's stability limit on rotations is 2 sqrt(2)
+constexpr double kMaxSubstepTurn = 2;      // rad: RK4's stability limit on rotations is 2 sqrt(2)
 
 std::string param(const std::string& path, int k) { return at(path + ".params", size_t(k)); }
 
@@ -296,22 +296,22 @@ void TextureEngine::validate(const AdvectSpec& spec, const std::string& path, co
                                       "phases or cascade bands");
 }
 
-void validate_clock(const AdvectSpec& spec, const std::string& path) {
+void validate_clock(const AdvectSpec& spec, const std::string& path, double now) {
   in(path + ".t0", spec.t0, closed(-kMaxTextureTime, kMaxTextureTime));
   positive(path + ".dt", spec.dt, kMaxTextureDt);
   in(path + ".frames", int64_t(spec.frames), 1, kMaxTextureFrames);
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
   // Frame times t0 + n dt are doubles: a dt within a few of double's steps at the stream's times makes
   // frames (and a followed current's two readings) that double cannot tell apart.
-  const double farthest = std::max(std::abs(spec.t0), std::abs(spec.t0 + spec.frames * spec.dt));
+  const double farthest =
+      std::max({std::abs(spec.t0), std::abs(now), std::abs(std::max(spec.t0, now) + spec.frames * spec.dt)});
   if (spec.dt < farthest * kMinDtPerTime)
     fail(Code::InvalidArgument, path + ".dt = " + number(spec.dt) + " s at times up to " + number(farthest) +
                                     " s: double cannot tell frames that close apart there (at least " +
                                     number(farthest * kMinDtPerTime) + " s); use a larger dt or a t0 nearer 0");
 }
 
-void validate_followed_current(const AdvectSpec& spec, const std::string& path) {
-  const VelocitySpec& velocity = spec.velocity;
+void validate_followed_current(const VelocitySpec& velocity, const std::string& path) {
   const size_t nodes = size_t(velocity.nx) * velocity.ny;
   for (const VelocityFrame& frame : velocity.frames)
     for (const std::vector<float>* speeds : {&frame.u, &frame.v})
@@ -322,9 +322,10 @@ void validate_followed_current(const AdvectSpec& spec, const std::string& path) 
                                              " has " + (speeds == &frame.u ? "u" : "v") + " = " + number((*speeds)[n]) +
                                              " du/s, past the +-" + number(kMaxVelocityParam) +
                                              " du/s that advection takes");
-  // The stream's substeps were checked against the current of its first frame; the state followed may
-  // have changed since.
-  if (const double turn = gradient_rate(velocity) * spec.dt / spec.substeps; turn > kMaxSubstepTurn)
+}
+
+void validate_followed_turn(const AdvectSpec& spec, const std::string& path) {
+  if (const double turn = gradient_rate(spec.velocity) * spec.dt / spec.substeps; turn > kMaxSubstepTurn)
     fail(Code::FailedPrecondition, path + ": its current now turns the flow by " + number(turn) +
                                        " rad per substep (its largest gradient times dt / substeps), more than the " +
                                        number(kMaxSubstepTurn) + " that the integration keeps stable");

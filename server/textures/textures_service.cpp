@@ -130,7 +130,7 @@ void TexturesService::follow(Stream& s, double from) {
   } else {
     s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
   }
-  validate_followed_current(s.spec, followed.path);
+  validate_followed_current(s.spec.velocity, followed.path);
 }
 
 SurfaceCurrent TexturesService::session_current(req::FollowedCurrent& followed) const {
@@ -187,6 +187,7 @@ void TexturesService::validate_beside_velocity(Stream& s, const std::string& spe
 TextureFrame TexturesService::next_frame(Stream& s, Advection& advection, bool refresh) {
   if (refresh && s.current.any()) {  // the step to this frame uses the current read now
     follow(s, advection.time());
+    validate_followed_turn(s.spec, s.current.path);
     engine_->steer(advection, s.spec);
   }
   return advection.next();
@@ -272,9 +273,12 @@ void TexturesService::apply(const v1::TextureControl& control, size_t n, Stream&
   const bool changed = req::steer(control, s.spec, path);
   if (control.has_velocity()) s.current = followed(control.velocity(), path + ".velocity");
   const std::string spec_path = n == 0 ? path + ".start" : path;
-  validate_clock(s.spec, spec_path);
+  validate_clock(s.spec, spec_path, advection ? advection->time() : s.spec.t0);
   if (s.current.any()) validate_beside_velocity(s, spec_path);  // the rest before the current is read
   follow(s, advection ? advection->time() : s.spec.t0);
+  // A message that changes nothing of the stream's clock or velocity: a current the integration cannot
+  // follow now is the followed state's doing, not the message's.
+  if (n > 0 && s.current.any() && !changed) validate_followed_turn(s.spec, s.current.path);
   const bool started_velocity = n == 0 && !control.has_velocity();  // the start's, unless steered at once
   if (started_velocity || control.has_velocity()) {
     s.velocity_path = path + (started_velocity ? ".start.velocity" : ".velocity");

@@ -748,6 +748,8 @@ def test_a_whole_build_request_takes_keep_and_return_vdb_too() -> None:
         ("[::1]:50051", False),
         ("ipv4:127.0.0.2:50051", False),
         ("unix:/run/squalld.sock", False),
+        ("ipv6:[::1]:50051,[2001:db8::1]:50051", True),
+        ("ipv4:127.0.0.1:50051,127.0.0.2:50051", False),
     ],
 )
 def test_a_token_sent_in_plaintext_off_this_machine_is_warned_of(address: str, warned: bool) -> None:

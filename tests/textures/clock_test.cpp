@@ -133,6 +133,14 @@ TEST(TexturesClock, TimesAndSpinsPastTheirRangeAreRefusedNamingTheField) {
   expect_error(Code::InvalidArgument, "spec.dt = 5e-08 s at times up to 1e+09 s",
                [&] { texture_engine().validate(spec, "spec"); });
   spec.dt = 1e-3;
+  {  // a steered stream: its frames go on from the time it reached, not from t0
+    AdvectSpec steered = spec;
+    steered.t0 = 0;
+    steered.dt = 1e-11;
+    validate_clock(steered, "spec");
+    expect_error(Code::InvalidArgument, "spec.dt = 1e-11 s at times up to 1000000 s",
+                 [&] { validate_clock(steered, "spec", 1e6); });
+  }
   spec.texture.spin = 2e6;
   expect_error(Code::InvalidArgument, "spec.texture.noise.spin", [&] { texture_engine().validate(spec, "spec"); });
   spec.texture.spin = 0;

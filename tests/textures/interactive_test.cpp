@@ -172,7 +172,8 @@ grpc::Status close_session(const std::string& id) {
 
 // A stream's substeps are checked against the current of its first frame, and the current it follows is
 // checked again at each read: where the session now holds a current whose gradients (U 2 pi / L = 1260 /s,
-// 126 rad per frame of 0.1 s) the integration cannot follow, the next frame is refused naming the session.
+// 126 rad per frame of 0.1 s) the integration cannot follow, the next frame is refused naming the session; a
+// stream that starts on that current is refused naming its substeps.
 TEST(TexturesEWave, AFollowedCurrentThatTurnsTooFastForTheSubstepsIsRefused) {
   const std::string id = still_current_session(0.05, 64, std::string(31, 'e') + "f");
   v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
@@ -187,6 +188,10 @@ TEST(TexturesEWave, AFollowedCurrentThatTurnsTooFastForTheSubstepsIsRefused) {
   test::expect_error(Code::FailedPrecondition,
                      "control[0].start.velocity.ewave_session: its current now turns the flow by 1",
                      [&] { throw_status(status); });
+  // From the first frame: the request's substeps are too few for the current it follows.
+  r.set_frames(2);
+  test::expect_error(Code::InvalidArgument, "request.substeps = 1: the velocity field turns by 1",
+                     [&] { throw_status(advect(r).status); });
   EXPECT_TRUE(close_session(id).ok()) << "the id is free for a run of this test again";
 }
 

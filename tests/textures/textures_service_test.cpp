@@ -538,7 +538,7 @@ TEST(TexturesRequest, AnImagesFloatPlanesAreCountedAndHeldInTheMemoryBudget) {
   v1::AdvectTextureRequest r = noise_request(2);
   const std::vector<float> plane(512 * 512, 0.5f);
   for (int c = 0; c < 8; ++c)
-    *r.mutable_texture()->mutable_image()->add_channels() = float_field("c" + std::to_string(c), 512, 512, plane);
+    *r.mutable_texture()->mutable_image()->add_channels() = float_field(std::string(1, char('a' + c)), 512, 512, plane);
   const uint64_t floats = 8 * plane.size() * sizeof(float);
   LimitGate small{Limits{.memory_budget = 4 << 20}};
   Slot decoded;

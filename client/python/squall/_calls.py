@@ -179,15 +179,17 @@ def address_of(address: Any) -> str:
 
 def is_loopback(address: str) -> bool:
     """Whether gRPC target `address` is this machine: localhost, a loopback IP (127.0.0.0/8, ::1;
-    "host:port", "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme) or a unix
-    socket."""
+    "host:port", "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme; every one of a
+    list) or a unix socket."""
     target = address
     for scheme in ("dns:///", "ipv4:", "ipv6:"):
         target = target[len(scheme) :] if target.startswith(scheme) else target
     if target.startswith(("unix:", "unix-abstract:")):
         return True
+    if "," in target:  # an ipv4: or ipv6: list: loopback only if every address is
+        return all(is_loopback(part) for part in target.split(","))
     if target.startswith("["):
-        host = target[1 : target.find("]")]
+        host = target[1 : target.find("]")] if "]" in target else target
     else:
         host = target.rsplit(":", 1)[0] if target.count(":") == 1 else target
     if host == "localhost":
@@ -318,7 +320,7 @@ class Connection:
         best effort, before the error is raised. ALREADY_EXISTS for an id drawn here (128 random
         bits) means that an earlier attempt of this call made the session and its answer was lost
         (a retry after a broken connection): that session is closed and the call made once more,
-        under a fresh id."""
+        under a fresh id, with a deadline of its own (so such a call may take twice its timeout)."""
         for attempt in (1, 2):
             proposed = propose_session_id(prefix)
             try:
