@@ -29,7 +29,7 @@ struct CheckpointHeader {
   std::string kind;
   uint32_t version = 0;
   std::string id;
-  std::string client;  // the client a --max-sessions-per-client slot is held for; "" for none
+  std::string client{};  // the client a --max-sessions-per-client slot is held for; "" for none
 };
 
 std::string encode_checkpoint(const CheckpointHeader& header, const std::string& payload);

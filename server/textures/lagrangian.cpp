@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "runtime/host_transfer.h"
 #include "textures/grid_quality.h"
@@ -37,8 +38,10 @@ struct TileRange {
   size_t count() const { return i0 > i1 ? 0 : size_t(i1 - i0 + 1) * size_t(j1 - j0 + 1); }
 };
 
+int tile_rows(const OutputGrid& out) { return (out.height + kTile - 1) / kTile; }
+
 TileRange tiles_met(const OutputGrid& out, const cl_float4& box) {
-  const int tiles_y = (out.height + kTile - 1) / kTile;
+  const int tiles_y = tile_rows(out);
   auto tile_of = [](float x, float origin, float pixel, int count) {
     return clamped_index((x - origin) / pixel / kTile, count);
   };
@@ -204,23 +207,19 @@ class Lagrangian final : public Advection {
     if (!started_ && !particles_.empty())  // the first frame inserts the first particles
       fail(Code::InvalidArgument, "resume_state holds particles before its first frame: not a checkpoint");
     // Checked before any tile list is made: grids spread far past the budget would take hours and gigabytes.
-    if (const size_t entries = total(tile_entries()); entries > tile_budget_)
-      fail(Code::InvalidArgument, "resume_state's grids meet " + std::to_string(entries) +
+    const std::vector<size_t> entries = tile_entries();
+    if (const size_t total = std::accumulate(entries.begin(), entries.end(), size_t(0)); total > tile_budget_)
+      fail(Code::InvalidArgument, "resume_state's grids meet " + std::to_string(total) +
                                       " reconstruction tiles in all, past the " + std::to_string(tile_budget_) +
                                       " this request's grids ever meet: not a checkpoint of this request");
   }
 
-  // The reconstruction tiles each grid meets, and their sum.
+  // The reconstruction tiles each grid meets.
   std::vector<size_t> tile_entries() const {
     const OutputGrid out = inputs_->output(kTile);
     std::vector<size_t> entries(particles_.size());
     for (size_t k = 0; k < particles_.size(); ++k) entries[k] = tiles_met(out, bounds(k)).count();
     return entries;
-  }
-  static size_t total(const std::vector<size_t>& entries) {
-    size_t sum = 0;
-    for (size_t e : entries) sum += e;
-    return sum;
   }
 
   // Carries every vertex over [time_, time_ + dt] on the device.
@@ -291,7 +290,7 @@ class Lagrangian final : public Advection {
   // most spread (the most tiles met) first, ties by order.
   void fit_tile_budget(ParticleStats& stats) {
     const std::vector<size_t> entries = tile_entries();
-    size_t sum = total(entries);
+    size_t sum = std::accumulate(entries.begin(), entries.end(), size_t(0));
     if (sum <= tile_budget_) return;
     std::vector<size_t> order(particles_.size());
     for (size_t k = 0; k < order.size(); ++k) order[k] = k;
@@ -477,7 +476,7 @@ class Lagrangian final : public Advection {
   // Each tile's grids (those whose bounds meet it, ascending), CSR: counted, then stored. At most
   // tile_budget_ entries (restore, fit_tile_budget), which lagrangian_tile_bound keeps within cl_int.
   static void bin(const OutputGrid& out, const std::vector<TileRange>& met, Reconstruction& r) {
-    const size_t tiles = size_t(out.tiles_x) * size_t((out.height + kTile - 1) / kTile);
+    const size_t tiles = size_t(out.tiles_x) * size_t(tile_rows(out));
     auto each_tile = [&](const TileRange& m, auto&& f) {
       for (int j = m.j0; m.i0 <= m.i1 && j <= m.j1; ++j)
         for (int i = m.i0; i <= m.i1; ++i) f(size_t(i) + size_t(out.tiles_x) * j);

@@ -24,8 +24,9 @@ constexpr double kMaxParticles = 200000;
 void validate_advect(const AdvectSpec& spec, const LimitGate& gate, const std::string& path,
                      const std::string& velocity_path = "");
 // Its t0, dt, frames and substeps alone: checked before a followed current is computed at those times. `now`:
-// the time a steered stream has reached (its frames go on from there).
-void validate_clock(const AdvectSpec& spec, const std::string& path, double now = 0);
+// the time the stream has reached, from which its frames go on (t0 before its first frame).
+void validate_clock(const AdvectSpec& spec, const std::string& path, double now);
+inline void validate_clock(const AdvectSpec& spec, const std::string& path) { validate_clock(spec, path, spec.t0); }
 // A current read from what a request follows (an eWave session, an ocean tile), each time it is read: every
 // node's speed within +-kMaxVelocityParam, else FAILED_PRECONDITION naming `path`, the field that follows it
 // (the state followed is out of range, not the request).

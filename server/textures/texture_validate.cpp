@@ -303,8 +303,7 @@ void validate_clock(const AdvectSpec& spec, const std::string& path, double now)
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxTextureSubsteps);
   // Frame times t0 + n dt are doubles: a dt within a few of double's steps at the stream's times makes
   // frames (and a followed current's two readings) that double cannot tell apart.
-  const double farthest =
-      std::max({std::abs(spec.t0), std::abs(now), std::abs(std::max(spec.t0, now) + spec.frames * spec.dt)});
+  const double farthest = std::max({std::abs(spec.t0), std::abs(now), std::abs(now + spec.frames * spec.dt)});
   if (spec.dt < farthest * kMinDtPerTime)
     fail(Code::InvalidArgument, path + ".dt = " + number(spec.dt) + " s at times up to " + number(farthest) +
                                     " s: double cannot tell frames that close apart there (at least " +

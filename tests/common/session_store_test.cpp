@@ -253,10 +253,10 @@ TEST(SessionCheckpoint, NamesItsClientOnlyWhenOneIsCounted) {
   in.get_bytes(8 + 4 + 7, "magic and kind");
   EXPECT_EQ(in.get<uint32_t>("the version"), 3u | kChecksummed);
 
-  const std::string named = encode_checkpoint({"counter", 3, "c-1", "ipv4:10.0.0.7"}, "payload");
+  const std::string named = encode_checkpoint({"counter", 3, "c-1", "ipv4:127.0.0.7"}, "payload");
   EXPECT_EQ(decode_checkpoint(named, "counter", "state", &header), "payload");
   EXPECT_EQ(header.version, 3u);
-  EXPECT_EQ(header.client, "ipv4:10.0.0.7");
+  EXPECT_EQ(header.client, "ipv4:127.0.0.7");
   // Read as a squalld before the flag reads it: a payload version newer than any it knows.
   ByteReader older(named, "state", "a checkpoint");
   older.get_bytes(8 + 4 + 7, "magic and kind");
@@ -278,11 +278,11 @@ TEST(SessionStoreStateDir, ACheckpointNamesTheClientItsSessionCountsAgainst) {
     SessionStore<Counter> s(gate, SessionPolicy{.registry = &registry}, "counter", "counter_id", "c-");
     s.persist(
         1, [](const Counter& c) { return std::to_string(c.value); }, [](const std::string&) {});
-    const std::string id = s.add(s.reserve(8, "ipv4:10.0.0.7"), std::make_shared<Counter>(Counter{7}));
+    const std::string id = s.add(s.reserve(8, "ipv4:127.0.0.7"), std::make_shared<Counter>(Counter{7}));
     ASSERT_EQ(s.checkpoint_all(false), 1u);
     CheckpointHeader header;
     EXPECT_EQ(decode_checkpoint(*registry.state_dir()->read(id), "counter", "checkpoint", &header), "7");
-    EXPECT_EQ(header.client, per_client ? "ipv4:10.0.0.7" : "") << "--max-sessions-per-client " << per_client;
+    EXPECT_EQ(header.client, per_client ? "ipv4:127.0.0.7" : "") << "--max-sessions-per-client " << per_client;
   }
 }
 

@@ -167,9 +167,9 @@ TEST(Daemon, TheLogLineNamesTheSessionTheClientSends) {
 // the server's thread, until close().
 class ReflectionStream {
  public:
-  explicit ReflectionStream(const std::string& address) : client_({address, 10, ""}), stub_(client_.channel()) {
+  explicit ReflectionStream(const std::string& address) : client_({address, 10, ""}), generic_(client_.channel()) {
     ctx_.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-    call_ = stub_.PrepareCall(&ctx_, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq_);
+    call_ = generic_.PrepareCall(&ctx_, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq_);
     call_->StartCall(tag(1));
     started_ = step(1);
   }
@@ -216,7 +216,7 @@ class ReflectionStream {
   }
 
   client::Client client_;
-  grpc::GenericStub stub_;
+  grpc::GenericStub generic_;  // calls by method name, the messages as bytes
   grpc::CompletionQueue cq_;
   grpc::ClientContext ctx_;
   std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;

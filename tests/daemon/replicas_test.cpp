@@ -35,14 +35,15 @@ client::ClientOptions options(const std::string& address, int attempts) {
   return o;
 }
 
-// A replica's eWave service through a client that makes `attempts` of each call (1: every status is
+// A replica's eWave and Clouds services through a client that makes `attempts` of each call (1: every status is
 // the server's).
 struct Replica {
   Replica(const std::string& name, const std::string& state_dir, int attempts = 1,
           std::vector<std::string> more_flags = {})
       : daemon(flags(name, state_dir, std::move(more_flags))),
         client(options(daemon.address(), attempts)),
-        ewave(v1::EWave::NewStub(client.channel())) {}
+        ewave(v1::EWave::NewStub(client.channel())),
+        clouds(v1::Clouds::NewStub(client.channel())) {}
   static std::vector<std::string> flags(const std::string& name, const std::string& state_dir,
                                         std::vector<std::string> more) {
     more.insert(more.begin(), {"--fft", "vkfft", "--replica-id", name, "--state-dir", state_dir});
@@ -52,6 +53,7 @@ struct Replica {
   Daemon daemon;
   client::Client client;
   std::unique_ptr<v1::EWave::Stub> ewave;
+  std::unique_ptr<v1::Clouds::Stub> clouds;
 };
 
 v1::EWaveCreateSessionRequest create_request() {
@@ -264,8 +266,7 @@ grpc::Status render(Replica& r, const std::string& volume_id, std::string* image
   auto* light = s->add_lights();
   light->mutable_direction()->set_z(1), light->add_intensity(1000);
   v1::RenderResponse response;
-  grpc::Status status =
-      v1::Clouds::NewStub(r.client.channel())->Render(r.client.context(volume_id).get(), request, &response);
+  grpc::Status status = r.clouds->Render(r.client.context(volume_id).get(), request, &response);
   *image = response.image().SerializeAsString();
   return status;
 }
@@ -275,8 +276,7 @@ TEST(Replicas, AStoredCloudVolumeMovesOnSigtermAndRendersTheSameImage) {
   Replica a("clouds-a", state), b("clouds-b", state);
   const std::string id = client::propose_session_id("cloud-");
   v1::BuildVolumeResponse built;
-  auto clouds = v1::Clouds::NewStub(a.client.channel());
-  ASSERT_TRUE(clouds->BuildVolume(a.client.context(id).get(), keep_a_sphere(), &built).ok());
+  ASSERT_TRUE(a.clouds->BuildVolume(a.client.context(id).get(), keep_a_sphere(), &built).ok());
   EXPECT_EQ(built.summary().volume_id(), id);
   std::string before, after;
   ASSERT_TRUE(render(a, id, &before).ok());
@@ -299,9 +299,7 @@ TEST(Replicas, AClientsMovedSessionsCountAgainstItsShareWhereTheyResume) {
   v1::EWaveSessionResponse created;
   ASSERT_TRUE(a.ewave->CreateSession(a.client.context(session).get(), create_request(), &created).ok());
   v1::BuildVolumeResponse built;
-  ASSERT_TRUE(v1::Clouds::NewStub(a.client.channel())
-                  ->BuildVolume(a.client.context(volume).get(), keep_a_sphere(), &built)
-                  .ok());
+  ASSERT_TRUE(a.clouds->BuildVolume(a.client.context(volume).get(), keep_a_sphere(), &built).ok());
   a.daemon.process().signal(SIGTERM);
   ASSERT_EQ(a.daemon.process().wait(30), 0) << a.daemon.process().log();
 

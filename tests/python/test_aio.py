@@ -165,7 +165,6 @@ def test_an_abandoned_creation_closes_the_session_it_proposed(daemon) -> None:
     run(main())
 
 
-
 def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
     daemon, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -190,6 +189,7 @@ def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
             await session.close()
 
     run(main())
+
 
 def small_texture_stream() -> dict:
     """The arguments of a small texture stream (advect, interactive)."""

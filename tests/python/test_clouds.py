@@ -131,17 +131,17 @@ def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -
     passed before the reply came: the client releases the id it proposed, so no volume waits for
     its TTL that nobody can name. The call is the real BuildVolume; only its reply is lost."""
     clouds = client.clouds
-    stub = clouds_pb2_grpc.CloudsStub(client.channel)
+    rpc = clouds._rpc  # the client's own stub
 
     proposed: List[str] = []
 
     def late_build(request: clouds_pb2.BuildVolumeRequest, timeout: float, metadata: Any) -> None:
         proposed.append(dict(metadata)["x-squall-session"])
-        stub.BuildVolume(request, timeout=60, metadata=metadata)
+        rpc.BuildVolume(request, timeout=60, metadata=metadata)
         raise LostReply()
 
     request = squall.clouds.build_request(cloud(), keep=True, return_vdb=False, request=None)
-    undo = partial(squall.clouds.release_call, stub)
+    undo = partial(squall.clouds.release_call, rpc)
     with pytest.raises(squall.SquallError) as lost:
         clouds._connection.create("Clouds.BuildVolume", late_build, request, 60, "cloud-", undo)
     assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED

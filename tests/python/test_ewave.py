@@ -272,7 +272,6 @@ def test_a_failing_close_does_not_hide_the_error_that_ended_the_block() -> None:
             assert error.value.method == "EWave.CloseSession", error.value
 
 
-
 def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
     client: squall.Client, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -294,6 +293,7 @@ def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
         made.state()
     assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the first attempt's session is still live"
 
+
 class LostAfterTheStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
     """An eWave service whose first Run stream ends UNAVAILABLE after it has read (and would have
     applied) a step, before any frame: as a connection lost after squalld stepped the session."""
@@ -314,8 +314,6 @@ class LostAfterTheStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
 def test_a_run_stream_is_not_retried_so_no_step_is_applied_twice() -> None:
     """The client's retry policy (UNAVAILABLE, up to 5 attempts) covers every squall call but the
     Run stream, whose steps carry no retry key: gRPC would replay the step it had sent."""
-    from concurrent import futures
-
     server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
     service = LostAfterTheStep()
     squall.v1.ewave_pb2_grpc.add_EWaveServicer_to_server(service, server)

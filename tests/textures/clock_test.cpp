@@ -229,8 +229,6 @@ TEST(TexturesValidation, SubstepsThatCannotFollowTheFieldAreRefused) {
   texture_engine().validate(spec, "spec");
 }
 
-// Pixels (and Eulerian nodes) finer than float32 places at the region's coordinates: a 1 du region of 64
-// pixels at x = 1e6 came out flat. The same region at x = 1e3 is accepted.
 // The reconstruction's tile lists are indexed by cl_int: an output and a d whose grids could meet more tiles
 // than that in all (lagrangian_tile_bound) are refused, which only a --max-grid-cells far past its default
 // lets through to this check.
@@ -274,6 +272,8 @@ TEST(TexturesLagrangian, TinyGridsCoverEveryPixel) {
   }
 }
 
+// Pixels (and Eulerian nodes) finer than float32 places at the region's coordinates: a 1 du region of 64
+// pixels at x = 1e6 came out flat. The same region at x = 1e3 is accepted.
 TEST(TexturesValidation, PixelsFinerThanFloat32PlacesThemAreRefused) {
   AdvectSpec spec = noise_spec(Method::EulerianMultilayer, SQUALL_VELOCITY_UNIFORM, {}, 64);
   spec.output.x0 = 1e6;

@@ -170,6 +170,21 @@ grpc::Status close_session(const std::string& id) {
   return v1::EWave::NewStub(client.channel())->CloseSession(client.context(id).get(), request, &reply);
 }
 
+// An interactive stream of `r`, which follows session `id`, sends a frame; then the session is closed and made
+// again under its id with a current of speed U on n x n cells, and the stream asked for one more frame: the
+// status it ends with, after its one frame.
+grpc::Status one_more_frame_after_remaking(const v1::AdvectTextureRequest& r, const std::string& id, double U,
+                                           uint32_t n) {
+  Interactive s;
+  EXPECT_TRUE(s.send(start(r, 1), 1));
+  EXPECT_TRUE(close_session(id).ok());
+  EXPECT_EQ(still_current_session(U, n, id), id);
+  s.send(more(1), 1);
+  const grpc::Status status = s.finish();
+  EXPECT_EQ(s.frames().size(), 1u);
+  return status;
+}
+
 // A stream's substeps are checked against the current of its first frame, and the current it follows is
 // checked again at each read: where the session now holds a current whose gradients (U 2 pi / L = 1260 /s,
 // 126 rad per frame of 0.1 s) the integration cannot follow, the next frame is refused naming the session; a
@@ -178,13 +193,7 @@ TEST(TexturesEWave, AFollowedCurrentThatTurnsTooFastForTheSubstepsIsRefused) {
   const std::string id = still_current_session(0.05, 64, std::string(31, 'e') + "f");
   v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
   r.mutable_velocity()->set_ewave_session(id);
-  Interactive s;
-  ASSERT_TRUE(s.send(start(r, 1), 1));
-  ASSERT_TRUE(close_session(id).ok());
-  ASSERT_EQ(still_current_session(400, 64, id), id);
-  s.send(more(1), 1);
-  const grpc::Status status = s.finish();
-  EXPECT_EQ(s.frames().size(), 1u);
+  const grpc::Status status = one_more_frame_after_remaking(r, id, 400, 64);
   test::expect_error(Code::FailedPrecondition,
                      "control[0].start.velocity.ewave_session: its current now turns the flow by 1",
                      [&] { throw_status(status); });
@@ -202,14 +211,9 @@ TEST(TexturesEWave, AStreamFollowsTheSessionWhoseGridItWasSizedFor) {
   const std::string id = still_current_session(0.05, 64, std::string(32, 'e'));
   v1::AdvectTextureRequest r = still_noise(v1::TEXTURE_METHOD_LAGRANGIAN_GRIDS, 0.875, 0.875, 0.25);
   r.mutable_velocity()->set_ewave_session(id);
-  Interactive s, again;
-  ASSERT_TRUE(s.send(start(r, 1), 1));
+  Interactive again;
   ASSERT_TRUE(again.send(start(r, 1), 1));
-  ASSERT_TRUE(close_session(id).ok());
-  ASSERT_EQ(still_current_session(0.05, 128, id), id);
-  s.send(more(1), 1);
-  const grpc::Status status = s.finish();
-  EXPECT_EQ(s.frames().size(), 1u);
+  const grpc::Status status = one_more_frame_after_remaking(r, id, 0.05, 128);
   test::expect_error(Code::Aborted,
                      "control[0].start.velocity.ewave_session names a session of 128 x 128 cells of 0.015625 x "
                      "0.015625 m now, not the one of 64 x 64 cells of 0.03125 x 0.03125 m that the stream began to "

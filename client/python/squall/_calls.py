@@ -136,9 +136,15 @@ class Resends:
         return backoff
 
 
-# A creating call the client gave up on, and what undoes it: (method name, function, request) of
-# the closing call for the proposed id, sent with UNDO_TIMEOUT.
-ABANDONED = (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED)
+# The creating calls that may have made their session all the same: those the client gave up on, and
+# those that found their proposed id taken (by an earlier attempt of the same call, its answer lost);
+# and what undoes one: (method name, function, request) of the closing call for the proposed id,
+# sent with UNDO_TIMEOUT.
+UNDONE = (
+    grpc.StatusCode.DEADLINE_EXCEEDED,
+    grpc.StatusCode.CANCELLED,
+    grpc.StatusCode.ALREADY_EXISTS,
+)
 UNDO_TIMEOUT = 1.0  # s: what a give-up adds to the call at most
 Undo = Tuple[str, Callable[..., Any], Any]
 
@@ -321,20 +327,33 @@ class Connection:
         bits) means that an earlier attempt of this call made the session and its answer was lost
         (a retry after a broken connection): that session is closed and the call made once more,
         under a fresh id, with a deadline of its own (so such a call may take twice its timeout)."""
-        for attempt in (1, 2):
-            proposed = propose_session_id(prefix)
-            try:
-                return self.unary(method, function, request, timeout, session=proposed)
-            except SquallError as error:
-                made_unanswered = error.code == grpc.StatusCode.ALREADY_EXISTS
-                if error.code in ABANDONED or made_unanswered:
-                    try:
-                        self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
-                    except Exception:  # never made, squalld unreachable or the client closed:
-                        pass  # the session's idle TTL ends it
-                if not made_unanswered or attempt == 2:
-                    raise
-        raise AssertionError("unreachable")
+        try:
+            return self._create_once(method, function, request, timeout, prefix, undo)
+        except SquallError as error:
+            if error.code != grpc.StatusCode.ALREADY_EXISTS:
+                raise
+        return self._create_once(method, function, request, timeout, prefix, undo)
+
+    def _create_once(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float],
+        prefix: str,
+        undo: Callable[[str], Undo],
+    ) -> Any:
+        """create's call under one proposed id, undone where squalld may have made the session."""
+        proposed = propose_session_id(prefix)
+        try:
+            return self.unary(method, function, request, timeout, session=proposed)
+        except SquallError as error:
+            if error.code in UNDONE:
+                try:
+                    self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                except Exception:  # never made, squalld unreachable or the client closed:
+                    pass  # the session's idle TTL ends it
+            raise
 
     def stream(
         self,

@@ -51,10 +51,10 @@ from squall import ewave as _ewave
 from squall import ocean as _ocean
 from squall import textures as _textures
 from squall._calls import (
-    ABANDONED,
     DEFAULT_ADDRESS,
     RUN_AHEAD,
     UNDO_TIMEOUT,
+    UNDONE,
     Resends,
     Settings,
     Undo,
@@ -180,20 +180,33 @@ class Connection:
         undo: Callable[[str], Undo],
     ) -> Any:
         """squall._calls.Connection.create, awaited."""
-        for attempt in (1, 2):
-            proposed = propose_session_id(prefix)
-            try:
-                return await self.unary(method, function, request, timeout, session=proposed)
-            except SquallError as error:
-                made_unanswered = error.code == grpc.StatusCode.ALREADY_EXISTS
-                if error.code in ABANDONED or made_unanswered:
-                    try:
-                        await self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
-                    except Exception:  # never made, squalld unreachable or the client closed:
-                        pass  # the session's idle TTL ends it
-                if not made_unanswered or attempt == 2:
-                    raise
-        raise AssertionError("unreachable")
+        try:
+            return await self._create_once(method, function, request, timeout, prefix, undo)
+        except SquallError as error:
+            if error.code != grpc.StatusCode.ALREADY_EXISTS:
+                raise
+        return await self._create_once(method, function, request, timeout, prefix, undo)
+
+    async def _create_once(
+        self,
+        method: str,
+        function: Callable[..., Any],
+        request: Any,
+        timeout: Optional[float],
+        prefix: str,
+        undo: Callable[[str], Undo],
+    ) -> Any:
+        """squall._calls.Connection._create_once, awaited."""
+        proposed = propose_session_id(prefix)
+        try:
+            return await self.unary(method, function, request, timeout, session=proposed)
+        except SquallError as error:
+            if error.code in UNDONE:
+                try:
+                    await self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                except Exception:  # never made, squalld unreachable or the client closed:
+                    pass  # the session's idle TTL ends it
+            raise
 
     def stream(
         self,
