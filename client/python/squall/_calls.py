@@ -327,33 +327,25 @@ class Connection:
         bits) means that an earlier attempt of this call made the session and its answer was lost
         (a retry after a broken connection): that session is closed and the call made once more,
         under a fresh id, with a deadline of its own (so such a call may take twice its timeout)."""
+
+        def once() -> Any:
+            proposed = propose_session_id(prefix)
+            try:
+                return self.unary(method, function, request, timeout, session=proposed)
+            except SquallError as error:
+                if error.code in UNDONE:
+                    try:
+                        self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                    except Exception:  # never made, squalld unreachable or the client closed:
+                        pass  # the session's idle TTL ends it
+                raise
+
         try:
-            return self._create_once(method, function, request, timeout, prefix, undo)
+            return once()
         except SquallError as error:
             if error.code != grpc.StatusCode.ALREADY_EXISTS:
                 raise
-        return self._create_once(method, function, request, timeout, prefix, undo)
-
-    def _create_once(
-        self,
-        method: str,
-        function: Callable[..., Any],
-        request: Any,
-        timeout: Optional[float],
-        prefix: str,
-        undo: Callable[[str], Undo],
-    ) -> Any:
-        """create's call under one proposed id, undone where squalld may have made the session."""
-        proposed = propose_session_id(prefix)
-        try:
-            return self.unary(method, function, request, timeout, session=proposed)
-        except SquallError as error:
-            if error.code in UNDONE:
-                try:
-                    self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
-                except Exception:  # never made, squalld unreachable or the client closed:
-                    pass  # the session's idle TTL ends it
-            raise
+        return once()
 
     def stream(
         self,

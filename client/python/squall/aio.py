@@ -180,33 +180,25 @@ class Connection:
         undo: Callable[[str], Undo],
     ) -> Any:
         """squall._calls.Connection.create, awaited."""
+
+        async def once() -> Any:
+            proposed = propose_session_id(prefix)
+            try:
+                return await self.unary(method, function, request, timeout, session=proposed)
+            except SquallError as error:
+                if error.code in UNDONE:
+                    try:
+                        await self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
+                    except Exception:  # never made, squalld unreachable or the client closed:
+                        pass  # the session's idle TTL ends it
+                raise
+
         try:
-            return await self._create_once(method, function, request, timeout, prefix, undo)
+            return await once()
         except SquallError as error:
             if error.code != grpc.StatusCode.ALREADY_EXISTS:
                 raise
-        return await self._create_once(method, function, request, timeout, prefix, undo)
-
-    async def _create_once(
-        self,
-        method: str,
-        function: Callable[..., Any],
-        request: Any,
-        timeout: Optional[float],
-        prefix: str,
-        undo: Callable[[str], Undo],
-    ) -> Any:
-        """squall._calls.Connection._create_once, awaited."""
-        proposed = propose_session_id(prefix)
-        try:
-            return await self.unary(method, function, request, timeout, session=proposed)
-        except SquallError as error:
-            if error.code in UNDONE:
-                try:
-                    await self.unary(*undo(proposed), UNDO_TIMEOUT, session=proposed)
-                except Exception:  # never made, squalld unreachable or the client closed:
-                    pass  # the session's idle TTL ends it
-            raise
+        return await once()
 
     def stream(
         self,
