@@ -97,6 +97,21 @@ std::string propose_session_id(const std::string& prefix) {
   return id;
 }
 
+grpc::Status create_session(const std::string& prefix, const SessionCall& create, const SessionCall& close,
+                            std::string* id) {
+  grpc::Status status;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    *id = propose_session_id(prefix);
+    status = create(*id);
+    const grpc::StatusCode code = status.error_code();
+    if (code == grpc::StatusCode::DEADLINE_EXCEEDED || code == grpc::StatusCode::CANCELLED ||
+        code == grpc::StatusCode::ALREADY_EXISTS)
+      close(*id);  // its status: the session was made or not, and either way nothing more can be done
+    if (code != grpc::StatusCode::ALREADY_EXISTS) break;
+  }
+  return status;
+}
+
 Client::Client(const ClientOptions& options) : options_(options) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
@@ -113,6 +128,13 @@ std::unique_ptr<grpc::ClientContext> Client::context(const std::string& session,
   if (!options_.request_id.empty()) ctx->AddMetadata("x-request-id", options_.request_id);
   if (!options_.token.empty()) ctx->AddMetadata("authorization", "Bearer " + options_.token);
   if (!session.empty()) ctx->AddMetadata("x-squall-session", session);
+  return ctx;
+}
+
+std::unique_ptr<grpc::ClientContext> Client::undo_context(const std::string& session) const {
+  auto ctx = context(session);
+  ctx->set_deadline(std::min(ctx->deadline(), std::chrono::system_clock::now() +
+                                                  std::chrono::milliseconds(std::llround(kUndoSeconds * 1000))));
   return ctx;
 }
 

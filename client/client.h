@@ -9,6 +9,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -47,6 +48,18 @@ struct ClientOptions {
 // session-affine proxy routes it like the session's later calls): `prefix` and 32 hex digits from the
 // system's random device ("" for eWave sessions, "cloud-" for stored volumes).
 std::string propose_session_id(const std::string& prefix = "");
+
+// A call that creates a session under `id` (sent as x-squall-session by a context(id)), or closes it.
+using SessionCall = std::function<grpc::Status(const std::string& id)>;
+
+// create(id) under id = propose_session_id(prefix), which *id receives. When it ends DEADLINE_EXCEEDED or
+// CANCELLED squalld may have made the session all the same, which nothing would then close: close(id) is
+// made, best effort (the session's idle TTL ends it otherwise). ALREADY_EXISTS for a drawn id (128 random
+// bits) means that an earlier attempt of the call made the session and its answer was lost (gRPC retried
+// after a broken connection): that session is closed and create made once more under a fresh id (so such
+// a call may take twice its timeout). Returns create's last status.
+grpc::Status create_session(const std::string& prefix, const SessionCall& create, const SessionCall& close,
+                            std::string* id);
 
 // Whether gRPC target `address` is this machine: localhost, a loopback IP (127.0.0.0/8, ::1; "host:port" or
 // "[host]:port", with or without an ipv4:, ipv6: or dns:/// scheme; every one of a list) or a unix socket.
@@ -87,6 +100,10 @@ class Client {
   // A stream of `calls` messages gets `calls` times the timeout; any deadline is at most 1e9 s away (a farther
   // one overflows the clock's nanoseconds and expires at once).
   std::unique_ptr<grpc::ClientContext> context(const std::string& session = "", double calls = 1) const;
+  // A context() of `session` for the call that undoes a creation (create_session's close): it adds at most
+  // kUndoSeconds to a call the client gave up on.
+  static constexpr double kUndoSeconds = 1;
+  std::unique_ptr<grpc::ClientContext> undo_context(const std::string& session) const;
 
  private:
   ClientOptions options_;

@@ -306,13 +306,22 @@ void print_summary(const v1::VolumeSummary& s) {
 
 int build(client::Client& client, const Request& r) {
   auto stub = v1::Clouds::NewStub(client.channel());
-  auto context = client.context(r.keep ? client::propose_session_id("cloud-") : "");
   v1::BuildVolumeRequest request;
   *request.mutable_model() = r.model;
   request.set_keep(r.keep);
   request.set_return_vdb(true);
   v1::BuildVolumeResponse response;
-  check(stub->BuildVolume(context.get(), request, &response), "Clouds.BuildVolume");
+  auto build = [&](const std::string& proposed) {
+    return stub->BuildVolume(client.context(proposed).get(), request, &response);
+  };
+  auto release = [&](const std::string& proposed) {
+    v1::ReleaseVolumeRequest volume;
+    volume.set_volume_id(proposed);
+    v1::ReleaseVolumeResponse released;
+    return stub->ReleaseVolume(client.undo_context(proposed).get(), volume, &released);
+  };
+  std::string id;
+  check(r.keep ? client::create_session("cloud-", build, release, &id) : build(""), "Clouds.BuildVolume");
   client::ReplacingFile file(r.output);
   std::ofstream out(file.temp(), std::ios::binary);
   out << response.vdb();

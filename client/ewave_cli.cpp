@@ -232,26 +232,28 @@ int wake(client::Client& client, const Wake& w) {
   v1::EWaveCreateSessionRequest create;
   *create.mutable_config() = w.config;
   v1::EWaveSessionResponse session;
-  const std::string id = client::propose_session_id();
-  grpc::Status status = stub->CreateSession(client.context(id).get(), create, &session);
-  client::check(status, "EWave.CreateSession");
+  auto close = [&](const std::unique_ptr<grpc::ClientContext>& context, const std::string& id) {
+    v1::EWaveSessionRequest request;
+    request.set_session_id(id);
+    v1::EWaveCloseResponse closed;
+    return stub->CloseSession(context.get(), request, &closed);
+  };
+  auto make = [&](const std::string& proposed) {
+    return stub->CreateSession(client.context(proposed).get(), create, &session);
+  };
+  auto undo = [&](const std::string& proposed) { return close(client.undo_context(proposed), proposed); };
+  std::string id;
+  client::check(client::create_session("", make, undo, &id), "EWave.CreateSession");
   Wake run = w;  // default dt: one cell per step, within the session's longest step
   if (run.dt == 0) run.dt = std::min(run.config.dx() / run.speed, session.max_dt());
   int rc = kOk;
   try {
     rc = stream(client, run, session.session_id(), *stub);
   } catch (...) {
-    v1::EWaveSessionRequest close;
-    close.set_session_id(session.session_id());
-    v1::EWaveCloseResponse closed;
-    stub->CloseSession(client.context(id).get(), close, &closed);
+    close(client.context(id), session.session_id());
     throw;
   }
-  v1::EWaveSessionRequest close;
-  close.set_session_id(session.session_id());
-  v1::EWaveCloseResponse closed;
-  status = stub->CloseSession(client.context(id).get(), close, &closed);
-  client::check(status, "EWave.CloseSession");
+  client::check(close(client.context(id), session.session_id()), "EWave.CloseSession");
   return rc;
 }
 

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "runtime/host_transfer.h"
+#include "runtime/slices.h"
 #include "textures/grid_quality.h"
 #include "textures/poisson.h"
 #include "textures/state_codec.h"
@@ -68,7 +69,7 @@ struct Reconstruction {
 class Lagrangian final : public Advection {
  public:
   Lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-             std::shared_ptr<const DeviceInputs> inputs, std::string_view state)
+             std::shared_ptr<const DeviceInputs> inputs, std::string_view state, const Cancellation& cancel)
       : runtime_(runtime),
         kernels_(kernels),
         params_(spec.lagrangian),
@@ -79,7 +80,8 @@ class Lagrangian final : public Advection {
         inputs_(std::move(inputs)),
         angle_rng_(spec.seed, RngPurpose::PoissonAngle),
         patch_rng_(spec.seed, RngPurpose::PatchOrigin),
-        time_(spec.t0) {
+        time_(spec.t0),
+        cancel_(cancel) {
     const double d = params_.d;
     region_ = {spec.output.x0 - d, spec.output.y0 - d, spec.output.x1 + d, spec.output.y1 + d, {}};
     held_limit_ = lagrangian_grid_bound(spec);
@@ -89,6 +91,7 @@ class Lagrangian final : public Advection {
   }
 
   TextureFrame next() override {
+    cancel_.check("the advection");
     ParticleStats stats;
     std::vector<std::pair<std::string, double>> stages;
     if (!started_) {
@@ -489,33 +492,50 @@ class Lagrangian final : public Advection {
     for (size_t k = 0; k < met.size(); ++k) each_tile(met[k], [&](size_t t) { r.tile_grids[start[t]++] = cl_int(k); });
   }
 
+  static TileGrid tile_grid(const OutputGrid& out) { return {size_t(out.tiles_x), size_t(tile_rows(out))}; }
+
+  // The reconstruction in slices of tiles (row order), each tile's cost its pixels' scans of the grids it
+  // lists; the first slice a row of tiles. A 4096^2 output takes a CPU device seconds: a dropped client or
+  // a drain stops it within about a slice.
+  static SlicePlan slice_plan(const OutputGrid& out, const Reconstruction& r) {
+    const TileGrid tiles = tile_grid(out);
+    auto cost = [&r](size_t t) { return 1.0 + (r.tile_offsets[t + 1] - r.tile_offsets[t]); };
+    double first = 0, total = 0;
+    for (size_t t = 0; t < tiles.x * tiles.y; ++t) {
+      total += cost(t);
+      if (t < tiles.x) first += cost(t);
+    }
+    return {tiles.x * tiles.y, 1, cost, first, WorkKind{"textures.lagrangian", size_t(total)}};
+  }
+
   TextureFrame reconstruct(const ParticleStats& counts) {
     ParticleStats stats = counts;
     OutputGrid out = inputs_->output(kTile);
     Reconstruction r = prepare(out, stats);
     TextureSource texture = inputs_->texture(time_);
     TextureFrame frame = empty_frame(index_, time_, out, texture);
+    // Copied as they are made: the slices may run on any of the device's queues.
     auto buffer = [&](auto& values) {
-      size_t bytes = std::max<size_t>(values.size() * sizeof(values[0]), 16);
-      cl::Buffer b(runtime_.context(), CL_MEM_READ_ONLY, bytes);
-      if (!values.empty())
-        runtime_.queue().enqueueWriteBuffer(b, CL_FALSE, 0, values.size() * sizeof(values[0]), values.data());
-      return b;
+      const size_t bytes = values.size() * sizeof(values[0]);
+      return bytes == 0 ? cl::Buffer(runtime_.context(), CL_MEM_READ_ONLY, 16)
+                        : cl::Buffer(runtime_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, values.data());
     };
+    cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), boxes = buffer(r.boxes);
+    cl::Buffer bucket_offsets = buffer(r.bucket_offsets), bucket_quads = buffer(r.bucket_quads);
+    cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
     BufferLease planes = runtime_.buffers().acquire(frame.planes.size() * sizeof(float));  // reused frame to frame
-    {
-      auto lock = runtime_.exclusive();
-      cl::Buffer offsets = buffer(r.tile_offsets), grids = buffer(r.tile_grids), boxes = buffer(r.boxes);
-      cl::Buffer bucket_offsets = buffer(r.bucket_offsets), bucket_quads = buffer(r.bucket_quads);
-      cl::Buffer positions = buffer(positions_), uvs = buffer(uvs_), weights = buffer(r.weights);
+    QueueLease lease;  // one device queue from the first slice to the read-back, but for long frames
+    run_sliced(runtime_, lease, slice_plan(out, r), cancel_, "the advection's frame", [&](size_t first, size_t count) {
       // One work-group per tile: its pixels read the same grids (and a size fixed once per output size).
-      kernels_.lagrangian_reconstruct.launch(
-          cl::NDRange(round_up(out.width, kTile), round_up(out.height, kTile)), cl::NDRange(kTile, kTile),
-          planes.buffer(), out, offsets, grids, boxes, bucket_offsets, bucket_quads, positions, uvs, weights,
-          cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture, inputs_->image(),
-          inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_, 0), inputs_->mask());
-      read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
-    }
+      for (const TileGrid::Rect& t : tile_grid(out).rectangles(first, count))
+        kernels_.lagrangian_reconstruct.launch_region(
+            cl::NDRange(kTile * t.x, kTile * t.y), cl::NDRange(kTile * t.width, kTile * t.height),
+            cl::NDRange(kTile, kTile), planes.buffer(), out, offsets, grids, boxes, bucket_offsets, bucket_quads,
+            positions, uvs, weights, cl_int(res()), cl_int(params_.blend == Blend::Normalized ? 1 : 0), texture,
+            inputs_->image(), inputs_->scalar(), inputs_->lut(), inputs_->velocity(time_, 0), inputs_->mask());
+    });
+    read_back(runtime_, planes.buffer(), frame.planes.size() * sizeof(float), frame.planes.data());
+    lease.unlock();
     frame.stats = frame_stats(frame);
     frame.stats.particles = stats;
     return frame;
@@ -538,6 +558,7 @@ class Lagrangian final : public Advection {
   std::vector<Particle> particles_;
   std::vector<float> positions_, uvs_;  // 2 per vertex, grids in particle order
   double time_;
+  Cancellation cancel_;  // whether the caller still wants the advection
 };
 
 }  // namespace
@@ -558,8 +579,9 @@ uint64_t lagrangian_tile_bound(const LagrangianParams& params, const OutputSpec&
 }
 
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state) {
-  return std::make_unique<Lagrangian>(runtime, kernels, spec, std::move(inputs), state);
+                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state,
+                                           const Cancellation& cancel) {
+  return std::make_unique<Lagrangian>(runtime, kernels, spec, std::move(inputs), state, cancel);
 }
 
 }  // namespace squall::textures

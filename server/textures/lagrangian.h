@@ -10,6 +10,7 @@
 #include <memory>
 #include <string_view>
 
+#include "common/cancel.h"
 #include "textures/advection.h"
 #include "textures/device_inputs.h"
 #include "textures/texture_kernels.h"
@@ -29,8 +30,10 @@ inline size_t lagrangian_grid_bound(const AdvectSpec& spec) {
 inline constexpr double kTileSpread = 4;
 uint64_t lagrangian_tile_bound(const LagrangianParams& params, const OutputSpec& output);
 
-// `state` (from checkpoint()) resumes where it was taken; empty starts at t0.
+// `state` (from checkpoint()) resumes where it was taken; empty starts at t0. The advection asks `cancel`
+// before each frame and between the slices of its reconstruction (Error(Cancelled)).
 std::unique_ptr<Advection> make_lagrangian(Runtime& runtime, TextureKernels& kernels, const AdvectSpec& spec,
-                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state);
+                                           std::shared_ptr<const DeviceInputs> inputs, std::string_view state,
+                                           const Cancellation& cancel = {});
 
 }  // namespace squall::textures

@@ -29,7 +29,7 @@ TextureEngine::TextureEngine(Runtime& runtime, const LimitGate& gate)
 std::unique_ptr<Advection> TextureEngine::start(const AdvectSpec& spec, std::string_view resume_state,
                                                 const Cancellation& cancel) {
   auto inputs = std::make_shared<const DeviceInputs>(runtime_, spec, reference_stats(spec.texture));
-  if (spec.method == Method::LagrangianGrids) return make_lagrangian(runtime_, kernels_, spec, inputs, resume_state);
+  if (spec.method == Method::LagrangianGrids) return make_lagrangian(runtime_, kernels_, spec, inputs, resume_state, cancel);
   return make_eulerian(runtime_, kernels_, spec, inputs, resume_state, cancel);
 }
 

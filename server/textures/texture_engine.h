@@ -31,6 +31,10 @@ inline void validate_clock(const AdvectSpec& spec, const std::string& path) { va
 // node's speed within +-kMaxVelocityParam, else FAILED_PRECONDITION naming `path`, the field that follows it
 // (the state followed is out of range, not the request).
 void validate_followed_current(const VelocitySpec& velocity, const std::string& path);
+// A velocity grid made of what a request names (a followed current, a baked river): the checks of a
+// request's grid, each error naming "<source>'s grid" (the request has no grid field to name). Run before
+// TextureEngine::validate, which then finds nothing of the grid to refuse under a field the request lacks.
+void validate_made_velocity(const VelocitySpec& velocity, const LimitGate& gate, const std::string& source);
 // The same current read again for a later frame (the request's substeps were checked against its first
 // reading): its gradients turn the flow by at most 2 rad per substep of spec.dt, else FAILED_PRECONDITION.
 void validate_followed_turn(const AdvectSpec& spec, const std::string& path);
@@ -61,7 +65,8 @@ class TextureEngine {
   static uint64_t eulerian_cascade_bytes(const AdvectSpec& spec);
 
   // A validated spec's advection; `resume_state` (from Advection::checkpoint() of the same request)
-  // continues it bit-identically. An Eulerian one asks `cancel` as it starts and before each substep.
+  // continues it bit-identically. It asks `cancel` as it starts and before each substep (Eulerian), or before
+  // each frame and between the slices of its reconstruction (Lagrangian).
   std::unique_ptr<Advection> start(const AdvectSpec& spec, std::string_view resume_state = {},
                                    const Cancellation& cancel = {});
 

@@ -323,6 +323,10 @@ void validate_followed_current(const VelocitySpec& velocity, const std::string& 
                                              " du/s that advection takes");
 }
 
+void validate_made_velocity(const VelocitySpec& velocity, const LimitGate& gate, const std::string& source) {
+  velocity_grid(velocity, gate, source + "'s grid");
+}
+
 void validate_followed_turn(const AdvectSpec& spec, const std::string& path) {
   if (const double turn = gradient_rate(spec.velocity) * spec.dt / spec.substeps; turn > kMaxSubstepTurn)
     fail(Code::FailedPrecondition, path + ": its current now turns the flow by " + number(turn) +

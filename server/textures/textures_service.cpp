@@ -131,6 +131,7 @@ void TexturesService::follow(Stream& s, double from) {
     s.spec.velocity = current_grid({session_current(followed)}, Extrapolation::Clamp);
   }
   validate_followed_current(s.spec.velocity, followed.path);
+  validate_made_velocity(s.spec.velocity, serving_.gate(), followed.path);
 }
 
 SurfaceCurrent TexturesService::session_current(req::FollowedCurrent& followed) const {
@@ -169,6 +170,7 @@ void TexturesService::bake_river(Stream& s, const std::string& path) {
   Slot memory = serving_.gate().acquire_memory("the river's bake", RiverEngine::bake_bytes(s.river->grid));
   VelocitySpec baked =
       velocity_grid(rivers_->bake(s.river->spec, s.river->grid, path + ".river", s.cancel), path + ".river");
+  validate_made_velocity(baked, serving_.gate(), path + ".river");
   s.river.reset();
   s.spec.velocity = std::move(baked);
 }

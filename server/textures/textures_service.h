@@ -56,7 +56,7 @@ class TexturesService final : public squall::v1::Textures::Service, public Capab
 
   // The stream's velocity from the current it follows, read now: an eWave session's (NOT_FOUND naming the
   // field for an unknown id), or an ocean tile's over the step from `from` to from + dt, each checked as
-  // read (validate_followed_current). No-op otherwise.
+  // read (validate_followed_current, validate_made_velocity). No-op otherwise.
   void follow(Stream& s, double from);
   // The current `velocity` (the request field at `path`) names, translated (req::followed); an ocean's layers
   // checked against the FFT backend's lengths (INVALID_ARGUMENT naming them).

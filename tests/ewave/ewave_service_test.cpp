@@ -817,6 +817,53 @@ TEST(EWaveCli, ASlowWakeStepsWithinTheSessionsLongestStep) {
   EXPECT_NE(out.find("wrote 1 frames of 2 steps"), std::string::npos) << out;
 }
 
+// create_session (the CLI's creating calls) after a create whose answer was lost, so that gRPC made it again
+// under the same proposed id and squalld answered ALREADY_EXISTS: the session the first attempt made is
+// closed and the session made again under a fresh id. A create the client gave up on (DEADLINE_EXCEEDED,
+// the session made all the same) is closed.
+TEST(EWaveCli, ACreateWhoseAnswerWasLostIsClosedAndMadeAgain) {
+  const client::Client c({first().address(), 30});
+  auto stub = v1::EWave::NewStub(c.channel());
+  v1::EWaveCreateSessionRequest request;
+  *request.mutable_config() = proto_config(engine_config());
+  std::vector<std::string> proposed;
+  auto create_twice = [&](const std::string& id) {  // the first time, as a retry of a lost answer would
+    proposed.push_back(id);
+    v1::EWaveSessionResponse reply;
+    grpc::Status status = stub->CreateSession(c.context(id).get(), request, &reply);
+    if (proposed.size() == 1 && status.ok()) status = stub->CreateSession(c.context(id).get(), request, &reply);
+    return status;
+  };
+  auto close = [&](const std::string& id) {
+    v1::EWaveSessionRequest session;
+    session.set_session_id(id);
+    v1::EWaveCloseResponse closed;
+    return stub->CloseSession(c.context(id).get(), session, &closed);
+  };
+  auto exists = [&](const std::string& id) {
+    v1::EWaveSessionRequest session;
+    session.set_session_id(id);
+    v1::EWaveStateResponse state;
+    return stub->GetState(c.context(id).get(), session, &state).error_code() != grpc::StatusCode::NOT_FOUND;
+  };
+  std::string id;
+  const grpc::Status made = client::create_session("", create_twice, close, &id);
+  ASSERT_TRUE(made.ok()) << made.error_message();
+  ASSERT_EQ(proposed.size(), 2u);
+  EXPECT_EQ(id, proposed[1]);
+  EXPECT_FALSE(exists(proposed[0])) << "the session of the lost answer was left to its TTL";
+  EXPECT_TRUE(exists(id));
+  EXPECT_TRUE(close(id).ok());
+
+  auto given_up = [&](const std::string& id) {
+    v1::EWaveSessionResponse reply;
+    EXPECT_TRUE(stub->CreateSession(c.context(id).get(), request, &reply).ok());
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "Deadline Exceeded");
+  };
+  EXPECT_EQ(client::create_session("", given_up, close, &id).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_FALSE(exists(id)) << "the session made after the client gave up was left to its TTL";
+}
+
 // A wake the server refuses (a grid of one row) exits 4 and leaves no empty folder behind; a flag its hull
 // does not use exits 2 naming it.
 TEST(EWaveCli, ARefusedWakeLeavesNoFolder) {

@@ -267,6 +267,14 @@ TEST(TexturesOcean, TextureDriftsWithTheOceansCurrent) {
   bad.mutable_velocity()->mutable_ocean()->mutable_layers(1)->set_drift_x(0.5);
   test::expect_error(Code::InvalidArgument, "request.velocity.ocean.layers[1].drift_x = 0.5 must be equal",
                      [&] { advect_or_throw(bad); });
+  // A current grid finer than a velocity grid may be (1 mm over 2048 samples) is named as the ocean's grid,
+  // not as a request.velocity.grid the request does not have.
+  bad = r;
+  bad.mutable_velocity()->mutable_ocean()->mutable_layers(0)->set_extent_x(0.001);
+  bad.mutable_velocity()->mutable_ocean()->mutable_output()->set_nx(2048);
+  bad.mutable_velocity()->mutable_ocean()->mutable_output()->set_ny(16);
+  test::expect_error(Code::InvalidArgument, "request.velocity.ocean's grid.spacing.x = 4.88",
+                     [&] { advect_or_throw(bad); });
   // The times are checked before the current is computed at them, and named as the client sent them.
   bad = r;
   bad.set_dt(-1);

@@ -614,6 +614,22 @@ TEST(TexturesService, AnExpiredAdvectionStopsUsingTheCores) {
   expect_daemon_stops("advecting the expired texture");
 }
 
+// A Lagrangian frame of 4096 x 4096 pixels with d = 0.05 (about 80 grids over each pixel's tile; seconds of
+// reconstruction on the two cores, where laying out its grids takes milliseconds) under a 1 s deadline:
+// squalld stops within a second of the deadline, between two slices of the reconstruction.
+TEST(TexturesService, AnExpiredLagrangianFrameStopsUsingTheCores) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the frame is sized for a CPU device's pace";
+  v1::AdvectTextureRequest r = noise_request(1);
+  r.mutable_output()->set_width(4096);
+  r.mutable_output()->set_height(4096);
+  r.mutable_output()->clear_planes();
+  r.mutable_output()->set_dtype(v1::DTYPE_FLOAT16);  // within the message limit
+  r.mutable_lagrangian()->set_d(0.05);
+  const grpc::Status expired = advect(r, daemon().address(), 1).status;
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
+  expect_daemon_stops("reconstructing the expired frame");
+}
+
 // FINAL_FUNCTION_LUT (LTA11 sec. 3.2): a 3-channel table and a 3 x 2 scalar field give planes final_0..2
 // equal to the engine's; a NaN entry, a LUT band shaping and a mis-sized field name their fields.
 TEST(TexturesService, LookupFinalFunctionMatchesTheEngine) {
