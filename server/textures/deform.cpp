@@ -59,7 +59,7 @@ std::unique_ptr<Deformation> DeformEngine::start(const DeformSpec& spec, const C
     impl_->flows.keep(spec, flow, reserved);
   }
   if (reserved) reserved->give_back(solve_bytes(spec));
-  return make_deformation(impl_->runtime, impl_->kernels, std::move(flow), spec);
+  return make_deformation(impl_->runtime, impl_->kernels, std::move(flow), spec, cancel);
 }
 
 }  // namespace squall::textures

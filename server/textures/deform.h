@@ -57,10 +57,14 @@ class DeformEngine {
 
   // Host and device bytes a deformation of a validated `spec` holds while it runs, an estimate for the
   // caller's memory budget: its state (the texture and its stack, the warp, the reference times, the
-  // output), its flow field on the host and the device, and the flow solve's buffers (CGLS in double).
+  // output), its flow field on the host and the device with a kept solve's key (rigidity and chart), a d mu
+  // map's copies (map_bytes) and the flow solve's buffers (CGLS in double).
   static uint64_t working_bytes(const DeformSpec& spec);
   // The flow solve's part of working_bytes, held only until the flow is there.
   static uint64_t solve_bytes(const DeformSpec& spec);
+  // A d mu map's copies in a running deformation besides the spec's own: the control's on the host, and for
+  // a MAP control its buffer on the device (part of working_bytes where the spec holds a map).
+  static uint64_t map_bytes(const DeformSpec& spec);
 
   // Every field in range (INVALID_ARGUMENT naming "<path>.<field>", the proto's names: "texture",
   // "rigidity", "chart", "d_mu_map", "strokes[i].radius", "deformation_start.xx", ...); width * height (and

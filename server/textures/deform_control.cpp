@@ -31,11 +31,13 @@ Tensor2 deformation_ramp(const Tensor2& a, const Tensor2& b, int frames, int ind
   return {a.xx + f * (b.xx - a.xx), a.xy + f * (b.xy - a.xy), a.yx + f * (b.yx - a.yx), a.yy + f * (b.yy - a.yy)};
 }
 
+Tensor2 frame_deformation(const Tensor2& g_now, const Tensor2& g_before) { return product(g_now, inverse(g_before)); }
+
 StepControl ControlState::advance(int index) {
   const Tensor2 g_now =
       held_ ? held_g_ : deformation_ramp(control_.deformation_start, control_.deformation_end, frames_, index);
-  const Tensor2 t = product(g_now, inverse(g_before_));  // T = G_now G_before^-1
-  const Tensor2 a_now = product(t, a_);                  // A accumulated from the identity
+  const Tensor2 t = frame_deformation(g_now, g_before_);
+  const Tensor2 a_now = product(t, a_);  // A accumulated from the identity
   StepControl out;
   out.kind = int(control_.kind);
   const double scale = control_.paper_dt_factor && tensor_kind(control_.kind) ? dt_ : 1.0;

@@ -17,6 +17,8 @@ struct StepControl {
 
 // G at frame `index` of a ramp from `start` at frame 0 to `end` at frame frames - 1, held after.
 Tensor2 deformation_ramp(const Tensor2& start, const Tensor2& end, int frames, int index);
+// A frame's deformation T = G_now G_before^-1 (sec. 5.1).
+Tensor2 frame_deformation(const Tensor2& g_now, const Tensor2& g_before);
 
 class ControlState {
  public:
@@ -27,6 +29,8 @@ class ControlState {
   // From the next frame on: `control` runs; its deformation_start (tensor controls) is G from then on.
   void steer(const DeformControl& control);
   const DeformControl& control() const { return control_; }
+  // T of the next frame were G then `g_now` (a steered deformation).
+  Tensor2 next_deformation(const Tensor2& g_now) const { return frame_deformation(g_now, g_before_); }
 
  private:
   DeformControl control_;

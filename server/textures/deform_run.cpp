@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
+#include "runtime/slices.h"
 #include "textures/deform_control.h"
 #include "textures/deform_validate.h"
 
@@ -14,13 +16,16 @@ namespace squall::textures {
 namespace {
 
 constexpr int kStackStepsPerUnit = 32;  // midpoint steps per unit of reference time of the stack's W*_h
+// The per-texel kernels run in work-groups of kTexelGroup texels (one size: PoCL compiles a kernel for each
+// work-group size), in slices of such groups; the first slice kFirstSliceGroups of them.
+constexpr size_t kTexelGroup = 64, kFirstSliceGroups = 1024;
 
 size_t chunks(size_t n) { return (n + kDeformChunk - 1) / kDeformChunk; }
 
 class DeformRun final : public Deformation {
  public:
   DeformRun(Runtime& runtime, std::shared_ptr<DeformKernels> kernels, std::shared_ptr<const FlowField> flow,
-            const DeformSpec& spec)
+            const DeformSpec& spec, const Cancellation& cancel)
       : runtime_(runtime),
         k_(std::move(kernels)),
         flow_(std::move(flow)),
@@ -31,16 +36,19 @@ class DeformRun final : public Deformation {
         levels_(spec.stack_levels),
         substeps_(spec.substeps),
         dt_(spec.dt),
-        control_(spec) {
+        control_(spec),
+        cancel_(cancel) {
     allocate();
     upload_control(spec.control);
     const size_t level0 = size_t(levels_) * channels_ * n_ * sizeof(float);
-    auto lock = runtime_.exclusive();
+    QueueLease lease = runtime_.exclusive();
     runtime_.queue().enqueueWriteBuffer(images_, CL_TRUE, level0, spec.pixels.size() * sizeof(float),
                                         spec.pixels.data());
     if (levels_ > 0)
-      k_->stack_build.launch(cl::NDRange(n_), cl::NullRange, flow_->buffer, cl_int(w_), cl_int(h_), cl_int(channels_),
-                             cl_int(levels_), cl_int(kStackStepsPerUnit), images_);
+      each_texel(lease, "textures.deform_stack", [&](const cl::NDRange& first, const cl::NDRange& count) {
+        k_->stack_build.launch_region(first, count, cl::NDRange(kTexelGroup), flow_->buffer, cl_int(w_), cl_int(h_),
+                                      cl_int(channels_), cl_int(levels_), cl_int(kStackStepsPerUnit), images_);
+      });
   }
 
   DeformFrame next(const DeformPlanes& planes) override {
@@ -50,7 +58,11 @@ class DeformRun final : public Deformation {
   }
 
   void steer(const DeformControl& control, const std::string& path) override {
-    validate_control(control, w_, h_, path.empty() ? "" : path + ".", "deformation");
+    const std::string prefix = path.empty() ? "" : path + ".";
+    validate_control(control, w_, h_, prefix, "deformation");
+    if (control.kind == DeformControlKind::Anisotropic)
+      validate_anisotropic_step(control_.next_deformation(control.deformation_start), prefix + "deformation",
+                                "the next frame");
     upload_control(control);
     control_.steer(control);
   }
@@ -60,6 +72,18 @@ class DeformRun final : public Deformation {
   uint64_t device_bytes() const override { return flow_->bytes() + held_bytes_; }
 
  private:
+  // launch(first, count) over every texel, in slices of work-groups run under `lease`, asking the
+  // cancellation between them: a 4096^2 step of 100 substeps, or a stack's build, holds a CPU device for
+  // seconds. The last slice's ids run past the texels, which the kernels skip.
+  void each_texel(QueueLease& lease, const char* site,
+                  const std::function<void(const cl::NDRange&, const cl::NDRange&)>& launch) {
+    const size_t groups = (n_ + kTexelGroup - 1) / kTexelGroup;
+    const SlicePlan plan{groups, kTexelGroup, [](size_t) { return 1.0; }, double(kFirstSliceGroups),
+                         WorkKind{site, n_}};
+    run_sliced(runtime_, lease, plan, cancel_, "the deformation",
+               [&](size_t first, size_t count) { launch(cl::NDRange(first), cl::NDRange(count)); });
+  }
+
   cl::Buffer buffer(size_t bytes) {
     held_bytes_ += bytes;
     return cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, bytes);
@@ -102,10 +126,12 @@ class DeformRun final : public Deformation {
   void step(const StepControl& c) {
     const Tensor2& t = c.t_minus_identity;
     const cl_float4 tensor{{float(t.xx), float(t.xy), float(t.yx), float(t.yy)}};
-    auto lock = runtime_.exclusive();
-    k_->step.launch(cl::NDRange(n_), cl::NullRange, flow_->buffer, cl_int(w_), cl_int(h_), warp_, reference_,
-                    cl_int(substeps_), cl_int(c.kind), cl_float(c.d_mu), cl_float(c.kappa), tensor, map_, strokes_,
-                    cl_int(stroke_count_), cl_int(levels_), residual_, level_);
+    QueueLease lease;
+    each_texel(lease, "textures.deform_step", [&](const cl::NDRange& first, const cl::NDRange& count) {
+      k_->step.launch_region(first, count, cl::NDRange(kTexelGroup), flow_->buffer, cl_int(w_), cl_int(h_), warp_,
+                             reference_, cl_int(substeps_), cl_int(c.kind), cl_float(c.d_mu), cl_float(c.kappa), tensor,
+                             map_, strokes_, cl_int(stroke_count_), cl_int(levels_), residual_, level_);
+    });
   }
 
   DeformFrame frame(const DeformPlanes& planes) {
@@ -184,6 +210,7 @@ class DeformRun final : public Deformation {
   const int channels_, levels_, substeps_;
   const double dt_;
   ControlState control_;
+  Cancellation cancel_;  // whether the caller still wants the deformation
   int index_ = 0;
   bool started_ = false;
   int stroke_count_ = 0;
@@ -204,18 +231,28 @@ uint64_t DeformEngine::working_bytes(const DeformSpec& spec) {
   const uint64_t state = 4 * (2 * levels + 1) * channels * n + 8 * n + 4 * n + 4 * channels * n + stacked * 12 * n +
                          16 * chunks(size_t(n));
   const uint64_t frame = 4 * channels * n + 12 * n;  // the output, warp and reference read back
-  const uint64_t flow = 2 * 8 * n;                   // v on the host and the device
-  return state + frame + flow + solve_bytes(spec);
+  // v on the host and the device, and a kept solve's key (the rigidity and the chart), which the flow cache
+  // takes from the stream's reservation with the flow
+  const uint64_t flow = 2 * 8 * n + 4 * n + uint64_t(spec.chart.size());
+  const uint64_t map = spec.control.d_mu_map.empty() ? 0 : map_bytes(spec);
+  return state + frame + flow + map + solve_bytes(spec);
 }
 
 uint64_t DeformEngine::solve_bytes(const DeformSpec& spec) {
   const uint64_t n = uint64_t(spec.width) * uint64_t(spec.height);
-  return 8 * (4 * 2 * n + 2 * n + n) + n;  // x, s, p, x_best; r, q; b (double); the free texels
+  // x, s, p, x_best; r, q; b (double); the free texels on the host and the device; x zeroed from the host
+  return 8 * (4 * 2 * n + 2 * n + n) + 2 * n + 8 * 2 * n;
+}
+
+uint64_t DeformEngine::map_bytes(const DeformSpec& spec) {
+  const uint64_t n = uint64_t(spec.width) * uint64_t(spec.height);
+  return 4 * n + (spec.control.kind == DeformControlKind::Map ? 4 * n : 0);  // the control's copy; the device's
 }
 
 std::unique_ptr<Deformation> make_deformation(Runtime& runtime, std::shared_ptr<DeformKernels> kernels,
-                                              std::shared_ptr<const FlowField> flow, const DeformSpec& spec) {
-  return std::make_unique<DeformRun>(runtime, std::move(kernels), std::move(flow), spec);
+                                              std::shared_ptr<const FlowField> flow, const DeformSpec& spec,
+                                              const Cancellation& cancel) {
+  return std::make_unique<DeformRun>(runtime, std::move(kernels), std::move(flow), spec, cancel);
 }
 
 }  // namespace squall::textures

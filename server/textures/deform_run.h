@@ -9,8 +9,10 @@
 
 namespace squall::textures {
 
-// A validated spec's deformation over a solved flow; builds the resampling stack when asked.
+// A validated spec's deformation over a solved flow; builds the resampling stack when asked. The stack's
+// build and each frame's step run in slices of texels, asking `cancel` between them (Error(Cancelled)).
 std::unique_ptr<Deformation> make_deformation(Runtime& runtime, std::shared_ptr<DeformKernels> kernels,
-                                              std::shared_ptr<const FlowField> flow, const DeformSpec& spec);
+                                              std::shared_ptr<const FlowField> flow, const DeformSpec& spec,
+                                              const Cancellation& cancel = {});
 
 }  // namespace squall::textures

@@ -20,6 +20,7 @@ struct DeformStream {
   v1::DType dtype = v1::DTYPE_FLOAT32;
   Slot decoded;  // the texture's planes, from their decoding until `memory` counts them
   Slot memory;   // the stream's working memory, against --memory-budget
+  Slot steered;  // a d mu map steered into a stream that started without one
 };
 
 // The planes of `request`, their bytes within --max-message-bytes.
@@ -39,6 +40,15 @@ void reserve(DeformStream& s, LimitGate& gate) {
   s.memory =
       gate.acquire_memory("the deformation's state and frames",
                           DeformEngine::working_bytes(spec) + inputs + 2 * req::frame_bytes(spec, s.planes, s.dtype));
+}
+
+// A map steered into a stream that started without one (its control not MAP): the spec's copy and the
+// deformation's (DeformEngine::map_bytes) reserved before it is decoded. A later map replaces it.
+void reserve_steered_map(DeformStream& s, const v1::DeformControl& message, LimitGate& gate,
+                         const std::string& path) {
+  if (!message.has_d_mu_map() || !s.spec.control.d_mu_map.empty()) return;
+  const uint64_t n = uint64_t(s.spec.width) * uint64_t(s.spec.height);
+  s.steered = gate.acquire_memory(path + ".d_mu_map", sizeof(float) * n + DeformEngine::map_bytes(s.spec));
 }
 
 v1::DeformFrame encode(const DeformStream& s, Deformation& deformation) {
@@ -84,6 +94,7 @@ grpc::Status TexturesService::DeformInteractive(grpc::ServerContext* context,
         reserve(s, serving_.gate());
         deformation = deform_->start(s.spec, call.cancellation(), &s.memory);
       }
+      reserve_steered_map(s, message, serving_.gate(), path);
       if (req::steer(message, s.spec, path)) deformation->steer(s.spec.control, path);
       for (uint32_t k = 0; k < frames && call.live(); ++k)
         if (!call.write(*stream, encode(s, *deformation))) return;

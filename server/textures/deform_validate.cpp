@@ -2,6 +2,8 @@
 // dynamic control", Computers & Graphics 91, 2020), as the proto's DeformTextureRequest states them.
 #include "textures/deform_validate.h"
 
+#include <algorithm>
+
 #include "common/error.h"
 #include "common/validate.h"
 #include "textures/deform_control.h"
@@ -56,10 +58,13 @@ void stroke(const BrushStroke& s, const std::string& path) {
   in(path + ".strength", s.strength, closed(-kMaxDmu, kMaxDmu));
 }
 
+// The texture's size comes from its planes (channels[].nx and .ny, pixels8, a PNG's header), which no
+// field of the request holds as such: it is named as the texture's size.
 void texture(const DeformSpec& spec, const LimitGate& gate, const std::string& path) {
-  in(path + ".width", int64_t(spec.width), 4, kMaxSide);
-  in(path + ".height", int64_t(spec.height), 4, kMaxSide);
-  gate.check_grid(path + ".width", path + ".height", spec.width, spec.height);
+  if (std::min(spec.width, spec.height) < 4 || std::max(spec.width, spec.height) > kMaxSide)
+    fail(Code::InvalidArgument, path + " is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+                                    " texels: each side must be in [4, " + std::to_string(kMaxSide) + "]");
+  gate.check_grid(path + "'s width", path + "'s height", spec.width, spec.height);
   in(path + ".channels size", int64_t(spec.channels), 1, kMaxChannels);
   const size_t n = size_t(spec.width) * spec.height * spec.channels;
   count(path + ".channels", spec.pixels.size(), n, "width * height * channels");
@@ -83,6 +88,30 @@ void validate_control(const DeformControl& c, int width, int height, const std::
   for (size_t k = 0; k < c.strokes.size(); ++k) stroke(c.strokes[k], at(prefix + "strokes", k));
 }
 
+void validate_anisotropic_step(const Tensor2& t, const std::string& field, const std::string& frame) {
+  const double shear = 0.5 * (t.xy + t.yx);  // the symmetric part [[xx, shear], [shear, yy]]
+  if (t.xx > 0 && t.xx * t.yy - shear * shear > 0) return;
+  fail(Code::InvalidArgument, field + " turns some direction by 90 degrees or more in one frame (" + frame +
+                                  "): eq. 8's log(vb^T T vb) is undefined there (T = G_now G_before^-1 = [[" +
+                                  number(t.xx) + ", " + number(t.xy) + "], [" + number(t.yx) + ", " + number(t.yy) +
+                                  "]]); spread the turn over more frames");
+}
+
+namespace {
+
+// Each frame's T of an ANISOTROPIC control's ramp.
+void anisotropic_ramp(const DeformSpec& spec, const std::string& path) {
+  if (spec.control.kind != DeformControlKind::Anisotropic) return;
+  const DeformControl& c = spec.control;
+  for (int k = 1; k < spec.frames; ++k)
+    validate_anisotropic_step(
+        frame_deformation(deformation_ramp(c.deformation_start, c.deformation_end, spec.frames, k),
+                          deformation_ramp(c.deformation_start, c.deformation_end, spec.frames, k - 1)),
+        path, "frame " + std::to_string(k));
+}
+
+}  // namespace
+
 void validate_deform(const DeformSpec& spec, const LimitGate& gate, const std::string& path) {
   texture(spec, gate, path + ".texture");
   const size_t n = size_t(spec.width) * spec.height;
@@ -93,6 +122,7 @@ void validate_deform(const DeformSpec& spec, const LimitGate& gate, const std::s
   tensor(spec.control.deformation_end, path + ".deformation_end");
   in(path + ".frames", int64_t(spec.frames), 1, kMaxFrames);
   ramp(spec.control.deformation_start, spec.control.deformation_end, spec.frames, path + ".deformation_end");
+  anisotropic_ramp(spec, path + ".deformation_end");
   in(path + ".dt", spec.dt, open_closed(0, kMaxDt));
   in(path + ".substeps", int64_t(spec.substeps), 1, kMaxSubsteps);
   in(path + ".stack_levels", int64_t(spec.stack_levels), 0, kMaxLevels);

@@ -16,4 +16,9 @@ void validate_deform(const DeformSpec& spec, const LimitGate& gate, const std::s
 void validate_control(const DeformControl& control, int width, int height, const std::string& prefix,
                       const std::string& tensor_name);
 
+// An ANISOTROPIC control's frame deformation T: vb^T T vb > 0 for every direction vb (T's symmetric part
+// positive definite), else INVALID_ARGUMENT naming `field` and `frame`: eq. 8's log(vb^T T vb) is
+// undefined for the texels whose flow points where T turns a direction by 90 degrees or more.
+void validate_anisotropic_step(const Tensor2& t, const std::string& field, const std::string& frame);
+
 }  // namespace squall::textures

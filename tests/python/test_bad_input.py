@@ -2189,7 +2189,7 @@ CASES += [
         R,
         "texture_3x3",
         also(put("texture", deform_image(3)), put("rigidity", grid_field(3, 3, 0.0))),
-        "request.texture.width",
+        "request.texture is 3 x 3 texels",
     ),
     bad(
         R,

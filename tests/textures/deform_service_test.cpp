@@ -16,10 +16,12 @@
 #include "common/field_codec.h"
 #include "service_support.h"
 #include "support/expect_error.h"
+#include "support/in_process.h"
 #include "support/process.h"
 #include "support/test_runtime.h"
 #include "textures/deform.h"
 #include "textures/deform_request.h"
+#include "textures/textures_service.h"
 
 namespace squall {
 namespace {
@@ -34,8 +36,9 @@ textures::DeformEngine& deformer() {
 }
 
 struct DeformInteractive : InteractiveCall<v1::DeformControl, v1::DeformFrame> {
-  DeformInteractive()
-      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformInteractive(c); }) {}
+  explicit DeformInteractive(const std::string& address = daemon().address())
+      : InteractiveCall([](v1::Textures::Stub& s, grpc::ClientContext* c) { return s.DeformInteractive(c); },
+                        address) {}
 };
 
 // A `size` x `size` (48 by default) two-channel texture (stripes and rings), R = 1 in a disk at the centre
@@ -208,6 +211,27 @@ TEST(TexturesDeform, AnExpiredFlowSolveStopsUsingTheCores) {
   expect_daemon_stops("solving the expired flow");
 }
 
+// A resampling stack of 16 levels each way over 700 x 700 texels (about 1e9 flow samples: seconds of the two
+// cores; R = 0 everywhere, so the flow solve ends at once) under a 1 s deadline: squalld stops building it
+// within a second of the deadline, between two slices of texels.
+TEST(TexturesDeform, AnExpiredStackBuildStopsUsingTheCores) {
+  if (test::runtime().device_info().type != "cpu") GTEST_SKIP() << "the stack is sized for a CPU device's pace";
+  constexpr uint32_t n = 700;
+  v1::DeformTextureRequest r;
+  std::vector<float> texture(n * n);
+  for (uint32_t k = 0; k < n * n; ++k) texture[k] = float(k % 7) / 7;
+  *r.mutable_texture()->add_channels() = float_field("a", n, n, texture);
+  *r.mutable_rigidity() = float_field("R", n, n, std::vector<float>(n * n, 0.0f));
+  r.set_control(v1::DEFORM_CONTROL_CONSTANT);
+  r.set_d_mu(0.5);
+  r.set_frames(1);
+  r.set_stack_levels(16);
+  r.add_planes(v1::DEFORM_PLANE_LEVEL);
+  const grpc::Status expired = deform(r, 1).status;
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << expired.error_message();
+  expect_daemon_stops("building the expired stack");
+}
+
 // A deformation holds its state, its flow and, while it solves the flow, CGLS's buffers in double: about 160
 // bytes a texel. Two channels of 1024^2 texels are 160 MB, refused under a 128 MiB budget though the one
 // float16 plane a frame sends is 4 MB; the same request at 48^2 runs.
@@ -227,6 +251,27 @@ TEST(TexturesDeform, TheDeformationsStateCountsInTheMemoryBudget) {
   }
 }
 
+// A d mu map steered into a stream that started without one is held twice (the stream's spec, the running
+// control) and reserved in the memory budget as it comes; a second map replaces it.
+TEST(TexturesDeform, AMapSteeredInIsReservedInTheMemoryBudget) {
+  test::InProcess<rpc::TexturesService> server;
+  const LimitGate& gate = server.serving().gate();
+  DeformInteractive call(server.address());
+  v1::DeformControl first;
+  *first.mutable_start() = request(v1::DEFORM_CONTROL_ISOTROPIC, 0);
+  first.mutable_start()->clear_deformation_end();
+  first.mutable_start()->clear_d_mu_map();
+  ASSERT_TRUE(call.send(first, 1));
+  const uint64_t before = gate.memory_bytes();
+  v1::DeformControl map;
+  *map.mutable_d_mu_map() = first.start().rigidity();
+  ASSERT_TRUE(call.send(map, 1));
+  EXPECT_EQ(gate.memory_bytes() - before, 2 * sizeof(float) * kSize * kSize);
+  ASSERT_TRUE(call.send(map, 1));
+  EXPECT_EQ(gate.memory_bytes() - before, 2 * sizeof(float) * kSize * kSize);
+  EXPECT_TRUE(call.finish().ok());
+}
+
 TEST(TexturesDeform, BadRequestsNameTheField) {
   v1::DeformTextureRequest r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
   r.clear_rigidity();
@@ -238,6 +283,9 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
   *r.mutable_rigidity() = float_field("R", kSize, 4, std::vector<float>(kSize * 4));
   test::expect_error(Code::InvalidArgument, "request.rigidity.ny", [&] { deform_or_throw(r); });
+  r = request(v1::DEFORM_CONTROL_CONSTANT, 2, 3);  // the size is the planes': no width field to name
+  r.set_stack_levels(0);
+  test::expect_error(Code::InvalidArgument, "request.texture is 3 x 3 texels", [&] { deform_or_throw(r); });
   r = request(v1::DEFORM_CONTROL_BRUSH, 2);
   r.mutable_strokes(0)->set_radius(0);
   test::expect_error(Code::InvalidArgument, "request.strokes[0].radius", [&] { deform_or_throw(r); });
@@ -256,6 +304,30 @@ TEST(TexturesDeform, BadRequestsNameTheField) {
   r = request(v1::DEFORM_CONTROL_CONSTANT, 2);
   r.set_control(v1::DeformControlKind(17));
   test::expect_error(Code::InvalidArgument, "request.control = 17", [&] { deform_or_throw(r); });
+
+  // Eq. 8's log(vb^T T vb) where a frame's T turns a direction by 120 degrees (a rotation, det 1): undefined
+  // for the texels whose flow points there, refused for the ramp and for a steered G.
+  v1::Tensor2 turned;
+  turned.set_xx(-0.5);
+  turned.set_xy(-0.866);
+  turned.set_yx(0.866);
+  turned.set_yy(-0.5);
+  r = request(v1::DEFORM_CONTROL_ANISOTROPIC, 2);
+  *r.mutable_deformation_end() = turned;
+  test::expect_error(Code::InvalidArgument, "request.deformation_end turns some direction by 90 degrees or more",
+                     [&] { deform_or_throw(r); });
+  r.set_frames(4);  // the same turn over three frames
+  EXPECT_TRUE(deform(r).status.ok());
+  DeformInteractive turning;
+  v1::DeformControl anisotropic;
+  *anisotropic.mutable_start() = request(v1::DEFORM_CONTROL_ANISOTROPIC, 0);
+  anisotropic.mutable_start()->clear_deformation_end();
+  ASSERT_TRUE(turning.send(anisotropic, 1));
+  v1::DeformControl steer;
+  *steer.mutable_deformation() = turned;
+  turning.send(steer, 0);
+  test::expect_error(Code::InvalidArgument, "control[1].deformation turns some direction by 90 degrees",
+                     [&] { throw_status(turning.finish()); });
 
   DeformInteractive call;
   v1::DeformControl first;

@@ -554,7 +554,7 @@ TEST(Deform, BadSpecsNameTheirField) {
   expect("spec.strokes[0].radius", [](DeformSpec& s) { s.control.strokes = {{1, 1, 0, 1}}; });
   // A radius whose 2 r^2 underflows float.
   expect("spec.strokes[0].radius", [](DeformSpec& s) { s.control.strokes = {{4.5, 4.5, 1e-30, 1}}; });
-  expect("spec.texture.width", [](DeformSpec& s) { s.width = 2; });
+  expect("spec.texture is 2 x 16 texels: each side must be in [4, ", [](DeformSpec& s) { s.width = 2; });
   expect("spec.d_mu_map", [](DeformSpec& s) {
     s.control.kind = DeformControlKind::Map;
     s.control.d_mu_map.assign(10, 0);
