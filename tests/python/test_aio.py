@@ -5,21 +5,25 @@ from __future__ import annotations
 import asyncio
 import gc
 import re
+import threading
 import time
 from functools import partial
-from typing import Any, Coroutine, List
+from typing import Any, AsyncIterator, Callable, Coroutine, Iterator, List, TypeVar
 
 import grpc
+import numpy as np
 import pytest
 
 import squall
 import squall.aio
 from squall._calls import propose_session_id
-from squall.v1 import ewave_pb2
+from squall.v1 import ewave_pb2, ewave_pb2_grpc, textures_pb2, textures_pb2_grpc
 
-from conftest import LostReply
-from test_ewave import config, hull_inputs
+from conftest import LostReply, in_process_server
+from test_ewave import RefusesTheFirstStep, assert_raised_from_the_server, config, hull_inputs
 from test_ocean import OUTPUTS, small_tile
+
+R = TypeVar("R")
 
 
 def run(coroutine, seconds: float = 120):
@@ -276,7 +280,7 @@ def test_cancelled_async_stream_releases_its_slot(tight_daemon) -> None:
     assert run(main()) == [0, 1]
 
 
-def run_without_collector(main: Coroutine[Any, Any, List[int]]) -> List[int]:
+def run_without_collector(main: Coroutine[Any, Any, R]) -> R:
     """run(main) with the garbage collector held off: what it frees, reference counts free."""
     gc.disable()
     try:
@@ -328,6 +332,66 @@ def test_an_async_steering_stream_dropped_unclosed_releases_its_slot(tight_daemo
             return await two_frames_once_the_slot_is_back(aclient, spec)
 
     assert run_without_collector(main()) == [0, 1]
+
+
+class SteeredUntilCancelled(textures_pb2_grpc.TexturesServicer):
+    """A Textures service whose interactive streams answer each message's frames until the request
+    side ends; `cancelled` is set when a call ends. The tests' clients neither end their request
+    side nor set a deadline, so a call ends only when cancelled. (Its end is what tells: after a
+    cancel the server may never run the handler again, and the sync server's request iterator
+    may then raise grpc.RpcError or end as if half-closed.)"""
+
+    def __init__(self) -> None:
+        self.cancelled = threading.Event()
+
+    def AdvectInteractive(self, request_iterator, context):  # type: ignore[no-untyped-def]
+        return self._answer(request_iterator, context, textures_pb2.TextureFrame)
+
+    def DeformInteractive(self, request_iterator, context):  # type: ignore[no-untyped-def]
+        return self._answer(request_iterator, context, textures_pb2.DeformFrame)
+
+    def _answer(
+        self, controls: Iterator[Any], context: grpc.ServicerContext, frame: Callable[..., Any]
+    ) -> Iterator[Any]:
+        context.add_callback(self.cancelled.set)
+        try:
+            for control in controls:
+                for index in range(control.frames):
+                    yield frame(index=index)
+        except grpc.RpcError:  # cancelled while waiting for a message
+            pass
+
+
+STEERINGS = {
+    "interactive": lambda textures: textures.interactive(size=(8, 8)),
+    "deform_interactive": lambda textures: textures.deform_interactive(
+        np.zeros((8, 8)), np.zeros((8, 8)), control="brush"
+    ),
+}
+
+
+@pytest.mark.parametrize("steering", list(STEERINGS))
+def test_a_dropped_async_steering_stream_cancels_its_call_though_the_call_lives_on(
+    steering: str,
+) -> None:
+    """As AsyncStream's: a Steering stream dropped unclosed cancels its call itself, not only when
+    grpc.aio frees the call. Here the call sits in a reference cycle, as grpc.aio's calls can,
+    with the garbage collector held off: freeing the Steering is what must cancel it."""
+    service = SteeredUntilCancelled()
+
+    async def main(address: str) -> bool:
+        async with squall.aio.Client(address) as aclient:
+            steer = STEERINGS[steering](aclient.textures)
+            assert len(await steer.send(frames=1)) == 1
+            cycle: List[Any] = [steer._call]
+            cycle.append(cycle)  # keeps the call, not the Steering, until a collection
+            del cycle, steer
+            return await asyncio.to_thread(service.cancelled.wait, 5)
+
+    add = textures_pb2_grpc.add_TexturesServicer_to_server
+    with in_process_server(add, service) as address:
+        cancelled = run_without_collector(main(address))
+    assert cancelled, "the server saw no cancel: the dropped stream keeps its slot"
 
 
 def test_a_message_that_fails_to_convert_ends_its_async_stream(tight_daemon) -> None:
@@ -557,3 +621,24 @@ def test_close_ignores_a_cancelled_call_as_in_the_sync_client(steering: Any) -> 
         assert error.value.method == steering.METHOD
 
     run(main(), 20)
+
+
+def test_an_async_run_iterables_error_is_raised_from_the_servers_status() -> None:
+    """As the sync client's (test_ewave.py): the server refuses a step, then the caller's async
+    iterable raises; its error is raised from the server's SquallError."""
+    service = RefusesTheFirstStep()
+
+    async def failing_inputs() -> AsyncIterator[float]:
+        yield 0.02
+        await asyncio.to_thread(service.refused.wait, 10)
+        raise RuntimeError("the caller's inputs failed")
+
+    async def main(address: str) -> None:
+        async with squall.aio.Client(address) as aclient:
+            [frame async for frame in aclient.ewave.attach("0" * 32).run(failing_inputs())]
+
+    with in_process_server(ewave_pb2_grpc.add_EWaveServicer_to_server, service) as address:
+        with pytest.raises(RuntimeError, match="the caller's inputs failed") as raised:
+            run(main(address), 30)
+    assert service.refused.is_set()
+    assert_raised_from_the_server(raised.value)

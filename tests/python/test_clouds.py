@@ -4,6 +4,7 @@ release.
 
 from __future__ import annotations
 
+import asyncio
 import math
 import re
 import resource
@@ -18,9 +19,10 @@ import numpy as np
 import pytest
 
 import squall
+import squall.aio
 from squall.v1 import clouds_pb2, clouds_pb2_grpc
 
-from conftest import Daemon, LostReply
+from conftest import Daemon, LostReply, in_process_server
 from processes import wait_for
 
 W, H = 24, 16
@@ -145,9 +147,51 @@ def test_a_kept_build_the_client_gave_up_on_is_released(client: squall.Client) -
     with pytest.raises(squall.SquallError) as lost:
         clouds._connection.create("Clouds.BuildVolume", late_build, request, 60, "cloud-", undo)
     assert lost.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
-    with pytest.raises(squall.SquallError) as gone:
-        clouds.release(proposed[0])
+    with pytest.raises(squall.SquallError) as gone:  # release() would return either way
+        clouds.render(proposed[0], settings())
     assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the kept volume is still stored"
+
+
+class ReleasedButAnswerLost(clouds_pb2_grpc.CloudsServicer):
+    """A Clouds service storing one volume, whose first ReleaseVolume releases it and then ends
+    UNAVAILABLE, as a connection lost after the release and before its answer: the client's retry
+    policy sends the call again, which finds the volume gone (NOT_FOUND, as squalld)."""
+
+    VOLUME = "cloud-" + "0" * 32
+
+    def __init__(self) -> None:
+        self.stored = {self.VOLUME}
+        self.calls = 0
+
+    def ReleaseVolume(self, request, context):  # type: ignore[no-untyped-def]
+        self.calls += 1
+        if request.volume_id not in self.stored:
+            context.abort(grpc.StatusCode.NOT_FOUND, f"volume_id: no volume {request.volume_id}")
+        self.stored.remove(request.volume_id)
+        if self.calls == 1:
+            context.abort(grpc.StatusCode.UNAVAILABLE, "connection lost after the release")
+        return clouds_pb2.ReleaseVolumeResponse()
+
+
+async def release_async(address: str, volume: str) -> None:
+    async with squall.aio.Client(address) as aclient:
+        await aclient.clouds.release(volume)
+
+
+@pytest.mark.parametrize("flavour", ["sync", "asyncio"])
+def test_a_release_whose_answer_was_lost_counts_the_volume_released(flavour: str) -> None:
+    """release() is idempotent, as EWaveSession.close(): the retry of a release that was made
+    finds the volume gone, and release() returns rather than raising the NOT_FOUND."""
+    service = ReleasedButAnswerLost()
+    add = clouds_pb2_grpc.add_CloudsServicer_to_server
+    with in_process_server(add, service) as address:
+        if flavour == "sync":
+            with squall.Client(address) as client:
+                client.clouds.release(service.VOLUME)
+        else:
+            asyncio.run(asyncio.wait_for(release_async(address, service.VOLUME), 30))
+    assert service.calls == 2, "the lost answer was not retried"
+    assert not service.stored
 
 
 def test_errors_name_the_field(client: squall.Client) -> None:

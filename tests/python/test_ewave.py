@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 import time
-from concurrent import futures
 from typing import Iterator
 
 import grpc
@@ -16,7 +16,7 @@ import squall
 import squall.v1.ewave_pb2_grpc
 from squall.v1 import ewave_pb2
 
-from conftest import Daemon, _start
+from conftest import Daemon, _start, in_process_server
 from processes import wait_for
 
 NX, NY, DX = 48, 32, 0.01
@@ -294,6 +294,9 @@ def test_a_create_whose_answer_was_lost_is_made_again_under_a_fresh_id(
     assert gone.value.code == grpc.StatusCode.NOT_FOUND, "the first attempt's session is still live"
 
 
+ADD_EWAVE = squall.v1.ewave_pb2_grpc.add_EWaveServicer_to_server  # for in_process_server
+
+
 class LostAfterTheStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
     """An eWave service whose first Run stream ends UNAVAILABLE after it has read (and would have
     applied) a step, before any frame: as a connection lost after squalld stepped the session."""
@@ -314,16 +317,58 @@ class LostAfterTheStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
 def test_a_run_stream_is_not_retried_so_no_step_is_applied_twice() -> None:
     """The client's retry policy (UNAVAILABLE, up to 5 attempts) covers every squall call but the
     Run stream, whose steps carry no retry key: gRPC would replay the step it had sent."""
-    server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
     service = LostAfterTheStep()
-    squall.v1.ewave_pb2_grpc.add_EWaveServicer_to_server(service, server)
-    port = server.add_insecure_port("127.0.0.1:0")
-    server.start()
-    try:
-        with squall.Client(f"127.0.0.1:{port}", retries=5) as client:
+    with in_process_server(ADD_EWAVE, service) as address:
+        with squall.Client(address, retries=5) as client:
             with pytest.raises(squall.SquallError) as lost:
                 list(client.ewave.attach("0" * 32).run([0.02]))
-        assert lost.value.code == grpc.StatusCode.UNAVAILABLE, lost.value
-        assert service.steps == 1, f"the step was sent {service.steps} times"
-    finally:
-        server.stop(None)
+    assert lost.value.code == grpc.StatusCode.UNAVAILABLE, lost.value
+    assert service.steps == 1, f"the step was sent {service.steps} times"
+
+
+class RefusesTheFirstStep(squall.v1.ewave_pb2_grpc.EWaveServicer):
+    """An eWave service that refuses the first message of a Run stream, as squalld a step that
+    fails validation, and sets `refused`; its status goes out once the client's request side has
+    ended. A caller's iterable that raises once `refused` is set so fails after the server did,
+    and its error reaches the reading side before the server's status: the order in which the
+    server's status used to be dropped."""
+
+    MESSAGE = "Run message 0: inputs.dt = -1 must be in (0, max_dt]"
+
+    def __init__(self) -> None:
+        self.refused = threading.Event()
+
+    def Run(self, request_iterator, context):  # type: ignore[no-untyped-def]
+        next(request_iterator)
+        self.refused.set()
+        for _ in request_iterator:  # until the client's feeder has ended the request side
+            pass
+        context.abort(grpc.StatusCode.INVALID_ARGUMENT, self.MESSAGE)
+        yield ewave_pb2.EWaveFrame()  # never reached: makes Run a response stream
+
+
+def failing_inputs(refused: threading.Event) -> Iterator[float]:
+    """One step's dt, then the caller's own failure, once the server has refused that step."""
+    yield 0.02
+    refused.wait(10)
+    raise RuntimeError("the caller's inputs failed")
+
+
+def assert_raised_from_the_server(raised: BaseException) -> None:
+    """`raised`, the iterable's error, carries the server's refusal as its __cause__."""
+    cause = raised.__cause__
+    assert isinstance(cause, squall.SquallError), f"the server's status was dropped: {cause!r}"
+    assert cause.code == grpc.StatusCode.INVALID_ARGUMENT, cause
+    assert cause.method == "EWave.Run" and cause.message == RefusesTheFirstStep.MESSAGE, cause
+
+
+def test_a_run_iterables_error_is_raised_from_the_servers_status() -> None:
+    """The server refuses a step, then the caller's iterable raises: the iterable's error is raised
+    (the caller's own), from the server's SquallError, which says why the stream ended."""
+    service = RefusesTheFirstStep()
+    with in_process_server(ADD_EWAVE, service) as address:
+        with squall.Client(address) as client:
+            with pytest.raises(RuntimeError, match="the caller's inputs failed") as raised:
+                list(client.ewave.attach("0" * 32).run(failing_inputs(service.refused)))
+    assert service.refused.is_set()
+    assert_raised_from_the_server(raised.value)

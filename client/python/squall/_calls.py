@@ -19,6 +19,7 @@ from typing import (
     Iterator,
     List,
     Optional,
+    Protocol,
     Tuple,
     TypeVar,
     cast,
@@ -411,11 +412,12 @@ class Stream(Iterator[T], Generic[T]):
                     self._finish()
                 raise
             except grpc.RpcError as error:
-                self._end_feeder()
-                code = error.code()
-                if self._cancelled and code == grpc.StatusCode.CANCELLED:
+                if self._cancelled and error.code() == grpc.StatusCode.CANCELLED:
+                    self._end_feeder()
                     raise StopIteration from None
-                raise SquallError.from_rpc(error, self._method) from None
+                failed = SquallError.from_rpc(error, self._method)
+                self._end_feeder(failed)
+                raise failed from None
             try:
                 item = self._convert(message)
             except BaseException:
@@ -426,14 +428,13 @@ class Stream(Iterator[T], Generic[T]):
                     self._feeder.taken()
                 return item
 
-    def _end_feeder(self) -> None:
-        """The call has ended: the feeder stops waiting; its error, if any, is raised."""
+    def _end_feeder(self, failed: Optional[SquallError] = None) -> None:
+        """The call has ended: the feeder stops waiting; its error, if any, is raised (see
+        raise_feeder_error)."""
         if self._feeder is None:
             return
         self._feeder.close()
-        if self._feeder.error is not None:
-            error, self._feeder.error = self._feeder.error, None
-            raise error
+        raise_feeder_error(self._feeder, failed)
 
     def cancel(self) -> None:
         """Ends the call now (no-op when it already ended); iteration then stops."""
@@ -461,6 +462,28 @@ class Stream(Iterator[T], Generic[T]):
                 self._feeder.close()
         except Exception:
             pass
+
+
+class FeederError(Protocol):
+    """The request side of a call fed from an iterable (RequestFeeder, squall.aio's feeder): the
+    error its iterable raised, if any, handed to the reading side."""
+
+    error: Optional[BaseException]
+
+
+def raise_feeder_error(feeder: FeederError, failed: Optional[SquallError]) -> None:
+    """Raises the error `feeder`'s iterable raised, if any, once: from `failed`, the server's
+    status, when the call failed too.
+
+    The iterable's error is the one raised, as the caller's own; but when the server had failed a
+    message before it, that status (e.g. INVALID_ARGUMENT naming "Run message 3") says why the
+    call ended, and is kept as the error's __cause__ rather than dropped."""
+    error, feeder.error = feeder.error, None
+    if error is None:
+        return
+    if failed is None:
+        raise error
+    raise error from failed
 
 
 _END = object()
@@ -501,7 +524,8 @@ class RequestFeeder(Iterator[Any]):
     that thread wait until the Stream reading the replies has returned one more (``taken``), so at
     most `ahead` items are read beyond the replies taken. An exception raised by the iterable or
     the conversion ends the request side (the call finishes what it was sent) and is raised again
-    by the Stream, instead of surfacing as a bare CANCELLED.
+    by the Stream, instead of surfacing as a bare CANCELLED (from the server's SquallError when
+    the call failed too: raise_feeder_error).
     """
 
     def __init__(

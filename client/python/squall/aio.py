@@ -60,6 +60,7 @@ from squall._calls import (
     Undo,
     address_of,
     propose_session_id,
+    raise_feeder_error,
     resolve_token,
     warn_plaintext_token,
 )
@@ -250,14 +251,13 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
     def __aiter__(self) -> "AsyncStream[T]":
         return self
 
-    def _end_feeder(self) -> None:
-        """The call has ended: the feeder stops waiting; its error, if any, is raised."""
+    def _end_feeder(self, failed: Optional[SquallError] = None) -> None:
+        """The call has ended: the feeder stops waiting; its error, if any, is raised (see
+        squall._calls.raise_feeder_error)."""
         if self._feeder is None:
             return
         self._feeder.close()
-        if self._feeder.error is not None:
-            error, self._feeder.error = self._feeder.error, None
-            raise error
+        raise_feeder_error(self._feeder, failed)
 
     async def __anext__(self) -> T:
         while True:
@@ -279,11 +279,12 @@ class AsyncStream(AsyncIterator[T], Generic[T]):
                     self._feeder.close()
                 raise cancelled from None
             except grpc.RpcError as error:
-                self._end_feeder()
-                code = error.code()
-                if self._cancelled and code == grpc.StatusCode.CANCELLED:
+                if self._cancelled and error.code() == grpc.StatusCode.CANCELLED:
+                    self._end_feeder()
                     raise StopAsyncIteration from None
-                raise SquallError.from_rpc(error, self._method) from None
+                failed = SquallError.from_rpc(error, self._method)
+                self._end_feeder(failed)
+                raise failed from None
             try:
                 item = self._convert(message)
             except BaseException:
@@ -497,7 +498,9 @@ class EWaveSession:
         """Steps over the Run stream: one frame per item (a sync or async iterable of EWaveInputs,
         mappings of squall.ewave.inputs' arguments, dt values or EWaveStepRequests of this
         session), items read at most 2 ahead of the frames taken: a caller that stops after its
-        n-th frame has had at most n + 2 steps applied by the stream."""
+        n-th frame has had at most n + 2 steps applied by the stream. An exception raised by
+        `items` is raised by the iterator, as in squall.ewave.EWaveSession.run: from the
+        SquallError of a step that failed too."""
         feeder = _AsyncFeeder(items, lambda item, i: _ewave.step_request(self.id, item, i))
         conn = self._service._connection
         return conn.stream(
@@ -524,8 +527,9 @@ class EWaveSession:
         return await self._service.restore(state, timeout=timeout)
 
     async def close(self, *, timeout: Optional[float] = None) -> None:
-        """Ends the session on the server. Idempotent: a session already gone counts as
-        closed."""
+        """Ends the session on the server. Idempotent, as squall.ewave.EWaveSession.close and
+        ``Clouds.release``: a session already gone (NOT_FOUND, e.g. closed by a first attempt
+        whose answer was lost, which the client's retry then found gone) counts as closed."""
         if self.closed:
             return
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
@@ -703,15 +707,22 @@ class Clouds:
     async def release(
         self, volume: Union[str, Volume], *, timeout: Optional[float] = None
     ) -> None:
-        """Drops a stored volume."""
+        """Drops a stored volume. Idempotent, as squall.clouds.Clouds.release and
+        ``EWaveSession.close``: a volume no longer stored (NOT_FOUND, e.g. released by a first
+        attempt whose answer was lost, which the client's retry then found gone) counts as
+        released."""
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=_clouds.volume_id_of(volume))
-        await self._connection.unary(
-            "Clouds.ReleaseVolume",
-            self._rpc.ReleaseVolume,
-            message,
-            timeout,
-            session=message.volume_id,
-        )
+        try:
+            await self._connection.unary(
+                "Clouds.ReleaseVolume",
+                self._rpc.ReleaseVolume,
+                message,
+                timeout,
+                session=message.volume_id,
+            )
+        except SquallError as error:
+            if error.code != grpc.StatusCode.NOT_FOUND:
+                raise
 
 
 class Steering(Generic[T]):
@@ -834,6 +845,17 @@ class Steering(Generic[T]):
             await self.close()
         else:
             self.cancel()
+
+    def __del__(self) -> None:
+        # As AsyncStream's and the sync Steering's: dropped neither closed nor left in ``async
+        # with``, the call would keep the server's --max-streams slot until grpc.aio frees it
+        # (whenever the garbage collector gets to it, or never while anything else holds it) or
+        # --stream-idle-timeout ends it. Call.cancel() is synchronous (a no-op on an ended call);
+        # the loop may be gone by now, hence the quiet except.
+        try:
+            self._call.cancel()
+        except Exception:  # __init__ failed early, or the loop is closed
+            pass
 
 
 class Interactive(Steering[TextureFrame]):

@@ -23,6 +23,8 @@ import uuid
 from functools import partial
 from typing import Any, List, Mapping, Optional, Sequence, Union
 
+import grpc
+
 from squall._calls import Connection, Stream, Undo
 from squall._convert import (
     UINT32_MAX,
@@ -41,6 +43,7 @@ from squall._convert import (
     to_message,
     vec3,
 )
+from squall._errors import SquallError
 from squall._pb import clouds_pb2, clouds_pb2_grpc, rpc_client
 from squall._results import EvolutionFrame, Image, Volume
 
@@ -577,12 +580,25 @@ class Clouds:
         )
 
     def release(self, volume: Union[str, Volume], *, timeout: Optional[float] = None) -> None:
-        """Drops a stored volume (ReleaseVolume); NOT_FOUND when it is not stored."""
+        """Drops a stored volume (ReleaseVolume).
+
+        Idempotent, the rule of ``EWaveSession.close``: a volume no longer stored (NOT_FOUND)
+        counts as released. It returns once the volume is gone, however it went: a first attempt
+        may have released it and had its answer lost (the connection broke after squalld acted),
+        the client's retry policy sending it again to find it gone; or it was released elsewhere,
+        or evicted after --session-ttl idle. An id that was never stored (a typo) is not told apart
+        from these; ``render`` of it raises NOT_FOUND. Any other error raises SquallError, the
+        volume perhaps still stored.
+        """
         message = clouds_pb2.ReleaseVolumeRequest(volume_id=volume_id_of(volume))
-        self._connection.unary(
-            "Clouds.ReleaseVolume",
-            self._rpc.ReleaseVolume,
-            message,
-            timeout,
-            session=message.volume_id,
-        )
+        try:
+            self._connection.unary(
+                "Clouds.ReleaseVolume",
+                self._rpc.ReleaseVolume,
+                message,
+                timeout,
+                session=message.volume_id,
+            )
+        except SquallError as error:
+            if error.code != grpc.StatusCode.NOT_FOUND:
+                raise

@@ -481,7 +481,9 @@ class EWaveSession:
         Returns:
             An iterator of EWaveFrames; it holds one --max-streams slot until it ends or is
             cancelled. A failing step ends it with a SquallError naming the message
-            ("Run message 3: ...").
+            ("Run message 3: ..."). An exception raised by `items` (or by converting an item)
+            ends the requests and is raised by the iterator once the call has ended: from that
+            SquallError (its ``__cause__``) when a step failed too.
         """
         feeder = RequestFeeder(items, lambda item, i: step_request(self.id, item, i))
         conn = self._service._connection
@@ -505,8 +507,15 @@ class EWaveSession:
         return self._service.restore(state, timeout=timeout)
 
     def close(self, *, timeout: Optional[float] = None) -> None:
-        """Ends the session on the server (its id is NOT_FOUND afterwards). Idempotent: a session
-        already gone (closed elsewhere, expired) counts as closed."""
+        """Ends the session on the server (its id is NOT_FOUND afterwards).
+
+        Idempotent, the rule of ``Clouds.release``: a session already gone (NOT_FOUND) counts as
+        closed. A first attempt may have closed it and had its answer lost (the connection broke
+        after squalld acted), the client's retry policy sending it again to find it gone; or it
+        was closed elsewhere, or evicted after --session-ttl idle. An id never made (``attach`` of a
+        typo) is not told apart from these. Any other error raises SquallError, the session
+        perhaps still live, and ``closed`` stays False.
+        """
         if self.closed:
             return
         request = ewave_pb2.EWaveSessionRequest(session_id=self.id)
