@@ -67,4 +67,22 @@ std::vector<double> bake_tile_costs(const RiverGeometry& geo, const std::vector<
   return costs;
 }
 
+std::vector<double> point_costs(const RiverGeometry& geo, const std::vector<cl_int>& bin_start,
+                                const std::vector<PolygonBox>& polygons, const std::vector<Point2>& points) {
+  const double s = geo.s_max;
+  std::vector<double> costs;
+  for (const Point2& p : points) {
+    double cost = 1;
+    long b0, b1, c0, c1;
+    if (cells_meeting(p.x - s, p.x + s, geo.bin_x0, geo.bin_size, geo.bins_x, b0, b1) &&
+        cells_meeting(p.y - s, p.y + s, geo.bin_y0, geo.bin_size, geo.bins_y, c0, c1))
+      for (long c = c0; c <= c1; ++c)
+        cost += bin_start[size_t(c * geo.bins_x + b1 + 1)] - bin_start[size_t(c * geo.bins_x + b0)];
+    for (const PolygonBox& box : polygons)
+      if (p.x >= box.x0 && p.x <= box.x1 && p.y >= box.y0 && p.y <= box.y1) cost += box.points;
+    costs.push_back(cost);
+  }
+  return costs;
+}
+
 }  // namespace squall::textures

@@ -26,4 +26,9 @@ std::vector<double> bake_tile_costs(const RiverGeometry& geo, const std::vector<
                                     const std::vector<PolygonBox>& polygons, const BakeGrid& grid,
                                     const TileGrid& tiles);
 
+// Per point, what river_points scans for it as a bake's node: 1 + the segments binned within s_max of it +
+// the points of every polygon whose box holds it.
+std::vector<double> point_costs(const RiverGeometry& geo, const std::vector<cl_int>& bin_start,
+                                const std::vector<PolygonBox>& polygons, const std::vector<Point2>& points);
+
 }  // namespace squall::textures

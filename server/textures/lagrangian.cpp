@@ -15,7 +15,9 @@
 namespace squall::textures {
 namespace {
 
-constexpr int kTile = 16;  // pixels per reconstruction tile side
+constexpr int kTile = 16;                    // pixels per reconstruction tile side
+constexpr size_t kVertexGroup = 64;          // vertices per work-group of the advection
+constexpr double kFirstAdvectGroups = 1024;  // work-groups of the advection's first slice
 constexpr uint32_t kStateVersion = 1;
 constexpr double kAlive = std::numeric_limits<double>::infinity();
 
@@ -225,17 +227,22 @@ class Lagrangian final : public Advection {
     return entries;
   }
 
-  // Carries every vertex over [time_, time_ + dt] on the device.
+  // Carries every vertex over [time_, time_ + dt] on the device, in slices of work-groups that a cancel
+  // stops between (millions of vertices of many substeps take a CPU device seconds).
   void advect() {
     if (positions_.empty()) return;
-    size_t bytes = positions_.size() * sizeof(float);
+    const size_t bytes = positions_.size() * sizeof(float), count = positions_.size() / 2;
     cl::Buffer buffer(runtime_.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes, positions_.data());
-    auto lock = runtime_.exclusive();
     // A fixed work-group size: with the device's choice, which follows the vertex count, PoCL compiles the
-    // kernel again for each new count (about 0.2 s on the CPU).
-    const size_t count = positions_.size() / 2, group = 64;
-    kernels_.lagrangian_advect.launch(cl::NDRange(round_up(count, group)), cl::NDRange(group), buffer, cl_int(count),
-                                      inputs_->velocity(time_, dt_), inputs_->grid(), cl_float(dt_), cl_int(substeps_));
+    // kernel again for each new count (about 0.2 s on the CPU). The last slice's ids past count are skipped.
+    const SlicePlan plan{(count + kVertexGroup - 1) / kVertexGroup, kVertexGroup, [](size_t) { return 1.0; },
+                         kFirstAdvectGroups, WorkKind{"textures.lagrangian_advect", count * size_t(substeps_)}};
+    QueueLease lease;
+    run_sliced(runtime_, lease, plan, cancel_, "the advection", [&](size_t first, size_t n) {
+      kernels_.lagrangian_advect.launch_region(cl::NDRange(first), cl::NDRange(n), cl::NDRange(kVertexGroup), buffer,
+                                               cl_int(count), inputs_->velocity(time_, dt_), inputs_->grid(),
+                                               cl_float(dt_), cl_int(substeps_));
+    });
     runtime_.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, bytes, positions_.data());
   }
 

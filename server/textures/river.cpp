@@ -66,6 +66,7 @@ struct RiverEngine::Geometry {
   std::vector<double> obstacle_psi;
   std::vector<float> boundary_psi, boundary_s;
   std::vector<cl_int> bin_offsets;        // bin_start on the host, for bake_tile_costs
+  Slot walls_memory;                      // the walls' and polygons' bytes in the memory budget
   Slot bins_memory;                       // the bins' bytes in the memory budget
   std::vector<PolygonBox> polygon_boxes;  // the channels' and obstacles' polygons, likewise
   cl::Buffer segments, segment_boundary, bin_start, bin_items, psi, s, polygon_start, polygon_points;
@@ -253,6 +254,15 @@ void bin_segments(const Walls& walls, RiverGeometry& geo, std::vector<cl_int>& s
     for_each_bin_crossed(walls.segments[k], geo, [&](size_t bin) { items[size_t(next[bin]++)] = cl_int(k); });
 }
 
+// The walls and polygons of `river` on the host and the device: a segment (16 bytes and its boundary's 4)
+// and a polygon point (8 bytes) per point at most, and two points a polygon for its box.
+uint64_t walls_bytes(const RiverSpec& river) {
+  uint64_t points = 0, polygons = river.obstacles.size();
+  for (const RiverChannelSpec& c : river.channels) points += c.left.size() + c.right.size(), ++polygons;
+  for (const RiverObstacleSpec& o : river.obstacles) points += o.outline.size();
+  return 2 * ((16 + 4 + 8) * points + 2 * 8 * polygons);
+}
+
 Point2 vertex_centroid(const std::vector<Point2>& points) {
   Point2 c;
   for (const Point2& p : points) {
@@ -270,6 +280,7 @@ RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::str
   double widest = 0;
   for (const RiverChannelSpec& c : river.channels) widest = std::max(widest, cross_section(c));
   const double s = river.search_radius.value_or(2 * widest);
+  g.walls_memory = gate_.acquire_memory(path + "'s walls and polygons", walls_bytes(river));
   Walls walls;
   for (size_t c = 0; c < river.channels.size(); ++c) {
     add_polyline(walls, river.channels[c].left, g.network.boundary_of[2 * c], false);
@@ -308,6 +319,9 @@ RiverEngine::Geometry RiverEngine::upload(const RiverSpec& river, const std::str
   // RIV09 sec. 4.3: an obstacle's psi is the banks' psi (eq. 1 without the obstacles) at its centre.
   std::vector<Point2> centres;
   for (const RiverObstacleSpec& o : river.obstacles) centres.push_back(vertex_centroid(o.outline));
+  const std::vector<double> costs = point_costs(g.geo, g.bin_offsets, g.polygon_boxes, centres);
+  gate_.check_bake_work(path + ": the pass over the obstacles' centres",
+                        std::accumulate(costs.begin(), costs.end(), 0.0));
   const std::vector<RiverSample> at_centres = run_points(g, centres, banks);
   for (size_t o = 0; o < centres.size(); ++o) {
     if (at_centres[o].undefined)

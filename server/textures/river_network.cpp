@@ -1,5 +1,6 @@
 #include "textures/river_network.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <queue>
@@ -137,6 +138,24 @@ std::vector<double> boundary_values(const RiverNetwork& n, int boundaries, const
   return values;
 }
 
+// The kernels hold the banks' psi in float32: each channel's Q must survive its banks' values rounded there
+// (to within kFloatFlowTolerance of Q), else a small channel's flow is lost beside larger values (Q = 10
+// between banks at psi = 1e9 and 1e9 - 10, which float32 spaces 64 apart, baked no flow at all).
+constexpr double kFloatFlowTolerance = 1e-3;
+
+void check_float_resolution(const RiverNetwork& n, const std::string& path) {
+  double largest = 0;
+  for (double psi : n.boundary_psi) largest = std::max(largest, std::abs(psi));
+  for (size_t c = 0; c < n.flow_rate.size(); ++c) {
+    const double rounded = double(float(n.left_psi[c])) - double(float(n.right_psi[c]));
+    if (std::abs(rounded - n.flow_rate[c]) > kFloatFlowTolerance * n.flow_rate[c])
+      fail(Code::InvalidArgument, at(path + ".channels", c) + ": its flow rate " + number(n.flow_rate[c]) +
+                                      " du^2/s is lost in float32 beside bank values (psi) up to " + number(largest) +
+                                      " (its banks' differ by " + number(rounded) +
+                                      "): float32 keeps flow rates down to about 1e-4 of the largest bank value");
+  }
+}
+
 }  // namespace
 
 double cross_section(const RiverChannelSpec& channel) {
@@ -155,6 +174,7 @@ RiverNetwork solve_network(const RiverSpec& river, const std::string& path) {
     n.left_psi.push_back(n.boundary_psi[n.boundary_of[left_bank(int(c))]]);
     n.right_psi.push_back(n.boundary_psi[n.boundary_of[right_bank(int(c))]]);
   }
+  check_float_resolution(n, path);
   return n;
 }
 

@@ -385,7 +385,9 @@ TEST(TexturesRiver, ABadRiverIsInvalidEvenWhenTheStreamsAreFull) {
 
 // A bake's work is estimated before it runs (each node tests the wall segments within the search radius and
 // the points of the polygons around it) and refused past --max-bake-work: under 1e7 tests the Y river bakes
-// on 64 x 64 nodes, and on 1024 x 1024 it is refused naming the bake and the flag.
+// on 64 x 64 nodes, and on 1024 x 1024 it is refused naming the bake and the flag. The pass that finds the
+// obstacles' values at their centres (RIV09 sec. 4.3) is estimated too, before it runs: 64 islands of 4096
+// points within the search radius of each other's centres make 1.7e7 tests.
 TEST(TexturesRiver, ABakePastMaxBakeWorkIsRefusedBeforeItRuns) {
   test::Daemon d({"--max-bake-work", "1e7"});
   EXPECT_EQ(bake_velocity(y_river_bake(64, 64), d.address()).u().nx(), 64u);
@@ -393,6 +395,16 @@ TEST(TexturesRiver, ABakePastMaxBakeWorkIsRefusedBeforeItRuns) {
       test::expect_error(Code::ResourceExhausted, "request.river: the bake of 1024 x 1024 nodes",
                          [&] { bake_velocity(y_river_bake(1024, 1024), d.address()); });
   EXPECT_NE(refused.find("more than --max-bake-work = 10000000"), std::string::npos) << refused;
+  v1::BakeVelocityRequest islands = y_river_bake(2, 2);
+  islands.mutable_river()->clear_obstacles();
+  for (int o = 0; o < 64; ++o) {
+    std::vector<std::pair<double, double>> circle;
+    for (int k = 0; k < 4096; ++k)
+      circle.push_back({1 + 0.01 * o + 0.005 * std::cos(2 * kPi * k / 4096), 1 + 0.005 * std::sin(2 * kPi * k / 4096)});
+    polyline(islands.mutable_river()->add_obstacles()->mutable_outline(), circle);
+  }
+  test::expect_error(Code::ResourceExhausted, "request.river: the pass over the obstacles' centres makes",
+                     [&] { bake_velocity(islands, d.address()); });
 }
 
 // A river's wall bins are counted before they are stored and held in the memory budget: a bank zigzagging
@@ -411,6 +423,29 @@ TEST(TexturesRiver, AWallsBinsCountInTheMemoryBudget) {
   channel->set_flow_rate(1);
   river.set_search_radius(1);
   test::expect_error(Code::ResourceExhausted, "request.river's wall bins",
+                     [&] { bake_velocity(request, d.address()); });
+}
+
+// A river's walls and polygons are counted before they are made, on the host and the device: 160 channels
+// with banks of 4096 points (a 27 MB request) are 73 MB of segments and polygon points, refused under a
+// 64 MiB budget naming them.
+TEST(TexturesRiver, AWallsSegmentsAndPolygonsCountInTheMemoryBudget) {
+  test::Daemon d({"--memory-budget", std::to_string(64 << 20)});
+  v1::BakeVelocityRequest request = y_river_bake(2, 2);
+  v1::RiverVelocity& river = *request.mutable_river();
+  river = v1::RiverVelocity();
+  for (int c = 0; c < 160; ++c) {
+    v1::RiverChannel* channel = river.add_channels();
+    std::vector<std::pair<double, double>> left, right;
+    for (int k = 0; k < 4096; ++k) {
+      left.push_back({1e-3 * k, 2.0 * c + 1});
+      right.push_back({1e-3 * k, 2.0 * c});
+    }
+    polyline(channel->mutable_left_bank(), left);
+    polyline(channel->mutable_right_bank(), right);
+    channel->set_flow_rate(1);
+  }
+  test::expect_error(Code::ResourceExhausted, "request.river's walls and polygons",
                      [&] { bake_velocity(request, d.address()); });
 }
 

@@ -137,6 +137,15 @@ TEST(RiverNetwork, BadNetworksNameTheField) {
   river.channels[1].flow_rate = 1;
   river.channels[2].flow_rate = 1;
   expect_error(Code::InvalidArgument, "river.junctions[0]: flow in 3", [&] { solve_network(river, "river"); });
+  // Q = 10 between banks at psi 1e9 and 1e9 - 10, which float32 rounds to one value: no flow was baked.
+  river = y_junction(1e9);
+  river.channels[1].flow_rate = 10;
+  river.channels[2].flow_rate = 1e9 - 10;
+  expect_error(Code::InvalidArgument, "river.channels[1]: its flow rate 10 du^2/s is lost in float32",
+               [&] { solve_network(river, "river"); });
+  river.channels[1].flow_rate = 1e6;  // 1e-3 of the largest: float32's spacing of 64 is 6.4e-5 of it
+  river.channels[2].flow_rate = 1e9 - 1e6;
+  EXPECT_NO_THROW(solve_network(river, "river"));
 }
 
 TEST(River, FluxBetweenTheBanksIsTheFlowRate) {
